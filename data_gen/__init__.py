@@ -1,0 +1,1 @@
+"""data_gen — synthetic environment maps with known smoothness or known shading integrals."""

@@ -1,0 +1,72 @@
+"""Options every subcommand shares (``--json``, ``--out``, ``--seed``, ``--quiet``) and output helpers."""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+from ..atomic import atomic_write_json, to_jsonable
+from ..errors import ParameterError
+
+
+def add_common_arguments(p: argparse.ArgumentParser, *, seed: bool = True) -> None:
+    """Add ``--json FILE``, ``--out DIR``, ``--seed``, ``--quiet`` to a subcommand parser."""
+    g = p.add_argument_group("output")
+    g.add_argument("--json", metavar="FILE", type=Path, default=None,
+                   help="write the machine-readable result to FILE ('-' for stdout)")
+    g.add_argument("--out", metavar="DIR", type=Path, default=None,
+                   help="folder for plots, CSV and images")
+    if seed:
+        g.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
+    g.add_argument("--quiet", "-q", action="store_true", help="no progress bars or tables")
+
+
+def emit_json(args: argparse.Namespace, result: dict[str, Any]) -> None:
+    """Write ``result`` where ``--json`` says (atomically), or to stdout for ``--json -``."""
+    if args.json is None:
+        return
+    if str(args.json) == "-":
+        json.dump(to_jsonable(result), sys.stdout, indent=2)
+        sys.stdout.write("\n")
+    else:
+        atomic_write_json(args.json, result)
+
+
+def say(args: argparse.Namespace, *lines: str) -> None:
+    """Print human-readable lines unless ``--quiet`` (or ``--json -`` owns stdout)."""
+    if getattr(args, "quiet", False) or str(getattr(args, "json", "")) == "-":
+        return
+    for line in lines:
+        print(line)
+
+
+def float_list(text: str) -> list[float]:
+    """Parse ``"1.1,1.5,1.9"`` into floats (argparse ``type=``)."""
+    try:
+        return [float(x) for x in str(text).split(",") if x.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}") from None
+
+
+def int_list(text: str) -> list[int]:
+    """Parse ``"100,500,1000"`` into ints (argparse ``type=``)."""
+    try:
+        return [int(float(x)) for x in str(text).split(",") if x.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected comma-separated integers, got {text!r}") from None
+
+
+def str_list(text: str) -> list[str]:
+    return [x.strip() for x in str(text).split(",") if x.strip()]
+
+
+def out_dir(args: argparse.Namespace, default: str | None = None) -> Path | None:
+    """The ``--out`` folder (created), or ``default`` if given, else None."""
+    d = args.out if args.out is not None else (Path(default) if default else None)
+    if d is not None:
+        if d.exists() and not d.is_dir():
+            raise ParameterError(f"--out {d} exists and is not a folder")
+        d.mkdir(parents=True, exist_ok=True)
+    return d

@@ -1,0 +1,21 @@
+"""Errors raised by ``theory`` for invalid parameters (the CLI reports them in one line)."""
+from __future__ import annotations
+
+__all__ = ["TheoryParameterError", "check_smoothness"]
+
+
+class TheoryParameterError(ValueError):
+    """A parameter of a theory function is outside its valid range."""
+
+
+def check_smoothness(s: float) -> float:
+    """Return ``float(s)`` if 1 < s < 2 (the range of the generalized distance kernel, Eq. 14)."""
+    try:
+        s = float(s)
+    except (TypeError, ValueError):
+        raise TheoryParameterError(f"Sobolev smoothness s must be a number, got {s!r}") from None
+    if not (1.0 < s < 2.0):
+        raise TheoryParameterError(
+            f"Sobolev smoothness s must satisfy 1 < s < 2 for the generalized distance kernel "
+            f"(Eq. 14), got s = {s:g}")
+    return s
