@@ -70,3 +70,34 @@ def out_dir(args: argparse.Namespace, default: str | None = None) -> Path | None
             raise ParameterError(f"--out {d} exists and is not a folder")
         d.mkdir(parents=True, exist_ok=True)
     return d
+
+
+def add_map_arguments(p: argparse.ArgumentParser, *, optional: bool = True, many: bool = False) -> None:
+    """The MAP positional and the loading options shared by every command that reads a map."""
+    nargs = "*" if many else ("?" if optional else None)
+    p.add_argument("map", metavar="MAP", nargs=nargs, default=None,
+                   help="lat-long HDR map (EXR, HDR, PNG, … anything OpenImageIO reads)"
+                        + ("; without it, the built-in synthesized default map" if optional else ""))
+    g = p.add_argument_group("map loading")
+    g.add_argument("--up", choices=("y", "z", "x"), default="y",
+                   help="which world axis is the map's top row (default: y, as OpenEXR)")
+    g.add_argument("--max-height", type=int, default=None, metavar="H",
+                   help="downscale the map (scikit-image, anti-aliased) to at most H rows")
+    g.add_argument("--fix-nonfinite", action="store_true",
+                   help="replace NaN/Inf pixels instead of refusing the map (reported)")
+    g.add_argument("--allow-negative", action="store_true",
+                   help="keep negative pixel values instead of clamping them to 0 (reported)")
+
+
+def load_map_from_args(args: argparse.Namespace, path=None):
+    """Load ``path`` (default ``args.map``) with the loading options, or the built-in map."""
+    from ..default_map import default_envmap
+    from ..envmap import load_envmap
+    path = args.map if path is None else path
+    if path is None:
+        env = default_envmap(up=args.up)
+        if args.max_height:
+            env = env.resized(args.max_height)
+        return env
+    return load_envmap(path, up=args.up, allow_negative=args.allow_negative,
+                       fix_nonfinite=args.fix_nonfinite, max_height=args.max_height)
