@@ -60,7 +60,8 @@ __all__ = ["gaussian_process_map", "gaussian_process_values", "expected_variance
 #: matrix, N = 4608 (an H = 48 map), is 170 MB and factorises in about a second.
 EXACT_MAX_POINTS = 4608
 
-#: Largest band limit of the SHT sampler: (L+1)² coefficients per channel (≈ 268 MB at 8191).
+#: Largest band limit of the SHT sampler: (L+1)² real coefficients per channel (0.5 GB at
+#: 8191, plus about as much transient memory), for maps up to H = 8192.
 SHT_MAX_LMAX = 8191
 
 _JITTERS = (0.0, 1e-12, 1e-11, 1e-10, 1e-9, 1e-8, 1e-7, 1e-6)

@@ -10,6 +10,8 @@ References computed here, independently of the module's formulas:
 """
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import pytest
 from scipy import integrate
@@ -39,10 +41,15 @@ def weight(kind, n):
     return (lambda t: np.exp(n * (t - 1.0))), rs
 
 
+@functools.lru_cache(maxsize=None)
+def gauss_legendre(nt):
+    return np.polynomial.legendre.leggauss(nt)
+
+
 def brute_smooth(m, axis, kind, n=None, nt=300, nphi=128):
     """(1/(2π r_s)) ∫_{u·axis>0} f p dS with a product rule in the axis frame."""
     p, rs = weight(kind, n)
-    x, w = np.polynomial.legendre.leggauss(nt)
+    x, w = gauss_legendre(nt)
     t, wt = 0.5 * (x + 1), 0.5 * w
     ph = 2 * np.pi * np.arange(nphi) / nphi
     e1, e2 = frame(axis)

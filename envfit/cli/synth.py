@@ -1,0 +1,100 @@
+"""``envfit synth``: write a synthetic map (Gaussian process of known s, or an analytic map)."""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import ParameterError
+from .common import add_common_arguments, emit_json, float_list, say
+
+KINDS = ("gp", "constant", "sky", "sun", "step")
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "synth", help="write a synthetic lat-long map (gp, constant, sky, sun, step)",
+        description="Synthesize a lat-long map of known smoothness (a Gaussian-process sample "
+                    "with covariance K_gd^(s0), Eq. 8) or an analytic map with known shading "
+                    "integrals, and write it as EXR.")
+    p.add_argument("output", metavar="OUT.exr", type=Path)
+    p.add_argument("--kind", choices=KINDS, default="gp")
+    p.add_argument("--height", type=int, default=256, help="rows (width = 2 x height)")
+    p.add_argument("--up", choices=("y", "z", "x"), default="y", help="world up axis stored with the map")
+    p.add_argument("--half", action="store_true", help="write half floats instead of float32")
+    g = p.add_argument_group("gp")
+    g.add_argument("--s0", type=float, default=1.5, help="Sobolev smoothness of the process, in (1, 2)")
+    g.add_argument("--channels", type=int, default=3)
+    g.add_argument("--method", choices=("sht", "exact"), default="sht",
+                   help="band-limited SH synthesis (fast) or exact Cholesky at pixel centres (small maps)")
+    g.add_argument("--offset", default="auto",
+                   help="constant added to the zero-mean sample; 'auto' makes every pixel positive")
+    g.add_argument("--amplitude", type=float, default=1.0, help="scale sigma of the process")
+    g = p.add_argument_group("analytic maps (colours are comma-separated: one value or R,G,B)")
+    g.add_argument("--value", type=float_list, default=[1.0], help="constant: the value")
+    g.add_argument("--horizon", type=float_list, default=[0.6, 0.7, 0.8], help="sky: horizon colour")
+    g.add_argument("--zenith", type=float_list, default=[0.2, 0.35, 0.9], help="sky: zenith colour")
+    g.add_argument("--sun-theta", type=float, default=0.6, help="sun: polar angle from up (radians)")
+    g.add_argument("--sun-phi", type=float, default=1.0, help="sun: azimuth (radians)")
+    g.add_argument("--sun-radius", type=float, default=0.05, help="sun: angular radius (radians)")
+    g.add_argument("--sun-radiance", type=float_list, default=[200.0], help="sun: disk radiance")
+    g.add_argument("--sky", type=float_list, default=[0.5, 0.6, 0.9], help="sun: sky colour")
+    g.add_argument("--theta-edge", type=float, default=np.pi / 2, help="step: edge polar angle")
+    g.add_argument("--low", type=float_list, default=[0.1], help="step: value below the edge")
+    g.add_argument("--high", type=float_list, default=[1.0], help="step: value above the edge")
+    add_common_arguments(p)
+    p.set_defaults(func=run)
+
+
+def _colour(v):
+    return v[0] if len(v) == 1 else tuple(v)
+
+
+def synthesize(args: argparse.Namespace) -> tuple[np.ndarray, dict]:
+    """The map array (H×2H×C, local frame) and a description of how it was made."""
+    import data_gen
+    if args.height < 2:
+        raise ParameterError(f"--height must be at least 2, got {args.height}")
+    info = {"kind": args.kind, "height": args.height}
+    try:
+        if args.kind == "gp":
+            f = data_gen.gaussian_process_map(args.s0, args.height, seed=args.seed,
+                                              channels=args.channels, scale=args.amplitude,
+                                              method=args.method)
+            if args.offset == "auto":
+                offset = float(-f.min() + 0.1 * (f.max() - f.min()))
+            else:
+                offset = float(args.offset)
+            f = f + offset
+            info.update(s0=args.s0, seed=args.seed, channels=args.channels, offset=offset,
+                        amplitude=args.amplitude, method=args.method)
+            return f, info
+        if args.kind == "constant":
+            m = data_gen.ConstantMap(_colour(args.value))
+        elif args.kind == "sky":
+            m = data_gen.SkyGradientMap(_colour(args.horizon), _colour(args.zenith))
+        elif args.kind == "sun":
+            m = data_gen.SunSkyMap(sun_theta=args.sun_theta, sun_phi=args.sun_phi,
+                                   sun_radius=args.sun_radius,
+                                   sun_radiance=_colour(args.sun_radiance), sky=_colour(args.sky))
+        else:
+            m = data_gen.StepMap(_colour(args.low), _colour(args.high), args.theta_edge)
+    except ValueError as exc:  # data_gen reports bad parameters as ValueError subclasses
+        raise ParameterError(str(exc)) from None
+    info["map"] = repr(m)
+    return m.render(args.height), info
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..envmap import EnvMap, save_envmap
+    f, info = synthesize(args)
+    name = f"synth:{args.kind}"
+    env = EnvMap(np.asarray(f, dtype=np.float32), up=args.up, name=name)
+    path = save_envmap(args.output, env, half=args.half)
+    info.update(path=str(path), width=env.width, channels=env.channels,
+                min=float(f.min()), max=float(f.max()), mean=[float(x) for x in env.mean()])
+    say(args, f"wrote {path}: {args.kind} map {env.height}x{env.width}x{env.channels}"
+              + (f", s0 = {args.s0}" if args.kind == "gp" else ""))
+    emit_json(args, info)
+    return 0
