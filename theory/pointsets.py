@@ -91,13 +91,21 @@ def sobol02(n: int, *, seed=None, scramble: bool = False) -> np.ndarray:
         return eng.random(n)
 
 
+def _parity(v: np.ndarray) -> np.ndarray:
+    """Parity (XOR of all bits) of unsigned 64-bit integers, by folding."""
+    v = v.copy()
+    for s in (32, 16, 8, 4, 2, 1):
+        v ^= v >> np.uint64(s)
+    return v & np.uint64(1)
+
+
 def _lp_radical_inverse(i: np.ndarray) -> np.ndarray:
     """LP radical inverse: digit j (1 = most significant) = XOR of the bits i_k, k ≥ j-1."""
     i = np.asarray(i, dtype=np.uint64)
     nbits = int(i.max()).bit_length() if i.size else 0
     acc = np.zeros(i.shape, dtype=np.uint64)
     for j in range(1, nbits + 1):
-        bit = np.bitwise_count(i >> np.uint64(j - 1)) & np.uint64(1)   # parity of i >> (j-1)
+        bit = _parity(i >> np.uint64(j - 1))
         acc |= bit << np.uint64(nbits - j)
     return acc.astype(np.float64) / float(2 ** nbits) if nbits else np.zeros(i.shape)
 
