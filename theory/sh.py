@@ -180,7 +180,7 @@ def _packed_l_index(lmax: int) -> np.ndarray:
     """Degree l of each entry of a healpy-packed alm array (m-major, l = m…lmax)."""
     m = np.repeat(np.arange(lmax + 1), np.arange(lmax + 1, 0, -1))
     start = m * (2 * lmax + 1 - m) // 2
-    return np.arange(m.size) - start + m
+    return np.arange(m.size) - start
 
 
 def point_set_sh_coefficients(points, weights, lmax: int, *, nthreads: int = 0) -> np.ndarray:
