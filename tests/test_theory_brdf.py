@@ -11,6 +11,8 @@ from theory.brdf import (Diffuse, Glossy, Phong, WeightFunction, ZonalWeight,
 from theory.errors import TheoryParameterError
 
 
+pytestmark = pytest.mark.filterwarnings("ignore::scipy.integrate.IntegrationWarning")
+
 def quad_sh(p, r_s, l):
     """b_l = (1/r_s) sqrt((2l+1)/4pi) int_0^1 p P_l dz  (Eq. 20) by adaptive quadrature."""
     val, _ = integrate.quad(lambda z: p(z) * eval_legendre(l, z), 0.0, 1.0,

@@ -63,3 +63,12 @@ def test_kernel_matrix_and_constant():
 def test_rejects_s_outside_range(bad):
     with pytest.raises(TheoryParameterError, match="1 < s < 2"if not isinstance(bad, str) else "number"):
         sobolev_coefficients(bad, 3)
+
+
+def test_kernel_diagonal_is_exact():
+    # K(u, u) = 2^{2s-1}/s exactly: no rounding residue from 2 - 2 u.u
+    rng = np.random.default_rng(7)
+    u = rng.normal(size=(200, 3)); u /= np.linalg.norm(u, axis=1, keepdims=True)
+    for s in (1.1, 1.5, 1.9):
+        K = generalized_distance_kernel(s, u, u)
+        assert np.all(np.diag(K) == kernel_constant(s))

@@ -47,6 +47,8 @@ __all__ = ["WeightFunction", "ZonalWeight", "Diffuse", "Glossy", "Phong",
 
 _RESOLVE_TOL = 1e-12          # a rounding plateau of the shifted-Legendre moments lies below this·int|p|
 _RESOLVE_MAX_NODES = 1 << 14  # give up resolving p beyond this many nodes (warns)
+_SHARED_CACHE: dict = {}      # (class, parameters) -> derived arrays, LRU order
+_SHARED_CACHE_SIZE = 32
 
 
 def gauss_legendre_01(n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -157,11 +159,29 @@ class WeightFunction:
         raise NotImplementedError
 
     # -- cache (instances are immutable in their parameters) ------------------------
+    def _cache_key(self):
+        """Hashable identity of the parameters, shared by equal instances (None: per instance)."""
+        return None
+
     def _cache(self) -> dict:
-        c = self.__dict__.get("_theory_cache")
+        """Per-parameter cache of derived arrays (coefficients, embeddings).
+
+        Equal parametrised instances (``Glossy(30.0)`` twice) share one entry of a small
+        module-level LRU, so creating a new instance per call does not recompute.
+        """
+        key = self._cache_key()
+        if key is None:
+            c = self.__dict__.get("_theory_cache")
+            if c is None:
+                c = {}
+                self.__dict__["_theory_cache"] = c
+            return c
+        c = _SHARED_CACHE.pop(key, None)
         if c is None:
             c = {}
-            self.__dict__["_theory_cache"] = c
+        _SHARED_CACHE[key] = c                   # most recently used last
+        while len(_SHARED_CACHE) > _SHARED_CACHE_SIZE:
+            _SHARED_CACHE.pop(next(iter(_SHARED_CACHE)))
         return c
 
     # -- the function -----------------------------------------------------------------
@@ -271,7 +291,7 @@ class WeightFunction:
         return np.sqrt((2 * l + 1) / (2 * np.pi)) * mom / self.r_s
 
     def hsh_degree(self) -> int:
-        """Degree beyond which the HSH coefficients are negligible (≤ 1e-17 relative)."""
+        """Degree beyond which the HSH coefficients are at the rounding level (:meth:`resolution_degree`)."""
         return self.resolution_degree()
 
     def truncated_hsh_as_sh(self, L: int, lmax: int) -> np.ndarray:
@@ -289,10 +309,12 @@ class WeightFunction:
         r""":math:`F(z) = \frac{1}{r_s}\int_0^z p(t)dt` on [0, 1] (generic: Legendre series of p)."""
         cache = self._cache()
         if "cdf_series" not in cache:
-            D = self.resolution_degree()
-            x, w = gauss_legendre_01(D // 2 + 2 + max(D, 16))
-            leg = np.polynomial.Legendre.fit(x, self._p_upper(x), deg=max(D, 16), domain=[0.0, 1.0])
-            F = leg.integ(lbnd=0.0)
+            # shifted-Legendre series of p to its resolution degree (GL projection), integrated
+            deg = max(self.resolution_degree(), 16)
+            x, w = gauss_legendre_01(deg + 2)
+            mom = _legendre_moments(2.0 * x - 1.0, self._p_upper(x) * w, deg)
+            coef = (2 * np.arange(deg + 1) + 1) * mom
+            F = np.polynomial.Legendre(coef, domain=[0.0, 1.0]).integ(lbnd=0.0)
             cache["cdf_series"] = F
         F = cache["cdf_series"]
         z = np.clip(np.asarray(z, dtype=np.float64), 0.0, 1.0)
@@ -319,6 +341,8 @@ class WeightFunction:
             cache["cdf_table"] = (grid, Fg)
         grid, Fg = cache["cdf_table"]
         flat = zp.ravel()
+        if flat.size == 0:
+            return zp.copy()
         k = np.clip(np.searchsorted(Fg, flat, side="right") - 1, 0, grid.size - 2)
         lo = grid[k].copy()
         hi = grid[k + 1].copy()
@@ -383,6 +407,9 @@ class Diffuse(WeightFunction):
     """
 
     name = "diffuse"
+
+    def _cache_key(self):
+        return ("Diffuse",)
 
     def _p_upper(self, z):
         return np.asarray(z, dtype=np.float64).copy()
@@ -459,6 +486,9 @@ class Glossy(WeightFunction):
             raise TheoryParameterError(f"shininess n must be > 0, got {n!r}")
         object.__setattr__(self, "shininess", n)
 
+    def _cache_key(self):
+        return ("Glossy", self.shininess)
+
     def _p_upper(self, z):
         return np.exp(self.shininess * (np.asarray(z, dtype=np.float64) - 1.0))
 
@@ -528,6 +558,9 @@ class Phong(WeightFunction):
         if not (np.isfinite(n) and n >= 0):
             raise TheoryParameterError(f"Phong exponent must be >= 0, got {self.exponent!r}")
         object.__setattr__(self, "exponent", n)
+
+    def _cache_key(self):
+        return ("Phong", self.exponent)
 
     def _p_upper(self, z):
         return np.power(np.asarray(z, dtype=np.float64), self.exponent)

@@ -26,8 +26,6 @@ no factor 2 for m > 0 (checked against ``scipy.special.sph_harm_y`` in the tests
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from .errors import TheoryParameterError
@@ -253,8 +251,3 @@ def _power_spectrum_legendre_pairs(points, weights, lmax: int, block: int = 512)
     l = np.arange(lmax + 1)
     return zonal_sums(pts, w, lmax), (2 * l + 1) / (4 * np.pi) * S
 
-
-def sh_normalisation(l) -> np.ndarray:
-    r""":math:`\sqrt{(2l+1)/4\pi}`, the factor of :math:`P_l` in :math:`Y_{l,0}` (Eq. 60)."""
-    l = np.asarray(l, dtype=np.float64)
-    return np.sqrt((2 * l + 1) / (4 * math.pi))

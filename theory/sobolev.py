@@ -81,8 +81,13 @@ def generalized_distance_kernel(s: float, u, v) -> np.ndarray:
         return kernel_from_distance2(s, np.sum((u - v) ** 2))
     u2 = np.atleast_2d(u)
     v2 = np.atleast_2d(v)
-    # |u - v|^2 = 2 - 2 u.v for unit vectors (Eq. 10); BLAS for the dot products
-    d2 = 2.0 - 2.0 * (u2 @ v2.T)
+    # |u - v|^2 = 2 - 2 u.v for unit vectors (Eq. 10); BLAS for the dot products. Near
+    # coincident pairs lose all relative precision that way (2 - 2u.v ~ 1e-16 instead of 0,
+    # i.e. |u-v|^{2s-2} ~ 1e-8 at s = 1.5), so those entries are recomputed from differences.
+    d2 = np.maximum(2.0 - 2.0 * (u2 @ v2.T), 0.0)
+    close = np.nonzero(d2 < 1e-6)
+    if close[0].size:
+        d2[close] = np.sum((u2[close[0]] - v2[close[1]]) ** 2, axis=-1)
     return kernel_from_distance2(s, d2)
 
 
