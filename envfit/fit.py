@@ -43,7 +43,7 @@ METHODS = ("likelihood", "loo", "holdout")
 DEFAULT_METHOD = "likelihood"
 DEFAULT_N = 3000
 #: the coarse grid the criterion is evaluated on before the continuous refinement
-S_GRID = tuple(np.round(np.arange(1.04, 1.97, 0.04), 4))
+S_GRID = tuple(np.round(np.arange(1.05, 1.96, 0.075), 4))
 CHI2_1_95 = 3.841458820694124
 
 
@@ -129,8 +129,8 @@ def fit_smoothness_samples(points: np.ndarray, values: np.ndarray, *, method: st
         # ℓ(s) = -n * score(s); interval where 2 (ℓmax - ℓ) <= 3.84
         def excess(s):
             return 2.0 * n * (evaluate(s)[0] - best[0]) - CHI2_1_95
-        lo_s = _bracket_root(excess, s_hat, 1.0 + 1e-6)
-        hi_s = _bracket_root(excess, s_hat, 2.0 - 1e-6)
+        lo_s = _bracket_root(excess, s_hat, grid[grid < s_hat][::-1], 1.0 + 1e-6)
+        hi_s = _bracket_root(excess, s_hat, grid[grid > s_hat], 2.0 - 1e-6)
         interval = (lo_s, hi_s)
     else:
         interval = _bootstrap_interval(grid, [evaluate(s)[1] for s in grid], seed=seed,
@@ -147,11 +147,16 @@ def fit_smoothness_samples(points: np.ndarray, values: np.ndarray, *, method: st
             "sigma": [float(x) for x in sigma], "curve": curve}
 
 
-def _bracket_root(f, inside: float, edge: float) -> float:
-    """Where f changes sign between ``inside`` (f < 0) and ``edge``; ``edge`` if it never does."""
-    if f(edge) <= 0:
-        return float(edge)
-    return float(optimize.brentq(f, min(inside, edge), max(inside, edge), xtol=2e-3))
+def _bracket_root(f, inside: float, candidates, edge: float) -> float:
+    """Where f changes sign going out from ``inside`` (f < 0): the first already-evaluated
+    grid point with f > 0 brackets the root (no extra evaluations), then Brent's method;
+    ``edge`` of (1, 2) if f stays negative all the way."""
+    outer = next((float(c) for c in candidates if f(c) > 0), None)
+    if outer is None:
+        if f(edge) <= 0:
+            return float(edge)
+        outer = edge
+    return float(optimize.brentq(f, min(inside, outer), max(inside, outer), xtol=2e-3))
 
 
 def _bootstrap_interval(grid, sq_errors, *, seed: int, n_bootstrap: int) -> tuple[float, float]:

@@ -1,0 +1,73 @@
+"""Fitting s: the criteria recover s0 on exact Gaussian-process samples; outputs are complete."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import envfit.cli as cli
+from data_gen.gp import gaussian_process_map, gaussian_process_values
+from envfit.envmap import EnvMap, save_envmap
+from envfit.errors import ParameterError
+from envfit.fit import fit_smoothness, fit_smoothness_samples
+from theory.sphere_points import spherical_fibonacci_sphere
+
+N = 400
+SEEDS = range(4)
+
+
+@pytest.fixture(scope="module")
+def samples():
+    pts = spherical_fibonacci_sphere(N)
+    return pts, {s0: [gaussian_process_values(s0, pts, seed=k) for k in SEEDS] for s0 in (1.3, 1.7)}
+
+
+@pytest.mark.parametrize("method, per_seed, mean_tol", [("likelihood", 0.2, 0.08), ("loo", 0.35, 0.15)])
+@pytest.mark.parametrize("s0", [1.3, 1.7])
+def test_recovers_s0_on_exact_gp_samples(samples, method, per_seed, mean_tol, s0):
+    # Tolerances from a 6-seed calibration at N = 400 (README, "Fitting s"): the likelihood
+    # estimate has sd ~0.06-0.07 and no visible bias, LOO sd ~0.12-0.15; per-seed bounds are
+    # ~3 sd, the mean of 4 seeds ~2.5 sd/sqrt(4). The profile-likelihood 95 % interval must
+    # cover s0 for at least 3 of the 4 seeds.
+    pts, vals = samples
+    fits = [fit_smoothness_samples(pts, v, method=method, seed=k) for k, v in enumerate(vals[s0])]
+    est = np.array([f["s"] for f in fits])
+    assert np.all(np.abs(est - s0) < per_seed), est
+    assert abs(est.mean() - s0) < mean_tol, est
+    if method == "likelihood":
+        covered = sum(f["s_interval"][0] <= s0 <= f["s_interval"][1] for f in fits)
+        assert covered >= 3, [f["s_interval"] for f in fits]
+        # sigma-hat: the process has unit amplitude
+        assert all(0.7 < f["sigma"][0] < 1.4 for f in fits)
+
+
+def test_likelihood_curve_peaks_at_estimate(samples):
+    pts, vals = samples
+    r = fit_smoothness_samples(pts, vals[1.3][0], method="likelihood")
+    curve = {c["s"]: c["score"] for c in r["curve"]}
+    best = min(curve, key=curve.get)
+    assert best == pytest.approx(r["s"], abs=1e-9)
+    lo, hi = r["s_interval"]
+    assert lo < r["s"] < hi
+
+
+def test_fit_map_outputs_and_cli(tmp_path, monkeypatch, capsys):
+    f = gaussian_process_map(1.5, 32, seed=2, channels=3)
+    env = EnvMap((f - f.min() + 0.5).astype(np.float32), name="gp32")
+    res = fit_smoothness(env, method="holdout", n=200, scale="linear", n_holdout=500)
+    assert 1.0 < res.s < 2.0 and res.s_interval[0] <= res.s <= res.s_interval[1]
+    assert len(res.sigma) == 3 and res.scale == "linear" and res.method == "holdout"
+    monkeypatch.setattr(cli, "COMMANDS", ("fit",))
+    path = save_envmap(tmp_path / "m.exr", env)
+    js = tmp_path / "fit.json"
+    assert cli.main(["fit", str(path), "--n", "200", "--scale", "linear", "--json", str(js),
+                     "--out", str(tmp_path / "o"), "--quiet"]) == 0
+    d = json.loads(js.read_text())
+    assert set(d) >= {"s", "s_interval", "sigma", "method", "scale", "n", "curve"}
+    assert d["method"] == "likelihood" and d["n"] == 200 and len(d["curve"]) >= 10
+    assert (tmp_path / "o" / "fit_likelihood.png").exists()
+    with pytest.raises(ParameterError):
+        fit_smoothness(env, method="bogus")
+    assert cli.main(["fit", str(tmp_path / "missing.exr")]) == 2
+    assert "Traceback" not in capsys.readouterr().err
