@@ -32,3 +32,5 @@ from .truncation import (equivalent_qmc_points, smallest_degree, spatial_truncat
                          truncation_error, truncation_error_curve)
 
 __all__ = [name for name in dir() if not name.startswith("_")]
+
+from . import figures, table1  # noqa: E402  (the paper's Table 1 and the data of Figs. 1–5)

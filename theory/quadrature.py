@@ -143,7 +143,8 @@ def _embedding_minus_mean(t: np.ndarray, brdf: WeightFunction, s: float, tol: fl
     r""":math:`z(t) - g_0 = \sum_{l\ge1} g_l P_l(t)` (g_0 = C/2 exactly)."""
     g = embedding_coefficients(brdf, s, tol)
     if method == "auto":
-        method = "series" if t.size * g.size <= 4 * 2 ** 20 else "chebyshev"
+        # the direct sum is a Python-level recurrence over degrees: only for short series
+        method = "series" if (g.size <= 512 and t.size * g.size <= 4 * 2 ** 20) else "chebyshev"
     if method == "series":
         g1 = g.copy()
         g1[0] = 0.0

@@ -1,0 +1,558 @@
+r"""The data behind Figs. 1–5 of the paper, and a BNOT check figure (arrays, no plotting, no I/O).
+
+Marques, Bouville, Bouatouch, "Spectral Analysis of Quadrature Rules and Fourier
+Truncation-based Methods Applied to Shading Integrals", Secs. 7–8.
+
+* Figs. 1–3 (:func:`spectra_data`): for each point set of Sec. 7.1 (N = 256, one
+  realization), weight function (diffuse, glossy n = 30) and weighting (equal 1/N, or the
+  optimal sample weights, OSW), the zonal power :math:`d_l^2 = (b_l - c_{l,0})^2`
+  (Eq. 43), the anisotropic power :math:`C_l^2 = 2\sum_{m\ge1}|c_{l,m}|^2` (Eqs. 44, 59)
+  and the error spectrum :math:`e_l^2 = a_l(d_l^2 + C_l^2)` (Eq. 42 with the errata's
+  :math:`a_l`). Fig. 2 (:func:`low_order_closeup`) is the first ten :math:`C_l^2`
+  (l = 1…10; :math:`C_0^2 \equiv 0`) of the diffuse case.
+* Fig. 4 (:func:`convergence_data`): the worst-case error (closed form Eq. 41) against N
+  for powers of two, with least-squares slopes of log E against log N.
+* Fig. 5 (:func:`truncation_figure_data`): the SH/HSH truncation errors E(L) (Eqs. 51–52)
+  and the number of QMC points (spherical Fibonacci, equal weights, morphed) with the same
+  worst-case error, obtained for all L at once by inverting a precomputed curve E(N) of
+  the QMC rule on a fine logarithmic grid of N (:func:`invert_wce_curve`).
+* BNOT check (:func:`bnot_figure_data`): radial power spectrum of BNOT against random
+  points on the unit square, and the capacity constraint :math:`|V_i^w| = 1/N`.
+
+All quadrature points are *morphed* for the weight function by default (importance
+sampling, Sec. 7.2: the square is lifted by the Lambert equal-area map and its height
+coordinate passed through the inverse CDF of p, :meth:`theory.brdf.WeightFunction.morph`);
+``morph=False`` lifts them uniformly instead. Points live in the local frame of the lobe
+(axis +z); for the glossy lobe this is the mirror direction (Sec. 4.3).
+
+Example
+-------
+>>> d = spectra_data(n=32, lmax=16, pointsets=("sf", "random"), brdfs=("diffuse",))
+>>> r = d.get("diffuse", "equal", "sf")
+>>> bool(np.allclose(r.e2, r.a * (r.d2 + r.C2)))
+True
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable, Iterable
+
+import numpy as np
+
+from .bnot import BNOTDiagnostics, bnot_diagnostics, bnot_square, radial_power_spectrum
+from .brdf import Diffuse, Glossy, WeightFunction
+from .errors import TheoryParameterError, check_smoothness
+from .pointsets import DETERMINISTIC_POINTSETS, POINTSETS, generate, random_square
+from .quadrature import error_spectrum, worst_case_error
+from .table1 import CASES, case_weight
+from .truncation import morphed_spherical_fibonacci, truncation_error_curve
+from .weights import equal_weights, optimal_weights
+
+__all__ = ["POINTSET_ORDER", "POINTSET_LABELS", "BRDFS", "WEIGHTINGS", "PAPER_LMAX",
+           "make_weight", "quadrature_rule", "SpectrumRecord", "SpectraData", "spectra_data",
+           "LowOrderCloseup", "low_order_closeup", "fit_convergence_slope", "ConvergenceData",
+           "convergence_data", "log_grid", "qmc_wce_curve", "invert_wce_curve",
+           "extrapolate_wce_curve", "TruncationFigureData", "truncation_figure_data",
+           "BNOTFigureData", "bnot_figure_data"]
+
+#: the point sets of Sec. 7.1, in the paper's order
+POINTSET_ORDER = ("sobol", "bnot", "lp", "sf", "random", "jitter")
+POINTSET_LABELS = {"sobol": "Sobol", "bnot": "BNOT", "lp": "LP", "sf": "SF",
+                   "random": "Random", "jitter": "SJ"}
+BRDFS = ("diffuse", "glossy")
+#: "equal": w_j = 1/N; "osw": optimal sample weights K^{-1} z (Sec. 7.1)
+WEIGHTINGS = ("equal", "osw")
+#: the highest SH degree of the paper's spectra
+PAPER_LMAX = 170
+
+Progress = Callable[[str], None]
+
+
+def _check_names(names: Iterable[str], allowed, what: str) -> tuple[str, ...]:
+    out = tuple(names)
+    bad = [x for x in out if x not in allowed]
+    if bad or not out:
+        raise TheoryParameterError(f"{what} must be a non-empty subset of {list(allowed)}, got {list(out)}")
+    return out
+
+
+def _check_int(v, what: str, lo: int) -> int:
+    try:
+        k = int(v)
+    except (TypeError, ValueError):
+        raise TheoryParameterError(f"{what} must be an integer, got {v!r}") from None
+    if k != v or k < lo:
+        raise TheoryParameterError(f"{what} must be an integer >= {lo}, got {v!r}")
+    return k
+
+
+def make_weight(brdf: str, shininess: float = 30.0) -> WeightFunction:
+    """The weight function named ``brdf`` ("diffuse" or "glossy" with ``shininess``).
+
+    >>> make_weight("glossy", 10)
+    Glossy(shininess=10)
+    """
+    if brdf == "diffuse":
+        return Diffuse()
+    if brdf == "glossy":
+        return Glossy(shininess)
+    raise TheoryParameterError(f"brdf must be 'diffuse' or 'glossy', got {brdf!r}")
+
+
+def quadrature_rule(pointset: str, n: int, weight: WeightFunction, s: float, weighting: str, *,
+                    seed: int = 0, morph: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    r"""Points (N×3, local frame of the lobe) and weights of one quadrature rule of Sec. 7.
+
+    The square points of ``pointset`` are lifted by the Lambert map and, if ``morph``, their
+    heights importance-sampled for ``weight`` (Sec. 7.2). ``weighting`` "equal" gives
+    :math:`w_j = 1/N`, "osw" the optimal weights :math:`K^{-1}z` (Eq. 41 minimised).
+
+    >>> u, w = quadrature_rule("sf", 8, Diffuse(), 1.5, "equal")
+    >>> u.shape, float(w.sum())
+    ((8, 3), 1.0)
+    """
+    if pointset not in POINTSETS:
+        raise TheoryParameterError(f"unknown point set {pointset!r}; choose one of {sorted(POINTSETS)}")
+    pts = generate(pointset, n, seed=seed, morph=weight.morph if morph else None)
+    if weighting == "equal":
+        return pts, equal_weights(pts.shape[0])
+    if weighting == "osw":
+        return pts, optimal_weights(pts, weight, s)
+    raise TheoryParameterError(f"weights must be 'equal' or 'osw', got {weighting!r}")
+
+
+# ----------------------------------------------------------------------------- Figs. 1–3
+@dataclass(frozen=True)
+class SpectrumRecord:
+    r"""Spectra of one quadrature rule, l = 0…lmax (Eqs. 42–47).
+
+    ``d2`` = :math:`d_l^2`, ``C2`` = :math:`C_l^2` (≥ 0, :math:`C_0^2 = 0`), ``a`` =
+    :math:`a_l`, ``e2`` = :math:`a_l(d_l^2 + C_l^2)`; ``wce`` is the closed form Eq. 41,
+    ``wce_zonal``/``wce_anisotropic`` the sums of Eqs. 46–47 to lmax, and ``tail`` =
+    :math:`E^2 - \sum_{l\le lmax} e_l^2` (what the truncated spectral sum misses).
+    """
+
+    brdf: str
+    pointset: str
+    weights: str
+    n: int
+    seed: int
+    morphed: bool
+    l: np.ndarray
+    a: np.ndarray
+    d2: np.ndarray
+    C2: np.ndarray
+    e2: np.ndarray
+    wce: float
+    wce_zonal: float
+    wce_anisotropic: float
+    tail: float
+
+
+@dataclass(frozen=True)
+class SpectraData:
+    """Spectra of every (brdf, weights, pointset) rule at one N: the data of Figs. 1–3."""
+
+    n: int
+    s: float
+    shininess: float
+    lmax: int
+    seed: int
+    morphed: bool
+    pointsets: tuple[str, ...]
+    brdfs: tuple[str, ...]
+    weightings: tuple[str, ...]
+    records: dict = field(repr=False)
+
+    def get(self, brdf: str, weights: str, pointset: str) -> SpectrumRecord:
+        return self.records[(brdf, weights, pointset)]
+
+
+def spectra_data(n: int = 256, s: float = 1.5, shininess: float = 30.0, lmax: int = PAPER_LMAX, *,
+                 seed: int = 0, pointsets: Iterable[str] = POINTSET_ORDER,
+                 brdfs: Iterable[str] = BRDFS, weightings: Iterable[str] = WEIGHTINGS,
+                 morph: bool = True, progress: Progress | None = None) -> SpectraData:
+    r"""Power and error spectra of the quadrature rules of Sec. 7 (Figs. 1–3).
+
+    One realization per stochastic point set (``seed``), as in the paper. Uses
+    :func:`theory.quadrature.error_spectrum` (ducc0 adjoint SH synthesis for
+    :math:`c_{l,m}`, the Legendre recurrence for :math:`c_{l,0}`, the closed form Eq. 41
+    for E). Cost at N = 256, lmax = 170: ≈ 0.05 s per rule plus the BNOT set (≈ 3 s).
+    """
+    s = check_smoothness(s)
+    n = _check_int(n, "n", 1)
+    lmax = _check_int(lmax, "lmax", 1)
+    pointsets = _check_names(pointsets, POINTSET_ORDER, "pointsets")
+    brdfs = _check_names(brdfs, BRDFS, "brdfs")
+    weightings = _check_names(weightings, WEIGHTINGS, "weightings")
+    records = {}
+    for brdf in brdfs:
+        wf = make_weight(brdf, shininess)
+        for ps in pointsets:
+            for wt in weightings:
+                if progress:
+                    progress(f"spectrum {brdf} {ps} {wt}")
+                u, w = quadrature_rule(ps, n, wf, s, wt, seed=seed, morph=morph)
+                sp = error_spectrum(u, w, wf, s, lmax)
+                records[(brdf, wt, ps)] = SpectrumRecord(
+                    brdf=brdf, pointset=ps, weights=wt, n=n, seed=seed, morphed=bool(morph),
+                    l=sp.l, a=sp.a, d2=sp.d2, C2=sp.C2, e2=sp.e2, wce=sp.wce,
+                    wce_zonal=sp.wce_zonal, wce_anisotropic=sp.wce_anisotropic, tail=sp.tail)
+    return SpectraData(n=n, s=s, shininess=float(shininess), lmax=lmax, seed=seed,
+                       morphed=bool(morph), pointsets=pointsets, brdfs=brdfs,
+                       weightings=weightings, records=records)
+
+
+@dataclass(frozen=True)
+class LowOrderCloseup:
+    """Fig. 2: the first ``count`` anisotropic powers, l = 1…count, equal vs OSW weights.
+
+    ``C2_equal[ps]``, ``C2_osw[ps]`` : (count,) arrays; ``reduction[ps]`` =
+    Σ C²(OSW) / Σ C²(equal) over these degrees.
+    """
+
+    brdf: str
+    l: np.ndarray
+    C2_equal: dict
+    C2_osw: dict
+    reduction: dict
+
+
+def low_order_closeup(data: SpectraData, brdf: str = "diffuse", count: int = 10) -> LowOrderCloseup:
+    r"""The first ``count`` :math:`C_l^2`, l = 1…count (:math:`C_0^2 \equiv 0`), of Figs. 1(b)–(c).
+
+    >>> d = spectra_data(n=32, lmax=16, pointsets=("random",), brdfs=("diffuse",))
+    >>> c = low_order_closeup(d, count=5)
+    >>> c.l.tolist(), bool(c.reduction["random"] < 1)
+    ([1, 2, 3, 4, 5], True)
+    """
+    count = _check_int(count, "count", 1)
+    if count > data.lmax:
+        raise TheoryParameterError(f"count = {count} exceeds the spectra's lmax = {data.lmax}")
+    if "equal" not in data.weightings or "osw" not in data.weightings:
+        raise TheoryParameterError("the close-up needs both equal and OSW spectra")
+    sl = slice(1, count + 1)
+    eq = {ps: data.get(brdf, "equal", ps).C2[sl].copy() for ps in data.pointsets}
+    op = {ps: data.get(brdf, "osw", ps).C2[sl].copy() for ps in data.pointsets}
+    red = {ps: float(op[ps].sum() / eq[ps].sum()) if eq[ps].sum() > 0 else float("nan")
+           for ps in data.pointsets}
+    return LowOrderCloseup(brdf=brdf, l=np.arange(1, count + 1), C2_equal=eq, C2_osw=op,
+                           reduction=red)
+
+
+# ----------------------------------------------------------------------------- Fig. 4
+def fit_convergence_slope(ns, wce, nmin: float = 64, nmax: float | None = None):
+    r"""Least-squares slope of :math:`\log E` against :math:`\log N` over nmin ≤ N ≤ nmax.
+
+    Returns ``(slope, intercept, (n_lo, n_hi))`` with :math:`E \approx e^{b} N^{k}`; if fewer
+    than two N lie in the range, all N are used (the range actually used is returned).
+
+    >>> ns = np.array([16, 64, 256, 1024]); e = 3.0 * ns ** -0.75
+    >>> round(fit_convergence_slope(ns, e)[0], 12)
+    -0.75
+    """
+    ns = np.asarray(ns, dtype=np.float64)
+    e = np.asarray(wce, dtype=np.float64)
+    if ns.shape != e.shape or ns.ndim != 1:
+        raise TheoryParameterError("ns and wce must be 1-D arrays of the same length")
+    hi = np.inf if nmax is None else float(nmax)
+    m = (ns >= nmin) & (ns <= hi) & (e > 0) & np.isfinite(e)
+    if m.sum() < 2:
+        m = (e > 0) & np.isfinite(e)
+    if m.sum() < 2:
+        return float("nan"), float("nan"), (float("nan"), float("nan"))
+    k, b = np.polyfit(np.log(ns[m]), np.log(e[m]), 1)
+    return float(k), float(b), (float(ns[m].min()), float(ns[m].max()))
+
+
+@dataclass(frozen=True)
+class ConvergenceData:
+    r"""Fig. 4: worst-case error against N.
+
+    ``wce[(brdf, weights, pointset)]`` is an array over ``ns``; for stochastic point sets
+    with ``realizations`` > 1 it is the root mean square over seeds seed, seed + 1, ….
+    ``slopes`` holds the fitted exponents over ``fit_range``.
+    """
+
+    ns: np.ndarray
+    s: float
+    shininess: float
+    seed: int
+    morphed: bool
+    realizations: int
+    fit_range: tuple[float, float]
+    pointsets: tuple[str, ...]
+    brdfs: tuple[str, ...]
+    weightings: tuple[str, ...]
+    wce: dict = field(repr=False)
+    slopes: dict = field(repr=False)
+
+    def beats_random(self, brdf: str, weights: str = "equal", nmin: int = 256) -> dict:
+        r"""For each structured set: ``{"all": bool, "ratio_max": float}`` — whether its E is
+        below the random set's at every N ≥ nmin, and the largest ratio E/E_random there."""
+        if "random" not in self.pointsets:
+            raise TheoryParameterError("the comparison needs the random point set")
+        m = self.ns >= nmin
+        if not m.any():
+            raise TheoryParameterError(f"no N >= {nmin} in the data (largest N = {int(self.ns.max())})")
+        ref = self.wce[(brdf, weights, "random")][m]
+        out = {}
+        for ps in self.pointsets:
+            if ps == "random":
+                continue
+            r = self.wce[(brdf, weights, ps)][m] / ref
+            out[ps] = {"all": bool(np.all(r < 1.0)), "ratio_max": float(r.max())}
+        return out
+
+
+def convergence_data(nmax: int = 2048, s: float = 1.5, shininess: float = 30.0, *,
+                     nmin: int = 16, seed: int = 0, pointsets: Iterable[str] = POINTSET_ORDER,
+                     brdfs: Iterable[str] = BRDFS, weightings: Iterable[str] = WEIGHTINGS,
+                     morph: bool = True, realizations: int = 1, fit_nmin: int = 64,
+                     progress: Progress | None = None) -> ConvergenceData:
+    r"""Worst-case error (Eq. 41) for N = nmin, 2·nmin, …, ≤ nmax (powers of two) (Fig. 4).
+
+    The paper's Fig. 4 uses one realization per point set and N up to 2048 (its Random
+    curves are shifted by a factor 0.5 / 0.45 for readability; these are the raw values).
+    Slopes: :func:`fit_convergence_slope` over ``fit_nmin`` ≤ N ≤ nmax. With seed 0 and
+    one realization, random points converge like :math:`N^{-0.56}` (equal weights) and
+    :math:`N^{-0.76}` (OSW) in both cases, the structured sets like :math:`N^{-0.72}` to
+    :math:`N^{-0.83}` (the optimal rate for s = 1.5 is :math:`N^{-s/2} = N^{-0.75}`).
+    Cost: O(N²) per rule, plus an N³/3 Cholesky for OSW and the BNOT sets (≈ 30 s for all
+    powers of two to 2048, cached per (N, seed) in the process).
+    """
+    s = check_smoothness(s)
+    nmin = _check_int(nmin, "nmin", 1)
+    nmax = _check_int(nmax, "nmax", nmin)
+    realizations = _check_int(realizations, "realizations", 1)
+    pointsets = _check_names(pointsets, POINTSET_ORDER, "pointsets")
+    brdfs = _check_names(brdfs, BRDFS, "brdfs")
+    weightings = _check_names(weightings, WEIGHTINGS, "weightings")
+    ns = nmin * 2 ** np.arange(int(math.floor(math.log2(nmax / nmin))) + 1)
+    wce, slopes = {}, {}
+    fit = (float("nan"), float("nan"))
+    for brdf in brdfs:
+        wf = make_weight(brdf, shininess)
+        for ps in pointsets:
+            reps = 1 if ps in DETERMINISTIC_POINTSETS else realizations
+            for wt in weightings:
+                if progress:
+                    progress(f"wce {brdf} {ps} {wt}")
+                e2 = np.zeros(ns.size)
+                for r in range(reps):
+                    for i, n in enumerate(ns):
+                        u, w = quadrature_rule(ps, int(n), wf, s, wt, seed=seed + r, morph=morph)
+                        e2[i] += worst_case_error(u, w, wf, s) ** 2
+                e = np.sqrt(e2 / reps)
+                wce[(brdf, wt, ps)] = e
+                k, _, fit = fit_convergence_slope(ns, e, fit_nmin, nmax)
+                slopes[(brdf, wt, ps)] = k
+    return ConvergenceData(ns=ns, s=s, shininess=float(shininess), seed=seed, morphed=bool(morph),
+                           realizations=realizations, fit_range=fit, pointsets=pointsets,
+                           brdfs=brdfs, weightings=weightings, wce=wce, slopes=slopes)
+
+
+# ----------------------------------------------------------------------------- Fig. 5
+def log_grid(nmax: int, per_octave: int = 8, nmin: int = 1) -> np.ndarray:
+    """Distinct integers round(nmin·2^(k/per_octave)) from nmin up to nmax (inclusive).
+
+    >>> log_grid(16, 2).tolist()
+    [1, 2, 3, 4, 6, 8, 11, 16]
+    """
+    nmin = _check_int(nmin, "nmin", 1)
+    nmax = _check_int(nmax, "nmax", nmin)
+    per_octave = _check_int(per_octave, "per_octave", 1)
+    k = np.arange(int(math.ceil(per_octave * math.log2(nmax / nmin))) + 1)
+    g = np.unique(np.round(nmin * 2.0 ** (k / per_octave)).astype(np.int64))
+    g = g[g <= nmax]
+    return g if g[-1] == nmax else np.append(g, nmax)
+
+
+def qmc_wce_curve(weight: WeightFunction, s: float, nmax: int = 16384, *, per_octave: int = 8,
+                  nmin: int = 1, progress: Progress | None = None) -> tuple[np.ndarray, np.ndarray]:
+    r"""E(N) of spherical Fibonacci points morphed for ``weight``, equal weights, on a log grid.
+
+    The QMC rule of Sec. 8 / Table 1 (:func:`theory.truncation.morphed_spherical_fibonacci`),
+    at the N of :func:`log_grid`. Cost: the O(N²) closed form at every grid point, about
+    :math:`N_{max}^2/(1 - 2^{-2/\mathrm{per\_octave}})` pairs in all (≈ 6.3 N_max² for 8
+    per octave: ≈ 2 s for N_max = 8192 on 2 cores).
+    """
+    s = check_smoothness(s)
+    ns = log_grid(nmax, per_octave, nmin)
+    e = np.empty(ns.size)
+    for i, n in enumerate(ns):
+        if progress:
+            progress(f"QMC curve {weight!r} N = {int(n)}")
+        u = morphed_spherical_fibonacci(int(n), weight)
+        e[i] = worst_case_error(u, equal_weights(int(n)), weight, s)
+    return ns, e
+
+
+def invert_wce_curve(ns, wce, targets) -> np.ndarray:
+    r"""Smallest N with E(N) ≤ target, for many targets at once, from a tabulated curve.
+
+    The curve is made non-increasing by its running minimum (so the first grid point
+    below a target is the one that matters, as in a bisection on N); between the last grid
+    point above the target and the first one at or below it, log N is interpolated
+    linearly in log E, and the result rounded up. A target at or above E(ns[0]) gives
+    ns[0]; a target below every tabulated E gives NaN (beyond the grid: see
+    :func:`extrapolate_wce_curve`).
+
+    >>> ns = np.array([1, 2, 4, 8]); e = 1.0 / ns
+    >>> invert_wce_curve(ns, e, [2.0, 0.5, 0.3, 0.1]).tolist()
+    [1.0, 2.0, 4.0, nan]
+    """
+    ns = np.asarray(ns, dtype=np.float64)
+    e = np.asarray(wce, dtype=np.float64)
+    t = np.atleast_1d(np.asarray(targets, dtype=np.float64))
+    if ns.ndim != 1 or ns.shape != e.shape or ns.size < 1 or np.any(np.diff(ns) <= 0):
+        raise TheoryParameterError("ns must be increasing and match wce in length")
+    if np.any(~(e > 0)):
+        raise TheoryParameterError("the tabulated errors must be positive")
+    env = np.minimum.accumulate(e)
+    # first index k with env[k] <= target: env is non-increasing, so search on -env
+    k = np.searchsorted(-env, -t, side="left")
+    out = np.full(t.shape, np.nan)
+    first = k == 0
+    out[first] = ns[0]
+    mid = (k > 0) & (k < ns.size)
+    km = k[mid]
+    x0, x1 = np.log(ns[km - 1]), np.log(ns[km])
+    y0, y1 = np.log(env[km - 1]), np.log(env[km])
+    frac = (np.log(t[mid]) - y0) / (y1 - y0)
+    out[mid] = np.minimum(np.ceil(np.exp(x0 + frac * (x1 - x0)) - 1e-9), ns[km])
+    return out
+
+
+def extrapolate_wce_curve(ns, wce, targets, octaves: float = 2.0, max_factor: float = 64.0):
+    r"""N for targets below a tabulated curve, from the power law fitted to its top octaves.
+
+    Fits :math:`\log E = b + k\log N` over :math:`N \ge N_{max}/2^{octaves}` and solves for
+    N (rounded up). Returns ``(N, k)``; N is NaN for targets within the curve's range and
+    beyond ``max_factor`` times the last tabulated N (no extrapolation over more than
+    log2(max_factor) octaves).
+
+    >>> ns = np.array([1, 2, 4, 8]); e = 1.0 / ns
+    >>> n, k = extrapolate_wce_curve(ns, e, [0.5, 1 / 32, 1e-6])
+    >>> n.tolist(), round(k, 12)
+    ([nan, 32.0, nan], -1.0)
+    """
+    ns = np.asarray(ns, dtype=np.float64)
+    e = np.asarray(wce, dtype=np.float64)
+    t = np.atleast_1d(np.asarray(targets, dtype=np.float64))
+    k, b, _ = fit_convergence_slope(ns, e, ns.max() / 2.0 ** octaves)
+    out = np.full(t.shape, np.nan)
+    below = t < np.minimum.accumulate(e)[-1]
+    if below.any() and k < 0:
+        out[below] = np.ceil(np.exp((np.log(t[below]) - b) / k) - 1e-9)
+    out[out > max_factor * ns.max()] = np.nan
+    return out, k
+
+
+@dataclass(frozen=True)
+class TruncationFigureData:
+    r"""Fig. 5: E(L), L = 0…Lmax, for "diffuse-sh", "glossy-sh", "glossy-hsh", and the
+    equivalent numbers of QMC points.
+
+    ``qmc_points[case]`` : float array (NaN beyond the tabulated QMC curve);
+    ``qmc_points_extrapolated[case]`` : the power-law extrapolation for those L, up to 64
+    times the tabulated range (NaN elsewhere); ``qmc_curve[brdf]`` = (ns, E(N)) of morphed
+    SF points with equal weights;
+    ``qmc_slope[brdf]`` the exponent used to extrapolate.
+    """
+
+    s: float
+    shininess: float
+    L: np.ndarray
+    wce: dict
+    qmc_points: dict
+    qmc_points_extrapolated: dict
+    qmc_curve: dict
+    qmc_slope: dict
+    morphed: bool = True
+
+
+def truncation_figure_data(s: float = 1.5, shininess: float = 30.0, Lmax: int = 20, *,
+                           qmc_nmax: int = 16384, per_octave: int = 8,
+                           progress: Progress | None = None) -> TruncationFigureData:
+    r"""The data of Fig. 5: truncation errors and QMC equivalents for every L.
+
+    E(L) from :func:`theory.truncation.truncation_error_curve` (Eq. 52 summed from L + 1,
+    HSH through Eq. 31); QMC equivalents by :func:`invert_wce_curve` on
+    :func:`qmc_wce_curve` (one curve per weight function, shared by glossy SH and HSH).
+    """
+    s = check_smoothness(s)
+    Lmax = _check_int(Lmax, "Lmax", 1)
+    curves, slopes = {}, {}
+    wce, qn, qx = {}, {}, {}
+    for case, brdf, basis in CASES:
+        wf, _ = case_weight(case, shininess)
+        if brdf not in curves:
+            curves[brdf] = qmc_wce_curve(wf, s, qmc_nmax, per_octave=per_octave, progress=progress)
+        E = truncation_error_curve(wf, s, Lmax, basis)
+        ns, eq = curves[brdf]
+        wce[case] = E
+        with np.errstate(divide="ignore"):
+            qn[case] = invert_wce_curve(ns, eq, np.maximum(E, np.finfo(float).tiny))
+            qx[case], slopes[brdf] = extrapolate_wce_curve(ns, eq, np.maximum(E, np.finfo(float).tiny))
+    return TruncationFigureData(s=s, shininess=float(shininess), L=np.arange(Lmax + 1), wce=wce,
+                                qmc_points=qn, qmc_points_extrapolated=qx, qmc_curve=curves,
+                                qmc_slope=slopes)
+
+
+# ----------------------------------------------------------------------------- BNOT check
+@dataclass(frozen=True)
+class BNOTFigureData:
+    r"""BNOT vs random points on the unit square (torus).
+
+    ``radius``, ``power_bnot``, ``power_random`` : radially averaged periodograms
+    (:func:`theory.bnot.radial_power_spectrum`; E P = 1 for random points);
+    ``low_band`` : |k| below which the mean power is compared (:math:`\sqrt N/2`);
+    ``low_power_bnot``/``low_power_random`` : those means;
+    ``diagnostics_bnot``/``diagnostics_random`` : capacity weights and cell areas
+    (:func:`theory.bnot.bnot_diagnostics`), centroid residual, minimum distance.
+    """
+
+    n: int
+    seed: int
+    bnot_points: np.ndarray
+    random_points: np.ndarray
+    radius: np.ndarray
+    power_bnot: np.ndarray
+    power_random: np.ndarray
+    low_band: float
+    low_power_bnot: float
+    low_power_random: float
+    diagnostics_bnot: BNOTDiagnostics
+    diagnostics_random: BNOTDiagnostics
+
+
+def bnot_figure_data(n: int = 256, seed: int = 0, kmax: int | None = None) -> BNOTFigureData:
+    r"""Radial power spectra of BNOT and random points and the capacity check.
+
+    Blue noise: the power is ≪ 1 at low frequencies (|k| below ≈ √N) where random points
+    have P ≈ 1. Capacity: the power cells of the BNOT sites with their capacity weights
+    have area 1/N (to the solver's 1e-10; printed as the max relative area error), and the
+    sites are (near) the centroids of their cells, unlike random sites.
+
+    >>> d = bnot_figure_data(64, seed=1)
+    >>> bool(d.low_power_bnot < 0.5 * d.low_power_random)
+    True
+    """
+    n = _check_int(n, "n", 2)
+    b = bnot_square(n, seed=seed)
+    r = random_square(n, seed=seed)
+    kmax = int(np.ceil(3.0 * np.sqrt(n))) if kmax is None else _check_int(kmax, "kmax", 1)
+    rb, pb = radial_power_spectrum(b, kmax=kmax)
+    rr, pr = radial_power_spectrum(r, kmax=kmax)
+    if rb.shape != rr.shape or not np.allclose(rb, rr):    # same annuli, same lattice
+        raise RuntimeError("radial bins differ between the two point sets")  # pragma: no cover
+    band = 0.5 * math.sqrt(n)
+    m = rb < band
+    if not m.any():
+        m = rb <= rb.min()
+    return BNOTFigureData(n=n, seed=seed, bnot_points=b, random_points=r, radius=rb,
+                          power_bnot=pb, power_random=pr, low_band=band,
+                          low_power_bnot=float(pb[m].mean()), low_power_random=float(pr[m].mean()),
+                          diagnostics_bnot=bnot_diagnostics(b), diagnostics_random=bnot_diagnostics(r))
