@@ -6,7 +6,7 @@ The public API (imported lazily, so ``import envfit`` stays fast)::
     from envfit import SobolevInterpolator                       # kernel interpolation, Eq. 14
     from envfit import fit_smoothness, run_table2                # s of a map; the paper's Table 2
     from envfit import shading_integral                          # ground-truth shading integrals
-    from envfit import validate                                  # measured vs predicted errors
+    from envfit import run_validation                            # measured vs predicted errors
 
 Conventions (lat-long geometry, value scales) are documented in README.md and implemented
 in :mod:`envfit.latlong` and :mod:`envfit.scales`.
@@ -29,7 +29,7 @@ _LAZY = {
     "shading_integral": "shading",
     "quadrature_estimates": "estimators", "sh_truncation_estimates": "estimators",
     "hsh_truncation_estimates": "estimators",
-    "validate": "validate",
+    "run_validation": "validate", "ValidateConfig": "validate",
     "default_envmap": "default_map",
 }
 

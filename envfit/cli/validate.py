@@ -1,0 +1,136 @@
+"""``envfit validate``: predicted errors against ground-truth shading integrals (Figs. 7–8)."""
+from __future__ import annotations
+
+import argparse
+
+from .common import (add_common_arguments, add_map_arguments, emit_json, int_list,
+                     load_map_from_args, out_dir, say, str_list)
+
+
+def register(sub) -> None:
+    from ..validate import QUICK_DESCRIPTION
+    p = sub.add_parser(
+        "validate",
+        help="check predicted quadrature / truncation errors against measured ones on a map",
+        description="For each BRDF, point set, weighting and N: the RMSE over M random axes of "
+                    "the quadrature estimates (importance-sampled point sets, rotated and "
+                    "twisted per axis) against the exact shading integrals, next to the "
+                    "worst-case error for the map's fitted s — shape only (one fitted factor "
+                    "per BRDF, as the paper) and absolute (sigma*wce under the Gaussian-process "
+                    "reading). Likewise RMSE vs L for SH/HSH truncation. Writes plots and "
+                    "report.md to --out; resumable there.",
+        epilog=QUICK_DESCRIPTION.replace("%", "%%"))
+    add_map_arguments(p)
+    p.add_argument("--s", default="auto", metavar="auto|VALUE",
+                   help="smoothness of the prediction: 'auto' (fit it, default) or a value in (1, 2)")
+    p.add_argument("--brdf", type=str_list, default=None, metavar="diffuse,glossy",
+                   help="BRDFs (default: diffuse,glossy)")
+    p.add_argument("--shininess", type=float, default=30.0, help="glossy exponent n (default: 30)")
+    p.add_argument("--pointsets", type=str_list, default=None, metavar="sf,sobol,…",
+                   help="point sets among sf, sobol, lp, bnot, random, jitter (default: all six; "
+                        "--quick: without bnot)")
+    p.add_argument("--weights", type=str_list, default=None, metavar="equal,osw",
+                   help="weightings (default: equal,osw)")
+    p.add_argument("--n", type=int_list, default=None, metavar="N1,N2,…",
+                   help="numbers of samples (default: 16,32,…,4096; --quick: 16…1024)")
+    p.add_argument("--axes", type=int, default=None, metavar="M",
+                   help="number of random axes (default: 2000; --quick: 500)")
+    p.add_argument("--scale", choices=("display", "linear", "log"), default="display",
+                   help="value scale of the integrand and of the fit (default: display)")
+    p.add_argument("--fit-method", choices=("likelihood", "loo", "holdout"), default="likelihood",
+                   help="criterion of the s fit for --s auto (default: likelihood)")
+    p.add_argument("--fit-n", type=int, default=None,
+                   help="samples of the s / sigma fit (default: 1500; --quick: 600)")
+    p.add_argument("--no-truncation", action="store_true", help="skip the SH/HSH truncation part")
+    p.add_argument("--sh-L", type=int_list, default=None, metavar="L1,L2,…",
+                   help="SH cut-off degrees (default: 0…20; --quick: 0…12)")
+    p.add_argument("--hsh-L", type=int_list, default=None, metavar="L1,L2,…",
+                   help="glossy HSH cut-off degrees (default: 0…16; --quick: 0…10)")
+    p.add_argument("--hsh-axes", type=int, default=None,
+                   help="axes of the HSH measurement (default: 250; --quick: 100)")
+    p.add_argument("--hsh-max-height", type=int, default=None,
+                   help="map rows for the HSH measurement (default: 128; --quick: 64)")
+    p.add_argument("--quick", action="store_true",
+                   help="a reduced run in under a minute (map at most 256 rows; see below)")
+    add_common_arguments(p)
+    p.set_defaults(func=run)
+
+
+def _config(args: argparse.Namespace):
+    from ..validate import ValidateConfig, parse_s, quick_config
+    s = parse_s(args.s)                      # a bad --s: ParameterError, one line, exit 2
+    over = {"s": s, "shininess": args.shininess, "scale": args.scale, "seed": args.seed,
+            "fit_method": args.fit_method, "truncation": not args.no_truncation}
+    for key, val in (("brdfs", args.brdf), ("pointsets", args.pointsets), ("weights", args.weights),
+                     ("n_values", args.n), ("axes", args.axes), ("fit_n", args.fit_n),
+                     ("sh_L", args.sh_L), ("hsh_L", args.hsh_L), ("hsh_axes", args.hsh_axes),
+                     ("hsh_max_height", args.hsh_max_height)):
+        if val is not None:
+            over[key] = val
+    return quick_config(**over) if args.quick else ValidateConfig(**over)
+
+
+def _summary(res: dict) -> list[str]:
+    agr = res["agreement"]
+    lo, hi = agr["slope_range"]
+    lines = [f"s = {res['s']:.3f} ({res['fit']['source']}), sigma = {res['sigma']:.4g} "
+             f"({res['scale']} scale), M = {res['axes']} axes", "",
+             f"slopes over N = {lo}…{hi} (measured / predicted / refined b'):"]
+    for s in agr["slopes"]:
+        f = (lambda v: "  –   " if v is None else f"{v:+.3f}")
+        lines.append(f"  {s['brdf']:8s} {s['pointset']:7s} {s['weights']:6s} "
+                     f"{f(s['measured'])} / {f(s['predicted'])} / {f(s.get('predicted_refined'))}")
+    for k in agr["rank"]:
+        tau = "–" if k["kendall_tau"] is None else f"{k['kendall_tau']:.3f}"
+        lines.append(f"rank {k['brdf']}/{k['weights']}: measured {' < '.join(k['measured_order'])}; "
+                     f"predicted {' < '.join(k['predicted_order'])}; tau = {tau}")
+    for key, label in (("slope_range", "(b) sigma*wce"), ("slope_range_refined", "(b') refined")):
+        d = agr["absolute"].get(key)
+        if d:
+            lines.append(f"{label}: predicted/measured median {d['median_ratio']:.2f}, range "
+                         f"{d['min_ratio']:.2f}…{d['max_ratio']:.2f}, {d['fraction_within']:.0%} within "
+                         f"{agr['absolute']['tolerance']:.0%}")
+    a = agr["acceptance"]
+    lines.append(f"acceptance: slopes {'ok' if a['slopes_ok'] else 'NO'} "
+                 f"({a['slopes_within']}/{a['slopes_checked']}), rank {'ok' if a['rank_ok'] else 'NO'}, "
+                 f"absolute (b) {'ok' if a['absolute_ok'] else 'NO'}")
+    return lines
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..atomic import atomic_write_json
+    from ..validate import run_validation
+    cfg = _config(args)
+    if args.quick and args.max_height is None:
+        args.max_height = 256
+    env = load_map_from_args(args)
+    out = out_dir(args)
+    for note in getattr(env, "notes", []):
+        say(args, f"note: {note}")
+    say(args, f"map {env.name}: {env.height}x{env.width}, {env.channels} channel(s)"
+              + (f"; cells in {out} (resumable)" if out else "; use --out DIR for plots, report.md "
+                                                         "and resuming"))
+    resumed = []
+
+    def on_cell(key, was_resumed):
+        if was_resumed:
+            resumed.append(key)
+
+    res = run_validation(env, cfg, out=out, quiet=args.quiet, on_cell=on_cell)
+    res["resumed_cells"] = len(resumed)
+    if resumed:
+        say(args, f"resumed {len(resumed)} finished cell(s) from {out}")
+    say(args, *_summary(res))
+    if out is not None:
+        from ..plots.validate import plot_all
+        from ..report import write_report
+        files = plot_all(res, out)
+        report = write_report(res, out / "report.md", files)
+        files["report.md"] = str(report)
+        res["files"] = files
+        atomic_write_json(out / "validate.json", res)
+        res["files"]["validate.json"] = str(out / "validate.json")
+        say(args, f"wrote {report}, {len(files) - 2} figure(s) and {out / 'validate.json'}")
+    say(args, f"({res['timings']['total']:.0f} s)")
+    emit_json(args, res)
+    return 0
