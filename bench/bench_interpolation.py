@@ -316,7 +316,8 @@ def main(argv=None):
     log("\nsummary (medians)")
     if "a_cell" in report:
         a = report["a_cell"]
-        log(f"(a) bare dpotrf N={a['n']}: {a['dpotrf_median_s']:.2f} s")
+        note = "" if a["n"] >= 20000 else "  (the 1.25 target is defined at N = 20000; informative here)"
+        log(f"(a) bare dpotrf N={a['n']}: {a['dpotrf_median_s']:.2f} s{note}")
         for s, c in a["cells"].items():
             log(f"    s={s}: cell {c['total_median_s']:.2f} s (fit {c['fit_median_s']:.2f} + "
                 f"evaluate {c['evaluate_median_s']:.2f}) = {c['ratio_to_dpotrf']:.3f} x bare dpotrf "

@@ -47,6 +47,9 @@ Numerics
       below the interpolation error (the RMSE against a map is unchanged to 6+ digits).
 
   ``"auto"`` (default) picks ``"nearfar"`` when M N >= 5e7 and N >= 500.
+* **Threads.** numba kernels, BLAS/LAPACK calls and ducc0 transforms alternate and never
+  overlap; each uses all cores (``numba.get_num_threads()``; BLAS via its own pool, limit it
+  with ``threadpoolctl`` if the caller runs several interpolators in parallel).
 * **Leave-one-out residuals** (Rippa 1999) :math:`e_i = \alpha_i / (K^{-1})_{ii}` need the
   diagonal of :math:`K^{-1} = L^{-T} L^{-1}`: :math:`(K^{-1})_{ii} = \|L^{-1} e_i\|^2`,
   computed in column blocks by BLAS ``dtrsm`` on the trailing triangle (no copy of L,
