@@ -58,7 +58,7 @@ from theory.pointsets import frame_from_axis
 from .envmap import EnvMap
 from .errors import ParameterError
 from .resources import check_memory
-from .shading import (axes_to_local, bilinear_sh_coefficients, funk_hecke_factors,
+from .shading import (unit_axes, axes_to_local, bilinear_sh_coefficients, funk_hecke_factors,
                       hemisphere_integrals, hsh_weight_coefficients, synthesize_convolution,
                       weight_function)
 
@@ -68,20 +68,6 @@ __all__ = ["quadrature_estimates", "sh_truncation_estimates", "sh_truncation_cur
 
 #: directions looked up per block in :func:`quadrature_estimates` (≈ 100 MB of temporaries)
 LOOKUP_BLOCK = 1 << 21
-
-
-def _world_axes(axes) -> np.ndarray:
-    a = np.asarray(axes, dtype=np.float64)
-    if a.ndim == 1:
-        a = a[None, :]
-    if a.ndim != 2 or a.shape[1] != 3:
-        raise ParameterError(f"axes must have shape (3,) or (M, 3), got {np.shape(axes)}")
-    if not np.all(np.isfinite(a)):
-        raise ParameterError("axes contain NaN or Inf")
-    n = np.linalg.norm(a, axis=1)
-    if np.any(n == 0.0):
-        raise ParameterError("axes must be non-zero vectors")
-    return a / n[:, None]
 
 
 def _degrees(Ls, name="L") -> np.ndarray:
@@ -124,7 +110,7 @@ def quadrature_estimates(envmap: EnvMap, axes, local_points, weights, *, seed=No
     >>> quadrature_estimates(m, [0, 0, 1.0], [[0, 0, 1.0]], [1.0]).round(12).tolist()   # the up pole
     [[1.5]]
     """
-    A = _world_axes(axes)
+    A = unit_axes(axes)
     P = np.asarray(local_points, dtype=np.float64)
     if P.ndim != 2 or P.shape[1] != 3 or P.shape[0] == 0:
         raise ParameterError(f"local_points must have shape (N, 3) with N >= 1, got {P.shape}")
@@ -175,7 +161,7 @@ def sh_truncation_curve(envmap: EnvMap, axes, brdf="diffuse", Ls=(0, 1, 2), *,
     """
     weight = weight_function(brdf, shininess)
     L = _degrees(Ls, "Ls")
-    A = axes_to_local(_world_axes(axes), envmap.up)
+    A = axes_to_local(unit_axes(axes), envmap.up)
     top = int(L.max())
     alm = bilinear_sh_coefficients(envmap, top, nthreads=nthreads)
     lam = funk_hecke_factors(weight, top)
@@ -241,7 +227,7 @@ def hsh_projections(envmap: EnvMap, axes, lmax: int) -> np.ndarray:
     bandwidth lmax), all degrees at once by the Legendre recurrence in 2z − 1.
     """
     lmax = int(_degrees([lmax], "lmax")[0])
-    raw = hemisphere_integrals(envmap, _world_axes(axes), _legendre_shifted(lmax), lmax + 1,
+    raw = hemisphere_integrals(envmap, unit_axes(axes), _legendre_shifted(lmax), lmax + 1,
                                degree=lmax)
     return raw * _hsh_norms(lmax)[None, :, None]
 
@@ -288,7 +274,7 @@ def hsh_truncation_estimates(envmap: EnvMap, axes, brdf="diffuse", L: int = 2, *
             acc += b * p
         yield acc
 
-    return hemisphere_integrals(envmap, _world_axes(axes), kernel, 1, degree=L)[:, 0, :]
+    return hemisphere_integrals(envmap, unit_axes(axes), kernel, 1, degree=L)[:, 0, :]
 
 
 # ----------------------------------------------------------------------------- errors

@@ -154,6 +154,12 @@ def axes_to_local(axes, up: str = "y") -> np.ndarray:
     >>> axes_to_local([0.0, 2.0, 0.0], "y").round(12).tolist()     # world +y = local up
     [[0.0, 0.0, 1.0]]
     """
+    return unit_axes(axes) @ local_to_world(up)
+
+
+def unit_axes(axes) -> np.ndarray:
+    """Axes as an (M, 3) array of unit vectors; zero, non-finite or mis-shaped input raises
+    :class:`ParameterError`."""
     a = np.asarray(axes, dtype=np.float64)
     if a.ndim == 1:
         a = a[None, :]
@@ -164,7 +170,7 @@ def axes_to_local(axes, up: str = "y") -> np.ndarray:
     norm = np.linalg.norm(a, axis=1)
     if np.any(norm == 0.0):
         raise ParameterError("axes must be non-zero vectors")
-    return (a / norm[:, None]) @ local_to_world(up)
+    return a / norm[:, None]
 
 
 def _local_angles(a_local: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -41,6 +41,7 @@ import numpy as np
 from scipy import special
 
 from .errors import TheoryParameterError
+from .sh import legendre_moments as _legendre_moments
 
 __all__ = ["WeightFunction", "ZonalWeight", "Diffuse", "Glossy", "Phong",
            "hsh_to_sh_matrix", "gauss_legendre_01"]
@@ -65,26 +66,6 @@ def gauss_legendre_01(n: int) -> tuple[np.ndarray, np.ndarray]:
     # z = (1 + cos θ)/2 = cos²(θ/2): no cancellation near z = 0
     z = np.cos(0.5 * theta) ** 2
     return z[::-1].copy(), 0.5 * w[::-1].copy()
-
-
-def _legendre_moments(x, fw, lmax: int) -> np.ndarray:
-    r""":math:`\sum_k fw_k P_l(x_k)` for l = 0…lmax by the Legendre recurrence (memory O(len(x)))."""
-    out = np.empty(lmax + 1)
-    p_prev = np.ones_like(x)
-    out[0] = fw.sum()
-    if lmax == 0:
-        return out
-    p = x.copy()
-    out[1] = fw @ p
-    tmp = np.empty_like(x)
-    for l in range(1, lmax):
-        np.multiply(x, p, out=tmp)
-        tmp *= (2 * l + 1) / (l + 1)
-        p_prev *= -l / (l + 1)
-        tmp += p_prev
-        p_prev, p, tmp = p, tmp, p_prev
-        out[l + 1] = fw @ p
-    return out
 
 
 def _legendre_matrix(x, lmax: int) -> np.ndarray:

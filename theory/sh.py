@@ -30,7 +30,7 @@ import numpy as np
 
 from .errors import TheoryParameterError
 
-__all__ = ["legendre_p", "legendre_series", "points_to_angles", "zonal_sums",
+__all__ = ["legendre_p", "legendre_series", "legendre_moments", "points_to_angles", "zonal_sums",
            "point_set_sh_coefficients", "anisotropic_power_spectrum",
            "point_set_power_spectrum", "check_points_weights"]
 
@@ -131,6 +131,26 @@ def points_to_angles(points) -> tuple[np.ndarray, np.ndarray]:
     return theta, phi
 
 
+def legendre_moments(x, fw, lmax: int) -> np.ndarray:
+    r""":math:`\sum_k fw_k P_l(x_k)` for l = 0…lmax by the Legendre recurrence (memory O(len(x)))."""
+    out = np.empty(lmax + 1)
+    p_prev = np.ones_like(x)
+    out[0] = fw.sum()
+    if lmax == 0:
+        return out
+    p = x.copy()
+    out[1] = fw @ p
+    tmp = np.empty_like(x)
+    for l in range(1, lmax):
+        np.multiply(x, p, out=tmp)
+        tmp *= (2 * l + 1) / (l + 1)
+        p_prev *= -l / (l + 1)
+        tmp += p_prev
+        p_prev, p, tmp = p, tmp, p_prev
+        out[l + 1] = fw @ p
+    return out
+
+
 def zonal_sums(points, weights, lmax: int) -> np.ndarray:
     r"""Zonal coefficients :math:`c_{l,0} = \sqrt{\frac{2l+1}{4\pi}}\sum_j w_j P_l(u_j\cdot z)`, l = 0…lmax (Eq. 45).
 
@@ -142,22 +162,7 @@ def zonal_sums(points, weights, lmax: int) -> np.ndarray:
     """
     pts, w = check_points_weights(points, weights)
     lmax = _check_lmax(lmax)
-    t = pts[:, 2].copy()
-    out = np.empty(lmax + 1)
-    p_prev = np.ones_like(t)
-    out[0] = w.sum()
-    if lmax >= 1:
-        p = t.copy()
-        out[1] = w @ p
-        tmp = np.empty_like(t)
-        for l in range(1, lmax):
-            # p_next = ((2l+1) t p - l p_prev) / (l+1), written in place
-            np.multiply(t, p, out=tmp)
-            tmp *= (2 * l + 1) / (l + 1)
-            p_prev *= -l / (l + 1)
-            tmp += p_prev
-            p_prev, p, tmp = p, tmp, p_prev
-            out[l + 1] = w @ p
+    out = legendre_moments(pts[:, 2].copy(), w, lmax)
     l = np.arange(lmax + 1)
     return np.sqrt((2 * l + 1) / (4 * np.pi)) * out
 
