@@ -505,7 +505,9 @@ class SobolevInterpolator:
         n = self.n
         # the only N x N allocation: Fortran order, lower triangle written by the kernel
         t0 = time.perf_counter()
-        buf = np.empty((n, n), dtype=np.float64, order="F")
+        # zeros (calloc: pages are zeroed lazily, no extra pass) so the unused upper triangle
+        # holds no garbage: cho_solve(check_finite=True) on .cholesky must not see NaNs
+        buf = np.zeros((n, n), dtype=np.float64, order="F")
         _kernels.fill_kernel_matrix(self._px, self._py, self._pz, self._a, self._kind,
                                     self.kernel_constant, buf)
         t1 = time.perf_counter()
