@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import importlib.util
+import os
 import sys
 
 from .. import __version__
@@ -47,6 +48,12 @@ def main(argv: list[str] | None = None) -> int:
     except (EnvfitError, TheoryParameterError) as exc:
         print(f"envfit {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    except BrokenPipeError:  # output piped into `head` and closed: not an error of ours
+        try:
+            sys.stdout = open(os.devnull, "w")
+        except OSError:  # pragma: no cover
+            pass
+        return 0
     except KeyboardInterrupt:
         print(f"envfit {args.command}: interrupted (finished results are kept)", file=sys.stderr)
         return 130
