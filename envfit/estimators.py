@@ -70,6 +70,20 @@ __all__ = ["quadrature_estimates", "sh_truncation_estimates", "sh_truncation_cur
 LOOKUP_BLOCK = 1 << 21
 
 
+def twisted_frames(axes: np.ndarray, seed=None) -> np.ndarray:
+    """(M, 3, 3) orthonormal frames whose third column is each unit axis; with ``seed``, each
+    frame gets an independent uniform random rotation (twist) about its axis, drawn in one go
+    from ``numpy.random.default_rng(seed)`` so the result does not depend on blocking."""
+    R = frame_from_axis(axes)
+    if seed is not None:
+        alpha = np.random.default_rng(seed).uniform(0.0, 2.0 * np.pi, R.shape[0])
+        ca, sa = np.cos(alpha), np.sin(alpha)
+        t = R[:, :, 0] * ca[:, None] + R[:, :, 1] * sa[:, None]
+        b = -R[:, :, 0] * sa[:, None] + R[:, :, 1] * ca[:, None]
+        R = np.stack([t, b, R[:, :, 2]], axis=2)
+    return R
+
+
 def _degrees(Ls, name="L") -> np.ndarray:
     arr = np.atleast_1d(np.asarray(Ls))
     if arr.ndim != 1 or arr.size == 0:
@@ -126,13 +140,7 @@ def quadrature_estimates(envmap: EnvMap, axes, local_points, weights, *, seed=No
     m_total, n = A.shape[0], P.shape[0]
     c = envmap.channels
     out = np.empty((m_total, c))
-    R = frame_from_axis(A)                                       # (M, 3, 3), columns t, b, a
-    if seed is not None:
-        alpha = np.random.default_rng(seed).uniform(0.0, 2.0 * np.pi, m_total)
-        ca, sa = np.cos(alpha), np.sin(alpha)
-        t = R[:, :, 0] * ca[:, None] + R[:, :, 1] * sa[:, None]
-        b = -R[:, :, 0] * sa[:, None] + R[:, :, 1] * ca[:, None]
-        R = np.stack([t, b, R[:, :, 2]], axis=2)
+    R = twisted_frames(A, seed)                                  # (M, 3, 3), columns t, b, a
     mb = max(1, LOOKUP_BLOCK // n)
     check_memory(min(m_total, mb) * n * 8 * (3 + 2 * c) + 8 * n * 4,
                  f"a block of {min(m_total, mb)} axes x {n} points",

@@ -116,7 +116,7 @@ import numpy as np
 from scipy import linalg, stats
 
 from theory.errors import TheoryParameterError
-from theory.pointsets import POINTSETS, frame_from_axis, generate
+from theory.pointsets import POINTSETS, generate
 from theory.quadrature import initial_error, kernel_mean_embedding, weighted_energy_sum
 from theory.sh import anisotropic_power_spectrum, zonal_sums
 from theory.sobolev import kernel_constant, sobolev_coefficients
@@ -126,7 +126,7 @@ from theory.weights import equal_weights, kernel_matrix, optimal_weights
 
 from .envmap import EnvMap
 from .errors import ParameterError
-from .estimators import hsh_truncation_curve, rmse_over_axes, sh_truncation_curve
+from .estimators import hsh_truncation_curve, rmse_over_axes, sh_truncation_curve, twisted_frames
 from .latlong import local_to_world
 from .progress import progress_bar
 from .resources import check_memory
@@ -362,13 +362,7 @@ def quadrature_estimates_multi(envmap: EnvMap, axes, local_points, weight_sets, 
     if W.shape[1] != P.shape[0] or not np.all(np.isfinite(W)):
         raise ParameterError(f"weight_sets must be (K, {P.shape[0]}) finite, got {W.shape}")
     m_total, n = A.shape[0], P.shape[0]
-    R = frame_from_axis(A)
-    if seed is not None:
-        alpha = np.random.default_rng(seed).uniform(0.0, 2.0 * np.pi, m_total)
-        ca, sa = np.cos(alpha), np.sin(alpha)
-        t = R[:, :, 0] * ca[:, None] + R[:, :, 1] * sa[:, None]
-        b = -R[:, :, 0] * sa[:, None] + R[:, :, 1] * ca[:, None]
-        R = np.stack([t, b, R[:, :, 2]], axis=2)
+    R = twisted_frames(A, seed)
     c = envmap.channels
     out = np.empty((W.shape[0], m_total, c))
     mb = max(1, int(block) // n)
