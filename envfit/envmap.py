@@ -46,6 +46,7 @@ from pathlib import Path
 import numpy as np
 
 from . import latlong
+from .atomic import current_umask
 from .errors import EnvMapFileError, EnvMapFormatError, NonFiniteError, ParameterError
 from .resources import check_memory
 
@@ -484,9 +485,7 @@ def save_envmap(path, envmap_or_array, *, half: bool = False, up: str | None = N
         if not ok:
             raise EnvMapFileError(f"{p}: write failed: "
                                   f"{_one_line(err or out.geterror() or oiio.geterror())}")
-        umask = os.umask(0o022)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)   # mkstemp makes 0600; give the usual permissions
+        os.chmod(tmp, 0o666 & ~current_umask())   # mkstemp makes 0600; the usual permissions
         os.replace(tmp, p)
     except BaseException:
         try:

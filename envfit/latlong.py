@@ -98,6 +98,18 @@ LOOKUP_BLOCK = 1 << 17
 _SNAP = 1e-9
 
 
+
+def _floor_and_fraction(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Integer part (as float) and fraction of continuous pixel coordinates, with fractions
+    within ``_SNAP`` of 0 or 1 snapped, so that lookups at pixel centres are exact."""
+    x0 = np.floor(x)
+    f = x - x0
+    snap = f > 1.0 - _SNAP
+    if snap.any():
+        x0 = np.where(snap, x0 + 1.0, x0)
+        f = np.where(snap, 0.0, f)
+    return x0, np.where(f < _SNAP, 0.0, f)
+
 def _size(height, width=None) -> tuple[int, int]:
     """Validate ``height`` / ``width`` (positive integers; width defaults to ``2 * height``)."""
     try:
@@ -275,13 +287,7 @@ def _gather_row(flat: np.ndarray, rows: np.ndarray, cols: np.ndarray, h: int, w:
     virtual = virtual_top | virtual_bot
     r = np.where(virtual_top, 0, np.where(virtual_bot, h - 1, rows))
     c = np.where(virtual, cols + 0.5 * w, cols) if virtual.any() else cols
-    c0 = np.floor(c)
-    fc = c - c0
-    snap = fc > 1.0 - _SNAP
-    if snap.any():
-        c0 = np.where(snap, c0 + 1.0, c0)
-        fc = np.where(snap, 0.0, fc)
-    fc = np.where(fc < _SNAP, 0.0, fc)
+    c0, fc = _floor_and_fraction(c)
     c0 = c0.astype(np.int64) % w
     c1 = c0 + 1
     c1[c1 == w] = 0
@@ -345,13 +351,7 @@ def bilinear_lookup(image, dirs, *, up: str = "y") -> np.ndarray:
         if not np.all(np.isfinite(db)):
             raise ParameterError("directions contain NaN or Inf")
         row, col = _dirs_to_rowcol(db, h, w, m)
-        r0 = np.floor(row)
-        a = row - r0
-        snap = a > 1.0 - _SNAP
-        if snap.any():
-            r0 = np.where(snap, r0 + 1.0, r0)
-            a = np.where(snap, 0.0, a)
-        a = np.where(a < _SNAP, 0.0, a)
+        r0, a = _floor_and_fraction(row)
         r0 = r0.astype(np.int64)            # in [-1, H-1]
         top = _gather_row(flat, r0, col, h, w)
         if np.any(a > 0.0):
