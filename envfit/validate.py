@@ -60,6 +60,16 @@ rotation invariant, so one number per rule) or of the truncation (Eqs. 51–52,
     weights do not sum to 1 (OSW) errs by :math:`\bar m(\sum_j w_j - 1)` on it, for every
     axis: :math:`\hat R = (\sigma^2 E_{\le H-1}^2 + (\sum_j w_j - 1)^2\,\overline{m^2})^{1/2}`
     (:math:`\overline{m^2}` the mean over channels of the squared solid-angle mean).
+    One map is one realisation of the model: its power in degree l scatters as
+    :math:`\chi^2_{(2l+1)C}`, so its RMSE departs from (b') by an expected relative standard
+    deviation :func:`model_scatter` (``model_scatter``, large for rules whose error sits in a
+    few low degrees: random points with equal weights) — reported beside the ratio.
+(c) *spectral* (beyond the paper, no model, ``predicted_rmse_spectral``): the map's own power
+    per degree :math:`\hat P_l` (:func:`map_degree_power`) times the rule's error power
+    :math:`e_l` (:func:`rule_error_power`), :math:`(\frac1C\sum_{c,l}\hat P_{l,c}e_l)^{1/2}`
+    (:func:`spectral_rmse`): the exact mean over random rotations on *this* map. It agrees with
+    the measurement to its Monte Carlo error whenever the machinery is right; where (c) agrees
+    and (b') does not, the map departs from the l^(-2s) model.
 
 Agreement figures (:func:`agreement`): fitted log-log slopes over N ∈ [64, 4096]
 (:func:`loglog_slope`, ``np.polyfit``) measured vs predicted; the ratio measured/predicted
@@ -139,6 +149,7 @@ __all__ = ["ValidateConfig", "quick_config", "run_validation", "agreement",
            "loglog_slope", "shape_constant", "shape_residual", "rank_agreement",
            "measured_equivalent_n", "parse_s", "rule_worst_case_error",
            "bandlimited_worst_case_error", "bandlimited_worst_case_errors", "map_statistics",
+           "rule_error_power", "map_degree_power", "spectral_rmse", "model_scatter",
            "low_degree_power_ratio", "ALL_POINTSETS", "WEIGHTINGS", "BRDFS",
            "DEFAULT_N", "QUICK_N", "SLOPE_RANGE", "S_CANDIDATES", "QUICK_DESCRIPTION"]
 
@@ -439,9 +450,35 @@ def bandlimited_worst_case_error(points, weights, brdf, s: float, lmax: int) -> 
     return bandlimited_worst_case_errors(points, weights, brdf, [s], lmax)[0]
 
 
-def bandlimited_worst_case_errors(points, weights, brdf, s_values, lmax: int) -> list[float]:
-    """:func:`bandlimited_worst_case_error` for several s at once: the power spectra of the
-    rule (:math:`c_{l,0}`, :math:`C_l^2`) do not depend on s and are computed once.
+def rule_error_power(points, weights, brdf, lmax: int) -> np.ndarray:
+    r"""Per-degree error power of a quadrature rule, l = 0…lmax: the bracket of Eq. 42,
+
+    .. math:: e_l = (b_l - c_{l,0})^2 + C_l^2 = \sum_{m=-l}^{l} |c_{l,m} - b_l\,\delta_{m0}|^2,
+
+    the squared error of the rule on the 2l+1 real spherical harmonics of degree l (b_l the
+    BRDF's zonal coefficients, :math:`c_{l,m}` the rule's, Eqs. 44–45 and 59;
+    :func:`theory.sh.zonal_sums`, :func:`theory.sh.anisotropic_power_spectrum`). Weighted by
+    a_l it is the error spectrum, :math:`E^2 = \sum_l a_l e_l` (:math:`C_0^2 = 0`); weighted
+    by a map's realised power per degree it is that map's mean squared error over random
+    rotations (:func:`spectral_rmse`).
+
+    >>> from theory.brdf import Diffuse
+    >>> u = np.array([[0.0, 0.0, 1.0]]); e = rule_error_power(u, [1.0], Diffuse(), 2)
+    >>> float(e[0]) < 1e-30                       # one point, weight 1: constants are exact
+    True
+    """
+    lmax = int(lmax)
+    b = brdf.sh_coefficients(lmax)
+    c0 = zonal_sums(points, weights, lmax)
+    C2 = anisotropic_power_spectrum(points, weights, lmax)
+    C2[0] = 0.0
+    return (b - c0) ** 2 + C2
+
+
+def bandlimited_worst_case_errors(points, weights, brdf, s_values, lmax: int, *,
+                                  power: np.ndarray | None = None) -> list[float]:
+    """:func:`bandlimited_worst_case_error` for several s at once: the error power of the
+    rule (:func:`rule_error_power`) does not depend on s and is computed once (or passed).
 
     >>> from theory.brdf import Glossy
     >>> u = np.array([[0.0, 0.0, 1.0], [0.6, 0.0, 0.8]]); w = [0.5, 0.5]
@@ -450,16 +487,89 @@ def bandlimited_worst_case_errors(points, weights, brdf, s_values, lmax: int) ->
     True
     """
     lmax = int(lmax)
-    b = brdf.sh_coefficients(lmax)
-    c0 = zonal_sums(points, weights, lmax)
-    C2 = anisotropic_power_spectrum(points, weights, lmax)
-    C2[0] = 0.0
-    power = (b - c0) ** 2 + C2
+    if power is None:
+        power = rule_error_power(points, weights, brdf, lmax)
+    power = np.asarray(power, dtype=np.float64)[:lmax + 1]
     out = []
     for s in s_values:
         e2 = sobolev_coefficients(float(s), lmax) * power
         out.append(math.sqrt(max(math.fsum(e2[::-1]), 0.0)))
     return out
+
+
+def map_degree_power(scaled: EnvMap, lmax: int) -> np.ndarray:
+    r"""The map's realised power per degree, (C, lmax+1):
+    :math:`\hat P_{l,c} = \frac{1}{2l+1}\sum_{m=-l}^{l} f_{lm,c}^2`, from the exact SH
+    coefficients of the map's bilinear interpolant
+    (:func:`envfit.shading.bilinear_sh_coefficients`; l = 0 holds the squared mean times 4π).
+    Under the GP model, :math:`E[\hat P_l] = \sigma^2 a_l` for l ≥ 1.
+
+    >>> from envfit.envmap import EnvMap
+    >>> p = map_degree_power(EnvMap(np.full((8, 16, 1), 2.0)), 3)
+    >>> bool(np.isclose(p[0, 0], 4.0 * 4 * np.pi)) and bool(np.all(p[0, 1:] < 1e-20))
+    True
+    """
+    lmax = int(lmax)
+    alm = bilinear_sh_coefficients(scaled, lmax)                       # (C, packed), m-major
+    power = np.abs(alm) ** 2
+    m = np.repeat(np.arange(lmax + 1), np.arange(lmax + 1, 0, -1))     # m of each packed entry
+    l = np.concatenate([np.arange(mm, lmax + 1) for mm in range(lmax + 1)])
+    power = power * np.where(m == 0, 1.0, 2.0)[None, :]
+    out = np.stack([np.bincount(l, weights=row, minlength=lmax + 1) for row in power])
+    return out / (2.0 * np.arange(lmax + 1) + 1.0)[None, :]
+
+
+def spectral_rmse(error_power, map_power) -> float:
+    r"""Prediction (c): the RMSE of a rule on *this* map over uniformly random rotations,
+
+    .. math:: \mathrm{RMSE}^2 = \frac1C\sum_c\sum_{l} \hat P_{l,c}\, e_l ,
+
+    exact in expectation over Haar-random rotations (uniform axes with a uniform twist, as
+    measured) for any map whose bilinear interpolant holds no degree above lmax: the error
+    on :math:`\sum_{lm} f_{lm} Y_{lm}\circ R` averaged over R is, by Schur orthogonality of
+    the Wigner D-matrices, :math:`\sum_l \frac{1}{2l+1}\sum_m f_{lm}^2 \sum_{m'}
+    |\varepsilon_{lm'}|^2` with :math:`\sum_{m'}|\varepsilon_{lm'}|^2 = e_l`
+    (:func:`rule_error_power`). It uses the map's realised spectrum and no model (neither s
+    nor σ): it checks the measurement and the error spectra themselves, and separates "the
+    map is not the model" from "the machinery is wrong".
+
+    >>> spectral_rmse([0.0, 2.0], [[5.0, 0.5], [7.0, 1.5]])
+    1.4142135623730951
+    """
+    e = np.asarray(error_power, dtype=np.float64)
+    P = np.atleast_2d(np.asarray(map_power, dtype=np.float64))
+    k = min(e.size, P.shape[1])
+    return float(math.sqrt(max(float(np.mean(P[:, :k] @ e[:k])), 0.0)))
+
+
+def model_scatter(error_power, s: float, sigma_channels, mean_error: float = 0.0) -> float:
+    r"""Relative standard deviation of one map's RMSE about σ·E under the GP model.
+
+    One map is one realisation: its power in degree l is
+    :math:`\sigma_c^2 a_l\,\chi^2_{2l+1}/(2l+1)` per channel, so its mean squared error
+    over all rotations, :math:`\frac1C\sum_{c,l} \hat P_{l,c} e_l` (:func:`spectral_rmse`),
+    scatters about its expectation with variance
+    :math:`\frac{1}{C^2}\sum_{c,l\ge1} 2 (\sigma_c^2 a_l e_l)^2/(2l+1)`. Returned: half
+    its square root over the expected mean squared error (the delta method for the root),
+    i.e. the spread expected between a map's measured RMSE and prediction (b′) that no
+    better model could remove. Large when the error sits in a few low degrees (random
+    points with equal weights), small for rules that integrate low degrees well.
+
+    >>> round(model_scatter([0.0, 1.0, 0.0], 1.5, [1.0]), 6)    # all error in l = 1: χ²₃
+    0.408248
+    """
+    e = np.asarray(error_power, dtype=np.float64)
+    lmax = e.size - 1
+    a = sobolev_coefficients(float(s), lmax)
+    sig2 = np.asarray(sigma_channels, dtype=np.float64).ravel() ** 2
+    S = sig2[:, None] * (a * e)[None, :]                               # (C, L+1)
+    S[:, 0] = 0.0                                                      # the mean: not random
+    C = sig2.size
+    mse = float(S.sum() / C) + float(mean_error) ** 2
+    if mse <= 0:
+        return 0.0
+    var = float(np.sum(2.0 * S ** 2 / (2.0 * np.arange(lmax + 1) + 1.0)[None, :])) / C ** 2
+    return 0.5 * math.sqrt(var) / mse
 
 
 def profiled_sigma(envmap: EnvMap, s: float, *, n: int = 1500, seed: int = 0) -> np.ndarray:
@@ -725,6 +835,7 @@ def run_validation(envmap: EnvMap, config: ValidateConfig | None = None, *,
     mean_rms = float(np.sqrt(np.mean(scaled.mean() ** 2)))
     weights_obj = {b: weight_function(b, cfg.shininess) for b in cfg.brdfs}
     truths: dict[str, np.ndarray] = {}
+    map_power = map_degree_power(scaled, band_lmax)                     # (C, H): prediction (c)
 
     def truth(b: str) -> np.ndarray:
         if b not in truths:
@@ -747,7 +858,8 @@ def run_validation(envmap: EnvMap, config: ValidateConfig | None = None, *,
                     todo = []
                     for w, k in keys.items():
                         c = store.get(k)
-                        if c is not None and c.get("band_lmax") == band_lmax and all(
+                        if c is not None and c.get("band_lmax") == band_lmax \
+                                and "error_power" in c and all(
                                 sk in c.get("wce", {}) and sk in c.get("wce_bandlimited_by_s", {})
                                 for sk in map(_s_key, s_list)):
                             cells[k] = c
@@ -797,6 +909,13 @@ def run_validation(envmap: EnvMap, config: ValidateConfig | None = None, *,
                 entry["predicted_rmse_refined"] = [
                     None if (wb is None or me is None) else math.hypot(sigma * wb, me)
                     for wb, me in zip(entry["predicted_wce_bandlimited"], entry["mean_error"])]
+                entry["predicted_rmse_spectral"] = [
+                    None if c.get("error_power") is None else spectral_rmse(c["error_power"], map_power)
+                    for c in cs]
+                entry["model_scatter"] = [
+                    None if (c.get("error_power") is None or me is None)
+                    else model_scatter(c["error_power"], s_used, sigma_ch, me)
+                    for c, me in zip(cs, entry["mean_error"])]
                 entry["slope_measured"] = loglog_slope(entry["n"], entry["measured_rmse"])
                 entry["slope_predicted"] = loglog_slope(entry["n"], wce)
                 entry["slope_predicted_refined"] = loglog_slope(
@@ -888,12 +1007,14 @@ def _compute_cells(scaled: EnvMap, axes, truth, brdf: str, wf, pointset: str, n:
             t2 = time.perf_counter()
             wce = {_s_key(s): rule_worst_case_error(pts, wsets[w], wf, s, workers=cfg.workers)
                    for s in s_list}
+            power = rule_error_power(pts, wsets[w], wf, band_lmax)
             band = dict(zip(map(_s_key, s_list),
-                            bandlimited_worst_case_errors(pts, wsets[w], wf, s_list, band_lmax)))
+                            bandlimited_worst_case_errors(pts, wsets[w], wf, s_list, band_lmax,
+                                                          power=power)))
             cell = {"brdf": brdf, "pointset": pointset, "weights": w, "n": int(n),
                     **_error_stats(est[k], truth_b), "wce": wce,
                     "wce_bandlimited": band[_s_key(s_used)], "wce_bandlimited_by_s": band,
-                    "band_lmax": band_lmax,
+                    "band_lmax": band_lmax, "error_power": power.tolist(),
                     "weight_sum": float(np.sum(wsets[w])), "error": None}
             cell["seconds"] = t_pts / len(todo) + t_w[w] + t_est + (time.perf_counter() - t2)
             out[w] = cell
@@ -903,7 +1024,7 @@ def _compute_cells(scaled: EnvMap, axes, truth, brdf: str, wf, pointset: str, n:
                   "error_kurtosis": None, "wce": {_s_key(s): None for s in s_list},
                   "wce_bandlimited": None, "band_lmax": band_lmax,
                   "wce_bandlimited_by_s": {_s_key(s): None for s in s_list},
-                  "weight_sum": None, "error": msg, "seconds": t_w[w]}
+                  "error_power": None, "weight_sum": None, "error": msg, "seconds": t_w[w]}
     return out
 
 
@@ -1036,15 +1157,9 @@ def low_degree_power_ratio(scaled: EnvMap, sigma_channels, s: float, lmax: int =
     sig2 = np.asarray(sigma_channels, dtype=np.float64) ** 2
     if not np.all(sig2 > 0):
         return {}
-    alm = bilinear_sh_coefficients(scaled, lmax)                       # (C, packed)
+    P = map_degree_power(scaled, lmax)                                 # (C, lmax+1)
     a = sobolev_coefficients(s, lmax)
-    out = {}
-    for l in range(1, lmax + 1):
-        idx = [m * (2 * lmax + 1 - m) // 2 + l for m in range(l + 1)]   # healpy m-major
-        v = alm[:, idx]
-        p = (np.abs(v[:, 0]) ** 2 + 2.0 * np.sum(np.abs(v[:, 1:]) ** 2, axis=1)) / (2 * l + 1)
-        out[str(l)] = float(np.mean(p / (sig2 * a[l])))
-    return out
+    return {str(l): float(np.mean(P[:, l] / (sig2 * a[l]))) for l in range(1, lmax + 1)}
 
 
 # ----------------------------------------------------------------------------- agreement
@@ -1151,17 +1266,29 @@ def agreement(results: list[dict], truncation: list[dict] | None = None, *, s_us
                                 "predicted_level": pl, "pointsets": names, "tau_per_n": per_n})
     # absolute prediction (b), and (b') band-limited
     ab = {"tolerance": absolute_tolerance}
-    for variant, key in (("", "predicted_rmse"), ("_refined", "predicted_rmse_refined")):
-        per_rule, all_ratio, in_range_ratio = [], [], []
+    for variant, key in (("", "predicted_rmse"), ("_refined", "predicted_rmse_refined"),
+                         ("_spectral", "predicted_rmse_spectral")):
+        per_rule, all_ratio, in_range_ratio, in_range_band = [], [], [], []
         for e in results:
             preds = e.get(key) or [None] * len(e["n"])
             ratio = [None if (m is None or p is None or m <= 0) else p / m
                      for m, p in zip(e["measured_rmse"], preds)]
+            # the spread one map is expected to show about the model (refined only) and the
+            # Monte Carlo error of M axes: 2 standard deviations, combined
+            sd = [None] * len(e["n"])
+            if variant == "_refined":
+                sd = [None if sc is None else math.hypot(sc, se or 0.0)
+                      for sc, se in zip(e.get("model_scatter") or [None] * len(e["n"]),
+                                        e.get("measured_rel_se") or [None] * len(e["n"]))]
             per_rule.append({"brdf": e["brdf"], "pointset": e["pointset"], "weights": e["weights"],
-                             "n": e["n"], "predicted_over_measured": ratio})
+                             "n": e["n"], "predicted_over_measured": ratio,
+                             **({"expected_relative_sd": sd} if variant == "_refined" else {})})
             all_ratio += [r for r in ratio if r is not None and r > 0]
-            in_range_ratio += [r for n, r in zip(e["n"], ratio)
-                               if r is not None and r > 0 and lo <= n <= hi]
+            for n, r, d in zip(e["n"], ratio, sd):
+                if r is not None and r > 0 and lo <= n <= hi:
+                    in_range_ratio.append(r)
+                    in_range_band.append(max(absolute_tolerance, 2.0 * d) if d is not None
+                                         else absolute_tolerance)
         ab["per_rule" + variant] = per_rule
         for name, arr in (("all", all_ratio), ("slope_range", in_range_ratio)):
             a = np.asarray(arr, dtype=np.float64)
@@ -1169,6 +1296,10 @@ def agreement(results: list[dict], truncation: list[dict] | None = None, *, s_us
                 "cells": int(a.size), "median_ratio": float(np.median(a)),
                 "min_ratio": float(a.min()), "max_ratio": float(a.max()),
                 "fraction_within": float(np.mean(np.abs(a - 1.0) <= absolute_tolerance))}
+            if variant == "_refined" and name == "slope_range" and a.size:
+                # |ratio - 1| within the tolerance or within 2 expected standard deviations
+                ab[name + variant]["fraction_within_expected_scatter"] = float(
+                    np.mean(np.abs(a - 1.0) <= np.asarray(in_range_band)))
     out["absolute"] = ab
     # truncation
     for t in truncation or []:
@@ -1201,5 +1332,7 @@ def agreement(results: list[dict], truncation: list[dict] | None = None, *, s_us
             for s in chk),
         "absolute_ok_refined": None if ab["slope_range_refined"] is None else bool(
             ab["slope_range_refined"]["fraction_within"] == 1.0),
+        "spectral_median_ratio": None if ab["slope_range_spectral"] is None else
+        ab["slope_range_spectral"]["median_ratio"],
     }
     return out

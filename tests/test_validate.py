@@ -347,3 +347,70 @@ def test_low_degree_power_ratio_on_known_spectrum():
     expect = (1 + 4 + 1 + 0.25) / 5 / (4.0 * sobolev_coefficients(1.5, 2)[2])
     assert rho["2"] == pytest.approx(expect, rel=5e-3)
     assert rho["1"] < 1e-8 * expect and rho["3"] < 1e-6 * expect
+
+
+def test_map_degree_power_of_known_coefficients():
+    """P̂_l of a map built from known real SH coefficients (data_gen.sht.synthesize): the
+    sum of squares / (2l+1) put in, to the O((lπ/H)²) bilinear change; l = 0 is 4π·mean²."""
+    from data_gen.sht import real_index, synthesize
+    c = np.zeros(16)
+    c[real_index(1, np.arange(-1, 2))] = [0.3, -1.0, 0.0]
+    c[real_index(3, np.arange(-3, 4))] = [0.0, 0.5, 0.0, 0.0, 2.0, 0.0, -0.25]
+    env = EnvMap(synthesize(c, 128)[:, :, None] + 2.0)
+    P = V.map_degree_power(env, 5)
+    assert P.shape == (1, 6)
+    assert P[0, 0] == pytest.approx(4 * np.pi * 4.0, rel=1e-6)
+    assert P[0, 1] == pytest.approx((0.09 + 1.0) / 3, rel=2e-3)
+    assert P[0, 3] == pytest.approx((0.25 + 4.0 + 0.0625) / 7, rel=5e-3)
+    assert P[0, 2] < 1e-8 and P[0, 4] < 1e-6 and P[0, 5] < 1e-6
+
+
+def test_rule_error_power_sums_to_wce():
+    """Σ_l a_l e_l = wce² of theory.quadrature.worst_case_error (closed form); the sum stops
+    at l = 4000, whose tail (a_l e_l ~ l^(1-2s)) is ~3e-4 of the total at s = 1.7."""
+    from theory.sobolev import sobolev_coefficients
+    pts = generate("sf", 40, morph=Glossy(10.0).morph)
+    w = np.full(40, 1 / 40)
+    e = V.rule_error_power(pts, w, Glossy(10.0), 4000)
+    a = sobolev_coefficients(1.7, 4000)
+    assert math.fsum(a * e) == pytest.approx(worst_case_error(pts, w, Glossy(10.0), 1.7) ** 2, rel=1e-3)
+
+
+def test_spectral_prediction_matches_measured_rmse():
+    """Prediction (c), from the map's own spectrum, against the RMSE measured over many random
+    rotations on a map whose bilinear interpolant is (nearly) band-limited: a low-degree map
+    on a fine grid. Agreement within 3 standard errors of the measured RMSE (the Monte Carlo
+    error of M axes, also an independent computation: ground truth by shading_integral,
+    estimates by bilinear lookups)."""
+    from data_gen.sht import synthesize
+    rng = np.random.default_rng(5)
+    c = rng.normal(size=100) / (1.0 + np.repeat(np.arange(10), 2 * np.arange(10) + 1))
+    env = EnvMap(np.stack([synthesize(c, 96), synthesize(rng.permutation(c), 96)], axis=2) + 1.0)
+    cfg = V.ValidateConfig(s=1.5, brdfs=("diffuse", "glossy"), pointsets=("sf", "random"),
+                           weights=("equal", "osw"), n_values=(8, 24), axes=1500, scale="linear",
+                           truncation=False, fit_n=100)
+    res = V.run_validation(env, cfg)
+    for e in res["results"]:
+        for m, p, se in zip(e["measured_rmse"], e["predicted_rmse_spectral"], e["measured_rel_se"]):
+            assert abs(p / m - 1.0) <= 3.0 * se + 0.01, (e["brdf"], e["pointset"], e["weights"], p / m, se)
+    assert res["agreement"]["absolute"]["slope_range_spectral"] is None or \
+        res["agreement"]["absolute"]["all_spectral"]["cells"] == 16
+
+
+def test_model_scatter_against_sampled_spectra():
+    """model_scatter (delta method) against the spread of sqrt(Σ P̂_l e_l) over sampled
+    realisations P̂_l ~ σ² a_l χ²_{(2l+1)C}/((2l+1)C) (numpy's chi-square sampler)."""
+    from theory.sobolev import sobolev_coefficients
+    pts = generate("random", 64, seed=2, morph=Diffuse().morph)
+    e = V.rule_error_power(pts, np.full(64, 1 / 64), Diffuse(), 60)
+    sig = [1.0, 2.0, 0.5]
+    a = sobolev_coefficients(1.5, 60)
+    rng = np.random.default_rng(0)
+    dof = 2 * np.arange(61) + 1
+    draws = []
+    for _ in range(4000):
+        P = np.array([s ** 2 * a * rng.chisquare(dof) / dof for s in sig])
+        P[:, 0] = 0.0
+        draws.append(math.sqrt(np.mean(P @ e)))
+    draws = np.asarray(draws)
+    assert V.model_scatter(e, 1.5, sig) == pytest.approx(draws.std() / draws.mean(), rel=0.1)

@@ -84,7 +84,8 @@ def _summary(res: dict) -> list[str]:
         tau = "–" if k["kendall_tau"] is None else f"{k['kendall_tau']:.3f}"
         lines.append(f"rank {k['brdf']}/{k['weights']}: measured {' < '.join(k['measured_order'])}; "
                      f"predicted {' < '.join(k['predicted_order'])}; tau = {tau}")
-    for key, label in (("slope_range", "(b) sigma*wce"), ("slope_range_refined", "(b') refined")):
+    for key, label in (("slope_range", "(b) sigma*wce"), ("slope_range_refined", "(b') refined"),
+                       ("slope_range_spectral", "(c) spectral")):
         d = agr["absolute"].get(key)
         if d:
             lines.append(f"{label}: predicted/measured median {d['median_ratio']:.2f}, range "

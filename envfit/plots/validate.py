@@ -86,7 +86,8 @@ def plot_absolute(result: dict, path: str | Path, tolerance: float = 0.2) -> Pat
             ax.axhline(1.0, color="k", lw=0.8)
             for e in (x for x in entries if x["brdf"] == b and x["weights"] == w):
                 col = _COLOURS.get(e["pointset"])
-                for key, style in (("predicted_rmse", "o-"), ("predicted_rmse_refined", "s:")):
+                for key, style in (("predicted_rmse", "o-"), ("predicted_rmse_refined", "s:"),
+                                   ("predicted_rmse_spectral", "x--")):
                     pred = e.get(key) or []
                     r = [None if (p is None or m is None or m <= 0) else p / m
                          for p, m in zip(pred, e["measured_rmse"])]
@@ -101,7 +102,8 @@ def plot_absolute(result: dict, path: str | Path, tolerance: float = 0.2) -> Pat
                 ax.set_xlabel("number of samples N")
     axes[0][0].legend(fontsize=7)
     fig.suptitle(f"{result['map']}: absolute predictions, σ = {result['sigma']:.4g} "
-                 f"(solid: σ·wce; dotted: (b') degrees ≤ {_band(result)} + mean; grey: ±{tolerance:.0%})",
+                 f"(solid: σ·wce; dotted: (b') degrees ≤ {_band(result)} + mean; dashed: (c) the map's "
+                 f"own spectrum; grey: ±{tolerance:.0%})",
                  fontsize=9)
     return save_figure(fig, path)
 
