@@ -31,6 +31,7 @@ _LAZY = {
     "hsh_truncation_estimates": "estimators",
     "run_validation": "validate", "ValidateConfig": "validate",
     "default_envmap": "default_map",
+    "advise": "advisor", "Advice": "advisor",
 }
 
 __all__ = ["__version__", "EnvfitError", "EnvMapFileError", "EnvMapFormatError",

@@ -123,7 +123,7 @@ from pathlib import Path
 from typing import Callable, Sequence
 
 import numpy as np
-from scipy import linalg, stats
+from scipy import linalg
 
 from theory.errors import TheoryParameterError
 from theory.pointsets import POINTSETS, generate
@@ -696,6 +696,7 @@ def rank_agreement(names: Sequence[str], measured_levels, predicted_levels) -> d
            "predicted_order": [names_k[i] for i in np.argsort(p, kind="stable")],
            "kendall_tau": None, "p_value": None}
     if len(names_k) >= 2:
+        from scipy import stats  # local: scipy.stats costs ~1 s to import
         res = stats.kendalltau(m, p)
         tau = float(res.statistic) if hasattr(res, "statistic") else float(res[0])
         pv = float(res.pvalue) if hasattr(res, "pvalue") else float(res[1])

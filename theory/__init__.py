@@ -12,25 +12,45 @@ and Fourier Truncation-based Methods Applied to Shading Integrals" (IEEE TVCG 20
 - :mod:`theory.quadrature` — worst-case error Eq. 41 and its spectrum Eq. 42;
 - :mod:`theory.truncation` — SH/HSH truncation error Eqs. 51–52, N-versus-L equivalence.
 """
-from .errors import TheoryParameterError, check_smoothness
-from .sobolev import (generalized_distance_kernel, kernel_constant, kernel_from_distance2,
-                      kernel_series, sobolev_coefficients)
-from .brdf import Diffuse, Glossy, Phong, WeightFunction, ZonalWeight, hsh_to_sh_matrix
-from .sh import (anisotropic_power_spectrum, legendre_p, legendre_series, point_set_power_spectrum,
-                 point_set_sh_coefficients, zonal_sums)
-from .pointsets import (DETERMINISTIC_POINTSETS, POINTSETS, frame_from_axis, generate,
-                        hemisphere_points, lambert_to_hemisphere, larcher_pillichshammer,
-                        morph_diffuse, morph_glossy, random_square, rotate_to_axes, sobol02,
-                        spherical_fibonacci, square_points, stratified_jitter)
-from .bnot import (bnot_diagnostics, bnot_square, capacity_weights, min_toroidal_distance,
-                   power_diagram, radial_power_spectrum)
-from .sphere_points import random_sphere, sphere_points, spherical_fibonacci_sphere
-from .quadrature import (ErrorSpectrum, error_spectrum, initial_error, kernel_mean_embedding,
-                         worst_case_error, worst_case_error_squared)
-from .weights import equal_weights, kernel_matrix, optimal_weights
-from .truncation import (equivalent_qmc_points, smallest_degree, spatial_truncation_error,
-                         truncation_error, truncation_error_curve)
+import importlib
 
-__all__ = [name for name in dir() if not name.startswith("_")]
+#: public name -> submodule; loaded on first use (PEP 562), so ``import theory.errors`` or a
+#: command line that needs one module does not pay for scipy.stats, the BNOT solver, …
+_EXPORTS = {
+    "errors": ("TheoryParameterError", "check_smoothness"),
+    "sobolev": ("generalized_distance_kernel", "kernel_constant", "kernel_from_distance2",
+                "kernel_series", "sobolev_coefficients"),
+    "brdf": ("Diffuse", "Glossy", "Phong", "WeightFunction", "ZonalWeight", "hsh_to_sh_matrix"),
+    "sh": ("anisotropic_power_spectrum", "legendre_p", "legendre_series", "point_set_power_spectrum",
+           "point_set_sh_coefficients", "zonal_sums"),
+    "pointsets": ("DETERMINISTIC_POINTSETS", "POINTSETS", "frame_from_axis", "generate",
+                  "hemisphere_points", "lambert_to_hemisphere", "larcher_pillichshammer",
+                  "morph_diffuse", "morph_glossy", "random_square", "rotate_to_axes", "sobol02",
+                  "spherical_fibonacci", "square_points", "stratified_jitter"),
+    "bnot": ("bnot_diagnostics", "bnot_square", "capacity_weights", "min_toroidal_distance",
+             "power_diagram", "radial_power_spectrum"),
+    "sphere_points": ("random_sphere", "sphere_points", "spherical_fibonacci_sphere"),
+    "quadrature": ("ErrorSpectrum", "error_spectrum", "initial_error", "kernel_mean_embedding",
+                   "worst_case_error", "worst_case_error_squared"),
+    "weights": ("equal_weights", "kernel_matrix", "optimal_weights"),
+    "truncation": ("equivalent_qmc_points", "smallest_degree", "spatial_truncation_error",
+                   "truncation_error", "truncation_error_curve"),
+}
+_LAZY = {name: mod for mod, names in _EXPORTS.items() for name in names}
+_SUBMODULES = ("figures", "table1")            # the paper's Table 1 and the data of Figs. 1–5
 
-from . import figures, table1  # noqa: E402  (the paper's Table 1 and the data of Figs. 1–5)
+__all__ = sorted(_LAZY)
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        value = getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
+        globals()[name] = value
+        return value
+    if name in _SUBMODULES:
+        return importlib.import_module(f".{name}", __name__)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY) | set(_SUBMODULES))

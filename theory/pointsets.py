@@ -36,7 +36,6 @@ import warnings
 from typing import Callable
 
 import numpy as np
-from scipy.stats import qmc
 
 from .bnot import bnot_square
 from .errors import TheoryParameterError
@@ -85,6 +84,7 @@ def sobol02(n: int, *, seed=None, scramble: bool = False) -> np.ndarray:
            [0.25, 0.75]])
     """
     n = _check_n(n)
+    from scipy.stats import qmc  # local: scipy.stats costs ~1 s to import
     eng = qmc.Sobol(d=2, scramble=bool(scramble), seed=seed if scramble else None)
     with warnings.catch_warnings():  # "balance properties" warning for n != 2^m
         warnings.simplefilter("ignore", UserWarning)

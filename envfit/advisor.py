@@ -1,0 +1,748 @@
+r"""The advisor: how many samples, or which SH/HSH degree, for this map, this BRDF and a target error?
+
+Marques, Bouville, Bouatouch, "Spectral Analysis of Quadrature Rules and Fourier
+Truncation-based Methods Applied to Shading Integrals": the worst-case error of a quadrature
+rule (Eq. 41) and of an SH/HSH truncation (Eqs. 51–52), turned into an *absolute* predicted
+RMS error with the map's fitted smoothness s and scale σ̂ (``envfit fit``), then inverted:
+the smallest N (or L) whose predicted error is at most the target.
+
+Prediction (the refined absolute prediction (b') of :mod:`envfit.validate`)
+-------------------------------------------------------------------------
+Under the Gaussian-process reading of the Sobolev model, f − m̄ ~ GP(0, σ² K_gd^(s)) (Eq. 14),
+the error of a linear rule at a random axis has mean square σ²E² (E the norm of the error's
+representer, Eq. 39). For a lat-long map of H rows, which holds no degree above H − 1, the
+error spectrum (Eq. 42) is summed to l = H − 1 only
+(:func:`envfit.validate.bandlimited_worst_case_errors`, :math:`E_{\le H-1}`), and a rule
+whose weights do not sum to 1 (OSW) also errs by :math:`\bar m(\sum_j w_j - 1)` on the map's
+mean, for every axis:
+
+.. math:: \hat R(N) = \Big(\sigma^2 E_{\le H-1}(N)^2 + (\textstyle\sum_j w_j - 1)^2\,\overline{m^2}\Big)^{1/2}
+
+(:math:`\sigma = (\frac1C\sum_c\hat\sigma_c^2)^{1/2}`, :func:`envfit.validate.combine_sigma`;
+:math:`\overline{m^2}` the mean over channels of the squared solid-angle mean). For the
+stochastic point sets (random, jitter, bnot) :math:`E^2` and :math:`(\sum w - 1)^2` are
+averaged over ``seeds`` realisations per N (the expected error of the sampler, not of one
+draw). The unrestricted :math:`\sigma\,\mathrm{wce}(N)` (Eq. 41, prediction (b) of the
+validation; it over-predicts by up to 2× for spherical Fibonacci at large N on a map) is
+reported beside it at the chosen N but not used for the choice.
+
+Truncation (Eqs. 51–52): :math:`\hat R(L) = \sigma E_{\le H-1}(L)`, the truncation error
+with the l-sum stopped at the map's band limit (``truncation_error_curve(..., lmax=H-1)``);
+SH and HSH truncation keep :math:`b_0` exactly, so there is no mean term. SH truncation at
+L = H − 1 keeps every degree the map holds: error 0.
+
+Search
+------
+N: doubling from ``nmin`` until :math:`\hat R(N) \le` target, then bisection between the
+last failing and the first passing N (:func:`smallest_n`): at most ~2 log₂(N) evaluations.
+:math:`\hat R` is monotone in N for the averaged random sets only in expectation and for
+spherical Fibonacci only nearly, so the answer is a *crossing*,
+:math:`\hat R(N) \le \text{target} < \hat R(N-1)` (the smallest such N when :math:`\hat R` is
+monotone; the tests compare it with a brute-force scan). OSW needs an N×N Cholesky solve per
+N and is searched up to ``osw_nmax`` (default 4096); beyond ``nmax`` (or ``osw_nmax``) a row
+says that the target is not reached instead of failing. L: the first L of the band-limited
+curve at or below the target.
+
+Cost column: N (samples per shading point) for quadrature, (L+1)² coefficients for SH/HSH;
+the rows are sorted by it. For the diffuse lobe, HSH truncation is exact from L = 1
+(:math:`\tilde b_l = 0` for l ≥ 2, errata): the hemispherical projection *is* the shading
+integral, so that row is listed but never recommended.
+
+Cache (:mod:`envfit.advisor_cache`)
+----------------------------------
+The fit (keyed by the map's fingerprint, ``up``, scale, s/``fit_n``/seed) and every evaluated
+point of every curve (keyed by s rounded to 1e-6, BRDF, shininess, point set, weighting, the
+realisation seeds and the band limit H − 1) are JSON files; σ̂, the target and the map's mean
+are applied afresh, so another target on the same map reuses the curve points already
+computed. The wce are computed at s rounded to 1e-6 (the key) so that a cached answer is
+identical to a fresh one.
+
+``check=True`` measures the RMSE over ``axes`` random axes (:func:`envfit.validate.random_axes`,
+seeded) at the chosen N/L on the map — the ground truth :func:`envfit.shading.shading_integral`,
+the rotated and twisted rule :func:`envfit.validate.quadrature_estimates_multi` (averaged in
+the mean-square sense over the same realisations as the prediction), SH truncation
+:func:`envfit.estimators.sh_truncation_curve` on the full map, and HSH truncation
+:func:`envfit.estimators.hsh_truncation_curve` on the map downscaled to
+``check_hsh_height`` rows with ``check_hsh_axes`` axes (the HSH projection is a per-axis
+quadrature over the hemisphere, ~1000× dearer than an SH one).
+
+Example
+-------
+>>> import tempfile
+>>> from envfit.envmap import EnvMap
+>>> from data_gen.gp import gaussian_process_map
+>>> env = EnvMap(gaussian_process_map(1.5, 16, seed=0), name="gp")
+>>> adv = advise(env, "diffuse", 0.05, scale="linear", s=1.5, fit_n=200, pointsets=("sf",),
+...              weights=("equal",), bases=("sh",), cache_dir=tempfile.mkdtemp())
+>>> [(r.method, r.n is not None or r.L is not None) for r in adv.rows]
+[('sh', True), ('quadrature', True)]
+>>> r = next(r for r in adv.rows if r.method == "quadrature")
+>>> bool(r.predicted_rmse <= 0.05), r.n == smallest_n(lambda n: _q_predict(adv, r, n), 0.05, 4, 65536)[0]
+(True, True)
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import asdict, dataclass, field
+from typing import Callable, Sequence
+
+import numpy as np
+
+from theory.errors import TheoryParameterError
+from theory.pointsets import DETERMINISTIC_POINTSETS, POINTSETS, generate
+from theory.truncation import truncation_error_curve
+from theory.weights import equal_weights, optimal_weights
+
+from .advisor_cache import AdviseCache
+from .envmap import EnvMap
+from .errors import ParameterError
+from .estimators import hsh_truncation_curve, rmse_over_axes, sh_truncation_curve
+from .fit import fit_smoothness
+from .progress import progress_bar
+from .scales import SCALES, fit_scale
+from .shading import bilinear_sh_coefficients, shading_integral, weight_function
+from .store import array_fingerprint
+from .validate import (bandlimited_worst_case_errors, combine_sigma, parse_s, profiled_sigma,
+                       quadrature_estimates_multi, random_axes, rule_worst_case_error)
+
+__all__ = ["Advice", "AdviceRow", "advise", "smallest_n", "predicted_rmse", "mean_shading_value",
+           "DEFAULT_POINTSETS", "ALL_POINTSETS", "WEIGHTINGS", "BASES", "BRDFS",
+           "DEFAULT_FIT_N", "DEFAULT_NMIN", "DEFAULT_NMAX", "DEFAULT_OSW_NMAX", "DEFAULT_SEEDS"]
+
+#: every point set (theory.pointsets); BNOT costs ≈15 s per realisation at N = 4096
+ALL_POINTSETS = ("sf", "sobol", "lp", "bnot", "random", "jitter")
+#: the default point sets (BNOT only when asked for)
+DEFAULT_POINTSETS = ("sf", "sobol", "lp", "random", "jitter")
+WEIGHTINGS = ("equal", "osw")
+BASES = ("sh", "hsh")
+BRDFS = ("diffuse", "glossy")
+DEFAULT_FIT_N = 3000
+DEFAULT_NMIN = 4
+DEFAULT_NMAX = 65536
+#: OSW needs an N×N float64 Cholesky per evaluated N (134 MB, ≈1–3 s at 4096)
+DEFAULT_OSW_NMAX = 4096
+#: realisations averaged per N for the stochastic point sets
+DEFAULT_SEEDS = 4
+#: largest L searched for a truncation (also bounded by the band limit H − 1)
+LMAX_SEARCH = 512
+
+
+# ----------------------------------------------------------------------------- results
+
+@dataclass
+class AdviceRow:
+    """One rule of the table.
+
+    ``method`` is "quadrature" (``pointset``/``weights``, ``n`` samples) or "sh"/"hsh" (degree
+    ``L``). ``cost`` = N or (L+1)²; None when the target is not reached (then ``n``/``L`` are
+    None and ``predicted_rmse`` is the prediction at the largest N/L searched, ``searched_max``).
+    ``predicted_rmse`` is the refined prediction (b') used for the choice, ``predicted_rmse_plain``
+    σ̂·wce (Eq. 41) or σ̂·E(L) (Eqs. 51–52) without the band limit. ``measured_rmse`` and
+    ``measured_over_predicted`` are filled by ``check=True``.
+    """
+
+    method: str
+    pointset: str | None = None
+    weights: str | None = None
+    n: int | None = None
+    L: int | None = None
+    cost: int | None = None
+    predicted_rmse: float | None = None
+    predicted_rmse_plain: float | None = None
+    wce_bandlimited: float | None = None
+    wce: float | None = None
+    weight_sum: float | None = None
+    realisations: int = 1
+    searched_max: int | None = None
+    evaluations: int = 0
+    recommendable: bool = True
+    note: str = ""
+    measured_rmse: float | None = None
+    measured_over_predicted: float | None = None
+    measured_over_target: float | None = None
+    check_note: str = ""
+
+    @property
+    def reached(self) -> bool:
+        return self.cost is not None
+
+    @property
+    def label(self) -> str:
+        if self.method == "quadrature":
+            return f"{self.pointset}/{self.weights}"
+        return self.method.upper()
+
+    @property
+    def setting(self) -> str:
+        if self.method == "quadrature":
+            return f"N = {self.n}" if self.n is not None else f"N > {self.searched_max}"
+        return f"L = {self.L}" if self.L is not None else f"L > {self.searched_max}"
+
+
+@dataclass
+class Advice:
+    """What :func:`advise` found: the map's fit, the target, and the rows sorted by cost."""
+
+    map: str
+    map_size: list[int]
+    channels: int
+    brdf: str
+    shininess: float | None
+    scale: str
+    scale_description: str
+    target_rmse: float
+    target_relative: float | None
+    mean_shading: float
+    s: float
+    s_interval: list[float] | None
+    sigma: float
+    sigma_channels: list[float]
+    fit_source: str
+    fit_cached: bool
+    band_lmax: int
+    mean_rms: float
+    rows: list[AdviceRow]
+    recommendation: str
+    settings: dict = field(default_factory=dict)
+    cache: dict = field(default_factory=dict)
+    timings: dict = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+    check: dict | None = None
+
+    def to_dict(self) -> dict:
+        d = asdict(self)
+        d["rows"] = [{**asdict(r), "reached": r.reached, "label": r.label} for r in self.rows]
+        return d
+
+    def best(self) -> AdviceRow | None:
+        """The recommended row (cheapest reached, recommendable), or None."""
+        ok = [r for r in self.rows if r.reached and r.recommendable]
+        return ok[0] if ok else None
+
+    def table_lines(self) -> list[str]:
+        """The table as text lines (what the CLI prints)."""
+        chk = self.check is not None
+        head = (f"  {'rule':<14s} {'N / L':>10s} {'cost':>7s} {'predicted':>10s} "
+                f"{'sigma*wce':>10s}")
+        if chk:
+            head += f" {'measured':>10s} {'meas/pred':>9s} {'meas/target':>11s}"
+        lines = [head + "  note"]
+
+        def f(v, w=10):
+            return f"{'–':>{w}s}" if v is None else f"{v:>{w}.3e}"
+
+        def g(v, w):
+            return f"{'–':>{w}s}" if v is None else f"{v:>{w}.2f}"
+
+        for r in self.rows:
+            line = (f"  {r.label:<14s} {r.setting:>10s} "
+                    f"{('–' if r.cost is None else str(r.cost)):>7s} {f(r.predicted_rmse)} "
+                    f"{f(r.predicted_rmse_plain)}")
+            if chk:
+                line += (f" {f(r.measured_rmse)} {g(r.measured_over_predicted, 9)} "
+                         f"{g(r.measured_over_target, 11)}")
+            notes = "; ".join(x for x in (r.note, r.check_note) if x)
+            lines.append(line + (f"  {notes}" if notes else ""))
+        return lines
+
+
+# ----------------------------------------------------------------------------- pure math
+
+def predicted_rmse(sigma: float, e2_band: float, dev2: float = 0.0, mean_sq: float = 0.0) -> float:
+    r"""The refined prediction (b'): :math:`(\sigma^2 E_{\le H-1}^2 + (\sum w-1)^2\overline{m^2})^{1/2}`.
+
+    ``e2_band`` is :math:`E_{\le H-1}^2` (averaged over realisations for stochastic sets),
+    ``dev2`` :math:`(\sum_j w_j - 1)^2` (likewise), ``mean_sq`` :math:`\overline{m^2}`.
+
+    >>> round(predicted_rmse(2.0, 0.25, 0.01, 9.0), 12) == round(math.sqrt(4 * 0.25 + 0.01 * 9), 12)
+    True
+    """
+    return math.sqrt(max(sigma * sigma * e2_band + dev2 * mean_sq, 0.0))
+
+
+def smallest_n(predict: Callable[[int], float], target: float, nmin: int,
+               nmax: int) -> tuple[int | None, dict[int, float]]:
+    r"""Smallest N in [nmin, nmax] with ``predict(N) <= target`` for a decreasing ``predict``.
+
+    Doubling from ``nmin`` (nmin, 2·nmin, …, then nmax itself) until a passing N, then
+    bisection between the last failing and the first passing N. Returns (N or None when
+    even ``nmax`` fails, {N: predict(N)} of every evaluated N). For a non-monotone
+    ``predict`` the answer is a crossing: predict(N) ≤ target < predict(N − 1).
+
+    >>> smallest_n(lambda n: 1.0 / n, 0.01, 4, 1000)[0]
+    100
+    >>> smallest_n(lambda n: 1.0 / n, 1e-4, 4, 1000)[0] is None
+    True
+    """
+    nmin, nmax = int(nmin), int(nmax)
+    seen: dict[int, float] = {}
+
+    def ok(n: int) -> bool:
+        if n not in seen:
+            seen[n] = float(predict(n))
+        return seen[n] <= target
+
+    if ok(nmin):
+        return nmin, seen
+    lo, hi = nmin, min(2 * nmin, nmax)
+    while not ok(hi):
+        if hi >= nmax:
+            return None, seen
+        lo, hi = hi, min(2 * hi, nmax)
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if ok(mid):
+            hi = mid
+        else:
+            lo = mid
+    return hi, seen
+
+
+def mean_shading_value(scaled: EnvMap) -> float:
+    r"""Mean over all axes of the normalised shading integral (Eq. 17), averaged over channels.
+
+    By Funk–Hecke, :math:`I(a) = \sum_l \lambda_l\sum_m f_{lm}Y_{lm}(a)`, and only l = 0
+    survives the mean over the sphere of axes: :math:`\bar I = \lambda_0 f_{00}Y_{00} =
+    f_{00}/\sqrt{4\pi}` (:math:`\lambda_0 = 1` since I ≡ 1 for f ≡ 1) — the solid-angle mean of
+    the map's bilinear interpolant, the same for every normalised lobe. From the exact
+    :math:`f_{00}` of :func:`envfit.shading.bilinear_sh_coefficients`.
+
+    >>> round(mean_shading_value(EnvMap(np.full((4, 8, 2), 3.0))), 9)
+    3.0
+    """
+    alm = bilinear_sh_coefficients(scaled, 0)
+    return float(np.mean(alm[:, 0].real) / math.sqrt(4.0 * math.pi))
+
+
+def _s_key(s: float) -> float:
+    return round(float(s), 6)
+
+
+def _seed_list(pointset: str, seed: int, k: int) -> list[int]:
+    """Realisation seeds of a stochastic point set ([] for a deterministic one)."""
+    if pointset in DETERMINISTIC_POINTSETS:
+        return []
+    return [int(np.random.SeedSequence([int(seed), 41, j]).generate_state(1)[0]) for j in range(k)]
+
+
+def _rule(pointset: str, n: int, wf, s: float, weights: str, seed) -> tuple[np.ndarray, np.ndarray]:
+    pts = generate(pointset, n, seed=0 if seed is None else seed, morph=wf.morph)
+    w = equal_weights(n) if weights == "equal" else optimal_weights(pts, wf, s)
+    return pts, w
+
+
+def rule_terms(pointset: str, n: int, wf, s: float, weights: str, seeds: Sequence[int],
+               band_lmax: int) -> dict:
+    r"""Band-limited squared wce (Eq. 42 summed to ``band_lmax``) and :math:`(\sum w-1)^2` of a
+    rule, averaged over the realisations ``seeds`` ([] = the deterministic set once)."""
+    e2, dev2, ws = [], [], []
+    for sd in (seeds or [None]):
+        pts, w = _rule(pointset, n, wf, s, weights, sd)
+        eb = bandlimited_worst_case_errors(pts, w, wf, [s], band_lmax)[0]
+        e2.append(eb * eb)
+        wsum = math.fsum(w)
+        dev2.append((wsum - 1.0) ** 2)
+        ws.append(wsum)
+    return {"e2_band": float(np.mean(e2)), "dev2": float(np.mean(dev2)),
+            "weight_sum": float(np.mean(ws))}
+
+
+def rule_plain_wce2(pointset: str, n: int, wf, s: float, weights: str, seeds: Sequence[int],
+                    workers: int = 2) -> float:
+    """Unrestricted squared worst-case error (Eq. 41), averaged over the realisations."""
+    out = []
+    for sd in (seeds or [None]):
+        pts, w = _rule(pointset, n, wf, s, weights, sd)
+        out.append(rule_worst_case_error(pts, w, wf, s, workers=workers) ** 2)
+    return float(np.mean(out))
+
+
+def _q_predict(adv: Advice, row: AdviceRow, n: int) -> float:
+    """The prediction of ``row``'s rule at N, recomputed (no cache; for tests and examples)."""
+    wf = weight_function(adv.brdf, adv.shininess or 30.0)
+    seeds = _seed_list(row.pointset, adv.settings["seed"], adv.settings["seeds"])
+    t = rule_terms(row.pointset, n, wf, _s_key(adv.s), row.weights, seeds, adv.band_lmax)
+    return predicted_rmse(adv.sigma, t["e2_band"], t["dev2"], adv.mean_rms ** 2)
+
+
+# ----------------------------------------------------------------------------- checks of input
+
+def _names(values, allowed, what) -> list[str]:
+    if isinstance(values, str):
+        values = [values]
+    out = []
+    for v in values:
+        name = str(v).strip().lower()
+        if name not in allowed:
+            raise ParameterError(f"unknown {what} {v!r}; choose from {', '.join(allowed)}")
+        if name not in out:
+            out.append(name)
+    return out
+
+
+def _int(value, what: str, lo: int) -> int:
+    try:
+        k = int(value)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{what} must be an integer >= {lo}, got {value!r}") from None
+    if k != value or k < lo:
+        raise ParameterError(f"{what} must be an integer >= {lo}, got {value!r}")
+    return k
+
+
+def _positive(value, what: str) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{what} must be a number > 0, got {value!r}") from None
+    if not (math.isfinite(v) and v > 0):
+        raise ParameterError(f"{what} must be a finite number > 0, got {value!r}")
+    return v
+
+
+# ----------------------------------------------------------------------------- the advisor
+
+def advise(envmap: EnvMap, brdf: str = "diffuse", target_rmse: float | None = None, *,
+           target_relative: float | None = None, shininess: float = 30.0,
+           scale: str = "display", pointsets: Sequence[str] = DEFAULT_POINTSETS,
+           weights: Sequence[str] = WEIGHTINGS, bases: Sequence[str] = BASES,
+           s: float | str = "auto", fit_n: int = DEFAULT_FIT_N, seed: int = 0,
+           nmin: int = DEFAULT_NMIN, nmax: int = DEFAULT_NMAX, osw_nmax: int = DEFAULT_OSW_NMAX,
+           seeds: int = DEFAULT_SEEDS, check: bool = False, axes: int = 1000,
+           check_hsh_height: int = 128, check_hsh_axes: int = 200, cache: bool = True,
+           cache_dir=None, workers: int = 2, quiet: bool = True) -> Advice:
+    """Smallest N per point set and weighting, and smallest SH/HSH degree L, whose predicted
+    RMS shading error on ``envmap`` is at most the target (see the module docstring).
+
+    Parameters
+    ----------
+    envmap : the map on its raw (linear) values; ``scale`` is applied here.
+    brdf, shininess : "diffuse" or "glossy" (lobe exponent n = ``shininess``).
+    target_rmse : the target RMS error, on the ``scale`` values; or ``target_relative``: the
+        target as a fraction (0 < t < 1) of the map's mean shading value
+        (:func:`mean_shading_value`). Exactly one of the two.
+    scale : "display" (default, as the rest of the CLI), "linear" or "log".
+    pointsets, weights : the quadrature rules (``ALL_POINTSETS``; "equal", "osw").
+    bases : truncations, "sh" and/or "hsh" (empty: none).
+    s : "auto" (fit s and σ̂ by the likelihood from ``fit_n`` samples) or a value in (1, 2)
+        (σ̂ by the profiled likelihood at that s).
+    seed : seed of the fit, of the realisations of stochastic point sets (``seeds`` of them
+        averaged per N) and of the check's axes.
+    nmin, nmax, osw_nmax : the N range searched (OSW up to ``min(nmax, osw_nmax)``).
+    check : measure the RMSE at the chosen N/L over ``axes`` random axes (HSH: on
+        ``check_hsh_height`` rows with ``check_hsh_axes`` axes).
+    cache, cache_dir : the on-disk cache (:mod:`envfit.advisor_cache`; default folder
+        ``$ENVFIT_CACHE_DIR`` or ``~/.cache/envfit``).
+
+    Returns an :class:`Advice`. Bad input raises :class:`envfit.errors.ParameterError`.
+    """
+    t_start = time.perf_counter()
+    # ---- input
+    if not isinstance(envmap, EnvMap):
+        raise ParameterError(f"envmap must be an EnvMap, got {type(envmap).__name__}")
+    brdf_name = _names([brdf], BRDFS, "BRDF")[0]
+    shin = _positive(shininess, "shininess") if brdf_name == "glossy" else None
+    wf = weight_function(brdf_name, shin if shin is not None else 30.0)
+    if (target_rmse is None) == (target_relative is None):
+        raise ParameterError("give exactly one of target_rmse (--target-rmse) and "
+                             "target_relative (--target-relative)")
+    if target_relative is not None:
+        rel = _positive(target_relative, "the relative target (--target-relative)")
+        if rel >= 1.0:
+            raise ParameterError(f"the relative target (--target-relative) is a fraction of the "
+                                 f"mean shading value and must be < 1, got {target_relative!r}")
+    else:
+        rel = None
+        target_rmse = _positive(target_rmse, "the target RMSE (--target-rmse)")
+    if scale not in SCALES:
+        raise ParameterError(f"scale must be one of {', '.join(SCALES)}, got {scale!r}")
+    pointsets = _names(pointsets, ALL_POINTSETS, "point set")
+    weights = _names(weights, WEIGHTINGS, "weighting")
+    bases = _names(bases, BASES, "basis")
+    if not pointsets and not bases:
+        raise ParameterError("nothing to advise on: no point set and no SH/HSH basis")
+    if pointsets and not weights:
+        raise ParameterError("give at least one weighting (equal, osw)")
+    s_in = parse_s(s)
+    fit_n = _int(fit_n, "fit_n", 10)
+    seed = _int(seed, "seed", 0)
+    nmin = _int(nmin, "nmin", 1)
+    nmax = _int(nmax, "nmax", nmin)
+    osw_nmax = _int(osw_nmax, "osw_nmax", 1)
+    seeds = _int(seeds, "seeds", 1)
+    axes = _int(axes, "axes", 2)
+    check_hsh_height = _int(check_hsh_height, "check_hsh_height", 4)
+    check_hsh_axes = _int(check_hsh_axes, "check_hsh_axes", 2)
+    if envmap.height < 4:
+        raise ParameterError(f"the map needs at least 4 rows, got {envmap.height}")
+    store = AdviseCache(cache_dir, enabled=cache)
+
+    # ---- the map on its scale
+    sc = fit_scale(scale, envmap)
+    scaled = envmap.with_data(np.asarray(sc.apply(envmap.data), dtype=np.float64))
+    band_lmax = scaled.height - 1
+    mean_rms = float(np.sqrt(np.mean(scaled.mean() ** 2)))
+    mean_shading = mean_shading_value(scaled)
+    notes = list(envmap.notes)
+    if rel is not None:
+        if not mean_shading > 0:
+            raise ParameterError(f"the map's mean shading value on the {scale} scale is "
+                                 f"{mean_shading:.3g}, not positive: give --target-rmse instead")
+        target = rel * mean_shading
+    else:
+        target = float(target_rmse)
+
+    # ---- s and sigma (cached)
+    t0 = time.perf_counter()
+    fit_key = {"fingerprint": array_fingerprint(envmap.data), "shape": list(envmap.data.shape),
+               "up": envmap.up, "scale": scale, "s": s_in, "method": "likelihood",
+               "n": fit_n, "seed": seed}
+    fit = store.load("fit", fit_key)
+    fit_cached = fit is not None
+    if fit is None:
+        if s_in == "auto":
+            res = fit_smoothness(envmap, method="likelihood", n=fit_n, scale=scale, seed=seed,
+                                 quiet=quiet)
+            fit = {"s": float(res.s), "s_interval": [float(x) for x in res.s_interval],
+                   "sigma_channels": [float(x) for x in res.sigma], "source": "fit",
+                   "notes": list(res.notes)}
+        else:
+            sig = profiled_sigma(scaled, float(s_in), n=fit_n, seed=seed)
+            fit = {"s": float(s_in), "s_interval": None, "sigma_channels": sig.tolist(),
+                   "source": "given", "notes": []}
+        fit["seconds"] = time.perf_counter() - t0
+        store.save("fit", fit_key, fit)
+    t_fit = time.perf_counter() - t0
+    notes.extend(fit.get("notes", []))
+    s_fit = float(fit["s"])
+    s_use = _s_key(s_fit)
+    sigma_ch = [float(x) for x in fit["sigma_channels"]]
+    sigma = combine_sigma(sigma_ch)
+    if not sigma > 0:
+        raise ParameterError("the map is constant on this scale (sigma = 0): every rule is exact")
+
+    # ---- search
+    t1 = time.perf_counter()
+    rows: list[AdviceRow] = []
+    jobs = [("quadrature", ps, w) for ps in pointsets for w in weights] + \
+           [(b, None, None) for b in bases]
+    bar = progress_bar(len(jobs), desc="advise", quiet=quiet, unit="rule")
+    try:
+        for method, ps, w in jobs:
+            if hasattr(bar, "set_postfix_str"):
+                bar.set_postfix_str(f"{ps}/{w}" if ps else method)
+            if method == "quadrature":
+                rows.append(_search_quadrature(ps, w, wf, brdf_name, shin, s_use, sigma,
+                                               mean_rms, target, band_lmax, seed, seeds,
+                                               nmin, nmax, osw_nmax, store, workers))
+            else:
+                rows.append(_search_truncation(method, wf, brdf_name, s_use, sigma, target,
+                                               band_lmax))
+            bar.update(1)
+    finally:
+        bar.close()
+    t_search = time.perf_counter() - t1
+    rows.sort(key=lambda r: (r.cost is None, r.cost if r.cost is not None else 0,
+                             r.predicted_rmse if r.predicted_rmse is not None else math.inf,
+                             r.label))
+
+    adv = Advice(
+        map=envmap.name, map_size=[envmap.width, envmap.height], channels=envmap.channels,
+        brdf=brdf_name, shininess=shin, scale=scale, scale_description=sc.describe(),
+        target_rmse=target, target_relative=rel, mean_shading=mean_shading, s=s_fit,
+        s_interval=fit.get("s_interval"), sigma=sigma, sigma_channels=sigma_ch,
+        fit_source=fit["source"], fit_cached=fit_cached, band_lmax=band_lmax, mean_rms=mean_rms,
+        rows=rows, recommendation="",
+        settings={"pointsets": pointsets, "weights": weights, "bases": bases, "s": s_in,
+                  "fit_n": fit_n, "seed": seed, "nmin": nmin, "nmax": nmax,
+                  "osw_nmax": osw_nmax, "seeds": seeds, "s_rounded": s_use},
+        notes=notes)
+    adv.recommendation = _recommendation(adv)
+
+    t_check = 0.0
+    if check:
+        t2 = time.perf_counter()
+        adv.check = _check(adv, scaled, wf, brdf_name, shin, axes, check_hsh_height,
+                           check_hsh_axes, workers, quiet)
+        t_check = time.perf_counter() - t2
+    adv.notes.extend(store.notes)
+    adv.cache = {"enabled": store.enabled, "folder": str(store.folder), "hits": store.hits,
+                 "misses": store.misses, "writes": store.writes}
+    adv.timings = {"fit": t_fit, "search": t_search, "check": t_check,
+                   "total": time.perf_counter() - t_start}
+    return adv
+
+
+def _search_quadrature(ps, w, wf, brdf, shin, s, sigma, mean_rms, target, band_lmax, seed,
+                       k_seeds, nmin, nmax, osw_nmax, store: AdviseCache, workers) -> AdviceRow:
+    sds = _seed_list(ps, seed, k_seeds)
+    key = {"s": s, "brdf": brdf, "shininess": shin, "pointset": ps, "weights": w,
+           "seeds": sds, "band_lmax": band_lmax}
+    curve = store.load_curve(key)
+    new: dict[int, dict] = {}
+    upper = nmax if w == "equal" else max(nmin, min(nmax, osw_nmax))
+    mean_sq = mean_rms * mean_rms
+    evaluations = 0
+
+    def terms(n: int) -> dict:
+        nonlocal evaluations
+        t = curve.get(n)
+        if t is None or "e2_band" not in t:
+            t = {**(t or {}), **rule_terms(ps, n, wf, s, w, sds, band_lmax)}
+            curve[n] = new[n] = t
+            evaluations += 1
+        return t
+
+    def predict(n: int) -> float:
+        t = terms(n)
+        return predicted_rmse(sigma, t["e2_band"], t["dev2"], mean_sq)
+
+    row = AdviceRow(method="quadrature", pointset=ps, weights=w, realisations=max(1, len(sds)),
+                    searched_max=upper)
+    try:
+        n, seen = smallest_n(predict, target, nmin, upper)
+    except (TheoryParameterError, ParameterError) as exc:
+        store.merge_curve(key, new)
+        row.note = f"failed: {exc}"
+        row.recommendable = False
+        return row
+    if n is None:
+        t = curve[upper]
+        row.predicted_rmse = seen[upper]
+        row.wce_bandlimited = math.sqrt(t["e2_band"])
+        row.weight_sum = t["weight_sum"]
+        why = " (OSW: an NxN solve per N; raise --osw-nmax)" if w == "osw" and upper < nmax else ""
+        row.note = f"target not reached for N <= {upper}{why}"
+        row.recommendable = False
+    else:
+        t = curve[n]
+        if "e2_plain" not in t:
+            t = {**t, "e2_plain": rule_plain_wce2(ps, n, wf, s, w, sds, workers)}
+            curve[n] = new[n] = t
+        row.n = row.cost = n
+        row.predicted_rmse = seen[n]
+        row.wce_bandlimited = math.sqrt(t["e2_band"])
+        row.wce = math.sqrt(t["e2_plain"])
+        row.predicted_rmse_plain = sigma * row.wce
+        row.weight_sum = t["weight_sum"]
+    row.evaluations = evaluations
+    if len(sds) > 1:
+        row.note = (row.note + "; " if row.note else "") + f"mean over {len(sds)} realisations"
+    store.merge_curve(key, new)
+    return row
+
+
+def _search_truncation(basis, wf, brdf, s, sigma, target, band_lmax) -> AdviceRow:
+    row = AdviceRow(method=basis)
+    top = min(band_lmax - 1, LMAX_SEARCH)
+    Lmax = min(32, top)
+    while True:
+        E = truncation_error_curve(wf, s, Lmax, basis, lmax=band_lmax)
+        ok = np.nonzero(sigma * E <= target)[0]
+        if ok.size or Lmax >= top:
+            break
+        Lmax = min(2 * Lmax, top)
+    if ok.size:
+        L = int(ok[0])
+        eb = float(E[L])
+    elif basis == "sh" and band_lmax - 1 <= LMAX_SEARCH:
+        L, eb = band_lmax, 0.0                # every degree the map holds is kept: exact
+    else:
+        L = None
+        eb = float(E[-1])
+    row.searched_max = Lmax if L is None else None
+    row.wce_bandlimited = eb
+    row.predicted_rmse = sigma * eb
+    if L is not None:
+        row.L = L
+        row.cost = (L + 1) ** 2
+        plain = float(truncation_error_curve(wf, s, L, basis)[L])
+        row.wce = plain
+        row.predicted_rmse_plain = sigma * plain
+    else:
+        row.note = f"target not reached for L <= {Lmax}"
+        row.recommendable = False
+    if basis == "hsh" and brdf == "diffuse":
+        row.recommendable = False
+        row.note = (row.note + "; " if row.note else "") + \
+            "diffuse HSH is exact from L = 1 (the projection is the integral): not recommended"
+    return row
+
+
+def _recommendation(adv: Advice) -> str:
+    best = adv.best()
+    if best is None:
+        return (f"no rule reaches the target RMSE {adv.target_rmse:.3g} in the searched range: "
+                f"raise --nmax / --osw-nmax or relax the target")
+    what = {"quadrature": f"{best.label} (point set / weights) with N = {best.n} samples per "
+                          f"shading point",
+            "sh": f"SH truncation at L = {best.L} ({best.cost} coefficients)",
+            "hsh": f"HSH truncation at L = {best.L} ({best.cost} coefficients)"}[best.method]
+    text = (f"recommendation: {what} (predicted RMSE {best.predicted_rmse:.3g} <= target "
+            f"{adv.target_rmse:.3g})")
+    if best.method != "quadrature":
+        q = next((r for r in adv.rows if r.method == "quadrature" and r.reached
+                  and r.recommendable), None)
+        if q is not None:
+            text += f"; by sampling: {q.pointset}/{q.weights} N = {q.n}"
+    return text
+
+
+# ----------------------------------------------------------------------------- --check
+
+def _check(adv: Advice, scaled: EnvMap, wf, brdf, shin, n_axes, hsh_height, hsh_axes,
+           workers, quiet) -> dict:
+    """Measured RMSE at each row's chosen N/L (see the module docstring)."""
+    seed = adv.settings["seed"]
+    s = adv.settings["s_rounded"]
+    sh_ = shin if shin is not None else 30.0
+    A = random_axes(n_axes, [seed, 31])
+    truth = shading_integral(scaled, A, brdf, sh_)
+    hsh_env = hsh_A = hsh_truth = None
+    todo = [r for r in adv.rows if r.reached]
+    bar = progress_bar(len(todo), desc="advise: check", quiet=quiet, unit="rule")
+    try:
+        for r in todo:
+            if r.method == "quadrature":
+                sds = _seed_list(r.pointset, seed, adv.settings["seeds"]) or [None]
+                ms = []
+                for k, sd in enumerate(sds):
+                    pts, w = _rule(r.pointset, r.n, wf, s, r.weights, sd)
+                    est = quadrature_estimates_multi(scaled, A, pts, [w], seed=[seed, 32, k],
+                                                     workers=workers)[0]
+                    ms.append(float(rmse_over_axes(est, truth).total) ** 2)
+                r.measured_rmse = math.sqrt(float(np.mean(ms)))
+                if len(sds) > 1:
+                    r.check_note = f"RMS over the {len(sds)} realisations"
+            elif r.method == "sh":
+                est = sh_truncation_curve(scaled, A, brdf, [r.L], shininess=sh_)[0]
+                r.measured_rmse = float(rmse_over_axes(est, truth).total)
+            else:
+                if hsh_env is None:
+                    hsh_env = scaled.resized(min(hsh_height, scaled.height))
+                    hsh_A = A[:min(hsh_axes, A.shape[0])]
+                    hsh_truth = shading_integral(hsh_env, hsh_A, brdf, sh_)
+                est = hsh_truncation_curve(hsh_env, hsh_A, brdf, [r.L], shininess=sh_)[0]
+                r.measured_rmse = float(rmse_over_axes(est, hsh_truth).total)
+                if hsh_env.height < scaled.height or hsh_A.shape[0] < A.shape[0]:
+                    r.check_note = (f"measured on {hsh_env.height} rows, {hsh_A.shape[0]} axes")
+            if r.predicted_rmse:
+                r.measured_over_predicted = r.measured_rmse / r.predicted_rmse
+            r.measured_over_target = r.measured_rmse / adv.target_rmse
+            bar.update(1)
+    finally:
+        bar.close()
+    ratios = [r.measured_over_predicted for r in todo if r.measured_over_predicted is not None
+              and r.recommendable]
+    summary = {"axes": int(n_axes), "hsh_height": None if hsh_env is None else hsh_env.height,
+               "hsh_axes": None if hsh_A is None else int(hsh_A.shape[0])}
+    if ratios:
+        summary.update({"median_measured_over_predicted": float(np.median(ratios)),
+                        "min_measured_over_predicted": float(np.min(ratios)),
+                        "max_measured_over_predicted": float(np.max(ratios))})
+    best = adv.best()
+    if best is not None and best.measured_rmse is not None:
+        summary["recommended_measured_rmse"] = best.measured_rmse
+        summary["recommended_measured_over_target"] = best.measured_over_target
+    return summary

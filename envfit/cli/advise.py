@@ -1,0 +1,134 @@
+"""``envfit advise``: how many samples, or which SH/HSH degree, for this map, BRDF and target error."""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from .common import (add_common_arguments, add_map_arguments, emit_json, load_map_from_args,
+                     out_dir, say, str_list)
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "advise",
+        help="smallest N per point set / weighting and smallest SH/HSH degree for a target error",
+        description="Fit the map's smoothness s and scale sigma (cached), predict the RMS "
+                    "shading error of each rule as sigma times its band-limited worst-case "
+                    "error (Eq. 41; Eqs. 51-52 for SH/HSH truncation), and find the smallest N "
+                    "(bisection) or L whose prediction is at most the target. Prints a table "
+                    "sorted by cost (N samples, or (L+1)^2 coefficients) and a recommendation; "
+                    "--check measures the actual RMSE at the chosen N/L on the map.")
+    add_map_arguments(p)
+    p.add_argument("--brdf", choices=("diffuse", "glossy"), default="diffuse",
+                   help="weight function (default: diffuse)")
+    p.add_argument("--shininess", type=float, default=30.0, help="glossy exponent n (default: 30)")
+    tg = p.add_mutually_exclusive_group(required=True)
+    tg.add_argument("--target-rmse", type=float, metavar="E",
+                    help="target RMS shading error, on the --scale values")
+    tg.add_argument("--target-relative", type=float, metavar="F",
+                    help="target as a fraction (0 < F < 1) of the map's mean shading value")
+    p.add_argument("--scale", choices=("display", "linear", "log"), default="display",
+                   help="value scale of the integrand and the fit (default: display)")
+    p.add_argument("--pointsets", type=str_list, default=None, metavar="sf,sobol,…",
+                   help="point sets among sf, sobol, lp, bnot, random, jitter (default: "
+                        "sf,sobol,lp,random,jitter; bnot costs ~15 s per realisation at N = 4096)")
+    p.add_argument("--weights", type=str_list, default=None, metavar="equal,osw",
+                   help="weightings (default: equal,osw)")
+    p.add_argument("--bases", type=str_list, default=None, metavar="sh,hsh",
+                   help="truncations to size (default: sh,hsh; 'none' for none)")
+    p.add_argument("--s", default="auto", metavar="auto|VALUE",
+                   help="smoothness: 'auto' (likelihood fit, default) or a value in (1, 2)")
+    p.add_argument("--fit-n", type=int, default=None, help="samples of the fit (default: 3000)")
+    p.add_argument("--nmin", type=int, default=None, help="smallest N searched (default: 4)")
+    p.add_argument("--nmax", type=int, default=None, help="largest N searched (default: 65536)")
+    p.add_argument("--osw-nmax", type=int, default=None,
+                   help="largest N searched with optimal weights (an NxN solve; default: 4096)")
+    p.add_argument("--realisations", type=int, default=None, metavar="K",
+                   help="realisations averaged per N for random/jitter/bnot (default: 4)")
+    p.add_argument("--check", action="store_true",
+                   help="measure the RMSE at the chosen N/L on the map, beside the prediction")
+    p.add_argument("--axes", type=int, default=1000, metavar="M",
+                   help="random axes of --check (default: 1000, seeded by --seed)")
+    p.add_argument("--no-cache", action="store_true",
+                   help="neither read nor write the cache of fits and wce curves")
+    p.add_argument("--cache-dir", type=Path, default=None, metavar="DIR",
+                   help="cache folder (default: $ENVFIT_CACHE_DIR or ~/.cache/envfit)")
+    add_common_arguments(p)
+    p.set_defaults(func=run)
+
+
+def _header(adv) -> list[str]:
+    lines = [f"map {adv.map}: {adv.map_size[1]}x{adv.map_size[0]}, {adv.channels} channel(s); "
+             f"{adv.scale_description}"]
+    if adv.s_interval:
+        s_txt = f"s = {adv.s:.3f} (95% {adv.s_interval[0]:.3f}…{adv.s_interval[1]:.3f})"
+    else:
+        s_txt = f"s = {adv.s:.3f} (given)"
+    lines.append(f"{s_txt}, sigma = {adv.sigma:.4g}"
+                 + (" (cached fit)" if adv.fit_cached else f" ({adv.fit_source}, "
+                                                            f"{adv.settings['fit_n']} samples)"))
+    lobe = adv.brdf if adv.shininess is None else f"glossy n = {adv.shininess:g}"
+    rel = (f" = {adv.target_relative:g} x mean shading {adv.mean_shading:.4g}"
+           if adv.target_relative is not None else
+           f" ({adv.target_rmse / adv.mean_shading:.2%} of the mean shading {adv.mean_shading:.4g})"
+           if adv.mean_shading > 0 else "")
+    lines.append(f"target RMSE {adv.target_rmse:.4g}{rel}; {lobe}; map band limit l <= "
+                 f"{adv.band_lmax}")
+    lines.append("predicted = sigma * band-limited wce (+ mean term of sum(w) != 1), used for the "
+                 "choice; sigma*wce = unrestricted Eq. 41 / Eqs. 51-52")
+    return lines
+
+
+def _check_lines(adv) -> list[str]:
+    c = adv.check or {}
+    out = [f"check: RMSE over {c.get('axes')} random axes (seed {adv.settings['seed']}) at the "
+           f"chosen N/L"]
+    if "median_measured_over_predicted" in c:
+        out.append(f"measured/predicted: median {c['median_measured_over_predicted']:.2f}, range "
+                   f"{c['min_measured_over_predicted']:.2f}…{c['max_measured_over_predicted']:.2f}")
+    if "recommended_measured_rmse" in c:
+        out.append(f"recommended rule: measured {c['recommended_measured_rmse']:.3g} = "
+                   f"{c['recommended_measured_over_target']:.2f} x target")
+    return out
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..advisor import (DEFAULT_FIT_N, DEFAULT_NMAX, DEFAULT_NMIN, DEFAULT_OSW_NMAX,
+                          DEFAULT_POINTSETS, DEFAULT_SEEDS, WEIGHTINGS, BASES, advise)
+    from ..atomic import atomic_write_csv, atomic_write_json
+    env = load_map_from_args(args)
+    out = out_dir(args)
+    bases = BASES if args.bases is None else (
+        () if [b.lower() for b in args.bases] == ["none"] else tuple(args.bases))
+    adv = advise(
+        env, args.brdf, args.target_rmse, target_relative=args.target_relative,
+        shininess=args.shininess, scale=args.scale,
+        pointsets=DEFAULT_POINTSETS if args.pointsets is None else args.pointsets,
+        weights=WEIGHTINGS if args.weights is None else args.weights, bases=bases, s=args.s,
+        fit_n=DEFAULT_FIT_N if args.fit_n is None else args.fit_n, seed=args.seed,
+        nmin=DEFAULT_NMIN if args.nmin is None else args.nmin,
+        nmax=DEFAULT_NMAX if args.nmax is None else args.nmax,
+        osw_nmax=DEFAULT_OSW_NMAX if args.osw_nmax is None else args.osw_nmax,
+        seeds=DEFAULT_SEEDS if args.realisations is None else args.realisations,
+        check=args.check, axes=args.axes, cache=not args.no_cache, cache_dir=args.cache_dir,
+        quiet=args.quiet)
+    for note in adv.notes:
+        say(args, f"note: {note}")
+    say(args, *_header(adv), *adv.table_lines(), adv.recommendation)
+    if adv.check is not None:
+        say(args, *_check_lines(adv))
+    t = adv.timings
+    say(args, f"({t['total']:.1f} s: fit {t['fit']:.1f}, search {t['search']:.1f}"
+              + (f", check {t['check']:.1f}" if adv.check is not None else "")
+              + f"; cache {adv.cache['hits']} hit(s), {adv.cache['writes']} write(s))")
+    d = adv.to_dict()
+    if out is not None:
+        cols = ["label", "method", "pointset", "weights", "n", "L", "cost", "predicted_rmse",
+                "predicted_rmse_plain", "measured_rmse", "measured_over_predicted", "note"]
+        csv_path = atomic_write_csv(out / "advise.csv", cols,
+                                    [[r.get(c) for c in cols] for r in d["rows"]])
+        json_path = atomic_write_json(out / "advise.json", d)
+        d["files"] = {"csv": str(csv_path), "json": str(json_path)}
+        say(args, f"wrote {csv_path} and {json_path}")
+    emit_json(args, d)
+    return 0
