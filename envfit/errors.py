@@ -15,6 +15,7 @@ __all__ = [
     "ParameterError",
     "MemoryBudgetError",
     "DuplicatePointsError",
+    "ExecutorError",
 ]
 
 
@@ -44,3 +45,8 @@ class MemoryBudgetError(EnvfitError, MemoryError):
 
 class DuplicatePointsError(ParameterError):
     """Two interpolation nodes coincide, so the kernel matrix is singular."""
+
+
+class ExecutorError(EnvfitError, RuntimeError):
+    """The executor cannot run the sweep: dask missing, scheduler unreachable, workers lost
+    (finished cells are kept; the message says to re-run)."""

@@ -37,7 +37,8 @@ from .scales import fit_scale
 from .table2 import sample_directions
 
 __all__ = ["METHODS", "DEFAULT_METHOD", "DEFAULT_N", "FitResult", "fit_smoothness",
-           "fit_smoothness_samples", "S_GRID"]
+           "fit_smoothness_samples", "S_GRID", "SCORE_NAMES", "holdout_pixels",
+           "bootstrap_indices", "bootstrap_argmin_interval"]
 
 METHODS = ("likelihood", "loo", "holdout")
 DEFAULT_METHOD = "likelihood"
@@ -45,6 +46,8 @@ DEFAULT_N = 3000
 #: the coarse grid the criterion is evaluated on before the continuous refinement
 S_GRID = tuple(np.round(np.arange(1.05, 1.96, 0.075), 4))
 CHI2_1_95 = 3.841458820694124
+SCORE_NAMES = {"likelihood": "negative profiled log-likelihood per sample",
+               "loo": "RMS leave-one-out residual", "holdout": "RMSE at held-out pixels"}
 
 
 @dataclass
@@ -159,14 +162,25 @@ def _bracket_root(f, inside: float, candidates, edge: float) -> float:
     return float(optimize.brentq(f, min(inside, outer), max(inside, outer), xtol=2e-3))
 
 
+def bootstrap_indices(m: int, *, seed: int, n_bootstrap: int) -> np.ndarray:
+    """(n_bootstrap, m) item indices of the bootstrap resamples (seeded)."""
+    return np.random.default_rng(seed).integers(0, m, size=(n_bootstrap, m))
+
+
 def _bootstrap_interval(grid, sq_errors, *, seed: int, n_bootstrap: int) -> tuple[float, float]:
     """95 % percentile interval of the argmin of the resampled mean squared error."""
-    rng = np.random.default_rng(seed)
     E = np.stack(sq_errors)                       # (len(grid), items)
-    m = E.shape[1]
-    idx = rng.integers(0, m, size=(n_bootstrap, m))
+    idx = bootstrap_indices(E.shape[1], seed=seed, n_bootstrap=n_bootstrap)
     # mean over resampled items for every grid point: (n_bootstrap, len(grid))
     means = np.stack([E[:, i].mean(axis=1) for i in idx])
+    return bootstrap_argmin_interval(grid, means)
+
+
+def bootstrap_argmin_interval(grid, means: np.ndarray) -> tuple[float, float]:
+    """95 % percentile interval of the per-resample argmin over ``grid`` of ``means``
+    (n_bootstrap, len(grid)), each argmin refined by a parabola through its neighbours."""
+    grid = np.asarray(grid, dtype=float)
+    n_bootstrap = means.shape[0]
     k = np.argmin(means, axis=1)
     s_star = np.empty(n_bootstrap)
     for b in range(n_bootstrap):                  # parabolic refinement of each argmin
@@ -176,6 +190,17 @@ def _bootstrap_interval(grid, sq_errors, *, seed: int, n_bootstrap: int) -> tupl
         off = 0.5 * (y0 - y2) / den if den > 0 else 0.0
         s_star[b] = grid[j] + np.clip(off, -1, 1) * (grid[1] - grid[0])
     return float(np.percentile(s_star, 2.5)), float(np.percentile(s_star, 97.5))
+
+
+def holdout_pixels(scaled: EnvMap, n_holdout: int, *, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """(directions (m, 3), values (m, C)) of m = min(n_holdout, H W) distinct pixel centres
+    drawn with probability proportional to solid angle (so their RMSE is a sphere average)."""
+    rng = np.random.default_rng(seed)
+    H, W, C = scaled.height, scaled.width, scaled.channels
+    m = min(int(n_holdout), H * W)
+    w = scaled.solid_angles().ravel()
+    idx = rng.choice(H * W, size=m, replace=False, p=w / w.sum())
+    return scaled.directions().reshape(-1, 3)[idx], scaled.data.reshape(-1, C)[idx]
 
 
 def fit_smoothness(envmap: EnvMap, *, method: str = DEFAULT_METHOD, n: int = DEFAULT_N,
@@ -201,15 +226,8 @@ def fit_smoothness(envmap: EnvMap, *, method: str = DEFAULT_METHOD, n: int = DEF
     hd = hv = None
     notes = []
     if method == "holdout":
-        rng = np.random.default_rng(seed)
-        H, W = scaled.height, scaled.width
-        m = min(int(n_holdout), H * W)
-        # pixels drawn with probability ∝ solid angle, so the RMSE is a sphere average
-        w = scaled.solid_angles().ravel()
-        idx = rng.choice(H * W, size=m, replace=False, p=w / w.sum())
-        hd = scaled.directions().reshape(-1, 3)[idx]
-        hv = scaled.data.reshape(-1, C)[idx]
-        notes.append(f"holdout: {m} pixel centres drawn with probability proportional to solid angle")
+        hd, hv = holdout_pixels(scaled, n_holdout, seed=seed)
+        notes.append(f"holdout: {len(hd)} pixel centres drawn with probability proportional to solid angle")
     from .progress import progress_bar
     bar = progress_bar(len(s_grid) + 12, desc=f"fit ({method})", quiet=quiet, unit="s")
     try:
@@ -218,8 +236,7 @@ def fit_smoothness(envmap: EnvMap, *, method: str = DEFAULT_METHOD, n: int = DEF
                                      callback=lambda s: bar.update(1))
     finally:
         bar.close()
-    score_name = {"likelihood": "negative profiled log-likelihood per sample",
-                  "loo": "RMS leave-one-out residual", "holdout": "RMSE at held-out pixels"}[method]
+    score_name = SCORE_NAMES[method]
     lo, hi = res["s_interval"]
     if lo <= 1.0 + 1e-3 or hi >= 2.0 - 1e-3:
         notes.append("the interval reaches the edge of (1, 2): the map may be rougher/smoother "

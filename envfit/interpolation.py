@@ -500,6 +500,48 @@ class SobolevInterpolator:
         self._kinv_diag = None
         self._cells = {}
 
+    @classmethod
+    def from_coefficients(cls, points, coefficients, s) -> "SobolevInterpolator":
+        r"""An evaluation-only interpolant :math:`\sum_j \alpha_j K(\cdot, p_j)` from known
+        coefficients :math:`\alpha` (N,) or (N, C), without building or factorising K.
+
+        Used where the factorisation happened elsewhere (e.g. one factorisation solved for
+        a whole library of maps, :mod:`envfit.library`): evaluation needs only the nodes and
+        :math:`\alpha` (O(N C) memory), so a worker can evaluate without the N x N factor.
+        :meth:`evaluate` gives bit-for-bit what the fitted interpolator gives for the same
+        :math:`\alpha`; :meth:`solve`, :meth:`loo_residuals` and
+        :meth:`log_likelihood_profiled` raise :class:`~envfit.errors.ParameterError`.
+
+        >>> import numpy as np
+        >>> p = np.random.default_rng(2).normal(size=(50, 3))
+        >>> full = SobolevInterpolator(p, p[:, 2], 1.5)
+        >>> light = SobolevInterpolator.from_coefficients(p, full.coefficients[:, 0], 1.5)
+        >>> bool(np.array_equal(light(p[:5]), full(p[:5])))
+        True
+        """
+        self = cls.__new__(cls)
+        self.s = _check_s(s)
+        pts = as_unit_vectors(points)
+        n = pts.shape[0]
+        alpha, self._vector = _as_values(coefficients, n, name="coefficients")
+        self.n = n
+        self.nchannels = alpha.shape[1]
+        self.kernel_constant = kernel_constant(self.s)
+        self._a = self.s - 1.0
+        self._kind = _kernels.power_kind(self._a)
+        self.points = pts
+        self._px = np.ascontiguousarray(pts[:, 0])
+        self._py = np.ascontiguousarray(pts[:, 1])
+        self._pz = np.ascontiguousarray(pts[:, 2])
+        self._values = None
+        self.timings = {}
+        self._factor = None
+        self.log_det = float("nan")
+        self._alpha = alpha
+        self._kinv_diag = None
+        self._cells = {}
+        return self
+
     # -- construction ------------------------------------------------------------
     def _factorize(self) -> np.ndarray:
         n = self.n
@@ -537,6 +579,7 @@ class SobolevInterpolator:
         Only the lower triangle is meaningful (the strict upper one was never written).
         Usable directly with :func:`scipy.linalg.cho_solve`.
         """
+        self._require_factor()
         return self._factor, True
 
     @property
@@ -544,7 +587,13 @@ class SobolevInterpolator:
         r""":math:`\alpha = K^{-1} f`, shape (N, C)."""
         return self._alpha
 
+    def _require_factor(self) -> None:
+        if self._factor is None:
+            raise ParameterError("this interpolant was built from coefficients alone "
+                                 "(from_coefficients): it has no factorisation to solve with")
+
     def _solve_matrix(self, vals: np.ndarray) -> np.ndarray:
+        self._require_factor()
         x, info = lapack.dpotrs(self._factor, vals, lower=1)
         if info != 0:  # pragma: no cover
             raise RuntimeError(f"dpotrs failed (info={info})")
@@ -562,12 +611,14 @@ class SobolevInterpolator:
 
     def _coefficients_for(self, values):
         if values is None:
+            self._require_factor()
             return self._values, self._alpha, self._vector
         vals, vector = _as_values(values, self.n)
         return vals, self._solve_matrix(vals), vector
 
     def inverse_diagonal(self) -> np.ndarray:
         r""":math:`\mathrm{diag}(K^{-1})` (N,), computed once (N^3/3 flops, see module doc)."""
+        self._require_factor()
         if self._kinv_diag is None:
             block = int(min(512, max(64, _BLOCK_BYTES // (8 * max(self.n, 1)))))
             self._kinv_diag = _inverse_diagonal_from_cholesky(self._factor, block=block)

@@ -31,7 +31,7 @@ from .scales import fit_scale
 from .store import ResultStore, array_fingerprint
 
 __all__ = ["PAPER_S", "PAPER_N", "QUICK_N", "Table2Cell", "Table2Result", "run_table2",
-           "sample_directions", "format_table2", "PAPER_TABLE2_PISA"]
+           "sample_directions", "format_table2", "check_grid", "PAPER_TABLE2_PISA"]
 
 #: the paper's grid (Table 2)
 PAPER_S = (1.1, 1.5, 1.9)
@@ -112,6 +112,20 @@ def sample_directions(n: int, *, pointset: str = "sf", seed: int = 0, up: str = 
     return local @ local_to_world(up).T
 
 
+def check_grid(s_values: Sequence[float], n_values: Sequence[int]) -> tuple[list[float], list[int]]:
+    """The (s, N) grid as floats and sorted ints; ParameterError if empty or out of range."""
+    s_values = [float(s) for s in s_values]
+    n_values = sorted(int(n) for n in n_values)
+    if not s_values or not n_values:
+        raise ParameterError("table2 needs at least one s and one N")
+    for s in s_values:
+        if not 1.0 < s < 2.0:
+            raise ParameterError(f"s must satisfy 1 < s < 2 (Eq. 14), got {s:g}")
+    if n_values[0] < 2:
+        raise ParameterError(f"N must be at least 2, got {n_values[0]}")
+    return s_values, n_values
+
+
 def _cell_key(s: float, n: int) -> str:
     return f"s{s:.4f}_n{n}"
 
@@ -131,15 +145,7 @@ def run_table2(envmap: EnvMap, s_values: Sequence[float] = PAPER_S,
     out : folder for the resumable cells, the reconstructions (EXR + PNG) of the largest N.
     on_cell : called as ``on_cell(cell, resumed)`` after each cell (for progress output).
     """
-    s_values = [float(s) for s in s_values]
-    n_values = sorted(int(n) for n in n_values)
-    if not s_values or not n_values:
-        raise ParameterError("table2 needs at least one s and one N")
-    for s in s_values:
-        if not 1.0 < s < 2.0:
-            raise ParameterError(f"s must satisfy 1 < s < 2 (Eq. 14), got {s:g}")
-    if n_values[0] < 2:
-        raise ParameterError(f"N must be at least 2, got {n_values[0]}")
+    s_values, n_values = check_grid(s_values, n_values)
     sc = fit_scale(scale, envmap)
     target = np.asarray(sc.apply(envmap.data), dtype=np.float64)          # H×W×C on the scale
     scaled = envmap.with_data(target)

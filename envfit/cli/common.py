@@ -101,3 +101,51 @@ def load_map_from_args(args: argparse.Namespace, path=None):
         return env
     return load_envmap(path, up=args.up, allow_negative=args.allow_negative,
                        fix_nonfinite=args.fix_nonfinite, max_height=args.max_height)
+
+
+def add_executor_arguments(p: argparse.ArgumentParser) -> None:
+    """``--executor``, ``--scheduler``, ``--workers``: where a library sweep runs."""
+    g = p.add_argument_group("execution (several maps: one factorisation per s serves them all)")
+    g.add_argument("--executor", choices=("local", "dask"), default=None,
+                   help="local: this machine's cores (a process pool, BLAS threads pinned per "
+                        "worker; the default); dask: a dask.distributed cluster "
+                        '(pip install "envfit[dask]")')
+    g.add_argument("--scheduler", metavar="tcp://HOST:PORT", default=None,
+                   help="address of a running dask scheduler (default with --executor dask: "
+                        "a LocalCluster on this machine)")
+    g.add_argument("--workers", type=int, default=None, metavar="K",
+                   help="worker processes for local/LocalCluster (default: as many as useful, "
+                        "at most the cores, within the memory budget)")
+
+
+def library_mode(args: argparse.Namespace) -> bool:
+    """Several maps, a folder or a pattern, or executor options: the library engine.
+
+    One existing file without executor options keeps the single-map behaviour and output.
+    """
+    maps = args.map or []
+    if args.executor is not None or args.scheduler is not None or args.workers is not None:
+        return True
+    return len(maps) > 1 or (len(maps) == 1 and not Path(maps[0]).is_file()
+                             and (Path(maps[0]).is_dir() or any(c in str(maps[0]) for c in "*?[")))
+
+
+def library_maps(args: argparse.Namespace) -> list:
+    """What the library engine runs on: the MAP arguments, or the built-in map if none."""
+    if args.map:
+        return list(args.map)
+    args.map = None
+    return [load_map_from_args(args)]
+
+
+def load_options_from_args(args: argparse.Namespace):
+    """The map-loading options of ``args`` as :class:`envfit.mapsource.LoadOptions`."""
+    from ..mapsource import LoadOptions
+    return LoadOptions(up=args.up, max_height=args.max_height, fix_nonfinite=args.fix_nonfinite,
+                       allow_negative=args.allow_negative)
+
+
+def executor_kwargs(args: argparse.Namespace) -> dict:
+    """``executor``, ``workers``, ``scheduler`` for the library functions."""
+    kind = args.executor or ("dask" if args.scheduler else "local")
+    return {"executor": kind, "workers": args.workers, "scheduler": args.scheduler}

@@ -1,10 +1,11 @@
-"""``envfit table2``: the paper's Table 2 (Sec. 9.1) on a map."""
+"""``envfit table2``: the paper's Table 2 (Sec. 9.1) on a map, or on a library of maps."""
 from __future__ import annotations
 
 import argparse
 
-from .common import (add_common_arguments, add_map_arguments, emit_json, float_list, int_list,
-                     load_map_from_args, out_dir, say)
+from .common import (add_common_arguments, add_executor_arguments, add_map_arguments, emit_json,
+                     executor_kwargs, float_list, int_list, library_maps, library_mode,
+                     load_map_from_args, load_options_from_args, out_dir, say)
 
 
 def register(sub) -> None:
@@ -12,8 +13,11 @@ def register(sub) -> None:
         "table2", help="reconstruct a map from N samples for a grid of s (the paper's Table 2)",
         description="For each (s, N): sample the map at N directions, interpolate with the "
                     "Sobolev kernel K_gd^(s) (Eq. 14), evaluate at every pixel and report the "
-                    "RMSE on the chosen scale. Resumable: finished cells in --out are skipped.")
-    add_map_arguments(p)
+                    "RMSE on the chosen scale. Resumable: finished cells in --out are skipped. "
+                    "Several maps (files, folders, glob patterns): each (s, N) matrix is "
+                    "factorised once and solved for all maps; per-map results and a summary "
+                    "across maps go to --out.")
+    add_map_arguments(p, many=True)
     p.add_argument("--s", type=float_list, default=None, metavar="S1,S2,…",
                    help="smoothness values in (1, 2) (default: 1.1,1.5,1.9)")
     p.add_argument("--n", type=int_list, default=None, metavar="N1,N2,…",
@@ -26,17 +30,29 @@ def register(sub) -> None:
     p.add_argument("--quick", action="store_true",
                    help="a small grid on a map of at most 128 rows (seconds)")
     p.add_argument("--paper", action="store_true", help="print the paper's Table 2 beside")
+    p.add_argument("--reconstructions", action="store_true",
+                   help="several maps: also write each map's reconstructions at the largest N "
+                        "(one map: always written)")
+    add_executor_arguments(p)
     add_common_arguments(p)
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..table2 import PAPER_N, PAPER_S, QUICK_N, format_table2, run_table2
+    from ..table2 import PAPER_N, PAPER_S, QUICK_N
     if args.quick and args.max_height is None:
         args.max_height = 128
-    env = load_map_from_args(args)
     s_values = args.s or list(PAPER_S)
     n_values = args.n or list(QUICK_N if args.quick else PAPER_N)
+    if library_mode(args):
+        return _run_library(args, s_values, n_values)
+    args.map = args.map[0] if args.map else None
+    return _run_single(args, s_values, n_values)
+
+
+def _run_single(args, s_values, n_values) -> int:
+    from ..table2 import format_table2, run_table2
+    env = load_map_from_args(args)
     out = out_dir(args)
     for note in getattr(env, "notes", []):
         say(args, f"note: {note}")
@@ -62,4 +78,46 @@ def run(args: argparse.Namespace) -> int:
         res.files["table2.csv"] = str(csv)
         say(args, f"wrote {png} and {csv}")
     emit_json(args, res.to_dict())
+    return 0
+
+
+def format_library_table2(lib) -> str:
+    """One line per map: best s at the largest N and the RMSE there for every s."""
+    n_max = lib.n_values[-1]
+    head = f"  {'map':<28} {'H':>5} {'best s':>7} | " + " ".join(f"{'s=' + format(s, 'g'):>9}" for s in lib.s_values)
+    lines = [f"RMSE per pixel at N = {n_max} ({lib.scale} scale), {len(lib.maps)} maps", head,
+             "  " + "-" * (len(head) - 2)]
+    for r in lib.maps:
+        col = r.rmse_table()[:, -1]
+        lines.append(f"  {r.map[:28]:<28} {r.height:>5} {r.s_best:>7g} | "
+                     + " ".join(f"{v:9.4f}" for v in col))
+    counts = {s: int(sum(abs(r.s_best - s) < 1e-9 for r in lib.maps)) for s in lib.s_values}
+    lines.append("  best s across maps: " + ", ".join(f"s={s:g}: {c}" for s, c in counts.items()))
+    return "\n".join(lines)
+
+
+def _run_library(args, s_values, n_values) -> int:
+    from ..library import run_table2_library
+    out = out_dir(args)
+    maps = library_maps(args)
+    if args.paper:
+        say(args, "note: --paper prints beside a single map's table only")
+
+    def on_cell(label, cell, resumed):
+        if not args.quiet and resumed:
+            print(f"  {label}: s={cell.s:g} N={cell.n}: resumed from {out}")
+
+    lib = run_table2_library(maps, s_values, n_values, pointset=args.pointset, scale=args.scale,
+                             seed=args.seed, out=out, load_options=load_options_from_args(args),
+                             save_reconstructions=args.reconstructions, quiet=args.quiet,
+                             on_cell=on_cell, **executor_kwargs(args))
+    say(args, *[f"note: {n}" for n in lib.notes],
+        f"{len(lib.maps)} maps, {len(s_values)} s x {len(n_values)} N; {lib.cells_computed} cells "
+        f"computed with {lib.factorizations} factorisation(s), {lib.cells_resumed} resumed; "
+        f"{lib.seconds:.1f} s" + (f" on {lib.executor}" if lib.executor else ""),
+        "", format_library_table2(lib))
+    if out is not None:
+        say(args, f"wrote per-map results to {out}/<map>/ and the summary "
+                  + ", ".join(sorted(k for k in lib.files)))
+    emit_json(args, lib.to_dict())
     return 0
