@@ -98,13 +98,21 @@ from .advisor_cache import AdviseCache
 from .envmap import EnvMap
 from .errors import ParameterError
 from .estimators import hsh_truncation_curve, rmse_over_axes, sh_truncation_curve
-from .fit import fit_smoothness
 from .progress import progress_bar
 from .scales import SCALES, fit_scale
 from .shading import bilinear_sh_coefficients, shading_integral, weight_function
 from .store import array_fingerprint
 from .validate import (bandlimited_worst_case_errors, combine_sigma, parse_s, profiled_sigma,
                        quadrature_estimates_multi, random_axes, rule_worst_case_error)
+
+
+
+def fit_smoothness(*args, **kwargs):
+    """:func:`envfit.fit.fit_smoothness`, imported on first use: numba and the interpolator
+    load only when a fit is not cached (a cached ``envfit advise`` stays under 2 s)."""
+    from .fit import fit_smoothness as _fit_smoothness
+    return _fit_smoothness(*args, **kwargs)
+
 
 __all__ = ["Advice", "AdviceRow", "advise", "smallest_n", "predicted_rmse", "mean_shading_value",
            "DEFAULT_POINTSETS", "ALL_POINTSETS", "WEIGHTINGS", "BASES", "BRDFS",

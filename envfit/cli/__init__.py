@@ -20,7 +20,9 @@ from ..errors import EnvfitError
 COMMANDS = ("synth", "info", "fit", "table2", "theory", "validate", "advise")
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(only: str | None = None) -> argparse.ArgumentParser:
+    """The argument parser; ``only`` registers just that subcommand (``main`` does so when the
+    command is known, so ``envfit advise …`` does not import the modules of the others)."""
     parser = argparse.ArgumentParser(
         prog="envfit",
         description="Sobolev smoothness of environment maps, and predicted vs measured "
@@ -28,6 +30,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"envfit {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in COMMANDS:
+        if only is not None and name != only:
+            continue
         modname = f"{__name__}.{name}"
         if importlib.util.find_spec(modname) is None:
             continue
@@ -38,7 +42,9 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     from theory.errors import TheoryParameterError
 
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    first = next((a for a in argv if not a.startswith("-")), None)
+    parser = build_parser(first if first in COMMANDS else None)
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()
