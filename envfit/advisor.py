@@ -95,6 +95,7 @@ from theory.truncation import truncation_error_curve
 from theory.weights import equal_weights, optimal_weights
 
 from .advisor_cache import AdviseCache
+from .checks import check_int, check_names
 from .envmap import EnvMap
 from .errors import ParameterError
 from .estimators import hsh_truncation_curve, rmse_over_axes, sh_truncation_curve
@@ -376,29 +377,6 @@ def _q_predict(adv: Advice, row: AdviceRow, n: int) -> float:
 
 # ----------------------------------------------------------------------------- checks of input
 
-def _names(values, allowed, what) -> list[str]:
-    if isinstance(values, str):
-        values = [values]
-    out = []
-    for v in values:
-        name = str(v).strip().lower()
-        if name not in allowed:
-            raise ParameterError(f"unknown {what} {v!r}; choose from {', '.join(allowed)}")
-        if name not in out:
-            out.append(name)
-    return out
-
-
-def _int(value, what: str, lo: int) -> int:
-    try:
-        k = int(value)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{what} must be an integer >= {lo}, got {value!r}") from None
-    if k != value or k < lo:
-        raise ParameterError(f"{what} must be an integer >= {lo}, got {value!r}")
-    return k
-
-
 def _positive(value, what: str) -> float:
     try:
         v = float(value)
@@ -449,7 +427,7 @@ def advise(envmap: EnvMap, brdf: str = "diffuse", target_rmse: float | None = No
     # ---- input
     if not isinstance(envmap, EnvMap):
         raise ParameterError(f"envmap must be an EnvMap, got {type(envmap).__name__}")
-    brdf_name = _names([brdf], BRDFS, "BRDF")[0]
+    brdf_name = check_names([brdf], BRDFS, "BRDF")[0]
     shin = _positive(shininess, "shininess") if brdf_name == "glossy" else None
     wf = weight_function(brdf_name, shin if shin is not None else 30.0)
     if (target_rmse is None) == (target_relative is None):
@@ -465,23 +443,23 @@ def advise(envmap: EnvMap, brdf: str = "diffuse", target_rmse: float | None = No
         target_rmse = _positive(target_rmse, "the target RMSE (--target-rmse)")
     if scale not in SCALES:
         raise ParameterError(f"scale must be one of {', '.join(SCALES)}, got {scale!r}")
-    pointsets = _names(pointsets, ALL_POINTSETS, "point set")
-    weights = _names(weights, WEIGHTINGS, "weighting")
-    bases = _names(bases, BASES, "basis")
+    pointsets = check_names(pointsets, ALL_POINTSETS, "point set")
+    weights = check_names(weights, WEIGHTINGS, "weighting")
+    bases = check_names(bases, BASES, "basis")
     if not pointsets and not bases:
         raise ParameterError("nothing to advise on: no point set and no SH/HSH basis")
     if pointsets and not weights:
         raise ParameterError("give at least one weighting (equal, osw)")
     s_in = parse_s(s)
-    fit_n = _int(fit_n, "fit_n", 10)
-    seed = _int(seed, "seed", 0)
-    nmin = _int(nmin, "nmin", 1)
-    nmax = _int(nmax, "nmax", nmin)
-    osw_nmax = _int(osw_nmax, "osw_nmax", 1)
-    seeds = _int(seeds, "seeds", 1)
-    axes = _int(axes, "axes", 2)
-    check_hsh_height = _int(check_hsh_height, "check_hsh_height", 4)
-    check_hsh_axes = _int(check_hsh_axes, "check_hsh_axes", 2)
+    fit_n = check_int(fit_n, "fit_n", 10)
+    seed = check_int(seed, "seed", 0)
+    nmin = check_int(nmin, "nmin", 1)
+    nmax = check_int(nmax, "nmax", nmin)
+    osw_nmax = check_int(osw_nmax, "osw_nmax", 1)
+    seeds = check_int(seeds, "seeds", 1)
+    axes = check_int(axes, "axes", 2)
+    check_hsh_height = check_int(check_hsh_height, "check_hsh_height", 4)
+    check_hsh_axes = check_int(check_hsh_axes, "check_hsh_axes", 2)
     if envmap.height < 4:
         raise ParameterError(f"the map needs at least 4 rows, got {envmap.height}")
     store = AdviseCache(cache_dir, enabled=cache)

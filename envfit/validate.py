@@ -134,6 +134,7 @@ from theory.sphere_points import sphere_points
 from theory.truncation import equivalent_qmc_points, truncation_error_curve
 from theory.weights import equal_weights, kernel_matrix, optimal_weights
 
+from .checks import check_int, check_ints, check_names
 from .envmap import EnvMap
 from .errors import ParameterError
 from .estimators import hsh_truncation_curve, rmse_over_axes, sh_truncation_curve, twisted_frames
@@ -232,24 +233,24 @@ class ValidateConfig:
 
     def __post_init__(self) -> None:
         self.s = parse_s(self.s)
-        self.brdfs = tuple(_check_names(self.brdfs, BRDFS, "BRDF"))
-        self.pointsets = tuple(_check_names(self.pointsets, tuple(POINTSETS), "point set"))
-        self.weights = tuple(_check_names(self.weights, WEIGHTINGS, "weighting"))
+        self.brdfs = tuple(check_names(self.brdfs, BRDFS, "BRDF"))
+        self.pointsets = tuple(check_names(self.pointsets, tuple(POINTSETS), "point set"))
+        self.weights = tuple(check_names(self.weights, WEIGHTINGS, "weighting"))
         try:
             self.shininess = float(self.shininess)
         except (TypeError, ValueError):
             raise ParameterError(f"shininess must be a number, got {self.shininess!r}") from None
         if not (math.isfinite(self.shininess) and self.shininess > 0):
             raise ParameterError(f"shininess must be > 0, got {self.shininess!r}")
-        self.n_values = tuple(sorted(set(_positive_ints(self.n_values, "N", 2))))
-        self.axes = _positive_ints([self.axes], "the number of axes", 2)[0]
-        self.sh_L = tuple(sorted(set(_positive_ints(self.sh_L, "L", 0))))
-        self.hsh_L = tuple(sorted(set(_positive_ints(self.hsh_L, "L", 0))))
-        self.diffuse_hsh_L = tuple(sorted(set(_positive_ints(self.diffuse_hsh_L, "L", 0))))
-        self.hsh_axes = _positive_ints([self.hsh_axes], "hsh_axes", 2)[0]
-        self.hsh_max_height = _positive_ints([self.hsh_max_height], "hsh_max_height", 2)[0]
-        self.equivalent_nmax = _positive_ints([self.equivalent_nmax], "equivalent_nmax", 2)[0]
-        self.fit_n = _positive_ints([self.fit_n], "fit_n", 10)[0]
+        self.n_values = tuple(sorted(set(check_ints(self.n_values, "N", 2))))
+        self.axes = check_int(self.axes, "the number of axes", 2)
+        self.sh_L = tuple(sorted(set(check_ints(self.sh_L, "L", 0))))
+        self.hsh_L = tuple(sorted(set(check_ints(self.hsh_L, "L", 0))))
+        self.diffuse_hsh_L = tuple(sorted(set(check_ints(self.diffuse_hsh_L, "L", 0))))
+        self.hsh_axes = check_int(self.hsh_axes, "hsh_axes", 2)
+        self.hsh_max_height = check_int(self.hsh_max_height, "hsh_max_height", 2)
+        self.equivalent_nmax = check_int(self.equivalent_nmax, "equivalent_nmax", 2)
+        self.fit_n = check_int(self.fit_n, "fit_n", 10)
         self.workers = max(1, int(self.workers))
         cands = []
         for v in self.s_candidates:
@@ -304,30 +305,6 @@ def parse_s(value) -> float | str:
         raise ParameterError(f"s (--s) must be 'auto' or a number in (1, 2) (the Sobolev range "
                              f"of the kernel, Eq. 14), got {value!r}")
     return v
-
-
-def _check_names(values, allowed, what) -> list[str]:
-    out = []
-    for v in values:
-        name = str(v).strip().lower()
-        if name not in allowed:
-            raise ParameterError(f"unknown {what} {v!r}; choose from {', '.join(allowed)}")
-        if name not in out:
-            out.append(name)
-    return out
-
-
-def _positive_ints(values, what, lo) -> list[int]:
-    out = []
-    for v in values:
-        try:
-            k = int(v)
-        except (TypeError, ValueError):
-            raise ParameterError(f"{what} must be integers >= {lo}, got {v!r}") from None
-        if k != v or k < lo:
-            raise ParameterError(f"{what} must be integers >= {lo}, got {v!r}")
-        out.append(k)
-    return out
 
 
 # ----------------------------------------------------------------------------- building blocks
