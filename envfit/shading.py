@@ -85,6 +85,7 @@ from scipy import special
 
 from theory.brdf import Diffuse, Glossy, WeightFunction
 
+from .checks import check_int
 from .envmap import EnvMap
 from .errors import ParameterError
 from .latlong import local_to_world
@@ -133,16 +134,6 @@ def weight_function(brdf="diffuse", shininess: float = 30.0) -> WeightFunction:
                 raise ParameterError(str(exc)) from None
     raise ParameterError(f"brdf must be 'diffuse', 'glossy' or a theory.brdf.WeightFunction, "
                          f"got {brdf!r}")
-
-
-def _check_int(value, name: str, lo: int = 0) -> int:
-    try:
-        v = int(value)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{name} must be an integer >= {lo}, got {value!r}") from None
-    if v != value or v < lo:
-        raise ParameterError(f"{name} must be an integer >= {lo}, got {value!r}")
-    return v
 
 
 def axes_to_local(axes, up: str = "y") -> np.ndarray:
@@ -234,7 +225,7 @@ def funk_hecke_factors(weight: WeightFunction, lmax: int) -> np.ndarray:
     >>> bool(np.allclose(lam, [1.0, 2.0 / 3.0, 0.25]))            # Ramamoorthi-Hanrahan A_l/π
     True
     """
-    lmax = _check_int(lmax, "lmax")
+    lmax = check_int(lmax, "lmax", 0)
     l = np.arange(lmax + 1)
     return np.asarray(weight.sh_coefficients(lmax), dtype=np.float64) * np.sqrt(
         4.0 * np.pi / (2 * l + 1))
@@ -250,7 +241,7 @@ def hsh_weight_coefficients(weight: WeightFunction, lmax: int) -> np.ndarray:
     ...                  [1 / np.sqrt(2 * np.pi), 1 / np.sqrt(6 * np.pi), 0.0], atol=1e-15))
     True
     """
-    lmax = _check_int(lmax, "lmax")
+    lmax = check_int(lmax, "lmax", 0)
     return np.asarray(weight.hsh_coefficients(lmax), dtype=np.float64)
 
 
@@ -270,7 +261,7 @@ def default_sh_lmax(weight: WeightFunction, height: int) -> int:
     >>> default_sh_lmax(Diffuse(), 32), default_sh_lmax(Glossy(30.0), 32)
     (63, 41)
     """
-    h = _check_int(height, "height", 1)
+    h = check_int(height, "height", 1)
     D = polynomial_degree(weight)
     top = 4 * (D + 16)
     lam = np.abs(funk_hecke_factors(weight, top))
@@ -334,7 +325,7 @@ def bilinear_sh_coefficients(envmap: EnvMap, lmax: int, *, nthreads: int = 0) ->
     >>> bool(abs(alm[0, 0] - np.sqrt(4 * np.pi)) < 1e-12 and np.abs(alm[0, 1:]).max() < 1e-12)
     True
     """
-    lmax = _check_int(lmax, "lmax")
+    lmax = check_int(lmax, "lmax", 0)
     data = np.asarray(envmap.data, dtype=np.float64)
     h, w, c = data.shape
     q = gauss_legendre_order((lmax + 2) * (np.pi / h) / 2.0)
@@ -378,7 +369,7 @@ def synthesize_convolution(alm: np.ndarray, lmax: int, factors, axes_local, *,
     ``factors``: :math:`\lambda_l`, l = 0…lmax (zero them beyond L for a truncation).
     ``ducc0.sht.synthesis_general`` (NUFFT, accuracy :data:`DUCC_EPSILON`).
     """
-    lmax = _check_int(lmax, "lmax")
+    lmax = check_int(lmax, "lmax", 0)
     a = np.asarray(alm)
     have = int(round((np.sqrt(8 * a.shape[-1] + 1) - 3) / 2))
     if (have + 1) * (have + 2) // 2 != a.shape[-1] or have < lmax:
@@ -489,8 +480,8 @@ def hemisphere_integrals(envmap: EnvMap, axes, kernel: Callable[[np.ndarray], It
     :math:`\max_{z<2h}|g|\cdot 4\pi h`). Work per axis: (H+1)·W·q² kernel evaluations plus
     O(H q²) on the cut patches; blocked over axes (:data:`BLOCK_ELEMENTS`).
     """
-    count = _check_int(count, "count", 1)
-    degree = _check_int(degree, "degree")
+    count = check_int(count, "count", 1)
+    degree = check_int(degree, "degree", 0)
     data = np.asarray(envmap.data, dtype=np.float64)
     h, w, c = data.shape
     A = (np.asarray(axes, dtype=np.float64) if axes_are_local
@@ -652,7 +643,7 @@ def shading_integral(envmap: EnvMap, axes, brdf="diffuse", shininess: float = 30
     A = axes_to_local(axes, envmap.up)
     h = envmap.height
     if method == "sh":
-        L = default_sh_lmax(weight, h) if lmax is None else _check_int(lmax, "lmax")
+        L = default_sh_lmax(weight, h) if lmax is None else check_int(lmax, "lmax", 0)
         lam = funk_hecke_factors(weight, L)
         alm = bilinear_sh_coefficients(envmap, L, nthreads=nthreads)
         return synthesize_convolution(alm, L, lam, A, nthreads=nthreads)
