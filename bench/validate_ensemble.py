@@ -9,6 +9,7 @@ fitted model, then the mean and standard deviation of the ratio over the maps.
 
     python bench/validate_ensemble.py                    # s fitted per map (8 maps)
     python bench/validate_ensemble.py --s 1.5 --maps 4   # the true s0 instead of the fit
+    python bench/validate_ensemble.py --brdfs diffuse,glossy
 """
 from __future__ import annotations
 
@@ -34,26 +35,29 @@ def main(argv=None) -> int:
     ap.add_argument("--channels", type=int, default=12)
     ap.add_argument("--axes", type=int, default=2000)
     ap.add_argument("--seed", type=int, default=100, help="first map's seed (maps use seed+1 …)")
+    ap.add_argument("--brdfs", default="diffuse", help="comma-separated: diffuse,glossy")
     args = ap.parse_args(argv)
     ns = (64, 256, 1024, 4096)
-    ratios: dict[str, list] = {"random": [], "sf": []}
+    brdfs = tuple(b.strip() for b in args.brdfs.split(",") if b.strip())
+    ratios: dict[tuple, list] = {(b, p): [] for b in brdfs for p in ("random", "sf")}
     for k in range(1, args.maps + 1):
         env = EnvMap(gaussian_process_map(args.s0, args.height, seed=args.seed + k,
                                           channels=args.channels), name=f"gp{k}")
-        cfg = ValidateConfig(s=parse_s(args.s), brdfs=("diffuse",), pointsets=("random", "sf"),
+        cfg = ValidateConfig(s=parse_s(args.s), brdfs=brdfs, pointsets=("random", "sf"),
                              weights=("equal",), n_values=ns, axes=args.axes, scale="linear",
                              truncation=False)
         r = run_validation(env, cfg)
         rho1 = r["map_stats"]["power_ratio_low_degrees"]["1"]
         for e in r["results"]:
             q = np.array(e["predicted_rmse_refined"]) / np.array(e["measured_rmse"])
-            ratios[e["pointset"]].append(q)
-            print(f"map {k} s={r['s']:.3f} {e['pointset']:6s} (b')/measured {np.round(q, 3)} "
+            ratios[(e["brdf"], e["pointset"])].append(q)
+            print(f"map {k} s={r['s']:.3f} s_refined={r['s_refined']:.3f} {e['brdf']:7s} "
+                  f"{e['pointset']:6s} (b')/measured {np.round(q, 3)} "
                   f"expected sd {np.round(e['model_scatter'], 3)} rho_1 {rho1:.2f}", flush=True)
-    for ps, qs in ratios.items():
+    for (b, ps), qs in ratios.items():
         q = np.array(qs)
         sd = q.std(0, ddof=1).round(3) if len(q) > 1 else "– (one map)"
-        print(f"{ps:6s} N = {ns}: mean ratio {q.mean(0).round(3)}, sd {sd}, "
+        print(f"{b:7s} {ps:6s} N = {ns}: mean ratio {q.mean(0).round(3)}, sd {sd}, "
               f"max |ratio - 1| {np.abs(q - 1).max():.3f}")
     return 0
 

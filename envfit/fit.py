@@ -16,6 +16,11 @@ uncertainty, by one of three explicit criteria (beyond the paper's Table 2 grid 
     The paper's criterion: RMSE of the reconstruction at held-out pixel centres. Interval:
     bootstrap over the held-out pixels.
 
+The likelihood can use the kernel band-limited at the map's Nyquist degree H − 1 with the
+samples at pixel centres (``kernel="bandlimited"``, ``envfit fit --kernel bandlimited``;
+:mod:`envfit.bandlimited`): the exact model of a band-limited GP map, without the upward
+bias of ŝ that the full kernel and bilinear lookups give on a finite-resolution map.
+
 :math:`\hat\sigma` (per channel, on the named scale) is reported for every method at its
 estimate: under the Gaussian-process reading, the expected squared error of a quadrature
 rule is :math:`\sigma^2\,\mathrm{wce}^2`, which is how ``envfit validate`` and ``envfit
@@ -30,17 +35,21 @@ from typing import Callable
 import numpy as np
 from scipy import optimize
 
+from .bandlimited import bandlimited_log_likelihood, map_band_limit, pixel_centre_samples
 from .envmap import EnvMap
 from .errors import ParameterError
 from .interpolation import SobolevInterpolator
 from .scales import fit_scale
 from .table2 import sample_directions
 
-__all__ = ["METHODS", "DEFAULT_METHOD", "DEFAULT_N", "FitResult", "fit_smoothness",
+__all__ = ["METHODS", "KERNELS", "DEFAULT_METHOD", "DEFAULT_N", "FitResult", "fit_smoothness",
            "fit_smoothness_samples", "S_GRID", "SCORE_NAMES", "holdout_pixels",
            "bootstrap_indices", "bootstrap_argmin_interval"]
 
 METHODS = ("likelihood", "loo", "holdout")
+#: ``full``: K_gd (Eq. 14), samples by bilinear lookup; ``bandlimited``: K_gd truncated at the
+#: map's Nyquist degree H − 1, samples at pixel centres (:mod:`envfit.bandlimited`)
+KERNELS = ("full", "bandlimited")
 DEFAULT_METHOD = "likelihood"
 DEFAULT_N = 3000
 #: the coarse grid the criterion is evaluated on before the continuous refinement
@@ -63,6 +72,8 @@ class FitResult:
     score_name: str = ""
     seconds: float = 0.0
     notes: list[str] = field(default_factory=list)
+    kernel: str = "full"
+    band_lmax: int | None = None
 
     def to_dict(self) -> dict:
         d = asdict(self)
@@ -70,8 +81,12 @@ class FitResult:
         return d
 
 
-def _criterion(method: str, points, values, s, holdout_dirs=None, holdout_values=None):
+def _criterion(method: str, points, values, s, holdout_dirs=None, holdout_values=None,
+               band_lmax: int | None = None):
     """(score to minimise, per-item squared errors for the bootstrap or None, sigma per channel)."""
+    if band_lmax is not None:                 # likelihood only (checked by the caller)
+        ll, sigma = bandlimited_log_likelihood(points, values, s, band_lmax)
+        return -float(np.sum(ll)) / len(points), None, np.atleast_1d(sigma)
     interp = SobolevInterpolator(points, values, s)
     if method == "likelihood":
         ll, sigma = interp.log_likelihood_profiled()
@@ -87,16 +102,19 @@ def _criterion(method: str, points, values, s, holdout_dirs=None, holdout_values
 
 def fit_smoothness_samples(points: np.ndarray, values: np.ndarray, *, method: str = DEFAULT_METHOD,
                            holdout_dirs=None, holdout_values=None, s_grid=S_GRID, seed: int = 0,
-                           n_bootstrap: int = 400,
+                           n_bootstrap: int = 400, band_lmax: int | None = None,
                            callback: Callable[[float], None] | None = None) -> dict:
     """Fit s from scattered samples ``values`` (N or N×C) at unit vectors ``points`` (N×3).
 
     Returns a dict with ``s``, ``s_interval``, ``sigma`` (per channel), ``curve``.
     Used by :func:`fit_smoothness`; also usable directly on sampled data (e.g. exact
-    Gaussian-process samples in the tests).
+    Gaussian-process samples in the tests). ``band_lmax`` (likelihood only): use the kernel
+    band-limited at that degree (:mod:`envfit.bandlimited`) instead of K_gd.
     """
     if method not in METHODS:
         raise ParameterError(f"unknown fit method {method!r}; choose one of {', '.join(METHODS)}")
+    if band_lmax is not None and method != "likelihood":
+        raise ParameterError("the band-limited kernel is available for the likelihood method only")
     values = np.asarray(values, dtype=np.float64)
     if values.ndim == 1:
         values = values[:, None]
@@ -112,7 +130,8 @@ def fit_smoothness_samples(points: np.ndarray, values: np.ndarray, *, method: st
     def evaluate(s: float):
         s = float(np.clip(s, 1.0 + 1e-6, 2.0 - 1e-6))
         if s not in cache:
-            cache[s] = _criterion(method, points, values, s, holdout_dirs, holdout_values)
+            cache[s] = _criterion(method, points, values, s, holdout_dirs, holdout_values,
+                                  band_lmax)
             if callback:
                 callback(s)
         return cache[s]
@@ -205,16 +224,26 @@ def holdout_pixels(scaled: EnvMap, n_holdout: int, *, seed: int) -> tuple[np.nda
 
 def fit_smoothness(envmap: EnvMap, *, method: str = DEFAULT_METHOD, n: int = DEFAULT_N,
                    scale: str = "display", pointset: str = "sf", seed: int = 0,
-                   n_holdout: int = 20000, s_grid=S_GRID, quiet: bool = True) -> FitResult:
+                   n_holdout: int = 20000, s_grid=S_GRID, kernel: str = "full",
+                   quiet: bool = True) -> FitResult:
     """Fit the Sobolev smoothness s of ``envmap`` (see the module docstring).
 
     The map is put on ``scale`` first (as in Table 2), then sampled at ``n`` directions
     (``pointset``; spherical Fibonacci by default). ``holdout`` compares the reconstruction
     with ``n_holdout`` random pixel centres (seeded).
+
+    ``kernel="bandlimited"`` (likelihood only): the kernel truncated at the map's Nyquist
+    degree H − 1 and the samples moved to their nearest pixel centres (repeats dropped), the
+    exact model of a band-limited Gaussian-process map (:mod:`envfit.bandlimited`; it
+    removes the upward bias of ŝ that the full kernel and bilinear lookups give).
     """
     t0 = time.perf_counter()
     if method not in METHODS:
         raise ParameterError(f"unknown fit method {method!r}; choose one of {', '.join(METHODS)}")
+    if kernel not in KERNELS:
+        raise ParameterError(f"unknown kernel {kernel!r}; choose one of {', '.join(KERNELS)}")
+    if kernel == "bandlimited" and method != "likelihood":
+        raise ParameterError("the band-limited kernel is available for the likelihood method only")
     n = int(n)
     if n < 10:
         raise ParameterError(f"fit needs at least 10 samples, got n = {n}")
@@ -222,9 +251,19 @@ def fit_smoothness(envmap: EnvMap, *, method: str = DEFAULT_METHOD, n: int = DEF
     scaled = envmap.with_data(np.asarray(sc.apply(envmap.data), dtype=np.float64))
     C = scaled.channels
     points = sample_directions(n, pointset=pointset, seed=seed, up=envmap.up)
-    values = scaled.lookup(points).reshape(n, C)
-    hd = hv = None
     notes = []
+    band_lmax = None
+    if kernel == "bandlimited":
+        band_lmax = map_band_limit(scaled)
+        if band_lmax < 1:
+            raise ParameterError("the band-limited kernel needs a map of at least 2 rows")
+        points, values = pixel_centre_samples(scaled, points)
+        notes.append(f"band-limited kernel (L = {band_lmax}); {len(points)} samples at pixel "
+                     f"centres ({n - len(points)} repeats dropped)")
+        n = len(points)
+    else:
+        values = scaled.lookup(points).reshape(n, C)
+    hd = hv = None
     if method == "holdout":
         hd, hv = holdout_pixels(scaled, n_holdout, seed=seed)
         notes.append(f"holdout: {len(hd)} pixel centres drawn with probability proportional to solid angle")
@@ -233,7 +272,7 @@ def fit_smoothness(envmap: EnvMap, *, method: str = DEFAULT_METHOD, n: int = DEF
     try:
         res = fit_smoothness_samples(points, values, method=method, holdout_dirs=hd,
                                      holdout_values=hv, s_grid=s_grid, seed=seed,
-                                     callback=lambda s: bar.update(1))
+                                     band_lmax=band_lmax, callback=lambda s: bar.update(1))
     finally:
         bar.close()
     score_name = SCORE_NAMES[method]
@@ -243,4 +282,5 @@ def fit_smoothness(envmap: EnvMap, *, method: str = DEFAULT_METHOD, n: int = DEF
                      "than this kernel family can express")
     return FitResult(s=res["s"], s_interval=res["s_interval"], sigma=res["sigma"], method=method,
                      scale=scale, scale_description=sc.describe(), n=n, curve=res["curve"], score_name=score_name,
-                     seconds=time.perf_counter() - t0, notes=notes)
+                     seconds=time.perf_counter() - t0, notes=notes, kernel=kernel,
+                     band_lmax=band_lmax)

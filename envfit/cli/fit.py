@@ -10,7 +10,7 @@ from .common import (add_common_arguments, add_executor_arguments, add_map_argum
 
 
 def register(sub) -> None:
-    from ..fit import DEFAULT_METHOD, DEFAULT_N, METHODS
+    from ..fit import DEFAULT_METHOD, DEFAULT_N, KERNELS, METHODS
     p = sub.add_parser(
         "fit", help="estimate the Sobolev smoothness s of a map (with a 95%% interval and sigma)",
         description="Estimate s on the continuous range (1, 2) by the Gaussian-process "
@@ -24,6 +24,11 @@ def register(sub) -> None:
     p.add_argument("--pointset", choices=("sf", "random"), default="sf")
     p.add_argument("--scale", choices=("display", "linear", "log"), default="display",
                    help="value scale the map is fitted on (default: display)")
+    p.add_argument("--kernel", choices=KERNELS, default="full",
+                   help="full: K_gd with bilinear samples (the paper's); bandlimited: K_gd "
+                        "truncated at the map's Nyquist degree H-1 with samples at pixel "
+                        "centres, the exact model of a band-limited map (likelihood only, "
+                        "one map; default: full)")
     add_executor_arguments(p)
     add_common_arguments(p)
     p.set_defaults(func=run)
@@ -31,6 +36,10 @@ def register(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     if library_mode(args):
+        if args.kernel != "full":
+            from ..errors import ParameterError
+            raise ParameterError("--kernel bandlimited fits one map at a time (each map has its "
+                                 "own band limit and pixel centres); give a single map")
         return _run_library(args)
     args.map = args.map[0] if args.map else None
     return _run_single(args)
@@ -42,11 +51,14 @@ def _run_single(args: argparse.Namespace) -> int:
     for note in getattr(env, "notes", []):
         say(args, f"note: {note}")
     res = fit_smoothness(env, method=args.method, n=args.n, scale=args.scale,
-                         pointset=args.pointset, seed=args.seed, quiet=args.quiet)
+                         pointset=args.pointset, seed=args.seed, kernel=args.kernel,
+                         quiet=args.quiet)
     sig = ", ".join(f"{x:.4g}" for x in res.sigma)
     say(args, f"map {env.name}: {env.height}x{env.width}",
         f"s = {res.s:.3f}  (95% interval {res.s_interval[0]:.3f} … {res.s_interval[1]:.3f}; "
-        f"method {res.method}, N = {res.n}, {res.scale_description})",
+        f"method {res.method}, N = {res.n}, {res.scale_description}"
+        + (f", kernel band-limited at L = {res.band_lmax}" if res.kernel == "bandlimited" else "")
+        + ")",
         f"sigma = {sig}  (per channel, on the {res.scale} scale)",
         *[f"note: {n}" for n in res.notes],
         f"({res.seconds:.1f} s)")
