@@ -1,7 +1,8 @@
 """Acceptance of ``envfit advise`` on Gaussian-process maps, where the model is exactly true.
 
 For each GP map (``data_gen.gp.gaussian_process_map(s0, height, seed, channels=3)``, linear
-scale, s and sigma fitted by the likelihood) and each target RMSE, the advisor picks the
+scale, s' and sigma' fitted by the likelihood of the kernel band-limited at the map's Nyquist
+degree, as ``envfit advise`` does) and each target RMSE, the advisor picks the
 smallest N for spherical Fibonacci and random points with equal and optimal weights; the
 RMSE is then measured at that N over random axes (``check=True``: ground-truth shading
 integrals, rules rotated and twisted per axis, random points as the RMS over the same
@@ -73,7 +74,9 @@ def main(argv=None) -> int:
                 print(f"{env.name:<22s} {target:>8.1e} {r.label:<13s} {r.n:>6d} "
                       f"{r.predicted_rmse:>10.3e} {r.measured_rmse:>10.3e} {mt:>11.3f} "
                       f"{r.measured_over_predicted:>9.3f}  {'yes' if ok else 'NO'}")
-            print(f"  (s fitted {a.s:.3f}, sigma {a.sigma:.4f}; first call {a.timings['total']:.1f} s "
+            print(f"  (s' fitted {a.s:.3f}, sigma' {a.sigma:.4f} ({a.fit_kernel} kernel, l <= "
+                  f"{a.fit_band_lmax}); tau at l = H-1: {a.lookup_transfer[-1]:.3f}; "
+                  f"first call {a.timings['total']:.1f} s "
                   f"= fit {a.timings['fit']:.1f} + search {a.timings['search']:.1f} + check "
                   f"{a.timings['check']:.1f})")
     r = np.array(ratios)

@@ -3,33 +3,60 @@ r"""The advisor: how many samples, or which SH/HSH degree, for this map, this BR
 Marques, Bouville, Bouatouch, "Spectral Analysis of Quadrature Rules and Fourier
 Truncation-based Methods Applied to Shading Integrals": the worst-case error of a quadrature
 rule (Eq. 41) and of an SH/HSH truncation (Eqs. 51–52), turned into an *absolute* predicted
-RMS error with the map's fitted smoothness s and scale σ̂ (``envfit fit``), then inverted:
-the smallest N (or L) whose predicted error is at most the target.
+RMS error with the map's fitted smoothness s' and scale σ' (``envfit fit --kernel
+bandlimited``), then inverted: the smallest N (or L) whose predicted error is at most the
+target.
 
 Prediction (the refined absolute prediction (b') of :mod:`envfit.validate`)
 -------------------------------------------------------------------------
 Under the Gaussian-process reading of the Sobolev model, f − m̄ ~ GP(0, σ² K_gd^(s)) (Eq. 14),
-the error of a linear rule at a random axis has mean square σ²E² (E the norm of the error's
-representer, Eq. 39). For a lat-long map of H rows, which holds no degree above H − 1, the
-error spectrum (Eq. 42) is summed to l = H − 1 only
-(:func:`envfit.validate.bandlimited_worst_case_errors`, :math:`E_{\le H-1}`), and a rule
-whose weights do not sum to 1 (OSW) also errs by :math:`\bar m(\sum_j w_j - 1)` on the map's
-mean, for every axis:
+the error of a linear rule at a random axis has mean square :math:`\sigma^2\sum_l a_l e_l`
+(:math:`a_l^{(s)}` the kernel's Legendre coefficients, Eqs. 15–16; :math:`e_l` the rule's
+squared error on the degree-l harmonics, the bracket of Eq. 42,
+:func:`envfit.spectra.rule_error_power`). A lat-long map is not that field, and (b') models
+what it is (points (i)–(iv) of the validation's (b')):
 
-.. math:: \hat R(N) = \Big(\sigma^2 E_{\le H-1}(N)^2 + (\textstyle\sum_j w_j - 1)^2\,\overline{m^2}\Big)^{1/2}
+* it holds no degree above its Nyquist degree H − 1 (H rows): the sum stops at l = H − 1;
+* s' and σ' are fitted under that model — the likelihood of the kernel band-limited at
+  H − 1 with the samples at pixel centres (:func:`envfit.fit.fit_smoothness` with
+  ``kernel="bandlimited"``; for a given s, σ' by
+  :func:`envfit.validate.bandlimited_profiled_sigma`). The full kernel and bilinear lookups
+  read a finite-resolution map as smoother than it is (ŝ ≈ 0.04 high on 256-row GP maps);
+* the estimators integrate the map's *bilinear interpolant*, whose power at degree l is the
+  pixel field's times :math:`\tau_l` (:func:`envfit.spectra.lookup_transfer` of the map's
+  :func:`~envfit.spectra.map_degree_power` over its
+  :func:`~envfit.spectra.pixel_degree_power`; 1 at low degrees, ≈ 0.25 at H − 1), so degree
+  l is weighted by :math:`\tau_l`. Without it (b') was up to 35 % high for spherical
+  Fibonacci at large N, whose error lives near the band limit;
 
-(:math:`\sigma = (\frac1C\sum_c\hat\sigma_c^2)^{1/2}`, :func:`envfit.validate.combine_sigma`;
-:math:`\overline{m^2}` the mean over channels of the squared solid-angle mean). For the
-stochastic point sets (random, jitter, bnot) :math:`E^2` and :math:`(\sum w - 1)^2` are
-averaged over ``seeds`` realisations per N (the expected error of the sampler, not of one
-draw). The unrestricted :math:`\sigma\,\mathrm{wce}(N)` (Eq. 41, prediction (b) of the
-validation; it over-predicts by up to 2× for spherical Fibonacci at large N on a map) is
-reported beside it at the chosen N but not used for the choice.
+and a rule whose weights do not sum to 1 (OSW) also errs by :math:`\bar m(\sum_j w_j - 1)`
+on the map's mean, for every axis:
 
-Truncation (Eqs. 51–52): :math:`\hat R(L) = \sigma E_{\le H-1}(L)`, the truncation error
-with the l-sum stopped at the map's band limit (``truncation_error_curve(..., lmax=H-1)``);
-SH and HSH truncation keep :math:`b_0` exactly, so there is no mean term. SH truncation at
-L = H − 1 keeps every degree the map holds: error 0.
+.. math:: \hat R(N) = \Big(\sigma'^2 E'(N)^2 + (\textstyle\sum_j w_j - 1)^2\,\overline{m^2}\Big)^{1/2},
+          \qquad E'^2 = \sum_{l=0}^{H-1} a_l(s')\,\tau_l\,e_l
+
+(:math:`\sigma' = (\frac1C\sum_c\sigma'^2_c)^{1/2}`, :func:`envfit.validate.combine_sigma`;
+:math:`\overline{m^2}` the mean over channels of the squared solid-angle mean;
+``wce_bandlimited`` = E'). On ensembles of GP maps this agrees with the measured RMSE to
+≈ 5 %. For the stochastic point sets (random, jitter, bnot) :math:`e_l` and
+:math:`(\sum w - 1)^2` are averaged over ``seeds`` realisations per N (the expected error
+of the sampler, not of one draw; E'² is linear in :math:`e_l`, so averaging the power is
+averaging E'²). OSW weights are those of the kernel at s'. The unrestricted
+:math:`\sigma'\,\mathrm{wce}(N)` (Eq. 41 at s', prediction (b) of the validation with the
+band-limited fit; it over-predicts by up to 2× for spherical Fibonacci at large N on a map)
+is reported beside it at the chosen N but not used for the choice.
+
+Truncation (Eqs. 51–52): :math:`\hat R(L) = \sigma' E'(L)`, the truncation error with the
+l-sum stopped at the map's band limit, at s'. SH truncation keeps degrees ≤ L exactly, so
+its error is degree l > L of the interpolant, in expectation
+:math:`E'^2(L) = \sum_{l=L+1}^{H-1} a_l\,\tau_l\,b_l^2` (Eq. 52 with :math:`e_l = b_l^2`
+for l > L, weighted by τ exactly as a rule's). HSH truncation is not diagonal in l
+(:math:`b_l - b'_l` non-zero at every l, and the hemispherical projection is not of the
+interpolant's SH power), so it keeps ``truncation_error_curve(..., lmax=H-1)`` without τ;
+its error lives at low degrees (τ₂₀ ≈ 0.99 on 256-row maps, 0.97 on 128-row ones):
+weighting its Eq. 51 terms by τ would lower E by under 1 % for L ≤ 16 on 256-row maps,
+3 % on 128-row ones (glossy n = 30, s = 1.2 and 1.5). SH and HSH truncation keep
+:math:`b_0` exactly, so there is no mean term. SH truncation at L = H − 1 keeps every degree the map holds: error 0.
 
 Search
 ------
@@ -50,12 +77,20 @@ integral, so that row is listed but never recommended.
 
 Cache (:mod:`envfit.advisor_cache`)
 ----------------------------------
-The fit (keyed by the map's fingerprint, ``up``, scale, s/``fit_n``/seed) and every evaluated
-point of every curve (keyed by s rounded to 1e-6, BRDF, shininess, point set, weighting, the
-realisation seeds and the band limit H − 1) are JSON files; σ̂, the target and the map's mean
-are applied afresh, so another target on the same map reuses the curve points already
-computed. The wce are computed at s rounded to 1e-6 (the key) so that a cached answer is
-identical to a fresh one.
+JSON files, so that another target (or another run) on the same map recomputes nothing:
+
+* the fit (keyed by the map's fingerprint, ``up``, scale, s/``fit_n``/seed and
+  ``"kernel": "bandlimited"``, so fits of the full kernel are never reused);
+* τ (keyed by the map's fingerprint, ``up`` and scale);
+* every evaluated point of every curve, keyed by s rounded to 1e-6 (the OSW weights' s),
+  BRDF, shininess, point set, weighting, the realisation seeds and the band limit H − 1,
+  holds *map-independent* terms: the error power :math:`e_l` (l = 0…H − 1, averaged over the
+  realisations), :math:`(\sum w-1)^2`, :math:`\sum w` and, at the chosen N, the plain
+  wce². The map's numbers — :math:`a_l(s')\tau_l`, σ', :math:`\overline{m^2}` and the
+  target — are applied afresh (:func:`degree_weights`, :func:`band_e2`), so one curve
+  serves every map of that size fitted to the same s'. JSON round-trips floats exactly and
+  E'² is the same correctly rounded sum (``math.fsum``) of the same products, so a cached
+  answer is identical to a fresh one.
 
 ``check=True`` measures the RMSE over ``axes`` random axes (:func:`envfit.validate.random_axes`,
 seeded) at the chosen N/L on the map — the ground truth :func:`envfit.shading.shading_integral`,
@@ -90,7 +125,8 @@ from typing import Callable, Sequence
 import numpy as np
 
 from theory.errors import TheoryParameterError
-from theory.pointsets import DETERMINISTIC_POINTSETS, POINTSETS, generate
+from theory.pointsets import DETERMINISTIC_POINTSETS, generate
+from theory.sobolev import sobolev_coefficients
 from theory.truncation import truncation_error_curve
 from theory.weights import equal_weights, optimal_weights
 
@@ -102,8 +138,9 @@ from .estimators import hsh_truncation_curve, rmse_over_axes, sh_truncation_curv
 from .progress import progress_bar
 from .scales import SCALES, fit_scale
 from .shading import bilinear_sh_coefficients, shading_integral, weight_function
+from .spectra import lookup_transfer, map_degree_power, pixel_degree_power, rule_error_power
 from .store import array_fingerprint
-from .validate import (bandlimited_worst_case_errors, combine_sigma, parse_s, profiled_sigma,
+from .validate import (bandlimited_profiled_sigma, combine_sigma, parse_s,
                        quadrature_estimates_multi, random_axes, rule_worst_case_error)
 
 
@@ -116,6 +153,7 @@ def fit_smoothness(*args, **kwargs):
 
 
 __all__ = ["Advice", "AdviceRow", "advise", "smallest_n", "predicted_rmse", "mean_shading_value",
+           "map_transfer", "degree_weights", "band_e2", "sh_truncation_curve_transfer",
            "DEFAULT_POINTSETS", "ALL_POINTSETS", "WEIGHTINGS", "BASES", "BRDFS",
            "DEFAULT_FIT_N", "DEFAULT_NMIN", "DEFAULT_NMAX", "DEFAULT_OSW_NMAX", "DEFAULT_SEEDS"]
 
@@ -146,9 +184,10 @@ class AdviceRow:
     ``method`` is "quadrature" (``pointset``/``weights``, ``n`` samples) or "sh"/"hsh" (degree
     ``L``). ``cost`` = N or (L+1)²; None when the target is not reached (then ``n``/``L`` are
     None and ``predicted_rmse`` is the prediction at the largest N/L searched, ``searched_max``).
-    ``predicted_rmse`` is the refined prediction (b') used for the choice, ``predicted_rmse_plain``
-    σ̂·wce (Eq. 41) or σ̂·E(L) (Eqs. 51–52) without the band limit. ``measured_rmse`` and
-    ``measured_over_predicted`` are filled by ``check=True``.
+    ``predicted_rmse`` is the refined prediction (b') used for the choice (``wce_bandlimited``
+    = E', with τ for quadrature and SH), ``predicted_rmse_plain`` σ'·wce (Eq. 41) or σ'·E(L)
+    (Eqs. 51–52) without the band limit and τ, at the band-limited fit's s' and σ'.
+    ``measured_rmse`` and ``measured_over_predicted`` are filled by ``check=True``.
     """
 
     method: str
@@ -191,7 +230,12 @@ class AdviceRow:
 
 @dataclass
 class Advice:
-    """What :func:`advise` found: the map's fit, the target, and the rows sorted by cost."""
+    """What :func:`advise` found: the map's fit, the target, and the rows sorted by cost.
+
+    ``s``, ``sigma`` are the band-limited fit's s' and σ' (``fit_kernel`` "bandlimited",
+    kernel truncated at degree ``fit_band_lmax`` = H − 1, ``fit_samples`` distinct pixel
+    centres); ``lookup_transfer`` is τ_l, l = 0…H − 1.
+    """
 
     map: str
     map_size: list[int]
@@ -209,6 +253,9 @@ class Advice:
     sigma_channels: list[float]
     fit_source: str
     fit_cached: bool
+    fit_kernel: str
+    fit_band_lmax: int | None
+    fit_samples: int | None
     band_lmax: int
     mean_rms: float
     rows: list[AdviceRow]
@@ -218,6 +265,7 @@ class Advice:
     timings: dict = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
     check: dict | None = None
+    lookup_transfer: list[float] = field(default_factory=list)
 
     def to_dict(self) -> dict:
         d = asdict(self)
@@ -259,10 +307,11 @@ class Advice:
 # ----------------------------------------------------------------------------- pure math
 
 def predicted_rmse(sigma: float, e2_band: float, dev2: float = 0.0, mean_sq: float = 0.0) -> float:
-    r"""The refined prediction (b'): :math:`(\sigma^2 E_{\le H-1}^2 + (\sum w-1)^2\overline{m^2})^{1/2}`.
+    r"""The refined prediction (b'): :math:`(\sigma'^2 E'^2 + (\sum w-1)^2\overline{m^2})^{1/2}`.
 
-    ``e2_band`` is :math:`E_{\le H-1}^2` (averaged over realisations for stochastic sets),
-    ``dev2`` :math:`(\sum_j w_j - 1)^2` (likewise), ``mean_sq`` :math:`\overline{m^2}`.
+    ``e2_band`` is :math:`E'^2 = \sum_{l\le H-1} a_l\tau_l e_l` (:func:`band_e2`; averaged
+    over realisations for stochastic sets), ``dev2`` :math:`(\sum_j w_j - 1)^2` (likewise),
+    ``mean_sq`` :math:`\overline{m^2}`.
 
     >>> round(predicted_rmse(2.0, 0.25, 0.01, 9.0), 12) == round(math.sqrt(4 * 0.25 + 0.01 * 9), 12)
     True
@@ -324,6 +373,73 @@ def mean_shading_value(scaled: EnvMap) -> float:
     return float(np.mean(alm[:, 0].real) / math.sqrt(4.0 * math.pi))
 
 
+def map_transfer(scaled: EnvMap) -> np.ndarray:
+    r"""τ_l, l = 0…H − 1, of the map's bilinear lookup (:func:`envfit.spectra.lookup_transfer`):
+    the power of its bilinear interpolant (:func:`envfit.spectra.map_degree_power`) over that
+    of its pixel values (:func:`envfit.spectra.pixel_degree_power`), summed over channels —
+    the same τ as ``envfit validate``'s. ≈ 0.7 s on a 1024×512 map.
+
+    >>> tau = map_transfer(EnvMap(np.full((8, 16, 2), 3.0)))   # a constant: nothing to damp
+    >>> tau.shape, bool(np.allclose(tau, 1.0))
+    ((8,), True)
+    """
+    L = scaled.height - 1
+    return lookup_transfer(map_degree_power(scaled, L), pixel_degree_power(scaled, L))
+
+
+def degree_weights(s: float, band_lmax: int, transfer=None) -> np.ndarray:
+    r""":math:`a_l(s)\,\tau_l`, l = 0…``band_lmax``: what weights a rule's error power
+    :math:`e_l` in :math:`E'^2` (``transfer`` None: τ = 1, the band-limited wce of Eq. 42).
+
+    >>> from theory.sobolev import sobolev_coefficients
+    >>> bool(np.array_equal(degree_weights(1.5, 3, [1, 1, 0.5, 0.25]),
+    ...                     sobolev_coefficients(1.5, 3) * [1, 1, 0.5, 0.25]))
+    True
+    """
+    a = sobolev_coefficients(float(s), int(band_lmax))
+    if transfer is None:
+        return a
+    tau = np.asarray(transfer, dtype=np.float64)
+    if tau.shape != a.shape:
+        raise ParameterError(f"transfer has {tau.size} degrees, expected {a.size}")
+    return a * tau
+
+
+def band_e2(power, weights_l: np.ndarray) -> float:
+    r""":math:`E'^2 = \sum_l w_l e_l` (``weights_l`` from :func:`degree_weights`), the correctly
+    rounded sum (``math.fsum``): the same bits whatever the order, so a cached power gives
+    exactly a fresh one's E'².
+
+    >>> band_e2([1.0, 2.0], np.array([0.5, 0.25]))
+    1.0
+    """
+    p = np.asarray(power, dtype=np.float64)
+    return max(math.fsum(p * weights_l), 0.0)
+
+
+def sh_truncation_curve_transfer(wf, s: float, Lmax: int, band_lmax: int,
+                                 transfer=None) -> np.ndarray:
+    r"""E'(L), L = 0…Lmax, of SH truncation on a map of band limit H − 1 = ``band_lmax`` read
+    by bilinear lookups: :math:`E'^2(L) = \sum_{l=L+1}^{H-1} a_l\tau_l b_l^2` (Eq. 52 summed
+    to the band limit, degree l weighted by τ_l). With ``transfer`` None it is
+    ``truncation_error_curve(wf, s, Lmax, "sh", lmax=band_lmax)`` (the same sums, the same
+    order).
+
+    >>> from theory.brdf import Diffuse
+    >>> bool(np.array_equal(sh_truncation_curve_transfer(Diffuse(), 1.5, 5, 40),
+    ...                     truncation_error_curve(Diffuse(), 1.5, 5, "sh", lmax=40)))
+    True
+    """
+    Lmax, band_lmax = int(Lmax), int(band_lmax)
+    if band_lmax <= Lmax:
+        raise ParameterError(f"band limit {band_lmax} must exceed Lmax = {Lmax}")
+    a = degree_weights(s, band_lmax, transfer)
+    b = wf.sh_coefficients(band_lmax)
+    terms = a * b * b
+    tail = np.cumsum(terms[::-1])[::-1]                      # tail[k] = sum_{l >= k}
+    return np.sqrt(np.append(tail[1:], 0.0)[:Lmax + 1])
+
+
 def _s_key(s: float) -> float:
     return round(float(s), 6)
 
@@ -343,17 +459,20 @@ def _rule(pointset: str, n: int, wf, s: float, weights: str, seed) -> tuple[np.n
 
 def rule_terms(pointset: str, n: int, wf, s: float, weights: str, seeds: Sequence[int],
                band_lmax: int) -> dict:
-    r"""Band-limited squared wce (Eq. 42 summed to ``band_lmax``) and :math:`(\sum w-1)^2` of a
-    rule, averaged over the realisations ``seeds`` ([] = the deterministic set once)."""
-    e2, dev2, ws = [], [], []
+    r"""The map-independent terms of a rule, averaged over the realisations ``seeds``
+    ([] = the deterministic set once): ``power`` the error power :math:`e_l`, l = 0…band_lmax
+    (:func:`envfit.spectra.rule_error_power`, a list), ``dev2`` :math:`(\sum w-1)^2` and
+    ``weight_sum``. ``s`` only sets the OSW weights. :math:`E'^2` is
+    ``band_e2(power, degree_weights(s', band_lmax, tau))``."""
+    pw, dev2, ws = [], [], []
     for sd in (seeds or [None]):
         pts, w = _rule(pointset, n, wf, s, weights, sd)
-        eb = bandlimited_worst_case_errors(pts, w, wf, [s], band_lmax)[0]
-        e2.append(eb * eb)
+        pw.append(rule_error_power(pts, w, wf, band_lmax))
         wsum = math.fsum(w)
         dev2.append((wsum - 1.0) ** 2)
         ws.append(wsum)
-    return {"e2_band": float(np.mean(e2)), "dev2": float(np.mean(dev2)),
+    power = pw[0] if len(pw) == 1 else np.mean(np.stack(pw), axis=0)
+    return {"power": [float(x) for x in power], "dev2": float(np.mean(dev2)),
             "weight_sum": float(np.mean(ws))}
 
 
@@ -371,8 +490,10 @@ def _q_predict(adv: Advice, row: AdviceRow, n: int) -> float:
     """The prediction of ``row``'s rule at N, recomputed (no cache; for tests and examples)."""
     wf = weight_function(adv.brdf, adv.shininess or 30.0)
     seeds = _seed_list(row.pointset, adv.settings["seed"], adv.settings["seeds"])
-    t = rule_terms(row.pointset, n, wf, _s_key(adv.s), row.weights, seeds, adv.band_lmax)
-    return predicted_rmse(adv.sigma, t["e2_band"], t["dev2"], adv.mean_rms ** 2)
+    s = _s_key(adv.s)
+    t = rule_terms(row.pointset, n, wf, s, row.weights, seeds, adv.band_lmax)
+    e2 = band_e2(t["power"], degree_weights(s, adv.band_lmax, adv.lookup_transfer))
+    return predicted_rmse(adv.sigma, e2, t["dev2"], adv.mean_rms ** 2)
 
 
 # ----------------------------------------------------------------------------- checks of input
@@ -411,8 +532,9 @@ def advise(envmap: EnvMap, brdf: str = "diffuse", target_rmse: float | None = No
     scale : "display" (default, as the rest of the CLI), "linear" or "log".
     pointsets, weights : the quadrature rules (``ALL_POINTSETS``; "equal", "osw").
     bases : truncations, "sh" and/or "hsh" (empty: none).
-    s : "auto" (fit s and σ̂ by the likelihood from ``fit_n`` samples) or a value in (1, 2)
-        (σ̂ by the profiled likelihood at that s).
+    s : "auto" (fit s' and σ' by the likelihood of the kernel band-limited at H − 1 from
+        ``fit_n`` samples moved to pixel centres) or a value in (1, 2) (σ' by the band-limited
+        profiled likelihood at that s).
     seed : seed of the fit, of the realisations of stochastic point sets (``seeds`` of them
         averaged per N) and of the check's axes.
     nmin, nmax, osw_nmax : the N range searched (OSW up to ``min(nmax, osw_nmax)``).
@@ -479,24 +601,27 @@ def advise(envmap: EnvMap, brdf: str = "diffuse", target_rmse: float | None = No
     else:
         target = float(target_rmse)
 
-    # ---- s and sigma (cached)
+    # ---- s' and sigma' of the band-limited model (cached)
     t0 = time.perf_counter()
-    fit_key = {"fingerprint": array_fingerprint(envmap.data), "shape": list(envmap.data.shape),
-               "up": envmap.up, "scale": scale, "s": s_in, "method": "likelihood",
+    map_key = {"fingerprint": array_fingerprint(envmap.data), "shape": list(envmap.data.shape),
+               "up": envmap.up, "scale": scale}
+    fit_key = {**map_key, "s": s_in, "method": "likelihood", "kernel": "bandlimited",
                "n": fit_n, "seed": seed}
     fit = store.load("fit", fit_key)
     fit_cached = fit is not None
     if fit is None:
         if s_in == "auto":
             res = fit_smoothness(envmap, method="likelihood", n=fit_n, scale=scale, seed=seed,
-                                 quiet=quiet)
+                                 kernel="bandlimited", quiet=quiet)
             fit = {"s": float(res.s), "s_interval": [float(x) for x in res.s_interval],
                    "sigma_channels": [float(x) for x in res.sigma], "source": "fit",
-                   "notes": list(res.notes)}
+                   "kernel": "bandlimited", "band_lmax": int(res.band_lmax),
+                   "samples": int(res.n), "notes": list(res.notes)}
         else:
-            sig = profiled_sigma(scaled, float(s_in), n=fit_n, seed=seed)
+            sig, used = bandlimited_profiled_sigma(scaled, float(s_in), n=fit_n, seed=seed)
             fit = {"s": float(s_in), "s_interval": None, "sigma_channels": sig.tolist(),
-                   "source": "given", "notes": []}
+                   "source": "given", "kernel": "bandlimited", "band_lmax": band_lmax,
+                   "samples": int(used), "notes": []}
         fit["seconds"] = time.perf_counter() - t0
         store.save("fit", fit_key, fit)
     t_fit = time.perf_counter() - t0
@@ -507,6 +632,16 @@ def advise(envmap: EnvMap, brdf: str = "diffuse", target_rmse: float | None = No
     sigma = combine_sigma(sigma_ch)
     if not sigma > 0:
         raise ParameterError("the map is constant on this scale (sigma = 0): every rule is exact")
+
+    # ---- tau_l of the bilinear lookup (cached per map and scale)
+    t0 = time.perf_counter()
+    tr = store.load("transfer", {**map_key, "band_lmax": band_lmax})
+    if tr is None or len(tr.get("tau", [])) != band_lmax + 1:
+        tr = {"tau": [float(x) for x in map_transfer(scaled)]}
+        store.save("transfer", {**map_key, "band_lmax": band_lmax}, tr)
+    tau = np.asarray(tr["tau"], dtype=np.float64)
+    dw = degree_weights(s_use, band_lmax, tau)          # a_l(s') tau_l, l = 0..H-1
+    t_transfer = time.perf_counter() - t0
 
     # ---- search
     t1 = time.perf_counter()
@@ -520,11 +655,11 @@ def advise(envmap: EnvMap, brdf: str = "diffuse", target_rmse: float | None = No
                 bar.set_postfix_str(f"{ps}/{w}" if ps else method)
             if method == "quadrature":
                 rows.append(_search_quadrature(ps, w, wf, brdf_name, shin, s_use, sigma,
-                                               mean_rms, target, band_lmax, seed, seeds,
+                                               mean_rms, target, band_lmax, dw, seed, seeds,
                                                nmin, nmax, osw_nmax, store, workers))
             else:
                 rows.append(_search_truncation(method, wf, brdf_name, s_use, sigma, target,
-                                               band_lmax))
+                                               band_lmax, tau))
             bar.update(1)
     finally:
         bar.close()
@@ -538,12 +673,14 @@ def advise(envmap: EnvMap, brdf: str = "diffuse", target_rmse: float | None = No
         brdf=brdf_name, shininess=shin, scale=scale, scale_description=sc.describe(),
         target_rmse=target, target_relative=rel, mean_shading=mean_shading, s=s_fit,
         s_interval=fit.get("s_interval"), sigma=sigma, sigma_channels=sigma_ch,
-        fit_source=fit["source"], fit_cached=fit_cached, band_lmax=band_lmax, mean_rms=mean_rms,
-        rows=rows, recommendation="",
+        fit_source=fit["source"], fit_cached=fit_cached,
+        fit_kernel=fit.get("kernel", "bandlimited"), fit_band_lmax=fit.get("band_lmax"),
+        fit_samples=fit.get("samples"),
+        band_lmax=band_lmax, mean_rms=mean_rms, rows=rows, recommendation="",
         settings={"pointsets": pointsets, "weights": weights, "bases": bases, "s": s_in,
                   "fit_n": fit_n, "seed": seed, "nmin": nmin, "nmax": nmax,
                   "osw_nmax": osw_nmax, "seeds": seeds, "s_rounded": s_use},
-        notes=notes)
+        notes=notes, lookup_transfer=[float(x) for x in tau])
     adv.recommendation = _recommendation(adv)
 
     t_check = 0.0
@@ -555,13 +692,15 @@ def advise(envmap: EnvMap, brdf: str = "diffuse", target_rmse: float | None = No
     adv.notes.extend(store.notes)
     adv.cache = {"enabled": store.enabled, "folder": str(store.folder), "hits": store.hits,
                  "misses": store.misses, "writes": store.writes}
-    adv.timings = {"fit": t_fit, "search": t_search, "check": t_check,
+    adv.timings = {"fit": t_fit, "transfer": t_transfer, "search": t_search, "check": t_check,
                    "total": time.perf_counter() - t_start}
     return adv
 
 
-def _search_quadrature(ps, w, wf, brdf, shin, s, sigma, mean_rms, target, band_lmax, seed,
+def _search_quadrature(ps, w, wf, brdf, shin, s, sigma, mean_rms, target, band_lmax, dw, seed,
                        k_seeds, nmin, nmax, osw_nmax, store: AdviseCache, workers) -> AdviceRow:
+    """Smallest N of one rule; ``dw`` = a_l(s') tau_l (:func:`degree_weights`). The curve's
+    cached points hold the map-independent :func:`rule_terms` (and ``e2_plain``)."""
     sds = _seed_list(ps, seed, k_seeds)
     key = {"s": s, "brdf": brdf, "shininess": shin, "pointset": ps, "weights": w,
            "seeds": sds, "band_lmax": band_lmax}
@@ -574,7 +713,7 @@ def _search_quadrature(ps, w, wf, brdf, shin, s, sigma, mean_rms, target, band_l
     def terms(n: int) -> dict:
         nonlocal evaluations
         t = curve.get(n)
-        if t is None or "e2_band" not in t:
+        if t is None or len(t.get("power", ())) != band_lmax + 1:
             t = {**(t or {}), **rule_terms(ps, n, wf, s, w, sds, band_lmax)}
             curve[n] = new[n] = t
             evaluations += 1
@@ -582,7 +721,7 @@ def _search_quadrature(ps, w, wf, brdf, shin, s, sigma, mean_rms, target, band_l
 
     def predict(n: int) -> float:
         t = terms(n)
-        return predicted_rmse(sigma, t["e2_band"], t["dev2"], mean_sq)
+        return predicted_rmse(sigma, band_e2(t["power"], dw), t["dev2"], mean_sq)
 
     row = AdviceRow(method="quadrature", pointset=ps, weights=w, realisations=max(1, len(sds)),
                     searched_max=upper)
@@ -596,7 +735,7 @@ def _search_quadrature(ps, w, wf, brdf, shin, s, sigma, mean_rms, target, band_l
     if n is None:
         t = curve[upper]
         row.predicted_rmse = seen[upper]
-        row.wce_bandlimited = math.sqrt(t["e2_band"])
+        row.wce_bandlimited = math.sqrt(band_e2(t["power"], dw))
         row.weight_sum = t["weight_sum"]
         why = " (OSW: an NxN solve per N; raise --osw-nmax)" if w == "osw" and upper < nmax else ""
         row.note = f"target not reached for N <= {upper}{why}"
@@ -608,7 +747,7 @@ def _search_quadrature(ps, w, wf, brdf, shin, s, sigma, mean_rms, target, band_l
             curve[n] = new[n] = t
         row.n = row.cost = n
         row.predicted_rmse = seen[n]
-        row.wce_bandlimited = math.sqrt(t["e2_band"])
+        row.wce_bandlimited = math.sqrt(band_e2(t["power"], dw))
         row.wce = math.sqrt(t["e2_plain"])
         row.predicted_rmse_plain = sigma * row.wce
         row.weight_sum = t["weight_sum"]
@@ -619,12 +758,17 @@ def _search_quadrature(ps, w, wf, brdf, shin, s, sigma, mean_rms, target, band_l
     return row
 
 
-def _search_truncation(basis, wf, brdf, s, sigma, target, band_lmax) -> AdviceRow:
+def _search_truncation(basis, wf, brdf, s, sigma, target, band_lmax, tau) -> AdviceRow:
+    """Smallest L: SH by :func:`sh_truncation_curve_transfer` (with τ), HSH by
+    ``truncation_error_curve(..., lmax=H-1)`` (no τ; see the module docstring)."""
     row = AdviceRow(method=basis)
     top = min(band_lmax - 1, LMAX_SEARCH)
     Lmax = min(32, top)
     while True:
-        E = truncation_error_curve(wf, s, Lmax, basis, lmax=band_lmax)
+        if basis == "sh":
+            E = sh_truncation_curve_transfer(wf, s, Lmax, band_lmax, tau)
+        else:
+            E = truncation_error_curve(wf, s, Lmax, basis, lmax=band_lmax)
         ok = np.nonzero(sigma * E <= target)[0]
         if ok.size or Lmax >= top:
             break

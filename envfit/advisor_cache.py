@@ -1,19 +1,23 @@
-"""The on-disk cache of ``envfit advise``: fitted (s, σ̂) per map, and worst-case-error curves.
+"""The on-disk cache of ``envfit advise``: fitted (s, σ̂) and lookup transfer per map, and
+worst-case-error curves.
 
 A second ``advise`` on the same map answers without refitting s and without recomputing a
-single worst-case error: both are JSON files under the cache folder, written atomically
-(:mod:`envfit.atomic`).
+single error spectrum: all are JSON files under the cache folder, written atomically
+(:mod:`envfit.atomic`). JSON keeps a float's shortest round-trip repr, so a number read back
+is the number written: a cached answer equals a fresh one.
 
 * folder: ``$ENVFIT_CACHE_DIR`` if set, else ``~/.cache/envfit``; the advisor uses its
-  ``advise/`` subfolder (``fit/`` and ``wce/`` inside).
-* a file is named by the SHA-1 of its key (a JSON-able dict, e.g. the map's fingerprint
-  and scale for a fit; s, BRDF, point set, weighting, seeds and band limit for a wce curve)
-  and holds the key itself: a file whose stored key differs (a hash collision, an older
-  format) or that cannot be parsed (a corrupt file) is ignored, then rewritten — never an
-  error.
+  ``advise/`` subfolder (``fit/``, ``transfer/`` and ``wce/`` inside).
+* a file is named by the SHA-1 of its key (a JSON-able dict, e.g. the map's fingerprint,
+  scale and kernel for a fit; s, BRDF, point set, weighting, seeds and band limit for a wce
+  curve) and holds the key itself: a file whose stored key differs (a hash collision, an
+  older format) or that cannot be parsed (a corrupt file) is ignored, then rewritten — never
+  an error.
 * a wce curve is a dict ``N → terms``; new points are merged into what the file holds at
   the time of writing, so two processes extending the same curve lose nothing but the
-  points written between each other's read and write.
+  points written between each other's read and write. The terms are map-independent (the
+  rule's error power per degree, ``(Σw − 1)²``, …); the advisor weights them with the
+  map's own numbers afresh.
 * a folder that cannot be created or written (read-only home) switches the cache off with
   a note instead of failing the command.
 
@@ -40,8 +44,9 @@ from .atomic import atomic_write_json, to_jsonable
 
 __all__ = ["AdviseCache", "default_cache_dir", "CACHE_VERSION"]
 
-#: bumped when the meaning of a cached number changes (old files are then ignored)
-CACHE_VERSION = 1
+#: bumped when the meaning of a cached number changes (old files are then ignored);
+#: 2: band-limited fits, wce curves hold the error power per degree (not E² of one s)
+CACHE_VERSION = 2
 
 
 def default_cache_dir() -> Path:

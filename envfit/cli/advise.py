@@ -12,12 +12,17 @@ def register(sub) -> None:
     p = sub.add_parser(
         "advise",
         help="smallest N per point set / weighting and smallest SH/HSH degree for a target error",
-        description="Fit the map's smoothness s and scale sigma (cached), predict the RMS "
-                    "shading error of each rule as sigma times its band-limited worst-case "
-                    "error (Eq. 41; Eqs. 51-52 for SH/HSH truncation), and find the smallest N "
-                    "(bisection) or L whose prediction is at most the target. Prints a table "
-                    "sorted by cost (N samples, or (L+1)^2 coefficients) and a recommendation; "
-                    "--check measures the actual RMSE at the chosen N/L on the map.")
+        description="Fit the map's smoothness s' and scale sigma' under the model of an "
+                    "H-row map (kernel band-limited at degree H-1, samples at pixel centres; "
+                    "cached), predict the RMS shading error of each rule as sigma' times its "
+                    "worst-case error summed to degree H-1 with degree l weighted by the "
+                    "bilinear lookup's transfer tau_l (Eq. 42; Eqs. 51-52 for SH/HSH "
+                    "truncation, tau for SH only), plus the error on the map's mean when the "
+                    "weights do not sum to 1, and find the smallest N (bisection) or L whose "
+                    "prediction is at most the target: prediction (b') of 'envfit validate'. "
+                    "Prints a table sorted by cost (N samples, or (L+1)^2 coefficients) and a "
+                    "recommendation; --check measures the actual RMSE at the chosen N/L on the "
+                    "map.")
     add_map_arguments(p)
     p.add_argument("--brdf", choices=("diffuse", "glossy"), default="diffuse",
                    help="weight function (default: diffuse)")
@@ -37,7 +42,8 @@ def register(sub) -> None:
     p.add_argument("--bases", type=str_list, default=None, metavar="sh,hsh",
                    help="truncations to size (default: sh,hsh; 'none' for none)")
     p.add_argument("--s", default="auto", metavar="auto|VALUE",
-                   help="smoothness: 'auto' (likelihood fit, default) or a value in (1, 2)")
+                   help="smoothness: 'auto' (band-limited likelihood fit, default) or a value "
+                        "in (1, 2) (sigma then by the band-limited likelihood at that s)")
     p.add_argument("--fit-n", type=int, default=None, help="samples of the fit (default: 3000)")
     p.add_argument("--nmin", type=int, default=None, help="smallest N searched (default: 4)")
     p.add_argument("--nmax", type=int, default=None, help="largest N searched (default: 65536)")
@@ -64,9 +70,10 @@ def _header(adv) -> list[str]:
         s_txt = f"s = {adv.s:.3f} (95% {adv.s_interval[0]:.3f}…{adv.s_interval[1]:.3f})"
     else:
         s_txt = f"s = {adv.s:.3f} (given)"
-    lines.append(f"{s_txt}, sigma = {adv.sigma:.4g}"
-                 + (" (cached fit)" if adv.fit_cached else f" ({adv.fit_source}, "
-                                                            f"{adv.settings['fit_n']} samples)"))
+    kern = (f"kernel band-limited at l <= {adv.fit_band_lmax}, {adv.fit_samples} pixel "
+            f"centres" if adv.fit_kernel == "bandlimited" else f"{adv.fit_kernel} kernel")
+    lines.append(f"{s_txt}, sigma = {adv.sigma:.4g} ({kern}"
+                 + ("; cached fit)" if adv.fit_cached else f"; {adv.fit_source})"))
     lobe = adv.brdf if adv.shininess is None else f"glossy n = {adv.shininess:g}"
     rel = (f" = {adv.target_relative:g} x mean shading {adv.mean_shading:.4g}"
            if adv.target_relative is not None else
@@ -74,8 +81,14 @@ def _header(adv) -> list[str]:
            if adv.mean_shading > 0 else "")
     lines.append(f"target RMSE {adv.target_rmse:.4g}{rel}; {lobe}; map band limit l <= "
                  f"{adv.band_lmax}")
-    lines.append("predicted = sigma * band-limited wce (+ mean term of sum(w) != 1), used for the "
-                 "choice; sigma*wce = unrestricted Eq. 41 / Eqs. 51-52")
+    tau = adv.lookup_transfer
+    if tau:
+        lines.append(f"bilinear lookup transfer tau_l: {tau[min(20, len(tau) - 1)]:.3f} at l = "
+                     f"{min(20, len(tau) - 1)}, {tau[len(tau) // 2]:.3f} at l = {len(tau) // 2}, "
+                     f"{tau[-1]:.3f} at l = {len(tau) - 1}")
+    lines.append("predicted = sigma * sqrt(sum_{l<=H-1} a_l tau_l e_l) (+ mean term of "
+                 "sum(w) != 1; SH with tau, HSH without), used for the choice; "
+                 "sigma*wce = unrestricted Eq. 41 / Eqs. 51-52")
     return lines
 
 
