@@ -157,7 +157,8 @@ from .scales import fit_scale
 from .shading import shading_integral, weight_function
 from .spectra import (bandlimited_worst_case_error, bandlimited_worst_case_errors,  # noqa: F401
                       low_degree_power_ratio, lookup_transfer, map_degree_power, model_scatter,
-                      pixel_degree_power, rule_error_power, spectral_rmse)
+                      pixel_degree_power, rule_error_power, sh_truncation_curve_transfer,
+                      spectral_rmse)
 from .store import ResultStore, array_fingerprint
 
 __all__ = ["ValidateConfig", "quick_config", "run_validation", "agreement",
@@ -197,6 +198,8 @@ QUICK_DESCRIPTION = (
     "rows with 100 axes up to L = 10, QMC-equivalent N searched up to 1024.")
 
 _BRDF_INDEX = {"diffuse": 0, "glossy": 1}
+#: what a stored truncation cell's refined prediction means (a cell with another is redone)
+_TRUNCATION_REFINED_MODEL = "band-limited fit; SH weighted by the lookup transfer"
 _WEIGHT_INDEX = {"equal": 0, "osw": 1}
 
 
@@ -846,7 +849,7 @@ def run_validation(envmap: EnvMap, config: ValidateConfig | None = None, *,
     if cfg.truncation:
         t_tr = time.perf_counter()
         trunc = _truncation(scaled, axes, truth, cfg, s_used, sigma, store, quiet, on_cell,
-                            timings, s_ref=s_ref, sigma_ref=sigma_ref)
+                            timings, s_ref=s_ref, sigma_ref=sigma_ref, transfer=transfer)
         timings["truncation"] = time.perf_counter() - t_tr - timings["equivalents"]
 
     agr = agreement(results, trunc, s_used=s_used, slope_range=SLOPE_RANGE)
@@ -954,7 +957,7 @@ def _compute_cells(scaled: EnvMap, axes, truth, brdf: str, wf, pointset: str, n:
 
 def _truncation(scaled: EnvMap, axes, truth, cfg: ValidateConfig, s_used: float, sigma: float,
                 store: ResultStore, quiet: bool, on_cell, timings: dict, *, s_ref: float,
-                sigma_ref: float) -> list[dict]:
+                sigma_ref: float, transfer: np.ndarray) -> list[dict]:
     """The SH / HSH truncation curves (Fig. 8) with their predictions and QMC equivalents."""
     jobs = []
     for b in cfg.brdfs:
@@ -971,7 +974,8 @@ def _truncation(scaled: EnvMap, axes, truth, cfg: ValidateConfig, s_used: float,
             cell = store.get(key)
             wf = weight_function(b, cfg.shininess)
             if cell is None or cell.get("L") != Ls or abs(cell.get("s", -1) - s_used) > 1e-12 \
-                    or abs(cell.get("s_refined", -1) - s_ref) > 1e-12:
+                    or abs(cell.get("s_refined", -1) - s_ref) > 1e-12 \
+                    or cell.get("refined_model") != _TRUNCATION_REFINED_MODEL:
                 t0 = time.perf_counter()
                 if basis == "sh":
                     est = sh_truncation_curve(scaled, axes, b, Ls, shininess=cfg.shininess)
@@ -988,7 +992,13 @@ def _truncation(scaled: EnvMap, axes, truth, cfg: ValidateConfig, s_used: float,
                 wce_curve = truncation_error_curve(wf, s_used, max(Ls), basis)
                 wce = [float(wce_curve[L]) for L in Ls]
                 band_l = height - 1
-                if band_l > max(Ls):
+                if band_l > max(Ls) and basis == "sh":
+                    # SH truncation errs on degrees l > L of the interpolant: weighted by τ_l
+                    bc = sh_truncation_curve_transfer(wf, s_ref, max(Ls), band_l, transfer)
+                    wce_band = [float(bc[L]) for L in Ls]
+                elif band_l > max(Ls):
+                    # HSH (on the downscaled map) is not diagonal in l: no transfer (its error
+                    # lives at degrees <= ~20, where τ > 0.97 on 128 rows)
                     bc = truncation_error_curve(wf, s_ref, max(Ls), basis, lmax=band_l)
                     wce_band = [float(bc[L]) for L in Ls]
                 else:
@@ -1001,7 +1011,7 @@ def _truncation(scaled: EnvMap, axes, truth, cfg: ValidateConfig, s_used: float,
                         "predicted_wce": wce, "predicted_wce_bandlimited": wce_band,
                         "band_lmax": band_l, "qmc_equivalent_n": equiv,
                         "axes": int(m_axes), "map_height": int(height), "s": s_used,
-                        "s_refined": s_ref,
+                        "s_refined": s_ref, "refined_model": _TRUNCATION_REFINED_MODEL,
                         "seconds": time.perf_counter() - t0}
                 store.put(key, cell)
                 if on_cell:
