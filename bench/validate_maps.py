@@ -22,8 +22,9 @@ Checks (the issue's acceptance; reported, never tuned): the fitted log-log slope
 spherical Fibonacci and random points (equal and OSW) over N = 64…4096 agree with the
 predicted ones within 0.1; the rank order of the point sets is the same (Kendall τ = 1);
 on the GP maps, prediction (b) σ̂·wce is within 20 % of the measured RMSE. The refined
-prediction (b') (band-limited to the map's degrees, plus the error on the map's mean) is
-reported beside them.
+prediction (b') (the model of a band-limited map read by bilinear lookups: its own
+band-limited fit ŝ′, σ̂′, the error spectrum to the map's degrees weighted by the lookup's
+transfer, plus the error on the map's mean) is reported beside them.
 """
 from __future__ import annotations
 
@@ -84,7 +85,10 @@ def summary_rows(res: dict, s0: float | None) -> tuple[list, list]:
     s_txt = f"{res['s']:.3f} ({_fmt(iv[0])}–{_fmt(iv[1])})" + (f", s0 = {s0:g}" if s0 else "")
     taus = [r["kendall_tau"] for r in agr["rank"] if r["kendall_tau"] is not None]
     label = f"{res['map']} ({res['scale']})"
-    row = [res["map"], res["scale"], s_txt, f"{res['sigma']:.4g}",
+    ivr = (res.get("fit_refined") or {}).get("s_interval") or [None, None]
+    s_ref_txt = (f"{res['s_refined']:.3f} ({_fmt(ivr[0])}–{_fmt(ivr[1])}), {res['sigma_refined']:.4g}"
+                 if res.get("s_refined") is not None else "–")
+    row = [res["map"], res["scale"], s_txt, f"{res['sigma']:.4g}", s_ref_txt,
            f"{acc['slopes_within']}/{acc['slopes_checked']}",
            _fmt(acc["max_abs_slope_difference"], ".2f"),
            _fmt(acc.get("max_abs_slope_difference_refined"), ".2f"),
@@ -152,7 +156,8 @@ def main(argv=None) -> int:
         rows.append(row)
         slope_rows += sl
         results.append({"map": res["map"], "scale": scale, "s0": s0, "s": res["s"],
-                         "sigma": res["sigma"], "acceptance": res["agreement"]["acceptance"],
+                         "sigma": res["sigma"], "s_refined": res.get("s_refined"),
+                         "sigma_refined": res.get("sigma_refined"), "acceptance": res["agreement"]["acceptance"],
                          "absolute": {k: res["agreement"]["absolute"].get(k)
                                       for k in ("slope_range", "slope_range_refined",
                                                 "slope_range_spectral")},
@@ -166,7 +171,8 @@ def main(argv=None) -> int:
     lo_hi = "64…1024" if args.quick else "64…4096"
     md = [f"Agreement of `envfit validate` ({'--quick' if args.quick else 'full'} configuration; "
           f"slopes and (b) over N = {lo_hi}):", "",
-          _table(["map", "scale", "s fitted (95 %)", "σ̂", "slopes sf/random ≤ 0.1",
+          _table(["map", "scale", "s fitted (95 %)", "σ̂", "ŝ′ (95 %), σ̂′ band-limited fit (b′)",
+                  "slopes sf/random ≤ 0.1",
                   "max |Δslope|", "max |Δslope| (b′)", "Kendall τ (diffuse eq, osw, glossy eq, osw)",
                   "(b) σ̂·wce / measured: median [range], within 20 %",
                   "(b′) refined: same (within 20 % or 2 sd of one map's scatter)",

@@ -74,7 +74,12 @@ def _summary(res: dict) -> list[str]:
     agr = res["agreement"]
     lo, hi = agr["slope_range"]
     lines = [f"s = {res['s']:.3f} ({res['fit']['source']}), sigma = {res['sigma']:.4g} "
-             f"({res['scale']} scale), M = {res['axes']} axes", "",
+             f"({res['scale']} scale), M = {res['axes']} axes"]
+    if res.get("s_refined") is not None:
+        lines.append(f"s' = {res['s_refined']:.3f}, sigma' = {res['sigma_refined']:.4g} (band-limited "
+                     f"fit, L = {res['fit_refined'].get('band_lmax')}, samples at pixel centres: "
+                     "prediction (b'))")
+    lines += ["",
              f"slopes over N = {lo}…{hi} (measured / predicted / refined b'):"]
     for s in agr["slopes"]:
         f = (lambda v: "  –   " if v is None else f"{v:+.3f}")
