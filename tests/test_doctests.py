@@ -1,0 +1,34 @@
+"""The examples in the docstrings of envfit, theory and data_gen run and print what they say
+(``doctest.testmod`` on every module of the installed packages)."""
+from __future__ import annotations
+
+import doctest
+import importlib
+import pkgutil
+
+import numpy as np
+import pytest
+
+import data_gen
+import envfit
+import theory
+
+
+def _modules() -> list[str]:
+    names = []
+    for pkg in (envfit, theory, data_gen):
+        names.append(pkg.__name__)
+        names += [m.name for m in pkgutil.walk_packages(pkg.__path__, pkg.__name__ + ".")
+                  if not m.name.endswith("__main__")]
+    return sorted(names)
+
+
+@pytest.mark.parametrize("name", _modules())
+def test_docstring_examples(name, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)                     # an example that writes, writes here
+    monkeypatch.setenv("ENVFIT_CACHE_DIR", str(tmp_path / "cache"))
+    module = importlib.import_module(name)
+    with np.printoptions(legacy=False):
+        result = doctest.testmod(module, optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE,
+                                 verbose=False, report=True)
+    assert result.failed == 0, f"{result.failed} of {result.attempted} examples failed in {name}"
