@@ -613,32 +613,6 @@ def _error_stats(est: np.ndarray, truth: np.ndarray) -> dict:
             "measured_rel_se": rel_se, "error_kurtosis": kurt}
 
 
-def _fit(envmap: EnvMap, cfg: ValidateConfig, store: ResultStore, quiet: bool) -> dict:
-    cell = store.get("fit")
-    if cell is not None:
-        cell["resumed"] = True
-        return cell
-    t0 = time.perf_counter()
-    if cfg.s == "auto":
-        from .fit import fit_smoothness
-        res = fit_smoothness(envmap, method=cfg.fit_method, n=cfg.fit_n, scale=cfg.scale,
-                             seed=cfg.seed, quiet=quiet)
-        cell = {"s": float(res.s), "s_interval": [float(x) for x in res.s_interval],
-                "sigma_channels": [float(x) for x in res.sigma], "method": res.method,
-                "n": int(res.n), "source": "fit", "notes": list(res.notes)}
-    else:
-        sc = fit_scale(cfg.scale, envmap)
-        scaled = envmap.with_data(np.asarray(sc.apply(envmap.data), dtype=np.float64))
-        sig = profiled_sigma(scaled, float(cfg.s), n=cfg.fit_n, seed=cfg.seed)
-        cell = {"s": float(cfg.s), "s_interval": None, "sigma_channels": sig.tolist(),
-                "method": "given s; sigma by the profiled likelihood at that s",
-                "n": cfg.fit_n, "source": "given", "notes": []}
-    cell["seconds"] = time.perf_counter() - t0
-    store.put("fit", cell)
-    cell["resumed"] = False
-    return cell
-
-
 def bandlimited_profiled_sigma(scaled: EnvMap, s: float, *, n: int = 1500,
                                seed: int = 0) -> tuple[np.ndarray, int]:
     r"""σ̂ per channel at a given s under the band-limited model (:mod:`envfit.bandlimited`):
@@ -659,33 +633,42 @@ def bandlimited_profiled_sigma(scaled: EnvMap, s: float, *, n: int = 1500,
     return np.atleast_1d(sig), int(len(pts))
 
 
-def _fit_bandlimited(envmap: EnvMap, cfg: ValidateConfig, store: ResultStore, quiet: bool) -> dict:
-    """s and σ of the band-limited model for prediction (b') (a likelihood fit, or σ at the
-    given s)."""
-    cell = store.get("fit_bandlimited")
+def _fit(envmap: EnvMap, cfg: ValidateConfig, store: ResultStore, quiet: bool, *,
+         kernel: str = "full") -> dict:
+    """s and σ per channel (a stored cell): ``kernel="full"`` the paper's fit (``cfg.fit_method``)
+    for (a) and (b); ``"bandlimited"`` the likelihood of the band-limited model for (b').
+    A given s (``cfg.s``) gets σ by the profiled likelihood of that kernel at it."""
+    key = "fit" if kernel == "full" else "fit_bandlimited"
+    cell = store.get(key)
     if cell is not None:
         cell["resumed"] = True
         return cell
     t0 = time.perf_counter()
+    what = "" if kernel == "full" else "band-limited "
     if cfg.s == "auto":
         from .fit import fit_smoothness
-        res = fit_smoothness(envmap, method="likelihood", n=cfg.fit_n, scale=cfg.scale,
-                             seed=cfg.seed, kernel="bandlimited", quiet=quiet)
+        res = fit_smoothness(envmap, method=cfg.fit_method if kernel == "full" else "likelihood",
+                             n=cfg.fit_n, scale=cfg.scale, seed=cfg.seed, kernel=kernel,
+                             quiet=quiet)
         cell = {"s": float(res.s), "s_interval": [float(x) for x in res.s_interval],
                 "sigma_channels": [float(x) for x in res.sigma], "band_lmax": res.band_lmax,
-                "n": int(res.n), "source": "fit",
-                "method": "likelihood, kernel band-limited at H - 1, samples at pixel centres",
-                "notes": list(res.notes)}
+                "n": int(res.n), "source": "fit", "notes": list(res.notes),
+                "method": res.method if kernel == "full" else
+                "likelihood, kernel band-limited at H - 1, samples at pixel centres"}
     else:
         sc = fit_scale(cfg.scale, envmap)
         scaled = envmap.with_data(np.asarray(sc.apply(envmap.data), dtype=np.float64))
-        sig, used = bandlimited_profiled_sigma(scaled, float(cfg.s), n=cfg.fit_n, seed=cfg.seed)
+        if kernel == "full":
+            sig = profiled_sigma(scaled, float(cfg.s), n=cfg.fit_n, seed=cfg.seed)
+            used, band = cfg.fit_n, None
+        else:
+            sig, used = bandlimited_profiled_sigma(scaled, float(cfg.s), n=cfg.fit_n, seed=cfg.seed)
+            band = map_band_limit(scaled)
         cell = {"s": float(cfg.s), "s_interval": None, "sigma_channels": sig.tolist(),
-                "band_lmax": map_band_limit(scaled), "n": used, "source": "given",
-                "method": "given s; sigma by the band-limited profiled likelihood at that s",
-                "notes": []}
+                "band_lmax": band, "n": int(used), "source": "given", "notes": [],
+                "method": f"given s; sigma by the {what}profiled likelihood at that s"}
     cell["seconds"] = time.perf_counter() - t0
-    store.put("fit_bandlimited", cell)
+    store.put(key, cell)
     cell["resumed"] = False
     return cell
 
@@ -732,7 +715,7 @@ def run_validation(envmap: EnvMap, config: ValidateConfig | None = None, *,
     s_used = float(fit["s"])
     sigma_ch = [float(x) for x in fit["sigma_channels"]]
     sigma = combine_sigma(sigma_ch)
-    fit_ref = _fit_bandlimited(envmap, cfg, store, quiet)            # for prediction (b')
+    fit_ref = _fit(envmap, cfg, store, quiet, kernel="bandlimited")  # for prediction (b')
     timings["fit"] += 0.0 if fit_ref["resumed"] else fit_ref["seconds"]
     if on_cell:
         on_cell("fit_bandlimited", fit_ref["resumed"])
