@@ -52,7 +52,7 @@ from .latlong import direction_to_pixel
 from .resources import check_memory
 
 __all__ = ["BandlimitedKernel", "bandlimited_log_likelihood", "pixel_centre_samples",
-           "map_band_limit", "MAX_BAND_LMAX"]
+           "map_band_limit", "max_samples", "MAX_BAND_LMAX"]
 
 #: largest band limit accepted (a 16384-row map); the table is then 0.5 M values
 MAX_BAND_LMAX = 16383
@@ -61,6 +61,17 @@ MAX_BAND_LMAX = 16383
 def map_band_limit(envmap: EnvMap) -> int:
     """The highest degree an H-row lat-long map holds, H − 1 (its Nyquist degree)."""
     return int(envmap.height) - 1
+
+
+def max_samples(lmax: int) -> int:
+    """The most samples a fit with the kernel band-limited at ``lmax`` takes: half the
+    (L+1)² degrees of freedom of a function band-limited at L. More samples than (L+1)²
+    make the kernel matrix singular (it has rank (L+1)²); near (L+1)² it is ill-conditioned.
+
+    >>> max_samples(15)
+    128
+    """
+    return (int(lmax) + 1) ** 2 // 2
 
 
 def _check_lmax(lmax) -> int:

@@ -35,7 +35,8 @@ from typing import Callable
 import numpy as np
 from scipy import optimize
 
-from .bandlimited import bandlimited_log_likelihood, map_band_limit, pixel_centre_samples
+from .bandlimited import (bandlimited_log_likelihood, map_band_limit, max_samples,
+                          pixel_centre_samples)
 from .envmap import EnvMap
 from .errors import ParameterError
 from .interpolation import SobolevInterpolator
@@ -250,13 +251,22 @@ def fit_smoothness(envmap: EnvMap, *, method: str = DEFAULT_METHOD, n: int = DEF
     sc = fit_scale(scale, envmap)
     scaled = envmap.with_data(np.asarray(sc.apply(envmap.data), dtype=np.float64))
     C = scaled.channels
-    points = sample_directions(n, pointset=pointset, seed=seed, up=envmap.up)
     notes = []
     band_lmax = None
     if kernel == "bandlimited":
         band_lmax = map_band_limit(scaled)
-        if band_lmax < 1:
-            raise ParameterError("the band-limited kernel needs a map of at least 2 rows")
+        cap = max_samples(band_lmax)
+        if cap < 10:
+            raise ParameterError(f"a {scaled.height}-row map is too small for the band-limited fit "
+                                 "(it needs at least 5 rows: 10 samples, half the H² degrees of "
+                                 "freedom)")
+        if n > cap:
+            notes.append(f"n = {n} capped at {cap}: a {scaled.height}-row map holds "
+                         f"{scaled.height ** 2} degrees of freedom, and the band-limited fit "
+                         "takes at most half of them")
+            n = cap
+    points = sample_directions(n, pointset=pointset, seed=seed, up=envmap.up)
+    if kernel == "bandlimited":
         points, values = pixel_centre_samples(scaled, points)
         notes.append(f"band-limited kernel (L = {band_lmax}); {len(points)} samples at pixel "
                      f"centres ({n - len(points)} repeats dropped)")

@@ -145,7 +145,8 @@ from theory.sphere_points import sphere_points
 from theory.truncation import equivalent_qmc_points, truncation_error_curve
 from theory.weights import equal_weights, kernel_matrix, optimal_weights
 
-from .bandlimited import bandlimited_log_likelihood, map_band_limit, pixel_centre_samples
+from .bandlimited import (bandlimited_log_likelihood, map_band_limit, max_samples,
+                          pixel_centre_samples)
 from .checks import check_int, check_ints, check_names
 from .envmap import EnvMap
 from .errors import ParameterError
@@ -616,7 +617,8 @@ def _error_stats(est: np.ndarray, truth: np.ndarray) -> dict:
 def bandlimited_profiled_sigma(scaled: EnvMap, s: float, *, n: int = 1500,
                                seed: int = 0) -> tuple[np.ndarray, int]:
     r"""σ̂ per channel at a given s under the band-limited model (:mod:`envfit.bandlimited`):
-    ``n`` spherical Fibonacci directions moved to their pixel centres, values centred per
+    ``n`` spherical Fibonacci directions (at most :func:`envfit.bandlimited.max_samples`)
+    moved to their pixel centres, values centred per
     channel, :math:`\hat\sigma_c^2 = f_c^T K_{H-1}^{-1} f_c / n`. ``scaled`` must already
     be on the wanted value scale. Returns ``(sigma (C,), samples used)``.
 
@@ -626,7 +628,8 @@ def bandlimited_profiled_sigma(scaled: EnvMap, s: float, *, n: int = 1500,
     ([0.0, 0.0], 50)
     """
     s = float(parse_s(s))
-    local = sphere_points("sf", check_int(n, "n", 10), seed=seed)
+    n = min(check_int(n, "n", 10), max(10, max_samples(map_band_limit(scaled))))
+    local = sphere_points("sf", n, seed=seed)
     pts, v = pixel_centre_samples(scaled, local @ local_to_world(scaled.up).T)
     v = v - v.mean(axis=0, keepdims=True)
     ll, sig = bandlimited_log_likelihood(pts, v, s, map_band_limit(scaled))

@@ -150,3 +150,18 @@ def test_lookup_transfer_and_the_refined_prediction_against_the_spectral_one():
     assert without / spectral > 1.06
     a = sobolev_coefficients(1.5, H - 1)
     assert with_tau == pytest.approx(math.sqrt(np.sum((a * tau * e)[1:])), rel=1e-12)
+
+
+def test_small_maps_cap_the_samples_at_half_the_degrees_of_freedom():
+    """More than (L+1)² samples make K_L singular (rank (L+1)²): the fit takes at most half
+    of an H-row map's H² degrees of freedom, says so, and refuses maps under 5 rows."""
+    env = EnvMap(gaussian_process_map(1.5, 16, seed=1, channels=2))
+    f = fit_smoothness(env, n=3000, scale="linear", kernel="bandlimited")
+    assert f.n <= 128 and any("capped at 128" in note for note in f.notes)
+    assert 1.0 < f.s < 2.0
+    with pytest.raises(ParameterError, match="too small"):
+        fit_smoothness(EnvMap(gaussian_process_map(1.5, 4, seed=1)), n=50, scale="linear",
+                       kernel="bandlimited")
+    from envfit.validate import bandlimited_profiled_sigma
+    sig, used = bandlimited_profiled_sigma(env, 1.5, n=3000)
+    assert used <= 128 and np.all(sig > 0)

@@ -83,9 +83,9 @@ def _header(adv) -> list[str]:
                  f"{adv.band_lmax}")
     tau = adv.lookup_transfer
     if tau:
-        lines.append(f"bilinear lookup transfer tau_l: {tau[min(20, len(tau) - 1)]:.3f} at l = "
-                     f"{min(20, len(tau) - 1)}, {tau[len(tau) // 2]:.3f} at l = {len(tau) // 2}, "
-                     f"{tau[-1]:.3f} at l = {len(tau) - 1}")
+        degrees = sorted({min(20, len(tau) - 1), len(tau) // 2, len(tau) - 1})
+        lines.append("bilinear lookup transfer tau_l: "
+                     + ", ".join(f"{tau[l]:.3f} at l = {l}" for l in degrees))
     lines.append("predicted = sigma * sqrt(sum_{l<=H-1} a_l tau_l e_l) (+ mean term of "
                  "sum(w) != 1; SH with tau, HSH without), used for the choice; "
                  "sigma*wce = unrestricted Eq. 41 / Eqs. 51-52")
