@@ -624,8 +624,8 @@ def bandlimited_profiled_sigma(scaled: EnvMap, s: float, *, n: int = 1500,
 
     >>> from envfit.envmap import EnvMap
     >>> sig, used = bandlimited_profiled_sigma(EnvMap(np.full((8, 16, 2), 3.0)), 1.5, n=50)
-    >>> sig.tolist(), used
-    ([0.0, 0.0], 50)
+    >>> sig.tolist(), used                      # n capped at 8²/2 = 32 on 8 rows
+    ([0.0, 0.0], 32)
     """
     s = float(parse_s(s))
     n = min(check_int(n, "n", 10), max(10, max_samples(map_band_limit(scaled))))
