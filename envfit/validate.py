@@ -89,22 +89,23 @@ across N; the rank order of the point sets (Kendall's τ, ``scipy.stats.kendallt
 geometric-mean levels over the slope range); the shape residual per candidate s; for (b)
 the ratio predicted/measured per cell.
 
-Costs (defaults, 1024×512 map, 2 shared cores; measured on forest.exr: 340 s in all)
------------------------------------------------------------------------------------
-* quadrature cells ≈ 290 s: N = 4096 alone 150 s, 2048 63 s, the rest < 80 s; OSW cells
-  182 s against 106 s for equal weights.
+Costs (defaults, 1024×512 map, 2 idle cores; forest.exr: 159 s in all, 172 s with plots)
+-----------------------------------------------------------------------------------------
+* quadrature cells ≈ 134 s: N = 4096 alone 64 s, 2048 26 s, the rest < 45 s; OSW cells
+  76 s against 58 s for equal weights (on 2 shared cores the same run took 290–420 s).
 * bilinear lookups: M·ΣN = 2000·8176 ≈ 16 M per (BRDF, point set), ≈ 4 s with 2 threads;
   equal weights and OSW share them (:func:`quadrature_estimates_multi`);
 * OSW: one float64 Cholesky of an N×N matrix per (BRDF, point set, N), ≈ 1–1.5 s at 4096
   (plus the 134 MB kernel matrix);
 * BNOT: ≈ 15 s at N = 4096, ≈ 30 s for 16…4096 (cached in-process per (N, seed), shared by
-  the two BRDFs): its cells cost 69 s against 38–50 s for the other sets;
+  the two BRDFs): its cells cost 44 s against 16–19 s for the other sets;
 * worst-case errors: O(N²), ≈ 0.05 s at 4096, once per candidate s (6 values);
   the band-limited spectrum (ducc0 adjoint SHT to degree H − 1) ≈ 0.05 s;
-* the fit of s (``fit_n`` = 1500 samples, ~36 Cholesky factorisations) ≈ 12–40 s;
-* HSH projections: ≈ 10 s for 250 axes on 128 rows up to L = 16 (the truncation part
-  altogether ≈ 18 s);
-* QMC-equivalent N (bisection over SF point sets up to ``equivalent_nmax`` = 4096) ≈ 20 s.
+* the two fits of s (the paper's and the band-limited one; ``fit_n`` = 1500 samples, ~36
+  Cholesky factorisations each) ≈ 4 s; the lookup transfer τ ≈ 0.7 s;
+* HSH projections: ≈ 12 s for 250 axes on 128 rows up to L = 16 (the truncation part
+  altogether ≈ 12–18 s);
+* QMC-equivalent N (bisection over SF point sets up to ``equivalent_nmax`` = 4096) ≈ 5 s.
 
 Resumable: every (brdf, pointset, weights, N) cell, the fit and each truncation curve is a
 :class:`envfit.store.ResultStore` cell.
