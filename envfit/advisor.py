@@ -130,7 +130,7 @@ from theory.truncation import truncation_error_curve
 from theory.weights import equal_weights, optimal_weights
 
 from .advisor_cache import AdviseCache
-from .checks import check_int, check_names
+from .checks import check_int, check_names, check_positive
 from .envmap import EnvMap
 from .errors import ParameterError
 from .estimators import hsh_truncation_curve, rmse_over_axes, sh_truncation_curve
@@ -429,18 +429,6 @@ def _q_predict(adv: Advice, row: AdviceRow, n: int) -> float:
     return predicted_rmse(adv.sigma, e2, t["dev2"], adv.mean_rms ** 2)
 
 
-# ----------------------------------------------------------------------------- checks of input
-
-def _positive(value, what: str) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{what} must be a number > 0, got {value!r}") from None
-    if not (math.isfinite(v) and v > 0):
-        raise ParameterError(f"{what} must be a finite number > 0, got {value!r}")
-    return v
-
-
 # ----------------------------------------------------------------------------- the advisor
 
 def advise(envmap: EnvMap, brdf: str = "diffuse", target_rmse: float | None = None, *,
@@ -483,19 +471,19 @@ def advise(envmap: EnvMap, brdf: str = "diffuse", target_rmse: float | None = No
     if not isinstance(envmap, EnvMap):
         raise ParameterError(f"envmap must be an EnvMap, got {type(envmap).__name__}")
     brdf_name = check_names([brdf], BRDFS, "BRDF")[0]
-    shin = _positive(shininess, "shininess") if brdf_name == "glossy" else None
+    shin = check_positive(shininess, "shininess") if brdf_name == "glossy" else None
     wf = weight_function(brdf_name, shin if shin is not None else 30.0)
     if (target_rmse is None) == (target_relative is None):
         raise ParameterError("give exactly one of target_rmse (--target-rmse) and "
                              "target_relative (--target-relative)")
     if target_relative is not None:
-        rel = _positive(target_relative, "the relative target (--target-relative)")
+        rel = check_positive(target_relative, "the relative target (--target-relative)")
         if rel >= 1.0:
             raise ParameterError(f"the relative target (--target-relative) is a fraction of the "
                                  f"mean shading value and must be < 1, got {target_relative!r}")
     else:
         rel = None
-        target_rmse = _positive(target_rmse, "the target RMSE (--target-rmse)")
+        target_rmse = check_positive(target_rmse, "the target RMSE (--target-rmse)")
     if scale not in SCALES:
         raise ParameterError(f"scale must be one of {', '.join(SCALES)}, got {scale!r}")
     pointsets = check_names(pointsets, ALL_POINTSETS, "point set")

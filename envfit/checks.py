@@ -1,15 +1,16 @@
-"""Checks of user-given names and integers shared by the pipelines (validate, advise).
+"""Checks of user-given names, integers and positive numbers shared by the pipelines (validate, advise).
 
 Each raises :class:`envfit.errors.ParameterError` with a one-line message naming the value,
 which the CLI prints as ``envfit COMMAND: error: …`` with exit code 2.
 """
 from __future__ import annotations
 
+import math
 from typing import Iterable, Sequence
 
 from .errors import ParameterError
 
-__all__ = ["check_names", "check_int", "check_ints"]
+__all__ = ["check_names", "check_int", "check_ints", "check_positive"]
 
 
 def check_names(values: str | Iterable, allowed: Sequence[str], what: str) -> list[str]:
@@ -52,3 +53,18 @@ def check_ints(values: Iterable, what: str, lo: int) -> list[int]:
     [16, 64]
     """
     return [check_int(v, what, lo) for v in values]
+
+
+def check_positive(value, what: str) -> float:
+    """``value`` as a finite float > 0; "x", None, NaN, inf, 0 and negatives are not.
+
+    >>> check_positive("2.5", "shininess")
+    2.5
+    """
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{what} must be a number > 0, got {value!r}") from None
+    if not (math.isfinite(v) and v > 0):
+        raise ParameterError(f"{what} must be a finite number > 0, got {value!r}")
+    return v

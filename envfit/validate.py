@@ -148,7 +148,7 @@ from theory.weights import equal_weights, kernel_matrix, optimal_weights
 
 from .bandlimited import (bandlimited_log_likelihood, map_band_limit, max_samples,
                           pixel_centre_samples)
-from .checks import check_int, check_ints, check_names
+from .checks import check_int, check_ints, check_names, check_positive
 from .envmap import EnvMap
 from .errors import ParameterError
 from .estimators import hsh_truncation_curve, rmse_over_axes, sh_truncation_curve, twisted_frames
@@ -257,12 +257,7 @@ class ValidateConfig:
         self.brdfs = tuple(check_names(self.brdfs, BRDFS, "BRDF"))
         self.pointsets = tuple(check_names(self.pointsets, tuple(POINTSETS), "point set"))
         self.weights = tuple(check_names(self.weights, WEIGHTINGS, "weighting"))
-        try:
-            self.shininess = float(self.shininess)
-        except (TypeError, ValueError):
-            raise ParameterError(f"shininess must be a number, got {self.shininess!r}") from None
-        if not (math.isfinite(self.shininess) and self.shininess > 0):
-            raise ParameterError(f"shininess must be > 0, got {self.shininess!r}")
+        self.shininess = check_positive(self.shininess, "shininess")
         self.n_values = tuple(sorted(set(check_ints(self.n_values, "N", 2))))
         self.axes = check_int(self.axes, "the number of axes", 2)
         self.sh_L = tuple(sorted(set(check_ints(self.sh_L, "L", 0))))
