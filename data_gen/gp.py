@@ -45,8 +45,8 @@ Example
 from __future__ import annotations
 
 import numpy as np
-import scipy.linalg
 
+from theory.cholesky import cholesky
 from theory.errors import check_smoothness
 from theory.sobolev import generalized_distance_kernel, kernel_constant, sobolev_coefficients
 
@@ -154,7 +154,7 @@ def _cholesky_with_jitter(K: np.ndarray, diag: float) -> tuple[np.ndarray, float
     for rel in _JITTERS:
         try:
             A = K if rel == 0.0 else K + (rel * diag) * np.eye(n)
-            return scipy.linalg.cholesky(A, lower=True, check_finite=False), rel * diag
+            return cholesky(A), rel * diag
         except np.linalg.LinAlgError:
             continue
     raise SyntheticMapError(

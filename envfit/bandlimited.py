@@ -42,6 +42,7 @@ import numpy as np
 from scipy import fft as sp_fft
 from scipy.linalg import lapack
 
+from theory.cholesky import cholesky_inplace
 from theory.sobolev import kernel_series
 
 from . import _bandlimited_kernels as _bk
@@ -188,7 +189,8 @@ def bandlimited_log_likelihood(points, values, s: float, lmax: int) -> ProfiledL
         raise ParameterError(f"values have {vals.shape[0]} rows for {n} points")
     if not np.all(np.isfinite(vals)):
         raise ParameterError("values contain NaN or Inf")
-    c, info = lapack.dpotrf(K, lower=1, overwrite_a=1, clean=0)
+    info = cholesky_inplace(K)
+    c = K
     if info != 0:
         raise ParameterError(
             f"the {n}x{n} band-limited kernel matrix (s = {kern.s:g}, L = {kern.lmax}) is not "

@@ -136,8 +136,8 @@ from pathlib import Path
 from typing import Callable, Sequence
 
 import numpy as np
-from scipy import linalg
 
+from theory.cholesky import cho_factor, cho_solve
 from theory.errors import TheoryParameterError
 from theory.pointsets import POINTSETS, generate
 from theory.quadrature import initial_error, kernel_mean_embedding, weighted_energy_sum
@@ -451,11 +451,11 @@ def profiled_sigma(envmap: EnvMap, s: float, *, n: int = 1500, seed: int = 0) ->
     v = v - v.mean(axis=0, keepdims=True)
     check_memory(8 * n * n, f"the {n}x{n} kernel matrix of the sigma fit", hint="use a smaller fit_n")
     K = kernel_matrix(local, s)
-    try:
-        cf = linalg.cho_factor(K, lower=True, overwrite_a=True, check_finite=False)
-    except linalg.LinAlgError:  # pragma: no cover - SF points are distinct
+    try:  # kernel_matrix is Fortran-ordered: factorised in place
+        cf = cho_factor(K, overwrite_a=True)
+    except np.linalg.LinAlgError:  # pragma: no cover - SF points are distinct
         raise ParameterError("kernel matrix of the sigma fit is not positive definite") from None
-    sol = linalg.cho_solve(cf, v, check_finite=False)
+    sol = cho_solve(cf, v)
     return np.sqrt(np.maximum(np.sum(v * sol, axis=0) / n, 0.0))
 
 

@@ -9,6 +9,8 @@ and Fourier Truncation-based Methods Applied to Shading Integrals" (IEEE TVCG 20
 - :mod:`theory.sh` — Legendre/SH sums of point sets (Eqs. 44–45, 54);
 - :mod:`theory.pointsets`, :mod:`theory.bnot`, :mod:`theory.sphere_points` — point sets;
 - :mod:`theory.weights` — equal and optimal sample weights;
+- :mod:`theory.cholesky` — the dense Cholesky every factorisation uses (blocked, safe from
+  OpenBLAS's threaded-``dsyrk`` crash on AVX-512 at N >= 16 000);
 - :mod:`theory.quadrature` — worst-case error Eq. 41 and its spectrum Eq. 42;
 - :mod:`theory.truncation` — SH/HSH truncation error Eqs. 51–52, N-versus-L equivalence.
 """

@@ -16,9 +16,9 @@ and the gradient :math:`\nabla_w E^2 = 2(Kw - z)` vanishes there.
 from __future__ import annotations
 
 import numpy as np
-from scipy import linalg
 
 from .brdf import WeightFunction
+from .cholesky import cho_factor, cho_solve
 from .errors import TheoryParameterError, check_smoothness
 from .quadrature import kernel_mean_embedding
 from .sh import check_points_weights
@@ -76,8 +76,8 @@ def optimal_weights(points, brdf: WeightFunction, s: float, *,
                     max_bytes: int = MAX_MATRIX_BYTES) -> np.ndarray:
     r"""Optimal sample weights :math:`w = K^{-1}z` minimising the worst-case error (Eq. 41).
 
-    float64 Cholesky (``scipy.linalg.cho_factor`` on the Fortran-ordered matrix,
-    overwritten). The condition number of K grows like :math:`N^{s}` (errata: ≈5e8 at
+    float64 Cholesky (:func:`theory.cholesky.cho_factor`, in place: LAPACK on panels, safe
+    from OpenBLAS's threaded-``dsyrk`` crash at large N). The condition number of K grows like :math:`N^{s}` (errata: ≈5e8 at
     s = 1.9, N = 20 000), so float32 is not safe; float64 leaves ≈1e-7 relative accuracy
     on w in the worst case, and the worst-case error is first-order insensitive to w
     errors at the optimum. Raises TheoryParameterError when K is not numerically positive
@@ -99,12 +99,12 @@ def optimal_weights(points, brdf: WeightFunction, s: float, *,
     k_diag = kernel_constant(s)
     msg = ("the kernel matrix is not numerically positive definite: the point set has "
            "duplicate or nearly coincident points")
-    try:
-        cf = linalg.cho_factor(K, lower=False, overwrite_a=True, check_finite=False)
-    except linalg.LinAlgError:
+    try:  # kernel_matrix is Fortran-ordered: factorised in place
+        cf = cho_factor(K, overwrite_a=True)
+    except np.linalg.LinAlgError:
         raise TheoryParameterError(msg) from None
     # a duplicate point can survive the factorisation with a rounding-level pivot
     piv = np.abs(np.diagonal(cf[0]))
     if piv.min() ** 2 <= 64.0 * n * np.finfo(float).eps * k_diag:
         raise TheoryParameterError(msg)
-    return linalg.cho_solve(cf, z, check_finite=False)
+    return cho_solve(cf, z)
