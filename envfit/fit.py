@@ -37,15 +37,17 @@ from scipy import optimize
 
 from .bandlimited import (bandlimited_log_likelihood, map_band_limit, max_samples,
                           pixel_centre_samples)
-from .envmap import EnvMap
+from .checks import check_int
+from .envmap import EnvMap, check_sample_count
 from .errors import ParameterError
 from .interpolation import SobolevInterpolator
-from .scales import fit_scale
+from .resources import plan_memory
+from .scales import check_not_constant, fit_scale
 from .table2 import sample_directions
 
 __all__ = ["METHODS", "KERNELS", "DEFAULT_METHOD", "DEFAULT_N", "FitResult", "fit_smoothness",
            "fit_smoothness_samples", "S_GRID", "SCORE_NAMES", "holdout_pixels",
-           "bootstrap_indices", "bootstrap_argmin_interval"]
+           "bootstrap_indices", "bootstrap_argmin_interval", "plan_fit_memory"]
 
 METHODS = ("likelihood", "loo", "holdout")
 #: ``full``: K_gd (Eq. 14), samples by bilinear lookup; ``bandlimited``: K_gd truncated at the
@@ -107,7 +109,9 @@ def fit_smoothness_samples(points: np.ndarray, values: np.ndarray, *, method: st
                            callback: Callable[[float], None] | None = None) -> dict:
     """Fit s from scattered samples ``values`` (N or N×C) at unit vectors ``points`` (N×3).
 
-    Returns a dict with ``s``, ``s_interval``, ``sigma`` (per channel), ``curve``.
+    Returns a dict with ``s``, ``s_interval``, ``sigma`` (per channel), ``curve`` and
+    ``constant_channels`` (left out of the likelihood, σ̂ = 0; constant values in every
+    channel raise :class:`~envfit.errors.ParameterError`: there is nothing to fit).
     Used by :func:`fit_smoothness`; also usable directly on sampled data (e.g. exact
     Gaussian-process samples in the tests). ``band_lmax`` (likelihood only): use the kernel
     band-limited at that degree (:mod:`envfit.bandlimited`) instead of K_gd.
@@ -119,6 +123,23 @@ def fit_smoothness_samples(points: np.ndarray, values: np.ndarray, *, method: st
     values = np.asarray(values, dtype=np.float64)
     if values.ndim == 1:
         values = values[:, None]
+    varies = np.ptp(values, axis=0) > 0 if len(values) else np.zeros(values.shape[1], bool)
+    if not np.any(varies):
+        # sigma = 0: the likelihood is infinite at every s and the interval search meets NaN
+        raise ParameterError(f"the {len(values)} sample values are constant"
+                             f"{' in every channel' if values.shape[1] > 1 else ''}: "
+                             "there is nothing to fit")
+    if method == "likelihood" and not np.all(varies):
+        # a constant channel has sigma = 0 and an infinite likelihood: fit on the others
+        res = fit_smoothness_samples(points, values[:, varies], method=method,
+                                     holdout_dirs=holdout_dirs, holdout_values=holdout_values,
+                                     s_grid=s_grid, seed=seed, n_bootstrap=n_bootstrap,
+                                     band_lmax=band_lmax, callback=callback)
+        sigma = np.zeros(values.shape[1])
+        sigma[varies] = res["sigma"]
+        res["sigma"] = [float(x) for x in sigma]
+        res["constant_channels"] = [int(c) for c in np.flatnonzero(~varies)]
+        return res
     if method == "likelihood":
         # the GP is zero-mean; the map's mean is its l = 0 term, not part of its roughness
         values = values - values.mean(axis=0, keepdims=True)
@@ -167,7 +188,7 @@ def fit_smoothness_samples(points: np.ndarray, values: np.ndarray, *, method: st
         sigma = np.atleast_1d(SobolevInterpolator(points, vals, s_hat).log_likelihood_profiled()[1])
     curve = [{"s": float(s), "score": float(v[0])} for s, v in sorted(cache.items())]
     return {"s": s_hat, "s_interval": (float(interval[0]), float(interval[1])),
-            "sigma": [float(x) for x in sigma], "curve": curve}
+            "sigma": [float(x) for x in sigma], "curve": curve, "constant_channels": []}
 
 
 def _bracket_root(f, inside: float, candidates, edge: float) -> float:
@@ -223,6 +244,23 @@ def holdout_pixels(scaled: EnvMap, n_holdout: int, *, seed: int) -> tuple[np.nda
     return scaled.directions().reshape(-1, 3)[idx], scaled.data.reshape(-1, C)[idx]
 
 
+def plan_fit_memory(n: int, width: int, height: int, channels: int, *,
+                    method: str = DEFAULT_METHOD, n_holdout: int = 20000,
+                    what: str = "the smoothness fit", n_name: str = "n") -> int:
+    """The fit's memory guard (:func:`envfit.resources.plan_memory`), before any sample is
+    made: the interpolator (N x N kernel matrix, O(N C) arrays) of ``n`` samples, the map on
+    its scale and its pixel directions, and for ``holdout`` the held-out pixels and their
+    predictions."""
+    pixels = int(width) * int(height)
+    c = int(channels)
+    fixed = 8 * pixels * (c + 4)                         # scaled map, directions, solid angles
+    if method == "holdout":
+        m = min(int(n_holdout), pixels)
+        fixed += 8 * m * (3 + 3 * c)
+    return plan_memory(n, what, channels=c, fixed_bytes=fixed, n_name=n_name,
+                       smallest=10)
+
+
 def fit_smoothness(envmap: EnvMap, *, method: str = DEFAULT_METHOD, n: int = DEFAULT_N,
                    scale: str = "display", pointset: str = "sf", seed: int = 0,
                    n_holdout: int = 20000, s_grid=S_GRID, kernel: str = "full",
@@ -237,6 +275,13 @@ def fit_smoothness(envmap: EnvMap, *, method: str = DEFAULT_METHOD, n: int = DEF
     degree H − 1 and the samples moved to their nearest pixel centres (repeats dropped), the
     exact model of a band-limited Gaussian-process map (:mod:`envfit.bandlimited`; it
     removes the upward bias of ŝ that the full kernel and bilinear lookups give).
+
+    Checked before anything of size ``n`` is made: ``n`` an integer ≥ 10, the memory guard
+    (:func:`plan_fit_memory`; :class:`~envfit.errors.MemoryBudgetError` naming the largest n
+    that fits), ``n`` at most the map's pixel count (full kernel; an error, see
+    :func:`~envfit.envmap.check_sample_count`), and a map constant on ``scale`` (e.g. all
+    zero) is refused (:func:`~envfit.scales.check_not_constant`). A channel that is constant
+    while others vary is left out of the likelihood (σ̂ = 0 for it, noted).
     """
     t0 = time.perf_counter()
     if method not in METHODS:
@@ -245,26 +290,29 @@ def fit_smoothness(envmap: EnvMap, *, method: str = DEFAULT_METHOD, n: int = DEF
         raise ParameterError(f"unknown kernel {kernel!r}; choose one of {', '.join(KERNELS)}")
     if kernel == "bandlimited" and method != "likelihood":
         raise ParameterError("the band-limited kernel is available for the likelihood method only")
-    n = int(n)
-    if n < 10:
-        raise ParameterError(f"fit needs at least 10 samples, got n = {n}")
-    sc = fit_scale(scale, envmap)
-    scaled = envmap.with_data(np.asarray(sc.apply(envmap.data), dtype=np.float64))
-    C = scaled.channels
+    n = check_int(n, "the number of samples n", 10)
+    C = envmap.channels
     notes = []
     band_lmax = None
     if kernel == "bandlimited":
-        band_lmax = map_band_limit(scaled)
+        band_lmax = map_band_limit(envmap)
         cap = max_samples(band_lmax)
         if cap < 10:
-            raise ParameterError(f"a {scaled.height}-row map is too small for the band-limited fit "
+            raise ParameterError(f"a {envmap.height}-row map is too small for the band-limited fit "
                                  "(it needs at least 5 rows: 10 samples, half the H² degrees of "
                                  "freedom)")
         if n > cap:
-            notes.append(f"n = {n} capped at {cap}: a {scaled.height}-row map holds "
-                         f"{scaled.height ** 2} degrees of freedom, and the band-limited fit "
+            notes.append(f"n = {n} capped at {cap}: a {envmap.height}-row map holds "
+                         f"{envmap.height ** 2} degrees of freedom, and the band-limited fit "
                          "takes at most half of them")
             n = cap
+    # before anything of size n: the memory guard, then n against the pixel count (the
+    # band-limited cap above is stricter than the pixel count)
+    plan_fit_memory(n, envmap.width, envmap.height, C, method=method, n_holdout=n_holdout)
+    check_sample_count(n, envmap.width, envmap.height, name=envmap.name, what="n")
+    sc = fit_scale(scale, envmap)
+    scaled = envmap.with_data(np.asarray(sc.apply(envmap.data), dtype=np.float64))
+    check_not_constant(scaled.data, scale, envmap.name)
     points = sample_directions(n, pointset=pointset, seed=seed, up=envmap.up)
     if kernel == "bandlimited":
         points, values = pixel_centre_samples(scaled, points)
@@ -285,6 +333,9 @@ def fit_smoothness(envmap: EnvMap, *, method: str = DEFAULT_METHOD, n: int = DEF
                                      band_lmax=band_lmax, callback=lambda s: bar.update(1))
     finally:
         bar.close()
+    if res.get("constant_channels"):
+        notes.append(f"channel(s) {', '.join(map(str, res['constant_channels']))} constant on the "
+                     f"{scale} scale at the samples: left out of the fit (sigma 0)")
     score_name = SCORE_NAMES[method]
     lo, hi = res["s_interval"]
     if lo <= 1.0 + 1e-3 or hi >= 2.0 - 1e-3:

@@ -32,7 +32,7 @@ import numpy as np
 
 from .errors import ParameterError
 
-__all__ = ["SCALES", "MIDDLE_GREY", "Scale", "fit_scale", "srgb_oetf"]
+__all__ = ["SCALES", "MIDDLE_GREY", "Scale", "fit_scale", "srgb_oetf", "check_not_constant"]
 
 #: the names of the available scales
 SCALES = ("linear", "display", "log")
@@ -155,8 +155,45 @@ def fit_scale(name: str, envmap) -> Scale:
     if name == "linear":
         return Scale("linear", reference_mean_luminance=ybar)
     if not (np.isfinite(ybar) and ybar > 0):
-        raise ParameterError(f"the {name} scale needs a reference map with positive mean "
-                             f"luminance; got {ybar:.6g}")
+        label = f"map {m.name}" if m.name else "the map"
+        what = ("exposure 0.18 / mean luminance" if name == "display"
+                else "log(1 + v / mean luminance)")
+        if not np.any(m.data):
+            raise ParameterError(f"{label} is all zero: the {name} scale ({what}) needs a "
+                                 "positive mean luminance, and there is nothing to fit")
+        raise ParameterError(f"{label} has mean luminance {ybar:.6g}: the {name} scale ({what}) "
+                             "needs a positive mean luminance; use the linear scale")
     if name == "display":
         return Scale("display", exposure=MIDDLE_GREY / ybar, reference_mean_luminance=ybar)
     return Scale("log", normaliser=ybar, reference_mean_luminance=ybar)
+
+
+def check_not_constant(values, scale: str, name: str = "", *, where: str = "") -> None:
+    """Refuse a map (or its samples) that is constant on its scale: there is nothing to fit
+    or reconstruct (σ̂ = 0, the likelihood is infinite for every s and the fit's root search
+    meets NaN). ``values``: the map's data (or samples) on ``scale``, last axis channels;
+    ``where`` says which values, e.g. ``" at its 400 samples"``.
+
+    >>> check_not_constant(np.zeros((2, 4, 3)), "linear", "forest.exr")
+    Traceback (most recent call last):
+    ...
+    envfit.errors.ParameterError: map forest.exr is all zero on the linear scale: there is nothing to fit
+    >>> check_not_constant(np.arange(8.0).reshape(2, 4, 1), "linear")
+    """
+    v = np.asarray(values, dtype=np.float64)
+    v = v.reshape(-1, v.shape[-1]) if v.ndim > 1 else v.reshape(-1, 1)
+    if v.size == 0:
+        return
+    lo, hi = v.min(axis=0), v.max(axis=0)
+    if np.any(hi > lo) or not np.all(np.isfinite(lo)):
+        return
+    label = f"map {name}" if name else "the map"
+    if not np.any(hi):
+        raise ParameterError(f"{label} is all zero on the {scale} scale{where}: there is "
+                             "nothing to fit")
+    if np.all(lo == lo[0]):
+        vals = f"value {lo[0]:.6g}"
+    else:
+        vals = "values " + ", ".join(f"{x:.6g}" for x in lo[:4]) + " per channel"
+    raise ParameterError(f"{label} is constant on the {scale} scale{where} ({vals}): there is "
+                         "nothing to fit")

@@ -9,7 +9,9 @@ display-referred, see ERRATA "Table 2"). The scale is fitted once on the map and
 the map *before* sampling: the scaled map is the function being reconstructed.
 
 Cells are stored as they finish (:class:`~envfit.store.ResultStore`), so a rerun with the
-same output folder skips them.
+same output folder skips them; a stored cell that is not sound (edited, corrupt, another
+cell's) is recomputed with a note, and a second run on the same folder is refused while the
+first holds its lock (:mod:`envfit.store`).
 """
 from __future__ import annotations
 
@@ -22,16 +24,19 @@ import numpy as np
 
 from theory.sphere_points import sphere_points
 
-from .envmap import EnvMap
+from .checks import check_ints
+from .envmap import EnvMap, check_sample_count
 from .errors import ParameterError
 from .interpolation import SobolevInterpolator
 from .latlong import local_to_world
 from .metrics import rmse, rmse_solid_angle
-from .scales import fit_scale
+from .resources import plan_memory
+from .scales import check_not_constant, fit_scale
 from .store import ResultStore, array_fingerprint
 
 __all__ = ["PAPER_S", "PAPER_N", "QUICK_N", "Table2Cell", "Table2Result", "run_table2",
-           "sample_directions", "format_table2", "check_grid", "PAPER_TABLE2_PISA"]
+           "sample_directions", "format_table2", "check_grid", "plan_table2_memory",
+           "PAPER_TABLE2_PISA"]
 
 #: the paper's grid (Table 2)
 PAPER_S = (1.1, 1.5, 1.9)
@@ -73,6 +78,7 @@ class Table2Result:
     n_values: list[int]
     cells: list[Table2Cell] = field(default_factory=list)
     files: dict[str, str] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
 
     def cell(self, s: float, n: int) -> Table2Cell:
         for c in self.cells:
@@ -102,7 +108,7 @@ class Table2Result:
             "rows": [c.to_dict() for c in self.cells],
             "s_best": self.s_best,
             "s_best_by_n": {str(k): v for k, v in self.s_best_by_n().items()},
-            "files": self.files,
+            "files": self.files, "notes": self.notes,
         }
 
 
@@ -114,16 +120,31 @@ def sample_directions(n: int, *, pointset: str = "sf", seed: int = 0, up: str = 
 
 def check_grid(s_values: Sequence[float], n_values: Sequence[int]) -> tuple[list[float], list[int]]:
     """The (s, N) grid as floats and sorted ints; ParameterError if empty or out of range."""
-    s_values = [float(s) for s in s_values]
-    n_values = sorted(int(n) for n in n_values)
+    try:
+        s_values = [float(s) for s in s_values]
+    except (TypeError, ValueError):
+        raise ParameterError(f"s values must be numbers in (1, 2), got {list(s_values)!r}") from None
+    n_values = sorted(check_ints(n_values, "N", 2))
     if not s_values or not n_values:
         raise ParameterError("table2 needs at least one s and one N")
     for s in s_values:
         if not 1.0 < s < 2.0:
             raise ParameterError(f"s must satisfy 1 < s < 2 (Eq. 14), got {s:g}")
-    if n_values[0] < 2:
-        raise ParameterError(f"N must be at least 2, got {n_values[0]}")
     return s_values, n_values
+
+
+def plan_table2_memory(n_max: int, width: int, height: int, channels: int,
+                       what: str = "table2") -> int:
+    """The memory guard of a Table 2 sweep (:func:`envfit.resources.plan_memory`), before any
+    sample point is made: the interpolator of the largest N plus the map-sized arrays (the
+    map on its scale, pixel directions, solid angles, one reconstruction)."""
+    pixels = int(width) * int(height)
+    c = int(channels)
+    return plan_memory(n_max, what, channels=c, fixed_bytes=8 * pixels * (4 + 3 * c))
+
+
+#: what a stored cell must hold to be used
+_FIELDS = tuple(Table2Cell.__dataclass_fields__)
 
 
 def _cell_key(s: float, n: int) -> str:
@@ -134,27 +155,41 @@ def run_table2(envmap: EnvMap, s_values: Sequence[float] = PAPER_S,
                n_values: Sequence[int] = PAPER_N, *, pointset: str = "sf",
                scale: str = "display", seed: int = 0, out: str | Path | None = None,
                save_reconstructions: bool = True, quiet: bool = True,
-               on_cell: Callable[[Table2Cell, bool], None] | None = None) -> Table2Result:
+               on_cell: Callable[[Table2Cell, bool], None] | None = None,
+               on_note: Callable[[str], None] | None = None) -> Table2Result:
     """Run the (s, N) sweep on ``envmap``; see the module docstring.
 
     Parameters
     ----------
-    s_values, n_values : the grid (each s in (1, 2); each N ≥ 2).
+    s_values, n_values : the grid (each s in (1, 2); each N an integer ≥ 2 and at most the
+        map's pixel count, :func:`~envfit.envmap.check_sample_count`).
     pointset : ``"sf"`` (spherical Fibonacci, deterministic) or ``"random"`` (seeded).
     scale : ``"display"`` (paper), ``"linear"`` or ``"log"``.
     out : folder for the resumable cells, the reconstructions (EXR + PNG) of the largest N.
     on_cell : called as ``on_cell(cell, resumed)`` after each cell (for progress output).
+    on_note : called with each note of the store (a stored cell recomputed because it was
+        not sound); default: printed to stderr (:func:`envfit.store.print_note`). The notes
+        are also in ``result.notes``.
+
+    Before anything of size N is made: the memory guard for the largest N
+    (:func:`plan_table2_memory`, :class:`~envfit.errors.MemoryBudgetError` naming the
+    largest N that fits), N against the pixel count, and a map constant on ``scale``
+    (:func:`~envfit.scales.check_not_constant`) is refused.
     """
     s_values, n_values = check_grid(s_values, n_values)
+    # the memory guard first (before any sample point), then N against the pixel count
+    plan_table2_memory(n_values[-1], envmap.width, envmap.height, envmap.channels)
+    check_sample_count(n_values[-1], envmap.width, envmap.height, name=envmap.name)
     sc = fit_scale(scale, envmap)
     target = np.asarray(sc.apply(envmap.data), dtype=np.float64)          # H×W×C on the scale
+    check_not_constant(target, scale, envmap.name)
     scaled = envmap.with_data(target)
     H, W, C = target.shape
     pixel_dirs = envmap.directions().reshape(-1, 3)
     weights = envmap.solid_angles()
     store = ResultStore(out, {
         "map": array_fingerprint(envmap.data), "scale": sc.describe(), "pointset": pointset,
-        "seed": int(seed), "up": envmap.up, "height": H}, kind="table2")
+        "seed": int(seed), "up": envmap.up, "height": H}, kind="table2", on_note=on_note)
     result = Table2Result(map=envmap.name or "(unnamed)", scale=scale,
                           scale_description=sc.describe(), pointset=pointset, seed=int(seed),
                           height=H, s_values=s_values, n_values=n_values)
@@ -166,9 +201,9 @@ def run_table2(envmap: EnvMap, s_values: Sequence[float] = PAPER_S,
             points = None
             for s in s_values:
                 key = _cell_key(s, n)
-                done = store.get(key)
+                done = store.get(key, fields=_FIELDS)
                 if done is not None:
-                    cell = Table2Cell(**{k: done[k] for k in Table2Cell.__dataclass_fields__})
+                    cell = Table2Cell(**{k: done[k] for k in _FIELDS})
                     result.cells.append(cell)
                     bar.update(1)
                     if on_cell:
@@ -196,6 +231,8 @@ def run_table2(envmap: EnvMap, s_values: Sequence[float] = PAPER_S,
                     on_cell(cell, False)
     finally:
         bar.close()
+        store.close()
+        result.notes.extend(store.notes)
     if out is not None:
         result.files.update(_existing_files(Path(out), s_values, n_max))
     return result
