@@ -50,8 +50,8 @@ from .atomic import current_umask
 from .errors import EnvMapFileError, EnvMapFormatError, NonFiniteError, ParameterError
 from .resources import check_memory
 
-__all__ = ["EnvMap", "load_envmap", "save_envmap", "REC709_WEIGHTS", "FLOAT_EXTENSIONS",
-           "PREVIEW_EXTENSIONS"]
+__all__ = ["EnvMap", "load_envmap", "save_envmap", "check_sample_count", "REC709_WEIGHTS",
+           "FLOAT_EXTENSIONS", "PREVIEW_EXTENSIONS"]
 
 #: Rec. 709 / sRGB luminance weights of linear R, G, B
 REC709_WEIGHTS = (0.2126, 0.7152, 0.0722)
@@ -257,6 +257,34 @@ def _resize_smooth(data: np.ndarray, mh: int) -> np.ndarray:
         data = ext[pr:pr + h, pc:pc + w]
     return resize(data, (mh, 2 * mh, c), order=1, mode="edge", anti_aliasing=False,
                   preserve_range=True)
+
+
+def check_sample_count(n: int, width: int, height: int, *, name: str = "",
+                       what: str = "N") -> int:
+    """Refuse more interpolation samples than the map has pixels (returns ``n``).
+
+    The map is read as its bilinear interpolant between pixel centres, so samples beyond
+    one per pixel add no information, only near-duplicate nodes: the kernel matrix becomes
+    ill-conditioned and the fit or reconstruction measures the sampling, not the map. This
+    is an error rather than a silent cap: a capped N would change the experiment (Table 2
+    columns, the fit's N) behind the user's back; the message gives the largest sensible N,
+    the pixel count W x H.
+
+    >>> check_sample_count(32, 8, 4)
+    32
+    >>> check_sample_count(5000, 8, 4, name="tiny.exr")
+    Traceback (most recent call last):
+    ...
+    envfit.errors.ParameterError: N = 5000 samples is more than the 32 pixels of map tiny.exr (8x4): more samples than pixels add no information (the map is read bilinearly) and make the kernel matrix ill-conditioned; the largest sensible N is 32
+    """
+    pixels = int(width) * int(height)
+    if int(n) > pixels:
+        label = f"map {name} ({width}x{height})" if name else f"the {width}x{height} map"
+        raise ParameterError(
+            f"{what} = {n} samples is more than the {pixels} pixels of {label}: more samples "
+            f"than pixels add no information (the map is read bilinearly) and make the kernel "
+            f"matrix ill-conditioned; the largest sensible {what} is {pixels}")
+    return int(n)
 
 
 # -- I/O ---------------------------------------------------------------------------------
