@@ -16,6 +16,7 @@ __all__ = [
     "MemoryBudgetError",
     "DuplicatePointsError",
     "ExecutorError",
+    "OutputError",
 ]
 
 
@@ -50,3 +51,12 @@ class DuplicatePointsError(ParameterError):
 class ExecutorError(EnvfitError, RuntimeError):
     """The executor cannot run the sweep: dask missing, scheduler unreachable, workers lost
     (finished cells are kept; the message says to re-run)."""
+
+
+
+class OutputError(EnvfitError, OSError):
+    """An output (``--out`` folder, ``--json`` file, a written map, a cache folder) cannot be
+    written: read-only file system, no permission, a path through a regular file, a folder
+    where a file is wanted, a symlink loop. The CLI checks every output this way *before*
+    any work (``envfit.atomic.check_writable_dir`` / ``check_writable_file``), so the message
+    comes in seconds, not after the computation."""

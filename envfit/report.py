@@ -72,7 +72,7 @@ def render_report(result: dict, figures: dict[str, str] | None = None) -> str:
     # ---------------------------------------------------------------- what was run
     lines += ["## What was run", ""]
     size = r.get("map_size", ["?", "?"])
-    lines.append(f"- **Map**: `{r['map']}`, {size[0]}×{size[1]}, {r.get('channels', '?')} channel(s); "
+    lines.append(f"- **Map**: `{r['map']}`, {size[0]}x{size[1]}, {r.get('channels', '?')} channel(s); "
                  f"value scale **{r['scale']}** ({r.get('scale_description', '')}). The integrand is "
                  "the bilinear interpolant of the scaled pixels; the ground truth is its exact "
                  "shading integral (`envfit.shading`, SH of the bilinear interpolant).")

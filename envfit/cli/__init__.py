@@ -4,16 +4,28 @@ Each subcommand lives in its own module ``envfit/cli/<name>.py`` exposing
 ``register(subparsers)``, which adds its parser and sets ``func`` to a ``run(args) -> int``.
 The CLI holds no logic of its own. Any :class:`envfit.errors.EnvfitError` (or a theory
 parameter error) becomes a one-line message on stderr and exit code 2.
+
+Reliability (one line on stderr, exit 2, never a traceback for what the user or the machine
+caused):
+
+* a subcommand module that is missing or fails to import is an error, not a silently
+  absent command;
+* every output (``--out``, ``--json``, synth's file, the advisor cache) is checked before any
+  work (:func:`envfit.cli.common.preflight_outputs`);
+* a write that fails after the work (disk full, EIO) does not lose the results: they are
+  printed (the JSON goes to stdout if its file failed, or if ``--quiet`` printed nothing),
+  then "could not write PATH: REASON (the results above are complete)", exit 2;
+* any other ``OSError`` (e.g. a resumable cell that could not be saved mid-run) is one line.
 """
 from __future__ import annotations
 
 import argparse
 import importlib
-import importlib.util
 import os
 import sys
 
 from .. import __version__
+from ..atomic import os_reason
 from ..errors import EnvfitError
 
 #: subcommands, in the order ``envfit --help`` lists them
@@ -33,26 +45,67 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
         if only is not None and name != only:
             continue
         modname = f"{__name__}.{name}"
-        if importlib.util.find_spec(modname) is None:
-            continue
-        importlib.import_module(modname).register(sub)
+        try:
+            module = importlib.import_module(modname)
+        except Exception as exc:  # missing or broken: say so instead of dropping the command
+            raise SubcommandImportError(
+                f"cannot load the '{name}' subcommand: {modname} failed to import "
+                f"({type(exc).__name__}: {' '.join(str(exc).split())}); the installation of "
+                "envfit is incomplete or broken (reinstall it)") from exc
+        module.register(sub)
     return parser
+
+
+class SubcommandImportError(EnvfitError):
+    """A subcommand module of :data:`COMMANDS` is missing or raises on import."""
+
+
+def _report_write_failures(args: argparse.Namespace) -> int:
+    """After a run whose writes (partly) failed: make sure the result reached stdout, then
+    one line on stderr naming the first file that could not be written; exit code 2."""
+    from .common import command_name, print_json, write_failures
+    failures = write_failures(args)
+    result = getattr(args, "_result", None)
+    nothing_printed = getattr(args, "quiet", False) or str(getattr(args, "json", "")) == "-"
+    if result is not None and nothing_printed and not getattr(args, "_json_on_stdout", False):
+        print_json(result)                     # --quiet: the results would be nowhere else
+    path, reason = failures[0]
+    more = f"; {len(failures) - 1} more file(s) not written" if len(failures) > 1 else ""
+    sys.stdout.flush()
+    print(f"envfit {command_name(args)}: error: could not write {path}: {reason}{more} "
+          "(the results above are complete)", file=sys.stderr)
+    return 2
 
 
 def main(argv: list[str] | None = None) -> int:
     from theory.errors import TheoryParameterError
 
+    from .common import command_name, preflight_outputs, write_failures
+
     argv = sys.argv[1:] if argv is None else list(argv)
     first = next((a for a in argv if not a.startswith("-")), None)
-    parser = build_parser(first if first in COMMANDS else None)
-    args = parser.parse_args(argv)
+    try:
+        parser = build_parser(first if first in COMMANDS else None)
+    except SubcommandImportError as exc:
+        print(f"envfit{'' if first not in COMMANDS else ' ' + first}: error: {exc}",
+              file=sys.stderr)
+        return 2
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # argparse: usage + one error line (exit 2), or --help (0)
+        return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
     try:
-        return int(args.func(args) or 0)
+        preflight_outputs(args)             # before any work: an unwritable output fails now
+        rc = int(args.func(args) or 0)
+        if write_failures(args):
+            return _report_write_failures(args)
+        return rc
     except (EnvfitError, TheoryParameterError) as exc:
-        print(f"envfit {args.command}: error: {exc}", file=sys.stderr)
+        print(f"envfit {command_name(args)}: error: {' '.join(str(exc).split())}",
+              file=sys.stderr)
         return 2
     except BrokenPipeError:  # output piped into `head` and closed: not an error of ours
         try:
@@ -61,8 +114,12 @@ def main(argv: list[str] | None = None) -> int:
             pass
         return 0
     except KeyboardInterrupt:
-        print(f"envfit {args.command}: interrupted (finished results are kept)", file=sys.stderr)
+        print(f"envfit {command_name(args)}: interrupted (finished results are kept)", file=sys.stderr)
         return 130
+    except OSError as exc:  # a write of the pipeline itself (e.g. a resumable cell) failed
+        where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
+        print(f"envfit {command_name(args)}: error: {where}{os_reason(exc)}", file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -4,8 +4,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from .common import (add_common_arguments, add_map_arguments, emit_json, load_map_from_args,
-                     out_dir, say, str_list)
+from .common import (add_common_arguments, add_map_arguments, emit_json, guarded_write,
+                     load_map_from_args, out_dir, positive_float, positive_int, say, str_list)
 
 
 def register(sub) -> None:
@@ -26,11 +26,11 @@ def register(sub) -> None:
     add_map_arguments(p)
     p.add_argument("--brdf", choices=("diffuse", "glossy"), default="diffuse",
                    help="weight function (default: diffuse)")
-    p.add_argument("--shininess", type=float, default=30.0, help="glossy exponent n (default: 30)")
+    p.add_argument("--shininess", type=positive_float, default=30.0, help="glossy exponent n (default: 30)")
     tg = p.add_mutually_exclusive_group(required=True)
-    tg.add_argument("--target-rmse", type=float, metavar="E",
+    tg.add_argument("--target-rmse", type=positive_float, metavar="E",
                     help="target RMS shading error, on the --scale values")
-    tg.add_argument("--target-relative", type=float, metavar="F",
+    tg.add_argument("--target-relative", type=positive_float, metavar="F",
                     help="target as a fraction (0 < F < 1) of the map's mean shading value")
     p.add_argument("--scale", choices=("display", "linear", "log"), default="display",
                    help="value scale of the integrand and the fit (default: display)")
@@ -44,16 +44,16 @@ def register(sub) -> None:
     p.add_argument("--s", default="auto", metavar="auto|VALUE",
                    help="smoothness: 'auto' (band-limited likelihood fit, default) or a value "
                         "in (1, 2) (sigma then by the band-limited likelihood at that s)")
-    p.add_argument("--fit-n", type=int, default=None, help="samples of the fit (default: 3000)")
-    p.add_argument("--nmin", type=int, default=None, help="smallest N searched (default: 4)")
-    p.add_argument("--nmax", type=int, default=None, help="largest N searched (default: 65536)")
-    p.add_argument("--osw-nmax", type=int, default=None,
+    p.add_argument("--fit-n", type=positive_int, default=None, help="samples of the fit (default: 3000)")
+    p.add_argument("--nmin", type=positive_int, default=None, help="smallest N searched (default: 4)")
+    p.add_argument("--nmax", type=positive_int, default=None, help="largest N searched (default: 65536)")
+    p.add_argument("--osw-nmax", type=positive_int, default=None,
                    help="largest N searched with optimal weights (an NxN solve; default: 4096)")
-    p.add_argument("--realisations", type=int, default=None, metavar="K",
+    p.add_argument("--realisations", type=positive_int, default=None, metavar="K",
                    help="realisations averaged per N for random/jitter/bnot (default: 4)")
     p.add_argument("--check", action="store_true",
                    help="measure the RMSE at the chosen N/L on the map, beside the prediction")
-    p.add_argument("--axes", type=int, default=1000, metavar="M",
+    p.add_argument("--axes", type=positive_int, default=1000, metavar="M",
                    help="random axes of --check (default: 1000, seeded by --seed)")
     p.add_argument("--no-cache", action="store_true",
                    help="neither read nor write the cache of fits and wce curves")
@@ -64,7 +64,7 @@ def register(sub) -> None:
 
 
 def _header(adv) -> list[str]:
-    lines = [f"map {adv.map}: {adv.map_size[1]}x{adv.map_size[0]}, {adv.channels} channel(s); "
+    lines = [f"map {adv.map}: {adv.map_size[0]}x{adv.map_size[1]}, {adv.channels} channel(s); "
              f"{adv.scale_description}"]
     if adv.s_interval:
         s_txt = f"s = {adv.s:.3f} (95% {adv.s_interval[0]:.3f}…{adv.s_interval[1]:.3f})"
@@ -126,6 +126,8 @@ def run(args: argparse.Namespace) -> int:
         check=args.check, axes=args.axes, cache=not args.no_cache, cache_dir=args.cache_dir,
         quiet=args.quiet)
     for note in adv.notes:
+        if getattr(args, "cache_note", None) and note.startswith("cache switched off"):
+            continue  # said before the work (preflight), on stderr
         say(args, f"note: {note}")
     say(args, *_header(adv), *adv.table_lines(), adv.recommendation)
     if adv.check is not None:
@@ -138,10 +140,13 @@ def run(args: argparse.Namespace) -> int:
     if out is not None:
         cols = ["label", "method", "pointset", "weights", "n", "L", "cost", "predicted_rmse",
                 "predicted_rmse_plain", "measured_rmse", "measured_over_predicted", "note"]
-        csv_path = atomic_write_csv(out / "advise.csv", cols,
-                                    [[r.get(c) for c in cols] for r in d["rows"]])
-        json_path = atomic_write_json(out / "advise.json", d)
-        d["files"] = {"csv": str(csv_path), "json": str(json_path)}
-        say(args, f"wrote {csv_path} and {json_path}")
+        csv_path = guarded_write(args, out / "advise.csv", atomic_write_csv, out / "advise.csv",
+                                 cols, [[r.get(c) for c in cols] for r in d["rows"]])
+        json_path = guarded_write(args, out / "advise.json", atomic_write_json,
+                                  out / "advise.json", d)
+        d["files"] = {k: str(v) for k, v in (("csv", csv_path), ("json", json_path))
+                      if v is not None}
+        if d["files"]:
+            say(args, "wrote " + " and ".join(d["files"].values()))
     emit_json(args, d)
     return 0

@@ -1,16 +1,172 @@
-"""Options every subcommand shares (``--json``, ``--out``, ``--seed``, ``--quiet``) and output helpers."""
+"""Options every subcommand shares (``--json``, ``--out``, ``--seed``, ``--quiet``), strict
+argument types, the preflight of outputs and the output helpers.
+
+Parsing is strict (argparse ``type=`` functions, so a bad value is argparse's one-line usage
+error, exit 2): an integer option takes a whole number only — written ``100``, or in decimal
+or scientific notation when its value is exactly whole (``1e3`` and ``100.0`` are 1000 and
+100; ``100.5``, ``1e-3``, ``nan``, ``inf`` are refused) — within its range (``--n`` ≥ 1,
+``--seed`` ≥ 0, …); a list (``--s 1.1,1.5``, ``--n 100,500``) must be non-empty, without an
+empty entry, NaN/inf or a repeated value.
+
+Outputs are checked before any work (:func:`preflight_outputs`, called by ``main`` for every
+subcommand); a write that fails after the work is recorded by :func:`guarded_write` /
+:func:`emit_json` instead of raised, so the results are still printed, and ``main`` then
+names what could not be written and exits 2.
+"""
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
+from decimal import Decimal, InvalidOperation
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
-from ..atomic import atomic_write_json, to_jsonable
-from ..errors import ParameterError
+from ..atomic import (atomic_write_json, check_writable_dir, check_writable_file, os_reason,
+                      to_jsonable)
+
+#: the largest integer an option accepts (exponent notation beyond it is surely a typo)
+_INT_LIMIT = 10 ** 18
 
 
+# ------------------------------------------------------------------ strict argument types
+def _whole(text: str) -> int:
+    """``text`` as an exact whole number (``"100"``, ``"1e3"``, ``"100.0"``) or
+    ArgumentTypeError ("100.5 is not a whole number")."""
+    t = str(text).strip()
+    if not t:
+        raise argparse.ArgumentTypeError("expected a whole number, got an empty value")
+    try:
+        return int(t)
+    except ValueError:
+        pass
+    try:
+        d = Decimal(t)
+    except InvalidOperation:
+        raise argparse.ArgumentTypeError(f"{t} is not a number") from None
+    if not d.is_finite():
+        raise argparse.ArgumentTypeError(f"{t} is not a whole number")
+    if d.adjusted() > 18:
+        raise argparse.ArgumentTypeError(f"{t} is too large")
+    if d != d.to_integral_value():
+        raise argparse.ArgumentTypeError(f"{t} is not a whole number")
+    return int(d)
+
+
+def _int_in_range(text: str, lo: int) -> int:
+    k = _whole(text)
+    if k < lo:
+        raise argparse.ArgumentTypeError(
+            f"{str(text).strip()} is not {'positive' if lo == 1 else f'>= {lo}'}")
+    if k > _INT_LIMIT:
+        raise argparse.ArgumentTypeError(f"{str(text).strip()} is too large")
+    return k
+
+
+def positive_int(text: str) -> int:
+    """A whole number >= 1 (argparse ``type=``): ``"100"``, ``"1e3"``; not ``"100.5"``, ``"0"``.
+
+    >>> positive_int("1e3"), positive_int("64")
+    (1000, 64)
+    """
+    return _int_in_range(text, 1)
+
+
+def nonneg_int(text: str) -> int:
+    """A whole number >= 0 (argparse ``type=``), e.g. ``--seed``, ``--lmax``."""
+    return _int_in_range(text, 0)
+
+
+def _finite(text: str) -> float:
+    t = str(text).strip()
+    try:
+        v = float(t)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"{t} is not a number" if t else "expected a number, got an empty value") from None
+    if not math.isfinite(v):
+        raise argparse.ArgumentTypeError(f"{t} is not a finite number")
+    return v
+
+
+def finite_float(text: str) -> float:
+    """A finite number (argparse ``type=``): not NaN, not inf."""
+    return _finite(text)
+
+
+def positive_float(text: str) -> float:
+    """A finite number > 0 (argparse ``type=``), e.g. ``--shininess``, ``--target``."""
+    v = _finite(text)
+    if not v > 0:
+        raise argparse.ArgumentTypeError(f"{str(text).strip()} is not positive")
+    return v
+
+
+def _items(text: str) -> list[str]:
+    raw = str(text)
+    items = [x.strip() for x in raw.split(",")]
+    if not raw.strip():
+        raise argparse.ArgumentTypeError("empty list; give comma-separated values")
+    if any(not x for x in items):
+        raise argparse.ArgumentTypeError(f"empty entry in {raw!r}")
+    return items
+
+
+def _unique(values: list, items: list[str], raw: str) -> list:
+    seen: dict = {}
+    for v, x in zip(values, items):
+        if v in seen:
+            raise argparse.ArgumentTypeError(
+                f"{x} is given twice in {raw!r}" if seen[v] == x
+                else f"{seen[v]} and {x} are the same value in {raw!r}")
+        seen[v] = x
+    return values
+
+
+def float_list(text: str) -> list[float]:
+    """Parse ``"1.1,1.5,1.9"`` into distinct finite floats (argparse ``type=``); an empty
+    list, an empty entry, NaN/inf or a repeated value is an error.
+
+    >>> float_list("1.1, 1.5")
+    [1.1, 1.5]
+    """
+    items = _items(text)
+    return _unique([_finite(x) for x in items], items, str(text))
+
+
+def colour_list(text: str) -> list[float]:
+    """Parse a colour ``"1"`` or ``"0.2,0.2,0.9"`` into finite floats (repeats allowed)."""
+    return [_finite(x) for x in _items(text)]
+
+
+def int_list(text: str) -> list[int]:
+    """Parse ``"100,500,1000"`` into distinct positive whole numbers (argparse ``type=``);
+    ``1e3`` is 1000; ``100.5``, an empty list, an empty entry or a repeat is an error.
+
+    >>> int_list("100,1e3")
+    [100, 1000]
+    """
+    items = _items(text)
+    return _unique([positive_int(x) for x in items], items, str(text))
+
+
+def nonneg_int_list(text: str) -> list[int]:
+    """As :func:`int_list`, with 0 allowed (cut-off degrees ``--sh-L 0,1,2``)."""
+    items = _items(text)
+    return _unique([nonneg_int(x) for x in items], items, str(text))
+
+
+def str_list(text: str) -> list[str]:
+    """Parse ``"sf,sobol"`` into names; an empty list is an error (repeats are merged by the
+    pipelines' checks)."""
+    items = [x.strip() for x in str(text).split(",") if x.strip()]
+    if not items:
+        raise argparse.ArgumentTypeError("empty list; give comma-separated names")
+    return items
+
+
+# ------------------------------------------------------------------ shared options
 def add_common_arguments(p: argparse.ArgumentParser, *, seed: bool = True) -> None:
     """Add ``--json FILE``, ``--out DIR``, ``--seed``, ``--quiet`` to a subcommand parser."""
     g = p.add_argument_group("output")
@@ -19,19 +175,98 @@ def add_common_arguments(p: argparse.ArgumentParser, *, seed: bool = True) -> No
     g.add_argument("--out", metavar="DIR", type=Path, default=None,
                    help="folder for plots, CSV and images")
     if seed:
-        g.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
+        g.add_argument("--seed", type=nonneg_int, default=0, help="random seed (default: 0)")
     g.add_argument("--quiet", "-q", action="store_true", help="no progress bars or tables")
 
 
+# ------------------------------------------------------------------ preflight of outputs
+def preflight_outputs(args: argparse.Namespace) -> None:
+    """Check every output of the command *before* any work; ``main`` calls it for every
+    subcommand. Raises :class:`envfit.errors.OutputError` (one line, exit 2) for:
+
+    * ``--out`` (or the command's default folder ``out_default``): created if missing, and a
+      temporary file created and removed inside;
+    * ``--json FILE`` (``-`` = stdout passes) and synth's ``OUT.exr`` (``args.output``): not a
+      folder, nearest existing parent folder writable;
+
+    and prints a note on stderr if the advisor cache (``--cache-dir`` or the default; not with
+    ``--no-cache``) cannot be written: the results are then not cached, which is no error.
+    """
+    out = getattr(args, "out", None)
+    if out is None:
+        out = getattr(args, "out_default", None)
+    if out is not None:
+        check_writable_dir(out, "--out")
+    if getattr(args, "json", None) is not None:
+        check_writable_file(args.json, "--json")
+    if getattr(args, "output", None) is not None:
+        check_writable_file(args.output, getattr(args, "output_metavar", "output"))
+    if hasattr(args, "cache_dir") and not getattr(args, "no_cache", False):
+        from .. import advisor_cache
+        probe = getattr(advisor_cache, "cache_write_problem", None)
+        problem = probe(args.cache_dir) if probe is not None else None
+        if problem:
+            args.cache_note = (f"note: cache {problem}; results will not be cached"
+                               if " not writable" in problem else
+                               f"note: cache not writable ({problem}); results will not be cached")
+            print(f"envfit {command_name(args)}: {args.cache_note}", file=sys.stderr)
+
+
+# ------------------------------------------------------------------ writes after the work
+def command_name(args: argparse.Namespace) -> str:
+    """``"table2"``, ``"theory figures"``: how messages name the command."""
+    sub = getattr(args, "theory_command", None)
+    return f"{args.command} {sub}" if sub else str(args.command)
+
+
+def write_failures(args: argparse.Namespace) -> list[tuple[str, str]]:
+    """The ``(path, reason)`` of every write that failed after the work (main reports them)."""
+    if not hasattr(args, "_write_failures"):
+        args._write_failures = []
+    return args._write_failures
+
+
+def record_write_failure(args: argparse.Namespace, path, exc: BaseException) -> None:
+    reason = os_reason(exc)
+    prefix = f"{path}: "
+    if reason.startswith(prefix):           # "p: write failed: …" of an EnvMapFileError
+        reason = reason[len(prefix):]
+    write_failures(args).append((str(path), reason))
+
+
+def guarded_write(args: argparse.Namespace, path, write: Callable[..., Any], *a, **kw) -> Any:
+    """``write(*a, **kw)`` (an atomic write or a plot save of ``path``); if it raises
+    ``OSError`` (disk full, EIO, permission lost meanwhile) the failure is recorded for
+    ``main`` to report (exit 2) and None is returned, so the command goes on printing its
+    results."""
+    try:
+        return write(*a, **kw)
+    except OSError as exc:
+        record_write_failure(args, path, exc)
+        return None
+
+
 def emit_json(args: argparse.Namespace, result: dict[str, Any]) -> None:
-    """Write ``result`` where ``--json`` says (atomically), or to stdout for ``--json -``."""
+    """Write ``result`` where ``--json`` says (atomically), or to stdout for ``--json -``.
+
+    A failed write is recorded (see :func:`guarded_write`) and the JSON goes to stdout
+    instead, so the machine-readable result is not lost.
+    """
+    args._result = result
     if args.json is None:
         return
     if str(args.json) == "-":
-        json.dump(to_jsonable(result), sys.stdout, indent=2)
-        sys.stdout.write("\n")
-    else:
-        atomic_write_json(args.json, result)
+        print_json(result)
+        args._json_on_stdout = True
+    elif guarded_write(args, args.json, atomic_write_json, args.json, result) is None:
+        print_json(result)
+        args._json_on_stdout = True
+
+
+def print_json(result: dict[str, Any]) -> None:
+    json.dump(to_jsonable(result), sys.stdout, indent=2)
+    sys.stdout.write("\n")
+    sys.stdout.flush()
 
 
 def say(args: argparse.Namespace, *lines: str) -> None:
@@ -42,33 +277,11 @@ def say(args: argparse.Namespace, *lines: str) -> None:
         print(line)
 
 
-def float_list(text: str) -> list[float]:
-    """Parse ``"1.1,1.5,1.9"`` into floats (argparse ``type=``)."""
-    try:
-        return [float(x) for x in str(text).split(",") if x.strip()]
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}") from None
-
-
-def int_list(text: str) -> list[int]:
-    """Parse ``"100,500,1000"`` into ints (argparse ``type=``)."""
-    try:
-        return [int(float(x)) for x in str(text).split(",") if x.strip()]
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected comma-separated integers, got {text!r}") from None
-
-
-def str_list(text: str) -> list[str]:
-    return [x.strip() for x in str(text).split(",") if x.strip()]
-
-
 def out_dir(args: argparse.Namespace, default: str | None = None) -> Path | None:
-    """The ``--out`` folder (created), or ``default`` if given, else None."""
+    """The ``--out`` folder (created and checked writable), or ``default`` if given, else None."""
     d = args.out if args.out is not None else (Path(default) if default else None)
     if d is not None:
-        if d.exists() and not d.is_dir():
-            raise ParameterError(f"--out {d} exists and is not a folder")
-        d.mkdir(parents=True, exist_ok=True)
+        check_writable_dir(d, "--out")
     return d
 
 
@@ -81,7 +294,7 @@ def add_map_arguments(p: argparse.ArgumentParser, *, optional: bool = True, many
     g = p.add_argument_group("map loading")
     g.add_argument("--up", choices=("y", "z", "x"), default="y",
                    help="which world axis is the map's top row (default: y, as OpenEXR)")
-    g.add_argument("--max-height", type=int, default=None, metavar="H",
+    g.add_argument("--max-height", type=positive_int, default=None, metavar="H",
                    help="downscale the map (scikit-image, anti-aliased) to at most H rows")
     g.add_argument("--fix-nonfinite", action="store_true",
                    help="replace NaN/Inf pixels instead of refusing the map (reported)")
@@ -113,7 +326,7 @@ def add_executor_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--scheduler", metavar="tcp://HOST:PORT", default=None,
                    help="address of a running dask scheduler (default with --executor dask: "
                         "a LocalCluster on this machine)")
-    g.add_argument("--workers", type=int, default=None, metavar="K",
+    g.add_argument("--workers", type=positive_int, default=None, metavar="K",
                    help="worker processes for local/LocalCluster (default: as many as useful, "
                         "at most the cores, within the memory budget)")
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 import argparse
 
 from .common import (add_common_arguments, add_executor_arguments, add_map_arguments, emit_json,
-                     executor_kwargs, library_maps, library_mode, load_map_from_args,
-                     load_options_from_args, out_dir, say)
+                     executor_kwargs, guarded_write, library_maps, library_mode,
+                     load_map_from_args, load_options_from_args, out_dir, positive_int, say)
 
 
 def register(sub) -> None:
@@ -20,7 +20,7 @@ def register(sub) -> None:
     add_map_arguments(p, many=True)
     p.add_argument("--method", choices=METHODS, default=DEFAULT_METHOD,
                    help=f"criterion (default: {DEFAULT_METHOD}; see README for why)")
-    p.add_argument("--n", type=int, default=DEFAULT_N, help=f"number of samples (default: {DEFAULT_N})")
+    p.add_argument("--n", type=positive_int, default=DEFAULT_N, help=f"number of samples (default: {DEFAULT_N})")
     p.add_argument("--pointset", choices=("sf", "random"), default="sf")
     p.add_argument("--scale", choices=("display", "linear", "log"), default="display",
                    help="value scale the map is fitted on (default: display)")
@@ -54,7 +54,7 @@ def _run_single(args: argparse.Namespace) -> int:
                          pointset=args.pointset, seed=args.seed, kernel=args.kernel,
                          quiet=args.quiet)
     sig = ", ".join(f"{x:.4g}" for x in res.sigma)
-    say(args, f"map {env.name}: {env.height}x{env.width}",
+    say(args, f"map {env.name}: {env.width}x{env.height}",
         f"s = {res.s:.3f}  (95% interval {res.s_interval[0]:.3f} … {res.s_interval[1]:.3f}; "
         f"method {res.method}, N = {res.n}, {res.scale_description}"
         + (f", kernel band-limited at L = {res.band_lmax}" if res.kernel == "bandlimited" else "")
@@ -67,9 +67,11 @@ def _run_single(args: argparse.Namespace) -> int:
     d["map"] = env.name
     if out is not None:
         from ..plots.table2 import plot_fit_curve
-        png = plot_fit_curve(res, out / f"fit_{res.method}.png")
-        d["files"] = {"curve": str(png)}
-        say(args, f"wrote {png}")
+        target = out / f"fit_{res.method}.png"
+        png = guarded_write(args, target, plot_fit_curve, res, target)
+        if png is not None:
+            d["files"] = {"curve": str(png)}
+            say(args, f"wrote {png}")
     emit_json(args, d)
     return 0
 

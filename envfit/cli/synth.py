@@ -6,8 +6,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ParameterError
-from .common import add_common_arguments, emit_json, float_list, say
+from ..atomic import os_reason
+from ..errors import EnvfitError, OutputError, ParameterError
+from .common import (add_common_arguments, colour_list, emit_json, finite_float, positive_float,
+                     positive_int, say)
 
 KINDS = ("gp", "constant", "sky", "sun", "step")
 
@@ -20,31 +22,36 @@ def register(sub) -> None:
                     "integrals, and write it as EXR.")
     p.add_argument("output", metavar="OUT.exr", type=Path)
     p.add_argument("--kind", choices=KINDS, default="gp")
-    p.add_argument("--height", type=int, default=256, help="rows (width = 2 x height)")
+    p.add_argument("--height", type=positive_int, default=256, help="rows (width = 2 x height)")
     p.add_argument("--up", choices=("y", "z", "x"), default="y", help="world up axis stored with the map")
     p.add_argument("--half", action="store_true", help="write half floats instead of float32")
     g = p.add_argument_group("gp")
-    g.add_argument("--s0", type=float, default=1.5, help="Sobolev smoothness of the process, in (1, 2)")
-    g.add_argument("--channels", type=int, default=3)
+    g.add_argument("--s0", type=finite_float, default=1.5, help="Sobolev smoothness of the process, in (1, 2)")
+    g.add_argument("--channels", type=positive_int, default=3)
     g.add_argument("--method", choices=("sht", "exact"), default="sht",
                    help="band-limited SH synthesis (fast) or exact Cholesky at pixel centres (small maps)")
-    g.add_argument("--offset", default="auto",
+    g.add_argument("--offset", type=_auto_or_number, default="auto",
                    help="constant added to the zero-mean sample; 'auto' makes every pixel positive")
-    g.add_argument("--amplitude", type=float, default=1.0, help="scale sigma of the process")
+    g.add_argument("--amplitude", type=positive_float, default=1.0, help="scale sigma of the process")
     g = p.add_argument_group("analytic maps (colours are comma-separated: one value or R,G,B)")
-    g.add_argument("--value", type=float_list, default=[1.0], help="constant: the value")
-    g.add_argument("--horizon", type=float_list, default=[0.6, 0.7, 0.8], help="sky: horizon colour")
-    g.add_argument("--zenith", type=float_list, default=[0.2, 0.35, 0.9], help="sky: zenith colour")
-    g.add_argument("--sun-theta", type=float, default=0.6, help="sun: polar angle from up (radians)")
-    g.add_argument("--sun-phi", type=float, default=1.0, help="sun: azimuth (radians)")
-    g.add_argument("--sun-radius", type=float, default=0.05, help="sun: angular radius (radians)")
-    g.add_argument("--sun-radiance", type=float_list, default=[200.0], help="sun: disk radiance")
-    g.add_argument("--sky", type=float_list, default=[0.5, 0.6, 0.9], help="sun: sky colour")
-    g.add_argument("--theta-edge", type=float, default=np.pi / 2, help="step: edge polar angle")
-    g.add_argument("--low", type=float_list, default=[0.1], help="step: value below the edge")
-    g.add_argument("--high", type=float_list, default=[1.0], help="step: value above the edge")
+    g.add_argument("--value", type=colour_list, default=[1.0], help="constant: the value")
+    g.add_argument("--horizon", type=colour_list, default=[0.6, 0.7, 0.8], help="sky: horizon colour")
+    g.add_argument("--zenith", type=colour_list, default=[0.2, 0.35, 0.9], help="sky: zenith colour")
+    g.add_argument("--sun-theta", type=finite_float, default=0.6, help="sun: polar angle from up (radians)")
+    g.add_argument("--sun-phi", type=finite_float, default=1.0, help="sun: azimuth (radians)")
+    g.add_argument("--sun-radius", type=positive_float, default=0.05, help="sun: angular radius (radians)")
+    g.add_argument("--sun-radiance", type=colour_list, default=[200.0], help="sun: disk radiance")
+    g.add_argument("--sky", type=colour_list, default=[0.5, 0.6, 0.9], help="sun: sky colour")
+    g.add_argument("--theta-edge", type=finite_float, default=np.pi / 2, help="step: edge polar angle")
+    g.add_argument("--low", type=colour_list, default=[0.1], help="step: value below the edge")
+    g.add_argument("--high", type=colour_list, default=[1.0], help="step: value above the edge")
     add_common_arguments(p)
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, output_metavar="")  # "cannot write m.exr: …"
+
+
+def _auto_or_number(text: str):
+    """``--offset``: 'auto' or a finite number (argparse ``type=``)."""
+    return "auto" if str(text).strip().lower() == "auto" else finite_float(text)
 
 
 def _colour(v):
@@ -91,10 +98,16 @@ def run(args: argparse.Namespace) -> int:
     f, info = synthesize(args)
     name = f"synth:{args.kind}"
     env = EnvMap(np.asarray(f, dtype=np.float32), up=args.up, name=name)
-    path = save_envmap(args.output, env, half=args.half)
+    try:
+        path = save_envmap(args.output, env, half=args.half)
+    except EnvfitError:     # EnvMapFileError "…: write failed: …" says it all
+        raise
+    except OSError as exc:  # disk full, folder gone meanwhile (checked writable before)
+        raise OutputError(f"could not write {args.output}: {os_reason(exc)}") from None
     info.update(path=str(path), width=env.width, channels=env.channels,
                 min=float(f.min()), max=float(f.max()), mean=[float(x) for x in env.mean()])
-    say(args, f"wrote {path}: {args.kind} map {env.height}x{env.width}x{env.channels}"
+    say(args, f"wrote {path}: {args.kind} map {env.width}x{env.height}, {env.channels} "
+              f"channel(s)"
               + (f", s0 = {args.s0}" if args.kind == "gp" else ""))
     emit_json(args, info)
     return 0

@@ -4,8 +4,8 @@ from __future__ import annotations
 import argparse
 
 from .common import (add_common_arguments, add_executor_arguments, add_map_arguments, emit_json,
-                     executor_kwargs, float_list, int_list, library_maps, library_mode,
-                     load_map_from_args, load_options_from_args, out_dir, say)
+                     executor_kwargs, float_list, guarded_write, int_list, library_maps,
+                     library_mode, load_map_from_args, load_options_from_args, out_dir, say)
 
 
 def register(sub) -> None:
@@ -56,7 +56,7 @@ def _run_single(args, s_values, n_values) -> int:
     out = out_dir(args)
     for note in getattr(env, "notes", []):
         say(args, f"note: {note}")
-    say(args, f"map {env.name}: {env.height}x{env.width}, {env.channels} channel(s); "
+    say(args, f"map {env.name}: {env.width}x{env.height}, {env.channels} channel(s); "
               f"{len(s_values)} s x {len(n_values)} N cells" + (f"; results in {out}" if out else ""))
 
     def on_cell(cell, resumed):
@@ -71,12 +71,18 @@ def _run_single(args, s_values, n_values) -> int:
     if out is not None:
         from ..atomic import atomic_write_csv
         from ..plots.table2 import plot_table2
-        png = plot_table2(res, out / "table2_rmse.png")
-        res.files["table2_rmse.png"] = str(png)
         rows = [(c.s, c.n, c.rmse, c.rmse_solid_angle, c.seconds) for c in res.cells]
-        csv = atomic_write_csv(out / "table2.csv", ("s", "n", "rmse", "rmse_solid_angle", "seconds"), rows)
-        res.files["table2.csv"] = str(csv)
-        say(args, f"wrote {png} and {csv}")
+        written = []
+        for name, write, wargs in (
+                ("table2_rmse.png", plot_table2, (res, out / "table2_rmse.png")),
+                ("table2.csv", atomic_write_csv,
+                 (out / "table2.csv", ("s", "n", "rmse", "rmse_solid_angle", "seconds"), rows))):
+            path = guarded_write(args, out / name, write, *wargs)
+            if path is not None:
+                res.files[name] = str(path)
+                written.append(str(path))
+        if written:
+            say(args, "wrote " + " and ".join(written))
     emit_json(args, res.to_dict())
     return 0
 

@@ -17,7 +17,8 @@ import time
 import numpy as np
 
 from ..errors import ParameterError
-from .common import add_common_arguments, emit_json, out_dir, say, str_list
+from .common import (add_common_arguments, emit_json, finite_float, guarded_write, nonneg_int,
+                     out_dir, positive_float, positive_int, say, str_list)
 
 #: the paper's highest spectral degree (default --lmax of ``figures``)
 DEFAULT_SPLIT_LMAX = 170
@@ -61,14 +62,14 @@ def register(sub) -> None:
                     "its zonal and anisotropic parts (Eqs. 46-47) summed to --lmax, and the tail "
                     "E^2 - sum_{l<=lmax} e_l^2. " + _MORPH_HELP)
     w.add_argument("--brdf", choices=("diffuse", "glossy"), required=True)
-    w.add_argument("--shininess", type=float, default=30.0, help=_SHININESS_HELP)
+    w.add_argument("--shininess", type=positive_float, default=30.0, help=_SHININESS_HELP)
     w.add_argument("--pointset", choices=("sf", "sobol", "lp", "bnot", "random", "jitter"),
                    required=True, help="point set of Sec. 7.1 (bnot is slow beyond a few thousand)")
     w.add_argument("--weights", choices=("equal", "osw"), default="equal",
                    help="equal 1/N or the optimal sample weights K^-1 z (default: equal)")
-    w.add_argument("--n", type=int, required=True, help="number of points N")
-    w.add_argument("--s", type=float, default=1.5, help="Sobolev smoothness in (1, 2) (default 1.5)")
-    w.add_argument("--lmax", type=int, default=None,
+    w.add_argument("--n", type=positive_int, required=True, help="number of points N")
+    w.add_argument("--s", type=finite_float, default=1.5, help="Sobolev smoothness in (1, 2) (default 1.5)")
+    w.add_argument("--lmax", type=nonneg_int, default=None,
                    help="also report the spectrum d_l^2, C_l^2, e_l^2 for l = 0..LMAX; without it "
                         f"E_Z and E_A are summed to l = min({AUTO_LMAX_CAP}, max({DEFAULT_SPLIT_LMAX}, "
                         "16 sqrt(N))) and no spectrum is listed; the tail beyond lmax is reported")
@@ -87,9 +88,9 @@ def register(sub) -> None:
                     "plot), and the number of QMC points (spherical Fibonacci, equal weights, "
                     "morphed for the BRDF) with the same worst-case error. Printed beside the "
                     "paper's values (Table 1, Sec. 8.2, Fig. 5(a) caption).")
-    t.add_argument("--target", type=float, default=2.5e-3, help="worst-case error (default 2.5e-3)")
-    t.add_argument("--s", type=float, default=1.5, help="Sobolev smoothness in (1, 2) (default 1.5)")
-    t.add_argument("--shininess", type=float, default=30.0, help=_SHININESS_HELP)
+    t.add_argument("--target", type=positive_float, default=2.5e-3, help="worst-case error (default 2.5e-3)")
+    t.add_argument("--s", type=finite_float, default=1.5, help="Sobolev smoothness in (1, 2) (default 1.5)")
+    t.add_argument("--shininess", type=positive_float, default=30.0, help=_SHININESS_HELP)
     add_common_arguments(t)
     t.set_defaults(func=run_table1)
 
@@ -101,16 +102,16 @@ def register(sub) -> None:
                     "spectra e_l^2 = a_l (d_l^2 + C_l^2); Fig. 4 worst-case error vs N with "
                     "fitted slopes; Fig. 5 truncation error vs L with the QMC-equivalent N; and "
                     "the radial power spectrum and capacity check of BNOT. " + _MORPH_HELP)
-    f.add_argument("--n", type=int, default=256, help="N of Figs. 1-3 and the BNOT check (default 256)")
-    f.add_argument("--s", type=float, default=1.5, help="Sobolev smoothness in (1, 2) (default 1.5)")
-    f.add_argument("--shininess", type=float, default=30.0, help=_SHININESS_HELP)
-    f.add_argument("--nmax", type=int, default=2048,
+    f.add_argument("--n", type=positive_int, default=256, help="N of Figs. 1-3 and the BNOT check (default 256)")
+    f.add_argument("--s", type=finite_float, default=1.5, help="Sobolev smoothness in (1, 2) (default 1.5)")
+    f.add_argument("--shininess", type=positive_float, default=30.0, help=_SHININESS_HELP)
+    f.add_argument("--nmax", type=positive_int, default=2048,
                    help="largest N of Fig. 4 (powers of two from 16; default 2048)")
-    f.add_argument("--lmax", type=int, default=DEFAULT_SPLIT_LMAX,
+    f.add_argument("--lmax", type=positive_int, default=DEFAULT_SPLIT_LMAX,
                    help=f"highest degree l of the spectra of Figs. 1 and 3 (default {DEFAULT_SPLIT_LMAX})")
-    f.add_argument("--cutoff-max", type=int, default=20, metavar="L",
+    f.add_argument("--cutoff-max", type=positive_int, default=20, metavar="L",
                    help="largest cut-off degree L of Fig. 5 (default 20)")
-    f.add_argument("--qmc-nmax", type=int, default=16384, metavar="N",
+    f.add_argument("--qmc-nmax", type=positive_int, default=16384, metavar="N",
                    help="top of the tabulated QMC curve E(N) inverted for Fig. 5 (default 16384; "
                         "beyond it the N are extrapolated and marked so)")
     f.add_argument("--only", type=str_list, default=None, metavar="F1,F2,...",
@@ -118,7 +119,7 @@ def register(sub) -> None:
     f.add_argument("--no-morph", action="store_true",
                    help="lift the points of Figs. 1-4 uniformly (no importance sampling)")
     add_common_arguments(f)
-    f.set_defaults(func=run_figures)
+    f.set_defaults(func=run_figures, out_default=DEFAULT_FIGURES_DIR)  # preflight checks it
 
 
 def _usage(p: argparse.ArgumentParser) -> int:
@@ -211,8 +212,10 @@ def run_wce(args: argparse.Namespace) -> int:
                 f"s = {s:g}, seed {args.seed}, "
                 + ("points morphed for the BRDF (Sec. 7.2)" if morphed else "points not morphed")
                 + f"; E = {sp.wce:.10e}\nl,a,d2,C2,e2\n")
-        path = atomic_write_text(d / "wce_spectrum.csv", head + "\n".join(rows) + "\n")
-        say(args, f"wrote {path}")
+        path = guarded_write(args, d / "wce_spectrum.csv", atomic_write_text,
+                             d / "wce_spectrum.csv", head + "\n".join(rows) + "\n")
+        if path is not None:
+            say(args, f"wrote {path}")
     emit_json(args, result)
     return 0
 
@@ -289,14 +292,18 @@ def run_table1(args: argparse.Namespace) -> int:
     if args.out is not None:
         from ..atomic import atomic_write_csv
         d = out_dir(args)
-        p1 = atomic_write_csv(d / "table1.csv",
-                              ("case", "L", "wce_at_L", "L_paper_reading", "wce_at_L_paper_reading",
-                               "qmc_points", "qmc_wce"),
-                              [(r.case, r.L, r.wce_at_L, r.L_paper_reading, r.wce_at_L_paper_reading,
-                                r.qmc_points, r.qmc_wce) for r in tab.rows])
-        p2 = atomic_write_csv(d / "table1_wce_by_L.csv", ("case", "L", "wce"),
-                              [(r.case, L, float(e)) for r in tab.rows for L, e in enumerate(r.wce_by_L)])
-        say(args, f"wrote {p1} and {p2}")
+        p1 = guarded_write(args, d / "table1.csv", atomic_write_csv, d / "table1.csv",
+                           ("case", "L", "wce_at_L", "L_paper_reading", "wce_at_L_paper_reading",
+                            "qmc_points", "qmc_wce"),
+                           [(r.case, r.L, r.wce_at_L, r.L_paper_reading, r.wce_at_L_paper_reading,
+                             r.qmc_points, r.qmc_wce) for r in tab.rows])
+        p2 = guarded_write(args, d / "table1_wce_by_L.csv", atomic_write_csv,
+                           d / "table1_wce_by_L.csv", ("case", "L", "wce"),
+                           [(r.case, L, float(e)) for r in tab.rows
+                            for L, e in enumerate(r.wce_by_L)])
+        written = [str(p) for p in (p1, p2) if p is not None]
+        if written:
+            say(args, "wrote " + " and ".join(written))
     emit_json(args, result)
     return 0
 
@@ -349,6 +356,14 @@ def run_figures(args: argparse.Namespace) -> int:
     out = out_dir(args, DEFAULT_FIGURES_DIR)
     seed = args.seed
     files: dict[str, str] = {}
+
+    def save(name: str, write, *wargs) -> None:
+        """Write one figure / CSV (``write(*wargs)``); a failure is recorded, not raised, so
+        the other figures are still computed and the numbers printed."""
+        path = guarded_write(args, out / name, write, *wargs)
+        if path is not None:
+            files[name] = str(path)
+
     result: dict = {"n": n, "s": s, "shininess": shin, "nmax": nmax, "lmax": lmax, "seed": seed,
                     "morphed": morphed, "out": str(out), "files": files}
     t_all = time.perf_counter()
@@ -367,28 +382,28 @@ def run_figures(args: argparse.Namespace) -> int:
                 rows1.append((brdf, ps, wt, n, l, r.d2[l], r.C2[l]))
                 rows3.append((brdf, ps, wt, n, l, r.a[l], r.d2[l], r.C2[l], r.e2[l]))
         if "1" in only:
-            files["fig1_power_spectra.png"] = str(P.plot_power_spectra(sd, out / "fig1_power_spectra.png"))
-            files["fig1_power_spectra.csv"] = str(_csv(
+            save("fig1_power_spectra.png", P.plot_power_spectra, sd, out / "fig1_power_spectra.png")
+            save("fig1_power_spectra.csv", _csv,
                 out / "fig1_power_spectra.csv",
                 f"Fig. 1: zonal d_l^2 = (b_l - c_l0)^2 and anisotropic C_l^2 power spectra, N = {n}, "
                 f"one realization; {common}",
-                ("brdf", "pointset", "weights", "n", "l", "d2", "C2"), rows1))
+                ("brdf", "pointset", "weights", "n", "l", "d2", "C2"), rows1)
         closeup = F.low_order_closeup(sd, "diffuse", 10)
         if "2" in only:
-            files["fig2_low_order_C2.png"] = str(P.plot_low_order_closeup(
-                closeup, n, morphed, out / "fig2_low_order_C2.png"))
-            files["fig2_low_order_C2.csv"] = str(_csv(
+            save("fig2_low_order_C2.png", P.plot_low_order_closeup,
+                closeup, n, morphed, out / "fig2_low_order_C2.png")
+            save("fig2_low_order_C2.csv", _csv,
                 out / "fig2_low_order_C2.csv",
                 f"Fig. 2: first 10 anisotropic C_l^2 (l = 1..10), diffuse, N = {n}; {common}",
                 ("pointset", "l", "C2_equal", "C2_osw"),
                 [(ps, int(l), closeup.C2_equal[ps][i], closeup.C2_osw[ps][i])
-                 for ps in sd.pointsets for i, l in enumerate(closeup.l)]))
+                 for ps in sd.pointsets for i, l in enumerate(closeup.l)])
         if "3" in only:
-            files["fig3_error_spectra.png"] = str(P.plot_error_spectra(sd, out / "fig3_error_spectra.png"))
-            files["fig3_error_spectra.csv"] = str(_csv(
+            save("fig3_error_spectra.png", P.plot_error_spectra, sd, out / "fig3_error_spectra.png")
+            save("fig3_error_spectra.csv", _csv,
                 out / "fig3_error_spectra.csv",
                 f"Fig. 3: error spectra e_l^2 = a_l (d_l^2 + C_l^2), N = {n}; {common}",
-                ("brdf", "pointset", "weights", "n", "l", "a", "d2", "C2", "e2"), rows3))
+                ("brdf", "pointset", "weights", "n", "l", "a", "d2", "C2", "e2"), rows3)
         low = {ps: {"equal": float(closeup.C2_equal[ps].sum()), "osw": float(closeup.C2_osw[ps].sum()),
                     "ratio": closeup.reduction[ps]} for ps in sd.pointsets}
         result["spectra"] = {
@@ -411,18 +426,18 @@ def run_figures(args: argparse.Namespace) -> int:
         with progress_bar(total, desc="wce vs N (Fig. 4)", quiet=args.quiet) as bar:
             cd = F.convergence_data(nmax, s, shin, seed=seed, morph=morphed,
                                     progress=_progress_callback(bar))
-        files["fig4_wce_vs_n.png"] = str(P.plot_convergence(cd, out / "fig4_wce_vs_n.png"))
-        files["fig4_wce_vs_n.csv"] = str(_csv(
+        save("fig4_wce_vs_n.png", P.plot_convergence, cd, out / "fig4_wce_vs_n.png")
+        save("fig4_wce_vs_n.csv", _csv,
             out / "fig4_wce_vs_n.csv",
             f"Fig. 4: worst-case error (Eq. 41) vs N, one realization, raw values; {common}",
             ("brdf", "weights", "pointset", "n", "wce"),
-            [(b, w, p, int(nn), e) for (b, w, p), arr in cd.wce.items() for nn, e in zip(cd.ns, arr)]))
+            [(b, w, p, int(nn), e) for (b, w, p), arr in cd.wce.items() for nn, e in zip(cd.ns, arr)])
         lo, hi = cd.fit_range
-        files["fig4_slopes.csv"] = str(_csv(
+        save("fig4_slopes.csv", _csv,
             out / "fig4_slopes.csv",
             f"Fig. 4: least-squares slope of log wce vs log N over N = {lo:g}..{hi:g}; {common}",
             ("brdf", "weights", "pointset", "slope", "fit_nmin", "fit_nmax"),
-            [(b, w, p, k, lo, hi) for (b, w, p), k in cd.slopes.items()]))
+            [(b, w, p, k, lo, hi) for (b, w, p), k in cd.slopes.items()])
         beats = {b: cd.beats_random(b, "equal", 256) for b in cd.brdfs} if cd.ns.max() >= 256 else {}
         result["convergence"] = {
             "ns": cd.ns, "fit_range": [lo, hi],
@@ -456,26 +471,26 @@ def run_figures(args: argparse.Namespace) -> int:
         with progress_bar(total, desc="QMC curves (Fig. 5)", quiet=args.quiet) as bar:
             td = F.truncation_figure_data(s, shin, cutoff, qmc_nmax=qnmax, per_octave=per_oct,
                                           progress=_progress_callback(bar))
-        files["fig5_truncation.png"] = str(P.plot_truncation(td, out / "fig5_truncation.png"))
+        save("fig5_truncation.png", P.plot_truncation, td, out / "fig5_truncation.png")
         rows = []
         for case in td.wce:
             for L in td.L:
                 q, qx = td.qmc_points[case][L], td.qmc_points_extrapolated[case][L]
                 rows.append((case, int(L), td.wce[case][L], int(q) if math.isfinite(q) else "",
                              int(qx) if math.isfinite(qx) else ""))
-        files["fig5_truncation.csv"] = str(_csv(
+        save("fig5_truncation.csv", _csv,
             out / "fig5_truncation.csv",
             f"Fig. 5: truncation error E(L) (Eq. 52 from L+1) and QMC-equivalent N (spherical "
             f"Fibonacci, equal weights, points morphed for the BRDF (Sec. 7.2); tabulated to N = "
             f"{qnmax}, empty beyond; extrapolated by a power law fitted to the top 2 octaves); "
             f"s = {s:g}, glossy n = {shin:g}",
-            ("case", "L", "wce", "qmc_points", "qmc_points_extrapolated"), rows))
-        files["fig5_qmc_curve.csv"] = str(_csv(
+            ("case", "L", "wce", "qmc_points", "qmc_points_extrapolated"), rows)
+        save("fig5_qmc_curve.csv", _csv,
             out / "fig5_qmc_curve.csv",
             f"Fig. 5: wce(N) of spherical Fibonacci points, equal weights, points morphed for the "
             f"BRDF (Sec. 7.2), {per_oct} N per octave; s = {s:g}, glossy n = {shin:g}",
             ("brdf", "n", "wce"),
-            [(b, int(nn), e) for b, (ns_, es) in td.qmc_curve.items() for nn, e in zip(ns_, es)]))
+            [(b, int(nn), e) for b, (ns_, es) in td.qmc_curve.items() for nn, e in zip(ns_, es)])
         result["truncation"] = {
             "L": td.L, "wce": td.wce,
             "qmc_points": {k: [None if not math.isfinite(x) else int(x) for x in v]
@@ -496,13 +511,13 @@ def run_figures(args: argparse.Namespace) -> int:
     if "bnot" in only:
         t0 = time.perf_counter()
         bd = F.bnot_figure_data(n, seed)
-        files["bnot_spectrum.png"] = str(P.plot_bnot(bd, out / "bnot_spectrum.png"))
-        files["bnot_spectrum.csv"] = str(_csv(
+        save("bnot_spectrum.png", P.plot_bnot, bd, out / "bnot_spectrum.png")
+        save("bnot_spectrum.csv", _csv,
             out / "bnot_spectrum.csv",
             f"BNOT vs random: radially averaged periodogram on the unit square (before the "
             f"Lambert lift, not morphed), N = {n}, seed {seed}",
             ("radius", "power_bnot", "power_random"),
-            zip(bd.radius, bd.power_bnot, bd.power_random)))
+            zip(bd.radius, bd.power_bnot, bd.power_random))
         db, dr = bd.diagnostics_bnot, bd.diagnostics_random
         ok = db.max_relative_area_error <= 1e-4
         result["bnot"] = {"low_band": bd.low_band, "low_power_bnot": bd.low_power_bnot,

@@ -3,8 +3,9 @@ from __future__ import annotations
 
 import argparse
 
-from .common import (add_common_arguments, add_map_arguments, emit_json, int_list,
-                     load_map_from_args, out_dir, say, str_list)
+from .common import (add_common_arguments, add_map_arguments, emit_json, guarded_write, int_list,
+                     load_map_from_args, nonneg_int_list, out_dir, positive_float, positive_int,
+                     say, str_list)
 
 
 def register(sub) -> None:
@@ -25,7 +26,7 @@ def register(sub) -> None:
                    help="smoothness of the prediction: 'auto' (fit it, default) or a value in (1, 2)")
     p.add_argument("--brdf", type=str_list, default=None, metavar="diffuse,glossy",
                    help="BRDFs (default: diffuse,glossy)")
-    p.add_argument("--shininess", type=float, default=30.0, help="glossy exponent n (default: 30)")
+    p.add_argument("--shininess", type=positive_float, default=30.0, help="glossy exponent n (default: 30)")
     p.add_argument("--pointsets", type=str_list, default=None, metavar="sf,sobol,…",
                    help="point sets among sf, sobol, lp, bnot, random, jitter (default: all six; "
                         "--quick: without bnot)")
@@ -33,22 +34,22 @@ def register(sub) -> None:
                    help="weightings (default: equal,osw)")
     p.add_argument("--n", type=int_list, default=None, metavar="N1,N2,…",
                    help="numbers of samples (default: 16,32,…,4096; --quick: 16…1024)")
-    p.add_argument("--axes", type=int, default=None, metavar="M",
+    p.add_argument("--axes", type=positive_int, default=None, metavar="M",
                    help="number of random axes (default: 2000; --quick: 500)")
     p.add_argument("--scale", choices=("display", "linear", "log"), default="display",
                    help="value scale of the integrand and of the fit (default: display)")
     p.add_argument("--fit-method", choices=("likelihood", "loo", "holdout"), default="likelihood",
                    help="criterion of the s fit for --s auto (default: likelihood)")
-    p.add_argument("--fit-n", type=int, default=None,
+    p.add_argument("--fit-n", type=positive_int, default=None,
                    help="samples of the s / sigma fit (default: 1500; --quick: 600)")
     p.add_argument("--no-truncation", action="store_true", help="skip the SH/HSH truncation part")
-    p.add_argument("--sh-L", type=int_list, default=None, metavar="L1,L2,…",
+    p.add_argument("--sh-L", type=nonneg_int_list, default=None, metavar="L1,L2,…",
                    help="SH cut-off degrees (default: 0…20; --quick: 0…12)")
-    p.add_argument("--hsh-L", type=int_list, default=None, metavar="L1,L2,…",
+    p.add_argument("--hsh-L", type=nonneg_int_list, default=None, metavar="L1,L2,…",
                    help="glossy HSH cut-off degrees (default: 0…16; --quick: 0…10)")
-    p.add_argument("--hsh-axes", type=int, default=None,
+    p.add_argument("--hsh-axes", type=positive_int, default=None,
                    help="axes of the HSH measurement (default: 250; --quick: 100)")
-    p.add_argument("--hsh-max-height", type=int, default=None,
+    p.add_argument("--hsh-max-height", type=positive_int, default=None,
                    help="map rows for the HSH measurement (default: 128; --quick: 64)")
     p.add_argument("--quick", action="store_true",
                    help="a reduced run in under a minute (map at most 256 rows; see below)")
@@ -113,7 +114,7 @@ def run(args: argparse.Namespace) -> int:
     out = out_dir(args)
     for note in getattr(env, "notes", []):
         say(args, f"note: {note}")
-    say(args, f"map {env.name}: {env.height}x{env.width}, {env.channels} channel(s)"
+    say(args, f"map {env.name}: {env.width}x{env.height}, {env.channels} channel(s)"
               + (f"; cells in {out} (resumable)" if out else "; use --out DIR for plots, report.md "
                                                          "and resuming"))
     resumed = []
@@ -130,13 +131,20 @@ def run(args: argparse.Namespace) -> int:
     if out is not None:
         from ..plots.validate import plot_all
         from ..report import write_report
-        files = plot_all(res, out)
-        report = write_report(res, out / "report.md", files)
-        files["report.md"] = str(report)
+        files = guarded_write(args, f"the figures in {out}", plot_all, res, out)
+        files = {} if files is None else files
+        figures = len(files)
+        report = guarded_write(args, out / "report.md", write_report, res, out / "report.md", files)
+        if report is not None:
+            files["report.md"] = str(report)
         res["files"] = files
-        atomic_write_json(out / "validate.json", res)
-        res["files"]["validate.json"] = str(out / "validate.json")
-        say(args, f"wrote {report}, {len(files) - 2} figure(s) and {out / 'validate.json'}")
+        if guarded_write(args, out / "validate.json", atomic_write_json, out / "validate.json",
+                         res) is not None:
+            res["files"]["validate.json"] = str(out / "validate.json")
+        written = ([f"{figures} figure(s)"] if figures else []) + [
+            files[k] for k in ("report.md", "validate.json") if k in files]
+        if written:
+            say(args, "wrote " + ", ".join(written))
     say(args, f"({res['timings']['total']:.0f} s)")
     emit_json(args, res)
     return 0
