@@ -130,12 +130,14 @@ from theory.truncation import truncation_error_curve
 from theory.weights import equal_weights, optimal_weights
 
 from .advisor_cache import AdviseCache
+from .bandlimited import max_samples
 from .checks import check_int, check_names, check_positive
 from .envmap import EnvMap
 from .errors import ParameterError
 from .estimators import hsh_truncation_curve, rmse_over_axes, sh_truncation_curve
 from .progress import progress_bar
-from .scales import SCALES, fit_scale
+from .resources import plan_memory
+from .scales import SCALES, check_not_constant, fit_scale
 from .shading import bilinear_sh_coefficients, shading_integral, weight_function
 from .spectra import (band_e2, degree_weights, map_transfer, rule_error_power,  # noqa: F401
                       sh_truncation_curve_transfer)
@@ -155,7 +157,8 @@ def fit_smoothness(*args, **kwargs):
 __all__ = ["Advice", "AdviceRow", "advise", "smallest_n", "predicted_rmse", "mean_shading_value",
            "map_transfer", "degree_weights", "band_e2", "sh_truncation_curve_transfer",
            "DEFAULT_POINTSETS", "ALL_POINTSETS", "WEIGHTINGS", "BASES", "BRDFS",
-           "DEFAULT_FIT_N", "DEFAULT_NMIN", "DEFAULT_NMAX", "DEFAULT_OSW_NMAX", "DEFAULT_SEEDS"]
+           "DEFAULT_FIT_N", "DEFAULT_NMIN", "DEFAULT_NMAX", "DEFAULT_OSW_NMAX", "DEFAULT_SEEDS",
+           "plan_advise_memory"]
 
 #: every point set (theory.pointsets); BNOT costs ≈15 s per realisation at N = 4096
 ALL_POINTSETS = ("sf", "sobol", "lp", "bnot", "random", "jitter")
@@ -431,6 +434,35 @@ def _q_predict(adv: Advice, row: AdviceRow, n: int) -> float:
 
 # ----------------------------------------------------------------------------- the advisor
 
+#: bytes per point of a quadrature rule while its error power is computed (points, square
+#: points, weights, the SH synthesis' angles and temporaries)
+_RULE_BYTES_PER_POINT = 8 * 24
+
+
+def plan_advise_memory(envmap: EnvMap, *, pointsets: Sequence[str], weights: Sequence[str],
+                       nmin: int, nmax: int, osw_nmax: int, fit_n: int, check: bool = False,
+                       workers: int = 2) -> None:
+    """The advisor's memory guard (:func:`envfit.resources.plan_memory`), before any point
+    is made: the equal-weight search up to ``nmax`` (O(N): points, weights, error-power
+    temporaries, and with ``check`` the lookup blocks), the OSW search up to
+    ``min(nmax, osw_nmax)`` (an N x N solve per N) and the band-limited fit (``fit_n``
+    capped at half the map's H² degrees of freedom)."""
+    c = envmap.channels
+    fixed = 8 * envmap.width * envmap.height * (c + 4)
+    per_point = _RULE_BYTES_PER_POINT + (8 * (8 + 2 * c) * max(1, int(workers)) if check else 0)
+    if pointsets and "equal" in weights:
+        plan_memory(nmax, "advise's quadrature search (equal weights)", channels=c,
+                    kernel=False, per_n_bytes=per_point, fixed_bytes=fixed, n_name="nmax",
+                    smallest=nmin)
+    if pointsets and "osw" in weights:
+        plan_memory(max(nmin, min(nmax, osw_nmax)), "advise's OSW search (an NxN solve per N)",
+                    channels=c, per_n_bytes=per_point, fixed_bytes=fixed, n_name="osw_nmax",
+                    smallest=nmin)
+    n_fit = min(int(fit_n), max(10, max_samples(envmap.height - 1)))
+    plan_memory(n_fit, "advise's band-limited fit", channels=c, fixed_bytes=fixed,
+                n_name="fit_n", smallest=10)
+
+
 def advise(envmap: EnvMap, brdf: str = "diffuse", target_rmse: float | None = None, *,
            target_relative: float | None = None, shininess: float = 30.0,
            scale: str = "display", pointsets: Sequence[str] = DEFAULT_POINTSETS,
@@ -464,7 +496,10 @@ def advise(envmap: EnvMap, brdf: str = "diffuse", target_rmse: float | None = No
     cache, cache_dir : the on-disk cache (:mod:`envfit.advisor_cache`; default folder
         ``$ENVFIT_CACHE_DIR`` or ``~/.cache/envfit``).
 
-    Returns an :class:`Advice`. Bad input raises :class:`envfit.errors.ParameterError`.
+    Returns an :class:`Advice`. Bad input raises :class:`envfit.errors.ParameterError` (a map
+    constant on ``scale`` too: there is nothing to fit); a search or fit that cannot fit in
+    memory raises :class:`envfit.errors.MemoryBudgetError` before any point is made
+    (:func:`plan_advise_memory`, naming the largest ``nmax``/``osw_nmax`` that fits).
     """
     t_start = time.perf_counter()
     # ---- input
@@ -505,11 +540,15 @@ def advise(envmap: EnvMap, brdf: str = "diffuse", target_rmse: float | None = No
     check_hsh_axes = check_int(check_hsh_axes, "check_hsh_axes", 2)
     if envmap.height < 4:
         raise ParameterError(f"the map needs at least 4 rows, got {envmap.height}")
+    # the memory guard, before any point set or sample is made
+    plan_advise_memory(envmap, pointsets=pointsets, weights=weights, nmin=nmin, nmax=nmax,
+                       osw_nmax=osw_nmax, fit_n=fit_n, check=check, workers=workers)
     store = AdviseCache(cache_dir, enabled=cache)
 
     # ---- the map on its scale
     sc = fit_scale(scale, envmap)
     scaled = envmap.with_data(np.asarray(sc.apply(envmap.data), dtype=np.float64))
+    check_not_constant(scaled.data, scale, envmap.name)
     band_lmax = scaled.height - 1
     mean_rms = float(np.sqrt(np.mean(scaled.mean() ** 2)))
     mean_shading = mean_shading_value(scaled)

@@ -149,13 +149,13 @@ from theory.weights import equal_weights, kernel_matrix, optimal_weights
 from .bandlimited import (bandlimited_log_likelihood, map_band_limit, max_samples,
                           pixel_centre_samples)
 from .checks import check_int, check_ints, check_names, check_positive
-from .envmap import EnvMap
+from .envmap import EnvMap, check_sample_count
 from .errors import ParameterError
 from .estimators import hsh_truncation_curve, rmse_over_axes, sh_truncation_curve, twisted_frames
 from .latlong import local_to_world
 from .progress import progress_bar
-from .resources import check_memory
-from .scales import fit_scale
+from .resources import check_memory, plan_memory
+from .scales import check_not_constant, fit_scale
 from .shading import shading_integral, weight_function
 from .spectra import (bandlimited_worst_case_error, bandlimited_worst_case_errors,  # noqa: F401
                       low_degree_power_ratio, lookup_transfer, map_degree_power, model_scatter,
@@ -165,7 +165,7 @@ from .store import ResultStore, array_fingerprint
 
 __all__ = ["ValidateConfig", "quick_config", "run_validation", "agreement",
            "quadrature_estimates_multi", "random_axes", "profiled_sigma", "combine_sigma",
-           "bandlimited_profiled_sigma",
+           "bandlimited_profiled_sigma", "plan_validation_memory",
            "loglog_slope", "shape_constant", "shape_residual", "rank_agreement",
            "measured_equivalent_n", "parse_s", "rule_worst_case_error",
            "bandlimited_worst_case_error", "bandlimited_worst_case_errors", "map_statistics",
@@ -444,12 +444,12 @@ def profiled_sigma(envmap: EnvMap, s: float, *, n: int = 1500, seed: int = 0) ->
     [0.0, 0.0]
     """
     s = float(parse_s(s))
-    n = int(n)
+    n = check_int(n, "n", 2)
+    plan_memory(n, "the sigma fit", channels=envmap.channels, n_name="fit_n")
     local = sphere_points("sf", n, seed=seed)
     dirs = local @ local_to_world(envmap.up).T
     v = envmap.lookup(dirs).reshape(n, envmap.channels)
     v = v - v.mean(axis=0, keepdims=True)
-    check_memory(8 * n * n, f"the {n}x{n} kernel matrix of the sigma fit", hint="use a smaller fit_n")
     K = kernel_matrix(local, s)
     try:  # kernel_matrix is Fortran-ordered: factorised in place
         cf = cho_factor(K, overwrite_a=True)
@@ -672,6 +672,23 @@ def _fit(envmap: EnvMap, cfg: ValidateConfig, store: ResultStore, quiet: bool, *
     return cell
 
 
+def plan_validation_memory(envmap: EnvMap, cfg: ValidateConfig) -> None:
+    """The memory guard of :func:`run_validation` (:func:`envfit.resources.plan_memory`),
+    before any point is made: the quadrature rules at the largest N (the N x N kernel matrix
+    of the OSW weights when ``"osw"`` is among the weightings; points, weights and
+    ``workers`` lookup blocks) and the smoothness fit of ``fit_n`` samples."""
+    from .fit import plan_fit_memory
+    c = envmap.channels
+    workers = max(1, int(cfg.workers))
+    lookup = 8 * (8 + 2 * c) * workers                  # per direction of a lookup block
+    plan_memory(cfg.n_values[-1], "validate's quadrature rules", channels=c,
+                kernel="osw" in cfg.weights, per_n_bytes=8 * 16 + lookup,
+                fixed_bytes=LOOKUP_BLOCK * lookup + 8 * envmap.width * envmap.height * (c + 4)
+                + 8 * cfg.axes * (9 + 2 * c * len(cfg.weights)))
+    plan_fit_memory(cfg.fit_n, envmap.width, envmap.height, c, method=cfg.fit_method,
+                    what="validate's smoothness fit", n_name="fit_n")
+
+
 def run_validation(envmap: EnvMap, config: ValidateConfig | None = None, *,
                    out: str | Path | None = None, quiet: bool = True,
                    on_cell: Callable[[str, bool], None] | None = None) -> dict:
@@ -695,10 +712,13 @@ def run_validation(envmap: EnvMap, config: ValidateConfig | None = None, *,
     """
     cfg = config or ValidateConfig()
     t_start = time.perf_counter()
+    plan_validation_memory(envmap, cfg)          # before anything of size N or fit_n
+    check_sample_count(cfg.fit_n, envmap.width, envmap.height, name=envmap.name, what="fit_n")
     timings = {"fit": 0.0, "truth": 0.0, "quadrature": 0.0, "truncation": 0.0,
                "equivalents": 0.0}
     sc = fit_scale(cfg.scale, envmap)
     scaled = envmap.with_data(np.asarray(sc.apply(envmap.data), dtype=np.float64))
+    check_not_constant(scaled.data, cfg.scale, envmap.name)
     store_cfg = {"map": envmap.name, "fingerprint": array_fingerprint(envmap.data),
                  "up": envmap.up, "scale": cfg.scale, "s": cfg.s, "fit_method": cfg.fit_method,
                  "fit_n": cfg.fit_n, "seed": cfg.seed, "axes": cfg.axes,
@@ -864,6 +884,8 @@ def run_validation(envmap: EnvMap, config: ValidateConfig | None = None, *,
                               ("by_n", str(n))):
                 costs[key][name] = costs[key].get(name, 0.0) + float(sec)
     notes = list(envmap.notes)
+    store.close()                # every cell is written: release the --out folder's lock
+    notes.extend(store.notes)    # cells recomputed because they were not sound (also on stderr)
     notes.extend(fit.get("notes", []))
     notes.extend(f"refined fit: {x}" for x in fit_ref.get("notes", []))
     return {
