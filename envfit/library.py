@@ -16,7 +16,10 @@ inline, a local process pool, or a dask cluster) under :func:`envfit.scheduler.d
 which writes every finished cell into ``OUT/<map-slug>/cells/`` (the format of
 :func:`~envfit.table2.run_table2`) atomically as it arrives. A re-run with the same ``out``
 skips finished (map, s, N) cells and factorises only the (s, N) that some map still lacks;
-a killed worker loses only the tasks it was running. Only O(N C) coefficients per map
+a killed worker loses only the tasks it was running. A stored cell that is not sound (edited,
+corrupt, another cell's; :mod:`envfit.store`) is recomputed with a note in ``lib.notes``, and
+the driver holds the lock of ``out`` for the whole run (a second run on it is refused; the
+workers never touch the store). Only O(N C) coefficients per map
 travel between processes, never an N x N factor.
 
 Results: per map a :class:`~envfit.table2.Table2Result` (its cells, ``s_best``), and
@@ -36,6 +39,7 @@ Example
 """
 from __future__ import annotations
 
+import contextlib
 import functools
 import time
 from dataclasses import dataclass, field
@@ -44,14 +48,16 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from .envmap import check_sample_count
 from .errors import ParameterError
 from .executor import make_executor
 from .interpolation import interpolator_nbytes
 from .library_tasks import SweepSpec, evaluate_task, sample_task, solve_task
 from .mapsource import LoadOptions, MapSource, resolve_map_sources
-from .scales import SCALES
+from .resources import plan_memory
+from .scales import SCALES, check_not_constant
 from .scheduler import Task, drive
-from .store import ResultStore
+from .store import FolderLock, ResultStore
 from .table2 import (PAPER_N, PAPER_S, Table2Cell, Table2Result, _cell_key, _recon_stem,
                      check_grid)
 
@@ -144,20 +150,55 @@ def run_table2_library(maps: Sequence, s_values: Sequence[float] = PAPER_S,
     if scale not in SCALES:
         raise ParameterError(f"unknown scale {scale!r}; choose one of {', '.join(SCALES)}")
     sources = resolve_map_sources(maps, load_options)
+    # the memory guard of the largest N (one factorisation task: the interpolator with the
+    # right-hand sides of one group of maps), before any sample point is made
+    group = min(len(sources), max(1, int(rhs_budget_bytes // (2 * 8 * n_values[-1] * _PLAN_CHANNELS))))
+    plan_memory(n_values[-1], "library table2", channels=_PLAN_CHANNELS * group)
     spec = SweepSpec(pointset=pointset, seed=int(seed), scale=scale, up=sources[0].up)
     spec.points(4)  # an unknown point set fails here, before any work
     out = Path(out) if out is not None else None
-    stores = [ResultStore(out / src.slug if out is not None else None,
-                          {"map": src.identity(), "scale": scale, "pointset": pointset,
-                           "seed": int(seed), "up": spec.up}, kind="table2")
-              for src in sources]
+    notes: list[str] = []                       # the stores' notes (cells recomputed), …
+    # one lock for the whole --out folder, taken before any cell is read (module store)
+    with FolderLock(out, on_note=notes.append) if out is not None else contextlib.nullcontext():
+        stores = [ResultStore(out / src.slug if out is not None else None,
+                              {"map": src.identity(), "scale": scale, "pointset": pointset,
+                               "seed": int(seed), "up": spec.up}, kind="table2", lock=False,
+                              on_note=notes.append)
+                  for src in sources]
+        cells, missing, resumed = _resume(stores, sources, s_values, n_values, on_cell)
+        lib = LibraryTable2Result(maps=[], slugs=[s.slug for s in sources], s_values=s_values,
+                                  n_values=n_values, scale=scale, pointset=pointset,
+                                  seed=int(seed), cells_resumed=resumed, notes=notes)
+        if missing:
+            _compute(lib, sources, stores, cells, missing, spec, out, executor=executor,
+                     workers=workers, scheduler=scheduler, keep=save_reconstructions,
+                     n_max=n_values[-1], quiet=quiet, on_cell=on_cell, budget=rhs_budget_bytes)
+        for i, src in enumerate(sources):
+            some = next(iter(cells[i].values()))
+            r = Table2Result(map=src.label, scale=scale,
+                             scale_description=some.get("scale_description", ""),
+                             pointset=pointset, seed=int(seed), height=int(some.get("height", 0)),
+                             s_values=s_values, n_values=n_values)
+            r.cells = [Table2Cell(**{k: cells[i][_cell_key(s, n)][k] for k in _FIELDS})
+                       for n in n_values for s in s_values]
+            lib.maps.append(r)
+        lib.seconds = time.perf_counter() - t_start
+        if out is not None:
+            from .library_report import write_table2_library
+            write_table2_library(lib, out)
+    return lib
+
+
+def _resume(stores, sources, s_values, n_values, on_cell):
+    """``(cells, missing, resumed)``: the sound stored cells per map, the maps still missing
+    each (s, N), and how many cells were resumed (unsound cells count as missing)."""
     cells: list[dict[str, dict]] = [{} for _ in sources]
     missing: dict[tuple[float, int], list[int]] = {}
     resumed = 0
     for i, st in enumerate(stores):
         for n in n_values:
             for s in s_values:
-                d = st.get(_cell_key(s, n))
+                d = st.get(_cell_key(s, n), fields=_FIELDS)
                 if d is None:
                     missing.setdefault((s, n), []).append(i)
                     continue
@@ -165,26 +206,7 @@ def run_table2_library(maps: Sequence, s_values: Sequence[float] = PAPER_S,
                 resumed += 1
                 if on_cell:
                     on_cell(sources[i].label, Table2Cell(**{k: d[k] for k in _FIELDS}), True)
-    lib = LibraryTable2Result(maps=[], slugs=[s.slug for s in sources], s_values=s_values,
-                              n_values=n_values, scale=scale, pointset=pointset, seed=int(seed),
-                              cells_resumed=resumed)
-    if missing:
-        _compute(lib, sources, stores, cells, missing, spec, out, executor=executor,
-                 workers=workers, scheduler=scheduler, keep=save_reconstructions,
-                 n_max=n_values[-1], quiet=quiet, on_cell=on_cell, budget=rhs_budget_bytes)
-    for i, src in enumerate(sources):
-        some = next(iter(cells[i].values()))
-        r = Table2Result(map=src.label, scale=scale, scale_description=some.get("scale_description", ""),
-                         pointset=pointset, seed=int(seed), height=int(some.get("height", 0)),
-                         s_values=s_values, n_values=n_values)
-        r.cells = [Table2Cell(**{k: cells[i][_cell_key(s, n)][k] for k in _FIELDS})
-                   for n in n_values for s in s_values]
-        lib.maps.append(r)
-    lib.seconds = time.perf_counter() - t_start
-    if out is not None:
-        from .library_report import write_table2_library
-        write_table2_library(lib, out)
-    return lib
+    return cells, missing, resumed
 
 
 def _compute(lib, sources: list[MapSource], stores, cells, missing, spec: SweepSpec, out,
@@ -224,6 +246,11 @@ def _compute(lib, sources: list[MapSource], stores, cells, missing, spec: SweepS
         return spec, s, n, np.hstack(cols), [c.shape[1] for c in cols]
 
     def sample_done(i, res):
+        # N against the map's pixel count and a constant map, before any factorisation
+        n_top = max(res["values"])
+        check_sample_count(n_top, res["width"], res["height"], name=sources[i].label)
+        check_not_constant(res["values"][n_top], spec.scale, sources[i].label,
+                           where=f" at its {n_top} samples")
         samples[i] = res["values"]
         ready = []
         for cid in [c for c, w in waiting.items() if i in w]:

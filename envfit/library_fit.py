@@ -41,6 +41,7 @@ Example
 """
 from __future__ import annotations
 
+import contextlib
 import functools
 import time
 from dataclasses import dataclass, field
@@ -51,6 +52,8 @@ import numpy as np
 from scipy import optimize
 from scipy.interpolate import CubicSpline
 
+from .checks import check_int
+from .envmap import check_sample_count
 from .errors import ParameterError
 from .executor import make_executor
 from .fit import (CHI2_1_95, DEFAULT_METHOD, DEFAULT_N, METHODS, S_GRID, SCORE_NAMES,
@@ -59,9 +62,10 @@ from .interpolation import interpolator_nbytes
 from .library_fit_tasks import criterion_task, fit_sample_task
 from .library_tasks import SweepSpec
 from .mapsource import LoadOptions, resolve_map_sources
-from .scales import SCALES
+from .resources import plan_memory
+from .scales import SCALES, check_not_constant
 from .scheduler import Task, drive
-from .store import ResultStore
+from .store import FolderLock, ResultStore
 
 __all__ = ["LibraryFitResult", "fit_smoothness_library", "DEFAULT_REFINE", "lattice"]
 
@@ -228,9 +232,7 @@ def fit_smoothness_library(maps: Sequence, *, method: str = DEFAULT_METHOD, n: i
         raise ParameterError(f"unknown fit method {method!r}; choose one of {', '.join(METHODS)}")
     if scale not in SCALES:
         raise ParameterError(f"unknown scale {scale!r}; choose one of {', '.join(SCALES)}")
-    n = int(n)
-    if n < 10:
-        raise ParameterError(f"fit needs at least 10 samples, got n = {n}")
+    n = check_int(n, "the number of samples n", 10)
     grid = [float(s) for s in s_grid]
     if len(grid) < 3 or not np.allclose(np.diff(grid), grid[1] - grid[0]) or grid[1] <= grid[0]:
         raise ParameterError("a library fit needs a uniform, increasing s grid of 3 or more values")
@@ -239,33 +241,58 @@ def fit_smoothness_library(maps: Sequence, *, method: str = DEFAULT_METHOD, n: i
     lat = lattice(grid, int(refine))
     grid = [float(lat[np.argmin(np.abs(lat - g))]) for g in grid]   # the lattice's own floats
     sources = resolve_map_sources(maps, load_options)
+    # the memory guard (one criterion task: the interpolator with every map's samples as
+    # right-hand sides, as the executor is sized below), before any sample is made
+    plan_memory(n, "the library fit", channels=2 * 3 * len(sources),
+                fixed_bytes=8 * 4 * min(int(n_holdout), 2 ** 62) * len(sources)
+                if method == "holdout" else 0, smallest=10, n_name="n")
     spec = SweepSpec(pointset=pointset, seed=int(seed), scale=scale, up=sources[0].up)
     spec.points(4)
     out = Path(out) if out is not None else None
     config = {"method": method, "n": n, "scale": scale, "pointset": pointset, "seed": int(seed),
               "up": spec.up, "s_grid": grid, "refine": int(refine),
               "n_holdout": int(n_holdout) if method == "holdout" else None}
-    stores = [ResultStore(out / src.slug / f"fit_{method}_n{n}" if out is not None else None,
-                          {"map": src.identity(), **config}, kind="fit") for src in sources]
-    fits = [_MapFit(grid, lat, method, n) for _ in sources]
-    meta: dict[int, dict] = {}
     lib = LibraryFitResult(fits=[], labels=[s.label for s in sources],
                            slugs=[s.slug for s in sources], method=method, n=n, scale=scale,
                            pointset=pointset, seed=int(seed))
-    for i, st in enumerate(stores):
-        for key, cell in st.items():
-            if key == "meta":
-                meta[i] = cell
-            else:
-                fits[i].ev[float(cell["s"])] = cell
-                lib.evaluations_resumed += 1
+    # one lock for the whole --out folder, taken before any cell is read (module store)
+    with (FolderLock(out, on_note=lib.notes.append) if out is not None
+          else contextlib.nullcontext()):
+        stores = [ResultStore(out / src.slug / f"fit_{method}_n{n}" if out is not None else None,
+                              {"map": src.identity(), **config}, kind="fit", lock=False,
+                              on_note=lib.notes.append) for src in sources]
+        fits = [_MapFit(grid, lat, method, n) for _ in sources]
+        meta: dict[int, dict] = {}
+        for i, st in enumerate(stores):
+            for key, cell in st.items():         # unsound cells are noted and left out
+                if key == "meta":
+                    meta[i] = cell
+                else:
+                    fits[i].ev[float(cell["s"])] = cell
+                    lib.evaluations_resumed += 1
+        _rounds(lib, fits, stores, meta, sources, spec, grid, n_holdout, quiet=quiet,
+                on_round=on_round, executor=executor, workers=workers, scheduler=scheduler)
+        _finish(lib, fits, meta)
+        lib.seconds = time.perf_counter() - t_start
+        if out is not None:
+            from .library_report import write_fit_library
+            write_fit_library(lib, out)
+    return lib
+
+
+def _rounds(lib, fits, stores, meta, sources, spec, grid, n_holdout, *, quiet, on_round,
+            executor, workers, scheduler) -> None:
+    """Evaluate, round after round, the lattice points the maps still request (each s
+    factorised once for all maps); every evaluation is stored as it arrives."""
+    method, n = lib.method, lib.n
     ex = None
     samples: dict[int, dict] = {}
     grid_set = set(grid)
     try:
         while True:
             wanted = {i: f.requests() for i, f in enumerate(fits)}
-            wanted = {i: r for i, r in wanted.items() if r}
+            # a map without its meta cell (an unsound file) is sampled again, to rewrite it
+            wanted = {i: r for i, r in wanted.items() if r or i not in meta}
             if not wanted:
                 break
             if ex is None:
@@ -321,6 +348,11 @@ def fit_smoothness_library(maps: Sequence, *, method: str = DEFAULT_METHOD, n: i
     finally:
         if ex is not None and ex is not executor:
             ex.close()
+
+
+def _finish(lib, fits, meta) -> None:
+    """Each map's estimate, interval and σ̂ from its evaluations, into ``lib.fits``."""
+    method, n, scale = lib.method, lib.n, lib.scale
     for i, f in enumerate(fits):
         s_hat, interval, sigma = f.finish()
         notes = []
@@ -334,11 +366,6 @@ def fit_smoothness_library(maps: Sequence, *, method: str = DEFAULT_METHOD, n: i
             s=s_hat, s_interval=interval, sigma=sigma, method=method, scale=scale, n=n,
             scale_description=meta.get(i, {}).get("scale_description", ""), curve=curve,
             score_name=SCORE_NAMES[method], seconds=f.cost, notes=notes))
-    lib.seconds = time.perf_counter() - t_start
-    if out is not None:
-        from .library_report import write_fit_library
-        write_fit_library(lib, out)
-    return lib
 
 
 def _then(first, second):
@@ -351,6 +378,10 @@ def _then(first, second):
 def _sample(ex, sources, spec, n, n_holdout, todo, samples, meta, stores) -> None:
     """Sample the maps ``todo`` (one task each); keep the samples in memory."""
     def done(i, res):
+        # n against the map's pixel count and a constant map, before any factorisation
+        check_sample_count(n, res["width"], res["height"], name=sources[i].label, what="n")
+        check_not_constant(res["values"], spec.scale, sources[i].label,
+                           where=f" at its {n} samples")
         samples[i] = res
         meta[i] = {"height": res["height"], "width": res["width"],
                    "channels": res["channels"], "scale_description": res["scale_description"]}
