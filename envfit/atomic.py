@@ -113,6 +113,21 @@ def _stat(path: Path, what: str, shown: Path) -> os.stat_result | None:
         raise OutputError(f"cannot write {_label(what, shown)}: {os_reason(exc)}") from None
 
 
+def _existing_ancestor(folder: Path, what: str, shown: Path) -> Path:
+    """The nearest of ``folder`` and its parents that exists; OutputError if it is not a
+    folder (or is a dangling symbolic link, a loop)."""
+    while True:
+        st = _stat(folder, what, shown)
+        if st is not None:
+            break
+        if folder.parent == folder:  # pragma: no cover - the root always exists
+            raise OutputError(f"cannot write {_label(what, shown)}: no existing parent folder")
+        folder = folder.parent
+    if not stat.S_ISDIR(st.st_mode):
+        raise OutputError(f"cannot write {_label(what, shown)}: {folder} is not a folder")
+    return folder
+
+
 def check_writable_dir(path: str | os.PathLike, what: str = "--out") -> Path:
     """Make sure ``path`` is a folder this process can write in: create it (with its parents)
     if missing, then create and remove a temporary file inside. Returns ``path``.
@@ -126,6 +141,7 @@ def check_writable_dir(path: str | os.PathLike, what: str = "--out") -> Path:
         raise OutputError(f"cannot write {_label(what, path)}: exists and is not a folder")
     try:
         if st is None:
+            _existing_ancestor(path.parent, what, path)
             path.mkdir(parents=True, exist_ok=True)
         _probe(path)
     except OSError as exc:
@@ -151,16 +167,7 @@ def check_writable_file(path: str | os.PathLike, what: str = "--json") -> Path |
         if not stat.S_ISREG(st.st_mode):
             raise OutputError(f"cannot write {_label(what, path)}: not a regular file (an atomic write "
                               "would replace it; use '-' for stdout)")
-    folder = path.parent
-    while True:
-        st = _stat(folder, what, path)
-        if st is not None:
-            break
-        if folder.parent == folder:  # pragma: no cover - the root always exists
-            raise OutputError(f"cannot write {_label(what, path)}: no existing parent folder")
-        folder = folder.parent
-    if not stat.S_ISDIR(st.st_mode):
-        raise OutputError(f"cannot write {_label(what, path)}: {folder} is not a folder")
+    folder = _existing_ancestor(path.parent, what, path)
     try:
         _probe(folder)
     except OSError as exc:

@@ -205,10 +205,8 @@ def preflight_outputs(args: argparse.Namespace) -> None:
         from .. import advisor_cache
         probe = getattr(advisor_cache, "cache_write_problem", None)
         problem = probe(args.cache_dir) if probe is not None else None
-        if problem:
-            args.cache_note = (f"note: cache {problem}; results will not be cached"
-                               if " not writable" in problem else
-                               f"note: cache not writable ({problem}); results will not be cached")
+        if problem:  # "the advisor cache … is not writable (…); advise works without it …"
+            args.cache_note = f"note: {problem}"
             print(f"envfit {command_name(args)}: {args.cache_note}", file=sys.stderr)
 
 
