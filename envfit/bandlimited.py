@@ -50,7 +50,7 @@ from .envmap import EnvMap
 from .errors import ParameterError
 from .interpolation import ProfiledLikelihood, _check_s, as_unit_vectors
 from .latlong import direction_to_pixel
-from .resources import check_memory
+from .resources import plan_memory
 
 __all__ = ["BandlimitedKernel", "bandlimited_log_likelihood", "pixel_centre_samples",
            "map_band_limit", "max_samples", "MAX_BAND_LMAX"]
@@ -144,8 +144,7 @@ class BandlimitedKernel:
         strict upper triangle is zero), ready for LAPACK ``dpotrf(lower=1)``."""
         p = as_unit_vectors(points)
         n = p.shape[0]
-        check_memory(8 * n * n, f"the {n}x{n} band-limited kernel matrix",
-                     hint="use fewer samples")
+        plan_memory(n, "the band-limited kernel matrix", n_name="N")
         K = np.zeros((n, n), dtype=np.float64, order="F")
         _bk.fill_table_kernel_matrix(np.ascontiguousarray(p[:, 0]), np.ascontiguousarray(p[:, 1]),
                                      np.ascontiguousarray(p[:, 2]), self._table, self._inv_h,

@@ -500,7 +500,7 @@ def hemisphere_integrals(envmap: EnvMap, axes, kernel: Callable[[np.ndarray], It
     ph = (2.0 * np.pi * (np.arange(w) + 0.5)[:, None] / w + dphi * x[None, :]).ravel()
     wph = np.tile(dphi * wq, w)
     nth, nph = th.size, ph.size
-    check_memory(8 * nth * nph * (c + 4), f"the {nth}x{nph} quadrature grid of a {w}x{h} map",
+    check_memory(8 * nth * nph * (c + 4), f"the {nph}x{nth} quadrature grid of a {w}x{h} map",
                  hint="use a smaller map (EnvMap.resized) or method='sh'")
     # f at the nodes, through the same lookup the estimators use
     st, ct = np.sin(th), np.cos(th)
