@@ -24,6 +24,13 @@ negative values                                clamped to 0 and noted (``allow_n
 
 Only the first subimage (EXR part) is read (noted if there are more).
 
+Colour: float files (EXR, HDR, float TIFF) are taken as linear radiance, as they are.
+Integer files (8/16-bit PNG, JPEG, TIFF, ...) are display-referred: their colour space
+(``oiio:ColorSpace``, sRGB when the file names none, the convention for such files) is
+decoded to linear with OpenImageIO's ``ImageBufAlgo.colorconvert`` and the map gets the note
+"decoded 8-bit sRGB to linear radiance (display-referred file: its dynamic range is
+clipped)" (``linearize=False`` keeps the encoded values).
+
 Channels: 1 channel → grey (C = 1); 2 channels → the first one (grey + alpha, or a
 two-channel image of which only the first channel is used; noted); 3 → RGB; 4 or more →
 the alpha channel (OIIO's ``alpha_channel``, else channel 3 of an RGBA-like 4-channel
@@ -339,15 +346,86 @@ def _fix_nonfinite(data: np.ndarray, bad: np.ndarray) -> np.ndarray:
     return out
 
 
+_INTEGER_BASETYPES = ("UINT8", "INT8", "UINT16", "INT16", "UINT32", "INT32", "UINT64", "INT64")
+#: the colour space display-referred files are decoded to (OIIO 3.x: "linear" is an alias of
+#: "lin_rec709_scene", linear Rec. 709 primaries as sRGB's)
+LINEAR_SPACE = "linear"
+
+
+def _colour_config():
+    import OpenImageIO as oiio
+    global _COLOUR_CONFIG
+    if _COLOUR_CONFIG is None:
+        _COLOUR_CONFIG = oiio.ColorConfig()
+    return _COLOUR_CONFIG
+
+
+_COLOUR_CONFIG = None
+
+
+def _display_decoding(spec) -> tuple[str | None, str | None]:
+    """``(colour space to decode from or None, note or None)`` for a file's header.
+
+    * float data (EXR, HDR, float TIFF): ``(None, None)``, read as it is;
+    * integer data tagged linear or raw data: ``(None, None)``;
+    * integer data tagged with a display colour space OIIO knows (``sRGB``,
+      ``srgb_rec709_scene``, gamma 2.2, ...), or untagged (sRGB is the convention for 8-bit
+      PNG/JPEG/TIFF): that space, with the note ``decoded 8-bit sRGB to linear radiance
+      (display-referred file: its dynamic range is clipped)``;
+    * a colour space OIIO's configuration does not know: ``(None, note)``, values kept.
+    """
+    basetype = str(spec.format.basetype).rsplit(".", 1)[-1].upper()
+    if basetype not in _INTEGER_BASETYPES and basetype not in ("UCHAR", "CHAR", "USHORT", "SHORT"):
+        return None, None
+    bits = spec.get_int_attribute("oiio:BitsPerSample", 0) or 8 * int(spec.format.size())
+    cs = spec.get_string_attribute("oiio:ColorSpace", "") or ""
+    tail = "(display-referred file: its dynamic range is clipped)"
+    if not cs:
+        return "sRGB", (f"decoded {bits}-bit sRGB to linear radiance {tail}; the file names no "
+                        f"colour space, sRGB assumed (the convention for {bits}-bit images)")
+    cc = _colour_config()
+    if cc.getColorSpaceIndex(cs) < 0 and not cc.equivalent(cs, "sRGB"):
+        return None, (f"{bits}-bit file in colour space {cs!r}, which OpenImageIO's colour "
+                      "configuration does not know: its values are used as they are (not "
+                      "decoded to linear radiance)")
+    if cc.isData(cs) or cc.isColorSpaceLinear(cc.resolve(cs)):
+        return None, None
+    name = "sRGB" if cc.equivalent(cs, "sRGB") else cs
+    return cs, f"decoded {bits}-bit {name} to linear radiance {tail}"
+
+
+def _decode_to_linear(pixels: np.ndarray, spec, space: str, p: Path) -> np.ndarray:
+    """``pixels`` (H, W, C float32, encoded in ``space``) converted to linear radiance with
+    ``ImageBufAlgo.colorconvert`` (alpha, if the header names one, is left as it is)."""
+    import OpenImageIO as oiio
+
+    h, w, c = pixels.shape
+    fspec = oiio.ImageSpec(w, h, c, "float")
+    if spec.channelnames:
+        fspec.channelnames = tuple(spec.channelnames)
+    fspec.alpha_channel = int(spec.alpha_channel)
+    buf = oiio.ImageBuf(fspec)
+    buf.set_pixels(oiio.ROI.All, np.ascontiguousarray(pixels, dtype=np.float32))
+    out = oiio.ImageBufAlgo.colorconvert(buf, space, LINEAR_SPACE)
+    if out.has_error:
+        raise EnvMapFormatError(f"{p}: cannot decode its {space} colour space to linear "
+                                f"radiance: {_one_line(out.geterror())}")
+    return np.asarray(out.get_pixels(oiio.FLOAT), dtype=np.float32).reshape(h, w, c)
+
+
 def load_envmap(path, *, up: str = "y", allow_negative: bool = False,
                 fix_nonfinite: bool = False, max_height: int | None = None,
-                dtype=np.float32) -> EnvMap:
+                dtype=np.float32, linearize: bool = True) -> EnvMap:
     """Read a lat-long environment map with OpenImageIO.
 
     Parameters
     ----------
-    path : file in any format OIIO reads (EXR, HDR, PNG, TIFF, ...); 8/16-bit files are
-        read as floats in [0, 1] (no colour-space conversion).
+    path : file in any format OIIO reads (EXR, HDR, PNG, TIFF, ...). Float files (EXR,
+        HDR, float TIFF, PFM) are read as they are. Integer files (8/16-bit PNG, JPEG,
+        TIFF, ...) are display-referred: their colour space (OIIO's ``oiio:ColorSpace``; if
+        absent, sRGB, the convention for such files) is decoded to linear radiance with
+        ``ImageBufAlgo.colorconvert(..., "linear")`` and noted (:func:`_display_decoding`).
+    linearize : False keeps an integer file's encoded values in [0, 1] (no decoding).
     up : the world axis of the map's top row ("y", "z", "x"); see :mod:`envfit.latlong`.
     allow_negative : keep negative values (default: clamp them to 0 and note how many).
     fix_nonfinite : replace NaN/Inf values by the mean of the finite values among their 8
@@ -392,6 +470,9 @@ def load_envmap(path, *, up: str = "y", allow_negative: bool = False,
                 f"(width x height)")
         c_out = min(c, 3) if c != 2 else 1
         nbytes = h * w * c * 4 + h * w * c_out * (4 + dt.itemsize)
+        decode, decode_note = _display_decoding(spec) if linearize else (None, None)
+        if decode is not None:
+            nbytes += 2 * h * w * c * 4           # the ImageBuf and the converted copy
         check_memory(nbytes, f"reading {p.name} ({w}x{h}, {c} channels)",
                      hint="downscale the file with another tool first, or raise "
                           "ENVFIT_MEMORY_LIMIT if more memory is really available")
@@ -408,6 +489,10 @@ def load_envmap(path, *, up: str = "y", allow_negative: bool = False,
         inp.close()
 
     pixels = np.asarray(pixels, dtype=np.float32).reshape(h, w, c)
+    if decode is not None:
+        pixels = _decode_to_linear(pixels, spec, decode, p)
+    if decode_note:
+        notes.append(decode_note)
     pixels = _select_channels(pixels, spec, notes)
 
     bad = ~np.isfinite(pixels)

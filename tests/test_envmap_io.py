@@ -160,8 +160,10 @@ def test_overwrite_and_nested_folder(tmp_path):
 def test_png_preview_round_trip_and_refusal(tmp_path):
     a = _rand(8)
     save_envmap(tmp_path / "p.png", a)
-    m = load_envmap(tmp_path / "p.png")
+    m = load_envmap(tmp_path / "p.png", linearize=False)      # the encoded 8-bit values
     np.testing.assert_allclose(m.data, np.rint(a * 255) / 255, atol=1e-6)
+    # by default a display-referred file is decoded to linear (tests/test_faults_inputs.py)
+    assert any("decoded 8-bit sRGB" in n for n in load_envmap(tmp_path / "p.png").notes)
     with pytest.raises(ParameterError, match=r"\[0, 1\]"):
         save_envmap(tmp_path / "q.png", a * 3)
     assert not (tmp_path / "q.png").exists()
