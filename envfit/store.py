@@ -99,8 +99,14 @@ def canonical_sha256(obj: Any) -> str:
 
 
 def print_note(text: str) -> None:
-    """The default ``on_note``: ``note: text`` on stderr."""
-    print(f"note: {text}", file=sys.stderr, flush=True)
+    """The default ``on_note``: ``note: text`` on a line of its own on stderr (through
+    ``tqdm.write``, which lifts a running progress bar out of the way)."""
+    try:
+        from tqdm import tqdm
+    except ImportError:  # pragma: no cover - tqdm is a dependency
+        print(f"note: {text}", file=sys.stderr, flush=True)
+        return
+    tqdm.write(f"note: {text}", file=sys.stderr)
 
 
 def read_json_file(path: Path) -> tuple[Any, str | None]:
