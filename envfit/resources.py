@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import os
 
-from .errors import MemoryBudgetError
+from .errors import MemoryBudgetError, ParameterError
 
 __all__ = ["available_memory_bytes", "check_memory", "format_bytes", "memory_budget_bytes",
            "plan_memory", "largest_n_within"]
@@ -13,28 +13,76 @@ MEMORY_FRACTION = 0.8
 
 
 def available_memory_bytes() -> int:
-    """Memory that can be allocated now (``MemAvailable`` from /proc/meminfo, else total RAM).
+    """Memory that can be allocated now: ``MemAvailable`` from /proc/meminfo (else total
+    RAM), lowered to what the address-space limit (``ulimit -v``, RLIMIT_AS) leaves beyond
+    this process's current size and to what a cgroup v2 ``memory.max`` leaves beyond its
+    ``memory.current`` (a container's limit).
 
-    The environment variable ``ENVFIT_MEMORY_LIMIT`` (bytes, or with a K/M/G suffix)
+    The environment variable ``ENVFIT_MEMORY_LIMIT`` (bytes, or with a K/M/G/T suffix)
     overrides it, e.g. to reserve memory for other processes or to test the guard.
     """
     env = os.environ.get("ENVFIT_MEMORY_LIMIT")
     if env:
-        units = {"K": 2**10, "M": 2**20, "G": 2**30, "T": 2**40}
-        env = env.strip().upper().rstrip("B")
-        mult = units.get(env[-1:], 1)
-        return int(float(env[:-1] if env[-1:] in units else env) * mult)
+        return _parse_size(env)
+    avail = None
     try:
         with open("/proc/meminfo") as fh:
             for line in fh:
                 if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
+                    avail = int(line.split()[1]) * 1024
+                    break
     except OSError:
         pass
+    if avail is None:
+        try:
+            avail = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+        except (ValueError, OSError, AttributeError):  # pragma: no cover - exotic platforms
+            avail = 8 * 2**30
+    for limit in (_address_space_left(), _cgroup_left()):
+        if limit is not None:
+            avail = min(avail, limit)
+    return int(avail)
+
+
+def _parse_size(text: str) -> int:
+    units = {"K": 2**10, "M": 2**20, "G": 2**30, "T": 2**40}
+    s = str(text).strip().upper().rstrip("B")
+    mult = units.get(s[-1:], 1)
     try:
-        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-    except (ValueError, OSError, AttributeError):  # pragma: no cover - exotic platforms
-        return 8 * 2**30
+        value = float(s[:-1] if s[-1:] in units else s)
+    except ValueError:
+        value = float("nan")
+    if not value >= 0 or value == float("inf"):
+        raise ParameterError(f"ENVFIT_MEMORY_LIMIT must be a size such as 500M or 16G, got {text!r}")
+    return int(value * mult)
+
+
+def _address_space_left() -> int | None:
+    """RLIMIT_AS (``ulimit -v``) minus this process's virtual size, or None if unlimited."""
+    try:
+        import resource
+        soft, _ = resource.getrlimit(resource.RLIMIT_AS)
+        if soft == resource.RLIM_INFINITY or soft <= 0:
+            return None
+        with open("/proc/self/status") as fh:
+            vm = next((int(line.split()[1]) * 1024 for line in fh if line.startswith("VmSize:")), 0)
+        return max(0, int(soft) - vm)
+    except (ImportError, OSError, ValueError):  # pragma: no cover - non-Linux
+        return None
+
+
+def _cgroup_left() -> int | None:
+    """cgroup v2 ``memory.max`` minus ``memory.current``, or None without a limit."""
+    try:
+        with open("/sys/fs/cgroup/memory.max") as fh:
+            top = fh.read().strip()
+        if top == "max":
+            return None
+        with open("/sys/fs/cgroup/memory.current") as fh:
+            used = int(fh.read().strip())
+        return max(0, int(top) - used)
+    except (OSError, ValueError):
+        return None
 
 
 def format_bytes(n: float) -> str:
