@@ -625,6 +625,8 @@ def bandlimited_profiled_sigma(scaled: EnvMap, s: float, *, n: int = 1500,
     """
     s = float(parse_s(s))
     n = min(check_int(n, "n", 10), max(10, max_samples(map_band_limit(scaled))))
+    plan_memory(n, "the band-limited sigma fit", channels=scaled.channels, n_name="fit_n",
+                smallest=10)
     local = sphere_points("sf", n, seed=seed)
     pts, v = pixel_centre_samples(scaled, local @ local_to_world(scaled.up).T)
     v = v - v.mean(axis=0, keepdims=True)
