@@ -173,20 +173,24 @@ def run_table2_library(maps: Sequence, s_values: Sequence[float] = PAPER_S,
             _compute(lib, sources, stores, cells, missing, spec, out, executor=executor,
                      workers=workers, scheduler=scheduler, keep=save_reconstructions,
                      n_max=n_values[-1], quiet=quiet, on_cell=on_cell, budget=rhs_budget_bytes)
-        for i, src in enumerate(sources):
-            some = next(iter(cells[i].values()))
-            r = Table2Result(map=src.label, scale=scale,
-                             scale_description=some.get("scale_description", ""),
-                             pointset=pointset, seed=int(seed), height=int(some.get("height", 0)),
-                             s_values=s_values, n_values=n_values)
-            r.cells = [Table2Cell(**{k: cells[i][_cell_key(s, n)][k] for k in _FIELDS})
-                       for n in n_values for s in s_values]
-            lib.maps.append(r)
+        lib.maps = [_map_result(src, cells[i], lib) for i, src in enumerate(sources)]
         lib.seconds = time.perf_counter() - t_start
         if out is not None:
             from .library_report import write_table2_library
             write_table2_library(lib, out)
     return lib
+
+
+def _map_result(src, cells: dict[str, dict], lib: LibraryTable2Result) -> Table2Result:
+    """One map's :class:`Table2Result` from its cells (all of the grid present)."""
+    some = next(iter(cells.values()))
+    r = Table2Result(map=src.label, scale=lib.scale,
+                     scale_description=some.get("scale_description", ""),
+                     pointset=lib.pointset, seed=lib.seed, height=int(some.get("height", 0)),
+                     s_values=lib.s_values, n_values=lib.n_values)
+    r.cells = [Table2Cell(**{k: cells[_cell_key(s, n)][k] for k in _FIELDS})
+               for n in lib.n_values for s in lib.s_values]
+    return r
 
 
 def _resume(stores, sources, s_values, n_values, on_cell):
