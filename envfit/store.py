@@ -114,7 +114,7 @@ def read_json_file(path: Path) -> tuple[Any, str | None]:
     ``(None, None)`` when there is no file at all."""
     try:
         raw = path.read_bytes()
-    except FileNotFoundError:
+    except (FileNotFoundError, NotADirectoryError):     # nothing there (or cannot be)
         return None, None
     except IsADirectoryError:
         return None, "a folder, not a file"
