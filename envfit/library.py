@@ -87,6 +87,8 @@ class LibraryTable2Result:
     seconds: float = 0.0
     executor: str = ""
     notes: list[str] = field(default_factory=list)
+    #: ``(path, reason)`` of cells that could not be written (kept in memory, reported)
+    unwritten: list[tuple[str, str]] = field(default_factory=list)
     files: dict[str, str] = field(default_factory=dict)
 
     def s_best(self) -> np.ndarray:
@@ -174,6 +176,7 @@ def run_table2_library(maps: Sequence, s_values: Sequence[float] = PAPER_S,
                      workers=workers, scheduler=scheduler, keep=save_reconstructions,
                      n_max=n_values[-1], quiet=quiet, on_cell=on_cell, budget=rhs_budget_bytes)
         lib.maps = [_map_result(src, cells[i], lib) for i, src in enumerate(sources)]
+        lib.unwritten = [u for st in stores for u in st.unwritten]
         lib.seconds = time.perf_counter() - t_start
         if out is not None:
             from .library_report import write_table2_library

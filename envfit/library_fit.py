@@ -92,6 +92,8 @@ class LibraryFitResult:
     seconds: float = 0.0
     executor: str = ""
     notes: list[str] = field(default_factory=list)
+    #: ``(path, reason)`` of cells that could not be written (kept in memory, reported)
+    unwritten: list[tuple[str, str]] = field(default_factory=list)
     files: dict[str, str] = field(default_factory=dict)
 
     def summary_rows(self) -> list[dict]:
@@ -273,6 +275,7 @@ def fit_smoothness_library(maps: Sequence, *, method: str = DEFAULT_METHOD, n: i
         _rounds(lib, fits, stores, meta, sources, spec, grid, n_holdout, quiet=quiet,
                 on_round=on_round, executor=executor, workers=workers, scheduler=scheduler)
         _finish(lib, fits, meta)
+        lib.unwritten = [u for st in stores for u in st.unwritten]
         lib.seconds = time.perf_counter() - t_start
         if out is not None:
             from .library_report import write_fit_library

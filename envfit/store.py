@@ -262,6 +262,8 @@ class ResultStore:
         self._on_note = on_note or print_note
         self._noted: set[str] = set()
         self._memory: dict[str, dict] = {}
+        #: ``(path, reason)`` of every cell that could not be written (kept in memory instead)
+        self.unwritten: list[tuple[str, str]] = []
         self._lock: FolderLock | None = None
         if self.folder is None:
             return
@@ -383,7 +385,7 @@ class ResultStore:
         (undecodable, edited, another cell's or run's, older format; one note each).
         ``fields``: names the cell must hold (else it is treated as not sound)."""
         key = _safe_key(key)
-        if self.folder is None:
+        if self.folder is None or key in self._memory:
             return self._memory.get(key)
         return self._load(self.cells_dir / f"{key}.json", key, tuple(fields))
 
@@ -395,9 +397,20 @@ class ResultStore:
             self._memory[key] = cell
             return
         path = self.cells_dir / f"{key}.json"
-        if path.is_dir() and not path.is_symlink():
-            self._move_aside(path)
-        self._write(path, self._envelope(key, cell))
+        try:
+            if path.is_dir() and not path.is_symlink():
+                self._move_aside(path)
+            self._write(path, self._envelope(key, cell))
+        except (StoreWriteError, OSError) as exc:
+            # disk full or folder gone mid-run: the cell is kept for this run (its result is
+            # reported), only its resumability is lost; one note, and ``unwritten`` says which
+            self._memory[key] = cell
+            reason = getattr(exc, "strerror", None) or str(exc).replace(f"cannot write {path}: ", "")
+            if not self.unwritten:
+                self._note(f"could not write {path} ({reason}); this run keeps its cells in "
+                           "memory and reports them, but a rerun will compute them again")
+            self.unwritten.append((str(path), reason))
+            return
         self._noted.discard(str(path))        # a later fault in the new file is a new note
 
     def __contains__(self, key: str) -> bool:

@@ -79,6 +79,9 @@ class Table2Result:
     cells: list[Table2Cell] = field(default_factory=list)
     files: dict[str, str] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
+    #: ``(path, reason)`` of outputs that could not be written (disk full mid-run, …): the
+    #: cells are complete in this result, only their files are missing
+    unwritten: list[tuple[str, str]] = field(default_factory=list)
 
     def cell(self, s: float, n: int) -> Table2Cell:
         for c in self.cells:
@@ -109,6 +112,7 @@ class Table2Result:
             "s_best": self.s_best,
             "s_best_by_n": {str(k): v for k, v in self.s_best_by_n().items()},
             "files": self.files, "notes": self.notes,
+            "unwritten": [list(u) for u in self.unwritten],
         }
 
 
@@ -223,7 +227,7 @@ def run_table2(envmap: EnvMap, s_values: Sequence[float] = PAPER_S,
                                   seconds=t2 - t0, seconds_fit=t1 - t0, seconds_evaluate=t2 - t1)
                 del interp
                 if out is not None and save_reconstructions and n == n_max:
-                    _save_reconstruction(Path(out), recon, sc, s, n, envmap.up)
+                    _save_reconstruction(Path(out), recon, sc, s, n, envmap.up, result)
                 store.put(key, cell.to_dict())
                 result.cells.append(cell)
                 bar.update(1)
@@ -233,6 +237,7 @@ def run_table2(envmap: EnvMap, s_values: Sequence[float] = PAPER_S,
         bar.close()
         store.close()
         result.notes.extend(store.notes)
+        result.unwritten[:0] = store.unwritten
     if out is not None:
         result.files.update(_existing_files(Path(out), s_values, n_max))
     return result
@@ -252,14 +257,21 @@ def _existing_files(out: Path, s_values, n_max) -> dict[str, str]:
     return files
 
 
-def _save_reconstruction(out: Path, recon: np.ndarray, sc, s: float, n: int, up: str) -> None:
-    """EXR of the reconstruction (on the comparison scale) and a display-referred PNG preview."""
+def _save_reconstruction(out: Path, recon: np.ndarray, sc, s: float, n: int, up: str,
+                         result: Table2Result) -> None:
+    """EXR of the reconstruction (on the comparison scale) and a display-referred PNG preview.
+
+    A write that fails (disk full, …) is recorded in ``result.unwritten`` and the sweep goes
+    on: the cell's numbers do not depend on the image files.
+    """
     from .envmap import save_envmap
     stem = _recon_stem(s, n)
-    recon_map = EnvMap(recon.astype(np.float32), up=up, name=stem)
-    save_envmap(out / f"{stem}.exr", recon_map)
     preview = np.clip(sc.to_display(recon), 0.0, 1.0)
-    save_envmap(out / f"{stem}.png", EnvMap(preview.astype(np.float32), up=up, name=stem))
+    for path, img in ((out / f"{stem}.exr", recon), (out / f"{stem}.png", preview)):
+        try:
+            save_envmap(path, EnvMap(img.astype(np.float32), up=up, name=stem))
+        except OSError as exc:
+            result.unwritten.append((str(path), getattr(exc, "strerror", None) or str(exc)))
 
 
 def format_table2(result: Table2Result, *, key: str = "rmse", paper: bool = False) -> str:

@@ -906,6 +906,7 @@ def run_validation(envmap: EnvMap, config: ValidateConfig | None = None, *,
                       "power_ratio_low_degrees": low_degree_power_ratio(scaled, sigma_ref_ch,
                                                                         s_ref)},
         "timings": timings, "costs": costs, "notes": notes,
+        "unwritten": [list(u) for u in store.unwritten],
     }
 
 

@@ -410,3 +410,34 @@ def test_subcommand_raising_on_import_is_an_error(tmp_path, capsys):
     err = [ln for ln in p.stderr.splitlines() if ln.strip()]
     assert len(err) == 1 and err[0].startswith("envfit info: error: cannot load the 'info' "
                                                "subcommand") and "SyntaxError" in err[0]
+
+
+def test_disk_full_mid_run_keeps_every_cell_and_names_the_file(tmp_path, monkeypatch, capsys):
+    """A resumable cell that cannot be written mid-run (disk full): the sweep goes on with the
+    cell in memory, the table is printed complete, one note says resumability is lost, and
+    the run ends with exit 2 naming the file. The RMSEs equal a run that wrote everything."""
+    import envfit.store as store_mod
+    orig = store_mod.atomic_write_json
+
+    def fake(path, obj):
+        if Path(path).parent.name == "cells" and "n100" in Path(path).name:
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        return orig(path, obj)
+    monkeypatch.setattr(store_mod, "atomic_write_json", fake)
+    out = tmp_path / "out"
+    args = ["table2", "--quick", *TINY, "--s", "1.5", "--n", "50,100", "--json", "-"]
+    rc = cli.main([*args, "--out", str(out)])
+    cap = capsys.readouterr()
+    assert rc == 2 and "Traceback" not in cap.err
+    err = [ln for ln in cap.err.splitlines() if ln.strip()]
+    notes = [ln for ln in err if "note:" in ln]
+    errors = [ln for ln in err if ln.startswith("envfit table2: error:")]
+    assert len(notes) == 1 and "a rerun will compute them again" in notes[0]
+    assert len(errors) == 1 and "s1.5000_n100.json: No space left on device" in errors[0]
+    got = json.loads(cap.out)
+    monkeypatch.setattr(store_mod, "atomic_write_json", orig)
+    assert cli.main([*args, "--out", str(tmp_path / "clean")]) == 0
+    ref = json.loads(capsys.readouterr().out)
+    assert [r["rmse"] for r in got["rows"]] == [r["rmse"] for r in ref["rows"]]
+    assert got["unwritten"] and not ref["unwritten"]
+    assert not (out / "cells" / "s1.5000_n100.json").exists()

@@ -232,6 +232,12 @@ def record_write_failure(args: argparse.Namespace, path, exc: BaseException) -> 
     write_failures(args).append((str(path), reason))
 
 
+def record_unwritten(args: argparse.Namespace, unwritten) -> None:
+    """Record the ``(path, reason)`` pairs a pipeline could not write mid-run (its result's
+    ``unwritten``) for ``main`` to report after the results (exit 2)."""
+    write_failures(args).extend((str(p), str(r)) for p, r in unwritten or ())
+
+
 def guarded_write(args: argparse.Namespace, path, write: Callable[..., Any], *a, **kw) -> Any:
     """``write(*a, **kw)`` (an atomic write or a plot save of ``path``); if it raises
     ``OSError`` (disk full, EIO, permission lost meanwhile) the failure is recorded for

@@ -6,7 +6,8 @@ import argparse
 
 from .common import (add_common_arguments, add_executor_arguments, add_map_arguments, emit_json,
                      executor_kwargs, guarded_write, library_maps, library_mode,
-                     load_map_from_args, load_options_from_args, out_dir, positive_int, say)
+                     load_map_from_args, load_options_from_args, out_dir, positive_int,
+                     record_unwritten, say)
 
 
 def register(sub) -> None:
@@ -93,6 +94,7 @@ def _run_library(args: argparse.Namespace) -> int:
                                  scale=args.scale, pointset=args.pointset, seed=args.seed,
                                  out=out, load_options=load_options_from_args(args),
                                  quiet=args.quiet, **executor_kwargs(args))
+    record_unwritten(args, lib.unwritten)
     say(args, *[f"note: {n}" for n in lib.notes],
         f"{len(lib.fits)} maps: {lib.factorizations} factorisation(s) in {lib.rounds} round(s), "
         f"{lib.evaluations_resumed} evaluations resumed; {lib.seconds:.1f} s"

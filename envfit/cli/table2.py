@@ -5,7 +5,8 @@ import argparse
 
 from .common import (add_common_arguments, add_executor_arguments, add_map_arguments, emit_json,
                      executor_kwargs, float_list, guarded_write, int_list, library_maps,
-                     library_mode, load_map_from_args, load_options_from_args, out_dir, say)
+                     library_mode, load_map_from_args, load_options_from_args, out_dir,
+                     record_unwritten, say)
 
 
 def register(sub) -> None:
@@ -65,6 +66,7 @@ def _run_single(args, s_values, n_values) -> int:
 
     res = run_table2(env, s_values, n_values, pointset=args.pointset, scale=args.scale,
                      seed=args.seed, out=out, quiet=args.quiet, on_cell=on_cell)
+    record_unwritten(args, res.unwritten)
     say(args, "", format_table2(res, paper=args.paper), "",
         format_table2(res, key="rmse_solid_angle"), "",
         f"s with the lowest RMSE at N = {res.n_values[-1]}: {res.s_best:g}")
@@ -117,6 +119,7 @@ def _run_library(args, s_values, n_values) -> int:
                              seed=args.seed, out=out, load_options=load_options_from_args(args),
                              save_reconstructions=args.reconstructions, quiet=args.quiet,
                              on_cell=on_cell, **executor_kwargs(args))
+    record_unwritten(args, lib.unwritten)
     say(args, *[f"note: {n}" for n in lib.notes],
         f"{len(lib.maps)} maps, {len(s_values)} s x {len(n_values)} N; {lib.cells_computed} cells "
         f"computed with {lib.factorizations} factorisation(s), {lib.cells_resumed} resumed; "

@@ -5,7 +5,7 @@ import argparse
 
 from .common import (add_common_arguments, add_map_arguments, emit_json, guarded_write, int_list,
                      load_map_from_args, nonneg_int_list, out_dir, positive_float, positive_int,
-                     say, str_list)
+                     record_unwritten, say, str_list)
 
 
 def register(sub) -> None:
@@ -124,6 +124,7 @@ def run(args: argparse.Namespace) -> int:
             resumed.append(key)
 
     res = run_validation(env, cfg, out=out, quiet=args.quiet, on_cell=on_cell)
+    record_unwritten(args, res.get("unwritten"))
     res["resumed_cells"] = len(resumed)
     if resumed:
         say(args, f"resumed {len(resumed)} finished cell(s) from {out}")
