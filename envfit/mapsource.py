@@ -58,6 +58,9 @@ class MapSource:
     path: str | None = None
     envmap: EnvMap | None = None
     options: LoadOptions = LoadOptions()
+    #: the file's identity when the run planned it (set by the first :meth:`identity` call);
+    #: :meth:`load` refuses a file that no longer matches it
+    planned: dict[str, Any] | None = None
 
     @property
     def up(self) -> str:
@@ -67,6 +70,11 @@ class MapSource:
         """The map (read from disk for a file source; every call reads it again)."""
         if self.envmap is not None:
             return self.envmap
+        if self.planned is not None and self._file_identity() != self.planned:
+            raise EnvMapFileError(
+                f"{self.path} changed during the run (its size or modification time differ "
+                "from when the run started): finished cells belong to the old file; rerun to "
+                "use the new one")
         o = self.options
         return load_envmap(self.path, up=o.up, allow_negative=o.allow_negative,
                            fix_nonfinite=o.fix_nonfinite, max_height=o.max_height)
@@ -74,10 +82,19 @@ class MapSource:
     def identity(self) -> dict[str, Any]:
         """What ties stored results to this input: for a file its name, size and
         modification time (no read: a library is planned without loading it) and the
-        loading options; for an in-memory map a hash of its pixels."""
+        loading options; for an in-memory map a hash of its pixels. For a file, the first
+        call fixes it for the run (:attr:`planned`)."""
         if self.envmap is not None:
             return {"pixels": array_fingerprint(self.envmap.data), "up": self.envmap.up}
-        st = os.stat(self.path)
+        if self.planned is None:
+            self.planned = self._file_identity()
+        return self.planned
+
+    def _file_identity(self) -> dict[str, Any]:
+        try:
+            st = os.stat(self.path)
+        except OSError as exc:
+            raise EnvMapFileError(f"{self.path}: {exc.strerror or exc}") from None
         return {"file": os.path.basename(self.path), "bytes": st.st_size,
                 "mtime_ns": st.st_mtime_ns, **asdict(self.options)}
 

@@ -22,7 +22,9 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
+import signal
 import sys
+import threading
 
 from .. import __version__
 from ..atomic import os_reason
@@ -58,6 +60,28 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
 
 class SubcommandImportError(EnvfitError):
     """A subcommand module of :data:`COMMANDS` is missing or raises on import."""
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM arrived (a scheduler, ``kill``, a container stop): unwound like Ctrl-C, so the
+    stores' locks are released and every finished cell stays on disk."""
+
+
+def _raise_terminated(signum, frame):
+    raise Terminated()
+
+
+def _install_sigterm_handler():
+    """Turn SIGTERM into :class:`Terminated` while a command runs (main thread only, and only
+    where nobody else installed a handler); returns the handler to restore, or None.
+
+    Exit status 143 = 128 + SIGTERM, as shells, systemd and batch schedulers expect of a
+    process ended by that signal (Ctrl-C: 130)."""
+    if threading.current_thread() is not threading.main_thread():
+        return None
+    if signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL:
+        return None
+    return signal.signal(signal.SIGTERM, _raise_terminated)
 
 
 def _report_write_failures(args: argparse.Namespace) -> int:
@@ -97,6 +121,7 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
+    previous = _install_sigterm_handler()
     try:
         preflight_outputs(args)             # before any work: an unwritable output fails now
         rc = int(args.func(args) or 0)
@@ -113,6 +138,10 @@ def main(argv: list[str] | None = None) -> int:
         except OSError:  # pragma: no cover
             pass
         return 0
+    except Terminated:
+        print(f"envfit {command_name(args)}: terminated (SIGTERM); finished results are kept",
+              file=sys.stderr)
+        return 128 + signal.SIGTERM
     except KeyboardInterrupt:
         print(f"envfit {command_name(args)}: interrupted (finished results are kept)", file=sys.stderr)
         return 130
@@ -120,6 +149,9 @@ def main(argv: list[str] | None = None) -> int:
         where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
         print(f"envfit {command_name(args)}: error: {where}{os_reason(exc)}", file=sys.stderr)
         return 2
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":  # pragma: no cover

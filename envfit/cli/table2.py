@@ -61,8 +61,8 @@ def _run_single(args, s_values, n_values) -> int:
               f"{len(s_values)} s x {len(n_values)} N cells" + (f"; results in {out}" if out else ""))
 
     def on_cell(cell, resumed):
-        if not args.quiet and resumed:
-            print(f"  s={cell.s:g} N={cell.n}: resumed from {out}")
+        if resumed:
+            say(args, f"  s={cell.s:g} N={cell.n}: resumed from {out}")
 
     res = run_table2(env, s_values, n_values, pointset=args.pointset, scale=args.scale,
                      seed=args.seed, out=out, quiet=args.quiet, on_cell=on_cell)
@@ -112,8 +112,8 @@ def _run_library(args, s_values, n_values) -> int:
         say(args, "note: --paper prints beside a single map's table only")
 
     def on_cell(label, cell, resumed):
-        if not args.quiet and resumed:
-            print(f"  {label}: s={cell.s:g} N={cell.n}: resumed from {out}")
+        if resumed:
+            say(args, f"  {label}: s={cell.s:g} N={cell.n}: resumed from {out}")
 
     lib = run_table2_library(maps, s_values, n_values, pointset=args.pointset, scale=args.scale,
                              seed=args.seed, out=out, load_options=load_options_from_args(args),
