@@ -1,4 +1,4 @@
-"""Benchmark: envfit's blocked Cholesky (theory.cholesky) against bare LAPACK ``dpotrf``.
+"""Benchmark: envfit's blocked Cholesky (envfit.theory.cholesky) against bare LAPACK ``dpotrf``.
 
 Run:  python bench/bench_cholesky.py [--n 4000,8000,12000,16000,20000] [--s 1.5]
       [--repeats 1] [--json out.json]
@@ -8,7 +8,7 @@ Every factorisation runs in its own child process (``--worker``), so a crash of 
 more threads for N >= 16 000, see ``theory/cholesky.py``) is recorded as "SIGSEGV" instead
 of ending the run. Methods, interleaved per N so that they see the same machine load:
 
-* ``blocked``  -- :func:`theory.cholesky.cholesky_inplace`, all BLAS threads;
+* ``blocked``  -- :func:`envfit.theory.cholesky.cholesky_inplace`, all BLAS threads;
 * ``dpotrf``   -- bare ``scipy.linalg.lapack.dpotrf(lower=1, overwrite_a=1)``, all threads;
 * ``dpotrf-1t`` -- bare ``dpotrf`` with one BLAS thread (threadpoolctl): a known-safe
   workaround, shown for its cost;
@@ -35,15 +35,14 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 
 METHODS = ("blocked", "dpotrf", "dpotrf-1t", "dpotrf-haswell")
 
 
 def _matrix(n: int, s: float):
     import numpy as np
-    from envfit import _kernels
-    from theory.sobolev import kernel_constant
+    from envfit.kernels import _kernels as _kernels
+    from envfit.theory.sobolev import kernel_constant
     j = np.arange(n)
     z = 1.0 - (2 * j + 1) / n
     phi = 2 * np.pi * np.mod(j / ((1 + 5 ** 0.5) / 2), 1.0)
@@ -60,7 +59,7 @@ def worker(method: str, n: int, s: float) -> dict:
     import numpy as np
     from scipy.linalg import lapack
     from threadpoolctl import threadpool_info, threadpool_limits
-    from theory.cholesky import cholesky_inplace
+    from envfit.theory.cholesky import cholesky_inplace
     a = _matrix(n, s)
     limit = 1 if method == "dpotrf-1t" else None
     with threadpool_limits(limits=limit, user_api="blas"):

@@ -1,4 +1,4 @@
-"""Benchmark of the Sobolev kernel interpolator (envfit.interpolation) against its baselines.
+"""Benchmark of the Sobolev kernel interpolator (envfit.kernels.interpolation) against its baselines.
 
 Run:  /tmp/venv/bin/python bench/bench_interpolation.py [--quick] [--json out.json]
       [--repeats 3] [--s 1.1,1.5,1.9] [--n 20000] [--height 512]
@@ -38,17 +38,16 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numba                                                     # noqa: E402
 from scipy.interpolate import RBFInterpolator                    # noqa: E402
 from scipy.linalg import lapack                                  # noqa: E402
 from threadpoolctl import threadpool_info, threadpool_limits     # noqa: E402
 
-from envfit import _kernels                                      # noqa: E402
-from envfit.interpolation import SobolevInterpolator, far_field_expansion, _near_radius  # noqa: E402
-from envfit.latlong import pixel_directions                      # noqa: E402
-from theory.sobolev import kernel_constant                       # noqa: E402
+from envfit.kernels import _kernels as _kernels  # noqa: E402
+from envfit.kernels.interpolation import SobolevInterpolator, far_field_expansion, _near_radius  # noqa: E402
+from envfit.maps.latlong import pixel_directions                      # noqa: E402
+from envfit.theory.sobolev import kernel_constant                       # noqa: E402
 
 
 # ----------------------------------------------------------------------------- data

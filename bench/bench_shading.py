@@ -27,13 +27,12 @@ from pathlib import Path
 import numpy as np
 import ducc0
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from data_gen.analytic import SkyGradientMap, SunSkyMap          # noqa: E402
-from data_gen.gp import gaussian_process_map                     # noqa: E402
-from envfit import estimators as E                               # noqa: E402
-from envfit import shading as S                                  # noqa: E402
-from envfit.envmap import EnvMap                                 # noqa: E402
+from envfit.data_gen.analytic import SkyGradientMap, SunSkyMap          # noqa: E402
+from envfit.data_gen.gp import gaussian_process_map                     # noqa: E402
+from envfit.shading import estimators as E  # noqa: E402
+from envfit.shading import ground_truth as S  # noqa: E402
+from envfit.maps.envmap import EnvMap                                 # noqa: E402
 
 
 def _timed(fn, repeat=3):

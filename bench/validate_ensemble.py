@@ -1,7 +1,7 @@
 """Ensemble check of prediction (b') on independent Gaussian-process maps.
 
 One map is one realisation of the field; prediction (b') is an expectation over the
-ensemble. This script runs :func:`envfit.validate.run_validation` (diffuse, equal weights,
+ensemble. This script runs :func:`envfit.validate.pipeline.run_validation` (diffuse, equal weights,
 random and spherical Fibonacci points) on ``--maps`` independent GP maps of ``--channels``
 channels each and prints, per map, the ratio predicted (b') / measured per N, the expected
 one-map spread (``model_scatter``) and the map's realised power at l = 1 relative to the
@@ -19,11 +19,10 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from data_gen.gp import gaussian_process_map                        # noqa: E402
-from envfit.envmap import EnvMap                                    # noqa: E402
-from envfit.validate import ValidateConfig, parse_s, run_validation  # noqa: E402
+from envfit.data_gen.gp import gaussian_process_map                        # noqa: E402
+from envfit.maps.envmap import EnvMap                                    # noqa: E402
+from envfit.validate.pipeline import ValidateConfig, parse_s, run_validation  # noqa: E402
 
 
 def main(argv=None) -> int:

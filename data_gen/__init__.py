@@ -1,6 +1,6 @@
 """data_gen — synthetic environment maps with known smoothness or known shading integrals.
 
-Pure arrays in a map's *local* frame (z = up; see envfit/latlong.py for the convention);
+Pure arrays in a map's *local* frame (z = up; see envfit/maps/latlong.py for the convention);
 ``data_gen`` uses ``theory`` (Sobolev coefficients) and never imports ``envfit``.
 """
 from . import sht

@@ -15,7 +15,7 @@ Two samplers:
 
 * ``method="sht"`` (default, any size): draw the real coefficients up to ``lmax`` and
   synthesise them exactly at the pixel centres with ``ducc0.sht.synthesis_2d`` (geometry
-  ``"F1"``, ``phi0 = π/W``; see :mod:`data_gen.sht` for the real/complex convention). The
+  ``"F1"``, ``phi0 = π/W``; see :mod:`envfit.data_gen.sht` for the real/complex convention). The
   default band limit is the grid's Nyquist degree ``lmax = H − 1``: an H×2H equal-angle grid
   determines a function band-limited to degree ≤ H − 1 uniquely (2H samples on every great
   circle through the poles, 2H samples per ring, |m| ≤ H − 1 < W/2), so the map *is* the
@@ -46,9 +46,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from theory.cholesky import cholesky
-from theory.errors import check_smoothness
-from theory.sobolev import generalized_distance_kernel, kernel_constant, sobolev_coefficients
+from envfit.theory.cholesky import cholesky
+from envfit.theory.errors import check_smoothness
+from envfit.theory.sobolev import generalized_distance_kernel, kernel_constant, sobolev_coefficients
 
 from . import sht
 from .errors import SyntheticMapError
@@ -198,7 +198,7 @@ def gaussian_process_map(s0: float, height: int, *, seed, channels: int = 1, off
 
     Parameters
     ----------
-    s0 : smoothness, 1 < s0 < 2 (else ``theory.errors.TheoryParameterError``, a ValueError).
+    s0 : smoothness, 1 < s0 < 2 (else ``envfit.theory.errors.TheoryParameterError``, a ValueError).
     height : H (rows); the width is 2H.
     seed : anything ``numpy.random.default_rng`` accepts.
     channels : independent samples, stacked on the last axis.

@@ -2,14 +2,14 @@
 
 The public API (imported lazily, so ``import envfit`` stays fast)::
 
-    from envfit import load_envmap, save_envmap, EnvMap          # maps (envfit.envmap)
+    from envfit import load_envmap, save_envmap, EnvMap          # maps (envfit.maps.envmap)
     from envfit import SobolevInterpolator                       # kernel interpolation, Eq. 14
     from envfit import fit_smoothness, run_table2                # s of a map; the paper's Table 2
     from envfit import shading_integral                          # ground-truth shading integrals
     from envfit import run_validation                            # measured vs predicted errors
 
 Conventions (lat-long geometry, value scales) are documented in README.md and implemented
-in :mod:`envfit.latlong` and :mod:`envfit.scales`.
+in :mod:`envfit.maps.latlong` and :mod:`envfit.maps.scales`.
 """
 from __future__ import annotations
 
@@ -17,21 +17,21 @@ import importlib
 
 __version__ = "0.1.0"
 
-from .errors import (DuplicatePointsError, EnvfitError, EnvMapFileError, EnvMapFormatError,
+from envfit.base.errors import (DuplicatePointsError, EnvfitError, EnvMapFileError, EnvMapFormatError,
                      MemoryBudgetError, NonFiniteError, ParameterError)
 
 _LAZY = {
-    "EnvMap": "envmap", "load_envmap": "envmap", "save_envmap": "envmap",
-    "fit_scale": "scales", "Scale": "scales",
-    "SobolevInterpolator": "interpolation",
-    "fit_smoothness": "fit", "FitResult": "fit",
-    "run_table2": "table2", "Table2Result": "table2",
-    "shading_integral": "shading",
-    "quadrature_estimates": "estimators", "sh_truncation_estimates": "estimators",
-    "hsh_truncation_estimates": "estimators",
-    "run_validation": "validate", "ValidateConfig": "validate",
-    "default_envmap": "default_map",
-    "advise": "advisor", "Advice": "advisor",
+    "EnvMap": "maps.envmap", "load_envmap": "maps.envmap", "save_envmap": "maps.envmap",
+    "fit_scale": "maps.scales", "Scale": "maps.scales",
+    "SobolevInterpolator": "kernels.interpolation",
+    "fit_smoothness": "fit.smoothness", "FitResult": "fit.smoothness",
+    "run_table2": "fit.table2", "Table2Result": "fit.table2",
+    "shading_integral": "shading.ground_truth",
+    "quadrature_estimates": "shading.estimators", "sh_truncation_estimates": "shading.estimators",
+    "hsh_truncation_estimates": "shading.estimators",
+    "run_validation": "validate.pipeline", "ValidateConfig": "validate.pipeline",
+    "default_envmap": "maps.default_map",
+    "advise": "advisor.advise", "Advice": "advisor.advise",
 }
 
 __all__ = ["__version__", "EnvfitError", "EnvMapFileError", "EnvMapFormatError",

@@ -1,4 +1,4 @@
-"""theory.cholesky: the blocked Cholesky that avoids OpenBLAS's threaded-dsyrk crash.
+"""envfit.theory.cholesky: the blocked Cholesky that avoids OpenBLAS's threaded-dsyrk crash.
 
 Oracles: scipy.linalg.cholesky (LAPACK in one call) on small matrices, L L^T = A, LAPACK's
 info convention on matrices with a known first non-positive pivot, and, at N = 16 000 (the
@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from theory.cholesky import PANEL, TILE, cho_factor, cho_solve, cholesky, cholesky_inplace
+from envfit.theory.cholesky import PANEL, TILE, cho_factor, cho_solve, cholesky, cholesky_inplace
 
 
 def _spd(n, seed=0, rank=30):
@@ -80,14 +80,14 @@ def test_rejects_c_ordered_input():
 
 
 @pytest.mark.slow
-def test_table2_cell_at_16000_samples_does_not_crash():
+def test_table2_cell_at_16000_samples_does_not_crash(tmp_path):
     """N = 16 000: bare OpenBLAS dpotrf segfaults here on AVX-512 with 2 threads. Run in a
     child process so that a crash is a clear failure; the interpolant must reproduce its
     samples (checked by the direct kernel sum, which does not use the factor)."""
     code = textwrap.dedent("""
         import numpy as np
-        from envfit.interpolation import SobolevInterpolator
-        from theory.sphere_points import sphere_points
+        from envfit.kernels.interpolation import SobolevInterpolator
+        from envfit.theory.sphere_points import sphere_points
         n = 16000
         p = sphere_points("sf", n, seed=0)
         f = np.c_[p[:, 2] ** 2 + 0.3 * p[:, 0], np.abs(p[:, 1])]
@@ -96,7 +96,7 @@ def test_table2_cell_at_16000_samples_does_not_crash():
         err = np.max(np.abs(it.evaluate(p[idx], method="direct") - f[idx]))
         print(err, it.timings["cholesky"])
     """)
-    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path)
     assert proc.returncode == 0, f"child exited with {proc.returncode}: {proc.stderr[-2000:]}"
     err = float(proc.stdout.split()[0])
     assert err < 1e-6

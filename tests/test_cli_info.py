@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 import envfit.cli as cli
-from envfit.envmap import EnvMap, save_envmap
-from envfit.latlong import pixel_directions, pixel_solid_angles
+from envfit.maps.envmap import EnvMap, save_envmap
+from envfit.maps.latlong import pixel_directions, pixel_solid_angles
 
 
 @pytest.fixture(autouse=True)

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 import envfit.cli as cli
-from envfit.envmap import load_envmap
-from theory.sobolev import sobolev_coefficients
+from envfit.maps.envmap import load_envmap
+from envfit.theory.sobolev import sobolev_coefficients
 
 
 @pytest.fixture(autouse=True)

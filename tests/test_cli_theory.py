@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 import envfit.cli as cli
-from theory.brdf import Diffuse, Glossy
-from theory.pointsets import generate
-from theory.quadrature import worst_case_error
-from theory.weights import equal_weights, optimal_weights
+from envfit.theory.brdf import Diffuse, Glossy
+from envfit.theory.pointsets import generate
+from envfit.theory.quadrature import worst_case_error
+from envfit.theory.weights import equal_weights, optimal_weights
 
 
 @pytest.fixture(autouse=True)

@@ -9,9 +9,9 @@ import pkgutil
 import numpy as np
 import pytest
 
-import data_gen
 import envfit
-import theory
+import envfit.data_gen as data_gen
+import envfit.theory as theory
 
 
 def _modules() -> list[str]:

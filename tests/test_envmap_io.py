@@ -1,4 +1,4 @@
-"""Tests of envfit.envmap: the EnvMap container, load_envmap / save_envmap and their errors."""
+"""Tests of envfit.maps.envmap: the EnvMap container, load_envmap / save_envmap and their errors."""
 from __future__ import annotations
 
 import os
@@ -7,10 +7,10 @@ import numpy as np
 import OpenImageIO as oiio
 import pytest
 
-from envfit.envmap import EnvMap, load_envmap, save_envmap
-from envfit.errors import (EnvMapFileError, EnvMapFormatError, MemoryBudgetError,
+from envfit.maps.envmap import EnvMap, load_envmap, save_envmap
+from envfit.base.errors import (EnvMapFileError, EnvMapFormatError, MemoryBudgetError,
                            NonFiniteError, ParameterError)
-from envfit.latlong import pixel_angles, pixel_directions
+from envfit.maps.latlong import pixel_angles, pixel_directions
 
 
 def _write_raw(path, array, fmt="float", names=None):

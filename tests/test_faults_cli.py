@@ -24,11 +24,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import envfit.atomic as atomic
+import envfit.base.atomic as atomic
 import envfit.cli as cli
 import envfit.plots._save as plot_save
 from envfit.cli import common
-from envfit.errors import EnvfitError, OutputError
+from envfit.base.errors import EnvfitError, OutputError
 
 TINY = ["--max-height", "16"]
 
@@ -49,7 +49,7 @@ def afile(tmp_path) -> Path:
 
 @pytest.fixture
 def tiny_map(tmp_path) -> Path:
-    from envfit.envmap import save_envmap
+    from envfit.maps.envmap import save_envmap
     a = np.random.default_rng(0).random((8, 16, 3)).astype(np.float32) + 0.1
     return save_envmap(tmp_path / "tiny.exr", a)
 
@@ -182,9 +182,9 @@ def test_check_writable_dir_reports_a_refusing_folder(tmp_path, monkeypatch):
 
 
 def test_unwritable_cache_is_a_note_not_an_error_cli(tmp_path, afile, monkeypatch, capsys):
-    import envfit.advisor_cache as ac
+    import envfit.advisor.cache as ac
     if not hasattr(ac, "cache_write_problem"):
-        pytest.skip("envfit.advisor_cache.cache_write_problem not there yet")
+        pytest.skip("envfit.advisor.cache.cache_write_problem not there yet")
     monkeypatch.setenv("ENVFIT_CACHE_DIR", str(afile / "cache"))
     rc = cli.main(["advise", *TINY, "--target-rmse", "0.03", "--fit-n", "100", "--pointsets",
                    "sf", "--weights", "equal", "--bases", "none", "--nmax", "256"])
@@ -196,9 +196,9 @@ def test_unwritable_cache_is_a_note_not_an_error_cli(tmp_path, afile, monkeypatc
 
 
 def test_unwritable_cache_is_a_note_not_an_error(tmp_path, afile, capsys):
-    import envfit.advisor_cache as ac
+    import envfit.advisor.cache as ac
     if not hasattr(ac, "cache_write_problem"):
-        pytest.skip("envfit.advisor_cache.cache_write_problem not there yet")
+        pytest.skip("envfit.advisor.cache.cache_write_problem not there yet")
     args = argparse.Namespace(command="advise", out=None, json=None, cache_dir=afile / "c",
                               no_cache=False)
     common.preflight_outputs(args)                         # no exception: not an error
@@ -298,7 +298,7 @@ def test_file_size_limit_in_a_real_process(tmp_path):
     env = dict(os.environ, PYTHONDONTWRITEBYTECODE="1")
     p = subprocess.run([sys.executable, "-m", "envfit.cli", "theory", "wce", "--brdf", "diffuse",
                         "--pointset", "sf", "--n", "64", "--out", str(out), "--json", str(js)],
-                       capture_output=True, text=True, env=env, timeout=120,
+                       capture_output=True, text=True, env=env, timeout=120, cwd=tmp_path,
                        preexec_fn=partial(_limit_file_size, 256))
     assert p.returncode == 2, p.stderr
     assert "Traceback" not in p.stderr
@@ -405,7 +405,7 @@ def test_subcommand_raising_on_import_is_an_error(tmp_path, capsys):
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(
         [str(site)] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]))
     p = subprocess.run([sys.executable, "-m", "envfit.cli", "info", "x.exr"],
-                       capture_output=True, text=True, env=env, timeout=60)
+                       capture_output=True, text=True, env=env, timeout=60, cwd=tmp_path)
     assert p.returncode == 2 and "Traceback" not in p.stderr
     err = [ln for ln in p.stderr.splitlines() if ln.strip()]
     assert len(err) == 1 and err[0].startswith("envfit info: error: cannot load the 'info' "
@@ -416,7 +416,7 @@ def test_disk_full_mid_run_keeps_every_cell_and_names_the_file(tmp_path, monkeyp
     """A resumable cell that cannot be written mid-run (disk full): the sweep goes on with the
     cell in memory, the table is printed complete, one note says resumability is lost, and
     the run ends with exit 2 naming the file. The RMSEs equal a run that wrote everything."""
-    import envfit.store as store_mod
+    import envfit.base.store as store_mod
     orig = store_mod.atomic_write_json
 
     def fake(path, obj):

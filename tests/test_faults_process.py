@@ -17,9 +17,9 @@ import numpy as np
 import pytest
 
 from envfit import cli
-from envfit.envmap import EnvMap, save_envmap
-from envfit.errors import EnvMapFileError
-from envfit.mapsource import resolve_map_sources
+from envfit.maps.envmap import EnvMap, save_envmap
+from envfit.base.errors import EnvMapFileError
+from envfit.maps.mapsource import resolve_map_sources
 
 GRID = ["--max-height", "32", "--s", "1.2,1.4,1.6,1.8", "--n", "100,200,400,800,1200,1600"]
 
@@ -28,7 +28,7 @@ def test_sigterm_mid_sweep_keeps_finished_cells(tmp_path, capsys):
     out = tmp_path / "out"
     proc = subprocess.Popen([sys.executable, "-m", "envfit.cli", "table2", *GRID, "--quiet",
                              "--out", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True)
+                            text=True, cwd=tmp_path)
     cells = out / "cells"
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and len(list(cells.glob("*.json"))) < 2:
@@ -71,8 +71,7 @@ def test_map_changed_through_the_cli_is_one_line(tmp_path, capsys, monkeypatch):
     a, b = tmp_path / "lib" / "a.exr", tmp_path / "lib" / "b.exr"
     for p in (a, b):
         save_envmap(p, EnvMap(np.random.default_rng(len(p.name)).random((8, 16, 3)).astype(np.float32)))
-    from envfit import mapsource
-
+    from envfit.maps import mapsource as mapsource
     real_load = mapsource.MapSource.load
 
     def load_then_touch(self):

@@ -1,4 +1,4 @@
-"""Stores you can trust (envfit.store, envfit.advisor_cache): faulty cells are recomputed with
+"""Stores you can trust (envfit.base.store, envfit.advisor.cache): faulty cells are recomputed with
 one note, two runs never share an --out folder, a dead run's lock blocks nobody, and an
 unusable advisor cache is a note.
 
@@ -13,25 +13,25 @@ import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 import envfit.cli as cli
-import envfit.table2 as table2_mod
-from data_gen.gp import gaussian_process_map
-from envfit.advisor import advise
-from envfit.advisor_cache import cache_write_problem
-from envfit.envmap import EnvMap, load_envmap, save_envmap
-from envfit.library import run_table2_library
-from envfit.library_fit import fit_smoothness_library
-from envfit.store import LOCK_NAME, FolderLock, StoreBusyError
-from envfit.table2 import run_table2
+import envfit.fit.table2 as table2_mod
+from envfit.data_gen.gp import gaussian_process_map
+from envfit.advisor.advise import advise
+from envfit.advisor.cache import cache_write_problem
+from envfit.maps.envmap import EnvMap, load_envmap, save_envmap
+from envfit.batch.library import run_table2_library
+from envfit.batch.library_fit import fit_smoothness_library
+from envfit.base.store import LOCK_NAME, FolderLock, StoreBusyError
+from envfit.fit.table2 import run_table2
 
 S, N = [1.3, 1.7], [50, 100]
 VICTIM, OTHER = "s1.7000_n100", "s1.3000_n100"
-ROOT = Path(__file__).resolve().parents[1]
 
 
 def gp(seed: int, height: int = 16, channels: int = 3) -> EnvMap:
@@ -214,7 +214,7 @@ def test_library_fit_recomputes_an_edited_evaluation(tmp_path):
 
 
 def test_validate_recomputes_an_edited_cell(tmp_path, capsys):
-    import envfit.validate as V
+    import envfit.validate.pipeline as V
     env = EnvMap(gaussian_process_map(1.5, 16, seed=4, channels=2), name="gp-tiny")
     cfg = V.ValidateConfig(s=1.5, brdfs=("diffuse",), pointsets=("sf",), weights=("equal",),
                            n_values=(16, 32), axes=40, scale="linear", truncation=False,
@@ -238,8 +238,8 @@ def test_validate_recomputes_an_edited_cell(tmp_path, capsys):
 # -------------------------------------------------------------------------------- the lock
 PAUSED_RUN = """
 import sys
-from envfit.envmap import load_envmap
-from envfit.table2 import run_table2
+from envfit.maps.envmap import load_envmap
+from envfit.fit.table2 import run_table2
 state = {"paused": False}
 def on_cell(cell, resumed):
     if not state["paused"]:
@@ -252,8 +252,8 @@ run_table2(load_envmap(sys.argv[1]), [1.3, 1.7], [50, 100], scale="linear", out=
 
 KILLED_RUN = """
 import os, signal, sys
-from envfit.envmap import load_envmap
-from envfit.table2 import run_table2
+from envfit.maps.envmap import load_envmap
+from envfit.fit.table2 import run_table2
 done = []
 def on_cell(cell, resumed):
     done.append(cell)
@@ -265,13 +265,15 @@ run_table2(load_envmap(sys.argv[1]), [1.3, 1.7], [50, 100], scale="linear", out=
 
 
 def _python(code: str, *args, **kw) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-c", code, *map(str, args)], cwd=ROOT, text=True,
-                            **kw)
+    # not from the repository root: there ./envfit (without theory/, which installs as
+    # envfit.theory) would shadow the installed package
+    return subprocess.Popen([sys.executable, "-c", code, *map(str, args)],
+                            cwd=tempfile.gettempdir(), text=True, **kw)
 
 
 def test_second_run_on_a_busy_folder_exits_2_and_computes_nothing(
         map_file, tmp_path, monkeypatch, capsys, count_interpolators):
-    """Choice (envfit.store): a second run exits 2 at once; no cell is computed twice."""
+    """Choice (envfit.base.store): a second run exits 2 at once; no cell is computed twice."""
     monkeypatch.setattr(cli, "COMMANDS", ("table2",))
     out = tmp_path / "out"
     first = _python(PAUSED_RUN, map_file, out, stdin=subprocess.PIPE, stdout=subprocess.PIPE)
@@ -296,7 +298,7 @@ def test_second_run_on_a_busy_folder_exits_2_and_computes_nothing(
 
 
 def test_library_run_on_a_locked_folder_is_refused(tmp_path):
-    holder = _python("import sys; from envfit.store import FolderLock\n"
+    holder = _python("import sys; from envfit.base.store import FolderLock\n"
                      "l = FolderLock(sys.argv[1]).acquire(); print('held', flush=True)\n"
                      "sys.stdin.readline()", tmp_path, stdin=subprocess.PIPE,
                      stdout=subprocess.PIPE)

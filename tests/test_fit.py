@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 
 import envfit.cli as cli
-from data_gen.gp import gaussian_process_map, gaussian_process_values
-from envfit.envmap import EnvMap, save_envmap
-from envfit.errors import ParameterError
-from envfit.fit import fit_smoothness, fit_smoothness_samples
-from theory.sphere_points import spherical_fibonacci_sphere
+from envfit.data_gen.gp import gaussian_process_map, gaussian_process_values
+from envfit.maps.envmap import EnvMap, save_envmap
+from envfit.base.errors import ParameterError
+from envfit.fit.smoothness import fit_smoothness, fit_smoothness_samples
+from envfit.theory.sphere_points import spherical_fibonacci_sphere
 
 N = 400
 SEEDS = range(4)

@@ -1,7 +1,7 @@
-"""Tests of envfit.interpolation (kernel interpolation with K_gd, Eq. 14) and its numba kernels.
+"""Tests of envfit.kernels.interpolation (kernel interpolation with K_gd, Eq. 14) and its numba kernels.
 
 Every expected value comes from an independent computation: numpy's libm power, dense
-numpy/scipy linear algebra on a kernel matrix built by ``theory.sobolev``, scipy's
+numpy/scipy linear algebra on a kernel matrix built by ``envfit.theory.sobolev``, scipy's
 RBFInterpolator, explicit leave-one-out refits, scipy.stats.multivariate_normal.
 """
 from __future__ import annotations
@@ -16,12 +16,12 @@ import scipy.stats
 from numpy.polynomial import legendre
 from scipy.interpolate import RBFInterpolator
 
-from envfit import _kernels
-from envfit.errors import DuplicatePointsError, MemoryBudgetError, ParameterError
-from envfit.interpolation import (SobolevInterpolator, as_unit_vectors, far_field_expansion,
-                                  interpolator_nbytes, largest_feasible_n)
-from envfit.resources import MEMORY_FRACTION, available_memory_bytes
-from theory.sobolev import kernel_constant, kernel_from_distance2
+from envfit.kernels import _kernels as _kernels
+from envfit.base.errors import DuplicatePointsError, MemoryBudgetError, ParameterError
+from envfit.base.resources import interpolator_nbytes, largest_feasible_n
+from envfit.kernels.interpolation import SobolevInterpolator, as_unit_vectors, far_field_expansion
+from envfit.base.resources import MEMORY_FRACTION, available_memory_bytes
+from envfit.theory.sobolev import kernel_constant, kernel_from_distance2
 
 
 def unit(n, seed):
@@ -38,7 +38,7 @@ def field(p):
 
 
 def dense_kernel(s, p):
-    """K_ij from theory.sobolev with |p_i - p_j|^2 from coordinate differences (the Gram form
+    """K_ij from envfit.theory.sobolev with |p_i - p_j|^2 from coordinate differences (the Gram form
     2 - 2 p.p loses the diagonal: (2e-16)^(s-1) is 0.027 at s = 1.1)."""
     return kernel_from_distance2(s, ((p[:, None, :] - p[None, :, :]) ** 2).sum(-1))
 
@@ -88,7 +88,7 @@ def test_reproduces_data_at_nodes(s):
     assert it.coefficients.shape == (300, 3)
     for method in ("direct", "nearfar"):
         assert np.max(np.abs(it.evaluate(p, method=method) - f)) < 1e-8 * np.abs(f).max()
-    # the coefficients solve K alpha = f with K from theory.sobolev (an independent build)
+    # the coefficients solve K alpha = f with K from envfit.theory.sobolev (an independent build)
     K = dense_kernel(s, p)
     assert np.max(np.abs(K @ it.coefficients - f)) < 1e-9 * np.abs(f).max()
 
@@ -352,7 +352,7 @@ def test_loo_closed_form_equals_explicit_refits(s):
 
 
 def test_inverse_diagonal_in_blocks_matches_dense_inverse():
-    from envfit.interpolation import _inverse_diagonal_from_cholesky
+    from envfit.kernels.interpolation import _inverse_diagonal_from_cholesky
     p = unit(700, 21)
     it = SobolevInterpolator(p, np.ones(700), 1.6)
     K = dense_kernel(1.6, p)

@@ -13,15 +13,15 @@ import numpy as np
 import pytest
 
 import envfit.cli as cli
-from data_gen.gp import gaussian_process_map
-from envfit.envmap import EnvMap, save_envmap
-from envfit.errors import EnvMapFileError, ExecutorError, ParameterError
-from envfit.fit import fit_smoothness
-from envfit.interpolation import SobolevInterpolator
-from envfit.library import run_table2_library
-from envfit.library_fit import fit_smoothness_library
-from envfit.mapsource import MapSource, resolve_map_sources
-from envfit.table2 import run_table2
+from envfit.data_gen.gp import gaussian_process_map
+from envfit.maps.envmap import EnvMap, save_envmap
+from envfit.base.errors import EnvMapFileError, ExecutorError, ParameterError
+from envfit.fit.smoothness import fit_smoothness
+from envfit.kernels.interpolation import SobolevInterpolator
+from envfit.batch.library import run_table2_library
+from envfit.batch.library_fit import fit_smoothness_library
+from envfit.maps.mapsource import MapSource, resolve_map_sources
+from envfit.fit.table2 import run_table2
 
 S, N = [1.3, 1.7], [60, 250]
 

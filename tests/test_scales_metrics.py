@@ -1,4 +1,4 @@
-"""Tests of envfit.scales (value scales) and envfit.metrics (RMSE, PSNR, SSIM)."""
+"""Tests of envfit.maps.scales (value scales) and envfit.maps.metrics (RMSE, PSNR, SSIM)."""
 from __future__ import annotations
 
 import dataclasses
@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 from scipy.ndimage import uniform_filter
 
-from envfit.envmap import EnvMap
-from envfit.errors import ParameterError
-from envfit.latlong import pixel_solid_angles
-from envfit.metrics import psnr, rmse, rmse_solid_angle, ssim
-from envfit.scales import SCALES, Scale, fit_scale, srgb_oetf
+from envfit.maps.envmap import EnvMap
+from envfit.base.errors import ParameterError
+from envfit.maps.latlong import pixel_solid_angles
+from envfit.maps.metrics import psnr, rmse, rmse_solid_angle, ssim
+from envfit.maps.scales import SCALES, Scale, fit_scale, srgb_oetf
 
 
 # -- sRGB --------------------------------------------------------------------------------

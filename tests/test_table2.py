@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 import envfit.cli as cli
-from data_gen.gp import gaussian_process_map
-from envfit.envmap import EnvMap, save_envmap
-from envfit.errors import ParameterError
-from envfit.table2 import format_table2, run_table2
+from envfit.data_gen.gp import gaussian_process_map
+from envfit.maps.envmap import EnvMap, save_envmap
+from envfit.base.errors import ParameterError
+from envfit.fit.table2 import format_table2, run_table2
 
 
 @pytest.fixture(scope="module")
@@ -35,7 +35,7 @@ def test_rmse_matches_direct_computation(small_map):
     # recompute one cell independently: scipy's RBFInterpolator is a second algorithm for s = 1.5
     from scipy.interpolate import RBFInterpolator
 
-    from envfit.table2 import sample_directions
+    from envfit.fit.table2 import sample_directions
     res = run_table2(small_map, [1.5], [200], scale="linear")
     pts = sample_directions(200, up=small_map.up)
     vals = small_map.lookup(pts).reshape(200, -1)

@@ -1,4 +1,4 @@
-"""Tests for theory.bnot: periodic power diagrams, capacity weights, BNOT, spectra."""
+"""Tests for envfit.theory.bnot: periodic power diagrams, capacity weights, BNOT, spectra."""
 from __future__ import annotations
 
 import numpy as np
@@ -6,10 +6,10 @@ import pytest
 from scipy.optimize import linprog
 from scipy.spatial import HalfspaceIntersection, Voronoi
 
-from theory import bnot
-from theory.bnot import (bnot_diagnostics, bnot_square, capacity_weights, min_toroidal_distance,
+from envfit.theory import bnot
+from envfit.theory.bnot import (bnot_diagnostics, bnot_square, capacity_weights, min_toroidal_distance,
                          power_diagram, radial_power_spectrum)
-from theory.errors import TheoryParameterError
+from envfit.theory.errors import TheoryParameterError
 
 TILES = np.array([(i, j) for i in (-1, 0, 1) for j in (-1, 0, 1)], dtype=float)
 

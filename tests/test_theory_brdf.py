@@ -6,9 +6,9 @@ import pytest
 from scipy import integrate
 from scipy.special import eval_legendre
 
-from theory.brdf import (Diffuse, Glossy, Phong, WeightFunction, ZonalWeight,
+from envfit.theory.brdf import (Diffuse, Glossy, Phong, WeightFunction, ZonalWeight,
                          gauss_legendre_01, hsh_to_sh_matrix)
-from theory.errors import TheoryParameterError
+from envfit.theory.errors import TheoryParameterError
 
 
 pytestmark = pytest.mark.filterwarnings("ignore::scipy.integrate.IntegrationWarning")

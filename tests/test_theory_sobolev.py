@@ -1,11 +1,11 @@
-"""theory.sobolev: a_l (Eqs. 15-16) against the definition Eq. 9 by quadrature, and Eq. 8."""
+"""envfit.theory.sobolev: a_l (Eqs. 15-16) against the definition Eq. 9 by quadrature, and Eq. 8."""
 import numpy as np
 import pytest
 from scipy.integrate import quad
 from scipy.special import eval_legendre
 
-from theory.errors import TheoryParameterError
-from theory.sobolev import (generalized_distance_kernel, kernel_constant, kernel_from_distance2,
+from envfit.theory.errors import TheoryParameterError
+from envfit.theory.sobolev import (generalized_distance_kernel, kernel_constant, kernel_from_distance2,
                             kernel_series, sobolev_coefficients)
 
 

@@ -1,8 +1,8 @@
-"""Tests of theory.table1 (the paper's Table 1) and theory.figures (the data of Figs. 1–5).
+"""Tests of envfit.theory.table1 (the paper's Table 1) and envfit.theory.figures (the data of Figs. 1–5).
 
 Independent references: the published values of Table 1 / Sec. 8.2, closed forms of a_l
 and of the diffuse b_l (errata), the spatial double integral Eq. 66, the O(N² lmax)
-Legendre pair sum of Eq. 44, the bisection of theory.truncation.equivalent_qmc_points,
+Legendre pair sum of Eq. 44, the bisection of envfit.theory.truncation.equivalent_qmc_points,
 and the expected squared error of i.i.d. importance sampling, E[E²] = (C − E0²)/N.
 """
 from __future__ import annotations
@@ -12,19 +12,19 @@ import math
 import numpy as np
 import pytest
 
-from theory.brdf import Glossy
-from theory.figures import (POINTSET_ORDER, bnot_figure_data, convergence_data,
+from envfit.theory.brdf import Glossy
+from envfit.theory.figures import (POINTSET_ORDER, bnot_figure_data, convergence_data,
                             extrapolate_wce_curve, fit_convergence_slope, invert_wce_curve,
                             log_grid, low_order_closeup, make_weight, qmc_wce_curve,
                             quadrature_rule, spectra_data)
-from theory.errors import TheoryParameterError
-from theory.quadrature import initial_error, worst_case_error
-from theory.sh import _power_spectrum_legendre_pairs
-from theory.sobolev import kernel_constant
-from theory.table1 import (PAPER_SEC82, PAPER_TABLE1, cutoff_degree, paper_comparison, table1)
-from theory.truncation import (equivalent_qmc_points, morphed_spherical_fibonacci,
+from envfit.theory.errors import TheoryParameterError
+from envfit.theory.quadrature import initial_error, worst_case_error
+from envfit.theory.sh import _power_spectrum_legendre_pairs
+from envfit.theory.sobolev import kernel_constant
+from envfit.theory.table1 import (PAPER_SEC82, PAPER_TABLE1, cutoff_degree, paper_comparison, table1)
+from envfit.theory.truncation import (equivalent_qmc_points, morphed_spherical_fibonacci,
                                spatial_truncation_error)
-from theory.weights import equal_weights
+from envfit.theory.weights import equal_weights
 
 S = 1.5
 TARGET = 2.5e-3

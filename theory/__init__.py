@@ -4,19 +4,19 @@ Pure numerical code (numpy/scipy/ducc0), no I/O, never imports ``envfit``. Each 
 holds one concept of Marques, Bouville & Bouatouch, "Spectral Analysis of Quadrature Rules
 and Fourier Truncation-based Methods Applied to Shading Integrals" (IEEE TVCG 2019):
 
-- :mod:`theory.sobolev` — a_l^(s) (Eqs. 15–16), the generalized distance kernel (Eq. 14);
-- :mod:`theory.brdf` — zonal weight functions, b_l, b̃_l, HSH→SH (Eqs. 20–33);
-- :mod:`theory.sh` — Legendre/SH sums of point sets (Eqs. 44–45, 54);
-- :mod:`theory.pointsets`, :mod:`theory.bnot`, :mod:`theory.sphere_points` — point sets;
-- :mod:`theory.weights` — equal and optimal sample weights;
-- :mod:`theory.cholesky` — the dense Cholesky every factorisation uses (blocked, safe from
+- :mod:`envfit.theory.sobolev` — a_l^(s) (Eqs. 15–16), the generalized distance kernel (Eq. 14);
+- :mod:`envfit.theory.brdf` — zonal weight functions, b_l, b̃_l, HSH→SH (Eqs. 20–33);
+- :mod:`envfit.theory.sh` — Legendre/SH sums of point sets (Eqs. 44–45, 54);
+- :mod:`envfit.theory.pointsets`, :mod:`envfit.theory.bnot`, :mod:`envfit.theory.sphere_points` — point sets;
+- :mod:`envfit.theory.weights` — equal and optimal sample weights;
+- :mod:`envfit.theory.cholesky` — the dense Cholesky every factorisation uses (blocked, safe from
   OpenBLAS's threaded-``dsyrk`` crash on AVX-512 at N >= 16 000);
-- :mod:`theory.quadrature` — worst-case error Eq. 41 and its spectrum Eq. 42;
-- :mod:`theory.truncation` — SH/HSH truncation error Eqs. 51–52, N-versus-L equivalence.
+- :mod:`envfit.theory.quadrature` — worst-case error Eq. 41 and its spectrum Eq. 42;
+- :mod:`envfit.theory.truncation` — SH/HSH truncation error Eqs. 51–52, N-versus-L equivalence.
 """
 import importlib
 
-#: public name -> submodule; loaded on first use (PEP 562), so ``import theory.errors`` or a
+#: public name -> submodule; loaded on first use (PEP 562), so ``import envfit.theory.errors`` or a
 #: command line that needs one module does not pay for scipy.stats, the BNOT solver, …
 _EXPORTS = {
     "errors": ("TheoryParameterError", "check_smoothness"),

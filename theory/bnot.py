@@ -55,7 +55,7 @@ capacity solve from zero weights for 1024 random sites ≈ 0.15 s (5–7 Newton 
 
 Example
 -------
->>> from theory.bnot import bnot_square, bnot_diagnostics
+>>> from envfit.theory.bnot import bnot_square, bnot_diagnostics
 >>> pts = bnot_square(64, seed=1)
 >>> pts.shape
 (64, 2)

@@ -21,7 +21,7 @@ Truncation-based Methods Applied to Shading Integrals", Secs. 7–8.
 
 All quadrature points are *morphed* for the weight function by default (importance
 sampling, Sec. 7.2: the square is lifted by the Lambert equal-area map and its height
-coordinate passed through the inverse CDF of p, :meth:`theory.brdf.WeightFunction.morph`);
+coordinate passed through the inverse CDF of p, :meth:`envfit.theory.brdf.WeightFunction.morph`);
 ``morph=False`` lifts them uniformly instead. Points live in the local frame of the lobe
 (axis +z); for the glossy lobe this is the mirror direction (Sec. 4.3).
 
@@ -176,7 +176,7 @@ def spectra_data(n: int = 256, s: float = 1.5, shininess: float = 30.0, lmax: in
     r"""Power and error spectra of the quadrature rules of Sec. 7 (Figs. 1–3).
 
     One realization per stochastic point set (``seed``), as in the paper. Uses
-    :func:`theory.quadrature.error_spectrum` (ducc0 adjoint SH synthesis for
+    :func:`envfit.theory.quadrature.error_spectrum` (ducc0 adjoint SH synthesis for
     :math:`c_{l,m}`, the Legendre recurrence for :math:`c_{l,0}`, the closed form Eq. 41
     for E). Cost at N = 256, lmax = 170: ≈ 0.05 s per rule plus the BNOT set (≈ 3 s).
     """
@@ -373,7 +373,7 @@ def qmc_wce_curve(weight: WeightFunction, s: float, nmax: int = 16384, *, per_oc
                   nmin: int = 1, progress: Progress | None = None) -> tuple[np.ndarray, np.ndarray]:
     r"""E(N) of spherical Fibonacci points morphed for ``weight``, equal weights, on a log grid.
 
-    The QMC rule of Sec. 8 / Table 1 (:func:`theory.truncation.morphed_spherical_fibonacci`),
+    The QMC rule of Sec. 8 / Table 1 (:func:`envfit.theory.truncation.morphed_spherical_fibonacci`),
     at the N of :func:`log_grid`. Cost: the O(N²) closed form at every grid point, about
     :math:`N_{max}^2/(1 - 2^{-2/\mathrm{per\_octave}})` pairs in all (≈ 6.3 N_max² for 8
     per octave: ≈ 2 s for N_max = 8192 on 2 cores).
@@ -478,7 +478,7 @@ def truncation_figure_data(s: float = 1.5, shininess: float = 30.0, Lmax: int = 
                            progress: Progress | None = None) -> TruncationFigureData:
     r"""The data of Fig. 5: truncation errors and QMC equivalents for every L.
 
-    E(L) from :func:`theory.truncation.truncation_error_curve` (Eq. 52 summed from L + 1,
+    E(L) from :func:`envfit.theory.truncation.truncation_error_curve` (Eq. 52 summed from L + 1,
     HSH through Eq. 31); QMC equivalents by :func:`invert_wce_curve` on
     :func:`qmc_wce_curve` (one curve per weight function, shared by glossy SH and HSH).
     """
@@ -507,11 +507,11 @@ class BNOTFigureData:
     r"""BNOT vs random points on the unit square (torus).
 
     ``radius``, ``power_bnot``, ``power_random`` : radially averaged periodograms
-    (:func:`theory.bnot.radial_power_spectrum`; E P = 1 for random points);
+    (:func:`envfit.theory.bnot.radial_power_spectrum`; E P = 1 for random points);
     ``low_band`` : |k| below which the mean power is compared (:math:`\sqrt N/2`);
     ``low_power_bnot``/``low_power_random`` : those means;
     ``diagnostics_bnot``/``diagnostics_random`` : capacity weights and cell areas
-    (:func:`theory.bnot.bnot_diagnostics`), centroid residual, minimum distance.
+    (:func:`envfit.theory.bnot.bnot_diagnostics`), centroid residual, minimum distance.
     """
 
     n: int

@@ -24,7 +24,7 @@ stratified jitter. Every set goes through one pipeline:
 
 Example
 -------
->>> from theory.pointsets import generate, morph_diffuse
+>>> from envfit.theory.pointsets import generate, morph_diffuse
 >>> d = generate("sobol", 1024, morph=morph_diffuse)
 >>> d.shape, bool(abs(d[:, 2].mean() - 2 / 3) < 1e-2)
 ((1024, 3), True)

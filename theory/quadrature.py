@@ -65,7 +65,7 @@ TILE = 256
 
 def _check_brdf(brdf) -> WeightFunction:
     if not isinstance(brdf, WeightFunction):
-        raise TheoryParameterError(f"brdf must be a theory.brdf.WeightFunction, got {type(brdf).__name__}")
+        raise TheoryParameterError(f"brdf must be a envfit.theory.brdf.WeightFunction, got {type(brdf).__name__}")
     return brdf
 
 
@@ -174,7 +174,7 @@ def kernel_mean_embedding(points, brdf: WeightFunction, s: float, *, tol: float 
     floor; agreement with the direct sum ≈ 1e-15), O(N·deg) with deg ≈ 64–256 (at
     most 2048) instead of O(N·L). ``method`` = "series" forces the direct Clenshaw sum.
 
-    >>> from theory.brdf import Diffuse
+    >>> from envfit.theory.brdf import Diffuse
     >>> z = kernel_mean_embedding(np.array([[0.0, 0.0, 1.0]]), Diffuse(), 1.5)
     >>> z.shape
     (1,)
@@ -194,7 +194,7 @@ def initial_error(brdf: WeightFunction, s: float, *, tol: float = EMBEDDING_TOL)
     summed (``math.fsum``) to the degree chosen by :func:`embedding_coefficients`; its
     terms :math:`a_l b_l^2` decay faster than the embedding's :math:`a_l b_l\sqrt{2l+1}`.
 
-    >>> from theory.brdf import Diffuse
+    >>> from envfit.theory.brdf import Diffuse
     >>> round(initial_error(Diffuse(), 1.5), 6) > kernel_constant(1.5) / 2
     True
     """
@@ -302,7 +302,7 @@ def worst_case_error(points, weights, brdf: WeightFunction, s: float, *,
     docstring): relative error of E ≈ 1e-8 at E = 1e-3. A tiny negative :math:`E^2` from
     rounding is returned as 0.
 
-    >>> from theory.brdf import Diffuse
+    >>> from envfit.theory.brdf import Diffuse
     >>> N = 500; j = np.arange(N); zp = 1 - (2 * j + 1) / (2 * N)
     >>> phi = 2 * np.pi * np.mod(j / ((1 + 5 ** 0.5) / 2), 1.0); z = np.sqrt(zp)
     >>> u = np.stack([np.sqrt(1 - z**2) * np.cos(phi), np.sqrt(1 - z**2) * np.sin(phi), z], 1)
@@ -356,11 +356,11 @@ def error_spectrum(points, weights, brdf: WeightFunction, s: float, lmax: int, *
                    nthreads: int = 0, tol: float = EMBEDDING_TOL) -> ErrorSpectrum:
     r"""Power spectra and error spectrum of a quadrature rule up to degree lmax (Eqs. 42–47).
 
-    :math:`c_{l,m}` come from ducc0's adjoint SH synthesis (see :mod:`theory.sh`), O(N +
+    :math:`c_{l,m}` come from ducc0's adjoint SH synthesis (see :mod:`envfit.theory.sh`), O(N +
     lmax² log lmax); ``wce`` is the closed form (Eq. 41) so that ``tail`` shows what the
     truncated spectral sum misses.
 
-    >>> from theory.brdf import Glossy
+    >>> from envfit.theory.brdf import Glossy
     >>> rng = np.random.default_rng(0); N = 64
     >>> z = Glossy(30.0).morph(rng.uniform(size=N)); phi = rng.uniform(0, 2 * np.pi, N)
     >>> u = np.stack([np.sqrt(1 - z**2) * np.cos(phi), np.sqrt(1 - z**2) * np.sin(phi), z], 1)

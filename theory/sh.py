@@ -41,7 +41,7 @@ DUCC_EPSILON = 2.5e-13
 def check_points_weights(points, weights=None, *, allow_empty: bool = False):
     """Validate a quadrature rule: ``points`` (N×3 unit vectors), ``weights`` (N,), as float64.
 
-    Raises :class:`~theory.errors.TheoryParameterError` for wrong shapes, non-finite values,
+    Raises :class:`~envfit.theory.errors.TheoryParameterError` for wrong shapes, non-finite values,
     or vectors whose norm differs from 1 by more than 1e-6.
     """
     pts = np.asarray(points, dtype=np.float64)

@@ -6,7 +6,7 @@ r"""Point sets on the whole sphere, used to sample environment maps (Table 2, fi
 - Uniform random points (normalised Gaussian vectors), seeded.
 
 Points are unit vectors in the map's *local* frame (z = up); for lat-long maps that is the
-frame of :mod:`envfit.latlong` before its fixed local→world matrix.
+frame of :mod:`envfit.maps.latlong` before its fixed local→world matrix.
 """
 from __future__ import annotations
 

@@ -87,8 +87,8 @@ def case_weight(case: str, shininess: float = PAPER_SHININESS) -> tuple[WeightFu
 def cutoff_degree(curve, target: float, rtol: float = 0.0) -> int | None:
     r"""Smallest L with ``curve[L]`` ≤ target·(1 + rtol), or None if no entry reaches it.
 
-    ``curve`` is E(0), E(1), … (:func:`theory.truncation.truncation_error_curve`); the
-    same rule as :func:`theory.truncation.smallest_degree`, applied to a computed curve.
+    ``curve`` is E(0), E(1), … (:func:`envfit.theory.truncation.truncation_error_curve`); the
+    same rule as :func:`envfit.theory.truncation.smallest_degree`, applied to a computed curve.
 
     >>> cutoff_degree([0.5, 0.2, 0.1, 0.1, 0.05], 0.1)
     2
@@ -183,7 +183,7 @@ def table1(target: float = PAPER_TABLE1["target"], s: float = PAPER_S,
     Lmax : last degree of the reported curves (raised to the largest cut-off if below it);
         default ``max(20, L + 4)`` over the cases.
     qmc : also compute the equivalent numbers of QMC points (bisection on Eq. 41,
-        :func:`theory.truncation.equivalent_qmc_points`; ≈ 2 s diffuse, 0.2 s glossy at
+        :func:`envfit.theory.truncation.equivalent_qmc_points`; ≈ 2 s diffuse, 0.2 s glossy at
         2.5e-3; the two glossy cases share one value since they share the target).
     Lcap : give up (TheoryParameterError) if E(L) stays above the target up to this L.
 
@@ -241,7 +241,7 @@ def paper_comparison(table: Table1, *, caption_qmc_points: int | None = None) ->
     Sec. 8.2 cut-offs are read from the same curves at E = 1e-2. ``agrees`` is True when
     the strict cut-off equals the printed one; ``why`` explains a difference.
     ``caption_qmc_points``: our number of QMC points for the Fig. 5(a) caption's error
-    4.4e-3 (:func:`theory.truncation.equivalent_qmc_points`, ≈ 2 s), compared with its ≈ 930.
+    4.4e-3 (:func:`envfit.theory.truncation.equivalent_qmc_points`, ≈ 2 s), compared with its ≈ 930.
 
     >>> rows = paper_comparison(table1(qmc=False))
     >>> [(r["what"], r["paper"], r["ours_strict"]) for r in rows][:3]

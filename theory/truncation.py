@@ -78,7 +78,7 @@ def truncation_error_curve(brdf: WeightFunction, s: float, Lmax: int, basis: str
     Returns an array of length Lmax + 1. ``lmax`` is the highest SH degree of the sum of
     Eq. 51 (default ``max(1024, 8(Lmax+1))``, see the module docstring).
 
-    >>> from theory.brdf import Diffuse
+    >>> from envfit.theory.brdf import Diffuse
     >>> E = truncation_error_curve(Diffuse(), 1.5, 4)
     >>> bool(E[3] == E[2])          # b_3 = 0 (errata)
     True
@@ -110,7 +110,7 @@ def truncation_error(brdf: WeightFunction, s: float, L: int, *, basis: str = "sh
                      lmax: int | None = None) -> float:
     r"""Worst-case error of truncating the SH or HSH expansion of p at degree L (Eqs. 51–52).
 
-    >>> from theory.brdf import Diffuse
+    >>> from envfit.theory.brdf import Diffuse
     >>> truncation_error(Diffuse(), 1.5, 1, basis="hsh")     # exact at L = 1 (errata)
     0.0
     """
@@ -246,7 +246,7 @@ def smallest_degree(brdf: WeightFunction, s: float, target: float, basis: str = 
     ``rtol = 0.1`` reproduces all five published values. Raises TheoryParameterError if
     E(L) stays above the target up to ``Lmax``.
 
-    >>> from theory.brdf import Glossy
+    >>> from envfit.theory.brdf import Glossy
     >>> smallest_degree(Glossy(30.0), 1.5, 1e-2, "hsh")
     7
     """
@@ -274,7 +274,7 @@ def morphed_spherical_fibonacci(n: int, brdf: WeightFunction | None = None) -> n
     :math:`z'_j = 1 - (2j+1)/(2N)`, :math:`\phi_j = 2\pi\,\mathrm{frac}(j/\Phi)`, j = 0…N−1
     (errata, "Point sets"); with ``brdf`` the heights are importance-sampled,
     :math:`z_j = F^{-1}(z'_j)` (``brdf.morph``; Sec. 7.2). A local generator so that this
-    module does not depend on ``theory.pointsets``.
+    module does not depend on ``envfit.theory.pointsets``.
     """
     n = _check_L(n, "n")
     if n < 1:

@@ -7,7 +7,7 @@ Truncation-based Methods Applied to Shading Integrals", Sec. 7.1, after Marques 
 The squared worst-case error (Eq. 41) is the quadratic form
 :math:`E^2(w) = w^T K w - 2 w^T z + E_0^2` with :math:`K_{ij} = K^{(s)}_{gd}(u_i, u_j)`
 (Eq. 14, positive definite for distinct points) and z the kernel mean embedding of the
-weight function (:func:`theory.quadrature.kernel_mean_embedding`). Its minimiser over w is
+weight function (:func:`envfit.theory.quadrature.kernel_mean_embedding`). Its minimiser over w is
 
 .. math:: w^\star = K^{-1} z, \qquad E^2(w^\star) = E_0^2 - z^T K^{-1} z,
 
@@ -76,14 +76,14 @@ def optimal_weights(points, brdf: WeightFunction, s: float, *,
                     max_bytes: int = MAX_MATRIX_BYTES) -> np.ndarray:
     r"""Optimal sample weights :math:`w = K^{-1}z` minimising the worst-case error (Eq. 41).
 
-    float64 Cholesky (:func:`theory.cholesky.cho_factor`, in place: LAPACK on panels, safe
+    float64 Cholesky (:func:`envfit.theory.cholesky.cho_factor`, in place: LAPACK on panels, safe
     from OpenBLAS's threaded-``dsyrk`` crash at large N). The condition number of K grows like :math:`N^{s}` (errata: ≈5e8 at
     s = 1.9, N = 20 000), so float32 is not safe; float64 leaves ≈1e-7 relative accuracy
     on w in the worst case, and the worst-case error is first-order insensitive to w
     errors at the optimum. Raises TheoryParameterError when K is not numerically positive
     definite (duplicate or nearly coincident points).
 
-    >>> from theory.brdf import Diffuse
+    >>> from envfit.theory.brdf import Diffuse
     >>> rng = np.random.default_rng(1)
     >>> u = rng.normal(size=(50, 3)); u[:, 2] = np.abs(u[:, 2])
     >>> u /= np.linalg.norm(u, axis=1, keepdims=True)

@@ -2,7 +2,7 @@
 
 Each subcommand lives in its own module ``envfit/cli/<name>.py`` exposing
 ``register(subparsers)``, which adds its parser and sets ``func`` to a ``run(args) -> int``.
-The CLI holds no logic of its own. Any :class:`envfit.errors.EnvfitError` (or a theory
+The CLI holds no logic of its own. Any :class:`envfit.base.errors.EnvfitError` (or a theory
 parameter error) becomes a one-line message on stderr and exit code 2.
 
 Reliability (one line on stderr, exit 2, never a traceback for what the user or the machine
@@ -26,9 +26,9 @@ import signal
 import sys
 import threading
 
-from .. import __version__
-from ..atomic import os_reason
-from ..errors import EnvfitError
+from envfit import __version__
+from envfit.base.atomic import os_reason
+from envfit.base.errors import EnvfitError
 
 #: subcommands, in the order ``envfit --help`` lists them
 COMMANDS = ("synth", "info", "fit", "table2", "theory", "validate", "advise")
@@ -102,7 +102,7 @@ def _report_write_failures(args: argparse.Namespace) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from theory.errors import TheoryParameterError
+    from envfit.theory.errors import TheoryParameterError
 
     from .common import command_name, preflight_outputs, write_failures
 

@@ -106,9 +106,9 @@ def _check_lines(adv) -> list[str]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..advisor import (DEFAULT_FIT_N, DEFAULT_NMAX, DEFAULT_NMIN, DEFAULT_OSW_NMAX,
+    from envfit.advisor.advise import (DEFAULT_FIT_N, DEFAULT_NMAX, DEFAULT_NMIN, DEFAULT_OSW_NMAX,
                           DEFAULT_POINTSETS, DEFAULT_SEEDS, WEIGHTINGS, BASES, advise)
-    from ..atomic import atomic_write_csv, atomic_write_json
+    from envfit.base.atomic import atomic_write_csv, atomic_write_json
     env = load_map_from_args(args)
     out = out_dir(args)
     bases = BASES if args.bases is None else (

@@ -23,7 +23,7 @@ from decimal import Decimal, InvalidOperation
 from pathlib import Path
 from typing import Any, Callable
 
-from ..atomic import (atomic_write_json, check_writable_dir, check_writable_file, os_reason,
+from envfit.base.atomic import (atomic_write_json, check_writable_dir, check_writable_file, os_reason,
                       to_jsonable)
 
 #: the largest integer an option accepts (exponent notation beyond it is surely a typo)
@@ -182,7 +182,7 @@ def add_common_arguments(p: argparse.ArgumentParser, *, seed: bool = True) -> No
 # ------------------------------------------------------------------ preflight of outputs
 def preflight_outputs(args: argparse.Namespace) -> None:
     """Check every output of the command *before* any work; ``main`` calls it for every
-    subcommand. Raises :class:`envfit.errors.OutputError` (one line, exit 2) for:
+    subcommand. Raises :class:`envfit.base.errors.OutputError` (one line, exit 2) for:
 
     * ``--out`` (or the command's default folder ``out_default``): created if missing, and a
       temporary file created and removed inside;
@@ -202,7 +202,7 @@ def preflight_outputs(args: argparse.Namespace) -> None:
     if getattr(args, "output", None) is not None:
         check_writable_file(args.output, getattr(args, "output_metavar", "output"))
     if hasattr(args, "cache_dir") and not getattr(args, "no_cache", False):
-        from .. import advisor_cache
+        from envfit.advisor import cache as advisor_cache
         probe = getattr(advisor_cache, "cache_write_problem", None)
         problem = probe(args.cache_dir) if probe is not None else None
         if problem:  # "the advisor cache … is not writable (…); advise works without it …"
@@ -308,8 +308,8 @@ def add_map_arguments(p: argparse.ArgumentParser, *, optional: bool = True, many
 
 def load_map_from_args(args: argparse.Namespace, path=None):
     """Load ``path`` (default ``args.map``) with the loading options, or the built-in map."""
-    from ..default_map import default_envmap
-    from ..envmap import load_envmap
+    from envfit.maps.default_map import default_envmap
+    from envfit.maps.envmap import load_envmap
     path = args.map if path is None else path
     if path is None:
         env = default_envmap(up=args.up)
@@ -356,8 +356,8 @@ def library_maps(args: argparse.Namespace) -> list:
 
 
 def load_options_from_args(args: argparse.Namespace):
-    """The map-loading options of ``args`` as :class:`envfit.mapsource.LoadOptions`."""
-    from ..mapsource import LoadOptions
+    """The map-loading options of ``args`` as :class:`envfit.maps.mapsource.LoadOptions`."""
+    from envfit.maps.mapsource import LoadOptions
     return LoadOptions(up=args.up, max_height=args.max_height, fix_nonfinite=args.fix_nonfinite,
                        allow_negative=args.allow_negative)
 

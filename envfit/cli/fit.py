@@ -11,7 +11,7 @@ from .common import (add_common_arguments, add_executor_arguments, add_map_argum
 
 
 def register(sub) -> None:
-    from ..fit import DEFAULT_METHOD, DEFAULT_N, KERNELS, METHODS
+    from envfit.fit.smoothness import DEFAULT_METHOD, DEFAULT_N, KERNELS, METHODS
     p = sub.add_parser(
         "fit", help="estimate the Sobolev smoothness s of a map (with a 95%% interval and sigma)",
         description="Estimate s on the continuous range (1, 2) by the Gaussian-process "
@@ -38,7 +38,7 @@ def register(sub) -> None:
 def run(args: argparse.Namespace) -> int:
     if library_mode(args):
         if args.kernel != "full":
-            from ..errors import ParameterError
+            from envfit.base.errors import ParameterError
             raise ParameterError("--kernel bandlimited fits one map at a time (each map has its "
                                  "own band limit and pixel centres); give a single map")
         return _run_library(args)
@@ -47,7 +47,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run_single(args: argparse.Namespace) -> int:
-    from ..fit import fit_smoothness
+    from envfit.fit.smoothness import fit_smoothness
     env = load_map_from_args(args)
     for note in getattr(env, "notes", []):
         say(args, f"note: {note}")
@@ -67,7 +67,7 @@ def _run_single(args: argparse.Namespace) -> int:
     d = res.to_dict()
     d["map"] = env.name
     if out is not None:
-        from ..plots.table2 import plot_fit_curve
+        from envfit.plots.table2 import plot_fit_curve
         target = out / f"fit_{res.method}.png"
         png = guarded_write(args, target, plot_fit_curve, res, target)
         if png is not None:
@@ -88,7 +88,7 @@ def format_library_fit(lib) -> str:
 
 
 def _run_library(args: argparse.Namespace) -> int:
-    from ..library_fit import fit_smoothness_library
+    from envfit.batch.library_fit import fit_smoothness_library
     out = out_dir(args)
     lib = fit_smoothness_library(library_maps(args), method=args.method, n=args.n,
                                  scale=args.scale, pointset=args.pointset, seed=args.seed,

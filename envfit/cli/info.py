@@ -15,8 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from ..envmap import EnvMap
-from ..latlong import pixel_angles, pixel_to_direction, row_solid_angles
+from envfit.maps.envmap import EnvMap
+from envfit.maps.latlong import pixel_angles, pixel_to_direction, row_solid_angles
 from .common import (add_common_arguments, add_map_arguments, emit_json, load_map_from_args,
                      say)
 

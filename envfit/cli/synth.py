@@ -6,8 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..atomic import os_reason
-from ..errors import EnvfitError, OutputError, ParameterError
+from envfit.base.atomic import os_reason
+from envfit.base.errors import EnvfitError, OutputError, ParameterError
 from .common import (add_common_arguments, colour_list, emit_json, finite_float, positive_float,
                      positive_int, say)
 
@@ -60,7 +60,7 @@ def _colour(v):
 
 def synthesize(args: argparse.Namespace) -> tuple[np.ndarray, dict]:
     """The map array (H×2H×C, local frame) and a description of how it was made."""
-    import data_gen
+    import envfit.data_gen as data_gen
     if args.height < 2:
         raise ParameterError(f"--height must be at least 2, got {args.height}")
     info = {"kind": args.kind, "height": args.height}
@@ -94,7 +94,7 @@ def synthesize(args: argparse.Namespace) -> tuple[np.ndarray, dict]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..envmap import EnvMap, save_envmap
+    from envfit.maps.envmap import EnvMap, save_envmap
     f, info = synthesize(args)
     name = f"synth:{args.kind}"
     env = EnvMap(np.asarray(f, dtype=np.float32), up=args.up, name=name)

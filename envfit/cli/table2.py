@@ -40,7 +40,7 @@ def register(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..table2 import PAPER_N, PAPER_S, QUICK_N
+    from envfit.fit.table2 import PAPER_N, PAPER_S, QUICK_N
     if args.quick and args.max_height is None:
         args.max_height = 128
     s_values = args.s or list(PAPER_S)
@@ -52,7 +52,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run_single(args, s_values, n_values) -> int:
-    from ..table2 import format_table2, run_table2
+    from envfit.fit.table2 import format_table2, run_table2
     env = load_map_from_args(args)
     out = out_dir(args)
     for note in getattr(env, "notes", []):
@@ -71,8 +71,8 @@ def _run_single(args, s_values, n_values) -> int:
         format_table2(res, key="rmse_solid_angle"), "",
         f"s with the lowest RMSE at N = {res.n_values[-1]}: {res.s_best:g}")
     if out is not None:
-        from ..atomic import atomic_write_csv
-        from ..plots.table2 import plot_table2
+        from envfit.base.atomic import atomic_write_csv
+        from envfit.plots.table2 import plot_table2
         rows = [(c.s, c.n, c.rmse, c.rmse_solid_angle, c.seconds) for c in res.cells]
         written = []
         for name, write, wargs in (
@@ -105,7 +105,7 @@ def format_library_table2(lib) -> str:
 
 
 def _run_library(args, s_values, n_values) -> int:
-    from ..library import run_table2_library
+    from envfit.batch.library import run_table2_library
     out = out_dir(args)
     maps = library_maps(args)
     if args.paper:

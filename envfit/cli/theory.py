@@ -16,7 +16,7 @@ import time
 
 import numpy as np
 
-from ..errors import ParameterError
+from envfit.base.errors import ParameterError
 from .common import (add_common_arguments, emit_json, finite_float, guarded_write, nonneg_int,
                      out_dir, positive_float, positive_int, say, str_list)
 
@@ -128,7 +128,7 @@ def _usage(p: argparse.ArgumentParser) -> int:
 
 
 def _check_s(s: float) -> float:
-    from theory.errors import check_smoothness
+    from envfit.theory.errors import check_smoothness
     return check_smoothness(s)
 
 
@@ -153,9 +153,9 @@ def _progress_callback(bar):
 
 # ============================================================================ wce
 def run_wce(args: argparse.Namespace) -> int:
-    from theory.figures import make_weight, quadrature_rule
-    from theory.quadrature import error_spectrum
-    from ..resources import check_memory
+    from envfit.theory.figures import make_weight, quadrature_rule
+    from envfit.theory.quadrature import error_spectrum
+    from envfit.base.resources import check_memory
 
     s = _check_s(args.s)
     n = _check_positive_int(args.n, "--n")
@@ -204,7 +204,7 @@ def run_wce(args: argparse.Namespace) -> int:
         if lmax > show[-1]:
             print(f"  … (l up to {lmax} in --json)")
     if args.out is not None:
-        from ..atomic import atomic_write_text
+        from envfit.base.atomic import atomic_write_text
         d = out_dir(args)
         rows = [f"{l},{a:.17g},{dd:.17g},{c:.17g},{e:.17g}"
                 for l, a, dd, c, e in zip(sp.l, sp.a, sp.d2, sp.C2, sp.e2)]
@@ -227,7 +227,7 @@ def _fmt_int(v) -> str:
 
 def format_table1(table, comparison: list[dict]) -> str:
     """Table 1 beside the paper's values, the E(L) curves and the comparison notes."""
-    from theory.table1 import PAPER_SHININESS, PAPER_S, PAPER_TABLE1
+    from envfit.theory.table1 import PAPER_SHININESS, PAPER_S, PAPER_TABLE1
     paper_ok = table.target == PAPER_TABLE1["target"] and table.s == PAPER_S
     lines = [f"Table 1 — target worst-case error E = {table.target:.3g}, s = {table.s:g}, "
              f"glossy n = {table.shininess:g}",
@@ -270,9 +270,9 @@ def format_table1(table, comparison: list[dict]) -> str:
 
 
 def run_table1(args: argparse.Namespace) -> int:
-    from theory.brdf import Diffuse
-    from theory.table1 import PAPER_FIG5A_CAPTION, PAPER_S, paper_comparison, table1
-    from theory.truncation import equivalent_qmc_points
+    from envfit.theory.brdf import Diffuse
+    from envfit.theory.table1 import PAPER_FIG5A_CAPTION, PAPER_S, paper_comparison, table1
+    from envfit.theory.truncation import equivalent_qmc_points
 
     s = _check_s(args.s)
     shin = _check_shininess(args.shininess)
@@ -290,7 +290,7 @@ def run_table1(args: argparse.Namespace) -> int:
     result["paper_comparison"] = comp
     result["seconds"] = secs
     if args.out is not None:
-        from ..atomic import atomic_write_csv
+        from envfit.base.atomic import atomic_write_csv
         d = out_dir(args)
         p1 = guarded_write(args, d / "table1.csv", atomic_write_csv, d / "table1.csv",
                            ("case", "L", "wce_at_L", "L_paper_reading", "wce_at_L_paper_reading",
@@ -313,7 +313,7 @@ def _csv(path, comment: str, header, rows):
     """CSV with a leading ``# comment`` line (read with ``comment='#'``)."""
     import csv
     import io
-    from ..atomic import atomic_write_text, to_jsonable
+    from envfit.base.atomic import atomic_write_text, to_jsonable
     buf = io.StringIO()
     buf.write("# " + comment.replace("\n", " ") + "\n")
     wr = csv.writer(buf)
@@ -334,9 +334,9 @@ def _morph_note(morphed: bool) -> str:
 
 
 def run_figures(args: argparse.Namespace) -> int:
-    from theory import figures as F
-    from ..plots import theory as P
-    from ..progress import progress_bar
+    from envfit.theory import figures as F
+    from envfit.plots import theory as P
+    from envfit.base.progress import progress_bar
 
     s = _check_s(args.s)
     shin = _check_shininess(args.shininess)
@@ -349,7 +349,7 @@ def run_figures(args: argparse.Namespace) -> int:
     bad = [x for x in only if x not in FIGURE_NAMES]
     if bad:
         raise ParameterError(f"--only: unknown figure(s) {bad}; choose from {list(FIGURE_NAMES)}")
-    from ..resources import check_memory
+    from envfit.base.resources import check_memory
     check_memory(8 * max(n, nmax) ** 2, f"the {max(n, nmax)}x{max(n, nmax)} kernel matrix of the "
                  "optimal weights", hint="lower --n / --nmax")
     morphed = not args.no_morph

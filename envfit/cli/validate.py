@@ -9,7 +9,7 @@ from .common import (add_common_arguments, add_map_arguments, emit_json, guarded
 
 
 def register(sub) -> None:
-    from ..validate import QUICK_DESCRIPTION
+    from envfit.validate.pipeline import QUICK_DESCRIPTION
     p = sub.add_parser(
         "validate",
         help="check predicted quadrature / truncation errors against measured ones on a map",
@@ -58,7 +58,7 @@ def register(sub) -> None:
 
 
 def _config(args: argparse.Namespace):
-    from ..validate import ValidateConfig, parse_s, quick_config
+    from envfit.validate.pipeline import ValidateConfig, parse_s, quick_config
     s = parse_s(args.s)                      # a bad --s: ParameterError, one line, exit 2
     over = {"s": s, "shininess": args.shininess, "scale": args.scale, "seed": args.seed,
             "fit_method": args.fit_method, "truncation": not args.no_truncation}
@@ -105,8 +105,8 @@ def _summary(res: dict) -> list[str]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..atomic import atomic_write_json
-    from ..validate import run_validation
+    from envfit.base.atomic import atomic_write_json
+    from envfit.validate.pipeline import run_validation
     cfg = _config(args)
     if args.quick and args.max_height is None:
         args.max_height = 256
@@ -130,8 +130,8 @@ def run(args: argparse.Namespace) -> int:
         say(args, f"resumed {len(resumed)} finished cell(s) from {out}")
     say(args, *_summary(res))
     if out is not None:
-        from ..plots.validate import plot_all
-        from ..report import write_report
+        from envfit.plots.validate import plot_all
+        from envfit.validate.report import write_report
         files = guarded_write(args, f"the figures in {out}", plot_all, res, out)
         files = {} if files is None else files
         figures = len(files)

@@ -1,4 +1,4 @@
-"""Figures 1–5 of the paper and the BNOT check, drawn from :mod:`theory.figures` data.
+"""Figures 1–5 of the paper and the BNOT check, drawn from :mod:`envfit.theory.figures` data.
 
 Every function takes the data object and a PNG path, saves the figure atomically and
 returns the path. Captions (figure titles) state the parameters and whether the points

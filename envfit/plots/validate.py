@@ -12,7 +12,7 @@
   N (morphed SF, equal weights) predicted (line) and measured (squares).
 * :func:`plot_s_choice` — the shape residual of prediction (a) against s.
 
-All take the JSON-ready result of :func:`envfit.validate.run_validation` and write PNGs
+All take the JSON-ready result of :func:`envfit.validate.pipeline.run_validation` and write PNGs
 atomically (:func:`envfit.plots._save.save_figure`).
 """
 from __future__ import annotations

@@ -1,0 +1,230 @@
+"""Memory budget: check before allocating, fail with a clear message instead of swapping."""
+from __future__ import annotations
+
+import math
+import os
+
+from envfit.base.errors import MemoryBudgetError, ParameterError
+
+__all__ = ["interpolator_nbytes", "largest_feasible_n", "available_memory_bytes", "check_memory", "format_bytes", "memory_budget_bytes",
+           "plan_memory", "largest_n_within"]
+
+#: fraction of the available memory one allocation plan may take
+MEMORY_FRACTION = 0.8
+
+
+def available_memory_bytes() -> int:
+    """Memory that can be allocated now: ``MemAvailable`` from /proc/meminfo (else total
+    RAM), lowered to what the address-space limit (``ulimit -v``, RLIMIT_AS) leaves beyond
+    this process's current size and to what a cgroup v2 ``memory.max`` leaves beyond its
+    ``memory.current`` (a container's limit).
+
+    The environment variable ``ENVFIT_MEMORY_LIMIT`` (bytes, or with a K/M/G/T suffix)
+    overrides it, e.g. to reserve memory for other processes or to test the guard.
+    """
+    env = os.environ.get("ENVFIT_MEMORY_LIMIT")
+    if env:
+        return _parse_size(env)
+    avail = None
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    avail = int(line.split()[1]) * 1024
+                    break
+    except OSError:
+        pass
+    if avail is None:
+        try:
+            avail = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+        except (ValueError, OSError, AttributeError):  # pragma: no cover - exotic platforms
+            avail = 8 * 2**30
+    for limit in (_address_space_left(), _cgroup_left()):
+        if limit is not None:
+            avail = min(avail, limit)
+    return int(avail)
+
+
+def _parse_size(text: str) -> int:
+    units = {"K": 2**10, "M": 2**20, "G": 2**30, "T": 2**40}
+    s = str(text).strip().upper().rstrip("B")
+    mult = units.get(s[-1:], 1)
+    try:
+        value = float(s[:-1] if s[-1:] in units else s)
+    except ValueError:
+        value = float("nan")
+    if not value >= 0 or value == float("inf"):
+        raise ParameterError(f"ENVFIT_MEMORY_LIMIT must be a size such as 500M or 16G, got {text!r}")
+    return int(value * mult)
+
+
+def _address_space_left() -> int | None:
+    """RLIMIT_AS (``ulimit -v``) minus this process's virtual size, or None if unlimited."""
+    try:
+        import resource
+        soft, _ = resource.getrlimit(resource.RLIMIT_AS)
+        if soft == resource.RLIM_INFINITY or soft <= 0:
+            return None
+        with open("/proc/self/status") as fh:
+            vm = next((int(line.split()[1]) * 1024 for line in fh if line.startswith("VmSize:")), 0)
+        return max(0, int(soft) - vm)
+    except (ImportError, OSError, ValueError):  # pragma: no cover - non-Linux
+        return None
+
+
+def _cgroup_left() -> int | None:
+    """cgroup v2 ``memory.max`` minus ``memory.current``, or None without a limit."""
+    try:
+        with open("/sys/fs/cgroup/memory.max") as fh:
+            top = fh.read().strip()
+        if top == "max":
+            return None
+        with open("/sys/fs/cgroup/memory.current") as fh:
+            used = int(fh.read().strip())
+        return max(0, int(top) - used)
+    except (OSError, ValueError):
+        return None
+
+
+def format_bytes(n: float) -> str:
+    """Human-readable size, e.g. ``3.2 GB`` (decimal units, as the paper's '3.2 GB').
+
+    >>> format_bytes(3.2e9), format_bytes(8e18), format_bytes(512)
+    ('3.2 GB', '8.0 EB', '512 B')
+    """
+    n = float(n)
+    for unit in ("B", "kB", "MB", "GB", "TB", "PB", "EB", "ZB"):
+        if abs(n) < 1000 or unit == "ZB":
+            return f"{n:.1f} {unit}" if unit != "B" else f"{int(n)} B"
+        n /= 1000.0
+    return f"{n:.1f} ZB"  # pragma: no cover
+
+
+def memory_budget_bytes() -> int:
+    """What one allocation plan may take: :data:`MEMORY_FRACTION` of :func:`available_memory_bytes`."""
+    return int(available_memory_bytes() * MEMORY_FRACTION)
+
+
+def check_memory(nbytes: int, what: str, *, hint: str = "") -> None:
+    """Raise :class:`MemoryBudgetError` if ``nbytes`` exceeds the memory budget.
+
+    ``what`` names the work (e.g. ``"the 20000x20000 kernel matrix"``); ``hint`` can say
+    what would fit (e.g. ``"the largest N that fits is 15000"``).
+    """
+    budget = memory_budget_bytes()
+    if nbytes > budget:
+        msg = (f"{what} needs {format_bytes(nbytes)} but only {format_bytes(budget)} "
+               f"can be used ({int(MEMORY_FRACTION * 100)}% of available memory)")
+        if hint:
+            msg += f"; {hint}"
+        raise MemoryBudgetError(msg)
+
+
+def largest_n_within(nbytes_of, budget: int, upper: int) -> int:
+    """Largest N in [0, upper] with ``nbytes_of(N) <= budget`` (``nbytes_of`` increasing).
+
+    >>> largest_n_within(lambda n: 8 * n * n, 800, 10 ** 9)
+    10
+    """
+    lo, hi = 0, int(upper)
+    if nbytes_of(hi) <= budget:
+        return hi
+    while hi - lo > 1:                      # nbytes_of(lo) <= budget < nbytes_of(hi), or lo = 0
+        mid = (lo + hi) // 2
+        if nbytes_of(mid) <= budget:
+            lo = mid
+        else:
+            hi = mid
+    return lo if nbytes_of(lo) <= budget else 0
+
+
+def plan_memory(n: int, what: str, *, channels: int = 1, kernel: bool = True,
+                per_n_bytes: int = 0, fixed_bytes: int = 0, n_name: str = "N",
+                smallest: int = 2) -> int:
+    r"""The one memory guard for work whose size grows with N: call it with the largest N
+    of a run **before** anything of size N (sample points, values, kernel matrices) is made.
+
+    Accounts for
+
+    * ``kernel=True``: :func:`interpolator_nbytes` — the N x N float64
+      kernel matrix (factorised in place), the O(N C) arrays (N x 3 points, N x C values
+      and coefficients, node copies) and the fixed evaluation-block / LAPACK workspace;
+      ``kernel=False``: the N x 3 points and N x C values, ``8 N (3 + C)``;
+    * ``per_n_bytes`` more per N (weights, lookup blocks, temporaries of the caller);
+    * ``fixed_bytes`` that do not depend on N (the map on its scale, pixel directions, the
+      reconstruction).
+
+    Raises :class:`~envfit.base.errors.MemoryBudgetError` with one line naming what does not
+    fit, the sizes and the largest N that fits (``n_name`` names the parameter, e.g.
+    ``"fit_n"``), e.g. ``table2 at N = 1000000000: the 1000000000x1000000000 float64 kernel
+    matrix and the N-sized arrays need 8.0 EB but only 15.2 GB can be used (80% of available
+    memory); the largest N that fits is 43500``. Returns the planned bytes.
+
+    Costs O(log N) arithmetic, no allocation: it is safe for any N.
+
+    >>> try:
+    ...     plan_memory(10 ** 9, "table2", channels=3)
+    ... except MemoryBudgetError as e:
+    ...     print(str(e).split(" but ")[0])
+    table2 at N = 1000000000: the 1000000000x1000000000 float64 kernel matrix and the N-sized arrays need 8.0 EB
+    >>> plan_memory(1000, "a small fit", channels=3) < 2 ** 30
+    True
+    """
+    n = int(n)
+    c = max(1, int(channels))
+    per_n = int(per_n_bytes)
+    fixed = int(fixed_bytes)
+    if kernel:
+
+        def nbytes_of(k: int) -> int:
+            return interpolator_nbytes(k, c) + per_n * k + fixed
+    else:
+        def nbytes_of(k: int) -> int:
+            return 8 * k * (3 + c) + per_n * k + fixed
+    total = nbytes_of(n)
+    budget = memory_budget_bytes()
+    if total <= budget:
+        return total
+    fits = largest_n_within(nbytes_of, budget, n)
+    if kernel:
+        needs = f"the {n}x{n} float64 kernel matrix and the N-sized arrays need {format_bytes(total)}"
+    else:
+        needs = (f"the {n} points, values and per-point temporaries need "
+                 f"{format_bytes(total)}")
+    msg = (f"{what} at {n_name} = {n}: {needs} but only {format_bytes(budget)} can be used "
+           f"({int(MEMORY_FRACTION * 100)}% of available memory); ")
+    if fits >= smallest:
+        msg += f"the largest {n_name} that fits is {fits}"
+    else:
+        msg += (f"not even {n_name} = {smallest} fits (the map and fixed buffers alone need "
+                f"{format_bytes(nbytes_of(0))}): free memory or raise ENVFIT_MEMORY_LIMIT")
+    raise MemoryBudgetError(msg)
+
+
+#: fixed allowance (bytes) for evaluation temporaries, LAPACK/BLAS buffers, bookkeeping
+_WORKSPACE_BYTES = 96 * 2**20
+
+
+def interpolator_nbytes(n: int, nchannels: int = 1) -> int:
+    """Memory an interpolator of N nodes needs: the N x N factor plus O(N C) arrays.
+
+    ``8 N^2`` (float64 matrix, factorised in place) ``+ 8 N (4 C + 16)`` (values,
+    coefficients, node arrays, cached diag of K^-1) ``+`` a fixed 96 MiB for evaluation
+    blocks (<= 64 MiB) and LAPACK/BLAS buffers.
+    """
+    n = int(n)
+    return 8 * n * n + 8 * n * (4 * int(nchannels) + 16) + _WORKSPACE_BYTES
+
+
+def largest_feasible_n(budget_bytes: float, nchannels: int = 1) -> int:
+    """Largest N with ``interpolator_nbytes(N, C) <= budget_bytes`` (root of the quadratic)."""
+    b = 8.0 * (4 * nchannels + 16)
+    rest = float(budget_bytes) - _WORKSPACE_BYTES
+    if rest <= 0:
+        return 0
+    n = int((-b + math.sqrt(b * b + 32.0 * rest)) / 16.0)
+    while n > 0 and interpolator_nbytes(n, nchannels) > budget_bytes:
+        n -= 1
+    while interpolator_nbytes(n + 1, nchannels) <= budget_bytes:
+        n += 1
+    return n

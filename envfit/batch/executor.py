@@ -1,0 +1,315 @@
+r"""Where a sweep's tasks run: in this process, a local process pool, or a dask cluster.
+
+A library sweep (:mod:`envfit.batch.library`, :mod:`envfit.batch.library_fit`) is a set of independent
+tasks (sample a map, factorise one kernel matrix and solve for every map, evaluate one map)
+that a driver submits and whose results it writes to disk as they arrive
+(:func:`envfit.batch.scheduler.drive`). An executor is the small interface the driver needs:
+
+``submit(fn, *args) -> future``, ``wait_any(futures) -> (done, not_done)``,
+``result(future)``, ``share(obj)`` (ship a large read-only argument once), ``slots`` (how
+many tasks may run at once), ``is_lost_worker(exc)`` and ``close()``.
+
+Threads. The heavy steps (numba kernels, LAPACK ``dpotrf``, ducc0 transforms) each use
+every core they are given. Running W tasks side by side with all cores each would
+oversubscribe the machine by W x, so every task runs under :func:`run_pinned`: BLAS/LAPACK
+threads limited with ``threadpoolctl`` and numba's (and so ducc0's) thread count set, to
+``threads = cores // W`` — threads per worker x workers <= cores.
+
+``local`` (:class:`LocalExecutor`)
+    W = 1: tasks run inline, in this process, with all cores (exactly the single-map
+    code path). W > 1: a ``concurrent.futures.ProcessPoolExecutor`` (``spawn`` start
+    method: forking a process whose OpenMP/numba thread pools are running is unsafe).
+``dask`` (:class:`DaskExecutor`)
+    A ``dask.distributed`` client: to a running scheduler (``tcp://HOST:PORT``) or to a
+    ``LocalCluster`` of W single-threaded worker processes on loopback. Threads per task:
+    per host, cores // (worker threads on that host), the smallest over hosts.
+    Optional extra: ``pip install "envfit[dask]"``.
+
+Example
+-------
+>>> ex, notes = make_executor("local", workers=1)
+>>> fut = ex.submit(sum, [1, 2, 3])
+>>> ex.result(fut), ex.slots
+(6, 1)
+>>> ex.close()
+"""
+from __future__ import annotations
+
+import concurrent.futures as cf
+import functools
+import multiprocessing
+import os
+from typing import Any, Callable, Iterable
+
+from envfit.base.errors import ExecutorError, ParameterError
+from envfit.base.resources import MEMORY_FRACTION, available_memory_bytes, format_bytes
+
+__all__ = ["EXECUTORS", "machine_cores", "run_pinned", "plan_workers", "LocalExecutor",
+           "DaskExecutor", "make_executor"]
+
+EXECUTORS = ("local", "dask")
+DASK_HINT = 'install it with: pip install "envfit[dask]"'
+
+
+def machine_cores() -> int:
+    """Cores this process may run on (the CPU affinity mask, else ``os.cpu_count()``)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):  # pragma: no cover - non-Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def run_pinned(threads: int, fn: Callable, *args: Any) -> Any:
+    """``fn(*args)`` with BLAS/LAPACK (threadpoolctl) and numba limited to ``threads`` threads.
+
+    numba's setting is per calling thread and restored afterwards; the BLAS limit is
+    process-wide for the duration (a worker process runs one task per thread it has, and
+    all of them ask for the same limit).
+    """
+    import numba
+
+    threads = max(1, int(threads))
+    previous = numba.get_num_threads()
+    numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+    try:
+        with _controller().limit(limits=threads):
+            return fn(*args)
+    finally:
+        numba.set_num_threads(previous)
+
+
+@functools.lru_cache(maxsize=1)
+def _controller():
+    """threadpoolctl's view of this process's BLAS/OpenMP libraries (scanned once: 10 ms)."""
+    from threadpoolctl import ThreadpoolController
+    return ThreadpoolController()
+
+
+def plan_workers(requested: int | None, *, cores: int, max_useful: int,
+                 bytes_per_task: int = 0) -> tuple[int, list[str]]:
+    """Worker count for a local run and notes on what limited it.
+
+    ``requested`` (None: as many as useful, at most ``cores``) is capped by ``max_useful``
+    (no more workers than tasks that can run side by side) and by memory: W tasks of
+    ``bytes_per_task`` each must fit in the budget (:data:`envfit.base.resources.MEMORY_FRACTION`
+    of the available memory).
+
+    >>> plan_workers(None, cores=8, max_useful=3)
+    (3, [])
+    """
+    notes = []
+    if requested is not None:
+        requested = int(requested)
+        if requested < 1:
+            raise ParameterError(f"--workers must be at least 1, got {requested}")
+    w = min(cores, max(1, max_useful)) if requested is None else requested
+    if bytes_per_task > 0:
+        budget = available_memory_bytes() * MEMORY_FRACTION
+        fit = max(1, int(budget // bytes_per_task))
+        if w > fit:
+            notes.append(f"{w} workers would need {format_bytes(w * bytes_per_task)} at once; "
+                         f"using {fit} (memory budget {format_bytes(budget)})")
+            w = fit
+    return w, notes
+
+
+class LocalExecutor:
+    """Inline (``workers=1``) or a local process pool; tasks pinned to cores // workers threads."""
+
+    name = "local"
+    lost_hint = ("a worker process died (killed, out of memory, or — when called from a "
+                 "script — no `if __name__ == \"__main__\":` guard, which process pools "
+                 "need; workers=1 runs inline); ")
+
+    def __init__(self, workers: int | None = None):
+        cores = machine_cores()
+        self.workers = cores if workers is None else int(workers)
+        if self.workers < 1:
+            raise ParameterError(f"--workers must be at least 1, got {self.workers}")
+        self.blas_threads = max(1, cores // self.workers)
+        self._pool = None
+        if self.workers > 1:
+            self._pool = cf.ProcessPoolExecutor(
+                max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"))
+
+    @property
+    def slots(self) -> int:
+        return self.workers
+
+    def describe(self) -> str:
+        where = "inline" if self._pool is None else f"{self.workers} processes"
+        return f"local ({where}, {self.blas_threads} BLAS/numba thread(s) per task)"
+
+    def submit(self, fn: Callable, *args: Any) -> cf.Future:
+        if self._pool is not None:
+            return self._pool.submit(run_pinned, self.blas_threads, fn, *args)
+        fut: cf.Future = cf.Future()
+        try:
+            fut.set_result(run_pinned(self.blas_threads, fn, *args))
+        except Exception as exc:  # delivered through the future, like a pool would
+            fut.set_exception(exc)
+        return fut
+
+    def wait_any(self, futures: Iterable) -> tuple[set, set]:
+        done, not_done = cf.wait(list(futures), return_when=cf.FIRST_COMPLETED)
+        return set(done), set(not_done)
+
+    @staticmethod
+    def result(fut) -> Any:
+        return fut.result()
+
+    @staticmethod
+    def share(obj: Any) -> Any:
+        return obj
+
+    @staticmethod
+    def is_lost_worker(exc: BaseException) -> bool:
+        from concurrent.futures.process import BrokenProcessPool
+        return isinstance(exc, (BrokenProcessPool, cf.CancelledError))
+
+    def close(self) -> None:
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+            self._pool = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def _import_distributed():
+    try:
+        import distributed
+    except ImportError:
+        raise ExecutorError(f"--executor dask needs dask.distributed, which is not installed; "
+                            f"{DASK_HINT}") from None
+    return distributed
+
+
+class DaskExecutor:
+    """Tasks on a dask.distributed cluster: ``scheduler`` address, an existing ``client``,
+    or (neither) a ``LocalCluster`` of ``workers`` single-threaded processes on loopback.
+
+    A worker lost mid-task is reported by dask (``KilledWorker`` once the scheduler's
+    ``allowed-failures`` retries are used up, or a lost connection): the driver keeps the
+    finished cells and reports the rest as to be re-run.
+    """
+
+    name = "dask"
+
+    def __init__(self, scheduler: str | None = None, workers: int | None = None, *,
+                 client=None, timeout: float = 10.0):
+        distributed = _import_distributed()
+        self._cluster = None
+        self._own_client = client is None
+        if client is not None:
+            self.client = client
+        elif scheduler:
+            try:
+                self.client = distributed.Client(scheduler, timeout=timeout)
+            except (OSError, TimeoutError, ValueError) as exc:
+                msg = " ".join(str(exc).split()) or type(exc).__name__
+                raise ExecutorError(f"cannot reach the dask scheduler at {scheduler}: {msg}") from None
+        else:
+            n = machine_cores() if workers is None else int(workers)
+            if n < 1:
+                raise ParameterError(f"--workers must be at least 1, got {n}")
+            self._cluster = distributed.LocalCluster(
+                n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
+                dashboard_address=None, memory_limit=0)
+            self.client = distributed.Client(self._cluster)
+        self.blas_threads = self._threads_per_task()
+
+    def _threads_per_task(self) -> int:
+        """cores // (worker threads on the host), the smallest over hosts (1 if unknown)."""
+        try:
+            info = self.client.scheduler_info(n_workers=-1)["workers"]
+        except TypeError:  # older distributed: no n_workers argument
+            info = self.client.scheduler_info()["workers"]
+        if not info:
+            return 1
+        cores = self.client.run(machine_cores)
+        per_host: dict[str, list[int]] = {}
+        for addr, w in info.items():
+            host = w.get("host") or addr.rsplit(":", 1)[0]
+            per_host.setdefault(host, [0, 0])
+            per_host[host][0] += int(w.get("nthreads", 1))
+            per_host[host][1] = max(per_host[host][1], int(cores.get(addr, 1)))
+        return max(1, min(c // max(t, 1) for t, c in per_host.values()))
+
+    @property
+    def slots(self) -> int:
+        return max(1, sum(self.client.nthreads().values()))
+
+    def describe(self) -> str:
+        where = (f"LocalCluster at {self.client.scheduler.address}" if self._cluster is not None
+                 else f"scheduler {self.client.scheduler.address}")
+        return f"dask ({where}, {self.slots} worker thread(s), {self.blas_threads} BLAS thread(s) per task)"
+
+    def submit(self, fn: Callable, *args: Any):
+        return self.client.submit(run_pinned, self.blas_threads, fn, *args, pure=False)
+
+    def wait_any(self, futures: Iterable) -> tuple[set, set]:
+        distributed = _import_distributed()
+        res = distributed.wait(list(futures), return_when="FIRST_COMPLETED")
+        return set(res.done), set(res.not_done)
+
+    @staticmethod
+    def result(fut) -> Any:
+        return fut.result()
+
+    def share(self, obj: Any):
+        """Send ``obj`` to the cluster once; the returned future can be passed to tasks."""
+        return self.client.scatter([obj], broadcast=True, hash=False)[0]
+
+    @staticmethod
+    def is_lost_worker(exc: BaseException) -> bool:
+        distributed = _import_distributed()
+        lost = [distributed.scheduler.KilledWorker, distributed.comm.CommClosedError,
+                cf.CancelledError]
+        try:
+            from distributed.client import FutureCancelledError
+            lost.append(FutureCancelledError)
+        except ImportError:  # pragma: no cover - older distributed
+            pass
+        return isinstance(exc, tuple(lost))
+
+    def close(self) -> None:
+        if self._own_client:
+            self.client.close()
+        if self._cluster is not None:
+            self._cluster.close()
+            self._cluster = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def make_executor(kind: str | Any = "local", *, workers: int | None = None,
+                  scheduler: str | None = None, max_useful: int | None = None,
+                  bytes_per_task: int = 0) -> tuple[Any, list[str]]:
+    """An executor (and notes) for ``kind`` = ``"local"`` or ``"dask"``; an executor object
+    is returned as is. ``max_useful``/``bytes_per_task`` size a local pool or LocalCluster
+    (:func:`plan_workers`); a remote cluster is sized by whoever started it."""
+    if not isinstance(kind, str):
+        return kind, []
+    if kind not in EXECUTORS:
+        raise ParameterError(f"unknown executor {kind!r}; choose one of {', '.join(EXECUTORS)}")
+    if scheduler and kind != "dask":
+        raise ParameterError("--scheduler needs --executor dask")
+    if kind == "dask" and scheduler:
+        if workers is not None:
+            raise ParameterError("--workers sizes a local cluster; with --scheduler the "
+                                 "cluster's own workers are used")
+        return DaskExecutor(scheduler), []
+    w, notes = plan_workers(workers, cores=machine_cores(),
+                            max_useful=max_useful or machine_cores(),
+                            bytes_per_task=bytes_per_task)
+    if kind == "dask":
+        return DaskExecutor(None, w), notes
+    return LocalExecutor(w), notes

@@ -1,0 +1,311 @@
+r"""The paper's Table 2 (Sec. 9.1) over a whole library of maps, one factorisation per (s, N).
+
+The kernel matrix :math:`K^{(s)}_{ij} = K_{gd}^{(s)}(p_i, p_j)` (Eq. 14) depends on the
+sample directions and s only, not on the map. With the same N directions for every map,
+each (s, N) matrix is built and Cholesky-factorised **once** and solved for all maps and
+channels as right-hand sides (:func:`envfit.batch.tasks.solve_task`); then each map is
+loaded again, reconstructed at its own pixel centres and compared, one map at a time
+(:func:`~envfit.batch.tasks.evaluate_task`: maps may differ in resolution, never in
+``up``). At N = 20000 the factorisation (N^3/3 flops, 3.2 GB) dominates a cell, so a
+library of M maps costs about one factorisation plus M evaluations instead of M
+factorisations (README, "Libraries of maps").
+
+Execution. Three kinds of tasks — sample each map at every N it still needs, factorise
+each (s, N), evaluate each (map, s, N) — run on an executor (:mod:`envfit.batch.executor`:
+inline, a local process pool, or a dask cluster) under :func:`envfit.batch.scheduler.drive`,
+which writes every finished cell into ``OUT/<map-slug>/cells/`` (the format of
+:func:`~envfit.fit.table2.run_table2`) atomically as it arrives. A re-run with the same ``out``
+skips finished (map, s, N) cells and factorises only the (s, N) that some map still lacks;
+a killed worker loses only the tasks it was running. A stored cell that is not sound (edited,
+corrupt, another cell's; :mod:`envfit.base.store`) is recomputed with a note in ``lib.notes``, and
+the driver holds the lock of ``out`` for the whole run (a second run on it is refused; the
+workers never touch the store). Only O(N C) coefficients per map
+travel between processes, never an N x N factor.
+
+Results: per map a :class:`~envfit.fit.table2.Table2Result` (its cells, ``s_best``), and
+across maps a summary (:meth:`LibraryTable2Result.summary_rows`) written, when ``out`` is
+given, as CSV, JSON and a histogram of the best s per map (:mod:`envfit.batch.report`).
+
+Example
+-------
+>>> import numpy as np
+>>> from envfit.maps.envmap import EnvMap
+>>> from envfit.data_gen.gp import gaussian_process_map
+>>> maps = [EnvMap(gaussian_process_map(1.5, 16, seed=k, channels=3) + 3.0, name=f"gp{k}")
+...         for k in range(3)]
+>>> lib = run_table2_library(maps, [1.3, 1.7], [50, 100], scale="linear", workers=1)
+>>> lib.factorizations, len(lib.maps), lib.maps[0].rmse_table().shape
+(4, 3, (2, 2))
+"""
+from __future__ import annotations
+
+import contextlib
+import functools
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Sequence
+
+import numpy as np
+
+from envfit.maps.envmap import check_sample_count
+from envfit.base.errors import ParameterError
+from envfit.batch.executor import make_executor
+from envfit.base.resources import interpolator_nbytes
+from envfit.batch.tasks import SweepSpec, evaluate_task, sample_task, solve_task
+from envfit.maps.mapsource import LoadOptions, MapSource, resolve_map_sources
+from envfit.base.resources import plan_memory
+from envfit.maps.scales import SCALES, check_not_constant
+from envfit.batch.scheduler import Task, drive
+from envfit.base.store import FolderLock, ResultStore
+from envfit.fit.table2 import (PAPER_N, PAPER_S, Table2Cell, Table2Result, _cell_key, _recon_stem,
+                     check_grid)
+
+__all__ = ["LibraryTable2Result", "run_table2_library", "RHS_BUDGET_BYTES"]
+
+#: right-hand sides (samples + coefficients) one factorisation task may hold; a larger
+#: library is split into groups of maps, one factorisation per group
+RHS_BUDGET_BYTES = 1 << 30
+#: channels per map assumed when planning memory (loading keeps at most 3)
+_PLAN_CHANNELS = 3
+_FIELDS = tuple(Table2Cell.__dataclass_fields__)
+
+
+@dataclass
+class LibraryTable2Result:
+    """Table 2 for every map of a library (``maps[k]`` is map k's :class:`Table2Result`)."""
+    maps: list[Table2Result]
+    slugs: list[str]
+    s_values: list[float]
+    n_values: list[int]
+    scale: str
+    pointset: str
+    seed: int
+    factorizations: int = 0
+    cells_computed: int = 0
+    cells_resumed: int = 0
+    seconds: float = 0.0
+    executor: str = ""
+    notes: list[str] = field(default_factory=list)
+    #: ``(path, reason)`` of cells that could not be written (kept in memory, reported)
+    unwritten: list[tuple[str, str]] = field(default_factory=list)
+    files: dict[str, str] = field(default_factory=dict)
+
+    def s_best(self) -> np.ndarray:
+        """The s with the lowest per-pixel RMSE at the largest N, per map."""
+        return np.array([r.s_best for r in self.maps])
+
+    def summary_rows(self) -> list[dict]:
+        """One row per map: slug, name, height, best s, RMSE at the largest N for every s."""
+        n_max = self.n_values[-1]
+        rows = []
+        for slug, r in zip(self.slugs, self.maps):
+            col = r.rmse_table()[:, -1]
+            row = {"slug": slug, "map": r.map, "height": r.height, "s_best": r.s_best}
+            row.update({f"rmse_s{s:g}_n{n_max}": float(v) for s, v in zip(self.s_values, col)})
+            rows.append(row)
+        return rows
+
+    def to_dict(self) -> dict:
+        return {"scale": self.scale, "pointset": self.pointset, "seed": self.seed,
+                "s_values": self.s_values, "n_values": self.n_values,
+                "factorizations": self.factorizations, "cells_computed": self.cells_computed,
+                "cells_resumed": self.cells_resumed, "seconds": self.seconds,
+                "executor": self.executor, "notes": self.notes, "summary": self.summary_rows(),
+                "maps": {slug: r.to_dict() for slug, r in zip(self.slugs, self.maps)},
+                "files": self.files}
+
+
+def _chunks(items: list[int], n: int, budget: int) -> list[list[int]]:
+    per = max(1, int(budget // (2 * 8 * n * _PLAN_CHANNELS)))
+    return [items[k:k + per] for k in range(0, len(items), per)]
+
+
+def run_table2_library(maps: Sequence, s_values: Sequence[float] = PAPER_S,
+                       n_values: Sequence[int] = PAPER_N, *, pointset: str = "sf",
+                       scale: str = "display", seed: int = 0, out: str | Path | None = None,
+                       executor="local", workers: int | None = None,
+                       scheduler: str | None = None, load_options: LoadOptions | None = None,
+                       save_reconstructions: bool = False, quiet: bool = True,
+                       on_cell: Callable[[str, Table2Cell, bool], None] | None = None,
+                       rhs_budget_bytes: int = RHS_BUDGET_BYTES) -> LibraryTable2Result:
+    """Run the (s, N) sweep on every map of ``maps``; see the module docstring.
+
+    Parameters
+    ----------
+    maps : files, folders, glob patterns and/or :class:`~envfit.maps.envmap.EnvMap` objects
+        (:func:`~envfit.maps.mapsource.resolve_map_sources`); files are read lazily with
+        ``load_options``.
+    s_values, n_values, pointset, scale, seed : as :func:`~envfit.fit.table2.run_table2`.
+    out : folder: ``OUT/<slug>/cells`` per map (resumable), summary CSV/JSON/PNG at the top.
+    executor : ``"local"``, ``"dask"`` or an executor object (:mod:`envfit.batch.executor`);
+        ``workers`` sizes a local pool / LocalCluster, ``scheduler`` names a running dask
+        scheduler (``tcp://HOST:PORT``).
+    save_reconstructions : also write each map's reconstructions at the largest N
+        (EXR + PNG into ``OUT/<slug>/``; off by default: a library's images are large).
+    on_cell : ``on_cell(map_label, cell, resumed)`` after each cell, in the driver.
+    rhs_budget_bytes : memory for one factorisation's right-hand sides; more maps are
+        split into groups (one factorisation per group).
+    """
+    t_start = time.perf_counter()
+    s_values, n_values = check_grid(s_values, n_values)
+    if scale not in SCALES:
+        raise ParameterError(f"unknown scale {scale!r}; choose one of {', '.join(SCALES)}")
+    sources = resolve_map_sources(maps, load_options)
+    # the memory guard of the largest N (one factorisation task: the interpolator with the
+    # right-hand sides of one group of maps), before any sample point is made
+    group = min(len(sources), max(1, int(rhs_budget_bytes // (2 * 8 * n_values[-1] * _PLAN_CHANNELS))))
+    plan_memory(n_values[-1], "library table2", channels=_PLAN_CHANNELS * group)
+    spec = SweepSpec(pointset=pointset, seed=int(seed), scale=scale, up=sources[0].up)
+    spec.points(4)  # an unknown point set fails here, before any work
+    out = Path(out) if out is not None else None
+    notes: list[str] = []                       # the stores' notes (cells recomputed), …
+    # one lock for the whole --out folder, taken before any cell is read (module store)
+    with FolderLock(out, on_note=notes.append) if out is not None else contextlib.nullcontext():
+        stores = [ResultStore(out / src.slug if out is not None else None,
+                              {"map": src.identity(), "scale": scale, "pointset": pointset,
+                               "seed": int(seed), "up": spec.up}, kind="table2", lock=False,
+                              on_note=notes.append)
+                  for src in sources]
+        cells, missing, resumed = _resume(stores, sources, s_values, n_values, on_cell)
+        lib = LibraryTable2Result(maps=[], slugs=[s.slug for s in sources], s_values=s_values,
+                                  n_values=n_values, scale=scale, pointset=pointset,
+                                  seed=int(seed), cells_resumed=resumed, notes=notes)
+        if missing:
+            _compute(lib, sources, stores, cells, missing, spec, out, executor=executor,
+                     workers=workers, scheduler=scheduler, keep=save_reconstructions,
+                     n_max=n_values[-1], quiet=quiet, on_cell=on_cell, budget=rhs_budget_bytes)
+        lib.maps = [_map_result(src, cells[i], lib) for i, src in enumerate(sources)]
+        lib.unwritten = [u for st in stores for u in st.unwritten]
+        lib.seconds = time.perf_counter() - t_start
+        if out is not None:
+            from envfit.batch.report import write_table2_library
+            write_table2_library(lib, out)
+    return lib
+
+
+def _map_result(src, cells: dict[str, dict], lib: LibraryTable2Result) -> Table2Result:
+    """One map's :class:`Table2Result` from its cells (all of the grid present)."""
+    some = next(iter(cells.values()))
+    r = Table2Result(map=src.label, scale=lib.scale,
+                     scale_description=some.get("scale_description", ""),
+                     pointset=lib.pointset, seed=lib.seed, height=int(some.get("height", 0)),
+                     s_values=lib.s_values, n_values=lib.n_values)
+    r.cells = [Table2Cell(**{k: cells[_cell_key(s, n)][k] for k in _FIELDS})
+               for n in lib.n_values for s in lib.s_values]
+    return r
+
+
+def _resume(stores, sources, s_values, n_values, on_cell):
+    """``(cells, missing, resumed)``: the sound stored cells per map, the maps still missing
+    each (s, N), and how many cells were resumed (unsound cells count as missing)."""
+    cells: list[dict[str, dict]] = [{} for _ in sources]
+    missing: dict[tuple[float, int], list[int]] = {}
+    resumed = 0
+    for i, st in enumerate(stores):
+        for n in n_values:
+            for s in s_values:
+                d = st.get(_cell_key(s, n), fields=_FIELDS)
+                if d is None:
+                    missing.setdefault((s, n), []).append(i)
+                    continue
+                cells[i][_cell_key(s, n)] = d
+                resumed += 1
+                if on_cell:
+                    on_cell(sources[i].label, Table2Cell(**{k: d[k] for k in _FIELDS}), True)
+    return cells, missing, resumed
+
+
+def _compute(lib, sources: list[MapSource], stores, cells, missing, spec: SweepSpec, out,
+             *, executor, workers, scheduler, keep, n_max, quiet, on_cell, budget) -> None:
+    """Plan the tasks for the missing cells and drive them (fills ``cells`` and ``lib``)."""
+    chunks = []                                   # (s, n, [map indices])
+    for (s, n), idx in sorted(missing.items(), key=lambda kv: (kv[0][1], kv[0][0])):
+        chunks.extend((s, n, c) for c in _chunks(idx, n, budget))
+    if any(len(_chunks(idx, n, budget)) > 1 for (s, n), idx in missing.items()):
+        lib.notes.append("the library's samples exceed the right-hand-side budget for one "
+                         "factorisation: maps are split into groups, one factorisation each")
+    biggest = max(interpolator_nbytes(n, _PLAN_CHANNELS * len(c)) for _, n, c in chunks)
+    ex, notes = make_executor(executor, workers=workers, scheduler=scheduler,
+                              max_useful=len(chunks), bytes_per_task=biggest)
+    lib.notes.extend(notes)
+    lib.executor = ex.describe()
+    needs: dict[int, set[int]] = {}               # map -> the N it must be sampled at
+    waiting: dict[int, set[int]] = {}             # chunk -> maps whose samples are missing
+    uses: dict[tuple[int, int], int] = {}         # (map, N) -> chunks still to be submitted
+    for cid, (s, n, idx) in enumerate(chunks):
+        waiting[cid] = set(idx)
+        for i in idx:
+            needs.setdefault(i, set()).add(n)
+            uses[(i, n)] = uses.get((i, n), 0) + 1
+    samples: dict[int, dict[int, np.ndarray]] = {}
+    from envfit.base.progress import progress_bar
+    bar = progress_bar(sum(len(c) for _, _, c in chunks), desc="library table2", quiet=quiet,
+                       unit="cell")
+
+    def solve_args(cid):
+        s, n, idx = chunks[cid]
+        cols = [samples[i][n] for i in idx]
+        for i in idx:
+            uses[(i, n)] -= 1
+            if uses[(i, n)] == 0:
+                del samples[i][n]
+        return spec, s, n, np.hstack(cols), [c.shape[1] for c in cols]
+
+    def sample_done(i, res):
+        # N against the map's pixel count and a constant map, before any factorisation
+        n_top = max(res["values"])
+        check_sample_count(n_top, res["width"], res["height"], name=sources[i].label)
+        check_not_constant(res["values"][n_top], spec.scale, sources[i].label,
+                           where=f" at its {n_top} samples")
+        samples[i] = res["values"]
+        ready = []
+        for cid in [c for c, w in waiting.items() if i in w]:
+            waiting[cid].discard(i)
+            if not waiting[cid]:
+                del waiting[cid]
+                s, n, _ = chunks[cid]
+                ready.append(Task(2, solve_task, functools.partial(solve_args, cid),
+                                  label=f"factorisation s={s:g} N={n}",
+                                  on_done=functools.partial(solve_done, cid)))
+        return ready
+
+    def solve_done(cid, res):
+        s, n, idx = chunks[cid]
+        lib.factorizations += 1
+        return [Task(0, evaluate_task, (sources[i], spec, s, n, a, keep and n == n_max),
+                     label=f"map {sources[i].label} (s={s:g}, N={n})",
+                     on_done=functools.partial(eval_done, i, res["seconds"], len(idx)))
+                for i, a in zip(idx, res["alphas"])]
+
+    def eval_done(i, fit_seconds, shared, res):
+        recon, preview = res.pop("reconstruction", None), res.pop("preview", None)
+        res.pop("seconds_load", None)
+        cell = {**res, "seconds_fit": fit_seconds, "seconds": fit_seconds + res["seconds_evaluate"],
+                "shared_by": shared}
+        if recon is not None and out is not None:
+            _save_pair(out / sources[i].slug, recon, preview, cell["s"], cell["n"], spec.up)
+        key = _cell_key(cell["s"], cell["n"])
+        stores[i].put(key, cell)
+        cells[i][key] = cell
+        lib.cells_computed += 1
+        bar.update(1)
+        if on_cell:
+            on_cell(sources[i].label, Table2Cell(**{k: cell[k] for k in _FIELDS}), False)
+
+    tasks = [Task(1, sample_task, (sources[i], spec, sorted(ns)), label=f"map {sources[i].label}",
+                  on_done=functools.partial(sample_done, i)) for i, ns in sorted(needs.items())]
+    try:
+        drive(ex, tasks)
+    finally:
+        bar.close()
+        if ex is not executor:
+            ex.close()
+
+
+def _save_pair(folder: Path, recon: np.ndarray, preview: np.ndarray, s: float, n: int, up: str) -> None:
+    """EXR of a reconstruction (on the comparison scale) and its display-referred PNG."""
+    from envfit.maps.envmap import EnvMap, save_envmap
+    stem = _recon_stem(s, n)
+    save_envmap(folder / f"{stem}.exr", EnvMap(recon, up=up, name=stem))
+    save_envmap(folder / f"{stem}.png", EnvMap(preview, up=up, name=stem))

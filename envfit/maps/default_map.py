@@ -1,0 +1,24 @@
+"""The built-in default map: a synthesized map of known smoothness, so every command runs
+without a file. It is a Gaussian-process sample with covariance K_gd^(1.5) (data_gen),
+RGB, 256×512, made positive by a constant offset (a constant only changes the l = 0 term,
+so the smoothness is still exactly s0 = 1.5 on the linear scale).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from envfit.maps.envmap import EnvMap
+
+DEFAULT_S0 = 1.5
+DEFAULT_HEIGHT = 256
+DEFAULT_SEED = 0
+
+
+def default_envmap(*, up: str = "y", height: int = DEFAULT_HEIGHT) -> EnvMap:
+    """The built-in synthesized map (deterministic)."""
+    from envfit.data_gen.gp import gaussian_process_map
+    f = gaussian_process_map(DEFAULT_S0, height, seed=DEFAULT_SEED, channels=3)
+    # offset so that every pixel is positive (a radiance map), with a 10% margin
+    f = f - f.min() + 0.1 * (f.max() - f.min())
+    return EnvMap(np.asarray(f, dtype=np.float32), up=up,
+                  name=f"builtin:gp(s0={DEFAULT_S0},height={height},seed={DEFAULT_SEED})")

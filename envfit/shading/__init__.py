@@ -1,0 +1,3 @@
+"""Shading integrals on a map: the ground truth, the estimators (quadrature, SH/HSH
+truncation) and the spectra (per-degree map and rule power, lookup transfer).
+"""

@@ -1,0 +1,3 @@
+"""Predicted against measured shading errors on a map (the paper's Figs. 7-8) and the
+report that states them.
+"""
