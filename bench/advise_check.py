@@ -18,7 +18,6 @@ import argparse
 import sys
 import tempfile
 import time
-from pathlib import Path
 
 
 import numpy as np  # noqa: E402

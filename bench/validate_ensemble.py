@@ -15,14 +15,14 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 
 import numpy as np
 
 
 from envfit.data_gen.gp import gaussian_process_map                        # noqa: E402
 from envfit.maps.envmap import EnvMap                                    # noqa: E402
-from envfit.validate.pipeline import ValidateConfig, parse_s, run_validation  # noqa: E402
+from envfit.fit.sigma import parse_s
+from envfit.validate.pipeline import ValidateConfig, run_validation
 
 
 def main(argv=None) -> int:

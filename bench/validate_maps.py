@@ -38,7 +38,8 @@ from pathlib import Path
 from envfit.data_gen.gp import gaussian_process_map                      # noqa: E402
 from envfit.base.atomic import atomic_write_json, atomic_write_text    # noqa: E402
 from envfit.maps.envmap import EnvMap, load_envmap                     # noqa: E402
-from envfit.validate.pipeline import SLOPE_CHECK_POINTSETS, ValidateConfig, quick_config, run_validation  # noqa: E402
+from envfit.validate.agreement import SLOPE_CHECK_POINTSETS
+from envfit.validate.pipeline import ValidateConfig, quick_config, run_validation
 
 DEFAULT_MAPS = ("/work/shared/envmaps/forest.exr", "/work/shared/envmaps/city.exr")
 #: S0:HEIGHT:SEED:CHANNELS — 12 channels are 12 independent realisations of the field, pooled

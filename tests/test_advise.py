@@ -177,7 +177,7 @@ def test_quadrature_prediction_equals_an_independent_spectral_computation(gp32, 
     + mean((sum w - 1)^2) m2)^1/2."""
     from envfit.shading.spectra import (bandlimited_worst_case_errors, lookup_transfer,
                                 map_degree_power, pixel_degree_power, rule_error_power)
-    from envfit.validate.pipeline import bandlimited_profiled_sigma
+    from envfit.fit.sigma import bandlimited_profiled_sigma
     from envfit.theory.pointsets import generate
     from envfit.theory.sobolev import sobolev_coefficients
     from envfit.theory.weights import equal_weights, optimal_weights

@@ -162,6 +162,6 @@ def test_small_maps_cap_the_samples_at_half_the_degrees_of_freedom():
     with pytest.raises(ParameterError, match="too small"):
         fit_smoothness(EnvMap(gaussian_process_map(1.5, 4, seed=1)), n=50, scale="linear",
                        kernel="bandlimited")
-    from envfit.validate.pipeline import bandlimited_profiled_sigma
+    from envfit.fit.sigma import bandlimited_profiled_sigma
     sig, used = bandlimited_profiled_sigma(env, 1.5, n=3000)
     assert used <= 128 and np.all(sig > 0)

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import envfit.advisor.advise
+import envfit.fit.sigma
 import envfit.fit.smoothness
 import envfit.batch.library
 import envfit.batch.library_fit
@@ -114,7 +115,7 @@ def test_guard_runs_before_any_sample_point(monkeypatch, gp16):
     """The API entry points refuse a huge N before making sample points or point sets."""
     _forbid(monkeypatch, envfit.fit.table2, "sample_directions")
     _forbid(monkeypatch, envfit.fit.smoothness, "sample_directions")
-    _forbid(monkeypatch, envfit.validate.pipeline, "sphere_points")
+    _forbid(monkeypatch, envfit.fit.sigma, "sphere_points")
     _forbid(monkeypatch, envfit.validate.pipeline, "generate")
     _forbid(monkeypatch, envfit.advisor.advise, "generate")
     _forbid(monkeypatch, envfit.batch.library_fit, "fit_sample_task")

@@ -17,6 +17,9 @@ import numpy as np
 import pytest
 
 from envfit.data_gen.gp import gaussian_process_map
+from envfit.fit import sigma as SG
+from envfit.shading import quadrature as Q
+from envfit.validate import agreement as AG
 from envfit.validate import pipeline as V
 from envfit.base.atomic import to_jsonable
 from envfit.maps.envmap import EnvMap, save_envmap
@@ -98,11 +101,11 @@ def test_shape_constant_is_log_mean_ratio(tiny_result):
             assert e["predicted_shape"] == pytest.approx([expect * p for p in e["predicted_wce"]], rel=1e-12)
     # and directly: log c minimises sum (log m - log c - log p)^2
     m, p = np.array([1.0, 3.0, 0.5]), np.array([2.0, 1.0, 4.0])
-    c = V.shape_constant(m, p)
+    c = AG.shape_constant(m, p)
     assert c == pytest.approx(np.exp(np.mean(np.log(m / p))), rel=1e-14)
     res = lambda cc: np.sum((np.log(m) - np.log(cc) - np.log(p)) ** 2)   # noqa: E731
     assert res(c) < res(c * 1.01) and res(c) < res(c / 1.01)
-    assert V.shape_residual(3.0 * p, p) == pytest.approx(0.0, abs=1e-14)
+    assert AG.shape_residual(3.0 * p, p) == pytest.approx(0.0, abs=1e-14)
 
 
 def test_slopes_equal_polyfit(tiny_result):
@@ -119,9 +122,9 @@ def test_slopes_equal_polyfit(tiny_result):
     n = np.array([16, 32, 64, 128, 256, 512], float)
     y = 0.3 * n ** -0.7 * np.exp(0.05 * np.sin(n))
     keep = n >= 64
-    assert V.loglog_slope(n, y) == pytest.approx(np.polyfit(np.log(n[keep]), np.log(y[keep]), 1)[0], rel=1e-12)
-    assert V.loglog_slope(n, y, None) == pytest.approx(np.polyfit(np.log(n), np.log(y), 1)[0], rel=1e-12)
-    assert V.loglog_slope([64], [1.0]) is None
+    assert AG.loglog_slope(n, y) == pytest.approx(np.polyfit(np.log(n[keep]), np.log(y[keep]), 1)[0], rel=1e-12)
+    assert AG.loglog_slope(n, y, None) == pytest.approx(np.polyfit(np.log(n), np.log(y), 1)[0], rel=1e-12)
+    assert AG.loglog_slope([64], [1.0]) is None
 
 
 def test_agreement_slopes_and_ratios_on_constructed_results():
@@ -133,7 +136,7 @@ def test_agreement_slopes_and_ratios_on_constructed_results():
             "predicted_rmse": [k * p for p in pred], "predicted_rmse_refined": [k * p for p in pred],
             "wce_by_s": {"1.5000": [k * p for p in pred]}}
            for k, ps in ((1.0, "sf"), (3.0, "random"), (2.0, "sobol"))]
-    a = V.agreement(res, [], s_used=1.5)
+    a = AG.agreement(res, [], s_used=1.5)
     for s in a["slopes"]:
         assert s["measured"] == pytest.approx(-0.8, abs=1e-12)
         assert s["predicted"] == pytest.approx(-0.75, abs=1e-12)
@@ -150,22 +153,22 @@ def test_agreement_slopes_and_ratios_on_constructed_results():
 
 def test_kendall_tau():
     names = ["sf", "sobol", "lp", "random"]
-    same = V.rank_agreement(names, [1, 2, 3, 4], [0.1, 0.2, 0.3, 0.4])
+    same = AG.rank_agreement(names, [1, 2, 3, 4], [0.1, 0.2, 0.3, 0.4])
     assert same["kendall_tau"] == pytest.approx(1.0) and same["measured_order"] == names
-    rev = V.rank_agreement(names, [1, 2, 3, 4], [4, 3, 2, 1])
+    rev = AG.rank_agreement(names, [1, 2, 3, 4], [4, 3, 2, 1])
     assert rev["kendall_tau"] == pytest.approx(-1.0)
-    one_swap = V.rank_agreement(names, [1, 2, 3, 4], [1, 3, 2, 4])
+    one_swap = AG.rank_agreement(names, [1, 2, 3, 4], [1, 3, 2, 4])
     assert one_swap["kendall_tau"] == pytest.approx(4 / 6)      # (5 concordant - 1 discordant) / 6
 
 
 # ----------------------------------------------------------------------------- building blocks
 
 def test_multi_estimates_equal_single_estimator(gp_map):
-    axes = V.random_axes(30, 3)
+    axes = Q.random_axes(30, 3)
     pts = generate("jitter", 20, seed=2, morph=Diffuse().morph)
     w1 = np.full(20, 1 / 20)
     w2 = np.random.default_rng(0).uniform(0, 0.1, 20)
-    multi = V.quadrature_estimates_multi(gp_map, axes, pts, [w1, w2], seed=[1, 2], workers=2, block=64)
+    multi = Q.quadrature_estimates_multi(gp_map, axes, pts, [w1, w2], seed=[1, 2], workers=2, block=64)
     for k, w in enumerate((w1, w2)):
         assert np.allclose(multi[k], quadrature_estimates(gp_map, axes, pts, w, seed=[1, 2]),
                            rtol=0, atol=1e-13)
@@ -178,7 +181,7 @@ def test_fast_wce_and_bandlimited_match_theory():
             for w in (np.full(40, 1 / 40), optimal_weights(pts, wf, 1.3)):
                 for s in (1.1, 1.5, 1.9):
                     a = worst_case_error(pts, w, wf, s)
-                    b = V.rule_worst_case_error(pts, w, wf, s)
+                    b = Q.rule_worst_case_error(pts, w, wf, s)
                     assert abs(a * a - b * b) < 1e-13
                 sp = error_spectrum(pts, w, wf, 1.5, 50)
                 assert V.bandlimited_worst_case_error(pts, w, wf, 1.5, 50) == pytest.approx(
@@ -188,7 +191,7 @@ def test_fast_wce_and_bandlimited_match_theory():
 def test_profiled_sigma_matches_dense_solve():
     env = EnvMap(gaussian_process_map(1.5, 16, seed=7, channels=2, scale=3.0))
     n = 120
-    sig = V.profiled_sigma(env, 1.4, n=n, seed=0)
+    sig = SG.profiled_sigma(env, 1.4, n=n, seed=0)
     # independent: explicit kernel from envfit.theory.sobolev, numpy solve, same sampling directions
     from envfit.theory.sphere_points import sphere_points
     from envfit.maps.latlong import local_to_world
@@ -201,9 +204,9 @@ def test_profiled_sigma_matches_dense_solve():
 
 
 def test_measured_equivalent_n_and_combine_sigma():
-    assert V.measured_equivalent_n([10, 100], [1.0, 0.1], 0.1 ** 0.5) == pytest.approx(10 ** 1.5, rel=1e-9)
-    assert V.measured_equivalent_n([10, 100], [1.0, 0.1], 2.0) is None
-    assert V.combine_sigma([1.0, 1.0, 4.0]) == pytest.approx(math.sqrt(6.0))
+    assert AG.measured_equivalent_n([10, 100], [1.0, 0.1], 0.1 ** 0.5) == pytest.approx(10 ** 1.5, rel=1e-9)
+    assert AG.measured_equivalent_n([10, 100], [1.0, 0.1], 2.0) is None
+    assert SG.combine_sigma([1.0, 1.0, 4.0]) == pytest.approx(math.sqrt(6.0))
 
 
 def test_gp_map_measured_rmse_matches_sigma_wce():
@@ -257,7 +260,7 @@ def test_resume_skips_finished_cells(gp_map, tmp_path):
 def test_config_validation():
     for bad in ("abc", "2.5", "1", 0.9, "nan"):
         with pytest.raises(ParameterError):
-            V.parse_s(bad)
+            SG.parse_s(bad)
     with pytest.raises(ParameterError):
         V.ValidateConfig(pointsets=("sf", "halton"))
     with pytest.raises(ParameterError):
@@ -328,7 +331,7 @@ def test_auto_s_path(gp_map):
     assert r["fit"]["source"] == "fit" and 1.0 < r["s"] < 2.0
     lo, hi = r["fit"]["s_interval"]
     assert lo <= r["s"] <= hi
-    sig = V.profiled_sigma(gp_map, r["s"], n=150, seed=0)
+    sig = SG.profiled_sigma(gp_map, r["s"], n=150, seed=0)
     assert np.allclose(r["sigma_channels"], sig, rtol=1e-6)
 
 

@@ -142,8 +142,8 @@ from envfit.shading.ground_truth import bilinear_sh_coefficients, shading_integr
 from envfit.shading.spectra import (band_e2, degree_weights, map_transfer, rule_error_power,  # noqa: F401
                       sh_truncation_curve_transfer)
 from envfit.base.store import array_fingerprint
-from envfit.validate.pipeline import (bandlimited_profiled_sigma, combine_sigma, parse_s,
-                       quadrature_estimates_multi, random_axes, rule_worst_case_error)
+from envfit.fit.sigma import bandlimited_profiled_sigma, combine_sigma, parse_s
+from envfit.shading.quadrature import quadrature_estimates_multi, random_axes, rule_worst_case_error
 
 
 

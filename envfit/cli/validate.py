@@ -58,7 +58,8 @@ def register(sub) -> None:
 
 
 def _config(args: argparse.Namespace):
-    from envfit.validate.pipeline import ValidateConfig, parse_s, quick_config
+    from envfit.fit.sigma import parse_s
+    from envfit.validate.pipeline import ValidateConfig, quick_config
     s = parse_s(args.s)                      # a bad --s: ParameterError, one line, exit 2
     over = {"s": s, "shininess": args.shininess, "scale": args.scale, "seed": args.seed,
             "fit_method": args.fit_method, "truncation": not args.no_truncation}

@@ -130,48 +130,39 @@ from __future__ import annotations
 
 import math
 import time
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Callable, Sequence
 
 import numpy as np
 
-from envfit.theory.cholesky import cho_factor, cho_solve
 from envfit.theory.errors import TheoryParameterError
 from envfit.theory.pointsets import POINTSETS, generate
-from envfit.theory.quadrature import initial_error, kernel_mean_embedding, weighted_energy_sum
-from envfit.theory.sobolev import kernel_constant
-from envfit.theory.sphere_points import sphere_points
 from envfit.theory.truncation import equivalent_qmc_points, truncation_error_curve
-from envfit.theory.weights import equal_weights, kernel_matrix, optimal_weights
+from envfit.theory.weights import equal_weights, optimal_weights
 
-from envfit.kernels.bandlimited import (bandlimited_log_likelihood, map_band_limit, max_samples,
-                          pixel_centre_samples)
+from envfit.kernels.bandlimited import (map_band_limit)
 from envfit.base.checks import check_int, check_ints, check_names, check_positive
 from envfit.maps.envmap import EnvMap, check_sample_count
 from envfit.base.errors import ParameterError
-from envfit.shading.estimators import hsh_truncation_curve, rmse_over_axes, sh_truncation_curve, twisted_frames
-from envfit.maps.latlong import local_to_world
+from envfit.shading.estimators import hsh_truncation_curve, rmse_over_axes, sh_truncation_curve
 from envfit.base.progress import progress_bar
-from envfit.base.resources import check_memory, plan_memory
+from envfit.base.resources import plan_memory
 from envfit.maps.scales import check_not_constant, fit_scale
 from envfit.shading.ground_truth import shading_integral, weight_function
 from envfit.shading.spectra import (bandlimited_worst_case_error, bandlimited_worst_case_errors,  # noqa: F401
                       low_degree_power_ratio, lookup_transfer, map_degree_power, model_scatter,
                       pixel_degree_power, rule_error_power, sh_truncation_curve_transfer,
                       spectral_rmse)
+from envfit.fit.sigma import bandlimited_profiled_sigma, combine_sigma, parse_s, profiled_sigma
+from envfit.shading.quadrature import (LOOKUP_BLOCK, quadrature_estimates_multi, random_axes,
+                                       rule_worst_case_error)
+from envfit.validate.agreement import SLOPE_RANGE, agreement, loglog_slope, measured_equivalent_n
 from envfit.base.store import ResultStore, array_fingerprint
 
-__all__ = ["ValidateConfig", "quick_config", "run_validation", "agreement",
-           "quadrature_estimates_multi", "random_axes", "profiled_sigma", "combine_sigma",
-           "bandlimited_profiled_sigma", "plan_validation_memory",
-           "loglog_slope", "shape_constant", "shape_residual", "rank_agreement",
-           "measured_equivalent_n", "parse_s", "rule_worst_case_error",
-           "bandlimited_worst_case_error", "bandlimited_worst_case_errors", "map_statistics",
-           "rule_error_power", "map_degree_power", "spectral_rmse", "model_scatter",
-           "low_degree_power_ratio", "ALL_POINTSETS", "WEIGHTINGS", "BRDFS",
-           "DEFAULT_N", "QUICK_N", "SLOPE_RANGE", "S_CANDIDATES", "QUICK_DESCRIPTION"]
+__all__ = ["ValidateConfig", "quick_config", "run_validation", "plan_validation_memory",
+           "map_statistics", "ALL_POINTSETS", "WEIGHTINGS", "BRDFS", "DEFAULT_N", "QUICK_N",
+           "S_CANDIDATES", "QUICK_DESCRIPTION"]
 
 #: the paper's six point sets (Sec. 7.1), in a fixed order (also the seed index)
 ALL_POINTSETS = ("sf", "sobol", "lp", "bnot", "random", "jitter")
@@ -180,18 +171,8 @@ BRDFS = ("diffuse", "glossy")
 DEFAULT_N = tuple(2 ** k for k in range(4, 13))            # 16 … 4096
 QUICK_N = tuple(2 ** k for k in range(4, 11))              # 16 … 1024
 QUICK_POINTSETS = ("sf", "sobol", "lp", "random", "jitter")
-#: N range of the fitted convergence slopes
-SLOPE_RANGE = (64, 4096)
 #: smoothness values against which the fitted s is compared (shape residual)
 S_CANDIDATES = (1.1, 1.3, 1.5, 1.7, 1.9)
-#: relative tolerance of prediction (b) in the acceptance summary
-ABSOLUTE_TOLERANCE = 0.2
-#: tolerance on |slope measured − slope predicted| in the acceptance summary
-SLOPE_TOLERANCE = 0.1
-#: point sets whose slopes are part of the acceptance check
-SLOPE_CHECK_POINTSETS = ("sf", "random")
-#: directions looked up per block (per thread) in :func:`quadrature_estimates_multi`
-LOOKUP_BLOCK = 1 << 18
 
 QUICK_DESCRIPTION = (
     "--quick: the map downscaled to at most 256 rows, M = 500 axes, N = 16…1024, point sets "
@@ -296,290 +277,7 @@ def quick_config(**overrides) -> ValidateConfig:
     return ValidateConfig(**base)
 
 
-def parse_s(value) -> float | str:
-    """``"auto"`` or a smoothness in (1, 2) (a string or number); else :class:`ParameterError`.
-
-    >>> parse_s("auto"), parse_s("1.5"), parse_s(1.3)
-    ('auto', 1.5, 1.3)
-    """
-    if isinstance(value, str):
-        text = value.strip().lower()
-        if text == "auto":
-            return "auto"
-        try:
-            v = float(text)
-        except ValueError:
-            raise ParameterError(f"s (--s) must be 'auto' or a number in (1, 2), got {value!r}") \
-                from None
-    else:
-        try:
-            v = float(value)
-        except (TypeError, ValueError):
-            raise ParameterError(f"s (--s) must be 'auto' or a number in (1, 2), got {value!r}") \
-                from None
-    if not (math.isfinite(v) and 1.0 < v < 2.0):
-        raise ParameterError(f"s (--s) must be 'auto' or a number in (1, 2) (the Sobolev range "
-                             f"of the kernel, Eq. 14), got {value!r}")
-    return v
-
-
 # ----------------------------------------------------------------------------- building blocks
-
-def random_axes(m: int, seed) -> np.ndarray:
-    """M axes uniform on the sphere (normalised standard normal vectors), (M, 3).
-
-    >>> a = random_axes(1000, 0)
-    >>> a.shape, bool(np.allclose(np.linalg.norm(a, axis=1), 1)), bool(abs(a[:, 2].mean()) < 0.1)
-    ((1000, 3), True, True)
-    """
-    v = np.random.default_rng(seed).standard_normal((int(m), 3))
-    return v / np.linalg.norm(v, axis=1, keepdims=True)
-
-
-def quadrature_estimates_multi(envmap: EnvMap, axes, local_points, weight_sets, *, seed=None,
-                               workers: int = 2, block: int = LOOKUP_BLOCK) -> np.ndarray:
-    r"""Eq. 34 for several weight vectors on the same rotated points, (K, M, C).
-
-    :math:`\tilde I_k(a_m) = \sum_j w_{kj} f(R_m R_z(\alpha_m) u_j)` — exactly
-    :func:`envfit.shading.estimators.quadrature_estimates` (same frames, same twist
-    :math:`\alpha_m` drawn from ``numpy.random.default_rng(seed)``) for every weight vector,
-    but the M·N bilinear lookups are done once and shared (equal weights and OSW use the
-    same points), in blocks of ``block`` directions spread over ``workers`` threads (numpy
-    releases the GIL in the lookup's array operations: ≈2× on 2 cores).
-
-    >>> from envfit.maps.envmap import EnvMap
-    >>> m = EnvMap(np.full((4, 8, 1), 2.0))
-    >>> est = quadrature_estimates_multi(m, [[0, 1.0, 0]], [[0, 0, 1.0], [0.6, 0, 0.8]],
-    ...                                  [[0.5, 0.5], [1.0, 0.0]], seed=0)
-    >>> est.shape, est[:, 0, 0].round(12).tolist()
-    ((2, 1, 1), [2.0, 2.0])
-    """
-    A = np.atleast_2d(np.asarray(axes, dtype=np.float64))
-    if A.ndim != 2 or A.shape[1] != 3 or not np.all(np.isfinite(A)):
-        raise ParameterError(f"axes must be finite with shape (M, 3), got {A.shape}")
-    A = A / np.linalg.norm(A, axis=1, keepdims=True)
-    P = np.asarray(local_points, dtype=np.float64)
-    if P.ndim != 2 or P.shape[1] != 3 or P.shape[0] == 0 or not np.all(np.isfinite(P)):
-        raise ParameterError(f"local_points must be finite with shape (N, 3), got {P.shape}")
-    P = P / np.linalg.norm(P, axis=1, keepdims=True)
-    W = np.atleast_2d(np.asarray(weight_sets, dtype=np.float64))
-    if W.shape[1] != P.shape[0] or not np.all(np.isfinite(W)):
-        raise ParameterError(f"weight_sets must be (K, {P.shape[0]}) finite, got {W.shape}")
-    m_total, n = A.shape[0], P.shape[0]
-    R = twisted_frames(A, seed)
-    c = envmap.channels
-    out = np.empty((W.shape[0], m_total, c))
-    mb = max(1, int(block) // n)
-    workers = max(1, int(workers))
-    check_memory(workers * min(m_total, mb) * n * 8 * (8 + 2 * c),
-                 f"{workers} blocks of {min(m_total, mb)} axes x {n} points",
-                 hint="use fewer points or workers")
-
-    def work(m0: int) -> None:
-        m1 = min(m_total, m0 + mb)
-        dirs = np.einsum("mij,nj->mni", R[m0:m1], P)
-        vals = envmap.lookup(dirs)                                   # (mb, N, C)
-        out[:, m0:m1, :] = np.einsum("mnc,kn->kmc", vals, W)
-
-    starts = list(range(0, m_total, mb))
-    if workers == 1 or len(starts) == 1:
-        for m0 in starts:
-            work(m0)
-    else:
-        with ThreadPoolExecutor(workers) as ex:
-            list(ex.map(work, starts))
-    return out
-
-
-def rule_worst_case_error(points, weights, brdf, s: float, *, workers: int = 1) -> float:
-    r"""Worst-case error of a quadrature rule, Eq. 41 — the value of
-    :func:`envfit.theory.quadrature.worst_case_error`, arranged the same way,
-
-    .. math:: E^2 = C\Big(\sum_j w_j - 1\Big)^2 + 2\sum_j w_j\zeta_j - \bar\zeta
-              - \sum_{i,j} w_i w_j |u_i-u_j|^{2s-2},
-              \qquad \zeta_j = C - z_j,\ \bar\zeta = C - E_0^2,
-
-    but with the kernel mean embedding :math:`z_j` always evaluated through its piecewise
-    Chebyshev interpolant (``kernel_mean_embedding(..., method="chebyshev")``, agreement
-    with the Legendre series ≈1e-15). ``worst_case_error`` picks the direct Legendre
-    series when N·L ≤ 4·10⁶, and the diffuse lobe needs L = 16 385 (s = 1.5) to 32 769
-    (s = 1.1) terms: 0.05–0.2 s per call for N ≤ 256, ~1 ms here. Agreement with
-    ``worst_case_error`` is checked in the tests (E² to 1e-14 absolute, the rounding level
-    of both).
-
-    >>> from envfit.theory.brdf import Diffuse
-    >>> from envfit.theory.quadrature import worst_case_error
-    >>> u = np.array([[0.0, 0.0, 1.0], [0.6, 0.0, 0.8], [0.0, 0.6, 0.8]]); w = np.full(3, 1 / 3)
-    >>> bool(np.isclose(rule_worst_case_error(u, w, Diffuse(), 1.5),
-    ...                 worst_case_error(u, w, Diffuse(), 1.5), rtol=1e-10))
-    True
-    """
-    pts = np.asarray(points, dtype=np.float64)
-    w = np.asarray(weights, dtype=np.float64)
-    C = kernel_constant(s)
-    zeta = C - kernel_mean_embedding(pts, brdf, s, method="chebyshev")
-    zbar = C - initial_error(brdf, s)
-    pair = weighted_energy_sum(pts, w, s, workers=workers)
-    e2 = C * (math.fsum(w) - 1.0) ** 2 + math.fsum([2.0 * math.fsum(w * zeta), -zbar, -pair])
-    return math.sqrt(max(e2, 0.0))
-
-
-def profiled_sigma(envmap: EnvMap, s: float, *, n: int = 1500, seed: int = 0) -> np.ndarray:
-    r"""σ̂ per channel of the GP model f ~ GP(0, σ² K_gd^(s)) at a given s, (C,).
-
-    The profiled maximum-likelihood scale (the same estimate as ``envfit fit --method
-    likelihood`` at its fitted s): with the map sampled at n spherical Fibonacci directions
-    (the fit's sampling, :func:`envfit.theory.sphere_points.sphere_points`), values centred per
-    channel (the map's mean is its l = 0 term),
-
-    .. math:: \hat\sigma_c^2 = \frac{1}{n} f_c^T K^{-1} f_c, \qquad K_{ij} = K^{(s)}_{gd}(u_i, u_j)
-              \quad (14)
-
-    by a float64 Cholesky factorisation. Does not need :mod:`envfit.kernels.interpolation`.
-    ``envmap`` must already be on the wanted value scale.
-
-    >>> from envfit.maps.envmap import EnvMap
-    >>> m = EnvMap(np.full((8, 16, 2), 3.0))          # a constant: zero after centring
-    >>> profiled_sigma(m, 1.5, n=50).tolist()
-    [0.0, 0.0]
-    """
-    s = float(parse_s(s))
-    n = check_int(n, "n", 2)
-    plan_memory(n, "the sigma fit", channels=envmap.channels, n_name="fit_n")
-    local = sphere_points("sf", n, seed=seed)
-    dirs = local @ local_to_world(envmap.up).T
-    v = envmap.lookup(dirs).reshape(n, envmap.channels)
-    v = v - v.mean(axis=0, keepdims=True)
-    K = kernel_matrix(local, s)
-    try:  # kernel_matrix is Fortran-ordered: factorised in place
-        cf = cho_factor(K, overwrite_a=True)
-    except np.linalg.LinAlgError:  # pragma: no cover - SF points are distinct
-        raise ParameterError("kernel matrix of the sigma fit is not positive definite") from None
-    sol = cho_solve(cf, v)
-    return np.sqrt(np.maximum(np.sum(v * sol, axis=0) / n, 0.0))
-
-
-def combine_sigma(sigmas) -> float:
-    r"""Channels' σ̂ combined as RMS, :math:`(\frac1C\sum_c\sigma_c^2)^{1/2}` — the σ of the
-    RMSE over axes *and* channels (:func:`envfit.shading.estimators.rmse_over_axes`).
-
-    >>> combine_sigma([3.0, 4.0]) == (12.5) ** 0.5
-    True
-    """
-    s = np.asarray(sigmas, dtype=np.float64).ravel()
-    if s.size == 0:
-        raise ParameterError("no sigma to combine")
-    return float(np.sqrt(np.mean(s * s)))
-
-
-def loglog_slope(n, y, n_range: tuple[float, float] | None = SLOPE_RANGE) -> float | None:
-    r"""Least-squares slope of :math:`\log y` against :math:`\log N` (``np.polyfit``, degree 1).
-
-    Only N within ``n_range`` (inclusive) and finite positive y are used; None when fewer
-    than two remain. A rate :math:`N^{-k}` has slope −k.
-
-    >>> n = np.array([64, 128, 256]); round(loglog_slope(n, 3.0 * n ** -0.75), 12)
-    -0.75
-    """
-    n = np.asarray(n, dtype=np.float64)
-    y = np.asarray([np.nan if v is None else v for v in y], dtype=np.float64)
-    keep = np.isfinite(y) & (y > 0) & (n > 0)
-    if n_range is not None:
-        keep &= (n >= n_range[0]) & (n <= n_range[1])
-    if keep.sum() < 2:
-        return None
-    return float(np.polyfit(np.log(n[keep]), np.log(y[keep]), 1)[0])
-
-
-def _log_pairs(measured, predicted) -> tuple[np.ndarray, np.ndarray]:
-    m = np.asarray([np.nan if v is None else v for v in np.ravel(measured)], dtype=np.float64)
-    p = np.asarray([np.nan if v is None else v for v in np.ravel(predicted)], dtype=np.float64)
-    if m.shape != p.shape:
-        raise ParameterError(f"measured and predicted differ in size: {m.shape} vs {p.shape}")
-    keep = np.isfinite(m) & np.isfinite(p) & (m > 0) & (p > 0)
-    return np.log(m[keep]), np.log(p[keep])
-
-
-def shape_constant(measured, predicted) -> float | None:
-    r"""The factor c of prediction (a): :math:`\log c = \mathrm{mean}(\log R_{meas} - \log E)`.
-
-    The least-squares fit of :math:`\log R_{meas} \approx \log c + \log E` over all given
-    pairs (finite, positive), i.e. the geometric mean of the ratios. None if no pair.
-
-    >>> shape_constant([2.0, 8.0], [1.0, 1.0])
-    4.0
-    """
-    lm, lp = _log_pairs(measured, predicted)
-    if lm.size == 0:
-        return None
-    return float(np.exp(np.mean(lm - lp)))
-
-
-def shape_residual(measured, predicted) -> float | None:
-    r"""RMS of :math:`\log_{10}R_{meas} - \log_{10}E - \log_{10}c` (dex) with c from
-    :func:`shape_constant`: 0 when measured ∝ predicted; 0.1 ≈ a typical factor 1.26.
-
-    >>> round(shape_residual([1.0, 100.0], [1.0, 1.0]), 12)
-    1.0
-    """
-    lm, lp = _log_pairs(measured, predicted)
-    if lm.size == 0:
-        return None
-    d = (lm - lp) / math.log(10.0)
-    return float(np.sqrt(np.mean((d - d.mean()) ** 2)))
-
-
-def rank_agreement(names: Sequence[str], measured_levels, predicted_levels) -> dict:
-    r"""Rank order of point sets, measured vs predicted, and Kendall's τ (``scipy.stats.kendalltau``).
-
-    Lower level = better. Returns ``{"measured_order", "predicted_order", "kendall_tau",
-    "p_value"}`` (τ = 1: the same order; −1: reversed; None with fewer than two sets).
-
-    >>> rank_agreement(["a", "b", "c"], [1, 2, 3], [10, 20, 30])["kendall_tau"]
-    1.0
-    """
-    names = list(names)
-    m = np.asarray(measured_levels, dtype=np.float64)
-    p = np.asarray(predicted_levels, dtype=np.float64)
-    keep = np.isfinite(m) & np.isfinite(p)
-    names_k = [nm for nm, k in zip(names, keep) if k]
-    m, p = m[keep], p[keep]
-    out = {"measured_order": [names_k[i] for i in np.argsort(m, kind="stable")],
-           "predicted_order": [names_k[i] for i in np.argsort(p, kind="stable")],
-           "kendall_tau": None, "p_value": None}
-    if len(names_k) >= 2:
-        from scipy import stats  # local: scipy.stats costs ~1 s to import
-        res = stats.kendalltau(m, p)
-        tau = float(res.statistic) if hasattr(res, "statistic") else float(res[0])
-        pv = float(res.pvalue) if hasattr(res, "pvalue") else float(res[1])
-        out["kendall_tau"] = None if not np.isfinite(tau) else tau
-        out["p_value"] = None if not np.isfinite(pv) else pv
-    return out
-
-
-def measured_equivalent_n(n_values, rmse_curve, target: float) -> float | None:
-    r"""N at which a measured RMSE(N) curve reaches ``target``, by linear interpolation in
-    log-log between the bracketing measured points; None outside the measured range.
-
-    >>> round(measured_equivalent_n([100, 400], [0.1, 0.05], 0.0707106781), 3)
-    200.0
-    """
-    n = np.asarray(n_values, dtype=np.float64)
-    y = np.asarray([np.nan if v is None else v for v in rmse_curve], dtype=np.float64)
-    if target is None or not np.isfinite(target) or target <= 0:
-        return None
-    keep = np.isfinite(y) & (y > 0)
-    n, y = n[keep], y[keep]
-    if n.size < 2:
-        return None
-    lt = math.log(target)
-    ly, ln = np.log(y), np.log(n)
-    for i in range(n.size - 1):
-        lo, hi = sorted((ly[i], ly[i + 1]))
-        if lo <= lt <= hi and ly[i] != ly[i + 1]:
-            t = (lt - ly[i]) / (ly[i + 1] - ly[i])
-            return float(math.exp(ln[i] + t * (ln[i + 1] - ln[i])))
-    return None
 
 
 # ----------------------------------------------------------------------------- pipeline
@@ -608,30 +306,6 @@ def _error_stats(est: np.ndarray, truth: np.ndarray) -> dict:
     kurt = float(np.mean(e ** 4) / var ** 2) if var > 0 else None
     return {"measured_rmse": float(r.total), "measured_rmse_channels": r.per_channel.tolist(),
             "measured_rel_se": rel_se, "error_kurtosis": kurt}
-
-
-def bandlimited_profiled_sigma(scaled: EnvMap, s: float, *, n: int = 1500,
-                               seed: int = 0) -> tuple[np.ndarray, int]:
-    r"""σ̂ per channel at a given s under the band-limited model (:mod:`envfit.kernels.bandlimited`):
-    ``n`` spherical Fibonacci directions (at most :func:`envfit.kernels.bandlimited.max_samples`)
-    moved to their pixel centres, values centred per
-    channel, :math:`\hat\sigma_c^2 = f_c^T K_{H-1}^{-1} f_c / n`. ``scaled`` must already
-    be on the wanted value scale. Returns ``(sigma (C,), samples used)``.
-
-    >>> from envfit.maps.envmap import EnvMap
-    >>> sig, used = bandlimited_profiled_sigma(EnvMap(np.full((8, 16, 2), 3.0)), 1.5, n=50)
-    >>> sig.tolist(), used                      # n capped at 8²/2 = 32 on 8 rows
-    ([0.0, 0.0], 32)
-    """
-    s = float(parse_s(s))
-    n = min(check_int(n, "n", 10), max(10, max_samples(map_band_limit(scaled))))
-    plan_memory(n, "the band-limited sigma fit", channels=scaled.channels, n_name="fit_n",
-                smallest=10)
-    local = sphere_points("sf", n, seed=seed)
-    pts, v = pixel_centre_samples(scaled, local @ local_to_world(scaled.up).T)
-    v = v - v.mean(axis=0, keepdims=True)
-    ll, sig = bandlimited_log_likelihood(pts, v, s, map_band_limit(scaled))
-    return np.atleast_1d(sig), int(len(pts))
 
 
 def _fit(envmap: EnvMap, cfg: ValidateConfig, store: ResultStore, quiet: bool, *,
@@ -1089,175 +763,3 @@ def map_statistics(envmap: EnvMap, scaled: EnvMap, scale) -> dict:
 
 # ----------------------------------------------------------------------------- agreement
 
-def agreement(results: list[dict], truncation: list[dict] | None = None, *, s_used: float,
-              slope_range: tuple[int, int] = SLOPE_RANGE,
-              slope_tolerance: float = SLOPE_TOLERANCE,
-              absolute_tolerance: float = ABSOLUTE_TOLERANCE) -> dict:
-    r"""Agreement statistics between measured and predicted errors (see the module docstring).
-
-    ``results`` entries need ``brdf``, ``pointset``, ``weights``, ``n``, ``measured_rmse``,
-    ``predicted_wce``, ``predicted_rmse`` and (for the s comparison) ``wce_by_s``.
-
-    Returns a dict with
-
-    * ``slopes``: per rule, measured and predicted slope over ``slope_range``, difference;
-    * ``ratios``: per rule, measured/predicted_wce per N and its spread max/min over the
-      slope range (1 = the theory's shape holds exactly);
-    * ``shape_fit``: per BRDF the factor c (:func:`shape_constant` over every rule and N)
-      and the residual in dex (:func:`shape_residual`); ``s_choice``: the residual per
-      candidate s and the best one;
-    * ``rank``: per (BRDF, weighting) the measured and predicted orders of the point sets
-      by their geometric-mean level over the slope range, Kendall's τ, and τ per N;
-    * ``absolute``: prediction (b) σ·wce against the measured RMSE: per rule the ratio
-      predicted/measured per N; overall median, worst, fraction within the tolerance;
-    * ``truncation``: per curve the ratio predicted_rmse/measured and the shape residual;
-    * ``acceptance``: the issue's checks (slopes of sf and random within
-      ``slope_tolerance``, identical rank orders, (b) within ``absolute_tolerance``).
-    """
-    all_n = [n for e in results for n in e["n"]]
-    lo = max(slope_range[0], min(all_n)) if all_n else slope_range[0]
-    hi = min(slope_range[1], max(all_n)) if all_n else slope_range[1]
-    slope_range = (lo, hi)
-    out: dict = {"slope_range": [lo, hi], "s": s_used,
-                 "shape_fit": {"method": "per BRDF, log c = mean over every point set, "
-                                         "weighting and N of (log measured RMSE - log wce); "
-                                         "residual = RMS of the remaining log10 differences",
-                               "constant": {}, "residual_dex": {}},
-                 "slopes": [], "ratios": [], "rank": [], "s_choice": {}, "absolute": {},
-                 "truncation": [], "acceptance": {}}
-    brdfs = list(dict.fromkeys(e["brdf"] for e in results))
-    # slopes and ratios
-    for e in results:
-        sm = loglog_slope(e["n"], e["measured_rmse"], slope_range)
-        sp = loglog_slope(e["n"], e["predicted_wce"], slope_range)
-        diff = None if (sm is None or sp is None) else sm - sp
-        sb = loglog_slope(e["n"], e["predicted_rmse_refined"], slope_range) \
-            if e.get("predicted_rmse_refined") is not None else None
-        diff_b = None if (sm is None or sb is None) else sm - sb
-        out["slopes"].append({"brdf": e["brdf"], "pointset": e["pointset"], "weights": e["weights"],
-                              "measured": sm, "predicted": sp, "difference": diff,
-                              "within_tolerance": None if diff is None else bool(abs(diff) <= slope_tolerance),
-                              "predicted_refined": sb, "difference_refined": diff_b})
-        ratio = [None if (m is None or p is None or p <= 0) else m / p
-                 for m, p in zip(e["measured_rmse"], e["predicted_wce"])]
-        in_rng = [r for n, r in zip(e["n"], ratio) if r is not None and lo <= n <= hi and r > 0]
-        out["ratios"].append({"brdf": e["brdf"], "pointset": e["pointset"], "weights": e["weights"],
-                              "n": e["n"], "measured_over_wce": ratio,
-                              "spread": (max(in_rng) / min(in_rng)) if len(in_rng) >= 2 else None})
-    # shape fit (a) and the choice of s
-    for b in brdfs:
-        es = [e for e in results if e["brdf"] == b]
-        meas = [m for e in es for m in e["measured_rmse"]]
-        pred = [p for e in es for p in e["predicted_wce"]]
-        out["shape_fit"]["constant"][b] = shape_constant(meas, pred)
-        out["shape_fit"]["residual_dex"][b] = shape_residual(meas, pred)
-        entry = {"used_s": s_used}
-        for suffix, field_ in (("", "wce_by_s"), ("_bandlimited", "wce_bandlimited_by_s")):
-            choice = {}
-            s_keys = sorted(set().union(*[set(e.get(field_) or {}) for e in es])) if es else []
-            for sk in s_keys:
-                pred_s = [p for e in es for p in (e.get(field_) or {}).get(sk, [None] * len(e["n"]))]
-                choice[sk] = {"residual_dex": shape_residual(meas, pred_s),
-                              "constant": shape_constant(meas, pred_s)}
-            valid = {k: v["residual_dex"] for k, v in choice.items() if v["residual_dex"] is not None}
-            best = min(valid, key=valid.get) if valid else None
-            entry["residual_by_s" + suffix] = choice
-            entry["best_s" + suffix] = None if best is None else float(best)
-        out["s_choice"][b] = entry
-    # rank order
-    for b in brdfs:
-        for w in dict.fromkeys(e["weights"] for e in results if e["brdf"] == b):
-            es = [e for e in results if e["brdf"] == b and e["weights"] == w]
-            if len(es) < 2:
-                continue
-            names = [e["pointset"] for e in es]
-            ml, pl = [], []
-            for e in es:
-                mm = [m for n, m, p in zip(e["n"], e["measured_rmse"], e["predicted_wce"])
-                      if lo <= n <= hi and m is not None and p is not None and m > 0 and p > 0]
-                pp = [p for n, m, p in zip(e["n"], e["measured_rmse"], e["predicted_wce"])
-                      if lo <= n <= hi and m is not None and p is not None and m > 0 and p > 0]
-                ml.append(float(np.exp(np.mean(np.log(mm)))) if mm else np.nan)
-                pl.append(float(np.exp(np.mean(np.log(pp)))) if pp else np.nan)
-            rk = rank_agreement(names, ml, pl)
-            per_n = {}
-            for i, n in enumerate(es[0]["n"]):
-                mv = [e["measured_rmse"][i] for e in es]
-                pv = [e["predicted_wce"][i] for e in es]
-                mv = [np.nan if v is None else v for v in mv]
-                pv = [np.nan if v is None else v for v in pv]
-                per_n[str(n)] = rank_agreement(names, mv, pv)["kendall_tau"]
-            out["rank"].append({"brdf": b, "weights": w, **rk, "measured_level": ml,
-                                "predicted_level": pl, "pointsets": names, "tau_per_n": per_n})
-    # absolute prediction (b), and (b') band-limited
-    ab = {"tolerance": absolute_tolerance}
-    for variant, key in (("", "predicted_rmse"), ("_refined", "predicted_rmse_refined"),
-                         ("_spectral", "predicted_rmse_spectral")):
-        per_rule, all_ratio, in_range_ratio, in_range_band = [], [], [], []
-        for e in results:
-            preds = e.get(key) or [None] * len(e["n"])
-            ratio = [None if (m is None or p is None or m <= 0) else p / m
-                     for m, p in zip(e["measured_rmse"], preds)]
-            # the spread one map is expected to show about the model (refined only) and the
-            # Monte Carlo error of M axes: 2 standard deviations, combined
-            sd = [None] * len(e["n"])
-            if variant == "_refined":
-                sd = [None if sc is None else math.hypot(sc, se or 0.0)
-                      for sc, se in zip(e.get("model_scatter") or [None] * len(e["n"]),
-                                        e.get("measured_rel_se") or [None] * len(e["n"]))]
-            per_rule.append({"brdf": e["brdf"], "pointset": e["pointset"], "weights": e["weights"],
-                             "n": e["n"], "predicted_over_measured": ratio,
-                             **({"expected_relative_sd": sd} if variant == "_refined" else {})})
-            all_ratio += [r for r in ratio if r is not None and r > 0]
-            for n, r, d in zip(e["n"], ratio, sd):
-                if r is not None and r > 0 and lo <= n <= hi:
-                    in_range_ratio.append(r)
-                    in_range_band.append(max(absolute_tolerance, 2.0 * d) if d is not None
-                                         else absolute_tolerance)
-        ab["per_rule" + variant] = per_rule
-        for name, arr in (("all", all_ratio), ("slope_range", in_range_ratio)):
-            a = np.asarray(arr, dtype=np.float64)
-            ab[name + variant] = None if a.size == 0 else {
-                "cells": int(a.size), "median_ratio": float(np.median(a)),
-                "min_ratio": float(a.min()), "max_ratio": float(a.max()),
-                "fraction_within": float(np.mean(np.abs(a - 1.0) <= absolute_tolerance))}
-            if variant == "_refined" and name == "slope_range" and a.size:
-                # |ratio - 1| within the tolerance or within 2 expected standard deviations
-                ab[name + variant]["fraction_within_expected_scatter"] = float(
-                    np.mean(np.abs(a - 1.0) <= np.asarray(in_range_band)))
-    out["absolute"] = ab
-    # truncation
-    for t in truncation or []:
-        rp = [None if (m is None or p is None or m <= 0 or p <= 0) else p / m
-              for m, p in zip(t["measured_rmse"], t.get("predicted_rmse", []))]
-        rb = [None if (m is None or p is None or m <= 0 or p <= 0) else p / m
-              for m, p in zip(t["measured_rmse"],
-                              t.get("predicted_rmse_refined") or [None] * len(t["L"]))]
-        out["truncation"].append({"brdf": t["brdf"], "basis": t["basis"], "L": t["L"],
-                                  "predicted_over_measured": rp,
-                                  "predicted_refined_over_measured": rb,
-                                  "shape_residual_dex": shape_residual(t["measured_rmse"], t["predicted_wce"])})
-    # acceptance summary
-    chk = [s for s in out["slopes"] if s["pointset"] in SLOPE_CHECK_POINTSETS and s["difference"] is not None]
-    taus = [r["kendall_tau"] for r in out["rank"] if r["kendall_tau"] is not None]
-    out["acceptance"] = {
-        "slope_tolerance": slope_tolerance,
-        "slopes_checked": len(chk),
-        "slopes_within": sum(1 for s in chk if s["within_tolerance"]),
-        "max_abs_slope_difference": max((abs(s["difference"]) for s in chk), default=None),
-        "slopes_ok": bool(chk) and all(s["within_tolerance"] for s in chk),
-        "rank_ok": bool(taus) and all(t >= 1.0 - 1e-12 for t in taus),
-        "min_kendall_tau": min(taus) if taus else None,
-        "absolute_ok": None if ab["slope_range"] is None else bool(ab["slope_range"]["fraction_within"] == 1.0),
-        "max_abs_slope_difference_refined": max(
-            (abs(s["difference_refined"]) for s in chk if s["difference_refined"] is not None),
-            default=None),
-        "slopes_ok_refined": bool(chk) and all(
-            s["difference_refined"] is not None and abs(s["difference_refined"]) <= slope_tolerance
-            for s in chk),
-        "absolute_ok_refined": None if ab["slope_range_refined"] is None else bool(
-            ab["slope_range_refined"]["fraction_within"] == 1.0),
-        "spectral_median_ratio": None if ab["slope_range_spectral"] is None else
-        ab["slope_range_spectral"]["median_ratio"],
-    }
-    return out

@@ -1,0 +1,103 @@
+"""The import-layer contract of envfit, checked on the source (every import statement, also
+the ones inside functions), and the one-import-name install.
+
+Layers, lowest first; a module may import its own sub-package and any lower layer, never a
+higher one nor another sub-package of its own layer (one pipeline leaning on another)::
+
+    theory
+    data_gen                      (synthetic maps: theory only)
+    base                          (errors, checks, atomic writes, store, memory guard, progress)
+    maps, plots
+    kernels, shading
+    fit, predict
+    validate, advisor
+    batch
+    cli
+
+``envfit/__init__.py`` only re-exports names lazily and is not part of any layer.
+"""
+from __future__ import annotations
+
+import ast
+import importlib.metadata
+from pathlib import Path
+
+import pytest
+
+import envfit
+
+LAYERS = [("theory",), ("data_gen",), ("base",), ("maps", "plots"), ("kernels", "shading"),
+          ("fit", "predict"), ("validate", "advisor"), ("batch",), ("cli",)]
+RANK = {pkg: i for i, group in enumerate(LAYERS) for pkg in group}
+
+
+def _package_dirs() -> dict[str, Path]:
+    import envfit.data_gen
+    import envfit.theory
+    dirs = {p.name: p for p in Path(envfit.__file__).parent.iterdir()
+            if p.is_dir() and (p / "__init__.py").exists()}
+    dirs["theory"] = Path(envfit.theory.__file__).parent
+    dirs["data_gen"] = Path(envfit.data_gen.__file__).parent
+    return dirs
+
+
+def _imports(path: Path, package: str) -> set[str]:
+    """envfit sub-packages imported by the module at ``path`` (of sub-package ``package``)."""
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+        names = []
+        if isinstance(node, ast.ImportFrom):
+            if node.level == 1:
+                names = [package]
+            elif node.level > 1:
+                names = [(node.module or "").split(".")[0] or "?"]
+            elif node.module:
+                names = [node.module]
+        elif isinstance(node, ast.Import):
+            names = [a.name for a in node.names]
+        for name in names:
+            parts = name.split(".")
+            if node.__class__ is ast.ImportFrom and node.level > 1:
+                found.add(parts[0])
+            elif parts[0] == "envfit" and len(parts) > 1:
+                found.add(parts[1])
+            elif parts[0] == "envfit" and isinstance(node, ast.ImportFrom):
+                found.update(a.name for a in node.names if a.name in RANK)
+    return found
+
+
+def _violations() -> list[str]:
+    bad = []
+    for pkg, folder in _package_dirs().items():
+        assert pkg in RANK, f"envfit.{pkg} is in no layer: add it to LAYERS and the README"
+        for path in sorted(folder.rglob("*.py")):
+            for dep in sorted(_imports(path, pkg) - {pkg}):
+                if dep not in RANK:
+                    continue                       # __version__, lazy names of envfit/__init__
+                if RANK[dep] > RANK[pkg]:
+                    bad.append(f"{path.name} (envfit.{pkg}) imports the higher layer envfit.{dep}")
+                elif RANK[dep] == RANK[pkg]:
+                    bad.append(f"{path.name} (envfit.{pkg}) imports its sibling envfit.{dep}")
+    return bad
+
+
+def test_import_layers():
+    assert _violations() == []
+
+
+def test_the_checker_sees_a_violation(tmp_path):
+    f = tmp_path / "m.py"
+    f.write_text("def g():\n    from envfit.cli.common import say\n    from ..advisor import advise\n")
+    assert _imports(f, "fit") == {"cli", "advisor"}
+
+
+def test_one_top_level_package_installed():
+    dist = importlib.metadata.distribution("envfit")
+    top = dist.read_text("top_level.txt")
+    if top is None:                                   # pragma: no cover - wheel without it
+        pytest.skip("the installed metadata has no top_level.txt")
+    assert top.split() == ["envfit"]
+    with pytest.raises(ModuleNotFoundError):
+        __import__("theory")
+    with pytest.raises(ModuleNotFoundError):
+        __import__("data_gen")
