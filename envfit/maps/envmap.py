@@ -438,12 +438,28 @@ def load_envmap(path, *, up: str = "y", allow_negative: bool = False,
     :class:`MemoryBudgetError` with one-line messages (see the module docstring); the memory
     guard runs on the header's size *before* any pixel is read.
     """
-    import OpenImageIO as oiio
-
     dt = np.dtype(dtype)
     if dt not in _DTYPES:
         raise ParameterError(f"dtype must be float32 or float64, got {dt}")
     latlong.local_to_world(up)
+    p = _readable_file(path)
+    pixels, spec, notes = _read_pixels(p, dt, linearize)
+    pixels = _clean_values(pixels, p, notes, fix_nonfinite=fix_nonfinite,
+                           allow_negative=allow_negative)
+    try:
+        file_up = spec.get_string_attribute("envfit:up", "")
+    except Exception:  # pragma: no cover - old OIIO bindings
+        file_up = ""
+    if file_up and file_up != up:
+        notes.append(f"the file says up={file_up!r} (envfit:up) but up={up!r} was used")
+    m = EnvMap(pixels.astype(dt, copy=False), up=up, name=p.name, notes=notes)
+    if max_height is not None:
+        m = m.resized(max_height)
+    return m
+
+
+def _readable_file(path) -> Path:
+    """``path`` as a Path if it is an existing, readable file; else :class:`EnvMapFileError`."""
     p = Path(path)
     if not p.exists():
         raise EnvMapFileError(f"{p}: no such file")
@@ -451,23 +467,37 @@ def load_envmap(path, *, up: str = "y", allow_negative: bool = False,
         raise EnvMapFileError(f"{p}: is a folder, not an image file")
     if not os.access(p, os.R_OK):
         raise EnvMapFileError(f"{p}: permission denied")
+    return p
+
+
+def _check_header(spec, p: Path) -> tuple[int, int, int]:
+    """``(h, w, c)`` of a usable lat-long image header; else :class:`EnvMapFormatError`."""
+    h, w, c = int(spec.height), int(spec.width), int(spec.nchannels)
+    if h <= 0 or w <= 0 or c <= 0:
+        raise EnvMapFormatError(f"{p}: image is empty ({w}x{h}, {c} channels)")
+    if int(spec.depth) > 1 or spec.deep:
+        raise EnvMapFormatError(f"{p}: volume/deep images are not environment maps")
+    if w != 2 * h:
+        raise EnvMapFormatError(
+            f"{p}: a lat-long map must be twice as wide as high; got {w}x{h} "
+            f"(width x height)")
+    return h, w, c
+
+
+def _read_pixels(p: Path, dt: np.dtype, linearize: bool) -> tuple[np.ndarray, object, list[str]]:
+    """The first subimage as float32 (H, W, C') linear values, its spec and the notes; the
+    memory guard runs on the header before any pixel is read."""
+    import OpenImageIO as oiio
 
     oiio.geterror()  # clear stale global errors
     inp = oiio.ImageInput.open(str(p))
     if inp is None:
         msg = _one_line(oiio.geterror()) or "unknown format"
         raise EnvMapFileError(f"{p}: cannot read image: {msg}")
+    notes: list[str] = []
     try:
         spec = inp.spec()
-        h, w, c = int(spec.height), int(spec.width), int(spec.nchannels)
-        if h <= 0 or w <= 0 or c <= 0:
-            raise EnvMapFormatError(f"{p}: image is empty ({w}x{h}, {c} channels)")
-        if int(spec.depth) > 1 or spec.deep:
-            raise EnvMapFormatError(f"{p}: volume/deep images are not environment maps")
-        if w != 2 * h:
-            raise EnvMapFormatError(
-                f"{p}: a lat-long map must be twice as wide as high; got {w}x{h} "
-                f"(width x height)")
+        h, w, c = _check_header(spec, p)
         c_out = min(c, 3) if c != 2 else 1
         nbytes = h * w * c * 4 + h * w * c_out * (4 + dt.itemsize)
         decode, decode_note = _display_decoding(spec) if linearize else (None, None)
@@ -481,20 +511,22 @@ def load_envmap(path, *, up: str = "y", allow_negative: bool = False,
         if pixels is None or err:
             msg = _one_line(err or oiio.geterror()) or "read failed"
             raise EnvMapFileError(f"{p}: corrupt or truncated image: {msg}")
-        notes: list[str] = []
         if inp.seek_subimage(1, 0):
             notes.append("the file holds several subimages/parts; used the first")
         inp.geterror()
     finally:
         inp.close()
-
     pixels = np.asarray(pixels, dtype=np.float32).reshape(h, w, c)
     if decode is not None:
         pixels = _decode_to_linear(pixels, spec, decode, p)
     if decode_note:
         notes.append(decode_note)
-    pixels = _select_channels(pixels, spec, notes)
+    return _select_channels(pixels, spec, notes), spec, notes
 
+
+def _clean_values(pixels: np.ndarray, p: Path, notes: list[str], *, fix_nonfinite: bool,
+                  allow_negative: bool) -> np.ndarray:
+    """NaN/Inf refused or repaired, negative values clamped (each noted)."""
     bad = ~np.isfinite(pixels)
     nbad = int(bad.sum())
     if nbad:
@@ -507,7 +539,6 @@ def load_envmap(path, *, up: str = "y", allow_negative: bool = False,
                                  f"to replace them by the mean of their finite neighbours")
         pixels = _fix_nonfinite(pixels, bad)
         notes.append(f"replaced {what} by the mean of their finite neighbours")
-
     if not allow_negative:
         neg = pixels < 0
         nneg = int(neg.sum())
@@ -515,18 +546,7 @@ def load_envmap(path, *, up: str = "y", allow_negative: bool = False,
             npix = int(neg.any(axis=2).sum())
             pixels = np.maximum(pixels, 0.0)
             notes.append(f"clamped {nneg} negative value(s) in {npix} pixel(s) to 0")
-
-    try:
-        file_up = spec.get_string_attribute("envfit:up", "")
-    except Exception:  # pragma: no cover - old OIIO bindings
-        file_up = ""
-    if file_up and file_up != up:
-        notes.append(f"the file says up={file_up!r} (envfit:up) but up={up!r} was used")
-
-    m = EnvMap(pixels.astype(dt, copy=False), up=up, name=p.name, notes=notes)
-    if max_height is not None:
-        m = m.resized(max_height)
-    return m
+    return pixels
 
 
 def save_envmap(path, envmap_or_array, *, half: bool = False, up: str | None = None) -> Path:
