@@ -187,60 +187,77 @@ def run_table2(envmap: EnvMap, s_values: Sequence[float] = PAPER_S,
     sc = fit_scale(scale, envmap)
     target = np.asarray(sc.apply(envmap.data), dtype=np.float64)          # H×W×C on the scale
     check_not_constant(target, scale, envmap.name)
-    scaled = envmap.with_data(target)
-    H, W, C = target.shape
-    pixel_dirs = envmap.directions().reshape(-1, 3)
-    weights = envmap.solid_angles()
     store = ResultStore(out, {
         "map": array_fingerprint(envmap.data), "scale": sc.describe(), "pointset": pointset,
-        "seed": int(seed), "up": envmap.up, "height": H}, kind="table2", on_note=on_note)
+        "seed": int(seed), "up": envmap.up, "height": target.shape[0]}, kind="table2",
+        on_note=on_note)
     result = Table2Result(map=envmap.name or "(unnamed)", scale=scale,
                           scale_description=sc.describe(), pointset=pointset, seed=int(seed),
-                          height=H, s_values=s_values, n_values=n_values)
-    n_max = n_values[-1]
+                          height=target.shape[0], s_values=s_values, n_values=n_values)
+    sweep = _Sweep(envmap, target, sc, pointset, seed,
+                   Path(out) if out is not None and save_reconstructions else None, n_values[-1])
     from envfit.base.progress import progress_bar
     bar = progress_bar(len(s_values) * len(n_values), desc="table2", quiet=quiet, unit="cell")
     try:
         for n in n_values:
-            points = None
             for s in s_values:
                 key = _cell_key(s, n)
                 done = store.get(key, fields=_FIELDS)
-                if done is not None:
-                    cell = Table2Cell(**{k: done[k] for k in _FIELDS})
-                    result.cells.append(cell)
-                    bar.update(1)
-                    if on_cell:
-                        on_cell(cell, True)
-                    continue
-                if points is None:
-                    points = sample_directions(n, pointset=pointset, seed=seed, up=envmap.up)
-                    values = scaled.lookup(points).reshape(n, C)
-                bar.set_postfix_str(f"s={s:g} N={n}")
-                t0 = time.perf_counter()
-                interp = SobolevInterpolator(points, values, s)
-                t1 = time.perf_counter()
-                recon = np.asarray(interp(pixel_dirs)).reshape(H, W, C)
-                t2 = time.perf_counter()
-                cell = Table2Cell(s=s, n=n, rmse=float(rmse(recon, target)),
-                                  rmse_solid_angle=float(rmse_solid_angle(recon, target, weights)),
-                                  seconds=t2 - t0, seconds_fit=t1 - t0, seconds_evaluate=t2 - t1)
-                del interp
-                if out is not None and save_reconstructions and n == n_max:
-                    _save_reconstruction(Path(out), recon, sc, s, n, envmap.up, result)
-                store.put(key, cell.to_dict())
+                cell = Table2Cell(**{k: done[k] for k in _FIELDS}) if done is not None else None
+                if cell is None:
+                    bar.set_postfix_str(f"s={s:g} N={n}")
+                    cell = sweep.cell(s, n, result)
+                    store.put(key, cell.to_dict())
                 result.cells.append(cell)
                 bar.update(1)
                 if on_cell:
-                    on_cell(cell, False)
+                    on_cell(cell, done is not None)
     finally:
         bar.close()
         store.close()
         result.notes.extend(store.notes)
         result.unwritten[:0] = store.unwritten
     if out is not None:
-        result.files.update(_existing_files(Path(out), s_values, n_max))
+        result.files.update(_existing_files(Path(out), s_values, n_values[-1]))
     return result
+
+
+class _Sweep:
+    """What every cell of one map's sweep shares: the target on its scale, the pixel
+    directions and solid angles, and the samples of the current N (made on first need)."""
+
+    def __init__(self, envmap: EnvMap, target: np.ndarray, sc, pointset: str, seed: int,
+                 recon_dir: Path | None, n_max: int):
+        self.envmap, self.target, self.sc = envmap, target, sc
+        self.scaled = envmap.with_data(target)
+        self.pointset, self.seed, self.recon_dir, self.n_max = pointset, seed, recon_dir, n_max
+        self.pixel_dirs = envmap.directions().reshape(-1, 3)
+        self.weights = envmap.solid_angles()
+        self._n, self._samples = None, None
+
+    def samples(self, n: int) -> tuple[np.ndarray, np.ndarray]:
+        if self._n != n:
+            points = sample_directions(n, pointset=self.pointset, seed=self.seed,
+                                       up=self.envmap.up)
+            self._n = n
+            self._samples = (points, self.scaled.lookup(points).reshape(n, self.target.shape[2]))
+        return self._samples
+
+    def cell(self, s: float, n: int, result: Table2Result) -> Table2Cell:
+        """Interpolate the N samples with K_gd^(s), evaluate at every pixel, score (one cell)."""
+        points, values = self.samples(n)
+        t0 = time.perf_counter()
+        interp = SobolevInterpolator(points, values, s)
+        t1 = time.perf_counter()
+        recon = np.asarray(interp(self.pixel_dirs)).reshape(self.target.shape)
+        t2 = time.perf_counter()
+        del interp
+        if self.recon_dir is not None and n == self.n_max:
+            _save_reconstruction(self.recon_dir, recon, self.sc, s, n, self.envmap.up, result)
+        return Table2Cell(s=s, n=n, rmse=float(rmse(recon, self.target)),
+                          rmse_solid_angle=float(rmse_solid_angle(recon, self.target,
+                                                                  self.weights)),
+                          seconds=t2 - t0, seconds_fit=t1 - t0, seconds_evaluate=t2 - t1)
 
 
 def _recon_stem(s: float, n: int) -> str:
