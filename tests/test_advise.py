@@ -263,7 +263,7 @@ def test_cache_hit_is_identical_and_recomputes_nothing(gp32, tmp_path, monkeypat
     def boom(*a, **k):
         raise AssertionError("recomputed although cached")
 
-    for name in ("rule_error_power", "rule_worst_case_error", "optimal_weights",
+    for name in ("rule_error_power", "worst_case_error", "optimal_weights",
                  "fit_smoothness", "bandlimited_profiled_sigma", "map_transfer"):
         monkeypatch.setattr(adv_mod, name, boom)
     for name in ("map_degree_power", "pixel_degree_power"):     # what map_transfer calls

@@ -150,6 +150,37 @@ def test_initial_error_eq57_matches_double_integral():
             pytest.approx(ref, rel=1e-10)
 
 
+def test_worst_case_error_embedding_choices_agree():
+    """Eq. 41 with z_j by the Legendre series, its Chebyshev interpolant and "auto": E² to
+    1e-14 absolute (the rounding level of E²), for a short (glossy n = 100) and a long
+    (diffuse, glossy n = 30 at s = 1.1) embedding series; "auto" picks Chebyshev for the
+    long ones and is then as fast as it."""
+    import time
+    rng = np.random.default_rng(5)
+    for brdf in (Diffuse(), Glossy(30.0), Glossy(100.0)):
+        for n in (3, 40, 257):
+            u = hemisphere_points(n, n, brdf)
+            for w in (np.full(n, 1.0 / n), rng.uniform(0.0, 2.0 / n, n)):
+                for s in (1.1, 1.5, 1.9):
+                    e2 = {m: worst_case_error(u, w, brdf, s, embedding=m) ** 2
+                          for m in ("series", "chebyshev", "auto")}
+                    assert abs(e2["series"] - e2["chebyshev"]) <= 1e-14
+                    assert abs(e2["auto"] - e2["series"]) <= 1e-14
+                    assert worst_case_error_squared(u, w, brdf, s, embedding="chebyshev") == \
+                        pytest.approx(e2["chebyshev"], abs=1e-15)
+    u = hemisphere_points(64, 1, Diffuse())
+    w = np.full(64, 1 / 64)
+    worst_case_error(u, w, Diffuse(), 1.5)                      # warm the caches
+    t0 = time.perf_counter()
+    worst_case_error(u, w, Diffuse(), 1.5)
+    t1 = time.perf_counter()
+    worst_case_error(u, w, Diffuse(), 1.5, embedding="series")
+    t2 = time.perf_counter()
+    assert t1 - t0 < 0.5 * (t2 - t1)                            # auto = Chebyshev here
+    with pytest.raises(TheoryParameterError):
+        worst_case_error(u, w, Diffuse(), 1.5, embedding="clenshaw")
+
+
 # ---------------------------------------------------------------------------- Eq. 41 vs 42
 
 def test_pair_sum_tiling_matches_dense_kernel_matrix():

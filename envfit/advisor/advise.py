@@ -143,7 +143,8 @@ from envfit.shading.spectra import (band_e2, degree_weights, map_transfer, rule_
                       sh_truncation_curve_transfer)
 from envfit.base.store import array_fingerprint
 from envfit.fit.sigma import bandlimited_profiled_sigma, combine_sigma, parse_s
-from envfit.shading.quadrature import quadrature_estimates_multi, random_axes, rule_worst_case_error
+from envfit.shading.quadrature import quadrature_estimates_multi, random_axes
+from envfit.theory.quadrature import worst_case_error
 
 
 
@@ -418,7 +419,7 @@ def rule_plain_wce2(pointset: str, n: int, wf, s: float, weights: str, seeds: Se
     out = []
     for sd in (seeds or [None]):
         pts, w = _rule(pointset, n, wf, s, weights, sd)
-        out.append(rule_worst_case_error(pts, w, wf, s, workers=workers) ** 2)
+        out.append(worst_case_error(pts, w, wf, s, workers=workers) ** 2)
     return float(np.mean(out))
 
 

@@ -1,15 +1,13 @@
-r"""Quadrature estimates of shading integrals for many axes and weightings at once, and the
-worst-case error of a rule (Eq. 41) arranged for speed. Used by validation and the advisor.
+r"""Quadrature estimates of shading integrals (Eq. 34) for many axes and weightings at once.
+
+Used by validation and the advisor; the worst-case error of a rule (Eq. 41) is
+:func:`envfit.theory.quadrature.worst_case_error`.
 """
 from __future__ import annotations
 
-import math
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
-
-from envfit.theory.quadrature import initial_error, kernel_mean_embedding, weighted_energy_sum
-from envfit.theory.sobolev import kernel_constant
 
 from envfit.maps.envmap import EnvMap
 from envfit.base.errors import ParameterError
@@ -89,36 +87,3 @@ def quadrature_estimates_multi(envmap: EnvMap, axes, local_points, weight_sets, 
         with ThreadPoolExecutor(workers) as ex:
             list(ex.map(work, starts))
     return out
-
-
-def rule_worst_case_error(points, weights, brdf, s: float, *, workers: int = 1) -> float:
-    r"""Worst-case error of a quadrature rule, Eq. 41 — the value of
-    :func:`envfit.theory.quadrature.worst_case_error`, arranged the same way,
-
-    .. math:: E^2 = C\Big(\sum_j w_j - 1\Big)^2 + 2\sum_j w_j\zeta_j - \bar\zeta
-              - \sum_{i,j} w_i w_j |u_i-u_j|^{2s-2},
-              \qquad \zeta_j = C - z_j,\ \bar\zeta = C - E_0^2,
-
-    but with the kernel mean embedding :math:`z_j` always evaluated through its piecewise
-    Chebyshev interpolant (``kernel_mean_embedding(..., method="chebyshev")``, agreement
-    with the Legendre series ≈1e-15). ``worst_case_error`` picks the direct Legendre
-    series when N·L ≤ 4·10⁶, and the diffuse lobe needs L = 16 385 (s = 1.5) to 32 769
-    (s = 1.1) terms: 0.05–0.2 s per call for N ≤ 256, ~1 ms here. Agreement with
-    ``worst_case_error`` is checked in the tests (E² to 1e-14 absolute, the rounding level
-    of both).
-
-    >>> from envfit.theory.brdf import Diffuse
-    >>> from envfit.theory.quadrature import worst_case_error
-    >>> u = np.array([[0.0, 0.0, 1.0], [0.6, 0.0, 0.8], [0.0, 0.6, 0.8]]); w = np.full(3, 1 / 3)
-    >>> bool(np.isclose(rule_worst_case_error(u, w, Diffuse(), 1.5),
-    ...                 worst_case_error(u, w, Diffuse(), 1.5), rtol=1e-10))
-    True
-    """
-    pts = np.asarray(points, dtype=np.float64)
-    w = np.asarray(weights, dtype=np.float64)
-    C = kernel_constant(s)
-    zeta = C - kernel_mean_embedding(pts, brdf, s, method="chebyshev")
-    zbar = C - initial_error(brdf, s)
-    pair = weighted_energy_sum(pts, w, s, workers=workers)
-    e2 = C * (math.fsum(w) - 1.0) ** 2 + math.fsum([2.0 * math.fsum(w * zeta), -zbar, -pair])
-    return math.sqrt(max(e2, 0.0))

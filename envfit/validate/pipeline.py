@@ -155,8 +155,8 @@ from envfit.shading.spectra import (bandlimited_worst_case_error, bandlimited_wo
                       pixel_degree_power, rule_error_power, sh_truncation_curve_transfer,
                       spectral_rmse)
 from envfit.fit.sigma import bandlimited_profiled_sigma, combine_sigma, parse_s, profiled_sigma
-from envfit.shading.quadrature import (LOOKUP_BLOCK, quadrature_estimates_multi, random_axes,
-                                       rule_worst_case_error)
+from envfit.shading.quadrature import LOOKUP_BLOCK, quadrature_estimates_multi, random_axes
+from envfit.theory.quadrature import worst_case_error
 from envfit.validate.agreement import SLOPE_RANGE, agreement, loglog_slope, measured_equivalent_n
 from envfit.base.store import ResultStore, array_fingerprint
 
@@ -613,7 +613,7 @@ def _compute_cells(scaled: EnvMap, axes, truth, brdf: str, wf, pointset: str, n:
         t_est = (time.perf_counter() - t1) / len(ok)
         for k, w in enumerate(ok):
             t2 = time.perf_counter()
-            wce = {_s_key(s): rule_worst_case_error(pts, wsets[w], wf, s, workers=cfg.workers)
+            wce = {_s_key(s): worst_case_error(pts, wsets[w], wf, s, workers=cfg.workers)
                    for s in s_list}
             power = rule_error_power(pts, wsets[w], wf, band_lmax)
             band = dict(zip(map(_s_key, s_list),
