@@ -5,7 +5,7 @@ Truncation-based Methods Applied to Shading Integrals", Sec. 8 and Table 1.
 
 For a weight function p (diffuse lobe, or the glossy lobe :math:`e^{n(z-1)}`, n = 30) and
 a Sobolev smoothness s, the worst-case error of the inner-product truncation at degree L
-is (Eq. 52, errata: the sum starts at L + 1)
+is (Eq. 52, whose sum starts at L + 1: docs/ERRATA.md)
 
 .. math:: E(L)^2 = \sum_{l=L+1}^{\infty} a_l\,(b_l - b'_l)^2,
 
@@ -41,7 +41,8 @@ from .truncation import equivalent_qmc_points, truncation_error_curve
 
 __all__ = ["CASES", "PAPER_TABLE1", "PAPER_SEC82", "PAPER_FIG5A_CAPTION", "PAPER_S",
            "PAPER_SHININESS", "PAPER_READING_RTOL", "Table1Row", "Table1", "table1",
-           "cutoff_degree", "case_weight", "paper_comparison"]
+           "cutoff_degree", "case_weight", "paper_comparison", "paper_table1_values",
+           "table1_report"]
 
 #: the three columns of Table 1: (case, weight function, basis)
 CASES = (("diffuse-sh", "diffuse", "sh"), ("glossy-sh", "glossy", "sh"),
@@ -64,7 +65,7 @@ PAPER_SEC82 = {"target": 1e-2, "L": {"glossy-sh": 11, "glossy-hsh": 7}}
 
 #: Fig. 5(a) caption: "the worst-case error for L = 3 is ≈ 4.4e-3 … QMC requires ≈ 930
 #: samples". Not reproducible with the paper's own formulas: b_3 = 0 for the diffuse lobe,
-#: so E(3) = E(2) (ERRATA). Kept to be reported, not as a target.
+#: so E(3) = E(2) (docs/ERRATA.md). Kept to be reported, not as a target.
 PAPER_FIG5A_CAPTION = {"case": "diffuse-sh", "L": 3, "wce": 4.4e-3, "qmc_points": 930}
 
 #: relative tolerance that models reading a cut-off off the log plot (reproduces the paper)
@@ -309,7 +310,7 @@ def paper_comparison(table: Table1, *, caption_qmc_points: int | None = None) ->
                 "ours_paper_reading": e3, "wce_at_paper_L": e3,
                 "agrees": abs(e3 / cap["wce"] - 1.0) <= 0.1,
                 "why": (f"not reproducible: b_3 = 0 for the diffuse lobe, so E(3) = E(2) = "
-                        f"{e2:.3g} (ERRATA); E(4) = {float(d.wce_by_L[4]):.3g}. 4.4e-3 lies "
+                        f"{e2:.3g} (docs/ERRATA.md); E(4) = {float(d.wce_by_L[4]):.3g}. 4.4e-3 lies "
                         f"between E(3) and E(4): an error in the caption, not a target")})
     if caption_qmc_points is not None:
         q = int(caption_qmc_points)
@@ -319,3 +320,45 @@ def paper_comparison(table: Table1, *, caption_qmc_points: int | None = None) ->
                     "why": (f"{100 * (q / cap['qmc_points'] - 1):+.1f} %: the caption's pairing of "
                             f"4.4e-3 with ≈ 930 points is consistent; only its L = 3 is not")})
     return out
+
+
+def paper_table1_values(table: Table1) -> dict:
+    r"""The printed Table 1 entries that apply to ``table``: ``{case: {"L", "qmc_points"}}``.
+
+    Empty unless the target and s are the paper's (2.5e-3, 1.5); the glossy columns also
+    need the paper's shininess (30).
+
+    >>> paper_table1_values(table1(qmc=False))["glossy-sh"]
+    {'L': 13, 'qmc_points': 1000}
+    >>> paper_table1_values(table1(5e-3, qmc=False))
+    {}
+    """
+    if table.target != PAPER_TABLE1["target"] or table.s != PAPER_S:
+        return {}
+    return {r.case: {"L": PAPER_TABLE1["L"][r.case], "qmc_points": PAPER_TABLE1["qmc_points"][r.case]}
+            for r in table.rows if r.brdf == "diffuse" or table.shininess == PAPER_SHININESS}
+
+
+def table1_report(target: float = PAPER_TABLE1["target"], s: float = PAPER_S,
+                  shininess: float = PAPER_SHININESS) -> tuple[Table1, list[dict]]:
+    r"""Table 1 and its comparison with the paper, as ``envfit theory table1`` reports them.
+
+    :func:`table1` with the QMC equivalents, then :func:`paper_comparison`; at the paper's
+    s the comparison includes our number of QMC points for the Fig. 5(a) caption's error
+    (:func:`envfit.theory.truncation.equivalent_qmc_points` on the diffuse lobe, ≈ 2 s).
+
+    Parameters
+    ----------
+    target : worst-case error to reach.
+    s : Sobolev smoothness, 1 < s < 2.
+    shininess : glossy exponent n.
+
+    Returns
+    -------
+    (:class:`Table1`, list of dict) : the table and :func:`paper_comparison`'s rows.
+    """
+    tab = table1(target, s, shininess)
+    caption_q = None
+    if tab.s == PAPER_S:
+        caption_q = equivalent_qmc_points(PAPER_FIG5A_CAPTION["wce"], Diffuse(), tab.s)
+    return tab, paper_comparison(tab, caption_qmc_points=caption_q)
