@@ -44,7 +44,8 @@ from scipy.linalg import lapack                                  # noqa: E402
 from threadpoolctl import threadpool_info, threadpool_limits     # noqa: E402
 
 from envfit.kernels import _kernels as _kernels  # noqa: E402
-from envfit.kernels.interpolation import SobolevInterpolator, far_field_expansion, _near_radius  # noqa: E402
+from envfit.kernels.interpolation import SobolevInterpolator
+from envfit.kernels.nearfar import far_field_expansion, near_radius
 from envfit.maps.latlong import pixel_directions                      # noqa: E402
 from envfit.theory.sobolev import kernel_constant                       # noqa: E402
 
@@ -177,7 +178,7 @@ def section_cell(n, height, s_values, repeats, log):
             [t - st["cholesky"] for t, st in zip(cell["total_s"], cell["steps"])])
         cell["meets_1.25"] = cell["ratio_to_dpotrf"] <= 1.25
         cell["meets_1.25_own"] = cell["ratio_to_own_dpotrf_median"] <= 1.25
-        ff = far_field_expansion(s, _near_radius(n))
+        ff = far_field_expansion(s, near_radius(n))
         cell["nearfar"] = {"delta": ff.delta, "lmax": ff.lmax}
     return res
 

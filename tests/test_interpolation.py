@@ -19,7 +19,8 @@ from scipy.interpolate import RBFInterpolator
 from envfit.kernels import _kernels as _kernels
 from envfit.base.errors import DuplicatePointsError, MemoryBudgetError, ParameterError
 from envfit.base.resources import interpolator_nbytes, largest_feasible_n
-from envfit.kernels.interpolation import SobolevInterpolator, as_unit_vectors, far_field_expansion
+from envfit.kernels.interpolation import SobolevInterpolator, as_unit_vectors
+from envfit.kernels.nearfar import far_field_expansion
 from envfit.base.resources import MEMORY_FRACTION, available_memory_bytes
 from envfit.theory.sobolev import kernel_constant, kernel_from_distance2
 
@@ -352,13 +353,13 @@ def test_loo_closed_form_equals_explicit_refits(s):
 
 
 def test_inverse_diagonal_in_blocks_matches_dense_inverse():
-    from envfit.kernels.interpolation import _inverse_diagonal_from_cholesky
+    from envfit.theory.cholesky import inverse_diagonal
     p = unit(700, 21)
     it = SobolevInterpolator(p, np.ones(700), 1.6)
     K = dense_kernel(1.6, p)
     ref = np.diag(np.linalg.inv(K))
     for block in (1, 64, 333, 700, 5000):
-        got = _inverse_diagonal_from_cholesky(it.cholesky[0], block=block)
+        got = inverse_diagonal(it.cholesky[0], block=block)
         assert np.allclose(got, ref, rtol=1e-8, atol=0)
     assert np.allclose(it.inverse_diagonal(), ref, rtol=1e-8, atol=0)
 

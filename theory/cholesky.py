@@ -57,7 +57,8 @@ import functools
 import numpy as np
 from scipy.linalg import cython_blas, cython_lapack, lapack
 
-__all__ = ["cholesky_inplace", "cho_factor", "cho_solve", "cholesky", "PANEL", "TILE"]
+__all__ = ["cholesky_inplace", "cho_factor", "cho_solve", "cholesky", "inverse_diagonal", "PANEL",
+           "TILE"]
 
 #: columns per panel (one ``dpotrf`` call on a PANEL x PANEL block, one ``dtrsm``)
 PANEL = 2048
@@ -185,3 +186,38 @@ def cholesky(a) -> np.ndarray:
     ``scipy.linalg.cholesky(a, lower=True)``; raises :class:`numpy.linalg.LinAlgError`."""
     c, _ = cho_factor(a)
     return np.tril(c)
+
+
+def inverse_diagonal(factor: np.ndarray, block: int = 512) -> np.ndarray:
+    r"""``diag(K^-1)`` from the lower Cholesky factor L (Fortran-ordered, K = L L^T).
+
+    :math:`(K^{-1})_{ii} = \|L^{-1} e_i\|^2` and, L being lower triangular, the columns
+    ``i0:i1`` of :math:`L^{-1}` vanish above row i0 and equal
+    :math:`L[i0:, i0:]^{-1} E`: one ``dtrsm`` per block on the trailing triangle.
+    Flops :math:`\sum (N - i_0)^2 b \approx N^3/3`; workspace N x b.
+    """
+    n = factor.shape[0]
+    if n == 0:
+        return np.zeros(0)
+    if not (factor.flags.f_contiguous and factor.dtype == np.float64):
+        raise ValueError("factor must be a Fortran-ordered float64 array")
+    block = max(1, min(block, n))
+    dtrsm = _routines()["dtrsm"]
+    out = np.empty(n)
+    work = np.empty(n * block)  # Fortran (rows, cols) buffer, reused
+    one = ctypes.c_double(1.0)
+    lda = ctypes.c_int(n)
+    side, uplo, trans, diag = b"L", b"L", b"N", b"N"
+    base = factor.ctypes.data
+    for i0 in range(0, n, block):
+        i1 = min(n, i0 + block)
+        rows, cols = n - i0, i1 - i0
+        x = work[: rows * cols].reshape(cols, rows).T  # Fortran view, ld = rows
+        x[...] = 0.0
+        x[np.arange(cols), np.arange(cols)] = 1.0
+        dtrsm(side, uplo, trans, diag, ctypes.byref(ctypes.c_int(rows)),
+              ctypes.byref(ctypes.c_int(cols)), ctypes.byref(one),
+              ctypes.c_void_p(base + 8 * (i0 + i0 * n)), ctypes.byref(lda),
+              ctypes.c_void_p(x.ctypes.data), ctypes.byref(ctypes.c_int(rows)))
+        out[i0:i1] = np.einsum("ij,ij->j", x, x)
+    return out

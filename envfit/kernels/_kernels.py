@@ -300,7 +300,7 @@ def _flush_near(nb, bd2, bk, b1, b2, sw, a, kind, cheb, scale, acc):
 @njit(parallel=True, **_OPTS)
 def near_field_correction(q, h, ngrid, cell_start, spx, spy, spz, sw, delta2, a, kind,
                           cheb, out):
-    """Near-field part of the near/far split (see ``interpolation.FarFieldExpansion``).
+    """Near-field part of the near/far split (see ``envfit.kernels.nearfar.FarFieldExpansion``).
 
     ``out[i, c] = sum_{j: d2_ij < delta2} sw[j, c] (d2_ij^a - S(d2_ij))`` where
     ``S(d2) = sum_k cheb[k] T_k(2 d2 / delta2 - 1)`` is the far-field polynomial restricted

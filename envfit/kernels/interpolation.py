@@ -73,32 +73,27 @@ True
 """
 from __future__ import annotations
 
-import ctypes
-import functools
 import math
 import time
-from dataclasses import dataclass
-from typing import NamedTuple
 
 import numba
 import numpy as np
-import scipy.fft
-from scipy import special
-from scipy.linalg import cython_blas, lapack
+from scipy.linalg import lapack
 from scipy.spatial import cKDTree
 
-from envfit.theory.cholesky import cholesky_inplace
+from envfit.theory.cholesky import cholesky_inplace, inverse_diagonal
 from envfit.theory.errors import TheoryParameterError, check_smoothness
 from envfit.theory.sobolev import kernel_constant
 
 from envfit.kernels import _kernels
+from envfit.kernels.nearfar import CellList, near_radius, nearfar_power_sums
+from envfit.kernels.likelihood import ProfiledLikelihood, profiled_log_likelihood
 from envfit.base.errors import DuplicatePointsError, ParameterError
 from envfit.base.resources import (MEMORY_FRACTION, available_memory_bytes, check_memory, format_bytes,
                                    interpolator_nbytes, largest_feasible_n)
 
 __all__ = ["SobolevInterpolator", "ProfiledLikelihood", "as_unit_vectors",
-           "FarFieldExpansion",
-           "far_field_expansion", "DUPLICATE_DISTANCE", "EVAL_METHODS"]
+           "DUPLICATE_DISTANCE", "EVAL_METHODS"]
 
 #: two nodes closer than this (chordal distance) are duplicates
 DUPLICATE_DISTANCE = 1e-12
@@ -107,11 +102,6 @@ _SINGULAR_PIVOT = 64 * np.finfo(np.float64).eps
 EVAL_METHODS = ("auto", "direct", "nearfar")
 #: bytes of temporaries one evaluation block may use
 _BLOCK_BYTES = 64 * 2**20
-#: ducc0 NUFFT SH transforms: requested accuracy (2e-13 is ducc0's float64 floor)
-_SHT_EPSILON = 3e-13
-#: near/far split: target mean number of nodes within delta of a query
-_NEAR_NEIGHBOURS = 8.0
-_DELTA_MIN, _DELTA_MAX = 0.02, 0.6
 #: "auto" uses near/far above this many kernel entries (and N >= _AUTO_MIN_N)
 _AUTO_MIN_ENTRIES = 5e7
 _AUTO_MIN_N = 500
@@ -198,212 +188,11 @@ def _closest_pair(points: np.ndarray) -> tuple[int, int, float]:
     return min(i, j), max(i, j), float(dist[i, 1])
 
 
-def _to_theta_phi(p: np.ndarray) -> np.ndarray:
-    """(M, 2) colatitude, longitude in [0, 2 pi) of unit vectors (accurate at the poles)."""
-    loc = np.empty((p.shape[0], 2))
-    loc[:, 0] = np.arctan2(np.hypot(p[:, 0], p[:, 1]), p[:, 2])
-    phi = np.arctan2(p[:, 1], p[:, 0])
-    loc[:, 1] = np.where(phi < 0, phi + 2 * np.pi, phi)
-    return loc
-
-
 def _nthreads() -> int:
     return max(1, int(numba.get_num_threads()))
 
 
-# ------------------------------------------------------------------ BLAS dtrsm by pointer
-
-@functools.lru_cache(maxsize=None)
-def _dtrsm():
-    """scipy's BLAS ``dtrsm`` as a ctypes function (sub-matrices are passed by pointer and
-    leading dimension, so the trailing triangle of the factor is never copied)."""
-    capsule = cython_blas.__pyx_capi__["dtrsm"]
-    get_name = ctypes.pythonapi.PyCapsule_GetName
-    get_name.restype = ctypes.c_char_p
-    get_name.argtypes = [ctypes.py_object]
-    get_ptr = ctypes.pythonapi.PyCapsule_GetPointer
-    get_ptr.restype = ctypes.c_void_p
-    get_ptr.argtypes = [ctypes.py_object, ctypes.c_char_p]
-    addr = get_ptr(capsule, get_name(capsule))
-    c_int_p = ctypes.POINTER(ctypes.c_int)
-    proto = ctypes.CFUNCTYPE(None, ctypes.c_char_p, ctypes.c_char_p, ctypes.c_char_p,
-                             ctypes.c_char_p, c_int_p, c_int_p,
-                             ctypes.POINTER(ctypes.c_double), ctypes.c_void_p, c_int_p,
-                             ctypes.c_void_p, c_int_p)
-    return proto(addr)
-
-
-def _inverse_diagonal_from_cholesky(factor: np.ndarray, block: int = 512) -> np.ndarray:
-    r"""``diag(K^-1)`` from the lower Cholesky factor L (Fortran-ordered, K = L L^T).
-
-    :math:`(K^{-1})_{ii} = \|L^{-1} e_i\|^2` and, L being lower triangular, the columns
-    ``i0:i1`` of :math:`L^{-1}` vanish above row i0 and equal
-    :math:`L[i0:, i0:]^{-1} E`: one ``dtrsm`` per block on the trailing triangle.
-    Flops :math:`\sum (N - i_0)^2 b \approx N^3/3`; workspace N x b.
-    """
-    n = factor.shape[0]
-    if n == 0:
-        return np.zeros(0)
-    if not (factor.flags.f_contiguous and factor.dtype == np.float64):
-        raise ValueError("factor must be a Fortran-ordered float64 array")
-    block = max(1, min(block, n))
-    dtrsm = _dtrsm()
-    out = np.empty(n)
-    work = np.empty(n * block)  # Fortran (rows, cols) buffer, reused
-    one = ctypes.c_double(1.0)
-    lda = ctypes.c_int(n)
-    side, uplo, trans, diag = b"L", b"L", b"N", b"N"
-    base = factor.ctypes.data
-    for i0 in range(0, n, block):
-        i1 = min(n, i0 + block)
-        rows, cols = n - i0, i1 - i0
-        x = work[: rows * cols].reshape(cols, rows).T  # Fortran view, ld = rows
-        x[...] = 0.0
-        x[np.arange(cols), np.arange(cols)] = 1.0
-        dtrsm(side, uplo, trans, diag, ctypes.byref(ctypes.c_int(rows)),
-              ctypes.byref(ctypes.c_int(cols)), ctypes.byref(one),
-              ctypes.c_void_p(base + 8 * (i0 + i0 * n)), ctypes.byref(lda),
-              ctypes.c_void_p(x.ctypes.data), ctypes.byref(ctypes.c_int(rows)))
-        out[i0:i1] = np.einsum("ij,ij->j", x, x)
-    return out
-
-
-# ------------------------------------------------------------------ near/far expansion
-
-@dataclass(frozen=True)
-class FarFieldExpansion:
-    r"""Polynomial far field of :math:`g(t) = (2 - 2t)^a`, a = s - 1, for ``"nearfar"``.
-
-    ``lmax`` = L, the degree of :math:`P_L \approx g` on :math:`[-1, 1 - \delta^2/2]`;
-    ``sh_weights[l]`` = :math:`w_l = 4\pi g_l/(2l+1)`, :math:`P_L = \sum_l g_l P_l`, so that
-    :math:`P_L(u\cdot v) = \sum_{l,m} w_l Y_{lm}(u) Y^*_{lm}(v)`; ``near_cheb``: Chebyshev
-    coefficients of :math:`S(d^2) = P_L(1 - d^2/2)` on :math:`d^2 \in [0, \delta^2]`;
-    ``far_error``: max :math:`|P_L - g|` on the far interval (checked on a fine grid).
-    """
-    s: float
-    delta: float
-    lmax: int
-    sh_weights: np.ndarray
-    near_cheb: np.ndarray
-    far_error: float
-
-
-def _chebyshev_coefficients(values: np.ndarray) -> np.ndarray:
-    """Coefficients of the Chebyshev interpolant through values at x_k = cos(pi (k+1/2)/n)."""
-    n = values.shape[0]
-    c = scipy.fft.dct(values, type=2) / n
-    c[0] /= 2
-    return c
-
-
-@functools.lru_cache(maxsize=32)
-def far_field_expansion(s: float, delta: float, rtol: float = 1e-15) -> FarFieldExpansion:
-    r"""The near/far split of the kernel for smoothness s and near radius ``delta``.
-
-    1. Chebyshev interpolation of :math:`g(t) = (2-2t)^{s-1}` on :math:`[-1, t_0]`,
-       :math:`t_0 = 1 - \delta^2/2`, evaluated as :math:`(d^2)^{s-1}` with
-       :math:`d^2 = \delta^2 + (4 - \delta^2)\sin^2(\theta_k/2)` (no cancellation);
-       truncated after the last coefficient above ``rtol * 4^(s-1)``: degree L.
-    2. Legendre coefficients of :math:`P_L` on [-1, 1] by interpolation at the L + 1
-       Gauss-Legendre nodes.
-    3. :math:`S(d^2) = P_L(1 - d^2/2)` re-expanded on the near interval (degree ~20).
-
-    >>> ff = far_field_expansion(1.5, 0.1)
-    >>> ff.lmax > 100 and ff.far_error < 1e-13
-    True
-    """
-    s = _check_s(s)
-    a = s - 1.0
-    delta = float(delta)
-    if not (0.0 < delta < 2.0):
-        raise ParameterError(f"near radius delta must be in (0, 2), got {delta}")
-    d2min = delta * delta
-    t0 = 1.0 - d2min / 2.0
-    gmax = 4.0 ** a
-    n = 1024
-    while True:
-        theta = np.pi * (np.arange(n) + 0.5) / n
-        # t = ((t0 + 1) x + t0 - 1) / 2, x = cos(theta): 2 - 2t = d2min + (4 - d2min) sin^2(theta/2)
-        d2 = d2min + (4.0 - d2min) * np.sin(theta / 2) ** 2
-        c = _chebyshev_coefficients(d2 ** a)
-        big = np.nonzero(np.abs(c) > rtol * gmax)[0]
-        lmax = int(big[-1]) if big.size else 0
-        if lmax < 0.6 * n or n >= 2**16:
-            break
-        n *= 4
-    c = c[: lmax + 1]
-
-    def poly(t):  # P_L(t) through the mapped Chebyshev variable
-        x = (2.0 * t - (t0 - 1.0)) / (t0 + 1.0)
-        return np.polynomial.chebyshev.chebval(x, c)
-
-    # Legendre coefficients g_l of P_L: interpolation at the L + 1 Gauss-Legendre nodes
-    # (a well-conditioned square solve; the quadrature form sum_i w_i P_L(u_i) P_l(u_i)
-    # is mathematically the same but scipy's weights near +-1 carry ~1e-11 relative errors,
-    # which show up as 1e-10 errors of the series at t = -1)
-    u, _ = special.roots_legendre(lmax + 1)
-    vander = np.polynomial.legendre.legvander(u, lmax)
-    g = np.linalg.solve(vander, poly(u))
-    # P_L(u.v) = sum_l g_l P_l(u.v) = sum_lm [4 pi g_l / (2l+1)] Y_lm(u) Y*_lm(v)
-    weights = 4.0 * np.pi * g / (2.0 * np.arange(lmax + 1) + 1.0)
-    # near-zone representation of P_L
-    m = 64
-    y = np.cos(np.pi * (np.arange(m) + 0.5) / m)
-    d2n = d2min * (1.0 + y) / 2.0
-    cn = _chebyshev_coefficients(poly(1.0 - d2n / 2.0))
-    keep = np.nonzero(np.abs(cn) > 1e-14 * gmax)[0]
-    cn = cn[: (int(keep[-1]) + 3 if keep.size else 1)].copy()
-    # check the far-field error on a fine grid in d2 (geometric near the cut)
-    d2c = np.concatenate([d2min * np.geomspace(1.0, 4.0 / d2min, 4001), np.linspace(d2min, 4.0, 4001)])
-    err = float(np.max(np.abs(poly(1.0 - d2c / 2.0) - d2c ** a)))
-    return FarFieldExpansion(s=s, delta=delta, lmax=lmax, sh_weights=weights,
-                             near_cheb=np.ascontiguousarray(cn), far_error=err)
-
-
-def _near_radius(n: int) -> float:
-    """delta with about :data:`_NEAR_NEIGHBOURS` of N uniformly spread nodes within it
-    (cap area fraction delta^2/4), rounded to 2 significant digits so that the cached
-    expansion is reused across nearby N."""
-    d = math.sqrt(4.0 * _NEAR_NEIGHBOURS / max(n, 1))
-    d = min(max(d, _DELTA_MIN), _DELTA_MAX)
-    return float(f"{d:.2g}")
-
-
-@dataclass
-class _CellList:
-    """Nodes sorted by the cell of a uniform grid of side h >= delta over [-1, 1]^3."""
-    h: float
-    ngrid: int
-    order: np.ndarray
-    cell_start: np.ndarray
-    px: np.ndarray
-    py: np.ndarray
-    pz: np.ndarray
-
-    @classmethod
-    def build(cls, points: np.ndarray, delta: float) -> "_CellList":
-        ngrid = max(1, int(math.floor(2.0 / delta)))
-        h = 2.0 / ngrid  # >= delta
-        idx = np.minimum(((points + 1.0) / h).astype(np.int64), ngrid - 1)
-        lin = (idx[:, 0] * ngrid + idx[:, 1]) * ngrid + idx[:, 2]
-        order = np.argsort(lin, kind="stable")
-        counts = np.bincount(lin, minlength=ngrid**3)
-        start = np.zeros(ngrid**3 + 1, dtype=np.int64)
-        np.cumsum(counts, out=start[1:])
-        sp = points[order]
-        return cls(h=h, ngrid=ngrid, order=order, cell_start=start,
-                   px=np.ascontiguousarray(sp[:, 0]), py=np.ascontiguousarray(sp[:, 1]),
-                   pz=np.ascontiguousarray(sp[:, 2]))
-
-
 # ------------------------------------------------------------------ the interpolator
-
-class ProfiledLikelihood(NamedTuple):
-    """Gaussian-process log-likelihood with the scale profiled out, per channel."""
-    loglik: np.ndarray | float
-    #: :math:`\hat\sigma = (f^T K^{-1} f / N)^{1/2}`
-    sigma: np.ndarray | float
-
 
 class SobolevInterpolator:
     r"""Interpolate values at unit vectors with the generalized distance kernel (Eq. 14).
@@ -597,7 +386,7 @@ class SobolevInterpolator:
         self._require_factor()
         if self._kinv_diag is None:
             block = int(min(512, max(64, _BLOCK_BYTES // (8 * max(self.n, 1)))))
-            self._kinv_diag = _inverse_diagonal_from_cholesky(self._factor, block=block)
+            self._kinv_diag = inverse_diagonal(self._factor, block=block)
         return self._kinv_diag
 
     def loo_residuals(self, values=None) -> np.ndarray:
@@ -617,18 +406,12 @@ class SobolevInterpolator:
         :math:`\hat\sigma^2 = f^T K^{-1} f / N` gives
         :math:`\ell = -\tfrac12 (N \log\hat\sigma^2 + \log\det K + N (1 + \log 2\pi))`.
         Returns ``(loglik, sigma)`` (:math:`\hat\sigma`), arrays of shape (C,) or scalars for
-        1-D values.
+        1-D values (:func:`envfit.kernels.likelihood.profiled_log_likelihood`, from this
+        factorisation's solve and log-determinant).
         """
         vals, alpha, vector = self._coefficients_for(values)
-        n = self.n
-        quad = np.einsum("ij,ij->j", vals, alpha)
-        with np.errstate(divide="ignore"):
-            sigma2 = quad / n
-            ll = -0.5 * (n * np.log(sigma2) + self.log_det + n * (1.0 + math.log(2.0 * math.pi)))
-        sigma = np.sqrt(sigma2)
-        if vector:
-            return ProfiledLikelihood(float(ll[0]), float(sigma[0]))
-        return ProfiledLikelihood(ll, sigma)
+        return profiled_log_likelihood(vals[:, 0] if vector else vals,
+                                       alpha[:, 0] if vector else alpha, self.log_det)
 
     # -- evaluation ----------------------------------------------------------------
     def __call__(self, query) -> np.ndarray:
@@ -685,48 +468,16 @@ class SobolevInterpolator:
                 np.matmul(blk, alpha, out=out[i0:i1])
         return out
 
-    def _cell_list(self, delta: float) -> _CellList:
+    def _cell_list(self, delta: float) -> CellList:
         cl = self._cells.get(delta)
         if cl is None:
-            cl = self._cells[delta] = _CellList.build(self.points, delta)
+            cl = self._cells[delta] = CellList.build(self.points, delta)
         return cl
 
     def _power_sums_nearfar(self, q: np.ndarray, alpha: np.ndarray) -> np.ndarray:
-        import ducc0  # heavy import, only here
-
-        m, nc = q.shape[0], alpha.shape[1]
-        delta = _near_radius(self.n)
-        ff = far_field_expansion(self.s, delta)
-        cells = self._cell_list(delta)
-        nthreads = _nthreads()
-        lmax = ff.lmax
-        # far field: alm = w_l sum_j alpha_j Y*_lm(p_j)
-        node_loc = _to_theta_phi(self.points)
-        l_of_index = np.concatenate([np.arange(mm, lmax + 1) for mm in range(lmax + 1)])
-        weights = ff.sh_weights[l_of_index]
-        alms = []
-        for c in range(nc):  # ducc0: one scalar (spin-0) map per call
-            alm = ducc0.sht.adjoint_synthesis_general(
-                lmax=lmax, spin=0, map=np.ascontiguousarray(alpha[:, c])[None, :], loc=node_loc,
-                epsilon=_SHT_EPSILON, nthreads=nthreads)
-            alm *= weights
-            alms.append(alm)
-        sw = np.ascontiguousarray(alpha[cells.order])
-        out = np.empty((m, nc))
-        near = np.empty((min(m, 2**18), nc))
-        for i0 in range(0, m, 2**18):  # bounded temporaries: loc (4 MB) and near (2 MB * C)
-            i1 = min(m, i0 + 2**18)
-            qb = q[i0:i1]
-            qloc = _to_theta_phi(qb)
-            nb = near[: i1 - i0]
-            _kernels.near_field_correction(qb, cells.h, cells.ngrid, cells.cell_start, cells.px,
-                                           cells.py, cells.pz, sw, delta * delta, self._a,
-                                           self._kind, ff.near_cheb, nb)
-            for c in range(nc):
-                far = ducc0.sht.synthesis_general(alm=alms[c], spin=0, lmax=lmax, loc=qloc,
-                                                  epsilon=_SHT_EPSILON, nthreads=nthreads)
-                np.add(far[0], nb[:, c], out=out[i0:i1, c])
-        return out
+        delta = near_radius(self.n)
+        return nearfar_power_sums(self.points, self._cell_list(delta), q, alpha, self.s, delta,
+                                  self._a, self._kind, _nthreads())
 
     def __repr__(self) -> str:
         return (f"SobolevInterpolator(n={self.n}, channels={self.nchannels}, s={self.s:g}, "
