@@ -317,3 +317,21 @@ def test_input_validation():
     with pytest.raises(TheoryParameterError):
         error_spectrum(hemisphere_points(4, 0), np.ones(4), "diffuse", 1.5, 10)
     assert embedding_coefficients(Glossy(30.0), 1.5)[0] == pytest.approx(kernel_constant(1.5) / 2)
+
+
+@pytest.mark.parametrize("s", [1.5, 1.9])
+def test_kernel_matrix_condition_grows_like_n_to_the_s(s):
+    """docs/ERRATA.md (Table 2): cond(K) of the OSW system grows like N^s, so at N = 20000 and
+    s = 1.9 it is far beyond what a float32 factorisation resolves (1/eps32 ≈ 8.4e6)."""
+    from envfit.theory.pointsets import generate
+    ns = np.array([128, 256, 512])
+    cond = []
+    for n in ns:
+        ev = np.linalg.eigvalsh(kernel_matrix(generate("sf", int(n)), s))
+        assert ev[0] > 0
+        cond.append(ev[-1] / ev[0])
+    k, b = np.polyfit(np.log(ns), np.log(cond), 1)
+    assert k == pytest.approx(s, abs=0.15)
+    if s == 1.9:
+        assert math.exp(b + k * math.log(20000)) > 10 / np.finfo(np.float32).eps
+    assert 8 * 20000 ** 2 == 3.2e9            # the float64 matrix of 20000 samples: 3.2 GB

@@ -72,3 +72,12 @@ def test_kernel_diagonal_is_exact():
     for s in (1.1, 1.5, 1.9):
         K = generalized_distance_kernel(s, u, u)
         assert np.all(np.diag(K) == kernel_constant(s))
+
+
+@pytest.mark.parametrize("s", [1.1, 1.5, 1.9])
+def test_a1_closed_form_and_no_gamma_overflow(s):
+    """docs/ERRATA.md (Sobolev kernel): a_1 = 4π 2^(2s-2) (s-1)/(s(s+1)), and the a_l stay finite
+    far beyond where Γ(l + 1 + s) overflows (l ≈ 170)."""
+    a = sobolev_coefficients(s, 2000)
+    assert a[1] == pytest.approx(4 * np.pi * 2 ** (2 * s - 2) * (s - 1) / (s * (s + 1)), rel=1e-13)
+    assert np.all(np.isfinite(a)) and np.all(a[1:] > 0) and a[2000] < a[171] < a[170]

@@ -229,3 +229,46 @@ def test_bnot_figure_data_blue_noise_and_capacity():
     # high frequencies: both near the Poisson level 1 on average
     hi = d.radius > 2 * math.sqrt(64)
     assert 0.5 < d.power_random[hi].mean() < 1.5 and 0.3 < d.power_bnot[hi].mean() < 2.0
+
+
+# ----------------------------------------------------------------------------- claims
+def test_claim_anisotropic_part_dominates_the_wce(spectra):
+    """Sec. 5.2 / Fig. 1 caption (docs/ERRATA.md): E = (E_Z^2 + E_A^2)^(1/2), and for the QMC
+    rules of Sec. 7 the anisotropic part E_A is the larger one."""
+    from envfit.theory.figures import anisotropic_dominance_claim
+    c = anisotropic_dominance_claim(spectra, "diffuse", "equal")
+    assert c.id == "fig1.anisotropic-dominates.diffuse" and c.threshold == 1.0 and c.holds
+    for ps, ratio in c.values["zonal_over_anisotropic"].items():
+        r = spectra.get("diffuse", "equal", ps)
+        assert ratio == pytest.approx(r.wce_zonal / r.wce_anisotropic) and ratio < 1
+        # the truncated spectral sum is exactly E_Z^2 + E_A^2 (Eqs. 46-47)
+        assert r.wce_zonal ** 2 + r.wce_anisotropic ** 2 == pytest.approx(math.fsum(r.e2), rel=1e-12)
+
+
+def test_claim_fig5a_caption_is_not_reproducible():
+    """Fig. 5(a) caption (docs/ERRATA.md): E(3) ≈ 4.4e-3 contradicts b_3 = 0, E(3) = E(2)."""
+    from envfit.theory.figures import caption_fig5a_claim, truncation_figure_data
+    td = truncation_figure_data(S, 30.0, 4, qmc_nmax=64)
+    c = caption_fig5a_claim(td)
+    assert c.values["b3_zero"] and c.values["wce_L3"] == c.values["wce_L2"]
+    assert not c.holds and abs(c.values["wce_L3"] / 4.4e-3 - 1) > c.threshold == 0.1
+    assert caption_fig5a_claim(truncation_figure_data(S, 30.0, 2, qmc_nmax=16)) is None
+
+
+def test_claims_verdicts_follow_their_thresholds():
+    from envfit.theory.figures import (bnot_figure_data, figure_claims, random_slope_claims,
+                                       structured_beat_random_claims)
+    cd = convergence_data(256, S, 30.0, seed=0, pointsets=("random", "sf"), brdfs=("glossy",))
+    slopes = {c.id: c for c in random_slope_claims(cd)}
+    assert set(slopes) == {"fig4.random-slope-equal.glossy", "fig4.random-slope-osw.glossy"}
+    for c in slopes.values():
+        assert c.holds == (abs(c.values["slope"] - c.values["expected"]) <= c.threshold)
+    assert [c.holds for c in random_slope_claims(cd, tol=0.0)] == [False, False]
+    (beat,) = structured_beat_random_claims(cd)
+    assert beat.holds == beat.values["per_pointset"]["sf"]["all"]
+    assert structured_beat_random_claims(cd, nmin=512) == []
+    bd = bnot_figure_data(32)
+    ids = [c.id for c in figure_claims(convergence=cd, bnot=bd)]
+    assert ids == list(slopes) + ["fig4.structured-beat-random.glossy", "bnot.capacity",
+                                  "bnot.blue-noise"]
+    assert all(c.holds for c in figure_claims(bnot=bd))
