@@ -7,8 +7,9 @@ from scipy.optimize import linprog
 from scipy.spatial import HalfspaceIntersection, Voronoi
 
 from envfit.theory import bnot
-from envfit.theory.bnot import (bnot_diagnostics, bnot_square, capacity_weights, min_toroidal_distance,
-                         power_diagram, radial_power_spectrum)
+from envfit.theory.bnot import (bnot_diagnostics, bnot_square, capacity_weights,
+                                min_toroidal_distance, radial_power_spectrum)
+from envfit.theory.power_cells import power_diagram
 from envfit.theory.errors import TheoryParameterError
 
 TILES = np.array([(i, j) for i in (-1, 0, 1) for j in (-1, 0, 1)], dtype=float)

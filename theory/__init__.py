@@ -7,7 +7,8 @@ and Fourier Truncation-based Methods Applied to Shading Integrals" (IEEE TVCG 20
 - :mod:`envfit.theory.sobolev` — a_l^(s) (Eqs. 15–16), the generalized distance kernel (Eq. 14);
 - :mod:`envfit.theory.brdf` — zonal weight functions, b_l, b̃_l, HSH→SH (Eqs. 20–33);
 - :mod:`envfit.theory.sh` — Legendre/SH sums of point sets (Eqs. 44–45, 54);
-- :mod:`envfit.theory.pointsets`, :mod:`envfit.theory.bnot`, :mod:`envfit.theory.sphere_points` — point sets;
+- :mod:`envfit.theory.pointsets`, :mod:`envfit.theory.bnot` (on :mod:`envfit.theory.power_cells`),
+  :mod:`envfit.theory.sphere_points` — point sets;
 - :mod:`envfit.theory.weights` — equal and optimal sample weights;
 - :mod:`envfit.theory.cholesky` — the dense Cholesky every factorisation uses (blocked, safe from
   OpenBLAS's threaded-``dsyrk`` crash on AVX-512 at N >= 16 000);
@@ -30,7 +31,8 @@ _EXPORTS = {
                   "morph_diffuse", "morph_glossy", "random_square", "rotate_to_axes", "sobol02",
                   "spherical_fibonacci", "square_points", "stratified_jitter"),
     "bnot": ("bnot_diagnostics", "bnot_square", "capacity_weights", "min_toroidal_distance",
-             "power_diagram", "radial_power_spectrum"),
+             "radial_power_spectrum"),
+    "power_cells": ("PowerDiagram", "power_diagram"),
     "sphere_points": ("random_sphere", "sphere_points", "spherical_fibonacci_sphere"),
     "quadrature": ("ErrorSpectrum", "error_spectrum", "initial_error", "kernel_mean_embedding",
                    "worst_case_error", "worst_case_error_squared"),
