@@ -32,6 +32,7 @@ from envfit.data_gen.gp import gaussian_process_map                     # noqa: 
 from envfit.shading import estimators as E  # noqa: E402
 from envfit.shading import ground_truth as S  # noqa: E402
 from envfit.maps.envmap import EnvMap                                 # noqa: E402
+from envfit.theory.brdf import gauss_legendre_01                      # noqa: E402
 
 
 def _timed(fn, repeat=3):
@@ -58,8 +59,7 @@ def piecewise_constant_integral(m: EnvMap, axes, weight, q: int = 4) -> np.ndarr
     """Σ_p v_p ∫_cell p(u·a) dS / (2π r_s): the pixels as a piecewise-constant function
     (q×q Gauss–Legendre per pixel cell; for comparison only)."""
     h, w, c = m.data.shape
-    x, wq = np.polynomial.legendre.leggauss(q)
-    x, wq = 0.5 * (x + 1), 0.5 * wq
+    x, wq = gauss_legendre_01(q)                                 # nodes, weights on [0, 1]
     th = (np.pi * (np.arange(h)[:, None] + x[None, :]) / h).ravel()
     wth = (np.pi / h * wq[None, :] * np.ones((h, 1))).ravel() * np.sin(th)
     ph = (2 * np.pi * (np.arange(w)[:, None] + x[None, :]) / w).ravel()

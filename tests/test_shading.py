@@ -14,6 +14,8 @@ from scipy import integrate, special
 from envfit.data_gen.analytic import ConstantMap, SkyGradientMap, SunSkyMap
 from envfit.data_gen.gp import gaussian_process_map
 from envfit.shading import ground_truth as S
+from envfit.shading.bilinear_sh import alm_l_index
+from envfit.shading.patches import bilinear_in_patch, patch_rows
 from envfit.maps.envmap import EnvMap
 from envfit.base.errors import ParameterError
 from envfit.maps.latlong import local_to_world
@@ -84,10 +86,10 @@ def test_patch_interpolant_matches_lookup():
     s = rng.integers(0, h + 1, 4000)
     j = rng.integers(0, w, 4000)
     s[:200], s[200:400], j[400:600] = 0, h, w - 1            # both caps and the seam
-    lo, hi = S._patch_rows(h)
+    lo, hi = patch_rows(h)
     theta = lo[s] + (hi[s] - lo[s]) * rng.random(s.size)
     phi = 2 * np.pi * (j + 0.5 + rng.random(s.size)) / w
-    mine = S._bilinear_in_patch(m.data, s, j, theta[:, None], phi[:, None])[:, 0, :]
+    mine = bilinear_in_patch(m.data, s, j, theta[:, None], phi[:, None])[:, 0, :]
     d = np.stack([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)], 1)
     np.testing.assert_allclose(mine, m.lookup(d), rtol=0, atol=1e-12)
 
@@ -103,7 +105,7 @@ def test_bilinear_sh_coefficients_of_a_zonal_interpolant():
     h = 8
     data, theta_c = _row_linear_map(h)
     alm = S.bilinear_sh_coefficients(EnvMap(data, up="z"), 12)
-    l_of = S._alm_l_index(12)
+    l_of = alm_l_index(12)
     m_of = np.repeat(np.arange(13), 13 - np.arange(13))
     # zonal: only m = 0; f_l0 = 2π ∫ f(θ) Y_l0(θ) sinθ dθ by scipy quad on each smooth piece
     f = lambda t: 2.0 + 0.7 * np.clip(t, theta_c[0], theta_c[-1])

@@ -58,9 +58,10 @@ from envfit.theory.pointsets import frame_from_axis
 from envfit.maps.envmap import EnvMap
 from envfit.base.errors import ParameterError
 from envfit.base.resources import check_memory
-from envfit.shading.ground_truth import (unit_axes, axes_to_local, bilinear_sh_coefficients, funk_hecke_factors,
-                      hemisphere_integrals, hsh_weight_coefficients, synthesize_convolution,
-                      weight_function)
+from envfit.shading.bilinear_sh import bilinear_sh_coefficients, synthesize_convolution
+from envfit.shading.ground_truth import funk_hecke_factors, hsh_weight_coefficients, weight_function
+from envfit.shading.hemisphere import hemisphere_integrals
+from envfit.shading.patches import axes_to_local, unit_axes
 
 __all__ = ["quadrature_estimates", "sh_truncation_estimates", "sh_truncation_curve",
            "hsh_truncation_estimates", "hsh_truncation_curve", "hsh_projections",
