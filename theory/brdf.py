@@ -40,7 +40,7 @@ from typing import Callable
 import numpy as np
 from scipy import special
 
-from .errors import TheoryParameterError
+from .errors import TheoryParameterError, check_degree
 from .sh import legendre_moments as _legendre_moments
 
 __all__ = ["WeightFunction", "ZonalWeight", "Diffuse", "Glossy", "Phong",
@@ -79,16 +79,6 @@ def _legendre_matrix(x, lmax: int) -> np.ndarray:
     return out
 
 
-def _check_degree(lmax, what="lmax") -> int:
-    try:
-        v = int(lmax)
-    except (TypeError, ValueError):
-        raise TheoryParameterError(f"{what} must be an integer, got {lmax!r}") from None
-    if v != lmax or v < 0:
-        raise TheoryParameterError(f"{what} must be an integer >= 0, got {lmax!r}")
-    return v
-
-
 def hsh_to_sh_matrix(lmax_sh: int, lmax_hsh: int) -> np.ndarray:
     r"""Zonal HSH → SH conversion matrix, shape ``(lmax_sh+1, lmax_hsh+1)`` (Eqs. 32–33, errata).
 
@@ -103,8 +93,8 @@ def hsh_to_sh_matrix(lmax_sh: int, lmax_hsh: int) -> np.ndarray:
     >>> bool(np.allclose(M[:, 0], [np.sqrt(0.5), np.sqrt(1.5) / 2]))
     True
     """
-    lmax_sh = _check_degree(lmax_sh, "lmax_sh")
-    lmax_hsh = _check_degree(lmax_hsh, "lmax_hsh")
+    lmax_sh = check_degree(lmax_sh, "lmax_sh")
+    lmax_hsh = check_degree(lmax_hsh, "lmax_hsh")
     x, w = gauss_legendre_01((lmax_sh + lmax_hsh) // 2 + 2)
     Q = _legendre_matrix(2.0 * x - 1.0, lmax_hsh) * w          # (lmax_hsh+1, n)
     M = np.empty((lmax_sh + 1, lmax_hsh + 1))
@@ -231,7 +221,7 @@ class WeightFunction:
 
     def _coefficients(self, kind: str, lmax: int, compute) -> np.ndarray:
         """Cache coefficient arrays, computed up to the next power of two ≥ lmax."""
-        lmax = _check_degree(lmax)
+        lmax = check_degree(lmax)
         cache = self._cache()
         have = cache.get(kind)
         if have is None or have.size <= lmax:
@@ -282,8 +272,8 @@ class WeightFunction:
         :func:`hsh_to_sh_matrix`. These are the coefficients of :math:`p'/(2\pi r_s)`,
         with p' = 0 on the lower hemisphere, so the expansion does not terminate at L.
         """
-        L = _check_degree(L, "L")
-        lmax = _check_degree(lmax)
+        L = check_degree(L, "L")
+        lmax = check_degree(lmax)
         return hsh_to_sh_matrix(lmax, L) @ self.hsh_coefficients(L)
 
     def cdf(self, z) -> np.ndarray:
@@ -403,7 +393,7 @@ class Diffuse(WeightFunction):
         return 1
 
     def sh_coefficients(self, lmax: int) -> np.ndarray:
-        lmax = _check_degree(lmax)
+        lmax = check_degree(lmax)
         l = np.arange(lmax + 1)
         b = np.zeros(lmax + 1)
         b[0] = 0.5 / math.sqrt(math.pi)
@@ -418,7 +408,7 @@ class Diffuse(WeightFunction):
         return b
 
     def hsh_coefficients(self, lmax: int) -> np.ndarray:
-        lmax = _check_degree(lmax)
+        lmax = check_degree(lmax)
         b = np.zeros(lmax + 1)
         b[0] = 1.0 / math.sqrt(2 * math.pi)
         if lmax >= 1:
@@ -485,14 +475,14 @@ class Glossy(WeightFunction):
         bounded by :math:`\sqrt{(2l+1)/4\pi}\,e^{-n}/r_s`. Uses ``ive`` (= :math:`e^{-n}I_\nu(n)`),
         so it never overflows.
         """
-        lmax = _check_degree(lmax)
+        lmax = check_degree(lmax)
         n = self.shininess
         nu = np.arange(lmax + 1) + 0.5
         return np.sqrt(n * nu) * special.ive(nu, n) / (-np.expm1(-n))
 
     def hsh_coefficients(self, lmax: int) -> np.ndarray:
         r"""Eq. 30 (exact): :math:`\tilde b_l = \frac{e^{-n/2}}{1-e^{-n}}\sqrt{n\nu}\,I_\nu(n/2)`, ν = l + ½."""
-        lmax = _check_degree(lmax)
+        lmax = check_degree(lmax)
         n = self.shininess
         nu = np.arange(lmax + 1) + 0.5
         return np.sqrt(n * nu) * special.ive(nu, 0.5 * n) / (-np.expm1(-n))

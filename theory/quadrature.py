@@ -45,9 +45,9 @@ import numpy as np
 from scipy.fft import dct
 
 from .brdf import WeightFunction
-from .errors import TheoryParameterError, check_smoothness
+from .errors import TheoryParameterError, check_degree, check_smoothness
 from .sh import (anisotropic_power_spectrum, check_points_weights, legendre_series,
-                 zonal_sums, _check_lmax)
+                 zonal_sums)
 from .sobolev import kernel_constant, kernel_series, sobolev_coefficients
 
 __all__ = ["kernel_mean_embedding", "initial_error", "worst_case_error",
@@ -402,7 +402,7 @@ def error_spectrum(points, weights, brdf: WeightFunction, s: float, lmax: int, *
     s = check_smoothness(s)
     _check_brdf(brdf)
     pts, w = check_points_weights(points, weights)
-    lmax = _check_lmax(lmax)
+    lmax = check_degree(lmax)
     l = np.arange(lmax + 1)
     a = sobolev_coefficients(s, lmax)
     b = brdf.sh_coefficients(lmax)

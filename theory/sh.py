@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .errors import TheoryParameterError
+from .errors import TheoryParameterError, check_degree
 
 __all__ = ["legendre_p", "legendre_series", "legendre_moments", "points_to_angles", "zonal_sums",
            "point_set_sh_coefficients", "anisotropic_power_spectrum",
@@ -65,16 +65,6 @@ def check_points_weights(points, weights=None, *, allow_empty: bool = False):
     return pts, w
 
 
-def _check_lmax(lmax) -> int:
-    try:
-        lmax_i = int(lmax)
-    except (TypeError, ValueError):
-        raise TheoryParameterError(f"lmax must be an integer, got {lmax!r}") from None
-    if lmax_i != lmax or lmax_i < 0:
-        raise TheoryParameterError(f"lmax must be an integer >= 0, got {lmax!r}")
-    return lmax_i
-
-
 def legendre_p(lmax: int, t) -> np.ndarray:
     r"""Legendre polynomials :math:`P_0(t) … P_{lmax}(t)`, shape ``(lmax+1,) + t.shape``.
 
@@ -83,7 +73,7 @@ def legendre_p(lmax: int, t) -> np.ndarray:
     >>> legendre_p(2, [0.5]).ravel().round(4).tolist()
     [1.0, 0.5, -0.125]
     """
-    lmax = _check_lmax(lmax)
+    lmax = check_degree(lmax)
     t = np.asarray(t, dtype=np.float64)
     out = np.empty((lmax + 1,) + t.shape)
     out[0] = 1.0
@@ -161,7 +151,7 @@ def zonal_sums(points, weights, lmax: int) -> np.ndarray:
     True
     """
     pts, w = check_points_weights(points, weights)
-    lmax = _check_lmax(lmax)
+    lmax = check_degree(lmax)
     out = legendre_moments(pts[:, 2].copy(), w, lmax)
     l = np.arange(lmax + 1)
     return np.sqrt((2 * l + 1) / (4 * np.pi)) * out
@@ -194,7 +184,7 @@ def point_set_sh_coefficients(points, weights, lmax: int, *, nthreads: int = 0) 
     relative to :math:`(\sum_l S_l)^{1/2}`).
     """
     pts, w = check_points_weights(points, weights)
-    lmax = _check_lmax(lmax)
+    lmax = check_degree(lmax)
     alm = _ducc_adjoint(pts, w, lmax, nthreads)
     out = np.zeros((lmax + 1, lmax + 1), dtype=np.complex128)
     lidx = _packed_l_index(lmax)
@@ -211,7 +201,7 @@ def anisotropic_power_spectrum(points, weights, lmax: int, *, nthreads: int = 0)
     :math:`C_0^2 = 0`.
     """
     pts, w = check_points_weights(points, weights)
-    lmax = _check_lmax(lmax)
+    lmax = check_degree(lmax)
     alm = _ducc_adjoint(pts, w, lmax, nthreads)
     power = alm.real ** 2 + alm.imag ** 2
     m0 = lmax + 1                       # entries 0…lmax are the m = 0 column
@@ -234,7 +224,7 @@ def point_set_power_spectrum(points, weights, lmax: int, *, nthreads: int = 0):
     True
     """
     pts, w = check_points_weights(points, weights)
-    lmax = _check_lmax(lmax)
+    lmax = check_degree(lmax)
     c0 = zonal_sums(pts, w, lmax)
     C2 = anisotropic_power_spectrum(pts, w, lmax, nthreads=nthreads)
     return c0, c0 ** 2 + C2
@@ -246,7 +236,7 @@ def _power_spectrum_legendre_pairs(points, weights, lmax: int, block: int = 512)
     :math:`S_l = \frac{2l+1}{4\pi}\sum_{i,j} w_i w_j P_l(u_i\cdot u_j)`, returns ``(c_l0, S_l)``.
     """
     pts, w = check_points_weights(points, weights)
-    lmax = _check_lmax(lmax)
+    lmax = check_degree(lmax)
     n = pts.shape[0]
     S = np.zeros(lmax + 1)
     for i0 in range(0, n, block):

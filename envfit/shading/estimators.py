@@ -56,6 +56,7 @@ import numpy as np
 from envfit.theory.pointsets import frame_from_axis
 
 from envfit.maps.envmap import EnvMap
+from envfit.base.checks import check_int, check_ints
 from envfit.base.errors import ParameterError
 from envfit.base.resources import check_memory
 from envfit.shading.bilinear_sh import bilinear_sh_coefficients, synthesize_convolution
@@ -86,16 +87,11 @@ def twisted_frames(axes: np.ndarray, seed=None) -> np.ndarray:
 
 
 def _degrees(Ls, name="L") -> np.ndarray:
-    arr = np.atleast_1d(np.asarray(Ls))
+    """A non-empty list of degrees ≥ 0 (:func:`envfit.base.checks.check_ints`) as int64."""
+    arr = np.atleast_1d(np.asarray(Ls, dtype=object))
     if arr.ndim != 1 or arr.size == 0:
         raise ParameterError(f"{name} must be a non-empty list of degrees, got {Ls!r}")
-    try:
-        out = arr.astype(np.int64)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{name} must be integers >= 0, got {Ls!r}") from None
-    if np.any(out != arr) or np.any(out < 0):
-        raise ParameterError(f"{name} must be integers >= 0, got {Ls!r}")
-    return out
+    return np.asarray(check_ints(arr.tolist(), name, 0), dtype=np.int64)
 
 
 # ----------------------------------------------------------------------------- quadrature
@@ -235,7 +231,7 @@ def hsh_projections(envmap: EnvMap, axes, lmax: int) -> np.ndarray:
     quadrature with the horizon clipped exactly (:func:`envfit.shading.ground_truth.hemisphere_integrals`,
     bandwidth lmax), all degrees at once by the Legendre recurrence in 2z − 1.
     """
-    lmax = int(_degrees([lmax], "lmax")[0])
+    lmax = check_int(lmax, "lmax", 0)
     raw = hemisphere_integrals(envmap, unit_axes(axes), _legendre_shifted(lmax), lmax + 1,
                                degree=lmax)
     return raw * _hsh_norms(lmax)[None, :, None]
@@ -273,7 +269,7 @@ def hsh_truncation_estimates(envmap: EnvMap, axes, brdf="diffuse", L: int = 2, *
     [[2.0]]
     """
     weight = weight_function(brdf, shininess)
-    L = int(_degrees([L], "L")[0])
+    L = check_int(L, "L", 0)
     coef = hsh_weight_coefficients(weight, L) * _hsh_norms(L)
     basis = _legendre_shifted(L)
 
