@@ -9,7 +9,8 @@ higher one nor another sub-package of its own layer (one pipeline leaning on ano
     base                          (errors, checks, atomic writes, store, memory guard, progress)
     maps, plots
     kernels, shading
-    fit, predict
+    fit
+    predict                       (named predictors: use fitted s and σ̂)
     validate, advisor
     batch
     cli
@@ -27,7 +28,7 @@ import pytest
 import envfit
 
 LAYERS = [("theory",), ("data_gen",), ("base",), ("maps", "plots"), ("kernels", "shading"),
-          ("fit", "predict"), ("validate", "advisor"), ("batch",), ("cli",)]
+          ("fit",), ("predict",), ("validate", "advisor"), ("batch",), ("cli",)]
 RANK = {pkg: i for i, group in enumerate(LAYERS) for pkg in group}
 
 
