@@ -1,4 +1,5 @@
-"""Tests of the advisor (envfit.advisor.advise, envfit.advisor.cache, ``envfit advise``).
+"""Tests of the advisor (envfit.advisor: advise, options, model, prediction, search, result, check,
+cache; ``envfit advise``).
 
 Reference values are obtained independently of the code under test: a brute-force scan over
 N against the bisection, a fresh (uncached) computation against the cached answer, a
@@ -15,7 +16,8 @@ import numpy as np
 import pytest
 
 import envfit
-import envfit.advisor.advise as adv_mod
+import envfit.advisor.model as model_mod
+import envfit.advisor.prediction as prediction_mod
 import envfit.shading.spectra as spectra_mod
 from envfit.data_gen.gp import gaussian_process_map
 from envfit.advisor.advise import (Advice, advise, band_e2, degree_weights, mean_shading_value,
@@ -134,8 +136,8 @@ def test_advise_returns_sorted_rows_meeting_the_target(gp32, tmp_path):
             assert r.cost == (r.n if r.method == "quadrature" else (r.L + 1) ** 2)
         if r.method == "quadrature" and r.reached and r.n > 4:
             # independently recomputed: N - 1 misses the target
-            assert adv_mod._q_predict(a, r, r.n - 1) > a.target_rmse
-            assert adv_mod._q_predict(a, r, r.n) == pytest.approx(r.predicted_rmse, rel=1e-12)
+            assert prediction_mod.row_prediction(a, r, r.n - 1) > a.target_rmse
+            assert prediction_mod.row_prediction(a, r, r.n) == pytest.approx(r.predicted_rmse, rel=1e-12)
     # the truncation rows: smallest L of the band-limited curve, recomputed independently
     # (SH: E'^2(L) = sum_{L<l<=H-1} a_l tau_l b_l^2; HSH: Eqs. 51-52 to H-1, no tau)
     from envfit.theory.sobolev import sobolev_coefficients
@@ -199,7 +201,7 @@ def test_quadrature_prediction_equals_an_independent_spectral_computation(gp32, 
     for r in a.rows:
         assert r.reached, r.label
         e2s, dev2s = [], []
-        for sd in adv_mod._seed_list(r.pointset, 0, 2) or [None]:
+        for sd in prediction_mod.seed_list(r.pointset, 0, 2) or [None]:
             pts = generate(r.pointset, r.n, seed=0 if sd is None else sd, morph=wf.morph)
             w = equal_weights(r.n) if r.weights == "equal" else optimal_weights(pts, wf, 1.5)
             e2s.append(float(np.sum(al * tau * rule_error_power(pts, w, wf, H1))))
@@ -263,9 +265,12 @@ def test_cache_hit_is_identical_and_recomputes_nothing(gp32, tmp_path, monkeypat
     def boom(*a, **k):
         raise AssertionError("recomputed although cached")
 
-    for name in ("rule_error_power", "worst_case_error", "optimal_weights",
-                 "fit_smoothness", "bandlimited_profiled_sigma", "map_transfer"):
-        monkeypatch.setattr(adv_mod, name, boom)
+    for mod, names in ((prediction_mod, ("rule_error_power", "worst_case_error",
+                                         "optimal_weights")),
+                       (model_mod, ("fit_smoothness", "bandlimited_profiled_sigma",
+                                    "map_transfer"))):
+        for name in names:
+            monkeypatch.setattr(mod, name, boom)
     for name in ("map_degree_power", "pixel_degree_power"):     # what map_transfer calls
         monkeypatch.setattr(spectra_mod, name, boom)
     second = _small(gp32, tmp_path)

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import envfit.advisor.advise
+import envfit.advisor.prediction
 import envfit.fit.sigma
 import envfit.fit.smoothness
 import envfit.batch.library
@@ -117,7 +118,7 @@ def test_guard_runs_before_any_sample_point(monkeypatch, gp16):
     _forbid(monkeypatch, envfit.fit.smoothness, "sample_directions")
     _forbid(monkeypatch, envfit.fit.sigma, "sphere_points")
     _forbid(monkeypatch, envfit.validate.pipeline, "generate")
-    _forbid(monkeypatch, envfit.advisor.advise, "generate")
+    _forbid(monkeypatch, envfit.advisor.prediction, "generate")
     _forbid(monkeypatch, envfit.batch.library_fit, "fit_sample_task")
     _forbid(monkeypatch, envfit.batch.library, "sample_task")
     calls = [

@@ -105,26 +105,29 @@ def _check_lines(adv) -> list[str]:
     return out
 
 
+def options_from_args(args: argparse.Namespace):
+    """The :class:`envfit.advisor.options.AdviseOptions` of the command line (an option not
+    given keeps the dataclass's default; ``--bases none`` is no basis)."""
+    from envfit.advisor.options import AdviseOptions
+    given = {"pointsets": args.pointsets, "weights": args.weights, "fit_n": args.fit_n,
+             "nmin": args.nmin, "nmax": args.nmax, "osw_nmax": args.osw_nmax,
+             "seeds": args.realisations}
+    if args.bases is not None:
+        given["bases"] = () if [b.lower() for b in args.bases] == ["none"] else tuple(args.bases)
+    return AdviseOptions(
+        brdf=args.brdf, target_rmse=args.target_rmse, target_relative=args.target_relative,
+        shininess=args.shininess, scale=args.scale, s=args.s, seed=args.seed, check=args.check,
+        axes=args.axes, cache=not args.no_cache, cache_dir=args.cache_dir, quiet=args.quiet,
+        **{k: v for k, v in given.items() if v is not None})
+
+
 def run(args: argparse.Namespace) -> int:
-    from envfit.advisor.advise import (DEFAULT_FIT_N, DEFAULT_NMAX, DEFAULT_NMIN, DEFAULT_OSW_NMAX,
-                          DEFAULT_POINTSETS, DEFAULT_SEEDS, WEIGHTINGS, BASES, advise)
+    from envfit.advisor.advise import advise_with
     from envfit.base.atomic import atomic_write_csv, atomic_write_json
     env = load_map_from_args(args)
     out = out_dir(args)
-    bases = BASES if args.bases is None else (
-        () if [b.lower() for b in args.bases] == ["none"] else tuple(args.bases))
-    adv = advise(
-        env, args.brdf, args.target_rmse, target_relative=args.target_relative,
-        shininess=args.shininess, scale=args.scale,
-        pointsets=DEFAULT_POINTSETS if args.pointsets is None else args.pointsets,
-        weights=WEIGHTINGS if args.weights is None else args.weights, bases=bases, s=args.s,
-        fit_n=DEFAULT_FIT_N if args.fit_n is None else args.fit_n, seed=args.seed,
-        nmin=DEFAULT_NMIN if args.nmin is None else args.nmin,
-        nmax=DEFAULT_NMAX if args.nmax is None else args.nmax,
-        osw_nmax=DEFAULT_OSW_NMAX if args.osw_nmax is None else args.osw_nmax,
-        seeds=DEFAULT_SEEDS if args.realisations is None else args.realisations,
-        check=args.check, axes=args.axes, cache=not args.no_cache, cache_dir=args.cache_dir,
-        quiet=args.quiet)
+    opts = options_from_args(args)
+    adv = advise_with(env, opts)
     for note in adv.notes:
         if getattr(args, "cache_note", None) and note.startswith("cache switched off"):
             continue  # said before the work (preflight), on stderr

@@ -1,0 +1,212 @@
+r"""What the advisor is asked: :class:`AdviseOptions`, its parameters grouped by role and checked
+in one place, and their defaults.
+
+Roles: the *target* (BRDF lobe, target error, value scale), the *rules* sized (point sets,
+weightings, SH/HSH bases), the *fit* of s' and σ' (``s``, ``fit_n``, ``seed``), the *search*
+range (``nmin``, ``nmax``, ``osw_nmax``, ``seeds`` realisations per N), the *check* (``axes``
+and the HSH check's size) and the *cache*; ``workers`` and ``quiet`` only say how to run.
+Every check raises :class:`envfit.base.errors.ParameterError` with a one-line message (the
+CLI's exit code 2), with the checks of :mod:`envfit.base.checks`.
+
+Example
+-------
+>>> o = AdviseOptions(brdf="Glossy", target_rmse=0.01, pointsets=["SF", "sf"], bases=())
+>>> o.brdf, o.shininess, o.pointsets, o.weights, o.nmax
+('glossy', 30.0, ('sf',), ('equal', 'osw'), 65536)
+>>> AdviseOptions(target_rmse=0.01).shininess is None           # diffuse: no lobe exponent
+True
+>>> AdviseOptions(target_rmse=0.01, nmin=100, nmax=10)
+Traceback (most recent call last):
+...
+envfit.base.errors.ParameterError: nmax must be an integer >= 100, got 10
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, fields
+
+from envfit.base.checks import check_int, check_names, check_positive
+from envfit.base.errors import ParameterError
+from envfit.fit.sigma import parse_s
+from envfit.maps.scales import SCALES
+from envfit.shading.ground_truth import weight_function
+
+__all__ = ["AdviseOptions", "ALL_POINTSETS", "DEFAULT_POINTSETS", "WEIGHTINGS", "BASES", "BRDFS",
+           "DEFAULT_FIT_N", "DEFAULT_NMIN", "DEFAULT_NMAX", "DEFAULT_OSW_NMAX", "DEFAULT_SEEDS",
+           "DEFAULT_AXES", "DEFAULT_SHININESS"]
+
+#: every point set (envfit.theory.pointsets); BNOT costs ≈15 s per realisation at N = 4096
+ALL_POINTSETS = ("sf", "sobol", "lp", "bnot", "random", "jitter")
+#: the default point sets (BNOT only when asked for)
+DEFAULT_POINTSETS = ("sf", "sobol", "lp", "random", "jitter")
+WEIGHTINGS = ("equal", "osw")
+BASES = ("sh", "hsh")
+BRDFS = ("diffuse", "glossy")
+DEFAULT_SHININESS = 30.0
+DEFAULT_FIT_N = 3000
+DEFAULT_NMIN = 4
+DEFAULT_NMAX = 65536
+#: OSW needs an N×N float64 Cholesky per evaluated N (134 MB, ≈1–3 s at 4096)
+DEFAULT_OSW_NMAX = 4096
+#: realisations averaged per N for the stochastic point sets
+DEFAULT_SEEDS = 4
+#: random axes of the check
+DEFAULT_AXES = 1000
+
+
+@dataclass(frozen=True)
+class AdviseOptions:
+    """The advisor's parameters, checked and normalised on construction.
+
+    Parameters
+    ----------
+    brdf : str
+        Target: "diffuse" or "glossy" (case-insensitive; stored lower-case).
+    target_rmse : float or None
+        Target: the RMS shading error, on the ``scale`` values.
+    target_relative : float or None
+        Target: a fraction (0 < t < 1) of the map's mean shading value. Exactly one of
+        ``target_rmse`` and ``target_relative``.
+    shininess : float or None
+        Target: the glossy lobe exponent n; stored as None for the diffuse lobe.
+    scale : str
+        Target: the value scale of the integrand and the fit, "display", "linear" or "log".
+    pointsets, weights, bases : sequence of str
+        Rules: point sets (:data:`ALL_POINTSETS`), weightings ("equal", "osw") and truncation
+        bases ("sh", "hsh"; empty: none), stored as de-duplicated lower-case tuples.
+    s : "auto" or float
+        Fit: "auto" (s' and σ' by the band-limited likelihood) or a value in (1, 2).
+    fit_n : int
+        Fit: samples of the fit (≥ 10).
+    seed : int
+        Fit, search and check: seed of the fit, of the stochastic realisations and of the
+        check's axes (≥ 0).
+    nmin, nmax, osw_nmax : int
+        Search: the N range (``nmin`` ≥ 1, ``nmax`` ≥ ``nmin``); OSW up to
+        ``min(nmax, osw_nmax)``.
+    seeds : int
+        Search: realisations averaged per N for random, jitter and BNOT (≥ 1).
+    check : bool
+        Check: measure the RMSE at the chosen N/L.
+    axes : int
+        Check: random axes of the measurement (≥ 2).
+    check_hsh_height, check_hsh_axes : int
+        Check: rows of the map and axes of the (dear) HSH measurement.
+    cache : bool
+        Cache: read and write the on-disk cache (:mod:`envfit.advisor.cache`).
+    cache_dir : path or None
+        Cache: its folder (default ``$ENVFIT_CACHE_DIR`` or ``~/.cache/envfit``).
+    workers : int
+        Threads of the wce and the check's lookups.
+    quiet : bool
+        No progress bars.
+
+    Raises
+    ------
+    envfit.base.errors.ParameterError
+        A value out of range or a name not known, in one line.
+    """
+
+    brdf: str = "diffuse"
+    target_rmse: float | None = None
+    target_relative: float | None = None
+    shininess: float | None = DEFAULT_SHININESS
+    scale: str = "display"
+    pointsets: Sequence[str] = DEFAULT_POINTSETS
+    weights: Sequence[str] = WEIGHTINGS
+    bases: Sequence[str] = BASES
+    s: float | str = "auto"
+    fit_n: int = DEFAULT_FIT_N
+    seed: int = 0
+    nmin: int = DEFAULT_NMIN
+    nmax: int = DEFAULT_NMAX
+    osw_nmax: int = DEFAULT_OSW_NMAX
+    seeds: int = DEFAULT_SEEDS
+    check: bool = False
+    axes: int = DEFAULT_AXES
+    check_hsh_height: int = 128
+    check_hsh_axes: int = 200
+    cache: bool = True
+    cache_dir: object = None
+    workers: int = 2
+    quiet: bool = True
+
+    def __post_init__(self) -> None:
+        for name, value in self._checked_target().items():
+            object.__setattr__(self, name, value)
+        for name, value in self._checked_rules().items():
+            object.__setattr__(self, name, tuple(value))
+        for name, value in self._checked_numbers().items():
+            object.__setattr__(self, name, value)
+
+    def _checked_target(self) -> dict:
+        """BRDF, shininess, the one target and the scale, checked."""
+        brdf = check_names([self.brdf], BRDFS, "BRDF")[0]
+        shin = check_positive(self.shininess, "shininess") if brdf == "glossy" else None
+        if (self.target_rmse is None) == (self.target_relative is None):
+            raise ParameterError("give exactly one of target_rmse (--target-rmse) and "
+                                 "target_relative (--target-relative)")
+        rmse, rel = None, None
+        if self.target_relative is not None:
+            rel = check_positive(self.target_relative, "the relative target (--target-relative)")
+            if rel >= 1.0:
+                raise ParameterError(f"the relative target (--target-relative) is a fraction of "
+                                     f"the mean shading value and must be < 1, got "
+                                     f"{self.target_relative!r}")
+        else:
+            rmse = check_positive(self.target_rmse, "the target RMSE (--target-rmse)")
+        if self.scale not in SCALES:
+            raise ParameterError(f"scale must be one of {', '.join(SCALES)}, got {self.scale!r}")
+        return {"brdf": brdf, "shininess": shin, "target_rmse": rmse, "target_relative": rel}
+
+    def _checked_rules(self) -> dict:
+        """Point sets, weightings and bases, checked: something to advise on."""
+        pointsets = check_names(self.pointsets, ALL_POINTSETS, "point set")
+        weights = check_names(self.weights, WEIGHTINGS, "weighting")
+        bases = check_names(self.bases, BASES, "basis")
+        if not pointsets and not bases:
+            raise ParameterError("nothing to advise on: no point set and no SH/HSH basis")
+        if pointsets and not weights:
+            raise ParameterError("give at least one weighting (equal, osw)")
+        return {"pointsets": pointsets, "weights": weights, "bases": bases}
+
+    def _checked_numbers(self) -> dict:
+        """s, the fit's and the search's integers and the check's sizes, checked."""
+        out = {"s": parse_s(self.s), "fit_n": check_int(self.fit_n, "fit_n", 10),
+               "seed": check_int(self.seed, "seed", 0), "nmin": check_int(self.nmin, "nmin", 1)}
+        out["nmax"] = check_int(self.nmax, "nmax", out["nmin"])
+        return {**out, "osw_nmax": check_int(self.osw_nmax, "osw_nmax", 1),
+                "seeds": check_int(self.seeds, "seeds", 1),
+                "axes": check_int(self.axes, "axes", 2),
+                "check_hsh_height": check_int(self.check_hsh_height, "check_hsh_height", 4),
+                "check_hsh_axes": check_int(self.check_hsh_axes, "check_hsh_axes", 2)}
+
+    @classmethod
+    def names(cls) -> tuple[str, ...]:
+        """The field names, in order (the keywords :func:`envfit.advisor.advise.advise` takes).
+
+        >>> AdviseOptions.names()[:3]
+        ('brdf', 'target_rmse', 'target_relative')
+        """
+        return tuple(f.name for f in fields(cls))
+
+    def lobe(self):
+        """The weight function of the target's BRDF (n = 30 for the diffuse one, unused).
+
+        >>> AdviseOptions(brdf="glossy", shininess=10, target_rmse=0.1).lobe() is not None
+        True
+        """
+        return weight_function(self.brdf, self.shininess if self.shininess is not None
+                               else DEFAULT_SHININESS)
+
+    @property
+    def osw_upper(self) -> int:
+        """Largest N searched with optimal weights, ``max(nmin, min(nmax, osw_nmax))``."""
+        return max(self.nmin, min(self.nmax, self.osw_nmax))
+
+    def settings(self, s_rounded: float) -> dict:
+        """The search settings an :class:`~envfit.advisor.result.Advice` reports."""
+        return {"pointsets": list(self.pointsets), "weights": list(self.weights),
+                "bases": list(self.bases), "s": self.s, "fit_n": self.fit_n, "seed": self.seed,
+                "nmin": self.nmin, "nmax": self.nmax, "osw_nmax": self.osw_nmax,
+                "seeds": self.seeds, "s_rounded": s_rounded}

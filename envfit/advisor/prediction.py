@@ -1,0 +1,130 @@
+r"""The advisor's prediction of one rule's RMS shading error on a map, from map-independent terms.
+
+A rule (point set, weighting, N, realisation seeds) contributes its error power per degree
+:math:`e_l`, l = 0…H − 1 (:func:`envfit.shading.spectra.rule_error_power`, averaged over the
+realisations of a stochastic set) and the squared deviation :math:`(\sum_j w_j - 1)^2` of its
+weights' sum (:func:`rule_terms`); the map contributes σ', :math:`a_l(s')\tau_l`
+(:func:`envfit.shading.spectra.degree_weights`) and :math:`\overline{m^2}`. The prediction (b')
+is :math:`(\sigma'^2 E'^2 + (\sum w-1)^2\overline{m^2})^{1/2}` with
+:math:`E'^2 = \sum_l a_l\tau_l e_l` (:func:`predicted_rmse`,
+:func:`envfit.shading.spectra.band_e2`); see :mod:`envfit.advisor.advise` for the model.
+
+Example
+-------
+>>> from envfit.shading.ground_truth import weight_function
+>>> t = rule_terms("sf", 64, weight_function("diffuse", 30.0), 1.5, "equal", [], 15)
+>>> len(t["power"]), t["dev2"] < 1e-24, round(t["weight_sum"], 12)
+(16, True, 1.0)
+>>> seed_list("sf", 0, 4), len(seed_list("random", 0, 4))
+([], 4)
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from envfit.maps.envmap import EnvMap
+from envfit.shading.ground_truth import bilinear_sh_coefficients, weight_function
+from envfit.shading.spectra import band_e2, degree_weights, rule_error_power
+from envfit.theory.pointsets import DETERMINISTIC_POINTSETS, generate
+from envfit.theory.quadrature import worst_case_error
+from envfit.theory.weights import equal_weights, optimal_weights
+
+__all__ = ["predicted_rmse", "mean_shading_value", "s_key", "seed_list", "make_rule",
+           "rule_terms", "rule_plain_wce2", "row_prediction"]
+
+
+def predicted_rmse(sigma: float, e2_band: float, dev2: float = 0.0, mean_sq: float = 0.0) -> float:
+    r"""The refined prediction (b'): :math:`(\sigma'^2 E'^2 + (\sum w-1)^2\overline{m^2})^{1/2}`.
+
+    ``e2_band`` is :math:`E'^2 = \sum_{l\le H-1} a_l\tau_l e_l` (:func:`band_e2`; averaged
+    over realisations for stochastic sets), ``dev2`` :math:`(\sum_j w_j - 1)^2` (likewise),
+    ``mean_sq`` :math:`\overline{m^2}`.
+
+    >>> round(predicted_rmse(2.0, 0.25, 0.01, 9.0), 12) == round(math.sqrt(4 * 0.25 + 0.01 * 9), 12)
+    True
+    """
+    return math.sqrt(max(sigma * sigma * e2_band + dev2 * mean_sq, 0.0))
+
+
+def mean_shading_value(scaled: EnvMap) -> float:
+    r"""Mean over all axes of the normalised shading integral (Eq. 17), averaged over channels.
+
+    By Funk–Hecke, :math:`I(a) = \sum_l \lambda_l\sum_m f_{lm}Y_{lm}(a)`, and only l = 0
+    survives the mean over the sphere of axes: :math:`\bar I = \lambda_0 f_{00}Y_{00} =
+    f_{00}/\sqrt{4\pi}` (:math:`\lambda_0 = 1` since I ≡ 1 for f ≡ 1) — the solid-angle mean of
+    the map's bilinear interpolant, the same for every normalised lobe. From the exact
+    :math:`f_{00}` of :func:`envfit.shading.ground_truth.bilinear_sh_coefficients`.
+
+    >>> round(mean_shading_value(EnvMap(np.full((4, 8, 2), 3.0))), 9)
+    3.0
+    """
+    alm = bilinear_sh_coefficients(scaled, 0)
+    return float(np.mean(alm[:, 0].real) / math.sqrt(4.0 * math.pi))
+
+
+def s_key(s: float) -> float:
+    """s rounded to 1e-6: the s of the OSW weights and of the curves' cache keys.
+
+    >>> s_key(1.23456789)
+    1.234568
+    """
+    return round(float(s), 6)
+
+
+def seed_list(pointset: str, seed: int, k: int) -> list[int]:
+    """Realisation seeds of a stochastic point set ([] for a deterministic one)."""
+    if pointset in DETERMINISTIC_POINTSETS:
+        return []
+    return [int(np.random.SeedSequence([int(seed), 41, j]).generate_state(1)[0]) for j in range(k)]
+
+
+def make_rule(pointset: str, n: int, wf, s: float, weights: str,
+              seed) -> tuple[np.ndarray, np.ndarray]:
+    """Points (morphed by the lobe ``wf``) and weights ("equal", or "osw" at ``s``) of a rule;
+    ``seed`` None for a deterministic set."""
+    pts = generate(pointset, n, seed=0 if seed is None else seed, morph=wf.morph)
+    w = equal_weights(n) if weights == "equal" else optimal_weights(pts, wf, s)
+    return pts, w
+
+
+def rule_terms(pointset: str, n: int, wf, s: float, weights: str, seeds: Sequence[int],
+               band_lmax: int) -> dict:
+    r"""The map-independent terms of a rule, averaged over the realisations ``seeds``
+    ([] = the deterministic set once): ``power`` the error power :math:`e_l`, l = 0…band_lmax
+    (:func:`envfit.shading.spectra.rule_error_power`, a list), ``dev2`` :math:`(\sum w-1)^2` and
+    ``weight_sum``. ``s`` only sets the OSW weights. :math:`E'^2` is
+    ``band_e2(power, degree_weights(s', band_lmax, tau))``."""
+    pw, dev2, ws = [], [], []
+    for sd in (seeds or [None]):
+        pts, w = make_rule(pointset, n, wf, s, weights, sd)
+        pw.append(rule_error_power(pts, w, wf, band_lmax))
+        wsum = math.fsum(w)
+        dev2.append((wsum - 1.0) ** 2)
+        ws.append(wsum)
+    power = pw[0] if len(pw) == 1 else np.mean(np.stack(pw), axis=0)
+    return {"power": [float(x) for x in power], "dev2": float(np.mean(dev2)),
+            "weight_sum": float(np.mean(ws))}
+
+
+def rule_plain_wce2(pointset: str, n: int, wf, s: float, weights: str, seeds: Sequence[int],
+                    workers: int = 2) -> float:
+    """Unrestricted squared worst-case error (Eq. 41), averaged over the realisations."""
+    out = []
+    for sd in (seeds or [None]):
+        pts, w = make_rule(pointset, n, wf, s, weights, sd)
+        out.append(worst_case_error(pts, w, wf, s, workers=workers) ** 2)
+    return float(np.mean(out))
+
+
+def row_prediction(adv, row, n: int) -> float:
+    """The prediction of quadrature row ``row`` of :class:`~envfit.advisor.result.Advice`
+    ``adv`` at N, recomputed from ``adv``'s fit (no cache; for tests and examples)."""
+    wf = weight_function(adv.brdf, adv.shininess or 30.0)
+    seeds = seed_list(row.pointset, adv.settings["seed"], adv.settings["seeds"])
+    s = s_key(adv.s)
+    t = rule_terms(row.pointset, n, wf, s, row.weights, seeds, adv.band_lmax)
+    e2 = band_e2(t["power"], degree_weights(s, adv.band_lmax, adv.lookup_transfer))
+    return predicted_rmse(adv.sigma, e2, t["dev2"], adv.mean_rms ** 2)
