@@ -33,9 +33,9 @@ Example
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 from envfit.base.atomic import atomic_write_text
 
@@ -465,7 +465,8 @@ def render_report(result: dict, figures: dict[str, str] | None = None) -> str:
     Parameters
     ----------
     result : dict
-        What :func:`envfit.validate.pipeline.run_validation` returns (or its JSON).
+        The JSON-ready dict of :func:`envfit.validate.pipeline.run_validation` (its
+        ``to_json()``, or the saved ``validate.json``); an object with ``to_json`` is converted.
     figures : dict, optional
         Figure name → path; linked by file name (the report is written next to them).
 
@@ -474,6 +475,8 @@ def render_report(result: dict, figures: dict[str, str] | None = None) -> str:
     str
         The Markdown text.
     """
+    if hasattr(result, "to_json"):
+        result = result.to_json()
     lines = [f"# Validation of predicted shading-integral errors: {result['map']}", ""]
     lines += _what_was_run(result)
     lines += _predictions_explained(result)
@@ -835,11 +838,11 @@ def _swapped_gap(k: dict) -> tuple[float, str] | None:
     pm = {p: i for i, p in enumerate(k["measured_order"])}
     pp = {p: i for i, p in enumerate(k["predicted_order"])}
     best = None
-    for a in pm:
-        for b in pm:
+    for a, ia in pm.items():
+        for b, ib in pm.items():
             la, lb = levels.get(a), levels.get(b)
             if (a >= b or b not in pp or a not in pp or not la or not lb
-                    or (pm[a] - pm[b]) * (pp[a] - pp[b]) >= 0):
+                    or (ia - ib) * (pp[a] - pp[b]) >= 0):
                 continue
             gap = max(la, lb) / min(la, lb) - 1.0
             if best is None or gap > best[0]:
