@@ -46,11 +46,11 @@ def main(argv=None) -> int:
                              weights=("equal",), n_values=ns, axes=args.axes, scale="linear",
                              truncation=False)
         r = run_validation(env, cfg)
-        rho1 = r["map_stats"]["power_ratio_low_degrees"]["1"]
-        for e in r["results"]:
+        rho1 = r.map_stats["power_ratio_low_degrees"]["1"]
+        for e in r.results:
             q = np.array(e["predicted_rmse_refined"]) / np.array(e["measured_rmse"])
             ratios[(e["brdf"], e["pointset"])].append(q)
-            print(f"map {k} s={r['s']:.3f} s_refined={r['s_refined']:.3f} {e['brdf']:7s} "
+            print(f"map {k} s={r.s:.3f} s_refined={r.s_refined:.3f} {e['brdf']:7s} "
                   f"{e['pointset']:6s} (b')/measured {np.round(q, 3)} "
                   f"expected sd {np.round(e['model_scatter'], 3)} rho_1 {rho1:.2f}", flush=True)
     for (b, ps), qs in ratios.items():

@@ -145,7 +145,7 @@ def main(argv=None) -> int:
         t0 = time.perf_counter()
         if not args.quiet:
             print(f"== {env.name} ({env.height}x{env.width}, {scale} scale) -> {folder}", flush=True)
-        res = run_validation(env, cfg, out=folder, quiet=args.quiet)
+        res = run_validation(env, cfg, out=folder, quiet=args.quiet).to_json()
         from envfit.plots.validate import plot_all
         from envfit.validate.report import write_report
         files = plot_all(res, folder)

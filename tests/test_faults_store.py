@@ -230,9 +230,9 @@ def test_validate_recomputes_an_edited_cell(tmp_path, capsys):
     err = capsys.readouterr().err
     line = f"recomputed {victim}: checksum mismatch (edited or corrupt)"
     assert [ln for ln in err.splitlines() if str(victim) in ln] == [f"note: {line}"]
-    assert line in res["notes"] and "Traceback" not in err
-    assert res["results"][0]["measured_rmse"] == pytest.approx(
-        fresh["results"][0]["measured_rmse"], rel=1e-12)
+    assert line in res.notes and "Traceback" not in err
+    assert res.results[0]["measured_rmse"] == pytest.approx(
+        fresh.results[0]["measured_rmse"], rel=1e-12)
 
 
 # -------------------------------------------------------------------------------- the lock

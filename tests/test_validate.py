@@ -50,7 +50,8 @@ def tiny_result(gp_map):
 # ----------------------------------------------------------------------------- JSON shape
 
 def test_pipeline_json_keys_and_shapes(tiny_result):
-    r = tiny_result
+    assert isinstance(tiny_result, V.ValidationResult)
+    r = tiny_result.to_json()
     for key in ("s", "sigma", "scale", "results", "truncation", "agreement"):
         assert key in r
     assert r["s"] == 1.5 and r["scale"] == "linear"
@@ -71,7 +72,7 @@ def test_pipeline_json_keys_and_shapes(tiny_result):
 
 
 def test_predicted_rmse_is_sigma_times_wce(tiny_result):
-    r = tiny_result
+    r = tiny_result.to_json()
     assert r["sigma"] == pytest.approx(math.sqrt(np.mean(np.square(r["sigma_channels"]))), rel=1e-15)
     for e in r["results"]:
         assert e["predicted_rmse"] == [r["sigma"] * w for w in e["predicted_wce"]]
@@ -81,7 +82,7 @@ def test_predicted_rmse_is_sigma_times_wce(tiny_result):
 
 def test_predicted_wce_matches_theory(tiny_result):
     """The stored wce is the theory's closed form (Eq. 41) for the very rule that was measured."""
-    e = next(x for x in tiny_result["results"] if x["brdf"] == "glossy" and x["pointset"] == "sf"
+    e = next(x for x in tiny_result.results if x["brdf"] == "glossy" and x["pointset"] == "sf"
              and x["weights"] == "osw")
     wf = Glossy(30.0)
     pts = generate("sf", 32, morph=wf.morph)
@@ -91,7 +92,7 @@ def test_predicted_wce_matches_theory(tiny_result):
 
 
 def test_shape_constant_is_log_mean_ratio(tiny_result):
-    r = tiny_result
+    r = tiny_result.to_json()
     for b in ("diffuse", "glossy"):
         ratios = [m / p for e in r["results"] if e["brdf"] == b
                   for m, p in zip(e["measured_rmse"], e["predicted_wce"])]
@@ -109,15 +110,14 @@ def test_shape_constant_is_log_mean_ratio(tiny_result):
 
 
 def test_slopes_equal_polyfit(tiny_result):
-    for e in tiny_result["results"]:
+    for e in tiny_result.results:
         n = np.array(e["n"], float)
         keep = (n >= 64) & (n <= 4096)
         if keep.sum() < 2:                      # only N = 64 in range: no slope
             assert e["slope_measured"] is None
         # the agreement recomputes over the effective range 64...64 -> None as well
-    r = tiny_result
-    slopes = r["agreement"]["slopes"]
-    assert r["agreement"]["slope_range"] == [64, 64]
+    slopes = tiny_result.agreement["slopes"]
+    assert tiny_result.agreement["slope_range"] == [64, 64]
     assert all(s["measured"] is None for s in slopes)
     n = np.array([16, 32, 64, 128, 256, 512], float)
     y = 0.3 * n ** -0.7 * np.exp(0.05 * np.sin(n))
@@ -227,8 +227,8 @@ def test_gp_map_measured_rmse_matches_sigma_wce():
                            weights=("equal",), n_values=(32,), axes=400, scale="linear",
                            truncation=False, fit_n=400, seed=5)
     r = V.run_validation(env, cfg)
-    d = next(e for e in r["results"] if e["brdf"] == "diffuse")
-    g = next(e for e in r["results"] if e["brdf"] == "glossy")
+    d = r.rule("diffuse", "sf", "equal")
+    g = r.rule("glossy", "sf", "equal")
     assert d["measured_rmse"][0] == pytest.approx(d["predicted_rmse"][0], rel=0.15)
     assert g["measured_rmse"][0] == pytest.approx(g["predicted_rmse_refined"][0], rel=0.15)
     # the relative standard error the pipeline reports is the 1/sqrt(2MC)-type figure
@@ -242,15 +242,13 @@ def test_resume_skips_finished_cells(gp_map, tmp_path):
     assert not any(res for _, res in log1)
     r2 = V.run_validation(gp_map, cfg, out=tmp_path, on_cell=lambda k, res: log2.append((k, res)))
     assert len(log2) == len(log1) and all(res for _, res in log2)
-    assert [e["measured_rmse"] for e in r2["results"]] == [e["measured_rmse"] for e in r1["results"]]
+    assert [e["measured_rmse"] for e in r2.results] == [e["measured_rmse"] for e in r1.results]
     victim = "quad_glossy_random_osw_32"
     (tmp_path / "cells" / f"{victim}.json").unlink()
     r3 = V.run_validation(gp_map, cfg, out=tmp_path, on_cell=lambda k, res: log3.append((k, res)))
     assert [k for k, res in log3 if not res] == [victim]
-    e1 = next(e for e in r1["results"] if e["brdf"] == "glossy" and e["pointset"] == "random"
-              and e["weights"] == "osw")
-    e3 = next(e for e in r3["results"] if e["brdf"] == "glossy" and e["pointset"] == "random"
-              and e["weights"] == "osw")
+    e1 = r1.rule("glossy", "random", "osw")
+    e3 = r3.rule("glossy", "random", "osw")
     assert e3["measured_rmse"] == pytest.approx(e1["measured_rmse"], rel=1e-12)
     # a different configuration is refused, not mixed
     with pytest.raises(ParameterError):
@@ -273,9 +271,9 @@ def test_truncation_truth(tiny_result):
     """Diffuse HSH is exact from L = 1 (errata: b~_l = 0 for l >= 2): what is left is the
     disagreement of two ground-truth methods on a 16-row map (the SH method's documented
     truncation tail, ~5e-6 of the largest value at H = 32, larger at H = 16)."""
-    t = next(x for x in tiny_result["truncation"] if x["brdf"] == "diffuse" and x["basis"] == "hsh")
+    t = next(x for x in tiny_result.truncation if x["brdf"] == "diffuse" and x["basis"] == "hsh")
     assert t["predicted_wce"][1] == 0.0 and t["measured_rmse"][1] < 1e-4 * t["measured_rmse"][0]
-    sh = next(x for x in tiny_result["truncation"] if x["brdf"] == "glossy" and x["basis"] == "sh")
+    sh = next(x for x in tiny_result.truncation if x["brdf"] == "glossy" and x["basis"] == "sh")
     assert all(a >= b for a, b in zip(sh["predicted_wce"], sh["predicted_wce"][1:]))
 
 
@@ -283,13 +281,13 @@ def test_truncation_truth(tiny_result):
 
 def test_report_sections(tiny_result):
     from envfit.validate.report import render_report
-    md = render_report(tiny_result, {"validate_quadrature_glossy.png": "/x/validate_quadrature_glossy.png"})
+    md = render_report(tiny_result.to_json(), {"validate_quadrature_glossy.png": "/x/validate_quadrature_glossy.png"})
     for head in ("## What was run", "## Agreement", "### Rank order", "### Truncation",
                  "## What disagrees and why"):
         assert head in md
     assert "](validate_quadrature_glossy.png)" in md
     # every measured/predicted ratio of the absolute table is the one in the result
-    e = tiny_result["agreement"]["absolute"]["per_rule"][0]
+    e = tiny_result.agreement["absolute"]["per_rule"][0]
     assert f"{e['predicted_over_measured'][0]:.2f} /" in md
 
 
@@ -328,11 +326,11 @@ def test_auto_s_path(gp_map):
     cfg = V.ValidateConfig(**{**TINY, "s": "auto", "truncation": False, "n_values": (16,),
                               "pointsets": ("sf",), "weights": ("equal",), "fit_n": 150})
     r = V.run_validation(gp_map, cfg)
-    assert r["fit"]["source"] == "fit" and 1.0 < r["s"] < 2.0
-    lo, hi = r["fit"]["s_interval"]
-    assert lo <= r["s"] <= hi
-    sig = SG.profiled_sigma(gp_map, r["s"], n=150, seed=0)
-    assert np.allclose(r["sigma_channels"], sig, rtol=1e-6)
+    assert r.fit["source"] == "fit" and 1.0 < r.s < 2.0
+    lo, hi = r.fit["s_interval"]
+    assert lo <= r.s <= hi
+    sig = SG.profiled_sigma(gp_map, r.s, n=150, seed=0)
+    assert np.allclose(r.sigma_channels, sig, rtol=1e-6)
 
 
 def test_low_degree_power_ratio_on_known_spectrum():
@@ -392,7 +390,7 @@ def test_spectral_prediction_matches_measured_rmse():
     cfg = V.ValidateConfig(s=1.5, brdfs=("diffuse", "glossy"), pointsets=("sf", "random"),
                            weights=("equal", "osw"), n_values=(8, 24), axes=1500, scale="linear",
                            truncation=False, fit_n=100)
-    res = V.run_validation(env, cfg)
+    res = V.run_validation(env, cfg).to_json()
     for e in res["results"]:
         for m, p, se in zip(e["measured_rmse"], e["predicted_rmse_spectral"], e["measured_rel_se"]):
             assert abs(p / m - 1.0) <= 3.0 * se + 0.01, (e["brdf"], e["pointset"], e["weights"], p / m, se)

@@ -124,8 +124,9 @@ def run(args: argparse.Namespace) -> int:
         if was_resumed:
             resumed.append(key)
 
-    res = run_validation(env, cfg, out=out, quiet=args.quiet, on_cell=on_cell)
-    record_unwritten(args, res.get("unwritten"))
+    result = run_validation(env, cfg, out=out, quiet=args.quiet, on_cell=on_cell)
+    record_unwritten(args, result.unwritten)
+    res = result.to_json()                   # what the report, the plots and --json take
     res["resumed_cells"] = len(resumed)
     if resumed:
         say(args, f"resumed {len(resumed)} finished cell(s) from {out}")

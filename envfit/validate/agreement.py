@@ -1,5 +1,11 @@
 r"""Agreement between measured and predicted errors: log-log slopes, shape constants, rank
 agreement, equivalent N, and the per-cell verdicts that ``report.md`` states.
+
+:func:`agreement` is a handful of named steps, each a public function on the ``results``
+entries of :func:`envfit.validate.pipeline.run_validation`: :func:`slope_statistics`,
+:func:`shape_statistics` (prediction (a) and the choice of s), :func:`rank_statistics`,
+:func:`absolute_statistics` (every predictor of :data:`envfit.predict.PREDICTORS`),
+:func:`truncation_statistics` and :func:`acceptance_summary`.
 """
 from __future__ import annotations
 
@@ -8,12 +14,10 @@ from typing import Sequence
 
 import numpy as np
 
-
 from envfit.base.errors import ParameterError
-from envfit.shading.spectra import (bandlimited_worst_case_error, bandlimited_worst_case_errors,  # noqa: F401
-                      low_degree_power_ratio, lookup_transfer, map_degree_power, model_scatter,
-                      pixel_degree_power, rule_error_power, sh_truncation_curve_transfer,
-                      spectral_rmse)
+from envfit.predict import PREDICTORS
+
+from .keys import prediction_keys, variant
 
 
 #: N range of the fitted convergence slopes
@@ -141,68 +145,58 @@ def measured_equivalent_n(n_values, rmse_curve, target: float) -> float | None:
     return None
 
 
-def agreement(results: list[dict], truncation: list[dict] | None = None, *, s_used: float,
-              slope_range: tuple[int, int] = SLOPE_RANGE,
-              slope_tolerance: float = SLOPE_TOLERANCE,
-              absolute_tolerance: float = ABSOLUTE_TOLERANCE) -> dict:
-    r"""Agreement statistics between measured and predicted errors (see the module docstring).
-
-    ``results`` entries need ``brdf``, ``pointset``, ``weights``, ``n``, ``measured_rmse``,
-    ``predicted_wce``, ``predicted_rmse`` and (for the s comparison) ``wce_by_s``.
-
-    Returns a dict with
-
-    * ``slopes``: per rule, measured and predicted slope over ``slope_range``, difference;
-    * ``ratios``: per rule, measured/predicted_wce per N and its spread max/min over the
-      slope range (1 = the theory's shape holds exactly);
-    * ``shape_fit``: per BRDF the factor c (:func:`shape_constant` over every rule and N)
-      and the residual in dex (:func:`shape_residual`); ``s_choice``: the residual per
-      candidate s and the best one;
-    * ``rank``: per (BRDF, weighting) the measured and predicted orders of the point sets
-      by their geometric-mean level over the slope range, Kendall's τ, and τ per N;
-    * ``absolute``: prediction (b) σ·wce against the measured RMSE: per rule the ratio
-      predicted/measured per N; overall median, worst, fraction within the tolerance;
-    * ``truncation``: per curve the ratio predicted_rmse/measured and the shape residual;
-    * ``acceptance``: the issue's checks (slopes of sf and random within
-      ``slope_tolerance``, identical rank orders, (b) within ``absolute_tolerance``).
-    """
+def _effective_range(results: list[dict], slope_range: tuple[int, int]) -> tuple[int, int]:
+    """``slope_range`` clipped to the N that were run."""
     all_n = [n for e in results for n in e["n"]]
     lo = max(slope_range[0], min(all_n)) if all_n else slope_range[0]
     hi = min(slope_range[1], max(all_n)) if all_n else slope_range[1]
-    slope_range = (lo, hi)
-    out: dict = {"slope_range": [lo, hi], "s": s_used,
-                 "shape_fit": {"method": "per BRDF, log c = mean over every point set, "
-                                         "weighting and N of (log measured RMSE - log wce); "
-                                         "residual = RMS of the remaining log10 differences",
-                               "constant": {}, "residual_dex": {}},
-                 "slopes": [], "ratios": [], "rank": [], "s_choice": {}, "absolute": {},
-                 "truncation": [], "acceptance": {}}
-    brdfs = list(dict.fromkeys(e["brdf"] for e in results))
-    # slopes and ratios
+    return lo, hi
+
+
+def _rule_id(e: dict) -> dict:
+    return {"brdf": e["brdf"], "pointset": e["pointset"], "weights": e["weights"]}
+
+
+def slope_statistics(results: list[dict], lo: int, hi: int,
+                     slope_tolerance: float = SLOPE_TOLERANCE) -> tuple[list, list]:
+    """Per rule: the measured and predicted (wce; (b′)) log-log slopes over N ∈ [lo, hi]
+    and their differences; and the ratio measured/wce per N with its spread max/min over
+    [lo, hi] (1 = the theory's shape holds exactly). Returns ``(slopes, ratios)``."""
+    slopes, ratios = [], []
     for e in results:
-        sm = loglog_slope(e["n"], e["measured_rmse"], slope_range)
-        sp = loglog_slope(e["n"], e["predicted_wce"], slope_range)
+        sm = loglog_slope(e["n"], e["measured_rmse"], (lo, hi))
+        sp = loglog_slope(e["n"], e["predicted_wce"], (lo, hi))
         diff = None if (sm is None or sp is None) else sm - sp
-        sb = loglog_slope(e["n"], e["predicted_rmse_refined"], slope_range) \
+        sb = loglog_slope(e["n"], e["predicted_rmse_refined"], (lo, hi)) \
             if e.get("predicted_rmse_refined") is not None else None
         diff_b = None if (sm is None or sb is None) else sm - sb
-        out["slopes"].append({"brdf": e["brdf"], "pointset": e["pointset"], "weights": e["weights"],
-                              "measured": sm, "predicted": sp, "difference": diff,
-                              "within_tolerance": None if diff is None else bool(abs(diff) <= slope_tolerance),
-                              "predicted_refined": sb, "difference_refined": diff_b})
+        slopes.append({**_rule_id(e), "measured": sm, "predicted": sp, "difference": diff,
+                       "within_tolerance": None if diff is None else bool(abs(diff) <= slope_tolerance),
+                       "predicted_refined": sb, "difference_refined": diff_b})
         ratio = [None if (m is None or p is None or p <= 0) else m / p
                  for m, p in zip(e["measured_rmse"], e["predicted_wce"])]
         in_rng = [r for n, r in zip(e["n"], ratio) if r is not None and lo <= n <= hi and r > 0]
-        out["ratios"].append({"brdf": e["brdf"], "pointset": e["pointset"], "weights": e["weights"],
-                              "n": e["n"], "measured_over_wce": ratio,
-                              "spread": (max(in_rng) / min(in_rng)) if len(in_rng) >= 2 else None})
-    # shape fit (a) and the choice of s
-    for b in brdfs:
+        ratios.append({**_rule_id(e), "n": e["n"], "measured_over_wce": ratio,
+                       "spread": (max(in_rng) / min(in_rng)) if len(in_rng) >= 2 else None})
+    return slopes, ratios
+
+
+def shape_statistics(results: list[dict], s_used: float) -> tuple[dict, dict]:
+    """Prediction (a) per BRDF: the factor c (:func:`shape_constant` over every rule and N)
+    and the residual (:func:`shape_residual`); and per candidate s (``wce_by_s``, and the
+    band-limited ``wce_bandlimited_by_s``) the residual, with the best s. Returns
+    ``(shape_fit, s_choice)``."""
+    shape_fit = {"method": "per BRDF, log c = mean over every point set, weighting and N of "
+                           "(log measured RMSE - log wce); residual = RMS of the remaining "
+                           "log10 differences",
+                 "constant": {}, "residual_dex": {}}
+    s_choice = {}
+    for b in dict.fromkeys(e["brdf"] for e in results):
         es = [e for e in results if e["brdf"] == b]
         meas = [m for e in es for m in e["measured_rmse"]]
         pred = [p for e in es for p in e["predicted_wce"]]
-        out["shape_fit"]["constant"][b] = shape_constant(meas, pred)
-        out["shape_fit"]["residual_dex"][b] = shape_residual(meas, pred)
+        shape_fit["constant"][b] = shape_constant(meas, pred)
+        shape_fit["residual_dex"][b] = shape_residual(meas, pred)
         entry = {"used_s": s_used}
         for suffix, field_ in (("", "wce_by_s"), ("_bandlimited", "wce_bandlimited_by_s")):
             choice = {}
@@ -215,84 +209,121 @@ def agreement(results: list[dict], truncation: list[dict] | None = None, *, s_us
             best = min(valid, key=valid.get) if valid else None
             entry["residual_by_s" + suffix] = choice
             entry["best_s" + suffix] = None if best is None else float(best)
-        out["s_choice"][b] = entry
-    # rank order
-    for b in brdfs:
+        s_choice[b] = entry
+    return shape_fit, s_choice
+
+
+def _geometric_level(e: dict, lo: int, hi: int, which: int) -> float:
+    """Geometric mean over N ∈ [lo, hi] of the measured (``which`` 0) or predicted (1) values,
+    over the N where both are positive; NaN if none."""
+    pairs = [(m, p) for n, m, p in zip(e["n"], e["measured_rmse"], e["predicted_wce"])
+             if lo <= n <= hi and m is not None and p is not None and m > 0 and p > 0]
+    vals = [pair[which] for pair in pairs]
+    return float(np.exp(np.mean(np.log(vals)))) if vals else np.nan
+
+
+def rank_statistics(results: list[dict], lo: int, hi: int) -> list[dict]:
+    """Per (BRDF, weighting) with at least two point sets: the measured and predicted
+    (wce) orders of the point sets by their geometric-mean level over N ∈ [lo, hi]
+    (:func:`rank_agreement`, Kendall's τ) and τ per N."""
+    out = []
+    for b in dict.fromkeys(e["brdf"] for e in results):
         for w in dict.fromkeys(e["weights"] for e in results if e["brdf"] == b):
             es = [e for e in results if e["brdf"] == b and e["weights"] == w]
             if len(es) < 2:
                 continue
             names = [e["pointset"] for e in es]
-            ml, pl = [], []
-            for e in es:
-                mm = [m for n, m, p in zip(e["n"], e["measured_rmse"], e["predicted_wce"])
-                      if lo <= n <= hi and m is not None and p is not None and m > 0 and p > 0]
-                pp = [p for n, m, p in zip(e["n"], e["measured_rmse"], e["predicted_wce"])
-                      if lo <= n <= hi and m is not None and p is not None and m > 0 and p > 0]
-                ml.append(float(np.exp(np.mean(np.log(mm)))) if mm else np.nan)
-                pl.append(float(np.exp(np.mean(np.log(pp)))) if pp else np.nan)
+            ml = [_geometric_level(e, lo, hi, 0) for e in es]
+            pl = [_geometric_level(e, lo, hi, 1) for e in es]
             rk = rank_agreement(names, ml, pl)
             per_n = {}
             for i, n in enumerate(es[0]["n"]):
-                mv = [e["measured_rmse"][i] for e in es]
-                pv = [e["predicted_wce"][i] for e in es]
-                mv = [np.nan if v is None else v for v in mv]
-                pv = [np.nan if v is None else v for v in pv]
+                mv = [np.nan if e["measured_rmse"][i] is None else e["measured_rmse"][i] for e in es]
+                pv = [np.nan if e["predicted_wce"][i] is None else e["predicted_wce"][i] for e in es]
                 per_n[str(n)] = rank_agreement(names, mv, pv)["kendall_tau"]
-            out["rank"].append({"brdf": b, "weights": w, **rk, "measured_level": ml,
-                                "predicted_level": pl, "pointsets": names, "tau_per_n": per_n})
-    # absolute prediction (b), and (b') band-limited
-    ab = {"tolerance": absolute_tolerance}
-    for variant, key in (("", "predicted_rmse"), ("_refined", "predicted_rmse_refined"),
-                         ("_spectral", "predicted_rmse_spectral")):
-        per_rule, all_ratio, in_range_ratio, in_range_band = [], [], [], []
-        for e in results:
-            preds = e.get(key) or [None] * len(e["n"])
-            ratio = [None if (m is None or p is None or m <= 0) else p / m
-                     for m, p in zip(e["measured_rmse"], preds)]
-            # the spread one map is expected to show about the model (refined only) and the
-            # Monte Carlo error of M axes: 2 standard deviations, combined
-            sd = [None] * len(e["n"])
-            if variant == "_refined":
-                sd = [None if sc is None else math.hypot(sc, se or 0.0)
-                      for sc, se in zip(e.get("model_scatter") or [None] * len(e["n"]),
-                                        e.get("measured_rel_se") or [None] * len(e["n"]))]
-            per_rule.append({"brdf": e["brdf"], "pointset": e["pointset"], "weights": e["weights"],
-                             "n": e["n"], "predicted_over_measured": ratio,
-                             **({"expected_relative_sd": sd} if variant == "_refined" else {})})
-            all_ratio += [r for r in ratio if r is not None and r > 0]
-            for n, r, d in zip(e["n"], ratio, sd):
-                if r is not None and r > 0 and lo <= n <= hi:
-                    in_range_ratio.append(r)
-                    in_range_band.append(max(absolute_tolerance, 2.0 * d) if d is not None
-                                         else absolute_tolerance)
-        ab["per_rule" + variant] = per_rule
-        for name, arr in (("all", all_ratio), ("slope_range", in_range_ratio)):
-            a = np.asarray(arr, dtype=np.float64)
-            ab[name + variant] = None if a.size == 0 else {
-                "cells": int(a.size), "median_ratio": float(np.median(a)),
-                "min_ratio": float(a.min()), "max_ratio": float(a.max()),
-                "fraction_within": float(np.mean(np.abs(a - 1.0) <= absolute_tolerance))}
-            if variant == "_refined" and name == "slope_range" and a.size:
-                # |ratio - 1| within the tolerance or within 2 expected standard deviations
-                ab[name + variant]["fraction_within_expected_scatter"] = float(
-                    np.mean(np.abs(a - 1.0) <= np.asarray(in_range_band)))
-    out["absolute"] = ab
-    # truncation
+            out.append({"brdf": b, "weights": w, **rk, "measured_level": ml,
+                        "predicted_level": pl, "pointsets": names, "tau_per_n": per_n})
+    return out
+
+
+def _ratio_summary(ratios, tolerance: float) -> dict | None:
+    a = np.asarray(ratios, dtype=np.float64)
+    return None if a.size == 0 else {
+        "cells": int(a.size), "median_ratio": float(np.median(a)), "min_ratio": float(a.min()),
+        "max_ratio": float(a.max()), "fraction_within": float(np.mean(np.abs(a - 1.0) <= tolerance))}
+
+
+def _absolute_one(results: list[dict], name: str, lo: int, hi: int, tolerance: float) -> dict:
+    """:func:`absolute_statistics` of one predictor, keys with its :func:`variant` suffix."""
+    keys, v = prediction_keys(name), variant(name)
+    scatter_key = keys.get("relative_sd")
+    per_rule, all_ratio, in_range_ratio, in_range_band = [], [], [], []
+    for e in results:
+        none = [None] * len(e["n"])
+        ratio = [None if (m is None or p is None or m <= 0) else p / m
+                 for m, p in zip(e["measured_rmse"], e.get(keys["rmse"]) or none)]
+        # the spread one map is expected to show about the model (a predictor with a
+        # scatter) and the Monte Carlo error of M axes: 2 standard deviations, combined
+        sd = none
+        if scatter_key:
+            sd = [None if sc is None else math.hypot(sc, se or 0.0)
+                  for sc, se in zip(e.get(scatter_key) or none, e.get("measured_rel_se") or none)]
+        per_rule.append({**_rule_id(e), "n": e["n"], "predicted_over_measured": ratio,
+                         **({"expected_relative_sd": sd} if scatter_key else {})})
+        all_ratio += [r for r in ratio if r is not None and r > 0]
+        for n, r, d in zip(e["n"], ratio, sd):
+            if r is not None and r > 0 and lo <= n <= hi:
+                in_range_ratio.append(r)
+                in_range_band.append(max(tolerance, 2.0 * d) if d is not None else tolerance)
+    out = {"per_rule" + v: per_rule, "all" + v: _ratio_summary(all_ratio, tolerance),
+           "slope_range" + v: _ratio_summary(in_range_ratio, tolerance)}
+    if scatter_key and out["slope_range" + v] is not None:
+        # |ratio - 1| within the tolerance or within 2 expected standard deviations
+        out["slope_range" + v]["fraction_within_expected_scatter"] = float(np.mean(
+            np.abs(np.asarray(in_range_ratio) - 1.0) <= np.asarray(in_range_band)))
+    return out
+
+
+def absolute_statistics(results: list[dict], lo: int, hi: int,
+                        tolerance: float = ABSOLUTE_TOLERANCE) -> dict:
+    """Every predictor of :data:`envfit.predict.PREDICTORS` against the measured RMSE: per
+    rule the ratio predicted/measured per N (with the expected one-map spread where the
+    predictor gives one); over all cells and over N ∈ [lo, hi] the median, extremes and
+    fraction within ``tolerance``. Keys carry the predictor's suffix
+    (:func:`envfit.validate.keys.variant`: ``per_rule``, ``slope_range_refined``, …)."""
+    out = {"tolerance": tolerance}
+    for name in PREDICTORS:
+        out.update(_absolute_one(results, name, lo, hi, tolerance))
+    return out
+
+
+def truncation_statistics(truncation: list[dict] | None) -> list[dict]:
+    """Per truncation curve: predicted/measured for (b) and (b′) per L, and the shape
+    residual of the wce curve."""
+    out = []
     for t in truncation or []:
         rp = [None if (m is None or p is None or m <= 0 or p <= 0) else p / m
               for m, p in zip(t["measured_rmse"], t.get("predicted_rmse", []))]
         rb = [None if (m is None or p is None or m <= 0 or p <= 0) else p / m
               for m, p in zip(t["measured_rmse"],
                               t.get("predicted_rmse_refined") or [None] * len(t["L"]))]
-        out["truncation"].append({"brdf": t["brdf"], "basis": t["basis"], "L": t["L"],
-                                  "predicted_over_measured": rp,
-                                  "predicted_refined_over_measured": rb,
-                                  "shape_residual_dex": shape_residual(t["measured_rmse"], t["predicted_wce"])})
-    # acceptance summary
-    chk = [s for s in out["slopes"] if s["pointset"] in SLOPE_CHECK_POINTSETS and s["difference"] is not None]
-    taus = [r["kendall_tau"] for r in out["rank"] if r["kendall_tau"] is not None]
-    out["acceptance"] = {
+        out.append({"brdf": t["brdf"], "basis": t["basis"], "L": t["L"],
+                    "predicted_over_measured": rp, "predicted_refined_over_measured": rb,
+                    "shape_residual_dex": shape_residual(t["measured_rmse"], t["predicted_wce"])})
+    return out
+
+
+def acceptance_summary(slopes: list[dict], rank: list[dict], absolute: dict,
+                       slope_tolerance: float = SLOPE_TOLERANCE) -> dict:
+    """The issue's checks: the slopes of :data:`SLOPE_CHECK_POINTSETS` within
+    ``slope_tolerance`` (for the wce and for (b′)), identical rank orders (τ = 1), (b) and
+    (b′) within the absolute tolerance over the slope range, the median ratio of (c)."""
+    chk = [s for s in slopes if s["pointset"] in SLOPE_CHECK_POINTSETS and s["difference"] is not None]
+    taus = [r["kendall_tau"] for r in rank if r["kendall_tau"] is not None]
+    plain = absolute["slope_range" + variant("plain")]
+    band = absolute["slope_range" + variant("bandlimited")]
+    spectral = absolute["slope_range" + variant("spectral")]
+    return {
         "slope_tolerance": slope_tolerance,
         "slopes_checked": len(chk),
         "slopes_within": sum(1 for s in chk if s["within_tolerance"]),
@@ -300,16 +331,44 @@ def agreement(results: list[dict], truncation: list[dict] | None = None, *, s_us
         "slopes_ok": bool(chk) and all(s["within_tolerance"] for s in chk),
         "rank_ok": bool(taus) and all(t >= 1.0 - 1e-12 for t in taus),
         "min_kendall_tau": min(taus) if taus else None,
-        "absolute_ok": None if ab["slope_range"] is None else bool(ab["slope_range"]["fraction_within"] == 1.0),
+        "absolute_ok": None if plain is None else bool(plain["fraction_within"] == 1.0),
         "max_abs_slope_difference_refined": max(
             (abs(s["difference_refined"]) for s in chk if s["difference_refined"] is not None),
             default=None),
         "slopes_ok_refined": bool(chk) and all(
             s["difference_refined"] is not None and abs(s["difference_refined"]) <= slope_tolerance
             for s in chk),
-        "absolute_ok_refined": None if ab["slope_range_refined"] is None else bool(
-            ab["slope_range_refined"]["fraction_within"] == 1.0),
-        "spectral_median_ratio": None if ab["slope_range_spectral"] is None else
-        ab["slope_range_spectral"]["median_ratio"],
+        "absolute_ok_refined": None if band is None else bool(band["fraction_within"] == 1.0),
+        "spectral_median_ratio": None if spectral is None else spectral["median_ratio"],
     }
-    return out
+
+
+def agreement(results: list[dict], truncation: list[dict] | None = None, *, s_used: float,
+              slope_range: tuple[int, int] = SLOPE_RANGE,
+              slope_tolerance: float = SLOPE_TOLERANCE,
+              absolute_tolerance: float = ABSOLUTE_TOLERANCE) -> dict:
+    r"""Agreement statistics between measured and predicted errors (see the module docstring).
+
+    ``results`` entries need ``brdf``, ``pointset``, ``weights``, ``n``, ``measured_rmse``,
+    ``predicted_wce``, ``predicted_rmse`` and (for the s comparison) ``wce_by_s``; the other
+    predictors' keys (:data:`envfit.validate.keys.PREDICTION_KEYS`) where present.
+
+    Returns a dict with
+
+    * ``slope_range``: the range used (clipped to the N run), ``s``: the used s;
+    * ``slopes``, ``ratios``: :func:`slope_statistics`;
+    * ``shape_fit``, ``s_choice``: :func:`shape_statistics`;
+    * ``rank``: :func:`rank_statistics`;
+    * ``absolute``: :func:`absolute_statistics` (every predictor);
+    * ``truncation``: :func:`truncation_statistics`;
+    * ``acceptance``: :func:`acceptance_summary`.
+    """
+    lo, hi = _effective_range(results, slope_range)
+    slopes, ratios = slope_statistics(results, lo, hi, slope_tolerance)
+    shape_fit, s_choice = shape_statistics(results, s_used)
+    rank = rank_statistics(results, lo, hi)
+    absolute = absolute_statistics(results, lo, hi, absolute_tolerance)
+    return {"slope_range": [lo, hi], "s": s_used, "shape_fit": shape_fit, "slopes": slopes,
+            "ratios": ratios, "rank": rank, "s_choice": s_choice, "absolute": absolute,
+            "truncation": truncation_statistics(truncation),
+            "acceptance": acceptance_summary(slopes, rank, absolute, slope_tolerance)}
