@@ -251,6 +251,29 @@ def test_unreached_target_is_reported_not_raised(gp32, tmp_path):
     assert "no rule reaches" in a.recommendation
 
 
+def test_options_are_the_keywords_of_advise(gp32, tmp_path):
+    """advise(**kw) is advise_with(AdviseOptions(**kw)); the options are checked once, frozen."""
+    import dataclasses
+    from envfit.advisor.advise import advise_with
+    from envfit.advisor.options import AdviseOptions
+    kw = dict(scale="linear", s=1.5, fit_n=200, pointsets=("SF",), weights=["equal"], bases=("sh",),
+              cache_dir=tmp_path)
+    a = advise(gp32, "Glossy", 0.05, **kw)
+    opts = AdviseOptions(brdf="Glossy", target_rmse=0.05, **kw)
+    assert (opts.brdf, opts.pointsets, opts.weights, opts.shininess) == (
+        "glossy", ("sf",), ("equal",), 30.0)
+    for rw, rk in zip(_numbers(advise_with(gp32, opts)), _numbers(a)):   # SH sums: ~1e-15
+        assert rw[:4] == rk[:4]
+        assert all((x is None and y is None) or x == pytest.approx(y, rel=1e-12)
+                   for x, y in zip(rw[4:], rk[4:]))
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        opts.nmax = 10
+    with pytest.raises(TypeError, match="nmaxx"):
+        advise(gp32, "diffuse", 0.05, nmaxx=10)
+    with pytest.raises(ParameterError, match="must be an EnvMap"):
+        advise_with(gp32.data, opts)
+
+
 # ----------------------------------------------------------------------------- the cache
 
 def test_cache_hit_is_identical_and_recomputes_nothing(gp32, tmp_path, monkeypatch):
