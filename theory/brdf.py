@@ -2,7 +2,7 @@ r"""Zonal weight functions p(z) (BRDF × cosine) and their SH / HSH coefficients
 
 Marques, Bouville, Bouatouch, "Spectral Analysis of Quadrature Rules and Fourier
 Truncation-based Methods Applied to Shading Integrals", Sec. 4 (with the corrections of
-the errata).
+the errata, docs/ERRATA.md).
 
 A weight function is zonal about the +z axis, :math:`p(u) = p(u\cdot z)`, and zero on the
 lower hemisphere. With :math:`z = \cos\theta`:
@@ -294,7 +294,7 @@ class WeightFunction:
     def morph(self, zprime) -> np.ndarray:
         r"""Importance-sampling map z' ∈ [0, 1] ↦ z = F⁻¹(z'), F the CDF of p on [0, 1].
 
-        Uniform z' (equal-area lifting of the unit square, ERRATA "Point sets") gives
+        Uniform z' (equal-area lifting of the unit square, docs/ERRATA.md, "Point sets") gives
         z-samples with density :math:`p(z)/r_s`. Generic path: safeguarded Newton
         iteration on F(z) = z' from a tabulated inverse, bracketed, to ≈ 1e-15.
         """

@@ -192,7 +192,7 @@ def spherical_fibonacci(n: int) -> np.ndarray:
     r"""Spherical Fibonacci points on the hemisphere (Marques et al. 2013), square form.
 
     :math:`z'_j = 1 - \frac{2j+1}{2N}`, :math:`\phi_j = 2\pi\,\mathrm{frac}(j/\Phi)`,
-    j = 0…N−1, Φ the golden ratio (ERRATA, "Point sets"). Returned as
+    j = 0…N−1, Φ the golden ratio (docs/ERRATA.md, "Point sets"). Returned as
     :math:`(x_j, y_j) = (z'_j, \phi_j/2\pi)` so that :func:`lambert_to_hemisphere`
     (z' = x, φ = 2πy) gives back exactly these directions and the same morphs apply.
     :math:`\mathrm{frac}(j/\Phi)` is computed as :math:`j(\Phi-1) \bmod 1`

@@ -2,7 +2,7 @@ r"""Worst-case error of quadrature rules for shading integrals, in space and in 
 
 Marques, Bouville, Bouatouch, "Spectral Analysis of Quadrature Rules and Fourier
 Truncation-based Methods Applied to Shading Integrals", Secs. 5.1–5.2 and 6.1 (with the
-errata's corrections).
+errata's corrections, docs/ERRATA.md).
 
 The normalised shading integral :math:`I_f = \frac{1}{2\pi r_s}\int f p\,dS` (Eq. 17) is
 approximated by :math:`\sum_j w_j f(u_j)` (Eq. 34). For f in the Sobolev space

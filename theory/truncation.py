@@ -2,7 +2,7 @@ r"""Worst-case error of Fourier (SH / HSH) truncation of the shading integral.
 
 Marques, Bouville, Bouatouch, "Spectral Analysis of Quadrature Rules and Fourier
 Truncation-based Methods Applied to Shading Integrals", Secs. 5.3, 6.2 and 8 (with the
-errata's corrections).
+errata's corrections, docs/ERRATA.md).
 
 Truncating the expansion of the weight function at degree L (Eq. 35) replaces p by p'
 (Eq. 48). The worst-case error over f ∈ H^s is (Eqs. 51, 66)
@@ -272,7 +272,7 @@ def morphed_spherical_fibonacci(n: int, brdf: WeightFunction | None = None) -> n
     r"""Spherical Fibonacci points on the upper hemisphere, optionally morphed for p (N×3).
 
     :math:`z'_j = 1 - (2j+1)/(2N)`, :math:`\phi_j = 2\pi\,\mathrm{frac}(j/\Phi)`, j = 0…N−1
-    (errata, "Point sets"); with ``brdf`` the heights are importance-sampled,
+    (docs/ERRATA.md, "Point sets"); with ``brdf`` the heights are importance-sampled,
     :math:`z_j = F^{-1}(z'_j)` (``brdf.morph``; Sec. 7.2). A local generator so that this
     module does not depend on ``envfit.theory.pointsets``.
     """

@@ -5,7 +5,7 @@ For each N the map is sampled at N directions (spherical Fibonacci by default, t
 points for every s); for each s the samples are interpolated with
 :class:`~envfit.kernels.interpolation.SobolevInterpolator`, evaluated at every pixel centre, and
 compared with the map on a named value scale (:mod:`envfit.maps.scales`; the paper's values are
-display-referred, see ERRATA "Table 2"). The scale is fitted once on the map and applied to
+display-referred, see docs/ERRATA.md, "Table 2"). The scale is fitted once on the map and applied to
 the map *before* sampling: the scaled map is the function being reconstructed.
 
 Cells are stored as they finish (:class:`~envfit.base.store.ResultStore`), so a rerun with the

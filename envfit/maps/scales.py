@@ -1,7 +1,7 @@
 r"""Value scales on which images are compared (the scale of an RMSE is an explicit choice).
 
 The paper's Table 2 RMSE values (0.23 → 0.07) are on a display-referred image in [0, 1],
-not on raw HDR radiance, where the sun dominates every error (see ERRATA "Table 2"). So an
+not on raw HDR radiance, where the sun dominates every error (see docs/ERRATA.md, "Table 2"). So an
 error is always measured after a :class:`Scale`, and the scale's parameters are fitted
 **once, on the reference map** (:func:`fit_scale`) and then applied unchanged to the
 reference and to every reconstruction.
