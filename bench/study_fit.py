@@ -59,7 +59,7 @@ def main() -> None:
                                                        holdout_values=hv, seed=seed)
                         else:
                             r = fit_smoothness_samples(pts, vals, method=method, seed=seed)
-                        s_hat, iv = r["s"], r["s_interval"]
+                        s_hat, iv = r.s, r.s_interval
                     else:
                         h = int(case[3:])
                         f = gaussian_process_map(s0, h, seed=seed)

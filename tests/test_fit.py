@@ -32,24 +32,24 @@ def test_recovers_s0_on_exact_gp_samples(samples, method, per_seed, mean_tol, s0
     # cover s0 for at least 3 of the 4 seeds.
     pts, vals = samples
     fits = [fit_smoothness_samples(pts, v, method=method, seed=k) for k, v in enumerate(vals[s0])]
-    est = np.array([f["s"] for f in fits])
+    est = np.array([f.s for f in fits])
     assert np.all(np.abs(est - s0) < per_seed), est
     assert abs(est.mean() - s0) < mean_tol, est
     if method == "likelihood":
-        covered = sum(f["s_interval"][0] <= s0 <= f["s_interval"][1] for f in fits)
-        assert covered >= 3, [f["s_interval"] for f in fits]
+        covered = sum(f.s_interval[0] <= s0 <= f.s_interval[1] for f in fits)
+        assert covered >= 3, [f.s_interval for f in fits]
         # sigma-hat: the process has unit amplitude
-        assert all(0.7 < f["sigma"][0] < 1.4 for f in fits)
+        assert all(0.7 < f.sigma[0] < 1.4 for f in fits)
 
 
 def test_likelihood_curve_peaks_at_estimate(samples):
     pts, vals = samples
     r = fit_smoothness_samples(pts, vals[1.3][0], method="likelihood")
-    curve = {c["s"]: c["score"] for c in r["curve"]}
+    curve = {c["s"]: c["score"] for c in r.curve}
     best = min(curve, key=curve.get)
-    assert best == pytest.approx(r["s"], abs=1e-9)
-    lo, hi = r["s_interval"]
-    assert lo < r["s"] < hi
+    assert best == pytest.approx(r.s, abs=1e-9)
+    lo, hi = r.s_interval
+    assert lo < r.s < hi
 
 
 def test_fit_map_outputs_and_cli(tmp_path, monkeypatch, capsys):
@@ -71,3 +71,40 @@ def test_fit_map_outputs_and_cli(tmp_path, monkeypatch, capsys):
         fit_smoothness(env, method="bogus")
     assert cli.main(["fit", str(tmp_path / "missing.exr")]) == 2
     assert "Traceback" not in capsys.readouterr().err
+
+
+def test_search_matches_a_fine_brent_optimum_and_its_crossings(samples):
+    """The lattice search (envfit.fit.search): ŝ and the profile interval's ends within 1e-4
+    of a 1e-8 Brent optimum and the exact crossings of the criterion."""
+    from scipy import optimize
+    from envfit.fit.criterion import evaluate_criterion
+    from envfit.fit.search import CHI2_1_95
+    pts, vals = samples
+    v = vals[1.3][1]
+    r = fit_smoothness_samples(pts, v, method="likelihood")
+    score = lambda s: evaluate_criterion("likelihood", pts, v, s)[0]["score"]  # noqa: E731
+    opt = optimize.minimize_scalar(score, bounds=(r.s - 0.03, r.s + 0.03), method="bounded",
+                                   options={"xatol": 1e-8})
+    assert abs(r.s - opt.x) < 1e-4
+    excess = lambda s: 2 * N * (score(s) - opt.fun) - CHI2_1_95  # noqa: E731
+    lo = optimize.brentq(excess, r.s_interval[0] - 0.02, opt.x, xtol=1e-8)
+    hi = optimize.brentq(excess, opt.x, r.s_interval[1] + 0.02, xtol=1e-8)
+    assert r.s_interval == pytest.approx((lo, hi), abs=1e-4)
+    d = r.to_dict()
+    assert d["s"] == r.s and d["s_interval"] == list(r.s_interval) and d["constant_channels"] == []
+
+
+def test_search_result_does_not_depend_on_extra_evaluations():
+    """Cells beyond what a search requests (resumed, or evaluated for another map) leave its
+    ŝ unchanged: the library and a single map get the same ŝ whatever they share."""
+    from envfit.fit.search import SmoothnessSearch, run_searches
+    def cell(s):
+        return {"score": (s - 1.43) ** 2 + 0.3 * (s - 1.43) ** 3, "sigma": [1.0 / (2 - s)],
+                "boot": None}
+    plain, extra = SmoothnessSearch("likelihood", 50), SmoothnessSearch("likelihood", 50)
+    for s in extra.lat[::2]:
+        extra.add(float(s), cell(float(s)))
+    res = run_searches([plain, extra], lambda wanted: [
+        sr.add(s, cell(s)) for i, sr in enumerate((plain, extra)) for s in wanted.get(i, [])])
+    assert res[0].s == res[1].s and res[0].s_interval == res[1].s_interval
+    assert abs(res[0].s - 1.43) < 1e-6 and res[0].sigma[0] == pytest.approx(1 / (2 - res[0].s))

@@ -392,3 +392,46 @@ def test_normalisation_is_idempotent_and_row_independent():
     assert np.array_equal(as_unit_vectors(u), u)
     assert np.array_equal(as_unit_vectors(p[17:21]), u[17:21])
     assert np.max(np.abs(np.linalg.norm(u, axis=1) - 1)) < 4e-16
+
+
+def test_profiled_log_likelihood_is_one_formula_for_all_three_paths():
+    """envfit.kernels.likelihood.profiled_log_likelihood against scipy's multivariate normal,
+    and the interpolator, the band-limited likelihood and fit.sigma.profiled_sigma all
+    giving its numbers."""
+    from envfit.data_gen.gp import gaussian_process_map
+    from envfit.fit.sigma import profiled_sigma
+    from envfit.kernels.bandlimited import BandlimitedKernel, bandlimited_log_likelihood
+    from envfit.kernels.likelihood import profiled_log_likelihood
+    from envfit.maps.envmap import EnvMap
+    from envfit.maps.latlong import local_to_world
+    from envfit.theory.sphere_points import sphere_points
+    rng = np.random.default_rng(5)
+    n = 40
+    A = rng.normal(size=(n, n))
+    K = A @ A.T + n * np.eye(n)
+    f = rng.normal(size=(n, 3)) * [1.0, 2.0, 0.0]        # the last channel is zero
+    log_det = float(np.linalg.slogdet(K)[1])
+    ll, sigma = profiled_log_likelihood(f, np.linalg.solve(K, f), log_det)
+    for c in range(2):
+        mvn = scipy.stats.multivariate_normal(mean=np.zeros(n), cov=sigma[c] ** 2 * K)
+        assert ll[c] == pytest.approx(mvn.logpdf(f[:, c]), rel=1e-12)
+    assert sigma[2] == 0.0 and ll[2] == np.inf
+    one = profiled_log_likelihood(f[:, 0], np.linalg.solve(K, f[:, 0]), log_det)
+    assert isinstance(one.sigma, float) and one.loglik == pytest.approx(ll[0], rel=1e-14)
+    # the three callers
+    p = unit(60, 8)
+    g = field(p)
+    it = SobolevInterpolator(p, g, 1.4)
+    ref = profiled_log_likelihood(g, np.linalg.solve(dense_kernel(1.4, p), g), it.log_det)
+    np.testing.assert_allclose(it.log_likelihood_profiled().loglik, ref.loglik, rtol=1e-10)
+    Kb = BandlimitedKernel(1.4, 20).matrix(p)
+    refb = profiled_log_likelihood(g, np.linalg.solve(Kb, g), float(np.linalg.slogdet(Kb)[1]))
+    np.testing.assert_allclose(bandlimited_log_likelihood(p, g, 1.4, 20).loglik, refb.loglik,
+                               rtol=1e-9)
+    env = EnvMap(gaussian_process_map(1.5, 16, seed=1, channels=2))
+    dirs = sphere_points("sf", 120, seed=0) @ local_to_world(env.up).T
+    v = env.lookup(dirs).reshape(120, 2)
+    v = v - v.mean(axis=0)
+    np.testing.assert_allclose(profiled_sigma(env, 1.6, n=120),
+                               SobolevInterpolator(dirs, v, 1.6).log_likelihood_profiled().sigma,
+                               rtol=1e-9)

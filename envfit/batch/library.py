@@ -42,7 +42,7 @@ from __future__ import annotations
 import contextlib
 import functools
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Sequence
 
@@ -51,6 +51,7 @@ import numpy as np
 from envfit.maps.envmap import check_sample_count
 from envfit.base.errors import ParameterError
 from envfit.batch.executor import make_executor
+from envfit.batch.library_result import LibraryResult
 from envfit.base.resources import interpolator_nbytes
 from envfit.batch.tasks import SweepSpec, evaluate_task, sample_task, solve_task
 from envfit.maps.mapsource import LoadOptions, MapSource, resolve_map_sources
@@ -71,25 +72,18 @@ _PLAN_CHANNELS = 3
 _FIELDS = tuple(Table2Cell.__dataclass_fields__)
 
 
-@dataclass
-class LibraryTable2Result:
-    """Table 2 for every map of a library (``maps[k]`` is map k's :class:`Table2Result`)."""
+@dataclass(kw_only=True)
+class LibraryTable2Result(LibraryResult):
+    """Table 2 for every map of a library (``maps[k]`` is map k's :class:`Table2Result`);
+    the common fields are :class:`~envfit.batch.library_result.LibraryResult`'s."""
     maps: list[Table2Result]
-    slugs: list[str]
     s_values: list[float]
     n_values: list[int]
-    scale: str
-    pointset: str
-    seed: int
-    factorizations: int = 0
     cells_computed: int = 0
     cells_resumed: int = 0
-    seconds: float = 0.0
-    executor: str = ""
-    notes: list[str] = field(default_factory=list)
-    #: ``(path, reason)`` of cells that could not be written (kept in memory, reported)
-    unwritten: list[tuple[str, str]] = field(default_factory=list)
-    files: dict[str, str] = field(default_factory=dict)
+
+    def per_map(self) -> list[Table2Result]:
+        return self.maps
 
     def s_best(self) -> np.ndarray:
         """The s with the lowest per-pixel RMSE at the largest N, per map."""
@@ -106,14 +100,9 @@ class LibraryTable2Result:
             rows.append(row)
         return rows
 
-    def to_dict(self) -> dict:
-        return {"scale": self.scale, "pointset": self.pointset, "seed": self.seed,
-                "s_values": self.s_values, "n_values": self.n_values,
-                "factorizations": self.factorizations, "cells_computed": self.cells_computed,
-                "cells_resumed": self.cells_resumed, "seconds": self.seconds,
-                "executor": self.executor, "notes": self.notes, "summary": self.summary_rows(),
-                "maps": {slug: r.to_dict() for slug, r in zip(self.slugs, self.maps)},
-                "files": self.files}
+    def _header(self) -> dict:
+        return {"s_values": self.s_values, "n_values": self.n_values,
+                "cells_computed": self.cells_computed, "cells_resumed": self.cells_resumed}
 
 
 def _chunks(items: list[int], n: int, budget: int) -> list[list[int]]:
@@ -168,7 +157,8 @@ def run_table2_library(maps: Sequence, s_values: Sequence[float] = PAPER_S,
                               on_note=notes.append)
                   for src in sources]
         cells, missing, resumed = _resume(stores, sources, s_values, n_values, on_cell)
-        lib = LibraryTable2Result(maps=[], slugs=[s.slug for s in sources], s_values=s_values,
+        lib = LibraryTable2Result(maps=[], labels=[s.label for s in sources],
+                                  slugs=[s.slug for s in sources], s_values=s_values,
                                   n_values=n_values, scale=scale, pointset=pointset,
                                   seed=int(seed), cells_resumed=resumed, notes=notes)
         if missing:
@@ -219,88 +209,114 @@ def _resume(stores, sources, s_values, n_values, on_cell):
 def _compute(lib, sources: list[MapSource], stores, cells, missing, spec: SweepSpec, out,
              *, executor, workers, scheduler, keep, n_max, quiet, on_cell, budget) -> None:
     """Plan the tasks for the missing cells and drive them (fills ``cells`` and ``lib``)."""
-    chunks = []                                   # (s, n, [map indices])
-    for (s, n), idx in sorted(missing.items(), key=lambda kv: (kv[0][1], kv[0][0])):
-        chunks.extend((s, n, c) for c in _chunks(idx, n, budget))
-    if any(len(_chunks(idx, n, budget)) > 1 for (s, n), idx in missing.items()):
-        lib.notes.append("the library's samples exceed the right-hand-side budget for one "
-                         "factorisation: maps are split into groups, one factorisation each")
+    chunks = _plan_chunks(lib, missing, budget)
     biggest = max(interpolator_nbytes(n, _PLAN_CHANNELS * len(c)) for _, n, c in chunks)
     ex, notes = make_executor(executor, workers=workers, scheduler=scheduler,
                               max_useful=len(chunks), bytes_per_task=biggest)
     lib.notes.extend(notes)
     lib.executor = ex.describe()
-    needs: dict[int, set[int]] = {}               # map -> the N it must be sampled at
-    waiting: dict[int, set[int]] = {}             # chunk -> maps whose samples are missing
-    uses: dict[tuple[int, int], int] = {}         # (map, N) -> chunks still to be submitted
-    for cid, (s, n, idx) in enumerate(chunks):
-        waiting[cid] = set(idx)
-        for i in idx:
-            needs.setdefault(i, set()).add(n)
-            uses[(i, n)] = uses.get((i, n), 0) + 1
-    samples: dict[int, dict[int, np.ndarray]] = {}
     from envfit.base.progress import progress_bar
     bar = progress_bar(sum(len(c) for _, _, c in chunks), desc="library table2", quiet=quiet,
                        unit="cell")
-
-    def solve_args(cid):
-        s, n, idx = chunks[cid]
-        cols = [samples[i][n] for i in idx]
-        for i in idx:
-            uses[(i, n)] -= 1
-            if uses[(i, n)] == 0:
-                del samples[i][n]
-        return spec, s, n, np.hstack(cols), [c.shape[1] for c in cols]
-
-    def sample_done(i, res):
-        # N against the map's pixel count and a constant map, before any factorisation
-        n_top = max(res["values"])
-        check_sample_count(n_top, res["width"], res["height"], name=sources[i].label)
-        check_not_constant(res["values"][n_top], spec.scale, sources[i].label,
-                           where=f" at its {n_top} samples")
-        samples[i] = res["values"]
-        ready = []
-        for cid in [c for c, w in waiting.items() if i in w]:
-            waiting[cid].discard(i)
-            if not waiting[cid]:
-                del waiting[cid]
-                s, n, _ = chunks[cid]
-                ready.append(Task(2, solve_task, functools.partial(solve_args, cid),
-                                  label=f"factorisation s={s:g} N={n}",
-                                  on_done=functools.partial(solve_done, cid)))
-        return ready
-
-    def solve_done(cid, res):
-        s, n, idx = chunks[cid]
-        lib.factorizations += 1
-        return [Task(0, evaluate_task, (sources[i], spec, s, n, a, keep and n == n_max),
-                     label=f"map {sources[i].label} (s={s:g}, N={n})",
-                     on_done=functools.partial(eval_done, i, res["seconds"], len(idx)))
-                for i, a in zip(idx, res["alphas"])]
-
-    def eval_done(i, fit_seconds, shared, res):
-        recon, preview = res.pop("reconstruction", None), res.pop("preview", None)
-        res.pop("seconds_load", None)
-        cell = {**res, "seconds_fit": fit_seconds, "seconds": fit_seconds + res["seconds_evaluate"],
-                "shared_by": shared}
-        if recon is not None and out is not None:
-            _save_pair(out / sources[i].slug, recon, preview, cell["s"], cell["n"], spec.up)
-        key = _cell_key(cell["s"], cell["n"])
-        stores[i].put(key, cell)
-        cells[i][key] = cell
-        lib.cells_computed += 1
-        bar.update(1)
-        if on_cell:
-            on_cell(sources[i].label, Table2Cell(**{k: cell[k] for k in _FIELDS}), False)
-
-    tasks = [Task(1, sample_task, (sources[i], spec, sorted(ns)), label=f"map {sources[i].label}",
-                  on_done=functools.partial(sample_done, i)) for i, ns in sorted(needs.items())]
+    run = _Table2Run(lib, sources, stores, cells, chunks, spec, out, keep=keep, n_max=n_max,
+                     on_cell=on_cell, bar=bar)
     try:
-        drive(ex, tasks)
+        drive(ex, run.sample_tasks())
     finally:
         bar.close()
         if ex is not executor:
             ex.close()
+
+
+def _plan_chunks(lib, missing, budget) -> list[tuple[float, int, list[int]]]:
+    """``(s, n, [map indices])`` per factorisation: the maps missing each (s, N), in groups
+    whose right-hand sides fit ``budget`` (noted when a group is split)."""
+    chunks = []
+    for (s, n), idx in sorted(missing.items(), key=lambda kv: (kv[0][1], kv[0][0])):
+        chunks.extend((s, n, c) for c in _chunks(idx, n, budget))
+    if any(len(_chunks(idx, n, budget)) > 1 for (s, n), idx in missing.items()):
+        lib.notes.append("the library's samples exceed the right-hand-side budget for one "
+                         "factorisation: maps are split into groups, one factorisation each")
+    return chunks
+
+
+class _Table2Run:
+    """The task graph of the missing cells: sample each map once (at the N it needs), then a
+    factorisation per chunk as soon as its maps are sampled, then each map's evaluation;
+    samples are dropped once the last chunk using them has been submitted."""
+
+    def __init__(self, lib, sources, stores, cells, chunks, spec, out, *, keep, n_max,
+                 on_cell, bar):
+        self.lib, self.sources, self.stores, self.cells = lib, sources, stores, cells
+        self.chunks, self.spec, self.out = chunks, spec, out
+        self.keep, self.n_max, self.on_cell, self.bar = keep, n_max, on_cell, bar
+        self.needs: dict[int, set[int]] = {}       # map -> the N it must be sampled at
+        self.waiting: dict[int, set[int]] = {}     # chunk -> maps whose samples are missing
+        self.uses: dict[tuple[int, int], int] = {}  # (map, N) -> chunks still to be submitted
+        for cid, (s, n, idx) in enumerate(chunks):
+            self.waiting[cid] = set(idx)
+            for i in idx:
+                self.needs.setdefault(i, set()).add(n)
+                self.uses[(i, n)] = self.uses.get((i, n), 0) + 1
+        self.samples: dict[int, dict[int, np.ndarray]] = {}
+
+    def sample_tasks(self) -> list[Task]:
+        return [Task(1, sample_task, (self.sources[i], self.spec, sorted(ns)),
+                     label=f"map {self.sources[i].label}",
+                     on_done=functools.partial(self.sample_done, i))
+                for i, ns in sorted(self.needs.items())]
+
+    def solve_args(self, cid):
+        s, n, idx = self.chunks[cid]
+        cols = [self.samples[i][n] for i in idx]
+        for i in idx:
+            self.uses[(i, n)] -= 1
+            if self.uses[(i, n)] == 0:
+                del self.samples[i][n]
+        return self.spec, s, n, np.hstack(cols), [c.shape[1] for c in cols]
+
+    def sample_done(self, i, res) -> list[Task]:
+        # N against the map's pixel count and a constant map, before any factorisation
+        n_top = max(res["values"])
+        check_sample_count(n_top, res["width"], res["height"], name=self.sources[i].label)
+        check_not_constant(res["values"][n_top], self.spec.scale, self.sources[i].label,
+                           where=f" at its {n_top} samples")
+        self.samples[i] = res["values"]
+        ready = []
+        for cid in [c for c, w in self.waiting.items() if i in w]:
+            self.waiting[cid].discard(i)
+            if not self.waiting[cid]:
+                del self.waiting[cid]
+                s, n, _ = self.chunks[cid]
+                ready.append(Task(2, solve_task, functools.partial(self.solve_args, cid),
+                                  label=f"factorisation s={s:g} N={n}",
+                                  on_done=functools.partial(self.solve_done, cid)))
+        return ready
+
+    def solve_done(self, cid, res) -> list[Task]:
+        s, n, idx = self.chunks[cid]
+        self.lib.factorizations += 1
+        return [Task(0, evaluate_task, (self.sources[i], self.spec, s, n, a,
+                                        self.keep and n == self.n_max),
+                     label=f"map {self.sources[i].label} (s={s:g}, N={n})",
+                     on_done=functools.partial(self.eval_done, i, res["seconds"], len(idx)))
+                for i, a in zip(idx, res["alphas"])]
+
+    def eval_done(self, i, fit_seconds, shared, res) -> None:
+        recon, preview = res.pop("reconstruction", None), res.pop("preview", None)
+        res.pop("seconds_load", None)
+        cell = {**res, "seconds_fit": fit_seconds, "seconds": fit_seconds + res["seconds_evaluate"],
+                "shared_by": shared}
+        if recon is not None and self.out is not None:
+            _save_pair(self.out / self.sources[i].slug, recon, preview, cell["s"], cell["n"],
+                       self.spec.up)
+        key = _cell_key(cell["s"], cell["n"])
+        self.stores[i].put(key, cell)
+        self.cells[i][key] = cell
+        self.lib.cells_computed += 1
+        self.bar.update(1)
+        if self.on_cell:
+            self.on_cell(self.sources[i].label, Table2Cell(**{k: cell[k] for k in _FIELDS}), False)
 
 
 def _save_pair(folder: Path, recon: np.ndarray, preview: np.ndarray, s: float, n: int, up: str) -> None:

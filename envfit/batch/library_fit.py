@@ -1,32 +1,23 @@
 r"""Fit the Sobolev smoothness s of every map of a library, one factorisation per s.
 
 :func:`envfit.fit.smoothness.fit_smoothness` evaluates its criterion (profiled GP likelihood,
-closed-form leave-one-out or hold-out RMSE; see :mod:`envfit.fit.smoothness`) at ~30 values of s,
-each needing the Cholesky factor of :math:`K^{(s)}` at the sample directions — which do not
-depend on the map. Here every map is sampled at the same N directions and each s is
-factorised once for all maps (:func:`envfit.batch.fit_tasks.criterion_task`).
+closed-form leave-one-out or hold-out RMSE; :func:`envfit.fit.criterion.evaluate_criterion`)
+at ~20–30 values of s, each needing the Cholesky factor of :math:`K^{(s)}` at the sample
+directions — which do not depend on the map. Here every map is sampled at the same N
+directions and each s is factorised once for all maps
+(:func:`envfit.batch.fit_tasks.criterion_task`).
 
-Sharing needs every map to be evaluated at the *same* s values, so the continuous
-refinement is a shared lattice instead of per-map Brent iterations:
-
-1. the coarse grid :data:`envfit.fit.smoothness.S_GRID` (step 0.075), for every map;
-2. per map, its bracket around the grid minimum (the grid neighbours, as
-   :func:`~envfit.fit.smoothness.fit_smoothness_samples`) on a lattice of step 0.075/``refine``
-   (default 3, step 0.025); the estimate is the minimum of the cubic spline through the
-   bracket's lattice values;
-3. likelihood: the 95 % profile interval :math:`2N(\mathrm{score}(s) - \mathrm{score}(\hat
-   s)) \le \chi^2_{1,0.95}` — lattice points are added outward from :math:`\hat s` until
-   the criterion crosses the threshold on both sides (or the edge of (1, 2) is reached), and
-   the crossing is solved on the spline; loo/holdout: the bootstrap interval on the grid,
-   as the single-map fit.
-   σ̂ at :math:`\hat s` is the spline of :math:`\log\hat\sigma` through the same lattice.
-
-Maps whose brackets coincide share every evaluation; a library needs at most the ~40
-lattice points of (1, 2) factorisations whatever its size. The estimate and the interval
-ends are within ~1e-5 of the exact optimum and crossings (GP maps, N = 400, against a
-1e-7 Brent search), i.e. closer than the single-map search, whose tolerance is 2e-3; the
-criterion values at shared s equal the single-map ones to rounding (tests). Every (map, s)
-evaluation is a resumable cell in ``OUT/<slug>/fit_<method>_n<N>/cells``.
+Each map runs the lattice search of :mod:`envfit.fit.search` — the search the single-map
+fit runs — whose every request lies on one lattice (the coarse grid
+:data:`~envfit.fit.search.S_GRID`, refined ``refine`` times, default step 0.025), so maps
+ask for the same s values; :func:`~envfit.fit.search.run_searches` collects the requests of
+all maps round after round and each distinct s is factorised once per round. ŝ and its
+interval equal the single-map fit's to rounding (tests); σ̂ at ŝ is read off the spline of
+:math:`\log\hat\sigma` through the lattice (:attr:`envfit.fit.search.SearchResult.sigma`),
+where the single map spends one more factorisation on the exact value (they agree to ~1e-6
+relative). A library needs at most the ~40 lattice points of (1, 2) factorisations whatever
+its size. Every (map, s) evaluation is a resumable cell in
+``OUT/<slug>/fit_<method>_n<N>/cells``.
 
 Example
 -------
@@ -44,20 +35,21 @@ from __future__ import annotations
 import contextlib
 import functools
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Sequence
 
 import numpy as np
-from scipy import optimize
-from scipy.interpolate import CubicSpline
 
 from envfit.base.checks import check_int
 from envfit.maps.envmap import check_sample_count
 from envfit.base.errors import ParameterError
 from envfit.batch.executor import make_executor
-from envfit.fit.smoothness import (CHI2_1_95, DEFAULT_METHOD, DEFAULT_N, METHODS, S_GRID, SCORE_NAMES,
-                  FitResult, bootstrap_argmin_interval)
+from envfit.batch.library_result import LibraryResult
+from envfit.fit.search import (DEFAULT_REFINE, SmoothnessSearch, lattice,  # noqa: F401
+                               run_searches, search_lattice)
+from envfit.fit.smoothness import (DEFAULT_METHOD, DEFAULT_N, METHODS, S_GRID, SCORE_NAMES,
+                                   FitResult, fit_notes)
 from envfit.base.resources import interpolator_nbytes
 from envfit.batch.fit_tasks import criterion_task, fit_sample_task
 from envfit.batch.tasks import SweepSpec
@@ -69,148 +61,37 @@ from envfit.base.store import FolderLock, ResultStore
 
 __all__ = ["LibraryFitResult", "fit_smoothness_library", "DEFAULT_REFINE", "lattice"]
 
-DEFAULT_REFINE = 3
-EDGE_LO, EDGE_HI = 1.0 + 1e-6, 2.0 - 1e-6
-#: lattice points requested per side and round while looking for the interval's ends
-_WALK_BATCH = 4
 
-
-@dataclass
-class LibraryFitResult:
-    """Per-map :class:`~envfit.fit.smoothness.FitResult` (``fits[k]`` for map ``labels[k]``)."""
+@dataclass(kw_only=True)
+class LibraryFitResult(LibraryResult):
+    """Per-map :class:`~envfit.fit.smoothness.FitResult` (``fits[k]`` for map ``labels[k]``);
+    the common fields are :class:`~envfit.batch.library_result.LibraryResult`'s."""
     fits: list[FitResult]
-    labels: list[str]
-    slugs: list[str]
     method: str
     n: int
-    scale: str
-    pointset: str
-    seed: int
-    factorizations: int = 0
+    #: rounds of shared evaluations, and evaluations read back from ``out``
     rounds: int = 0
     evaluations_resumed: int = 0
-    seconds: float = 0.0
-    executor: str = ""
-    notes: list[str] = field(default_factory=list)
-    #: ``(path, reason)`` of cells that could not be written (kept in memory, reported)
-    unwritten: list[tuple[str, str]] = field(default_factory=list)
-    files: dict[str, str] = field(default_factory=dict)
+
+    def per_map(self) -> list[FitResult]:
+        return self.fits
 
     def summary_rows(self) -> list[dict]:
+        """One row per map: slug, name, ŝ, its interval, σ̂ per channel."""
         return [{"slug": slug, "map": label, "s": f.s, "s_low": f.s_interval[0],
                  "s_high": f.s_interval[1], "sigma": list(f.sigma)}
                 for slug, label, f in zip(self.slugs, self.labels, self.fits)]
 
-    def to_dict(self) -> dict:
-        return {"method": self.method, "n": self.n, "scale": self.scale,
-                "pointset": self.pointset, "seed": self.seed,
-                "factorizations": self.factorizations, "rounds": self.rounds,
-                "evaluations_resumed": self.evaluations_resumed, "seconds": self.seconds,
-                "executor": self.executor, "notes": self.notes, "summary": self.summary_rows(),
-                "maps": {slug: {"map": label, **f.to_dict()}
-                         for slug, label, f in zip(self.slugs, self.labels, self.fits)},
-                "files": self.files}
+    def _header(self) -> dict:
+        return {"method": self.method, "n": self.n, "rounds": self.rounds,
+                "evaluations_resumed": self.evaluations_resumed}
 
-
-def lattice(grid: Sequence[float], refine: int) -> np.ndarray:
-    """The grid refined ``refine`` times (same origin), inside (1, 2), plus both edges.
-
-    >>> lattice([1.2, 1.5, 1.8], 1)[:3].tolist()
-    [1.000001, 1.2, 1.5]
-    """
-    g = np.asarray(grid, dtype=float)
-    h = (g[1] - g[0]) / refine if len(g) > 1 else 0.075 / refine
-    j = np.arange(int(np.floor((1.0 - g[0]) / h)) - 1, int(np.ceil((2.0 - g[0]) / h)) + 2)
-    pts = np.round(g[0] + j * h, 10)
-    pts = pts[(pts > EDGE_LO) & (pts < EDGE_HI)]
-    return np.concatenate([[EDGE_LO], pts, [EDGE_HI]])
+    def _map_dict(self, label: str, result: FitResult) -> dict:
+        return {"map": label, **result.to_dict()}
 
 
 def _key(s: float) -> str:
     return f"s{s:.8f}"
-
-
-class _MapFit:
-    """The evaluations of one map and the lattice logic deciding what it needs next."""
-
-    def __init__(self, grid, lat, method: str, n: int):
-        self.grid, self.lat, self.method, self.n = grid, lat, method, n
-        self.ev: dict[float, dict] = {}
-        self.cost = 0.0
-
-    def score(self, s):
-        return self.ev[s]["score"]
-
-    def bracket(self) -> tuple[float, float]:
-        k = int(np.argmin([self.score(s) for s in self.grid]))
-        lo = self.grid[k - 1] if k > 0 else EDGE_LO
-        hi = self.grid[k + 1] if k < len(self.grid) - 1 else EDGE_HI
-        return lo, hi
-
-    def inner(self) -> list[float]:
-        """Lattice points of the bracket, strictly inside (1, 2) (the edges are only
-        evaluated when an interval reaches them, as in the single-map fit)."""
-        lo, hi = self.bracket()
-        return [float(s) for s in self.lat if lo <= s <= hi and EDGE_LO < s < EDGE_HI]
-
-    def _spline(self, run, key="score"):
-        y = np.array([self.ev[s][key] for s in run]) if key == "score" else \
-            np.log(np.array([self.ev[s]["sigma"] for s in run]))
-        return CubicSpline(np.asarray(run), y)
-
-    def _minimum(self, run, lo, hi) -> tuple[float, float]:
-        cs = self._spline(run)
-        cand = [lo, hi, *[float(r) for r in cs.derivative().roots(extrapolate=False)
-                          if lo <= r <= hi]]
-        vals = cs(np.array(cand))
-        k = int(np.argmin(vals))
-        return float(cand[k]), float(vals[k])
-
-    def _walk(self, s_hat, target, side) -> tuple[float | None, list[float]]:
-        """(outermost lattice point needed on this side, or None; points still to evaluate)."""
-        outer = self.lat[self.lat < s_hat][::-1] if side < 0 else self.lat[self.lat > s_hat]
-        for pos, s in enumerate(outer):
-            if s not in self.ev:
-                return None, [x for x in outer[pos:pos + _WALK_BATCH] if x not in self.ev]
-            if self.score(s) > target:
-                return float(s), []
-        return float(outer[-1]) if len(outer) else s_hat, []
-
-    def requests(self) -> list[float]:
-        """Lattice points this map still needs (empty: ready to finish)."""
-        missing = [s for s in self.grid if s not in self.ev]
-        if missing:
-            return missing
-        inner = self.inner()
-        missing = [s for s in inner if s not in self.ev]
-        if missing or self.method != "likelihood":
-            return missing
-        s_hat, best = self._minimum(inner, inner[0], inner[-1])
-        target = best + CHI2_1_95 / (2 * self.n)
-        return [*self._walk(s_hat, target, -1)[1], *self._walk(s_hat, target, +1)[1]]
-
-    def finish(self) -> tuple[float, tuple[float, float], list[float]]:
-        inner = self.inner()
-        lo, hi = inner[0], inner[-1]
-        s_hat, best = self._minimum(inner, lo, hi)
-        if self.method == "likelihood":
-            target = best + CHI2_1_95 / (2 * self.n)
-            left, _ = self._walk(s_hat, target, -1)
-            right, _ = self._walk(s_hat, target, +1)
-            run = [float(s) for s in self.lat if left <= s <= right]
-            s_hat, best = self._minimum(run, lo, hi)
-            cs = self._spline(run)
-            f = lambda x: float(cs(x)) - target  # noqa: E731
-            lo_s = left if f(left) <= 0 else optimize.brentq(f, left, s_hat, xtol=1e-6)
-            hi_s = right if f(right) <= 0 else optimize.brentq(f, s_hat, right, xtol=1e-6)
-            interval = (float(lo_s), float(hi_s))
-        else:
-            run = inner
-            means = np.array([self.ev[s]["boot"] for s in self.grid]).T
-            b_lo, b_hi = bootstrap_argmin_interval(self.grid, means)
-            interval = (min(b_lo, s_hat), max(b_hi, s_hat))
-        sigma = np.exp(self._spline(run, "sigma")(s_hat))
-        return s_hat, interval, [float(x) for x in np.atleast_1d(sigma)]
 
 
 def fit_smoothness_library(maps: Sequence, *, method: str = DEFAULT_METHOD, n: int = DEFAULT_N,
@@ -224,8 +105,8 @@ def fit_smoothness_library(maps: Sequence, *, method: str = DEFAULT_METHOD, n: i
 
     ``maps``, ``executor``, ``workers``, ``scheduler``, ``load_options`` as
     :func:`envfit.batch.library.run_table2_library`; ``method``, ``n``, ``scale``, ``pointset``,
-    ``seed``, ``n_holdout``, ``s_grid`` as :func:`envfit.fit.smoothness.fit_smoothness` (``s_grid``
-    must be uniform). ``out``: resumable cells per map and the summary files
+    ``seed``, ``n_holdout``, ``s_grid``, ``refine`` as :func:`envfit.fit.smoothness.fit_smoothness`
+    (``s_grid`` must be uniform). ``out``: resumable cells per map and the summary files
     (:func:`envfit.batch.report.write_fit_library`). ``on_round(round, factorisations)``
     is called after each round of shared evaluations.
     """
@@ -235,13 +116,7 @@ def fit_smoothness_library(maps: Sequence, *, method: str = DEFAULT_METHOD, n: i
     if scale not in SCALES:
         raise ParameterError(f"unknown scale {scale!r}; choose one of {', '.join(SCALES)}")
     n = check_int(n, "the number of samples n", 10)
-    grid = [float(s) for s in s_grid]
-    if len(grid) < 3 or not np.allclose(np.diff(grid), grid[1] - grid[0]) or grid[1] <= grid[0]:
-        raise ParameterError("a library fit needs a uniform, increasing s grid of 3 or more values")
-    if int(refine) < 1:
-        raise ParameterError(f"refine must be at least 1, got {refine}")
-    lat = lattice(grid, int(refine))
-    grid = [float(lat[np.argmin(np.abs(lat - g))]) for g in grid]   # the lattice's own floats
+    grid = search_lattice(s_grid, refine)[0]
     sources = resolve_map_sources(maps, load_options)
     # the memory guard (one criterion task: the interpolator with every map's samples as
     # right-hand sides, as the executor is sized below), before any sample is made
@@ -263,18 +138,15 @@ def fit_smoothness_library(maps: Sequence, *, method: str = DEFAULT_METHOD, n: i
         stores = [ResultStore(out / src.slug / f"fit_{method}_n{n}" if out is not None else None,
                               {"map": src.identity(), **config}, kind="fit", lock=False,
                               on_note=lib.notes.append) for src in sources]
-        fits = [_MapFit(grid, lat, method, n) for _ in sources]
-        meta: dict[int, dict] = {}
-        for i, st in enumerate(stores):
-            for key, cell in st.items():         # unsound cells are noted and left out
-                if key == "meta":
-                    meta[i] = cell
-                else:
-                    fits[i].ev[float(cell["s"])] = cell
-                    lib.evaluations_resumed += 1
-        _rounds(lib, fits, stores, meta, sources, spec, grid, n_holdout, quiet=quiet,
-                on_round=on_round, executor=executor, workers=workers, scheduler=scheduler)
-        _finish(lib, fits, meta)
+        searches = [SmoothnessSearch(method, n, grid, refine) for _ in sources]
+        meta = _resume(lib, stores, searches)
+        run = _LibraryRun(lib, sources, stores, searches, meta, spec, n_holdout, quiet=quiet,
+                          on_round=on_round, executor=executor, workers=workers,
+                          scheduler=scheduler)
+        with run:
+            results = run_searches(searches, run.evaluate_round)
+            run.sample([i for i in range(len(sources)) if i not in meta])
+        _finish(lib, searches, results, meta, run.cost)
         lib.unwritten = [u for st in stores for u in st.unwritten]
         lib.seconds = time.perf_counter() - t_start
         if out is not None:
@@ -283,92 +155,139 @@ def fit_smoothness_library(maps: Sequence, *, method: str = DEFAULT_METHOD, n: i
     return lib
 
 
-def _rounds(lib, fits, stores, meta, sources, spec, grid, n_holdout, *, quiet, on_round,
-            executor, workers, scheduler) -> None:
-    """Evaluate, round after round, the lattice points the maps still request (each s
-    factorised once for all maps); every evaluation is stored as it arrives."""
-    method, n = lib.method, lib.n
-    ex = None
-    samples: dict[int, dict] = {}
-    grid_set = set(grid)
-    try:
-        while True:
-            wanted = {i: f.requests() for i, f in enumerate(fits)}
-            # a map without its meta cell (an unsound file) is sampled again, to rewrite it
-            wanted = {i: r for i, r in wanted.items() if r or i not in meta}
-            if not wanted:
-                break
-            if ex is None:
-                ex, notes = make_executor(
-                    executor, workers=workers, scheduler=scheduler, max_useful=len(grid),
-                    bytes_per_task=interpolator_nbytes(n, 2 * 3 * len(sources)))
-                lib.notes.extend(notes)
-                lib.executor = ex.describe()
-            lib.rounds += 1
-            _sample(ex, sources, spec, n, n_holdout if method == "holdout" else None,
-                    [i for i in wanted if i not in samples], samples, meta, stores)
-            by_s: dict[float, list[int]] = {}
-            for i, req in wanted.items():
-                for s in req:
-                    by_s.setdefault(float(s), []).append(i)
-            shared: dict[tuple, object] = {}
-
-            def payload(idx):
-                if idx not in shared:
-                    shared[idx] = ex.share({
-                        "values": np.hstack([samples[i]["values"] for i in idx]),
-                        "widths": [samples[i]["values"].shape[1] for i in idx],
-                        "holdout": ([samples[i]["holdout"] for i in idx]
-                                    if method == "holdout" else None)})
-                return shared[idx]
-
-            def done(s, idx, res):
-                lib.factorizations += 1
-                share = res["seconds"] / len(idx)
-                for i, cell in zip(idx, res["maps"]):
-                    cell = {"s": s, **cell}
-                    stores[i].put(_key(s), cell)
-                    fits[i].ev[s] = cell
-                    fits[i].cost += share
-
-            tasks = [Task(2, criterion_task,
-                          functools.partial(lambda s, idx: (spec, method, s, n, payload(idx),
-                                                            s in grid_set), s, tuple(idx)),
-                          label=f"fit criterion at s={s:.4f}",
-                          on_done=functools.partial(done, s, tuple(idx)))
-                     for s, idx in sorted(by_s.items())]
-            from envfit.base.progress import progress_bar
-            bar = progress_bar(len(tasks), desc=f"library fit, round {lib.rounds}", quiet=quiet,
-                               unit="s")
-            for t in tasks:
-                t.on_done = _then(t.on_done, lambda _r: bar.update(1))
-            try:
-                drive(ex, tasks)
-            finally:
-                bar.close()
-            if on_round:
-                on_round(lib.rounds, lib.factorizations)
-    finally:
-        if ex is not None and ex is not executor:
-            ex.close()
+def _resume(lib: LibraryFitResult, stores, searches) -> dict[int, dict]:
+    """Give each search its map's stored evaluations (unsound cells are noted by the store and
+    left out); returns the maps' stored meta cells by map index."""
+    meta: dict[int, dict] = {}
+    for i, st in enumerate(stores):
+        for key, cell in st.items():
+            if key == "meta":
+                meta[i] = cell
+            else:
+                searches[i].add(float(cell["s"]), cell)
+                lib.evaluations_resumed += 1
+    return meta
 
 
-def _finish(lib, fits, meta) -> None:
-    """Each map's estimate, interval and σ̂ from its evaluations, into ``lib.fits``."""
-    method, n, scale = lib.method, lib.n, lib.scale
-    for i, f in enumerate(fits):
-        s_hat, interval, sigma = f.finish()
+class _LibraryRun:
+    """The rounds of shared evaluations: sample the maps once (kept in memory), then per round
+    one :func:`~envfit.batch.fit_tasks.criterion_task` per distinct s requested, for all the
+    maps requesting it; every evaluation is stored as it arrives. A context manager: the
+    executor is made at the first round and closed at the end (unless it was given)."""
+
+    def __init__(self, lib, sources, stores, searches, meta, spec, n_holdout, *, quiet,
+                 on_round, executor, workers, scheduler):
+        self.lib, self.sources, self.stores, self.searches = lib, sources, stores, searches
+        self.meta, self.spec, self.quiet, self.on_round = meta, spec, quiet, on_round
+        self.n_holdout = n_holdout if lib.method == "holdout" else None
+        self.executor, self.workers, self.scheduler = executor, workers, scheduler
+        self.grid_set = set(searches[0].grid) if searches else set()
+        self.samples: dict[int, dict] = {}
+        #: per map, its share of the factorisations' seconds
+        self.cost = [0.0] * len(sources)
+        self.ex = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self.ex is not None and self.ex is not self.executor:
+            self.ex.close()
+
+    def _executor(self):
+        if self.ex is None:
+            self.ex, notes = make_executor(
+                self.executor, workers=self.workers, scheduler=self.scheduler,
+                max_useful=len(self.grid_set),
+                bytes_per_task=interpolator_nbytes(self.lib.n, 2 * 3 * len(self.sources)))
+            self.lib.notes.extend(notes)
+            self.lib.executor = self.ex.describe()
+        return self.ex
+
+    def evaluate_round(self, wanted: dict[int, list[float]]) -> None:
+        """One round: every s in ``wanted`` (map → s values) evaluated once for its maps."""
+        self.lib.rounds += 1
+        self.sample([i for i in wanted if i not in self.samples])
+        by_s: dict[float, list[int]] = {}
+        for i, req in wanted.items():
+            for s in req:
+                by_s.setdefault(float(s), []).append(i)
+        shared: dict[tuple, object] = {}
+        tasks = [Task(2, criterion_task, functools.partial(self._criterion_args, s, tuple(idx),
+                                                           shared),
+                      label=f"fit criterion at s={s:.4f}",
+                      on_done=functools.partial(self._done, s, tuple(idx)))
+                 for s, idx in sorted(by_s.items())]
+        from envfit.base.progress import progress_bar
+        bar = progress_bar(len(tasks), desc=f"library fit, round {self.lib.rounds}",
+                           quiet=self.quiet, unit="s")
+        for t in tasks:
+            t.on_done = _then(t.on_done, lambda _r: bar.update(1))
+        try:
+            drive(self._executor(), tasks)
+        finally:
+            bar.close()
+        if self.on_round:
+            self.on_round(self.lib.rounds, self.lib.factorizations)
+
+    def _criterion_args(self, s: float, idx: tuple, shared: dict):
+        """The task's arguments; the maps' samples are shared once per group of maps."""
+        if idx not in shared:
+            holdout = self.lib.method == "holdout"
+            shared[idx] = self._executor().share({
+                "values": np.hstack([self.samples[i]["values"] for i in idx]),
+                "widths": [self.samples[i]["values"].shape[1] for i in idx],
+                "holdout": [self.samples[i]["holdout"] for i in idx] if holdout else None})
+        return (self.spec, self.lib.method, s, self.lib.n, shared[idx], s in self.grid_set)
+
+    def _done(self, s: float, idx: tuple, res: dict) -> None:
+        self.lib.factorizations += 1
+        share = res["seconds"] / len(idx)
+        for i, cell in zip(idx, res["maps"]):
+            cell = {"s": s, **cell}
+            self.stores[i].put(_key(s), cell)
+            self.searches[i].add(s, cell)
+            self.cost[i] += share
+
+    def sample(self, todo: list[int]) -> None:
+        """Sample the maps ``todo`` (one task each), keep the samples, store their meta
+        cells (also for a map whose every evaluation was resumed but whose meta was not)."""
+        if not todo:
+            return
+        lib, spec = self.lib, self.spec
+
+        def done(i, res):
+            # n against the map's pixel count and a constant map, before any factorisation
+            label = self.sources[i].label
+            check_sample_count(lib.n, res["width"], res["height"], name=label, what="n")
+            check_not_constant(res["values"], spec.scale, label, where=f" at its {lib.n} samples")
+            self.samples[i] = res
+            self.meta[i] = {"height": res["height"], "width": res["width"],
+                            "channels": res["channels"],
+                            "scale_description": res["scale_description"]}
+            self.stores[i].put("meta", self.meta[i])
+
+        drive(self._executor(), [Task(1, fit_sample_task,
+                                      (self.sources[i], spec, lib.n, self.n_holdout),
+                                      label=f"map {self.sources[i].label}",
+                                      on_done=functools.partial(done, i)) for i in todo])
+
+
+def _finish(lib, searches, results, meta, cost) -> None:
+    """Each map's :class:`FitResult` from its search, into ``lib.fits``."""
+    for i, (search, res) in enumerate(zip(searches, results)):
         notes = []
-        if method == "holdout":
+        if lib.method == "holdout":
             notes.append("holdout: pixel centres drawn with probability proportional to solid angle")
-        if interval[0] <= 1.0 + 1e-3 or interval[1] >= 2.0 - 1e-3:
-            notes.append("the interval reaches the edge of (1, 2): the map may be rougher/smoother "
-                         "than this kernel family can express")
-        curve = [{"s": float(s), "score": float(c["score"])} for s, c in sorted(f.ev.items())]
+        constant = ([c for c, x in enumerate(res.sigma) if x == 0.0]
+                    if lib.method == "likelihood" else [])
+        notes.extend(fit_notes(res.s_interval, constant, lib.scale))
         lib.fits.append(FitResult(
-            s=s_hat, s_interval=interval, sigma=sigma, method=method, scale=scale, n=n,
-            scale_description=meta.get(i, {}).get("scale_description", ""), curve=curve,
-            score_name=SCORE_NAMES[method], seconds=f.cost, notes=notes))
+            s=res.s, s_interval=res.s_interval, sigma=res.sigma, method=lib.method,
+            scale=lib.scale, n=lib.n,
+            scale_description=meta.get(i, {}).get("scale_description", ""),
+            curve=search.curve(), score_name=SCORE_NAMES[lib.method],
+            seconds=cost[i], notes=notes))
 
 
 def _then(first, second):
@@ -376,20 +295,3 @@ def _then(first, second):
         first(result)
         second(result)
     return both
-
-
-def _sample(ex, sources, spec, n, n_holdout, todo, samples, meta, stores) -> None:
-    """Sample the maps ``todo`` (one task each); keep the samples in memory."""
-    def done(i, res):
-        # n against the map's pixel count and a constant map, before any factorisation
-        check_sample_count(n, res["width"], res["height"], name=sources[i].label, what="n")
-        check_not_constant(res["values"], spec.scale, sources[i].label,
-                           where=f" at its {n} samples")
-        samples[i] = res
-        meta[i] = {"height": res["height"], "width": res["width"],
-                   "channels": res["channels"], "scale_description": res["scale_description"]}
-        stores[i].put("meta", meta[i])
-
-    drive(ex, [Task(1, fit_sample_task, (sources[i], spec, n, n_holdout),
-                    label=f"map {sources[i].label}", on_done=functools.partial(done, i))
-               for i in todo])

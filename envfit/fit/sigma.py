@@ -15,6 +15,7 @@ from envfit.theory.weights import kernel_matrix
 
 from envfit.kernels.bandlimited import (bandlimited_log_likelihood, map_band_limit, max_samples,
                           pixel_centre_samples)
+from envfit.kernels.likelihood import profiled_log_likelihood
 from envfit.base.checks import check_int
 from envfit.maps.envmap import EnvMap
 from envfit.base.errors import ParameterError
@@ -64,7 +65,9 @@ def profiled_sigma(envmap: EnvMap, s: float, *, n: int = 1500, seed: int = 0) ->
     .. math:: \hat\sigma_c^2 = \frac{1}{n} f_c^T K^{-1} f_c, \qquad K_{ij} = K^{(s)}_{gd}(u_i, u_j)
               \quad (14)
 
-    by a float64 Cholesky factorisation. Does not need :mod:`envfit.kernels.interpolation`.
+    by a float64 Cholesky factorisation
+    (:func:`envfit.kernels.likelihood.profiled_log_likelihood`). Does not need
+    :mod:`envfit.kernels.interpolation`.
     ``envmap`` must already be on the wanted value scale.
 
     >>> from envfit.maps.envmap import EnvMap
@@ -84,8 +87,8 @@ def profiled_sigma(envmap: EnvMap, s: float, *, n: int = 1500, seed: int = 0) ->
         cf = cho_factor(K, overwrite_a=True)
     except np.linalg.LinAlgError:  # pragma: no cover - SF points are distinct
         raise ParameterError("kernel matrix of the sigma fit is not positive definite") from None
-    sol = cho_solve(cf, v)
-    return np.sqrt(np.maximum(np.sum(v * sol, axis=0) / n, 0.0))
+    log_det = 2.0 * float(np.sum(np.log(np.diagonal(cf[0]))))
+    return np.atleast_1d(profiled_log_likelihood(v, cho_solve(cf, v), log_det).sigma)
 
 
 def combine_sigma(sigmas) -> float:

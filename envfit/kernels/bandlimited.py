@@ -36,8 +36,6 @@ True
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from scipy import fft as sp_fft
 from scipy.linalg import lapack
@@ -48,7 +46,8 @@ from envfit.theory.sobolev import kernel_series
 from envfit.kernels import _bandlimited_kernels as _bk
 from envfit.maps.envmap import EnvMap
 from envfit.base.errors import ParameterError
-from envfit.kernels.interpolation import ProfiledLikelihood, _check_s, as_unit_vectors
+from envfit.kernels.interpolation import _check_s, as_unit_vectors
+from envfit.kernels.likelihood import ProfiledLikelihood, profiled_log_likelihood
 from envfit.maps.latlong import direction_to_pixel
 from envfit.base.resources import plan_memory
 
@@ -169,7 +168,7 @@ def bandlimited_log_likelihood(points, values, s: float, lmax: int) -> ProfiledL
 
     The values are used as given (centre them first: the model is zero-mean). One float64
     Cholesky factorisation serves every channel. Returns ``(loglik, sigma)`` of shape (C,)
-    (scalars for 1-D values).
+    (scalars for 1-D values), by :func:`envfit.kernels.likelihood.profiled_log_likelihood`.
 
     >>> import numpy as np
     >>> rng = np.random.default_rng(0)
@@ -199,14 +198,8 @@ def bandlimited_log_likelihood(points, values, s: float, lmax: int) -> ProfiledL
     alpha, info = lapack.dpotrs(c, vals, lower=1)
     if info != 0:  # pragma: no cover
         raise RuntimeError(f"dpotrs failed (info={info})")
-    quad = np.einsum("ij,ij->j", vals, alpha)
-    with np.errstate(divide="ignore"):
-        sigma2 = quad / n
-        ll = -0.5 * (n * np.log(sigma2) + log_det + n * (1.0 + math.log(2.0 * math.pi)))
-    sigma = np.sqrt(np.maximum(sigma2, 0.0))
-    if vector:
-        return ProfiledLikelihood(float(ll[0]), float(sigma[0]))
-    return ProfiledLikelihood(ll, sigma)
+    return profiled_log_likelihood(vals[:, 0] if vector else vals,
+                                   alpha[:, 0] if vector else alpha, log_det)
 
 
 def pixel_centre_samples(envmap: EnvMap, dirs) -> tuple[np.ndarray, np.ndarray]:
