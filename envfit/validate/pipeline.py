@@ -30,10 +30,13 @@ comes from :func:`envfit.shading.ground_truth.shading_integral` (exact SH of the
 What is predicted
 -----------------
 The worst-case error E(s) of the rule (Eq. 41, the value of
-:func:`envfit.theory.quadrature.worst_case_error`, computed by :func:`rule_worst_case_error`;
-rotation invariant, so one number per rule) or of the truncation (Eqs. 51–52,
-:func:`envfit.theory.truncation.truncation_error_curve`), for the map's fitted smoothness s
-(``envfit fit``; or a given s). Three predictions of the RMSE:
+:func:`envfit.theory.quadrature.worst_case_error`; rotation invariant, so one number per
+rule) or of the truncation (Eqs. 51–52, :func:`envfit.theory.truncation.truncation_error_curve`),
+for the map's fitted smoothness s (``envfit fit``; or a given s). Prediction (a) is fitted
+here; (b), (b′) and (c) are the named predictors of :data:`envfit.predict.PREDICTORS`
+(``plain``, ``bandlimited``, ``spectral``: each ``f(PredictionContext, Rule) -> Prediction``),
+which :func:`run_validation` and :func:`envfit.validate.agreement.agreement` loop over; their
+result keys are :data:`envfit.validate.keys.PREDICTION_KEYS`. Four predictions of the RMSE:
 
 (a) *shape only* (the paper, Sec. 9.2: "in accordance ... up to a multiplicative factor"):
     :math:`\hat R = c_p\,E`, one factor per BRDF p fitted in log space across all its rules
@@ -51,8 +54,10 @@ rotation invariant, so one number per rule) or of the truncation (Eqs. 51–52,
     representer, Eq. 39). With σ̂ from the profiled likelihood (``envfit fit --method
     likelihood``, per channel, combined as RMS: :math:`\sigma = (\frac1C\sum_c
     \hat\sigma_c^2)^{1/2}`, matching the RMSE's mean over channels), the prediction
-    :math:`\sigma E` uses no measured error at all (``predicted_rmse``).
-(b') *refined absolute* (beyond the paper, ``predicted_rmse_refined``): the same model made
+    :math:`\sigma E` uses no measured error at all (``predicted_rmse``,
+    :func:`envfit.predict.predict_plain`).
+(b') *refined absolute* (beyond the paper, ``predicted_rmse_refined``,
+    :func:`envfit.predict.predict_bandlimited`): the same model made
     exact for what a lat-long map is. (i) An H-row map holds no degree above H − 1 (the
     GP maps of :mod:`envfit.data_gen.gp` are band-limited exactly there), so the error spectrum
     Eq. 42 is summed only to l = H − 1 (:func:`bandlimited_worst_case_error`); (ii) the fit
@@ -76,18 +81,19 @@ rotation invariant, so one number per rule) or of the truncation (Eqs. 51–52,
     :math:`\chi^2_{(2l+1)C}`, so its RMSE departs from (b') by an expected relative standard
     deviation :func:`model_scatter` (``model_scatter``, large for rules whose error sits in a
     few low degrees: random points with equal weights) — reported beside the ratio.
-(c) *spectral* (beyond the paper, no model, ``predicted_rmse_spectral``): the map's own power
+(c) *spectral* (beyond the paper, no model, ``predicted_rmse_spectral``,
+    :func:`envfit.predict.predict_spectral`): the map's own power
     per degree :math:`\hat P_l` (:func:`map_degree_power`) times the rule's error power
     :math:`e_l` (:func:`rule_error_power`), :math:`(\frac1C\sum_{c,l}\hat P_{l,c}e_l)^{1/2}`
     (:func:`spectral_rmse`): the exact mean over random rotations on *this* map. It agrees with
     the measurement to its Monte Carlo error whenever the machinery is right; where (c) agrees
     and (b') does not, the map departs from the l^(-2s) model.
 
-Agreement figures (:func:`agreement`): fitted log-log slopes over N ∈ [64, 4096]
+Agreement figures (:func:`envfit.validate.agreement.agreement`): fitted log-log slopes over N ∈ [64, 4096]
 (:func:`loglog_slope`, ``np.polyfit``) measured vs predicted; the ratio measured/predicted
 across N; the rank order of the point sets (Kendall's τ, ``scipy.stats.kendalltau``, of the
-geometric-mean levels over the slope range); the shape residual per candidate s; for (b)
-the ratio predicted/measured per cell.
+geometric-mean levels over the slope range); the shape residual per candidate s; for (b),
+(b′) and (c) the ratio predicted/measured per cell.
 
 Costs (defaults, 1024×512 map, 2 idle cores; forest.exr: 159 s in all, 172 s with plots)
 -----------------------------------------------------------------------------------------

@@ -11,15 +11,12 @@ from typing import Sequence
 import numpy as np
 
 from envfit.base.progress import progress_bar
-from envfit.base.store import ResultStore
 from envfit.predict import PREDICTORS, PredictionContext, Rule
 from envfit.shading.estimators import hsh_truncation_curve, rmse_over_axes, sh_truncation_curve
 from envfit.shading.ground_truth import shading_integral, weight_function
 from envfit.shading.spectra import sh_truncation_curve_transfer
 from envfit.theory.errors import TheoryParameterError
 from envfit.theory.truncation import equivalent_qmc_points, truncation_error_curve
-
-from .config import ValidateConfig
 
 __all__ = ["truncation_curves", "TRUNCATION_PREDICTIONS", "qmc_equivalents"]
 
