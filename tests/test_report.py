@@ -1,9 +1,10 @@
-"""Tests of envfit.validate.report: every judgement of report.md is chosen by a named predicate.
+"""Tests of envfit.validate.report (and its report_* modules): every judgement of report.md is
+chosen by a named predicate.
 
-Each condition of :data:`envfit.validate.report.CONDITIONS` is rendered both ways from a small
-synthetic result dict (the keys ``run_validation`` returns, only those the sentence reads): the
-sentence for the outcome the numbers satisfy appears, with the numbers given, and the other
-one does not. A real quick run on a 16-row GP map checks that the rendered report prints no
+Each condition of :data:`envfit.validate.report_conditions.CONDITIONS` is rendered both ways
+from a small synthetic result dict (the keys ``run_validation`` returns, only those the
+sentence reads): the sentence for the outcome the numbers satisfy appears, with the numbers
+given, and the other one does not. A real quick run on a 16-row GP map checks that the rendered report prints no
 sentence whose condition its own numbers fail, and that the functions fit a screen.
 """
 from __future__ import annotations
@@ -18,7 +19,12 @@ from envfit.data_gen.gp import gaussian_process_map
 from envfit.maps.envmap import EnvMap
 from envfit.validate import pipeline as V
 from envfit.validate import report as R
-from envfit.validate.report import CONDITIONS, render_report, write_report
+from envfit.validate import report_conditions as C
+from envfit.validate import report_format as F
+from envfit.validate import report_sections as S
+from envfit.validate import report_statements as D
+from envfit.validate.report import render_report, write_report
+from envfit.validate.report_conditions import CONDITIONS
 
 
 def _result(agreement=None, results=None, map_stats=None, truncation=None):
@@ -266,24 +272,24 @@ def test_condition_both_ways(name, holds):
 # ----------------------------------------------------------------------------- the predicates
 
 def test_predicates_thresholds():
-    assert R._rises_with_degree([1.0, 3.0, 2.0, 4.0])                 # ρ = 0.8, ×4
-    assert not R._rises_with_degree([1.0, 1.2, 1.4])                  # ρ = 1 but ×1.4
-    assert not R._rises_with_degree([1.0, 2.0])                       # too few degrees
-    assert not R._rises_with_degree([0.17, 0.92, 0.41, 0.55, 0.3])    # the review's map
-    assert R._looks_gaussian(2.0) and R._looks_gaussian(4.0) and not R._looks_gaussian(5.2)
-    assert R._heavy_tailed(6.01) and not R._heavy_tailed(6.0)
-    assert R._spectral_agrees(0.85, 1.15) and not R._spectral_agrees(0.84, 1.0)
-    assert R._band_limit_explains(2, 3) and not R._band_limit_explains(1, 2)
-    assert R._overpredicts(1.26) and not R._overpredicts(1.25)
-    assert R._underpredicts(0.79) and not R._underpredicts(0.8)
-    assert R._rank_identical([1.0 - 1e-12]) and not R._rank_identical([0.8]) and not R._rank_identical([])
-    assert R._spearman([1, 2, 3, 4], [4, 3, 2, 1]) == pytest.approx(-1.0)
-    assert R._spearman([1, 2, 3], [1, 1, 1]) == 0.0
+    assert C._rises_with_degree([1.0, 3.0, 2.0, 4.0])                 # ρ = 0.8, ×4
+    assert not C._rises_with_degree([1.0, 1.2, 1.4])                  # ρ = 1 but ×1.4
+    assert not C._rises_with_degree([1.0, 2.0])                       # too few degrees
+    assert not C._rises_with_degree([0.17, 0.92, 0.41, 0.55, 0.3])    # the review's map
+    assert C._looks_gaussian(2.0) and C._looks_gaussian(4.0) and not C._looks_gaussian(5.2)
+    assert C._heavy_tailed(6.01) and not C._heavy_tailed(6.0)
+    assert C._spectral_agrees(0.85, 1.15) and not C._spectral_agrees(0.84, 1.0)
+    assert C._band_limit_explains(2, 3) and not C._band_limit_explains(1, 2)
+    assert C._overpredicts(1.26) and not C._overpredicts(1.25)
+    assert C._underpredicts(0.79) and not C._underpredicts(0.8)
+    assert C._rank_identical([1.0 - 1e-12]) and not C._rank_identical([0.8]) and not C._rank_identical([])
+    assert C._spearman([1, 2, 3, 4], [4, 3, 2, 1]) == pytest.approx(-1.0)
+    assert C._spearman([1, 2, 3], [1, 1, 1]) == 0.0
 
 
 def test_say_picks_the_sentence_of_the_outcome():
-    assert R._say("errors_gaussian", (3.0,), kurtosis=3.0).startswith("The per-axis errors look Gaussian")
-    assert R._say("rank_identical", ([0.5],), n=1) == ""               # nothing when false
+    assert C._say("errors_gaussian", (3.0,), kurtosis=3.0).startswith("The per-axis errors look Gaussian")
+    assert C._say("rank_identical", ([0.5],), n=1) == ""               # nothing when false
 
 
 # ----------------------------------------------------------------------------- a real quick run
@@ -310,39 +316,39 @@ def test_real_report_prints_no_sentence_whose_condition_fails(quick_result, tmp_
     md = write_report(r, tmp_path / "report.md").read_text()
     assert md == render_report(r)
     kurts = sorted(k for e in r["results"] for k in e["error_kurtosis"] if k is not None)
-    kurt = R._median(kurts)
-    _expect(md, "errors_gaussian", R._looks_gaussian(kurt),
+    kurt = F._median(kurts)
+    _expect(md, "errors_gaussian", C._looks_gaussian(kurt),
             f"The per-axis errors look Gaussian (median kurtosis {kurt:.1f};",
             f"The per-axis errors are not Gaussian: median kurtosis {kurt:.1f}")
-    _expect(md, "heavy_tails", R._heavy_tailed(kurt), "Tails that heavy", None)
+    _expect(md, "heavy_tails", C._heavy_tailed(kurt), "Tails that heavy", None)
     pr = r["map_stats"]["power_ratio_low_degrees"]
     rho = [pr[k] for k in sorted(pr, key=int)]
-    _expect(md, "power_rises", R._rises_with_degree(rho), "It rises with l (",
+    _expect(md, "power_rises", C._rises_with_degree(rho), "It rises with l (",
             f"It does not rise with l ({min(rho):.2f}–{max(rho):.2f};")
     low = sum(rho[:3]) / 3
-    _expect(md, "low_degrees_match", R._low_degrees_match(low),
+    _expect(md, "low_degrees_match", C._low_degrees_match(low),
             f"hold {low:.2f}× the model's power, within 30% of it.",
             f"hold {low:.2f}× the model's power: rules whose error")
     ab = r["agreement"]["absolute"]
     d, dc = ab["slope_range"], ab["slope_range_spectral"]
-    _expect(md, "absolute_all_within", R._all_within(d["fraction_within"]),
+    _expect(md, "absolute_all_within", C._all_within(d["fraction_within"]),
             "for every cell with N", f"for {d['fraction_within']:.0%} of the cells with N")
-    _expect(md, "spectral_agrees", R._spectral_agrees(dc["min_ratio"], dc["max_ratio"]),
+    _expect(md, "spectral_agrees", C._spectral_agrees(dc["min_ratio"], dc["max_ratio"]),
             "everywhere: the error spectra and the measurement agree", "off by more than 15% somewhere")
-    _expect(md, "model_overpredicts", R._overpredicts(d["median_ratio"]),
+    _expect(md, "model_overpredicts", C._overpredicts(d["median_ratio"]),
             f"smaller than σ̂·wce (median ratio {d['median_ratio']:.2f}", None)
-    _expect(md, "model_underpredicts", R._underpredicts(d["median_ratio"]),
+    _expect(md, "model_underpredicts", C._underpredicts(d["median_ratio"]),
             f"larger than σ̂·wce (median ratio {d['median_ratio']:.2f}", None)
     diffs = [s["difference"] for s in r["agreement"]["slopes"] if s["difference"] is not None]
-    _expect(md, "slopes_agree", R._all_agree(diffs, 0.1), "fitted slopes agree within",
+    _expect(md, "slopes_agree", C._all_agree(diffs, 0.1), "fitted slopes agree within",
             "Slopes off by more than 0.1")
     taus = [k["kendall_tau"] for k in r["agreement"]["rank"]]
-    _expect(md, "rank_identical", R._rank_identical(taus), "is the predicted one for all", None)
+    _expect(md, "rank_identical", C._rank_identical(taus), "is the predicted one for all", None)
     for b, v in r["agreement"]["s_choice"].items():
         best, used = v["best_s"], v["used_s"]
-        _expect(md, "fitted_s_best", R._fitted_s_is_best(best, used),
+        _expect(md, "fitted_s_best", C._fitted_s_is_best(best, used),
                 f"{b} (wce): the fitted s = {used:.3f} gives the best shape match",
-                f"{b} (wce): the predicted shapes match best" if not R._shapes_tie(
+                f"{b} (wce): the predicted shapes match best" if not C._shapes_tie(
                     v["residual_by_s"][f"{used:.4f}"]["residual_dex"],
                     v["residual_by_s"][f"{best:.4f}"]["residual_dex"]) else None)
 
@@ -357,8 +363,8 @@ def test_real_report_numbers(quick_result):
 
 
 def test_functions_fit_a_screen():
-    """No function of report.py is over 80 lines; render_report is a handful of calls."""
-    tree = ast.parse(inspect.getsource(R))
-    lengths = {n.name: n.end_lineno - n.lineno + 1 for n in ast.walk(tree) if isinstance(n, ast.FunctionDef)}
+    """No function of the report modules is over 80 lines; render_report is a handful of calls."""
+    lengths = {n.name: n.end_lineno - n.lineno + 1 for m in (R, C, F, S, D)
+               for n in ast.walk(ast.parse(inspect.getsource(m))) if isinstance(n, ast.FunctionDef)}
     assert max(lengths.values()) <= 80, lengths
     assert lengths["render_report"] <= 30 and lengths["_disagreements"] <= 30
