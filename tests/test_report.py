@@ -4,8 +4,9 @@ chosen by a named predicate.
 Each condition of :data:`envfit.validate.report_conditions.CONDITIONS` is rendered both ways
 from a small synthetic result dict (the keys ``run_validation`` returns, only those the
 sentence reads): the sentence for the outcome the numbers satisfy appears, with the numbers
-given, and the other one does not. A real quick run on a 16-row GP map checks that the rendered report prints no
-sentence whose condition its own numbers fail, and that the functions fit a screen.
+given, and the other one does not. A real quick run on a 16-row GP map checks that the
+rendered report prints no sentence whose condition its own numbers fail, and that the
+functions fit a screen.
 """
 from __future__ import annotations
 
