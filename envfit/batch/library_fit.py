@@ -11,12 +11,14 @@ Each map runs the lattice search of :mod:`envfit.fit.search` — the search the 
 fit runs — whose every request lies on one lattice (the coarse grid
 :data:`~envfit.fit.search.S_GRID`, refined ``refine`` times, default step 0.025), so maps
 ask for the same s values; :func:`~envfit.fit.search.run_searches` collects the requests of
-all maps round after round and each distinct s is factorised once per round. ŝ and its
-interval equal the single-map fit's to rounding (tests); σ̂ at ŝ is read off the spline of
-:math:`\log\hat\sigma` through the lattice (:attr:`envfit.fit.search.SearchResult.sigma`),
-where the single map spends one more factorisation on the exact value (they agree to ~1e-6
-relative). A library needs at most the ~40 lattice points of (1, 2) factorisations whatever
-its size. Every (map, s) evaluation is a resumable cell in
+all maps round after round. ŝ and its interval equal the single-map fit's to rounding
+(tests); σ̂ at ŝ is read off a spline through the lattice values
+(:attr:`envfit.fit.search.SearchResult.sigma`),
+where the single map spends one more factorisation on the exact value (they agree to ~1e-7
+relative for s ≳ 1.3; :mod:`envfit.fit.search`). Each round factorises each distinct s
+requested once, so a library needs about one search's ~20 factorisations plus those where
+the maps' brackets and intervals differ, never more than the lattice's ~40 points per round,
+whatever its size. Every (map, s) evaluation is a resumable cell in
 ``OUT/<slug>/fit_<method>_n<N>/cells``.
 
 Example
