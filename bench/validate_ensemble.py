@@ -22,7 +22,8 @@ import numpy as np
 from envfit.data_gen.gp import gaussian_process_map                        # noqa: E402
 from envfit.maps.envmap import EnvMap                                    # noqa: E402
 from envfit.fit.sigma import parse_s
-from envfit.validate.pipeline import ValidateConfig, run_validation
+from envfit.validate.config import ValidateConfig
+from envfit.validate.pipeline import run_validation
 
 
 def main(argv=None) -> int:

@@ -39,7 +39,9 @@ from envfit.data_gen.gp import gaussian_process_map                      # noqa:
 from envfit.base.atomic import atomic_write_json, atomic_write_text    # noqa: E402
 from envfit.maps.envmap import EnvMap, load_envmap                     # noqa: E402
 from envfit.validate.agreement import SLOPE_CHECK_POINTSETS
-from envfit.validate.pipeline import ValidateConfig, quick_config, run_validation
+from envfit.validate.config import ValidateConfig
+from envfit.validate.pipeline import run_validation
+from envfit.validate.config import quick_config
 
 DEFAULT_MAPS = ("/work/shared/envmaps/forest.exr", "/work/shared/envmaps/city.exr")
 #: S0:HEIGHT:SEED:CHANNELS — 12 channels are 12 independent realisations of the field, pooled

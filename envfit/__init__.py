@@ -29,9 +29,10 @@ _LAZY = {
     "shading_integral": "shading.ground_truth",
     "quadrature_estimates": "shading.estimators", "sh_truncation_estimates": "shading.estimators",
     "hsh_truncation_estimates": "shading.estimators",
-    "run_validation": "validate.pipeline", "ValidateConfig": "validate.pipeline",
+    "run_validation": "validate.pipeline", "ValidateConfig": "validate.config",
+    "ValidationResult": "validate.results",
     "default_envmap": "maps.default_map",
-    "advise": "advisor.advise", "Advice": "advisor.advise",
+    "advise": "advisor.advise", "Advice": "advisor.result", "AdviseOptions": "advisor.options",
 }
 
 __all__ = ["__version__", "EnvfitError", "EnvMapFileError", "EnvMapFormatError",

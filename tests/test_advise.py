@@ -20,8 +20,11 @@ import envfit.advisor.model as model_mod
 import envfit.advisor.prediction as prediction_mod
 import envfit.shading.spectra as spectra_mod
 from envfit.data_gen.gp import gaussian_process_map
-from envfit.advisor.advise import (Advice, advise, band_e2, degree_weights, mean_shading_value,
-                           predicted_rmse, rule_terms, smallest_n)
+from envfit.advisor.advise import advise
+from envfit.advisor.result import Advice
+from envfit.shading.spectra import band_e2, degree_weights
+from envfit.advisor.prediction import mean_shading_value, predicted_rmse, rule_terms
+from envfit.advisor.search import smallest_n
 from envfit.advisor.cache import AdviseCache
 from envfit.maps.envmap import EnvMap
 from envfit.base.errors import ParameterError

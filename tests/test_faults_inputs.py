@@ -129,7 +129,7 @@ def test_guard_runs_before_any_sample_point(monkeypatch, gp16):
             gp16, envfit.validate.pipeline.ValidateConfig(n_values=[16, HUGE], truncation=False)),
         lambda: envfit.validate.pipeline.run_validation(
             gp16, envfit.validate.pipeline.ValidateConfig(n_values=[16], fit_n=HUGE, truncation=False)),
-        lambda: envfit.validate.pipeline.profiled_sigma(gp16, 1.5, n=HUGE),
+        lambda: envfit.fit.sigma.profiled_sigma(gp16, 1.5, n=HUGE),
         lambda: envfit.advisor.advise.advise(gp16, "diffuse", 0.01, nmax=HUGE, weights=("equal",)),
         lambda: envfit.batch.library.run_table2_library([gp16, gp16], [1.5], [HUGE], workers=1),
         lambda: envfit.batch.library_fit.fit_smoothness_library([gp16, gp16], n=HUGE, workers=1),

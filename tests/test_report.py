@@ -18,6 +18,7 @@ import pytest
 from envfit.data_gen.gp import gaussian_process_map
 
 from envfit.maps.envmap import EnvMap
+from envfit.validate import config as VC
 from envfit.validate import pipeline as V
 from envfit.validate import report as R
 from envfit.validate import report_conditions as C
@@ -298,7 +299,7 @@ def test_say_picks_the_sentence_of_the_outcome():
 @pytest.fixture(scope="module")
 def quick_result():
     env = EnvMap(gaussian_process_map(1.5, 16, seed=4, channels=2), name="gp16")
-    res = V.run_validation(env, V.quick_config(axes=60, fit_n=150, hsh_axes=12, hsh_max_height=16,
+    res = V.run_validation(env, VC.quick_config(axes=60, fit_n=150, hsh_axes=12, hsh_max_height=16,
                                                equivalent_nmax=256, scale="linear", s=1.5))
     return res.to_json() if hasattr(res, "to_json") else res
 

@@ -14,6 +14,7 @@ from scipy import integrate, special
 from envfit.data_gen.analytic import ConstantMap, SkyGradientMap, SunSkyMap
 from envfit.data_gen.gp import gaussian_process_map
 from envfit.shading import ground_truth as S
+from envfit.shading.patches import gauss_legendre_order
 from envfit.shading.bilinear_sh import alm_l_index
 from envfit.shading.patches import bilinear_in_patch, patch_rows
 from envfit.maps.envmap import EnvMap
@@ -70,7 +71,7 @@ def test_polynomial_degree_and_default_lmax():
 def test_gauss_legendre_order_bound():
     # the chosen rule really integrates e^{iκx} on [-1, 1] to the tolerance
     for kappa in (0.1, 1.0, np.pi / 2, 5.0):
-        q = S.gauss_legendre_order(kappa, 1e-11)
+        q = gauss_legendre_order(kappa, 1e-11)
         x, w = np.polynomial.legendre.leggauss(q)
         assert abs(w @ np.cos(kappa * x) - 2 * np.sin(kappa) / kappa) < 1e-11
         if q > 2:

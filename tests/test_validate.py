@@ -20,6 +20,8 @@ from envfit.data_gen.gp import gaussian_process_map
 from envfit.fit import sigma as SG
 from envfit.shading import quadrature as Q
 from envfit.validate import agreement as AG
+from envfit.shading import spectra as SP
+from envfit.validate import config as VC
 from envfit.validate import pipeline as V
 from envfit.base.atomic import to_jsonable
 from envfit.maps.envmap import EnvMap, save_envmap
@@ -184,7 +186,7 @@ def test_fast_wce_and_bandlimited_match_theory():
                     b = worst_case_error(pts, w, wf, s, embedding="chebyshev")
                     assert abs(a * a - b * b) < 1e-13
                 sp = error_spectrum(pts, w, wf, 1.5, 50)
-                assert V.bandlimited_worst_case_error(pts, w, wf, 1.5, 50) == pytest.approx(
+                assert SP.bandlimited_worst_case_error(pts, w, wf, 1.5, 50) == pytest.approx(
                     math.sqrt(sp.partial), rel=1e-10)
 
 
@@ -263,7 +265,7 @@ def test_config_validation():
         V.ValidateConfig(pointsets=("sf", "halton"))
     with pytest.raises(ParameterError):
         V.ValidateConfig(n_values=(16, 1))
-    q = V.quick_config()
+    q = VC.quick_config()
     assert q.axes == 500 and max(q.n_values) == 1024 and "bnot" not in q.pointsets
 
 
@@ -358,7 +360,7 @@ def test_map_degree_power_of_known_coefficients():
     c[real_index(1, np.arange(-1, 2))] = [0.3, -1.0, 0.0]
     c[real_index(3, np.arange(-3, 4))] = [0.0, 0.5, 0.0, 0.0, 2.0, 0.0, -0.25]
     env = EnvMap(synthesize(c, 128)[:, :, None] + 2.0)
-    P = V.map_degree_power(env, 5)
+    P = SP.map_degree_power(env, 5)
     assert P.shape == (1, 6)
     assert P[0, 0] == pytest.approx(4 * np.pi * 4.0, rel=1e-6)
     assert P[0, 1] == pytest.approx((0.09 + 1.0) / 3, rel=2e-3)
@@ -414,4 +416,4 @@ def test_model_scatter_against_sampled_spectra():
         P[:, 0] = 0.0
         draws.append(math.sqrt(np.mean(P @ e)))
     draws = np.asarray(draws)
-    assert V.model_scatter(e, 1.5, sig) == pytest.approx(draws.std() / draws.mean(), rel=0.1)
+    assert SP.model_scatter(e, 1.5, sig) == pytest.approx(draws.std() / draws.mean(), rel=0.1)

@@ -116,6 +116,8 @@ Example
 ...              weights=("equal",), bases=("sh",), cache_dir=tempfile.mkdtemp())
 >>> [(r.method, r.n is not None or r.L is not None) for r in adv.rows]
 [('sh', True), ('quadrature', True)]
+>>> from envfit.advisor.prediction import row_prediction
+>>> from envfit.advisor.search import smallest_n
 >>> r = next(r for r in adv.rows if r.method == "quadrature")
 >>> bool(r.predicted_rmse <= 0.05), r.n == smallest_n(lambda n: row_prediction(adv, r, n), 0.05, 4, 65536)[0]
 (True, True)
@@ -131,45 +133,15 @@ import time
 from envfit.advisor.cache import AdviseCache
 from envfit.advisor.check import check_rows
 from envfit.advisor.model import MapModel, map_model
-from envfit.advisor.options import (
-    ALL_POINTSETS,
-    BASES,
-    BRDFS,
-    DEFAULT_FIT_N,
-    DEFAULT_NMAX,
-    DEFAULT_NMIN,
-    DEFAULT_OSW_NMAX,
-    DEFAULT_POINTSETS,
-    DEFAULT_SEEDS,
-    WEIGHTINGS,
-    AdviseOptions,
-)
-from envfit.advisor.prediction import (
-    mean_shading_value,
-    predicted_rmse,
-    row_prediction,
-    rule_plain_wce2,
-    rule_terms,
-)
+from envfit.advisor.options import AdviseOptions
 from envfit.advisor.result import Advice, AdviceRow, recommendation_text
-from envfit.advisor.search import LMAX_SEARCH, search_rules, smallest_n  # noqa: F401
+from envfit.advisor.search import search_rules
 from envfit.base.errors import ParameterError
 from envfit.base.resources import plan_memory
 from envfit.kernels.bandlimited import max_samples
 from envfit.maps.envmap import EnvMap
-from envfit.shading.spectra import (
-    band_e2,
-    degree_weights,
-    map_transfer,
-    sh_truncation_curve_transfer,
-)
 
-__all__ = ["Advice", "AdviceRow", "AdviseOptions", "advise", "advise_with", "smallest_n",
-           "predicted_rmse", "mean_shading_value", "rule_terms", "rule_plain_wce2",
-           "row_prediction", "map_transfer", "degree_weights", "band_e2",
-           "sh_truncation_curve_transfer", "DEFAULT_POINTSETS", "ALL_POINTSETS", "WEIGHTINGS",
-           "BASES", "BRDFS", "DEFAULT_FIT_N", "DEFAULT_NMIN", "DEFAULT_NMAX", "DEFAULT_OSW_NMAX",
-           "DEFAULT_SEEDS", "plan_advise_memory"]
+__all__ = ["advise", "advise_with", "plan_advise_memory"]
 
 #: bytes per point of a quadrature rule while its error power is computed (points, square
 #: points, weights, the SH synthesis' angles and temporaries)

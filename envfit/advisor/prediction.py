@@ -26,7 +26,8 @@ from collections.abc import Sequence
 import numpy as np
 
 from envfit.maps.envmap import EnvMap
-from envfit.shading.ground_truth import bilinear_sh_coefficients, weight_function
+from envfit.shading.bilinear_sh import bilinear_sh_coefficients
+from envfit.shading.ground_truth import weight_function
 from envfit.shading.spectra import band_e2, degree_weights, rule_error_power
 from envfit.theory.pointsets import DETERMINISTIC_POINTSETS, generate
 from envfit.theory.quadrature import worst_case_error

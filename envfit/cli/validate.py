@@ -9,7 +9,7 @@ from .common import (add_common_arguments, add_map_arguments, emit_json, guarded
 
 
 def register(sub) -> None:
-    from envfit.validate.pipeline import QUICK_DESCRIPTION
+    from envfit.validate.config import QUICK_DESCRIPTION
     p = sub.add_parser(
         "validate",
         help="check predicted quadrature / truncation errors against measured ones on a map",
@@ -59,7 +59,8 @@ def register(sub) -> None:
 
 def _config(args: argparse.Namespace):
     from envfit.fit.sigma import parse_s
-    from envfit.validate.pipeline import ValidateConfig, quick_config
+    from envfit.validate.config import ValidateConfig
+    from envfit.validate.config import quick_config
     s = parse_s(args.s)                      # a bad --s: ParameterError, one line, exit 2
     over = {"s": s, "shininess": args.shininess, "scale": args.scale, "seed": args.seed,
             "fit_method": args.fit_method, "truncation": not args.no_truncation}

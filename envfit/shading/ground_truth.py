@@ -55,17 +55,13 @@ from envfit.theory.brdf import Diffuse, Glossy, WeightFunction
 from envfit.base.checks import check_int
 from envfit.base.errors import ParameterError
 from envfit.maps.envmap import EnvMap
-# the two methods and the patch geometry, re-exported: this module is their front end
-from envfit.shading.bilinear_sh import (DUCC_EPSILON, bilinear_sh_coefficients,  # noqa: F401
-                                        synthesize_convolution)
-from envfit.shading.hemisphere import BLOCK_ELEMENTS, hemisphere_integrals  # noqa: F401
-from envfit.shading.patches import (GL_TOL, axes_to_local, gauss_legendre_order,  # noqa: F401
-                                    unit_axes)
+# the two methods and the patch geometry this front end dispatches to
+from envfit.shading.bilinear_sh import bilinear_sh_coefficients, synthesize_convolution
+from envfit.shading.hemisphere import hemisphere_integrals
+from envfit.shading.patches import axes_to_local
 
 __all__ = ["shading_integral", "weight_function", "funk_hecke_factors",
-           "hsh_weight_coefficients", "bilinear_sh_coefficients", "synthesize_convolution",
-           "hemisphere_integrals", "axes_to_local", "gauss_legendre_order", "polynomial_degree",
-           "default_sh_lmax", "METHODS"]
+           "hsh_weight_coefficients", "polynomial_degree", "default_sh_lmax", "METHODS"]
 
 METHODS = ("sh", "pixels")
 

@@ -30,7 +30,7 @@ from envfit.theory.sobolev import sobolev_coefficients
 
 from envfit.maps.envmap import EnvMap
 from envfit.base.errors import ParameterError
-from envfit.shading.ground_truth import bilinear_sh_coefficients
+from envfit.shading.bilinear_sh import bilinear_sh_coefficients
 
 __all__ = ["rule_error_power", "bandlimited_worst_case_error", "bandlimited_worst_case_errors",
            "map_degree_power", "pixel_degree_power", "lookup_transfer", "map_transfer",

@@ -147,15 +147,12 @@ from envfit.base.errors import ParameterError
 from envfit.base.progress import progress_bar
 from envfit.base.resources import plan_memory
 from envfit.base.store import ResultStore, array_fingerprint
-from envfit.fit.sigma import profiled_sigma  # noqa: F401  (re-exported)
 from envfit.maps.envmap import EnvMap, check_sample_count
 from envfit.maps.scales import Scale, check_not_constant, fit_scale
 from envfit.predict import PredictionContext
 from envfit.shading.ground_truth import shading_integral, weight_function
 from envfit.shading.quadrature import LOOKUP_BLOCK, quadrature_estimates_multi, random_axes
-from envfit.shading.spectra import (bandlimited_worst_case_error,  # noqa: F401  (re-exported)
-                                    bandlimited_worst_case_errors, low_degree_power_ratio,
-                                    map_degree_power, model_scatter, rule_error_power)
+from envfit.shading.spectra import bandlimited_worst_case_errors, low_degree_power_ratio, rule_error_power
 from envfit.theory.errors import TheoryParameterError
 from envfit.theory.pointsets import generate
 from envfit.theory.quadrature import worst_case_error
@@ -163,16 +160,13 @@ from envfit.theory.weights import equal_weights, optimal_weights
 
 from .agreement import SLOPE_RANGE, agreement
 from .cells import cell_is_current, cell_key, error_stats, s_key, twist_seed
-from .config import (ALL_POINTSETS, BRDFS, DEFAULT_N, QUICK_DESCRIPTION,  # noqa: F401
-                     QUICK_N, S_CANDIDATES, WEIGHTINGS, ValidateConfig, quick_config)
+from .config import QUICK_DESCRIPTION, ValidateConfig
 from .fitting import fit_both
 from .results import (ValidationResult, compute_costs, fill_measured_equivalents, fill_shape,
                       map_statistics, rule_entry)
 from .truncation import truncation_curves
 
-__all__ = ["ValidateConfig", "ValidationResult", "quick_config", "run_validation",
-           "plan_validation_memory", "map_statistics", "ALL_POINTSETS", "WEIGHTINGS", "BRDFS",
-           "DEFAULT_N", "QUICK_N", "S_CANDIDATES", "QUICK_DESCRIPTION"]
+__all__ = ["run_validation", "plan_validation_memory"]
 
 
 def plan_validation_memory(envmap: EnvMap, cfg: ValidateConfig) -> None:
