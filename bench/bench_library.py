@@ -59,7 +59,8 @@ def synthesize(folder: Path, count: int, height: int) -> list[str]:
     import numpy as np
 
     from envfit.data_gen.gp import gaussian_process_map
-    from envfit.maps.envmap import EnvMap, save_envmap
+    from envfit.maps.envmap import EnvMap
+    from envfit.maps.io import save_envmap
     paths = []
     for k in range(count):
         f = gaussian_process_map(1.5, height, seed=k, channels=3)

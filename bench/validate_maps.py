@@ -37,7 +37,8 @@ from pathlib import Path
 
 from envfit.data_gen.gp import gaussian_process_map                      # noqa: E402
 from envfit.base.atomic import atomic_write_json, atomic_write_text    # noqa: E402
-from envfit.maps.envmap import EnvMap, load_envmap                     # noqa: E402
+from envfit.maps.envmap import EnvMap                                 # noqa: E402
+from envfit.maps.io import load_envmap                                 # noqa: E402
 from envfit.validate.agreement import SLOPE_CHECK_POINTSETS
 from envfit.validate.config import ValidateConfig
 from envfit.validate.pipeline import run_validation

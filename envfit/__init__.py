@@ -2,7 +2,7 @@
 
 The public API (imported lazily, so ``import envfit`` stays fast)::
 
-    from envfit import load_envmap, save_envmap, EnvMap          # maps (envfit.maps.envmap)
+    from envfit import load_envmap, save_envmap, EnvMap          # maps (envfit.maps.io, .envmap)
     from envfit import SobolevInterpolator                       # kernel interpolation, Eq. 14
     from envfit import fit_smoothness, run_table2                # s of a map; the paper's Table 2
     from envfit import shading_integral                          # ground-truth shading integrals
@@ -21,7 +21,7 @@ from envfit.base.errors import (DuplicatePointsError, EnvfitError, EnvMapFileErr
                      MemoryBudgetError, NonFiniteError, ParameterError)
 
 _LAZY = {
-    "EnvMap": "maps.envmap", "load_envmap": "maps.envmap", "save_envmap": "maps.envmap",
+    "EnvMap": "maps.envmap", "load_envmap": "maps.io", "save_envmap": "maps.io",
     "fit_scale": "maps.scales", "Scale": "maps.scales",
     "SobolevInterpolator": "kernels.interpolation",
     "fit_smoothness": "fit.smoothness", "FitResult": "fit.smoothness",

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 import envfit.cli as cli
-from envfit.maps.envmap import EnvMap, save_envmap
+from envfit.maps.envmap import EnvMap
+from envfit.maps.io import save_envmap
 from envfit.maps.latlong import pixel_directions, pixel_solid_angles
 
 

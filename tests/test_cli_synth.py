@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import envfit.cli as cli
-from envfit.maps.envmap import load_envmap
+from envfit.maps.io import load_envmap
 from envfit.theory.sobolev import sobolev_coefficients
 
 

@@ -1,4 +1,5 @@
-"""Tests of envfit.maps.envmap: the EnvMap container, load_envmap / save_envmap and their errors."""
+"""Tests of envfit.maps.envmap (the EnvMap container) and envfit.maps.io (load_envmap /
+save_envmap and their errors)."""
 from __future__ import annotations
 
 import os
@@ -7,7 +8,8 @@ import numpy as np
 import OpenImageIO as oiio
 import pytest
 
-from envfit.maps.envmap import EnvMap, load_envmap, save_envmap
+from envfit.maps.envmap import EnvMap
+from envfit.maps.io import load_envmap, save_envmap
 from envfit.base.errors import (EnvMapFileError, EnvMapFormatError, MemoryBudgetError,
                            NonFiniteError, ParameterError)
 from envfit.maps.latlong import pixel_angles, pixel_directions

@@ -13,7 +13,7 @@ distributed = pytest.importorskip("distributed")
 import dask  # noqa: E402
 
 import envfit.cli as cli  # noqa: E402
-from envfit.maps.envmap import save_envmap  # noqa: E402
+from envfit.maps.io import save_envmap  # noqa: E402
 from envfit.base.errors import ExecutorError  # noqa: E402
 from envfit.batch.executor import DaskExecutor  # noqa: E402
 from envfit.batch.library import run_table2_library  # noqa: E402

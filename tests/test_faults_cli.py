@@ -49,7 +49,7 @@ def afile(tmp_path) -> Path:
 
 @pytest.fixture
 def tiny_map(tmp_path) -> Path:
-    from envfit.maps.envmap import save_envmap
+    from envfit.maps.io import save_envmap
     a = np.random.default_rng(0).random((8, 16, 3)).astype(np.float32) + 0.1
     return save_envmap(tmp_path / "tiny.exr", a)
 

@@ -21,7 +21,8 @@ import envfit.fit.table2
 import envfit.validate.pipeline
 from envfit.data_gen.gp import gaussian_process_map
 from envfit import cli
-from envfit.maps.envmap import EnvMap, check_sample_count, load_envmap, save_envmap
+from envfit.maps.envmap import EnvMap, check_sample_count
+from envfit.maps.io import load_envmap, save_envmap
 from envfit.base.errors import EnvfitError, MemoryBudgetError, ParameterError
 from envfit.base.resources import memory_budget_bytes, plan_memory
 

@@ -16,7 +16,8 @@ import numpy as np
 import pytest
 
 from envfit import cli
-from envfit.maps.envmap import EnvMap, save_envmap
+from envfit.maps.envmap import EnvMap
+from envfit.maps.io import save_envmap
 from envfit.base.errors import EnvMapFileError
 from envfit.maps.mapsource import resolve_map_sources
 

@@ -24,7 +24,8 @@ import envfit.fit.table2 as table2_mod
 from envfit.data_gen.gp import gaussian_process_map
 from envfit.advisor.advise import advise
 from envfit.advisor.cache import cache_write_problem
-from envfit.maps.envmap import EnvMap, load_envmap, save_envmap
+from envfit.maps.envmap import EnvMap
+from envfit.maps.io import load_envmap, save_envmap
 from envfit.batch.library import run_table2_library
 from envfit.batch.library_fit import fit_smoothness_library
 from envfit.base.store import LOCK_NAME, FolderLock, StoreBusyError
@@ -238,7 +239,7 @@ def test_validate_recomputes_an_edited_cell(tmp_path, capsys):
 # -------------------------------------------------------------------------------- the lock
 PAUSED_RUN = """
 import sys
-from envfit.maps.envmap import load_envmap
+from envfit.maps.io import load_envmap
 from envfit.fit.table2 import run_table2
 state = {"paused": False}
 def on_cell(cell, resumed):
@@ -252,7 +253,7 @@ run_table2(load_envmap(sys.argv[1]), [1.3, 1.7], [50, 100], scale="linear", out=
 
 KILLED_RUN = """
 import os, signal, sys
-from envfit.maps.envmap import load_envmap
+from envfit.maps.io import load_envmap
 from envfit.fit.table2 import run_table2
 done = []
 def on_cell(cell, resumed):

@@ -8,7 +8,8 @@ import pytest
 
 import envfit.cli as cli
 from envfit.data_gen.gp import gaussian_process_map, gaussian_process_values
-from envfit.maps.envmap import EnvMap, save_envmap
+from envfit.maps.envmap import EnvMap
+from envfit.maps.io import save_envmap
 from envfit.base.errors import ParameterError
 from envfit.fit.smoothness import fit_smoothness, fit_smoothness_samples
 from envfit.theory.sphere_points import spherical_fibonacci_sphere

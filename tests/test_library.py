@@ -14,7 +14,8 @@ import pytest
 
 import envfit.cli as cli
 from envfit.data_gen.gp import gaussian_process_map
-from envfit.maps.envmap import EnvMap, save_envmap
+from envfit.maps.envmap import EnvMap
+from envfit.maps.io import save_envmap
 from envfit.base.errors import EnvMapFileError, ExecutorError, ParameterError
 from envfit.fit.smoothness import fit_smoothness
 from envfit.kernels.interpolation import SobolevInterpolator

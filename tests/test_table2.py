@@ -8,7 +8,8 @@ import pytest
 
 import envfit.cli as cli
 from envfit.data_gen.gp import gaussian_process_map
-from envfit.maps.envmap import EnvMap, save_envmap
+from envfit.maps.envmap import EnvMap
+from envfit.maps.io import save_envmap
 from envfit.base.errors import ParameterError
 from envfit.fit.table2 import format_table2, run_table2
 

@@ -24,7 +24,8 @@ from envfit.shading import spectra as SP
 from envfit.validate import config as VC
 from envfit.validate import pipeline as V
 from envfit.base.atomic import to_jsonable
-from envfit.maps.envmap import EnvMap, save_envmap
+from envfit.maps.envmap import EnvMap
+from envfit.maps.io import save_envmap
 from envfit.base.errors import ParameterError
 from envfit.shading.estimators import quadrature_estimates
 from envfit.theory.brdf import Diffuse, Glossy

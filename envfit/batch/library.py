@@ -321,7 +321,8 @@ class _Table2Run:
 
 def _save_pair(folder: Path, recon: np.ndarray, preview: np.ndarray, s: float, n: int, up: str) -> None:
     """EXR of a reconstruction (on the comparison scale) and its display-referred PNG."""
-    from envfit.maps.envmap import EnvMap, save_envmap
+    from envfit.maps.envmap import EnvMap
+    from envfit.maps.io import save_envmap
     stem = _recon_stem(s, n)
     save_envmap(folder / f"{stem}.exr", EnvMap(recon, up=up, name=stem))
     save_envmap(folder / f"{stem}.png", EnvMap(preview, up=up, name=stem))

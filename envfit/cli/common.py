@@ -309,7 +309,7 @@ def add_map_arguments(p: argparse.ArgumentParser, *, optional: bool = True, many
 def load_map_from_args(args: argparse.Namespace, path=None):
     """Load ``path`` (default ``args.map``) with the loading options, or the built-in map."""
     from envfit.maps.default_map import default_envmap
-    from envfit.maps.envmap import load_envmap
+    from envfit.maps.io import load_envmap
     path = args.map if path is None else path
     if path is None:
         env = default_envmap(up=args.up)

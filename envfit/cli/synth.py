@@ -94,7 +94,8 @@ def synthesize(args: argparse.Namespace) -> tuple[np.ndarray, dict]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from envfit.maps.envmap import EnvMap, save_envmap
+    from envfit.maps.envmap import EnvMap
+    from envfit.maps.io import save_envmap
     f, info = synthesize(args)
     name = f"synth:{args.kind}"
     env = EnvMap(np.asarray(f, dtype=np.float32), up=args.up, name=name)

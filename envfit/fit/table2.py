@@ -281,7 +281,7 @@ def _save_reconstruction(out: Path, recon: np.ndarray, sc, s: float, n: int, up:
     A write that fails (disk full, …) is recorded in ``result.unwritten`` and the sweep goes
     on: the cell's numbers do not depend on the image files.
     """
-    from envfit.maps.envmap import save_envmap
+    from envfit.maps.io import save_envmap
     stem = _recon_stem(s, n)
     preview = np.clip(sc.to_display(recon), 0.0, 1.0)
     for path, img in ((out / f"{stem}.exr", recon), (out / f"{stem}.png", preview)):

@@ -30,7 +30,8 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any, Iterable
 
-from envfit.maps.envmap import EnvMap, load_envmap
+from envfit.maps.envmap import EnvMap
+from envfit.maps.io import load_envmap
 from envfit.base.errors import EnvMapFileError, ParameterError
 from envfit.base.store import array_fingerprint
 
@@ -43,7 +44,7 @@ _GLOB_CHARS = re.compile(r"[*?\[]")
 
 @dataclass(frozen=True)
 class LoadOptions:
-    """The :func:`~envfit.maps.envmap.load_envmap` options every map of a library is read with."""
+    """The :func:`~envfit.maps.io.load_envmap` options every map of a library is read with."""
     up: str = "y"
     max_height: int | None = None
     fix_nonfinite: bool = False
