@@ -19,7 +19,8 @@ from scipy.interpolate import RBFInterpolator
 from envfit.kernels import _kernels as _kernels
 from envfit.base.errors import DuplicatePointsError, MemoryBudgetError, ParameterError
 from envfit.base.resources import interpolator_nbytes, largest_feasible_n
-from envfit.kernels.interpolation import SobolevInterpolator, as_unit_vectors
+from envfit.base.checks import as_unit_vectors
+from envfit.kernels.interpolation import SobolevInterpolator
 from envfit.kernels.nearfar import far_field_expansion
 from envfit.base.resources import MEMORY_FRACTION, available_memory_bytes
 from envfit.theory.sobolev import kernel_constant, kernel_from_distance2

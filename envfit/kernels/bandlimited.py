@@ -46,7 +46,7 @@ from envfit.theory.sobolev import kernel_series
 from envfit.kernels import _bandlimited_kernels as _bk
 from envfit.maps.envmap import EnvMap
 from envfit.base.errors import ParameterError
-from envfit.kernels.interpolation import _check_s, as_unit_vectors
+from envfit.base.checks import as_unit_vectors, check_s
 from envfit.kernels.likelihood import ProfiledLikelihood, profiled_log_likelihood
 from envfit.maps.latlong import direction_to_pixel
 from envfit.base.resources import plan_memory
@@ -114,7 +114,7 @@ class BandlimitedKernel:
     """
 
     def __init__(self, s: float, lmax: int, *, oversample: int = 64):
-        self.s = _check_s(s)
+        self.s = check_s(s)
         self.lmax = _check_lmax(lmax)
         m = max(4096, int(oversample) * (self.lmax + 1))
         vals = _cosine_polynomial_table(

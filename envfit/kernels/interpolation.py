@@ -82,12 +82,12 @@ from scipy.linalg import lapack
 from scipy.spatial import cKDTree
 
 from envfit.theory.cholesky import cholesky_inplace, inverse_diagonal
-from envfit.theory.errors import TheoryParameterError, check_smoothness
 from envfit.theory.sobolev import kernel_constant
 
 from envfit.kernels import _kernels
 from envfit.kernels.nearfar import CellList, near_radius, nearfar_power_sums
 from envfit.kernels.likelihood import ProfiledLikelihood, profiled_log_likelihood
+from envfit.base.checks import as_unit_vectors, check_s
 from envfit.base.errors import DuplicatePointsError, ParameterError
 from envfit.base.resources import (MEMORY_FRACTION, available_memory_bytes, check_memory, format_bytes,
                                    interpolator_nbytes, largest_feasible_n)
@@ -108,56 +108,6 @@ _AUTO_MIN_N = 500
 
 
 # ----------------------------------------------------------------------------- helpers
-
-def _check_s(s) -> float:
-    try:
-        return check_smoothness(s)
-    except TheoryParameterError as exc:
-        raise ParameterError(str(exc)) from None
-
-
-def as_unit_vectors(points, *, name: str = "points") -> np.ndarray:
-    """``points`` (..., 3) as a C-contiguous float64 (M, 3) array of unit vectors.
-
-    Rejects (with :class:`~envfit.base.errors.ParameterError`, never a numpy warning) a wrong
-    shape, NaN/Inf entries and zero vectors. Vectors are rescaled by their largest
-    component before the norm is taken, so huge or tiny finite vectors do not overflow.
-
-    >>> as_unit_vectors([[0, 0, 2.0], [3.0, 4.0, 0]])
-    array([[0. , 0. , 1. ],
-           [0.6, 0.8, 0. ]])
-    """
-    try:
-        p = np.asarray(points, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{name} must be an array of 3-vectors") from None
-    if p.ndim < 1 or p.shape[-1] != 3:
-        raise ParameterError(f"{name} must have shape (..., 3), got {p.shape}")
-    p = p.reshape(-1, 3)
-    if p.shape[0] == 0:
-        raise ParameterError(f"{name} is empty")
-    finite = np.isfinite(p).all(axis=1)
-    if not finite.all():
-        i = int(np.argmin(finite))
-        raise ParameterError(f"{name}[{i}] = {p[i].tolist()} is not finite")
-    big = np.abs(p).max(axis=1)
-    if not (big > 0).all():
-        i = int(np.argmin(big > 0))
-        raise ParameterError(f"{name}[{i}] is the zero vector, which has no direction")
-    # vectors that are unit to rounding are kept bit for bit (so normalising is idempotent
-    # and a query equal to a node gives d = 0 exactly: at s near 1 the kernel's cusp turns a
-    # 1e-16 displacement into a 1e-3 kernel change); elementwise ops only, so a row's
-    # result never depends on the other rows
-    with np.errstate(over="ignore", under="ignore"):
-        n2 = p[:, 0] * p[:, 0] + p[:, 1] * p[:, 1] + p[:, 2] * p[:, 2]
-    keep = np.abs(n2 - 1.0) <= 8 * np.finfo(np.float64).eps
-    if keep.all():
-        return np.ascontiguousarray(p)
-    q = p / big[:, None]
-    q /= np.sqrt(q[:, 0] * q[:, 0] + q[:, 1] * q[:, 1] + q[:, 2] * q[:, 2])[:, None]
-    q[keep] = p[keep]
-    return np.ascontiguousarray(q)
-
 
 def _as_values(values, n: int, *, name: str = "values") -> tuple[np.ndarray, bool]:
     """(N, C) float64 Fortran-ordered copy of ``values`` and whether the input was 1-D."""
@@ -231,7 +181,7 @@ class SobolevInterpolator:
     """
 
     def __init__(self, points, values, s, *, check_duplicates: bool = True):
-        self.s = _check_s(s)
+        self.s = check_s(s)
         pts = as_unit_vectors(points)
         n = pts.shape[0]
         vals, self._vector = _as_values(values, n)
@@ -286,7 +236,7 @@ class SobolevInterpolator:
         True
         """
         self = cls.__new__(cls)
-        self.s = _check_s(s)
+        self.s = check_s(s)
         pts = as_unit_vectors(points)
         n = pts.shape[0]
         alpha, self._vector = _as_values(coefficients, n, name="coefficients")

@@ -13,9 +13,9 @@ import numpy as np
 import scipy.fft
 from scipy import special
 
+from envfit.base.checks import check_s
 from envfit.base.errors import ParameterError
 from envfit.kernels import _kernels
-from envfit.theory.errors import TheoryParameterError, check_smoothness
 
 __all__ = ["FarFieldExpansion", "far_field_expansion", "near_radius", "CellList",
            "nearfar_power_sums", "SHT_EPSILON", "NEAR_NEIGHBOURS"]
@@ -25,13 +25,6 @@ SHT_EPSILON = 3e-13
 #: near/far split: target mean number of nodes within delta of a query
 NEAR_NEIGHBOURS = 8.0
 _DELTA_MIN, _DELTA_MAX = 0.02, 0.6
-
-
-def _check_s(s) -> float:
-    try:
-        return check_smoothness(s)
-    except TheoryParameterError as exc:
-        raise ParameterError(str(exc)) from None
 
 
 @dataclass(frozen=True)
@@ -76,7 +69,7 @@ def far_field_expansion(s: float, delta: float, rtol: float = 1e-15) -> FarField
     >>> ff.lmax > 100 and ff.far_error < 1e-13
     True
     """
-    s = _check_s(s)
+    s = check_s(s)
     a = s - 1.0
     delta = float(delta)
     if not (0.0 < delta < 2.0):

@@ -56,13 +56,13 @@ import numpy as np
 from envfit.theory.pointsets import frame_from_axis
 
 from envfit.maps.envmap import EnvMap
-from envfit.base.checks import check_int, check_ints
+from envfit.base.checks import as_unit_vectors, check_int, check_ints
 from envfit.base.errors import ParameterError
 from envfit.base.resources import check_memory
 from envfit.shading.bilinear_sh import bilinear_sh_coefficients, synthesize_convolution
 from envfit.shading.ground_truth import funk_hecke_factors, hsh_weight_coefficients, weight_function
 from envfit.shading.hemisphere import hemisphere_integrals
-from envfit.shading.patches import axes_to_local, unit_axes
+from envfit.shading.patches import axes_to_local
 
 __all__ = ["quadrature_estimates", "sh_truncation_estimates", "sh_truncation_curve",
            "hsh_truncation_estimates", "hsh_truncation_curve", "hsh_projections",
@@ -121,16 +121,8 @@ def quadrature_estimates(envmap: EnvMap, axes, local_points, weights, *, seed=No
     >>> quadrature_estimates(m, [0, 0, 1.0], [[0, 0, 1.0]], [1.0]).round(12).tolist()   # the up pole
     [[1.5]]
     """
-    A = unit_axes(axes)
-    P = np.asarray(local_points, dtype=np.float64)
-    if P.ndim != 2 or P.shape[1] != 3 or P.shape[0] == 0:
-        raise ParameterError(f"local_points must have shape (N, 3) with N >= 1, got {P.shape}")
-    if not np.all(np.isfinite(P)):
-        raise ParameterError("local_points contain NaN or Inf")
-    pn = np.linalg.norm(P, axis=1)
-    if np.any(pn == 0.0):
-        raise ParameterError("local_points must be non-zero directions")
-    P = P / pn[:, None]
+    A = as_unit_vectors(axes, name="axes", allow_empty=True)
+    P = as_unit_vectors(local_points, name="local_points")
     w = np.asarray(weights, dtype=np.float64)
     if w.shape != (P.shape[0],) or not np.all(np.isfinite(w)):
         raise ParameterError(f"weights must be {P.shape[0]} finite numbers, got shape {w.shape}")
@@ -166,7 +158,7 @@ def sh_truncation_curve(envmap: EnvMap, axes, brdf="diffuse", Ls=(0, 1, 2), *,
     """
     weight = weight_function(brdf, shininess)
     L = _degrees(Ls, "Ls")
-    A = axes_to_local(unit_axes(axes), envmap.up)
+    A = axes_to_local(as_unit_vectors(axes, name="axes", allow_empty=True), envmap.up)
     top = int(L.max())
     alm = bilinear_sh_coefficients(envmap, top, nthreads=nthreads)
     lam = funk_hecke_factors(weight, top)
@@ -232,7 +224,7 @@ def hsh_projections(envmap: EnvMap, axes, lmax: int) -> np.ndarray:
     bandwidth lmax), all degrees at once by the Legendre recurrence in 2z − 1.
     """
     lmax = check_int(lmax, "lmax", 0)
-    raw = hemisphere_integrals(envmap, unit_axes(axes), _legendre_shifted(lmax), lmax + 1,
+    raw = hemisphere_integrals(envmap, as_unit_vectors(axes, name="axes", allow_empty=True), _legendre_shifted(lmax), lmax + 1,
                                degree=lmax)
     return raw * _hsh_norms(lmax)[None, :, None]
 
@@ -279,7 +271,7 @@ def hsh_truncation_estimates(envmap: EnvMap, axes, brdf="diffuse", L: int = 2, *
             acc += b * p
         yield acc
 
-    return hemisphere_integrals(envmap, unit_axes(axes), kernel, 1, degree=L)[:, 0, :]
+    return hemisphere_integrals(envmap, as_unit_vectors(axes, name="axes", allow_empty=True), kernel, 1, degree=L)[:, 0, :]
 
 
 # ----------------------------------------------------------------------------- errors

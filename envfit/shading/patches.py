@@ -24,10 +24,10 @@ import math
 import numpy as np
 from scipy import special
 
-from envfit.base.errors import ParameterError
+from envfit.base.checks import as_unit_vectors
 from envfit.maps.latlong import local_to_world
 
-__all__ = ["GL_TOL", "unit_axes", "axes_to_local", "local_angles", "gauss_legendre_order",
+__all__ = ["GL_TOL", "axes_to_local", "local_angles", "gauss_legendre_order",
            "patch_rows", "patch_corner_values", "bilinear_in_patch"]
 
 #: target error of a Gauss–Legendre rule on one patch, relative to the patch's integral scale
@@ -43,23 +43,7 @@ def axes_to_local(axes, up: str = "y") -> np.ndarray:
     >>> axes_to_local([0.0, 2.0, 0.0], "y").round(12).tolist()     # world +y = local up
     [[0.0, 0.0, 1.0]]
     """
-    return unit_axes(axes) @ local_to_world(up)
-
-
-def unit_axes(axes) -> np.ndarray:
-    """Axes as an (M, 3) array of unit vectors; zero, non-finite or mis-shaped input raises
-    :class:`ParameterError`."""
-    a = np.asarray(axes, dtype=np.float64)
-    if a.ndim == 1:
-        a = a[None, :]
-    if a.ndim != 2 or a.shape[1] != 3:
-        raise ParameterError(f"axes must have shape (3,) or (M, 3), got {np.shape(axes)}")
-    if not np.all(np.isfinite(a)):
-        raise ParameterError("axes contain NaN or Inf")
-    norm = np.linalg.norm(a, axis=1)
-    if np.any(norm == 0.0):
-        raise ParameterError("axes must be non-zero vectors")
-    return a / norm[:, None]
+    return as_unit_vectors(axes, name="axes", allow_empty=True) @ local_to_world(up)
 
 
 def local_angles(a_local: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
