@@ -13,7 +13,10 @@ and Fourier Truncation-based Methods Applied to Shading Integrals" (IEEE TVCG 20
 - :mod:`envfit.theory.cholesky` — the dense Cholesky every factorisation uses (blocked, safe from
   OpenBLAS's threaded-``dsyrk`` crash on AVX-512 at N >= 16 000);
 - :mod:`envfit.theory.quadrature` — worst-case error Eq. 41 and its spectrum Eq. 42;
-- :mod:`envfit.theory.truncation` — SH/HSH truncation error Eqs. 51–52, N-versus-L equivalence.
+- :mod:`envfit.theory.truncation` — SH/HSH truncation error Eqs. 51–52, N-versus-L equivalence;
+- :mod:`envfit.theory.table1` — the paper's Table 1; :mod:`envfit.theory.figures` — the data of
+  Figs. 1–5 and a BNOT check; :mod:`envfit.theory.claims` — the paper's claims about them,
+  checked; :mod:`envfit.theory.wce_curves` — E(N) curve tools (slopes, log grids, inversion).
 """
 import importlib
 
@@ -41,7 +44,9 @@ _EXPORTS = {
                    "truncation_error", "truncation_error_curve"),
 }
 _LAZY = {name: mod for mod, names in _EXPORTS.items() for name in names}
-_SUBMODULES = ("figures", "table1")            # the paper's Table 1 and the data of Figs. 1–5
+#: submodules reached as attributes (Table 1, the data of Figs. 1–5, their claims, E(N) curves);
+#: none may share a name with a lazy export above, or importing it would shadow that function
+_SUBMODULES = ("claims", "figures", "table1", "wce_curves")
 
 __all__ = sorted(_LAZY)
 

@@ -248,70 +248,98 @@ def paper_comparison(table: Table1, *, caption_qmc_points: int | None = None) ->
     >>> [(r["what"], r["paper"], r["ours_strict"]) for r in rows][:3]
     [('Table 1 diffuse-sh L', 4, 6), ('Table 1 glossy-sh L', 13, 14), ('Table 1 glossy-hsh L', 9, 9)]
     """
-    out: list[dict] = []
     if table.s != PAPER_S:
-        return out
-    glossy_ok = table.shininess == PAPER_SHININESS
-    rt = table.rtol_paper_reading
-
-    def applies(case):
-        return case.startswith("diffuse") or glossy_ok
-
-    def at(row, L):
-        return float(row.wce_by_L[L]) if L < row.wce_by_L.size else None
-
-    def explain(row, paper_L, target):
-        e = at(row, paper_L)
-        if e is None:
-            return "curve too short to evaluate the printed degree (raise Lmax)"
-        if e <= target:
-            return "agrees"
-        return (f"E({paper_L}) = {e:.3g} is {100 * (e / target - 1):.1f} % above {target:g}: "
-                f"the paper read the cut-off off the log plot of Fig. 5 "
-                f"(a {100 * rt:g} % tolerance reproduces it)")
-
+        return []
+    out: list[dict] = []
     if table.target == PAPER_TABLE1["target"]:
-        for row in table.rows:
-            if not applies(row.case):
-                continue
-            pL = PAPER_TABLE1["L"][row.case]
-            out.append({"what": f"Table 1 {row.case} L", "paper": pL, "ours_strict": row.L,
-                        "ours_paper_reading": row.L_paper_reading,
-                        "wce_at_paper_L": at(row, pL), "agrees": row.L == pL,
-                        "why": explain(row, pL, table.target)})
-        for row in table.rows:
-            if not applies(row.case) or row.qmc_points is None:
-                continue
-            pN = PAPER_TABLE1["qmc_points"][row.case]
-            rel = row.qmc_points / pN - 1.0
-            out.append({"what": f"Table 1 {row.case} QMC points", "paper": pN,
-                        "ours_strict": row.qmc_points, "ours_paper_reading": row.qmc_points,
-                        "wce_at_paper_L": None, "agrees": abs(rel) <= 0.1,
-                        "why": (f"{100 * rel:+.1f} %: the paper rounds to "
-                                f"{'a thousand' if pN % 1000 == 0 else 'tens'}")})
-    if glossy_ok:
-        t82 = PAPER_SEC82["target"]
-        for row in table.rows:
-            if row.case not in PAPER_SEC82["L"]:
-                continue
-            pL = PAPER_SEC82["L"][row.case]
-            strict = cutoff_degree(row.wce_by_L, t82)
-            reading = cutoff_degree(row.wce_by_L, t82, rt)
-            out.append({"what": f"Sec. 8.2 {row.case} L at E = 1e-2", "paper": pL,
-                        "ours_strict": strict, "ours_paper_reading": reading,
-                        "wce_at_paper_L": at(row, pL), "agrees": strict == pL,
-                        "why": explain(row, pL, t82)})
+        out += _compare_table1_cutoffs(table) + _compare_table1_qmc_points(table)
+    if table.shininess == PAPER_SHININESS:
+        out += _compare_sec82(table)
+    return out + _compare_fig5a_caption(table, caption_qmc_points)
+
+
+def _applies(table: Table1, case: str) -> bool:
+    """Whether the paper's value of ``case`` applies: glossy cases need the paper's shininess."""
+    return case.startswith("diffuse") or table.shininess == PAPER_SHININESS
+
+
+def _wce_at(row: Table1Row, L: int) -> float | None:
+    return float(row.wce_by_L[L]) if L < row.wce_by_L.size else None
+
+
+def _explain(row: Table1Row, paper_L: int, target: float, rtol: float) -> str:
+    """Why our strict cut-off differs from the printed ``paper_L`` at ``target`` (or "agrees")."""
+    e = _wce_at(row, paper_L)
+    if e is None:
+        return "curve too short to evaluate the printed degree (raise Lmax)"
+    if e <= target:
+        return "agrees"
+    return (f"E({paper_L}) = {e:.3g} is {100 * (e / target - 1):.1f} % above {target:g}: "
+            f"the paper read the cut-off off the log plot of Fig. 5 "
+            f"(a {100 * rtol:g} % tolerance reproduces it)")
+
+
+def _compare_table1_cutoffs(table: Table1) -> list[dict]:
+    """Table 1's cut-off degrees L beside ours (the table's target is the paper's)."""
+    out = []
+    for row in table.rows:
+        if not _applies(table, row.case):
+            continue
+        pL = PAPER_TABLE1["L"][row.case]
+        out.append({"what": f"Table 1 {row.case} L", "paper": pL, "ours_strict": row.L,
+                    "ours_paper_reading": row.L_paper_reading,
+                    "wce_at_paper_L": _wce_at(row, pL), "agrees": row.L == pL,
+                    "why": _explain(row, pL, table.target, table.rtol_paper_reading)})
+    return out
+
+
+def _compare_table1_qmc_points(table: Table1) -> list[dict]:
+    """Table 1's numbers of QMC points beside ours (rows without QMC points are skipped)."""
+    out = []
+    for row in table.rows:
+        if not _applies(table, row.case) or row.qmc_points is None:
+            continue
+        pN = PAPER_TABLE1["qmc_points"][row.case]
+        rel = row.qmc_points / pN - 1.0
+        out.append({"what": f"Table 1 {row.case} QMC points", "paper": pN,
+                    "ours_strict": row.qmc_points, "ours_paper_reading": row.qmc_points,
+                    "wce_at_paper_L": None, "agrees": abs(rel) <= 0.1,
+                    "why": (f"{100 * rel:+.1f} %: the paper rounds to "
+                            f"{'a thousand' if pN % 1000 == 0 else 'tens'}")})
+    return out
+
+
+def _compare_sec82(table: Table1) -> list[dict]:
+    """The Sec. 8.2 glossy cut-offs at E = 1e-2, read from the same curves."""
+    t82, rt = PAPER_SEC82["target"], table.rtol_paper_reading
+    out = []
+    for row in table.rows:
+        if row.case not in PAPER_SEC82["L"]:
+            continue
+        pL = PAPER_SEC82["L"][row.case]
+        strict = cutoff_degree(row.wce_by_L, t82)
+        reading = cutoff_degree(row.wce_by_L, t82, rt)
+        out.append({"what": f"Sec. 8.2 {row.case} L at E = 1e-2", "paper": pL,
+                    "ours_strict": strict, "ours_paper_reading": reading,
+                    "wce_at_paper_L": _wce_at(row, pL), "agrees": strict == pL,
+                    "why": _explain(row, pL, t82, rt)})
+    return out
+
+
+def _compare_fig5a_caption(table: Table1, caption_qmc_points: int | None) -> list[dict]:
+    """The Fig. 5(a) caption's E(3) (and, if given, our QMC points for its 4.4e-3) beside ours;
+    empty when the diffuse curve stops before L = 4."""
     d = table.row("diffuse-sh")
     cap = PAPER_FIG5A_CAPTION
     if d.wce_by_L.size < 5:
-        return out
+        return []
     e3, e2 = float(d.wce_by_L[3]), float(d.wce_by_L[2])
-    out.append({"what": "Fig. 5(a) caption E(3)", "paper": cap["wce"], "ours_strict": e3,
-                "ours_paper_reading": e3, "wce_at_paper_L": e3,
-                "agrees": abs(e3 / cap["wce"] - 1.0) <= 0.1,
-                "why": (f"not reproducible: b_3 = 0 for the diffuse lobe, so E(3) = E(2) = "
-                        f"{e2:.3g} (docs/ERRATA.md); E(4) = {float(d.wce_by_L[4]):.3g}. 4.4e-3 lies "
-                        f"between E(3) and E(4): an error in the caption, not a target")})
+    out = [{"what": "Fig. 5(a) caption E(3)", "paper": cap["wce"], "ours_strict": e3,
+            "ours_paper_reading": e3, "wce_at_paper_L": e3,
+            "agrees": abs(e3 / cap["wce"] - 1.0) <= 0.1,
+            "why": (f"not reproducible: b_3 = 0 for the diffuse lobe, so E(3) = E(2) = "
+                    f"{e2:.3g} (docs/ERRATA.md); E(4) = {float(d.wce_by_L[4]):.3g}. 4.4e-3 lies "
+                    f"between E(3) and E(4): an error in the caption, not a target")}]
     if caption_qmc_points is not None:
         q = int(caption_qmc_points)
         out.append({"what": "Fig. 5(a) caption QMC points for E = 4.4e-3", "paper": cap["qmc_points"],
