@@ -23,7 +23,8 @@ from envfit.data_gen.gp import gaussian_process_map
 from envfit.advisor.advise import advise
 from envfit.advisor.result import Advice
 from envfit.shading.spectra import band_e2, degree_weights
-from envfit.advisor.prediction import mean_shading_value, predicted_rmse, rule_terms
+from envfit.advisor.prediction import mean_shading_value, rule_terms
+from envfit.predict.bandlimited import bandlimited_rmse
 from envfit.advisor.search import smallest_n
 from envfit.advisor.cache import AdviseCache
 from envfit.maps.envmap import EnvMap
@@ -80,7 +81,7 @@ def test_bisection_equals_brute_force_scan_spherical_fibonacci(brdf, weights):
     ns = np.arange(4, 161)
     dw = degree_weights(1.5, band)
     terms = [rule_terms("sf", int(n), wf, 1.5, weights, [], band) for n in ns]
-    pred = np.array([predicted_rmse(sigma, band_e2(t["power"], dw), t["dev2"], mean_sq=0.0)
+    pred = np.array([bandlimited_rmse(sigma, band_e2(t["power"], dw), t["dev2"], mean_sq=0.0)
                      for t in terms])
     assert np.all(np.diff(pred) <= 0)
     for q in (0.1, 0.5, 0.9):
@@ -116,8 +117,8 @@ def test_mean_shading_value_is_the_mean_of_ground_truth_integrals(gp32):
 
 
 def test_predicted_rmse_formula():
-    assert predicted_rmse(2.0, 0.04, 0.0, 5.0) == pytest.approx(0.4)
-    assert predicted_rmse(0.0, 1.0, 0.01, 4.0) == pytest.approx(0.2)
+    assert bandlimited_rmse(2.0, 0.04, 0.0, 5.0) == pytest.approx(0.4)
+    assert bandlimited_rmse(0.0, 1.0, 0.01, 4.0) == pytest.approx(0.2)
 
 
 # ----------------------------------------------------------------------------- the API

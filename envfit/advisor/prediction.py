@@ -6,7 +6,7 @@ realisations of a stochastic set) and the squared deviation :math:`(\sum_j w_j -
 weights' sum (:func:`rule_terms`); the map contributes σ', :math:`a_l(s')\tau_l`
 (:func:`envfit.shading.spectra.degree_weights`) and :math:`\overline{m^2}`. The prediction (b')
 is :math:`(\sigma'^2 E'^2 + (\sum w-1)^2\overline{m^2})^{1/2}` with
-:math:`E'^2 = \sum_l a_l\tau_l e_l` (:func:`predicted_rmse`,
+:math:`E'^2 = \sum_l a_l\tau_l e_l` (:func:`envfit.predict.bandlimited.bandlimited_rmse`,
 :func:`envfit.shading.spectra.band_e2`); see :mod:`envfit.advisor.advise` for the model.
 
 Example
@@ -26,6 +26,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from envfit.maps.envmap import EnvMap
+from envfit.predict.bandlimited import bandlimited_rmse
 from envfit.shading.bilinear_sh import bilinear_sh_coefficients
 from envfit.shading.ground_truth import weight_function
 from envfit.shading.spectra import band_e2, degree_weights, rule_error_power
@@ -33,21 +34,8 @@ from envfit.theory.pointsets import DETERMINISTIC_POINTSETS, generate
 from envfit.theory.quadrature import worst_case_error
 from envfit.theory.weights import equal_weights, optimal_weights
 
-__all__ = ["predicted_rmse", "mean_shading_value", "s_key", "seed_list", "make_rule",
+__all__ = ["mean_shading_value", "s_key", "seed_list", "make_rule",
            "rule_terms", "rule_plain_wce2", "row_prediction"]
-
-
-def predicted_rmse(sigma: float, e2_band: float, dev2: float = 0.0, mean_sq: float = 0.0) -> float:
-    r"""The refined prediction (b'): :math:`(\sigma'^2 E'^2 + (\sum w-1)^2\overline{m^2})^{1/2}`.
-
-    ``e2_band`` is :math:`E'^2 = \sum_{l\le H-1} a_l\tau_l e_l` (:func:`band_e2`; averaged
-    over realisations for stochastic sets), ``dev2`` :math:`(\sum_j w_j - 1)^2` (likewise),
-    ``mean_sq`` :math:`\overline{m^2}`.
-
-    >>> round(predicted_rmse(2.0, 0.25, 0.01, 9.0), 12) == round(math.sqrt(4 * 0.25 + 0.01 * 9), 12)
-    True
-    """
-    return math.sqrt(max(sigma * sigma * e2_band + dev2 * mean_sq, 0.0))
 
 
 def mean_shading_value(scaled: EnvMap) -> float:
@@ -128,4 +116,4 @@ def row_prediction(adv, row, n: int) -> float:
     s = s_key(adv.s)
     t = rule_terms(row.pointset, n, wf, s, row.weights, seeds, adv.band_lmax)
     e2 = band_e2(t["power"], degree_weights(s, adv.band_lmax, adv.lookup_transfer))
-    return predicted_rmse(adv.sigma, e2, t["dev2"], adv.mean_rms ** 2)
+    return bandlimited_rmse(adv.sigma, e2, t["dev2"], adv.mean_rms ** 2)

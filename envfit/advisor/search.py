@@ -30,7 +30,6 @@ from envfit.advisor.cache import AdviseCache
 from envfit.advisor.model import MapModel
 from envfit.advisor.options import AdviseOptions
 from envfit.advisor.prediction import (
-    predicted_rmse,
     rule_plain_wce2,
     rule_terms,
     seed_list,
@@ -38,6 +37,7 @@ from envfit.advisor.prediction import (
 from envfit.advisor.result import AdviceRow, sort_rows
 from envfit.base.errors import ParameterError
 from envfit.base.progress import progress_bar
+from envfit.predict.bandlimited import bandlimited_rmse
 from envfit.shading.spectra import band_e2, sh_truncation_curve_transfer
 from envfit.theory.errors import TheoryParameterError
 from envfit.theory.truncation import truncation_error_curve
@@ -126,7 +126,7 @@ class _RuleCurve:
         """The prediction (b') at N on the map."""
         t = self.terms(n)
         m = self.model
-        return predicted_rmse(m.sigma, band_e2(t["power"], m.dw), t["dev2"],
+        return bandlimited_rmse(m.sigma, band_e2(t["power"], m.dw), t["dev2"],
                               m.mean_rms * m.mean_rms)
 
     def save(self) -> None:

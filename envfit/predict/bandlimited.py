@@ -14,7 +14,21 @@ from envfit.shading.spectra import bandlimited_worst_case_errors, model_scatter
 
 from .context import Prediction, PredictionContext, Rule
 
-__all__ = ["predict_bandlimited"]
+__all__ = ["predict_bandlimited", "bandlimited_rmse"]
+
+
+def bandlimited_rmse(sigma: float, e2_band: float, dev2: float = 0.0,
+                     mean_sq: float = 0.0) -> float:
+    r"""The combination of prediction (b′), :math:`(\hat\sigma'^2 E'^2 + (\sum_j w_j - 1)^2
+    \overline{m^2})^{1/2}`, from its terms: ``e2_band`` :math:`E'^2`, ``dev2``
+    :math:`(\sum_j w_j - 1)^2` (for a stochastic set: averaged over its realisations, as the
+    advisor does), ``mean_sq`` :math:`\overline{m^2}`. The one formula that
+    :func:`predict_bandlimited` and the advisor's N search use.
+
+    >>> bandlimited_rmse(2.0, 0.25, 0.01, 9.0) == (4 * 0.25 + 0.01 * 9) ** 0.5
+    True
+    """
+    return math.sqrt(max(sigma * sigma * e2_band + dev2 * mean_sq, 0.0))
 
 
 def predict_bandlimited(ctx: PredictionContext, rule: Rule) -> Prediction:
@@ -70,10 +84,10 @@ def predict_bandlimited(ctx: PredictionContext, rule: Rule) -> Prediction:
     me = None if rule.weight_sum is None else abs(rule.weight_sum - 1.0) * ctx.mean_rms
     if wb is None:
         rmse = None
-    elif me is None:
-        rmse = ctx.sigma_bandlimited * wb
     else:
-        rmse = math.hypot(ctx.sigma_bandlimited * wb, me)
+        rmse = bandlimited_rmse(ctx.sigma_bandlimited, wb * wb,
+                                0.0 if me is None else (rule.weight_sum - 1.0) ** 2,
+                                ctx.mean_rms ** 2)
     scatter = None
     if power is not None and me is not None:
         scatter = model_scatter(power, ctx.s_bandlimited, ctx.sigma_bandlimited_channels, me,
