@@ -102,3 +102,16 @@ def test_one_top_level_package_installed():
         __import__("theory")
     with pytest.raises(ModuleNotFoundError):
         __import__("data_gen")
+
+
+def test_pyproject_lists_every_sub_package():
+    """setuptools installs exactly the packages pyproject.toml lists (the package-dir mapping
+    of theory/ and data_gen/ rules out automatic discovery): a sub-package missing there
+    works in an editable install and is absent from a real one."""
+    tomllib = pytest.importorskip("tomllib")
+    root = Path(__file__).resolve().parents[1]
+    listed = set(tomllib.loads((root / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
+    found = {"envfit"} | {"envfit." + ".".join(p.parent.relative_to(root / "envfit").parts)
+                          for p in (root / "envfit").rglob("__init__.py") if p.parent != root / "envfit"}
+    found |= {"envfit.theory", "envfit.data_gen"}
+    assert listed == found
