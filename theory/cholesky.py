@@ -29,9 +29,10 @@ the tile's diagonal block (at most ``TILE`` rows, four times below the smallest 
 size) and one ``dgemm`` below it. Every call works in place on sub-matrices passed by
 pointer and leading dimension (scipy's ``cython_blas``/``cython_lapack`` through ctypes), so
 nothing is copied and only the lower triangle is read or written. The flops are those of
-``dpotrf`` (N³/3) and the BLAS-3 calls are as large, so it runs at the same speed (bench:
-``bench/bench_cholesky.py``, ratio 0.98–1.07 of bare ``dpotrf`` for N = 4 000–12 000 on a
-2-core AVX-512 machine), with BLAS's own threads and no environment variable.
+``dpotrf`` (N³/3) and the BLAS-3 calls are as large, so it runs at the same speed
+(``bench/bench_cholesky.py`` on a 2-core AMD Zen 4 with AVX-512: ×0.93–1.02 of bare
+``dpotrf`` for N = 4 000–12 000, ×0.93–0.98 of ``dpotrf`` with the AVX2 kernels at 16 000 and
+20 000, where bare ``dpotrf`` crashes), with BLAS's own threads and no environment variable.
 
 Matrices of at most ``PANEL`` rows go to ``dpotrf`` in one call (the crash needs thousands
 of rows per thread).
