@@ -1,3 +1,4 @@
 """Shading integrals on a map: the ground truth, the estimators (quadrature, SH/HSH
 truncation) and the spectra (per-degree map and rule power, lookup transfer).
+importance: the renderer estimators — map importance sampling, BRDF sampling and their MIS.
 """
