@@ -1,4 +1,5 @@
 """Shading integrals on a map: the ground truth, the estimators (quadrature, SH/HSH
 truncation) and the spectra (per-degree map and rule power, lookup transfer).
 importance: the renderer estimators — map importance sampling, BRDF sampling and their MIS.
+is_variance: the exact variance / RMSE of those random-point estimators (IS, MIS), from the map.
 """
