@@ -96,6 +96,7 @@ from envfit.base.errors import ParameterError
 from envfit.base.resources import check_memory
 from envfit.maps.envmap import EnvMap
 from envfit.maps.latlong import local_to_world, pixel_solid_angles
+from envfit.shading.importance import DEFAULT_FLOOR, MapSampler
 from envfit.shading.estimators import RMSE
 from envfit.shading.ground_truth import polynomial_degree, weight_function
 from envfit.shading.patches import (axes_to_local, gauss_legendre_order, local_angles,
@@ -117,10 +118,10 @@ HORIZON_CUT = 1e-13
 class MapPdf:
     r"""Map importance-sampling pdf: piecewise constant per pixel, uniform in (cos θ, φ) inside.
 
-    Pixel probabilities :math:`q_{ij} \propto (Y^+_{ij} + \epsilon\,\bar Y)\,\Omega_{ij}`
-    (:math:`Y^+` the Rec. 709 luminance clipped at 0, :meth:`EnvMap.luminance`;
-    :math:`\bar Y` its solid-angle mean; :math:`\epsilon` = ``floor``), or given directly
-    (``probabilities``, (H, W), normalised here) to match any sampler's table. The density
+    Pixel probabilities :math:`q_{ij}`: those of the sampler that draws the samples,
+    :class:`envfit.shading.importance.MapSampler` (luminance × solid angle with its floor ε =
+    ``floor`` and its bilinear-cell smoothing, ``smooth``; one construction for the sampler
+    and its variance), or given directly (``probabilities``, (H, W), normalised here). The density
     in solid angle is :math:`p(\omega) = q_{ij}/\Omega_{ij}` for ω in pixel (i, j)
     (= pbrt-v4's :math:`p(u,v)/(2\pi^2\sin\theta)` averaged over the pixel's rows).
 
@@ -134,15 +135,11 @@ class MapPdf:
     True
     """
 
-    def __init__(self, envmap: EnvMap, floor: float = 1e-3, probabilities=None):
+    def __init__(self, envmap: EnvMap, floor: float = DEFAULT_FLOOR, probabilities=None, *,
+                 smooth: bool = True):
         om = pixel_solid_angles(envmap.height, envmap.width)
         if probabilities is None:
-            floor = float(floor)
-            if not (np.isfinite(floor) and floor >= 0.0):
-                raise ParameterError(f"floor must be a number >= 0, got {floor!r}")
-            y = np.maximum(envmap.luminance(), 0.0)
-            ybar = float((y * om).sum() / om.sum())
-            q = (y + floor * ybar) * om if ybar > 0.0 else om.copy()
+            q = MapSampler(envmap, floor=floor, smooth=smooth).probabilities
         else:
             q = np.array(probabilities, dtype=np.float64)
             if q.shape != om.shape or not np.all(np.isfinite(q)) or np.any(q < 0.0):
