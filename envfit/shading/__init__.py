@@ -3,4 +3,5 @@ truncation) and the spectra (per-degree map and rule power, lookup transfer).
 importance: the renderer estimators — map importance sampling, BRDF sampling and their MIS.
 is_variance: the exact variance / RMSE of those random-point estimators (IS, MIS), from the map.
 sources: bright-source detection (sun, lamps) and the exact source / rest split of those estimators.
+measurement: bootstrap (BCa) confidence intervals of the RMSE over axes, adaptive axis counts, prediction agreement.
 """
