@@ -1,4 +1,4 @@
-"""Tests of envfit.shading.importance: the map sampler (pdf, histogram, round trip), the map /
+"""Tests of envfit.shading.importance and map_sampler: the map sampler (pdf, histogram, round trip), the map /
 BRDF / MIS estimators of the shading integral (unbiasedness against the ground truth of
 envfit.shading.ground_truth, zero-variance cases, equality with quadrature_estimates), the MIS
 weights and the one-sample balance = mixture-pdf identity (checked by an independent
@@ -17,6 +17,7 @@ from envfit.maps.envmap import EnvMap
 from envfit.shading import estimators as E
 from envfit.shading import ground_truth as G
 from envfit.shading import importance as I
+from envfit.shading.map_sampler import MapSampler
 from envfit.theory.brdf import Glossy
 from envfit.theory.pointsets import frame_from_axis, lambert_to_hemisphere, square_points
 
@@ -52,7 +53,7 @@ def test_pdf_integrates_to_one(gp_map, sun_map, smooth, floor):
     rng = np.random.default_rng(3)
     d = rng.standard_normal((40000, 3))
     for m in _maps(gp_map, sun_map):
-        s = I.MapSampler(m, floor=floor, smooth=smooth)
+        s = MapSampler(m, floor=floor, smooth=smooth)
         assert abs((s.pixel_pdf * m.solid_angles()).sum() - 1.0) < 1e-12
         assert abs(s.probabilities.sum() - 1.0) < 1e-12
         v = 4 * np.pi * s.pdf(d)
@@ -65,7 +66,7 @@ def test_histogram_of_samples_matches_the_probabilities(gp_map, sun_map):
     small = gp_map.resized(8)
     sun = sun_map.resized(8)
     for m in (small, sun):
-        s = I.MapSampler(m, floor=0.05)
+        s = MapSampler(m, floor=0.05)
         n = 8192
         counts = {}
         for name in ("random", "sobol"):
@@ -83,7 +84,7 @@ def test_histogram_of_samples_matches_the_probabilities(gp_map, sun_map):
 @pytest.mark.parametrize("up", ["y", "z", "x"])
 def test_pdf_of_sample_is_the_returned_pdf(gp_map, up):
     m = EnvMap(gp_map.data, up=up)
-    s = I.MapSampler(m)
+    s = MapSampler(m)
     d, p = s.sample(np.random.default_rng(5).random((4096, 2)))
     assert np.allclose(np.linalg.norm(d, axis=1), 1.0, atol=1e-14)
     assert np.array_equal(s.pdf(d), p)
@@ -92,7 +93,7 @@ def test_pdf_of_sample_is_the_returned_pdf(gp_map, up):
 def test_uniform_inside_each_pixel_in_cos_theta_and_phi(sun_map):
     """The position inside the sampled pixel, ((z_top − z)/(z_top − z_bot), φW/2π − j), is
     uniform on the unit square (Kolmogorov–Smirnov, 20000 samples on the sun map)."""
-    s = I.MapSampler(sun_map)
+    s = MapSampler(sun_map)
     d, _ = s.sample(np.random.default_rng(2).random((20000, 2)))
     i, j = s.pixel_of(d)
     h, w = sun_map.height, sun_map.width
@@ -107,7 +108,7 @@ def test_constant_map_sampler_is_the_equal_area_lift():
     """On a constant map the sampler is exactly cos θ = 1 − 2u₀, φ = 2πu₁ (pdf 1/4π)."""
     m = EnvMap(np.full((16, 32, 3), 2.0), up="z")
     u = np.random.default_rng(0).random((1000, 2))
-    d, p = I.MapSampler(m).sample(u)
+    d, p = MapSampler(m).sample(u)
     z = 1 - 2 * u[:, 0]
     r = np.sqrt(1 - z * z)
     ref = np.column_stack([r * np.cos(2 * np.pi * u[:, 1]), r * np.sin(2 * np.pi * u[:, 1]), z])
@@ -120,19 +121,19 @@ def test_floor_keeps_zero_pixels_samplable():
     data[2:5, 3:9] = 0.0
     m = EnvMap(data)
     hole = data[..., 0] == 0
-    pure = I.MapSampler(m, floor=0.0, smooth=False)
+    pure = MapSampler(m, floor=0.0, smooth=False)
     assert (pure.probabilities[hole] == 0).all() and (pure.probabilities[~hole] > 0).all()
     d, _ = pure.sample(np.random.default_rng(1).random((5000, 2)))
     i, j = pure.pixel_of(d)
     assert not hole[i, j].any()
-    floored = I.MapSampler(m, floor=0.01, smooth=False)
+    floored = MapSampler(m, floor=0.01, smooth=False)
     assert (floored.probabilities > 0).all()
     # the floor is the defensive mixture: min pdf = ε/(1+ε) / 4π on a map of mean 1·(1−hole)
     ybar = (m.solid_angles() * (~hole)).sum() / (4 * np.pi)
     assert np.isclose(floored.pixel_pdf[hole].min(), 0.01 * ybar / (4 * np.pi * 1.01 * ybar))
-    smooth = I.MapSampler(m, floor=0.0)               # the interpolant reaches into the hole's rim
+    smooth = MapSampler(m, floor=0.0)               # the interpolant reaches into the hole's rim
     assert (smooth.probabilities[2, 3] > 0) and smooth.probabilities[3, 5] == 0
-    assert np.allclose(I.MapSampler(EnvMap(np.zeros((4, 8)))).pixel_pdf, 1 / (4 * np.pi), rtol=1e-13)
+    assert np.allclose(MapSampler(EnvMap(np.zeros((4, 8)))).pixel_pdf, 1 / (4 * np.pi), rtol=1e-13)
 
 
 # -- the estimators -------------------------------------------------------------------------
@@ -153,7 +154,7 @@ def test_unbiased(gp_map, sun_map, which, method, kw, brdf):
     m = gp_map if which == "gp" else sun_map
     axes = _axes(20, 1)
     truth = G.shading_integral(m, axes, brdf, 30, method="pixels")
-    s = I.MapSampler(m)
+    s = MapSampler(m)
     rng = np.random.default_rng(17)
     R = 100
     est = np.array([I.importance_estimates(m, axes, rng.random((256, 2)), method, sampler=s,
@@ -208,7 +209,7 @@ def test_brdf_sampling_equals_quadrature_with_equal_weights(gp_map, brdf, shin, 
 def test_mis_weights_sum_to_one(sun_map):
     """At 10000 random directions and 5 axes, both heuristics, any shares: Σ_i w_i = 1 where a
     pdf is positive (everywhere with the floor), and w ∈ [0, 1]."""
-    s = I.MapSampler(sun_map)
+    s = MapSampler(sun_map)
     d = np.random.default_rng(4).standard_normal((10000, 3))
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     for a in _axes(5, 9):
@@ -247,7 +248,7 @@ def test_one_sample_balance_is_is_with_the_mixture_pdf(sun_map, c):
     axes = _axes(6, 12)
     u = np.random.default_rng(13).random((128, 2))
     w = Glossy(30.0)
-    s = I.MapSampler(sun_map)
+    s = MapSampler(sun_map)
     ref = _one_sample_mixture_reference(sun_map, s, axes, u, c, w)
     est = I.mis_estimates(sun_map, axes, u, s, "glossy", 30, mode="one", fraction=c)
     assert np.allclose(est, ref, rtol=1e-12, atol=0)
@@ -256,7 +257,7 @@ def test_one_sample_balance_is_is_with_the_mixture_pdf(sun_map, c):
 def test_multi_sample_mis_reduces_to_the_single_techniques(gp_map):
     axes = _axes(25, 14)
     u = np.random.default_rng(15).random((300, 2))
-    s = I.MapSampler(gp_map)
+    s = MapSampler(gp_map)
     for brdf in ("diffuse", "glossy"):
         m1 = I.mis_estimates(gp_map, axes, u, s, brdf, fraction=1.0)
         assert np.allclose(m1, I.map_is_estimates(gp_map, axes, u, s, brdf), rtol=1e-13)
@@ -273,7 +274,7 @@ def test_mis_beats_the_worse_technique_on_the_sun(sun_map):
     below the worse technique and within 1.5× the better one, for both lobes; Sobol (shifted)
     lowers every RMSE."""
     axes = _axes(20, 1)
-    s = I.MapSampler(sun_map)
+    s = MapSampler(sun_map)
     for brdf in ("diffuse", "glossy"):
         truth = G.shading_integral(sun_map, axes, brdf, 30, method="pixels")
         rmse = {}
@@ -329,7 +330,7 @@ def test_bad_parameters(gp_map):
     with pytest.raises(ParameterError, match="shape"):
         I.brdf_sampling_estimates(gp_map, [0, 1.0, 0], [[0.5, 0.2, 0.1]])
     with pytest.raises(ParameterError, match="floor"):
-        I.MapSampler(gp_map, floor=-1)
+        MapSampler(gp_map, floor=-1)
     with pytest.raises(ParameterError, match="brdf"):
         I.map_is_estimates(gp_map, [0, 1.0, 0], u, brdf="phong")
     assert I.map_is_estimates(gp_map, np.zeros((0, 3)), u).shape == (0, 3)

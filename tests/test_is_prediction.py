@@ -12,9 +12,9 @@ from envfit.data_gen.analytic import SunSkyMap
 from envfit.data_gen.gp import gaussian_process_map
 from envfit.maps.envmap import EnvMap
 from envfit.shading.ground_truth import shading_integral
-from envfit.shading.importance import (MapSampler, brdf_sampling_estimates, map_is_estimates,
-                                       mis_estimates)
+from envfit.shading.importance import brdf_sampling_estimates, map_is_estimates, mis_estimates
 from envfit.shading.is_variance import LobePdf, MapPdf, is_variance, mis_variance
+from envfit.shading.map_sampler import MapSampler
 
 N, M, R = 32, 60, 40          # samples per estimate, axes, independent realisations
 

@@ -12,7 +12,8 @@ from envfit.maps.latlong import local_to_world, pixel_solid_angles
 from envfit.shading.estimators import rmse_over_axes
 from envfit.shading.ground_truth import shading_integral, weight_function
 from envfit.shading.is_variance import (LobePdf, MapPdf, is_variance, mis_variance,
-                                        mixture_pdf, predicted_rmse_random, sphere_integrals)
+                                        mixture_pdf, predicted_rmse_random)
+from envfit.shading.sphere_quadrature import sphere_integrals
 from envfit.theory.brdf import gauss_legendre_01
 from envfit.theory.pointsets import frame_from_axis
 

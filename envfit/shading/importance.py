@@ -19,13 +19,9 @@ jitter, Sobol, LP, BNOT, the square lattice of spherical Fibonacci, see
 :func:`envfit.theory.pointsets.square_points` — to directions with a known pdf per solid
 angle, so quasi-Monte Carlo and importance sampling combine):
 
-* **map** — :class:`MapSampler`: a piecewise-constant 2-D distribution over the pixels,
-  pdf per solid angle constant inside each pixel, sampled by the marginal (rows) /
-  conditional (columns) inverse CDF and uniformly in :math:`(\cos\theta, \phi)` inside the
-  pixel; the image infinite light of pbrt-v4 (Pharr, Jakob, Humphreys, *Physically Based
-  Rendering*, 4th ed., §12.5 "Image Infinite Lights", with ``PiecewiseConstant2D``, §A.5)
-  and Mitsuba 3's ``envmap`` emitter (``src/emitters/envmap.cpp``: luminance × sin θ
-  warp), on envfit's lat-long geometry (exact pixel solid angles).
+* **map** — :class:`envfit.shading.map_sampler.MapSampler`: pdf ∝ luminance × pixel solid
+  angle, piecewise constant, sampled by inverse CDF (pbrt-v4's image infinite light, Mitsuba
+  3's ``envmap`` emitter).
 * **brdf** — the lobe's own sampler, the morph of :mod:`envfit.theory.pointsets`
   (Lambert lift :math:`z'=u_0, \phi = 2\pi u_1`, then :math:`z = F^{-1}(z')` =
   ``weight.morph``: diffuse :math:`z=\sqrt{z'}`, glossy Eq. 67), whose pdf per solid angle is
@@ -70,36 +66,19 @@ import numpy as np
 from envfit.base.checks import as_unit_vectors
 from envfit.base.errors import ParameterError
 from envfit.base.resources import check_memory
-from envfit.maps import latlong
 from envfit.maps.envmap import EnvMap
 from envfit.shading.estimators import LOOKUP_BLOCK, twisted_frames
 from envfit.shading.ground_truth import weight_function
+from envfit.shading.map_sampler import MapSampler, _square
 from envfit.theory.brdf import WeightFunction
 from envfit.theory.pointsets import lambert_to_hemisphere
 
-__all__ = ["MapSampler", "DEFAULT_FLOOR", "brdf_pdf", "map_is_estimates",
+__all__ = ["brdf_pdf", "map_is_estimates",
            "brdf_sampling_estimates", "mis_estimates", "mis_weights", "importance_estimates",
            "ESTIMATORS", "HEURISTICS", "MODES"]
 
-#: default floor of :class:`MapSampler`, as a fraction of the solid-angle mean luminance
-DEFAULT_FLOOR = 0.01
-
 
 # ----------------------------------------------------------------------------- inputs
-
-def _square(u, name: str = "u") -> np.ndarray:
-    """Square points (..., 2) as a float64 (N, 2) array in [0, 1) (1 is moved just below 1)."""
-    try:
-        a = np.asarray(u, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{name} must be an array of points in [0, 1)^2") from None
-    if a.ndim < 1 or a.shape[-1] != 2:
-        raise ParameterError(f"{name} must have shape (..., 2), got {a.shape}")
-    a = a.reshape(-1, 2)
-    if not np.all(np.isfinite(a)) or a.size and (a.min() < 0.0 or a.max() > 1.0):
-        raise ParameterError(f"{name} must be finite points in [0, 1]^2")
-    return np.minimum(a, np.nextafter(1.0, 0.0))
-
 
 def _randomisation(A: np.ndarray, seed, shift: bool) -> tuple[np.ndarray, np.ndarray]:
     """Frames (M, 3, 3) (twisted with ``seed``, as quadrature_estimates) and CP shifts (M, 2)."""
@@ -126,164 +105,6 @@ def _shifted(U: np.ndarray, s: np.ndarray) -> np.ndarray:
     out = U[None, :, :] + s[:, None, :]
     out -= np.floor(out)
     return np.minimum(out, np.nextafter(1.0, 0.0))
-
-
-# ----------------------------------------------------------------------------- map sampler
-
-def _bilinear_cell_average(y: np.ndarray) -> np.ndarray:
-    r"""Mean of the bilinear interpolant of y over each pixel cell (in pixel coordinates).
-
-    On a cell :math:`[-\frac12, \frac12]^2` about a pixel centre the interpolant averages to
-    :math:`(\frac18, \frac34, \frac18)^{\otimes 2}` times the 3×3 neighbourhood (separable),
-    with columns wrapping and the virtual rows −1, H being rows 0, H−1 at φ + π.
-    """
-    h, w = y.shape
-    up = np.vstack([np.roll(y[:1], w // 2, axis=1), y[:-1]])
-    down = np.vstack([y[1:], np.roll(y[-1:], w // 2, axis=1)])
-    r = 0.75 * y + 0.125 * (up + down)
-    return 0.75 * r + 0.125 * (np.roll(r, 1, axis=1) + np.roll(r, -1, axis=1))
-
-
-class MapSampler:
-    r"""Importance sampling of a lat-long map: pdf ∝ luminance × pixel solid angle.
-
-    Pixel (i, j) gets the probability
-
-    .. math::  P_{ij} = \frac{(Y_{ij} + \epsilon\bar Y)\,\Omega_{ij}}
-                            {\sum_{kl}(Y_{kl} + \epsilon\bar Y)\,\Omega_{kl}},
-               \qquad \bar Y = \frac{1}{4\pi}\sum_{kl} Y_{kl}\Omega_{kl},
-
-    and inside the pixel the density per solid angle is constant, :math:`P_{ij}/\Omega_{ij}`.
-    :math:`Y` is the absolute Rec. 709 luminance of the pixel values
-    (:meth:`envfit.maps.envmap.EnvMap.luminance`; channel 0 for 1–2 channels; absolute so that
-    signed maps — a GP without offset — get the density :math:`\propto |f|`, the optimal one),
-    with ``smooth=True`` (default) averaged over each cell as the *bilinear interpolant* sees
-    it (:math:`(\frac18,\frac34,\frac18)^{\otimes2}` of the 3×3 neighbourhood, across the
-    poles and the seam). Why smooth: the integrand is the bilinear interpolant, which
-    spreads a bright pixel into the cells of its neighbours; with the raw pixel luminance (
-    ``smooth=False``, what pbrt-v4's ``Image::GetSamplingDistribution`` and Mitsuba do) a dark
-    pixel next to the sun holds up to half the sun's radiance at the floor density — a rare,
-    huge weight f/p.
-
-    Floor ``floor`` = ε (default :data:`DEFAULT_FLOOR` = 0.01 of the mean :math:`\bar Y`):
-    adding :math:`\epsilon\bar Y` to every pixel makes the distribution the *defensive
-    mixture* (Hesterberg 1995) :math:`(1-\beta)\,p_Y + \beta/(4\pi)`,
-    :math:`\beta = \epsilon/(1+\epsilon)` ≈ 1 % uniform: every direction stays samplable, so
-    the estimator is unbiased even where the luminance is zero but the integrand is not
-    (another channel, a neighbour's interpolated value), and the weight :math:`f\rho/p` is
-    bounded by :math:`4\pi(1+\epsilon)/\epsilon \cdot \max f\rho`; it costs at most 1 % of the
-    samples. ``floor=0`` is the pure luminance distribution (a zero pixel is never sampled). A
-    map with zero luminance everywhere gets the uniform distribution.
-
-    Sampling (:meth:`sample`): :math:`u_0` picks the row by the inverse of the marginal CDF
-    :math:`\sum_{k<i}\sum_l P_{kl}` and, rescaled to [0, 1) inside the row's interval, sets
-    :math:`\cos\theta` linearly between the row's edges; :math:`u_1` picks the column by the
-    row's conditional CDF and, rescaled, sets φ linearly inside the column. Each step is a
-    measure-preserving piecewise-linear map, so the stratification of a QMC set carries over
-    (pbrt-v4 ``PiecewiseConstant2D::Sample``), and on a constant map (with ``smooth`` or not)
-    it is exactly the Lambert equal-area lift :math:`\cos\theta = 1 - 2u_0`, :math:`\phi = 2\pi u_1`.
-
-    Attributes
-    ----------
-    probabilities : (H, W) the :math:`P_{ij}` (sum 1)
-    pixel_pdf : (H, W) density per solid angle in each pixel, :math:`P_{ij}/\Omega_{ij}`
-
-    >>> from envfit.maps.envmap import EnvMap
-    >>> s = MapSampler(EnvMap(np.ones((4, 8)), up="z"))
-    >>> d, pdf = s.sample([[0.25, 0.5]])
-    >>> d.round(12).tolist(), bool(np.isclose(pdf[0], 1 / (4 * np.pi)))   # cos θ = 1 − 2·0.25
-    ([[-0.866025403784, 0.0, 0.5]], True)
-    """
-
-    def __init__(self, envmap: EnvMap, *, floor: float = DEFAULT_FLOOR, smooth: bool = True):
-        try:
-            eps = float(floor)
-        except (TypeError, ValueError):
-            raise ParameterError(f"floor must be a number >= 0, got {floor!r}") from None
-        if not (np.isfinite(eps) and eps >= 0.0):
-            raise ParameterError(f"floor must be a finite number >= 0, got {floor!r}")
-        y = np.abs(envmap.luminance())
-        if not np.all(np.isfinite(y)):
-            raise ParameterError("the map's luminance is not finite; cannot build a sampling pdf")
-        h, w = y.shape
-        if smooth:
-            y = _bilinear_cell_average(y)
-        om = latlong.row_solid_angles(h, w)                           # (H,)
-        mean = float(om @ y.sum(axis=1)) / (4.0 * np.pi)
-        dens = y + eps * mean if mean > 0.0 else np.ones_like(y)
-        mass = dens * om[:, None]
-        total = float(mass.sum())
-        if not (total > 0.0 and np.isfinite(total)):
-            raise ParameterError("the map's luminance gives no sampling distribution")
-        self.up = envmap.up
-        self.height, self.width = h, w
-        self.floor, self.smooth = eps, bool(smooth)
-        self.probabilities = mass / total
-        self.pixel_pdf = self.probabilities / om[:, None]
-        self._z_edges = np.cos(np.pi * np.arange(h + 1) / h)          # top edge of row i = [i]
-        self._z_edges[-1] = -1.0
-        rows = self.probabilities.sum(axis=1)
-        self._row_mass = rows
-        cdf = np.concatenate([[0.0], np.cumsum(rows)])
-        self._row_cdf = cdf / cdf[-1]
-        cc = np.cumsum(self.probabilities, axis=1)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            cc = np.where(rows[:, None] > 0, cc / rows[:, None], (np.arange(w) + 1.0) / w)
-        cc[:, -1] = 1.0
-        self._col_cdf = np.hstack([np.zeros((h, 1)), cc])             # (H, W+1)
-        # rows stacked with offsets i: one monotone table for the conditional search
-        self._col_flat = (self._col_cdf + np.arange(h)[:, None]).ravel()
-        self._m = latlong.local_to_world(envmap.up)
-
-    def sample(self, u) -> tuple[np.ndarray, np.ndarray]:
-        """Directions (N, 3) in the world frame of the map's ``up`` and their pdf per solid
-        angle (N,), from square points u (N, 2) in [0, 1)² (u₀ → rows/θ, u₁ → columns/φ).
-
-        >>> from envfit.maps.envmap import EnvMap
-        >>> s = MapSampler(EnvMap(np.ones((4, 8, 3))))
-        >>> d, p = s.sample(np.random.default_rng(0).random((5, 2)))
-        >>> d.shape, bool(np.allclose(s.pdf(d), p))
-        ((5, 3), True)
-        """
-        U = _square(u)
-        h, w = self.height, self.width
-        i = np.clip(np.searchsorted(self._row_cdf, U[:, 0], side="right") - 1, 0, h - 1)
-        lo = self._row_cdf[i]
-        t = np.clip((U[:, 0] - lo) / np.maximum(self._row_cdf[i + 1] - lo, 1e-300), 0.0, 1.0)
-        k = np.searchsorted(self._col_flat, U[:, 1] + i, side="right") - 1
-        j = np.clip(k - i * (w + 1), 0, w - 1)
-        c0 = self._col_cdf[i, j]
-        s = np.clip((U[:, 1] - c0) / np.maximum(self._col_cdf[i, j + 1] - c0, 1e-300), 0.0, 1.0)
-        zt, zb = self._z_edges[i], self._z_edges[i + 1]
-        z = zt - t * (zt - zb)
-        phi = 2.0 * np.pi * (j + s) / w
-        r = np.sqrt(np.maximum((1.0 - z) * (1.0 + z), 0.0))
-        local = np.column_stack([r * np.cos(phi), r * np.sin(phi), z])
-        return local @ self._m.T, self.pixel_pdf[i, j]
-
-    def pixel_of(self, dirs) -> tuple[np.ndarray, np.ndarray]:
-        """Pixel (row, column) indices of world directions (..., 3) (any nonzero length)."""
-        d = np.asarray(dirs, dtype=np.float64)
-        if d.ndim < 1 or d.shape[-1] != 3:
-            raise ParameterError(f"directions must have shape (..., 3), got {d.shape}")
-        loc = d @ self._m                                               # rows: local = world M
-        theta = np.arctan2(np.hypot(loc[..., 0], loc[..., 1]), loc[..., 2])
-        phi = np.mod(np.arctan2(loc[..., 1], loc[..., 0]), 2.0 * np.pi)
-        i = np.clip(np.floor(theta * (self.height / np.pi)).astype(np.int64), 0, self.height - 1)
-        j = np.floor(phi * (self.width / (2.0 * np.pi))).astype(np.int64) % self.width
-        return i, j
-
-    def pdf(self, dirs) -> np.ndarray:
-        r"""Density per solid angle at world directions (..., 3): :math:`P_{ij}/\Omega_{ij}` of
-        the pixel that contains each direction.
-
-        >>> from envfit.maps.envmap import EnvMap
-        >>> s = MapSampler(EnvMap(np.ones((4, 8))))
-        >>> bool(np.allclose(s.pdf([[0, 1.0, 0], [1.0, 0, 0]]), 1 / (4 * np.pi)))
-        True
-        """
-        i, j = self.pixel_of(dirs)
-        return self.pixel_pdf[i, j]
 
 
 # ----------------------------------------------------------------------------- the lobe
@@ -508,14 +329,56 @@ def _mis_points(u, mode, fraction):
     return U, int(np.floor(fraction * U.shape[0] + 0.5))
 
 
+def _mis_options(heuristic, mode, fraction) -> tuple[Heuristic, float]:
+    """The checked heuristic and map share c₁ = ``fraction`` (in [0, 1]) of a MIS call."""
+    if mode not in MODES:
+        raise ParameterError(f"mode must be one of {', '.join(MODES)}; got {mode!r}")
+    heur = _heuristic(heuristic)
+    try:
+        c1 = float(fraction)
+    except (TypeError, ValueError):
+        raise ParameterError(f"fraction must be a number in [0, 1], got {fraction!r}") from None
+    if not 0.0 <= c1 <= 1.0:
+        raise ParameterError(f"fraction must be a number in [0, 1], got {fraction!r}")
+    return heur, c1
+
+
+def _mis_assign(Ub: np.ndarray, sel_pos, split) -> tuple[np.ndarray, np.ndarray]:
+    """(map mask (mb, N), points) of a block's shifted points Ub (mb, N, 2): multi-sample
+    (``split`` None) the mask ``sel_pos`` (N,) per axis; one-sample u₀ < c, u₀ rescaled."""
+    mb, n = Ub.shape[:2]
+    if split is None:
+        return np.broadcast_to(sel_pos, (mb, n)), Ub
+    sel = Ub[..., 0] < split
+    u0 = Ub[..., 0]
+    Ub[..., 0] = np.where(sel, u0 / max(split, 1e-300), (u0 - split) / max(1.0 - split, 1e-300))
+    return sel, np.clip(Ub, 0.0, np.nextafter(1.0, 0.0))
+
+
+def _mis_block(envmap, sampler, weight, A, R, Ub, sel, nu, heur) -> np.ndarray:
+    r"""Per-axis sum of :math:`w_i g/(\nu_i p_i)` over a block's N samples, (mb, C): axes A
+    (mb, 3), frames R (mb, 3, 3), points Ub (mb, N, 2), map samples ``sel`` (mb, N)."""
+    mb, n = sel.shape
+    axis_of = np.broadcast_to(np.arange(mb)[:, None], (mb, n))
+    contrib = np.zeros((mb, n, envmap.channels))
+    steps = ((_map_technique, A, np.nonzero(sel)), (_brdf_technique, R, np.nonzero(~sel)))
+    for i, (technique, frames, k) in enumerate(steps):
+        if k[0].size:
+            f, pm, rho = technique(envmap, sampler, weight, frames[axis_of[k]], Ub[k])
+            q = np.stack([nu[0] * pm, nu[1] * rho])
+            contrib[k] = f * (rho * heur.over_q(q, i))[:, None]
+    return contrib.sum(axis=1)
+
+
 def mis_estimates(envmap: EnvMap, axes, u, sampler: MapSampler | None = None,
                   brdf="diffuse", shininess: float = 30.0, *, heuristic: str = "balance",
                   mode: str = "multi", fraction: float = 0.5, seed=None,
                   shift: bool = True) -> np.ndarray:
     r"""Multiple importance sampling of the map and lobe techniques (Veach 1997, ch. 9), (M, C).
 
-    With :math:`p_1` the map pdf (:class:`MapSampler`), :math:`p_2 = q_a` the lobe pdf
-    (:func:`brdf_pdf`), :math:`g = f\rho_a` the integrand and :math:`\nu_k` the shares,
+    With :math:`p_1` the map pdf (:class:`~envfit.shading.map_sampler.MapSampler`),
+    :math:`p_2 = q_a` the lobe pdf (:func:`brdf_pdf`), :math:`g = f\rho_a` the integrand and
+    :math:`\nu_k` the shares,
 
     .. math:: F = \frac1N\sum_{j=1}^{N} \frac{w_{i_j}(\omega_j)\,g(\omega_j)}
                                         {\nu_{i_j}\,p_{i_j}(\omega_j)},
@@ -554,15 +417,7 @@ def mis_estimates(envmap: EnvMap, axes, u, sampler: MapSampler | None = None,
     >>> bool(np.isfinite(mis_estimates(m, [[0, 1.0, 0]], u, mode="one")).all())
     True
     """
-    if mode not in MODES:
-        raise ParameterError(f"mode must be one of {', '.join(MODES)}; got {mode!r}")
-    heur = _heuristic(heuristic)
-    try:
-        c1 = float(fraction)
-    except (TypeError, ValueError):
-        raise ParameterError(f"fraction must be a number in [0, 1], got {fraction!r}") from None
-    if not 0.0 <= c1 <= 1.0:
-        raise ParameterError(f"fraction must be a number in [0, 1], got {fraction!r}")
+    heur, c1 = _mis_options(heuristic, mode, fraction)
     weight, A, R, s = _setup(envmap, axes, brdf, shininess, seed, shift)
     U, n1 = _mis_points(u, mode, c1)
     n, c = U.shape[0], envmap.channels
@@ -570,29 +425,9 @@ def mis_estimates(envmap: EnvMap, axes, u, sampler: MapSampler | None = None,
     sampler = MapSampler(envmap) if sampler is None else sampler
     out = np.empty((A.shape[0], c))
     for m0, m1 in _blocks(A.shape[0], n, c, "multiple importance sampling"):
-        mb = m1 - m0
-        Ub = _shifted(U, s[m0:m1])                                      # (mb, N, 2)
-        if split is None:
-            sel = np.broadcast_to(sel_pos, (mb, n))
-        else:
-            sel = Ub[..., 0] < split
-            u0 = Ub[..., 0]
-            Ub[..., 0] = np.where(sel, u0 / max(split, 1e-300),
-                                  (u0 - split) / max(1.0 - split, 1e-300))
-            Ub = np.clip(Ub, 0.0, np.nextafter(1.0, 0.0))
-        axis_of = np.broadcast_to(np.arange(m0, m1)[:, None], (mb, n))
-        contrib = np.zeros((mb, n, c))
-        km = np.nonzero(sel)
-        if km[0].size:
-            f, pm, rho = _map_technique(envmap, sampler, weight, A[axis_of[km]], Ub[km])
-            q = np.stack([nu[0] * pm, nu[1] * rho])
-            contrib[km] = f * (rho * heur.over_q(q, 0))[:, None]
-        kb = np.nonzero(~sel)
-        if kb[0].size:
-            f, pm, rho = _brdf_technique(envmap, sampler, weight, R[axis_of[kb]], Ub[kb])
-            q = np.stack([nu[0] * pm, nu[1] * rho])
-            contrib[kb] = f * (rho * heur.over_q(q, 1))[:, None]
-        out[m0:m1] = contrib.sum(axis=1) / n
+        sel, Ub = _mis_assign(_shifted(U, s[m0:m1]), sel_pos, split)
+        out[m0:m1] = _mis_block(envmap, sampler, weight, A[m0:m1], R[m0:m1], Ub, sel,
+                                nu, heur) / n
     return out
 
 

@@ -70,7 +70,8 @@ from envfit.base.errors import ParameterError
 from envfit.maps import latlong
 from envfit.maps.envmap import REC709_WEIGHTS, EnvMap
 from envfit.shading.ground_truth import shading_integral
-from envfit.shading.importance import ESTIMATORS, MapSampler
+from envfit.shading.importance import ESTIMATORS
+from envfit.shading.map_sampler import MapSampler
 
 __all__ = ["BrightSource", "SplitResult", "find_bright_sources", "split_map",
            "source_integrals", "split_estimates", "DETECTORS", "DEFAULT_SHARE",
