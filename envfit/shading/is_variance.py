@@ -91,7 +91,7 @@ class MapPdf:
     r"""Map importance-sampling pdf: piecewise constant per pixel, uniform in (cos θ, φ) inside.
 
     Pixel probabilities :math:`q_{ij}`: those of the sampler that draws the samples,
-    :class:`envfit.shading.importance.MapSampler` (luminance × solid angle with its floor ε =
+    :class:`envfit.shading.map_sampler.MapSampler` (luminance × solid angle with its floor ε =
     ``floor`` and its bilinear-cell smoothing, ``smooth``; one construction for the sampler
     and its variance), or given directly (``probabilities``, (H, W), normalised here). The density
     in solid angle is :math:`p(\omega) = q_{ij}/\Omega_{ij}` for ω in pixel (i, j)

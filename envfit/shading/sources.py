@@ -22,7 +22,7 @@ and so do the shading integrals (Eq. 17):
 :math:`I_s` is computed with the pixel-exact ground truth
 (:func:`envfit.shading.ground_truth.shading_integral`, ``method="pixels"``, ~1e-9) and
 :math:`\hat I_r` with an estimator of :mod:`envfit.shading.importance` on the rest map (its
-own :class:`~envfit.shading.importance.MapSampler`). Nothing is approximated: the estimate
+own :class:`~envfit.shading.map_sampler.MapSampler`). Nothing is approximated: the estimate
 is unbiased whenever the rest estimator is, and its error is the rest estimator's error
 only — the variance of the source is gone.
 
