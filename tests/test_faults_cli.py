@@ -182,9 +182,6 @@ def test_check_writable_dir_reports_a_refusing_folder(tmp_path, monkeypatch):
 
 
 def test_unwritable_cache_is_a_note_not_an_error_cli(tmp_path, afile, monkeypatch, capsys):
-    import envfit.advisor.cache as ac
-    if not hasattr(ac, "cache_write_problem"):
-        pytest.skip("envfit.advisor.cache.cache_write_problem not there yet")
     monkeypatch.setenv("ENVFIT_CACHE_DIR", str(afile / "cache"))
     rc = cli.main(["advise", *TINY, "--target-rmse", "0.03", "--fit-n", "100", "--pointsets",
                    "sf", "--weights", "equal", "--bases", "none", "--nmax", "256"])
@@ -196,9 +193,6 @@ def test_unwritable_cache_is_a_note_not_an_error_cli(tmp_path, afile, monkeypatc
 
 
 def test_unwritable_cache_is_a_note_not_an_error(tmp_path, afile, capsys):
-    import envfit.advisor.cache as ac
-    if not hasattr(ac, "cache_write_problem"):
-        pytest.skip("envfit.advisor.cache.cache_write_problem not there yet")
     args = argparse.Namespace(command="advise", out=None, json=None, cache_dir=afile / "c",
                               no_cache=False)
     common.preflight_outputs(args)                         # no exception: not an error
