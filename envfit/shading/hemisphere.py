@@ -37,6 +37,7 @@ from envfit.base.resources import check_memory
 from envfit.maps.envmap import EnvMap
 from envfit.maps.latlong import local_to_world
 from envfit.shading.patches import (axes_to_local, bilinear_in_patch, gauss_legendre_order,
+                                    horizon_breaks,
                                     local_angles, patch_rows)
 
 __all__ = ["hemisphere_integrals", "BLOCK_ELEMENTS"]
@@ -65,7 +66,6 @@ class _Grid(NamedTuple):
 def _node_grid(envmap: EnvMap, q: int) -> _Grid:
     """The q×q rule on every patch, with f evaluated through the estimators' own lookup."""
     h, w, c = envmap.data.shape
-    hh = np.pi / h
     dphi = 2.0 * np.pi / w
     x, wq = gauss_legendre_01(q)
     lo, hi = patch_rows(h)
@@ -134,18 +134,7 @@ def _horizon_pieces(s, j, sa, ca, pa, lo, hi, w):
     """
     dphi = 2.0 * np.pi / w
     p0 = 2.0 * np.pi * (j + 0.5) / w
-    cand = []
-    for te in (lo[s], hi[s]):
-        st, ct = np.sin(te), np.cos(te)
-        den = sa * st
-        with np.errstate(divide="ignore", invalid="ignore"):
-            kap = -ca * ct / den
-        ok = (den > 1e-300) & (np.abs(kap) <= 1.0)
-        psi = np.arccos(np.clip(np.where(ok, kap, 0.0), -1.0, 1.0))
-        for sg in (1.0, -1.0):
-            rel = np.mod(pa + sg * psi - p0, 2.0 * np.pi)
-            cand.append(np.where(ok & (rel > 0.0) & (rel < dphi), rel, dphi))
-    pts = np.sort(np.stack([np.zeros_like(p0)] + cand + [np.full_like(p0, dphi)], axis=1), axis=1)
+    pts = horizon_breaks(lo[s], hi[s], p0, dphi, sa, ca, pa)
     plo = p0[:, None] + pts[:, :-1]
     phi_ = p0[:, None] + pts[:, 1:]
     mid = 0.5 * (plo + phi_)

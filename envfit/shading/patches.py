@@ -115,3 +115,24 @@ def bilinear_in_patch(data, s, j, theta, phi):
     top = T0[:, None, :] + b * (T1 - T0)[:, None, :]
     bot = B0[:, None, :] + b * (B1 - B0)[:, None, :]
     return top + t * (bot - top)                                           # (P, n, C)
+
+
+def horizon_breaks(theta_lo, theta_hi, p0, dphi, sa, ca, pa) -> np.ndarray:
+    r"""φ offsets (P, 6) in [0, dφ], sorted, that split cells [θ_lo, θ_hi] × [p0, p0 + dφ]
+    where the horizon of axes (sin θ_a, cos θ_a, φ_a) = (sa, ca, pa) crosses the cell's two
+    rings: the roots of :math:`\sin\theta_a\sin\theta\cos(\varphi-\varphi_a) +
+    \cos\theta_a\cos\theta = 0` at θ = θ_lo, θ_hi (absent roots give dφ), plus 0 and dφ.
+    Between consecutive offsets the horizon's θ*(φ) stays inside the cell's θ-range or outside.
+    """
+    cand = []
+    for te in (theta_lo, theta_hi):
+        den = sa * np.sin(te)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            kap = -ca * np.cos(te) / den
+        ok = (den > 1e-300) & (np.abs(kap) <= 1.0)
+        psi = np.arccos(np.clip(np.where(ok, kap, 0.0), -1.0, 1.0))
+        for sg in (1.0, -1.0):
+            rel = np.mod(pa + sg * psi - p0, 2.0 * np.pi)
+            cand.append(np.where(ok & (rel > 0.0) & (rel < dphi), rel, dphi))
+    zero = np.zeros(np.shape(p0))
+    return np.sort(np.stack([zero] + cand + [np.full(np.shape(p0), dphi)], axis=1), axis=1)

@@ -57,7 +57,8 @@ from envfit.base.resources import check_memory
 from envfit.maps.envmap import EnvMap
 from envfit.maps.latlong import local_to_world
 from envfit.shading.ground_truth import polynomial_degree, weight_function
-from envfit.shading.patches import (axes_to_local, gauss_legendre_order, local_angles,
+from envfit.shading.patches import (axes_to_local, gauss_legendre_order, horizon_breaks,
+                                    local_angles,
                                     patch_corner_values)
 
 __all__ = ["sphere_integrals", "PAIR_BLOCK"]
@@ -158,20 +159,10 @@ def _clipped_nodes(r, k, dth, sa, ca, pa, x, wq):
     each φ node the θ-range is clipped at the root of :math:`\sin\theta_a\cos(\varphi-\varphi_a)
     \sin\theta + \cos\theta_a\cos\theta = 0`; every piece is then smooth.
     """
-    P, q = r.size, x.size
+    P = r.size
     t0, t1 = r * dth, (r + 1) * dth
     p0 = k * dth
-    cand = []
-    for te in (t0, t1):
-        den = sa * np.sin(te)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            kap = -ca * np.cos(te) / den
-        ok = (den > 1e-300) & (np.abs(kap) <= 1.0)
-        psi = np.arccos(np.clip(np.where(ok, kap, 0.0), -1.0, 1.0))
-        for sg in (1.0, -1.0):
-            rel = np.mod(pa + sg * psi - p0, 2.0 * np.pi)
-            cand.append(np.where(ok & (rel > 0.0) & (rel < dth), rel, dth))
-    pts = np.sort(np.stack([np.zeros(P)] + cand + [np.full(P, dth)], axis=1), axis=1)
+    pts = horizon_breaks(t0, t1, p0, dth, sa, ca, pa)
     lo, hi = p0[:, None] + pts[:, :-1], p0[:, None] + pts[:, 1:]             # (P, 5)
     phn = lo[:, :, None] + (hi - lo)[:, :, None] * x                          # (P, 5, q)
     wph = (hi - lo)[:, :, None] * wq
