@@ -1,0 +1,540 @@
+r"""The exact error of a Cranley–Patterson-shifted estimator from the spectrum of its *warped
+integrand*: the prediction of envfit for every renderer estimator (map importance sampling,
+BRDF sampling, MIS) driven by *any* point set, random or quasi-random.
+
+Every estimator of :mod:`envfit.shading.importance` is a mean over square points,
+:math:`F = \sum_i \frac{1}{n_i}\sum_{j} h_i(u_{ij} + \Delta)`, where technique i (one for map
+or BRDF sampling, two for multi-sample MIS) has its *warped integrand*
+:math:`h_i(u) = w_i(\omega)\,f(\omega)\rho_a(\omega)/p_i(\omega)` at :math:`\omega = T_i(u)`
+(its sampler :math:`T_i`, pdf :math:`p_i`, MIS weight :math:`w_i`; 1 without MIS) and Δ the
+shift, uniform on the torus, shared by all points of an axis (:mod:`envfit.shading.importance`,
+``shift=True``). With :math:`h_i(u) = \sum_k \hat h_i(k)e^{2\pi i k\cdot u}` and the point set's
+exponential sums :math:`S_i(k) = \frac1{n_i}\sum_j e^{2\pi i k\cdot u_{ij}}`,
+
+.. math::  F - I = \sum_{k\ne0} e^{2\pi i k\cdot\Delta}\sum_i \hat h_i(k) S_i(k), \qquad
+           \mathbb E_\Delta (F-I)^2 = \sum_{k\ne 0}\Big|\sum_i \hat h_i(k)S_i(k)\Big|^2
+
+(Parseval on the torus; Cranley & Patterson 1976; for a lattice this is the classical variance
+of a randomly shifted lattice rule, Sloan & Joe 1994, Lemma 2.3 — :math:`|S|^2` is 1 on the dual
+lattice and 0 elsewhere). The twist α of the BRDF frame about the axis (uniform, as the
+estimators draw it) shifts the lobe technique's :math:`u_1` by α/2π, so the cross terms of two
+techniques survive only on the column :math:`k_1 = 0`. For i.i.d. uniform points
+:math:`\mathbb E|S_i(k)|^2 = 1/n_i` and the formula is the Monte Carlo variance
+:math:`\sum_i V_i/n_i`, :math:`V_i = \mathrm{Var}\,h_i` — the exact variance of
+:mod:`envfit.shading.is_variance`, which this module reproduces by a second algorithm.
+
+Computation (:func:`warped_spectrum`, once per map, lobe and technique; :func:`shifted_rmse`
+then costs one non-uniform FFT per point set):
+
+* :math:`\hat h_i(k)` on the box :math:`|k_0|, |k_1| \le B = G/4` from :math:`h_i` at the
+  midpoints of a G×G grid of the square (a real FFT; the grid is 4× the box, so aliasing comes
+  only from frequencies above 3B);
+* :math:`V_i = \int h_i^2 - (\int h_i)^2` by *pixel quadrature in direction space* (each pixel's
+  cell integral of the bilinear interpolant's square, exactly :math:`v^\top(M\otimes M)v` over
+  its 3×3 neighbourhood, times its solid angle, lobe and pdf at its centre) — exact at a sun a
+  few pixels wide, which a grid in the square would sample with a handful of points;
+* the frequencies above the box get their share of the variance,
+  :math:`V_i - \sum_{box}|\hat h_i|^2`, at the Monte Carlo weight :math:`1/n_i` (the mean of
+  :math:`|S_i|^2` over high frequencies for every set): so the prediction is exact for random
+  points and for QMC sets up to :math:`N \approx (B/2)^2`, and beyond it tends to the Monte
+  Carlo rate (conservative);
+* the mean over axes (uniform on the sphere) by importance: ``axes`` axes drawn systematically
+  from 2048 spherical Fibonacci axes with probability ⅓ uniform + ⅓ ∝ a proxy of BRDF
+  sampling's and ⅓ of map sampling's second moment (an 8×8-pixel-block quadrature of the
+  luminance), each weighted by :math:`1/(2048\,\pi_a)` — so the few axes whose lobe holds a sun
+  are not missed.
+
+References: R. Cranley, T. N. L. Patterson, "Randomization of number theoretic methods for
+multiple integration", SIAM J. Numer. Anal. 13 (1976); I. H. Sloan, S. Joe, *Lattice Methods
+for Multiple Integration* (1994); E. Veach, PhD thesis (1997), ch. 9 (MIS).
+
+Example
+-------
+>>> import numpy as np
+>>> from envfit.maps.envmap import EnvMap
+>>> from envfit.theory.pointsets import square_points
+>>> m = EnvMap(np.full((8, 16, 3), 0.5))
+>>> spec = warped_spectrum(m, "brdf", grid=32, axes=8)       # the lobe sampled exactly
+>>> round(shifted_rmse(spec, square_points("sobol", 16)), 6)    # on a constant map: no error
+0.0
+>>> spec = warped_spectrum(m, "map", grid=32, axes=8)        # uniform directions, cosine lobe
+>>> t = shifted_mse_terms(spec, square_points("sobol", 16))
+>>> bool(t["box"] + t["tail"] < t["random"])                 # Sobol beats random points
+True
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from envfit.base.checks import check_int
+from envfit.base.errors import ParameterError
+from envfit.maps import latlong
+from envfit.maps.envmap import EnvMap
+from envfit.shading.estimators import twisted_frames
+from envfit.shading.ground_truth import weight_function
+from envfit.shading.importance import HEURISTICS, brdf_pdf
+from envfit.shading.map_sampler import MapSampler, _square
+from envfit.theory.pointsets import lambert_to_hemisphere
+
+__all__ = [
+    "TECHNIQUES",
+    "WarpedSpectrum",
+    "cell_square_average",
+    "proposal_axes",
+    "shifted_mse_per_axis",
+    "shifted_mse_terms",
+    "shifted_rmse",
+    "warped_spectrum",
+]
+
+#: the techniques and their number of parts (sample streams)
+TECHNIQUES = {"brdf": 1, "map": 1, "mis": 2}
+#: spherical Fibonacci axes the importance sample of axes is drawn from
+AXIS_POOL = 2048
+#: pixel block of the axis proposal's proxy quadrature
+PROXY_BLOCK = 8
+
+# the 1-D mass matrix of a cell [-1/2, 1/2] of a piecewise-linear interpolant of (a, b, c)
+# at (-1, 0, 1): ∫ L² = 1/24 a² + 7/12 b² + 1/24 c² + 1/6 (ab + bc)
+_MASS = np.array([[1 / 24, 1 / 12, 0.0], [1 / 12, 7 / 12, 1 / 12], [0.0, 1 / 12, 1 / 24]])
+
+
+# ----------------------------------------------------------------------------- results
+
+@dataclass(frozen=True)
+class WarpedSpectrum:
+    r"""What :func:`shifted_rmse` needs of a map, lobe and technique (axis- and channel-means).
+
+    Attributes
+    ----------
+    technique, brdf, shininess, heuristic, fraction : the estimator (``fraction`` = share
+        :math:`\nu_1` of the samples given to the map in MIS).
+    band : B, the box :math:`|k_0|, |k_1| \le B`; ``grid`` = G = 4B.
+    variance : (parts,) :math:`\overline{V_i}`, the mean over axes and channels of
+        :math:`\mathrm{Var}\,h_i` (one sample of part i).
+    power : (parts, 2B+1, B+1) the mean of :math:`|\hat h_i(k)|^2` on the half box
+        :math:`k_1 \ge 0` (row :math:`k_0 + B`), 0 at k = 0.
+    cross : (2B+1,) complex, the mean of :math:`\hat h_1(k_0,0)\overline{\hat h_2(k_0,0)}`
+        (MIS; zeros otherwise), 0 at :math:`k_0 = 0`.
+    mean : the mean over axes and channels of the shading integral I.
+    axes : the number of axes sampled.
+    """
+
+    technique: str
+    brdf: str
+    shininess: float | None
+    heuristic: str
+    fraction: float
+    band: int
+    grid: int
+    variance: np.ndarray
+    power: np.ndarray
+    cross: np.ndarray
+    mean: float
+    axes: int
+
+    def to_dict(self) -> dict:
+        """The scalars (not the spectra), for JSON."""
+        return {"technique": self.technique, "brdf": self.brdf, "shininess": self.shininess,
+                "heuristic": self.heuristic, "fraction": self.fraction, "band": self.band,
+                "grid": self.grid, "variance": [float(v) for v in self.variance],
+                "box_share": [float(_box_sum(p) / v) if v > 0 else 0.0
+                              for p, v in zip(self.power, self.variance)],
+                "mean": self.mean, "axes": self.axes}
+
+
+# ----------------------------------------------------------------------------- pixels
+
+def _neighbours(y: np.ndarray) -> list[list[np.ndarray]]:
+    """The 3×3 neighbourhood of every pixel (H, W, …), rows across the poles at φ + π."""
+    w = y.shape[1]
+    up = np.concatenate([np.roll(y[:1], w // 2, axis=1), y[:-1]], axis=0)
+    down = np.concatenate([y[1:], np.roll(y[-1:], w // 2, axis=1)], axis=0)
+    return [[np.roll(r, 1, axis=1), r, np.roll(r, -1, axis=1)] for r in (up, y, down)]
+
+
+def cell_square_average(data: np.ndarray) -> np.ndarray:
+    r"""Mean of the *square* of the bilinear interpolant over each pixel cell, (H, W, …).
+
+    In pixel coordinates the interpolant is :math:`\sum v_{kl}\phi_k(x)\phi_l(y)` with hat
+    functions, so over the cell :math:`[-\frac12,\frac12]^2` of a pixel
+    :math:`\int L^2 = \sum_{ijkl} v_{ij}v_{kl}M_{ik}M_{jl}` over its 3×3 neighbourhood, M the
+    1-D mass matrix (1/24, 7/12, 1/24 on the diagonal, 1/12 beside it); columns wrap and the
+    rows beyond the poles are the edge rows at φ + π (as the lookup).
+
+    >>> a = np.zeros((4, 8)); a[1, 2] = 1.0
+    >>> round(float(cell_square_average(a).sum()), 12)            # ∫ hat² = (2/3)²
+    0.444444444444
+    """
+    v = _neighbours(np.asarray(data, dtype=np.float64))
+    out = np.zeros_like(v[1][1])
+    for i in range(3):
+        for k in range(3):
+            if _MASS[i, k] == 0.0:
+                continue
+            for j in range(3):
+                for m in range(3):
+                    if _MASS[j, m] != 0.0:
+                        out += _MASS[i, k] * _MASS[j, m] * v[i][j] * v[k][m]
+    return out
+
+
+def _cell_average(data: np.ndarray) -> np.ndarray:
+    """Mean of the bilinear interpolant over each pixel cell ((1/8, 3/4, 1/8)⊗2), (H, W, …)."""
+    v = _neighbours(np.asarray(data, dtype=np.float64))
+    c = (0.125, 0.75, 0.125)
+    return sum(c[i] * c[j] * v[i][j] for i in range(3) for j in range(3))
+
+
+def _subdivision(envmap: EnvMap, weight) -> int:
+    r"""Sub-nodes per pixel side so that a pixel is at most 1/8 of the lobe's angular width
+    (glossy :math:`\sqrt{2/n}`, diffuse 1 rad), at most 16 and ~4M nodes."""
+    width = min(1.0, math.sqrt(2.0 / weight.shininess)) if getattr(weight, "shininess", None) \
+        else 1.0
+    sub = math.ceil(8.0 * (math.pi / envmap.height) / width)
+    cap = max(1, int(math.sqrt(4e6 / (envmap.height * envmap.width))))
+    return int(max(1, min(sub, 16, cap)))
+
+
+class _Pixels:
+    """Direction-space quadrature nodes: directions (P, 3), ∫L and ∫L² per node cell (P, C),
+    the map pdf (P,). One node per pixel with the cell-exact moments of the bilinear
+    interpolant, or ``sub``² nodes per pixel (L looked up) where the lobe is narrow."""
+
+    def __init__(self, envmap: EnvMap, sampler: MapSampler, sub: int = 1):
+        h, w, c = envmap.data.shape
+        if sub == 1:
+            om = latlong.pixel_solid_angles(h, w).reshape(-1, 1)
+            self.dirs = latlong.pixel_directions(h, w, up=envmap.up).reshape(-1, 3)
+            self.first = _cell_average(envmap.data).reshape(-1, c) * om
+            self.second = cell_square_average(envmap.data).reshape(-1, c) * om
+            self.pdf = sampler.pixel_pdf.reshape(-1)
+            self.area = om[:, 0]
+            return
+        hs, ws = h * sub, w * sub
+        om = latlong.pixel_solid_angles(hs, ws).reshape(-1, 1)
+        self.dirs = latlong.pixel_directions(hs, ws, up=envmap.up).reshape(-1, 3)
+        L = envmap.lookup(self.dirs)
+        self.first, self.second, self.area = L * om, L * L * om, om[:, 0]
+        self.pdf = np.repeat(np.repeat(sampler.pixel_pdf, sub, axis=0), sub, axis=1).reshape(-1)
+
+
+# ----------------------------------------------------------------------------- techniques
+
+def _over(heur, q, i):
+    return heur.over_q(q, i)
+
+
+def _part_terms(technique: str, weight, nu, heur, rho, pm):
+    r"""Per part i: (factor, pdf) with :math:`h_i = f\cdot` factor and :math:`p_i` = pdf.
+
+    ``rho`` = :math:`\rho_a` and ``pm`` = map pdf at the same directions; for the map part
+    its pdf is ``pm``, for the lobe part ρ (the lobe is sampled exactly).
+    """
+    if technique == "map":
+        return [(np.divide(rho, pm, out=np.zeros_like(rho), where=pm > 0), pm)]
+    if technique == "brdf":
+        return [(np.where(rho > 0, 1.0, 0.0), rho)]
+    q = np.stack([nu[0] * pm, nu[1] * rho])
+    return [(nu[0] * rho * _over(heur, q, 0), pm), (nu[1] * rho * _over(heur, q, 1), rho)]
+
+
+def _pixel_moments(px: _Pixels, technique, weight, nu, heur, a) -> tuple[np.ndarray, np.ndarray]:
+    r"""(V (parts, C), I (C,)) for axis a by direction-space quadrature Q: with
+    :math:`h_i = f\,\mathrm{factor}_i` sampled with density :math:`p_i`,
+    :math:`V_i = Q[h_i^2p_i]/Q[p_i] - (Q[h_ip_i]/Q[p_i])^2` — the variance under the
+    normalised discrete measure (never negative), free of the error
+    :math:`\int h^2 - (\int h)^2` would take from a quadrature of :math:`\int p_i` off 1
+    (a narrow lobe on a coarse map)."""
+    rho = brdf_pdf(weight, px.dirs @ a)
+    on = rho > 0
+    r, pm = rho[on], px.pdf[on]
+    first, second, area = px.first[on], px.second[on], px.area[on]
+    V, total = [], 0.0
+    for i, (factor, p) in enumerate(_part_terms(technique, weight, nu, heur, r, pm)):
+        lobe_part = technique == "brdf" or (technique == "mis" and i == 1)
+        q = float(p @ area) if lobe_part else float(px.pdf @ px.area)
+        m1 = (factor * p) @ first / q
+        m2 = (factor * factor * p) @ second / q
+        V.append(m2 - m1 * m1)
+        total = total + m1
+    return np.maximum(np.array(V), 0.0), total
+
+
+class _Grid:
+    """The G×G midpoint grid of the square and what the techniques see on it."""
+
+    def __init__(self, envmap: EnvMap, sampler: MapSampler, weight, g: int):
+        t = (np.arange(g) + 0.5) / g
+        U = np.column_stack([np.repeat(t, g), np.tile(t, g)])    # u0 slow (rows), u1 fast
+        self.g = g
+        self.map_dirs, self.map_pdf = sampler.sample(U)
+        self.map_f = envmap.lookup(self.map_dirs)
+        self.local = lambert_to_hemisphere(U, morph=weight.morph)
+        self.lobe = brdf_pdf(weight, self.local[:, 2])
+
+
+def _box(h: np.ndarray, g: int, band: int) -> np.ndarray:
+    r""":math:`\hat h(k)` on the half box, (C, 2B+1, B+1), of h (G², C) at the grid midpoints
+    (the midpoint phase :math:`e^{-\pi i(k_0+k_1)/G}` is common to all parts and dropped)."""
+    c = h.shape[1]
+    F = np.fft.rfft2(h.T.reshape(c, g, g), axes=(1, 2)) / (g * g)
+    rows = np.r_[g - band:g, 0:band + 1]
+    return F[:, rows, :band + 1]
+
+
+def _axis_spectra(grid: _Grid, envmap, sampler, technique, weight, nu, heur, R, band):
+    """:math:`\\hat h_i` on the half box for one axis (frame R, third column the axis): a
+    list over parts of (C, 2B+1, B+1)."""
+    a = R[:, 2]
+    out = []
+    if technique in ("map", "mis"):
+        rho = brdf_pdf(weight, grid.map_dirs @ a)
+        factor, _ = _part_terms(technique, weight, nu, heur, rho, grid.map_pdf)[0]
+        out.append(_box(grid.map_f * factor[:, None], grid.g, band))
+    if technique in ("brdf", "mis"):
+        d = grid.local @ R.T
+        f = envmap.lookup(d)
+        pm = sampler.pdf(d) if technique == "mis" else np.ones_like(grid.lobe)
+        factor, _ = _part_terms(technique, weight, nu, heur, grid.lobe, pm)[-1]
+        out.append(_box(f * factor[:, None], grid.g, band))
+    return out
+
+
+# ----------------------------------------------------------------------------- axes
+
+def _fibonacci_axes(m: int) -> np.ndarray:
+    j = np.arange(m) + 0.5
+    z = 1.0 - 2.0 * j / m
+    phi = 2.0 * np.pi * j / ((1.0 + math.sqrt(5.0)) / 2.0)
+    r = np.sqrt(np.maximum(0.0, 1.0 - z * z))
+    return np.column_stack([r * np.cos(phi), r * np.sin(phi), z])
+
+
+def _proxy_moments(envmap: EnvMap, sampler: MapSampler, weight, pool: np.ndarray):
+    """BRDF and map sampling second moments of the luminance per pool axis (block quadrature)."""
+    h, w = envmap.height, envmap.width
+    b = max(1, min(PROXY_BLOCK, h // 4))
+    hb, wb = h // b, w // b
+    y = np.abs(envmap.luminance())[:hb * b, :wb * b]
+    om = latlong.pixel_solid_angles(h, w)[:hb * b, :wb * b]
+    pdf = sampler.pixel_pdf[:hb * b, :wb * b]
+    y2o = (y * y * om).reshape(hb, b, wb, b).sum(axis=(1, 3)).ravel()
+    y2op = (y * y * om / np.maximum(pdf, 1e-300)).reshape(hb, b, wb, b).sum(axis=(1, 3)).ravel()
+    dirs = latlong.pixel_directions(h, w, up=envmap.up)[:hb * b, :wb * b]
+    centres = dirs.reshape(hb, b, wb, b, 3).mean(axis=(1, 3)).reshape(-1, 3)
+    centres /= np.linalg.norm(centres, axis=1, keepdims=True)
+    rho = brdf_pdf(weight, pool @ centres.T)                       # (pool, blocks)
+    return rho @ y2o, (rho * rho) @ y2op
+
+
+def proposal_axes(envmap: EnvMap, sampler: MapSampler, weight, count: int):
+    r"""``count`` axes and their weights for the mean over uniform axes (weights sum to 1).
+
+    Systematic sampling of the :data:`AXIS_POOL` spherical Fibonacci axes with probability
+    :math:`\pi_a = \frac13\frac1P + \frac13\frac{m_a}{\sum m} + \frac13\frac{m'_a}{\sum m'}`
+    (m, m′ the BRDF- and map-sampling second moments of the luminance, block quadrature);
+    weight :math:`1/(P\pi_a\,\mathrm{count})`. Unbiased for the pool mean; the weights are at
+    most 3/count.
+
+    >>> from envfit.maps.envmap import EnvMap
+    >>> m = EnvMap(np.ones((8, 16, 1)))
+    >>> from envfit.shading.ground_truth import weight_function
+    >>> A, wts = proposal_axes(m, MapSampler(m), weight_function("diffuse", 30.0), 16)
+    >>> A.shape, round(float(wts.sum()), 9)
+    ((16, 3), 1.0)
+    """
+    pool = _fibonacci_axes(AXIS_POOL)
+    parts = [np.full(AXIS_POOL, 1.0 / AXIS_POOL)]
+    for m in _proxy_moments(envmap, sampler, weight, pool):
+        tot = float(m.sum())
+        parts.append(m / tot if tot > 0 else parts[0])
+    pi = sum(parts) / 3.0
+    cdf = np.cumsum(pi)
+    cdf /= cdf[-1]
+    idx = np.minimum(np.searchsorted(cdf, (np.arange(count) + 0.5) / count), AXIS_POOL - 1)
+    wts = 1.0 / (AXIS_POOL * pi[idx] * count)
+    return pool[idx], wts / wts.sum()
+
+
+# ----------------------------------------------------------------------------- the spectrum
+
+def _check(envmap, technique, grid, heuristic, fraction):
+    if not isinstance(envmap, EnvMap):
+        raise ParameterError(f"envmap must be an EnvMap, got {type(envmap).__name__}")
+    if technique not in TECHNIQUES:
+        raise ParameterError(f"technique must be one of {', '.join(TECHNIQUES)}; "
+                             f"got {technique!r}")
+    g = check_int(grid, "grid", 8)
+    if g % 4:
+        raise ParameterError(f"grid must be a multiple of 4, got {grid}")
+    if heuristic not in HEURISTICS:
+        raise ParameterError(f"heuristic must be one of {', '.join(HEURISTICS)}; "
+                             f"got {heuristic!r}")
+    nu1 = float(fraction)
+    if not 0.0 < nu1 < 1.0:
+        raise ParameterError(f"fraction must be in (0, 1), got {fraction!r}")
+    return g, np.array([nu1, 1.0 - nu1]), HEURISTICS[heuristic]
+
+
+def _accumulate(envmap, sampler, technique, weight, nu, heur, g, A, wts):
+    """Weighted sums over axes of V, |ĥ|², the k₁ = 0 cross term and I."""
+    band = g // 4
+    grid = _Grid(envmap, sampler, weight, g)
+    px = _Pixels(envmap, sampler, _subdivision(envmap, weight))
+    R = twisted_frames(A, None)
+    parts = TECHNIQUES[technique]
+    V = np.zeros(parts)
+    P = np.zeros((parts, 2 * band + 1, band + 1))
+    X = np.zeros(2 * band + 1, dtype=complex)
+    mean = 0.0
+    for m in range(A.shape[0]):
+        v, tot = _pixel_moments(px, technique, weight, nu, heur, A[m])
+        V += wts[m] * v.mean(axis=1)
+        mean += wts[m] * float(tot.mean())
+        H = _axis_spectra(grid, envmap, sampler, technique, weight, nu, heur, R[m], band)
+        for i, h in enumerate(H):
+            P[i] += wts[m] * (np.abs(h) ** 2).mean(axis=0)
+        if parts == 2:
+            X += wts[m] * (H[0][:, :, 0] * np.conj(H[1][:, :, 0])).mean(axis=0)
+    P[:, band, 0] = 0.0
+    X[band] = 0.0
+    return band, V, P, X, mean
+
+
+def warped_spectrum(envmap: EnvMap, technique: str = "mis", brdf="diffuse",
+                    shininess: float = 30.0, *, sampler: MapSampler | None = None,
+                    grid: int = 512, axes: int = 64, heuristic: str = "balance",
+                    fraction: float = 0.5) -> WarpedSpectrum:
+    r"""The warped integrand's spectrum and variance of ``technique`` on ``envmap``, mean
+    over uniform axes (module docstring), for :func:`shifted_rmse`.
+
+    Parameters
+    ----------
+    envmap : the map (its bilinear interpolant is integrated).
+    technique : "brdf", "map" or "mis" (:data:`TECHNIQUES`; multi-sample MIS).
+    brdf, shininess : the lobe (:func:`envfit.shading.ground_truth.weight_function`).
+    sampler : the map's :class:`MapSampler` (its defaults when None) — the same one the
+        estimator uses.
+    grid : G, a multiple of 4; the box is B = G/4 (QMC predictions exact to N ≈ (B/2)²).
+    axes : axes of the importance sample over the sphere (:func:`proposal_axes`).
+    heuristic, fraction : MIS heuristic (:data:`envfit.shading.importance.HEURISTICS`) and
+        the map's share ν₁ of the samples.
+
+    Work: per axis G² lookups (BRDF, MIS) and one real FFT of G² per part and channel, plus
+    a pass over the pixels; the map technique's G² samples once.
+
+    >>> m = EnvMap(np.full((8, 16, 1), 2.0))
+    >>> s = warped_spectrum(m, "brdf", grid=16, axes=4)
+    >>> s.power.shape, float(s.variance[0]) < 1e-20, round(s.mean, 12)
+    ((1, 9, 5), True, 2.0)
+    """
+    g, nu, heur = _check(envmap, technique, grid, heuristic, fraction)
+    weight = weight_function(brdf, shininess)
+    sampler = MapSampler(envmap) if sampler is None else sampler
+    A, wts = proposal_axes(envmap, sampler, weight, check_int(axes, "axes", 1))
+    band, V, P, X, mean = _accumulate(envmap, sampler, technique, weight, nu, heur, g, A, wts)
+    return WarpedSpectrum(technique=technique, brdf=str(brdf),
+                          shininess=None if str(brdf) == "diffuse" else float(shininess),
+                          heuristic=heuristic, fraction=float(nu[0]), band=band, grid=g,
+                          variance=V, power=P, cross=X, mean=float(mean),
+                          axes=int(A.shape[0]))
+
+
+# ----------------------------------------------------------------------------- prediction
+
+def _box_sum(half: np.ndarray) -> float:
+    """Sum over the full box of a symmetric quantity given on its half k₁ ≥ 0."""
+    return float(half[:, 0].sum() + 2.0 * half[:, 1:].sum())
+
+
+def _exp_sums(u: np.ndarray, band: int) -> np.ndarray:
+    r""":math:`S(k) = \frac1n\sum_j e^{2\pi i k\cdot u_j}` on the half box (2B+1, B+1)."""
+    import ducc0
+
+    n = u.shape[0]
+    size = 2 * band + 2                                    # modes −B−1 … B
+    out = np.zeros((size, size), dtype=np.complex128)
+    ducc0.nufft.nu2u(points=np.ones(n, dtype=np.complex128), coord=2.0 * np.pi * u,
+                     forward=False, epsilon=1e-10, out=out, nthreads=1)
+    return out[1:, band + 1:] / n
+
+
+def _split_points(spec: WarpedSpectrum, u) -> list[np.ndarray]:
+    """The point sets of the parts: one set; for MIS the first round(ν₁N) points and the rest,
+    or a given pair (u_map, u_brdf) (as :func:`envfit.shading.importance.mis_estimates`)."""
+    if TECHNIQUES[spec.technique] == 1:
+        return [_square(u)]
+    if isinstance(u, (tuple, list)) and len(u) == 2 and np.ndim(u[0]) == 2:
+        parts = [_square(u[0], "u_map"), _square(u[1], "u_brdf")]
+    else:
+        U = _square(u)
+        n1 = int(np.floor(spec.fraction * U.shape[0] + 0.5))
+        parts = [U[:n1], U[n1:]]
+    if min(p.shape[0] for p in parts) == 0:
+        raise ParameterError("MIS needs at least one point for each technique")
+    return parts
+
+
+def shifted_mse_terms(spec: WarpedSpectrum, u) -> dict:
+    r"""The terms of the predicted mean squared error of the shifted estimator with the
+    points u: ``box`` :math:`\sum_i\sum_{box}|\hat h_i|^2|S_i|^2` (+ the MIS cross term),
+    ``tail`` :math:`\sum_i \max(V_i - \sum_{box}|\hat h_i|^2, 0)/n_i`, ``random``
+    :math:`\sum_i V_i/n_i` (what i.i.d. points would give)."""
+    pts = _split_points(spec, u)
+    box = tail = rnd = 0.0
+    S = []
+    for i, p in enumerate(pts):
+        n = p.shape[0]
+        s = _exp_sums(p, spec.band)
+        S.append(s)
+        box += _box_sum(spec.power[i] * np.abs(s) ** 2)
+        tail += max(float(spec.variance[i]) - _box_sum(spec.power[i]), 0.0) / n
+        rnd += float(spec.variance[i]) / n
+    if len(S) == 2:
+        box += 2.0 * float(np.real(spec.cross * S[0][:, 0] * np.conj(S[1][:, 0])).sum())
+    return {"box": box, "tail": tail, "random": rnd}
+
+
+def shifted_rmse(spec: WarpedSpectrum, u) -> float:
+    r"""Predicted RMSE over uniform axes, channels, shifts and twists of the estimator
+    ``spec.technique`` with the square points u (any set; a pair (u_map, u_brdf) for MIS):
+    :math:`(\text{box} + \text{tail})^{1/2}` of :func:`shifted_mse_terms`.
+
+    >>> m = EnvMap(np.full((8, 16, 1), 2.0))
+    >>> shifted_rmse(warped_spectrum(m, "brdf", grid=16, axes=4), np.full((4, 2), 0.3))
+    0.0
+    """
+    t = shifted_mse_terms(spec, u)
+    return math.sqrt(max(t["box"] + t["tail"], 0.0))
+
+
+def shifted_mse_per_axis(envmap: EnvMap, axes, u, technique: str = "mis", brdf="diffuse",
+                         shininess: float = 30.0, *, sampler: MapSampler | None = None,
+                         grid: int = 512, heuristic: str = "balance",
+                         fraction: float = 0.5) -> np.ndarray:
+    """The predicted mean squared error (over shifts, twists and channels) at each given
+    axis, (M,) — the per-axis form of :func:`shifted_rmse`, for checks against brute force.
+
+    >>> m = EnvMap(np.full((8, 16, 1), 2.0))
+    >>> shifted_mse_per_axis(m, [[0, 1.0, 0]], np.full((4, 2), 0.3), "brdf", grid=16).tolist()
+    [0.0]
+    """
+    g, nu, heur = _check(envmap, technique, grid, heuristic, fraction)
+    weight = weight_function(brdf, shininess)
+    sampler = MapSampler(envmap) if sampler is None else sampler
+    from envfit.base.checks import as_unit_vectors
+
+    A = as_unit_vectors(axes, name="axes")
+    out = np.empty(A.shape[0])
+    for m in range(A.shape[0]):
+        band, V, P, X, mean = _accumulate(envmap, sampler, technique, weight, nu, heur, g,
+                                          A[m:m + 1], np.ones(1))
+        spec = WarpedSpectrum(technique, str(brdf), None, heuristic, float(nu[0]), band, g,
+                              V, P, X, mean, 1)
+        t = shifted_mse_terms(spec, u)
+        out[m] = t["box"] + t["tail"]
+    return out
