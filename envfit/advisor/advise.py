@@ -58,9 +58,36 @@ weighting its Eq. 51 terms by τ would lower E by under 1 % for L ≤ 16 on 256-
 3 % on 128-row ones (glossy n = 30, s = 1.2 and 1.5). SH and HSH truncation keep
 :math:`b_0` exactly, so there is no mean term. SH truncation at L = H − 1 keeps every degree the map holds: error 0.
 
+Prediction (c) and which prediction sizes a row (:mod:`envfit.advisor.choice`)
+-----------------------------------------------------------------------------
+Beside (b′) every quadrature and SH row carries prediction (c) of ``envfit validate``
+(:func:`envfit.predict.predict_spectral`), extended above the band limit: the map's own
+realised power per degree :math:`\hat P_{l,c}` of its bilinear interpolant
+(:func:`envfit.shading.spectra.map_degree_power`, computed once per map and cached) times the
+rule's error power,
+
+.. math:: \hat R_c^2 = \frac1C\sum_c\sum_{l=0}^{2H-1}\hat P_{l,c}\,e_l
+
+(:func:`envfit.shading.spectra.spectral_rmse`; SH truncation: :math:`e_l = b_l^2` for l > L,
+:func:`envfit.predict.spectral.spectral_truncation_curve`), exact in expectation over
+Haar-random rotations for the interpolant's content up to 2H − 1. The interpolant is not
+band-limited: on 32-row GP and sun maps the sum to H − 1 alone is 0.61–0.99 of the RMSE
+measured over 4000 axes (spherical Fibonacci with N ≥ H² / 4 the lowest), the sum to 4H − 1
+0.96–1.06. The fitted Sobolev tail :math:`\sigma'^2 a_l(s')` in place of the interpolant's
+own power above H − 1 over-predicts 1.4–2.9× for spherical Fibonacci on the same maps
+(:math:`a_l e_l \sim l^{1-2s}` with s′ ≈ 1.0–1.2: the model's tail barely converges, while
+the interpolant's power falls as about :math:`l^{-6}`), so the tail is the map's own power
+(:func:`envfit.advisor.model.spectral_lmax`: why 2H − 1). The rule's :math:`e_l` is cached to
+2H − 1 (≈ 0.09 s at N = 4096 instead of 0.025 s to H − 1); (b′) uses its first H degrees.
+With ``predictor="auto"`` (default) a row is sized by (c) on the linear scale, and on the
+others by (b′) unless (b′) and (c) differ by more than 1.25× at the chosen N/L (then by (c),
+with the line ``rule X: (b′) and (c) disagree (ratio r at N = n); using (c)`` in
+``Advice.warnings``). HSH rows are (b′) only.
+
 Search
 ------
-N: doubling from ``nmin`` until :math:`\hat R(N) \le` target, then bisection between the
+N: doubling from ``nmin`` until :math:`\hat R(N) \le` target (:math:`\hat R` the row's
+predictor), then bisection between the
 last failing and the first passing N (:func:`smallest_n`): at most ~2 log₂(N) evaluations.
 :math:`\hat R` is monotone in N for the averaged random sets only in expectation and for
 spherical Fibonacci only nearly, so the answer is a *crossing*,
@@ -82,12 +109,14 @@ JSON files, so that another target (or another run) on the same map recomputes n
 * the fit (keyed by the map's fingerprint, ``up``, scale, s/``fit_n``/seed and
   ``"kernel": "bandlimited"``, so fits of the full kernel are never reused);
 * τ (keyed by the map's fingerprint, ``up`` and scale);
+* :math:`\hat P_{l,c}`, l = 0…2H − 1 (keyed by the map's fingerprint, ``up``, scale and
+  2H − 1);
 * every evaluated point of every curve, keyed by s rounded to 1e-6 (the OSW weights' s),
-  BRDF, shininess, point set, weighting, the realisation seeds and the band limit H − 1,
-  holds *map-independent* terms: the error power :math:`e_l` (l = 0…H − 1, averaged over the
-  realisations), :math:`(\sum w-1)^2`, :math:`\sum w` and, at the chosen N, the plain
-  wce². The map's numbers — :math:`a_l(s')\tau_l`, σ', :math:`\overline{m^2}` and the
-  target — are applied afresh (:func:`degree_weights`, :func:`band_e2`), so one curve
+  BRDF, shininess, point set, weighting, the realisation seeds, the band limit H − 1 and
+  2H − 1, holds *map-independent* terms: the error power :math:`e_l` (l = 0…2H − 1, averaged
+  over the realisations), :math:`(\sum w-1)^2`, :math:`\sum w` and, at the chosen N, the
+  plain wce². The map's numbers — :math:`a_l(s')\tau_l`, σ', :math:`\overline{m^2}`,
+  :math:`\hat P_l` and the target — are applied afresh (:func:`degree_weights`, :func:`band_e2`), so one curve
   serves every map of that size fitted to the same s'. JSON round-trips floats exactly and
   E'² is the same correctly rounded sum (``math.fsum``) of the same products, so a cached
   answer is identical to a fresh one.
@@ -116,11 +145,15 @@ Example
 ...              weights=("equal",), bases=("sh",), cache_dir=tempfile.mkdtemp())
 >>> [(r.method, r.n is not None or r.L is not None) for r in adv.rows]
 [('sh', True), ('quadrature', True)]
->>> from envfit.advisor.prediction import row_prediction
+>>> from envfit.advisor.prediction import row_prediction, row_prediction_spectral
 >>> from envfit.advisor.search import smallest_n
 >>> r = next(r for r in adv.rows if r.method == "quadrature")
->>> bool(r.predicted_rmse <= 0.05), r.n == smallest_n(lambda n: row_prediction(adv, r, n), 0.05, 4, 65536)[0]
-(True, True)
+>>> r.predictor, bool(r.predicted <= 0.05)           # linear scale: sized by (c)
+('spectral', True)
+>>> r.n == smallest_n(lambda n: row_prediction_spectral(adv, r, n), 0.05, 4, 65536)[0]
+True
+>>> bool(abs(row_prediction(adv, r, r.n) / r.predicted_rmse - 1) < 1e-12)   # (b') beside it
+True
 >>> opts = AdviseOptions(brdf="diffuse", target_rmse=0.05, scale="linear", s=1.5, fit_n=200,
 ...                      pointsets=("sf",), weights=("equal",), bases=("sh",), cache=False)
 >>> [(r.label, r.n, r.L) for r in advise_with(env, opts).rows] == [(r.label, r.n, r.L) for r in adv.rows]
@@ -129,6 +162,8 @@ True
 from __future__ import annotations
 
 import time
+
+import numpy as np
 
 from envfit.advisor.cache import AdviseCache
 from envfit.advisor.check import check_rows
@@ -294,6 +329,8 @@ def _advice(envmap: EnvMap, opts: AdviseOptions, model: MapModel,
         band_lmax=model.band_lmax, mean_rms=model.mean_rms, rows=rows, recommendation="",
         settings=opts.settings(model.s_rounded),
         notes=list(envmap.notes) + list(fit.get("notes", [])),
-        lookup_transfer=[float(x) for x in model.tau])
+        lookup_transfer=[float(x) for x in model.tau], spectral_lmax=model.spectral_lmax,
+        map_power=[float(x) for x in np.mean(model.map_power, axis=0)],
+        warnings=[r.warning for r in rows if r.warning])
     adv.recommendation = recommendation_text(adv)
     return adv

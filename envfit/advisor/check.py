@@ -12,8 +12,10 @@ seed), against the ground truth :func:`envfit.shading.ground_truth.shading_integ
   downscaled to ``check_hsh_height`` rows with the first ``check_hsh_axes`` axes (the HSH
   projection is a per-axis quadrature over the hemisphere, ~1000× dearer than an SH one).
 
-Each measured row gets ``measured_rmse``, ``measured_over_predicted`` and
-``measured_over_target``; :func:`check_rows` returns the summary stored as ``Advice.check``.
+Each measured row gets ``measured_rmse``, ``measured_over_predicted`` (over the prediction of
+the row's ``predictor``, :attr:`~envfit.advisor.result.AdviceRow.predicted`) and
+``measured_over_target``; :func:`check_rows` returns the summary stored as ``Advice.check``,
+with the median of measured over each prediction, (b′) and (c), beside the one used.
 """
 from __future__ import annotations
 
@@ -86,13 +88,14 @@ class _Measure:
     def row(self, r: AdviceRow, target: float) -> None:
         """Measure ``r`` and fill its ratios to the prediction and to the target."""
         {"quadrature": self.quadrature, "sh": self.sh, "hsh": self.hsh}[r.method](r)
-        if r.predicted_rmse:
-            r.measured_over_predicted = r.measured_rmse / r.predicted_rmse
+        if r.predicted:
+            r.measured_over_predicted = r.measured_rmse / r.predicted
         r.measured_over_target = r.measured_rmse / target
 
 
 def _summary(adv: Advice, measured: list[AdviceRow], m: _Measure) -> dict:
-    """Axes, the HSH check's size, measured/predicted over the recommendable rows, and the
+    """Axes, the HSH check's size, measured/predicted (the predictor used) over the
+    recommendable rows, the median of measured over (b′) and over (c) separately, and the
     recommended row's measured RMSE."""
     ratios = [r.measured_over_predicted for r in measured
               if r.measured_over_predicted is not None and r.recommendable]
@@ -103,6 +106,11 @@ def _summary(adv: Advice, measured: list[AdviceRow], m: _Measure) -> dict:
         summary.update({"median_measured_over_predicted": float(np.median(ratios)),
                         "min_measured_over_predicted": float(np.min(ratios)),
                         "max_measured_over_predicted": float(np.max(ratios))})
+    for name, attr in (("bandlimited", "predicted_rmse"), ("spectral", "predicted_rmse_spectral")):
+        rs = [r.measured_rmse / getattr(r, attr) for r in measured
+              if r.recommendable and r.measured_rmse is not None and getattr(r, attr)]
+        if rs:
+            summary[f"median_measured_over_{name}"] = float(np.median(rs))
     best = adv.best()
     if best is not None and best.measured_rmse is not None:
         summary["recommended_measured_rmse"] = best.measured_rmse

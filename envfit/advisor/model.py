@@ -1,6 +1,17 @@
 r"""The map's side of the advisor's prediction: the map on its scale, the absolute target, the
 band-limited fit of s' and σ', the bilinear lookup's transfer τ_l and :math:`a_l(s')\tau_l`,
-with the fit and τ cached (:mod:`envfit.advisor.cache`).
+and the realised power per degree :math:`\hat P_{l,c}` of the map's bilinear interpolant to
+:math:`L_\mathrm{tail} = 2H - 1` (:func:`spectral_lmax`) for prediction (c), with the fit, τ
+and :math:`\hat P` cached (:mod:`envfit.advisor.cache`).
+
+:math:`\hat P_{l,c} = \frac{1}{2l+1}\sum_m f_{lm,c}^2`
+(:func:`envfit.shading.spectra.map_degree_power`) from the exact SH coefficients of the
+interpolant, which is *not* band-limited: above H − 1 it holds the power of the bilinear
+kernel's corners and of every sharp feature (a sun), which is what the estimators integrate.
+It is computed once per map (≈ 1.1 s on a 1024×512 map: to l = 511 and to l = 1023) and
+cached under the map's key and :math:`L_\mathrm{tail}`; τ is then :math:`\sum_c\hat
+P_{l,c}/\sum_c\hat P^{pix}_{l,c}` for l ≤ H − 1 (:func:`envfit.shading.spectra.lookup_transfer`,
+bit for bit :func:`envfit.shading.spectra.map_transfer`).
 
 The fit is the likelihood of the kernel band-limited at the map's Nyquist degree H − 1 with
 the samples at pixel centres (:func:`envfit.fit.smoothness.fit_smoothness`, ``kernel=
@@ -22,6 +33,8 @@ Example
 >>> m = map_model(env, opts, AdviseCache(tempfile.mkdtemp()))
 >>> m.band_lmax, m.s, m.fit["source"], len(m.tau), m.sigma > 0, m.target
 (15, 1.5, 'given', 16, True, 0.05)
+>>> m.spectral_lmax, m.map_power.shape
+(31, (1, 32))
 """
 from __future__ import annotations
 
@@ -38,9 +51,28 @@ from envfit.base.store import array_fingerprint
 from envfit.fit.sigma import bandlimited_profiled_sigma, combine_sigma
 from envfit.maps.envmap import EnvMap
 from envfit.maps.scales import check_not_constant, fit_scale
-from envfit.shading.spectra import degree_weights, map_transfer
+from envfit.shading.spectra import (degree_weights, lookup_transfer, map_degree_power,
+                                    pixel_degree_power)
 
-__all__ = ["MapModel", "map_model", "fit_smoothness"]
+__all__ = ["MapModel", "map_model", "fit_smoothness", "spectral_lmax", "cached_map_power"]
+
+
+def spectral_lmax(band_lmax: int) -> int:
+    r""":math:`L_\mathrm{tail} = 2H - 1 = 2(\text{band\_lmax} + 1) - 1`: the highest degree of
+    prediction (c), one octave above the map's band limit.
+
+    Why there: the bilinear interpolant's power falls fast above H − 1 (on city.exr
+    :math:`\hat P_{1023}/\hat P_{511} \approx 0.02`, about :math:`l^{-5.7}`) while a rule's
+    :math:`e_l` grows about as l, so the octave [H, 2H) holds 4–18 % of a rule's mean squared
+    error on city.exr and [2H, 4H) only 0.4–7 % (spherical Fibonacci, N = 64…16384); the
+    next octave would cost :func:`envfit.shading.spectra.rule_error_power` 0.47 s instead of
+    0.09 s at N = 4096 (and 0.025 s to H − 1) per evaluated N, and 4 s instead of 0.8 s of
+    map analysis, against the first call's 60 s budget.
+
+    >>> spectral_lmax(511)
+    1023
+    """
+    return 2 * (int(band_lmax) + 1) - 1
 
 
 def fit_smoothness(*args, **kwargs):
@@ -79,7 +111,11 @@ class MapModel:
     tau, dw : ndarray
         τ_l and :math:`a_l(s')\\tau_l`, l = 0…H − 1.
     seconds_fit, seconds_transfer : float
-        Time of the fit step (a cache hit included) and of the τ step.
+        Time of the fit step (a cache hit included) and of the τ and power step.
+    spectral_lmax : int
+        :math:`L_\\mathrm{tail} = 2H - 1`, the highest degree of prediction (c).
+    map_power : ndarray
+        (C, L_tail + 1) realised power per degree :math:`\\hat P_{l,c}` of the interpolant.
     """
 
     scaled: EnvMap
@@ -98,6 +134,8 @@ class MapModel:
     dw: np.ndarray
     seconds_fit: float
     seconds_transfer: float
+    spectral_lmax: int = 0
+    map_power: np.ndarray | None = None
 
 
 def absolute_target(opts: AdviseOptions, mean_shading: float) -> float:
@@ -146,20 +184,49 @@ def cached_fit(envmap: EnvMap, scaled: EnvMap, opts: AdviseOptions,
     return fit, False
 
 
-def cached_transfer(envmap: EnvMap, scaled: EnvMap, scale: str,
-                    store: AdviseCache) -> np.ndarray:
-    """τ_l, l = 0…H − 1, of the bilinear lookup of ``scaled``, from the cache or computed."""
+def cached_map_power(envmap: EnvMap, scaled: EnvMap, scale: str, store: AdviseCache,
+                     lmax: int) -> np.ndarray:
+    r""":math:`\hat P_{l,c}`, (C, lmax + 1), of the bilinear interpolant of ``scaled``
+    (:func:`envfit.shading.spectra.map_degree_power`), from the cache (kind ``"power"``, the
+    map's key and ``lmax``) or computed and saved.
+
+    Degrees l ≤ H − 1 come from the analysis to H − 1 — bit for bit what ``envfit validate``'s
+    :meth:`envfit.predict.PredictionContext.from_map` and
+    :func:`envfit.shading.spectra.map_transfer` use (the Gauss–Legendre order of the analysis
+    follows its lmax, so an analysis to 2H − 1 differs there by ~5e-12 relative) — and the
+    tail l = H…lmax from the analysis to ``lmax``."""
+    key = {**map_key(envmap, scale), "lmax": int(lmax)}
+    pw = store.load("power", key)
+    P = None if pw is None else np.asarray(pw.get("power", []), dtype=np.float64)
+    if P is None or P.shape != (scaled.channels, int(lmax) + 1):
+        h = scaled.height
+        P = map_degree_power(scaled, h - 1)
+        if int(lmax) >= h:
+            P = np.concatenate([P, map_degree_power(scaled, int(lmax))[:, h:]], axis=1)
+        store.save("power", key, {"power": [[float(x) for x in row] for row in P]})
+    return P
+
+
+def cached_transfer(envmap: EnvMap, scaled: EnvMap, scale: str, store: AdviseCache,
+                    map_power: np.ndarray | None = None) -> np.ndarray:
+    r"""τ_l, l = 0…H − 1, of the bilinear lookup of ``scaled``, from the cache or computed:
+    :math:`\sum_c \hat P_{l,c} / \sum_c \hat P^{pix}_{l,c}` with ``map_power`` (its first
+    H degrees; computed when None) over :func:`envfit.shading.spectra.pixel_degree_power`."""
     band_lmax = scaled.height - 1
     key = {**map_key(envmap, scale), "band_lmax": band_lmax}
     tr = store.load("transfer", key)
     if tr is None or len(tr.get("tau", [])) != band_lmax + 1:
-        tr = {"tau": [float(x) for x in map_transfer(scaled)]}
+        P = map_degree_power(scaled, band_lmax) if map_power is None else \
+            np.asarray(map_power)[:, :band_lmax + 1]
+        tr = {"tau": [float(x) for x in lookup_transfer(P, pixel_degree_power(scaled,
+                                                                              band_lmax))]}
         store.save("transfer", key, tr)
     return np.asarray(tr["tau"], dtype=np.float64)
 
 
 def map_model(envmap: EnvMap, opts: AdviseOptions, store: AdviseCache) -> MapModel:
-    """The map on its scale, the target, the fit and τ: a :class:`MapModel`.
+    """The map on its scale, the target, the fit, τ and :math:`\\hat P` to
+    :func:`spectral_lmax`: a :class:`MapModel`.
 
     Raises :class:`envfit.base.errors.ParameterError` for a map constant on the scale (in a
     channel, or σ' = 0: every rule is exact) and a relative target on a map whose mean
@@ -181,10 +248,13 @@ def map_model(envmap: EnvMap, opts: AdviseOptions, store: AdviseCache) -> MapMod
     if not sigma > 0:
         raise ParameterError("the map is constant on this scale (sigma = 0): every rule is exact")
     t0 = time.perf_counter()
-    tau = cached_transfer(envmap, scaled, opts.scale, store)
+    ltail = spectral_lmax(band_lmax)
+    P = cached_map_power(envmap, scaled, opts.scale, store, ltail)
+    tau = cached_transfer(envmap, scaled, opts.scale, store, P)
     dw = degree_weights(s_rounded, band_lmax, tau)          # a_l(s') tau_l, l = 0..H-1
     return MapModel(scaled=scaled, scale_description=sc.describe(), band_lmax=band_lmax,
                     mean_rms=mean_rms, mean_shading=mean_shading, target=target, fit=fit,
                     fit_cached=fit_cached, s=float(fit["s"]), s_rounded=s_rounded, sigma=sigma,
                     sigma_channels=sigma_ch, tau=tau, dw=dw, seconds_fit=t_fit,
-                    seconds_transfer=time.perf_counter() - t0)
+                    seconds_transfer=time.perf_counter() - t0, spectral_lmax=ltail,
+                    map_power=P)

@@ -15,6 +15,8 @@ Example
 ('glossy', 30.0, ('sf',), ('equal', 'osw'), 65536)
 >>> AdviseOptions(target_rmse=0.01).shininess is None           # diffuse: no lobe exponent
 True
+>>> o = AdviseOptions(); o.scale, o.target_relative, o.target_rmse, o.predictor   # the defaults
+('linear', 0.01, None, 'auto')
 >>> AdviseOptions(target_rmse=0.01, nmin=100, nmax=10)
 Traceback (most recent call last):
 ...
@@ -33,7 +35,8 @@ from envfit.shading.ground_truth import weight_function
 
 __all__ = ["AdviseOptions", "ALL_POINTSETS", "DEFAULT_POINTSETS", "WEIGHTINGS", "BASES", "BRDFS",
            "DEFAULT_FIT_N", "DEFAULT_NMIN", "DEFAULT_NMAX", "DEFAULT_OSW_NMAX", "DEFAULT_SEEDS",
-           "DEFAULT_AXES", "DEFAULT_SHININESS"]
+           "DEFAULT_AXES", "DEFAULT_SHININESS", "DEFAULT_SCALE", "DEFAULT_TARGET_RELATIVE",
+           "PREDICTOR_CHOICES"]
 
 #: every point set (envfit.theory.pointsets); BNOT costs ≈15 s per realisation at N = 4096
 ALL_POINTSETS = ("sf", "sobol", "lp", "bnot", "random", "jitter")
@@ -52,6 +55,13 @@ DEFAULT_OSW_NMAX = 4096
 DEFAULT_SEEDS = 4
 #: random axes of the check
 DEFAULT_AXES = 1000
+#: the value scale by default: raw radiance, what a renderer integrates
+DEFAULT_SCALE = "linear"
+#: the target when none is given: 1 % of the map's mean shading value
+DEFAULT_TARGET_RELATIVE = 0.01
+#: which prediction sizes N/L: "auto" (the choice rule of :mod:`envfit.advisor.choice`),
+#: or one of them forced: "bandlimited" (b′), "spectral" (c)
+PREDICTOR_CHOICES = ("auto", "bandlimited", "spectral")
 
 
 @dataclass(frozen=True)
@@ -65,12 +75,19 @@ class AdviseOptions:
     target_rmse : float or None
         Target: the RMS shading error, on the ``scale`` values.
     target_relative : float or None
-        Target: a fraction (0 < t < 1) of the map's mean shading value. Exactly one of
-        ``target_rmse`` and ``target_relative``.
+        Target: a fraction (0 < t < 1) of the map's mean shading value. At most one of
+        ``target_rmse`` and ``target_relative``; neither: ``target_relative`` =
+        :data:`DEFAULT_TARGET_RELATIVE` (0.01, 1 % of the mean shading value).
     shininess : float or None
         Target: the glossy lobe exponent n; stored as None for the diffuse lobe.
     scale : str
-        Target: the value scale of the integrand and the fit, "display", "linear" or "log".
+        Target: the value scale of the integrand and the fit, "linear" (default, raw
+        radiance: what a renderer integrates), "display" or "log".
+    predictor : str
+        Which prediction sizes N (and the SH degree): "auto" (default; the spectral
+        prediction (c) on the linear scale and wherever (b′) and (c) disagree by more than
+        :data:`envfit.advisor.choice.DISAGREEMENT` at the chosen N, else (b′); see
+        :mod:`envfit.advisor.choice`), "bandlimited" (always (b′)) or "spectral" (always (c)).
     pointsets, weights, bases : sequence of str
         Rules: point sets (:data:`ALL_POINTSETS`), weightings ("equal", "osw") and truncation
         bases ("sh", "hsh"; empty: none), stored as de-duplicated lower-case tuples.
@@ -111,7 +128,8 @@ class AdviseOptions:
     target_rmse: float | None = None
     target_relative: float | None = None
     shininess: float | None = DEFAULT_SHININESS
-    scale: str = "display"
+    scale: str = DEFAULT_SCALE
+    predictor: str = "auto"
     pointsets: Sequence[str] = DEFAULT_POINTSETS
     weights: Sequence[str] = WEIGHTINGS
     bases: Sequence[str] = BASES
@@ -140,15 +158,18 @@ class AdviseOptions:
             object.__setattr__(self, name, value)
 
     def _checked_target(self) -> dict:
-        """BRDF, shininess, the one target and the scale, checked."""
+        """BRDF, shininess, the one target (default: relative 0.01), the scale and the
+        predictor, checked."""
         brdf = check_names([self.brdf], BRDFS, "BRDF")[0]
         shin = check_positive(self.shininess, "shininess") if brdf == "glossy" else None
-        if (self.target_rmse is None) == (self.target_relative is None):
-            raise ParameterError("give exactly one of target_rmse (--target-rmse) and "
+        if self.target_rmse is not None and self.target_relative is not None:
+            raise ParameterError("give at most one of target_rmse (--target-rmse) and "
                                  "target_relative (--target-relative)")
         rmse, rel = None, None
-        if self.target_relative is not None:
-            rel = check_positive(self.target_relative, "the relative target (--target-relative)")
+        if self.target_rmse is None:
+            rel = check_positive(DEFAULT_TARGET_RELATIVE if self.target_relative is None
+                                 else self.target_relative,
+                                 "the relative target (--target-relative)")
             if rel >= 1.0:
                 raise ParameterError(f"the relative target (--target-relative) is a fraction of "
                                      f"the mean shading value and must be < 1, got "
@@ -157,7 +178,9 @@ class AdviseOptions:
             rmse = check_positive(self.target_rmse, "the target RMSE (--target-rmse)")
         if self.scale not in SCALES:
             raise ParameterError(f"scale must be one of {', '.join(SCALES)}, got {self.scale!r}")
-        return {"brdf": brdf, "shininess": shin, "target_rmse": rmse, "target_relative": rel}
+        predictor = check_names([self.predictor], PREDICTOR_CHOICES, "predictor")[0]
+        return {"brdf": brdf, "shininess": shin, "target_rmse": rmse, "target_relative": rel,
+                "predictor": predictor}
 
     def _checked_rules(self) -> dict:
         """Point sets, weightings and bases, checked: something to advise on."""
@@ -209,4 +232,4 @@ class AdviseOptions:
         return {"pointsets": list(self.pointsets), "weights": list(self.weights),
                 "bases": list(self.bases), "s": self.s, "fit_n": self.fit_n, "seed": self.seed,
                 "nmin": self.nmin, "nmax": self.nmax, "osw_nmax": self.osw_nmax,
-                "seeds": self.seeds, "s_rounded": s_rounded}
+                "seeds": self.seeds, "s_rounded": s_rounded, "predictor": self.predictor}

@@ -6,8 +6,21 @@ realisations of a stochastic set) and the squared deviation :math:`(\sum_j w_j -
 weights' sum (:func:`rule_terms`); the map contributes σ', :math:`a_l(s')\tau_l`
 (:func:`envfit.shading.spectra.degree_weights`) and :math:`\overline{m^2}`. The prediction (b')
 is :math:`(\sigma'^2 E'^2 + (\sum w-1)^2\overline{m^2})^{1/2}` with
-:math:`E'^2 = \sum_l a_l\tau_l e_l` (:func:`envfit.predict.bandlimited.bandlimited_rmse`,
+:math:`E'^2 = \sum_{l\le H-1} a_l\tau_l e_l` (:func:`envfit.predict.bandlimited.bandlimited_rmse`,
 :func:`envfit.shading.spectra.band_e2`); see :mod:`envfit.advisor.advise` for the model.
+
+Prediction (c) (:func:`spectral_predictions`) weights the same :math:`e_l` by the map's own
+realised power per degree :math:`\hat P_{l,c}` (of its bilinear interpolant), to
+:math:`L_\mathrm{tail} = 2H - 1` (:func:`envfit.advisor.model.spectral_lmax`):
+
+.. math:: \hat R_c^2 = \frac1C\sum_c\sum_{l=0}^{L_\mathrm{tail}} \hat P_{l,c}\,e_l
+          = \underbrace{\frac1C\sum_c\sum_{l\le H-1}\hat P_{l,c}e_l}_{\text{validate's (c)}}
+          + \underbrace{\frac1C\sum_c\sum_{l=H}^{L_\mathrm{tail}}\hat P_{l,c}e_l}_{\text{tail}},
+
+exact in expectation over Haar-random rotations for the interpolant's content up to
+:math:`L_\mathrm{tail}` (:func:`envfit.shading.spectra.spectral_rmse`; the mean term is its
+l = 0 part, :math:`\hat P_0 = 4\pi\bar m^2`). So the rule's power is computed to
+:math:`L_\mathrm{tail}` and (b′) uses its first H degrees.
 
 Example
 -------
@@ -29,13 +42,14 @@ from envfit.maps.envmap import EnvMap
 from envfit.predict.bandlimited import bandlimited_rmse
 from envfit.shading.bilinear_sh import bilinear_sh_coefficients
 from envfit.shading.ground_truth import weight_function
-from envfit.shading.spectra import band_e2, degree_weights, rule_error_power
+from envfit.shading.spectra import band_e2, degree_weights, rule_error_power, spectral_rmse
 from envfit.theory.pointsets import DETERMINISTIC_POINTSETS, generate
 from envfit.theory.quadrature import worst_case_error
 from envfit.theory.weights import equal_weights, optimal_weights
 
 __all__ = ["mean_shading_value", "s_key", "seed_list", "make_rule",
-           "rule_terms", "rule_plain_wce2", "row_prediction"]
+           "rule_terms", "rule_plain_wce2", "row_prediction", "bandlimited_prediction",
+           "spectral_predictions", "row_prediction_spectral"]
 
 
 def mean_shading_value(scaled: EnvMap) -> float:
@@ -83,9 +97,10 @@ def rule_terms(pointset: str, n: int, wf, s: float, weights: str, seeds: Sequenc
                band_lmax: int) -> dict:
     r"""The map-independent terms of a rule, averaged over the realisations ``seeds``
     ([] = the deterministic set once): ``power`` the error power :math:`e_l`, l = 0…band_lmax
-    (:func:`envfit.shading.spectra.rule_error_power`, a list), ``dev2`` :math:`(\sum w-1)^2` and
+    (:func:`envfit.shading.spectra.rule_error_power`, a list; the advisor passes
+    :math:`L_\mathrm{tail} = 2H - 1` for prediction (c)), ``dev2`` :math:`(\sum w-1)^2` and
     ``weight_sum``. ``s`` only sets the OSW weights. :math:`E'^2` is
-    ``band_e2(power, degree_weights(s', band_lmax, tau))``."""
+    ``band_e2(power[:H], degree_weights(s', H - 1, tau))``."""
     pw, dev2, ws = [], [], []
     for sd in (seeds or [None]):
         pts, w = make_rule(pointset, n, wf, s, weights, sd)
@@ -108,12 +123,52 @@ def rule_plain_wce2(pointset: str, n: int, wf, s: float, weights: str, seeds: Se
     return float(np.mean(out))
 
 
-def row_prediction(adv, row, n: int) -> float:
-    """The prediction of quadrature row ``row`` of :class:`~envfit.advisor.result.Advice`
-    ``adv`` at N, recomputed from ``adv``'s fit (no cache; for tests and examples)."""
+def bandlimited_prediction(power, dev2: float, sigma: float, dw, mean_sq: float) -> float:
+    r"""(b′) from a rule's terms: :math:`(\sigma'^2\sum_{l\le H-1} a_l\tau_l e_l +
+    (\sum w - 1)^2\overline{m^2})^{1/2}` with ``dw`` = :math:`a_l(s')\tau_l`, l = 0…H − 1
+    (``power`` may hold more degrees: the first H are used).
+
+    >>> bandlimited_prediction([1.0, 2.0, 5.0], 0.0, 2.0, np.array([0.5, 0.25]), 0.0)
+    2.0
+    """
+    p = np.asarray(power, dtype=np.float64)[:len(dw)]
+    return bandlimited_rmse(sigma, band_e2(p, dw), dev2, mean_sq)
+
+
+def spectral_predictions(power, map_power, band_lmax: int) -> tuple[float, float]:
+    r"""Prediction (c) with its tail and without: (:math:`\hat R_c` summed to the common
+    degree of ``power`` and ``map_power``, :math:`\hat R_c` summed to ``band_lmax`` = H − 1,
+    validate's (c)), both :func:`envfit.shading.spectra.spectral_rmse` (see the module
+    docstring).
+
+    >>> spectral_predictions([0.0, 2.0, 1.0], [[5.0, 0.5, 2.0]], 1)
+    (1.7320508075688772, 1.0)
+    """
+    P = np.atleast_2d(np.asarray(map_power, dtype=np.float64))
+    e = np.asarray(power, dtype=np.float64)
+    h = int(band_lmax) + 1
+    return spectral_rmse(e, P), spectral_rmse(e[:h], P[:, :h])
+
+
+def _terms_of_row(adv, row, n: int) -> tuple[dict, float]:
+    """A quadrature row's terms at N to ``adv.spectral_lmax``, recomputed (no cache), and s'."""
     wf = weight_function(adv.brdf, adv.shininess or 30.0)
     seeds = seed_list(row.pointset, adv.settings["seed"], adv.settings["seeds"])
     s = s_key(adv.s)
-    t = rule_terms(row.pointset, n, wf, s, row.weights, seeds, adv.band_lmax)
-    e2 = band_e2(t["power"], degree_weights(s, adv.band_lmax, adv.lookup_transfer))
-    return bandlimited_rmse(adv.sigma, e2, t["dev2"], adv.mean_rms ** 2)
+    lmax = max(adv.band_lmax, int(getattr(adv, "spectral_lmax", 0) or 0))
+    return rule_terms(row.pointset, n, wf, s, row.weights, seeds, lmax), s
+
+
+def row_prediction(adv, row, n: int) -> float:
+    """The prediction (b′) of quadrature row ``row`` of :class:`~envfit.advisor.result.Advice`
+    ``adv`` at N, recomputed from ``adv``'s fit (no cache; for tests and examples)."""
+    t, s = _terms_of_row(adv, row, n)
+    dw = degree_weights(s, adv.band_lmax, adv.lookup_transfer)
+    return bandlimited_prediction(t["power"], t["dev2"], adv.sigma, dw, adv.mean_rms ** 2)
+
+
+def row_prediction_spectral(adv, row, n: int) -> float:
+    r"""The prediction (c) with its tail of quadrature row ``row`` at N, recomputed (no cache)
+    from ``adv.map_power`` (:math:`\frac1C\sum_c\hat P_{l,c}`, l = 0…L_tail)."""
+    t, _ = _terms_of_row(adv, row, n)
+    return spectral_predictions(t["power"], [adv.map_power], adv.band_lmax)[0]

@@ -2,9 +2,11 @@ r"""What the advisor answers: :class:`Advice`, its rows (:class:`AdviceRow`, one
 their order, the recommended row and the recommendation line.
 
 A row is reached when the search found an N (quadrature) or an L (SH/HSH truncation) whose
-predicted RMSE is at most the target; its cost is N samples per shading point, or (L+1)²
-coefficients. The rows are sorted by cost, unreached rows last (:func:`sort_rows`); the
-recommendation is the first reached row that is recommendable (:meth:`Advice.best`).
+prediction — by the row's ``predictor``, (b′) "bandlimited" or (c) "spectral"
+(:mod:`envfit.advisor.choice`) — is at most the target; its cost is N samples per shading
+point, or (L+1)² coefficients. The rows are sorted by cost, unreached rows last
+(:func:`sort_rows`); the recommendation is the first reached row that is recommendable
+(:meth:`Advice.best`).
 
 Example
 -------
@@ -29,10 +31,17 @@ class AdviceRow:
     ``method`` is "quadrature" (``pointset``/``weights``, ``n`` samples) or "sh"/"hsh" (degree
     ``L``). ``cost`` = N or (L+1)²; None when the target is not reached (then ``n``/``L`` are
     None and ``predicted_rmse`` is the prediction at the largest N/L searched, ``searched_max``).
-    ``predicted_rmse`` is the refined prediction (b') used for the choice (``wce_bandlimited``
-    = E', with τ for quadrature and SH), ``predicted_rmse_plain`` σ'·wce (Eq. 41) or σ'·E(L)
+    ``predicted_rmse`` is the refined prediction (b') (``wce_bandlimited`` = E', with τ for
+    quadrature and SH), ``predicted_rmse_spectral`` prediction (c) with its tail (the map's
+    own power per degree to ``spectral_lmax`` = 2H − 1 times the rule's error power;
+    ``predicted_rmse_spectral_band`` the same summed to H − 1, ``envfit validate``'s (c);
+    None for HSH), both at the chosen N/L; ``predictor`` names the one that chose N/L
+    ("bandlimited" or "spectral", :attr:`predicted`), ``spectral_ratio`` is (c)/(b′) at the
+    chosen N/L and ``warning`` the line printed when they disagree
+    (:mod:`envfit.advisor.choice`). ``predicted_rmse_plain`` is σ'·wce (Eq. 41) or σ'·E(L)
     (Eqs. 51–52) without the band limit and τ, at the band-limited fit's s' and σ'.
-    ``measured_rmse`` and ``measured_over_predicted`` are filled by ``check=True``.
+    ``measured_rmse`` and ``measured_over_predicted`` (over :attr:`predicted`) are filled by
+    ``check=True``.
     """
 
     method: str
@@ -43,6 +52,12 @@ class AdviceRow:
     cost: int | None = None
     predicted_rmse: float | None = None
     predicted_rmse_plain: float | None = None
+    predictor: str = "bandlimited"
+    predicted_rmse_spectral: float | None = None
+    predicted_rmse_spectral_band: float | None = None
+    spectral_lmax: int | None = None
+    spectral_ratio: float | None = None
+    warning: str = ""
     wce_bandlimited: float | None = None
     wce: float | None = None
     weight_sum: float | None = None
@@ -55,6 +70,17 @@ class AdviceRow:
     measured_over_predicted: float | None = None
     measured_over_target: float | None = None
     check_note: str = ""
+
+    @property
+    def predicted(self) -> float | None:
+        """The prediction of the row's ``predictor``: (c) for "spectral", else (b′)."""
+        return self.predicted_rmse_spectral if self.predictor == "spectral" else \
+            self.predicted_rmse
+
+    @property
+    def predictor_short(self) -> str:
+        """"(c)" or "(b')": the table's ``pred`` column."""
+        return "(c)" if self.predictor == "spectral" else "(b')"
 
     @property
     def reached(self) -> bool:
@@ -82,7 +108,9 @@ class Advice:
 
     ``s``, ``sigma`` are the band-limited fit's s' and σ' (``fit_kernel`` "bandlimited",
     kernel truncated at degree ``fit_band_lmax`` = H − 1, ``fit_samples`` distinct pixel
-    centres); ``lookup_transfer`` is τ_l, l = 0…H − 1.
+    centres); ``lookup_transfer`` is τ_l, l = 0…H − 1; ``map_power`` the mean over channels
+    of the interpolant's realised power per degree :math:`\\hat P_l`, l = 0…``spectral_lmax``
+    (prediction (c)); ``warnings`` the rows' disagreement lines.
     """
 
     map: str
@@ -114,11 +142,16 @@ class Advice:
     notes: list[str] = field(default_factory=list)
     check: dict | None = None
     lookup_transfer: list[float] = field(default_factory=list)
+    spectral_lmax: int | None = None
+    map_power: list[float] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict:
-        """Every field, the rows with their ``reached`` and ``label`` (what ``--json`` writes)."""
+        """Every field, the rows with their ``reached``, ``label`` and ``predicted_rmse_used``
+        (the prediction of their ``predictor``; what ``--json`` writes)."""
         d = asdict(self)
-        d["rows"] = [{**asdict(r), "reached": r.reached, "label": r.label} for r in self.rows]
+        d["rows"] = [{**asdict(r), "reached": r.reached, "label": r.label,
+                      "predicted_rmse_used": r.predicted} for r in self.rows]
         return d
 
     def best(self) -> AdviceRow | None:
@@ -129,8 +162,9 @@ class Advice:
     def table_lines(self) -> list[str]:
         """The table as text lines (what the CLI prints)."""
         chk = self.check is not None
-        head = (f"  {'rule':<14s} {'N / L':>10s} {'cost':>7s} {'predicted':>10s} "
-                f"{'sigma*wce':>10s}")
+        bp = "(b')"
+        head = (f"  {'rule':<14s} {'N / L':>10s} {'cost':>7s} {'pred':>4s} {bp:>10s} "
+                f"{'(c)':>10s} {'sigma*wce':>10s}")
         if chk:
             head += f" {'measured':>10s} {'meas/pred':>9s} {'meas/target':>11s}"
         lines = [head + "  note"]
@@ -143,7 +177,8 @@ class Advice:
 
         for r in self.rows:
             line = (f"  {r.label:<14s} {r.setting:>10s} "
-                    f"{('–' if r.cost is None else str(r.cost)):>7s} {f(r.predicted_rmse)} "
+                    f"{('–' if r.cost is None else str(r.cost)):>7s} {r.predictor_short:>4s} "
+                    f"{f(r.predicted_rmse)} {f(r.predicted_rmse_spectral)} "
                     f"{f(r.predicted_rmse_plain)}")
             if chk:
                 line += (f" {f(r.measured_rmse)} {g(r.measured_over_predicted, 9)} "
@@ -164,8 +199,8 @@ def recommendation_text(adv: Advice) -> str:
                           f"shading point",
             "sh": f"SH truncation at L = {best.L} ({best.cost} coefficients)",
             "hsh": f"HSH truncation at L = {best.L} ({best.cost} coefficients)"}[best.method]
-    text = (f"recommendation: {what} (predicted RMSE {best.predicted_rmse:.3g} <= target "
-            f"{adv.target_rmse:.3g})")
+    text = (f"recommendation: {what} (predicted RMSE {best.predicted:.3g} by "
+            f"{best.predictor_short} <= target {adv.target_rmse:.3g})")
     if best.method != "quadrature":
         q = next((r for r in adv.rows if r.method == "quadrature" and r.reached
                   and r.recommendable), None)
@@ -175,7 +210,7 @@ def recommendation_text(adv: Advice) -> str:
 
 
 def sort_rows(rows: list[AdviceRow]) -> list[AdviceRow]:
-    """The rows by cost (reached first), then predicted RMSE, then label."""
+    """The rows by cost (reached first), then the prediction used, then label."""
     return sorted(rows, key=lambda r: (r.cost is None, r.cost if r.cost is not None else 0,
-                                       r.predicted_rmse if r.predicted_rmse is not None
+                                       r.predicted if r.predicted is not None
                                        else math.inf, r.label))

@@ -27,17 +27,20 @@ from collections.abc import Callable
 import numpy as np
 
 from envfit.advisor.cache import AdviseCache
+from envfit.advisor.choice import disagree, disagreement_line, first_predictor, ratio
 from envfit.advisor.model import MapModel
 from envfit.advisor.options import AdviseOptions
 from envfit.advisor.prediction import (
+    bandlimited_prediction,
     rule_plain_wce2,
     rule_terms,
     seed_list,
+    spectral_predictions,
 )
 from envfit.advisor.result import AdviceRow, sort_rows
 from envfit.base.errors import ParameterError
 from envfit.base.progress import progress_bar
-from envfit.predict.bandlimited import bandlimited_rmse
+from envfit.predict.spectral import spectral_truncation_curve
 from envfit.shading.spectra import band_e2, sh_truncation_curve_transfer
 from envfit.theory.errors import TheoryParameterError
 from envfit.theory.truncation import truncation_error_curve
@@ -88,7 +91,8 @@ def smallest_n(predict: Callable[[int], float], target: float, nmin: int,
 
 class _RuleCurve:
     """The cached curve of one rule, N → its terms, with the points computed in this run
-    (``new``, merged into the cache at the end) and their count (``evaluations``)."""
+    (``new``, merged into the cache at the end) and their count (``evaluations``); the terms'
+    error power runs to ``model.spectral_lmax`` = 2H − 1 (prediction (c) with its tail)."""
 
     def __init__(self, pointset, weights, wf, model: MapModel, opts: AdviseOptions,
                  store: AdviseCache):
@@ -97,7 +101,7 @@ class _RuleCurve:
         self.workers, self.store = opts.workers, store
         self.key = {"s": model.s_rounded, "brdf": opts.brdf, "shininess": opts.shininess,
                     "pointset": pointset, "weights": weights, "seeds": self.seeds,
-                    "band_lmax": model.band_lmax}
+                    "band_lmax": model.band_lmax, "spectral_lmax": model.spectral_lmax}
         self.points = store.load_curve(self.key)
         self.new: dict[int, dict] = {}
         self.evaluations = 0
@@ -105,16 +109,16 @@ class _RuleCurve:
     def terms(self, n: int) -> dict:
         """The map-independent terms at N, from the curve or computed."""
         t = self.points.get(n)
-        if t is None or len(t.get("power", ())) != self.model.band_lmax + 1:
+        if t is None or len(t.get("power", ())) != self.model.spectral_lmax + 1:
             t = {**(t or {}), **rule_terms(self.pointset, n, self.wf, self.model.s_rounded,
-                                           self.weights, self.seeds, self.model.band_lmax)}
+                                           self.weights, self.seeds, self.model.spectral_lmax)}
             self.points[n] = self.new[n] = t
             self.evaluations += 1
         return t
 
     def with_plain(self, n: int) -> dict:
         """The terms at an evaluated N with the plain wce² (Eq. 41) added when missing."""
-        t = self.points[n]
+        t = self.terms(n)
         if "e2_plain" not in t:
             t = {**t, "e2_plain": rule_plain_wce2(self.pointset, n, self.wf,
                                                   self.model.s_rounded, self.weights,
@@ -122,50 +126,85 @@ class _RuleCurve:
             self.points[n] = self.new[n] = t
         return t
 
-    def predict(self, n: int) -> float:
+    def bandlimited(self, n: int) -> float:
         """The prediction (b') at N on the map."""
-        t = self.terms(n)
-        m = self.model
-        return bandlimited_rmse(m.sigma, band_e2(t["power"], m.dw), t["dev2"],
-                              m.mean_rms * m.mean_rms)
+        t, m = self.terms(n), self.model
+        return bandlimited_prediction(t["power"], t["dev2"], m.sigma, m.dw, m.mean_rms ** 2)
+
+    def spectral(self, n: int, band: bool = False) -> float:
+        """The prediction (c) at N on the map, with its tail to 2H − 1 (``band``: to H − 1)."""
+        c = spectral_predictions(self.terms(n)["power"], self.model.map_power,
+                                 self.model.band_lmax)
+        return c[1] if band else c[0]
+
+    def predictor(self, name: str) -> Callable[[int], float]:
+        """N → the prediction named ``name`` ("bandlimited" or "spectral")."""
+        return self.spectral if name == "spectral" else self.bandlimited
 
     def save(self) -> None:
         """Merge the points computed in this run into the cache."""
         self.store.merge_curve(self.key, self.new)
 
 
+def _choose_n(curve: _RuleCurve, label: str, model: MapModel, opts: AdviseOptions,
+              upper: int) -> tuple[int | None, str, str]:
+    """The smallest N by the first predictor (:func:`~envfit.advisor.choice.first_predictor`),
+    searched again by (c) when (b') was first and the two disagree at its N
+    (:mod:`envfit.advisor.choice`): (N or None, the predictor used, the warning or "")."""
+    name = first_predictor(opts.predictor, opts.scale)
+    n, _ = smallest_n(curve.predictor(name), model.target, opts.nmin, upper)
+    at = upper if n is None else n
+    warning = ""
+    if opts.predictor == "auto" and disagree(curve.bandlimited(at), curve.spectral(at)):
+        warning = disagreement_line(label, ratio(curve.bandlimited(at), curve.spectral(at)),
+                                    f"N = {at}")
+        if name == "bandlimited":
+            name = "spectral"
+            n, _ = smallest_n(curve.spectral, model.target, opts.nmin, upper)
+    return n, name, warning
+
+
+def _fill_quadrature(row: AdviceRow, curve: _RuleCurve, n: int | None, upper: int,
+                     model: MapModel, opts: AdviseOptions) -> None:
+    """The row's numbers at its N (or at ``upper`` when the target is not reached)."""
+    at = upper if n is None else n
+    t = curve.with_plain(n) if n is not None else curve.terms(upper)
+    row.predicted_rmse = curve.bandlimited(at)
+    row.predicted_rmse_spectral = curve.spectral(at)
+    row.predicted_rmse_spectral_band = curve.spectral(at, band=True)
+    row.spectral_lmax = model.spectral_lmax
+    row.spectral_ratio = ratio(row.predicted_rmse, row.predicted_rmse_spectral)
+    row.wce_bandlimited = math.sqrt(band_e2(t["power"][:model.band_lmax + 1], model.dw))
+    row.weight_sum = t["weight_sum"]
+    if n is None:
+        why = (" (OSW: an NxN solve per N; raise --osw-nmax)"
+               if row.weights == "osw" and upper < opts.nmax else "")
+        row.note = f"target not reached for N <= {upper}{why}"
+        row.recommendable = False
+    else:
+        row.n = row.cost = n
+        row.wce = math.sqrt(t["e2_plain"])
+        row.predicted_rmse_plain = model.sigma * row.wce
+
+
 def search_quadrature(pointset: str, weights: str, wf, model: MapModel, opts: AdviseOptions,
                       store: AdviseCache) -> AdviceRow:
-    """Smallest N of one rule on the map (``wf`` the lobe); the curve's cached points hold the
-    map-independent terms, weighted here by the map's :math:`a_l(s')\\tau_l` (``model.dw``)."""
+    """Smallest N of one rule on the map (``wf`` the lobe) by the predictor of
+    :mod:`envfit.advisor.choice`; the curve's cached points hold the map-independent terms,
+    weighted here by the map's :math:`a_l(s')\\tau_l` (``model.dw``, (b')) and its
+    :math:`\\hat P_l` (``model.map_power``, (c))."""
     curve = _RuleCurve(pointset, weights, wf, model, opts, store)
     upper = opts.nmax if weights == "equal" else opts.osw_upper
     row = AdviceRow(method="quadrature", pointset=pointset, weights=weights,
                     realisations=max(1, len(curve.seeds)), searched_max=upper)
     try:
-        n, seen = smallest_n(curve.predict, model.target, opts.nmin, upper)
+        n, row.predictor, row.warning = _choose_n(curve, row.label, model, opts, upper)
+        _fill_quadrature(row, curve, n, upper, model, opts)
     except (TheoryParameterError, ParameterError) as exc:
         curve.save()
         row.note = f"failed: {exc}"
         row.recommendable = False
         return row
-    if n is None:
-        t = curve.points[upper]
-        row.predicted_rmse = seen[upper]
-        row.wce_bandlimited = math.sqrt(band_e2(t["power"], model.dw))
-        row.weight_sum = t["weight_sum"]
-        why = (" (OSW: an NxN solve per N; raise --osw-nmax)"
-               if weights == "osw" and upper < opts.nmax else "")
-        row.note = f"target not reached for N <= {upper}{why}"
-        row.recommendable = False
-    else:
-        t = curve.with_plain(n)
-        row.n = row.cost = n
-        row.predicted_rmse = seen[n]
-        row.wce_bandlimited = math.sqrt(band_e2(t["power"], model.dw))
-        row.wce = math.sqrt(t["e2_plain"])
-        row.predicted_rmse_plain = model.sigma * row.wce
-        row.weight_sum = t["weight_sum"]
     row.evaluations = curve.evaluations
     if len(curve.seeds) > 1:
         row.note = (row.note + "; " if row.note else "") + \
@@ -191,35 +230,94 @@ def _truncation_curve(basis: str, wf, model: MapModel) -> tuple[np.ndarray, np.n
         lmax = min(2 * lmax, top)
 
 
-def search_truncation(basis: str, wf, model: MapModel, brdf: str) -> AdviceRow:
-    """Smallest L: SH by :func:`~envfit.shading.spectra.sh_truncation_curve_transfer` (with τ),
-    HSH by ``truncation_error_curve(..., lmax=H-1)`` (no τ; see :mod:`envfit.advisor.advise`)."""
-    s, sigma, band_lmax = model.s_rounded, model.sigma, model.band_lmax
-    row = AdviceRow(method=basis)
-    E, ok, lmax = _truncation_curve(basis, wf, model)
-    if ok.size:
-        L, eb = int(ok[0]), float(E[int(ok[0])])
-    elif basis == "sh" and band_lmax - 1 <= LMAX_SEARCH:
-        L, eb = band_lmax, 0.0                # every degree the map holds is kept: exact
+class _ShCurves:
+    r"""SH truncation's predictions for every L: (b') :math:`\sigma'E'(L)` (0 from L = H − 1
+    on: every degree of the band-limited model is kept) and (c)
+    (:func:`envfit.predict.spectral.spectral_truncation_curve`, the map's own power to
+    2H − 1; ``band``: to H − 1)."""
+
+    def __init__(self, wf, model: MapModel):
+        H1, lt = model.band_lmax, model.spectral_lmax
+        self.b = np.append(model.sigma * sh_truncation_curve_transfer(
+            wf, model.s_rounded, H1 - 1, H1, model.tau), 0.0)               # L = 0…H − 1
+        zonal = wf.sh_coefficients(lt)
+        self.c = spectral_truncation_curve(model.map_power, zonal, lt - 1)  # L = 0…2H − 2
+        self.c_band = spectral_truncation_curve(model.map_power[:, :H1 + 1], zonal, H1)
+        self.top = {"bandlimited": H1 if H1 - 1 <= LMAX_SEARCH else LMAX_SEARCH,
+                    "spectral": min(lt - 1, LMAX_SEARCH)}
+
+    def at(self, name: str, L: int) -> float:
+        """The prediction ``name`` at L."""
+        curve = {"bandlimited": self.b, "spectral": self.c, "band": self.c_band}[name]
+        return float(curve[min(L, curve.size - 1)])
+
+    def first(self, name: str, target: float) -> int | None:
+        """The smallest L ≤ the top of ``name`` whose prediction is at most ``target``."""
+        curve = self.b if name == "bandlimited" else self.c
+        ok = np.nonzero(curve[:self.top[name] + 1] <= target)[0]
+        return int(ok[0]) if ok.size else None
+
+
+def _sh_row(wf, model: MapModel, opts: AdviseOptions) -> AdviceRow:
+    """Smallest SH degree L by the predictor of :mod:`envfit.advisor.choice`."""
+    cv = _ShCurves(wf, model)
+    row = AdviceRow(method="sh")
+    name = first_predictor(opts.predictor, opts.scale)
+    L = cv.first(name, model.target)
+    at = cv.top[name] if L is None else L
+    if opts.predictor == "auto" and disagree(cv.at("bandlimited", at), cv.at("spectral", at)):
+        r = ratio(cv.at("bandlimited", at), cv.at("spectral", at))
+        row.warning = disagreement_line(row.label, r, f"L = {at}")
+        if name == "bandlimited":
+            name = "spectral"
+            L = cv.first(name, model.target)
+    row.predictor = name
+    at = cv.top[name] if L is None else L
+    row.predicted_rmse, row.predicted_rmse_spectral = cv.at("bandlimited", at), \
+        cv.at("spectral", at)
+    row.predicted_rmse_spectral_band = cv.at("band", at)
+    row.spectral_lmax, row.wce_bandlimited = model.spectral_lmax, row.predicted_rmse / model.sigma
+    row.spectral_ratio = ratio(row.predicted_rmse, row.predicted_rmse_spectral)
+    if L is None:
+        row.searched_max, row.recommendable = at, False
+        row.note = f"target not reached for L <= {at}"
     else:
-        L, eb = None, float(E[-1])
+        row.L, row.cost = L, (L + 1) ** 2
+        row.wce = float(truncation_error_curve(wf, model.s_rounded, L, "sh")[L])
+        row.predicted_rmse_plain = model.sigma * row.wce
+    return row
+
+
+def _hsh_row(wf, model: MapModel, brdf: str) -> AdviceRow:
+    """Smallest HSH degree L by (b') (``truncation_error_curve(..., lmax=H-1)``, no τ)."""
+    s, sigma = model.s_rounded, model.sigma
+    row = AdviceRow(method="hsh", note="(b') only: no (c) for HSH (its projection is not "
+                                       "diagonal in l)")
+    E, ok, lmax = _truncation_curve("hsh", wf, model)
+    L, eb = (int(ok[0]), float(E[int(ok[0])])) if ok.size else (None, float(E[-1]))
     row.searched_max = lmax if L is None else None
     row.wce_bandlimited = eb
     row.predicted_rmse = sigma * eb
     if L is not None:
-        row.L = L
-        row.cost = (L + 1) ** 2
-        plain = float(truncation_error_curve(wf, s, L, basis)[L])
-        row.wce = plain
-        row.predicted_rmse_plain = sigma * plain
+        row.L, row.cost = L, (L + 1) ** 2
+        row.wce = float(truncation_error_curve(wf, s, L, "hsh")[L])
+        row.predicted_rmse_plain = sigma * row.wce
     else:
-        row.note = f"target not reached for L <= {lmax}"
+        row.note += f"; target not reached for L <= {lmax}"
         row.recommendable = False
-    if basis == "hsh" and brdf == "diffuse":
+    if brdf == "diffuse":
         row.recommendable = False
-        row.note = (row.note + "; " if row.note else "") + \
-            "diffuse HSH is exact from L = 1 (the projection is the integral): not recommended"
+        row.note += "; diffuse HSH is exact from L = 1 (the projection is the integral): " \
+                    "not recommended"
     return row
+
+
+def search_truncation(basis: str, wf, model: MapModel, opts: AdviseOptions) -> AdviceRow:
+    """Smallest L: SH by (b') (:func:`~envfit.shading.spectra.sh_truncation_curve_transfer`,
+    with τ) or (c) (:func:`~envfit.predict.spectral.spectral_truncation_curve`), chosen as a
+    quadrature row's predictor; HSH by (b') only (``truncation_error_curve(..., lmax=H-1)``,
+    no τ; see :mod:`envfit.advisor.advise`)."""
+    return _sh_row(wf, model, opts) if basis == "sh" else _hsh_row(wf, model, opts.brdf)
 
 
 def search_rules(wf, model: MapModel, opts: AdviseOptions, store: AdviseCache) -> list[AdviceRow]:
@@ -236,7 +334,7 @@ def search_rules(wf, model: MapModel, opts: AdviseOptions, store: AdviseCache) -
             if method == "quadrature":
                 rows.append(search_quadrature(ps, w, wf, model, opts, store))
             else:
-                rows.append(search_truncation(method, wf, model, opts.brdf))
+                rows.append(search_truncation(method, wf, model, opts))
             bar.update(1)
     finally:
         bar.close()

@@ -12,28 +12,39 @@ def register(sub) -> None:
     p = sub.add_parser(
         "advise",
         help="smallest N per point set / weighting and smallest SH/HSH degree for a target error",
-        description="Fit the map's smoothness s' and scale sigma' under the model of an "
+        description="Predict the RMS shading error of each rule two ways and find the "
+                    "smallest N (bisection) or L whose prediction is at most the target "
+                    "(default: 1%% of the map's mean shading value, on the linear scale). "
+                    "(b'): fit the map's smoothness s' and scale sigma' under the model of an "
                     "H-row map (kernel band-limited at degree H-1, samples at pixel centres; "
-                    "cached), predict the RMS shading error of each rule as sigma' times its "
-                    "worst-case error summed to degree H-1 with degree l weighted by the "
-                    "bilinear lookup's transfer tau_l (Eq. 42; Eqs. 51-52 for SH/HSH "
-                    "truncation, tau for SH only), plus the error on the map's mean when the "
-                    "weights do not sum to 1, and find the smallest N (bisection) or L whose "
-                    "prediction is at most the target: prediction (b') of 'envfit validate'. "
-                    "Prints a table sorted by cost (N samples, or (L+1)^2 coefficients) and a "
-                    "recommendation; --check measures the actual RMSE at the chosen N/L on the "
-                    "map.")
+                    "cached); sigma' times the rule's worst-case error summed to degree H-1 "
+                    "with degree l weighted by the bilinear lookup's transfer tau_l (Eq. 42; "
+                    "Eqs. 51-52 for SH/HSH truncation), plus the error on the map's mean when "
+                    "the weights do not sum to 1. (c): the map's own power per degree (of its "
+                    "bilinear interpolant, to degree 2H-1) times the rule's error power, the "
+                    "exact mean over random rotations (SH truncation too; HSH: (b') only). "
+                    "--predictor auto (default) sizes by (c) on the linear scale and wherever "
+                    "(b') and (c) disagree by more than 1.25x (with a warning line), else by "
+                    "(b'). Prints a table sorted by cost (N samples, or (L+1)^2 coefficients) "
+                    "and a recommendation; --check measures the actual RMSE at the chosen N/L "
+                    "on the map.")
     add_map_arguments(p)
     p.add_argument("--brdf", choices=("diffuse", "glossy"), default="diffuse",
                    help="weight function (default: diffuse)")
     p.add_argument("--shininess", type=positive_float, default=30.0, help="glossy exponent n (default: 30)")
-    tg = p.add_mutually_exclusive_group(required=True)
+    tg = p.add_mutually_exclusive_group()
     tg.add_argument("--target-rmse", type=positive_float, metavar="E",
                     help="target RMS shading error, on the --scale values")
     tg.add_argument("--target-relative", type=positive_float, metavar="F",
-                    help="target as a fraction (0 < F < 1) of the map's mean shading value")
-    p.add_argument("--scale", choices=("display", "linear", "log"), default="display",
-                   help="value scale of the integrand and the fit (default: display)")
+                    help="target as a fraction (0 < F < 1) of the map's mean shading value "
+                         "(default, when neither is given: 0.01)")
+    p.add_argument("--scale", choices=("linear", "display", "log"), default="linear",
+                   help="value scale of the integrand and the fit (default: linear, the raw "
+                        "radiance a renderer integrates)")
+    p.add_argument("--predictor", choices=("auto", "bandlimited", "spectral"), default="auto",
+                   help="prediction that sizes N/L: auto (default: (c) on the linear scale and "
+                        "where (b') and (c) disagree by > 1.25x, else (b')), bandlimited (b'), "
+                        "spectral (c)")
     p.add_argument("--pointsets", type=str_list, default=None, metavar="sf,sobol,…",
                    help="point sets among sf, sobol, lp, bnot, random, jitter (default: "
                         "sf,sobol,lp,random,jitter; bnot costs ~15 s per realisation at N = 4096)")
@@ -86,9 +97,10 @@ def _header(adv) -> list[str]:
         degrees = sorted({min(20, len(tau) - 1), len(tau) // 2, len(tau) - 1})
         lines.append("bilinear lookup transfer tau_l: "
                      + ", ".join(f"{tau[l]:.3f} at l = {l}" for l in degrees))
-    lines.append("predicted = sigma * sqrt(sum_{l<=H-1} a_l tau_l e_l) (+ mean term of "
-                 "sum(w) != 1; SH with tau, HSH without), used for the choice; "
-                 "sigma*wce = unrestricted Eq. 41 / Eqs. 51-52")
+    lines.append("(b') = sigma * sqrt(sum_{l<=H-1} a_l tau_l e_l) (+ mean term of sum(w) != 1; "
+                 "SH with tau, HSH without); (c) = sqrt(mean_c sum_{l<=2H-1} P_lc e_l), the "
+                 f"map's own power to l = {adv.spectral_lmax} (no (c) for HSH); pred = the one "
+                 "that chose N/L; sigma*wce = unrestricted Eq. 41 / Eqs. 51-52")
     return lines
 
 
@@ -97,8 +109,12 @@ def _check_lines(adv) -> list[str]:
     out = [f"check: RMSE over {c.get('axes')} random axes (seed {adv.settings['seed']}) at the "
            f"chosen N/L"]
     if "median_measured_over_predicted" in c:
-        out.append(f"measured/predicted: median {c['median_measured_over_predicted']:.2f}, range "
-                   f"{c['min_measured_over_predicted']:.2f}…{c['max_measured_over_predicted']:.2f}")
+        out.append(f"measured/predicted (the predictor used): median "
+                   f"{c['median_measured_over_predicted']:.2f}, range "
+                   f"{c['min_measured_over_predicted']:.2f}…{c['max_measured_over_predicted']:.2f}"
+                   + "".join(f"; measured/{lab} median {c[k]:.2f}" for lab, k in
+                             (("(b')", "median_measured_over_bandlimited"),
+                              ("(c)", "median_measured_over_spectral")) if k in c))
     if "recommended_measured_rmse" in c:
         out.append(f"recommended rule: measured {c['recommended_measured_rmse']:.3g} = "
                    f"{c['recommended_measured_over_target']:.2f} x target")
@@ -116,7 +132,8 @@ def options_from_args(args: argparse.Namespace):
         given["bases"] = () if [b.lower() for b in args.bases] == ["none"] else tuple(args.bases)
     return AdviseOptions(
         brdf=args.brdf, target_rmse=args.target_rmse, target_relative=args.target_relative,
-        shininess=args.shininess, scale=args.scale, s=args.s, seed=args.seed, check=args.check,
+        shininess=args.shininess, scale=args.scale, predictor=args.predictor, s=args.s,
+        seed=args.seed, check=args.check,
         axes=args.axes, cache=not args.no_cache, cache_dir=args.cache_dir, quiet=args.quiet,
         **{k: v for k, v in given.items() if v is not None})
 
@@ -132,7 +149,8 @@ def run(args: argparse.Namespace) -> int:
         if getattr(args, "cache_note", None) and note.startswith("cache switched off"):
             continue  # said before the work (preflight), on stderr
         say(args, f"note: {note}")
-    say(args, *_header(adv), *adv.table_lines(), adv.recommendation)
+    say(args, *_header(adv), *adv.table_lines(),
+        *(f"warning: {w}" for w in adv.warnings), adv.recommendation)
     if adv.check is not None:
         say(args, *_check_lines(adv))
     t = adv.timings
@@ -141,7 +159,8 @@ def run(args: argparse.Namespace) -> int:
               + f"; cache {adv.cache['hits']} hit(s), {adv.cache['writes']} write(s))")
     d = adv.to_dict()
     if out is not None:
-        cols = ["label", "method", "pointset", "weights", "n", "L", "cost", "predicted_rmse",
+        cols = ["label", "method", "pointset", "weights", "n", "L", "cost", "predictor",
+                "predicted_rmse", "predicted_rmse_spectral", "predicted_rmse_spectral_band",
                 "predicted_rmse_plain", "measured_rmse", "measured_over_predicted", "note"]
         csv_path = guarded_write(args, out / "advise.csv", atomic_write_csv, out / "advise.csv",
                                  cols, [[r.get(c) for c in cols] for r in d["rows"]])
