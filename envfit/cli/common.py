@@ -29,6 +29,16 @@ from envfit.base.atomic import (atomic_write_json, check_writable_dir, check_wri
 #: the largest integer an option accepts (exponent notation beyond it is surely a typo)
 _INT_LIMIT = 10 ** 18
 
+#: ``--help`` of ``--convention`` (the names are those of envfit.maps.conventions.CONVENTIONS)
+CONVENTION_HELP = (
+    "the renderer whose lat-long layout the MAP file has: envfit (= --up y), openexr "
+    "(ImfEnvmap LatLongMap: +y up, first/last row on the poles, first/last column on "
+    "longitude +-pi), usd (DomeLight: = openexr), mitsuba3 (+y up, rows on the poles, "
+    "theta = pi i/(H-1)), pbrt3 (+z up, = --up z), blender (Cycles: +z up, mirrored: "
+    "u = 1/2 - atan2(y,x)/2pi); pbrt4 is refused (equal-area square maps). The map is "
+    "converted to envfit's grid (exactly where only pixels move, else bilinear). Not with "
+    "--up; one map at a time")
+
 
 # ------------------------------------------------------------------ strict argument types
 def _whole(text: str) -> int:
@@ -189,9 +199,11 @@ def preflight_outputs(args: argparse.Namespace) -> None:
     * ``--json FILE`` (``-`` = stdout passes) and synth's ``OUT.exr`` (``args.output``): not a
       folder, nearest existing parent folder writable;
 
-    and prints a note on stderr if the advisor cache (``--cache-dir`` or the default; not with
+    raises :class:`envfit.base.errors.ParameterError` for a bad ``--convention``
+    (:func:`map_convention`), and prints a note on stderr if the advisor cache (``--cache-dir`` or the default; not with
     ``--no-cache``) cannot be written: the results are then not cached, which is no error.
     """
+    map_convention(args)                # --convention: a known name, not with --up
     out = getattr(args, "out", None)
     if out is None:
         out = getattr(args, "out_default", None)
@@ -296,8 +308,12 @@ def add_map_arguments(p: argparse.ArgumentParser, *, optional: bool = True, many
                    help="lat-long HDR map (EXR, HDR, PNG, … anything OpenImageIO reads)"
                         + ("; without it, the built-in synthesized default map" if optional else ""))
     g = p.add_argument_group("map loading")
-    g.add_argument("--up", choices=("y", "z", "x"), default="y",
-                   help="which world axis is the map's top row (default: y, as OpenEXR)")
+    g.add_argument("--up", choices=("y", "z", "x"), default=None,
+                   help="which world axis is the map's top row, on envfit's pixel grid "
+                        "(centres at theta = pi(i+1/2)/H, phi = 2pi(j+1/2)/W; default: y, "
+                        "OpenEXR's orientation); not with --convention")
+    g.add_argument("--convention", metavar="NAME", default=None,
+                   help=CONVENTION_HELP)
     g.add_argument("--max-height", type=positive_int, default=None, metavar="H",
                    help="downscale the map (scikit-image, anti-aliased) to at most H rows")
     g.add_argument("--fix-nonfinite", action="store_true",
@@ -306,18 +322,59 @@ def add_map_arguments(p: argparse.ArgumentParser, *, optional: bool = True, many
                    help="keep negative pixel values instead of clamping them to 0 (reported)")
 
 
+def map_convention(args: argparse.Namespace):
+    """The :mod:`envfit.maps.conventions` entry ``--convention`` names, or None.
+
+    :class:`ParameterError` (one line, exit 2) for an unknown name, for ``--convention``
+    together with ``--up`` (the convention fixes the up axis), and for ``pbrt4`` (not
+    lat-long). ``main`` runs it before any work (:func:`preflight_outputs`).
+    """
+    from envfit.base.errors import ParameterError
+    from envfit.maps.conventions import NotLatLong, convention
+    name = getattr(args, "convention", None)
+    if name is None:
+        return None
+    conv = convention(name)
+    if getattr(args, "up", None) is not None:
+        raise ParameterError(f"--up {args.up} and --convention {conv.name} exclude each other: "
+                             f"the convention fixes the up axis (+{getattr(conv, 'up', '?')}); "
+                             "--up is envfit's own grid with that axis up")
+    if isinstance(conv, NotLatLong):
+        conv.to_internal(None)          # raises its one-line reason
+    return conv
+
+
+def map_up(args: argparse.Namespace) -> str:
+    """The up axis of the maps the command reads: ``--up``, the convention's, or ``"y"``."""
+    conv = map_convention(args)
+    if conv is not None:
+        return conv.up
+    return getattr(args, "up", None) or "y"
+
+
 def load_map_from_args(args: argparse.Namespace, path=None):
-    """Load ``path`` (default ``args.map``) with the loading options, or the built-in map."""
+    """Load ``path`` (default ``args.map``) with the loading options, or the built-in map.
+
+    With ``--convention C`` the file's pixels are read in C's layout and converted to
+    envfit's convention (:meth:`envfit.maps.conventions.LatLongConvention.to_internal`:
+    an exact permutation where the grids allow it, else bilinear resampling), *before*
+    ``--max-height``; the built-in map is synthesized with C's up axis.
+    """
     from envfit.maps.default_map import default_envmap
     from envfit.maps.io import load_envmap
+    conv = map_convention(args)
     path = args.map if path is None else path
     if path is None:
-        env = default_envmap(up=args.up)
-        if args.max_height:
-            env = env.resized(args.max_height)
-        return env
-    return load_envmap(path, up=args.up, allow_negative=args.allow_negative,
-                       fix_nonfinite=args.fix_nonfinite, max_height=args.max_height)
+        env = default_envmap(up=map_up(args))
+    elif conv is None:
+        return load_envmap(path, up=map_up(args), allow_negative=args.allow_negative,
+                           fix_nonfinite=args.fix_nonfinite, max_height=args.max_height)
+    else:
+        env = conv.to_internal(load_envmap(path, allow_negative=args.allow_negative,
+                                           fix_nonfinite=args.fix_nonfinite))
+    if args.max_height:
+        env = env.resized(args.max_height)
+    return env
 
 
 def add_executor_arguments(p: argparse.ArgumentParser) -> None:
@@ -357,9 +414,15 @@ def library_maps(args: argparse.Namespace) -> list:
 
 def load_options_from_args(args: argparse.Namespace):
     """The map-loading options of ``args`` as :class:`envfit.maps.mapsource.LoadOptions`."""
+    from envfit.base.errors import ParameterError
     from envfit.maps.mapsource import LoadOptions
-    return LoadOptions(up=args.up, max_height=args.max_height, fix_nonfinite=args.fix_nonfinite,
-                       allow_negative=args.allow_negative)
+    conv = map_convention(args)
+    if conv is not None and conv.name != "envfit":
+        raise ParameterError(f"--convention {conv.name} reads one map at a time; several maps "
+                             "(a folder, a pattern, --executor) are read on envfit's grid: "
+                             "convert them first, or run the command once per map")
+    return LoadOptions(up=map_up(args), max_height=args.max_height,
+                       fix_nonfinite=args.fix_nonfinite, allow_negative=args.allow_negative)
 
 
 def executor_kwargs(args: argparse.Namespace) -> dict:

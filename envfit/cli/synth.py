@@ -1,4 +1,11 @@
-"""``envfit synth``: write a synthetic map (Gaussian process of known s, or an analytic map)."""
+"""``envfit synth``: write a synthetic map (Gaussian process of known s, an analytic map, or
+the axis-marker self-check map), on envfit's pixel grid or in a renderer's ``--convention``.
+
+Example::
+
+    envfit synth marker.exr --kind marker --convention mitsuba3 --height 64
+    envfit info marker.exr --convention mitsuba3      # brightest direction: +x
+"""
 from __future__ import annotations
 
 import argparse
@@ -8,22 +15,34 @@ import numpy as np
 
 from envfit.base.atomic import os_reason
 from envfit.base.errors import EnvfitError, OutputError, ParameterError
-from .common import (add_common_arguments, colour_list, emit_json, finite_float, positive_float,
-                     positive_int, say)
+from .common import (CONVENTION_HELP, add_common_arguments, colour_list, emit_json, finite_float,
+                     map_convention, map_up, positive_float, positive_int, say)
 
-KINDS = ("gp", "constant", "sky", "sun", "step")
+KINDS = ("gp", "constant", "sky", "sun", "step", "marker")
 
 
 def register(sub) -> None:
     p = sub.add_parser(
-        "synth", help="write a synthetic lat-long map (gp, constant, sky, sun, step)",
+        "synth", help="write a synthetic lat-long map (gp, constant, sky, sun, step, marker)",
         description="Synthesize a lat-long map of known smoothness (a Gaussian-process sample "
                     "with covariance K_gd^(s0), Eq. 8) or an analytic map with known shading "
-                    "integrals, and write it as EXR.")
+                    "integrals, or the self-check map 'marker' (small markers of distinct colours at "
+                    "the world axes +x red (the brightest), -x cyan, +y green, -y magenta, +z "
+                    "blue, -z yellow), and write it as EXR, in envfit's layout or in a "
+                    "renderer's --convention.")
     p.add_argument("output", metavar="OUT.exr", type=Path)
     p.add_argument("--kind", choices=KINDS, default="gp")
     p.add_argument("--height", type=positive_int, default=256, help="rows (width = 2 x height)")
-    p.add_argument("--up", choices=("y", "z", "x"), default="y", help="world up axis stored with the map")
+    p.add_argument("--up", choices=("y", "z", "x"), default=None,
+                   help="world up axis stored with the map, on envfit's grid (default: y); "
+                        "not with --convention")
+    p.add_argument("--convention", metavar="NAME", default=None, help=CONVENTION_HELP.replace(
+        "whose lat-long layout the MAP file has", "whose lat-long layout to write").replace(
+        "The map is converted to envfit's grid (exactly where only pixels move, else "
+        "bilinear). Not with --up; one map at a time", "Not with --up"))
+    g = p.add_argument_group("marker")
+    g.add_argument("--marker-radius", type=positive_float, default=None, metavar="RAD",
+                   help="angular radius of each marker in radians (default: 3 rows, 3 pi/H)")
     p.add_argument("--half", action="store_true", help="write half floats instead of float32")
     g = p.add_argument_group("gp")
     g.add_argument("--s0", type=finite_float, default=1.5, help="Sobolev smoothness of the process, in (1, 2)")
@@ -93,12 +112,37 @@ def synthesize(args: argparse.Namespace) -> tuple[np.ndarray, dict]:
     return m.render(args.height), info
 
 
+def _marker(args: argparse.Namespace, conv) -> tuple[np.ndarray, dict]:
+    """The marker map's pixels (H×2H×3) laid out in ``conv`` (None: envfit's grid, --up)."""
+    from envfit.data_gen.marker import MARKERS, marker_map
+    from envfit.maps.latlong import pixel_directions
+    if args.height < 2:
+        raise ParameterError(f"--height must be at least 2, got {args.height}")
+    radius = args.marker_radius if args.marker_radius is not None else 3.0 * np.pi / args.height
+    dirs = (conv.pixel_directions(args.height) if conv is not None
+            else pixel_directions(args.height, up=map_up(args)))
+    try:
+        f = marker_map(dirs, radius)
+    except ValueError as exc:
+        raise ParameterError(str(exc)) from None
+    return f, {"kind": "marker", "height": args.height, "marker_radius": radius,
+               "markers": {label: {"axis": list(axis), "colour": list(colour),
+                                   "amplitude": amp} for label, axis, colour, amp in MARKERS}}
+
+
 def run(args: argparse.Namespace) -> int:
     from envfit.maps.envmap import EnvMap
     from envfit.maps.io import save_envmap
-    f, info = synthesize(args)
+    conv = map_convention(args)
+    if args.kind == "marker":
+        f, info = _marker(args, conv)
+    else:
+        f, info = synthesize(args)
+        if conv is not None:      # synthesized on envfit's grid with conv's up, laid out as conv's
+            f = conv.from_internal(EnvMap(np.asarray(f, dtype=np.float64), up=conv.up))
     name = f"synth:{args.kind}"
-    env = EnvMap(np.asarray(f, dtype=np.float32), up=args.up, name=name)
+    # a file in a renderer's layout is tagged up=y (its layout, not envfit:up, says where up is)
+    env = EnvMap(np.asarray(f, dtype=np.float32), up="y" if conv else map_up(args), name=name)
     try:
         path = save_envmap(args.output, env, half=args.half)
     except EnvfitError:     # EnvMapFileError "…: write failed: …" says it all
@@ -106,9 +150,11 @@ def run(args: argparse.Namespace) -> int:
     except OSError as exc:  # disk full, folder gone meanwhile (checked writable before)
         raise OutputError(f"could not write {args.output}: {os_reason(exc)}") from None
     info.update(path=str(path), width=env.width, channels=env.channels,
+                convention=conv.name if conv is not None else None, up=map_up(args),
                 min=float(f.min()), max=float(f.max()), mean=[float(x) for x in env.mean()])
     say(args, f"wrote {path}: {args.kind} map {env.width}x{env.height}, {env.channels} "
               f"channel(s)"
-              + (f", s0 = {args.s0}" if args.kind == "gp" else ""))
+              + (f", s0 = {args.s0}" if args.kind == "gp" else "")
+              + (f", {conv.name} layout (+{conv.up} up)" if conv is not None else ""))
     emit_json(args, info)
     return 0

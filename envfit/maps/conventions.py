@@ -402,7 +402,7 @@ class Mitsuba3Convention(LatLongConvention):
     name = "mitsuba3"
     renderer = "Mitsuba 3 (envmap emitter)"
     rows = ENDPOINTS
-    azimuth_label = "2π u, u = atan2(x, −z)/2π wrapped to [0, 1)"
+    azimuth_label = "2π u = atan2(x, −z) in [0, 2π)"
     source = ("mitsuba3 src/emitters/envmap.cpp EnvironmentMapEmitter::direction_to_uv / "
               "uv_to_direction / eval_spectrum")
 
