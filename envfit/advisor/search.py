@@ -9,10 +9,14 @@ non-monotone prediction the answer is a crossing, :math:`\hat R(N) \le \text{tar
 \hat R(N-1)`. OSW is searched up to ``min(nmax, osw_nmax)`` (an N×N solve per N); beyond the
 range a row says that the target is not reached instead of failing.
 
-L: the first L of the band-limited truncation curve at or below the target (SH with τ,
-HSH without, see :mod:`envfit.advisor.advise`), the curve doubled from L = 32 up to
-``min(H − 2, LMAX_SEARCH)``; SH truncation at L = H − 1 keeps every degree the map holds and
-is exact.
+L: the first L at or below the target of the row's predictor — SH: (b') (band-limited
+curve with τ; at L = H − 1 every degree of the model is kept: 0) or (c) (the map's own power
+above L to 2H − 1, :func:`envfit.predict.spectral.spectral_truncation_curve`), both for every
+L at once (O(H)); HSH: (b') only (no τ, see :mod:`envfit.advisor.advise`), the curve doubled
+from L = 32 up to ``min(H − 2, LMAX_SEARCH)``.
+
+Which predictor sizes a row, and the second search when (b') and (c) disagree:
+:mod:`envfit.advisor.choice`.
 
 Example
 -------
