@@ -53,6 +53,19 @@ def register(sub) -> None:
                    help="map rows for the HSH measurement (default: 128; --quick: 64)")
     p.add_argument("--quick", action="store_true",
                    help="a reduced run in under a minute (map at most 256 rows; see below)")
+    g = p.add_argument_group("renderer rules (--renderer)")
+    g.add_argument("--renderer", action="store_true",
+                   help="also validate the renderer estimators (BRDF, map, MIS, sources + MIS "
+                        "sampling): predicted vs measured RMSE with a 95 %% interval, after the "
+                        "paper's cells, on --scale (linear is what renderers integrate); "
+                        "writes renderer.png")
+    g.add_argument("--strategies", type=str_list, default=None, metavar="brdf,map,mis,split",
+                   help="renderer strategies (default: all four)")
+    g.add_argument("--renderer-pointsets", type=str_list, default=None, metavar="random,sobol,sf",
+                   help="point sets of the renderer rules (default: random,sobol,sf)")
+    g.add_argument("--renderer-n", type=int_list, default=None, metavar="N1,N2,…",
+                   help="sample counts of the renderer rules (default: 16,64,256,1024; "
+                        "--quick: 16,256)")
     add_common_arguments(p)
     p.set_defaults(func=run)
 
@@ -71,6 +84,23 @@ def _config(args: argparse.Namespace):
         if val is not None:
             over[key] = val
     return quick_config(**over) if args.quick else ValidateConfig(**over)
+
+
+def _renderer_config(args: argparse.Namespace, cfg):
+    """The renderer validation's configuration (None without ``--renderer``); the renderer
+    options without it are an error. Checked before any work."""
+    from envfit.base.errors import ParameterError
+    from envfit.validate.renderer import renderer_config
+    given = [flag for flag, v in (("--strategies", args.strategies),
+                                  ("--renderer-pointsets", args.renderer_pointsets),
+                                  ("--renderer-n", args.renderer_n)) if v is not None]
+    if not args.renderer:
+        if given:
+            raise ParameterError(f"{', '.join(given)} need(s) --renderer")
+        return None
+    return renderer_config(args.quick, strategies=args.strategies,
+                           pointsets=args.renderer_pointsets, n_values=args.renderer_n,
+                           lobes=cfg.brdfs, shininess=cfg.shininess, seed=cfg.seed)
 
 
 def _summary(res: dict) -> list[str]:
@@ -110,6 +140,7 @@ def run(args: argparse.Namespace) -> int:
     from envfit.base.atomic import atomic_write_json
     from envfit.validate.pipeline import run_validation
     cfg = _config(args)
+    rcfg = _renderer_config(args, cfg)
     if args.quick and args.max_height is None:
         args.max_height = 256
     env = load_map_from_args(args)
@@ -125,18 +156,27 @@ def run(args: argparse.Namespace) -> int:
         if was_resumed:
             resumed.append(key)
 
-    result = run_validation(env, cfg, out=out, quiet=args.quiet, on_cell=on_cell)
+    result = run_validation(env, cfg, out=out, quiet=args.quiet, on_cell=on_cell, renderer=rcfg)
     record_unwritten(args, result.unwritten)
     res = result.to_json()                   # what the report, the plots and --json take
     res["resumed_cells"] = len(resumed)
     if resumed:
         say(args, f"resumed {len(resumed)} finished cell(s) from {out}")
     say(args, *_summary(res))
+    if res.get("renderer"):
+        from envfit.validate.renderer import summary_lines
+        say(args, "", *summary_lines(res["renderer"]))
     if out is not None:
         from envfit.plots.validate import plot_all
         from envfit.validate.report import write_report
         files = guarded_write(args, f"the figures in {out}", plot_all, res, out)
         files = {} if files is None else files
+        if res.get("renderer"):
+            from envfit.plots.renderer import plot_renderer
+            png = guarded_write(args, out / "renderer.png", plot_renderer, res["renderer"],
+                                out / "renderer.png")
+            if png is not None:
+                files["renderer"] = str(png)
         figures = len(files)
         report = guarded_write(args, out / "report.md", write_report, res, out / "report.md", files)
         if report is not None:

@@ -162,6 +162,7 @@ from .agreement import SLOPE_RANGE, agreement
 from .cells import cell_is_current, cell_key, error_stats, s_key, twist_seed
 from .config import QUICK_DESCRIPTION, ValidateConfig
 from .fitting import fit_both
+from .renderer import RendererValidation, RendererValidationConfig, run_renderer_validation
 from .results import (ValidationResult, compute_costs, fill_measured_equivalents, fill_shape,
                       map_statistics, rule_entry)
 from .truncation import truncation_curves
@@ -361,15 +362,30 @@ def _rule_results(run: _Run, cells: dict, ctx: PredictionContext, s_list) -> lis
 
 # ----------------------------------------------------------------------------- the pipeline
 
+def _renderer_cells(run: _Run, renderer: RendererValidationConfig | None
+                    ) -> RendererValidation | None:
+    """Step 6 (``--renderer``): the renderer rules on the run's scaled map, their cells in
+    the run's store (:func:`envfit.validate.renderer.run_renderer_validation`)."""
+    if renderer is None:
+        return None
+    t0 = time.perf_counter()
+    rend = run_renderer_validation(run.scaled, renderer, scale=run.cfg.scale, store=run.store,
+                                   quiet=run.quiet, on_cell=run.on_cell)
+    run.timings["renderer"] = time.perf_counter() - t0
+    return rend
+
+
 def _finish(run: _Run, fit: dict, fit_ref: dict, ctx: PredictionContext, results: list[dict],
-            trunc: list[dict], agr: dict, t_start: float) -> ValidationResult:
-    """Step 6: timings, costs, notes (closing the store first) and the result."""
+            trunc: list[dict], agr: dict, t_start: float,
+            rend: RendererValidation | None = None) -> ValidationResult:
+    """Step 7: timings, costs, notes (closing the store first) and the result."""
     envmap, cfg, timings = run.envmap, run.cfg, run.timings
     timings["total"] = time.perf_counter() - t_start
     # what the whole result cost to compute, resumed parts included (stored per cell)
     timings["compute"] = (float(fit.get("seconds") or 0.0) + timings["truth"]
                           + sum(float(s or 0.0) for e in results for s in e["seconds"])
-                          + sum(float(t.get("seconds") or 0.0) for t in trunc))
+                          + sum(float(t.get("seconds") or 0.0) for t in trunc)
+                          + (0.0 if rend is None else rend.timings["compute"]))
     notes = list(envmap.notes)
     run.store.close()             # every cell is written: release the --out folder's lock
     notes.extend(run.store.notes)  # cells recomputed because they were not sound (also on stderr)
@@ -390,12 +406,14 @@ def _finish(run: _Run, fit: dict, fit_ref: dict, ctx: PredictionContext, results
         quick_description=QUICK_DESCRIPTION if cfg.quick else None, axes=cfg.axes,
         seed=cfg.seed, results=results, truncation=trunc, agreement=agr, map_stats=stats,
         timings=timings, costs=compute_costs(results), notes=notes,
-        unwritten=[list(u) for u in run.store.unwritten])
+        unwritten=[list(u) for u in run.store.unwritten],
+        renderer=None if rend is None else rend.to_json())
 
 
 def run_validation(envmap: EnvMap, config: ValidateConfig | None = None, *,
                    out: str | Path | None = None, quiet: bool = True,
-                   on_cell: Callable[[str, bool], None] | None = None) -> ValidationResult:
+                   on_cell: Callable[[str, bool], None] | None = None,
+                   renderer: RendererValidationConfig | None = None) -> ValidationResult:
     """Run the validation on ``envmap`` (see the module docstring).
 
     Parameters
@@ -405,6 +423,9 @@ def run_validation(envmap: EnvMap, config: ValidateConfig | None = None, *,
     out : folder of the resumable cells (:class:`envfit.base.store.ResultStore`); None = memory.
     quiet : no progress bar.
     on_cell : called as ``on_cell(key, resumed)`` after every stored cell.
+    renderer : :class:`envfit.validate.renderer.RendererValidationConfig` to validate the
+        renderer estimators too (``--renderer``), after the paper's cells, on the same scaled
+        map and store; None: not run.
 
     Returns
     -------
@@ -421,7 +442,7 @@ def run_validation(envmap: EnvMap, config: ValidateConfig | None = None, *,
     :class:`envfit.predict.PredictionContext`; :func:`_quadrature_cells`;
     :func:`_rule_results` (every predictor); the truncation curves
     (:func:`envfit.validate.truncation.truncation_curves`); the agreement statistics and
-    prediction (a); :func:`_finish`.
+    prediction (a); :func:`_renderer_cells` (with ``renderer``); :func:`_finish`.
     """
     cfg = config or ValidateConfig()
     t_start = time.perf_counter()
@@ -440,4 +461,5 @@ def run_validation(envmap: EnvMap, config: ValidateConfig | None = None, *,
     agr = agreement(results, trunc, s_used=ctx.s, slope_range=SLOPE_RANGE)
     fill_shape(results, trunc, agr)
     fill_measured_equivalents(results, trunc)
-    return _finish(run, fit, fit_ref, ctx, results, trunc, agr, t_start)
+    rend = _renderer_cells(run, renderer)
+    return _finish(run, fit, fit_ref, ctx, results, trunc, agr, t_start, rend)

@@ -3,7 +3,9 @@ r"""``report.md``: a short validation report written from the result of ``envfit
 :func:`render_report` turns the JSON-ready dict of :func:`envfit.validate.pipeline.run_validation`
 (or the JSON file it was saved to) into Markdown: what was run, the figures, the agreement
 numbers (slopes, rank order, the shape fit (a) and the choice of s, the absolute
-predictions (b) and (b'), the truncation curves) and a "what disagrees and why" section.
+predictions (b) and (b'), the truncation curves), a "what disagrees and why" section and,
+with ``--renderer``, a "Renderer rules" section
+(:mod:`~envfit.validate.report_renderer`).
 
 Every sentence that states a judgement (a verdict, a trend, a shape of a distribution, a
 cause) is chosen by a named, pure predicate of numbers printed in the same report; the
@@ -16,7 +18,8 @@ report atomically.
 The parts live in sibling modules: :mod:`~envfit.validate.report_conditions` (thresholds,
 predicates, the table of conditions), :mod:`~envfit.validate.report_sections` (what was run,
 the predictions, the figures, the agreement tables), :mod:`~envfit.validate.report_statements`
-(what disagrees and why) and :mod:`~envfit.validate.report_format` (formatting helpers).
+(what disagrees and why), :mod:`~envfit.validate.report_renderer` (the renderer rules) and
+:mod:`~envfit.validate.report_format` (formatting helpers).
 
 Example
 -------
@@ -42,6 +45,7 @@ from envfit.base.atomic import atomic_write_text
 
 from .report_sections import (_agreement_section, _figures_section, _predictions_explained,
                               _what_was_run)
+from .report_renderer import _renderer_section
 from .report_statements import _disagreements_section
 
 __all__ = ["render_report", "write_report"]
@@ -71,6 +75,7 @@ def render_report(result: dict, figures: dict[str, str] | None = None) -> str:
     lines += _figures_section(figures)
     lines += _agreement_section(result)
     lines += _disagreements_section(result)
+    lines += _renderer_section(result)
     return "\n".join(lines)
 
 

@@ -61,6 +61,10 @@ RESOLUTION_FACTOR = 3.0
 #: Measured residue of an exact truncation, relative to its L = 0 error, up to which it is
 #: the ground truth's own accuracy (the SH ground truth is far better than 0.1 %).
 TRUTH_RESIDUE_FRACTION = 1e-3
+#: ``--renderer``: the range of a rule's median predicted/measured ratio called accurate
+#: (±10 %: the measured interval's own target half-width).
+RENDERER_RATIO_LOW = 0.9
+RENDERER_RATIO_HIGH = 1.1
 
 
 # ----------------------------------------------------------------------------- predicates
@@ -201,6 +205,28 @@ def _shapes_tie(residual_used: float, residual_best: float) -> bool:
 def _truncation_exact(residue_fraction: float) -> bool:
     """The residue at L ≥ 1 is ≤ :data:`TRUTH_RESIDUE_FRACTION` of the L = 0 error."""
     return residue_fraction <= TRUTH_RESIDUE_FRACTION
+
+
+def _ratios_in_range(medians: list[float | None]) -> bool:
+    """Every median ratio is known and in [:data:`RENDERER_RATIO_LOW`,
+    :data:`RENDERER_RATIO_HIGH`] (and there is at least one)."""
+    return bool(medians) and all(m is not None and RENDERER_RATIO_LOW <= m <= RENDERER_RATIO_HIGH
+                                 for m in medians)
+
+
+def _interval_below(high: float, other_low: float) -> bool:
+    """The upper end of one 95 % interval lies below the lower end of the other."""
+    return high < other_low
+
+
+def _any_found(count: int) -> bool:
+    """At least one."""
+    return count > 0
+
+
+def _all_below(pairs: list[tuple[float, float]]) -> bool:
+    """Every first value is below its second (and there is at least one pair)."""
+    return bool(pairs) and all(a < b for a, b in pairs)
 
 
 # ----------------------------------------------------------------------------- the table
@@ -357,6 +383,43 @@ CONDITIONS: dict[str, Condition] = {
         "Exact for L ≥ 1 in theory (b̃_l = 0 for l ≥ 2), yet the measured residue at L ≥ 1 is "
         "{residue:.3g} ({fraction:.2g} of the L = 0 error): more than the ground truth's "
         "accuracy accounts for."),
+    # renderer rules (--renderer)
+    "renderer_ratios_within": Condition(
+        _ratios_in_range,
+        "For every rule ({n}) the median predicted/measured ratio is within {lo:g}–{hi:g} "
+        "({min}–{max}).",
+        "The median predicted/measured ratio is outside {lo:g}–{hi:g} for {k} of the {n} "
+        "rules: {offenders}."),
+    "renderer_lobe_agrees": Condition(
+        _all_within,
+        "{lobe}: all {n} cells agree (within {band:.0%} or inside the 95 % interval); median "
+        "ratio {median}, worst {worst} ({rule}, N = {worst_n}).",
+        "{lobe}: {agree} of {n} cells agree (within {band:.0%} or inside the 95 % interval); "
+        "median ratio {median}, worst {worst} ({rule}, N = {worst_n})."),
+    "renderer_lowest_resolved": Condition(
+        _interval_below,
+        "{lobe}, N = {n}: `{strategy}` ({pointset}) has the lowest measured RMSE, {rmse} "
+        "[{low}, {high}], its interval below that of the next strategy, `{next}` "
+        "({next_pointset}, {next_rmse} [{next_low}, {next_high}]).",
+        "{lobe}, N = {n}: `{strategy}` ({pointset}) has the lowest measured RMSE, {rmse} "
+        "[{low}, {high}], but its interval overlaps that of the next strategy, `{next}` "
+        "({next_pointset}, {next_rmse} [{next_low}, {next_high}]): the two are not resolved."),
+    "renderer_sources": Condition(
+        _any_found,
+        "Split off by `split` ({count} bright source(s), integrated exactly): {sources}.",
+        "No bright source was found on this map ({scale} scale): `split` is MIS on the whole "
+        "map."),
+    "renderer_split_helps": Condition(
+        _all_below,
+        "`split` measures below `mis` in all {n} cells with the same lobe, point set and N "
+        "(ratio split/mis {min}–{max}).",
+        "`split` does not measure below `mis` in {k} of the {n} cells with the same lobe, "
+        "point set and N: {offenders}."),
+    "renderer_targets_met": Condition(
+        _all_counted,
+        "Every measured interval reached ±{target:.0%} ({lo}–{hi} axes).",
+        "{k} of {n} cells stopped at max_axes = {max_axes} before their interval reached "
+        "±{target:.0%} ({offenders}); their intervals are wider."),
 }
 
 

@@ -44,6 +44,8 @@ class ValidationResult:
         weighting / N.
     notes : what the reader should know (map, store, fits).
     unwritten : [key, reason] of the cells that could not be written (resumability lost).
+    renderer : the ``--renderer`` section (:meth:`envfit.validate.renderer.RendererValidation.to_json`:
+        config, sources, cells, per-rule and per-lobe summaries, timings), or None.
     """
 
     map: str
@@ -72,6 +74,7 @@ class ValidationResult:
     costs: dict = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
     unwritten: list[list] = field(default_factory=list)
+    renderer: dict | None = None
 
     def to_json(self) -> dict:
         """The JSON-ready dict (every field, in order; the nested values are shared, not
