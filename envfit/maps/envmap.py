@@ -74,7 +74,9 @@ class EnvMap:
             raise EnvMapFormatError(
                 f"a lat-long map must be twice as wide as high; got {w}x{h} (width x height)")
         latlong.local_to_world(self.up)  # validates up
-        self.data = a
+        # pixel-interleaved (C order): the lookups gather whole pixels, and a planar layout
+        # (as OpenImageIO may return a multi-channel EXR) made each gather ~50× slower
+        self.data = np.ascontiguousarray(a)
         self.notes = list(self.notes)
 
     # -- geometry ------------------------------------------------------------------------

@@ -263,7 +263,9 @@ def adaptive_rmse(measure: Callable, *, axes_start: int = 500, max_axes: int = 6
     r"""Measure the RMSE over uniform random axes with as many axes as its interval needs.
 
     ``measure(axes)`` — supplied by the caller — gets an (K, 3) array of unit axes and
-    returns ``(estimates, truth)``, each (K, C) (or (K,)), for those axes only.
+    returns ``(estimates, truth)``, each (K, C) (or (K,)), for those axes only — or a (K,)
+    array of each axis's squared error (mean over channels; e.g. the mean over several
+    randomised estimates of the same axis, the bootstrap then resampling axes).
 
     Stopping rule: measure :math:`M_0` = ``axes_start`` axes; after each round compute the
     interval (:func:`rmse_interval` on *all* axes measured so far) and stop when
@@ -317,11 +319,14 @@ def adaptive_rmse(measure: Callable, *, axes_start: int = 500, max_axes: int = 6
     while True:
         new = _uniform_axes(rng, want - have)
         result = measure(new)
-        try:
-            est, tru = result
-        except (TypeError, ValueError):
-            raise ParameterError("measure must return (estimates, truth)") from None
-        d = squared_errors_per_axis(est, tru)
+        if isinstance(result, np.ndarray) and result.ndim == 1:
+            d = result                                    # squared errors per axis, given
+        else:
+            try:
+                est, tru = result
+            except (TypeError, ValueError):
+                raise ParameterError("measure must return (estimates, truth)") from None
+            d = squared_errors_per_axis(est, tru)
         if d.shape[0] != new.shape[0]:
             raise ParameterError(f"measure returned {d.shape[0]} axes for {new.shape[0]}")
         parts.append(d)

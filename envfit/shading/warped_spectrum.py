@@ -307,11 +307,17 @@ def _axis_spectra(grid: _Grid, envmap, sampler, technique, weight, nu, heur, R, 
 # ----------------------------------------------------------------------------- axes
 
 def _fibonacci_axes(m: int) -> np.ndarray:
+    """m spherical Fibonacci axes in a *serpentine* order: √(m/2) bands of z, φ ascending in
+    even bands and descending in odd ones, so that neighbours in the order are neighbours
+    on the sphere and systematic sampling along it stratifies the sphere."""
     j = np.arange(m) + 0.5
     z = 1.0 - 2.0 * j / m
-    phi = 2.0 * np.pi * j / ((1.0 + math.sqrt(5.0)) / 2.0)
+    phi = np.mod(2.0 * np.pi * j / ((1.0 + math.sqrt(5.0)) / 2.0), 2.0 * np.pi)
+    bands = max(1, int(round(math.sqrt(m / 2.0))))
+    band = np.minimum((0.5 * (1.0 - z) * bands).astype(int), bands - 1)
+    order = np.lexsort((np.where(band % 2 == 0, phi, -phi), band))
     r = np.sqrt(np.maximum(0.0, 1.0 - z * z))
-    return np.column_stack([r * np.cos(phi), r * np.sin(phi), z])
+    return np.column_stack([r * np.cos(phi), r * np.sin(phi), z])[order]
 
 
 def _proxy_moments(envmap: EnvMap, sampler: MapSampler, weight, pool: np.ndarray):

@@ -1,0 +1,201 @@
+r"""Renderer sampling rules — a strategy, a point set and N — and their measured error.
+
+A *rule* is what a renderer engineer chooses: a strategy of :data:`STRATEGIES`
+
+* ``brdf`` — BRDF (lobe) sampling;
+* ``map`` — environment-map importance sampling (pdf ∝ luminance × solid angle);
+* ``mis`` — multi-sample MIS of the two, balance heuristic, N/2 samples each;
+* ``split`` — the bright sources (:func:`envfit.shading.sources.find_bright_sources`)
+  integrated exactly and the rest of the map by ``mis``;
+
+a point set of :func:`envfit.theory.pointsets.square_points` (random, jitter, sobol, lp, bnot,
+sf — the square lattice of spherical Fibonacci) and N. Every estimate is randomised as a
+renderer does it: each axis gets an independent uniform twist of its frame and an independent
+Cranley–Patterson shift of the points (Cycles' per-pixel rotation of its Sobol pattern), so
+every rule is unbiased and its RMSE over uniform axes is the number a renderer sees across
+normals. MIS uses two point sets of the same kind, N − ⌊N/2⌋ for the map and ⌊N/2⌋ for the
+lobe (a set's first half is poorly stratified for SF and LP). ``random`` draws a fresh set
+for every 32 axes, so its measured RMSE is the mean over random sets.
+
+:func:`measure_rule` measures a rule's RMSE over uniform random axes with a bootstrap 95 %
+interval and as many axes as the interval needs to be within ±10 %
+(:func:`envfit.shading.measurement.adaptive_rmse`); the ground truth of each axis is computed
+once per :class:`RendererSetup` and brdf and reused by every rule.
+
+Example
+-------
+>>> import numpy as np
+>>> from envfit.maps.envmap import EnvMap
+>>> setup = RendererSetup.of(EnvMap(np.full((8, 16, 1), 2.0)), sources=[])
+>>> r = RendererRule("mis", "sobol", 16)
+>>> [p.shape for p in rule_points(r)]
+[(8, 2), (8, 2)]
+>>> out = measure_rule(setup, RendererRule("brdf", "sobol", 16), "diffuse", axes_start=20,
+...                    max_axes=20, resamples=200)
+>>> round(out.interval.rmse, 9)          # a constant map, lobe sampled exactly: no error
+0.0
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from envfit.base.checks import check_int
+from envfit.base.errors import ParameterError
+from envfit.maps.envmap import EnvMap
+from envfit.shading.ground_truth import shading_integral
+from envfit.shading.importance import ESTIMATORS
+from envfit.shading.map_sampler import MapSampler
+from envfit.shading.measurement import AdaptiveRMSE, adaptive_rmse
+from envfit.shading.sources import BrightSource, find_bright_sources, split_map
+from envfit.theory.pointsets import POINTSETS, square_points
+
+__all__ = ["STRATEGIES", "RendererRule", "RendererSetup", "rule_points", "rule_estimates",
+           "measure_rule", "replicates", "RANDOM_CHUNK", "SAMPLES_PER_AXIS"]
+
+#: strategy → (technique of envfit.shading.importance, on the rest map after the split?)
+STRATEGIES: dict[str, tuple[str, bool]] = {
+    "brdf": ("brdf", False),
+    "map": ("map", False),
+    "mis": ("mis", False),
+    "split": ("mis", True),
+}
+#: a fresh random set is drawn for every this many estimates (or every axis's replicates)
+RANDOM_CHUNK = 32
+#: samples per axis of a measurement: N × replicates ≥ this
+SAMPLES_PER_AXIS = 4096
+
+
+@dataclass(frozen=True)
+class RendererRule:
+    """A strategy of :data:`STRATEGIES`, a point set of :data:`POINTSETS` and N ≥ 2.
+
+    >>> RendererRule("map", "sobol", 64).label
+    'map/sobol'
+    """
+
+    strategy: str
+    pointset: str
+    n: int
+
+    def __post_init__(self):
+        if self.strategy not in STRATEGIES:
+            raise ParameterError(f"strategy must be one of {', '.join(STRATEGIES)}; "
+                                 f"got {self.strategy!r}")
+        if self.pointset not in POINTSETS:
+            raise ParameterError(f"point set must be one of {', '.join(sorted(POINTSETS))}; "
+                                 f"got {self.pointset!r}")
+        object.__setattr__(self, "n", check_int(self.n, "N", 2))
+
+    @property
+    def label(self) -> str:
+        return f"{self.strategy}/{self.pointset}"
+
+    @property
+    def technique(self) -> str:
+        return STRATEGIES[self.strategy][0]
+
+    @property
+    def on_rest(self) -> bool:
+        return STRATEGIES[self.strategy][1]
+
+
+def rule_points(rule: RendererRule, seed: int = 0) -> list[np.ndarray]:
+    """The rule's square points: one (N, 2) set, or for MIS the map's N − ⌊N/2⌋ and the
+    lobe's ⌊N/2⌋ (seeds ``seed`` and ``seed + 1`` for the stochastic sets)."""
+    if rule.technique != "mis":
+        return [square_points(rule.pointset, rule.n, seed=seed)]
+    n2 = rule.n // 2
+    return [square_points(rule.pointset, rule.n - n2, seed=seed),
+            square_points(rule.pointset, n2, seed=seed + 1)]
+
+
+@dataclass
+class RendererSetup:
+    """A map prepared for the rules: its sampler, bright sources, the source and rest maps and
+    the rest map's sampler, and a cache of ground truths per (brdf, shininess, axes)."""
+
+    envmap: EnvMap
+    sampler: MapSampler
+    sources: tuple[BrightSource, ...]
+    source_map: EnvMap
+    rest_map: EnvMap
+    rest_sampler: MapSampler
+    _truth: dict = field(default_factory=dict, repr=False)
+
+    @classmethod
+    def of(cls, envmap: EnvMap, sources=None) -> "RendererSetup":
+        """Build it: sources detected with the defaults when None (``[]``: none split off)."""
+        if not isinstance(envmap, EnvMap):
+            raise ParameterError(f"envmap must be an EnvMap, got {type(envmap).__name__}")
+        srcs = tuple(find_bright_sources(envmap) if sources is None else sources)
+        smap, rmap = split_map(envmap, list(srcs))
+        return cls(envmap, MapSampler(envmap), srcs, smap, rmap, MapSampler(rmap))
+
+    def truth(self, axes: np.ndarray, brdf: str, shininess: float, *, part: str = "whole"):
+        """Shading integrals (M, C) of the whole map, or (``part="source"``) of the source
+        map, at the axes; cached by the axes' bytes."""
+        key = (part, brdf, float(shininess), axes.tobytes())
+        if key not in self._truth:
+            m = self.envmap if part == "whole" else self.source_map
+            self._truth[key] = (np.zeros((axes.shape[0], m.channels)) if part == "source"
+                                and not self.sources else
+                                shading_integral(m, axes, brdf, shininess))
+        return self._truth[key]
+
+
+def rule_estimates(setup: RendererSetup, rule: RendererRule, axes, brdf="diffuse",
+                   shininess: float = 30.0, *, seed: int = 0, point_seed: int = 0) -> np.ndarray:
+    """The rule's estimates (M, C) at the axes, twisted and shifted with ``seed``."""
+    A = np.asarray(axes, dtype=np.float64)
+    pts = rule_points(rule, point_seed)
+    u = pts[0] if len(pts) == 1 else tuple(pts)
+    m, sampler = ((setup.rest_map, setup.rest_sampler) if rule.on_rest
+                  else (setup.envmap, setup.sampler))
+    est = ESTIMATORS[rule.technique](m, A, u, sampler, brdf, shininess, seed=seed, shift=True)
+    if rule.on_rest:
+        est = est + setup.truth(A, brdf, shininess, part="source")
+    return est
+
+
+def replicates(n: int) -> int:
+    """Estimates per axis of :func:`measure_rule`: ⌈:data:`SAMPLES_PER_AXIS`/N⌉, so that a
+    rare event (a few samples of N = 16 hitting a sun of 1e-4 sr) is seen at small N too."""
+    return max(1, -(-SAMPLES_PER_AXIS // int(n)))
+
+
+def measure_rule(setup: RendererSetup, rule: RendererRule, brdf="diffuse",
+                 shininess: float = 30.0, *, seed: int = 0, target_relative: float = 0.10,
+                 axes_start: int = 500, max_axes: int = 16000,
+                 resamples: int = 2000) -> AdaptiveRMSE:
+    """The rule's RMSE over uniform random axes with its bootstrap 95 % interval, adaptive
+    (:func:`envfit.shading.measurement.adaptive_rmse`: doubling the axes from ``axes_start``
+    until the interval is within ±``target_relative`` or ``max_axes`` are measured).
+
+    Each axis gets :func:`replicates` independent estimates (twist, shift and, for
+    ``random``, point set each) and contributes their mean squared error, the bootstrap
+    resampling axes. The axes are drawn from ``seed`` (the same for every rule, so the truths
+    are shared); twists, shifts and random sets from a stream of their own."""
+    stream = np.random.default_rng([int(seed), 7])
+    reps = replicates(rule.n)
+
+    def measure(A: np.ndarray) -> np.ndarray:
+        truth = np.repeat(setup.truth(A, brdf, shininess), reps, axis=0)
+        AA = np.repeat(A, reps, axis=0)
+        if rule.pointset != "random":
+            s = int(stream.integers(2 ** 62))
+            est = rule_estimates(setup, rule, AA, brdf, shininess, seed=s)
+        else:
+            est = np.empty_like(truth)
+            chunk = max(RANDOM_CHUNK, reps)                  # one set per axis at small N
+            for k0 in range(0, AA.shape[0], chunk):
+                s, ps = (int(x) for x in stream.integers(2 ** 62, size=2))
+                sl = slice(k0, k0 + chunk)
+                est[sl] = rule_estimates(setup, rule, AA[sl], brdf, shininess, seed=s,
+                                         point_seed=ps)
+        d = ((est - truth) ** 2).mean(axis=1)
+        return d.reshape(A.shape[0], reps).mean(axis=1)
+
+    return adaptive_rmse(measure, axes_start=axes_start, max_axes=max_axes,
+                         target_relative=target_relative, seed=seed, resamples=resamples)
