@@ -300,6 +300,7 @@ def test_marker_map_round_trip(name, tmp_path, capsys):
     assert cli.main(["info", str(path), "--convention", name, "--json", "-"]) == 0
     info = json.loads(capsys.readouterr().out)
     b = info["brightest"]
+    assert not any("envfit:up" in n for n in info["notes"])     # the file is tagged +up axis
     assert _angle(np.asarray(b["direction"]), axes["+x"]) < 1.0 * pixel
     r0, c0 = RENDERER[name][0](np.asarray(b["direction"]), W, H)
     assert (b["convention"]["row"], b["convention"]["col"]) == pytest.approx((r0, c0), abs=1e-9)

@@ -370,7 +370,7 @@ def load_map_from_args(args: argparse.Namespace, path=None):
         return load_envmap(path, up=map_up(args), allow_negative=args.allow_negative,
                            fix_nonfinite=args.fix_nonfinite, max_height=args.max_height)
     else:
-        env = conv.to_internal(load_envmap(path, allow_negative=args.allow_negative,
+        env = conv.to_internal(load_envmap(path, up=conv.up, allow_negative=args.allow_negative,
                                            fix_nonfinite=args.fix_nonfinite))
     if args.max_height:
         env = env.resized(args.max_height)

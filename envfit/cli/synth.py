@@ -141,8 +141,8 @@ def run(args: argparse.Namespace) -> int:
         if conv is not None:      # synthesized on envfit's grid with conv's up, laid out as conv's
             f = conv.from_internal(EnvMap(np.asarray(f, dtype=np.float64), up=conv.up))
     name = f"synth:{args.kind}"
-    # a file in a renderer's layout is tagged up=y (its layout, not envfit:up, says where up is)
-    env = EnvMap(np.asarray(f, dtype=np.float32), up="y" if conv else map_up(args), name=name)
+    # envfit:up names the world axis of the top row (the convention's, with --convention)
+    env = EnvMap(np.asarray(f, dtype=np.float32), up=map_up(args), name=name)
     try:
         path = save_envmap(args.output, env, half=args.half)
     except EnvfitError:     # EnvMapFileError "…: write failed: …" says it all
