@@ -114,7 +114,9 @@ Costs (defaults, 1024×512 map, 2 idle cores; forest.exr: 159 s in all, 172 s wi
 * QMC-equivalent N (bisection over SF point sets up to ``equivalent_nmax`` = 4096) ≈ 5 s.
 
 Resumable: every (brdf, pointset, weights, N) cell, the fit and each truncation curve is a
-:class:`envfit.base.store.ResultStore` cell.
+:class:`envfit.base.store.ResultStore` cell; so is every renderer cell of ``renderer=``
+(``--renderer``, :mod:`envfit.validate.renderer`: the renderer estimators' predicted RMSE
+against the measured one with its 95 % interval, on the same scaled map).
 
 Example
 -------
