@@ -53,6 +53,13 @@ def register(sub) -> None:
                    help="map rows for the HSH measurement (default: 128; --quick: 64)")
     p.add_argument("--quick", action="store_true",
                    help="a reduced run in under a minute (map at most 256 rows; see below)")
+    _add_renderer_arguments(p)
+    add_common_arguments(p)
+    p.set_defaults(func=run)
+
+
+def _add_renderer_arguments(p) -> None:
+    """``--renderer`` and the options of its rules."""
     g = p.add_argument_group("renderer rules (--renderer)")
     g.add_argument("--renderer", action="store_true",
                    help="also validate the renderer estimators (BRDF, map, MIS, sources + MIS "
@@ -66,8 +73,6 @@ def register(sub) -> None:
     g.add_argument("--renderer-n", type=int_list, default=None, metavar="N1,N2,…",
                    help="sample counts of the renderer rules (default: 16,64,256,1024; "
                         "--quick: 16,256)")
-    add_common_arguments(p)
-    p.set_defaults(func=run)
 
 
 def _config(args: argparse.Namespace):
