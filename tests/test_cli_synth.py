@@ -8,6 +8,7 @@ import pytest
 
 import envfit.cli as cli
 from envfit.maps.io import load_envmap
+from envfit.maps.latlong import local_to_world
 from envfit.theory.sobolev import sobolev_coefficients
 
 
@@ -57,6 +58,26 @@ def test_sun_disk_energy(tmp_path):
     env = load_envmap(out)
     energy = np.sum(env.solid_angles() * (env.data[..., 0] - 0.5))
     assert energy == pytest.approx(100 * 2 * np.pi * (1 - np.cos(0.1)), rel=5e-3)
+
+
+def test_sun_gp_map_holds_the_recorded_sun_on_a_positive_background(tmp_path):
+    """sun-gp: the map minus the same seed's GP background (offset as recorded) integrates to
+    radiance × 2π(1 − cos ρ), and the brightest pixel is the recorded direction."""
+    from envfit.data_gen.sun_gp import sun_gp_map
+
+    out, js = tmp_path / "sg.exr", tmp_path / "sg.json"
+    assert cli.main(["synth", str(out), "--kind", "sun-gp", "--height", "64", "--seed", "4",
+                     "--s0", "1.3", "--sun-radius", "0.1", "--sun-radiance", "300",
+                     "--channels", "1", "--json", str(js), "--quiet"]) == 0
+    env, info = load_envmap(out), json.loads(js.read_text())
+    assert env.data.min() > 0 and info["sun"]["radius"] == 0.1
+    background, _ = sun_gp_map(64, seed=4, s0=1.3, sun_radius=0.1, sun_radiance=0.0,
+                               channels=1, offset=info["offset"])
+    energy = np.sum(env.solid_angles() * (env.data[..., 0] - background[..., 0]))
+    assert energy == pytest.approx(300 * 2 * np.pi * (1 - np.cos(0.1)), rel=1e-2)
+    i, j = np.unravel_index(np.argmax(env.data[..., 0]), env.data.shape[:2])
+    world = local_to_world(env.up) @ np.array(info["sun"]["direction"])   # recorded: local, z up
+    assert float(env.directions()[i, j] @ world) > np.cos(0.1)
 
 
 def test_bad_parameters_exit_2(tmp_path, capsys):

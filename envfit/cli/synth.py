@@ -18,14 +18,16 @@ from envfit.base.errors import EnvfitError, OutputError, ParameterError
 from .common import (CONVENTION_HELP, add_common_arguments, colour_list, emit_json, finite_float,
                      map_convention, map_up, positive_float, positive_int, say)
 
-KINDS = ("gp", "constant", "sky", "sun", "step", "marker")
+KINDS = ("gp", "sun-gp", "constant", "sky", "sun", "step", "marker")
 
 
 def register(sub) -> None:
     p = sub.add_parser(
-        "synth", help="write a synthetic lat-long map (gp, constant, sky, sun, step, marker)",
+        "synth", help="write a synthetic lat-long map (gp, sun-gp, constant, sky, sun, step, marker)",
         description="Synthesize a lat-long map of known smoothness (a Gaussian-process sample "
-                    "with covariance K_gd^(s0), Eq. 8) or an analytic map with known shading "
+                    "with covariance K_gd^(s0), Eq. 8), a sun of known radiance and radius on such a "
+                    "background ('sun-gp': linear HDR with a sun, for the renderer estimators), "
+                    "or an analytic map with known shading "
                     "integrals, or the self-check map 'marker' (small markers of distinct colours at "
                     "the world axes +x red (the brightest), -x cyan, +y green, -y magenta, +z "
                     "blue, -z yellow), and write it as EXR, in envfit's layout or in a "
@@ -50,7 +52,8 @@ def register(sub) -> None:
     g.add_argument("--method", choices=("sht", "exact"), default="sht",
                    help="band-limited SH synthesis (fast) or exact Cholesky at pixel centres (small maps)")
     g.add_argument("--offset", type=_auto_or_number, default="auto",
-                   help="constant added to the zero-mean sample; 'auto' makes every pixel positive")
+                   help="constant added to the zero-mean sample; 'auto' makes every pixel "
+                        "positive (sun-gp: 4 x amplitude, raised if a pixel would be negative)")
     g.add_argument("--amplitude", type=positive_float, default=1.0, help="scale sigma of the process")
     g = p.add_argument_group("analytic maps (colours are comma-separated: one value or R,G,B)")
     g.add_argument("--value", type=colour_list, default=[1.0], help="constant: the value")
@@ -59,7 +62,8 @@ def register(sub) -> None:
     g.add_argument("--sun-theta", type=finite_float, default=0.6, help="sun: polar angle from up (radians)")
     g.add_argument("--sun-phi", type=finite_float, default=1.0, help="sun: azimuth (radians)")
     g.add_argument("--sun-radius", type=positive_float, default=0.05, help="sun: angular radius (radians)")
-    g.add_argument("--sun-radiance", type=colour_list, default=[200.0], help="sun: disk radiance")
+    g.add_argument("--sun-radiance", type=colour_list, default=[200.0],
+                   help="sun, sun-gp: disk radiance (added to the background for sun-gp)")
     g.add_argument("--sky", type=colour_list, default=[0.5, 0.6, 0.9], help="sun: sky colour")
     g.add_argument("--theta-edge", type=finite_float, default=np.pi / 2, help="step: edge polar angle")
     g.add_argument("--low", type=colour_list, default=[0.1], help="step: value below the edge")
@@ -95,6 +99,25 @@ def synthesize(args: argparse.Namespace) -> tuple[np.ndarray, dict]:
             f = f + offset
             info.update(s0=args.s0, seed=args.seed, channels=args.channels, offset=offset,
                         amplitude=args.amplitude, method=args.method)
+            return f, info
+        if args.kind == "sun-gp":
+            offset = 4.0 * args.amplitude if args.offset == "auto" else float(args.offset)
+            from envfit.data_gen.sun_gp import sun_gp_map
+            f, sun = sun_gp_map(args.height, seed=args.seed, s0=args.s0,
+                                sun_theta=args.sun_theta, sun_phi=args.sun_phi,
+                                sun_radius=args.sun_radius,
+                                sun_radiance=_colour(args.sun_radiance),
+                                channels=args.channels, offset=offset,
+                                scale=args.amplitude, method=args.method)
+            if args.offset == "auto" and f.min() < 0:       # lift the background above 0
+                lift = float(-f.min() + 0.1 * offset)
+                f, offset = f + lift, offset + lift
+            info.update(s0=args.s0, seed=args.seed, channels=args.channels, offset=offset,
+                        amplitude=args.amplitude, method=args.method,
+                        sun_frame="local (z up; the written map's world frame by its up axis)",
+                        sun={k: np.asarray(getattr(sun, k)).tolist() for k in
+                             ("direction", "theta", "phi", "radius", "radiance",
+                              "solid_angle", "rendered_solid_angle")})
             return f, info
         if args.kind == "constant":
             m = data_gen.ConstantMap(_colour(args.value))
