@@ -86,9 +86,11 @@ with the line ``rule X: (b′) and (c) disagree (ratio r at N = n); using (c)`` 
 
 Search
 ------
-N: doubling from ``nmin`` until :math:`\hat R(N) \le` target (:math:`\hat R` the row's
-predictor), then bisection between the
-last failing and the first passing N (:func:`smallest_n`): at most ~2 log₂(N) evaluations.
+N: the prediction at ``nmax`` first — the search assumes :math:`\hat R` decreases with N, so
+a row that misses the target there is "not reached" after one evaluation — then doubling
+from ``nmin`` until :math:`\hat R(N) \le` target (:math:`\hat R` the row's predictor) and
+bisection between the last failing and the first passing N (:func:`smallest_n`): at most
+~2 log₂(N) + 1 evaluations.
 :math:`\hat R` is monotone in N for the averaged random sets only in expectation and for
 spherical Fibonacci only nearly, so the answer is a *crossing*,
 :math:`\hat R(N) \le \text{target} < \hat R(N-1)` (the smallest such N when :math:`\hat R` is
@@ -133,7 +135,10 @@ keywords)
 3. the curves and their searches, one row per rule (:mod:`envfit.advisor.search`, from the
    terms of :mod:`envfit.advisor.prediction`);
 4. the rows into an :class:`Advice` with its recommendation (:mod:`envfit.advisor.result`);
-5. with ``check``, the measurement (:mod:`envfit.advisor.check`).
+5. with ``renderer`` (default), the renderer rows — strategy × point set × N, sized by the
+   warped spectra (:mod:`envfit.advisor.renderer`), ``Advice.renderer``;
+6. with ``check``, the measurement (:mod:`envfit.advisor.check`; the renderer rows by
+   :func:`envfit.shading.renderer_rules.measure_rule`).
 
 Example
 -------
@@ -167,8 +172,9 @@ import numpy as np
 
 from envfit.advisor.cache import AdviseCache
 from envfit.advisor.check import check_rows
-from envfit.advisor.model import MapModel, map_model
+from envfit.advisor.model import MapModel, map_key, map_model
 from envfit.advisor.options import AdviseOptions
+from envfit.advisor.renderer import advise_renderer, run_renderer_check
 from envfit.advisor.result import Advice, AdviceRow, recommendation_text
 from envfit.advisor.search import search_rules
 from envfit.base.errors import ParameterError
@@ -229,7 +235,9 @@ def advise(envmap: EnvMap, brdf: str = "diffuse", target_rmse: float | None = No
         The other fields of :class:`AdviseOptions`: ``target_relative``, ``shininess``,
         ``scale``, ``pointsets``, ``weights``, ``bases``, ``s``, ``fit_n``, ``seed``,
         ``nmin``, ``nmax``, ``osw_nmax``, ``seeds``, ``check``, ``axes``,
-        ``check_hsh_height``, ``check_hsh_axes``, ``cache``, ``cache_dir``, ``workers``,
+        ``check_hsh_height``, ``check_hsh_axes``, ``cache``, ``cache_dir``, ``renderer``,
+        ``strategies``, ``renderer_pointsets``, ``renderer_grid``, ``renderer_spectrum_axes``,
+        ``renderer_axes_start``, ``renderer_max_axes``, ``renderer_curves``, ``workers``,
         ``quiet``.
 
     Returns
@@ -300,16 +308,25 @@ def advise_with(envmap: EnvMap, options: AdviseOptions) -> Advice:
     rows = search_rules(wf, model, opts, store)
     t_search = time.perf_counter() - t1
     adv = _advice(envmap, opts, model, rows)
+    setup = None
+    if opts.renderer:
+        adv.renderer, setup = advise_renderer(envmap, model.scaled, map_key(envmap, opts.scale),
+                                              opts, model.target, model.mean_shading, store)
     t_check = 0.0
     if opts.check:
         t2 = time.perf_counter()
         adv.check = check_rows(adv, wf, model, opts)
         t_check = time.perf_counter() - t2
+        if setup is not None:
+            run_renderer_check(adv.renderer, setup, opts)
     adv.notes.extend(store.notes)
     adv.cache = {"enabled": store.enabled, "folder": str(store.folder), "hits": store.hits,
                  "misses": store.misses, "writes": store.writes}
     adv.timings = {"fit": model.seconds_fit, "transfer": model.seconds_transfer,
-                   "search": t_search, "check": t_check, "total": time.perf_counter() - t_start}
+                   "search": t_search, "check": t_check,
+                   **({f"renderer_{k}": v for k, v in adv.renderer.timings.items()}
+                      if adv.renderer is not None else {}),
+                   "total": time.perf_counter() - t_start}
     return adv
 
 

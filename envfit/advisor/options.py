@@ -27,16 +27,20 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, fields
 
+from envfit.advisor.renderer import (DEFAULT_RENDERER_POINTSETS, DEFAULT_STRATEGIES,
+                                     RENDERER_GRID, RENDERER_SPECTRUM_AXES)
 from envfit.base.checks import check_int, check_names, check_positive
 from envfit.base.errors import ParameterError
 from envfit.fit.sigma import parse_s
 from envfit.maps.scales import SCALES
 from envfit.shading.ground_truth import weight_function
+from envfit.shading.renderer_rules import STRATEGIES
+from envfit.theory.pointsets import POINTSETS as SQUARE_POINTSETS
 
 __all__ = ["AdviseOptions", "ALL_POINTSETS", "DEFAULT_POINTSETS", "WEIGHTINGS", "BASES", "BRDFS",
            "DEFAULT_FIT_N", "DEFAULT_NMIN", "DEFAULT_NMAX", "DEFAULT_OSW_NMAX", "DEFAULT_SEEDS",
            "DEFAULT_AXES", "DEFAULT_SHININESS", "DEFAULT_SCALE", "DEFAULT_TARGET_RELATIVE",
-           "PREDICTOR_CHOICES"]
+           "PREDICTOR_CHOICES", "RENDERER_AXES_START", "RENDERER_MAX_AXES"]
 
 #: every point set (envfit.theory.pointsets); BNOT costs ≈15 s per realisation at N = 4096
 ALL_POINTSETS = ("sf", "sobol", "lp", "bnot", "random", "jitter")
@@ -62,6 +66,9 @@ DEFAULT_TARGET_RELATIVE = 0.01
 #: which prediction sizes N/L: "auto" (the choice rule of :mod:`envfit.advisor.choice`),
 #: or one of them forced: "bandlimited" (b′), "spectral" (c)
 PREDICTOR_CHOICES = ("auto", "bandlimited", "spectral")
+#: the renderer check's adaptive measurement: axes to start with and at most
+RENDERER_AXES_START = 250
+RENDERER_MAX_AXES = 4000
 
 
 @dataclass(frozen=True)
@@ -113,6 +120,21 @@ class AdviseOptions:
         Cache: read and write the on-disk cache (:mod:`envfit.advisor.cache`).
     cache_dir : path or None
         Cache: its folder (default ``$ENVFIT_CACHE_DIR`` or ``~/.cache/envfit``).
+    renderer : bool
+        Renderer rows: size the renderer rules (:mod:`envfit.advisor.renderer`); off by
+        default in the API (their spectra cost ~10 s on 2 cores whatever the map's size),
+        on in ``envfit advise`` unless ``--no-renderer``.
+    strategies, renderer_pointsets : sequence of str
+        Renderer rows: strategies (brdf, map, mis, split) and point sets (of
+        :func:`envfit.theory.pointsets.square_points`; default sobol, sf, random).
+    renderer_grid, renderer_spectrum_axes : int
+        Renderer rows: the warped spectra's grid (a multiple of 4, ≥ 8) and axes
+        (:data:`envfit.advisor.renderer.RENDERER_GRID`, ``RENDERER_SPECTRUM_AXES``).
+    renderer_axes_start, renderer_max_axes : int
+        Renderer check: the adaptive measurement's first and largest number of axes
+        (:func:`envfit.shading.renderer_rules.measure_rule`).
+    renderer_curves : bool
+        Renderer rows: predict every grid N (for the plot), not only those the search needs.
     workers : int
         Threads of the wce and the check's lookups.
     quiet : bool
@@ -146,6 +168,14 @@ class AdviseOptions:
     check_hsh_axes: int = 200
     cache: bool = True
     cache_dir: object = None
+    renderer: bool = False
+    strategies: Sequence[str] = DEFAULT_STRATEGIES
+    renderer_pointsets: Sequence[str] = DEFAULT_RENDERER_POINTSETS
+    renderer_grid: int = RENDERER_GRID
+    renderer_spectrum_axes: int = RENDERER_SPECTRUM_AXES
+    renderer_axes_start: int = RENDERER_AXES_START
+    renderer_max_axes: int = RENDERER_MAX_AXES
+    renderer_curves: bool = False
     workers: int = 2
     quiet: bool = True
 
@@ -187,11 +217,18 @@ class AdviseOptions:
         pointsets = check_names(self.pointsets, ALL_POINTSETS, "point set")
         weights = check_names(self.weights, WEIGHTINGS, "weighting")
         bases = check_names(self.bases, BASES, "basis")
+        strategies = check_names(self.strategies, tuple(STRATEGIES), "strategy")
+        rps = check_names(self.renderer_pointsets, tuple(sorted(SQUARE_POINTSETS)),
+                          "renderer point set")
+        if self.renderer and (not strategies or not rps):
+            raise ParameterError("give at least one strategy and one renderer point set "
+                                 "(or no renderer rows)")
         if not pointsets and not bases:
             raise ParameterError("nothing to advise on: no point set and no SH/HSH basis")
         if pointsets and not weights:
             raise ParameterError("give at least one weighting (equal, osw)")
-        return {"pointsets": pointsets, "weights": weights, "bases": bases}
+        return {"pointsets": pointsets, "weights": weights, "bases": bases,
+                "strategies": strategies, "renderer_pointsets": rps}
 
     def _checked_numbers(self) -> dict:
         """s, the fit's and the search's integers and the check's sizes, checked."""
@@ -202,7 +239,22 @@ class AdviseOptions:
                 "seeds": check_int(self.seeds, "seeds", 1),
                 "axes": check_int(self.axes, "axes", 2),
                 "check_hsh_height": check_int(self.check_hsh_height, "check_hsh_height", 4),
-                "check_hsh_axes": check_int(self.check_hsh_axes, "check_hsh_axes", 2)}
+                "check_hsh_axes": check_int(self.check_hsh_axes, "check_hsh_axes", 2),
+                **self._checked_renderer_numbers()}
+
+    def _checked_renderer_numbers(self) -> dict:
+        """The renderer rows' grid, spectrum axes and check axes, checked."""
+        grid = check_int(self.renderer_grid, "the renderer spectra's grid", 8)
+        if grid % 4:
+            raise ParameterError(f"the renderer spectra's grid must be a multiple of 4, got "
+                                 f"{grid}")
+        start = check_int(self.renderer_axes_start, "renderer_axes_start", 2)
+        return {"renderer_grid": grid, "renderer_axes_start": start,
+                "renderer_spectrum_axes": check_int(self.renderer_spectrum_axes,
+                                                    "the renderer spectra's axes", 1),
+                "renderer_max_axes": check_int(self.renderer_max_axes, "renderer_max_axes",
+                                               start),
+                "renderer": bool(self.renderer), "renderer_curves": bool(self.renderer_curves)}
 
     @classmethod
     def names(cls) -> tuple[str, ...]:
@@ -232,4 +284,10 @@ class AdviseOptions:
         return {"pointsets": list(self.pointsets), "weights": list(self.weights),
                 "bases": list(self.bases), "s": self.s, "fit_n": self.fit_n, "seed": self.seed,
                 "nmin": self.nmin, "nmax": self.nmax, "osw_nmax": self.osw_nmax,
-                "seeds": self.seeds, "s_rounded": s_rounded, "predictor": self.predictor}
+                "seeds": self.seeds, "s_rounded": s_rounded, "predictor": self.predictor,
+                "renderer": self.renderer, "strategies": list(self.strategies),
+                "renderer_pointsets": list(self.renderer_pointsets),
+                "renderer_grid": self.renderer_grid,
+                "renderer_spectrum_axes": self.renderer_spectrum_axes,
+                "renderer_axes_start": self.renderer_axes_start,
+                "renderer_max_axes": self.renderer_max_axes}

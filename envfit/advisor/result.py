@@ -110,7 +110,8 @@ class Advice:
     kernel truncated at degree ``fit_band_lmax`` = H − 1, ``fit_samples`` distinct pixel
     centres); ``lookup_transfer`` is τ_l, l = 0…H − 1; ``map_power`` the mean over channels
     of the interpolant's realised power per degree :math:`\\hat P_l`, l = 0…``spectral_lmax``
-    (prediction (c)); ``warnings`` the rows' disagreement lines.
+    (prediction (c)); ``warnings`` the rows' disagreement lines; ``renderer`` the renderer
+    rows (:class:`envfit.advisor.renderer.RendererAdvice`) or None.
     """
 
     map: str
@@ -145,13 +146,20 @@ class Advice:
     spectral_lmax: int | None = None
     map_power: list[float] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
+    renderer: object = None
 
     def to_dict(self) -> dict:
         """Every field, the rows with their ``reached``, ``label`` and ``predicted_rmse_used``
-        (the prediction of their ``predictor``; what ``--json`` writes)."""
-        d = asdict(self)
+        (the prediction of their ``predictor``; what ``--json`` writes), and the renderer
+        section (:meth:`envfit.advisor.renderer.RendererAdvice.to_dict`; None without it)."""
+        ren, self.renderer = self.renderer, None
+        try:
+            d = asdict(self)
+        finally:
+            self.renderer = ren
         d["rows"] = [{**asdict(r), "reached": r.reached, "label": r.label,
                       "predicted_rmse_used": r.predicted} for r in self.rows]
+        d["renderer"] = None if ren is None else ren.to_dict()
         return d
 
     def best(self) -> AdviceRow | None:

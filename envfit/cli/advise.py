@@ -66,6 +66,28 @@ def register(sub) -> None:
                    help="measure the RMSE at the chosen N/L on the map, beside the prediction")
     p.add_argument("--axes", type=positive_int, default=1000, metavar="M",
                    help="random axes of --check (default: 1000, seeded by --seed)")
+    rg = p.add_argument_group("renderer rows")
+    rg.add_argument("--strategies", type=str_list, default=None, metavar="brdf,map,mis,split",
+                    help="renderer strategies to size: brdf (BRDF sampling), map (map importance "
+                         "sampling), mis (multi-sample MIS, N/2 each), split (bright sources "
+                         "integrated exactly + MIS on the rest) (default: all four)")
+    rg.add_argument("--renderer-pointsets", type=str_list, default=None,
+                    metavar="sobol,sf,random",
+                    help="point sets of the renderer rules (default: sobol,sf,random; also "
+                         "jitter, lp, bnot)")
+    rg.add_argument("--no-renderer", action="store_true",
+                    help="no renderer rows: the quadrature and SH/HSH table only")
+    rg.add_argument("--renderer-grid", type=positive_int, default=None, metavar="G",
+                    help="grid of the warped spectra (a multiple of 4; QMC predictions exact to "
+                         "N ~ (G/8)^2; default: 256)")
+    rg.add_argument("--renderer-spectrum-axes", type=positive_int, default=None, metavar="K",
+                    help="axes of the warped spectra's sample over the sphere (default: 48)")
+    rg.add_argument("--renderer-axes-start", type=positive_int, default=None, metavar="M",
+                    help="--check of the renderer rows: axes of the first round of the adaptive "
+                         "measurement (default: 250)")
+    rg.add_argument("--renderer-max-axes", type=positive_int, default=None, metavar="M",
+                    help="--check of the renderer rows: at most this many axes (the measurement "
+                         "doubles them until its 95%% interval is within +-10%%; default: 4000)")
     p.add_argument("--no-cache", action="store_true",
                    help="neither read nor write the cache of fits and wce curves")
     p.add_argument("--cache-dir", type=Path, default=None, metavar="DIR",
@@ -121,13 +143,42 @@ def _check_lines(adv) -> list[str]:
     return out
 
 
+def _renderer_lines(adv) -> list[str]:
+    """The renderer section: its sources, target and table (none without it)."""
+    r = adv.renderer
+    if r is None:
+        return []
+    src = (f"{len(r.sources)} bright source(s), {r.source_pixels} pixel(s) (the split's exact "
+           f"integral visits each once per shading point: its cost beside N)"
+           if r.sources else "no bright source (split = MIS on the whole map)")
+    lines = [f"renderer rules (strategy/point set; N on a renderer's grid from {r.nmin} to "
+             f"{r.nmax}; predicted by the warped spectra, grid {r.grid}, {r.spectrum_axes} "
+             f"axes{'; cached' if r.spectra_computed == 0 else ''}): {src}"]
+    lines += r.table_lines()
+    c = r.check
+    if c is not None:
+        lines.append(f"renderer check: adaptive RMSE (95% bootstrap interval, to +-10%) over "
+                     f"{c['axes_start']}..{c['max_axes']} random axes (seed {c['seed']}); max "
+                     f"measured/target "
+                     + ("–" if c["max_measured_over_target"] is None
+                        else f"{c['max_measured_over_target']:.2f}")
+                     + (f"; above 1.25: {', '.join(c['rows_over_1_25'])}"
+                        if c["rows_over_1_25"] else ""))
+    return lines
+
+
 def options_from_args(args: argparse.Namespace):
     """The :class:`envfit.advisor.options.AdviseOptions` of the command line (an option not
     given keeps the dataclass's default; ``--bases none`` is no basis)."""
     from envfit.advisor.options import AdviseOptions
     given = {"pointsets": args.pointsets, "weights": args.weights, "fit_n": args.fit_n,
              "nmin": args.nmin, "nmax": args.nmax, "osw_nmax": args.osw_nmax,
-             "seeds": args.realisations}
+             "seeds": args.realisations, "strategies": args.strategies,
+             "renderer_pointsets": args.renderer_pointsets,
+             "renderer_grid": args.renderer_grid,
+             "renderer_spectrum_axes": args.renderer_spectrum_axes,
+             "renderer_axes_start": args.renderer_axes_start,
+             "renderer_max_axes": args.renderer_max_axes}
     if args.bases is not None:
         given["bases"] = () if [b.lower() for b in args.bases] == ["none"] else tuple(args.bases)
     return AdviseOptions(
@@ -135,29 +186,40 @@ def options_from_args(args: argparse.Namespace):
         shininess=args.shininess, scale=args.scale, predictor=args.predictor, s=args.s,
         seed=args.seed, check=args.check,
         axes=args.axes, cache=not args.no_cache, cache_dir=args.cache_dir, quiet=args.quiet,
+        renderer=not args.no_renderer, renderer_curves=args.out is not None,
         **{k: v for k, v in given.items() if v is not None})
 
 
 def run(args: argparse.Namespace) -> int:
     from envfit.advisor.advise import advise_with
     from envfit.base.atomic import atomic_write_csv, atomic_write_json
+    opts = options_from_args(args)          # bad names and values: one line, before the map
     env = load_map_from_args(args)
     out = out_dir(args)
-    opts = options_from_args(args)
     adv = advise_with(env, opts)
     for note in adv.notes:
         if getattr(args, "cache_note", None) and note.startswith("cache switched off"):
             continue  # said before the work (preflight), on stderr
         say(args, f"note: {note}")
-    say(args, *_header(adv), *adv.table_lines(),
+    say(args, *_header(adv), *adv.table_lines(), *_renderer_lines(adv),
         *(f"warning: {w}" for w in adv.warnings), adv.recommendation)
+    if adv.renderer is not None:
+        say(args, adv.renderer.recommendation)
     if adv.check is not None:
         say(args, *_check_lines(adv))
     t = adv.timings
     say(args, f"({t['total']:.1f} s: fit {t['fit']:.1f}, search {t['search']:.1f}"
+              + (f", renderer model {t['renderer_model']:.1f}, renderer rows "
+                 f"{t['renderer_search']:.1f}" if adv.renderer is not None else "")
               + (f", check {t['check']:.1f}" if adv.check is not None else "")
+              + (f", renderer check {t['renderer_check']:.1f}" if "renderer_check" in t else "")
               + f"; cache {adv.cache['hits']} hit(s), {adv.cache['writes']} write(s))")
     d = adv.to_dict()
+    if out is not None and adv.renderer is not None:
+        from envfit.plots.advise import plot_advise
+        png = guarded_write(args, out / "advise.png", plot_advise, d, out / "advise.png")
+        if png is not None:
+            say(args, f"wrote {png}")
     if out is not None:
         cols = ["label", "method", "pointset", "weights", "n", "L", "cost", "predictor",
                 "predicted_rmse", "predicted_rmse_spectral", "predicted_rmse_spectral_band",
