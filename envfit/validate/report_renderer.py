@@ -150,4 +150,4 @@ def _target_statement(rd: dict) -> str:
                 target=c["target_relative"], lo=min(axes), hi=max(axes), k=len(short),
                 n=len(cells), max_axes=c["max_axes"],
                 offenders=", ".join(f"{_rule_name(x)} N = {x['n']} "
-                                    f"±{x['relative_half_width']:.0%}" for x in short))
+                                    f"±{x['relative_half_width']:.1%}" for x in short))
