@@ -196,6 +196,16 @@ def _section(cells, sources=(), strategies=None, cfg_over=None):
                                  {"spectra": 1.0, "measure": 2.0, "total": 3.0}).to_json()
 
 
+#: every renderer condition, each tested where it holds and where it fails below
+TESTED_BOTH_WAYS = {"renderer_ratios_within", "renderer_lobe_agrees", "renderer_lowest_resolved",
+                    "renderer_sources", "renderer_split_helps", "renderer_targets_met"}
+
+
+def test_every_renderer_condition_is_tested():
+    assert set(RC.RENDERER_CONDITIONS) == TESTED_BOTH_WAYS
+    assert not TESTED_BOTH_WAYS & set(RC.CONDITIONS)
+
+
 def test_predicates_both_ways():
     assert RC._ratios_in_range([0.95, 1.05]) and not RC._ratios_in_range([0.95, 1.2])
     assert not RC._ratios_in_range([]) and not RC._ratios_in_range([None])

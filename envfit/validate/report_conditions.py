@@ -19,7 +19,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
-__all__ = ["CONDITIONS", "Condition"]
+__all__ = ["CONDITIONS", "RENDERER_CONDITIONS", "Condition"]
 
 # ----------------------------------------------------------------------------- thresholds
 
@@ -383,7 +383,12 @@ CONDITIONS: dict[str, Condition] = {
         "Exact for L ≥ 1 in theory (b̃_l = 0 for l ≥ 2), yet the measured residue at L ≥ 1 is "
         "{residue:.3g} ({fraction:.2g} of the L = 0 error): more than the ground truth's "
         "accuracy accounts for."),
-    # renderer rules (--renderer)
+}
+
+
+#: Condition name → :class:`Condition` of the "Renderer rules" section (``--renderer``,
+#: :mod:`envfit.validate.report_renderer`, through :func:`_say_renderer`).
+RENDERER_CONDITIONS: dict[str, Condition] = {
     "renderer_ratios_within": Condition(
         _ratios_in_range,
         "For every rule ({n}) the median predicted/measured ratio is within {lo:g}–{hi:g} "
@@ -423,6 +428,19 @@ CONDITIONS: dict[str, Condition] = {
 }
 
 
+def _say_in(table: dict[str, Condition], name: str, args: tuple, **fields) -> str:
+    """The sentence of condition ``name`` of ``table`` for ``predicate(*args)``, filled with
+    ``fields`` (``""`` when that outcome prints nothing)."""
+    c = table[name]
+    template = c.when_true if c.predicate(*args) else c.when_false
+    return "" if template is None else template.format(**fields)
+
+
+def _say_renderer(name: str, args: tuple, **fields) -> str:
+    """:func:`_say_in` of :data:`RENDERER_CONDITIONS`."""
+    return _say_in(RENDERER_CONDITIONS, name, args, **fields)
+
+
 def _say(name: str, args: tuple, **fields) -> str:
     """The sentence of condition ``name`` for ``predicate(*args)``, filled with ``fields``.
 
@@ -431,9 +449,7 @@ def _say(name: str, args: tuple, **fields) -> str:
     >>> _say("errors_gaussian", (5.2,), kurtosis=5.2)
     'The per-axis errors are not Gaussian: median kurtosis 5.2, against 3 for a Gaussian field.'
     """
-    c = CONDITIONS[name]
-    template = c.when_true if c.predicate(*args) else c.when_false
-    return "" if template is None else template.format(**fields)
+    return _say_in(CONDITIONS, name, args, **fields)
 
 
 def _join(*parts: str) -> str:

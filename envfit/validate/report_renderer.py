@@ -5,8 +5,8 @@
 per-rule table and statements on the median ratios, the agreement per lobe, the strategy
 with the lowest measured RMSE at each N, what was split off, whether split beats MIS and
 whether every interval reached its target. Every judgement is chosen by a condition of
-:data:`envfit.validate.report_conditions.CONDITIONS` (``renderer_*``, through
-:func:`~envfit.validate.report_conditions._say`).
+:data:`envfit.validate.report_conditions.RENDERER_CONDITIONS` (through
+:func:`~envfit.validate.report_conditions._say_renderer`).
 
 Example
 -------
@@ -15,7 +15,8 @@ Example
 """
 from __future__ import annotations
 
-from .report_conditions import RENDERER_RATIO_HIGH, RENDERER_RATIO_LOW, _say
+from .report_conditions import RENDERER_RATIO_HIGH, RENDERER_RATIO_LOW
+from .report_conditions import _say_renderer as _say
 from .report_format import _f, _table
 
 __all__: list[str] = []
