@@ -397,7 +397,8 @@ def test_cli_json_and_check(tmp_path, monkeypatch, capsys):
     out = tmp_path / "a.json"
     rc = main(["advise", "--max-height", "16", "--target-rmse", "0.03", "--fit-n", "150",
                "--pointsets", "sf", "--weights", "equal,osw", "--bases", "sh", "--check",
-               "--axes", "200", "--json", str(out), "--quiet", "--scale", "display"])
+               "--axes", "200", "--json", str(out), "--quiet", "--scale", "display",
+               "--no-renderer"])
     assert rc == 0
     d = json.loads(out.read_text())
     assert d["scale"] == "display" and d["check"]["axes"] == 200
@@ -406,7 +407,7 @@ def test_cli_json_and_check(tmp_path, monkeypatch, capsys):
     assert (tmp_path / "cache" / "advise" / "fit").is_dir()
     rc = main(["advise", "--max-height", "16", "--target-rmse", "0.03", "--fit-n", "150",
                "--pointsets", "sf", "--weights", "equal,osw", "--bases", "sh", "--scale",
-               "display"])
+               "display", "--no-renderer"])
     text = capsys.readouterr().out
     assert rc == 0 and "cached fit" in text and "recommendation:" in text and "sf/osw" in text
 

@@ -189,7 +189,7 @@ def test_check_is_measure_rule_at_the_rows_n(setup16, model16):
 
 def test_advise_carries_a_renderer_section(sun16, tmp_path):
     a = advise(sun16, "glossy", target_relative=0.05, shininess=10.0, s=1.5, fit_n=100,
-               pointsets=("sf",), weights=("equal",), bases=(), nmax=512, renderer=True,
+               pointsets=(), bases=("sh",), nmax=512, renderer=True,
                strategies=("map", "split"), renderer_pointsets=("sobol", "random"),
                renderer_grid=GRID, renderer_spectrum_axes=AXES, cache_dir=tmp_path)
     sec = a.renderer
@@ -265,7 +265,7 @@ def test_cli_bad_names_are_one_line_and_exit_2(exr16, tmp_path, flag, bad):
     assert p.returncode == 2
     lines = [x for x in p.stderr.splitlines() if x.strip()]
     assert len(lines) == 1 and bad.split(",")[1] in lines[0]
-    assert not (tmp_path / "cache").exists()                    # before any work
+    assert not (tmp_path / "cache" / "advise" / "fit").exists()  # before any work
 
 
 def test_cli_renderer_table_json_and_png(exr16, tmp_path):

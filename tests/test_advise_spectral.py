@@ -207,7 +207,7 @@ def test_sun_map_on_linear_scale_uses_c_and_prints_the_warning(sun_map, tmp_path
     out = tmp_path / "a.json"
     rc = main(["advise", str(path), "--target-rmse", "0.3", "--fit-n", "300", "--pointsets",
                "sf", "--weights", "equal", "--bases", "none", "--nmax", "256",
-               "--json", str(out)])
+               "--no-renderer", "--json", str(out)])
     text = capsys.readouterr().out
     assert rc == 0
     d = json.loads(out.read_text())
@@ -258,7 +258,7 @@ def test_cli_defaults_linear_scale_and_one_percent_target(tmp_path):
     out = tmp_path / "d.json"
     cmd = [sys.executable, "-m", "envfit.cli", "advise", str(path), "--fit-n", "100", "--pointsets",
            "sf", "--weights", "equal", "--bases", "none", "--no-cache", "--quiet",
-           "--json", str(out)]
+           "--no-renderer", "--json", str(out)]
     p = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=300,
                        env={**os.environ, "ENVFIT_CACHE_DIR": str(tmp_path / "c")})
     assert p.returncode == 0, p.stderr

@@ -26,15 +26,28 @@ point (``sum(pixels)`` of :attr:`RendererSetup.sources
 (:attr:`RendererRow.cost`). The recommendation (:func:`renderer_recommendation`) is the
 reached row of least cost, ties broken by the lower prediction.
 
-Model resolution (:data:`RENDERER_GRID`, :data:`RENDERER_SPECTRUM_AXES`): grid 256 and 48
-axes, chosen from measurements on city.exr (1024×512, a sun of 1245 pixels) against grid 512
-and 64 axes (the validation's resolution, predicted/measured 0.95–1.15 there): at N ≤ 1024
-(inside the box of grid 256, (256/8)² = 1024) the predictions differ by at most a few per
-cent (diffuse: 0.93–1.02× the reference for every strategy and point set, the axis sample
-being the main source: 32 axes scatter ±9 %, 48 axes ±5 %), at larger N grid 256 is higher
-(conservative; it tends to the Monte Carlo rate); the model costs ≈ 4× less than at grid
-512/64 axes, the difference between meeting the first call's 60 s on 2 cores and not. See
-the README's advise section for the table.
+Model resolution (:data:`RENDERER_GRID`, :data:`RENDERER_SPECTRUM_AXES`): grid 512 and 32
+axes, chosen from measurements on city.exr (1024×512, a sun of 1245 pixels, diffuse lobe;
+predictions of the 4 strategies × sobol, sf, random at N = 16…16384 against grid 512 and 64
+axes, the resolution ``envfit validate`` measured at predicted/measured 0.95–1.15; CPU
+seconds of the four spectra on the shared 2-core machine):
+
+==========  =====  ====================================  =====================================
+grid/axes   CPU s  ratio to 512/64, N = 16…1024          MIS with sobol/sf, N = 256…4096
+==========  =====  ====================================  =====================================
+512/64      71     1                                     1
+512/32      32     0.96–1.08 (every N)                   1.01
+256/32      20     0.86–1.08 (0.64 at N = 16384)         0.80–0.92
+256/48      26     0.82–1.03 (0.61 at N = 16384)         0.76–0.87
+256/64      33     0.86–1.04                             0.80–0.92
+384/48      35     0.75–1.03                             0.71–0.85
+==========  =====  ====================================  =====================================
+
+Fewer axes only scatter a strategy's variance by a constant factor (±8 % at 32 axes, the
+same at every N); a coarser grid under-predicts MIS with QMC points by 10–40 % exactly where
+the rows land for a 1 % target (N ≈ 256–4096), which a check at 1.25× the target would not
+absorb. So grid 512 (the box exact for QMC to N ≈ (512/8)² = 4096) with 32 axes: the
+validated accuracy at less than half its cost (≈ 15 s wall on an idle 2-core machine).
 
 The spectra are cached (:mod:`envfit.advisor.cache`, kind ``"renderer"``): one checksummed
 JSON file per (technique, on the rest map), keyed by the map's fingerprint
@@ -75,9 +88,9 @@ __all__ = ["RENDERER_GRID", "RENDERER_SPECTRUM_AXES", "DEFAULT_STRATEGIES",
            "source_cost"]
 
 #: the warped spectra's grid G for advise (the box B = G/4; QMC exact to N ≈ (G/8)²)
-RENDERER_GRID = 256
+RENDERER_GRID = 512
 #: axes of the spectra's importance sample over the sphere, for advise
-RENDERER_SPECTRUM_AXES = 48
+RENDERER_SPECTRUM_AXES = 32
 DEFAULT_STRATEGIES = tuple(STRATEGIES)
 DEFAULT_RENDERER_POINTSETS = ("sobol", "sf", "random")
 #: strategy → its name in sentences

@@ -79,9 +79,9 @@ def register(sub) -> None:
                     help="no renderer rows: the quadrature and SH/HSH table only")
     rg.add_argument("--renderer-grid", type=positive_int, default=None, metavar="G",
                     help="grid of the warped spectra (a multiple of 4; QMC predictions exact to "
-                         "N ~ (G/8)^2; default: 256)")
+                         "N ~ (G/8)^2; default: 512)")
     rg.add_argument("--renderer-spectrum-axes", type=positive_int, default=None, metavar="K",
-                    help="axes of the warped spectra's sample over the sphere (default: 48)")
+                    help="axes of the warped spectra's sample over the sphere (default: 32)")
     rg.add_argument("--renderer-axes-start", type=positive_int, default=None, metavar="M",
                     help="--check of the renderer rows: axes of the first round of the adaptive "
                          "measurement (default: 250)")
