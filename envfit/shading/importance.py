@@ -42,7 +42,9 @@ of its frame about the axis — the same draws as ``quadrature_estimates(..., se
 Cranley–Patterson rotation :math:`u \mapsto (u + s_m) \bmod 1`, :math:`s_m` uniform on
 :math:`[0,1)^2` (Cranley & Patterson 1976), drawn next from the same generator. With a
 shift, every estimator is unbiased for *any* point set (each shifted point is uniform on
-the square); without one, a deterministic set gives a deterministic (QMC) estimate.
+the square); without one, a deterministic set gives a deterministic (QMC) estimate. ``shift="points"`` instead shifts every point
+of every axis independently: the points are then i.i.d. uniform, plain Monte Carlo with a
+fresh point set per axis, in one vectorised call.
 
 Example
 -------
@@ -80,15 +82,38 @@ __all__ = ["brdf_pdf", "map_is_estimates",
 
 # ----------------------------------------------------------------------------- inputs
 
-def _randomisation(A: np.ndarray, seed, shift: bool) -> tuple[np.ndarray, np.ndarray]:
-    """Frames (M, 3, 3) (twisted with ``seed``, as quadrature_estimates) and CP shifts (M, 2)."""
-    R = twisted_frames(A, seed)
-    s = np.zeros((A.shape[0], 2))
-    if seed is not None and shift:
-        rng = np.random.default_rng(seed)
-        rng.uniform(0.0, 2.0 * np.pi, A.shape[0])        # the twists, drawn first
-        s = rng.random((A.shape[0], 2))
-    return R, s
+class _Shifts:
+    """The shifts of the points, per block of axes: ``shift=True`` one Cranley–Patterson shift
+    per axis (drawn after the twists, as before); ``shift="points"`` an independent uniform
+    shift of *every point* of every axis (then the N points of an axis are i.i.d. uniform
+    whatever the set: plain Monte Carlo, with a fresh set per axis), drawn per block from
+    ``default_rng([seed, m0])``; without a seed or shift, none."""
+
+    def __init__(self, m: int, seed, shift):
+        if shift not in (True, False, "points", None):
+            raise ParameterError(f"shift must be True, False or 'points', got {shift!r}")
+        self.mode = shift if seed is not None else False
+        self.seed = seed
+        self.per_axis = np.zeros((m, 2))
+        if self.mode is True:
+            rng = np.random.default_rng(seed)
+            rng.uniform(0.0, 2.0 * np.pi, m)                 # the twists, drawn first
+            self.per_axis = rng.random((m, 2))
+
+    def block(self, m0: int, m1: int, n: int) -> np.ndarray:
+        """(m1 − m0, 1 or n, 2) shifts of the block's axes."""
+        if self.mode == "points":
+            return np.random.default_rng([int(self.seed), m0]).random((m1 - m0, n, 2))
+        return self.per_axis[m0:m1, None, :]
+
+    @property
+    def active(self) -> bool:
+        return bool(self.mode)
+
+
+def _randomisation(A: np.ndarray, seed, shift) -> tuple[np.ndarray, _Shifts]:
+    """Frames (M, 3, 3) (twisted with ``seed``, as quadrature_estimates) and the shifts."""
+    return twisted_frames(A, seed), _Shifts(A.shape[0], seed, shift)
 
 
 def _blocks(m_total: int, n: int, c: int, what: str):
@@ -101,8 +126,8 @@ def _blocks(m_total: int, n: int, c: int, what: str):
 
 
 def _shifted(U: np.ndarray, s: np.ndarray) -> np.ndarray:
-    """(mb, N, 2): the points shifted by each axis's s (mod 1), kept in [0, 1)."""
-    out = U[None, :, :] + s[:, None, :]
+    """(mb, N, 2): the points shifted by s (mb, 1 or N, 2) (mod 1), kept in [0, 1)."""
+    out = U[None, :, :] + s
     out -= np.floor(out)
     return np.minimum(out, np.nextafter(1.0, 0.0))
 
@@ -154,7 +179,7 @@ def _setup(envmap, axes, brdf, shininess, seed, shift):
 
 def map_is_estimates(envmap: EnvMap, axes, u, sampler: MapSampler | None = None,
                      brdf="diffuse", shininess: float = 30.0, *, seed=None,
-                     shift: bool = True) -> np.ndarray:
+                     shift: bool | str = True) -> np.ndarray:
     r"""Map importance-sampling estimates :math:`\frac1N\sum_j f(\omega_j)\rho_a(\omega_j)/p(\omega_j)`, (M, C).
 
     :math:`\omega_j` = ``sampler.sample(u)`` (:class:`MapSampler`, built from the map with its
@@ -187,7 +212,7 @@ def map_is_estimates(envmap: EnvMap, axes, u, sampler: MapSampler | None = None,
     sampler = MapSampler(envmap) if sampler is None else sampler
     n, c = U.shape[0], envmap.channels
     out = np.empty((A.shape[0], c))
-    if not (seed is not None and shift):
+    if not s.active:
         d, pm = sampler.sample(U)
         f = envmap.lookup(d)                                            # (N, C)
         for m0, m1 in _blocks(A.shape[0], n, c, "map importance sampling"):
@@ -196,7 +221,7 @@ def map_is_estimates(envmap: EnvMap, axes, u, sampler: MapSampler | None = None,
         return out
     for m0, m1 in _blocks(A.shape[0], n, c, "map importance sampling"):
         mb = m1 - m0
-        Ub = _shifted(U, s[m0:m1]).reshape(-1, 2)
+        Ub = _shifted(U, s.block(m0, m1, n)).reshape(-1, 2)
         f, pm, rho = _map_technique(envmap, sampler, weight, np.repeat(A[m0:m1], n, axis=0), Ub)
         out[m0:m1] = np.einsum("mn,mnc->mc", (rho / pm).reshape(mb, n), f.reshape(mb, n, c)) / n
     return out
@@ -204,7 +229,7 @@ def map_is_estimates(envmap: EnvMap, axes, u, sampler: MapSampler | None = None,
 
 def brdf_sampling_estimates(envmap: EnvMap, axes, u, sampler=None, brdf="diffuse",
                             shininess: float = 30.0, *, seed=None,
-                            shift: bool = True) -> np.ndarray:
+                            shift: bool | str = True) -> np.ndarray:
     r"""BRDF (lobe) importance-sampling estimates :math:`\frac1N\sum_j f(\omega_j)\rho_a(\omega_j)/q_a(\omega_j)`, (M, C).
 
     :math:`\omega_j = R_a\,\ell(u_j)`: the Lambert lift of u morphed for the lobe
@@ -228,7 +253,7 @@ def brdf_sampling_estimates(envmap: EnvMap, axes, u, sampler=None, brdf="diffuse
     out = np.empty((A.shape[0], c))
     for m0, m1 in _blocks(A.shape[0], n, c, "BRDF sampling"):
         mb = m1 - m0
-        Ub = _shifted(U, s[m0:m1]).reshape(-1, 2)
+        Ub = _shifted(U, s.block(m0, m1, n)).reshape(-1, 2)
         f, _, rho = _brdf_technique(envmap, None, weight, np.repeat(R[m0:m1], n, axis=0), Ub)
         ratio = np.divide(rho, rho, out=np.ones_like(rho), where=rho > 0)   # ρ/q, q = ρ
         out[m0:m1] = np.einsum("mn,mnc->mc", ratio.reshape(mb, n), f.reshape(mb, n, c)) / n
@@ -373,7 +398,7 @@ def _mis_block(envmap, sampler, weight, A, R, Ub, sel, nu, heur) -> np.ndarray:
 def mis_estimates(envmap: EnvMap, axes, u, sampler: MapSampler | None = None,
                   brdf="diffuse", shininess: float = 30.0, *, heuristic: str = "balance",
                   mode: str = "multi", fraction: float = 0.5, seed=None,
-                  shift: bool = True) -> np.ndarray:
+                  shift: bool | str = True) -> np.ndarray:
     r"""Multiple importance sampling of the map and lobe techniques (Veach 1997, ch. 9), (M, C).
 
     With :math:`p_1` the map pdf (:class:`~envfit.shading.map_sampler.MapSampler`),
@@ -425,7 +450,7 @@ def mis_estimates(envmap: EnvMap, axes, u, sampler: MapSampler | None = None,
     sampler = MapSampler(envmap) if sampler is None else sampler
     out = np.empty((A.shape[0], c))
     for m0, m1 in _blocks(A.shape[0], n, c, "multiple importance sampling"):
-        sel, Ub = _mis_assign(_shifted(U, s[m0:m1]), sel_pos, split)
+        sel, Ub = _mis_assign(_shifted(U, s.block(m0, m1, n)), sel_pos, split)
         out[m0:m1] = _mis_block(envmap, sampler, weight, A[m0:m1], R[m0:m1], Ub, sel,
                                 nu, heur) / n
     return out

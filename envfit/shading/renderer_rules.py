@@ -14,8 +14,9 @@ renderer does it: each axis gets an independent uniform twist of its frame and a
 Cranley–Patterson shift of the points (Cycles' per-pixel rotation of its Sobol pattern), so
 every rule is unbiased and its RMSE over uniform axes is the number a renderer sees across
 normals. MIS uses two point sets of the same kind, N − ⌊N/2⌋ for the map and ⌊N/2⌋ for the
-lobe (a set's first half is poorly stratified for SF and LP). ``random`` draws a fresh set
-for every 32 axes, so its measured RMSE is the mean over random sets.
+lobe (a set's first half is poorly stratified for SF and LP). ``random`` is measured with
+every point shifted independently (``shift="points"``): i.i.d. uniform points, a fresh set
+for every estimate, so its measured RMSE is the mean over random sets.
 
 :func:`measure_rule` measures a rule's RMSE over uniform random axes with a bootstrap 95 %
 interval and as many axes as the interval needs to be within ±10 %
@@ -52,7 +53,7 @@ from envfit.shading.sources import BrightSource, find_bright_sources, split_map
 from envfit.theory.pointsets import POINTSETS, square_points
 
 __all__ = ["STRATEGIES", "RendererRule", "RendererSetup", "rule_points", "rule_estimates",
-           "measure_rule", "replicates", "RANDOM_CHUNK", "SAMPLES_PER_AXIS"]
+           "measure_rule", "replicates", "SAMPLES_PER_AXIS"]
 
 #: strategy → (technique of envfit.shading.importance, on the rest map after the split?)
 STRATEGIES: dict[str, tuple[str, bool]] = {
@@ -61,8 +62,6 @@ STRATEGIES: dict[str, tuple[str, bool]] = {
     "mis": ("mis", False),
     "split": ("mis", True),
 }
-#: a fresh random set is drawn for every this many estimates (or every axis's replicates)
-RANDOM_CHUNK = 32
 #: samples per axis of a measurement: N × replicates ≥ this
 SAMPLES_PER_AXIS = 4096
 
@@ -146,16 +145,20 @@ class RendererSetup:
 
 
 def rule_estimates(setup: RendererSetup, rule: RendererRule, axes, brdf="diffuse",
-                   shininess: float = 30.0, *, seed: int = 0, point_seed: int = 0) -> np.ndarray:
-    """The rule's estimates (M, C) at the axes, twisted and shifted with ``seed``."""
+                   shininess: float = 30.0, *, seed: int = 0, point_seed: int = 0,
+                   shift: bool | str = True) -> np.ndarray:
+    """The rule's estimates (M, C) at the axes, twisted and shifted with ``seed`` (``shift``
+    as :mod:`envfit.shading.importance`: ``"points"`` makes any set i.i.d. uniform); the
+    source part of ``split`` is computed once per distinct axis."""
     A = np.asarray(axes, dtype=np.float64)
     pts = rule_points(rule, point_seed)
     u = pts[0] if len(pts) == 1 else tuple(pts)
     m, sampler = ((setup.rest_map, setup.rest_sampler) if rule.on_rest
                   else (setup.envmap, setup.sampler))
-    est = ESTIMATORS[rule.technique](m, A, u, sampler, brdf, shininess, seed=seed, shift=True)
+    est = ESTIMATORS[rule.technique](m, A, u, sampler, brdf, shininess, seed=seed, shift=shift)
     if rule.on_rest:
-        est = est + setup.truth(A, brdf, shininess, part="source")
+        uniq, inv = np.unique(A, axis=0, return_inverse=True)
+        est = est + setup.truth(uniq, brdf, shininess, part="source")[inv.ravel()]
     return est
 
 
@@ -173,8 +176,8 @@ def measure_rule(setup: RendererSetup, rule: RendererRule, brdf="diffuse",
     (:func:`envfit.shading.measurement.adaptive_rmse`: doubling the axes from ``axes_start``
     until the interval is within ±``target_relative`` or ``max_axes`` are measured).
 
-    Each axis gets :func:`replicates` independent estimates (twist, shift and, for
-    ``random``, point set each) and contributes their mean squared error, the bootstrap
+    Each axis gets :func:`replicates` independent estimates (twist and shift each; for
+    ``random`` every point shifted on its own: a fresh i.i.d. set) and contributes their mean squared error, the bootstrap
     resampling axes. The axes are drawn from ``seed`` (the same for every rule, so the truths
     are shared); twists, shifts and random sets from a stream of their own."""
     stream = np.random.default_rng([int(seed), 7])
@@ -183,17 +186,9 @@ def measure_rule(setup: RendererSetup, rule: RendererRule, brdf="diffuse",
     def measure(A: np.ndarray) -> np.ndarray:
         truth = np.repeat(setup.truth(A, brdf, shininess), reps, axis=0)
         AA = np.repeat(A, reps, axis=0)
-        if rule.pointset != "random":
-            s = int(stream.integers(2 ** 62))
-            est = rule_estimates(setup, rule, AA, brdf, shininess, seed=s)
-        else:
-            est = np.empty_like(truth)
-            chunk = max(RANDOM_CHUNK, reps)                  # one set per axis at small N
-            for k0 in range(0, AA.shape[0], chunk):
-                s, ps = (int(x) for x in stream.integers(2 ** 62, size=2))
-                sl = slice(k0, k0 + chunk)
-                est[sl] = rule_estimates(setup, rule, AA[sl], brdf, shininess, seed=s,
-                                         point_seed=ps)
+        s = int(stream.integers(2 ** 62))
+        shift = "points" if rule.pointset == "random" else True
+        est = rule_estimates(setup, rule, AA, brdf, shininess, seed=s, shift=shift)
         d = ((est - truth) ** 2).mean(axis=1)
         return d.reshape(A.shape[0], reps).mean(axis=1)
 

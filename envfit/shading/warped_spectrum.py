@@ -70,6 +70,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from envfit.base.checks import check_int
+from envfit.base.resources import check_memory
 from envfit.base.errors import ParameterError
 from envfit.maps import latlong
 from envfit.maps.envmap import EnvMap
@@ -265,16 +266,68 @@ def _pixel_moments(px: _Pixels, technique, weight, nu, heur, a) -> tuple[np.ndar
 
 
 class _Grid:
-    """The G×G midpoint grid of the square and what the techniques see on it."""
+    """The G×G midpoint grid of the square and the lobe technique's directions on it."""
 
-    def __init__(self, envmap: EnvMap, sampler: MapSampler, weight, g: int):
+    def __init__(self, weight, g: int):
         t = (np.arange(g) + 0.5) / g
         U = np.column_stack([np.repeat(t, g), np.tile(t, g)])    # u0 slow (rows), u1 fast
         self.g = g
-        self.map_dirs, self.map_pdf = sampler.sample(U)
-        self.map_f = envmap.lookup(self.map_dirs)
         self.local = lambert_to_hemisphere(U, morph=weight.morph)
         self.lobe = brdf_pdf(weight, self.local[:, 2])
+
+
+class _MapNodes:
+    r"""Quadrature nodes of the map technique in the square, for exact Fourier coefficients.
+
+    The sampler maps pixel (i, j) onto the rectangle :math:`[R_i, R_{i+1}]\times[C_{ij},
+    C_{i,j+1}]` of the square (marginal and conditional CDFs), linearly in (cos θ, φ); there
+    :math:`h = f\rho_a/p_{ij}` is smooth (f bilinear, p constant), and jumps only at the
+    rectangles' edges. Each rectangle gets the :math:`n_0\times n_1` midpoint rule with
+    :math:`n = \lceil 2\pi B w\rceil + 1` for a side w — at most one radian of the phase
+    :math:`e^{-2\pi i k\cdot u}`, |k| ≤ B, between nodes: a sun's pixels, stretched over much
+    of the square, get many nodes, a dark pixel one; in all about
+    :math:`(2\pi B)^2 + 2\pi B(H + \sum_i W) + HW` nodes (the rectangles tile the square).
+    Then :math:`\hat h(k) = \sum_q h(u_q)\,w_q\,e^{-2\pi i k\cdot u_q}` is a type-1
+    non-uniform FFT (ducc0), free of the aliasing of a uniform grid (which needs ~2048² points
+    on a 1024×512 map with a sun to agree to 5 %).
+    """
+
+    def __init__(self, envmap: EnvMap, sampler: MapSampler, band: int):
+        R, C = sampler._row_cdf, sampler._col_cdf
+        dR, dC = np.diff(R), np.diff(C, axis=1)                        # (H,), (H, W)
+        i, j = np.nonzero((dR[:, None] > 0) & (dC > 0))
+        n0 = (np.ceil(2.0 * np.pi * band * dR[i]) + 1).astype(np.int64)
+        n1 = (np.ceil(2.0 * np.pi * band * dC[i, j]) + 1).astype(np.int64)
+        count = n0 * n1
+        check_memory(int(count.sum()) * 8 * (12 + envmap.channels),
+                     f"the map technique's {int(count.sum())} nodes",
+                     hint="use a smaller grid")
+        pix = np.repeat(np.arange(i.size), count)
+        local = np.arange(pix.size) - np.repeat(np.cumsum(count) - count, count)
+        a, b = local // n1[pix], local % n1[pix]
+        x, y = (a + 0.5) / n0[pix], (b + 0.5) / n1[pix]
+        ip, jp = i[pix], j[pix]
+        self.u = np.column_stack([R[ip] + dR[ip] * x, C[ip, jp] + dC[ip, jp] * y])
+        self.weight = (dR[ip] * dC[ip, jp]) / count[pix]
+        zt, zb = sampler._z_edges[ip], sampler._z_edges[ip + 1]
+        z = zt - x * (zt - zb)
+        phi = 2.0 * np.pi * (jp + y) / sampler.width
+        r = np.sqrt(np.maximum((1.0 - z) * (1.0 + z), 0.0))
+        self.dirs = np.column_stack([r * np.cos(phi), r * np.sin(phi), z]) @ sampler._m.T
+        self.pdf = sampler.pixel_pdf[ip, jp]
+        self.f = envmap.lookup(self.dirs)
+
+    def box(self, values: np.ndarray, band: int) -> np.ndarray:
+        r""":math:`\hat h(k)` on the half box (C, 2B+1, B+1) of h at the nodes (Q, C)."""
+        import ducc0
+
+        c = values.shape[1]
+        size = 2 * band + 2
+        out = np.zeros((c, size, size), dtype=np.complex128)
+        pts = np.ascontiguousarray((values * self.weight[:, None]).T, dtype=np.complex128)
+        ducc0.nufft.nu2u(points=pts, coord=2.0 * np.pi * self.u, forward=True, epsilon=1e-9,
+                         out=out, nthreads=1)
+        return out[:, 1:, band + 1:]
 
 
 def _box(h: np.ndarray, g: int, band: int) -> np.ndarray:
@@ -286,15 +339,16 @@ def _box(h: np.ndarray, g: int, band: int) -> np.ndarray:
     return F[:, rows, :band + 1]
 
 
-def _axis_spectra(grid: _Grid, envmap, sampler, technique, weight, nu, heur, R, band):
+def _axis_spectra(grid: _Grid, nodes, envmap, sampler, technique, weight, nu, heur, R, band):
     """:math:`\\hat h_i` on the half box for one axis (frame R, third column the axis): a
-    list over parts of (C, 2B+1, B+1)."""
+    list over parts of (C, 2B+1, B+1) — the map part from its nodes (:class:`_MapNodes`),
+    the lobe part from the grid."""
     a = R[:, 2]
     out = []
     if technique in ("map", "mis"):
-        rho = brdf_pdf(weight, grid.map_dirs @ a)
-        factor, _ = _part_terms(technique, weight, nu, heur, rho, grid.map_pdf)[0]
-        out.append(_box(grid.map_f * factor[:, None], grid.g, band))
+        rho = brdf_pdf(weight, nodes.dirs @ a)
+        factor, _ = _part_terms(technique, weight, nu, heur, rho, nodes.pdf)[0]
+        out.append(nodes.box(nodes.f * factor[:, None], band))
     if technique in ("brdf", "mis"):
         d = grid.local @ R.T
         f = envmap.lookup(d)
@@ -389,7 +443,8 @@ def _check(envmap, technique, grid, heuristic, fraction):
 def _accumulate(envmap, sampler, technique, weight, nu, heur, g, A, wts):
     """Weighted sums over axes of V, |ĥ|², the k₁ = 0 cross term and I."""
     band = g // 4
-    grid = _Grid(envmap, sampler, weight, g)
+    grid = _Grid(weight, g) if technique != "map" else None
+    nodes = _MapNodes(envmap, sampler, band) if technique != "brdf" else None
     px = _Pixels(envmap, sampler, _subdivision(envmap, weight))
     R = twisted_frames(A, None)
     parts = TECHNIQUES[technique]
@@ -401,7 +456,8 @@ def _accumulate(envmap, sampler, technique, weight, nu, heur, g, A, wts):
         v, tot = _pixel_moments(px, technique, weight, nu, heur, A[m])
         V += wts[m] * v.mean(axis=1)
         mean += wts[m] * float(tot.mean())
-        H = _axis_spectra(grid, envmap, sampler, technique, weight, nu, heur, R[m], band)
+        H = _axis_spectra(grid, nodes, envmap, sampler, technique, weight, nu, heur, R[m],
+                          band)
         for i, h in enumerate(H):
             P[i] += wts[m] * (np.abs(h) ** 2).mean(axis=0)
         if parts == 2:
