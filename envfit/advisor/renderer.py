@@ -48,6 +48,8 @@ same at every N); a coarser grid under-predicts MIS with QMC points by 10–40 %
 the rows land for a 1 % target (N ≈ 256–4096), which a check at 1.25× the target would not
 absorb. So grid 512 (the box exact for QMC to N ≈ (512/8)² = 4096) with 32 axes: the
 validated accuracy at less than half its cost (≈ 15 s wall on an idle 2-core machine).
+These comparisons used the map technique's spectrum from a uniform grid, before its exact
+quadrature nodes (commit 7f77b3a, about 3× dearer on city.exr); re-measure when it changes.
 
 The spectra are cached (:mod:`envfit.advisor.cache`, kind ``"renderer"``): one checksummed
 JSON file per (technique, on the rest map), keyed by the map's fingerprint

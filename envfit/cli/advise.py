@@ -62,10 +62,26 @@ def register(sub) -> None:
                    help="largest N searched with optimal weights (an NxN solve; default: 4096)")
     p.add_argument("--realisations", type=positive_int, default=None, metavar="K",
                    help="realisations averaged per N for random/jitter/bnot (default: 4)")
+    _add_check_and_cache_arguments(p)
+    add_common_arguments(p)
+    p.set_defaults(func=run)
+
+
+def _add_check_and_cache_arguments(p) -> None:
+    """--check and its axes, the renderer rows' options, the cache's options."""
     p.add_argument("--check", action="store_true",
                    help="measure the RMSE at the chosen N/L on the map, beside the prediction")
     p.add_argument("--axes", type=positive_int, default=1000, metavar="M",
                    help="random axes of --check (default: 1000, seeded by --seed)")
+    _add_renderer_arguments(p)
+    p.add_argument("--no-cache", action="store_true",
+                   help="neither read nor write the cache of fits and wce curves")
+    p.add_argument("--cache-dir", type=Path, default=None, metavar="DIR",
+                   help="cache folder (default: $ENVFIT_CACHE_DIR or ~/.cache/envfit)")
+
+
+def _add_renderer_arguments(p) -> None:
+    """The renderer rows' options (strategies, point sets, spectra, check axes)."""
     rg = p.add_argument_group("renderer rows")
     rg.add_argument("--strategies", type=str_list, default=None, metavar="brdf,map,mis,split",
                     help="renderer strategies to size: brdf (BRDF sampling), map (map importance "
@@ -88,12 +104,6 @@ def register(sub) -> None:
     rg.add_argument("--renderer-max-axes", type=positive_int, default=None, metavar="M",
                     help="--check of the renderer rows: at most this many axes (the measurement "
                          "doubles them until its 95%% interval is within +-10%%; default: 4000)")
-    p.add_argument("--no-cache", action="store_true",
-                   help="neither read nor write the cache of fits and wce curves")
-    p.add_argument("--cache-dir", type=Path, default=None, metavar="DIR",
-                   help="cache folder (default: $ENVFIT_CACHE_DIR or ~/.cache/envfit)")
-    add_common_arguments(p)
-    p.set_defaults(func=run)
 
 
 def _header(adv) -> list[str]:
