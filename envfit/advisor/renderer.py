@@ -77,6 +77,7 @@ import numpy as np
 
 from envfit.advisor.cache import AdviseCache
 from envfit.base.errors import ParameterError
+from envfit.base.progress import progress_bar
 from envfit.maps.envmap import EnvMap
 from envfit.predict.renderer import RendererModel, predict_rule, renderer_model
 from envfit.shading.renderer_rules import STRATEGIES, RendererRule, RendererSetup, measure_rule
@@ -180,13 +181,14 @@ def source_cost(setup: RendererSetup) -> int:
 
 
 def cached_renderer_model(setup: RendererSetup, map_key: dict, brdf: str, shininess: float,
-                          strategies, grid: int, axes: int,
-                          store: AdviseCache) -> tuple[RendererModel, int, int]:
+                          strategies, grid: int, axes: int, store: AdviseCache, *,
+                          quiet: bool = True) -> tuple[RendererModel, int, int]:
     """The :class:`RendererModel` of ``strategies`` with each spectrum from the cache or
     computed (:func:`renderer_model`) and saved; (model, spectra loaded, spectra computed).
 
     A cached entry that does not parse as a spectrum is recomputed with a note in
-    ``store.notes`` (checksum failures are noted by the cache itself)."""
+    ``store.notes`` (checksum failures are noted by the cache itself); a progress bar over
+    the spectra computed unless ``quiet``."""
     pixels = source_cost(setup)
     spectra, missing = {}, []
     for s in strategies:
@@ -204,7 +206,21 @@ def cached_renderer_model(setup: RendererSetup, map_key: dict, brdf: str, shinin
         missing.append(s)
     loaded = len(spectra)
     if missing:
-        fresh = renderer_model(setup, brdf, shininess, strategies=missing, grid=grid, axes=axes)
+        bar = progress_bar(len(missing), desc="advise: renderer spectra", quiet=quiet,
+                           unit="spectrum")
+        step = [0]
+
+        def progress(label: str) -> None:
+            if step[0]:
+                bar.update(1)
+            step[0] += 1
+            if hasattr(bar, "set_postfix_str"):
+                bar.set_postfix_str(label)
+        try:
+            fresh = renderer_model(setup, brdf, shininess, strategies=missing, grid=grid,
+                                   axes=axes, progress=progress)
+        finally:
+            bar.close()
         for (tech, rest), spec in fresh.spectra.items():
             spectra[(tech, rest)] = spec
             store.save("renderer", spectrum_cache_key(map_key, brdf, shininess, grid, axes,
@@ -466,7 +482,7 @@ def advise_renderer(envmap: EnvMap, scaled: EnvMap, map_key: dict, opts, target:
     shin = opts.shininess if opts.shininess is not None else 30.0
     rmodel, n_loaded, n_new = cached_renderer_model(
         setup, map_key, opts.brdf, shin, opts.strategies, opts.renderer_grid,
-        opts.renderer_spectrum_axes, store)
+        opts.renderer_spectrum_axes, store, quiet=opts.quiet)
     t1 = time.perf_counter()
     pixels = source_cost(setup)
     rows = [search_renderer_row(rmodel, s, ps, target, opts.nmin, opts.nmax, pixels,
