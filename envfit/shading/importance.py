@@ -42,9 +42,10 @@ of its frame about the axis — the same draws as ``quadrature_estimates(..., se
 Cranley–Patterson rotation :math:`u \mapsto (u + s_m) \bmod 1`, :math:`s_m` uniform on
 :math:`[0,1)^2` (Cranley & Patterson 1976), drawn next from the same generator. With a
 shift, every estimator is unbiased for *any* point set (each shifted point is uniform on
-the square); without one, a deterministic set gives a deterministic (QMC) estimate. ``shift="points"`` instead shifts every point
-of every axis independently: the points are then i.i.d. uniform, plain Monte Carlo with a
-fresh point set per axis, in one vectorised call.
+the square); without one, a deterministic set gives a deterministic (QMC) estimate.
+``shift="points"`` instead shifts every point of every axis independently: the points are
+then i.i.d. uniform, plain Monte Carlo with a fresh point set per axis, in one vectorised
+call.
 
 Example
 -------
