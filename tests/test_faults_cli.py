@@ -184,7 +184,8 @@ def test_check_writable_dir_reports_a_refusing_folder(tmp_path, monkeypatch):
 def test_unwritable_cache_is_a_note_not_an_error_cli(tmp_path, afile, monkeypatch, capsys):
     monkeypatch.setenv("ENVFIT_CACHE_DIR", str(afile / "cache"))
     rc = cli.main(["advise", *TINY, "--target-rmse", "0.03", "--fit-n", "100", "--pointsets",
-                   "sf", "--weights", "equal", "--bases", "none", "--nmax", "256"])
+                   "sf", "--weights", "equal", "--bases", "none", "--nmax", "256",
+                   "--no-renderer"])
     cap = capsys.readouterr()
     assert rc == 0 and "Traceback" not in cap.err
     err = [ln for ln in cap.err.splitlines() if ln.strip()]

@@ -403,7 +403,8 @@ def test_cli_advise_with_an_unwritable_cache_is_a_note(tmp_path, monkeypatch, ca
     monkeypatch.setenv("ENVFIT_CACHE_DIR", str(bad))
     try:
         rc = cli.main(["advise", "--max-height", "16", "--target-rmse", "0.05", "--fit-n", "150",
-                       "--pointsets", "sf", "--weights", "equal", "--bases", "sh"])
+                       "--pointsets", "sf", "--weights", "equal", "--bases", "sh",
+                       "--no-renderer"])
     finally:
         if bad.name == "ro":
             bad.chmod(0o700)
