@@ -77,8 +77,9 @@ from envfit.maps.envmap import EnvMap
 from envfit.shading.estimators import twisted_frames
 from envfit.shading.ground_truth import weight_function
 from envfit.shading.importance import HEURISTICS, brdf_pdf
-from envfit.shading.map_sampler import MapSampler, _square
+from envfit.shading.map_sampler import MapSampler, _bilinear_cell_average, _square
 from envfit.theory.pointsets import lambert_to_hemisphere
+from envfit.theory.sphere_points import spherical_fibonacci_sphere
 
 __all__ = [
     "TECHNIQUES",
@@ -184,10 +185,10 @@ def cell_square_average(data: np.ndarray) -> np.ndarray:
 
 
 def _cell_average(data: np.ndarray) -> np.ndarray:
-    """Mean of the bilinear interpolant over each pixel cell ((1/8, 3/4, 1/8)⊗2), (H, W, …)."""
-    v = _neighbours(np.asarray(data, dtype=np.float64))
-    c = (0.125, 0.75, 0.125)
-    return sum(c[i] * c[j] * v[i][j] for i in range(3) for j in range(3))
+    """Mean of the bilinear interpolant over each pixel cell, (H, W, C): the sampler's own
+    :func:`envfit.shading.map_sampler._bilinear_cell_average`, per channel."""
+    d = np.asarray(data, dtype=np.float64)
+    return np.stack([_bilinear_cell_average(d[..., c]) for c in range(d.shape[-1])], axis=-1)
 
 
 def _subdivision(envmap: EnvMap, weight) -> int:
@@ -367,17 +368,15 @@ def _axis_spectra(grid: _Grid, nodes, envmap, sampler, technique, weight, nu, he
 # ----------------------------------------------------------------------------- axes
 
 def _fibonacci_axes(m: int) -> np.ndarray:
-    """m spherical Fibonacci axes in a *serpentine* order: √(m/2) bands of z, φ ascending in
-    even bands and descending in odd ones, so that neighbours in the order are neighbours
-    on the sphere and systematic sampling along it stratifies the sphere."""
-    j = np.arange(m) + 0.5
-    z = 1.0 - 2.0 * j / m
-    phi = np.mod(2.0 * np.pi * j / ((1.0 + math.sqrt(5.0)) / 2.0), 2.0 * np.pi)
-    bands = max(1, int(round(math.sqrt(m / 2.0))))
-    band = np.minimum((0.5 * (1.0 - z) * bands).astype(int), bands - 1)
-    order = np.lexsort((np.where(band % 2 == 0, phi, -phi), band))
-    r = np.sqrt(np.maximum(0.0, 1.0 - z * z))
-    return np.column_stack([r * np.cos(phi), r * np.sin(phi), z])[order]
+    """The m spherical Fibonacci axes of :func:`envfit.theory.sphere_points.spherical_fibonacci_sphere`
+    in a *serpentine* order: √(m/2) bands of z, φ ascending in even bands and descending in
+    odd ones, so that neighbours in the order are neighbours on the sphere and systematic
+    sampling along it stratifies the sphere."""
+    pts = spherical_fibonacci_sphere(m)
+    phi = np.mod(np.arctan2(pts[:, 1], pts[:, 0]), 2.0 * np.pi)
+    bands = max(1, round(math.sqrt(m / 2.0)))
+    band = np.minimum((0.5 * (1.0 - pts[:, 2]) * bands).astype(int), bands - 1)
+    return pts[np.lexsort((np.where(band % 2 == 0, phi, -phi), band))]
 
 
 def _proxy_moments(envmap: EnvMap, sampler: MapSampler, weight, pool: np.ndarray):
