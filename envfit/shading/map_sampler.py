@@ -176,12 +176,16 @@ class MapSampler:
         j = np.clip(k - i * (w + 1), 0, w - 1)
         c0 = self._col_cdf[i, j]
         s = np.clip((U[:, 1] - c0) / np.maximum(self._col_cdf[i, j + 1] - c0, 1e-300), 0.0, 1.0)
+        return self.pixel_point(i, j, t, s), self.pixel_pdf[i, j]
+
+    def pixel_point(self, i, j, t, s) -> np.ndarray:
+        """World directions (N, 3) at fractions (t, s) ∈ [0, 1]² of pixels (i, j): cos θ
+        linear between the row's edges, φ linear across the column (the sampler's warp)."""
         zt, zb = self._z_edges[i], self._z_edges[i + 1]
         z = zt - t * (zt - zb)
-        phi = 2.0 * np.pi * (j + s) / w
+        phi = 2.0 * np.pi * (j + s) / self.width
         r = np.sqrt(np.maximum((1.0 - z) * (1.0 + z), 0.0))
-        local = np.column_stack([r * np.cos(phi), r * np.sin(phi), z])
-        return local @ self._m.T, self.pixel_pdf[i, j]
+        return np.column_stack([r * np.cos(phi), r * np.sin(phi), z]) @ self._m.T
 
     def pixel_of(self, dirs) -> tuple[np.ndarray, np.ndarray]:
         """Pixel (row, column) indices of world directions (..., 3) (any nonzero length)."""

@@ -310,11 +310,7 @@ class _MapNodes:
         ip, jp = i[pix], j[pix]
         self.u = np.column_stack([R[ip] + dR[ip] * x, C[ip, jp] + dC[ip, jp] * y])
         self.weight = (dR[ip] * dC[ip, jp]) / count[pix]
-        zt, zb = sampler._z_edges[ip], sampler._z_edges[ip + 1]
-        z = zt - x * (zt - zb)
-        phi = 2.0 * np.pi * (jp + y) / sampler.width
-        r = np.sqrt(np.maximum((1.0 - z) * (1.0 + z), 0.0))
-        self.dirs = np.column_stack([r * np.cos(phi), r * np.sin(phi), z]) @ sampler._m.T
+        self.dirs = sampler.pixel_point(ip, jp, x, y)
         self.pdf = sampler.pixel_pdf[ip, jp]
         self.f = envmap.lookup(self.dirs)
 
