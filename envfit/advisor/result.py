@@ -162,6 +162,17 @@ class Advice:
         d["renderer"] = None if ren is None else ren.to_dict()
         return d
 
+    def _repr_html_(self) -> str:
+        """Jupyter: the fit, the target, the rows sorted by cost and the recommendation."""
+        from envfit.base.html import html_result
+        w, h = self.map_size[:2]
+        return html_result(f"Advice: {self.map} ({w}x{h}), {self.brdf}", [
+            ("target RMSE", self.target_rmse), ("s, sigma", (self.s, self.sigma)),
+            ("scale", self.scale), ("recommendation", self.recommendation)],
+            (["rule", "N / L", "cost", "pred", "predicted RMSE", "measured RMSE"],
+             [[r.label, r.setting, r.cost, r.predictor_short, r.predicted, r.measured_rmse]
+              for r in self.rows]))
+
     def best(self) -> AdviceRow | None:
         """The recommended row (cheapest reached, recommendable), or None."""
         ok = [r for r in self.rows if r.reached and r.recommendable]

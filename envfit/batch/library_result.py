@@ -9,6 +9,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from envfit.base.html import html_result
+
 __all__ = ["LibraryResult"]
 
 
@@ -50,6 +52,15 @@ class LibraryResult:
     def _map_dict(self, label: str, result) -> dict:
         """One map's entry of ``to_dict()["maps"]``."""
         return result.to_dict()
+
+    def _repr_html_(self) -> str:
+        """Jupyter: the run's fields and the summary, one row per map (:meth:`summary_rows`)."""
+        rows = self.summary_rows()
+        header = list(rows[0]) if rows else []
+        return html_result(f"{type(self).__name__}: {len(self.labels)} maps", [
+            ("scale, point set, seed", (self.scale, self.pointset, self.seed)),
+            ("factorisations", self.factorizations), ("seconds", self.seconds),
+            *(("note", n) for n in self.notes)], (header, [list(r.values()) for r in rows]))
 
     def to_dict(self) -> dict:
         """Everything, JSON-ready: the run's fields, ``summary`` rows, ``maps`` by slug."""

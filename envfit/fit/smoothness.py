@@ -42,6 +42,7 @@ import numpy as np
 
 from envfit.kernels.bandlimited import map_band_limit, max_samples, pixel_centre_samples
 from envfit.base.checks import check_int
+from envfit.base.html import html_result
 from envfit.maps.envmap import EnvMap, check_sample_count
 from envfit.base.errors import ParameterError
 from envfit.base.resources import plan_memory
@@ -88,6 +89,14 @@ class FitResult:
         d = asdict(self)
         d["s_interval"] = list(self.s_interval)
         return d
+
+    def _repr_html_(self) -> str:
+        """Jupyter: ŝ, its interval, σ̂ and how they were fitted (:func:`html_result`)."""
+        band = "" if self.band_lmax is None else f", band-limited at l <= {self.band_lmax}"
+        return html_result(f"FitResult: s = {self.s:.4g} ({self.method}, N = {self.n})", [
+            ("s", self.s), ("95 % interval", self.s_interval), ("sigma per channel", self.sigma),
+            ("scale", self.scale_description or self.scale), ("kernel", self.kernel + band),
+            ("seconds", self.seconds), *(("note", n) for n in self.notes)])
 
 
 @dataclass

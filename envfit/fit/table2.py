@@ -25,6 +25,7 @@ import numpy as np
 from envfit.theory.sphere_points import sphere_points
 
 from envfit.base.checks import check_ints
+from envfit.base.html import html_result
 from envfit.maps.envmap import EnvMap, check_sample_count
 from envfit.base.errors import ParameterError
 from envfit.kernels.interpolation import SobolevInterpolator
@@ -114,6 +115,14 @@ class Table2Result:
             "files": self.files, "notes": self.notes,
             "unwritten": [list(u) for u in self.unwritten],
         }
+
+    def _repr_html_(self) -> str:
+        """Jupyter: the RMSE table (one row per s, one column per N) and the best s."""
+        t = self.rmse_table()
+        return html_result(
+            f"Table2Result: {self.map} ({self.height} rows, {self.scale} scale, {self.pointset})",
+            [(f"best s at N = {self.n_values[-1]}", self.s_best), ("scale", self.scale_description)],
+            (["s \\ N", *self.n_values], [[s, *row] for s, row in zip(self.s_values, t)]))
 
 
 def sample_directions(n: int, *, pointset: str = "sf", seed: int = 0, up: str = "y") -> np.ndarray:

@@ -9,6 +9,7 @@ from typing import Sequence
 
 import numpy as np
 
+from envfit.base.html import html_result
 from envfit.maps.envmap import EnvMap
 from envfit.predict import PREDICTORS, PredictionContext
 
@@ -80,6 +81,23 @@ class ValidationResult:
         """The JSON-ready dict (every field, in order; the nested values are shared, not
         copied): what ``write_report``, ``plot_all``, ``emit_json`` and ``validate.json`` take."""
         return {f.name: getattr(self, f.name) for f in fields(self)}
+
+    def _repr_html_(self) -> str:
+        """Jupyter: the fits and, per rule at its largest N, the measured RMSE and the
+        ratios predicted/measured of (b), (b′) and (c)."""
+        def at_max(e, key):
+            p, m = (e.get(key) or [None])[-1], e["measured_rmse"][-1]
+            return None if p is None or not m else p / m
+        w, h = self.map_size[:2]
+        return html_result(f"ValidationResult: {self.map} ({w}x{h}, {self.scale} scale)", [
+            ("s, sigma (b)", (self.s, self.sigma)),
+            ("s', sigma' (b', band-limited)", (self.s_refined, self.sigma_refined)),
+            ("axes", self.axes)],
+            (["BRDF", "point set", "weights", "N", "measured RMSE", "(b)/measured",
+              "(b')/measured", "(c)/measured"],
+             [[e["brdf"], e["pointset"], e["weights"], e["n"][-1], e["measured_rmse"][-1],
+               *(at_max(e, k) for k in ("predicted_rmse", "predicted_rmse_refined",
+                                        "predicted_rmse_spectral"))] for e in self.results]))
 
     def rule(self, brdf: str, pointset: str, weights: str) -> dict:
         """The entry of ``results`` for one (BRDF, point set, weighting); KeyError if none."""
