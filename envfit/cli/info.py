@@ -10,14 +10,25 @@ its polar angle θ from C's up axis, C's own azimuth (e.g. Cycles' ``atan2(y, x)
 longitude ``atan2(x, z)``) and the continuous pixel ``(col, row)`` at which C looks that
 direction up in the file (C's own formula; integers are pixel centres; sizes W×H).
 
+Bright sources (the sun, lamps: connected regions above a robust threshold holding at least
+5 % of the map's luminous power, :func:`envfit.shading.sources.find_bright_sources`) are
+listed with their direction, angles and pixel in the layout, equivalent solid angle and share
+of the power (:func:`envfit.shading.map_preview.list_sources`).
+
+With ``--out DIR``: ``DIR/<map>_preview.png``, the map tone-mapped (display scale) in the
+file's layout with its axes in the layout's angles and the sources marked
+(:func:`envfit.plots.preview.plot_map_preview`), and ``DIR/<map>_info.json``, the JSON of
+``--json``.
+
 Example::
 
     envfit info sky.exr --up y --max-height 512 --json info.json
-    envfit info sky.exr --convention mitsuba3
+    envfit info sky.exr --convention mitsuba3 --out preview/
 """
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -25,8 +36,9 @@ import numpy as np
 from envfit.maps.conventions import LatLongConvention
 from envfit.maps.envmap import EnvMap
 from envfit.maps.latlong import pixel_angles, pixel_to_direction, row_solid_angles
-from .common import (add_common_arguments, add_map_arguments, emit_json, load_map_from_args,
-                     map_convention, say)
+from envfit.shading.map_preview import in_convention, list_sources
+from .common import (add_common_arguments, add_map_arguments, emit_json, guarded_write,
+                     load_map_from_args, map_convention, out_dir, say)
 
 
 def register(subparsers) -> None:
@@ -34,27 +46,12 @@ def register(subparsers) -> None:
         "info", help="describe an environment map (size, channels, range, brightest direction)",
         description="Load a lat-long environment map (any format OpenImageIO reads) and print "
                     "its size, channels, per-channel min/max/solid-angle mean, dynamic range, "
-                    "brightest direction and what loading changed.")
+                    "brightest direction, bright sources (direction, solid angle, share of the "
+                    "power) and what loading changed. --out DIR: a preview PNG of the map in "
+                    "its layout with the sources marked, and the JSON.")
     add_map_arguments(p, optional=False)
     add_common_arguments(p, seed=False)
     p.set_defaults(func=run)
-
-
-def in_convention(conv: LatLongConvention, direction, width: int, height: int) -> dict[str, Any]:
-    """A world direction in a renderer's terms: θ from its up axis, its own azimuth, and the
-    continuous pixel (col, row) of a ``width x height`` file in its layout (JSON-ready).
-
-    >>> from envfit.maps.conventions import convention
-    >>> v = in_convention(convention("pbrt3"), [0.0, 0.0, 1.0], 8, 4)
-    >>> v["theta_deg"], v["col"], v["row"]
-    (0.0, -0.5, -0.5)
-    """
-    theta, phi = conv.angles(direction)
-    row, col = conv.direction_to_pixel(direction, height, width)
-    return {"name": conv.name, "renderer": conv.renderer, "up": conv.up,
-            "theta_deg": float(np.degrees(theta)), "phi_deg": float(np.degrees(phi)),
-            "phi_is": conv.azimuth_label, "col": float(col), "row": float(row),
-            "source": conv.source}
 
 
 def describe_envmap(m: EnvMap, conv: LatLongConvention | None = None) -> dict[str, Any]:
@@ -109,11 +106,36 @@ def _convention_lines(c: dict | None, width: int, height: int) -> list[str]:
             f"({c['col']:.2f}, {c['row']:.2f}) of the {width}x{height} file"]
 
 
+def _source_lines(sources) -> list[str]:
+    if not sources:
+        return ["  bright sources (>= 5 % of the power): none"]
+    return ["  bright sources (>= 5 % of the power), theta/phi/pixel in the layout above:",
+            *(f"    {e.label()}; direction {_fmt(e.direction)}, pixel (col, row) = "
+              f"({e.position['col']:.2f}, {e.position['row']:.2f})" for e in sources)]
+
+
+def write_preview(args: argparse.Namespace, env: EnvMap, conv, out: Path, stem: str,
+                  sources=None) -> Path | None:
+    """``out/<stem>_preview.png`` of ``env`` in ``conv``'s layout (None: envfit's grid), the
+    sources marked; a failed write is recorded (:func:`guarded_write`) and gives None."""
+    from envfit.plots.preview import plot_map_preview
+    from envfit.shading.map_preview import map_preview
+    path = out / f"{stem}_preview.png"
+    png = guarded_write(args, path, plot_map_preview, map_preview(env, conv, sources=sources), path)
+    if png is not None:
+        say(args, f"wrote {png}")
+    return png
+
+
 def run(args: argparse.Namespace) -> int:
+    from envfit.base.atomic import atomic_write_json
     m = load_map_from_args(args)
     conv = map_convention(args)
+    out = out_dir(args)
     info = describe_envmap(m, conv)
     info["path"] = str(args.map)
+    sources = list_sources(m, conv)
+    info["sources"] = [e.to_dict() for e in sources]
     b = info["brightest"]
     dr = info["dynamic_range"]
     say(args,
@@ -128,6 +150,15 @@ def run(args: argparse.Namespace) -> int:
         f"  brightest pixel: row {b['row']}, col {b['col']}, direction {_fmt(b['direction'])} "
         f"(theta {b['theta_deg']:.2f} deg from up, phi {b['phi_deg']:.2f} deg)",
         *_convention_lines(b["convention"], info["width"], info["height"]),
+        *_source_lines(sources),
         *(f"  note: {n}" for n in info["notes"]))
+    if out is not None:
+        stem = Path(args.map).stem if args.map else "builtin"
+        png = write_preview(args, m, conv, out, stem, sources)
+        info["files"] = {"preview": None if png is None else str(png),
+                         "json": str(out / f"{stem}_info.json")}
+        if guarded_write(args, out / f"{stem}_info.json", atomic_write_json,
+                         out / f"{stem}_info.json", info) is not None:
+            say(args, f"wrote {out / f'{stem}_info.json'}")
     emit_json(args, info)
     return 0

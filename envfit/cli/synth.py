@@ -1,9 +1,12 @@
 """``envfit synth``: write a synthetic map (Gaussian process of known s, an analytic map, or
 the axis-marker self-check map), on envfit's pixel grid or in a renderer's ``--convention``.
 
+With ``--out DIR``, ``DIR/<OUT>_preview.png`` shows the written map in its layout with its
+bright sources marked (as ``envfit info --out``).
+
 Example::
 
-    envfit synth marker.exr --kind marker --convention mitsuba3 --height 64
+    envfit synth marker.exr --kind marker --convention mitsuba3 --height 64 --out preview/
     envfit info marker.exr --convention mitsuba3      # brightest direction: +x
 """
 from __future__ import annotations
@@ -16,7 +19,7 @@ import numpy as np
 from envfit.base.atomic import os_reason
 from envfit.base.errors import EnvfitError, OutputError, ParameterError
 from .common import (CONVENTION_HELP, add_common_arguments, colour_list, emit_json, finite_float,
-                     map_convention, map_up, positive_float, positive_int, say)
+                     map_convention, map_up, out_dir, positive_float, positive_int, say)
 
 KINDS = ("gp", "sun-gp", "constant", "sky", "sun", "step", "marker")
 
@@ -179,5 +182,12 @@ def run(args: argparse.Namespace) -> int:
               f"channel(s)"
               + (f", s0 = {args.s0}" if args.kind == "gp" else "")
               + (f", {conv.name} layout (+{conv.up} up)" if conv is not None else ""))
+    out = out_dir(args)
+    if out is not None:           # the preview of what was written, in the file's layout
+        from .info import write_preview
+        internal = env if conv is None else conv.to_internal(env)
+        png = write_preview(args, EnvMap(internal.data, up=internal.up, name=path.name), conv,
+                            out, Path(path).stem)
+        info["files"] = {"preview": None if png is None else str(png)}
     emit_json(args, info)
     return 0
