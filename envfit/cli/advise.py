@@ -231,6 +231,11 @@ def run(args: argparse.Namespace) -> int:
         if png is not None:
             say(args, f"wrote {png}")
     if out is not None:
+        from envfit.plots.advise_rules import plot_advise_rules
+        png = guarded_write(args, out / "advise_rules.png", plot_advise_rules, d,
+                            out / "advise_rules.png")
+        if png is not None:
+            say(args, f"wrote {png}")
         cols = ["label", "method", "pointset", "weights", "n", "L", "cost", "predictor",
                 "predicted_rmse", "predicted_rmse_spectral", "predicted_rmse_spectral_band",
                 "predicted_rmse_plain", "measured_rmse", "measured_over_predicted", "note"]

@@ -171,8 +171,12 @@ def _write_wce_csv(args, sp, lobe: str, n: int, s: float, morphed: bool) -> None
             + f"; E = {sp.wce:.10e}\nl,a,d2,C2,e2\n")
     path = guarded_write(args, d / "wce_spectrum.csv", atomic_write_text,
                          d / "wce_spectrum.csv", head + "\n".join(rows) + "\n")
-    if path is not None:
-        say(args, f"wrote {path}")
+    from envfit.plots.theory import plot_wce_spectrum
+    png = guarded_write(args, d / "wce_spectrum.png", plot_wce_spectrum, sp,
+                        d / "wce_spectrum.png", head.splitlines()[0][2:])
+    written = [str(p) for p in (path, png) if p is not None]
+    if written:
+        say(args, "wrote " + " and ".join(written))
 
 
 # ============================================================================ table1
@@ -246,9 +250,11 @@ def run_table1(args: argparse.Namespace) -> int:
                            d / "table1_wce_by_L.csv", ("case", "L", "wce"),
                            [(r.case, L, float(e)) for r in tab.rows
                             for L, e in enumerate(r.wce_by_L)])
-        written = [str(p) for p in (p1, p2) if p is not None]
+        from envfit.plots.theory import plot_table1
+        p3 = guarded_write(args, d / "table1.png", plot_table1, tab, d / "table1.png")
+        written = [str(p) for p in (p1, p2, p3) if p is not None]
         if written:
-            say(args, "wrote " + " and ".join(written))
+            say(args, "wrote " + ", ".join(written))
     emit_json(args, result)
     return 0
 

@@ -1,4 +1,6 @@
-"""Figures 1–5 of the paper and the BNOT check, drawn from :mod:`envfit.theory.figures` data.
+"""Figures 1–5 of the paper and the BNOT check, drawn from :mod:`envfit.theory.figures` data;
+the error spectrum of one rule (``envfit theory wce --out``) and Table 1's E(L) curves
+(``envfit theory table1 --out``).
 
 Every function takes the data object and a PNG path, saves the figure atomically and
 returns the path. Captions (figure titles) state the parameters and whether the points
@@ -14,7 +16,7 @@ from . import matplotlib  # noqa: F401  (selects the Agg backend)
 from ._save import save_figure
 
 __all__ = ["plot_power_spectra", "plot_low_order_closeup", "plot_error_spectra",
-           "plot_convergence", "plot_truncation", "plot_bnot"]
+           "plot_convergence", "plot_truncation", "plot_bnot", "plot_wce_spectrum", "plot_table1"]
 
 _STYLE = {"sobol": ("C0", "o"), "bnot": ("C1", "s"), "lp": ("C2", "^"), "sf": ("C3", "v"),
           "random": ("C7", "x"), "jitter": ("C4", "D")}
@@ -238,4 +240,57 @@ def plot_bnot(data, path: str | Path) -> Path:
     ax.legend(fontsize=7)
     fig.suptitle(f"BNOT check on the unit square (before the Lambert lift; seed {data.seed})",
                  fontsize=10)
+    return save_figure(fig, path)
+
+
+def plot_wce_spectrum(sp, path: str | Path, title: str) -> Path:
+    r"""``envfit theory wce --out``: the rule's power spectra :math:`d_l^2`, :math:`C_l^2` and
+    its error spectrum :math:`e_l^2 = a_l(d_l^2 + C_l^2)` (Eq. 42) against l (left), and the
+    partial worst-case error :math:`\sqrt{\sum_{k\le l} e_k^2}` rising to the closed form
+    E of Eq. 41 (right; the gap is the tail beyond lmax)."""
+    import matplotlib.pyplot as plt
+    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(11, 4.2), layout="constrained")
+    l = np.asarray(sp.l)
+    for y, style, lab in ((sp.d2, "C0", r"$d_l^2$ (zonal)"), (sp.C2, "C1", r"$C_l^2$ (anisotropic)"),
+                          (sp.e2, "k", r"$e_l^2 = a_l(d_l^2 + C_l^2)$")):
+        ax.semilogy(l[1:], _positive(np.asarray(y)[1:]), color=style, lw=0.9, label=lab)
+    _floor_log_axis(ax)
+    ax.set_xlabel("degree l")
+    ax.set_ylabel("power")
+    ax.grid(True, which="major", alpha=0.3)
+    ax.legend(fontsize=8)
+    ax2.plot(l, np.sqrt(np.cumsum(sp.e2)), color="k", lw=1.2, label=r"$\sqrt{\sum_{k \leq l}\, e_k^2}$")
+    ax2.axhline(sp.wce, color="C3", ls="--", lw=1.0, label=f"E (Eq. 41) = {sp.wce:.4g}")
+    ax2.set_xlabel("degree l")
+    ax2.set_ylabel("worst-case error summed to l")
+    ax2.set_ylim(bottom=0)
+    ax2.grid(True, alpha=0.3)
+    ax2.legend(fontsize=8, loc="lower right")
+    fig.suptitle(title, fontsize=9)
+    return save_figure(fig, path)
+
+
+def plot_table1(table, path: str | Path) -> Path:
+    """``envfit theory table1 --out``: E(L) of every case (Eqs. 51–52) against the cut-off
+    L, the target and its paper's reading (target × (1 + rtol)) as horizontal lines, each
+    case's strict L (filled) and paper's-reading L (open) marked; L on integer ticks."""
+    import matplotlib.pyplot as plt
+    from matplotlib.ticker import MaxNLocator
+    fig, ax = plt.subplots(figsize=(6.5, 4.3))
+    for k, r in enumerate(table.rows):
+        e = np.asarray(r.wce_by_L, dtype=float)
+        line, = ax.semilogy(np.arange(e.size), _positive(e), "o-", ms=3, lw=1.0, color=f"C{k}",
+                            label=f"{r.case}: L = {r.L} (strict), {r.L_paper_reading} (reading)")
+        ax.plot([r.L], [e[r.L]], "o", ms=8, color=line.get_color())
+        ax.plot([r.L_paper_reading], [e[r.L_paper_reading]], "o", ms=11, mfc="none",
+                color=line.get_color())
+    ax.axhline(table.target, color="k", lw=0.9, label=f"target E = {table.target:g}")
+    ax.axhline(table.target * (1 + table.rtol_paper_reading), color="k", lw=0.8, ls=":",
+               label=f"paper's reading: {1 + table.rtol_paper_reading:g} x target")
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+    ax.set_xlabel("cut-off degree L")
+    ax.set_ylabel("worst-case truncation error E(L)")
+    ax.set_title(f"Table 1: s = {table.s:g}, glossy n = {table.shininess:g}", fontsize=9)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7)
     return save_figure(fig, path)
