@@ -1,0 +1,89 @@
+"""``envfit sh MAP --lmax L``: real SH coefficients of a map for engines, with the predicted
+truncation error, the ringing table (windows x degrees: predicted error and the share of
+directions where the truncated signal goes negative) and the degree/window to use for a
+target (:mod:`envfit.predict.sh_report`).
+
+Without ``--out`` the ``--format`` document (json, csv or glsl) goes to stdout and the
+summary to stderr; with ``--out DIR`` the folder gets ``sh.png`` (look here first),
+``sh.json``, ``sh.csv``, ``sh.glsl`` and ``ringing.csv`` and the summary goes to stdout.
+
+Example::
+
+    envfit sh forest.exr --lmax 2 --irradiance --format json > forest_sh.json
+    envfit sh sky.exr --lmax 3 --irradiance --convention mitsuba3 --window sloan --out sh/
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+
+from .common import (add_common_arguments, add_map_arguments, emit_json, guarded_write,
+                     load_map_from_args, map_convention, nonneg_int, out_dir, positive_float,
+                     positive_int)
+
+
+def register(sub) -> None:
+    from envfit.predict.sh_report import FORMATS
+    from envfit.predict.sh_ringing import CHECK_AXES, DENSE_HEIGHT, TABLE_LMAX
+    from envfit.shading.sh_export import WINDOWS
+    p = sub.add_parser(
+        "sh", help="real SH coefficients for engines (irradiance, windows, ringing predictor)",
+        description="Real spherical-harmonic coefficients of the map to degree L in the "
+                    "convention's world axes: orthonormal, no Condon-Shortley phase "
+                    "(Ramamoorthi & Hanrahan 2001), index l(l+1)+m; --irradiance: the "
+                    "clamped-cosine convolution A_l L_lm. Prints the predicted RMSE of the "
+                    "truncated signal (the map's own power per degree; measured against the "
+                    "ground truth unless --no-check), and for L = 1..max(8, L) and each window "
+                    "(none, hanning, lanczos, sloan) the predicted error and the share of "
+                    "directions where the truncated signal is negative (Gauss-Legendre grid; "
+                    "checked by a dense per-pixel sum), then the smallest L and window meeting "
+                    "--target-relative without negative directions.")
+    add_map_arguments(p, optional=False)
+    p.add_argument("--lmax", type=nonneg_int, required=True, metavar="L",
+                   help="SH degree of the exported coefficients, 0 <= L <= H-1")
+    p.add_argument("--irradiance", action="store_true",
+                   help="export the irradiance coefficients A_l L_lm (clamped cosine)")
+    p.add_argument("--scale", choices=("linear", "display"), default="linear",
+                   help="values the coefficients are of (default: linear radiance)")
+    p.add_argument("--format", choices=FORMATS, default="json",
+                   help="stdout document without --out (default: json)")
+    p.add_argument("--window", choices=tuple(WINDOWS), default="none",
+                   help="window of the exported coefficients (default: none)")
+    p.add_argument("--target-relative", type=positive_float, default=0.01, metavar="F",
+                   help="relative RMSE the choice must meet (default: 0.01)")
+    p.add_argument("--table-lmax", type=positive_int, default=TABLE_LMAX, metavar="L",
+                   help=f"ringing table to degree max(this, --lmax) (default: {TABLE_LMAX})")
+    p.add_argument("--no-check", action="store_true",
+                   help="skip the measured error and the dense negative-fraction check")
+    p.add_argument("--check-axes", type=positive_int, default=CHECK_AXES, metavar="N",
+                   help=f"directions of the measured error (default: {CHECK_AXES})")
+    p.add_argument("--check-height", type=positive_int, default=DENSE_HEIGHT, metavar="H",
+                   help=f"rows of the dense check's lat-long grid (default: {DENSE_HEIGHT})")
+    add_common_arguments(p, seed=False)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from envfit.predict.sh_report import document, sh_outputs, sh_report
+    env = load_map_from_args(args)
+    conv = map_convention(args)
+    r = sh_report(env, args.lmax, irradiance=args.irradiance, window=args.window,
+                  target_relative=args.target_relative, scale=args.scale,
+                  table_lmax=args.table_lmax, check=not args.no_check,
+                  check_axes=args.check_axes, dense_height=args.check_height,
+                  convention=None if conv is None else f"{conv.name} ({conv.renderer})")
+    out = out_dir(args)
+    json_on_stdout = str(args.json) == "-"
+    if out is None and not json_on_stdout:
+        sys.stdout.write(document(r, args.format))
+        sys.stdout.flush()
+    lines = r.summary_lines()
+    if out is not None:
+        files = {name: guarded_write(args, out / name, write, out / name)
+                 for name, write in sh_outputs(r).items()}
+        lines.append("wrote " + ", ".join(str(p) for p in files.values() if p is not None))
+    if not args.quiet:
+        stream = sys.stdout if out is not None and not json_on_stdout else sys.stderr
+        print("\n".join(lines), file=stream)
+    emit_json(args, r.to_dict())
+    return 0

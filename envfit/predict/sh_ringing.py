@@ -1,0 +1,230 @@
+r"""``envfit sh``'s predictions: the truncation error of exported SH coefficients, the fraction
+of directions where the windowed, truncated signal goes negative, and the (degree, window)
+to use for a target.
+
+Signal
+    :math:`S(n) = \sum_{l\le L} w_l g_l \sum_m f_{lm}Y_{lm}(n)` with :math:`g_l = \hat A_l`
+    (irradiance, the clamped cosine of Ramamoorthi & Hanrahan 2001) or 1 (the radiance
+    reconstruction), :math:`f_{lm}` the exact coefficients of the map's bilinear
+    interpolant, :math:`w_l` a window (:data:`envfit.shading.sh_export.WINDOWS`).
+
+Predicted error (:func:`truncation_rmse`)
+    By Parseval, the mean over uniformly distributed directions of the squared error
+    against the untruncated signal is
+
+    .. math:: R^2(L, w) = \frac1C\sum_c\Big[\sum_{l\le L}(1-w_l)^2 b_l^2\hat P_{l,c}
+              + \sum_{l>L} b_l^2\hat P_{l,c}\Big],\qquad b_l = g_l\sqrt{\tfrac{2l+1}{4\pi}},
+
+    :math:`\hat P_{l,c}` the map's realised power per degree to :math:`2H-1` (the advisor's
+    prediction (c): the second sum is
+    :func:`envfit.predict.spectral.spectral_truncation_curve`; exact for the map itself,
+    not only in expectation over rotations, since the kernel is zonal and the axes uniform).
+    Reported relative to the signal's mean :math:`g_0 f_{00}/\sqrt{4\pi}` (averaged over
+    channels). Measured (:func:`measured_rmse`, ``check``): the RMS over
+    :data:`CHECK_AXES` spherical Fibonacci directions of the exported coefficients'
+    evaluation (:func:`envfit.shading.sh_export.sh_eval`) against the ground truth —
+    :func:`envfit.shading.ground_truth.shading_integral` (× π: irradiance) or the map's
+    bilinear lookup (radiance).
+
+Negative fraction
+    Predicted (:func:`negative_fraction`): the solid-angle share of a Gauss–Legendre grid
+    (``ducc0.sht.synthesis_2d`` of the local complex coefficients, :func:`gl_synthesis`)
+    where any channel is below −1e-9 of the mean. Dense check (:func:`dense_negative_fractions`):
+    the exported *world-frame real* coefficients summed directly (:func:`sh_eval`, numpy
+    recurrences, no ducc0) at every pixel centre of a :data:`DENSE_HEIGHT`-row lat-long
+    grid, weighted by the pixels' exact solid angles — a different grid, basis code and frame.
+
+Choice (:func:`choose`)
+    Among the rows meeting the target: those with no negative direction, the smallest L,
+    then the smallest error; none without negativity: the least negative, then the
+    smallest L; none meeting the target: the smallest error. The sentence names the numbers.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from envfit.base.checks import check_int
+from envfit.base.errors import ParameterError
+from envfit.maps.envmap import EnvMap
+from envfit.maps.latlong import pixel_directions, pixel_solid_angles
+from envfit.predict.spectral import spectral_truncation_curve
+from envfit.shading.ground_truth import shading_integral
+from envfit.shading.sh_export import (WINDOWS, gl_synthesis, negative_tolerance, sh_eval,
+                                      shading_factors, sloan_lambda, truncate_alm,
+                                      window_weights)
+from envfit.theory.sphere_points import spherical_fibonacci_sphere
+
+__all__ = ["CHECK_AXES", "DENSE_HEIGHT", "TABLE_LMAX", "RingingRow",
+           "truncation_rmse", "negative_fraction", "dense_negative_fractions",
+           "measured_rmse", "ringing_rows", "choose", "check_lmax"]
+
+#: spherical Fibonacci directions of the measured RMSE
+CHECK_AXES = 4096
+#: rows of the lat-long grid of the dense negative-fraction check
+DENSE_HEIGHT = 512
+#: the ringing table's degrees are 1…max(TABLE_LMAX, lmax)
+TABLE_LMAX = 8
+
+
+@dataclass(frozen=True)
+class RingingRow:
+    """One (degree, window) of the ringing table (relative = over the signal's mean)."""
+
+    L: int
+    window: str
+    window_lambda: float | None
+    predicted_relative_rmse: float
+    negative_fraction: float
+    dense_negative_fraction: float | None = None
+    measured_relative_rmse: float | None = None
+
+    @property
+    def label(self) -> str:
+        lam = f" (lambda {self.window_lambda:.3g})" if self.window_lambda else ""
+        return f"L = {self.L}, window {self.window}{lam}"
+
+    def to_dict(self) -> dict:
+        return {"L": self.L, "window": self.window, "window_lambda": self.window_lambda,
+                "predicted_relative_rmse": self.predicted_relative_rmse,
+                "negative_fraction": self.negative_fraction,
+                "dense_negative_fraction": self.dense_negative_fraction,
+                "measured_relative_rmse": self.measured_relative_rmse}
+
+
+def check_lmax(lmax, height: int) -> int:
+    """lmax as a whole number in [0, H − 1] (the map's band limit), else ParameterError."""
+    L = check_int(lmax, "--lmax", 0)
+    if L > height - 1:
+        raise ParameterError(f"--lmax {L} is above the map's band limit H - 1 = {height - 1} "
+                             f"(a {2 * height}x{height} map)")
+    return L
+
+
+# ---------------------------------------------------------------- predictions
+def _mean(alm, g) -> float:
+    """The signal's mean over the sphere, averaged over channels: g_0 f_00 / √(4π)."""
+    return float(np.mean(np.atleast_2d(alm)[:, 0].real) * g[0] / math.sqrt(4 * math.pi))
+
+
+def truncation_rmse(map_power, factors, weights) -> float:
+    r""":math:`R(L, w)` of the module docstring (absolute), L = len(weights) − 1.
+
+    ``map_power``: (C, L_P + 1); ``factors``: :math:`g_l` for l ≤ L_P; ``weights``: w_l.
+
+    >>> P = np.array([[4.0, 1.0, 0.5]])
+    >>> round(truncation_rmse(P, [1.0, 1.0, 1.0], [1.0, 1.0]) ** 2 * 4 * np.pi / 5, 12)
+    0.5
+    """
+    P = np.atleast_2d(np.asarray(map_power, dtype=np.float64))
+    lp = P.shape[1] - 1
+    w = np.asarray(weights, dtype=np.float64)
+    L = w.size - 1
+    g = np.asarray(factors, dtype=np.float64)[:lp + 1]
+    b = g * np.sqrt((2 * np.arange(lp + 1) + 1) / (4 * np.pi))
+    tail = float(spectral_truncation_curve(P, b, min(L, lp))[min(L, lp)]) ** 2
+    band = float(np.sum((1.0 - w[:lp + 1]) ** 2 * b[:L + 1] ** 2 * P.mean(axis=0)[:L + 1]))
+    return math.sqrt(tail + band)
+
+
+def negative_fraction(alm, factors, nlat: int | None = None) -> float:
+    """Predicted solid-angle share where any channel of the signal of degree len(factors) − 1
+    (``factors`` = w_l g_l) is negative, on :func:`gl_synthesis`'s grid."""
+    g = np.asarray(factors, dtype=np.float64)
+    L = g.size - 1
+    vals, om = gl_synthesis(alm, g, L, nlat)
+    neg = (vals < -negative_tolerance(alm, g)).any(axis=0)              # (nlat, nphi)
+    return float((neg * om[:, None]).sum() / (4 * np.pi))
+
+
+def dense_negative_fractions(exports, height: int = DENSE_HEIGHT) -> list[float]:
+    """Solid-angle share where any channel of each
+    :class:`~envfit.shading.sh_export.SHCoefficients` in ``exports``
+    is negative, by the direct sum at every pixel centre of a ``height``-row lat-long grid
+    of their world frame (:func:`sh_eval`), weighted by the exact pixel solid angles."""
+    if not exports:
+        return []
+    up = exports[0].up
+    top = max(e.lmax for e in exports)
+    n = (top + 1) ** 2
+    cols, spans = [], []
+    for e in exports:
+        c = np.zeros((n, e.coefficients.shape[1]))
+        c[:e.coefficients.shape[0]] = e.coefficients
+        tol = 1e-9 * float(np.abs(e.coefficients[0]).max()) / math.sqrt(4 * np.pi)
+        spans.append((len(cols), e.coefficients.shape[1], tol))
+        cols.extend(c.T)
+    om = pixel_solid_angles(height)
+    vals = sh_eval(np.stack(cols, axis=1), pixel_directions(height, up=up))   # (H, W, K)
+    out = []
+    for start, k, tol in spans:
+        neg = (vals[..., start:start + k] < -max(tol, 1e-300)).any(axis=-1)
+        out.append(float((neg * om).sum() / (4 * np.pi)))
+    return out
+
+
+def measured_rmse(envmap: EnvMap, exports, axes: int = CHECK_AXES) -> list[float]:
+    """Measured RMSE of each export against the ground truth at ``axes`` spherical
+    Fibonacci directions (module docstring), absolute; each truth is computed once."""
+    A = spherical_fibonacci_sphere(check_int(axes, "axes", 1))
+    truth = {}
+    if any(e.irradiance for e in exports):
+        truth[True] = np.pi * shading_integral(envmap, A, "diffuse")
+    if not all(e.irradiance for e in exports):
+        truth[False] = envmap.lookup(A)
+    return [float(np.sqrt(np.mean((e.evaluate(A) - truth[e.irradiance]) ** 2)))
+            for e in exports]
+
+
+def ringing_rows(alm, power, irradiance: bool, Ls, windows=tuple(WINDOWS),
+                 nlat: int | None = None) -> list[RingingRow]:
+    """Predicted relative error and negative fraction of every (L, window), L in ``Ls``
+    (``alm``: local complex coefficients of degree ≥ max(Ls); ``power``: the map's power
+    per degree, :func:`envfit.shading.spectra.map_degree_power`, to 2H − 1)."""
+    lp = power.shape[1] - 1
+    g_all = shading_factors(lp, irradiance)
+    mean = _mean(alm, g_all)
+    alm = truncate_alm(alm, max(Ls))
+    rows = []
+    for L in Ls:
+        for name in windows:
+            lam = sloan_lambda(alm, g_all[:L + 1], L, nlat) if name == "sloan" else None
+            w = window_weights(name, L, lam)
+            rows.append(RingingRow(
+                L=int(L), window=name, window_lambda=lam,
+                predicted_relative_rmse=truncation_rmse(power, g_all, w) / mean,
+                negative_fraction=negative_fraction(alm, w * g_all[:L + 1], nlat)))
+    return rows
+
+
+def choose(rows, target: float) -> tuple[RingingRow | None, str]:
+    """The row to use for a relative ``target`` and the sentence that says why (module
+    docstring), conditioned on the rows' numbers."""
+    ok = [r for r in rows if r.predicted_relative_rmse <= target]
+    clean_all = [r for r in rows if r.negative_fraction == 0.0]
+    if not ok:
+        best = min(rows, key=lambda r: r.predicted_relative_rmse)
+        pos = min(clean_all, key=lambda r: (r.predicted_relative_rmse, r.L), default=None)
+        alt = "" if pos is None or pos is best else (
+            f"; the smallest error with no negative direction is {_pct(pos)} at {pos.label}")
+        return best, (f"no degree up to {max(r.L for r in rows)} meets the {target:.3g} "
+                      f"target; the smallest predicted error is {_pct(best)} at {best.label} "
+                      f"(negative on {best.negative_fraction:.2%} of directions){alt}")
+    clean = [r for r in ok if r.negative_fraction == 0.0]
+    if clean:
+        r = min(clean, key=lambda r: (r.L, r.predicted_relative_rmse))
+        same = [o for o in ok if o.L == r.L and o.negative_fraction > 0]
+        alt = (f"; at the same L, {', '.join(o.window for o in same)} would go negative on "
+               f"up to {max(o.negative_fraction for o in same):.2%}" if same else "")
+        return r, (f"{r.label}: the smallest degree whose predicted error ({_pct(r)} of the "
+                   f"mean) meets the {target:.3g} target with no negative direction{alt}")
+    r = min(ok, key=lambda r: (r.negative_fraction, r.L, r.predicted_relative_rmse))
+    return r, (f"every (L, window) meeting the {target:.3g} target goes negative somewhere; "
+               f"the least: {r.label}, {_pct(r)} predicted error, negative on "
+               f"{r.negative_fraction:.2%} of directions")
+
+
+def _pct(r: RingingRow) -> str:
+    return f"{r.predicted_relative_rmse:.3%}"
