@@ -31,7 +31,7 @@ from envfit.base.atomic import os_reason
 from envfit.base.errors import EnvfitError
 
 #: subcommands, in the order ``envfit --help`` lists them
-COMMANDS = ("synth", "info", "fit", "table2", "theory", "validate", "advise")
+COMMANDS = ("synth", "info", "fit", "table2", "theory", "validate", "advise", "sh")
 
 
 def build_parser(only: str | None = None) -> argparse.ArgumentParser:
