@@ -401,7 +401,9 @@ class SHCoefficients:
     ----------
     lmax : the cut-off L
     coefficients : ((L+1)², C) the exported coefficients, world frame, index l(l+1)+m:
-        :math:`w_l L_{lm}` (radiance) or :math:`w_l\hat A_l L_{lm}` (``irradiance``)
+        :math:`w_l L_{lm}` (radiance) or :math:`w_l\hat A_l L_{lm}` (``irradiance``), in
+        this module's basis (``condon_shortley`` flips odd m when written:
+        :func:`envfit.shading.sh_format.signed_coefficients`)
     radiance : ((L+1)², C) the windowed radiance coefficients :math:`w_l L_{lm}` (the input
         of R&H's quadratic form, :func:`rh_irradiance`)
     irradiance : whether ``coefficients`` are the clamped-cosine convolution
@@ -434,11 +436,9 @@ class SHCoefficients:
         return np.arange(l.size) - l * (l + 1)
 
     def evaluate(self, dirs) -> np.ndarray:
-        """The exported signal at unit world directions (..., 3) → (..., C) (:func:`sh_eval`)."""
-        c = self.coefficients
-        if self.condon_shortley:
-            c = c * np.where(self.orders % 2 == 1, -1.0, 1.0)[:, None]
-        return sh_eval(c, dirs)
+        """The exported signal at unit world directions (..., 3) → (..., C) (:func:`sh_eval`;
+        the same function whatever ``condon_shortley``, which only changes the signs written)."""
+        return sh_eval(self.coefficients, dirs)
 
 
 def sh_coefficients(envmap: EnvMap, lmax: int, *, irradiance: bool = False,
