@@ -24,12 +24,10 @@ Example
 from __future__ import annotations
 
 import json
-import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Callable
 
-import ducc0
 import numpy as np
 
 from envfit.base.atomic import atomic_write_csv, atomic_write_json, atomic_write_text, to_jsonable
@@ -41,10 +39,10 @@ from envfit.predict.sh_ringing import (CHECK_AXES, DENSE_HEIGHT, TABLE_LMAX, Rin
                                        _mean, check_lmax, choose, dense_negative_fractions,
                                        measured_rmse, negative_fraction, ringing_rows,
                                        truncation_rmse)
-from envfit.shading.bilinear_sh import alm_l_index, bilinear_sh_coefficients
+from envfit.shading.bilinear_sh import bilinear_sh_coefficients
 from envfit.shading.sh_export import (NORMALISATION, ORDERING, RH_CONSTANTS, WINDOWS,
-                                      SHCoefficients, clamped_cosine_sh, sh_coefficients,
-                                      shading_factors, truncate_alm)
+                                      SHCoefficients, clamped_cosine_sh, pixel_synthesis,
+                                      sh_coefficients, shading_factors, truncate_alm)
 from envfit.shading.sh_format import signed_coefficients, to_csv, to_glsl
 from envfit.shading.spectra import _power_by_degree
 
@@ -166,7 +164,7 @@ def _checked_rows(scaled: EnvMap, alm, rows, irradiance: bool, export: SHCoeffic
     exps = [sh_coefficients(scaled, r.L, irradiance=irradiance, window=r.window,
                             lam=r.window_lambda, alm=alm) for r in rows] + [export]
     dense = dense_negative_fractions(exps, height)
-    meas = [m / mean for m in measured_rmse(scaled, exps, axes)]
+    meas = [m / mean for m in measured_rmse(scaled, exps, axes, alm)]
     rows = tuple(replace(r, dense_negative_fraction=d, measured_relative_rmse=m)
                  for r, d, m in zip(rows, dense, meas))
     return rows, dense[-1], meas[-1]
@@ -282,16 +280,10 @@ def _display(values: np.ndarray) -> np.ndarray:
 def preview_images(r: SHReport) -> dict:
     """The map and the exported signal at the map's pixels (display RGB) and where the signal
     is negative (any channel): the signal by ``ducc0.sht.synthesis_2d`` on the map's own
-    equiangular grid ("F1", φ₀ = π/W) from the local coefficients."""
-    m = r.scaled
-    e = r.export
-    a = bilinear_sh_coefficients(m, e.lmax)
+    equiangular grid (:func:`envfit.shading.sh_export.pixel_synthesis`)."""
+    m, e = r.scaled, r.export
     f = np.asarray(e.window_weights) * shading_factors(e.lmax, e.irradiance)
-    a = a * f[alm_l_index(e.lmax)][None, :]
-    vals = np.stack([ducc0.sht.synthesis_2d(alm=np.ascontiguousarray(x[None, :]), spin=0,
-                                            lmax=e.lmax, geometry="F1", ntheta=m.height,
-                                            nphi=m.width, phi0=math.pi / m.width)[0]
-                     for x in a], axis=-1)
+    vals = pixel_synthesis(m, bilinear_sh_coefficients(m, e.lmax), f, e.lmax)
     tol = 1e-9 * abs(r.mean)
     return {"map": _display(m.data), "signal": _display(vals),
             "negative": (vals < -tol).any(axis=-1)}

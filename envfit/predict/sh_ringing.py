@@ -20,11 +20,11 @@ Predicted error (:func:`truncation_rmse`)
     :func:`envfit.predict.spectral.spectral_truncation_curve`; exact for the map itself,
     not only in expectation over rotations, since the kernel is zonal and the axes uniform).
     Reported relative to the signal's mean :math:`g_0 f_{00}/\sqrt{4\pi}` (averaged over
-    channels). Measured (:func:`measured_rmse`, ``check``): the RMS over
+    channels). Measured (:func:`measured_rmse`, ``check``): irradiance — the RMS over
     :data:`CHECK_AXES` spherical Fibonacci directions of the exported coefficients'
-    evaluation (:func:`envfit.shading.sh_export.sh_eval`) against the ground truth —
-    :func:`envfit.shading.ground_truth.shading_integral` (× π: irradiance) or the map's
-    bilinear lookup (radiance).
+    evaluation (:func:`envfit.shading.sh_export.sh_eval`) against π ×
+    :func:`envfit.shading.ground_truth.shading_integral`; radiance — the solid-angle
+    weighted RMS over the map's pixel centres of the synthesised signal against the pixels.
 
 Negative fraction
     Predicted (:func:`negative_fraction`): the solid-angle share of a Gauss–Legendre grid
@@ -52,7 +52,9 @@ from envfit.maps.envmap import EnvMap
 from envfit.maps.latlong import pixel_directions, pixel_solid_angles
 from envfit.predict.spectral import spectral_truncation_curve
 from envfit.shading.ground_truth import shading_integral
-from envfit.shading.sh_export import (WINDOWS, gl_synthesis, negative_tolerance, sh_eval,
+from envfit.shading.bilinear_sh import bilinear_sh_coefficients
+from envfit.shading.sh_export import (WINDOWS, gl_synthesis, negative_tolerance, pixel_synthesis,
+                                      sh_eval,
                                       shading_factors, sloan_lambda, truncate_alm,
                                       window_weights)
 from envfit.theory.sphere_points import spherical_fibonacci_sphere
@@ -165,17 +167,29 @@ def dense_negative_fractions(exports, height: int = DENSE_HEIGHT) -> list[float]
     return out
 
 
-def measured_rmse(envmap: EnvMap, exports, axes: int = CHECK_AXES) -> list[float]:
-    """Measured RMSE of each export against the ground truth at ``axes`` spherical
-    Fibonacci directions (module docstring), absolute; each truth is computed once."""
+def measured_rmse(envmap: EnvMap, exports, axes: int = CHECK_AXES, alm=None) -> list[float]:
+    """Measured RMSE of each export against the ground truth (module docstring), absolute.
+
+    Irradiance: the exported coefficients evaluated (:meth:`SHCoefficients.evaluate`) at
+    ``axes`` spherical Fibonacci directions against π × the ground-truth integrator (computed
+    once). Radiance: the truncated, windowed signal at every pixel centre
+    (:func:`pixel_synthesis` of the local ``alm``) against the pixel values, weighted by the
+    pixels' solid angles — a few thousand directions would miss a sun's disc.
+    """
     A = spherical_fibonacci_sphere(check_int(axes, "axes", 1))
-    truth = {}
-    if any(e.irradiance for e in exports):
-        truth[True] = np.pi * shading_integral(envmap, A, "diffuse")
-    if not all(e.irradiance for e in exports):
-        truth[False] = envmap.lookup(A)
-    return [float(np.sqrt(np.mean((e.evaluate(A) - truth[e.irradiance]) ** 2)))
-            for e in exports]
+    irr = np.pi * shading_integral(envmap, A, "diffuse") if any(
+        e.irradiance for e in exports) else None
+    if alm is None and not all(e.irradiance for e in exports):
+        alm = bilinear_sh_coefficients(envmap, max(e.lmax for e in exports))
+    om = pixel_solid_angles(envmap.height)[..., None]
+    out = []
+    for e in exports:
+        if e.irradiance:
+            out.append(float(np.sqrt(np.mean((e.evaluate(A) - irr) ** 2))))
+            continue
+        err = pixel_synthesis(envmap, alm, e.window_weights, e.lmax) - envmap.data
+        out.append(float(np.sqrt(np.sum(om * err ** 2) / (4 * np.pi * err.shape[-1]))))
+    return out
 
 
 def ringing_rows(alm, power, irradiance: bool, Ls, windows=tuple(WINDOWS),

@@ -70,7 +70,8 @@ from envfit.shading.bilinear_sh import alm_l_index, bilinear_sh_coefficients
 __all__ = ["NORMALISATION", "ORDERING", "WINDOWS", "RH_CONSTANTS", "SHCoefficients",
            "clamped_cosine_sh", "complex_to_real", "world_alm", "real_sh_basis", "sh_eval",
            "rh_irradiance", "window_weights", "sloan_window", "sloan_lambda",
-           "shading_factors", "truncate_alm", "gl_synthesis", "channel_names",
+           "shading_factors", "truncate_alm", "gl_synthesis", "pixel_synthesis",
+           "channel_names",
            "sh_coefficients"]
 
 NORMALISATION = ("orthonormal real SH (integral of Y_lm^2 over the sphere = 1), no "
@@ -344,6 +345,18 @@ def gl_synthesis(alm, factors, lmax: int, nlat: int | None = None) -> tuple[np.n
                                             lmax=lmax, geometry="GL", ntheta=n, nphi=2 * n)[0]
                      for x in a])
     return vals, ducc0.misc.GL_weights(n, 2 * n)
+
+
+def pixel_synthesis(envmap: EnvMap, alm, factors, lmax: int) -> np.ndarray:
+    r"""The signal :math:`\sum_{l\le L} g_l\sum_m a_{lm}Y_{lm}` at the map's own pixel centres,
+    (H, W, C): ``ducc0.sht.synthesis_2d`` on its equiangular grid (geometry "F1",
+    φ₀ = π/W: :mod:`envfit.maps.latlong`'s local frame) from the local ``alm``."""
+    lmax = check_int(lmax, "lmax", 0)
+    a = truncate_alm(alm, lmax) * np.asarray(factors, dtype=np.float64)[alm_l_index(lmax)][None, :]
+    h, w = envmap.height, envmap.width
+    return np.stack([ducc0.sht.synthesis_2d(alm=np.ascontiguousarray(x[None, :]), spin=0,
+                                            lmax=lmax, geometry="F1", ntheta=h, nphi=w,
+                                            phi0=math.pi / w)[0] for x in a], axis=-1)
 
 
 def negative_tolerance(alm, factors) -> float:
