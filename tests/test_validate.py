@@ -318,7 +318,7 @@ def test_cli_end_to_end(tmp_path, capsys):
     assert [e["brdf"] for e in res["results"]] == ["glossy"] * 4
     assert (out / "report.md").read_text().startswith("# Validation of predicted")
     assert json.loads((out / "validate.json").read_text())["s"] == 1.4
-    for name in ("validate_quadrature_glossy.png", "validate_absolute.png",
+    for name in ("validate_quadrature_glossy.png", "validate_absolute_glossy.png",
                  "validate_truncation.png", "validate_s_choice.png"):
         with open(out / name, "rb") as fh:
             assert fh.read(8) == b"\x89PNG\r\n\x1a\n"

@@ -1,8 +1,8 @@
 """Figures of a library run: how the smoothness s is distributed across the maps.
 
 * :func:`plot_s_histogram` — histogram of the per-map s (continuous fits: bins; Table 2's
-  best s: one bar per grid value); with intervals, a second panel shows every map's s and
-  its 95 % interval, sorted by s.
+  best s: one bar per grid value; the counts on whole-number ticks); with intervals, a
+  second panel shows every map's s and its 95 % interval, sorted by s.
 
 PNGs are written atomically (:func:`envfit.plots._save.save_figure`).
 """
@@ -15,6 +15,7 @@ import numpy as np
 
 from . import matplotlib  # noqa: F401  (selects the Agg backend)
 from ._save import save_figure
+from ._ticks import integer_axis
 
 __all__ = ["plot_s_histogram"]
 
@@ -43,6 +44,7 @@ def plot_s_histogram(s: Sequence[float], path: str | Path, *, title: str = "",
         ax.hist(s, bins=np.linspace(lo, hi, bins + 1), color="C0", edgecolor="white")
     ax.set_xlabel("Sobolev smoothness s")
     ax.set_ylabel("number of maps")
+    integer_axis(ax.yaxis)
     ax.set_title(title or f"s across {len(s)} maps", fontsize=9)
     ax.grid(True, axis="y", alpha=0.3)
     if intervals is not None:
@@ -57,6 +59,7 @@ def plot_s_histogram(s: Sequence[float], path: str | Path, *, title: str = "",
             ax2.set_yticklabels([labels[k] for k in order], fontsize=7)
         else:
             ax2.set_ylabel("maps, sorted by s")
+            integer_axis(ax2.yaxis)
         ax2.set_xlabel("s and its 95 % interval")
         ax2.grid(True, axis="x", alpha=0.3)
     return save_figure(fig, path)

@@ -14,6 +14,7 @@ import numpy as np
 
 from . import matplotlib  # noqa: F401  (selects the Agg backend)
 from ._save import save_figure
+from ._ticks import count_log_axis, integer_axis
 
 __all__ = ["plot_power_spectra", "plot_low_order_closeup", "plot_error_spectra",
            "plot_convergence", "plot_truncation", "plot_bnot", "plot_wce_spectrum", "plot_table1"]
@@ -50,14 +51,6 @@ def _floor_log_axis(ax, decades: float = 14.0):
         top = max(ys)
         lo, hi = ax.get_ylim()
         ax.set_ylim(max(lo, top * 10.0 ** -decades), hi)
-
-
-def _integer_log_x(ax, ns):
-    """Powers-of-two N as plain tick labels on a log axis."""
-    from matplotlib.ticker import FixedLocator, NullLocator
-    ax.xaxis.set_major_locator(FixedLocator(list(ns)))
-    ax.xaxis.set_minor_locator(NullLocator())
-    ax.set_xticklabels([str(int(v)) for v in ns], fontsize=7)
 
 
 def plot_power_spectra(data, path: str | Path) -> Path:
@@ -159,7 +152,7 @@ def plot_convergence(data, path: str | Path) -> Path:
             lab = "diffuse" if brdf == "diffuse" else f"glossy n = {data.shininess:g}"
             ax.set_title(f"({chr(97 + len(cols) * i + j)}) {lab}, {_WEIGHTS[wt]}", fontsize=9)
             ax.set_xlabel("number of samples N")
-            _integer_log_x(ax, data.ns)
+            count_log_axis(ax.xaxis, data.ns, fontsize=7)
             ax.set_ylabel("worst-case error (Eq. 41)")
             ax.grid(True, which="major", alpha=0.3)
             ax.legend(fontsize=7, title=f"slope fitted over N = {lo:g}…{hi:g}", title_fontsize=7)
@@ -183,8 +176,7 @@ def plot_truncation(data, path: str | Path) -> Path:
         ax = axes[0, j]
         ax.semilogy(data.L, _positive(data.wce[case]), "o-", color="C3", ms=3, label="E(L)")
         ax.set_xlabel("cut-off degree L")
-        from matplotlib.ticker import MaxNLocator
-        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+        integer_axis(ax.xaxis)
         ax.set_ylabel("worst-case error E(L)", color="C3")
         ax.tick_params(axis="y", colors="C3")
         ax.grid(True, which="major", alpha=0.3)
@@ -275,7 +267,6 @@ def plot_table1(table, path: str | Path) -> Path:
     L, the target and its paper's reading (target × (1 + rtol)) as horizontal lines, each
     case's strict L (filled) and paper's-reading L (open) marked; L on integer ticks."""
     import matplotlib.pyplot as plt
-    from matplotlib.ticker import MaxNLocator
     fig, ax = plt.subplots(figsize=(6.5, 4.3))
     for k, r in enumerate(table.rows):
         e = np.asarray(r.wce_by_L, dtype=float)
@@ -287,7 +278,7 @@ def plot_table1(table, path: str | Path) -> Path:
     ax.axhline(table.target, color="k", lw=0.9, label=f"target E = {table.target:g}")
     ax.axhline(table.target * (1 + table.rtol_paper_reading), color="k", lw=0.8, ls=":",
                label=f"paper's reading: {1 + table.rtol_paper_reading:g} x target")
-    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+    integer_axis(ax.xaxis)
     ax.set_xlabel("cut-off degree L")
     ax.set_ylabel("worst-case truncation error E(L)")
     ax.set_title(f"Table 1: s = {table.s:g}, glossy n = {table.shininess:g}", fontsize=9)
