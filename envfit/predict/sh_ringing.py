@@ -24,7 +24,7 @@ Predicted error (:func:`truncation_rmse`)
     :data:`CHECK_AXES` spherical Fibonacci directions of the exported coefficients'
     evaluation (:func:`envfit.shading.sh_export.sh_eval`) against π ×
     :func:`envfit.shading.ground_truth.shading_integral`; radiance — the solid-angle
-    weighted RMS over the map's pixel centres of the synthesised signal against the pixels.
+    weighted RMS of the synthesised signal against the bilinear lookup on a 2H-row grid.
 
 Negative fraction
     Predicted (:func:`negative_fraction`): the solid-angle share of a Gauss–Legendre grid
@@ -172,22 +172,27 @@ def measured_rmse(envmap: EnvMap, exports, axes: int = CHECK_AXES, alm=None) -> 
 
     Irradiance: the exported coefficients evaluated (:meth:`SHCoefficients.evaluate`) at
     ``axes`` spherical Fibonacci directions against π × the ground-truth integrator (computed
-    once). Radiance: the truncated, windowed signal at every pixel centre
-    (:func:`pixel_synthesis` of the local ``alm``) against the pixel values, weighted by the
-    pixels' solid angles — a few thousand directions would miss a sun's disc.
+    once). Radiance: the truncated, windowed signal (:func:`pixel_synthesis` of the local
+    ``alm``) against the map's bilinear lookup at the pixel centres of a lat-long grid of
+    2H rows, weighted by their solid angles (a few thousand directions would miss a sun's
+    disc; the map's own pixel centres would weigh a one-pixel peak of the interpolant as
+    its whole pixel).
     """
     A = spherical_fibonacci_sphere(check_int(axes, "axes", 1))
     irr = np.pi * shading_integral(envmap, A, "diffuse") if any(
         e.irradiance for e in exports) else None
-    if alm is None and not all(e.irradiance for e in exports):
-        alm = bilinear_sh_coefficients(envmap, max(e.lmax for e in exports))
-    om = pixel_solid_angles(envmap.height)[..., None]
+    h2 = 2 * envmap.height
+    if not all(e.irradiance for e in exports):
+        if alm is None:
+            alm = bilinear_sh_coefficients(envmap, max(e.lmax for e in exports))
+        rad = envmap.lookup(pixel_directions(h2, up=envmap.up))
+    om = pixel_solid_angles(h2)[..., None]
     out = []
     for e in exports:
         if e.irradiance:
             out.append(float(np.sqrt(np.mean((e.evaluate(A) - irr) ** 2))))
             continue
-        err = pixel_synthesis(envmap, alm, e.window_weights, e.lmax) - envmap.data
+        err = pixel_synthesis(envmap, alm, e.window_weights, e.lmax, h2) - rad
         out.append(float(np.sqrt(np.sum(om * err ** 2) / (4 * np.pi * err.shape[-1]))))
     return out
 

@@ -347,16 +347,18 @@ def gl_synthesis(alm, factors, lmax: int, nlat: int | None = None) -> tuple[np.n
     return vals, ducc0.misc.GL_weights(n, 2 * n)
 
 
-def pixel_synthesis(envmap: EnvMap, alm, factors, lmax: int) -> np.ndarray:
-    r"""The signal :math:`\sum_{l\le L} g_l\sum_m a_{lm}Y_{lm}` at the map's own pixel centres,
-    (H, W, C): ``ducc0.sht.synthesis_2d`` on its equiangular grid (geometry "F1",
-    φ₀ = π/W: :mod:`envfit.maps.latlong`'s local frame) from the local ``alm``."""
+def pixel_synthesis(envmap: EnvMap, alm, factors, lmax: int,
+                    height: int | None = None) -> np.ndarray:
+    r"""The signal :math:`\sum_{l\le L} g_l\sum_m a_{lm}Y_{lm}` at the pixel centres of the
+    map's lat-long grid (or of a ``height``-row one, same ``up``), (h, 2h, C):
+    ``ducc0.sht.synthesis_2d`` on the equiangular grid (geometry "F1", φ₀ = π/W:
+    :mod:`envfit.maps.latlong`'s local frame) from the local ``alm``."""
     lmax = check_int(lmax, "lmax", 0)
     a = truncate_alm(alm, lmax) * np.asarray(factors, dtype=np.float64)[alm_l_index(lmax)][None, :]
-    h, w = envmap.height, envmap.width
+    h = envmap.height if height is None else check_int(height, "height", 1)
     return np.stack([ducc0.sht.synthesis_2d(alm=np.ascontiguousarray(x[None, :]), spin=0,
-                                            lmax=lmax, geometry="F1", ntheta=h, nphi=w,
-                                            phi0=math.pi / w)[0] for x in a], axis=-1)
+                                            lmax=lmax, geometry="F1", ntheta=h, nphi=2 * h,
+                                            phi0=math.pi / (2 * h))[0] for x in a], axis=-1)
 
 
 def negative_tolerance(alm, factors) -> float:
