@@ -184,6 +184,28 @@ def test_negative_fraction_predicted_vs_dense_on_a_sun(sun_env):
     assert np.abs(np.array(pred) - dense).max() < 0.01
 
 
+@pytest.mark.parametrize("L, window", [(1, "none"), (2, "none"), (2, "hanning"),
+                                       (4, "lanczos")])
+def test_negative_fraction_of_a_lone_sun_closed_form(L, window):
+    """A disc of radius ρ alone: its irradiance is zonal about the sun, E(c) = Σ_l w_l Â_l
+    (2l+1)/(4π) F_l P_l(c), F_l = 2π∫_{cos ρ}^1 P_l; the negative share of the sphere is the
+    measure of {c : E(c) < 0} / 2 (c uniform on [−1, 1] for uniform directions)."""
+    from numpy.polynomial import legendre as leg
+    from envfit.data_gen.analytic import SunSkyMap
+    rho = 0.15
+    sun = SunSkyMap(sun_theta=1.0, sun_phi=2.0, sun_radius=rho, sun_radiance=1.0, sky=0.0,
+                    subsamples=16)
+    env = EnvMap(sun.render(64), up="z")
+    w = window_weights(window, L)
+    pred = negative_fraction(bilinear_sh_coefficients(env, L), w * clamped_cosine_sh(L))
+    F = [2 * np.pi * leg.Legendre.basis(l).integ(lbnd=np.cos(rho))(1.0) for l in range(L + 1)]
+    E = leg.Legendre([w[l] * clamped_cosine_sh(L)[l] * (2 * l + 1) / (4 * np.pi) * F[l]
+                      for l in range(L + 1)])
+    c = np.linspace(-1.0, 1.0, 400001)
+    exact = float(np.mean(E(c) < 0))
+    assert abs(pred - exact) < 0.003 and exact > 0.05
+
+
 def test_sloan_lambda_is_minimal_and_non_negative(sun_env):
     alm = bilinear_sh_coefficients(sun_env, 2)
     g = clamped_cosine_sh(2)
