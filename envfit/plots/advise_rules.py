@@ -18,6 +18,7 @@ from pathlib import Path
 
 from . import matplotlib  # noqa: F401  (selects the Agg backend)
 from ._save import save_figure
+from ._ticks import count_log_axis
 
 __all__ = ["plot_advise_rules"]
 
@@ -62,6 +63,7 @@ def plot_advise_rules(d: dict, path: str | Path) -> Path:
     ax.set_xscale("log")
     right = max([float(r["cost"]) if r["reached"] else _searched_cost(r) for r in rows] or [10.0])
     ax.set_xlim(0.8, right * 40)
+    count_log_axis(ax.xaxis)
     ax.set_xlabel("cost: N samples per shading point, or (L+1)² SH/HSH coefficients")
     ax.grid(True, axis="x", which="both", alpha=0.25)
     w, h = (d.get("map_size") or [0, 0])[:2]
