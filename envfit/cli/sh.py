@@ -33,7 +33,7 @@ def register(sub) -> None:
                     "(Ramamoorthi & Hanrahan 2001), index l(l+1)+m; --irradiance: the "
                     "clamped-cosine convolution A_l L_lm. Prints the predicted RMSE of the "
                     "truncated signal (the map's own power per degree; measured against the "
-                    "ground truth unless --no-check), and for L = 1..max(8, L) and each window "
+                    "ground truth unless --no-check), and for L = 1..8 and L, each window "
                     "(none, hanning, lanczos, sloan) the predicted error and the share of "
                     "directions where the truncated signal is negative (Gauss-Legendre grid; "
                     "checked by a dense per-pixel sum), then the smallest L and window meeting "
@@ -52,7 +52,7 @@ def register(sub) -> None:
     p.add_argument("--target-relative", type=positive_float, default=0.01, metavar="F",
                    help="relative RMSE the choice must meet (default: 0.01)")
     p.add_argument("--table-lmax", type=positive_int, default=TABLE_LMAX, metavar="L",
-                   help=f"ringing table to degree max(this, --lmax) (default: {TABLE_LMAX})")
+                   help=f"ringing table for L = 1..this and --lmax (default: {TABLE_LMAX})")
     p.add_argument("--no-check", action="store_true",
                    help="skip the measured error and the dense negative-fraction check")
     p.add_argument("--check-axes", type=positive_int, default=CHECK_AXES, metavar="N",

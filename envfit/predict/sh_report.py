@@ -184,7 +184,7 @@ def sh_report(envmap: EnvMap, lmax: int, *, irradiance: bool = False, window: st
     window : one of :data:`envfit.shading.sh_export.WINDOWS` for the export.
     target_relative : the relative RMSE the choice must meet.
     scale : "linear" or "display" (the values the coefficients are of).
-    table_lmax : the ringing table covers L = 1…max(table_lmax, lmax).
+    table_lmax : the ringing table covers L = 1…table_lmax and ``lmax``.
     check : also measure (ground truth at ``check_axes`` directions) and evaluate the
         negative fractions densely (``dense_height`` rows).
     convention : the name reported for the world frame (default: envfit's, ``--up``).
@@ -192,7 +192,8 @@ def sh_report(envmap: EnvMap, lmax: int, *, irradiance: bool = False, window: st
     L = _check(envmap, lmax, window, target_relative, scale, table_lmax)
     sc = fit_scale(scale, envmap)
     scaled = envmap.with_data(sc.apply(envmap.data))
-    top = max(int(table_lmax), L)
+    Ls = sorted(set(range(1, int(table_lmax) + 1)) | ({L} if L >= 1 else set()))
+    top = max(Ls)
     lp = max(2 * envmap.height - 1, top)
     alm = bilinear_sh_coefficients(scaled, lp)
     power = _power_by_degree(alm, lp)
@@ -204,7 +205,7 @@ def sh_report(envmap: EnvMap, lmax: int, *, irradiance: bool = False, window: st
     export = sh_coefficients(scaled, L, irradiance=irradiance, window=window,
                              alm=truncate_alm(alm, top))
     w = np.asarray(export.window_weights)
-    rows = tuple(ringing_rows(truncate_alm(alm, top), power, irradiance, range(1, top + 1)))
+    rows = tuple(ringing_rows(truncate_alm(alm, top), power, irradiance, Ls))
     kw = {}
     if check:
         rows, kw["dense_negative_fraction"], kw["measured_relative_rmse"] = _checked_rows(

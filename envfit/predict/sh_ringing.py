@@ -52,14 +52,15 @@ from envfit.maps.envmap import EnvMap
 from envfit.maps.latlong import pixel_directions, pixel_solid_angles
 from envfit.predict.spectral import spectral_truncation_curve
 from envfit.shading.ground_truth import shading_integral
-from envfit.shading.bilinear_sh import bilinear_sh_coefficients
+from envfit.shading.patches import axes_to_local
+from envfit.shading.bilinear_sh import bilinear_sh_coefficients, synthesize_convolution
 from envfit.shading.sh_export import (WINDOWS, gl_synthesis, negative_tolerance, pixel_synthesis,
                                       sh_eval,
                                       shading_factors, sloan_lambda, truncate_alm,
                                       window_weights)
 from envfit.theory.sphere_points import spherical_fibonacci_sphere
 
-__all__ = ["CHECK_AXES", "DENSE_HEIGHT", "TABLE_LMAX", "RingingRow",
+__all__ = ["CHECK_AXES", "DENSE_HEIGHT", "TABLE_LMAX", "DIRECT_LMAX", "RingingRow",
            "truncation_rmse", "negative_fraction", "dense_negative_fractions",
            "measured_rmse", "ringing_rows", "choose", "check_lmax"]
 
@@ -67,8 +68,12 @@ __all__ = ["CHECK_AXES", "DENSE_HEIGHT", "TABLE_LMAX", "RingingRow",
 CHECK_AXES = 4096
 #: rows of the lat-long grid of the dense negative-fraction check
 DENSE_HEIGHT = 512
-#: the ringing table's degrees are 1…max(TABLE_LMAX, lmax)
+#: the ringing table's degrees are 1…TABLE_LMAX and the export's
 TABLE_LMAX = 8
+#: the direct per-direction sums (dense check, measured irradiance of the exported numbers)
+#: up to this degree; above it the dense check is skipped and the measured irradiance is
+#: synthesised from the local coefficients (``synthesis_general``)
+DIRECT_LMAX = 32
 
 
 @dataclass(frozen=True)
@@ -141,28 +146,33 @@ def negative_fraction(alm, factors, nlat: int | None = None) -> float:
     return float((neg * om[:, None]).sum() / (4 * np.pi))
 
 
-def dense_negative_fractions(exports, height: int = DENSE_HEIGHT) -> list[float]:
+def dense_negative_fractions(exports, height: int = DENSE_HEIGHT) -> list[float | None]:
     """Solid-angle share where any channel of each
-    :class:`~envfit.shading.sh_export.SHCoefficients` in ``exports``
-    is negative, by the direct sum at every pixel centre of a ``height``-row lat-long grid
-    of their world frame (:func:`sh_eval`), weighted by the exact pixel solid angles."""
-    if not exports:
-        return []
-    up = exports[0].up
-    top = max(e.lmax for e in exports)
+    :class:`~envfit.shading.sh_export.SHCoefficients` in ``exports`` is negative, by the
+    direct sum at every pixel centre of a ``height``-row lat-long grid of their world frame
+    (:func:`sh_eval`), weighted by the exact pixel solid angles; None above
+    :data:`DIRECT_LMAX`."""
+    todo = [e for e in exports if e.lmax <= DIRECT_LMAX]
+    if not todo:
+        return [None] * len(exports)
+    top = max(e.lmax for e in todo)
     n = (top + 1) ** 2
-    cols, spans = [], []
-    for e in exports:
+    cols, spans = [], {}
+    for e in todo:
         c = np.zeros((n, e.coefficients.shape[1]))
         c[:e.coefficients.shape[0]] = e.coefficients
         tol = 1e-9 * float(np.abs(e.coefficients[0]).max()) / math.sqrt(4 * np.pi)
-        spans.append((len(cols), e.coefficients.shape[1], tol))
+        spans[id(e)] = (len(cols), e.coefficients.shape[1], max(tol, 1e-300))
         cols.extend(c.T)
     om = pixel_solid_angles(height)
-    vals = sh_eval(np.stack(cols, axis=1), pixel_directions(height, up=up))   # (H, W, K)
+    vals = sh_eval(np.stack(cols, axis=1), pixel_directions(height, up=todo[0].up))  # (H, W, K)
     out = []
-    for start, k, tol in spans:
-        neg = (vals[..., start:start + k] < -max(tol, 1e-300)).any(axis=-1)
+    for e in exports:
+        if id(e) not in spans:
+            out.append(None)
+            continue
+        start, k, tol = spans[id(e)]
+        neg = (vals[..., start:start + k] < -tol).any(axis=-1)
         out.append(float((neg * om).sum() / (4 * np.pi)))
     return out
 
@@ -171,8 +181,8 @@ def measured_rmse(envmap: EnvMap, exports, axes: int = CHECK_AXES, alm=None) -> 
     """Measured RMSE of each export against the ground truth (module docstring), absolute.
 
     Irradiance: the exported coefficients evaluated (:meth:`SHCoefficients.evaluate`) at
-    ``axes`` spherical Fibonacci directions against π × the ground-truth integrator (computed
-    once). Radiance: the truncated, windowed signal (:func:`pixel_synthesis` of the local
+    ``axes`` spherical Fibonacci directions (above :data:`DIRECT_LMAX`: synthesised from the
+    local ``alm``) against π × the ground-truth integrator (computed once). Radiance: the truncated, windowed signal (:func:`pixel_synthesis` of the local
     ``alm``) against the map's bilinear lookup at the pixel centres of a lat-long grid of
     2H rows, weighted by their solid angles (a few thousand directions would miss a sun's
     disc; the map's own pixel centres would weigh a one-pixel peak of the interpolant as
@@ -182,17 +192,20 @@ def measured_rmse(envmap: EnvMap, exports, axes: int = CHECK_AXES, alm=None) -> 
     irr = np.pi * shading_integral(envmap, A, "diffuse") if any(
         e.irradiance for e in exports) else None
     h2 = 2 * envmap.height
+    if alm is None:
+        alm = bilinear_sh_coefficients(envmap, max(e.lmax for e in exports))
     if not all(e.irradiance for e in exports):
-        if alm is None:
-            alm = bilinear_sh_coefficients(envmap, max(e.lmax for e in exports))
         rad = envmap.lookup(pixel_directions(h2, up=envmap.up))
     om = pixel_solid_angles(h2)[..., None]
     out = []
     for e in exports:
+        g = np.asarray(e.window_weights) * shading_factors(e.lmax, e.irradiance)
         if e.irradiance:
-            out.append(float(np.sqrt(np.mean((e.evaluate(A) - irr) ** 2))))
+            est = e.evaluate(A) if e.lmax <= DIRECT_LMAX else synthesize_convolution(
+                truncate_alm(alm, e.lmax), e.lmax, g, axes_to_local(A, envmap.up))
+            out.append(float(np.sqrt(np.mean((est - irr) ** 2))))
             continue
-        err = pixel_synthesis(envmap, alm, e.window_weights, e.lmax, h2) - rad
+        err = pixel_synthesis(envmap, alm, g, e.lmax, h2) - rad
         out.append(float(np.sqrt(np.sum(om * err ** 2) / (4 * np.pi * err.shape[-1]))))
     return out
 

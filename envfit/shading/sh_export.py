@@ -265,6 +265,7 @@ def sh_eval(coefficients, dirs, *, chunk: int = 32768) -> np.ndarray:
     d = np.asarray(dirs, dtype=np.float64)
     flat = d.reshape(-1, 3)
     out = np.empty((flat.shape[0], c.shape[1]))
+    chunk = max(1, min(int(chunk), (1 << 22) // c.shape[0]))      # ≤ 32 MB of basis values
     for i in range(0, flat.shape[0], chunk):
         out[i:i + chunk] = real_sh_basis(flat[i:i + chunk], L) @ c
     return out.reshape(d.shape[:-1] + (c.shape[1],))
