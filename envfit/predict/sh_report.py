@@ -36,15 +36,15 @@ from envfit.base.errors import ParameterError
 from envfit.maps.envmap import EnvMap
 from envfit.maps.scales import SCALES, fit_scale
 from envfit.predict.sh_ringing import (CHECK_AXES, DENSE_HEIGHT, TABLE_LMAX, RingingRow,
-                                       _mean, check_lmax, choose, dense_negative_fractions,
+                                       check_lmax, choose, dense_negative_fractions,
                                        measured_rmse, negative_fraction, ringing_rows,
-                                       truncation_rmse)
+                                       signal_mean, truncation_rmse)
 from envfit.shading.bilinear_sh import bilinear_sh_coefficients
 from envfit.shading.sh_export import (NORMALISATION, ORDERING, RH_CONSTANTS, WINDOWS,
                                       SHCoefficients, clamped_cosine_sh, pixel_synthesis,
                                       sh_coefficients, shading_factors, truncate_alm)
 from envfit.shading.sh_format import signed_coefficients, to_csv, to_glsl
-from envfit.shading.spectra import _power_by_degree
+from envfit.shading.spectra import _power_by_degree   # the alm are computed here once
 
 __all__ = ["FORMATS", "SHReport", "sh_report", "document", "sh_outputs",
            "preview_images"]
@@ -198,7 +198,7 @@ def sh_report(envmap: EnvMap, lmax: int, *, irradiance: bool = False, window: st
     alm = bilinear_sh_coefficients(scaled, lp)
     power = _power_by_degree(alm, lp)
     g = shading_factors(lp, irradiance)
-    mean = _mean(alm, g)
+    mean = signal_mean(alm, g)
     if not mean > 0:
         raise ParameterError(f"map {envmap.name or ''} has mean {mean:.6g} on the {scale} "
                              "scale: relative errors and negativity need a positive mean")

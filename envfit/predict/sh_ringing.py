@@ -61,7 +61,7 @@ from envfit.shading.sh_export import (WINDOWS, gl_synthesis, negative_tolerance,
 from envfit.theory.sphere_points import spherical_fibonacci_sphere
 
 __all__ = ["CHECK_AXES", "DENSE_HEIGHT", "TABLE_LMAX", "DIRECT_LMAX", "RingingRow",
-           "truncation_rmse", "negative_fraction", "dense_negative_fractions",
+           "signal_mean", "truncation_rmse", "negative_fraction", "dense_negative_fractions",
            "measured_rmse", "ringing_rows", "choose", "check_lmax"]
 
 #: spherical Fibonacci directions of the measured RMSE
@@ -111,8 +111,12 @@ def check_lmax(lmax, height: int) -> int:
 
 
 # ---------------------------------------------------------------- predictions
-def _mean(alm, g) -> float:
-    """The signal's mean over the sphere, averaged over channels: g_0 f_00 / √(4π)."""
+def signal_mean(alm, g) -> float:
+    """The signal's mean over the sphere, averaged over channels: g_0 f_00 / √(4π).
+
+    >>> signal_mean(np.array([[np.sqrt(4 * np.pi), 0.0]]), [np.pi])     # radiance 1 → E = π
+    3.141592653589793
+    """
     return float(np.mean(np.atleast_2d(alm)[:, 0].real) * g[0] / math.sqrt(4 * math.pi))
 
 
@@ -217,7 +221,7 @@ def ringing_rows(alm, power, irradiance: bool, Ls, windows=tuple(WINDOWS),
     per degree, :func:`envfit.shading.spectra.map_degree_power`, to 2H − 1)."""
     lp = power.shape[1] - 1
     g_all = shading_factors(lp, irradiance)
-    mean = _mean(alm, g_all)
+    mean = signal_mean(alm, g_all)
     alm = truncate_alm(alm, max(Ls))
     rows = []
     for L in Ls:
