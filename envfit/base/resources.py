@@ -6,7 +6,7 @@ import os
 
 from envfit.base.errors import MemoryBudgetError, ParameterError
 
-__all__ = ["interpolator_nbytes", "largest_feasible_n", "available_memory_bytes", "check_memory", "format_bytes", "memory_budget_bytes",
+__all__ = ["interpolator_nbytes", "iterative_nbytes", "largest_feasible_n", "SOLVERS", "available_memory_bytes", "check_memory", "format_bytes", "memory_budget_bytes",
            "plan_memory", "largest_n_within"]
 
 #: fraction of the available memory one allocation plan may take
@@ -140,15 +140,17 @@ def largest_n_within(nbytes_of, budget: int, upper: int) -> int:
 
 def plan_memory(n: int, what: str, *, channels: int = 1, kernel: bool = True,
                 per_n_bytes: int = 0, fixed_bytes: int = 0, n_name: str = "N",
-                smallest: int = 2) -> int:
+                smallest: int = 2, solver: str = "cholesky") -> int:
     r"""The one memory guard for work whose size grows with N: call it with the largest N
     of a run **before** anything of size N (sample points, values, kernel matrices) is made.
 
     Accounts for
 
-    * ``kernel=True``: :func:`interpolator_nbytes` — the N x N float64
-      kernel matrix (factorised in place), the O(N C) arrays (N x 3 points, N x C values
-      and coefficients, node copies) and the fixed evaluation-block / LAPACK workspace;
+    * ``kernel=True``: :func:`interpolator_nbytes` for ``solver`` — ``"cholesky"``: the N x N
+      float64 kernel matrix (factorised in place), the O(N C) arrays (N x 3 points, N x C
+      values and coefficients, node copies) and the fixed evaluation-block / LAPACK
+      workspace; ``"iterative"``: O(N k) (:func:`iterative_nbytes`); ``"auto"``: dense
+      where it fits, else iterative;
       ``kernel=False``: the N x 3 points and N x C values, ``8 N (3 + C)``;
     * ``per_n_bytes`` more per N (weights, lookup blocks, temporaries of the caller);
     * ``fixed_bytes`` that do not depend on N (the map on its scale, pixel directions, the
@@ -174,10 +176,11 @@ def plan_memory(n: int, what: str, *, channels: int = 1, kernel: bool = True,
     c = max(1, int(channels))
     per_n = int(per_n_bytes)
     fixed = int(fixed_bytes)
+    solver = _check_solver(solver)
     if kernel:
 
         def nbytes_of(k: int) -> int:
-            return interpolator_nbytes(k, c) + per_n * k + fixed
+            return interpolator_nbytes(k, c, solver) + per_n * k + fixed
     else:
         def nbytes_of(k: int) -> int:
             return 8 * k * (3 + c) + per_n * k + fixed
@@ -186,8 +189,11 @@ def plan_memory(n: int, what: str, *, channels: int = 1, kernel: bool = True,
     if total <= budget:
         return total
     fits = largest_n_within(nbytes_of, budget, n)
-    if kernel:
+    if kernel and solver == "cholesky":
         needs = f"the {n}x{n} float64 kernel matrix and the N-sized arrays need {format_bytes(total)}"
+    elif kernel:
+        needs = (f"the iterative solver's sparse preconditioner, near-field matrix and "
+                 f"N-sized arrays need {format_bytes(total)}")
     else:
         needs = (f"the {n} points, values and per-point temporaries need "
                  f"{format_bytes(total)}")
@@ -205,19 +211,56 @@ def plan_memory(n: int, what: str, *, channels: int = 1, kernel: bool = True,
 _WORKSPACE_BYTES = 96 * 2**20
 
 
-def interpolator_nbytes(n: int, nchannels: int = 1) -> int:
-    """Memory an interpolator of N nodes needs: the N x N factor plus O(N C) arrays.
+#: the interpolator's linear solvers (:class:`envfit.kernels.interpolation.SobolevInterpolator`)
+SOLVERS = ("auto", "cholesky", "iterative")
+#: the iterative path's memory model: near pairs per node, local Lagrange neighbours k
+_ITER_NEAR, _ITER_K = 48, 60
 
-    ``8 N^2`` (float64 matrix, factorised in place) ``+ 8 N (4 C + 16)`` (values,
-    coefficients, node arrays, cached diag of K^-1) ``+`` a fixed 96 MiB for evaluation
-    blocks (<= 64 MiB) and LAPACK/BLAS buffers.
+
+def _check_solver(solver: str) -> str:
+    if solver not in SOLVERS:
+        raise ParameterError(f"unknown solver {solver!r}; choose one of {', '.join(SOLVERS)}")
+    return solver
+
+
+def iterative_nbytes(n: int, nchannels: int = 1) -> int:
+    """Memory of the iterative path (:mod:`envfit.kernels.iterative`): O(N k), no N x N array.
+
+    CSR entries at 12 bytes (value + int32 index) ``x 1.3`` (construction's transient copy):
+    the near part of the product (~2 x 48 per row, both triangles) and the symmetrised local
+    Lagrange preconditioner (<= 2 k per row, k = 60) ``+ 8 N (14 C + 24)`` (values, CG's
+    vectors per channel, node arrays and angles, the kd-tree) ``+ 8 N 2 k`` (neighbour
+    indices and coefficients while building) ``+`` 128 MiB (SH transforms, coarse factor).
+    """
+    n, c = int(n), max(1, int(nchannels))
+    sparse = 12 * n * (2 * _ITER_NEAR + 2 * _ITER_K) * 1.3
+    return int(sparse + 8 * n * (14 * c + 24) + 16 * n * _ITER_K + 128 * 2**20)
+
+
+def interpolator_nbytes(n: int, nchannels: int = 1, solver: str = "cholesky") -> int:
+    """Memory an interpolator of N nodes needs.
+
+    ``solver="cholesky"``: the N x N factor plus O(N C) arrays, ``8 N^2`` (float64 matrix,
+    factorised in place) ``+ 8 N (4 C + 16)`` (values, coefficients, node arrays, cached
+    diag of K^-1) ``+`` a fixed 96 MiB for evaluation blocks (<= 64 MiB) and LAPACK/BLAS
+    buffers. ``"iterative"``: :func:`iterative_nbytes`. ``"auto"``: the dense figure where
+    it fits the budget (:func:`memory_budget_bytes`), else the iterative one (``auto``
+    goes iterative where the dense matrix would not fit).
     """
     n = int(n)
-    return 8 * n * n + 8 * n * (4 * int(nchannels) + 16) + _WORKSPACE_BYTES
+    solver = _check_solver(solver)
+    dense = 8 * n * n + 8 * n * (4 * int(nchannels) + 16) + _WORKSPACE_BYTES
+    if solver == "cholesky" or (solver == "auto" and dense <= memory_budget_bytes()):
+        return dense
+    return iterative_nbytes(n, nchannels)
 
 
-def largest_feasible_n(budget_bytes: float, nchannels: int = 1) -> int:
-    """Largest N with ``interpolator_nbytes(N, C) <= budget_bytes`` (root of the quadratic)."""
+def largest_feasible_n(budget_bytes: float, nchannels: int = 1, solver: str = "cholesky") -> int:
+    """Largest N with ``interpolator_nbytes(N, C, solver) <= budget_bytes`` (dense: root of
+    the quadratic; iterative and auto: the iterative path's linear model)."""
+    if _check_solver(solver) != "cholesky":
+        return largest_n_within(lambda k: iterative_nbytes(k, nchannels), int(budget_bytes),
+                                10 ** 12)
     b = 8.0 * (4 * nchannels + 16)
     rest = float(budget_bytes) - _WORKSPACE_BYTES
     if rest <= 0:

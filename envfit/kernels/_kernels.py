@@ -48,7 +48,7 @@ from numba.extending import intrinsic
 
 __all__ = ["fast_pow", "power_kind", "KIND_GENERIC", "KIND_SQRT",
            "fill_kernel_matrix", "power_sums_1", "power_sums_3", "power_block",
-           "near_field_correction", "pow_array"]
+           "near_field_correction", "pow_array", "local_lagrange"]
 
 #: generic exponent: :func:`fast_pow`
 KIND_GENERIC = 0
@@ -352,3 +352,69 @@ def near_field_correction(q, h, ngrid, cell_start, spx, spy, spz, sw, delta2, a,
                 _flush_near(nb, bd2, bk, b1, b2, sw, a, kind, cheb, scale, acc)
             for c in range(nc):
                 out[i, c] = acc[c]
+
+
+@njit(parallel=True, **_OPTS)
+def local_lagrange(px, py, pz, nb, a, kind, c, out):
+    r"""Local Lagrange coefficients with constant reproduction (the iterative solver's
+    preconditioner, :mod:`envfit.kernels.iterative`).
+
+    For node i with neighbours ``nb[i]`` (k indices, ``nb[i, 0] = i``):
+    :math:`K_{loc} = c - |p_a - p_b|^{2a}` (k x k, SPD), Cholesky in place,
+    :math:`u = K_{loc}^{-1} e_1`, :math:`v = K_{loc}^{-1} 1`,
+    ``out[i] = u - v (1^T u) / (1^T v)`` (so ``sum(out[i]) = 0``): the coefficients of
+    :math:`[K_{loc}\; 1; 1^T\; 0][c; d] = [e_1; 0]`. O(k^3 / 6) per node, no temporaries
+    beyond one k x k block per thread.
+    """
+    n, k = nb.shape
+    for i in prange(n):
+        m = np.empty((k, k))
+        u = np.zeros(k)
+        v = np.ones(k)
+        for jj in range(k):
+            j = nb[i, jj]
+            m[jj, jj] = c
+            for ll in range(jj + 1, k):
+                l2 = nb[i, ll]
+                dx = px[j] - px[l2]
+                dy = py[j] - py[l2]
+                dz = pz[j] - pz[l2]
+                m[ll, jj] = c - _power(dx * dx + dy * dy + dz * dz, a, kind)
+        # Cholesky (lower, column by column)
+        for jj in range(k):
+            d = m[jj, jj]
+            for t in range(jj):
+                d -= m[jj, t] * m[jj, t]
+            d = np.sqrt(d)
+            m[jj, jj] = d
+            for ll in range(jj + 1, k):
+                acc = m[ll, jj]
+                for t in range(jj):
+                    acc -= m[ll, t] * m[jj, t]
+                m[ll, jj] = acc / d
+        u[0] = 1.0
+        # forward then backward substitution, both right-hand sides
+        for jj in range(k):
+            su = u[jj]
+            sv = v[jj]
+            for t in range(jj):
+                su -= m[jj, t] * u[t]
+                sv -= m[jj, t] * v[t]
+            u[jj] = su / m[jj, jj]
+            v[jj] = sv / m[jj, jj]
+        for jj in range(k - 1, -1, -1):
+            su = u[jj]
+            sv = v[jj]
+            for t in range(jj + 1, k):
+                su -= m[t, jj] * u[t]
+                sv -= m[t, jj] * v[t]
+            u[jj] = su / m[jj, jj]
+            v[jj] = sv / m[jj, jj]
+        su = 0.0
+        sv = 0.0
+        for jj in range(k):
+            su += u[jj]
+            sv += v[jj]
+        r = su / sv
+        for jj in range(k):
+            out[i, jj] = u[jj] - v[jj] * r

@@ -85,15 +85,17 @@ from envfit.theory.cholesky import cholesky_inplace, inverse_diagonal
 from envfit.theory.sobolev import kernel_constant
 
 from envfit.kernels import _kernels
+from envfit.kernels.iterative import IterativeSolver, SolveInfo
 from envfit.kernels.nearfar import CellList, near_radius, nearfar_power_sums
 from envfit.kernels.likelihood import ProfiledLikelihood, profiled_log_likelihood
 from envfit.base.checks import as_unit_vectors, check_s
 from envfit.base.errors import DuplicatePointsError, ParameterError
-from envfit.base.resources import (MEMORY_FRACTION, available_memory_bytes, check_memory, format_bytes,
-                                   interpolator_nbytes, largest_feasible_n)
+from envfit.base.resources import (MEMORY_FRACTION, SOLVERS, available_memory_bytes, check_memory,
+                                   format_bytes, interpolator_nbytes, largest_feasible_n,
+                                   memory_budget_bytes)
 
-__all__ = ["SobolevInterpolator", "ProfiledLikelihood", "as_unit_vectors",
-           "DUPLICATE_DISTANCE", "EVAL_METHODS"]
+__all__ = ["SobolevInterpolator", "ProfiledLikelihood", "as_unit_vectors", "SolveInfo",
+           "DUPLICATE_DISTANCE", "EVAL_METHODS", "SOLVERS", "SOLVER_RTOL", "AUTO_ITERATIVE_MIN_N"]
 
 #: two nodes closer than this (chordal distance) are duplicates
 DUPLICATE_DISTANCE = 1e-12
@@ -105,6 +107,13 @@ _BLOCK_BYTES = 64 * 2**20
 #: "auto" uses near/far above this many kernel entries (and N >= _AUTO_MIN_N)
 _AUTO_MIN_ENTRIES = 5e7
 _AUTO_MIN_N = 500
+#: iterative solver's default stopping rule: the bound of the interpolant's change
+#: (sup norm) at most this times the RMS of each channel's samples
+SOLVER_RTOL = 1e-8
+#: ``solver="auto"`` solves iteratively from this N on (below it the dense Cholesky is
+#: faster). Measured with ``bench/bench_solver.py`` on the 2-core AMD EPYC (Zen 4, AVX-512)
+#: of this project, 3 channels, s = 1.1, 1.5, 1.9: see the README, "The iterative solver".
+AUTO_ITERATIVE_MIN_N = 4000
 
 
 # ----------------------------------------------------------------------------- helpers
@@ -180,41 +189,109 @@ class SobolevInterpolator:
     ((300, 2), (2,))
     """
 
-    def __init__(self, points, values, s, *, check_duplicates: bool = True):
+    def __init__(self, points, values, s, *, check_duplicates: bool = True,
+                 solver: str = "auto", rtol: float = SOLVER_RTOL):
         self.s = check_s(s)
+        if solver not in SOLVERS:
+            raise ParameterError(f"unknown solver {solver!r}; choose one of {', '.join(SOLVERS)}")
+        if not (isinstance(rtol, (int, float)) and 0.0 < float(rtol) < 1.0):
+            raise ParameterError(f"rtol must be a number in (0, 1), got {rtol!r}")
         pts = as_unit_vectors(points)
         n = pts.shape[0]
         vals, self._vector = _as_values(values, n)
-        self.n = n
-        self.nchannels = vals.shape[1]
-        self.kernel_constant = kernel_constant(self.s)
-        self._a = self.s - 1.0
-        self._kind = _kernels.power_kind(self._a)
+        self._setup_nodes(pts, vals.shape[1])
+        self._solver_mode = solver
+        path, reason = self._choose_solver(solver)
         budget = available_memory_bytes() * MEMORY_FRACTION
-        check_memory(interpolator_nbytes(n, self.nchannels),
-                     f"interpolating {n} samples (the {n}x{n} float64 kernel matrix "
-                     f"alone is {format_bytes(8.0 * n * n)})",
-                     hint=f"the largest N that fits is {largest_feasible_n(budget, self.nchannels)}")
+        what = (f"interpolating {n} samples (the {n}x{n} float64 kernel matrix alone is "
+                f"{format_bytes(8.0 * n * n)})" if path == "cholesky" else
+                f"interpolating {n} samples with the iterative solver (sparse preconditioner "
+                f"and near-field matrix, O(N k))")
+        check_memory(interpolator_nbytes(n, self.nchannels, path), what,
+                     hint=f"the largest N that fits is "
+                          f"{largest_feasible_n(budget, self.nchannels, path)}")
         if check_duplicates and n > 1:
             i, j, d = _closest_pair(pts)
             if d < DUPLICATE_DISTANCE:
                 raise DuplicatePointsError(
                     f"points {i} and {j} coincide (distance {d:.1e} < {DUPLICATE_DISTANCE:g}): "
                     f"the kernel matrix is singular; remove or merge duplicate samples")
+        self._values = vals
+        self.rtol = float(rtol)
+        if path == "cholesky":
+            self._factor = self._factorize()
+            self.log_det = float(2.0 * np.sum(np.log(np.diagonal(self._factor))))
+            t = time.perf_counter()
+            self._alpha = self._solve_matrix(vals)
+            self.timings["solve"] = time.perf_counter() - t
+            self.solve_info = SolveInfo(solver="cholesky", reason=reason,
+                                        seconds_setup=self.timings["matrix"] + self.timings["cholesky"],
+                                        seconds_solve=self.timings["solve"])
+        else:
+            t = time.perf_counter()
+            self._iterative = IterativeSolver(pts, self.s, nthreads=_nthreads())
+            self.timings["setup"] = time.perf_counter() - t
+            self._alpha, self.solve_info = self._iterative.solve(vals, self._tol(vals),
+                                                                 reason=reason)
+            self.timings["solve"] = self.solve_info.seconds_solve
+            if not self.solve_info.converged:
+                raise RuntimeError(f"the iterative solver did not converge: {self.solve_info}")
+
+    def _setup_nodes(self, pts: np.ndarray, nchannels: int) -> None:
+        """The attributes every interpolant has (nodes, s, constants), nothing solved yet."""
+        self.n = pts.shape[0]
+        self.nchannels = nchannels
+        self.kernel_constant = kernel_constant(self.s)
+        self._a = self.s - 1.0
+        self._kind = _kernels.power_kind(self._a)
         self.points = pts
         self._px = np.ascontiguousarray(pts[:, 0])
         self._py = np.ascontiguousarray(pts[:, 1])
         self._pz = np.ascontiguousarray(pts[:, 2])
-        self._values = vals
-        #: wall-clock seconds of the construction steps ("matrix", "cholesky", "solve")
+        #: wall-clock seconds of the construction steps ("matrix", "cholesky", "solve";
+        #: iterative: "setup", "solve")
         self.timings = {}
-        self._factor = self._factorize()
-        self.log_det = float(2.0 * np.sum(np.log(np.diagonal(self._factor))))
-        t = time.perf_counter()
-        self._alpha = self._solve_matrix(vals)
-        self.timings["solve"] = time.perf_counter() - t
+        self._factor = None
+        self._iterative = None
+        self.log_det = float("nan")
         self._kinv_diag = None
         self._cells = {}
+
+    def _choose_solver(self, solver: str) -> tuple[str, str]:
+        """The path (``"cholesky"`` or ``"iterative"``) and why."""
+        if solver != "auto":
+            return solver, f"solver={solver!r} requested"
+        n = self.n
+        if interpolator_nbytes(n, self.nchannels, "cholesky") > memory_budget_bytes():
+            return "iterative", (f"auto: the dense {n}x{n} matrix does not fit in memory "
+                                 f"({format_bytes(8.0 * n * n)})")
+        if n >= AUTO_ITERATIVE_MIN_N:
+            return "iterative", f"auto: N = {n} >= {AUTO_ITERATIVE_MIN_N} (measured crossover)"
+        return "cholesky", f"auto: N = {n} < {AUTO_ITERATIVE_MIN_N} (measured crossover)"
+
+    @property
+    def solver(self) -> str:
+        """``"cholesky"`` or ``"iterative"``: how :attr:`coefficients` were obtained."""
+        return self.solve_info.solver
+
+    def _tol(self, vals: np.ndarray) -> np.ndarray:
+        """Per channel absolute bound of the interpolant's change: rtol x RMS(samples)."""
+        rms = np.sqrt(np.mean(vals * vals, axis=0))
+        return self.rtol * np.where(rms > 0, rms, np.finfo(float).tiny)
+
+    def refine(self, tol) -> SolveInfo:
+        r"""Iterate on until the interpolant moves by at most ``tol`` (absolute, sup norm;
+        scalar or per channel) from the exact solution; warm start from the current
+        coefficients. Returns (and stores in :attr:`solve_info`) the new solve's record.
+        Cholesky interpolants are exact already: their record is returned unchanged."""
+        if self._iterative is None:
+            return self.solve_info
+        tol = np.broadcast_to(np.asarray(tol, dtype=np.float64), (self.nchannels,))
+        alpha, info = self._iterative.solve(self._values, tol, reason=self.solve_info.reason,
+                                            x0=self._alpha)
+        self._alpha = alpha
+        self.solve_info = info
+        return info
 
     @classmethod
     def from_coefficients(cls, points, coefficients, s) -> "SobolevInterpolator":
@@ -238,24 +315,12 @@ class SobolevInterpolator:
         self = cls.__new__(cls)
         self.s = check_s(s)
         pts = as_unit_vectors(points)
-        n = pts.shape[0]
-        alpha, self._vector = _as_values(coefficients, n, name="coefficients")
-        self.n = n
-        self.nchannels = alpha.shape[1]
-        self.kernel_constant = kernel_constant(self.s)
-        self._a = self.s - 1.0
-        self._kind = _kernels.power_kind(self._a)
-        self.points = pts
-        self._px = np.ascontiguousarray(pts[:, 0])
-        self._py = np.ascontiguousarray(pts[:, 1])
-        self._pz = np.ascontiguousarray(pts[:, 2])
+        alpha, self._vector = _as_values(coefficients, pts.shape[0], name="coefficients")
+        self._setup_nodes(pts, alpha.shape[1])
+        self._solver_mode = None
         self._values = None
-        self.timings = {}
-        self._factor = None
-        self.log_det = float("nan")
         self._alpha = alpha
-        self._kinv_diag = None
-        self._cells = {}
+        self.solve_info = SolveInfo(solver="given", reason="from_coefficients")
         return self
 
     # -- construction ------------------------------------------------------------
@@ -303,9 +368,26 @@ class SobolevInterpolator:
         return self._alpha
 
     def _require_factor(self) -> None:
-        if self._factor is None:
+        """Make sure the dense factor exists: ``solver="auto"`` builds it on demand (log det,
+        LOO, likelihood need it); ``"iterative"`` and ``from_coefficients`` raise."""
+        if self._factor is not None:
+            return
+        if self._iterative is None:
             raise ParameterError("this interpolant was built from coefficients alone "
                                  "(from_coefficients): it has no factorisation to solve with")
+        if self._solver_mode != "auto":
+            raise ParameterError(
+                "the log-determinant, leave-one-out residuals, likelihood and Cholesky factor "
+                "need the dense factorisation, and this interpolator was built with "
+                "solver='iterative': build it with solver='cholesky' (or 'auto', which "
+                "factorises on demand)")
+        n = self.n
+        check_memory(interpolator_nbytes(n, self.nchannels, "cholesky"),
+                     f"the dense factorisation for the log-determinant / LOO ({n}x{n} float64 "
+                     f"kernel matrix, {format_bytes(8.0 * n * n)})",
+                     hint="the iterative solver gives coefficients and evaluations, not log det K")
+        self._factor = self._factorize()
+        self.log_det = float(2.0 * np.sum(np.log(np.diagonal(self._factor))))
 
     def _solve_matrix(self, vals: np.ndarray) -> np.ndarray:
         self._require_factor()
@@ -315,19 +397,26 @@ class SobolevInterpolator:
         return x
 
     def solve(self, new_values) -> np.ndarray:
-        r""":math:`K^{-1} f` for new samples at the same nodes (same factorisation).
+        r""":math:`K^{-1} f` for new samples at the same nodes (same factorisation, or the
+        same iterative product and preconditioner).
 
         ``new_values`` (N,) or (N, C); the result has the same shape. Cost: two triangular
-        solves, O(N^2 C).
+        solves, O(N^2 C); iterative: a few O(N log N) products per channel (stopping rule of
+        the constructor's ``rtol``; the record is in :attr:`last_solve_info`).
         """
         vals, vector = _as_values(new_values, self.n, name="new_values")
-        x = self._solve_matrix(vals)
+        if self._factor is None and self._iterative is not None:
+            x, self.last_solve_info = self._iterative.solve(vals, self._tol(vals),
+                                                            reason=self.solve_info.reason)
+        else:
+            x = self._solve_matrix(vals)
         return x[:, 0] if vector else x
 
     def _coefficients_for(self, values):
         if values is None:
             self._require_factor()
-            return self._values, self._alpha, self._vector
+            alpha = self._alpha if self._iterative is None else self._solve_matrix(self._values)
+            return self._values, alpha, self._vector
         vals, vector = _as_values(values, self.n)
         return vals, self._solve_matrix(vals), vector
 
@@ -431,4 +520,4 @@ class SobolevInterpolator:
 
     def __repr__(self) -> str:
         return (f"SobolevInterpolator(n={self.n}, channels={self.nchannels}, s={self.s:g}, "
-                f"log_det={self.log_det:.6g})")
+                f"solver={self.solve_info.solver}, log_det={self.log_det:.6g})")
