@@ -31,6 +31,11 @@ def register(sub) -> None:
     p.add_argument("--quick", action="store_true",
                    help="a small grid on a map of at most 128 rows (seconds)")
     p.add_argument("--paper", action="store_true", help="print the paper's Table 2 beside")
+    p.add_argument("--solver", choices=("auto", "cholesky", "iterative"), default="auto",
+                   help="linear solver of each cell: dense Cholesky, preconditioned CG with "
+                        "O(N log N) products (RMSE equal to Cholesky's to 1e-6 relative), or "
+                        "auto (default: by the measured crossover N; iterative where the "
+                        "dense matrix does not fit). Single map only")
     p.add_argument("--reconstructions", action="store_true",
                    help="several maps: also write each map's reconstructions at the largest N "
                         "(one map: always written)")
@@ -65,7 +70,8 @@ def _run_single(args, s_values, n_values) -> int:
             say(args, f"  s={cell.s:g} N={cell.n}: resumed from {out}")
 
     res = run_table2(env, s_values, n_values, pointset=args.pointset, scale=args.scale,
-                     seed=args.seed, out=out, quiet=args.quiet, on_cell=on_cell)
+                     seed=args.seed, out=out, quiet=args.quiet, on_cell=on_cell,
+                     solver=args.solver)
     record_unwritten(args, res.unwritten)
     say(args, "", format_table2(res, paper=args.paper), "",
         format_table2(res, key="rmse_solid_angle"), "",
@@ -73,12 +79,14 @@ def _run_single(args, s_values, n_values) -> int:
     if out is not None:
         from envfit.base.atomic import atomic_write_csv
         from envfit.plots.table2 import plot_table2
-        rows = [(c.s, c.n, c.rmse, c.rmse_solid_angle, c.seconds) for c in res.cells]
+        rows = [(c.s, c.n, c.rmse, c.rmse_solid_angle, c.seconds, c.solver, c.iterations,
+                 c.residual, c.rmse_change_bound) for c in res.cells]
         written = []
         for name, write, wargs in (
                 ("table2_rmse.png", plot_table2, (res, out / "table2_rmse.png")),
                 ("table2.csv", atomic_write_csv,
-                 (out / "table2.csv", ("s", "n", "rmse", "rmse_solid_angle", "seconds"), rows))):
+                 (out / "table2.csv", ("s", "n", "rmse", "rmse_solid_angle", "seconds", "solver",
+                                       "iterations", "residual", "rmse_change_bound"), rows))):
             path = guarded_write(args, out / name, write, *wargs)
             if path is not None:
                 res.files[name] = str(path)
@@ -110,6 +118,9 @@ def _run_library(args, s_values, n_values) -> int:
     maps = library_maps(args)
     if args.paper:
         say(args, "note: --paper prints beside a single map's table only")
+    if args.solver != "auto":
+        say(args, "note: --solver applies to a single map; a library factorises each (s, N) "
+                  "matrix once for all maps")
 
     def on_cell(label, cell, resumed):
         if resumed:

@@ -31,11 +31,11 @@ from envfit.base.errors import ParameterError
 from envfit.kernels.interpolation import SobolevInterpolator
 from envfit.maps.latlong import local_to_world
 from envfit.maps.metrics import rmse, rmse_solid_angle
-from envfit.base.resources import plan_memory
+from envfit.base.resources import SOLVERS, plan_memory
 from envfit.maps.scales import check_not_constant, fit_scale
 from envfit.base.store import ResultStore, array_fingerprint
 
-__all__ = ["PAPER_S", "PAPER_N", "QUICK_N", "Table2Cell", "Table2Result", "run_table2",
+__all__ = ["PAPER_S", "PAPER_N", "QUICK_N", "RMSE_RTOL", "Table2Cell", "Table2Result", "run_table2",
            "sample_directions", "format_table2", "check_grid", "plan_table2_memory",
            "PAPER_TABLE2_PISA"]
 
@@ -44,6 +44,8 @@ PAPER_S = (1.1, 1.5, 1.9)
 PAPER_N = (100, 500, 1000, 2500, 5000, 10000, 20000)
 #: a grid that runs in seconds on a laptop
 QUICK_N = (100, 250, 500, 1000, 2000)
+#: an iteratively solved cell's RMSE equals the exact solution's to this relative bound
+RMSE_RTOL = 1e-6
 #: the paper's published Table 2 (Pisa map, display-referred RMSE), for side-by-side printing
 PAPER_TABLE2_PISA = {
     1.1: (0.255, 0.174, 0.156, 0.130, 0.114, 0.098, 0.085),
@@ -54,7 +56,15 @@ PAPER_TABLE2_PISA = {
 
 @dataclass
 class Table2Cell:
-    """One (s, N) reconstruction: RMSE per pixel (as the paper) and solid-angle weighted."""
+    """One (s, N) reconstruction: RMSE per pixel (as the paper) and solid-angle weighted.
+
+    ``solver``: how the coefficients were obtained (``"cholesky"`` or ``"iterative"``);
+    ``iterations``: CG iterations (0 for Cholesky); ``residual``: largest relative residual
+    ``|f - K alpha| / |f|`` over the channels (0 for Cholesky: not computed);
+    ``rmse_change_bound``: bound of the RMSE's relative change against the exact solution
+    (iterative: sup-norm bound of the interpolant's change / RMSE, at most
+    :data:`RMSE_RTOL`; Cholesky: 0).
+    """
     s: float
     n: int
     rmse: float
@@ -62,6 +72,10 @@ class Table2Cell:
     seconds: float
     seconds_fit: float
     seconds_evaluate: float
+    solver: str = "cholesky"
+    iterations: int = 0
+    residual: float = 0.0
+    rmse_change_bound: float = 0.0
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -147,17 +161,21 @@ def check_grid(s_values: Sequence[float], n_values: Sequence[int]) -> tuple[list
 
 
 def plan_table2_memory(n_max: int, width: int, height: int, channels: int,
-                       what: str = "table2") -> int:
+                       what: str = "table2", solver: str = "cholesky") -> int:
     """The memory guard of a Table 2 sweep (:func:`envfit.base.resources.plan_memory`), before any
-    sample point is made: the interpolator of the largest N plus the map-sized arrays (the
-    map on its scale, pixel directions, solid angles, one reconstruction)."""
+    sample point is made: the interpolator of the largest N (on ``solver``'s path; ``auto``:
+    dense where it fits, else iterative) plus the map-sized arrays (the map on its scale,
+    pixel directions, solid angles, one reconstruction)."""
     pixels = int(width) * int(height)
     c = int(channels)
-    return plan_memory(n_max, what, channels=c, fixed_bytes=8 * pixels * (4 + 3 * c))
+    return plan_memory(n_max, what, channels=c, fixed_bytes=8 * pixels * (4 + 3 * c),
+                       solver=solver)
 
 
-#: what a stored cell must hold to be used
-_FIELDS = tuple(Table2Cell.__dataclass_fields__)
+#: what a stored cell must hold to be used (cells stored before the solver fields existed
+#: were all Cholesky: the later fields take their defaults)
+_FIELDS = ("s", "n", "rmse", "rmse_solid_angle", "seconds", "seconds_fit", "seconds_evaluate")
+_OPTIONAL = tuple(f for f in Table2Cell.__dataclass_fields__ if f not in _FIELDS)
 
 
 def _cell_key(s: float, n: int) -> str:
@@ -169,7 +187,8 @@ def run_table2(envmap: EnvMap, s_values: Sequence[float] = PAPER_S,
                scale: str = "display", seed: int = 0, out: str | Path | None = None,
                save_reconstructions: bool = True, quiet: bool = True,
                on_cell: Callable[[Table2Cell, bool], None] | None = None,
-               on_note: Callable[[str], None] | None = None) -> Table2Result:
+               on_note: Callable[[str], None] | None = None,
+               solver: str = "auto") -> Table2Result:
     """Run the (s, N) sweep on ``envmap``; see the module docstring.
 
     Parameters
@@ -183,6 +202,10 @@ def run_table2(envmap: EnvMap, s_values: Sequence[float] = PAPER_S,
     on_note : called with each note of the store (a stored cell recomputed because it was
         not sound); default: printed to stderr (:func:`envfit.base.store.print_note`). The notes
         are also in ``result.notes``.
+    solver : the interpolator's solver (:class:`~envfit.kernels.interpolation.SobolevInterpolator`):
+        ``"auto"`` (measured crossover; iterative where the dense matrix does not fit),
+        ``"cholesky"`` or ``"iterative"``. An iterative cell is iterated until its RMSE equals
+        the exact solution's to :data:`RMSE_RTOL` relative (a bound, recorded per cell).
 
     Before anything of size N is made: the memory guard for the largest N
     (:func:`plan_table2_memory`, :class:`~envfit.base.errors.MemoryBudgetError` naming the
@@ -190,8 +213,11 @@ def run_table2(envmap: EnvMap, s_values: Sequence[float] = PAPER_S,
     (:func:`~envfit.maps.scales.check_not_constant`) is refused.
     """
     s_values, n_values = check_grid(s_values, n_values)
+    if solver not in SOLVERS:
+        raise ParameterError(f"unknown solver {solver!r}; choose one of {', '.join(SOLVERS)}")
     # the memory guard first (before any sample point), then N against the pixel count
-    plan_table2_memory(n_values[-1], envmap.width, envmap.height, envmap.channels)
+    plan_table2_memory(n_values[-1], envmap.width, envmap.height, envmap.channels,
+                       solver=solver)
     check_sample_count(n_values[-1], envmap.width, envmap.height, name=envmap.name)
     sc = fit_scale(scale, envmap)
     target = np.asarray(sc.apply(envmap.data), dtype=np.float64)          # H×W×C on the scale
@@ -204,7 +230,8 @@ def run_table2(envmap: EnvMap, s_values: Sequence[float] = PAPER_S,
                           scale_description=sc.describe(), pointset=pointset, seed=int(seed),
                           height=target.shape[0], s_values=s_values, n_values=n_values)
     sweep = _Sweep(envmap, target, sc, pointset, seed,
-                   Path(out) if out is not None and save_reconstructions else None, n_values[-1])
+                   Path(out) if out is not None and save_reconstructions else None, n_values[-1],
+                   solver)
     from envfit.base.progress import progress_bar
     bar = progress_bar(len(s_values) * len(n_values), desc="table2", quiet=quiet, unit="cell")
     try:
@@ -212,7 +239,8 @@ def run_table2(envmap: EnvMap, s_values: Sequence[float] = PAPER_S,
             for s in s_values:
                 key = _cell_key(s, n)
                 done = store.get(key, fields=_FIELDS)
-                cell = Table2Cell(**{k: done[k] for k in _FIELDS}) if done is not None else None
+                cell = (Table2Cell(**{k: done[k] for k in _FIELDS + _OPTIONAL if k in done})
+                        if done is not None else None)
                 if cell is None:
                     bar.set_postfix_str(f"s={s:g} N={n}")
                     cell = sweep.cell(s, n, result)
@@ -236,10 +264,11 @@ class _Sweep:
     directions and solid angles, and the samples of the current N (made on first need)."""
 
     def __init__(self, envmap: EnvMap, target: np.ndarray, sc, pointset: str, seed: int,
-                 recon_dir: Path | None, n_max: int):
+                 recon_dir: Path | None, n_max: int, solver: str = "auto"):
         self.envmap, self.target, self.sc = envmap, target, sc
         self.scaled = envmap.with_data(target)
         self.pointset, self.seed, self.recon_dir, self.n_max = pointset, seed, recon_dir, n_max
+        self.solver = solver
         self.pixel_dirs = envmap.directions().reshape(-1, 3)
         self.weights = envmap.solid_angles()
         self._n, self._samples = None, None
@@ -253,20 +282,38 @@ class _Sweep:
         return self._samples
 
     def cell(self, s: float, n: int, result: Table2Result) -> Table2Cell:
-        """Interpolate the N samples with K_gd^(s), evaluate at every pixel, score (one cell)."""
+        """Interpolate the N samples with K_gd^(s), evaluate at every pixel, score (one cell).
+
+        Iterative: if the solve's bound of the interpolant's change exceeds
+        :data:`RMSE_RTOL` x RMSE, iterate on to that bound and evaluate again (rare: the
+        default stopping rule is 1e-8 of the samples' RMS)."""
         points, values = self.samples(n)
         t0 = time.perf_counter()
-        interp = SobolevInterpolator(points, values, s)
+        interp = SobolevInterpolator(points, values, s, solver=self.solver)
         t1 = time.perf_counter()
         recon = np.asarray(interp(self.pixel_dirs)).reshape(self.target.shape)
+        err = float(rmse(recon, self.target))
+        info = interp.solve_info
+        while info.solver == "iterative" and max(info.error_bound) > RMSE_RTOL * err > 0:
+            t1 += interp.refine(0.5 * RMSE_RTOL * err).seconds_solve
+            if not interp.solve_info.converged or interp.solve_info.iterations == 0:
+                break
+            info = interp.solve_info
+            recon = np.asarray(interp(self.pixel_dirs)).reshape(self.target.shape)
+            err = float(rmse(recon, self.target))
         t2 = time.perf_counter()
         del interp
         if self.recon_dir is not None and n == self.n_max:
             _save_reconstruction(self.recon_dir, recon, self.sc, s, n, self.envmap.up, result)
-        return Table2Cell(s=s, n=n, rmse=float(rmse(recon, self.target)),
+        iterative = info.solver == "iterative"
+        return Table2Cell(s=s, n=n, rmse=err,
                           rmse_solid_angle=float(rmse_solid_angle(recon, self.target,
                                                                   self.weights)),
-                          seconds=t2 - t0, seconds_fit=t1 - t0, seconds_evaluate=t2 - t1)
+                          seconds=t2 - t0, seconds_fit=t1 - t0, seconds_evaluate=t2 - t1,
+                          solver=info.solver, iterations=info.iterations,
+                          residual=max(info.residual) if iterative else 0.0,
+                          rmse_change_bound=(max(info.error_bound) / err
+                                             if iterative and err > 0 else 0.0))
 
 
 def _recon_stem(s: float, n: int) -> str:
@@ -300,6 +347,15 @@ def _save_reconstruction(out: Path, recon: np.ndarray, sc, s: float, n: int, up:
             result.unwritten.append((str(path), getattr(exc, "strerror", None) or str(exc)))
 
 
+def _solver_label(result: Table2Result, n: int) -> str:
+    """``chol``, ``cg`` (iterative; max iterations over s) or ``mixed`` for column N."""
+    cells = [c for c in result.cells if c.n == n]
+    kinds = {c.solver for c in cells}
+    if kinds == {"iterative"}:
+        return f"cg{max(c.iterations for c in cells)}"
+    return "chol" if kinds == {"cholesky"} else "mixed"
+
+
 def format_table2(result: Table2Result, *, key: str = "rmse", paper: bool = False) -> str:
     """The result as the paper prints Table 2: one row per s, one column per N."""
     t = result.rmse_table(key)
@@ -312,6 +368,7 @@ def format_table2(result: Table2Result, *, key: str = "rmse", paper: bool = Fals
         lines.append(f"  {s:<4.2f} | " + " ".join(f"{v:7.4f}" for v in t[i]) + mark)
     best = result.s_best_by_n()
     lines.append("  best | " + " ".join(f"{best[n]:>7.2f}" for n in result.n_values))
+    lines.append("  solver " + " ".join(f"{_solver_label(result, n):>7}" for n in result.n_values))
     if paper:
         lines.append("")
         lines.append("Paper, Table 2 (Pisa map, display-referred):")
