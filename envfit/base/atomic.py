@@ -32,6 +32,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import math
 import os
 import stat
 import tempfile
@@ -179,13 +180,28 @@ def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
     return atomic_write_bytes(path, text.encode("utf-8"))
 
 
+def _plain_floats(seq) -> bool:
+    """Whether every item is a finite float or an int (not bool): JSON-able as it is."""
+    try:
+        return all(type(v) is int or (type(v) is float and math.isfinite(v)) for v in seq)
+    except TypeError:  # pragma: no cover - defensive
+        return False
+
+
 def to_jsonable(obj: Any) -> Any:
-    """Convert numpy scalars/arrays (recursively) to plain Python for ``json``."""
+    """Convert numpy scalars/arrays (recursively) to plain Python for ``json``; non-finite
+    floats become None (NaN) or ±1e308. Lists of plain finite numbers and finite float
+    arrays are passed through without visiting each item in Python (a cached spectrum holds
+    ~10⁵ numbers)."""
     if isinstance(obj, Mapping):
         return {str(k): to_jsonable(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
+        if _plain_floats(obj):
+            return list(obj)
         return [to_jsonable(v) for v in obj]
     if isinstance(obj, np.ndarray):
+        if obj.dtype.kind in "fiu" and bool(np.all(np.isfinite(obj))):
+            return obj.tolist()
         return to_jsonable(obj.tolist())
     if isinstance(obj, np.generic):
         return obj.item()

@@ -185,14 +185,15 @@ class MapSampler:
         z = zt - t * (zt - zb)
         phi = 2.0 * np.pi * (j + s) / self.width
         r = np.sqrt(np.maximum((1.0 - z) * (1.0 + z), 0.0))
-        return np.column_stack([r * np.cos(phi), r * np.sin(phi), z]) @ self._m.T
+        local = np.column_stack([r * np.cos(phi), r * np.sin(phi), z])
+        return latlong.rows_times(local, self._m.T)
 
     def pixel_of(self, dirs) -> tuple[np.ndarray, np.ndarray]:
         """Pixel (row, column) indices of world directions (..., 3) (any nonzero length)."""
         d = np.asarray(dirs, dtype=np.float64)
         if d.ndim < 1 or d.shape[-1] != 3:
             raise ParameterError(f"directions must have shape (..., 3), got {d.shape}")
-        loc = d @ self._m                                               # rows: local = world M
+        loc = latlong.rows_times(d, self._m)                            # rows: local = world M
         theta = np.arctan2(np.hypot(loc[..., 0], loc[..., 1]), loc[..., 2])
         phi = np.mod(np.arctan2(loc[..., 1], loc[..., 0]), 2.0 * np.pi)
         i = np.clip(np.floor(theta * (self.height / np.pi)).astype(np.int64), 0, self.height - 1)

@@ -65,9 +65,12 @@ True
 from __future__ import annotations
 
 import math
+import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import special
 
 from envfit.base.checks import check_int
 from envfit.base.resources import check_memory
@@ -98,6 +101,27 @@ TECHNIQUES = {"brdf": 1, "map": 1, "mis": 2}
 AXIS_POOL = 2048
 #: pixel block of the axis proposal's proxy quadrature
 PROXY_BLOCK = 8
+#: relative accuracy of the map part's single-precision non-uniform FFT
+NUFFT_EPSILON = 1e-5
+#: nodes whose lobe value is below this fraction of the lobe's peak are left out of the NUFFT
+#: (their share of any coefficient is below it too: far below NUFFT_EPSILON)
+LOBE_CUTOFF = 1e-9
+#: per kind, the last (objects, values, result) of :func:`_last_call`
+_LAST: dict = {}
+
+
+def _last_call(kind: str, objects: tuple, values, make):
+    """``make()``, or its result of the last call of this ``kind`` when that call had the
+    same ``objects`` (identity) and ``values`` (equality): the spectra of one map and lobe
+    (BRDF, map, MIS) share the map technique's nodes (~100 bytes each) and the axes. Only
+    the last result of a kind is kept."""
+    hit = _LAST.get(kind)
+    if hit is not None and all(a is b for a, b in zip(hit[0], objects)) and hit[1] == values:
+        return hit[2]
+    _LAST.pop(kind, None)                                   # free the old result first
+    result = make()
+    _LAST[kind] = (objects, values, result)
+    return result
 
 # the 1-D mass matrix of a cell [-1/2, 1/2] of a piecewise-linear interpolant of (a, b, c)
 # at (-1, 0, 1): ∫ L² = 1/24 a² + 7/12 b² + 1/24 c² + 1/6 (ab + bc)
@@ -244,23 +268,40 @@ def _part_terms(technique: str, weight, nu, heur, rho, pm):
     return [(nu[0] * rho * _over(heur, q, 0), pm), (nu[1] * rho * _over(heur, q, 1), rho)]
 
 
-def _pixel_moments(px: _Pixels, technique, weight, nu, heur, a) -> tuple[np.ndarray, np.ndarray]:
+@dataclass(frozen=True)
+class _Lobe:
+    """The pixels in an axis' lobe (``on``) and, there, ρ_a, the map pdf and the moments."""
+    on: np.ndarray
+    rho: np.ndarray
+    pdf: np.ndarray
+    first: np.ndarray
+    second: np.ndarray
+    area: np.ndarray
+
+
+def _pixel_lobe(px: _Pixels, weight, a) -> _Lobe:
+    """The pixels in the lobe of axis a, gathered once for every technique's moments."""
+    rho = brdf_pdf(weight, latlong.rows_dot(px.dirs, a))
+    on = np.flatnonzero(rho > 0)
+    return _Lobe(on, rho[on], px.pdf[on], px.first[on], px.second[on], px.area[on])
+
+
+def _pixel_moments(px: _Pixels, technique, weight, nu, heur, a, lobe: _Lobe | None = None
+                   ) -> tuple[np.ndarray, np.ndarray]:
     r"""(V (parts, C), I (C,)) for axis a by direction-space quadrature Q: with
     :math:`h_i = f\,\mathrm{factor}_i` sampled with density :math:`p_i`,
     :math:`V_i = Q[h_i^2p_i]/Q[p_i] - (Q[h_ip_i]/Q[p_i])^2` — the variance under the
     normalised discrete measure (never negative), free of the error
     :math:`\int h^2 - (\int h)^2` would take from a quadrature of :math:`\int p_i` off 1
-    (a narrow lobe on a coarse map)."""
-    rho = brdf_pdf(weight, px.dirs @ a)
-    on = rho > 0
-    r, pm = rho[on], px.pdf[on]
-    first, second, area = px.first[on], px.second[on], px.area[on]
+    (a narrow lobe on a coarse map). ``lobe``: :func:`_pixel_lobe` of a, when known."""
+    lb = _pixel_lobe(px, weight, a) if lobe is None else lobe
     V, total = [], 0.0
-    for i, (factor, p) in enumerate(_part_terms(technique, weight, nu, heur, r, pm)):
+    for i, (factor, p) in enumerate(_part_terms(technique, weight, nu, heur, lb.rho, lb.pdf)):
         lobe_part = technique == "brdf" or (technique == "mis" and i == 1)
-        q = float(p @ area) if lobe_part else float(px.pdf @ px.area)
-        m1 = (factor * p) @ first / q
-        m2 = (factor * factor * p) @ second / q
+        q = float(p @ lb.area) if lobe_part else float(px.pdf @ px.area)
+        fp = factor * p                           # einsum, not BLAS: see latlong.rows_dot
+        m1 = np.einsum("i,ic->c", fp, lb.first) / q
+        m2 = np.einsum("i,ic->c", fp * factor, lb.second) / q
         V.append(m2 - m1 * m1)
         total = total + m1
     return np.maximum(np.array(V), 0.0), total
@@ -297,10 +338,10 @@ class _MapNodes:
         R, C = sampler._row_cdf, sampler._col_cdf
         dR, dC = np.diff(R), np.diff(C, axis=1)                        # (H,), (H, W)
         i, j = np.nonzero((dR[:, None] > 0) & (dC > 0))
-        n0 = (np.ceil(2.0 * np.pi * band * dR[i]) + 1).astype(np.int64)
-        n1 = (np.ceil(2.0 * np.pi * band * dC[i, j]) + 1).astype(np.int64)
+        n0 = np.maximum(np.ceil(2.0 * np.pi * band * dR[i]), 1).astype(np.int64)
+        n1 = np.maximum(np.ceil(2.0 * np.pi * band * dC[i, j]), 1).astype(np.int64)
         count = n0 * n1
-        check_memory(int(count.sum()) * 8 * (12 + envmap.channels),
+        check_memory(int(count.sum()) * 8 * (12 + 2 * envmap.channels),
                      f"the map technique's {int(count.sum())} nodes",
                      hint="use a smaller grid")
         pix = np.repeat(np.arange(i.size), count)
@@ -312,25 +353,34 @@ class _MapNodes:
         self.weight = (dR[ip] * dC[ip, jp]) / count[pix]
         self.dirs = sampler.pixel_point(ip, jp, x, y)
         self.pdf = sampler.pixel_pdf[ip, jp]
-        self.f = envmap.lookup(self.dirs)
+        #: (C, Q) f times the node weight; the coordinates 2πu in float32 for the NUFFT
+        self.fw = np.ascontiguousarray((envmap.lookup(self.dirs) * self.weight[:, None]).T)
+        self.coord = (2.0 * np.pi * self.u).astype(np.float32)
+        self.band = band
 
-    def box(self, values: np.ndarray, band: int) -> np.ndarray:
-        r""":math:`\hat h(k)` on the half box (C, 2B+1, B+1) of h at the nodes (Q, C): one
-        non-uniform FFT plan (the nodes are fixed) executed per channel, to 1e-6 relative."""
+    @classmethod
+    def of(cls, envmap: EnvMap, sampler: MapSampler, band: int) -> "_MapNodes":
+        """The nodes of ``sampler``'s map for box ``band``, reused from the last call for the
+        same map, sampler and band (the map and MIS spectra share them)."""
+        return _last_call("nodes", (envmap, sampler), band, lambda: cls(envmap, sampler, band))
+
+    def box(self, factor: np.ndarray, active: np.ndarray, band: int,
+            nthreads: int = 1) -> np.ndarray:
+        r""":math:`\hat h(k)` on the half box (C, 2B+1, B+1) of :math:`h = f\cdot` ``factor``
+        at the ``active`` nodes (the others hold h = 0): one type-1 non-uniform FFT of all
+        channels (ducc0, single precision, :data:`NUFFT_EPSILON` relative to
+        :math:`\sum_q |h_q| w_q` — far below the axis-sampling error the prediction keeps)."""
         import ducc0
 
         size = 2 * band + 2
-        if getattr(self, "_plan_size", None) != size:
-            self._plan = ducc0.nufft.plan(nu2u=True, coord=2.0 * np.pi * self.u,
-                                          grid_shape=(size, size), epsilon=1e-6, nthreads=1)
-            self._plan_size = size
-        out = np.empty((values.shape[1], 2 * band + 1, band + 1), dtype=np.complex128)
-        grid = np.zeros((size, size), dtype=np.complex128)
-        for c in range(values.shape[1]):
-            pts = (values[:, c] * self.weight).astype(np.complex128)
-            self._plan.nu2u(points=pts, forward=True, out=grid)
-            out[c] = grid[1:, band + 1:]
-        return out
+        idx = np.flatnonzero(active)
+        pts = np.zeros((self.fw.shape[0], idx.size), dtype=np.complex64)
+        for c in range(pts.shape[0]):
+            np.multiply(self.fw[c].take(idx), factor, out=pts.real[c], casting="same_kind")
+        grid = ducc0.nufft.nu2u(points=pts, coord=self.coord.take(idx, axis=0), forward=True,
+                                epsilon=NUFFT_EPSILON, nthreads=nthreads,
+                                out=np.empty((pts.shape[0], size, size), dtype=np.complex64))
+        return grid[:, 1:, band + 1:].astype(np.complex128)
 
 
 def _box(h: np.ndarray, g: int, band: int) -> np.ndarray:
@@ -342,18 +392,22 @@ def _box(h: np.ndarray, g: int, band: int) -> np.ndarray:
     return F[:, rows, :band + 1]
 
 
-def _axis_spectra(grid: _Grid, nodes, envmap, sampler, technique, weight, nu, heur, R, band):
+def _axis_spectra(grid: _Grid, nodes, envmap, sampler, technique, weight, nu, heur, R, band,
+                  nthreads: int = 1):
     """:math:`\\hat h_i` on the half box for one axis (frame R, third column the axis): a
-    list over parts of (C, 2B+1, B+1) — the map part from its nodes (:class:`_MapNodes`),
-    the lobe part from the grid."""
+    list over parts of (C, 2B+1, B+1) — the map part from its nodes (:class:`_MapNodes`;
+    those outside the lobe, :data:`LOBE_CUTOFF`, hold h = 0 and are left out), the lobe
+    part from the grid."""
     a = R[:, 2]
     out = []
     if technique in ("map", "mis"):
-        rho = brdf_pdf(weight, nodes.dirs @ a)
-        factor, _ = _part_terms(technique, weight, nu, heur, rho, nodes.pdf)[0]
-        out.append(nodes.box(nodes.f * factor[:, None], band))
+        rho = brdf_pdf(weight, latlong.rows_dot(nodes.dirs, a))
+        active = rho > LOBE_CUTOFF * float(brdf_pdf(weight, 1.0))
+        factor, _ = _part_terms(technique, weight, nu, heur, rho[active],
+                                nodes.pdf[active])[0]
+        out.append(nodes.box(factor, active, band, nthreads))
     if technique in ("brdf", "mis"):
-        d = grid.local @ R.T
+        d = latlong.rows_times(grid.local, R.T)
         f = envmap.lookup(d)
         pm = sampler.pdf(d) if technique == "mis" else np.ones_like(grid.lobe)
         factor, _ = _part_terms(technique, weight, nu, heur, grid.lobe, pm)[-1]
@@ -410,7 +464,9 @@ def proposal_axes(envmap: EnvMap, sampler: MapSampler, weight, count: int):
     """
     pool = _fibonacci_axes(AXIS_POOL)
     parts = [np.full(AXIS_POOL, 1.0 / AXIS_POOL)]
-    for m in _proxy_moments(envmap, sampler, weight, pool):
+    lobe = (type(weight).__name__, getattr(weight, "shininess", None))
+    for m in _last_call("proxy", (envmap, sampler), lobe,
+                        lambda: _proxy_moments(envmap, sampler, weight, pool)):
         tot = float(m.sum())
         parts.append(m / tot if tot > 0 else parts[0])
     pi = sum(parts) / 3.0
@@ -444,7 +500,7 @@ def _check(envmap, technique, grid, heuristic, fraction):
 def _lobe_square_mean(weight) -> float:
     r""":math:`c_2 = \frac1{4\pi}\int_{S^2}\rho_a(\omega)^2\,da = \frac12\int_0^1\rho(z)^2dz`,
     the mean over uniform axes of the squared lobe at a fixed direction (Gauss–Legendre)."""
-    x, w = np.polynomial.legendre.leggauss(400)
+    x, w = special.roots_legendre(400)
     z = 0.5 * (x + 1.0)
     return float(0.25 * np.sum(w * brdf_pdf(weight, z) ** 2))
 
@@ -473,37 +529,59 @@ def exact_mean_variances(envmap: EnvMap, px: _Pixels, weight) -> dict:
             "map": float(np.mean(_lobe_square_mean(weight) * over_p - i2))}
 
 
+def _axis_terms(m, A, R, px, grid, nodes, envmap, sampler, technique, weight, nu, heur, band,
+                calibrate, nthreads):
+    """Axis m's unweighted terms: V (parts,), I, the sampled BRDF/map variances (calibration),
+    |ĥ_i|² (parts, 2B+1, B+1) and the k₁ = 0 cross term — channel means."""
+    lobe = _pixel_lobe(px, weight, A[m])
+    v, tot = _pixel_moments(px, technique, weight, nu, heur, A[m], lobe)
+    sampled = {}
+    if calibrate:
+        for t in ("brdf", "map"):
+            vt = v if t == technique else _pixel_moments(px, t, weight, nu, heur, A[m], lobe)[0]
+            sampled[t] = float(vt.mean())
+    H = _axis_spectra(grid, nodes, envmap, sampler, technique, weight, nu, heur, R[m], band,
+                      nthreads)
+    P = np.stack([(np.abs(h) ** 2).mean(axis=0) for h in H])
+    X = (H[0][:, :, 0] * np.conj(H[1][:, :, 0])).mean(axis=0) if len(H) == 2 else None
+    return v.mean(axis=1), float(tot.mean()), sampled, P, X
+
+
+def _cores() -> int:
+    """Cores this process may run on."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - not Linux
+        return max(1, os.cpu_count() or 1)
+
+
 def _accumulate(envmap, sampler, technique, weight, nu, heur, g, A, wts, calibrate=False):
     """Weighted sums over axes of V, |ĥ|², the k₁ = 0 cross term and I; with ``calibrate``
-    rescaled by the ratio estimator of :func:`_calibration`."""
+    rescaled by the ratio estimator of :func:`_calibration`. The axes run on all cores
+    (threads: the work is numpy and ducc0, which release the GIL), summed in axis order
+    (the same result for any number of threads)."""
     band = g // 4
     grid = _Grid(weight, g) if technique != "map" else None
-    nodes = _MapNodes(envmap, sampler, band) if technique != "brdf" else None
+    nodes = _MapNodes.of(envmap, sampler, band) if technique != "brdf" else None
     px = _Pixels(envmap, sampler, _subdivision(envmap, weight))
     R = twisted_frames(A, None)
-    parts = TECHNIQUES[technique]
-    V = np.zeros(parts)
-    P = np.zeros((parts, 2 * band + 1, band + 1))
-    X = np.zeros(2 * band + 1, dtype=complex)
-    mean = 0.0
-    sampled = {"brdf": 0.0, "map": 0.0}
-    for m in range(A.shape[0]):
-        v, tot = _pixel_moments(px, technique, weight, nu, heur, A[m])
-        V += wts[m] * v.mean(axis=1)
-        mean += wts[m] * float(tot.mean())
-        if calibrate:
-            for t in sampled:
-                sampled[t] += wts[m] * float(_pixel_moments(px, t, weight, nu, heur, A[m])[0]
-                                             .mean())
-        H = _axis_spectra(grid, nodes, envmap, sampler, technique, weight, nu, heur, R[m],
-                          band)
-        for i, h in enumerate(H):
-            P[i] += wts[m] * (np.abs(h) ** 2).mean(axis=0)
-        if parts == 2:
-            X += wts[m] * (H[0][:, :, 0] * np.conj(H[1][:, :, 0])).mean(axis=0)
+    workers = min(_cores(), A.shape[0])
+    args = (A, R, px, grid, nodes, envmap, sampler, technique, weight, nu, heur, band,
+            calibrate, max(1, _cores() // workers))
+    if workers == 1:
+        terms = [_axis_terms(m, *args) for m in range(A.shape[0])]
+    else:
+        with ThreadPoolExecutor(max_workers=workers) as pool:
+            terms = list(pool.map(lambda m: _axis_terms(m, *args), range(A.shape[0])))
+    V = sum(w * t[0] for w, t in zip(wts, terms))
+    mean = float(sum(w * t[1] for w, t in zip(wts, terms)))
+    P = sum(w * t[3] for w, t in zip(wts, terms))
+    X = (sum(w * t[4] for w, t in zip(wts, terms)) if TECHNIQUES[technique] == 2
+         else np.zeros(2 * band + 1, dtype=complex))
     P[:, band, 0] = 0.0
     X[band] = 0.0
     if calibrate:
+        sampled = {k: sum(w * t[2][k] for w, t in zip(wts, terms)) for k in ("brdf", "map")}
         r = _calibration(technique, exact_mean_variances(envmap, px, weight), sampled)
         V, P, X = V * r, P * r[:, None, None], X * (math.sqrt(r[0] * r[-1]))
     return band, V, P, X, mean
