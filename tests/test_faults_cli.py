@@ -152,7 +152,7 @@ def test_out_that_is_a_file_and_missing_out_is_created(tmp_path, afile, capsys):
     out, js = tmp_path / "new" / "deep", tmp_path / "j" / "k" / "w.json"
     assert cli.main(["theory", "wce", "--brdf", "diffuse", "--pointset", "sf", "--n", "32",
                      "--out", str(out), "--json", str(js), "--quiet"]) == 0
-    assert sorted(p.name for p in out.iterdir()) == ["wce_spectrum.csv"]
+    assert sorted(p.name for p in out.iterdir()) == ["wce_spectrum.csv", "wce_spectrum.png"]
     assert json.loads(js.read_text())["n"] == 32
 
 
@@ -299,7 +299,7 @@ def test_file_size_limit_in_a_real_process(tmp_path):
     assert "Traceback" not in p.stderr
     err = [ln for ln in p.stderr.splitlines() if ln.strip()]
     assert err == [f"envfit theory wce: error: could not write {out / 'wce_spectrum.csv'}: File "
-                   "too large; 1 more file(s) not written (the results above are complete)"]
+                   "too large; 2 more file(s) not written (the results above are complete)"]
     assert "worst-case error E =" in p.stdout
     assert json.loads(p.stdout[p.stdout.index("{"):])["n"] == 64
     assert list(out.iterdir()) == [] and not js.exists()           # no temporary left behind

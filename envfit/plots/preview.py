@@ -52,7 +52,7 @@ def _markers(ax, p) -> list:
     px_per_deg = p.height / 180.0
     for s in p.sources:
         col, row = s.position["col"], s.position["row"]
-        r = max(4.0, s.radius_deg * px_per_deg * 1.6)           # pixels (at least visible)
+        r = max(4.0, p.height / 40.0, s.radius_deg * px_per_deg * 1.6)   # pixels, visible
         ax.add_patch(_circle((col, row), r))
         dy = -r if row - r > 0 else r                              # below the ring at the top
         ax.annotate(str(s.rank), (col + r, row + dy), xytext=(2, 2), textcoords="offset points",
