@@ -126,3 +126,29 @@ def test_info_out_unwritable_is_one_line_exit_2(tmp_path, monkeypatch, capsys):
     assert cli.main(["info", str(path), "--out", str(tmp_path / "f")]) == 2
     cap = capsys.readouterr()
     assert cap.out == "" and cap.err.count("\n") == 1 and "cannot write --out" in cap.err
+
+
+def test_info_out_disk_full_prints_the_results_and_exits_2(tmp_path, monkeypatch, capsys):
+    import errno
+    import os
+    from pathlib import Path
+
+    import envfit.base.atomic as atomic
+    import envfit.plots._save as plot_save
+    monkeypatch.setattr(cli, "COMMANDS", ("info",))
+    orig = atomic.atomic_write_bytes
+
+    def full(path, data):                 # the preview's write fails, the JSON's goes through
+        if Path(path).name == "m_preview.png":
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        return orig(path, data)
+    monkeypatch.setattr(plot_save, "atomic_write_bytes", full)
+    path = save_envmap(tmp_path / "m.exr", np.ones((8, 16, 3), np.float32))
+    out = tmp_path / "out"
+    assert cli.main(["info", str(path), "--out", str(out)]) == 2
+    cap = capsys.readouterr()
+    assert "16x8 lat-long" in cap.out and "bright sources (>= 5 % of the power): none" in cap.out
+    assert cap.err == (f"envfit info: error: could not write {out / 'm_preview.png'}: No space "
+                       "left on device (the results above are complete)\n")
+    assert json.loads((out / "m_info.json").read_text())["files"]["preview"] is None
+    assert sorted(p.name for p in out.iterdir()) == ["m_info.json"]      # no temporary left
