@@ -230,11 +230,11 @@ def iterative_nbytes(n: int, nchannels: int = 1) -> int:
     the near part of the product (~2 x 48 per row, both triangles) and the symmetrised local
     Lagrange preconditioner (<= 2 k per row, k = 60) ``+ 8 N (14 C + 24)`` (values, CG's
     vectors per channel, node arrays and angles, the kd-tree) ``+ 8 N 2 k`` (neighbour
-    indices and coefficients while building) ``+`` 128 MiB (SH transforms, coarse factor).
+    indices and coefficients while building) ``+`` 64 MiB (SH transforms, coarse factor).
     """
     n, c = int(n), max(1, int(nchannels))
     sparse = 12 * n * (2 * _ITER_NEAR + 2 * _ITER_K) * 1.3
-    return int(sparse + 8 * n * (14 * c + 24) + 16 * n * _ITER_K + 128 * 2**20)
+    return int(sparse + 8 * n * (14 * c + 24) + 16 * n * _ITER_K + 64 * 2**20)
 
 
 def interpolator_nbytes(n: int, nchannels: int = 1, solver: str = "cholesky") -> int:

@@ -53,6 +53,7 @@ what a single-column solve gives) but one call of the product serves all columns
 """
 from __future__ import annotations
 
+import functools
 import math
 import time
 from dataclasses import dataclass
@@ -67,7 +68,8 @@ from envfit.theory.sphere_points import sphere_points
 
 from envfit.base.errors import ParameterError
 from envfit.kernels import _kernels
-from envfit.kernels.nearfar import SHT_EPSILON, _to_theta_phi, far_field_expansion
+from envfit.kernels.nearfar import (SHT_EPSILON, CellList, _to_theta_phi, far_field_expansion,
+                                    near_radius, nearfar_power_sums)
 
 __all__ = ["NodeOperator", "LagrangePreconditioner", "SolveInfo", "IterativeSolver",
            "pcg_adef2", "operator_radius", "OPERATOR_NEIGHBOURS", "LOCAL_NEIGHBOURS",
@@ -80,6 +82,8 @@ OPERATOR_NEIGHBOURS = 48.0
 LOCAL_NEIGHBOURS = 60
 #: m, the coarse level's nodes (at most N / 4)
 COARSE_NODES = 400
+#: the coarse product K[:, S] y is summed directly up to this many pairs N m
+_COARSE_DIRECT_MAX = 2e7
 
 
 def operator_radius(n: int) -> float:
@@ -88,6 +92,19 @@ def operator_radius(n: int) -> float:
     [0.02, 0.6], two significant digits (the far-field expansion is cached per delta)."""
     d = math.sqrt(4.0 * OPERATOR_NEIGHBOURS / max(int(n), 1))
     return float(f"{min(max(d, 0.02), 0.6):.2g}")
+
+
+@functools.lru_cache(maxsize=1)
+def _blas_controller():
+    from threadpoolctl import ThreadpoolController
+    return ThreadpoolController()
+
+
+def _one_blas_thread():
+    """Context: BLAS on one thread. The coarse level's m x m Cholesky and solves are tiny;
+    OpenBLAS's threads waking next to numba's pool made a 400 x 400 ``dpotrf`` take 1-2 s
+    instead of 1.3 ms on the loaded 2-core machine (measured)."""
+    return _blas_controller().limit(limits=1, user_api="blas")
 
 
 # ----------------------------------------------------------------------------- product
@@ -169,7 +186,7 @@ class LagrangePreconditioner:
     """
 
     def __init__(self, points: np.ndarray, s: float, *, k: int = LOCAL_NEIGHBOURS,
-                 m: int = COARSE_NODES, tree: cKDTree | None = None):
+                 m: int = COARSE_NODES, tree: cKDTree | None = None, nthreads: int = 1):
         t0 = time.perf_counter()
         n = points.shape[0]
         self.s = float(s)
@@ -180,10 +197,13 @@ class LagrangePreconditioner:
         _, near = tree.query(sphere_points("sf", m, seed=0), k=1)
         self.coarse = np.unique(near)
         self.m = self.coarse.size
-        cp = points[self.coarse]
+        cp = self._coarse_points = points[self.coarse]
+        self._coarse_cells = None
+        self.nthreads = int(nthreads)
         self._coarse_xyz = tuple(np.ascontiguousarray(cp[:, i]) for i in range(3))
         self._nodes = np.ascontiguousarray(points)
-        self._coarse_factor = cho_factor(_kernel_block(cp, cp, self.s), lower=True)
+        with _one_blas_thread():
+            self._coarse_factor = cho_factor(_kernel_block(cp, cp, self.s), lower=True)
         self.seconds = time.perf_counter() - t0
 
     def local(self, r: np.ndarray) -> np.ndarray:
@@ -192,7 +212,8 @@ class LagrangePreconditioner:
 
     def coarse_coefficients(self, r: np.ndarray) -> np.ndarray:
         r""":math:`K_{SS}^{-1} r_S` (m, C)."""
-        return cho_solve(self._coarse_factor, r[self.coarse])
+        with _one_blas_thread():
+            return cho_solve(self._coarse_factor, r[self.coarse])
 
     def coarse_solve(self, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         r"""``(Q r, K Q r)``: :math:`Q r = S^T K_{SS}^{-1} r_S` and its product with K."""
@@ -203,17 +224,23 @@ class LagrangePreconditioner:
 
     def _coarse_product(self, y: np.ndarray) -> np.ndarray:
         r""":math:`K_{:,S}\, y` at every node: :math:`c_s \sum y - \sum_j y_j |p_i - p_j|^{2s-2}`
-        (m sources, direct fused numba sums)."""
+        (m sources): direct fused numba sums below :data:`_COARSE_DIRECT_MAX` pairs, else the
+        near/far split (:func:`~envfit.kernels.nearfar.nearfar_power_sums`)."""
         a = self.s - 1.0
         kind = _kernels.power_kind(a)
-        out = np.empty((self._nodes.shape[0], y.shape[1]))
-        px, py, pz = self._coarse_xyz
-        if y.shape[1] == 3:
-            w = [np.ascontiguousarray(y[:, c]) for c in range(3)]
-            _kernels.power_sums_3(self._nodes, px, py, pz, *w, a, kind, out)
+        n, nc = self._nodes.shape[0], y.shape[1]
+        if n * self.m > _COARSE_DIRECT_MAX:
+            if self._coarse_cells is None:
+                self._coarse_delta = near_radius(self.m)
+                self._coarse_cells = CellList.build(self._coarse_points, self._coarse_delta)
+            out = nearfar_power_sums(self._coarse_points, self._coarse_cells, self._nodes,
+                                     np.asarray(y, order="F"), self.s, self._coarse_delta,
+                                     a, kind, self.nthreads)
         else:
-            for c in range(y.shape[1]):
-                col = np.empty(self._nodes.shape[0])
+            out = np.empty((n, nc))
+            px, py, pz = self._coarse_xyz
+            for c in range(nc):
+                col = np.empty(n)
                 _kernels.power_sums_1(self._nodes, px, py, pz, np.ascontiguousarray(y[:, c]),
                                       a, kind, col)
                 out[:, c] = col
@@ -224,7 +251,7 @@ class LagrangePreconditioner:
 def _local_lagrange(points, tree, s, k) -> sp.csr_matrix:
     """:math:`Z_s = (Z + Z^T)/2`, Z's column i the local Lagrange coefficients of node i."""
     n = points.shape[0]
-    _, nb = tree.query(points, k=k)
+    _, nb = tree.query(points, k=k, workers=-1)
     nb = np.ascontiguousarray(nb.reshape(n, k), dtype=np.int64)
     # the query lists node i first (distance 0); make sure of it with exact duplicates
     first = nb[:, 0] != np.arange(n)
@@ -362,7 +389,7 @@ class IterativeSolver:
         t0 = time.perf_counter()
         tree = cKDTree(points)
         self.op = NodeOperator(points, s, nthreads=nthreads, tree=tree)
-        self.prec = LagrangePreconditioner(points, s, k=k, m=m, tree=tree)
+        self.prec = LagrangePreconditioner(points, s, k=k, m=m, tree=tree, nthreads=nthreads)
         self.maxiter = int(maxiter)
         self.seconds_setup = time.perf_counter() - t0
 
