@@ -61,6 +61,7 @@ from __future__ import annotations
 import numpy as np
 
 from envfit.base.errors import ParameterError
+from envfit.maps._lookup import lookup_rows
 
 __all__ = [
     "UPS",
@@ -343,7 +344,8 @@ def bilinear_lookup(image, dirs, *, up: str = "y") -> np.ndarray:
     Returns
     -------
     float64 array of shape ``dirs.shape[:-1] + (C,)`` (``dirs.shape[:-1]`` for a 2-D image).
-    Directions are processed in blocks of ``LOOKUP_BLOCK`` so temporaries stay bounded.
+    One compiled pass per direction (:mod:`envfit.maps._lookup`), parallel over directions;
+    :func:`_bilinear_lookup_numpy` is the same arithmetic in numpy (the tests' reference).
 
     >>> img = np.arange(8.0).reshape(2, 4)
     >>> bilinear_lookup(img, pixel_directions(2)).tolist() == img.tolist()
@@ -361,13 +363,22 @@ def bilinear_lookup(image, dirs, *, up: str = "y") -> np.ndarray:
     lead = d.shape[:-1]
     d = d.reshape(-1, 3)
     n = d.shape[0]
-    m = local_to_world(up)
-    out = np.empty((n, nch), dtype=np.float64)
-    for s in range(0, n, LOOKUP_BLOCK):
-        db = d[s:s + LOOKUP_BLOCK]
-        if not np.all(np.isfinite(db)):
-            raise ParameterError("directions contain NaN or Inf")
-        row, col = _dirs_to_rowcol(db, h, w, m)
+    if not np.all(np.isfinite(d)):
+        raise ParameterError("directions contain NaN or Inf")
+    out = lookup_rows(flat, d, local_to_world(up), h, w, _SNAP)
+    if img.ndim == 2:
+        return out.reshape(lead)
+    return out.reshape(lead + (nch,))
+
+
+
+def _bilinear_lookup_numpy(flat: np.ndarray, d: np.ndarray, m: np.ndarray, h: int,
+                           w: int) -> np.ndarray:
+    """:func:`bilinear_lookup` of the (H·W, C) table ``flat`` at finite directions d (N, 3)
+    in numpy blocks of ``LOOKUP_BLOCK``: the reference the compiled kernel is tested against."""
+    out = np.empty((d.shape[0], flat.shape[1]), dtype=np.float64)
+    for s in range(0, d.shape[0], LOOKUP_BLOCK):
+        row, col = _dirs_to_rowcol(d[s:s + LOOKUP_BLOCK], h, w, m)
         r0, a = _floor_and_fraction(row)
         r0 = r0.astype(np.int64)            # in [-1, H-1]
         top = _gather_row(flat, r0, col, h, w)
@@ -375,6 +386,4 @@ def bilinear_lookup(image, dirs, *, up: str = "y") -> np.ndarray:
             bot = _gather_row(flat, r0 + 1, col, h, w)
             top += a[:, None] * (bot - top)
         out[s:s + LOOKUP_BLOCK] = top
-    if img.ndim == 2:
-        return out.reshape(lead)
-    return out.reshape(lead + (nch,))
+    return out

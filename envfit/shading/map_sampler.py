@@ -14,6 +14,7 @@ Example
 -------
 >>> import numpy as np
 >>> from envfit.maps.envmap import EnvMap
+from envfit.shading._sample_kernel import warp_points
 >>> s = MapSampler(EnvMap(np.full((8, 16, 3), 0.5)))
 >>> d, pdf = s.sample([[0.5, 0.5]])
 >>> bool(np.allclose(pdf, 1 / (4 * np.pi))), bool(np.allclose(s.pdf(d), pdf))
@@ -26,6 +27,7 @@ import numpy as np
 from envfit.base.errors import ParameterError
 from envfit.maps import latlong
 from envfit.maps.envmap import EnvMap
+from envfit.shading._sample_kernel import warp_points
 
 __all__ = ["MapSampler", "DEFAULT_FLOOR"]
 
@@ -168,6 +170,12 @@ class MapSampler:
         ((5, 3), True)
         """
         U = _square(u)
+        return warp_points(U, self._row_cdf, self._col_cdf, self._z_edges, self.pixel_pdf,
+                           self._m)
+
+    def _sample_numpy(self, U: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`sample` of checked points U (N, 2) in numpy (the compiled kernel's
+        reference in the tests): searches in the stacked conditional table."""
         h, w = self.height, self.width
         i = np.clip(np.searchsorted(self._row_cdf, U[:, 0], side="right") - 1, 0, h - 1)
         lo = self._row_cdf[i]
