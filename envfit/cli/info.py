@@ -29,14 +29,11 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
-from envfit.maps.conventions import LatLongConvention
 from envfit.maps.envmap import EnvMap
-from envfit.maps.latlong import pixel_angles, pixel_to_direction, row_solid_angles
-from envfit.shading.map_preview import in_convention, list_sources
+from envfit.shading.map_preview import describe_envmap, list_sources
 from .common import (add_common_arguments, add_map_arguments, emit_json, guarded_write,
                      load_map_from_args, map_convention, out_dir, say)
 
@@ -52,46 +49,6 @@ def register(subparsers) -> None:
     add_map_arguments(p, optional=False)
     add_common_arguments(p, seed=False)
     p.set_defaults(func=run)
-
-
-def describe_envmap(m: EnvMap, conv: LatLongConvention | None = None) -> dict[str, Any]:
-    """The statistics ``envfit info`` reports, as a JSON-ready dict (with ``conv``: the
-    brightest direction also in that renderer's terms, :func:`in_convention`)."""
-    data = m.data
-    y = m.luminance()
-    flat = int(np.argmax(y))
-    row, col = divmod(flat, m.width)
-    theta, phi = pixel_angles(m.height, m.width)
-    direction = pixel_to_direction(row, col, m.height, m.width, up=m.up)
-    om = row_solid_angles(m.height, m.width)
-    pos = y[y > 0]
-    ymax = float(y.max())
-    dr = float(ymax / pos.min()) if pos.size else None
-    return {
-        "name": m.name,
-        "width": m.width,
-        "height": m.height,
-        "channels": m.channels,
-        "dtype": str(data.dtype),
-        "up": m.up,
-        "min": data.min(axis=(0, 1)).astype(np.float64),
-        "max": data.max(axis=(0, 1)).astype(np.float64),
-        "mean": m.mean(),
-        "mean_luminance": float(om @ y.sum(axis=1) / (om.sum() * m.width)),
-        "max_luminance": ymax,
-        "dynamic_range": dr,
-        "dynamic_range_stops": float(np.log2(dr)) if dr else None,
-        "brightest": {
-            "row": int(row), "col": int(col),
-            "direction": direction,
-            "theta_deg": float(np.degrees(theta[row])),
-            "phi_deg": float(np.degrees(phi[col])),
-            "value": data[row, col].astype(np.float64),
-            "convention": (in_convention(conv, direction, m.width, m.height)
-                           if conv is not None else None),
-        },
-        "notes": list(m.notes),
-    }
 
 
 def _fmt(v) -> str:
@@ -132,10 +89,9 @@ def run(args: argparse.Namespace) -> int:
     m = load_map_from_args(args)
     conv = map_convention(args)
     out = out_dir(args)
-    info = describe_envmap(m, conv)
-    info["path"] = str(args.map)
     sources = list_sources(m, conv)
-    info["sources"] = [e.to_dict() for e in sources]
+    info = describe_envmap(m, conv, sources)
+    info["path"] = str(args.map)
     b = info["brightest"]
     dr = info["dynamic_range"]
     say(args,

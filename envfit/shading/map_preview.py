@@ -1,6 +1,7 @@
-r"""What a preview of a map shows: its pixels tone-mapped in the file's lat-long layout, the
-angles along its axes in that layout's terms, and its bright sources with their direction,
-solid angle and share of the power (``envfit info --out``, ``envfit synth --out``).
+r"""What ``envfit info`` says of a map (:func:`describe_envmap`) and what its preview shows:
+its pixels tone-mapped in the file's lat-long layout, the angles along its axes in that
+layout's terms, and its bright sources with their direction, solid angle and share of the
+power (``envfit info --out``, ``envfit synth --out``).
 
 Layout
     A renderer convention of :mod:`envfit.maps.conventions` (``--convention``), or envfit's
@@ -48,8 +49,8 @@ from envfit.maps.envmap import EnvMap
 from envfit.maps.scales import MIDDLE_GREY, Scale, fit_scale
 from envfit.shading.sources import DEFAULT_SHARE, find_bright_sources
 
-__all__ = ["in_convention", "envfit_layout", "SourceEntry", "list_sources", "MapPreview",
-           "map_preview"]
+__all__ = ["in_convention", "envfit_layout", "SourceEntry", "list_sources", "describe_envmap",
+           "MapPreview", "map_preview"]
 
 
 def in_convention(conv: LatLongConvention, direction, width: int, height: int) -> dict[str, Any]:
@@ -148,6 +149,56 @@ def list_sources(envmap: EnvMap, layout: LatLongConvention | None = None, *,
                              position=in_convention(layout, s.direction, envmap.width,
                                                     envmap.height))
                  for k, s in enumerate(found))
+
+
+def describe_envmap(m: EnvMap, conv: LatLongConvention | None = None,
+                    sources: tuple[SourceEntry, ...] | None = None) -> dict[str, Any]:
+    """The statistics ``envfit info`` reports, as a JSON-ready dict: size, per-channel
+    min/max/solid-angle mean, mean and largest luminance, dynamic range, the brightest pixel
+    (with ``conv``: also in that renderer's terms, :func:`in_convention`) and the bright
+    sources (``sources``, default :func:`list_sources` in ``conv``'s layout).
+
+    >>> d = describe_envmap(EnvMap(np.ones((4, 8, 1))))
+    >>> d["width"], d["dynamic_range"], d["sources"]
+    (8, 1.0, [])
+    """
+    sources = list_sources(m, conv) if sources is None else sources
+    data = m.data
+    y = m.luminance()
+    flat = int(np.argmax(y))
+    row, col = divmod(flat, m.width)
+    theta, phi = latlong.pixel_angles(m.height, m.width)
+    direction = latlong.pixel_to_direction(row, col, m.height, m.width, up=m.up)
+    om = latlong.row_solid_angles(m.height, m.width)
+    pos = y[y > 0]
+    ymax = float(y.max())
+    dr = float(ymax / pos.min()) if pos.size else None
+    return {
+        "name": m.name,
+        "width": m.width,
+        "height": m.height,
+        "channels": m.channels,
+        "dtype": str(data.dtype),
+        "up": m.up,
+        "min": data.min(axis=(0, 1)).astype(np.float64),
+        "max": data.max(axis=(0, 1)).astype(np.float64),
+        "mean": m.mean(),
+        "mean_luminance": float(om @ y.sum(axis=1) / (om.sum() * m.width)),
+        "max_luminance": ymax,
+        "dynamic_range": dr,
+        "dynamic_range_stops": float(np.log2(dr)) if dr else None,
+        "brightest": {
+            "row": int(row), "col": int(col),
+            "direction": direction,
+            "theta_deg": float(np.degrees(theta[row])),
+            "phi_deg": float(np.degrees(phi[col])),
+            "value": data[row, col].astype(np.float64),
+            "convention": (in_convention(conv, direction, m.width, m.height)
+                           if conv is not None else None),
+        },
+        "sources": [e.to_dict() for e in sources],
+        "notes": list(m.notes),
+    }
 
 
 @dataclass(frozen=True, eq=False)
