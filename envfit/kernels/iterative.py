@@ -11,7 +11,10 @@ by a ducc0 adjoint synthesis + synthesis at the fixed node angles (precomputed, 
 :math:`w_l` per coefficient), the near correction :math:`g - P_L` for pairs closer than
 :math:`\delta` as a precomputed sparse matrix (kd-tree pairs, ~:data:`OPERATOR_NEIGHBOURS`
 per node). :math:`\delta` is chosen larger than for an evaluation (fewer SH degrees,
-:math:`L \approx 20/\delta`; the sparse part is cheap once stored).
+:math:`L \approx 20/\delta`; the sparse part is cheap once stored). ducc0 0.42's
+``sht.*_general`` transforms take the node angles per call and offer no reusable plan; at
+N = 20 000, L = 204 a transform pair costs ~17 ms per channel (2 cores), so a product is
+dominated by them and a plan-based ``ducc0.nufft.plan`` route was not tried.
 
 **The preconditioner** :class:`LagrangePreconditioner` — a two-level method:
 
@@ -20,7 +23,8 @@ per node). :math:`\delta` is chosen larger than for an evaluation (fewer SH degr
   (cKDTree), the coefficients :math:`c^{(i)}` of the local cardinal function with constant
   reproduction, :math:`[K_{N_i} \; 1; 1^T \; 0][c; d] = [e_i; 0]`, i.e.
   :math:`c = u - v (1^T u)/(1^T v)`, :math:`u = K_{N_i}^{-1} e_i`,
-  :math:`v = K_{N_i}^{-1} 1` (batched LAPACK). Column i of the sparse
+  :math:`v = K_{N_i}^{-1} 1` (one k x k Cholesky per node in a parallel numba kernel,
+  :func:`envfit.kernels._kernels.local_lagrange`). Column i of the sparse
   :math:`Z` (N x N, N k entries) is :math:`c^{(i)}`, so :math:`KZ \approx I`; the
   preconditioner uses :math:`Z_s = (Z + Z^T)/2`.
 * *coarse correction*: :math:`Q = S^T K_{SS}^{-1} S` on a subset S of m nodes (those
@@ -44,12 +48,16 @@ by the reproducing property,
 :math:`|e(x)| \le \sqrt{K(x,x)}\,\|e\|_{H} = \sqrt{c_s\, r^T K^{-1} r}`, and
 :math:`r^T K^{-1} r \le r^T B r / \lambda_{\min}(BK)` (:math:`r^T B r = r^T z` is CG's own
 inner product; :math:`\lambda_{\min}` is estimated by the smallest Ritz value of CG's
-Lanczos matrix, halved for safety). CG stops when this bound is below ``tol`` per channel,
+Lanczos matrix, halved for safety — the Ritz value approaches :math:`\lambda_{\min}` from
+above, so this step is an estimate, not a proof; the tests check the bound against the
+dense solution). CG stops when this bound is below ``tol`` per channel,
 so any RMSE of the reconstruction (per pixel or weighted, against any map) moves by at most
 ``tol`` (:math:`|\,\|a\| - \|b\|\,| \le \|a - b\|`).
 
 Channels are solved side by side: each column has its own CG coefficients (the result is
-what a single-column solve gives) but one call of the product serves all columns.
+what a single-column solve gives; not O'Leary's block CG, whose shared Krylov space would
+save little at ~6-8 iterations) but one call of the product, the preconditioner and the
+coarse level serves all columns.
 """
 from __future__ import annotations
 
