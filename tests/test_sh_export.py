@@ -269,6 +269,10 @@ def test_cli_formats_parse(L, sun_file, capsys):
     rows = list(csv.DictReader(io.StringIO(out)))
     assert rc == 0 and len(rows) == (L + 1) ** 2 and list(rows[0]) == ["l", "m", "index",
                                                                         "R", "G", "B"]
+    _, out_cs, _ = _run(["sh", str(sun_file), "--lmax", str(L), "--format", "csv",
+                         "--condon-shortley", *FAST], capsys)
+    for a, b in zip(rows, csv.DictReader(io.StringIO(out_cs))):
+        assert float(b["R"]) == (-1) ** int(a["m"]) * float(a["R"])
     rc, out, _ = _run(["sh", str(sun_file), "--lmax", str(L), "--format", "glsl", *FAST], capsys)
     n = (L + 1) ** 2
     body = re.search(rf"const vec3 shCoefficients\[{n}\] = vec3\[{n}\]\((.*?)\n\);", out, re.S)

@@ -49,6 +49,9 @@ def register(sub) -> None:
                    help="stdout document without --out (default: json)")
     p.add_argument("--window", choices=tuple(WINDOWS), default="none",
                    help="window of the exported coefficients (default: none)")
+    p.add_argument("--condon-shortley", action="store_true",
+                   help="json/csv coefficients for the basis with the Condon-Shortley phase "
+                        "(Sloan's Stupid SH Tricks, D3DX: odd m negated); glsl keeps its own")
     p.add_argument("--target-relative", type=positive_float, default=0.01, metavar="F",
                    help="relative RMSE the choice must meet (default: 0.01)")
     p.add_argument("--table-lmax", type=positive_int, default=TABLE_LMAX, metavar="L",
@@ -71,7 +74,8 @@ def run(args: argparse.Namespace) -> int:
                   target_relative=args.target_relative, scale=args.scale,
                   table_lmax=args.table_lmax, check=not args.no_check,
                   check_axes=args.check_axes, dense_height=args.check_height,
-                  convention=None if conv is None else f"{conv.name} ({conv.renderer})")
+                  convention=None if conv is None else f"{conv.name} ({conv.renderer})",
+                  condon_shortley=args.condon_shortley)
     out = out_dir(args)
     json_on_stdout = str(args.json) == "-"
     if out is None and not json_on_stdout:

@@ -173,7 +173,8 @@ def _checked_rows(scaled: EnvMap, alm, rows, irradiance: bool, export: SHCoeffic
 def sh_report(envmap: EnvMap, lmax: int, *, irradiance: bool = False, window: str = "none",
               target_relative: float = 0.01, scale: str = "linear",
               table_lmax: int = TABLE_LMAX, check: bool = True, check_axes: int = CHECK_AXES,
-              dense_height: int = DENSE_HEIGHT, convention: str | None = None) -> SHReport:
+              dense_height: int = DENSE_HEIGHT, convention: str | None = None,
+              condon_shortley: bool = False) -> SHReport:
     """SH coefficients of ``envmap`` to ``lmax`` for an engine, with predictions and choice.
 
     Parameters
@@ -188,6 +189,8 @@ def sh_report(envmap: EnvMap, lmax: int, *, irradiance: bool = False, window: st
     check : also measure (ground truth at ``check_axes`` directions) and evaluate the
         negative fractions densely (``dense_height`` rows).
     convention : the name reported for the world frame (default: envfit's, ``--up``).
+    condon_shortley : write the coefficients for the basis with the Condon–Shortley phase
+        (Sloan 2008, D3DX: odd m negated) in JSON and CSV (GLSL keeps its own basis).
     """
     L = _check(envmap, lmax, window, target_relative, scale, table_lmax)
     sc = fit_scale(scale, envmap)
@@ -203,7 +206,7 @@ def sh_report(envmap: EnvMap, lmax: int, *, irradiance: bool = False, window: st
         raise ParameterError(f"map {envmap.name or ''} has mean {mean:.6g} on the {scale} "
                              "scale: relative errors and negativity need a positive mean")
     export = sh_coefficients(scaled, L, irradiance=irradiance, window=window,
-                             alm=truncate_alm(alm, top))
+                             alm=truncate_alm(alm, top), condon_shortley=condon_shortley)
     w = np.asarray(export.window_weights)
     rows = tuple(ringing_rows(truncate_alm(alm, top), power, irradiance, Ls))
     kw = {}
