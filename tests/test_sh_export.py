@@ -249,6 +249,7 @@ def sun_file(tmp_path_factory, sun_env):
 
 
 FAST = ["--table-lmax", "2", "--check-axes", "256", "--check-height", "32"]
+QUICK = ["--table-lmax", "1", "--no-check"]
 
 
 def _run(argv, capsys):
@@ -265,18 +266,23 @@ def test_cli_formats_parse(L, sun_file, capsys):
     assert d["lmax"] == L and len(d["coefficients"]) == (L + 1) ** 2 and d["size"] == "64x32"
     assert "no Condon-Shortley" in d["normalisation"] and d["ordering"].startswith("flat")
     assert d["measured_relative_rmse"] == pytest.approx(d["predicted_relative_rmse"], rel=0.1)
-    rc, out, _ = _run(["sh", str(sun_file), "--lmax", str(L), "--format", "csv", *FAST], capsys)
+    rc, out, _ = _run(["sh", str(sun_file), "--lmax", str(L), "--format", "csv", *QUICK], capsys)
     rows = list(csv.DictReader(io.StringIO(out)))
     assert rc == 0 and len(rows) == (L + 1) ** 2 and list(rows[0]) == ["l", "m", "index",
                                                                         "R", "G", "B"]
     _, out_cs, _ = _run(["sh", str(sun_file), "--lmax", str(L), "--format", "csv",
-                         "--condon-shortley", *FAST], capsys)
+                         "--condon-shortley", *QUICK], capsys)
     for a, b in zip(rows, csv.DictReader(io.StringIO(out_cs))):
         assert float(b["R"]) == (-1) ** int(a["m"]) * float(a["R"])
-    rc, out, _ = _run(["sh", str(sun_file), "--lmax", str(L), "--format", "glsl", *FAST], capsys)
+    rc, out, _ = _run(["sh", str(sun_file), "--lmax", str(L), "--format", "glsl", *QUICK], capsys)
     n = (L + 1) ** 2
     body = re.search(rf"const vec3 shCoefficients\[{n}\] = vec3\[{n}\]\((.*?)\n\);", out, re.S)
     assert rc == 0 and body and body.group(1).count("vec3(") == n
+    rc, out, _ = _run(["sh", str(sun_file), "--lmax", str(L), "--format", "glsl", "--irradiance",
+                       *QUICK], capsys)
+    body = re.search(rf"shCoefficients\[{n}\] = vec3\[{n}\]\((.*?)\n\);", out, re.S).group(1)
+    vals = [[float(v) for v in t.split(",")] for t in re.findall(r"vec3\(([^)]*)\)", body)]
+    assert np.allclose(vals, [c["values"] for c in d["coefficients"]], rtol=1e-8, atol=0)
 
 
 @pytest.mark.skipif(shutil.which("glslangValidator") is None, reason="no glslangValidator")
