@@ -62,3 +62,19 @@ def test_sampler_kernel_equals_numpy_reference(up):
     with ThreadPoolExecutor(1) as pool:
         d2, p2 = pool.submit(s.sample, U).result()
     assert np.array_equal(d2, d) and np.array_equal(p2, p)
+
+
+@pytest.mark.parametrize("up", ["y", "z"])
+def test_pixel_of_kernel_equals_numpy_reference(up):
+    s = MapSampler(EnvMap(np.ones((12, 24)), up=up))
+    d = _special_directions(12, 24, up)
+    i, j = s.pixel_of(d)
+    ir, jr = s._pixel_of_numpy(d)
+    # the same formula; an ulp of atan2 may move a direction on a pixel edge to its neighbour
+    assert np.mean((i == ir) & (j == jr)) > 0.999
+    dj = np.abs(j - jr)
+    assert np.all(np.abs(i - ir) <= 1) and np.all(np.minimum(dj, 24 - dj) <= 1)
+    grid = latlong.pixel_directions(12, 24, up=up)          # pixel centres: their own pixel
+    gi, gj = s.pixel_of(grid)
+    assert np.array_equal(gi, np.repeat(np.arange(12)[:, None], 24, axis=1))
+    assert np.array_equal(gj, np.repeat(np.arange(24)[None, :], 12, axis=0))

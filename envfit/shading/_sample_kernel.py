@@ -61,3 +61,31 @@ def warp_points(U: np.ndarray, row_cdf, col_cdf, z_edges, pixel_pdf, m):
     kernel(np.ascontiguousarray(U, dtype=np.float64), row_cdf, col_cdf, z_edges,
            pixel_pdf, np.ascontiguousarray(m, dtype=np.float64), dirs, pdf)
     return dirs, pdf
+
+
+def _pixel_body(d, m, h, w, rows, cols):
+    for n in numba.prange(d.shape[0]):
+        x = d[n, 0] * m[0, 0] + d[n, 1] * m[1, 0] + d[n, 2] * m[2, 0]
+        y = d[n, 0] * m[0, 1] + d[n, 1] * m[1, 1] + d[n, 2] * m[2, 1]
+        z = d[n, 0] * m[0, 2] + d[n, 1] * m[1, 2] + d[n, 2] * m[2, 2]
+        theta = math.atan2(math.hypot(x, y), z)
+        phi = math.atan2(y, x)
+        if phi < 0.0:
+            phi += 2.0 * math.pi
+        rows[n] = min(max(int(math.floor(theta * (h / math.pi))), 0), h - 1)
+        cols[n] = int(math.floor(phi * (w / (2.0 * math.pi)))) % w
+
+
+_pixel_parallel = numba.njit(parallel=True, cache=True)(_pixel_body)
+_pixel_serial = numba.njit(cache=True)(_pixel_body)
+
+
+def pixel_indices(d: np.ndarray, m, h: int, w: int) -> tuple[np.ndarray, np.ndarray]:
+    """(rows, columns) (N,) int64 of the pixels holding world directions d (N, 3)."""
+    n = d.shape[0]
+    rows, cols = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64)
+    kernel = (_pixel_parallel if threading.current_thread() is threading.main_thread()
+              else _pixel_serial)
+    kernel(np.ascontiguousarray(d, dtype=np.float64), np.ascontiguousarray(m, dtype=np.float64),
+           int(h), int(w), rows, cols)
+    return rows, cols

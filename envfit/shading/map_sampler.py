@@ -14,7 +14,7 @@ Example
 -------
 >>> import numpy as np
 >>> from envfit.maps.envmap import EnvMap
-from envfit.shading._sample_kernel import warp_points
+from envfit.shading._sample_kernel import pixel_indices, warp_points
 >>> s = MapSampler(EnvMap(np.full((8, 16, 3), 0.5)))
 >>> d, pdf = s.sample([[0.5, 0.5]])
 >>> bool(np.allclose(pdf, 1 / (4 * np.pi))), bool(np.allclose(s.pdf(d), pdf))
@@ -27,7 +27,7 @@ import numpy as np
 from envfit.base.errors import ParameterError
 from envfit.maps import latlong
 from envfit.maps.envmap import EnvMap
-from envfit.shading._sample_kernel import warp_points
+from envfit.shading._sample_kernel import pixel_indices, warp_points
 
 __all__ = ["MapSampler", "DEFAULT_FLOOR"]
 
@@ -201,6 +201,11 @@ class MapSampler:
         d = np.asarray(dirs, dtype=np.float64)
         if d.ndim < 1 or d.shape[-1] != 3:
             raise ParameterError(f"directions must have shape (..., 3), got {d.shape}")
+        i, j = pixel_indices(d.reshape(-1, 3), self._m, self.height, self.width)
+        return i.reshape(d.shape[:-1]), j.reshape(d.shape[:-1])
+
+    def _pixel_of_numpy(self, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`pixel_of` in numpy (the compiled kernel's reference in the tests)."""
         loc = latlong.rows_times(d, self._m)                            # rows: local = world M
         theta = np.arctan2(np.hypot(loc[..., 0], loc[..., 1]), loc[..., 2])
         phi = np.mod(np.arctan2(loc[..., 1], loc[..., 0]), 2.0 * np.pi)
