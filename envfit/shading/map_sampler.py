@@ -14,7 +14,6 @@ Example
 -------
 >>> import numpy as np
 >>> from envfit.maps.envmap import EnvMap
-from envfit.shading._sample_kernel import pixel_indices, warp_points
 >>> s = MapSampler(EnvMap(np.full((8, 16, 3), 0.5)))
 >>> d, pdf = s.sample([[0.5, 0.5]])
 >>> bool(np.allclose(pdf, 1 / (4 * np.pi))), bool(np.allclose(s.pdf(d), pdf))
