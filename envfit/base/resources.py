@@ -6,7 +6,7 @@ import os
 
 from envfit.base.errors import MemoryBudgetError, ParameterError
 
-__all__ = ["interpolator_nbytes", "iterative_nbytes", "largest_feasible_n", "SOLVERS", "available_memory_bytes", "check_memory", "format_bytes", "memory_budget_bytes",
+__all__ = ["interpolator_nbytes", "iterative_nbytes", "iterative_coarse_nodes", "largest_feasible_n", "SOLVERS", "available_memory_bytes", "check_memory", "format_bytes", "memory_budget_bytes",
            "plan_memory", "largest_n_within"]
 
 #: fraction of the available memory one allocation plan may take
@@ -217,6 +217,14 @@ SOLVERS = ("auto", "cholesky", "iterative")
 _ITER_NEAR, _ITER_K = 48, 60
 
 
+def iterative_coarse_nodes(n: int) -> int:
+    """m, the iterative solver's coarse-level size at N nodes: N / 40 within [400, 3000],
+    at most N / 4 (measured at N = 80 000, s = 1.5: m = 400 / 1000 / 2000 gave 13 / 9 / 7
+    CG iterations; its dense factor is 8 m^2 bytes, <= 72 MB)."""
+    n = int(n)
+    return int(max(1, min(max(400, n // 40), 3000, n // 4)))
+
+
 def _check_solver(solver: str) -> str:
     if solver not in SOLVERS:
         raise ParameterError(f"unknown solver {solver!r}; choose one of {', '.join(SOLVERS)}")
@@ -230,11 +238,13 @@ def iterative_nbytes(n: int, nchannels: int = 1) -> int:
     the near part of the product (~2 x 48 per row, both triangles) and the symmetrised local
     Lagrange preconditioner (<= 2 k per row, k = 60) ``+ 8 N (14 C + 24)`` (values, CG's
     vectors per channel, node arrays and angles, the kd-tree) ``+ 8 N 2 k`` (neighbour
-    indices and coefficients while building) ``+`` 64 MiB (SH transforms, coarse factor).
+    indices and coefficients while building) ``+ 8 m^2`` (the coarse factor,
+    :func:`iterative_coarse_nodes`) ``+`` 64 MiB (SH transforms, temporaries).
     """
     n, c = int(n), max(1, int(nchannels))
+    coarse = 8 * iterative_coarse_nodes(n) ** 2
     sparse = 12 * n * (2 * _ITER_NEAR + 2 * _ITER_K) * 1.3
-    return int(sparse + 8 * n * (14 * c + 24) + 16 * n * _ITER_K + 64 * 2**20)
+    return int(sparse + 8 * n * (14 * c + 24) + 16 * n * _ITER_K + coarse + 64 * 2**20)
 
 
 def interpolator_nbytes(n: int, nchannels: int = 1, solver: str = "cholesky") -> int:

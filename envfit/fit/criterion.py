@@ -80,12 +80,13 @@ def evaluate_criterion(method: str, points: np.ndarray, values: np.ndarray, s: f
         if band_lmax is not None:
             ll, sigma = bandlimited_log_likelihood(points, centred, s, band_lmax)
         else:
-            ll, sigma = SobolevInterpolator(points, centred, s).log_likelihood_profiled()
+            ll, sigma = SobolevInterpolator(points, centred, s,
+                                            solver="cholesky").log_likelihood_profiled()
         ll, sigma = np.atleast_1d(ll), np.where(constant, 0.0, np.atleast_1d(sigma))
         return [{"score": -float(np.sum(ll[a:b][~constant[a:b]])) / n,
                  "sigma": [float(x) for x in sigma[a:b]], "boot": None}
                 for a, b in zip(edges[:-1], edges[1:])]
-    interp = SobolevInterpolator(points, values, s)
+    interp = SobolevInterpolator(points, values, s, solver="cholesky")  # log det, LOO: dense
     sigma = np.where(constant, 0.0, np.atleast_1d(interp.log_likelihood_profiled(centred)[1]))
     e = interp.loo_residuals() if method == "loo" else None
     out = []

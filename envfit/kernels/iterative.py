@@ -75,21 +75,20 @@ from envfit.theory.sobolev import kernel_constant
 from envfit.theory.sphere_points import sphere_points
 
 from envfit.base.errors import ParameterError
+from envfit.base.resources import iterative_coarse_nodes
 from envfit.kernels import _kernels
 from envfit.kernels.nearfar import (SHT_EPSILON, CellList, _to_theta_phi, far_field_expansion,
                                     near_radius, nearfar_power_sums)
 
 __all__ = ["NodeOperator", "LagrangePreconditioner", "SolveInfo", "IterativeSolver",
            "pcg_adef2", "operator_radius", "OPERATOR_NEIGHBOURS", "LOCAL_NEIGHBOURS",
-           "COARSE_NODES"]
+           "iterative_coarse_nodes"]
 
 #: mean number of near pairs per node of the product's sparse part (the memory model of
 #: :func:`envfit.base.resources.iterative_nbytes` assumes 48 and k = 60)
 OPERATOR_NEIGHBOURS = 48.0
 #: k, the nodes of each local Lagrange function
 LOCAL_NEIGHBOURS = 60
-#: m, the coarse level's nodes (at most N / 4)
-COARSE_NODES = 400
 #: the coarse product K[:, S] y is summed directly up to this many pairs N m
 _COARSE_DIRECT_MAX = 2e7
 
@@ -194,14 +193,14 @@ class LagrangePreconditioner:
     """
 
     def __init__(self, points: np.ndarray, s: float, *, k: int = LOCAL_NEIGHBOURS,
-                 m: int = COARSE_NODES, tree: cKDTree | None = None, nthreads: int = 1):
+                 m: int | None = None, tree: cKDTree | None = None, nthreads: int = 1):
         t0 = time.perf_counter()
         n = points.shape[0]
         self.s = float(s)
         self.k = int(min(k, n))
         tree = cKDTree(points) if tree is None else tree
         self.z = _local_lagrange(points, tree, self.s, self.k)
-        m = int(min(m, max(1, n // 4)))
+        m = iterative_coarse_nodes(n) if m is None else int(min(m, max(1, n // 4)))
         _, near = tree.query(sphere_points("sf", m, seed=0), k=1)
         self.coarse = np.unique(near)
         self.m = self.coarse.size
@@ -390,8 +389,8 @@ class IterativeSolver:
     """
 
     def __init__(self, points: np.ndarray, s: float, *, k: int = LOCAL_NEIGHBOURS,
-                 m: int = COARSE_NODES, nthreads: int = 1, maxiter: int = 200):
-        if k < 2 or m < 1 or maxiter < 1:
+                 m: int | None = None, nthreads: int = 1, maxiter: int = 200):
+        if k < 2 or (m is not None and m < 1) or maxiter < 1:
             raise ParameterError(f"iterative solver: need k >= 2, m >= 1, maxiter >= 1 "
                                  f"(got k={k}, m={m}, maxiter={maxiter})")
         t0 = time.perf_counter()
