@@ -66,8 +66,9 @@ def main(argv=None) -> int:
     ap.add_argument("--targets", default="0.01,0.05")
     ap.add_argument("--axes", type=int, default=1000)
     ap.add_argument("--json", default=None)
+    ap.add_argument("--cache-dir", default=None, help="default: a fresh temporary folder")
     args = ap.parse_args(argv)
-    cache = tempfile.mkdtemp(prefix="advise_renderer_check_")
+    cache = args.cache_dir or tempfile.mkdtemp(prefix="advise_renderer_check_")
     print(f"CPU: {_cpu()}; load {os.getloadavg()[0]:.1f}; cache {cache}")
     results, worst, recs_ok, combos = [], 0.0, 0, 0
     for path in args.maps:
@@ -76,9 +77,9 @@ def main(argv=None) -> int:
             for t in (float(x) for x in args.targets.split(",")):
                 t0 = time.perf_counter()
                 a = advise(env, brdf, target_relative=t, check=True, axes=args.axes,
-                           cache_dir=cache, quiet=True)
+                           cache_dir=cache, quiet=True, renderer=True)
                 rows = _rows(a)
-                best = a.renderer.best if a.renderer is not None else None
+                best = a.renderer.best() if a.renderer is not None else None
                 cheap = _cheapest_met(rows, a.target_rmse)
                 same = best is not None and cheap is not None and best.label == cheap["rule"]
                 combos += 1

@@ -277,3 +277,39 @@ def test_options_default_target_and_scale():
     assert (o.scale, o.target_relative, o.target_rmse, o.predictor) == ("linear", 0.01, None,
                                                                         "auto")
     assert AdviseOptions(target_rmse=0.2).target_relative is None
+
+
+# ----------------------------------------------------------------------------- HSH, (b′) only
+
+def test_hsh_row_not_sized_where_bandlimited_fails(sun_map, tmp_path):
+    """Glossy, linear sun map: (b′) and (c) of SH truncation disagree, so the HSH row (which
+    only (b′) predicts) is not sized and says why; the ratio in the line is recomputed from
+    the SH row's own curves at that L."""
+    from envfit.advisor.search import _ShCurves
+    from envfit.shading.ground_truth import weight_function
+    a = _advise(sun_map, tmp_path, brdf="glossy", target_rmse=0.3, pointsets=(), bases=("hsh",))
+    (row,) = a.rows
+    assert not row.reached and not row.recommendable and row.L is None
+    assert row.warning and row.warning in a.warnings and "not sized" in row.warning
+    L = row.searched_max
+    from envfit.advisor.model import map_model
+    from envfit.advisor.options import AdviseOptions
+    from envfit.advisor.cache import AdviseCache
+    opts = AdviseOptions(brdf="glossy", target_rmse=0.3, scale="linear", s=1.5, fit_n=300,
+                         pointsets=(), bases=("hsh",), cache_dir=tmp_path)
+    cv = _ShCurves(weight_function("glossy", 30.0),
+                   map_model(sun_map, opts, AdviseCache(tmp_path)))
+    r = cv.at("spectral", L) / cv.at("bandlimited", L)
+    assert not 1 / DISAGREEMENT <= r <= DISAGREEMENT
+    assert f"(ratio {r:.3g} at L = {L})" in row.warning
+
+
+def test_hsh_row_sized_where_bandlimited_holds(tmp_path):
+    """Glossy, a GP map on the display scale ((b′) and (c) agree): the HSH row is sized by
+    (b′) as before, with no warning."""
+    env = EnvMap(gaussian_process_map(1.5, H, seed=3, channels=3, offset=4.0), name="gp")
+    a = _advise(env, tmp_path, brdf="glossy", target_rmse=0.01, scale="display",
+                pointsets=(), bases=("hsh",))
+    (row,) = a.rows
+    assert row.reached and row.warning == "" and a.warnings == []
+    assert row.predicted_rmse <= a.target_rmse

@@ -82,7 +82,8 @@ the interpolant's power falls as about :math:`l^{-6}`), so the tail is the map's
 With ``predictor="auto"`` (default) a row is sized by (c) on the linear scale, and on the
 others by (b′) unless (b′) and (c) differ by more than 1.25× at the chosen N/L (then by (c),
 with the line ``rule X: (b′) and (c) disagree (ratio r at N = n); using (c)`` in
-``Advice.warnings``). HSH rows are (b′) only.
+``Advice.warnings``). HSH rows are (b′) only, and are not sized (with a warning) where (b′)
+and (c) of SH truncation disagree at their L (:func:`envfit.advisor.search._hsh_unsupported`).
 
 Search
 ------

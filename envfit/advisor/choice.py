@@ -21,7 +21,8 @@ on average, so with ``predictor="auto"``:
 
 ``predictor="bandlimited"`` or ``"spectral"`` forces one (the ratio is still reported, with
 no switch and no warning). HSH truncation has no (c) here (its projection is not diagonal
-in l): (b′) only.
+in l): (b′) only — and with ``"auto"`` a glossy HSH row is not sized where (b′) and (c) of SH
+truncation disagree at its L (the model fails there, and nothing else predicts HSH).
 
 Example
 -------

@@ -302,8 +302,9 @@ def _sh_row(wf, model: MapModel, opts: AdviseOptions) -> AdviceRow:
     return row
 
 
-def _hsh_row(wf, model: MapModel, brdf: str) -> AdviceRow:
-    """Smallest HSH degree L by (b') (``truncation_error_curve(..., lmax=H-1)``, no τ)."""
+def _hsh_row(wf, model: MapModel, opts: AdviseOptions) -> AdviceRow:
+    """Smallest HSH degree L by (b') (``truncation_error_curve(..., lmax=H-1)``, no τ), unless
+    (b') fails on this map (:func:`_hsh_unsupported`)."""
     s, sigma = model.s_rounded, model.sigma
     row = AdviceRow(method="hsh", note="(b') only: no (c) for HSH (its projection is not "
                                        "diagonal in l)")
@@ -312,18 +313,38 @@ def _hsh_row(wf, model: MapModel, brdf: str) -> AdviceRow:
     row.searched_max = lmax if L is None else None
     row.wce_bandlimited = eb
     row.predicted_rmse = sigma * eb
-    if L is not None:
+    why = _hsh_unsupported(wf, model, opts, lmax if L is None else L)
+    if why:
+        row.warning, row.searched_max, row.recommendable = why, lmax if L is None else L, False
+        row.note += "; not sized: (b') fails on this map"
+    elif L is not None:
         row.L, row.cost = L, (L + 1) ** 2
         row.wce = float(truncation_error_curve(wf, s, L, "hsh")[L])
         row.predicted_rmse_plain = sigma * row.wce
     else:
         row.note += f"; target not reached for L <= {lmax}"
         row.recommendable = False
-    if brdf == "diffuse":
+    if opts.brdf == "diffuse":
         row.recommendable = False
         row.note += "; diffuse HSH is exact from L = 1 (the projection is the integral): " \
                     "not recommended"
     return row
+
+
+def _hsh_unsupported(wf, model: MapModel, opts: AdviseOptions, L: int) -> str:
+    r"""Why the HSH row, which only (b′) predicts, cannot be sized on this map ("" if it can):
+    with ``predictor="auto"``, (b′) and (c) of the *SH* truncation at the same L disagree by
+    more than :data:`~envfit.advisor.choice.DISAGREEMENT` — the Sobolev model does not hold
+    at those degrees (a linear map with a sun: on city.exr, glossy, HSH by (b′) measured
+    8–9× its target), and there is no second prediction to size the row by."""
+    if opts.predictor != "auto" or opts.brdf == "diffuse":
+        return ""
+    cv = _ShCurves(wf, model)
+    b, c = cv.at("bandlimited", L), cv.at("spectral", L)
+    if not disagree(b, c):
+        return ""
+    return (f"rule HSH: only (b′) predicts it, and on this map (b′) and (c) of SH truncation "
+            f"disagree (ratio {ratio(b, c):.3g} at L = {L}); not sized")
 
 
 def search_truncation(basis: str, wf, model: MapModel, opts: AdviseOptions) -> AdviceRow:
@@ -331,7 +352,7 @@ def search_truncation(basis: str, wf, model: MapModel, opts: AdviseOptions) -> A
     with τ) or (c) (:func:`~envfit.predict.spectral.spectral_truncation_curve`), chosen as a
     quadrature row's predictor; HSH by (b') only (``truncation_error_curve(..., lmax=H-1)``,
     no τ; see :mod:`envfit.advisor.advise`)."""
-    return _sh_row(wf, model, opts) if basis == "sh" else _hsh_row(wf, model, opts.brdf)
+    return _sh_row(wf, model, opts) if basis == "sh" else _hsh_row(wf, model, opts)
 
 
 def search_rules(wf, model: MapModel, opts: AdviseOptions, store: AdviseCache) -> list[AdviceRow]:
