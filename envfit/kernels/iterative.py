@@ -40,7 +40,8 @@ dominated by them and a plan-based ``ducc0.nufft.plan`` route was not tried.
   and the coarse product :math:`KQ v = K_{:,S} K_{SS}^{-1} v_S` (m sources, evaluated at
   the nodes): **one full product per iteration**. Measured (dense eigenvalues, N = 4000,
   s = 1.9, k = 60, m = 50): spectrum of BK in [0.92, 1.04] (cond 1.12); without the coarse
-  level Z alone has eigenvalues from 0 (the constant) to 61.
+  level (N = 2000, k = 40) KZ has eigenvalues from 0 (the constant) to 61 and
+  :math:`Z_s` one negative eigenvalue.
 
 **The stopping rule** ties the iteration to the reconstruction: the change of the
 interpolant :math:`e = \sum_j (\alpha^*_j - \alpha_j) K(\cdot, p_j)` is bounded everywhere
