@@ -68,7 +68,6 @@ from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
-from scipy import stats
 
 from envfit.base.checks import check_int
 from envfit.base.errors import ParameterError
@@ -182,6 +181,7 @@ def _interval_of(d: np.ndarray, confidence: float, resamples: int, seed, method:
     kw = dict(statistic=_sqrt_mean, vectorized=True, n_resamples=resamples, batch=batch,
               confidence_level=confidence)
     used = method
+    from scipy import stats          # here: scipy.stats costs ~0.8 s to import (advise's cache)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", stats.DegenerateDataWarning)
         res = stats.bootstrap((d,), method=METHODS[method], rng=rng, **kw)
