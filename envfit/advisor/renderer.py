@@ -47,9 +47,11 @@ Fewer axes only scatter a strategy's variance by a constant factor (±8 % at 32 
 same at every N); a coarser grid under-predicts MIS with QMC points by 10–40 % exactly where
 the rows land for a 1 % target (N ≈ 256–4096), which a check at 1.25× the target would not
 absorb. So grid 512 (the box exact for QMC to N ≈ (512/8)² = 4096) with 32 axes: the
-validated accuracy at less than half its cost (≈ 15 s wall on an idle 2-core machine).
-These comparisons used the map technique's spectrum from a uniform grid, before its exact
-quadrature nodes (commit 7f77b3a, about 3× dearer on city.exr); re-measure when it changes.
+validated accuracy at less than half its cost. These comparisons used the map technique's
+spectrum from a uniform grid, before its exact quadrature nodes; with the nodes, the
+single-precision NUFFT and the 8B lobe grid of :mod:`envfit.shading.warped_spectrum` the four
+spectra take 35 s wall on city.exr (2 cores, load 3–4, raised priority; README "Renderer
+rules in envfit advise").
 
 The spectra are cached (:mod:`envfit.advisor.cache`, kind ``"renderer"``): one checksummed
 JSON file per (technique, on the rest map), keyed by the map's fingerprint

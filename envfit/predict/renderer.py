@@ -63,9 +63,10 @@ def renderer_model(setup: RendererSetup, brdf: str = "diffuse", shininess: float
     """The warped spectra the ``strategies`` need on ``setup``'s map (and rest map), for
     :func:`predict_rule`. ``progress(label)`` is called before each spectrum.
 
-    Cost: per axis G² lookups for the lobe part and one non-uniform FFT of the map part's
-    ≈ (2πB)² + 2πB(H + W) + HW nodes per channel (B = G/4); on city.exr (1024×512, G = 512,
-    32 axes) the four spectra of one lobe took 162 s wall on 2 cores shared at load 4.5–6.5.
+    Cost: per axis (2G)² lookups for the lobe part and one single-precision non-uniform FFT
+    of the map part's ≈ (2πB)² + πB(H + W) + HW nodes (B = G/4), axes on all cores; on
+    city.exr (1024×512, G = 512, 32 axes) the four spectra of one lobe took 35 s wall on 2
+    cores (load 3–4, the run at a raised priority).
     """
     keys = []
     for s in strategies:
