@@ -155,3 +155,29 @@ def test_errors_and_refine(nodes, tmp_path):
     path = tmp_path / "m.exr"
     save_envmap(path, env)
     assert cli.main(["table2", str(path), "--n", "50", "--solver", "bogus"]) == 2
+
+
+def test_auto_falls_back_to_cholesky_when_cg_stalls(nodes, monkeypatch):
+    class OneStep(IterativeSolver):
+        def __init__(self, *a, **k):
+            super().__init__(*a, **k, maxiter=1)
+
+    p = nodes[:1000]
+    f = _values(p)
+    monkeypatch.setattr(interp_mod, "IterativeSolver", OneStep)
+    monkeypatch.setattr(interp_mod, "AUTO_ITERATIVE_MIN_N", 500)
+    auto = SobolevInterpolator(p, f, 1.9, rtol=1e-12)
+    assert auto.solver == "cholesky" and "dense fallback" in auto.solve_info.reason
+    dense = SobolevInterpolator(p, f, 1.9, solver="cholesky")
+    assert np.array_equal(auto.coefficients, dense.coefficients)
+    with pytest.raises(RuntimeError, match="did not converge"):
+        SobolevInterpolator(p, f, 1.9, solver="iterative", rtol=1e-12)
+
+
+def test_tiny_node_sets(nodes):
+    # fewer nodes than k = 60 and a coarse level of one node still solve exactly
+    p = nodes[:12]
+    f = _values(p)
+    it = SobolevInterpolator(p, f, 1.5, solver="iterative")
+    dense = SobolevInterpolator(p, f, 1.5, solver="cholesky")
+    assert np.allclose(it.coefficients, dense.coefficients, rtol=1e-6, atol=1e-8)

@@ -59,6 +59,7 @@ from envfit.base.resources import plan_memory
 from envfit.maps.scales import SCALES, check_not_constant
 from envfit.batch.scheduler import Task, drive
 from envfit.base.store import FolderLock, ResultStore
+from envfit.fit.table2 import _FIELDS as _TABLE2_FIELDS
 from envfit.fit.table2 import (PAPER_N, PAPER_S, Table2Cell, Table2Result, _cell_key, _recon_stem,
                      check_grid)
 
@@ -69,7 +70,7 @@ __all__ = ["LibraryTable2Result", "run_table2_library", "RHS_BUDGET_BYTES"]
 RHS_BUDGET_BYTES = 1 << 30
 #: channels per map assumed when planning memory (loading keeps at most 3)
 _PLAN_CHANNELS = 3
-_FIELDS = tuple(Table2Cell.__dataclass_fields__)
+_FIELDS = _TABLE2_FIELDS  # a library cell is a Cholesky cell: the solver fields keep their defaults
 
 
 @dataclass(kw_only=True)

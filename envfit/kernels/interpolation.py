@@ -220,6 +220,8 @@ class SobolevInterpolator:
                     f"the kernel matrix is singular; remove or merge duplicate samples")
         self._values = vals
         self.rtol = float(rtol)
+        if path == "iterative":
+            path, reason = self._solve_iterative(pts, vals, reason)
         if path == "cholesky":
             self._factor = self._factorize()
             self.log_det = float(2.0 * np.sum(np.log(np.diagonal(self._factor))))
@@ -229,15 +231,24 @@ class SobolevInterpolator:
             self.solve_info = SolveInfo(solver="cholesky", reason=reason,
                                         seconds_setup=self.timings["matrix"] + self.timings["cholesky"],
                                         seconds_solve=self.timings["solve"])
-        else:
-            t = time.perf_counter()
-            self._iterative = IterativeSolver(pts, self.s, nthreads=_nthreads())
-            self.timings["setup"] = time.perf_counter() - t
-            self._alpha, self.solve_info = self._iterative.solve(vals, self._tol(vals),
-                                                                 reason=reason)
-            self.timings["solve"] = self.solve_info.seconds_solve
-            if not self.solve_info.converged:
-                raise RuntimeError(f"the iterative solver did not converge: {self.solve_info}")
+        self.last_solve_info = self.solve_info
+
+    def _solve_iterative(self, pts: np.ndarray, vals: np.ndarray, reason: str) -> tuple[str, str]:
+        """CG (sets coefficients, solve_info); ``("cholesky", why)`` to fall back: ``auto``
+        whose CG did not converge while the dense matrix fits. ``"iterative"`` raises then."""
+        t = time.perf_counter()
+        self._iterative = IterativeSolver(pts, self.s, nthreads=_nthreads())
+        self.timings["setup"] = time.perf_counter() - t
+        self._alpha, self.solve_info = self._iterative.solve(vals, self._tol(vals), reason=reason)
+        self.timings["solve"] = self.solve_info.seconds_solve
+        if self.solve_info.converged:
+            return "iterative", reason
+        fits = interpolator_nbytes(self.n, self.nchannels, "cholesky") <= memory_budget_bytes()
+        if self._solver_mode == "auto" and fits:
+            self._iterative = None
+            return "cholesky", (f"{reason}; CG did not converge after "
+                                f"{self.solve_info.iterations} iterations: dense fallback")
+        raise RuntimeError(f"the iterative solver did not converge: {self.solve_info}")
 
     def _setup_nodes(self, pts: np.ndarray, nchannels: int) -> None:
         """The attributes every interpolant has (nodes, s, constants), nothing solved yet."""
