@@ -70,6 +70,25 @@ def test_library_equals_single_map_runs_with_one_factorization_per_cell(maps, co
     assert all(r["s_best"] in S for r in rows)
 
 
+def test_library_iterative_one_preconditioner_for_all_maps(maps, count_factorizations):
+    """solver="iterative": every map's columns side by side in one CG solve per (s, N), no
+    dense factorisation; each cell records the solver, and the RMSEs equal the single-map
+    Cholesky runs to 1e-6 relative (the stopping rule's promise)."""
+    lib = run_table2_library(maps, S, N, scale="display", workers=1, solver="iterative")
+    assert count_factorizations == [] and lib.factorizations == len(S) * len(N)
+    for m, r in zip(maps, lib.maps):
+        for c in r.cells:
+            assert c.solver == "iterative" and c.iterations > 0
+            assert 0 < c.rmse_change_bound <= 1e-6 and c.residual < 1e-6
+        dense = run_table2(m, S, N, scale="display", solver="cholesky")
+        assert_same_tables(r, dense, rel=1e-6)
+
+
+def test_library_solver_checked_before_work(maps):
+    with pytest.raises(ParameterError, match="solver"):
+        run_table2_library(maps, S, N, solver="lu")
+
+
 def test_resume_factorizes_only_missing_cells(maps, tmp_path, count_factorizations):
     first = run_table2_library(maps, [1.5], N, out=tmp_path, workers=1, save_reconstructions=True)
     assert first.cells_computed == 6 and len(count_factorizations) == 2

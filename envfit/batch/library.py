@@ -52,10 +52,9 @@ from envfit.maps.envmap import check_sample_count
 from envfit.base.errors import ParameterError
 from envfit.batch.executor import make_executor
 from envfit.batch.library_result import LibraryResult
-from envfit.base.resources import interpolator_nbytes
 from envfit.batch.tasks import SweepSpec, evaluate_task, sample_task, solve_task
 from envfit.maps.mapsource import LoadOptions, MapSource, resolve_map_sources
-from envfit.base.resources import plan_memory
+from envfit.base.resources import interpolator_nbytes, memory_budget_bytes, plan_memory
 from envfit.maps.scales import SCALES, check_not_constant
 from envfit.batch.scheduler import Task, drive
 from envfit.base.store import FolderLock, ResultStore
@@ -70,7 +69,13 @@ __all__ = ["LibraryTable2Result", "run_table2_library", "RHS_BUDGET_BYTES"]
 RHS_BUDGET_BYTES = 1 << 30
 #: channels per map assumed when planning memory (loading keeps at most 3)
 _PLAN_CHANNELS = 3
-_FIELDS = _TABLE2_FIELDS  # a library cell is a Cholesky cell: the solver fields keep their defaults
+_FIELDS = _TABLE2_FIELDS  # required of a stored cell; the solver's fields are optional (older
+_SOLVER_FIELDS = ("solver", "iterations", "residual", "rmse_change_bound")  # cells: defaults)
+
+
+def _cell(d: dict) -> Table2Cell:
+    """A :class:`Table2Cell` from a stored or fresh cell dict (solver fields if present)."""
+    return Table2Cell(**{k: d[k] for k in _FIELDS + _SOLVER_FIELDS if k in d})
 
 
 @dataclass(kw_only=True)
@@ -118,7 +123,8 @@ def run_table2_library(maps: Sequence, s_values: Sequence[float] = PAPER_S,
                        scheduler: str | None = None, load_options: LoadOptions | None = None,
                        save_reconstructions: bool = False, quiet: bool = True,
                        on_cell: Callable[[str, Table2Cell, bool], None] | None = None,
-                       rhs_budget_bytes: int = RHS_BUDGET_BYTES) -> LibraryTable2Result:
+                       rhs_budget_bytes: int = RHS_BUDGET_BYTES,
+                       solver: str = "cholesky") -> LibraryTable2Result:
     """Run the (s, N) sweep on every map of ``maps``; see the module docstring.
 
     Parameters
@@ -136,6 +142,10 @@ def run_table2_library(maps: Sequence, s_values: Sequence[float] = PAPER_S,
     on_cell : ``on_cell(map_label, cell, resumed)`` after each cell, in the driver.
     rhs_budget_bytes : memory for one factorisation's right-hand sides; more maps are
         split into groups (one factorisation per group).
+    solver : "cholesky" (one dense factor per (s, N) for all maps), "iterative" (CG with the
+        near/far product, all maps' columns side by side: one preconditioner for all), or
+        "auto" (Cholesky where the dense matrix fits, else iterative); each cell records it
+        (:class:`~envfit.fit.table2.Table2Cell`).
     """
     t_start = time.perf_counter()
     s_values, n_values = check_grid(s_values, n_values)
@@ -145,8 +155,15 @@ def run_table2_library(maps: Sequence, s_values: Sequence[float] = PAPER_S,
     # the memory guard of the largest N (one factorisation task: the interpolator with the
     # right-hand sides of one group of maps), before any sample point is made
     group = min(len(sources), max(1, int(rhs_budget_bytes // (2 * 8 * n_values[-1] * _PLAN_CHANNELS))))
-    plan_memory(n_values[-1], "library table2", channels=_PLAN_CHANNELS * group)
-    spec = SweepSpec(pointset=pointset, seed=int(seed), scale=scale, up=sources[0].up)
+    if solver not in ("auto", "cholesky", "iterative"):
+        raise ParameterError(f"solver must be auto, cholesky or iterative; got {solver!r}")
+    dense_fits = (interpolator_nbytes(n_values[-1], _PLAN_CHANNELS * group)
+                  <= memory_budget_bytes())
+    plan_memory(n_values[-1], "library table2", channels=_PLAN_CHANNELS * group,
+                solver="cholesky" if solver == "cholesky" or (solver == "auto" and dense_fits)
+                else "iterative")
+    spec = SweepSpec(pointset=pointset, seed=int(seed), scale=scale, up=sources[0].up,
+                     solver=solver)
     spec.points(4)  # an unknown point set fails here, before any work
     out = Path(out) if out is not None else None
     notes: list[str] = []                       # the stores' notes (cells recomputed), …
@@ -182,8 +199,7 @@ def _map_result(src, cells: dict[str, dict], lib: LibraryTable2Result) -> Table2
                      scale_description=some.get("scale_description", ""),
                      pointset=lib.pointset, seed=lib.seed, height=int(some.get("height", 0)),
                      s_values=lib.s_values, n_values=lib.n_values)
-    r.cells = [Table2Cell(**{k: cells[_cell_key(s, n)][k] for k in _FIELDS})
-               for n in lib.n_values for s in lib.s_values]
+    r.cells = [_cell(cells[_cell_key(s, n)]) for n in lib.n_values for s in lib.s_values]
     return r
 
 
@@ -203,7 +219,7 @@ def _resume(stores, sources, s_values, n_values, on_cell):
                 cells[i][_cell_key(s, n)] = d
                 resumed += 1
                 if on_cell:
-                    on_cell(sources[i].label, Table2Cell(**{k: d[k] for k in _FIELDS}), True)
+                    on_cell(sources[i].label, _cell(d), True)
     return cells, missing, resumed
 
 
@@ -300,14 +316,18 @@ class _Table2Run:
         return [Task(0, evaluate_task, (self.sources[i], self.spec, s, n, a,
                                         self.keep and n == self.n_max),
                      label=f"map {self.sources[i].label} (s={s:g}, N={n})",
-                     on_done=functools.partial(self.eval_done, i, res["seconds"], len(idx)))
-                for i, a in zip(idx, res["alphas"])]
+                     on_done=functools.partial(self.eval_done, i, res["seconds"], len(idx),
+                                               solve))
+                for i, a, solve in zip(idx, res["alphas"], res["solves"])]
 
-    def eval_done(self, i, fit_seconds, shared, res) -> None:
+    def eval_done(self, i, fit_seconds, shared, solve, res) -> None:
         recon, preview = res.pop("reconstruction", None), res.pop("preview", None)
         res.pop("seconds_load", None)
         cell = {**res, "seconds_fit": fit_seconds, "seconds": fit_seconds + res["seconds_evaluate"],
-                "shared_by": shared}
+                "shared_by": shared, "solver": solve["solver"],
+                "iterations": solve["iterations"], "residual": solve["residual"],
+                "rmse_change_bound": (solve["error_bound"] / res["rmse"]
+                                      if res["rmse"] > 0 else 0.0)}
         if recon is not None and self.out is not None:
             _save_pair(self.out / self.sources[i].slug, recon, preview, cell["s"], cell["n"],
                        self.spec.up)
@@ -317,7 +337,7 @@ class _Table2Run:
         self.lib.cells_computed += 1
         self.bar.update(1)
         if self.on_cell:
-            self.on_cell(self.sources[i].label, Table2Cell(**{k: cell[k] for k in _FIELDS}), False)
+            self.on_cell(self.sources[i].label, _cell(cell), False)
 
 
 def _save_pair(folder: Path, recon: np.ndarray, preview: np.ndarray, s: float, n: int, up: str) -> None:

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from envfit.base.errors import ParameterError
+from envfit.base.resources import interpolator_nbytes, memory_budget_bytes
 from envfit.kernels.interpolation import SobolevInterpolator
 from envfit.maps.mapsource import MapSource
 from envfit.maps.metrics import rmse, rmse_solid_angle
@@ -40,6 +41,12 @@ class SweepSpec:
     seed: int = 0
     scale: str = "display"
     up: str = "y"
+    #: the factorisation's solver: "cholesky" (one dense factor for all maps, the default),
+    #: "iterative" (preconditioned CG, every map's columns side by side: one preconditioner
+    #: for all maps) or "auto" (Cholesky where the dense matrix fits, else iterative — the
+    #: single-map crossover N = 3000 was measured with 3 columns; a library has many more,
+    #: which favour one factor)
+    solver: str = "cholesky"
 
     def points(self, n: int) -> np.ndarray:
         return sample_directions(n, pointset=self.pointset, seed=self.seed, up=self.up)
@@ -74,14 +81,30 @@ def solve_task(spec: SweepSpec, s: float, n: int, values: np.ndarray, widths: li
     [(N, C_k) per map], "seconds": wall time, "timings": matrix/cholesky/solve}``.
     """
     t0 = time.perf_counter()
-    # one dense factorisation per (s, N) shared by every map (the library's contract)
-    interp = SobolevInterpolator(spec.points(n), values, s, solver="cholesky")
+    # one factorisation (or one preconditioner) per (s, N) shared by every map
+    interp = SobolevInterpolator(spec.points(n), values, s, solver=_library_solver(spec, n, values))
     alpha = interp.coefficients
     edges = np.cumsum([0, *widths])
     alphas = [np.array(alpha[:, a:b], order="F") for a, b in zip(edges[:-1], edges[1:])]
     timings = dict(interp.timings)
+    info = interp.solve_info
+    iterative = info.solver == "iterative"
+    solves = [{"solver": info.solver, "iterations": int(info.iterations),
+               "residual": float(max(info.residual[a:b])) if iterative else 0.0,
+               "error_bound": float(max(info.error_bound[a:b])) if iterative else 0.0}
+              for a, b in zip(edges[:-1], edges[1:])]
     del interp, alpha
-    return {"alphas": alphas, "seconds": time.perf_counter() - t0, "timings": timings}
+    return {"alphas": alphas, "seconds": time.perf_counter() - t0, "timings": timings,
+            "solves": solves}
+
+
+def _library_solver(spec: SweepSpec, n: int, values: np.ndarray) -> str:
+    """The solver of one shared solve: ``spec.solver``; "auto" is Cholesky where the dense
+    matrix fits the memory budget, else the iterative path."""
+    if spec.solver != "auto":
+        return spec.solver
+    fits = interpolator_nbytes(n, values.shape[1]) <= memory_budget_bytes()
+    return "cholesky" if fits else "iterative"
 
 
 def evaluate_task(source: MapSource, spec: SweepSpec, s: float, n: int, alpha: np.ndarray,

@@ -34,8 +34,9 @@ def register(sub) -> None:
     p.add_argument("--solver", choices=("auto", "cholesky", "iterative"), default="auto",
                    help="linear solver of each cell: dense Cholesky, preconditioned CG with "
                         "O(N log N) products (RMSE equal to Cholesky's to 1e-6 relative), or "
-                        "auto (default: by the measured crossover N; iterative where the "
-                        "dense matrix does not fit). Single map only")
+                        "auto (default: one map by the measured crossover N; a library by "
+                        "one dense factor for all maps where it fits; iterative where the "
+                        "dense matrix does not fit)")
     p.add_argument("--reconstructions", action="store_true",
                    help="several maps: also write each map's reconstructions at the largest N "
                         "(one map: always written)")
@@ -118,9 +119,6 @@ def _run_library(args, s_values, n_values) -> int:
     maps = library_maps(args)
     if args.paper:
         say(args, "note: --paper prints beside a single map's table only")
-    if args.solver != "auto":
-        say(args, "note: --solver applies to a single map; a library factorises each (s, N) "
-                  "matrix once for all maps")
 
     def on_cell(label, cell, resumed):
         if resumed:
@@ -129,7 +127,7 @@ def _run_library(args, s_values, n_values) -> int:
     lib = run_table2_library(maps, s_values, n_values, pointset=args.pointset, scale=args.scale,
                              seed=args.seed, out=out, load_options=load_options_from_args(args),
                              save_reconstructions=args.reconstructions, quiet=args.quiet,
-                             on_cell=on_cell, **executor_kwargs(args))
+                             on_cell=on_cell, solver=args.solver, **executor_kwargs(args))
     record_unwritten(args, lib.unwritten)
     say(args, *[f"note: {n}" for n in lib.notes],
         f"{len(lib.maps)} maps, {len(s_values)} s x {len(n_values)} N; {lib.cells_computed} cells "
