@@ -6,11 +6,19 @@ import os
 
 from envfit.base.errors import MemoryBudgetError, ParameterError
 
-__all__ = ["interpolator_nbytes", "iterative_nbytes", "iterative_coarse_nodes", "largest_feasible_n", "SOLVERS", "available_memory_bytes", "check_memory", "format_bytes", "memory_budget_bytes",
+__all__ = ["machine_cores", "interpolator_nbytes", "iterative_nbytes", "iterative_coarse_nodes", "largest_feasible_n", "SOLVERS", "available_memory_bytes", "check_memory", "format_bytes", "memory_budget_bytes",
            "plan_memory", "largest_n_within"]
 
 #: fraction of the available memory one allocation plan may take
 MEMORY_FRACTION = 0.8
+
+
+def machine_cores() -> int:
+    """Cores this process may run on (the CPU affinity mask, else ``os.cpu_count()``)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):  # pragma: no cover - non-Linux
+        return max(1, os.cpu_count() or 1)
 
 
 def available_memory_bytes() -> int:

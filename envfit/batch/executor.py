@@ -38,25 +38,17 @@ from __future__ import annotations
 import concurrent.futures as cf
 import functools
 import multiprocessing
-import os
 from typing import Any, Callable, Iterable
 
 from envfit.base.errors import ExecutorError, ParameterError
-from envfit.base.resources import MEMORY_FRACTION, available_memory_bytes, format_bytes
+from envfit.base.resources import (MEMORY_FRACTION, available_memory_bytes, format_bytes,
+                                   machine_cores)
 
 __all__ = ["EXECUTORS", "machine_cores", "run_pinned", "plan_workers", "LocalExecutor",
            "DaskExecutor", "make_executor"]
 
 EXECUTORS = ("local", "dask")
 DASK_HINT = 'install it with: pip install "envfit[dask]"'
-
-
-def machine_cores() -> int:
-    """Cores this process may run on (the CPU affinity mask, else ``os.cpu_count()``)."""
-    try:
-        return max(1, len(os.sched_getaffinity(0)))
-    except (AttributeError, OSError):  # pragma: no cover - non-Linux
-        return max(1, os.cpu_count() or 1)
 
 
 def run_pinned(threads: int, fn: Callable, *args: Any) -> Any:

@@ -69,7 +69,6 @@ True
 from __future__ import annotations
 
 import math
-import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
@@ -77,7 +76,7 @@ import numpy as np
 from scipy import special
 
 from envfit.base.checks import check_int
-from envfit.base.resources import check_memory
+from envfit.base.resources import check_memory, machine_cores
 from envfit.base.errors import ParameterError
 from envfit.maps import latlong
 from envfit.maps.envmap import EnvMap
@@ -556,14 +555,6 @@ def _axis_terms(m, A, R, px, grid, nodes, envmap, sampler, technique, weight, nu
     return v.mean(axis=1), float(tot.mean()), sampled, P, X
 
 
-def _cores() -> int:
-    """Cores this process may run on."""
-    try:
-        return max(1, len(os.sched_getaffinity(0)))
-    except AttributeError:  # pragma: no cover - not Linux
-        return max(1, os.cpu_count() or 1)
-
-
 def _accumulate(envmap, sampler, technique, weight, nu, heur, g, A, wts, calibrate=False):
     """Weighted sums over axes of V, |ĥ|², the k₁ = 0 cross term and I; with ``calibrate``
     rescaled by the ratio estimator of :func:`_calibration`. The axes run on all cores
@@ -574,9 +565,9 @@ def _accumulate(envmap, sampler, technique, weight, nu, heur, g, A, wts, calibra
     nodes = _MapNodes.of(envmap, sampler, band) if technique != "brdf" else None
     px = _Pixels(envmap, sampler, _subdivision(envmap, weight))
     R = twisted_frames(A, None)
-    workers = min(_cores(), A.shape[0])
+    workers = min(machine_cores(), A.shape[0])
     args = (A, R, px, grid, nodes, envmap, sampler, technique, weight, nu, heur, band,
-            calibrate, max(1, _cores() // workers))
+            calibrate, max(1, machine_cores() // workers))
     if workers == 1:
         terms = [_axis_terms(m, *args) for m in range(A.shape[0])]
     else:

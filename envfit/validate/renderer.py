@@ -52,12 +52,14 @@ from __future__ import annotations
 
 import math
 import time
+from concurrent.futures import ThreadPoolExecutor, as_completed
 from dataclasses import asdict, dataclass, field, fields
 from typing import Callable, Sequence
 
 from envfit.base.checks import check_int, check_ints, check_names, check_positive
 from envfit.base.errors import ParameterError
 from envfit.base.progress import progress_bar
+from envfit.base.resources import machine_cores
 from envfit.base.store import ResultStore, array_fingerprint
 from envfit.maps.envmap import EnvMap
 from envfit.predict.renderer import predict_rule, renderer_model
@@ -524,14 +526,26 @@ def _run_cells(setup, cfg, store, rules, stored, todo, timings, quiet, on_cell):
         models, timings["spectra_by_lobe"] = _models(setup, cfg, todo, bar)
         timings["spectra"] = sum(timings["spectra_by_lobe"].values())
         done, t_cells = {}, time.perf_counter()
-        for lobe, rule in todo:
-            key = renderer_cell_key(lobe, rule.strategy, rule.pointset, rule.n)
-            bar.set_postfix_str(f"{lobe} {rule.label} N={rule.n}")
-            done[key] = _compute_cell(setup, models[lobe], cfg, lobe, rule)
-            store.put(key, done[key].to_json())
-            bar.update(1)
-            if on_cell:
-                on_cell(key, False)
+        # the cells on all cores (threads: numpy, ducc0 and the compiled lookups release the
+        # GIL; each cell's random streams are its own, so the numbers do not depend on the
+        # thread count); stored, counted and reported in the main thread as each finishes
+        with ThreadPoolExecutor(max_workers=max(1, min(machine_cores(), len(todo)))) as pool:
+            futures = {pool.submit(_compute_cell, setup, models[lobe], cfg, lobe, rule):
+                       renderer_cell_key(lobe, rule.strategy, rule.pointset, rule.n)
+                       for lobe, rule in todo}
+            try:
+                for fut in as_completed(futures):
+                    key = futures[fut]
+                    done[key] = fut.result()
+                    store.put(key, done[key].to_json())
+                    bar.set_postfix_str(key)
+                    bar.update(1)
+                    if on_cell:
+                        on_cell(key, False)
+            except BaseException:
+                for fut in futures:                   # an error or a signal: start no more
+                    fut.cancel()
+                raise
         timings["cells"] = time.perf_counter() - t_cells
     finally:
         bar.close()
