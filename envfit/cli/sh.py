@@ -38,7 +38,7 @@ def register(sub) -> None:
                     "directions where the truncated signal is negative (Gauss-Legendre grid; "
                     "checked by a dense per-pixel sum), then the smallest L and window meeting "
                     "--target-relative without negative directions.")
-    add_map_arguments(p, optional=False)
+    add_map_arguments(p)
     p.add_argument("--lmax", type=nonneg_int, required=True, metavar="L",
                    help="SH degree of the exported coefficients, 0 <= L <= H-1")
     p.add_argument("--irradiance", action="store_true",
