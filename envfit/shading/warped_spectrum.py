@@ -120,8 +120,8 @@ _LAST: dict = {}
 def _last_call(kind: str, objects: tuple, values, make):
     """``make()``, or its result of the last call of this ``kind`` when that call had the
     same ``objects`` (identity) and ``values`` (equality): the spectra of one map and lobe
-    (BRDF, map, MIS) share the map technique's nodes (~100 bytes each) and the axes. Only
-    the last result of a kind is kept."""
+    (BRDF, map, MIS) share the map technique's nodes (~100 bytes each), the axes, the pixel
+    quadrature and the exact axis means. Only the last result of a kind is kept."""
     hit = _LAST.get(kind)
     if hit is not None and all(a is b for a, b in zip(hit[0], objects)) and hit[1] == values:
         return hit[2]
@@ -563,7 +563,8 @@ def _accumulate(envmap, sampler, technique, weight, nu, heur, g, A, wts, calibra
     band = g // 4
     grid = _Grid(weight, LOBE_OVERSAMPLING * band) if technique != "map" else None
     nodes = _MapNodes.of(envmap, sampler, band) if technique != "brdf" else None
-    px = _Pixels(envmap, sampler, _subdivision(envmap, weight))
+    sub = _subdivision(envmap, weight)
+    px = _last_call("pixels", (envmap, sampler), sub, lambda: _Pixels(envmap, sampler, sub))
     R = twisted_frames(A, None)
     workers = min(machine_cores(), A.shape[0])
     args = (A, R, px, grid, nodes, envmap, sampler, technique, weight, nu, heur, band,
@@ -582,7 +583,10 @@ def _accumulate(envmap, sampler, technique, weight, nu, heur, g, A, wts, calibra
     X[band] = 0.0
     if calibrate:
         sampled = {k: sum(w * t[2][k] for w, t in zip(wts, terms)) for k in ("brdf", "map")}
-        r = _calibration(technique, exact_mean_variances(envmap, px, weight), sampled)
+        lobe = (type(weight).__name__, getattr(weight, "shininess", None), sub)
+        exact = _last_call("exact", (envmap, sampler), lobe,
+                           lambda: exact_mean_variances(envmap, px, weight))
+        r = _calibration(technique, exact, sampled)
         V, P, X = V * r, P * r[:, None, None], X * (math.sqrt(r[0] * r[-1]))
     return band, V, P, X, mean
 
