@@ -29,15 +29,16 @@ def test_the_sun_is_found_and_split_off(setup):
 def test_measured_rmse_agrees_with_the_prediction(setup, brdf):
     """Every strategy, a QMC and a random set, N = 16 and 64: the prediction lies inside the
     measured 95 % interval or within 15 % of the measured RMSE."""
-    # grid 256: the lobe part aliases less than 5 % here; 48 axes, calibrated by the exact means
-    model = renderer_model(setup, brdf, 30.0, grid=256, axes=48)
+    # grid 256: the lobe part aliases less than 5 % here; 128 axes, calibrated by the exact
+    # means (48 put glossy brdf/sf N = 64 12 % above an 8000-axis measurement, 1024 axes 7 %)
+    model = renderer_model(setup, brdf, 30.0, grid=256, axes=128)
     bad = []
     for strategy in ("brdf", "map", "mis", "split"):
         for ps, n in (("sobol", 16), ("random", 16), ("sf", 64)):
             rule = RendererRule(strategy, ps, n)
             pred = predict_rule(model, rule).rmse
-            iv = measure_rule(setup, rule, brdf, 30.0, seed=2, axes_start=200, max_axes=400,
-                              resamples=400).interval
+            iv = measure_rule(setup, rule, brdf, 30.0, seed=2, axes_start=400, max_axes=1600,
+                              resamples=400, target_relative=0.06).interval
             if not (iv.low <= pred <= iv.high or abs(pred / iv.rmse - 1) <= 0.15):
                 bad.append((rule.label, n, pred, iv))
     assert not bad, bad

@@ -149,7 +149,7 @@ def test_config_checks():
     full, quick = VR.RendererValidationConfig(), VR.renderer_quick_config()
     assert (full.strategies, full.pointsets, full.n_values) == (
         ("brdf", "map", "mis", "split"), ("random", "sobol", "sf"), (16, 64, 256, 1024))
-    assert (full.grid, full.spectrum_axes, full.axes_start, full.max_axes) == (512, 64, 500, 16000)
+    assert (full.grid, full.spectrum_axes, full.axes_start, full.max_axes) == (512, 256, 500, 16000)
     assert (quick.n_values, quick.grid, quick.spectrum_axes, quick.axes_start, quick.max_axes) == (
         (16, 256), 256, 32, 250, 4000)
 

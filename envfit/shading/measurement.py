@@ -110,12 +110,14 @@ class RMSEInterval:
 @dataclass(frozen=True)
 class AdaptiveRMSE:
     """The result of :func:`adaptive_rmse`: the final ``interval``, the ``axes`` measured
-    (each once), whether the ``target_met``, and the number of ``rounds`` (calls of measure)."""
+    (each once), whether the ``target_met``, the number of ``rounds`` (calls of measure) and
+    the axes' ``sampling``: "uniform" or "importance" (drawn from a proposal and weighted)."""
 
     interval: RMSEInterval
     axes: int
     target_met: bool
     rounds: int
+    sampling: str = "uniform"
 
 
 @dataclass(frozen=True)
@@ -259,7 +261,7 @@ def _uniform_axes(rng: np.random.Generator, count: int) -> np.ndarray:
 
 def adaptive_rmse(measure: Callable, *, axes_start: int = 500, max_axes: int = 64000,
                   target_relative: float = 0.10, confidence: float = 0.95, seed=0,
-                  resamples: int = 2000, method: str = "bca") -> AdaptiveRMSE:
+                  resamples: int = 2000, method: str = "bca", proposal=None) -> AdaptiveRMSE:
     r"""Measure the RMSE over uniform random axes with as many axes as its interval needs.
 
     ``measure(axes)`` — supplied by the caller — gets an (K, 3) array of unit axes and
@@ -291,6 +293,11 @@ def adaptive_rmse(measure: Callable, *, axes_start: int = 500, max_axes: int = 6
     target_relative : the relative half-width to reach, > 0.
     confidence, seed, resamples, method : as :func:`rmse_interval` (``seed`` also draws the
         axes; the bootstrap of every round uses a generator from the same seed).
+    proposal : None (uniform axes) or an importance density over axes with
+        ``draw(rng, K) -> (axes (K, 3), weights (K,))``, the weights :math:`u/q` of the
+        uniform density over it (:class:`envfit.shading.axis_proposal.AxisProposal`); the
+        bootstrap unit is then :math:`w_m d_m`, whose mean is unbiased for the uniform mean
+        (importance sampling), and far less skewed when q follows d.
 
     Returns an :class:`AdaptiveRMSE` (interval, axes, target_met, rounds).
 
@@ -317,7 +324,10 @@ def adaptive_rmse(measure: Callable, *, axes_start: int = 500, max_axes: int = 6
     parts: list[np.ndarray] = []
     have, want, rounds = 0, m0, 0
     while True:
-        new = _uniform_axes(rng, want - have)
+        if proposal is None:
+            new, wts = _uniform_axes(rng, want - have), None
+        else:
+            new, wts = proposal.draw(rng, want - have)
         result = measure(new)
         if isinstance(result, np.ndarray) and result.ndim == 1:
             d = result                                    # squared errors per axis, given
@@ -329,12 +339,13 @@ def adaptive_rmse(measure: Callable, *, axes_start: int = 500, max_axes: int = 6
             d = squared_errors_per_axis(est, tru)
         if d.shape[0] != new.shape[0]:
             raise ParameterError(f"measure returned {d.shape[0]} axes for {new.shape[0]}")
-        parts.append(d)
+        parts.append(d if wts is None else d * wts)
         have, rounds = want, rounds + 1
         interval = _interval_of(np.concatenate(parts), conf, b, int(boot_seed), method)
         met = interval.relative_half_width <= target
         if met or have >= m_max:
-            return AdaptiveRMSE(interval, have, bool(met), rounds)
+            return AdaptiveRMSE(interval, have, bool(met), rounds,
+                                "uniform" if proposal is None else "importance")
         want = min(2 * have, m_max)
 
 

@@ -45,7 +45,8 @@ import numpy as np
 from envfit.base.checks import check_int
 from envfit.base.errors import ParameterError
 from envfit.maps.envmap import EnvMap
-from envfit.shading.ground_truth import shading_integral
+from envfit.shading.axis_proposal import AxisProposal
+from envfit.shading.ground_truth import shading_integral, weight_function
 from envfit.shading.importance import ESTIMATORS
 from envfit.shading.map_sampler import MapSampler
 from envfit.shading.measurement import AdaptiveRMSE, adaptive_rmse
@@ -53,7 +54,7 @@ from envfit.shading.sources import BrightSource, find_bright_sources, split_map
 from envfit.theory.pointsets import POINTSETS, square_points
 
 __all__ = ["STRATEGIES", "RendererRule", "RendererSetup", "rule_points", "rule_estimates",
-           "measure_rule", "replicates", "SAMPLES_PER_AXIS"]
+           "measure_rule", "replicates", "SAMPLES_PER_AXIS", "AXIS_SAMPLING"]
 
 #: strategy → (technique of envfit.shading.importance, on the rest map after the split?)
 STRATEGIES: dict[str, tuple[str, bool]] = {
@@ -64,6 +65,12 @@ STRATEGIES: dict[str, tuple[str, bool]] = {
 }
 #: samples per axis of a measurement: N × replicates ≥ this
 SAMPLES_PER_AXIS = 4096
+#: how :func:`measure_rule` draws its axes: name → adaptive_rmse's proposal on a setup
+AXIS_SAMPLING = {
+    "importance": lambda setup, rule, brdf, shininess: setup.proposal(
+        brdf, shininess, part="rest" if rule.on_rest else "whole"),
+    "uniform": lambda setup, rule, brdf, shininess: None,
+}
 
 
 @dataclass(frozen=True)
@@ -122,6 +129,7 @@ class RendererSetup:
     rest_map: EnvMap
     rest_sampler: MapSampler
     _truth: dict = field(default_factory=dict, repr=False)
+    _proposals: dict = field(default_factory=dict, repr=False)
 
     @classmethod
     def of(cls, envmap: EnvMap, sources=None) -> "RendererSetup":
@@ -131,6 +139,16 @@ class RendererSetup:
         srcs = tuple(find_bright_sources(envmap) if sources is None else sources)
         smap, rmap = split_map(envmap, list(srcs))
         return cls(envmap, MapSampler(envmap), srcs, smap, rmap, MapSampler(rmap))
+
+    def proposal(self, brdf: str, shininess: float, *, part: str = "whole") -> AxisProposal:
+        """The axis proposal (:class:`envfit.shading.axis_proposal.AxisProposal`) of the whole
+        map, or (``part="rest"``) of the rest map, for the lobe; built once."""
+        key = (part, brdf, float(shininess))
+        if key not in self._proposals:
+            m, sampler = ((self.rest_map, self.rest_sampler) if part == "rest"
+                          else (self.envmap, self.sampler))
+            self._proposals[key] = AxisProposal.of(m, sampler, weight_function(brdf, shininess))
+        return self._proposals[key]
 
     def truth(self, axes: np.ndarray, brdf: str, shininess: float, *, part: str = "whole"):
         """Shading integrals (M, C) of the whole map, or (``part="source"``) of the source
@@ -171,15 +189,24 @@ def replicates(n: int) -> int:
 def measure_rule(setup: RendererSetup, rule: RendererRule, brdf="diffuse",
                  shininess: float = 30.0, *, seed: int = 0, target_relative: float = 0.10,
                  axes_start: int = 500, max_axes: int = 16000,
-                 resamples: int = 2000) -> AdaptiveRMSE:
+                 resamples: int = 2000, sampling: str = "importance") -> AdaptiveRMSE:
     """The rule's RMSE over uniform random axes with its bootstrap 95 % interval, adaptive
     (:func:`envfit.shading.measurement.adaptive_rmse`: doubling the axes from ``axes_start``
     until the interval is within ±``target_relative`` or ``max_axes`` are measured).
+
+    ``sampling`` (:data:`AXIS_SAMPLING`): ``"importance"`` draws the axes from the map's
+    :class:`envfit.shading.axis_proposal.AxisProposal` for the lobe (the rest map's for
+    ``split``) and weights each axis's squared error by u/q — unbiased for the mean over
+    uniform axes, and on a map with a sun far less skewed than ``"uniform"`` axes, whose
+    sample usually holds too few of the axes that catch the sun and so measures low.
 
     Each axis gets :func:`replicates` independent estimates (twist and shift each; for
     ``random`` every point shifted on its own: a fresh i.i.d. set) and contributes their mean squared error, the bootstrap
     resampling axes. The axes are drawn from ``seed`` (the same for every rule, so the truths
     are shared); twists, shifts and random sets from a stream of their own."""
+    if sampling not in AXIS_SAMPLING:
+        raise ParameterError(f"sampling must be one of {', '.join(AXIS_SAMPLING)}; "
+                             f"got {sampling!r}")
     stream = np.random.default_rng([int(seed), 7])
     reps = replicates(rule.n)
 
@@ -193,4 +220,5 @@ def measure_rule(setup: RendererSetup, rule: RendererRule, brdf="diffuse",
         return d.reshape(A.shape[0], reps).mean(axis=1)
 
     return adaptive_rmse(measure, axes_start=axes_start, max_axes=max_axes,
-                         target_relative=target_relative, seed=seed, resamples=resamples)
+                         target_relative=target_relative, seed=seed, resamples=resamples,
+                         proposal=AXIS_SAMPLING[sampling](setup, rule, brdf, shininess))

@@ -38,10 +38,13 @@ then costs one non-uniform FFT per point set):
   its 3×3 neighbourhood, times its solid angle, lobe and pdf at its centre) — exact at a sun a
   few pixels wide, which a grid in the square would sample with a handful of points;
 * the frequencies above the box get their share of the variance,
-  :math:`V_i - \sum_{box}|\hat h_i|^2`, at the Monte Carlo weight :math:`1/n_i` (the mean of
-  :math:`|S_i|^2` over high frequencies for every set): so the prediction is exact for random
-  points and for QMC sets up to :math:`N \approx (B/2)^2`, and beyond it tends to the Monte
-  Carlo rate (conservative);
+  :math:`V_i - \sum_{box}|\hat h_i|^2`: on the strips beside the axes of frequency space
+  (where the square's edges and the sampler's row boundaries put it, and where QMC sets'
+  stratified projections have tiny sums) continued as a power law with the set's own sums,
+  the rest at the Monte Carlo weight :math:`1/n_i` (the mean of :math:`|S_i|^2` over high
+  frequencies for every set; :mod:`envfit.shading.spectral_tail`): so the prediction is
+  exact for random points and for QMC sets up to :math:`N \approx (B/2)^2`, and beyond it
+  tends to the Monte Carlo rate (conservative);
 * the mean over axes (uniform on the sphere) by importance: ``axes`` axes drawn systematically
   from 2048 spherical Fibonacci axes with probability ⅓ uniform + ⅓ ∝ a proxy of BRDF
   sampling's and ⅓ of map sampling's second moment (an 8×8-pixel-block quadrature of the
@@ -84,6 +87,7 @@ from envfit.shading.estimators import twisted_frames
 from envfit.shading.ground_truth import weight_function
 from envfit.shading.importance import HEURISTICS, brdf_pdf
 from envfit.shading.map_sampler import MapSampler, _bilinear_cell_average, _square
+from envfit.shading.spectral_tail import strip_tail
 from envfit.theory.pointsets import lambert_to_hemisphere
 from envfit.theory.sphere_points import spherical_fibonacci_sphere
 
@@ -92,6 +96,7 @@ __all__ = [
     "WarpedSpectrum",
     "cell_square_average",
     "proposal_axes",
+    "proxy_second_moments",
     "shifted_mse_per_axis",
     "shifted_mse_terms",
     "shifted_rmse",
@@ -437,8 +442,12 @@ def _fibonacci_axes(m: int) -> np.ndarray:
     return pts[np.lexsort((np.where(band % 2 == 0, phi, -phi), band))]
 
 
-def _proxy_moments(envmap: EnvMap, sampler: MapSampler, weight, pool: np.ndarray):
-    """BRDF and map sampling second moments of the luminance per pool axis (block quadrature)."""
+def proxy_second_moments(envmap: EnvMap, sampler: MapSampler, weight, axes: np.ndarray):
+    r"""Proxies of the squared error of BRDF and map sampling of the luminance at ``axes``
+    (K, 3): :math:`\int\rho_a Y^2\,d\omega` and :math:`\int\rho_a^2 Y^2/p\,d\omega` by a
+    quadrature on blocks of :data:`PROXY_BLOCK`² pixels (the lobe at the block's centroid of
+    :math:`Y^2\omega`, so that a sun smaller than a block is where it is);
+    the axes in chunks, so memory stays near 2²² values whatever K and the map's size."""
     h, w = envmap.height, envmap.width
     b = max(1, min(PROXY_BLOCK, h // 4))
     hb, wb = h // b, w // b
@@ -448,10 +457,18 @@ def _proxy_moments(envmap: EnvMap, sampler: MapSampler, weight, pool: np.ndarray
     y2o = (y * y * om).reshape(hb, b, wb, b).sum(axis=(1, 3)).ravel()
     y2op = (y * y * om / np.maximum(pdf, 1e-300)).reshape(hb, b, wb, b).sum(axis=(1, 3)).ravel()
     dirs = latlong.pixel_directions(h, w, up=envmap.up)[:hb * b, :wb * b]
-    centres = dirs.reshape(hb, b, wb, b, 3).mean(axis=(1, 3)).reshape(-1, 3)
+    # each block's direction: its centroid of Y²ω (a sun's, in the block holding it), the
+    # geometric centre where the block is black
+    mass = (y * y * om)[..., None] + 1e-300
+    centres = (dirs * mass).reshape(hb, b, wb, b, 3).sum(axis=(1, 3)).reshape(-1, 3)
     centres /= np.linalg.norm(centres, axis=1, keepdims=True)
-    rho = brdf_pdf(weight, pool @ centres.T)                       # (pool, blocks)
-    return rho @ y2o, (rho * rho) @ y2op
+    axes = np.asarray(axes, dtype=np.float64)
+    m1, m2 = np.empty(axes.shape[0]), np.empty(axes.shape[0])
+    step = max(1, (1 << 22) // centres.shape[0])
+    for i in range(0, axes.shape[0], step):
+        rho = brdf_pdf(weight, np.einsum("kc,bc->kb", axes[i:i + step], centres))  # (chunk, blocks)
+        m1[i:i + step], m2[i:i + step] = rho @ y2o, (rho * rho) @ y2op
+    return m1, m2
 
 
 def proposal_axes(envmap: EnvMap, sampler: MapSampler, weight, count: int):
@@ -474,7 +491,7 @@ def proposal_axes(envmap: EnvMap, sampler: MapSampler, weight, count: int):
     parts = [np.full(AXIS_POOL, 1.0 / AXIS_POOL)]
     lobe = (type(weight).__name__, getattr(weight, "shininess", None))
     for m in _last_call("proxy", (envmap, sampler), lobe,
-                        lambda: _proxy_moments(envmap, sampler, weight, pool)):
+                        lambda: proxy_second_moments(envmap, sampler, weight, pool)):
         tot = float(m.sum())
         parts.append(m / tot if tot > 0 else parts[0])
     pi = sum(parts) / 3.0
@@ -682,7 +699,9 @@ def _split_points(spec: WarpedSpectrum, u) -> list[np.ndarray]:
 def shifted_mse_terms(spec: WarpedSpectrum, u) -> dict:
     r"""The terms of the predicted mean squared error of the shifted estimator with the
     points u: ``box`` :math:`\sum_i\sum_{box}|\hat h_i|^2|S_i|^2` (+ the MIS cross term),
-    ``tail`` :math:`\sum_i \max(V_i - \sum_{box}|\hat h_i|^2, 0)/n_i`, ``random``
+    ``tail`` the power above the box, :math:`\max(V_i - \sum_{box}|\hat h_i|^2, 0)`, with
+    the strips along the axes continued with the set's sums and the rest at 1/n_i
+    (:func:`envfit.shading.spectral_tail.strip_tail`), ``random``
     :math:`\sum_i V_i/n_i` (what i.i.d. points would give)."""
     pts = _split_points(spec, u)
     box = tail = rnd = 0.0
@@ -692,7 +711,8 @@ def shifted_mse_terms(spec: WarpedSpectrum, u) -> dict:
         s = _exp_sums(p, spec.band)
         S.append(s)
         box += _box_sum(spec.power[i] * np.abs(s) ** 2)
-        tail += max(float(spec.variance[i]) - _box_sum(spec.power[i]), 0.0) / n
+        above = strip_tail(spec.power[i], float(spec.variance[i]), p)
+        tail += above["strips"] + above["rest"]
         rnd += float(spec.variance[i]) / n
     if len(S) == 2:
         box += 2.0 * float(np.real(spec.cross * S[0][:, 0] * np.conj(S[1][:, 0])).sum())

@@ -109,7 +109,7 @@ class RendererValidationConfig:
     shininess: float = 30.0
     n_values: Sequence[int] = RENDERER_N
     grid: int = 512
-    spectrum_axes: int = 64
+    spectrum_axes: int = 256
     axes_start: int = 500
     max_axes: int = 16000
     target_relative: float = 0.10
