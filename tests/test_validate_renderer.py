@@ -78,8 +78,10 @@ def test_measured_equal_measure_rule_directly(result, sun_map, cfg, strategy, po
     setup = RendererSetup.of(sun_map)
     m = measure_rule(setup, RendererRule(strategy, pointset, n), "diffuse", cfg.shininess,
                      seed=cfg.seed, target_relative=cfg.target_relative,
-                     axes_start=cfg.axes_start, max_axes=cfg.max_axes, resamples=cfg.resamples)
+                     axes_start=cfg.axes_start, max_axes=cfg.max_axes, resamples=cfg.resamples,
+                     sampling=cfg.axis_sampling)
     c = result.cell("diffuse", strategy, pointset, n)
+    assert c.axis_sampling == m.sampling == cfg.axis_sampling == "importance"
     assert (c.measured_rmse, c.measured_low, c.measured_high) == pytest.approx(
         (m.interval.rmse, m.interval.low, m.interval.high), rel=1e-12)
     assert (c.axes, c.target_met, c.interval_method) == (m.axes, m.target_met, m.interval.method)
@@ -270,6 +272,13 @@ def test_target_statement_both_ways():
     assert s.startswith("1 of 2 cells stopped at max_axes = 120 before") and "map/sobol N = 32" in s
 
 
+def test_measured_axes_sentence_both_ways():
+    imp = RR._measured_axes({"axis_sampling": "importance"})
+    assert "importance-sampled" in imp and "weighted by u/q" in imp
+    for c in ({"axis_sampling": "uniform"}, {}):           # a run from before the option
+        assert RR._measured_axes(c) == "the RMSE over uniform random axes"
+
+
 def test_report_has_the_section_only_with_renderer(result):
     from envfit.validate.report_renderer import _renderer_section
     lines = _renderer_section({"renderer": result.to_json()})
@@ -311,6 +320,8 @@ def _cli(tmp_path, *argv):
     (["--renderer", "--renderer-pointsets", "grid"], "point set"),
     (["--renderer", "--renderer-n", "1,16"], "N"),
     (["--strategies", "map"], "--renderer"),
+    (["--renderer-axes", "uniform"], "--renderer"),
+    (["--renderer", "--renderer-axes", "stratified"], "axis sampling"),
 ])
 def test_cli_bad_renderer_options_one_line_exit_2(tmp_path, argv, message):
     p = _cli(tmp_path, *argv, "--quiet")

@@ -83,7 +83,7 @@ from envfit.base.progress import progress_bar
 from envfit.maps.envmap import EnvMap
 from envfit.predict.renderer import RendererModel, predict_rule, renderer_model
 from envfit.shading.renderer_rules import STRATEGIES, RendererRule, RendererSetup, measure_rule
-from envfit.shading.warped_spectrum import WarpedSpectrum
+from envfit.shading.warped_spectrum import SPECTRUM_FORMAT, WarpedSpectrum
 
 __all__ = ["RENDERER_GRID", "RENDERER_SPECTRUM_AXES", "DEFAULT_STRATEGIES",
            "DEFAULT_RENDERER_POINTSETS", "STRATEGY_NAMES", "RendererRow", "RendererAdvice",
@@ -170,8 +170,9 @@ def spectrum_from_json(d: dict) -> WarpedSpectrum:
 def spectrum_cache_key(map_key: dict, brdf: str, shininess: float | None, grid: int, axes: int,
                        technique: str, on_rest: bool, source_pixels: int) -> dict:
     """The cache key of one spectrum: the map's key (fingerprint, shape, up, scale), the lobe,
-    the grid and axes, the technique, whether on the rest map, the sources' pixel count."""
-    return {**map_key, "brdf": brdf, "shininess": None if brdf == "diffuse" else shininess,
+    the grid and axes, the technique, whether on the rest map, the sources' pixel count, and
+    the spectrum algorithm's version (:data:`envfit.shading.warped_spectrum.SPECTRUM_FORMAT`)."""
+    return {**map_key, "spectrum_format": SPECTRUM_FORMAT, "brdf": brdf, "shininess": None if brdf == "diffuse" else shininess,
             "grid": int(grid), "axes": int(axes), "technique": technique,
             "on_rest": bool(on_rest), "source_pixels": int(source_pixels)}
 

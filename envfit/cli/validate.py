@@ -73,6 +73,9 @@ def _add_renderer_arguments(p) -> None:
     g.add_argument("--renderer-n", type=int_list, default=None, metavar="N1,N2,…",
                    help="sample counts of the renderer rules (default: 16,64,256,1024; "
                         "--quick: 16,256)")
+    g.add_argument("--renderer-axes", default=None, metavar="importance|uniform",
+                   help="how the renderer measurement draws its axes: importance-sampled "
+                        "from the map's axis proposal and weighted (default), or uniform")
 
 
 def _config(args: argparse.Namespace):
@@ -98,14 +101,16 @@ def _renderer_config(args: argparse.Namespace, cfg):
     from envfit.validate.renderer import renderer_config
     given = [flag for flag, v in (("--strategies", args.strategies),
                                   ("--renderer-pointsets", args.renderer_pointsets),
-                                  ("--renderer-n", args.renderer_n)) if v is not None]
+                                  ("--renderer-n", args.renderer_n),
+                                  ("--renderer-axes", args.renderer_axes)) if v is not None]
     if not args.renderer:
         if given:
             raise ParameterError(f"{', '.join(given)} need(s) --renderer")
         return None
     return renderer_config(args.quick, strategies=args.strategies,
                            pointsets=args.renderer_pointsets, n_values=args.renderer_n,
-                           lobes=cfg.brdfs, shininess=cfg.shininess, seed=cfg.seed)
+                           axis_sampling=args.renderer_axes, lobes=cfg.brdfs,
+                           shininess=cfg.shininess, seed=cfg.seed)
 
 
 def _summary(res: dict) -> list[str]:

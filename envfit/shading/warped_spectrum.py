@@ -92,6 +92,7 @@ from envfit.theory.pointsets import lambert_to_hemisphere
 from envfit.theory.sphere_points import spherical_fibonacci_sphere
 
 __all__ = [
+    "SPECTRUM_FORMAT",
     "TECHNIQUES",
     "WarpedSpectrum",
     "cell_square_average",
@@ -103,6 +104,9 @@ __all__ = [
     "warped_spectrum",
 ]
 
+#: the algorithm's version, in the keys of cached spectra (2: the axis proxy's blocks at their
+#: Y²ω centroid)
+SPECTRUM_FORMAT = 2
 #: the techniques and their number of parts (sample streams)
 TECHNIQUES = {"brdf": 1, "map": 1, "mis": 2}
 #: spherical Fibonacci axes the importance sample of axes is drawn from

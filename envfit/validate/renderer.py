@@ -64,7 +64,8 @@ from envfit.base.store import ResultStore, array_fingerprint
 from envfit.maps.envmap import EnvMap
 from envfit.predict.renderer import predict_rule, renderer_model
 from envfit.shading.measurement import agreement_with_interval
-from envfit.shading.renderer_rules import STRATEGIES, RendererRule, RendererSetup, measure_rule
+from envfit.shading.renderer_rules import (AXIS_SAMPLING, STRATEGIES, RendererRule,
+                                           RendererSetup, measure_rule)
 from envfit.theory.pointsets import POINTSETS
 
 from .config import BRDFS
@@ -80,7 +81,7 @@ RENDERER_POINTSETS = ("random", "sobol", "sf")
 RENDERER_N = (16, 64, 256, 1024)
 RENDERER_QUICK_N = (16, 256)
 #: bumped when what a stored renderer cell holds changes (older cells are recomputed)
-RENDERER_CELL_FORMAT = 1
+RENDERER_CELL_FORMAT = 2
 
 
 # ----------------------------------------------------------------------------- configuration
@@ -98,6 +99,8 @@ class RendererValidationConfig:
     grid, spectrum_axes : the warped spectra's grid and axes (:func:`renderer_model`).
     axes_start, max_axes, target_relative, resamples : the adaptive measurement
         (:func:`measure_rule`).
+    axis_sampling : how the measurement draws its axes (:data:`AXIS_SAMPLING`):
+        "importance" (default; the map's axis proposal, weighted) or "uniform".
     band : the relative band of the agreement (:func:`agreement_with_interval`).
     seed : the measurement's seed (axes, twists, shifts, random sets).
     quick : only recorded (:func:`renderer_quick_config` made it).
@@ -114,6 +117,7 @@ class RendererValidationConfig:
     max_axes: int = 16000
     target_relative: float = 0.10
     resamples: int = 2000
+    axis_sampling: str = "importance"
     band: float = 0.2
     seed: int = 0
     quick: bool = False
@@ -130,6 +134,8 @@ class RendererValidationConfig:
         self.max_axes = check_int(self.max_axes, "max_axes", self.axes_start)
         self.target_relative = check_positive(self.target_relative, "target_relative")
         self.resamples = check_int(self.resamples, "resamples", 10)
+        self.axis_sampling = check_names([self.axis_sampling], tuple(AXIS_SAMPLING),
+                                         "axis sampling")[0]
         self.band = check_positive(self.band, "band")
         self.seed = check_int(self.seed, "seed", 0)
         if not self.strategies or not self.pointsets or not self.lobes or not self.n_values:
@@ -147,6 +153,7 @@ class RendererValidationConfig:
                 "spectrum_axes": self.spectrum_axes, "axes_start": self.axes_start,
                 "max_axes": self.max_axes, "target_relative": self.target_relative,
                 "resamples": self.resamples, "band": self.band, "seed": self.seed,
+                "axis_sampling": self.axis_sampling,
                 "shininess": self.shininess if lobe == "glossy" else None}
 
 
@@ -189,7 +196,8 @@ class RendererCell:
     predicted/measured (None if undefined); ``within_band``, ``inside_interval``, ``agrees``
     (either) as :class:`envfit.shading.measurement.Agreement`; ``settings``
     (:meth:`RendererValidationConfig.cell_settings`); seconds of the prediction and the
-    measurement; ``resumed`` whether it was read from the store.
+    measurement; ``resumed`` whether it was read from the store; ``axis_sampling`` how its
+    axes were drawn ("importance" or "uniform"; records older than the field: "uniform").
     """
 
     lobe: str
@@ -213,6 +221,7 @@ class RendererCell:
     seconds_predict: float = 0.0
     seconds_measure: float = 0.0
     resumed: bool = False
+    axis_sampling: str = "uniform"
 
     @property
     def rule_label(self) -> str:
@@ -443,7 +452,8 @@ def _compute_cell(setup: RendererSetup, model, cfg: RendererValidationConfig, lo
     t1 = time.perf_counter()
     meas = measure_rule(setup, rule, lobe, cfg.shininess, seed=cfg.seed,
                         target_relative=cfg.target_relative, axes_start=cfg.axes_start,
-                        max_axes=cfg.max_axes, resamples=cfg.resamples)
+                        max_axes=cfg.max_axes, resamples=cfg.resamples,
+                        sampling=cfg.axis_sampling)
     t2 = time.perf_counter()
     iv = meas.interval
     agr = agreement_with_interval(pred.rmse, iv, band=cfg.band)
@@ -453,6 +463,7 @@ def _compute_cell(setup: RendererSetup, model, cfg: RendererValidationConfig, lo
         measured_low=float(iv.low), measured_high=float(iv.high),
         relative_half_width=float(iv.relative_half_width), axes=int(meas.axes),
         target_met=bool(meas.target_met), interval_method=iv.method,
+        axis_sampling=meas.sampling,
         ratio=_finite_or_none(agr.ratio), within_band=bool(agr.within_band),
         inside_interval=bool(agr.inside), agrees=bool(agr.either),
         settings=cfg.cell_settings(lobe), seconds_predict=t1 - t0, seconds_measure=t2 - t1)

@@ -42,6 +42,14 @@ def _renderer_section(r: dict) -> list[str]:
             + _rule_table(rd) + [""] + [f"- {x}" for x in statements if x] + [""])
 
 
+def _measured_axes(config: dict) -> str:
+    """How the measurement drew its axes, from the configuration (older runs: uniform)."""
+    if config.get("axis_sampling", "uniform") == "importance":
+        return ("the RMSE over uniform axes, estimated on axes importance-sampled from the "
+                "map's axis proposal (each axis's squared error weighted by u/q, at most 3)")
+    return "the RMSE over uniform random axes"
+
+
 def _renderer_run(rd: dict) -> list[str]:
     """What was run (no judgement)."""
     c = rd["config"]
@@ -52,7 +60,7 @@ def _renderer_run(rd: dict) -> list[str]:
         f"{', '.join(_lobe_name(rd, b) for b in c['lobes'])}, on the {rd['scale']} scale "
         f"({rd['map_size'][0]}x{rd['map_size'][1]}). Predicted: the warped-integrand spectra "
         f"(grid {c['grid']}, {c['spectrum_axes']} axes; `random` points: the Monte Carlo "
-        "variance). Measured: the RMSE over uniform random axes with its BCa bootstrap 95 % "
+        f"variance). Measured: {_measured_axes(c)} with its BCa bootstrap 95 % "
         f"interval, from {c['axes_start']} axes doubling to at most {c['max_axes']} until the "
         f"interval is within ±{c['target_relative']:.0%}. A cell agrees when the ratio "
         f"predicted/measured is within {c['band']:.0%} of 1 or the prediction lies inside the "
