@@ -89,3 +89,14 @@ def test_small_box_falls_back_to_the_monte_carlo_weight():
     t = strip_tail(P, 1.0, square_points("sf", 64))
     assert t == {"strips": 0.0, "rest": (1.0 - 0.26) / 64, "strip_power": 0.0,
                  "above": pytest.approx(0.74)}
+
+
+def test_negligible_power_above_the_box_skips_the_strips():
+    u = square_points("sf", 1024)
+    P = _half_box(0)
+    full = strip_tail(P, _variance(0), u)
+    assert full["strips"] > 0 and full["rest"] == pytest.approx(0.0, abs=1e-15)
+    skipped = strip_tail(P, _variance(0), u, negligible=full["above"] / 1024)
+    assert skipped["strips"] == 0.0 and skipped["rest"] == pytest.approx(full["above"] / 1024)
+    kept = strip_tail(P, _variance(0), u, negligible=0.99 * full["above"] / 1024)
+    assert kept == full

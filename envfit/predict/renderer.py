@@ -30,7 +30,8 @@ from dataclasses import dataclass
 
 from envfit.base.errors import ParameterError
 from envfit.shading.renderer_rules import STRATEGIES, RendererRule, RendererSetup, rule_points
-from envfit.shading.warped_spectrum import WarpedSpectrum, shifted_mse_terms, warped_spectrum
+from envfit.shading.warped_spectrum import (WarpedSpectrum, random_mse, shifted_mse_terms,
+                                            warped_spectrum)
 
 from .context import Prediction
 
@@ -92,8 +93,9 @@ def predict_rule(model: RendererModel, rule: RendererRule, *, seed: int = 0) -> 
     :data:`RENDERER_PREDICTORS`); ``seed`` of the points as :func:`rule_points`."""
     spec = model.spectrum(rule)
     pts = rule_points(rule, seed)
-    terms = shifted_mse_terms(spec, pts[0] if len(pts) == 1 else tuple(pts))
+    u = pts[0] if len(pts) == 1 else tuple(pts)
     if rule.pointset == "random":
-        return Prediction(name=RENDERER_PREDICTORS["random"], rmse=math.sqrt(terms["random"]))
+        return Prediction(name=RENDERER_PREDICTORS["random"], rmse=math.sqrt(random_mse(spec, u)))
+    terms = shifted_mse_terms(spec, u)
     return Prediction(name=RENDERER_PREDICTORS["quasi-random"],
                       rmse=math.sqrt(max(terms["box"] + terms["tail"], 0.0)))

@@ -47,14 +47,16 @@ Example
 from __future__ import annotations
 
 import numpy as np
-from scipy import optimize, special
+from scipy import special
 
 __all__ = ["strip_tail", "strip_exp_sums", "STRIP_HALF_WIDTH", "STRIP_LENGTH_MAX"]
 
 #: w: the strips are the rows |k_⊥| ≤ w beside each axis
 STRIP_HALF_WIDTH = 3
 #: the strips are continued to K = min(max(8B, 4n), this)
-STRIP_LENGTH_MAX = 1 << 15
+STRIP_LENGTH_MAX = 1 << 13
+#: relative accuracy of the strips' non-uniform FFTs
+STRIP_EPSILON = 1e-7
 #: the power law's exponent is clamped to this range
 ALPHA_RANGE = (1.5, 8.0)
 
@@ -62,18 +64,30 @@ ALPHA_RANGE = (1.5, 8.0)
 def strip_exp_sums(u: np.ndarray, length: int, half_width: int) -> tuple[np.ndarray, np.ndarray]:
     r""":math:`S(k) = \frac1n\sum_j e^{2\pi i k\cdot u_j}` on the two strips: rows
     (2K+1, 2w+1) for :math:`k_0 \in [-K, K], k_1 \in [-w, w]` and columns (2w+1, 2K+1) for
-    :math:`k_0 \in [-w, w], k_1 \in [-K, K]` (ducc0's type-1 non-uniform FFT)."""
+    :math:`k_0 \in [-w, w], k_1 \in [-K, K]`: per row of a strip one one-dimensional type-1
+    non-uniform FFT (ducc0) of the points' coordinate along the strip, weighted by
+    :math:`e^{2\pi i k_\perp u_\perp}` (relative accuracy :data:`STRIP_EPSILON`)."""
     import ducc0
 
+    u = np.asarray(u, dtype=np.float64)
     n = u.shape[0]
-    ones = np.ones(n, dtype=np.complex128)
-    coord = 2.0 * np.pi * np.asarray(u, dtype=np.float64)
+    perp = np.arange(-half_width, half_width + 1)
     out = []
-    for shape in ((2 * length + 2, 2 * half_width + 2), (2 * half_width + 2, 2 * length + 2)):
-        s = np.zeros(shape, dtype=np.complex128)
-        ducc0.nufft.nu2u(points=ones, coord=coord, forward=False, epsilon=1e-10, out=s,
-                         nthreads=1)
-        out.append(s[1:, 1:] / n)
+    for along in (0, 1):
+        coord = np.ascontiguousarray(2.0 * np.pi * u[:, along:along + 1])
+        other = u[:, 1 - along]
+        z = np.exp(2j * np.pi * other)
+        weights = np.empty((perp.size, n), dtype=np.complex128)
+        weights[half_width] = 1.0
+        for j in range(1, half_width + 1):                # e^{±2πi j u} by products
+            weights[half_width + j] = weights[half_width + j - 1] * z
+            weights[half_width - j] = np.conj(weights[half_width + j])
+        buf = np.zeros((perp.size, 2 * length + 2), dtype=np.complex128)
+        ducc0.nufft.nu2u(points=weights,
+                         coord=coord, forward=False, epsilon=STRIP_EPSILON, out=buf,
+                         nthreads=1)                  # one transform per row, in one call
+        s = buf[:, 1:] / n
+        out.append(s.T if along == 0 else s)
     return out[0], out[1]
 
 
@@ -97,44 +111,71 @@ def _power_law(profile: np.ndarray, band: int):
     if not (s1 > 0.0 and s2 > 0.0):
         return None
 
-    def gap(a):
+    def gap(a):                                  # increasing in a
         return np.log(np.sum(k[lo] ** -a) / np.sum(k[hi] ** -a)) - np.log(s1 / s2)
 
     a0, a1 = ALPHA_RANGE
-    alpha = (a0 if gap(a0) >= 0 else a1 if gap(a1) <= 0
-             else optimize.brentq(gap, a0, a1, xtol=1e-10))
+    if gap(a0) >= 0 or gap(a1) <= 0:
+        alpha = a0 if gap(a0) >= 0 else a1
+    else:
+        # bisection to 1e-9: scipy.optimize.brentq would do it, but importing scipy.optimize
+        # costs 0.44 s of a cached advise call (3 s budget), for one monotone root per ray
+        while a1 - a0 > 1e-9:
+            mid = 0.5 * (a0 + a1)
+            a0, a1 = (mid, a1) if gap(mid) < 0 else (a0, mid)
+        alpha = 0.5 * (a0 + a1)
     return s2 / float(np.sum(k[hi] ** -alpha)), float(alpha)
 
 
+#: the last spectra's fits: (data address, shape, strides, w) → (power, fits); the power
+#: array is held, so its memory cannot be reused by another array while its entry lives
+_FITS: dict = {}
+
+
+def _fits(power: np.ndarray, band: int, w: int) -> list:
+    """(weight, kind, k_⊥, sign, c, α) of every ray with a power law; computed once per power
+    array (the spectrum of a part does not change between the point sets it is asked for)."""
+    key = (power.__array_interface__["data"][0], power.shape, power.strides, w)
+    hit = _FITS.get(key)
+    if hit is not None and np.array_equal(hit[0][:, :2], power[:, :2]):
+        return hit[1]
+    out = []
+    for profile, weight, kind, perp, sign in _rays(power, band, w):
+        fit = _power_law(profile, band)
+        if fit is not None:
+            out.append((weight, kind, perp, sign) + fit)
+    if len(_FITS) >= 16:
+        _FITS.clear()
+    _FITS[key] = (power, out)
+    return out
+
+
 def strip_tail(power: np.ndarray, variance: float, u: np.ndarray, *,
-               half_width: int = STRIP_HALF_WIDTH) -> dict:
+               half_width: int = STRIP_HALF_WIDTH, negligible: float = 0.0) -> dict:
     r"""The error above the box of the shifted points u for a part with half-box power
     ``power`` (2B+1, B+1) (row :math:`k_0 + B`, column :math:`k_1 \ge 0`) and variance V:
     ``strips`` (the continued strips with the set's sums), ``rest`` (the rest of R at 1/n),
     ``strip_power`` (the strips' continued power above the box) and ``above`` = R.
 
-    Falls back to ``rest`` = R/n (no strips) for a box smaller than B = 4."""
+    Falls back to ``rest`` = R/n (no strips) for a box smaller than B = 4, or where R/n is at
+    most ``negligible`` (the strips could lower the result by no more than R/n)."""
     power = np.asarray(power, dtype=np.float64)
     band = power.shape[1] - 1
     u = np.asarray(u, dtype=np.float64)
     n = u.shape[0]
     above = max(float(variance) - float(power[:, 0].sum() + 2.0 * power[:, 1:].sum()), 0.0)
     w = min(int(half_width), band // 2)
-    if band < 4 or above == 0.0:
+    if band < 4 or above == 0.0 or above / n <= negligible:
         return {"strips": 0.0, "rest": above / n, "strip_power": 0.0, "above": above}
     K = int(min(max(8 * band, 4 * n), STRIP_LENGTH_MAX))
     rows, cols = strip_exp_sums(u, K, w)
-    k = np.arange(band + 1, K + 1, dtype=np.float64)
+    k = np.arange(band + 1, K + 1)
+    kf = k.astype(np.float64)
     fits, total = [], 0.0
-    for profile, weight, kind, perp, sign in _rays(power, band, w):
-        fit = _power_law(profile, band)
-        if fit is None:
-            continue
-        c, alpha = fit
+    for weight, kind, perp, sign, c, alpha in _fits(power, band, w):
         total += weight * c * float(special.zeta(alpha, band + 1))
-        s = (rows[K + sign * k.astype(int), w + perp] if kind == "row"
-             else cols[w + perp, K + k.astype(int)])
-        fits.append((weight, c, alpha, float(np.sum(k ** -alpha * np.abs(s) ** 2))))
+        s = rows[K + sign * k, w + perp] if kind == "row" else cols[w + perp, K + k]
+        fits.append((weight, c, alpha, float(np.sum(kf ** -alpha * np.abs(s) ** 2))))
     scale = min(1.0, above / total) if total > 0 else 0.0
     strips = sum(wt * c * scale * (inside + float(special.zeta(a, K + 1)) / n)
                  for wt, c, a, inside in fits)

@@ -98,6 +98,7 @@ __all__ = [
     "cell_square_average",
     "proposal_axes",
     "proxy_second_moments",
+    "random_mse",
     "shifted_mse_per_axis",
     "shifted_mse_terms",
     "shifted_rmse",
@@ -107,6 +108,9 @@ __all__ = [
 #: the algorithm's version, in the keys of cached spectra (2: the axis proxy's blocks at their
 #: Y²ω centroid)
 SPECTRUM_FORMAT = 2
+#: the strips of the tail are skipped where the power above the box at 1/n is below this
+#: fraction of the part's box term (the prediction then moves by less than it)
+STRIPS_NEGLIGIBLE = 1e-3
 #: the techniques and their number of parts (sample streams)
 TECHNIQUES = {"brdf": 1, "map": 1, "mis": 2}
 #: spherical Fibonacci axes the importance sample of axes is drawn from
@@ -714,13 +718,21 @@ def shifted_mse_terms(spec: WarpedSpectrum, u) -> dict:
         n = p.shape[0]
         s = _exp_sums(p, spec.band)
         S.append(s)
-        box += _box_sum(spec.power[i] * np.abs(s) ** 2)
-        above = strip_tail(spec.power[i], float(spec.variance[i]), p)
+        part_box = _box_sum(spec.power[i] * np.abs(s) ** 2)
+        box += part_box
+        above = strip_tail(spec.power[i], float(spec.variance[i]), p,
+                           negligible=STRIPS_NEGLIGIBLE * part_box)
         tail += above["strips"] + above["rest"]
         rnd += float(spec.variance[i]) / n
     if len(S) == 2:
         box += 2.0 * float(np.real(spec.cross * S[0][:, 0] * np.conj(S[1][:, 0])).sum())
     return {"box": box, "tail": tail, "random": rnd}
+
+
+def random_mse(spec: WarpedSpectrum, u) -> float:
+    r"""The Monte Carlo variance :math:`\sum_i V_i/n_i` of i.i.d. points of the sizes of u
+    (``random`` of :func:`shifted_mse_terms`, without the exponential sums)."""
+    return float(sum(float(v) / p.shape[0] for v, p in zip(spec.variance, _split_points(spec, u))))
 
 
 def shifted_rmse(spec: WarpedSpectrum, u) -> float:
