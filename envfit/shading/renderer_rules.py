@@ -18,10 +18,11 @@ lobe (a set's first half is poorly stratified for SF and LP). ``random`` is meas
 every point shifted independently (``shift="points"``): i.i.d. uniform points, a fresh set
 for every estimate, so its measured RMSE is the mean over random sets.
 
-:func:`measure_rule` measures a rule's RMSE over uniform random axes with a bootstrap 95 %
-interval and as many axes as the interval needs to be within ±10 %
+:func:`measure_rule` measures a rule's RMSE over uniform axes — on axes importance-sampled
+from the map's :class:`envfit.shading.axis_proposal.AxisProposal` and weighted, by default —
+with a bootstrap 95 % interval and as many axes as the interval needs to be within ±10 %
 (:func:`envfit.shading.measurement.adaptive_rmse`); the ground truth of each axis is computed
-once per :class:`RendererSetup` and brdf and reused by every rule.
+once per :class:`RendererSetup` and brdf and reused by every rule that draws it.
 
 Example
 -------
@@ -202,8 +203,9 @@ def measure_rule(setup: RendererSetup, rule: RendererRule, brdf="diffuse",
 
     Each axis gets :func:`replicates` independent estimates (twist and shift each; for
     ``random`` every point shifted on its own: a fresh i.i.d. set) and contributes their mean squared error, the bootstrap
-    resampling axes. The axes are drawn from ``seed`` (the same for every rule, so the truths
-    are shared); twists, shifts and random sets from a stream of their own."""
+    resampling axes. The axes are drawn from ``seed`` (the same for every rule on the same
+    proposal — every ``split`` rule, or every other rule, of a lobe — so their truths are
+    shared); twists, shifts and random sets from a stream of their own."""
     if sampling not in AXIS_SAMPLING:
         raise ParameterError(f"sampling must be one of {', '.join(AXIS_SAMPLING)}; "
                              f"got {sampling!r}")
