@@ -102,15 +102,11 @@ class AxisProposal:
         r"""The module's mixture for a map, its sampler and a lobe: a third uniform, a third
         :math:`\propto\int\rho_a L^2` (BRDF sampling's second moment), a third
         :math:`\propto\int\rho_a^2 L^2/p` (map sampling's), at the cell centres."""
-        from envfit.shading.warped_spectrum import proxy_second_moments
+        from envfit.shading.warped_spectrum import normalised_moments, proxy_second_moments
 
         r = check_int(rows, "rows", 1)
-        mass = np.zeros(2 * r * r)
-        for m in proxy_second_moments(envmap, sampler, weight, cell_centres(r, envmap.up)):
-            m = np.maximum(np.asarray(m, dtype=np.float64), 0.0)
-            tot = float(m.sum())
-            mass += m / tot if tot > 0 else np.full_like(m, 1.0 / m.size)
-        return cls(envmap.up, r, mass, UNIFORM_SHARE)
+        moments = proxy_second_moments(envmap, sampler, weight, cell_centres(r, envmap.up))
+        return cls(envmap.up, r, sum(normalised_moments(moments)), UNIFORM_SHARE)
 
     @property
     def cells(self) -> int:

@@ -49,7 +49,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import special
 
-__all__ = ["strip_tail", "strip_exp_sums", "STRIP_HALF_WIDTH", "STRIP_LENGTH_MAX"]
+__all__ = ["strip_tail", "strip_fits", "strip_exp_sums", "STRIP_HALF_WIDTH", "STRIP_LENGTH_MAX"]
 
 #: w: the strips are the rows |k_⊥| ≤ w beside each axis
 STRIP_HALF_WIDTH = 3
@@ -127,38 +127,32 @@ def _power_law(profile: np.ndarray, band: int):
     return s2 / float(np.sum(k[hi] ** -alpha)), float(alpha)
 
 
-#: the last spectra's fits: (data address, shape, strides, w) → (power, fits); the power
-#: array is held, so its memory cannot be reused by another array while its entry lives
-_FITS: dict = {}
-
-
-def _fits(power: np.ndarray, band: int, w: int) -> list:
-    """(weight, kind, k_⊥, sign, c, α) of every ray with a power law; computed once per power
-    array (the spectrum of a part does not change between the point sets it is asked for)."""
-    key = (power.__array_interface__["data"][0], power.shape, power.strides, w)
-    hit = _FITS.get(key)
-    if hit is not None and np.array_equal(hit[0][:, :2], power[:, :2]):
-        return hit[1]
+def strip_fits(power: np.ndarray, half_width: int = STRIP_HALF_WIDTH) -> list:
+    """(weight, kind, k_⊥, sign, c, α) of every ray of the strips with a power law, for a
+    half-box ``power`` (2B+1, B+1); they depend on the spectrum only, so a spectrum fits them
+    once for all its point sets (:attr:`WarpedSpectrum.strip_fits`)."""
+    power = np.asarray(power, dtype=np.float64)
+    band = power.shape[1] - 1
+    w = min(int(half_width), band // 2)
     out = []
     for profile, weight, kind, perp, sign in _rays(power, band, w):
         fit = _power_law(profile, band)
         if fit is not None:
             out.append((weight, kind, perp, sign) + fit)
-    if len(_FITS) >= 16:
-        _FITS.clear()
-    _FITS[key] = (power, out)
     return out
 
 
 def strip_tail(power: np.ndarray, variance: float, u: np.ndarray, *,
-               half_width: int = STRIP_HALF_WIDTH, negligible: float = 0.0) -> dict:
+               half_width: int = STRIP_HALF_WIDTH, negligible: float = 0.0,
+               fits: list | None = None) -> dict:
     r"""The error above the box of the shifted points u for a part with half-box power
     ``power`` (2B+1, B+1) (row :math:`k_0 + B`, column :math:`k_1 \ge 0`) and variance V:
     ``strips`` (the continued strips with the set's sums), ``rest`` (the rest of R at 1/n),
     ``strip_power`` (the strips' continued power above the box) and ``above`` = R.
 
     Falls back to ``rest`` = R/n (no strips) for a box smaller than B = 4, or where R/n is at
-    most ``negligible`` (the strips could lower the result by no more than R/n)."""
+    most ``negligible`` (the strips could lower the result by no more than R/n). ``fits``:
+    :func:`strip_fits` of ``power`` with ``half_width``, if already computed."""
     power = np.asarray(power, dtype=np.float64)
     band = power.shape[1] - 1
     u = np.asarray(u, dtype=np.float64)
@@ -171,13 +165,15 @@ def strip_tail(power: np.ndarray, variance: float, u: np.ndarray, *,
     rows, cols = strip_exp_sums(u, K, w)
     k = np.arange(band + 1, K + 1)
     kf = k.astype(np.float64)
-    fits, total = [], 0.0
-    for weight, kind, perp, sign, c, alpha in _fits(power, band, w):
+    terms, total = [], 0.0
+    if fits is None:
+        fits = strip_fits(power, half_width)
+    for weight, kind, perp, sign, c, alpha in fits:
         total += weight * c * float(special.zeta(alpha, band + 1))
         s = rows[K + sign * k, w + perp] if kind == "row" else cols[w + perp, K + k]
-        fits.append((weight, c, alpha, float(np.sum(kf ** -alpha * np.abs(s) ** 2))))
+        terms.append((weight, c, alpha, float(np.sum(kf ** -alpha * np.abs(s) ** 2))))
     scale = min(1.0, above / total) if total > 0 else 0.0
     strips = sum(wt * c * scale * (inside + float(special.zeta(a, K + 1)) / n)
-                 for wt, c, a, inside in fits)
+                 for wt, c, a, inside in terms)
     return {"strips": float(strips), "rest": (above - scale * total) / n,
             "strip_power": float(scale * total), "above": above}

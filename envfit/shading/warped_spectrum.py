@@ -72,6 +72,7 @@ True
 from __future__ import annotations
 
 import math
+from functools import cached_property
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
@@ -87,7 +88,7 @@ from envfit.shading.estimators import twisted_frames
 from envfit.shading.ground_truth import weight_function
 from envfit.shading.importance import HEURISTICS, brdf_pdf
 from envfit.shading.map_sampler import MapSampler, _bilinear_cell_average, _square
-from envfit.shading.spectral_tail import strip_tail
+from envfit.shading.spectral_tail import strip_fits, strip_tail
 from envfit.theory.pointsets import lambert_to_hemisphere
 from envfit.theory.sphere_points import spherical_fibonacci_sphere
 
@@ -97,6 +98,7 @@ __all__ = [
     "WarpedSpectrum",
     "cell_square_average",
     "proposal_axes",
+    "normalised_moments",
     "proxy_second_moments",
     "random_mse",
     "shifted_mse_per_axis",
@@ -181,6 +183,12 @@ class WarpedSpectrum:
     cross: np.ndarray
     mean: float
     axes: int
+
+    @cached_property
+    def strip_fits(self) -> list:
+        """Per part, the power laws of the strips above the box
+        (:func:`envfit.shading.spectral_tail.strip_fits`), fitted once per spectrum."""
+        return [strip_fits(p) for p in self.power]
 
     def to_dict(self) -> dict:
         """The scalars (not the spectra), for JSON."""
@@ -479,6 +487,17 @@ def proxy_second_moments(envmap: EnvMap, sampler: MapSampler, weight, axes: np.n
     return m1, m2
 
 
+def normalised_moments(moments) -> list[np.ndarray]:
+    """Each proxy of :func:`proxy_second_moments` (negatives clipped) as probabilities over
+    its axes; uniform where a proxy is all zero (a black map)."""
+    out = []
+    for m in moments:
+        m = np.maximum(np.asarray(m, dtype=np.float64), 0.0)
+        tot = float(m.sum())
+        out.append(m / tot if tot > 0 else np.full(m.shape, 1.0 / m.size))
+    return out
+
+
 def proposal_axes(envmap: EnvMap, sampler: MapSampler, weight, count: int):
     r"""``count`` axes and their weights for the mean over uniform axes (weights sum to 1).
 
@@ -496,13 +515,10 @@ def proposal_axes(envmap: EnvMap, sampler: MapSampler, weight, count: int):
     ((16, 3), 1.0)
     """
     pool = _fibonacci_axes(AXIS_POOL)
-    parts = [np.full(AXIS_POOL, 1.0 / AXIS_POOL)]
     lobe = (type(weight).__name__, getattr(weight, "shininess", None))
-    for m in _last_call("proxy", (envmap, sampler), lobe,
-                        lambda: proxy_second_moments(envmap, sampler, weight, pool)):
-        tot = float(m.sum())
-        parts.append(m / tot if tot > 0 else parts[0])
-    pi = sum(parts) / 3.0
+    moments = _last_call("proxy", (envmap, sampler), lobe,
+                         lambda: proxy_second_moments(envmap, sampler, weight, pool))
+    pi = (np.full(AXIS_POOL, 1.0 / AXIS_POOL) + sum(normalised_moments(moments))) / 3.0
     cdf = np.cumsum(pi)
     cdf /= cdf[-1]
     idx = np.minimum(np.searchsorted(cdf, (np.arange(count) + 0.5) / count), AXIS_POOL - 1)
@@ -721,7 +737,7 @@ def shifted_mse_terms(spec: WarpedSpectrum, u) -> dict:
         part_box = _box_sum(spec.power[i] * np.abs(s) ** 2)
         box += part_box
         above = strip_tail(spec.power[i], float(spec.variance[i]), p,
-                           negligible=STRIPS_NEGLIGIBLE * part_box)
+                           negligible=STRIPS_NEGLIGIBLE * part_box, fits=spec.strip_fits[i])
         tail += above["strips"] + above["rest"]
         rnd += float(spec.variance[i]) / n
     if len(S) == 2:
