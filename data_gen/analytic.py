@@ -425,7 +425,7 @@ class SunSkyMap(AnalyticMap):
     ``render(mode="average")``: the sky part is averaged exactly; the disk's coverage of a
     pixel is 1 or 0 when the pixel lies entirely inside or outside the disk (decided with the
     pixel's exact corner radius, the farthest point of a lat-long cell from its centre being
-    a corner), and otherwise the mean of ``subsamples``² equal-area subcells (uniform in
+    a corner), and otherwise the mean of ``subsamples**2`` equal-area subcells (uniform in
     cos θ and φ) — so pixel values are cell averages up to a coverage error ≲ 1/subsamples
     on the edge pixels only.
     """

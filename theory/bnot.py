@@ -47,8 +47,8 @@ idle): ``bnot_square(256)`` ≈ 3.5 s, ``bnot_square(1024)`` ≈ 5.5 s, ``bnot_s
 ≈ 15 s; one :func:`power_diagram` at n = 1024 ≈ 10–20 ms (Qhull ≈ 60 % of it); a
 capacity solve from zero weights for 1024 random sites ≈ 0.15 s (5–7 Newton steps).
 
-Example
--------
+Examples
+--------
 >>> from envfit.theory.bnot import bnot_square, bnot_diagnostics
 >>> pts = bnot_square(64, seed=1)
 >>> pts.shape
@@ -94,8 +94,8 @@ def capacity_weights(sites, weights=None, *, tol: float = 1e-10, max_iter: int =
     -------
     (weights (n,), PowerDiagram at those weights)
 
-    Example
-    -------
+    Examples
+    --------
     >>> import numpy as np
     >>> w, pd = capacity_weights(np.random.default_rng(0).random((100, 2)))
     >>> bool(np.max(np.abs(pd.areas * 100 - 1)) < 1e-10)
@@ -252,8 +252,8 @@ def bnot_square(n: int, *, seed=0, iterations: int = 500, tol: float = 3e-3,
     Cost (2 cores): see the module docstring. Results are cached per argument tuple
     within the process (integer seeds only).
 
-    Example
-    -------
+    Examples
+    --------
     >>> p = bnot_square(256, seed=3)
     >>> p.shape, bool(p.min() >= 0 and p.max() < 1)
     ((256, 2), True)
@@ -294,8 +294,8 @@ def bnot_diagnostics(points, *, tol: float = 1e-10) -> BNOTDiagnostics:
     residual max :math:`|b_i - x_i|_T\sqrt n` (b_i the cell centroid) and the minimum
     toroidal distance (also times √n).
 
-    Example
-    -------
+    Examples
+    --------
     >>> import numpy as np
     >>> d = bnot_diagnostics(np.random.default_rng(0).random((64, 2)))
     >>> bool(d.max_relative_area_error < 1e-10)
@@ -342,12 +342,12 @@ def radial_power_spectrum(points2d, *, kmax: int | None = None, bin_width: float
 
     Returns
     -------
-    radius : (B,) mean |k| in each non-empty annulus;
+    radius : (B,) mean ``|k|`` in each non-empty annulus;
     power : (B,) mean P over the annulus;
     counts : (B,) number of frequency vectors per annulus (if ``return_counts``).
 
-    Example
-    -------
+    Examples
+    --------
     >>> import numpy as np
     >>> r, p = radial_power_spectrum(np.random.default_rng(0).random((400, 2)), kmax=40)
     >>> bool(0.7 < p.mean() < 1.3)

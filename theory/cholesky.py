@@ -37,8 +37,8 @@ nothing is copied and only the lower triangle is read or written. The flops are 
 Matrices of at most ``PANEL`` rows go to ``dpotrf`` in one call (the crash needs thousands
 of rows per thread).
 
-Example
--------
+Examples
+--------
 >>> import numpy as np
 >>> rng = np.random.default_rng(0)
 >>> x = rng.normal(size=(300, 40))

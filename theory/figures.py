@@ -29,8 +29,8 @@ coordinate passed through the inverse CDF of p, :meth:`envfit.theory.brdf.Weight
 ``morph=False`` lifts them uniformly instead. Points live in the local frame of the lobe
 (axis +z); for the glossy lobe this is the mirror direction (Sec. 4.3).
 
-Example
--------
+Examples
+--------
 >>> d = spectra_data(n=32, lmax=16, pointsets=("sf", "random"), brdfs=("diffuse",))
 >>> r = d.get("diffuse", "equal", "sf")
 >>> bool(np.allclose(r.e2, r.a * (r.d2 + r.C2)))

@@ -22,8 +22,8 @@ stratified jitter. Every set goes through one pipeline:
 4. **Rotation** to the frames of shading points: :func:`frame_from_axis`,
    :func:`rotate_to_axes` (optionally with an independent random twist about each axis).
 
-Example
--------
+Examples
+--------
 >>> from envfit.theory.pointsets import generate, morph_diffuse
 >>> d = generate("sobol", 1024, morph=morph_diffuse)
 >>> d.shape, bool(abs(d[:, 2].mean() - 2 / 3) < 1e-2)
@@ -75,8 +75,8 @@ def sobol02(n: int, *, seed=None, scramble: bool = False) -> np.ndarray:
     ``scramble=True`` scipy's linear matrix scramble plus digital shift (Matoušek 1998) is
     applied with ``seed``; it preserves the net property.
 
-    Example
-    -------
+    Examples
+    --------
     >>> sobol02(4)
     array([[0.  , 0.  ],
            [0.5 , 0.5 ],
@@ -124,8 +124,8 @@ def larcher_pillichshammer(n: int) -> np.ndarray:
     1/n) with particularly low L2 discrepancy. Any n ≥ 1 is accepted (a Hammersley-type
     set (i/n, Φ_LP(i)), low-discrepancy but a net only at powers of two). Deterministic.
 
-    Example
-    -------
+    Examples
+    --------
     >>> larcher_pillichshammer(4)
     array([[0.  , 0.  ],
            [0.25, 0.5 ],
@@ -198,8 +198,8 @@ def spherical_fibonacci(n: int) -> np.ndarray:
     :math:`\mathrm{frac}(j/\Phi)` is computed as :math:`j(\Phi-1) \bmod 1`
     (1/Φ = Φ − 1), which keeps full precision for large j. Deterministic.
 
-    Example
-    -------
+    Examples
+    --------
     >>> spherical_fibonacci(2)
     array([[0.75      , 0.        ],
            [0.25      , 0.61803399]])
@@ -299,8 +299,8 @@ def lambert_to_hemisphere(xy, *, morph=None) -> np.ndarray:
     :math:`|\partial_x d \times \partial_y d| = 2\pi`: uniform square points become
     uniform directions.
 
-    Example
-    -------
+    Examples
+    --------
     >>> lambert_to_hemisphere([[1.0, 0.0], [0.0, 0.25]]).round(12).tolist()
     [[0.0, 0.0, 1.0], [0.0, 1.0, 0.0]]
     """
@@ -324,8 +324,8 @@ def generate(name: str, n: int, *, seed=0, morph=None) -> np.ndarray:
     ignore ``seed``; "bnot", "random" and "jitter" draw from
     ``numpy.random.default_rng(seed)`` (BNOT results are cached per (n, seed)).
 
-    Example
-    -------
+    Examples
+    --------
     >>> d = generate("sf", 100, morph=morph_diffuse)
     >>> bool(abs(d[:, 2].mean() - 2 / 3) < 1e-4)
     True

@@ -309,8 +309,8 @@ def power_diagram(sites, weights=None, *, margin: float | None = None) -> PowerD
     -------
     PowerDiagram — areas, centroids, cell polygons, dual edges (see its docstring).
 
-    Example
-    -------
+    Examples
+    --------
     >>> import numpy as np
     >>> pd = power_diagram(np.random.default_rng(0).random((50, 2)))
     >>> bool(abs(pd.areas.sum() - 1.0) < 1e-12)

@@ -68,7 +68,7 @@ def check_points_weights(points, weights=None, *, allow_empty: bool = False):
 def legendre_p(lmax: int, t) -> np.ndarray:
     r"""Legendre polynomials :math:`P_0(t) … P_{lmax}(t)`, shape ``(lmax+1,) + t.shape``.
 
-    Bonnet's recurrence :math:`(l+1)P_{l+1} = (2l+1)tP_l - lP_{l-1}` (stable for |t| ≤ 1).
+    Bonnet's recurrence :math:`(l+1)P_{l+1} = (2l+1)tP_l - lP_{l-1}` (stable for −1 ≤ t ≤ 1).
 
     >>> legendre_p(2, [0.5]).ravel().round(4).tolist()
     [1.0, 0.5, -0.125]

@@ -431,13 +431,14 @@ def run_validation(envmap: EnvMap, config: ValidateConfig | None = None, *,
 
     Returns
     -------
-    :class:`envfit.validate.results.ValidationResult`; its ``to_json()`` is the JSON-ready
-    dict ``{"map", "s", "sigma", "sigma_channels", "scale", "fit", "config", "results",
-    "truncation", "agreement", "timings", "notes", "map_stats", …}`` with ``results`` and
-    ``truncation`` as documented in the CLI (per rule: ``n``, ``measured_rmse``,
-    ``predicted_wce``, one key per predictor of :data:`envfit.predict.PREDICTORS` —
-    ``predicted_rmse`` = σ·wce, ``predicted_rmse_refined``, ``predicted_rmse_spectral`` —,
-    ``predicted_shape`` = c_p·wce, ``slope_measured``, ``slope_predicted``, …).
+    ValidationResult
+        :class:`envfit.validate.results.ValidationResult`; its ``to_json()`` is the JSON-ready
+        dict ``{"map", "s", "sigma", "sigma_channels", "scale", "fit", "config", "results",
+        "truncation", "agreement", "timings", "notes", "map_stats", …}`` with ``results`` and
+        ``truncation`` as documented in the CLI (per rule: ``n``, ``measured_rmse``,
+        ``predicted_wce``, one key per predictor of :data:`envfit.predict.PREDICTORS` —
+        ``predicted_rmse`` = σ·wce, ``predicted_rmse_refined``, ``predicted_rmse_spectral`` —,
+        ``predicted_shape`` = c_p·wce, ``slope_measured``, ``slope_predicted``, …).
 
     Steps: :func:`_start` (guards, scale, store, axes); the two fits
     (:func:`envfit.validate.fitting.fit_both`) and the map's
