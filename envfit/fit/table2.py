@@ -296,11 +296,15 @@ class _Sweep:
         info = interp.solve_info
         while info.solver == "iterative" and max(info.error_bound) > RMSE_RTOL * err > 0:
             t1 += interp.refine(0.5 * RMSE_RTOL * err).seconds_solve
-            if not interp.solve_info.converged or interp.solve_info.iterations == 0:
+            new = interp.solve_info        # (auto: the dense path if CG failed; then exact)
+            if new.solver == "iterative" and (not new.converged or new.iterations == 0):
                 break
-            info = interp.solve_info
+            info = new
             recon = np.asarray(interp(self.pixel_dirs)).reshape(self.target.shape)
             err = float(rmse(recon, self.target))
+        if info.fallback:
+            result.notes.append(f"table2 s = {s:g}, N = {n}: {info.fallback}; solved by the "
+                                f"dense Cholesky path instead")
         t2 = time.perf_counter()
         del interp
         if self.recon_dir is not None and n == self.n_max:

@@ -85,7 +85,7 @@ from envfit.theory.cholesky import cholesky_inplace, inverse_diagonal
 from envfit.theory.sobolev import kernel_constant
 
 from envfit.kernels import _kernels
-from envfit.kernels.iterative import IterativeSolver, SolveInfo
+from envfit.kernels.iterative import IterativeSolver, IterativeSolverError, SolveInfo
 from envfit.kernels.nearfar import CellList, near_radius, nearfar_power_sums
 from envfit.kernels.likelihood import ProfiledLikelihood, profiled_log_likelihood
 from envfit.base.checks import as_unit_vectors, check_s
@@ -223,32 +223,51 @@ class SobolevInterpolator:
         if path == "iterative":
             path, reason = self._solve_iterative(pts, vals, reason)
         if path == "cholesky":
-            self._factor = self._factorize()
-            self.log_det = float(2.0 * np.sum(np.log(np.diagonal(self._factor))))
-            t = time.perf_counter()
-            self._alpha = self._solve_matrix(vals)
-            self.timings["solve"] = time.perf_counter() - t
-            self.solve_info = SolveInfo(solver="cholesky", reason=reason,
-                                        seconds_setup=self.timings["matrix"] + self.timings["cholesky"],
-                                        seconds_solve=self.timings["solve"])
+            self._solve_dense(reason, fallback=self._fallback)
         self.last_solve_info = self.solve_info
+
+    def _solve_dense(self, reason: str, fallback: str = "") -> None:
+        """Factorise K and solve for the stored values (sets coefficients, solve_info)."""
+        self._iterative = None
+        self._factor = self._factorize()
+        self.log_det = float(2.0 * np.sum(np.log(np.diagonal(self._factor))))
+        t = time.perf_counter()
+        self._alpha = self._solve_matrix(self._values)
+        self.timings["solve"] = time.perf_counter() - t
+        self.solve_info = SolveInfo(solver="cholesky", reason=reason, fallback=fallback,
+                                    seconds_setup=self.timings["matrix"] + self.timings["cholesky"],
+                                    seconds_solve=self.timings["solve"])
 
     def _solve_iterative(self, pts: np.ndarray, vals: np.ndarray, reason: str) -> tuple[str, str]:
         """CG (sets coefficients, solve_info); ``("cholesky", why)`` to fall back: ``auto``
-        whose CG did not converge while the dense matrix fits. ``"iterative"`` raises then."""
+        whose CG broke down or did not converge while the dense matrix fits. ``"iterative"``
+        raises :class:`~envfit.kernels.iterative.IterativeSolverError` then."""
         t = time.perf_counter()
         self._iterative = IterativeSolver(pts, self.s, nthreads=_nthreads())
         self.timings["setup"] = time.perf_counter() - t
-        self._alpha, self.solve_info = self._iterative.solve(vals, self._tol(vals), reason=reason)
+        try:
+            self._alpha, self.solve_info = self._iterative.solve(vals, self._tol(vals),
+                                                                 reason=reason)
+        except IterativeSolverError as exc:
+            return "cholesky", self._iterative_failed(reason, str(exc))
         self.timings["solve"] = self.solve_info.seconds_solve
         if self.solve_info.converged:
             return "iterative", reason
+        return "cholesky", self._iterative_failed(
+            reason, f"CG did not converge after {self.solve_info.iterations} iterations")
+
+    def _iterative_failed(self, reason: str, why: str) -> str:
+        """The reason of the dense fallback (``solver="auto"`` where K fits in memory);
+        else :class:`~envfit.kernels.iterative.IterativeSolverError` saying what to do."""
         fits = interpolator_nbytes(self.n, self.nchannels, "cholesky") <= memory_budget_bytes()
         if self._solver_mode == "auto" and fits:
-            self._iterative = None
-            return "cholesky", (f"{reason}; CG did not converge after "
-                                f"{self.solve_info.iterations} iterations: dense fallback")
-        raise RuntimeError(f"the iterative solver did not converge: {self.solve_info}")
+            self._fallback = why
+            return f"{reason}; {why}: dense fallback"
+        hint = ("solver 'auto' falls back to the dense Cholesky path (--solver auto)"
+                if fits else f"the dense {self.n}x{self.n} matrix does not fit in memory "
+                             f"either: use fewer samples")
+        raise IterativeSolverError(f"the iterative solver failed on {self.n} samples: {why}; "
+                                   f"{hint}")
 
     def _setup_nodes(self, pts: np.ndarray, nchannels: int) -> None:
         """The attributes every interpolant has (nodes, s, constants), nothing solved yet."""
@@ -266,6 +285,7 @@ class SobolevInterpolator:
         self.timings = {}
         self._factor = None
         self._iterative = None
+        self._fallback = ""
         self.log_det = float("nan")
         self._kinv_diag = None
         self._cells = {}
@@ -296,12 +316,26 @@ class SobolevInterpolator:
         r"""Iterate on until the interpolant moves by at most ``tol`` (absolute, sup norm;
         scalar or per channel) from the exact solution; warm start from the current
         coefficients. Returns (and stores in :attr:`solve_info`) the new solve's record.
-        Cholesky interpolants are exact already: their record is returned unchanged."""
+        Cholesky interpolants are exact already: their record is returned unchanged. With
+        ``solver="auto"``, a refinement whose CG breaks down or does not converge is replaced
+        by the dense solve where K fits (``solve_info.fallback`` says why)."""
         if self._iterative is None:
             return self.solve_info
         tol = np.broadcast_to(np.asarray(tol, dtype=np.float64), (self.nchannels,))
-        alpha, info = self._iterative.solve(self._values, tol, reason=self.solve_info.reason,
-                                            x0=self._alpha)
+        reason = self.solve_info.reason
+        try:
+            alpha, info = self._iterative.solve(self._values, tol, reason=reason, x0=self._alpha)
+        except IterativeSolverError as exc:
+            self._solve_dense(self._iterative_failed(reason, f"refinement: {exc}"),
+                              fallback=f"refinement: {exc}")
+            return self.solve_info
+        if not info.converged and self._solver_mode == "auto":
+            why = f"refinement: CG did not converge after {info.iterations} iterations"
+            try:
+                self._solve_dense(self._iterative_failed(reason, why), fallback=why)
+                return self.solve_info
+            except IterativeSolverError:
+                pass                 # the dense matrix does not fit: keep the CG result
         self._alpha = alpha
         self.solve_info = info
         return info

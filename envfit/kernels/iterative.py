@@ -75,14 +75,14 @@ from scipy.spatial import cKDTree
 from envfit.theory.sobolev import kernel_constant
 from envfit.theory.sphere_points import sphere_points
 
-from envfit.base.errors import ParameterError
+from envfit.base.errors import EnvfitError, ParameterError
 from envfit.base.resources import iterative_coarse_nodes
 from envfit.kernels import _kernels
 from envfit.kernels.nearfar import (SHT_EPSILON, CellList, _to_theta_phi, far_field_expansion,
                                     near_radius, nearfar_power_sums)
 
 __all__ = ["NodeOperator", "LagrangePreconditioner", "SolveInfo", "IterativeSolver",
-           "pcg_adef2", "operator_radius", "OPERATOR_NEIGHBOURS", "LOCAL_NEIGHBOURS",
+           "IterativeSolverError", "pcg_adef2", "operator_radius", "OPERATOR_NEIGHBOURS", "LOCAL_NEIGHBOURS",
            "iterative_coarse_nodes"]
 
 #: mean number of near pairs per node of the product's sparse part (the memory model of
@@ -113,6 +113,13 @@ def _one_blas_thread():
     OpenBLAS's threads waking next to numba's pool made a 400 x 400 ``dpotrf`` take 1-2 s
     instead of 1.3 ms on the loaded 2-core machine (measured)."""
     return _blas_controller().limit(limits=1, user_api="blas")
+
+
+class IterativeSolverError(EnvfitError, RuntimeError):
+    """The iterative path could not solve a system (CG breakdown, non-finite numbers, or no
+    convergence within ``maxiter``). :class:`~envfit.kernels.interpolation.SobolevInterpolator`
+    with ``solver="auto"`` falls back to the dense Cholesky path on it (and records why in
+    ``solve_info.reason``); with ``solver="iterative"`` it is the one-line error."""
 
 
 # ----------------------------------------------------------------------------- product
@@ -289,7 +296,9 @@ class SolveInfo:
     near/far product; NaN where not computed); ``error_bound``: per channel bound of
     :math:`\\sup_x |\\tilde f_{\\rm iter}(x) - \\tilde f_{\\rm exact}(x)|` (module doc);
     ``tol``: the bound it was asked for; ``lambda_min``, ``lambda_max``: Ritz estimates of
-    the spectrum of BK; ``seconds_setup``, ``seconds_solve``.
+    the spectrum of BK; ``fallback``: why the iterative path was abandoned for the dense
+    one (CG breakdown or no convergence, ``solver="auto"`` only; empty when it was not);
+    ``seconds_setup``, ``seconds_solve``.
     """
     solver: str
     reason: str
@@ -301,6 +310,7 @@ class SolveInfo:
     lambda_min: float = float("nan")
     lambda_max: float = float("nan")
     converged: bool = True
+    fallback: str = ""
     seconds_setup: float = 0.0
     seconds_solve: float = 0.0
 
@@ -308,14 +318,37 @@ class SolveInfo:
         return {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.__dict__.items()}
 
 
-def _ritz_extremes(alphas: list, betas: list) -> tuple[float, float]:
-    """Smallest and largest eigenvalue of CG's Lanczos tridiagonal matrix (one column)."""
-    a = np.asarray(alphas)
-    b = np.asarray(betas)
+def _ritz_extremes(alphas, betas) -> tuple[float, float]:
+    r"""Smallest and largest Ritz value of one column's CG run: the extreme eigenvalues of
+    its Lanczos tridiagonal matrix :math:`T_k` (Saad, *Iterative Methods for Sparse Linear
+    Systems*, 2nd ed., Sec. 6.7.3):
+
+    .. math:: (T_k)_{jj} = \frac{1}{\alpha_j} + \frac{\beta_j}{\alpha_{j-1}}, \qquad
+              (T_k)_{j,j+1} = \frac{\sqrt{\beta_{j+1}}}{\alpha_j}
+
+    (:math:`\beta_0 = 0`) from the k step lengths ``alphas`` and the k − 1 ratios
+    ``betas`` = :math:`\beta_1 \ldots \beta_{k-1}`. ``k = 0`` (no Krylov step: the column
+    met its tolerance at the start, e.g. on a warm start) gives ``(nan, nan)``; ``k = 1``
+    the Rayleigh quotient :math:`1/\alpha_0`. Only the leading steps with a finite positive
+    :math:`\alpha` and finite non-negative :math:`\beta` are used (a breakdown ends the
+    Lanczos relation there).
+    """
+    a = np.asarray(alphas, dtype=np.float64).ravel()
+    b = np.asarray(betas, dtype=np.float64).ravel()
+    if b.size != max(a.size - 1, 0):
+        raise ValueError(f"need k - 1 = {max(a.size - 1, 0)} betas for k = {a.size} step "
+                         f"lengths, got {b.size}")
+    good = np.isfinite(a) & (a > 0)
+    good[1:] &= np.isfinite(b) & (b >= 0)
+    k = int(np.argmin(good)) if not good.all() else a.size
+    if k == 0:
+        return float("nan"), float("nan")
+    a, b = a[:k], b[:k - 1]
     diag = 1.0 / a
     diag[1:] += b / a[:-1]
-    off = np.sqrt(np.maximum(b, 0.0)) / a[:-1]
-    ev = eigvalsh_tridiagonal(diag, off)
+    if k == 1:
+        return float(diag[0]), float(diag[0])
+    ev = eigvalsh_tridiagonal(diag, np.sqrt(b) / a[:-1])
     return float(ev[0]), float(ev[-1])
 
 
@@ -323,15 +356,37 @@ def _coldot(a, b):
     return np.einsum("ij,ij->j", a, b)
 
 
+def _finite_min(*values) -> float:
+    """The smallest finite value among the arrays / numbers given; NaN if there is none."""
+    v = np.concatenate([np.ravel(np.asarray(x, dtype=np.float64)) for x in values])
+    v = v[np.isfinite(v)]
+    return float(v.min()) if v.size else float("nan")
+
+
+def _lambda_for_bound(lam_min: np.ndarray, prior: float) -> np.ndarray:
+    r"""Per column, the :math:`\lambda_{\min}(BK)` estimate the stopping bound divides by:
+    the column's own smallest Ritz value; for a column without Krylov steps yet (the first
+    pass, or a column that met its tolerance at once) the smallest Ritz value of the other
+    columns or of earlier solves (``prior``; BK is one operator for all of them), else 1
+    (the preconditioner's design point, BK ≈ I)."""
+    shared = _finite_min(lam_min, prior)
+    fallback = shared if math.isfinite(shared) else 1.0
+    return np.where(np.isfinite(lam_min), lam_min, fallback)
+
+
 def pcg_adef2(op: NodeOperator, prec: LagrangePreconditioner, f: np.ndarray, tol: np.ndarray,
-              maxiter: int, x0: np.ndarray | None = None) -> tuple[np.ndarray, dict]:
+              maxiter: int, x0: np.ndarray | None = None,
+              lambda_prior: float = float("nan")) -> tuple[np.ndarray, dict]:
     r"""A-DEF2 preconditioned CG on :math:`K x = f` for every column of f (N, C).
 
     ``tol`` (C,): stop a column when :math:`\sqrt{c_s r^T z / (\lambda_{\min}/2)} \le`
-    ``tol`` (the sup-norm bound of the interpolant's change, module docstring).
+    ``tol`` (the sup-norm bound of the interpolant's change, module docstring), with
+    :math:`\lambda_{\min}` from :func:`_lambda_for_bound` (``lambda_prior``: the smallest
+    Ritz value of earlier solves with the same operator). A column that meets its tolerance
+    before its first step keeps an empty Lanczos matrix while the others iterate on.
     ``x0`` (optional warm start :math:`\bar x`) enters as :math:`x_0 = \bar x + Q(f - K\bar x)`.
     Returns ``(x, stats)``, stats with ``iterations``, ``bound`` (C,), ``lambda_min``,
-    ``lambda_max``, ``converged``.
+    ``lambda_max`` (NaN where no column took a step), ``converged``.
     """
     n, nc = f.shape
     cs = op.c
@@ -346,7 +401,6 @@ def pcg_adef2(op: NodeOperator, prec: LagrangePreconditioner, f: np.ndarray, tol
     active = np.ones(nc, dtype=bool)
     alphas = [[] for _ in range(nc)]
     betas = [[] for _ in range(nc)]
-    bound = np.full(nc, np.inf)
     lam = (np.full(nc, np.nan), np.full(nc, np.nan))
     it = 0
     while True:
@@ -355,11 +409,8 @@ def pcg_adef2(op: NodeOperator, prec: LagrangePreconditioner, f: np.ndarray, tol
         q, kq = prec.coarse_solve(r - ky)
         z, kz = y + q, ky + kq
         rz = _coldot(r, z)
-        for c in range(nc):
-            if it >= 1:
-                lam[0][c], lam[1][c] = _ritz_extremes(alphas[c], betas[c][1:])
-            lmin = lam[0][c] if it >= 1 else 1.0
-            bound[c] = math.sqrt(cs * max(rz[c], 0.0) / max(0.5 * lmin, 1e-3))
+        lmin = _lambda_for_bound(lam[0], lambda_prior)
+        bound = np.sqrt(cs * np.maximum(rz, 0.0) / np.maximum(0.5 * lmin, 1e-3))
         active &= bound > tol
         if not active.any() or it >= maxiter or np.any(rz[active] <= 0):
             break
@@ -370,16 +421,21 @@ def pcg_adef2(op: NodeOperator, prec: LagrangePreconditioner, f: np.ndarray, tol
             beta = np.where(active, rz / np.where(rz_old != 0, rz_old, 1.0), 0.0)
             p = z + beta * p
             kp = kz + beta * kp
-        step = np.where(active, rz / _coldot(p, kp), 0.0)
+        pkp = _coldot(p, kp)
+        if np.any(pkp[active] <= 0):          # K p · p ≤ 0: breakdown (K not SPD in floats)
+            break
+        step = np.where(active, rz / np.where(active, pkp, 1.0), 0.0)
         x += step * p
         r -= step * kp
         for c in np.nonzero(active)[0]:
+            if alphas[c]:
+                betas[c].append(beta[c])
             alphas[c].append(step[c])
-            betas[c].append(beta[c])
+            lam[0][c], lam[1][c] = _ritz_extremes(alphas[c], betas[c])
         rz_old = rz
         it += 1
-    return x, {"iterations": it, "bound": bound, "lambda_min": float(np.nanmin(lam[0])),
-               "lambda_max": float(np.nanmax(lam[1])), "converged": bool(not active.any())}
+    return x, {"iterations": it, "bound": bound, "lambda_min": _finite_min(lam[0]),
+               "lambda_max": -_finite_min(-lam[1]), "converged": bool(not active.any())}
 
 
 class IterativeSolver:
@@ -399,15 +455,30 @@ class IterativeSolver:
         self.op = NodeOperator(points, s, nthreads=nthreads, tree=tree)
         self.prec = LagrangePreconditioner(points, s, k=k, m=m, tree=tree, nthreads=nthreads)
         self.maxiter = int(maxiter)
+        #: the smallest Ritz value of BK seen by any solve so far (NaN before the first step)
+        self.lambda_min_seen = float("nan")
         self.seconds_setup = time.perf_counter() - t0
 
     def solve(self, f: np.ndarray, tol: np.ndarray, *, reason: str = "",
               x0: np.ndarray | None = None) -> tuple[np.ndarray, SolveInfo]:
+        """CG for ``f`` (N, C) to the sup-norm bound ``tol`` (per channel), optionally warm
+        started at ``x0``. The smallest Ritz value seen by any solve of this solver is kept
+        (``lambda_min_seen``) and used for columns that take no step (:func:`pcg_adef2`).
+
+        Raises :class:`IterativeSolverError` when the Krylov iteration breaks down
+        numerically (an exception of the linear algebra, or non-finite coefficients); a run
+        that ends unconverged is returned with ``converged=False``."""
         t0 = time.perf_counter()
         before = self.op.products
-        x, st = pcg_adef2(self.op, self.prec, f, np.broadcast_to(tol, (f.shape[1],)),
-                          self.maxiter, x0=x0)
-        res = f - self.op.matvec(x)
+        try:
+            x, st = pcg_adef2(self.op, self.prec, f, np.broadcast_to(tol, (f.shape[1],)),
+                              self.maxiter, x0=x0, lambda_prior=self.lambda_min_seen)
+            res = f - self.op.matvec(x)
+        except (ArithmeticError, ValueError, np.linalg.LinAlgError) as exc:
+            raise IterativeSolverError(f"CG broke down ({type(exc).__name__}: {exc})") from None
+        if not (np.all(np.isfinite(x)) and np.all(np.isfinite(res))):
+            raise IterativeSolverError("CG broke down (non-finite coefficients)")
+        self.lambda_min_seen = _finite_min(self.lambda_min_seen, st["lambda_min"])
         fn = np.linalg.norm(f, axis=0)
         rel = np.linalg.norm(res, axis=0) / np.where(fn > 0, fn, 1.0)
         info = SolveInfo(solver="iterative", reason=reason, iterations=st["iterations"],
