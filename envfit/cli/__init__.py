@@ -34,10 +34,23 @@ from envfit.base.errors import EnvfitError
 COMMANDS = ("synth", "info", "fit", "table2", "theory", "validate", "advise", "sh")
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """An :class:`argparse.ArgumentParser` whose errors are one line on stderr, exit 2:
+    ``envfit CMD: error: WHAT (see 'envfit CMD --help')`` instead of the usage block.
+
+    ``add_subparsers`` makes the subcommands' parsers (and theirs: ``theory wce``) of the
+    parser's own class, so every level reports this way; ``--help`` still prints the full
+    help (exit 0)."""
+
+    def error(self, message: str):
+        what = " ".join(str(message).split())
+        self.exit(2, f"{self.prog}: error: {what} (see '{self.prog} --help')\n")
+
+
 def build_parser(only: str | None = None) -> argparse.ArgumentParser:
     """The argument parser; ``only`` registers just that subcommand (``main`` does so when the
     command is known, so ``envfit advise …`` does not import the modules of the others)."""
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="envfit",
         description="Sobolev smoothness of environment maps, and predicted vs measured "
                     "errors of shading-integral estimators (Marques, Bouville, Bouatouch).")
@@ -101,6 +114,20 @@ def _report_write_failures(args: argparse.Namespace) -> int:
     return 2
 
 
+def _innermost_parser(parser: argparse.ArgumentParser,
+                      args: argparse.Namespace) -> argparse.ArgumentParser:
+    """The parser of the (sub-)subcommand ``args`` selected (``envfit theory wce``), so an
+    error names it; ``parser`` itself without a command."""
+    for dest in ("command", "theory_command"):
+        chosen = getattr(args, dest, None)
+        sub = next((a for a in parser._actions if isinstance(a, argparse._SubParsersAction)
+                    and a.dest == dest), None)
+        if chosen is None or sub is None or chosen not in sub.choices:
+            break
+        parser = sub.choices[chosen]
+    return parser
+
+
 def main(argv: list[str] | None = None) -> int:
     from envfit.theory.errors import TheoryParameterError
 
@@ -115,8 +142,10 @@ def main(argv: list[str] | None = None) -> int:
               file=sys.stderr)
         return 2
     try:
-        args = parser.parse_args(argv)
-    except SystemExit as exc:  # argparse: usage + one error line (exit 2), or --help (0)
+        args, extra = parser.parse_known_args(argv)
+        if extra:                # named by the (sub)command they were given to
+            _innermost_parser(parser, args).error(f"unrecognized arguments: {' '.join(extra)}")
+    except SystemExit as exc:  # argparse: one error line (exit 2), or --help / --version (0)
         return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
     if not getattr(args, "func", None):
         parser.print_help()

@@ -25,6 +25,7 @@ from typing import Any, Callable
 
 from envfit.base.atomic import (atomic_write_json, check_writable_dir, check_writable_file, os_reason,
                       to_jsonable)
+from .overlap import check_no_overlap
 
 #: the largest integer an option accepts (exponent notation beyond it is surely a typo)
 _INT_LIMIT = 10 ** 18
@@ -194,6 +195,9 @@ def preflight_outputs(args: argparse.Namespace) -> None:
     """Check every output of the command *before* any work; ``main`` calls it for every
     subcommand. Raises :class:`envfit.base.errors.OutputError` (one line, exit 2) for:
 
+    * an output that names an input (resolved: symlinks and hard links included), lies where
+      it would be read as one, or two outputs naming one file
+      (:func:`envfit.cli.overlap.check_no_overlap`; checked first, before anything is made);
     * ``--out`` (or the command's default folder ``out_default``): created if missing, and a
       temporary file created and removed inside;
     * ``--json FILE`` (``-`` = stdout passes) and synth's ``OUT.exr`` (``args.output``): not a
@@ -207,6 +211,7 @@ def preflight_outputs(args: argparse.Namespace) -> None:
     out = getattr(args, "out", None)
     if out is None:
         out = getattr(args, "out_default", None)
+    check_no_overlap(args, out, advisor_cache_dir(args))   # no output names an input
     if out is not None:
         check_writable_dir(out, "--out")
     if getattr(args, "json", None) is not None:
@@ -220,6 +225,17 @@ def preflight_outputs(args: argparse.Namespace) -> None:
         if problem:  # "the advisor cache … is not writable (…); advise works without it …"
             args.cache_note = f"note: {problem}"
             print(f"envfit {command_name(args)}: {args.cache_note}", file=sys.stderr)
+
+
+def advisor_cache_dir(args: argparse.Namespace):
+    """The advisor cache folder the command writes (``--cache-dir`` or the default), or None
+    (no cache option, or ``--no-cache``)."""
+    if not hasattr(args, "cache_dir") or getattr(args, "no_cache", False):
+        return None
+    if args.cache_dir is not None:
+        return args.cache_dir
+    from envfit.advisor.cache import default_cache_dir
+    return default_cache_dir()
 
 
 # ------------------------------------------------------------------ writes after the work
