@@ -1,0 +1,110 @@
+"""Sphinx configuration of envfit's documentation (``sphinx-build -b html docs docs/_build``).
+
+The pages are Markdown (MyST); the API reference is generated from the docstrings
+(numpydoc) of the public names: ``envfit.__all__`` and the ``__all__`` of every sub-package
+that declares one. Its pages are written at configuration time into ``docs/api/``, and each
+command's ``--help`` into ``docs/_generated/`` (both git-ignored), so a sub-package that gains
+or changes its ``__all__``, or a command that gains an option, is documented without editing
+these files.
+"""
+from __future__ import annotations
+
+import importlib
+import os
+import pkgutil
+import subprocess
+import sys
+from pathlib import Path
+
+import envfit
+
+project = "envfit"
+author = "envfit developers"
+copyright = "envfit developers"
+release = version = envfit.__version__
+
+extensions = [
+    "myst_parser",
+    "sphinx.ext.autodoc",
+    "sphinx.ext.autosummary",
+    "sphinx.ext.mathjax",
+    "numpydoc",
+]
+source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
+exclude_patterns = ["_build", "_generated", "Thumbs.db", ".DS_Store"]
+myst_heading_anchors = 3
+
+autosummary_generate = True
+autosummary_imported_members = True
+autodoc_default_options = {"members": False}
+# numpydoc: the member lists of classes would each need their own autosummary stub pages
+numpydoc_show_class_members = False
+numpydoc_class_members_toctree = False
+numpydoc_validation_checks: set[str] = set()
+
+html_theme = "alabaster"
+html_title = f"envfit {release}"
+
+HERE = Path(__file__).resolve().parent
+API = HERE / "api"
+GENERATED = HERE / "_generated"
+#: the commands whose ``--help`` the guides include (``_generated/help_<name>.txt``)
+HELP_COMMANDS = ("synth", "info", "fit", "table2", "theory", "theory wce", "theory table1",
+                 "theory figures", "validate", "advise", "sh")
+
+
+def public_packages() -> list[str]:
+    """envfit, then every sub-package (sorted) whose ``__init__`` declares ``__all__``."""
+    names = ["envfit"]
+    for info in pkgutil.walk_packages(envfit.__path__, "envfit."):
+        if info.ispkg and hasattr(importlib.import_module(info.name), "__all__"):
+            names.append(info.name)
+    for extra in ("envfit.theory", "envfit.data_gen"):    # installed from theory/ and data_gen/
+        if extra not in names and hasattr(importlib.import_module(extra), "__all__"):
+            names.append(extra)
+    return names[:1] + sorted(names[1:])
+
+
+def package_page(name: str) -> str:
+    """The reStructuredText of one package: its docstring and an autosummary of its ``__all__``."""
+    module = importlib.import_module(name)
+    public = [n for n in module.__all__ if not (n.startswith("__") and n.endswith("__"))]
+    lines = [name, "=" * len(name), "", f".. automodule:: {name}", "   :no-members:", "",
+             f".. currentmodule:: {name}", "", ".. autosummary::", "   :toctree: generated", ""]
+    lines += [f"   {n}" for n in public]
+    return "\n".join(lines) + "\n"
+
+
+def write_api_pages() -> None:
+    """Write ``api/<package>.rst`` and ``api/index.rst`` (only where the text changed)."""
+    API.mkdir(exist_ok=True)
+    pages = {f"{name}.rst": package_page(name) for name in public_packages()}
+    toc = ["API reference", "=============", "",
+           "The supported names: ``envfit.__all__`` and each sub-package's ``__all__``",
+           "(generated from the docstrings; implementation modules are not listed).", "",
+           ".. toctree::", "   :maxdepth: 1", ""]
+    pages["index.rst"] = "\n".join(toc + [f"   {p[:-4]}" for p in pages]) + "\n"
+    for stale in API.glob("*.rst"):
+        if stale.name not in pages:
+            stale.unlink()
+    for fname, text in pages.items():
+        _write_if_changed(API / fname, text)
+
+
+def _write_if_changed(path: Path, text: str) -> None:
+    if not path.exists() or path.read_text() != text:
+        path.write_text(text)
+
+
+def write_cli_help() -> None:
+    """``envfit CMD --help`` of every command, as the installed CLI prints it (80 columns)."""
+    GENERATED.mkdir(exist_ok=True)
+    env = dict(os.environ, COLUMNS="80")
+    for cmd in HELP_COMMANDS:
+        run = subprocess.run([sys.executable, "-m", "envfit.cli", *cmd.split(), "--help"],
+                             capture_output=True, text=True, env=env, timeout=120, check=True)
+        _write_if_changed(GENERATED / f"help_{cmd.replace(' ', '_')}.txt", run.stdout)
+
+
+write_api_pages()
+write_cli_help()
