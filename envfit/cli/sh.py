@@ -37,7 +37,11 @@ def register(sub) -> None:
                     "(none, hanning, lanczos, sloan) the predicted error and the share of "
                     "directions where the truncated signal is negative (Gauss-Legendre grid; "
                     "checked by a dense per-pixel sum), then the smallest L and window meeting "
-                    "--target-relative without negative directions.")
+                    "--target-relative without negative directions. Every option is "
+                    "checked before the work: degrees within the map's band limit H-1, and "
+                    "the planned time and memory within the machine's memory and the time "
+                    "limit (ENVFIT_TIME_LIMIT seconds, default 900); a value beyond is "
+                    "refused in one line naming the largest that fits.")
     add_map_arguments(p)
     p.add_argument("--lmax", type=nonneg_int, required=True, metavar="L",
                    help="SH degree of the exported coefficients, 0 <= L <= H-1")
@@ -54,26 +58,44 @@ def register(sub) -> None:
                         "(Sloan's Stupid SH Tricks, D3DX: odd m negated); glsl keeps its own")
     p.add_argument("--target-relative", type=positive_float, default=0.01, metavar="F",
                    help="relative RMSE the choice must meet (default: 0.01)")
-    p.add_argument("--table-lmax", type=positive_int, default=TABLE_LMAX, metavar="L",
-                   help=f"ringing table for L = 1..this and --lmax (default: {TABLE_LMAX})")
+    p.add_argument("--table-lmax", type=positive_int, default=None, metavar="L",
+                   help=f"ringing table for L = 1..this and --lmax, 1 <= L <= H-1 (default: "
+                        f"min({TABLE_LMAX}, H-1))")
     p.add_argument("--no-check", action="store_true",
                    help="skip the measured error and the dense negative-fraction check")
     p.add_argument("--check-axes", type=positive_int, default=CHECK_AXES, metavar="N",
-                   help=f"directions of the measured error (default: {CHECK_AXES})")
+                   help=f"directions of the measured error, >= 1 (default: {CHECK_AXES})")
     p.add_argument("--check-height", type=positive_int, default=DENSE_HEIGHT, metavar="H",
-                   help=f"rows of the dense check's lat-long grid (default: {DENSE_HEIGHT})")
+                   help=f"rows of the dense check's lat-long grid, >= 1 (default: "
+                        f"{DENSE_HEIGHT})")
     add_common_arguments(p, seed=False)
     p.set_defaults(func=run)
 
 
+#: a plan longer than this (estimated seconds) is announced on stderr before the work
+NOTE_SECONDS = 10.0
+
+
+def _plan_note(args: argparse.Namespace, stages) -> None:
+    """One line on stderr before a long run: the estimated time and its largest stage."""
+    total = sum(s.seconds for s in stages)
+    if args.quiet or total < NOTE_SECONDS:
+        return
+    top = max(stages, key=lambda s: s.seconds)
+    print(f"envfit sh: note: about {total:.0f} s of work on this machine (estimated; "
+          f"{top.what}: {top.seconds:.0f} s, sized by {top.option})", file=sys.stderr)
+
+
 def run(args: argparse.Namespace) -> int:
-    from envfit.predict.sh_report import document, sh_outputs, sh_report
+    from envfit.predict.sh_report import document, plan, sh_outputs, sh_report
     env = load_map_from_args(args)
     conv = map_convention(args)
-    r = sh_report(env, args.lmax, irradiance=args.irradiance, window=args.window,
-                  target_relative=args.target_relative, scale=args.scale,
-                  table_lmax=args.table_lmax, check=not args.no_check,
-                  check_axes=args.check_axes, dense_height=args.check_height,
+    opts = dict(irradiance=args.irradiance, window=args.window,
+                target_relative=args.target_relative, scale=args.scale,
+                table_lmax=args.table_lmax, check=not args.no_check,
+                check_axes=args.check_axes, dense_height=args.check_height)
+    _plan_note(args, plan(env, args.lmax, **opts))      # refused here, before the work
+    r = sh_report(env, args.lmax, **opts, quiet=args.quiet,
                   convention=None if conv is None else f"{conv.name} ({conv.renderer})",
                   condon_shortley=args.condon_shortley)
     out = out_dir(args)

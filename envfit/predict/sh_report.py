@@ -32,9 +32,11 @@ import numpy as np
 
 from envfit.base.atomic import atomic_write_csv, atomic_write_json, atomic_write_text, to_jsonable
 from envfit.base.checks import check_int, check_positive
+from envfit.base.progress import progress
 from envfit.base.errors import ParameterError
 from envfit.maps.envmap import EnvMap
 from envfit.maps.scales import SCALES, fit_scale
+from envfit.predict.sh_plan import check_sh_plan
 from envfit.predict.sh_ringing import (CHECK_AXES, DENSE_HEIGHT, TABLE_LMAX, RingingRow,
                                        check_lmax, choose, dense_negative_fractions,
                                        measured_rmse, negative_fraction, ringing_rows,
@@ -46,8 +48,8 @@ from envfit.shading.sh_export import (NORMALISATION, ORDERING, RH_CONSTANTS, WIN
 from envfit.shading.sh_format import signed_coefficients, to_csv, to_glsl
 from envfit.shading.spectra import _power_by_degree   # the alm are computed here once
 
-__all__ = ["FORMATS", "SHReport", "sh_report", "document", "sh_outputs",
-           "preview_images"]
+__all__ = ["FORMATS", "SHReport", "sh_report", "plan", "default_table_lmax", "document",
+           "sh_outputs", "preview_images"]
 
 #: the documents ``--format`` names
 FORMATS = ("json", "csv", "glsl")
@@ -143,27 +145,45 @@ class SHReport:
         return lines
 
 
-def _check(envmap: EnvMap, lmax, window: str, target_relative, scale: str, table_lmax) -> int:
-    """The options, checked before any work (ParameterError, one line)."""
+def default_table_lmax(height: int) -> int:
+    """The ringing table's top degree without ``--table-lmax``: min(TABLE_LMAX, H − 1), at
+    least 1."""
+    return max(1, min(TABLE_LMAX, int(height) - 1))
+
+
+def plan(envmap: EnvMap, lmax, *, irradiance: bool = False, window: str = "none",
+         target_relative: float = 0.01, scale: str = "linear", table_lmax: int | None = None,
+         check: bool = True, check_axes: int = CHECK_AXES,
+         dense_height: int = DENSE_HEIGHT) -> list:
+    """Every option checked before any work (ParameterError / MemoryBudgetError, one line):
+    names and ranges, then the planned time and memory
+    (:func:`envfit.predict.sh_plan.check_sh_plan`); returns its stages."""
     if not isinstance(envmap, EnvMap):
         raise ParameterError("sh_report needs an EnvMap")
-    L = check_lmax(lmax, envmap.height)
+    check_lmax(lmax, envmap.height)
     if window not in WINDOWS:
         raise ParameterError(f"unknown --window {window!r}; use one of {', '.join(WINDOWS)}")
     if scale not in ("linear", "display"):
         raise ParameterError(f"--scale must be linear or display for SH export, got {scale!r}"
                              if scale in SCALES else f"unknown --scale {scale!r}")
     check_positive(target_relative, "--target-relative")
+    table_lmax = default_table_lmax(envmap.height) if table_lmax is None else table_lmax
     check_int(table_lmax, "--table-lmax", 1)
-    return L
+    if check:
+        check_int(check_axes, "--check-axes", 1)
+        check_int(dense_height, "--check-height", 1)
+    return check_sh_plan(envmap.height, envmap.channels, lmax, table_lmax, check=check,
+                         check_axes=check_axes, dense_height=dense_height,
+                         irradiance=irradiance)
 
 
 def _checked_rows(scaled: EnvMap, alm, rows, irradiance: bool, export: SHCoefficients,
-                  axes: int, height: int, mean: float):
+                  axes: int, height: int, mean: float, quiet: bool = True):
     """The rows and the export with their dense negative fraction and measured error."""
     exps = [sh_coefficients(scaled, r.L, irradiance=irradiance, window=r.window,
-                            lam=r.window_lambda, alm=alm) for r in rows] + [export]
-    dense = dense_negative_fractions(exps, height)
+                            lam=r.window_lambda, alm=alm)
+            for r in progress(rows, desc="sh: exports", quiet=quiet)] + [export]
+    dense = dense_negative_fractions(exps, height, quiet=quiet)
     meas = [m / mean for m in measured_rmse(scaled, exps, axes, alm)]
     rows = tuple(replace(r, dense_negative_fraction=d, measured_relative_rmse=m)
                  for r, d, m in zip(rows, dense, meas))
@@ -172,9 +192,9 @@ def _checked_rows(scaled: EnvMap, alm, rows, irradiance: bool, export: SHCoeffic
 
 def sh_report(envmap: EnvMap, lmax: int, *, irradiance: bool = False, window: str = "none",
               target_relative: float = 0.01, scale: str = "linear",
-              table_lmax: int = TABLE_LMAX, check: bool = True, check_axes: int = CHECK_AXES,
+              table_lmax: int | None = None, check: bool = True, check_axes: int = CHECK_AXES,
               dense_height: int = DENSE_HEIGHT, convention: str | None = None,
-              condon_shortley: bool = False) -> SHReport:
+              condon_shortley: bool = False, quiet: bool = True) -> SHReport:
     """SH coefficients of ``envmap`` to ``lmax`` for an engine, with predictions and choice.
 
     Parameters
@@ -185,14 +205,23 @@ def sh_report(envmap: EnvMap, lmax: int, *, irradiance: bool = False, window: st
     window : one of :data:`envfit.shading.sh_export.WINDOWS` for the export.
     target_relative : the relative RMSE the choice must meet.
     scale : "linear" or "display" (the values the coefficients are of).
-    table_lmax : the ringing table covers L = 1…table_lmax and ``lmax``.
+    table_lmax : the ringing table covers L = 1…table_lmax and ``lmax``, 1 ≤ table_lmax ≤
+        H − 1 (default: min(:data:`TABLE_LMAX`, H − 1)).
     check : also measure (ground truth at ``check_axes`` directions) and evaluate the
         negative fractions densely (``dense_height`` rows).
+    quiet : no progress bars (the ringing table's rows, the dense check's blocks).
+
+    Every option is checked before any work, its range and the planned time and memory
+    (:func:`plan`): a value beyond is refused in one line naming the largest that fits.
     convention : the name reported for the world frame (default: envfit's, ``--up``).
     condon_shortley : write the coefficients for the basis with the Condon–Shortley phase
         (Sloan 2008, D3DX: odd m negated) in JSON and CSV (GLSL keeps its own basis).
     """
-    L = _check(envmap, lmax, window, target_relative, scale, table_lmax)
+    plan(envmap, lmax, irradiance=irradiance, window=window, target_relative=target_relative,
+         scale=scale, table_lmax=table_lmax, check=check, check_axes=check_axes,
+         dense_height=dense_height)
+    L = int(lmax)
+    table_lmax = default_table_lmax(envmap.height) if table_lmax is None else int(table_lmax)
     sc = fit_scale(scale, envmap)
     scaled = envmap.with_data(sc.apply(envmap.data))
     Ls = sorted(set(range(1, int(table_lmax) + 1)) | ({L} if L >= 1 else set()))
@@ -208,12 +237,12 @@ def sh_report(envmap: EnvMap, lmax: int, *, irradiance: bool = False, window: st
     export = sh_coefficients(scaled, L, irradiance=irradiance, window=window,
                              alm=truncate_alm(alm, top), condon_shortley=condon_shortley)
     w = np.asarray(export.window_weights)
-    rows = tuple(ringing_rows(truncate_alm(alm, top), power, irradiance, Ls))
+    rows = tuple(ringing_rows(truncate_alm(alm, top), power, irradiance, Ls, quiet=quiet))
     kw = {}
     if check:
         rows, kw["dense_negative_fraction"], kw["measured_relative_rmse"] = _checked_rows(
             scaled, truncate_alm(alm, top), rows, irradiance, export, check_axes,
-            dense_height, mean)
+            dense_height, mean, quiet)
         kw.update(check_axes=int(check_axes), dense_height=int(dense_height))
     choice, sentence = choose(rows, float(target_relative))
     return SHReport(

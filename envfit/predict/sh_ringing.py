@@ -47,9 +47,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from envfit.base.checks import check_int
+from envfit.base.progress import progress
 from envfit.base.errors import ParameterError
 from envfit.maps.envmap import EnvMap
-from envfit.maps.latlong import pixel_directions, pixel_solid_angles
+from envfit.maps.latlong import (local_to_world, pixel_angles, pixel_directions,
+                                 pixel_solid_angles, row_solid_angles)
 from envfit.predict.spectral import spectral_truncation_curve
 from envfit.shading.ground_truth import shading_integral
 from envfit.shading.patches import axes_to_local
@@ -70,6 +72,8 @@ CHECK_AXES = 4096
 DENSE_HEIGHT = 512
 #: the ringing table's degrees are 1…TABLE_LMAX and the export's
 TABLE_LMAX = 8
+#: memory of one block of rows of the dense check (directions and values of every export)
+DENSE_BLOCK_BYTES = 64 * 2**20
 #: the direct per-direction sums (dense check, measured irradiance of the exported numbers)
 #: up to this degree; above it the dense check is skipped and the measured irradiance is
 #: synthesised from the local coefficients (``synthesis_general``)
@@ -150,35 +154,48 @@ def negative_fraction(alm, factors, nlat: int | None = None) -> float:
     return float((neg * om[:, None]).sum() / (4 * np.pi))
 
 
-def dense_negative_fractions(exports, height: int = DENSE_HEIGHT) -> list[float | None]:
+def dense_negative_fractions(exports, height: int = DENSE_HEIGHT, *,
+                             block_bytes: int = DENSE_BLOCK_BYTES,
+                             quiet: bool = True) -> list[float | None]:
     """Solid-angle share where any channel of each
     :class:`~envfit.shading.sh_export.SHCoefficients` in ``exports`` is negative, by the
     direct sum at every pixel centre of a ``height``-row lat-long grid of their world frame
     (:func:`sh_eval`), weighted by the exact pixel solid angles; None above
-    :data:`DIRECT_LMAX`."""
+    :data:`DIRECT_LMAX`.
+
+    The grid is visited in blocks of rows of at most ``block_bytes`` (directions and values
+    of every export), so the memory does not grow with ``height`` (issue 22: a 100000-row
+    grid asked for terabytes at once); the time does, and is planned beforehand
+    (:func:`envfit.predict.sh_plan.check_sh_plan`)."""
     todo = [e for e in exports if e.lmax <= DIRECT_LMAX]
     if not todo:
         return [None] * len(exports)
+    height = check_int(height, "--check-height", 1)
     top = max(e.lmax for e in todo)
     n = (top + 1) ** 2
-    cols, spans = [], {}
+    cols, spans = [], []
     for e in todo:
         c = np.zeros((n, e.coefficients.shape[1]))
         c[:e.coefficients.shape[0]] = e.coefficients
         tol = 1e-9 * float(np.abs(e.coefficients[0]).max()) / math.sqrt(4 * np.pi)
-        spans[id(e)] = (len(cols), e.coefficients.shape[1], max(tol, 1e-300))
+        spans.append((len(cols), e.coefficients.shape[1], max(tol, 1e-300)))
         cols.extend(c.T)
-    om = pixel_solid_angles(height)
-    vals = sh_eval(np.stack(cols, axis=1), pixel_directions(height, up=todo[0].up))  # (H, W, K)
-    out = []
-    for e in exports:
-        if id(e) not in spans:
-            out.append(None)
-            continue
-        start, k, tol = spans[id(e)]
-        neg = (vals[..., start:start + k] < -tol).any(axis=-1)
-        out.append(float((neg * om).sum() / (4 * np.pi)))
-    return out
+    coef = np.stack(cols, axis=1)                                         # (n, K)
+    theta, phi = pixel_angles(height)
+    om = row_solid_angles(height)                                         # one pixel per row
+    m = local_to_world(todo[0].up)
+    rows = max(1, int(block_bytes) // (8 * phi.size * (coef.shape[1] + 4)))
+    area = np.zeros(len(todo))
+    for i in progress(range(0, height, rows), desc="sh: dense check", unit="block",
+                      quiet=quiet):
+        st, ct = np.sin(theta[i:i + rows, None]), np.cos(theta[i:i + rows, None])
+        local = np.stack(np.broadcast_arrays(st * np.cos(phi), st * np.sin(phi), ct), axis=-1)
+        vals = sh_eval(coef, local @ m.T)                                 # (rows, W, K)
+        for j, (start, k, tol) in enumerate(spans):
+            neg = (vals[..., start:start + k] < -tol).any(axis=-1)        # (rows, W)
+            area[j] += float(neg.sum(axis=1) @ om[i:i + rows])
+    found = iter(area / (4 * np.pi))
+    return [float(next(found)) if e.lmax <= DIRECT_LMAX else None for e in exports]
 
 
 def measured_rmse(envmap: EnvMap, exports, axes: int = CHECK_AXES, alm=None) -> list[float]:
@@ -215,7 +232,7 @@ def measured_rmse(envmap: EnvMap, exports, axes: int = CHECK_AXES, alm=None) -> 
 
 
 def ringing_rows(alm, power, irradiance: bool, Ls, windows=tuple(WINDOWS),
-                 nlat: int | None = None) -> list[RingingRow]:
+                 nlat: int | None = None, *, quiet: bool = True) -> list[RingingRow]:
     """Predicted relative error and negative fraction of every (L, window), L in ``Ls``
     (``alm``: local complex coefficients of degree ≥ max(Ls); ``power``: the map's power
     per degree, :func:`envfit.shading.spectra.map_degree_power`, to 2H − 1)."""
@@ -224,7 +241,7 @@ def ringing_rows(alm, power, irradiance: bool, Ls, windows=tuple(WINDOWS),
     mean = signal_mean(alm, g_all)
     alm = truncate_alm(alm, max(Ls))
     rows = []
-    for L in Ls:
+    for L in progress(Ls, desc="sh: ringing table", unit="degree", quiet=quiet):
         for name in windows:
             lam = sloan_lambda(alm, g_all[:L + 1], L, nlat) if name == "sloan" else None
             w = window_weights(name, L, lam)
