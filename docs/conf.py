@@ -9,11 +9,11 @@ these files.
 """
 from __future__ import annotations
 
+import contextlib
 import importlib
+import io
 import os
 import pkgutil
-import subprocess
-import sys
 from pathlib import Path
 
 import envfit
@@ -97,13 +97,26 @@ def _write_if_changed(path: Path, text: str) -> None:
 
 
 def write_cli_help() -> None:
-    """``envfit CMD --help`` of every command, as the installed CLI prints it (80 columns)."""
+    """``envfit CMD --help`` of every command, as the CLI prints it (80 columns; in this process:
+    one interpreter start instead of one per command)."""
+    from envfit.cli import main
+
     GENERATED.mkdir(exist_ok=True)
-    env = dict(os.environ, COLUMNS="80")
-    for cmd in HELP_COMMANDS:
-        run = subprocess.run([sys.executable, "-m", "envfit.cli", *cmd.split(), "--help"],
-                             capture_output=True, text=True, env=env, timeout=120, check=True)
-        _write_if_changed(GENERATED / f"help_{cmd.replace(' ', '_')}.txt", run.stdout)
+    columns = os.environ.get("COLUMNS")
+    os.environ["COLUMNS"] = "80"
+    try:
+        for cmd in HELP_COMMANDS:
+            buf = io.StringIO()
+            with contextlib.redirect_stdout(buf):
+                rc = main([*cmd.split(), "--help"])
+            if rc != 0 or not buf.getvalue().startswith("usage: envfit"):
+                raise RuntimeError(f"envfit {cmd} --help: exit {rc}, printed {buf.getvalue()[:200]!r}")
+            _write_if_changed(GENERATED / f"help_{cmd.replace(' ', '_')}.txt", buf.getvalue())
+    finally:
+        if columns is None:
+            del os.environ["COLUMNS"]
+        else:
+            os.environ["COLUMNS"] = columns
 
 
 write_api_pages()
