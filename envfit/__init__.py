@@ -8,7 +8,7 @@ The public API (imported lazily, so ``import envfit`` stays fast)::
     from envfit import shading_integral                          # ground-truth shading integrals
     from envfit import run_validation                            # measured vs predicted errors
 
-Conventions (lat-long geometry, value scales) are documented in README.md and implemented
+Conventions (lat-long geometry, value scales) are documented in docs/conventions.md and implemented
 in :mod:`envfit.maps.latlong` and :mod:`envfit.maps.scales`.
 """
 from __future__ import annotations

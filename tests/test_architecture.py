@@ -69,7 +69,7 @@ def _imports(path: Path, package: str) -> set[str]:
 def _violations() -> list[str]:
     bad = []
     for pkg, folder in _package_dirs().items():
-        assert pkg in RANK, f"envfit.{pkg} is in no layer: add it to LAYERS and the README"
+        assert pkg in RANK, f"envfit.{pkg} is in no layer: add it to LAYERS and docs/architecture.md"
         for path in sorted(folder.rglob("*.py")):
             for dep in sorted(_imports(path, pkg) - {pkg}):
                 if dep not in RANK:

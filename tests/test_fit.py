@@ -27,7 +27,7 @@ def samples():
 @pytest.mark.parametrize("method, per_seed, mean_tol", [("likelihood", 0.2, 0.08), ("loo", 0.35, 0.15)])
 @pytest.mark.parametrize("s0", [1.3, 1.7])
 def test_recovers_s0_on_exact_gp_samples(samples, method, per_seed, mean_tol, s0):
-    # Tolerances from a 6-seed calibration at N = 400 (README, "Fitting s"): the likelihood
+    # Tolerances from a 6-seed calibration at N = 400 (docs/guides/fit.md, "Which criterion, which N"): the likelihood
     # estimate has sd ~0.06-0.07 and no visible bias, LOO sd ~0.12-0.15; per-seed bounds are
     # ~3 sd, the mean of 4 seeds ~2.5 sd/sqrt(4). The profile-likelihood 95 % interval must
     # cover s0 for at least 3 of the 4 seeds.

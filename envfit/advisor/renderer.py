@@ -50,8 +50,8 @@ absorb. So grid 512 (the box exact for QMC to N ≈ (512/8)² = 4096) with 32 ax
 validated accuracy at less than half its cost. These comparisons used the map technique's
 spectrum from a uniform grid, before its exact quadrature nodes; with the nodes, the
 single-precision NUFFT and the 8B lobe grid of :mod:`envfit.shading.warped_spectrum` the four
-spectra take 35 s wall on city.exr (2 cores, load 3–4, raised priority; README "Renderer
-rules in envfit advise").
+spectra take 35 s wall on city.exr (2 cores, load 3–4, raised priority;
+docs/guides/advise.md, "Renderer rules in envfit advise").
 
 The spectra are cached (:mod:`envfit.advisor.cache`, kind ``"renderer"``): one checksummed
 JSON file per (technique, on the rest map), keyed by the map's fingerprint

@@ -8,7 +8,7 @@ loaded again, reconstructed at its own pixel centres and compared, one map at a 
 (:func:`~envfit.batch.tasks.evaluate_task`: maps may differ in resolution, never in
 ``up``). At N = 20000 the factorisation (N^3/3 flops, 3.2 GB) dominates a cell, so a
 library of M maps costs about one factorisation plus M evaluations instead of M
-factorisations (README, "Libraries of maps").
+factorisations (docs/guides/libraries.md).
 
 Execution. Three kinds of tasks — sample each map at every N it still needs, factorise
 each (s, N), evaluate each (map, s, N) — run on an executor (:mod:`envfit.batch.executor`:

@@ -20,7 +20,7 @@ def register(sub) -> None:
                     "for all maps; a summary across maps goes to --out.")
     add_map_arguments(p, many=True)
     p.add_argument("--method", choices=METHODS, default=DEFAULT_METHOD,
-                   help=f"criterion (default: {DEFAULT_METHOD}; see README for why)")
+                   help=f"criterion (default: {DEFAULT_METHOD}; see docs/guides/fit.md for why)")
     p.add_argument("--n", type=positive_int, default=DEFAULT_N, help=f"number of samples (default: {DEFAULT_N})")
     p.add_argument("--pointset", choices=("sf", "random"), default="sf")
     p.add_argument("--scale", choices=("display", "linear", "log"), default="display",

@@ -114,7 +114,7 @@ SOLVER_RTOL = 1e-8
 #: as fast or faster). Measured with ``bench/bench_solver.py`` section (c) on the 2-core
 #: AMD EPYC (Zen 4, AVX-512) of this project, forest.exr samples, 3 channels, s = 1.5, load
 #: 2.4-3.6: Cholesky / iterative fit 0.20 / 0.32 s at N = 1000, 0.41 / 0.42 s at 2000,
-#: 0.86 / 0.62 s at 3000, 2.21 / 0.82 s at 4000 (README, "The iterative solver").
+#: 0.86 / 0.62 s at 3000, 2.21 / 0.82 s at 4000 (docs/performance.md, "The iterative solver").
 AUTO_ITERATIVE_MIN_N = 3000
 
 
