@@ -130,8 +130,11 @@ JSON files, so that another target (or another run) on the same map recomputes n
 The pipeline (:func:`advise_with`; :func:`advise` builds its :class:`AdviseOptions` from
 keywords)
 ------------------------------------------------------------------------------------------
-1. the options, checked (:mod:`envfit.advisor.options`), and the memory guard
-   (:func:`plan_advise_memory`), before any point is made;
+1. the options, checked (:mod:`envfit.advisor.options`), the memory and time plan of every
+   stage (:mod:`envfit.advisor.budget`: a map of more than 1024 rows, or one whose plan does
+   not fit the memory budget, is downsampled to the height the plan allows, with a note; one
+   line when nothing fits) and the memory guard (:func:`plan_advise_memory`), before any point
+   is made;
 2. the map's model: scale, target, fit of s' and σ', τ (:mod:`envfit.advisor.model`);
 3. the curves and their searches, one row per rule (:mod:`envfit.advisor.search`, from the
    terms of :mod:`envfit.advisor.prediction`);
@@ -171,6 +174,7 @@ import time
 
 import numpy as np
 
+from envfit.advisor.budget import PREDICTION_MAX_HEIGHT, prediction_height
 from envfit.advisor.cache import AdviseCache
 from envfit.advisor.check import check_rows
 from envfit.advisor.model import MapModel, map_key, map_model
@@ -179,7 +183,8 @@ from envfit.advisor.renderer import advise_renderer, run_renderer_check
 from envfit.advisor.result import Advice, AdviceRow, recommendation_text
 from envfit.advisor.search import search_rules
 from envfit.base.errors import ParameterError
-from envfit.base.resources import plan_memory
+from envfit.base.resources import (format_bytes, memory_budget_bytes, peak_rss_bytes,
+                                   plan_memory, rss_bytes)
 from envfit.kernels.bandlimited import max_samples
 from envfit.maps.envmap import EnvMap
 
@@ -299,6 +304,8 @@ def advise_with(envmap: EnvMap, options: AdviseOptions) -> Advice:
     if not isinstance(options, AdviseOptions):
         raise ParameterError(f"options must be AdviseOptions, got {type(options).__name__}")
     opts = options
+    original, rss0 = envmap, rss_bytes()
+    envmap, plan, plan_notes = _prediction_map(envmap, opts)
     plan_advise_memory(envmap, pointsets=opts.pointsets, weights=opts.weights, nmin=opts.nmin,
                        nmax=opts.nmax, osw_nmax=opts.osw_nmax, fit_n=opts.fit_n,
                        check=opts.check, workers=opts.workers)
@@ -320,7 +327,7 @@ def advise_with(envmap: EnvMap, options: AdviseOptions) -> Advice:
         t_check = time.perf_counter() - t2
         if setup is not None:
             run_renderer_check(adv.renderer, setup, opts)
-    adv.notes.extend(store.notes)
+    adv.notes.extend(plan_notes + store.notes)
     adv.cache = {"enabled": store.enabled, "folder": str(store.folder), "hits": store.hits,
                  "misses": store.misses, "writes": store.writes}
     adv.timings = {"fit": model.seconds_fit, "transfer": model.seconds_transfer,
@@ -328,7 +335,34 @@ def advise_with(envmap: EnvMap, options: AdviseOptions) -> Advice:
                    **({f"renderer_{k}": v for k, v in adv.renderer.timings.items()}
                       if adv.renderer is not None else {}),
                    "total": time.perf_counter() - t_start}
+    if envmap is not original:
+        adv.notes.append(f"memory and time: peak {format_bytes(peak_rss_bytes())} resident "
+                         f"(predicted {format_bytes(rss0 + plan.peak())}: "
+                         f"{format_bytes(rss0)} before the work + the plan's peak), "
+                         f"{adv.timings['total']:.0f} s (predicted ~{plan.seconds():.0f} s)")
     return adv
+
+
+def _prediction_map(envmap: EnvMap, opts: AdviseOptions):
+    """The map the predictions use, its plan and notes: ``envmap`` itself when its plan fits
+    (:func:`envfit.advisor.budget.prediction_height`), else its solid-angle block means at
+    the planned height, with a note saying so and how much of the map's variance they keep.
+    Raises :class:`~envfit.base.errors.MemoryBudgetError` (one line) when nothing fits."""
+    from envfit.maps.envmap import variance_kept
+    h, plan = prediction_height(envmap, opts)
+    if h == envmap.height:
+        return envmap, plan, []
+    small = envmap.resized(h, quiet=opts.quiet)
+    why = (f"to fit the memory budget of {format_bytes(memory_budget_bytes())}"
+           if h < min(envmap.height, PREDICTION_MAX_HEIGHT) else
+           f"the predictions use at most {PREDICTION_MAX_HEIGHT} rows")
+    note = (f"the predictions use the {envmap.width}x{envmap.height} map downsampled to "
+            f"{small.width}x{small.height} ({why}; solid-angle block means, mean kept): "
+            f"band limit l <= {h - 1}, (c) to l = {2 * h - 1}, above the degrees the rules "
+            f"resolve; the block means keep {variance_kept(envmap, small):.1%} of the map's "
+            f"variance; --check measures on the downsampled map; plan: "
+            + "; ".join(plan.lines()))
+    return small, plan, [note]
 
 
 def _advice(envmap: EnvMap, opts: AdviseOptions, model: MapModel,

@@ -47,6 +47,7 @@ from envfit.advisor.cache import AdviseCache
 from envfit.advisor.options import AdviseOptions
 from envfit.advisor.prediction import mean_shading_value, s_key
 from envfit.base.errors import ParameterError
+from envfit.base.progress import progress_bar
 from envfit.base.store import array_fingerprint
 from envfit.fit.sigma import bandlimited_profiled_sigma, combine_sigma
 from envfit.maps.envmap import EnvMap
@@ -185,7 +186,7 @@ def cached_fit(envmap: EnvMap, scaled: EnvMap, opts: AdviseOptions,
 
 
 def cached_map_power(envmap: EnvMap, scaled: EnvMap, scale: str, store: AdviseCache,
-                     lmax: int) -> np.ndarray:
+                     lmax: int, *, quiet: bool = True) -> np.ndarray:
     r""":math:`\hat P_{l,c}`, (C, lmax + 1), of the bilinear interpolant of ``scaled``
     (:func:`envfit.shading.spectra.map_degree_power`), from the cache (kind ``"power"``, the
     map's key and ``lmax``) or computed and saved.
@@ -194,15 +195,25 @@ def cached_map_power(envmap: EnvMap, scaled: EnvMap, scale: str, store: AdviseCa
     :meth:`envfit.predict.PredictionContext.from_map` and
     :func:`envfit.shading.spectra.map_transfer` use (the Gauss–Legendre order of the analysis
     follows its lmax, so an analysis to 2H − 1 differs there by ~5e-12 relative) — and the
-    tail l = H…lmax from the analysis to ``lmax``."""
+    tail l = H…lmax from the analysis to ``lmax``. A progress bar over the two analyses
+    (seconds each on a 2048x1024 map) unless ``quiet``."""
     key = {**map_key(envmap, scale), "lmax": int(lmax)}
     pw = store.load("power", key)
     P = None if pw is None else np.asarray(pw.get("power", []), dtype=np.float64)
     if P is None or P.shape != (scaled.channels, int(lmax) + 1):
         h = scaled.height
-        P = map_degree_power(scaled, h - 1)
-        if int(lmax) >= h:
-            P = np.concatenate([P, map_degree_power(scaled, int(lmax))[:, h:]], axis=1)
+        bar = progress_bar(2 if int(lmax) >= h else 1, desc="advise: map power", quiet=quiet,
+                           unit="analysis")
+        try:
+            bar.set_postfix_str(f"to l = {h - 1}")
+            P = map_degree_power(scaled, h - 1)
+            bar.update(1)
+            if int(lmax) >= h:
+                bar.set_postfix_str(f"to l = {int(lmax)}")
+                P = np.concatenate([P, map_degree_power(scaled, int(lmax))[:, h:]], axis=1)
+                bar.update(1)
+        finally:
+            bar.close()
         store.save("power", key, {"power": [[float(x) for x in row] for row in P]})
     return P
 
@@ -249,7 +260,7 @@ def map_model(envmap: EnvMap, opts: AdviseOptions, store: AdviseCache) -> MapMod
         raise ParameterError("the map is constant on this scale (sigma = 0): every rule is exact")
     t0 = time.perf_counter()
     ltail = spectral_lmax(band_lmax)
-    P = cached_map_power(envmap, scaled, opts.scale, store, ltail)
+    P = cached_map_power(envmap, scaled, opts.scale, store, ltail, quiet=opts.quiet)
     tau = cached_transfer(envmap, scaled, opts.scale, store, P)
     dw = degree_weights(s_rounded, band_lmax, tau)          # a_l(s') tau_l, l = 0..H-1
     return MapModel(scaled=scaled, scale_description=sc.describe(), band_lmax=band_lmax,

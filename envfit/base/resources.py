@@ -3,11 +3,13 @@ from __future__ import annotations
 
 import math
 import os
+from dataclasses import dataclass, field
 
 from envfit.base.errors import MemoryBudgetError, ParameterError
 
 __all__ = ["machine_cores", "interpolator_nbytes", "iterative_nbytes", "iterative_coarse_nodes", "largest_feasible_n", "SOLVERS", "available_memory_bytes", "check_memory", "format_bytes", "memory_budget_bytes",
-           "plan_memory", "largest_n_within"]
+           "plan_memory", "largest_n_within", "Stage", "Plan", "peak_rss_bytes",
+           "rss_bytes"]
 
 #: fraction of the available memory one allocation plan may take
 MEMORY_FRACTION = 0.8
@@ -289,3 +291,108 @@ def largest_feasible_n(budget_bytes: float, nchannels: int = 1, solver: str = "c
     while interpolator_nbytes(n + 1, nchannels) <= budget_bytes:
         n += 1
     return n
+
+
+@dataclass(frozen=True)
+class Stage:
+    """One stage of a command's work and its predicted cost, before it runs.
+
+    ``nbytes``: its peak memory beyond the plan's resident bytes (the map and what every stage
+    keeps); ``seconds``: its predicted wall time on one core of a 2020s x86 server (a model
+    calibrated on envfit's own measurements: a rough figure, within ~2x on a loaded machine);
+    ``detail``: what dominates it (e.g. ``"SH coefficients to l = 2047"``).
+    """
+
+    name: str
+    nbytes: int
+    seconds: float = 0.0
+    detail: str = ""
+
+
+@dataclass
+class Plan:
+    """The stages of a command with their predicted peaks, checked against the memory budget
+    (:func:`memory_budget_bytes`) before any of them runs.
+
+    The stages run one after the other: the plan's peak is ``resident`` plus the largest
+    stage's ``nbytes``, its time the sum of the stages' seconds.
+
+    >>> p = Plan("advise", [Stage("fit", 10 ** 6, 2.0), Stage("power", 3 * 10 ** 6, 5.0)],
+    ...          resident=10 ** 6)
+    >>> p.peak(), p.seconds(), p.worst().name, p.fits(5 * 10 ** 6), p.fits(3 * 10 ** 6)
+    (4000000, 7.0, 'power', True, False)
+    """
+
+    what: str
+    stages: list = field(default_factory=list)
+    resident: int = 0
+
+    def peak(self) -> int:
+        """Predicted peak bytes: resident + the largest stage."""
+        return int(self.resident + max((s.nbytes for s in self.stages), default=0))
+
+    def seconds(self) -> float:
+        """Predicted total seconds."""
+        return float(sum(s.seconds for s in self.stages))
+
+    def worst(self) -> Stage:
+        """The stage of the peak."""
+        return max(self.stages, key=lambda s: s.nbytes)
+
+    def fits(self, budget: int | None = None) -> bool:
+        """Whether the peak is within ``budget`` (default :func:`memory_budget_bytes`)."""
+        return self.peak() <= (memory_budget_bytes() if budget is None else int(budget))
+
+    def check(self, hint: str = "") -> None:
+        """Raise :class:`MemoryBudgetError` (one line: the stage, its peak, the budget and
+        ``hint``) unless the plan fits the budget."""
+        budget = memory_budget_bytes()
+        if self.peak() <= budget:
+            return
+        w = self.worst()
+        msg = (f"{self.what}: {w.name}" + (f" ({w.detail})" if w.detail else "")
+               + f" needs {format_bytes(self.peak())} but only {format_bytes(budget)} can be "
+               f"used ({int(MEMORY_FRACTION * 100)}% of available memory)")
+        raise MemoryBudgetError(msg + (f"; {hint}" if hint else ""))
+
+    def lines(self) -> list[str]:
+        """One line per stage: name, predicted peak (resident included) and seconds."""
+        return [f"{s.name}: {format_bytes(self.resident + s.nbytes)}, ~{s.seconds:.0f} s"
+                + (f" ({s.detail})" if s.detail else "") for s in self.stages]
+
+    def to_dict(self) -> dict:
+        """The plan for JSON: stages with predicted peak bytes and seconds."""
+        return {"what": self.what, "resident_bytes": int(self.resident),
+                "peak_bytes": self.peak(), "seconds": self.seconds(),
+                "stages": [{"name": s.name, "peak_bytes": int(self.resident + s.nbytes),
+                            "seconds": float(s.seconds), "detail": s.detail}
+                           for s in self.stages]}
+
+
+def rss_bytes() -> int:
+    """This process's resident memory now (``VmRSS`` of /proc/self/status); 0 if unknown."""
+    return _status_bytes("VmRSS:")
+
+
+def _status_bytes(key: str) -> int:
+    try:
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith(key):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return 0
+
+
+def peak_rss_bytes() -> int:
+    """This process's peak resident memory so far (``VmHWM`` of /proc/self/status, else
+    ``ru_maxrss``); 0 where neither is known."""
+    peak = _status_bytes("VmHWM:")
+    if peak:
+        return peak
+    try:
+        import resource
+        return int(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss) * 1024
+    except (ImportError, OSError):  # pragma: no cover - non-POSIX
+        return 0

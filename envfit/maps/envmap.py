@@ -23,7 +23,8 @@ from envfit.maps import latlong
 from envfit.base.errors import EnvMapFormatError, ParameterError
 from envfit.base.resources import check_memory
 
-__all__ = ["EnvMap", "check_sample_count", "REC709_WEIGHTS"]
+__all__ = ["EnvMap", "check_sample_count", "REC709_WEIGHTS", "solid_angle_variance",
+           "variance_kept"]
 
 #: Rec. 709 / sRGB luminance weights of linear R, G, B
 REC709_WEIGHTS = (0.2126, 0.7152, 0.0722)
@@ -143,7 +144,7 @@ class EnvMap:
             raise ParameterError(f"dtype must be float32 or float64, got {dt}")
         return self.with_data(self.data.astype(dt, copy=False))
 
-    def resized(self, max_height: int) -> "EnvMap":
+    def resized(self, max_height: int, *, quiet: bool = True) -> "EnvMap":
         r"""Downscale to height ``max_height`` (width ``2 max_height``); no-op if already small enough.
 
         * Integer factor ``f = H / max_height``: each output pixel is the **solid-angle
@@ -177,7 +178,9 @@ class EnvMap:
             den = om.reshape(mh, f).sum(axis=1) * f                       # (mh,)
             out = np.empty((mh, 2 * mh, c), dtype=np.float64)
             step = max(1, (1 << 22) // (f * w * c))      # output rows per block (~32 MB)
-            for r in range(0, mh, step):
+            from envfit.base.progress import progress
+            for r in progress(range(0, mh, step), desc=f"downsampling {w}x{h}", quiet=quiet,
+                              unit="block"):
                 r1 = min(mh, r + step)
                 block = self.data[r * f:r1 * f].astype(np.float64) * om[r * f:r1 * f, None, None]
                 out[r:r1] = block.reshape(r1 - r, f, 2 * mh, f, c).sum(axis=(1, 3))
@@ -189,6 +192,42 @@ class EnvMap:
         note = f"resized from {w}x{h} to {2 * mh}x{mh}"
         return EnvMap(out.astype(dtype), up=self.up, name=self.name,
                       notes=list(self.notes) + [note])
+
+
+def solid_angle_variance(envmap: EnvMap) -> np.ndarray:
+    r"""Solid-angle weighted variance of the pixel values per channel, (C,) float64:
+    :math:`\overline{f^2} - \bar f^2` with the exact per-row solid angles, in row blocks of
+    ~32 MB (no full-size float64 copy of a big map).
+
+    >>> m = EnvMap(np.arange(2.0)[:, None].repeat(4, 1))  # rows 0 and 1, equal solid angles
+    >>> round(float(solid_angle_variance(m)[0]), 12)
+    0.25
+    """
+    h, w, c = envmap.data.shape
+    om = latlong.row_solid_angles(h, w)
+    s1, s2 = np.zeros(c), np.zeros(c)
+    step = max(1, (1 << 22) // (w * c))
+    for r in range(0, h, step):
+        block = envmap.data[r:r + step].astype(np.float64)
+        s1 += om[r:r + step] @ block.sum(axis=1)
+        s2 += om[r:r + step] @ (block * block).sum(axis=1)
+    total = om.sum() * w
+    m = s1 / total
+    return np.maximum(s2 / total - m * m, 0.0)
+
+
+def variance_kept(original: EnvMap, resized: EnvMap) -> float:
+    """The share of the original map's solid-angle variance (:func:`solid_angle_variance`,
+    summed over channels) that ``resized`` keeps: 1 for a map without detail finer than the
+    resized pixels, less where block means average detail away (1 for a constant map).
+
+    >>> m = EnvMap(np.tile([[0.0, 1.0]], (4, 4)))          # columns alternate 0, 1
+    >>> variance_kept(m, m.resized(2))                      # 2x2 block means: all 0.5
+    0.0
+    """
+    v0 = float(np.sum(solid_angle_variance(original)))
+    v1 = float(np.sum(solid_angle_variance(resized)))
+    return 1.0 if v0 <= 0 else v1 / v0
 
 
 def _resize_smooth(data: np.ndarray, mh: int) -> np.ndarray:

@@ -30,12 +30,25 @@ from envfit.theory.sobolev import sobolev_coefficients
 
 from envfit.maps.envmap import EnvMap
 from envfit.base.errors import ParameterError
+from envfit.base.resources import check_memory
 from envfit.shading.bilinear_sh import bilinear_sh_coefficients
 
 __all__ = ["rule_error_power", "bandlimited_worst_case_error", "bandlimited_worst_case_errors",
            "map_degree_power", "pixel_degree_power", "lookup_transfer", "map_transfer",
            "degree_weights", "band_e2", "sh_truncation_curve_transfer", "spectral_rmse",
-           "model_scatter", "low_degree_power_ratio"]
+           "model_scatter", "low_degree_power_ratio", "sh_analysis_cost", "rule_power_cost"]
+
+#: seconds per (ring node x degree²) of the bilinear interpolant's Legendre analysis
+#: (``ducc0.sht.leg2alm``), measured on a 2048x1024 map (19.6 s to l = 2047, 3.3 s to
+#: l = 1023, 3 channels; a loaded 2-core machine)
+_SEC_PER_LEG_OP = 1.7e-10
+#: seconds per degree³ of a rule's adjoint SH synthesis and per (point x degree) of its
+#: Legendre sums (:func:`rule_error_power`; 1.7 s at N = 4096, 12 s at l = 4095; 9 s and
+#: 36 s at N = 65536)
+_SEC_PER_L3, _SEC_PER_NL = 1.75e-10, 6e-8
+#: bytes per degree² of :func:`rule_error_power` (ducc0's adjoint synthesis grid, the packed
+#: coefficients, their power and degree index): 243 MB at l = 2047, 972 MB at l = 4095
+_RULE_BYTES_PER_L2 = 58
 
 
 def _power_by_degree(alm: np.ndarray, lmax: int) -> np.ndarray:
@@ -119,6 +132,44 @@ def bandlimited_worst_case_errors(points, weights, brdf, s_values, lmax: int, *,
     return out
 
 
+def sh_analysis_cost(height: int, channels: int, lmax: int) -> tuple[int, float]:
+    r"""Predicted (peak bytes, seconds) of :func:`map_degree_power` to degree ``lmax`` on a
+    2H x H map of C channels: the bilinear interpolant's exact SH analysis
+    (:func:`envfit.shading.ground_truth.bilinear_sh_coefficients`).
+
+    Bytes: the rows' DFT (8 H W C), their Fourier coefficients and the pole-extended copy
+    (2 x 16 H (l+1) C), one channel's Legendre integrands on the (H + 1) q Gauss nodes (three
+    complex temporaries, 48 (H + 1) q (l + 1)), the coefficients (8 C (l+1)(l+2)) and their
+    power by degree (~16 (l+1)^2); q = :func:`envfit.shading.patches.gauss_legendre_order`.
+    Measured on a 2048x1024 map: 1.18 GB to l = 2047 (predicted 1.26 GB). Seconds:
+    :data:`_SEC_PER_LEG_OP` x C (H + 1) q (l + 1)^2.
+
+    >>> b, t = sh_analysis_cost(4096, 3, 8191)  # an 8K map to 2H - 1: the 19.9 GB of issue 22
+    >>> round(b / 1e9), round(t / 60)
+    (20, 21)
+    """
+    from envfit.shading.patches import gauss_legendre_order
+    h, c, L1 = int(height), max(1, int(channels)), int(lmax) + 1
+    q = gauss_legendre_order((L1 + 1) * (np.pi / h) / 2.0)
+    w = 2 * h
+    analysis = 8 * h * w * c + 32 * h * L1 * c + 48 * (h + 1) * q * L1 + 8 * c * L1 * (L1 + 1)
+    power = 8 * c * L1 * (L1 + 1) + 12 * c * L1 * L1 // 2 + 16 * L1 * L1
+    return int(max(analysis, power)), float(_SEC_PER_LEG_OP * c * (h + 1) * q * L1 * L1)
+
+
+def rule_power_cost(n: int, lmax: int) -> tuple[int, float]:
+    """Predicted (peak bytes, seconds) of one :func:`rule_error_power` of N points to degree
+    ``lmax`` (the constants above: measured at N = 4096 and 65536, l = 511…4095).
+
+    >>> b, t = rule_power_cost(4096, 4095)
+    >>> round(b / 1e9, 2), round(t)
+    (0.97, 13)
+    """
+    L1, n = int(lmax) + 1, int(n)
+    return (int(_RULE_BYTES_PER_L2 * L1 * L1 + 8 * 24 * n),
+            float(_SEC_PER_L3 * L1 ** 3 + _SEC_PER_NL * n * L1))
+
+
 def map_degree_power(scaled: EnvMap, lmax: int) -> np.ndarray:
     r"""The map's realised power per degree, (C, lmax+1):
     :math:`\hat P_{l,c} = \frac{1}{2l+1}\sum_{m=-l}^{l} f_{lm,c}^2`, from the exact SH
@@ -132,7 +183,20 @@ def map_degree_power(scaled: EnvMap, lmax: int) -> np.ndarray:
     True
     """
     lmax = int(lmax)
+    need, secs = sh_analysis_cost(scaled.height, scaled.channels, lmax)
+    check_memory(need, f"the SH power of a {scaled.width}x{scaled.height} map to degree {lmax} "
+                       f"(~{secs:.0f} s)",
+                 hint=f"use a map of at most {_rows_within(scaled.channels, lmax)} rows")
     return _power_by_degree(bilinear_sh_coefficients(scaled, lmax), lmax)
+
+
+def _rows_within(channels: int, lmax: int) -> int:
+    """The most rows (a power of 2) whose analysis to min(lmax, 2H - 1) fits the budget."""
+    from envfit.base.resources import memory_budget_bytes
+    budget, h = memory_budget_bytes(), 1
+    while h < 2 ** 16 and sh_analysis_cost(2 * h, channels, min(lmax, 4 * h - 1))[0] <= budget:
+        h *= 2
+    return h
 
 
 def pixel_degree_power(scaled: EnvMap, lmax: int | None = None, *, nthreads: int = 1) -> np.ndarray:

@@ -1,0 +1,177 @@
+r"""The advisor's memory and time plan, made before any work: every stage's predicted peak
+from the map size, N, L and the options, against the machine's memory budget
+(:func:`envfit.base.resources.memory_budget_bytes`); a map too big for it is downsampled to
+what the predictions need, or the run is refused in one line naming an option that fits.
+
+Why a map is downsampled (issue 22: an 8192×4096 map ran over 5 minutes and reached 19.9 GB)
+------------------------------------------------------------------------------------------
+Prediction (c) weights a rule's error power :math:`e_l` by the map's power :math:`\hat P_l` to
+:math:`2H - 1` (:func:`envfit.advisor.model.spectral_lmax`). Its cost grows as the cube of the
+map's size: the interpolant's SH analysis is :math:`O(H q L^2)` in time and :math:`O(H q L)`
+in memory (:func:`envfit.shading.spectra.sh_analysis_cost`: 1.2 GB and 20 s to l = 2047 on a
+2048×1024 map, 20 GB and ~20 min to l = 8191 on an 8192×4096 one) and every evaluated N of
+every rule costs :math:`O(L^3)` (:func:`envfit.shading.spectra.rule_power_cost`: 1.7–9 s at
+l = 2047, 12–36 s at l = 4095, ~2 log₂ N evaluations per rule). The rules the advisor sizes do
+not need those degrees: N ≤ ``nmax`` = 65536 points are spaced :math:`\sqrt{4\pi/N}` apart,
+so a rule integrates degrees up to about :math:`\sqrt{\pi N}/2 \approx 227` and sees every
+higher degree only through its energy (above that degree :math:`e_l \to \frac{2l+1}{4\pi}
+\sum_j w_j^2`, the addition theorem's diagonal, whatever the map). A map of
+:data:`PREDICTION_MAX_HEIGHT` = 1024 rows holds degrees to 1023 and its interpolant's tail to
+2047, an octave and more above that: the predictions are made on the map downsampled (exact
+solid-angle block means, :meth:`envfit.maps.envmap.EnvMap.resized`, the mean kept) to at most
+that height, and lower where the memory budget needs it. What the block means drop is
+variance at scales finer than the kept pixels, which the rules see as white noise: the note
+states how much of the map's variance the downsampled map keeps
+(:func:`envfit.maps.envmap.variance_kept`).
+
+Maps of at most 1024 rows are not touched (their predictions are bit-identical to before).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+from envfit.advisor.options import AdviseOptions
+from envfit.base.errors import MemoryBudgetError
+from envfit.base.resources import (Plan, Stage, format_bytes, interpolator_nbytes,
+                                   memory_budget_bytes)
+from envfit.kernels.bandlimited import max_samples
+from envfit.maps.envmap import EnvMap
+from envfit.shading.ground_truth import default_sh_lmax
+from envfit.shading.renderer_rules import STRATEGIES
+from envfit.shading.spectra import rule_power_cost, sh_analysis_cost
+
+__all__ = ["PREDICTION_MAX_HEIGHT", "MIN_HEIGHT", "advise_plan", "prediction_height"]
+
+#: the most rows the advisor's predictions use (see the module docstring)
+PREDICTION_MAX_HEIGHT = 1024
+#: the fewest rows a downsampled map may keep (below, the run is refused)
+MIN_HEIGHT = 64
+#: bytes per pixel of the renderer rows' setup and one warped spectrum (the scaled, source and
+#: rest maps, two samplers, the map technique's quadrature nodes and the pixel moments), and
+#: their fixed part (the lobe grid of (8 B)² points at G = 512); measured +1.93 GB over the
+#: scaled map on a 2048x1024 map (four spectra, G = 512, 32 axes)
+_RENDERER_BYTES_PER_PIXEL, _RENDERER_FIXED = 920, 100 * 2 ** 20
+#: seconds per pixel and per axis of one warped spectrum (35 s for four spectra of city.exr,
+#: 199 s on a 2048x1024 map; 2 loaded cores)
+_RENDERER_SEC_PER_PIXEL_AXIS = 6e-7
+#: bytes per point of a quadrature rule while its error power is computed
+_RULE_BYTES_PER_POINT = 8 * 24
+
+
+def _search_stage(h: int, opts: AdviseOptions) -> Stage:
+    """The quadrature searches: one rule error power to 2H − 1 per evaluated N (and OSW's
+    N×N solve); seconds for ~log₂(nmax/nmin)/4 + 1 evaluations per rule and realisation
+    plus one at ``nmax`` (157 s measured for the 22 streams of the defaults on a 2048x1024
+    map, target 0.01, predicted 325 s: a rough upper figure)."""
+    L = 2 * h - 1
+    streams = sum(opts.seeds if ps in ("random", "jitter", "bnot") else 1
+                  for ps in opts.pointsets for _ in opts.weights)
+    evals = math.log2(max(2, opts.nmax / max(1, opts.nmin))) / 4 + 1
+    nb, t_max = rule_power_cost(opts.nmax, L) if opts.pointsets else (0, 0.0)
+    t_min = rule_power_cost(opts.nmin, L)[1]
+    if opts.pointsets and "osw" in opts.weights:
+        n = opts.osw_upper
+        nb = max(nb, interpolator_nbytes(n, 1) + rule_power_cost(n, L)[0])
+    secs = streams * (evals * t_min + max(0.0, t_max - t_min))
+    return Stage("quadrature search", int(nb), secs,
+                 f"rule error power to l = {L} per N, up to N = {opts.nmax}")
+
+
+def advise_plan(height: int, channels: int, opts: AdviseOptions, *,
+                resident: int = 0, source_height: int | None = None) -> Plan:
+    """The stages of ``envfit advise`` on a 2H x H map of C channels with ``opts``, each with
+    its predicted peak bytes and seconds beyond what the process holds already (the input
+    map among it); ``resident``: more bytes held throughout. Resident: the map on its scale
+    and the copy the fit and the renderer setup keep (2 x 8 H W C). ``source_height``: the
+    rows of the input map when it is downsampled to ``height`` first (block means in ~32 MB
+    blocks, the float64 result and its copy; ~10 ns per input value, measured ~3 s for a
+    1-channel 8192x4096 map with its variance)."""
+    h, c = int(height), max(1, int(channels))
+    w, L = 2 * h, 2 * h - 1
+    pix = h * w
+    stages = []
+    if source_height is not None and int(source_height) > h:
+        h0 = int(source_height)
+        stages.append(Stage("downsampling", 2 * 8 * pix * c + 2 * 32 * 2 ** 20,
+                            1e-8 * 2 * h0 * h0 * c, f"{2 * h0}x{h0} to {w}x{h}"))
+    n_fit = min(int(opts.fit_n), max(10, max_samples(h - 1)))
+    stages.append(Stage("band-limited fit", interpolator_nbytes(n_fit, c) + 8 * pix * (c + 4),
+                        2e-7 * n_fit ** 2 * 20 + 1e-7 * pix, f"{n_fit} samples"))
+    nb, t = sh_analysis_cost(h, c, L)
+    stages.append(Stage("map power", nb, t + sh_analysis_cost(h, c, h - 1)[1],
+                        f"SH coefficients of the interpolant to l = {L}"))
+    if opts.pointsets:
+        stages.append(_search_stage(h, opts))
+    if opts.renderer:
+        nspec = len({STRATEGIES[s] for s in opts.strategies})
+        stages.append(Stage("renderer spectra",
+                            _RENDERER_BYTES_PER_PIXEL * pix + _RENDERER_FIXED,
+                            nspec * _RENDERER_SEC_PER_PIXEL_AXIS * pix
+                            * opts.renderer_spectrum_axes,
+                            f"{nspec} warped spectra, grid {opts.renderer_grid}"))
+    if opts.check:
+        lg = default_sh_lmax(opts.lobe(), h)
+        nb, t = sh_analysis_cost(h, c, lg)
+        per_axis = 8 * (8 + 2 * c) * max(1, opts.workers) * opts.nmax
+        stages.append(Stage("check", nb + per_axis, t, f"ground truth to l = {lg}"))
+    return Plan("advise", stages, resident=int(resident) + 8 * pix * c * 2)
+
+
+def _heights(h: int) -> list[int]:
+    """Candidate heights, largest first: H, then H / k for the integer factors k of H (a
+    block mean), ending at :data:`MIN_HEIGHT` or the smallest factor above it."""
+    out = [h]
+    for k in range(2, h // MIN_HEIGHT + 1):
+        if h % k == 0 and h // k < out[-1]:
+            out.append(h // k)
+    if out[-1] > PREDICTION_MAX_HEIGHT:          # no factor lands at or below the cap
+        out.append(PREDICTION_MAX_HEIGHT)        # (a smooth resize)
+    return out
+
+
+def _refusal(envmap: EnvMap, opts: AdviseOptions, plan: Plan, h: int) -> MemoryBudgetError:
+    """One line: the smallest plan's worst stage, and the option that makes it fit."""
+    c, res = envmap.channels, 8 * 2 * h * h * envmap.channels
+    fixes = []
+    kw = {"resident": res, "source_height": envmap.height}
+    if opts.renderer and advise_plan(h, c, replace(opts, renderer=False), **kw).fits():
+        fixes.append("--no-renderer")
+    if opts.check and advise_plan(h, c, replace(opts, check=False), **kw).fits():
+        fixes.append("without --check")
+    if "osw" in opts.weights and opts.pointsets:
+        lean = replace(opts, osw_nmax=max(opts.nmin, 256), nmax=max(opts.nmin, 4096))
+        if advise_plan(h, c, lean, **kw).fits():
+            fixes.append("--osw-nmax 256 --nmax 4096")
+    hint = (f"it fits with {' or '.join(fixes)}" if fixes else
+            "free memory, or set ENVFIT_MEMORY_LIMIT if more can be used")
+    w = plan.worst()
+    return MemoryBudgetError(
+        f"advise on the {envmap.width}x{envmap.height} map even at {2 * h}x{h}: {w.name} "
+        f"({w.detail}) needs {format_bytes(plan.peak())} but only "
+        f"{format_bytes(memory_budget_bytes())} can be used; {hint}")
+
+
+def prediction_height(envmap: EnvMap, opts: AdviseOptions) -> tuple[int, Plan]:
+    """The height of the map the predictions use and its plan: the largest candidate
+    (:func:`_heights`) at most :data:`PREDICTION_MAX_HEIGHT` whose plan fits the memory
+    budget. Costs no allocation.
+
+    Raises
+    ------
+    envfit.base.errors.MemoryBudgetError
+        Not even :data:`MIN_HEIGHT` rows fit: one line naming the stage and an option that
+        fits (``--no-renderer``, no ``--check``, smaller ``--osw-nmax``/``--nmax``).
+    """
+    h0, c = envmap.height, envmap.channels
+    plan = None
+    for h in _heights(h0):
+        if h > PREDICTION_MAX_HEIGHT:
+            continue
+        plan = advise_plan(h, c, opts, resident=8 * 2 * h * h * c if h < h0 else 0,
+                           source_height=h0)
+        if plan.fits():
+            return h, plan
+    if plan is None:  # pragma: no cover - _heights always ends at or below the cap
+        raise MemoryBudgetError("no height to plan")
+    raise _refusal(envmap, opts, plan, h)
