@@ -48,6 +48,29 @@ def test_every_bench_script_the_docs_name_exists():
     assert sorted(n for n in named if not (ROOT / n).is_file()) == []
 
 
+def _python_imports(text: str) -> list[str]:
+    """The ``import``/``from … import`` lines of the ```python blocks of a Markdown text."""
+    found, inside = [], False
+    for line in text.splitlines():
+        if line.startswith("```"):
+            inside = line.strip() == "```python"
+            continue
+        code = line.split("#")[0].rstrip()
+        if inside and re.match(r"(from|import) envfit\b", code):
+            found.append(code)
+    return found
+
+
+def test_the_docs_python_imports_resolve():
+    """Every import the README and the docs show works (a module moved or a name renamed
+    makes the page wrong)."""
+    lines = [ln for page in [README, *DOCS.rglob("*.md")] if "_build" not in page.parts
+             for ln in _python_imports(page.read_text())]
+    assert "import envfit" in lines
+    for line in lines:
+        exec(line, {})                                # noqa: S102 — the page's own line
+
+
 def test_the_checker_sees_a_missing_block():
     with pytest.raises(StopIteration):
         _first_fenced_block("# envfit\nno block here\n")
