@@ -175,7 +175,9 @@ def test_unreadable_config_is_rewritten_and_cells_still_resume(map_file, tmp_pat
     notes, seen = [], []
     run_table2(env, S, N, scale="linear", out=tmp_path, on_note=notes.append,
                on_cell=lambda c, resumed: seen.append(resumed))
-    assert notes == [f"rewrote {cfg}: not a JSON file (binary data)"] and all(seen)
+    assert notes == [f"rewrote {cfg}: corrupt config (not a JSON file (binary data)); nothing to "
+                     f"do: each cell carries its own copy, and only this run's cells are reused"]
+    assert all(seen)
     assert json.loads(cfg.read_text())["kind"] == "table2"
 
 
@@ -411,3 +413,186 @@ def test_cli_advise_with_an_unwritable_cache_is_a_note(tmp_path, monkeypatch, ca
     cap = capsys.readouterr()
     assert rc == 0 and "Traceback" not in cap.out + cap.err
     assert any("note:" in ln and str(bad) in ln for ln in (cap.out + cap.err).splitlines())
+
+
+# ------------------------------------- issue 22 item 9: forged entries, folders, corrupt configs
+import envfit.advisor.cache as cache_mod                  # noqa: E402
+from envfit.advisor.cache import AdviseCache, entry_problem   # noqa: E402
+from envfit.base.store import canonical_sha256            # noqa: E402
+
+
+def _forge(victim: Path, edit) -> None:
+    """Edit an advisor cache entry's value and give it a *valid* checksum again (the cache's
+    own rule: sha256 of the canonical JSON of version, format, kind, key and value)."""
+    doc = json.loads(victim.read_text())
+    edit(doc["value"])
+    body = {k: doc[k] for k in ("version", "format", "kind", "key", "value")}
+    doc["sha256"] = canonical_sha256(body)
+    victim.write_text(json.dumps(doc))
+
+
+def _set(field, value):
+    return lambda v: v.update({field: value})
+
+
+FORGED_FIT = {
+    "wrong-type": (_set("s", "1.5"), "invalid fit entry: s is a string, not a number"),
+    "s-out-of-range": (_set("s", 5), "invalid fit entry: s = 5 is outside (1, 2)"),
+    "nan-sigma": (lambda v: v["sigma_channels"].__setitem__(0, float("nan")),
+                  "invalid fit entry: sigma_channels holds a non-finite value (nan)"),
+    "sigma-not-a-list": (_set("sigma_channels", {"r": 1}),
+                         "invalid fit entry: sigma_channels is not a 1-D array of numbers"),
+    "not-an-object": (lambda v: v.clear(), "invalid fit entry: lacks s, sigma_channels, source"),
+}
+
+
+@pytest.mark.parametrize("fault", list(FORGED_FIT))
+def test_forged_fit_entry_with_a_valid_checksum_is_recomputed_alone(fault, gp16, tmp_path):
+    first = _advise(gp16, tmp_path)
+    victim = next((tmp_path / "advise" / "fit").glob("*.json"))
+    edit, why = FORGED_FIT[fault]
+    _forge(victim, edit)
+    again = _advise(gp16, tmp_path)
+    assert [n for n in again.notes if str(victim) in n] == [f"cache: recomputed {victim}: {why}"]
+    assert not any("switched off" in n for n in again.notes)
+    assert not again.fit_cached and _rows(again) == _rows(first)
+    assert all(r.evaluations == 0 for r in again.rows)         # the curves: still cached
+    assert entry_problem("fit", json.loads(victim.read_text())["value"]) is None   # rewritten
+
+
+def test_a_folder_in_place_of_an_entry_does_not_switch_the_cache_off(gp16, tmp_path):
+    first = _advise(gp16, tmp_path)
+    victim = next((tmp_path / "advise" / "fit").glob("*.json"))
+    victim.unlink()
+    victim.mkdir()
+    (victim / "junk.txt").write_text("a folder where the entry should be")
+    again = _advise(gp16, tmp_path)
+    assert [n for n in again.notes if str(victim) in n] == [
+        f"cache: recomputed {victim}: a folder, not a file (moved to {victim.name}.folder)"]
+    assert not any("switched off" in n for n in again.notes)
+    assert _rows(again) == _rows(first) and all(r.evaluations == 0 for r in again.rows)
+    assert victim.is_file() and (victim.parent / f"{victim.name}.folder" / "junk.txt").exists()
+    third = _advise(gp16, tmp_path)
+    assert third.fit_cached and not [n for n in third.notes if "cache" in n]
+
+
+def test_an_unmovable_folder_keeps_its_entry_in_memory_only(tmp_path, monkeypatch):
+    c = AdviseCache(tmp_path)
+    fit = {"s": 1.5, "sigma_channels": [0.2, 0.3], "source": "given"}
+    p = c.path("fit", {"map": "a"})
+    p.mkdir(parents=True)
+    (p / "x").write_text("x")
+    monkeypatch.setattr(cache_mod, "move_aside", lambda path: "")
+    assert c.load("fit", {"map": "a"}) is None
+    c.save("fit", {"map": "a"}, fit)
+    c.save("fit", {"map": "b"}, fit)
+    assert c.enabled and c.load("fit", {"map": "a"}) == fit == c.load("fit", {"map": "b"})
+    assert c.path("fit", {"map": "b"}).is_file() and p.is_dir()
+    assert c.notes == [f"cache: recomputed {p}: a folder, not a file",
+                       f"cache: cannot write {p} (a folder is in its place); this entry is "
+                       f"kept in memory for this run only"]
+    assert AdviseCache(tmp_path).load("fit", {"map": "b"}) == fit
+
+
+GOOD = {
+    "power": {"power": [[1.0, 0.5], [2.0, 0.25]]},
+    "transfer": {"tau": [1.0, 0.6, 0.3]},
+    "wce": {"16": {"power": [0.0, 1e-3], "dev2": 0.0, "weight_sum": 1.0, "e2_plain": 2e-3}},
+}
+FORGED_OTHER = [
+    ("power", lambda v: v["power"][1].__setitem__(0, -1.0),
+     "power holds -1.0, outside [0, inf]"),
+    ("power", lambda v: v["power"].pop(), None),                   # (C, L+1) checked by caller
+    ("power", lambda v: v["power"][0].pop(), "power is not a 2-D array of numbers"),
+    ("transfer", lambda v: v["tau"].__setitem__(1, "0.6"), "tau is not a 1-D array of numbers"),
+    ("transfer", lambda v: v["tau"].__setitem__(1, float("inf")),
+     "tau holds a non-finite value (inf)"),
+    ("wce", lambda v: v.update({"0": v["16"]}), "curve point '0' is not a sample count N >= 1"),
+    ("wce", lambda v: v["16"].update(dev2=-0.5), "N = 16: dev2 = -0.5 is negative"),
+    ("wce", lambda v: v["16"].update(weight_sum=None),
+     "N = 16: weight_sum is null, not a number"),
+    ("wce", lambda v: v["16"].pop("power"), "N = 16: lacks power"),
+]
+
+
+@pytest.mark.parametrize("kind, edit, why", FORGED_OTHER)
+def test_every_kind_is_checked_against_its_schema(kind, edit, why, tmp_path):
+    key = {"map": "m", "kind-test": kind}
+    c = AdviseCache(tmp_path)
+    if kind == "wce":
+        c.merge_curve(key, {16: GOOD["wce"]["16"]})
+    else:
+        c.save(kind, key, GOOD[kind])
+    c.save("fit", {"map": "m"}, {"s": 1.5, "sigma_channels": [0.2], "source": "given"})
+    victim = c.path(kind, key)
+    _forge(victim, edit)
+    fresh = AdviseCache(tmp_path)
+    got = fresh.load_curve(key) if kind == "wce" else fresh.load(kind, key)
+    if why is None:
+        assert got and fresh.notes == []
+        return
+    assert not got and fresh.notes == [f"cache: recomputed {victim}: invalid {kind} entry: {why}"]
+    assert fresh.load("fit", {"map": "m"})["s"] == 1.5 and fresh.enabled   # the rest: in use
+
+
+def test_a_forged_renderer_spectrum_is_recomputed(tmp_path):
+    spec = {"technique": "map", "brdf": "diffuse", "shininess": None, "heuristic": "balance",
+            "fraction": 0.5, "band": 1, "grid": 8, "variance": [0.1, 0.2],
+            "power": [[[0.0] * 2] * 3] * 2, "cross": {"real": [0.0] * 3, "imag": [0.0] * 3},
+            "mean": 1.0, "axes": 4}
+    assert entry_problem("renderer", spec) is None
+    c = AdviseCache(tmp_path)
+    c.save("renderer", {"k": 1}, spec)
+    _forge(c.path("renderer", {"k": 1}),
+           lambda v: v["cross"]["imag"].__setitem__(0, float("nan")))
+    fresh = AdviseCache(tmp_path)
+    assert fresh.load("renderer", {"k": 1}) is None
+    assert fresh.notes[0].endswith("invalid renderer entry: cross.imag holds a non-finite "
+                                   "value (nan)")
+    assert entry_problem("renderer", {**spec, "band": 1.5}) == \
+        "invalid renderer entry: band is float, not an integer"
+
+
+CORRUPT_CONFIGS = {
+    "empty-object": (lambda p: p.write_text("{}"), "an empty JSON object {}"),
+    "empty-file": (lambda p: p.write_text(""), "an empty file"),
+    "truncated": (lambda p: p.write_text('{"kind": "tab'), "not valid JSON (truncated or corrupt)"),
+    "a-list": (lambda p: p.write_text("[1, 2]"), "a JSON list, not an object"),
+    "no-kind": (lambda p: p.write_text('{"seed": 0}'), "no 'kind' field"),
+    "other-kind": (lambda p: p.write_text('{"kind": "validate", "seed": 0}'),
+                   "kind 'validate', not 'table2'"),
+    "a-folder": (lambda p: (p.unlink(), p.mkdir()),
+                 "a folder, not a file (moved to table2_config.json.folder)"),
+}
+
+
+@pytest.mark.parametrize("fault", list(CORRUPT_CONFIGS))
+def test_corrupt_store_config_is_one_note_not_another_run(fault, map_file, tmp_path):
+    env = load_envmap(map_file)
+    run_table2(env, S, N, scale="linear", out=tmp_path)
+    cfg = tmp_path / "table2_config.json"
+    make, why = CORRUPT_CONFIGS[fault]
+    make(cfg)
+    notes, seen = [], []
+    run_table2(env, S, N, scale="linear", out=tmp_path, on_note=notes.append,
+               on_cell=lambda c, resumed: seen.append(resumed))
+    assert notes == [f"rewrote {cfg}: corrupt config ({why}); nothing to do: each cell carries "
+                     f"its own copy, and only this run's cells are reused"]
+    assert all(seen) and len(seen) == 4
+    assert json.loads(cfg.read_text())["kind"] == "table2"
+
+
+def test_cli_empty_config_is_one_note_and_another_run_is_still_refused(map_file, tmp_path,
+                                                                       capsys):
+    out = tmp_path / "out"
+    assert cli_table2(map_file, out) == 0
+    cfg = out / "table2_config.json"
+    cfg.write_text("{}")
+    capsys.readouterr()
+    assert cli_table2(map_file, out) == 0
+    err = capsys.readouterr().err
+    lines = [ln for ln in err.splitlines() if str(cfg) in ln]
+    assert len(lines) == 1 and "corrupt config" in lines[0] and "different" not in err
+    assert cli_table2(map_file, out, "--seed", "3") == 2           # a real other run
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "different table2 run" in err[0] and "seed" in err[0]

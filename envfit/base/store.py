@@ -22,7 +22,11 @@ is not the one asked for (a file copied from another cell or run), or that was w
 older format (no checksum) is treated as **missing**: the caller recomputes it, and the
 store emits one note naming the file and why, e.g. ``recomputed out/cells/s1.5000_n1000.json:
 checksum mismatch (edited or corrupt)``. It is never a traceback, and an edited value is
-never used. Notes go to ``on_note`` (the library sweeps collect them in ``lib.notes``, which
+never used. The folder's ``<kind>_config.json`` is checked the same way: one that is not a
+config at all (empty, unparseable, ``{}``, no ``kind``, a folder) is rewritten with one
+note, ``rewrote …: corrupt config (…)`` — safe, since every cell carries its own copy —
+and only a well-formed config of *another* run refuses the folder ("a different … run").
+Notes go to ``on_note`` (the library sweeps collect them in ``lib.notes``, which
 the CLI prints); without one they are printed to stderr as ``note: …``.
 
 One run per folder
@@ -62,7 +66,8 @@ from envfit.base.atomic import atomic_write_json, atomic_write_text, to_jsonable
 from envfit.base.errors import EnvfitError, ParameterError
 
 __all__ = ["ResultStore", "FolderLock", "StoreBusyError", "StoreWriteError", "STORE_FORMAT",
-           "LOCK_TIMEOUT", "array_fingerprint", "canonical_sha256", "print_note"]
+           "LOCK_TIMEOUT", "array_fingerprint", "canonical_sha256", "print_note", "move_aside",
+           "config_problem", "read_json_file"]
 
 #: 1: bare cell dicts (no identity, no checksum); 2: identity + key + SHA-256 envelope
 STORE_FORMAT = 2
@@ -120,12 +125,44 @@ def read_json_file(path: Path) -> tuple[Any, str | None]:
         return None, "a folder, not a file"
     except OSError as exc:
         return None, f"unreadable ({exc.strerror or exc})"
+    if not raw.strip():
+        return None, "an empty file"
     try:
         return json.loads(raw.decode("utf-8")), None
     except UnicodeDecodeError:
         return None, "not a JSON file (binary data)"
     except (ValueError, RecursionError):
         return None, "not valid JSON (truncated or corrupt)"
+
+
+def move_aside(path: Path) -> str:
+    """Rename a folder standing where a JSON file belongs (so that the file can be written)
+    to ``<name>.folder``, ``<name>.folder1``, …; returns `` (moved to NAME)``, or "" if it
+    could not be moved (the caller then keeps its value in memory)."""
+    for k in range(100):
+        aside = path.with_name(f"{path.name}.folder{k or ''}")
+        if not os.path.lexists(aside):
+            try:
+                os.rename(path, aside)
+            except OSError:
+                break
+            return f" (moved to {aside.name})"
+    return ""
+
+
+def config_problem(doc: Any, kind: str) -> str | None:
+    """Why ``doc``, read from a store's ``<kind>_config.json``, is not a config at all
+    (corrupt: not a JSON object, ``{}``, no ``kind`` or another one), or None when it is one
+    (equal to this run's or not)."""
+    if not isinstance(doc, dict):
+        return f"a JSON {type(doc).__name__}, not an object"
+    if not doc:
+        return "an empty JSON object {}"
+    if "kind" not in doc:
+        return "no 'kind' field"
+    if doc["kind"] != kind:
+        return f"kind {doc['kind']!r}, not {kind!r}"
+    return None
 
 
 def _safe_key(key: str) -> str:
@@ -284,8 +321,8 @@ class ResultStore:
         except OSError as exc:
             raise StoreWriteError(f"cannot create {self.cells_dir}: {exc.strerror or exc}") from None
         old, why = read_json_file(cfg_path)
-        if old is not None and not isinstance(old, dict):
-            old, why = None, "not a config file"
+        if old is not None and config_problem(old, self.kind) is not None:
+            old, why = None, config_problem(old, self.kind)
         if old is not None and old != self.config:
             diff = sorted(k for k in set(old) | set(self.config)
                           if old.get(k) != self.config.get(k))
@@ -294,7 +331,10 @@ class ResultStore:
                 f"{', '.join(diff)}); use another --out folder or delete it to start over")
         if old is None:
             if why is not None:     # every cell carries its own config: safe to rewrite
-                self._note(f"rewrote {cfg_path}: {why}")
+                if cfg_path.is_dir() and not cfg_path.is_symlink():
+                    why += move_aside(cfg_path)
+                self._note(f"rewrote {cfg_path}: corrupt config ({why}); nothing to do: each "
+                           f"cell carries its own copy, and only this run's cells are reused")
             self._write(cfg_path, self.config)
 
     @property
@@ -368,17 +408,10 @@ class ResultStore:
                 self._note(f"recomputed {path}: {why}")
         return cell
 
-    def _move_aside(self, path: Path) -> str:
-        """Rename a folder standing where a cell file belongs (so the cell can be written)."""
-        for k in range(100):
-            aside = path.with_name(f"{path.name}.folder{k or ''}")
-            if not os.path.lexists(aside):
-                try:
-                    os.rename(path, aside)
-                except OSError:
-                    break
-                return f" (moved to {aside.name})"
-        return ""
+    @staticmethod
+    def _move_aside(path: Path) -> str:
+        """Rename a folder standing where a cell file belongs (:func:`move_aside`)."""
+        return move_aside(path)
 
     def get(self, key: str, *, fields: Iterable[str] = ()) -> dict | None:
         """The finished cell ``key``, or None if it has not been computed or is not sound
