@@ -99,6 +99,12 @@ def test_cli_runs_on_a_scheduler(maps, client, tmp_path, capsys):
     assert "--workers sizes a local cluster" in capsys.readouterr().err
 
 
+def test_a_worker_is_not_a_scheduler(client):
+    worker = next(iter(client.scheduler_info()["workers"]))
+    with pytest.raises(ExecutorError, match="answered as 'Worker', not as a dask scheduler"):
+        DaskExecutor(worker, timeout=5)
+
+
 def test_unreachable_scheduler_is_one_line():
     with pytest.raises(ExecutorError, match="cannot reach the dask scheduler at tcp://127.0.0.1:9"):
         DaskExecutor("tcp://127.0.0.1:9", timeout=1)

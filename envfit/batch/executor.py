@@ -25,6 +25,16 @@ threads limited with ``threadpoolctl`` and numba's (and so ducc0's) thread count
     per host, cores // (worker threads on that host), the smallest over hosts.
     Optional extra: ``pip install "envfit[dask]"``.
 
+Network handshakes are bounded. Before a client is made for ``tcp://HOST:PORT``,
+:func:`identify_scheduler` connects, does dask's comm handshake and asks the endpoint's
+``identity``, all within one deadline (distributed's own ``connect`` bounds the TCP connect
+but not the handshake read after it: an endpoint that accepts and never answers would hang
+the client for ever); the client is then made with ``Client(timeout=...)`` under dask's
+``distributed.comm.timeouts.connect``, and a scheduler without workers is waited for as long.
+The deadline is :func:`dask_timeout` (``ENVFIT_DASK_TIMEOUT`` seconds, default
+:data:`DEFAULT_DASK_TIMEOUT`). A silent listener, an HTTP server, garbage bytes, a closed
+port or a non-scheduler dask server each give one :class:`ExecutorError` line.
+
 Example
 -------
 >>> ex, notes = make_executor("local", workers=1)
@@ -35,9 +45,13 @@ Example
 """
 from __future__ import annotations
 
+import asyncio
 import concurrent.futures as cf
 import functools
+import math
 import multiprocessing
+import os
+import threading
 from typing import Any, Callable, Iterable
 
 from envfit.base.errors import ExecutorError, ParameterError
@@ -45,10 +59,13 @@ from envfit.base.resources import (MEMORY_FRACTION, available_memory_bytes, form
                                    machine_cores)
 
 __all__ = ["EXECUTORS", "machine_cores", "run_pinned", "plan_workers", "LocalExecutor",
-           "DaskExecutor", "make_executor"]
+           "DaskExecutor", "make_executor", "dask_timeout", "identify_scheduler",
+           "DEFAULT_DASK_TIMEOUT"]
 
 EXECUTORS = ("local", "dask")
 DASK_HINT = 'install it with: pip install "envfit[dask]"'
+#: seconds allowed for each network handshake with a dask scheduler (``ENVFIT_DASK_TIMEOUT``)
+DEFAULT_DASK_TIMEOUT = 10.0
 
 
 def run_pinned(threads: int, fn: Callable, *args: Any) -> Any:
@@ -180,6 +197,149 @@ def _import_distributed():
     return distributed
 
 
+def _positive_seconds(value, what: str = "the dask timeout") -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        v = math.nan
+    if not (v > 0 and math.isfinite(v)):
+        raise ParameterError(f"{what} must be a positive number of seconds, got {value!r}")
+    return v
+
+
+def dask_timeout() -> float:
+    """Seconds allowed for each handshake with a dask scheduler: ``ENVFIT_DASK_TIMEOUT`` (a
+    positive number) or :data:`DEFAULT_DASK_TIMEOUT`; anything else is a
+    :class:`ParameterError`.
+    """
+    env = os.environ.get("ENVFIT_DASK_TIMEOUT", "").strip()
+    if not env:
+        return DEFAULT_DASK_TIMEOUT
+    return _positive_seconds(env, "ENVFIT_DASK_TIMEOUT")
+
+
+async def _identity(address: str, timeout: float) -> Any:
+    """Connect (dask comm handshake included) and ask for the endpoint's ``identity``."""
+    from distributed.comm import connect
+    from distributed.core import send_recv
+
+    comm = await connect(address, timeout=0.8 * timeout)  # retried until then, if refused
+    try:
+        return await send_recv(comm, op="identity")
+    finally:
+        comm.abort()
+
+
+def _run_bounded(make_coro: Callable[[], Any], timeout: float) -> Any:
+    """``make_coro()`` run to completion in a fresh event loop on a helper thread (so that
+    this works under a running loop too), cancelled after ``timeout`` s
+    (:class:`TimeoutError`); the coroutine's own exception is re-raised."""
+    box: dict[str, Any] = {}
+
+    def target() -> None:
+        try:
+            box["value"] = asyncio.run(asyncio.wait_for(make_coro(), timeout))
+        except BaseException as exc:  # noqa: BLE001 - handed to the caller
+            box["error"] = exc
+
+    th = threading.Thread(target=target, name="envfit-dask-identify", daemon=True)
+    th.start()
+    th.join(timeout + 5.0)
+    if th.is_alive() or isinstance(box.get("error"), (asyncio.TimeoutError, TimeoutError)):
+        raise TimeoutError
+    if "error" in box:
+        raise box["error"]
+    return box["value"]
+
+
+def _why(exc: BaseException) -> str:
+    msg = " ".join(str(exc).split())
+    return f"{type(exc).__name__}: {msg[:200]}" if msg else type(exc).__name__
+
+
+def _connect_failure(exc: OSError, seconds: float) -> str:
+    """What a failed ``distributed.comm.connect`` means, in a few words."""
+    chain, e = [], exc
+    while e is not None and len(chain) < 5:
+        chain.append(e)
+        e = e.__cause__ or e.__context__
+    if any(isinstance(e, ConnectionRefusedError) or "Connection refused" in str(e)
+           for e in chain):
+        return (f"connection refused (nothing listens there; retried for {seconds:.3g} s, "
+                "ENVFIT_DASK_TIMEOUT sets the limit)")
+    return _why(chain[-1] if len(chain) > 1 else exc)
+
+
+def identify_scheduler(address: str, timeout: float) -> dict:
+    """The ``identity`` of the dask scheduler at ``address``, every step (TCP connect, comm
+    handshake, the request and its reply) within ``timeout`` seconds in all.
+
+    Raises :class:`ExecutorError` (one line) for a malformed address, a refused or
+    silent endpoint, one that answers in another protocol (HTTP, garbage: distributed may
+    read its first bytes as a frame length and fail to allocate it, a ``MemoryError``), or a
+    dask server that is not a scheduler (a worker, a nanny).
+    """
+    _check_address(address)
+    where = f"cannot reach the dask scheduler at {address}"
+    try:
+        reply = _run_bounded(lambda: _identity(address, timeout), timeout)
+    except TimeoutError:
+        raise ExecutorError(f"{where}: no answer to dask's handshake within {timeout:g} s (is "
+                            "it a dask scheduler's address? ENVFIT_DASK_TIMEOUT sets the "
+                            "limit)") from None
+    except OSError as exc:  # refused (retried until the deadline), reset, closed
+        raise ExecutorError(f"{where}: {_connect_failure(exc, 0.8 * timeout)}") from None
+    except Exception as exc:  # its bytes are not dask messages (HTTP, garbage, ...)
+        raise ExecutorError(f"{where}: the endpoint does not speak dask's protocol (reading "
+                            f"its answer failed: {_why(exc)})") from None
+    if not isinstance(reply, dict) or reply.get("type") != "Scheduler":
+        kind = reply.get("type") if isinstance(reply, dict) else type(reply).__name__
+        raise ExecutorError(f"{where}: the endpoint answered as {kind!r}, not as a dask "
+                            "scheduler (give the scheduler's address, not a worker's)")
+    return reply
+
+
+def _check_address(address: str) -> None:
+    """:class:`ParameterError` unless ``address`` parses as a dask address with a port."""
+    from distributed.comm.addressing import get_address_host_port, parse_address
+    from distributed.comm.registry import get_backend
+
+    try:
+        scheme, _ = parse_address(address)
+        get_backend(scheme)
+        if scheme in ("tcp", "tls", "ws", "wss"):
+            port = get_address_host_port(address)[1]
+            if not 0 < int(port) < 65536:
+                raise ValueError(f"port {port} is out of range")
+    except (ValueError, TypeError) as exc:
+        raise ParameterError(f"--scheduler {address!r} is not a dask scheduler address "
+                             f"({' '.join(str(exc).split())}); expected tcp://HOST:PORT") from None
+
+
+def _connect_client(distributed, address: str, timeout: float):
+    """A ``distributed.Client`` to the scheduler at ``address`` (identified first, see
+    :func:`identify_scheduler`), made with ``timeout`` on the connect and the identify;
+    waits up to ``timeout`` for a first worker."""
+    import dask
+
+    ident = identify_scheduler(address, timeout)
+    with dask.config.set({"distributed.comm.timeouts.connect": f"{timeout}s"}):
+        try:
+            client = distributed.Client(address, timeout=timeout)
+        except Exception as exc:
+            raise ExecutorError(f"cannot reach the dask scheduler at {address}: "
+                                f"{_why(exc)}") from None
+    if not ident.get("workers") and not ident.get("n_workers"):
+        try:
+            client.wait_for_workers(1, timeout=timeout)
+        except Exception:
+            client.close()
+            raise ExecutorError(f"the dask scheduler at {address} has no workers (waited "
+                                f"{timeout:g} s, ENVFIT_DASK_TIMEOUT); start some with "
+                                f"`dask worker {address}`") from None
+    return client
+
+
 class DaskExecutor:
     """Tasks on a dask.distributed cluster: ``scheduler`` address, an existing ``client``,
     or (neither) a ``LocalCluster`` of ``workers`` single-threaded processes on loopback.
@@ -192,18 +352,15 @@ class DaskExecutor:
     name = "dask"
 
     def __init__(self, scheduler: str | None = None, workers: int | None = None, *,
-                 client=None, timeout: float = 10.0):
+                 client=None, timeout: float | None = None):
         distributed = _import_distributed()
         self._cluster = None
         self._own_client = client is None
+        self.timeout = dask_timeout() if timeout is None else _positive_seconds(timeout)
         if client is not None:
             self.client = client
         elif scheduler:
-            try:
-                self.client = distributed.Client(scheduler, timeout=timeout)
-            except (OSError, TimeoutError, ValueError) as exc:
-                msg = " ".join(str(exc).split()) or type(exc).__name__
-                raise ExecutorError(f"cannot reach the dask scheduler at {scheduler}: {msg}") from None
+            self.client = _connect_client(distributed, scheduler, self.timeout)
         else:
             n = machine_cores() if workers is None else int(workers)
             if n < 1:
@@ -284,10 +441,12 @@ class DaskExecutor:
 
 def make_executor(kind: str | Any = "local", *, workers: int | None = None,
                   scheduler: str | None = None, max_useful: int | None = None,
-                  bytes_per_task: int = 0) -> tuple[Any, list[str]]:
+                  bytes_per_task: int = 0,
+                  timeout: float | None = None) -> tuple[Any, list[str]]:
     """An executor (and notes) for ``kind`` = ``"local"`` or ``"dask"``; an executor object
     is returned as is. ``max_useful``/``bytes_per_task`` size a local pool or LocalCluster
-    (:func:`plan_workers`); a remote cluster is sized by whoever started it."""
+    (:func:`plan_workers`); a remote cluster is sized by whoever started it. ``timeout``:
+    seconds per handshake with a remote scheduler (None: :func:`dask_timeout`)."""
     if not isinstance(kind, str):
         return kind, []
     if kind not in EXECUTORS:
@@ -298,7 +457,7 @@ def make_executor(kind: str | Any = "local", *, workers: int | None = None,
         if workers is not None:
             raise ParameterError("--workers sizes a local cluster; with --scheduler the "
                                  "cluster's own workers are used")
-        return DaskExecutor(scheduler), []
+        return DaskExecutor(scheduler, timeout=timeout), []
     w, notes = plan_workers(workers, cores=machine_cores(),
                             max_useful=max_useful or machine_cores(),
                             bytes_per_task=bytes_per_task)
