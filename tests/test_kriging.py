@@ -112,3 +112,19 @@ def test_bad_models_refused():
         expected_interpolation_mse(SynthesisModel(1.5, 4, None), [1.5], 100)
     with pytest.raises(ValueError):
         SynthesisModel(2.5, 4, None)
+
+
+@pytest.mark.parametrize("h, f, lmax", [(6, 1, 20), (4, 2, 15), (3, 3, None), (2, 4, 7)])
+def test_pixel_covariance_table_is_the_block_average_of_point_covariances(h, f, lmax):
+    """Brute force: R K R^T with R the solid-angle weighted block average of EnvMap.resized."""
+    from envfit.fit.kriging import _pixel_covariance_table, _sq_dist
+    k0 = field_covariance(1.5, lmax)
+    T = _pixel_covariance_table(SynthesisModel(1.5, h, lmax, factor=f), k0)
+    hf, w = h * f, 2 * h
+    fine = pixel_directions(hf).reshape(-1, 3)
+    R = np.stack([EnvMap(e.reshape(hf, 2 * hf, 1)).resized(h).data.ravel()
+                  for e in np.eye(fine.shape[0])], axis=1) if f > 1 else np.eye(fine.shape[0])
+    C = R @ k0(_sq_dist(fine, fine)) @ R.T
+    q = np.arange(h * w)
+    got = T[q[:, None] // w, q[None, :] // w, (q[None, :] % w - q[:, None] % w) % w]
+    assert np.allclose(got, C, atol=1e-12)

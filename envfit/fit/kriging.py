@@ -48,9 +48,9 @@ from envfit.theory.sobolev import kernel_from_distance2, sobolev_coefficients
 __all__ = ["SynthesisModel", "KrigingCurve", "field_covariance", "bilinear_stencil",
            "expected_interpolation_mse"]
 
-#: θ samples of the tabulated band-limited covariance (linear interpolation error ~1e-7
-#: relative at l_max = 255)
-_TABLE_POINTS = 1 << 18
+#: samples of t = u·v in [−1, 1] of the tabulated band-limited covariance (linear
+#: interpolation: absolute error below 1e-6 at l_max = 255, where k_0(1) = 2.66)
+_TABLE_POINTS = (1 << 19) + 1
 #: evaluation pixels per block (bounds the N×M temporaries)
 _BLOCK = 2048
 
@@ -59,7 +59,7 @@ def field_covariance(s0: float, lmax: int | None):
     r"""The covariance :math:`k_0` of the synthesized field as a function of the squared chord
     :math:`d^2 = |u - v|^2`: Eq. 14 for ``lmax=None``, else the Legendre partial sum
     :math:`\sum_{l\le l_{max}} a_l^{(s_0)} \frac{2l+1}{4\pi} P_l(1 - d^2/2)` (Eq. 8),
-    tabulated in the angle :math:`\theta = 2\arcsin(d/2)` and interpolated linearly.
+    tabulated on a uniform grid of :math:`t = 1 - d^2/2` and interpolated linearly.
 
     >>> k = field_covariance(1.5, None); round(float(k(0.0)), 6)       # 2^(2s-1)/s
     2.666667
@@ -70,22 +70,19 @@ def field_covariance(s0: float, lmax: int | None):
     L = int(lmax)
     if L < 0:
         raise ParameterError(f"lmax must be >= 0, got {lmax}")
-    theta = np.linspace(0.0, np.pi, _TABLE_POINTS)
-    t = np.cos(theta)
+    t = np.linspace(-1.0, 1.0, _TABLE_POINTS)         # a polynomial in t: uniform in t
     coef = sobolev_coefficients(s0, L) * (2 * np.arange(L + 1) + 1) / (4 * np.pi)
     p_prev, p = np.ones_like(t), t.copy()
     table = coef[0] * p_prev + (coef[1] * p if L >= 1 else 0.0)
     for l in range(1, L):
         p_prev, p = p, ((2 * l + 1) * t * p - l * p_prev) / (l + 1)
         table += coef[l + 1] * p
-
-    step = theta[1]
     slope = np.append(np.diff(table), 0.0)
+    scale = (_TABLE_POINTS - 1) / 2.0
 
     def k0(d2):
-        d = np.sqrt(np.clip(np.asarray(d2, dtype=np.float64), 0.0, 4.0))
-        x = 2.0 * np.arcsin(0.5 * d) / step                  # uniform grid: no search
-        i = np.minimum(x.astype(np.int64), _TABLE_POINTS - 1)
+        x = (2.0 - np.clip(np.asarray(d2, dtype=np.float64), 0.0, 4.0) * 0.5) * scale
+        i = np.minimum(x.astype(np.int64), _TABLE_POINTS - 1)   # x = (t + 1) * scale
         return table[i] + (x - i) * slope[i]
     return k0
 
@@ -200,31 +197,41 @@ class KrigingCurve:
         return float(-c[1] / (2 * c[0])) if c[0] > 0 else float(s[k])
 
 
+def _point_table(hf: int, k0) -> np.ndarray:
+    """k0 between the pixel centres (R, C) and (R', C + Δ) of an hf-row grid, Δ in [0, hf]
+    (the covariance is even in Δ and symmetric in (R, R')), shape (hf, hf, hf + 1)."""
+    theta = np.pi * (np.arange(hf) + 0.5) / hf
+    half = np.sin(np.pi * np.arange(hf + 1) / (2 * hf)) ** 2        # sin²(Δφ/2)
+    out = np.empty((hf, hf, hf + 1))
+    for r in range(hf):
+        t2 = theta[r:]
+        d2 = 4.0 * (np.sin(0.5 * (theta[r] - t2))[:, None] ** 2
+                    + (np.sin(theta[r]) * np.sin(t2))[:, None] * half[None, :])
+        out[r, r:] = out[r:, r] = k0(d2)
+    return out
+
+
 def _pixel_covariance_table(model: SynthesisModel, k0) -> np.ndarray:
     r"""T[r, r', Δc] = Cov(pixel (r, c), pixel (r', c + Δc)) of the map as read, (H, H, 2H).
 
     A pixel of a block-averaged map is :math:`\sum_{a,b} \omega_a f(\text{fine}(rF+a, cF+b))/F`
-    with :math:`\omega_a` the fine rows' solid angles normalised in the block (EnvMap.resized)."""
+    with :math:`\omega_a` the fine rows' solid angles normalised in the block (EnvMap.resized):
+    the point covariances of the fine grid summed over both blocks (columns: a triangle of
+    weights (F − |δ|)/F² in the column offset δ)."""
     h, f = model.height, model.factor
     hf = h * f
-    theta = np.pi * (np.arange(hf) + 0.5) / hf
+    fine = _point_table(hf, k0)
+    if f == 1:
+        return np.concatenate([fine, fine[:, :, h - 1:0:-1]], axis=2)
+    delta = np.arange(h + 1)[:, None] * f + np.arange(-f + 1, f)[None, :]   # fine Δ
+    delta = np.abs(delta)
+    delta = np.minimum(delta, 2 * hf - delta)                            # even, periodic
+    tri = (f - np.abs(np.arange(-f + 1, f))) / f ** 2
+    cols = fine[:, :, delta] @ tri                                       # (hf, hf, h + 1)
     om = row_solid_angles(hf, 2 * hf).reshape(h, f)
-    om = om / om.sum(axis=1, keepdims=True)                      # (h, f) block row weights
-    dc = np.arange(2 * h)
-    table = np.zeros((h, h, 2 * h))
-    for a in range(f):
-        for a2 in range(f):
-            t1 = theta[np.arange(h) * f + a]                     # (h,)
-            t2 = theta[np.arange(h) * f + a2]
-            wrow = om[:, a][:, None] * om[:, a2][None, :]        # (h, h)
-            for db in range(-f + 1, f):
-                dphi = 2.0 * np.pi * (dc * f + db) / (2 * hf)
-                for r in range(h):
-                    d2 = 4.0 * (np.sin(0.5 * (t1[r] - t2))[:, None] ** 2
-                                + np.sin(t1[r]) * np.sin(t2)[:, None]
-                                * np.sin(0.5 * dphi)[None, :] ** 2)
-                    table[r] += (wrow[r][:, None] * (f - abs(db)) / f ** 2) * k0(d2)
-    return table
+    om = om / om.sum(axis=1, keepdims=True)
+    half = np.einsum("ra,rasbd,sb->rsd", om, cols.reshape(h, f, h, f, h + 1), om)
+    return np.concatenate([half, half[:, :, h - 1:0:-1]], axis=2)
 
 
 def _cov_pix(table: np.ndarray, qa: np.ndarray, qb: np.ndarray) -> np.ndarray:
@@ -334,3 +341,46 @@ def expected_interpolation_mse(model: SynthesisModel, s_values, n: int, *,
     return KrigingCurve(model=model, n=n, s_values=s_values, mse_pixel=res[:, 0],
                         mse_solid_angle=res[:, 1], variance=float(setup.w_pixel @ setup.var),
                         rows=int(setup.rows.size))
+
+
+def builtin_synthesis(envmap) -> SynthesisModel | None:
+    """The :class:`SynthesisModel` of the built-in map (:mod:`envfit.maps.default_map`) as
+    loaded (its name records s0 and the synthesized height; a resize to a divisor of that
+    height is a block average), with the map's solid-angle mean of channel 0 as the
+    offset; ``None`` for any other map or a resize by a non-integer factor."""
+    import re
+    m = re.fullmatch(r"builtin:gp\(s0=([0-9.]+),height=([0-9]+),seed=[0-9]+\)",
+                     getattr(envmap, "name", "") or "")
+    if m is None:
+        return None
+    s0, synth_h = float(m.group(1)), int(m.group(2))
+    if synth_h % envmap.height:
+        return None
+    offset = float(envmap.mean()[0])
+    return SynthesisModel.data_gen(s0, synth_h, envmap.height, up=envmap.up, offset=offset)
+
+
+def known_s_sentence(curve: KrigingCurve, measured_best: float, scale: str) -> str:
+    """One sentence on what Table 2's best s on a map of known s0 means, true of the numbers:
+    the closed-form expected optimum for this synthesis, lookup and N beside the measured one."""
+    m = curve.model
+    band = "the full process" if m.lmax is None else f"band-limited at l <= {m.lmax}"
+    how = ", block-averaged to the map's rows" if m.factor > 1 else ""
+    where = "" if scale == "linear" else " (computed on the linear scale)"
+    best, vertex = curve.s_best, curve.s_vertex()
+    if abs(best - m.s0) < 1e-9:
+        expect = f"is lowest at s = {best:g} = s0 among these s"
+    else:
+        causes = [c for c, on in (("band limit", m.lmax is not None), ("resize", m.factor > 1),
+                                  ("lookup", m.lookup)) if on]
+        why = (f", because the {' and '.join(causes)} make the map smoother than K_s0 near "
+               "its pixel scale" if best > m.s0 and causes else "")
+        expect = (f"is lowest at s = {best:g} among these s (parabola vertex {vertex:.2f}), "
+                  f"not at s0 = {m.s0:g}{why}")
+    on = "" if scale == "linear" else f" on the {scale} scale"
+    agree = ("the same s" if abs(measured_best - best) < 1e-9
+             else "a different s: the expectation is over all such maps, this is one of them")
+    seen = "read by bilinear lookup" if m.lookup else "seen exactly at the nodes"
+    return (f"Known s: this map is a GP sample of s0 = {m.s0:g} {band}{how}, {seen}; "
+            f"for such maps the expected RMSE at N = {curve.n}{where} {expect}; "
+            f"this map's lowest measured RMSE{on} is at s = {measured_best:g}, {agree}.")
