@@ -11,7 +11,8 @@ Ranges
     and the largest value that fits (:func:`check_sh_plan`).
 
 Cost model (:func:`sh_stages`), C channels, on this machine's speeds measured once per
-process by :func:`machine_rates` (a few milliseconds of the same kernels):
+process by :func:`machine_rates` (a few tens of milliseconds of the same kernels, scaled by
+the machine's current load, :func:`load_factor`):
 
 * a Gauss–Legendre synthesis of degree l (``ducc0.sht.synthesis_2d``, nlat = max(256,
   4(l+1)) rings of 2 nlat points): :math:`C\,(2n_{lat}^2 + n_{lat}(l+1)^2/2)` units; a
@@ -28,9 +29,12 @@ process by :func:`machine_rates` (a few milliseconds of the same kernels):
   the ground truth's :math:`M(L_{sh}+1)^2`, :math:`L_{sh} = \max(H-1, \min(2H-1, 511))`);
   radiance — one synthesis on a 2H-row grid per export.
 
-The model is an estimate (within a factor of a few of the measured times at H = 64, L ≤ 500,
-bench: ``tests/test_cli_sh_limits.py``); it is used to refuse what would run for hours, not
-to promise a duration.
+The model is an estimate, used to refuse what would run for hours, not to promise a
+duration. Measured on a shared 2-core machine (load 7): the dense check within 15 % (23 s
+predicted, 20 s taken, forest at 128 rows, ``--check-height 1024``), the whole run of an
+irradiance export within 20 %; the table is an upper bound — it assumes sloan's λ search on
+every degree (50 syntheses at L = 63), which a map that never rings skips (a smooth map:
+30 s predicted, 1.6 s taken; forest: 27 s predicted, 9 s taken, L = 1..60).
 """
 from __future__ import annotations
 
@@ -93,7 +97,7 @@ def time_limit_seconds() -> float:
     return v
 
 
-def _best(fn, repeats: int = 2) -> float:
+def _best(fn, repeats: int = 3) -> float:
     out = math.inf
     for _ in range(repeats):
         t0 = time.perf_counter()
@@ -103,24 +107,44 @@ def _best(fn, repeats: int = 2) -> float:
 
 
 @lru_cache(maxsize=1)
-def machine_rates() -> Rates:
-    """The kernels' speeds on this machine now (~20 ms, once per process): a basis of
-    degree 16 at 2048 directions, a 4096×289 by 289×96 product, a one-channel GL synthesis
-    of degree 63 on 256 rings, a rotation of degree 32."""
+def _cpu_rates() -> Rates:
+    """The kernels' speeds on one core of this machine (the best of 3 runs, ~50 ms once per
+    process): a basis of degree 8 at 16384 directions (a dense-check chunk), a 4096×289 by
+    289×96 product, a three-channel GL synthesis of degree 32 on 256 rings (a ringing
+    row's), a rotation of degree 32."""
     import ducc0
     from envfit.shading.sh_export import gl_synthesis, real_sh_basis
     rng = np.random.default_rng(0)
-    d = rng.normal(size=(2048, 3))
+    d = rng.normal(size=(16384, 3))
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     a, b = rng.random((4096, 289)), rng.random((289, 96))
-    alm63 = np.zeros((1, 64 * 65 // 2), dtype=np.complex128)
-    alm63[0, 0] = 1.0
-    alm32 = (rng.random(33 * 34 // 2) + 0j)
+    alm = rng.random((3, 33 * 34 // 2)) + 0j
+    alm[:, :33] = alm[:, :33].real
     return Rates(
-        basis=_best(lambda: real_sh_basis(d, 16)) / (2048 * 289),
+        basis=_best(lambda: real_sh_basis(d, 8)) / (16384 * 81),
         flop=_best(lambda: a @ b) / (4096 * 289 * 96),
-        synthesis=_best(lambda: gl_synthesis(alm63, np.ones(64), 63, 256)) / _syn_units(63, 256),
-        rotation=_best(lambda: ducc0.sht.rotate_alm(alm32, 32, 0.1, 0.2, 0.3)) / 33 ** 3)
+        synthesis=_best(lambda: gl_synthesis(alm, np.ones(33), 32, 256)) / (
+            3 * _syn_units(32, 256)),
+        rotation=_best(lambda: ducc0.sht.rotate_alm(alm[0], 32, 0.1, 0.2, 0.3)) / 33 ** 3)
+
+
+def load_factor() -> float:
+    """How much longer work takes on this machine now than alone on its cores: the 1-minute
+    load average over the cores this process may use, at least 1."""
+    from envfit.base.resources import machine_cores
+    try:
+        return max(1.0, os.getloadavg()[0] / machine_cores())
+    except (AttributeError, OSError):  # pragma: no cover - no load average
+        return 1.0
+
+
+def machine_rates() -> Rates:
+    """Seconds per unit of each kernel on this machine now: the measured speeds
+    (:func:`_cpu_rates`) times :func:`load_factor` (on a shared machine the wall time, not
+    the CPU time, is what the limit is about)."""
+    r, f = _cpu_rates(), load_factor()
+    return Rates(basis=r.basis * f, flop=r.flop * f, synthesis=r.synthesis * f,
+                 rotation=r.rotation * f)
 
 
 def _nlat(l: int) -> int:
