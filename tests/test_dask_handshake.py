@@ -117,7 +117,7 @@ def bounded(address, timeout=T):
 def test_silent_listener_times_out(endpoint):
     e = endpoint(silent)
     msg, took = bounded(e.address)
-    assert e.accepted >= 1                      # the TCP connect did succeed: the wait is the handshake
+    assert e.accepted >= 1                      # TCP connected: the wait is the handshake
     assert T * 0.9 <= took < T + SLACK          # it waited for the limit, and no longer
     assert "no answer to dask's handshake within 1 s" in msg and "ENVFIT_DASK_TIMEOUT" in msg
     assert "\n" not in msg

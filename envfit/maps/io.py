@@ -12,7 +12,11 @@ problem                                        result
 =============================================  ===========================================
 missing file / a folder                        :class:`EnvMapFileError` ("no such file")
 unreadable, corrupt, truncated                 :class:`EnvMapFileError` (OIIO's message)
-empty, or width != 2 x height                  :class:`EnvMapFormatError` (with the size)
+empty, or display width != 2 x height          :class:`EnvMapFormatError` (with the size)
+data window != display window (EXR)            placed in the display window: the
+                                               missing pixels are 0, stored pixels
+                                               outside are dropped (noted, with counts)
+data window outside the display window         :class:`EnvMapFormatError` (both windows)
 too large for the memory budget                :class:`MemoryBudgetError`
 NaN / Inf values                               :class:`NonFiniteError` (count; suggests
                                                ``fix_nonfinite=True`` / ``--fix-nonfinite``)
@@ -21,6 +25,14 @@ negative values                                clamped to 0 and noted (``allow_n
 =============================================  ===========================================
 
 Only the first subimage (EXR part) is read (noted if there are more).
+
+Windows (OpenImageIO's ``ImageSpec``: ``x, y, width, height`` is the *data window*, the pixels
+stored; ``full_x, full_y, full_width, full_height`` the *display window*, the image): the
+display window is the sphere and must be 2:1. A data window that differs (an autocropped
+sky storing 128x32 of a 128x64 map, an offset or overscanned window) is placed in it with
+``ImageBufAlgo.crop`` to the display ROI: display pixels not stored are 0 (OpenEXR's
+convention), stored pixels outside the display window are dropped, and the map's notes say
+how many of each. A data window that covers none of the display window is refused.
 
 Colour: float files (EXR, HDR, float TIFF) are taken as linear radiance, as they are.
 Integer files (8/16-bit PNG, JPEG, TIFF, ...) are display-referred: their colour space
@@ -254,22 +266,86 @@ def _readable_file(path) -> Path:
 
 
 def _check_header(spec, p: Path) -> tuple[int, int, int]:
-    """``(h, w, c)`` of a usable lat-long image header; else :class:`EnvMapFormatError`."""
-    h, w, c = int(spec.height), int(spec.width), int(spec.nchannels)
-    if h <= 0 or w <= 0 or c <= 0:
-        raise EnvMapFormatError(f"{p}: image is empty ({w}x{h}, {c} channels)")
+    """``(h, w, c)`` of the display window of a usable lat-long image header (the sphere,
+    see :func:`_window_notes`); else :class:`EnvMapFormatError`."""
+    h, w, c = int(spec.full_height), int(spec.full_width), int(spec.nchannels)
+    dw, dh = int(spec.width), int(spec.height)
+    if dh <= 0 or dw <= 0 or c <= 0:
+        raise EnvMapFormatError(f"{p}: image is empty ({dw}x{dh}, {c} channels)")
     if int(spec.depth) > 1 or spec.deep:
         raise EnvMapFormatError(f"{p}: volume/deep images are not environment maps")
+    same = _data_is_display(spec)
+    what = "" if same else (f" (its display window, the sphere; the data window is {dw}x{dh} "
+                            f"at ({spec.x}, {spec.y}))")
+    if h <= 0 or w <= 0:
+        raise EnvMapFormatError(f"{p}: its display window is empty ({w}x{h}){what}")
     if w != 2 * h:
         raise EnvMapFormatError(
             f"{p}: a lat-long map must be twice as wide as high; got {w}x{h} "
-            f"(width x height)")
+            f"(width x height){what}")
     return h, w, c
 
 
+def _data_is_display(spec) -> bool:
+    """Whether the data window is the display window (the usual case)."""
+    return (int(spec.x), int(spec.y), int(spec.width), int(spec.height)) == (
+        int(spec.full_x), int(spec.full_y), int(spec.full_width), int(spec.full_height))
+
+
+def _window_notes(spec, p: Path) -> list[str]:
+    """Notes on a data window that differs from the display window; refuses one that
+    stores none of it.
+
+    OpenImageIO's (and OpenEXR's) windows: the *display window* (``full_x, full_y,
+    full_width, full_height``) is the image — here the whole sphere — and the *data window*
+    (``x, y, width, height``) the pixels stored in the file, anywhere relative to it (an
+    autocropped sky stores only the rows that are not black). Display pixels outside the
+    data window are 0 (OpenEXR's convention for pixels not stored); stored pixels outside
+    the display window are not part of the image and are dropped.
+    """
+    x, y, dw, dh = int(spec.x), int(spec.y), int(spec.width), int(spec.height)
+    fx, fy, fw, fh = int(spec.full_x), int(spec.full_y), int(spec.full_width), int(spec.full_height)
+    ox = max(0, min(x + dw, fx + fw) - max(x, fx))
+    oy = max(0, min(y + dh, fy + fh) - max(y, fy))
+    inside, full, data = ox * oy, fw * fh, dw * dh
+    data_at, display_at = f"{dw}x{dh} at ({x}, {y})", f"{fw}x{fh} at ({fx}, {fy})"
+    if inside == 0:
+        raise EnvMapFormatError(
+            f"{p}: its data window ({data_at}) does not overlap its display window "
+            f"({display_at}): the file stores no pixel of the sphere")
+    notes = []
+    if inside < full:
+        notes.append(f"the file's data window ({data_at}) covers {inside} of the "
+                     f"{full} pixels of its display window ({display_at}, the sphere; "
+                     f"{100 * inside / full:.3g}%): the other {full - inside} pixels, not "
+                     "stored in the file, were padded with 0")
+    if inside < data:
+        notes.append(f"dropped {data - inside} pixels of the file's data window ({data_at}) "
+                     f"that lie outside its display window ({display_at})")
+    return notes
+
+
+def _to_display_window(pixels: np.ndarray, spec, p: Path) -> np.ndarray:
+    """The data window's pixels (H_d, W_d, C) placed in the display window (H, W, C) with
+    ``ImageBufAlgo.crop`` to the full ROI: zero where nothing is stored, data outside the
+    display window dropped."""
+    import OpenImageIO as oiio
+
+    dspec = oiio.ImageSpec(spec)
+    dspec.set_format(oiio.FLOAT)
+    buf = oiio.ImageBuf(dspec)
+    buf.set_pixels(oiio.ROI.All, np.ascontiguousarray(pixels, dtype=np.float32))
+    out = oiio.ImageBufAlgo.crop(buf, buf.roi_full)
+    if out.has_error:
+        raise EnvMapFormatError(f"{p}: cannot place its data window in its display window: "
+                                f"{_one_line(out.geterror())}")
+    h, w, c = int(spec.full_height), int(spec.full_width), pixels.shape[2]
+    return np.asarray(out.get_pixels(oiio.FLOAT), dtype=np.float32).reshape(h, w, c)
+
+
 def _read_pixels(p: Path, dt: np.dtype, linearize: bool) -> tuple[np.ndarray, object, list[str]]:
-    """The first subimage as float32 (H, W, C') linear values, its spec and the notes; the
-    memory guard runs on the header before any pixel is read."""
+    """The first subimage's display window as float32 (H, W, C') linear values, its spec and
+    the notes; the memory guard runs on the header before any pixel is read."""
     import OpenImageIO as oiio
 
     oiio.geterror()  # clear stale global errors
@@ -277,12 +353,15 @@ def _read_pixels(p: Path, dt: np.dtype, linearize: bool) -> tuple[np.ndarray, ob
     if inp is None:
         msg = _one_line(oiio.geterror()) or "unknown format"
         raise EnvMapFileError(f"{p}: cannot read image: {msg}")
-    notes: list[str] = []
     try:
         spec = inp.spec()
         h, w, c = _check_header(spec, p)
+        notes = [] if _data_is_display(spec) else _window_notes(spec, p)
+        dw, dh = int(spec.width), int(spec.height)
         c_out = min(c, 3) if c != 2 else 1
-        nbytes = h * w * c * 4 + h * w * c_out * (4 + dt.itemsize)
+        nbytes = dh * dw * c * 4 + h * w * c_out * (4 + dt.itemsize)
+        if notes:
+            nbytes += dh * dw * c * 4 + 2 * h * w * c * 4   # ImageBuf, crop, its copy
         decode, decode_note = _display_decoding(spec) if linearize else (None, None)
         if decode is not None:
             nbytes += 2 * h * w * c * 4           # the ImageBuf and the converted copy
@@ -299,7 +378,9 @@ def _read_pixels(p: Path, dt: np.dtype, linearize: bool) -> tuple[np.ndarray, ob
         inp.geterror()
     finally:
         inp.close()
-    pixels = np.asarray(pixels, dtype=np.float32).reshape(h, w, c)
+    pixels = np.asarray(pixels, dtype=np.float32).reshape(dh, dw, c)
+    if not _data_is_display(spec):
+        pixels = _to_display_window(pixels, spec, p)
     if decode is not None:
         pixels = _decode_to_linear(pixels, spec, decode, p)
     if decode_note:
