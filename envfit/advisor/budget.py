@@ -40,6 +40,7 @@ from envfit.maps.envmap import EnvMap
 from envfit.shading.ground_truth import default_sh_lmax
 from envfit.shading.renderer_rules import STRATEGIES
 from envfit.shading.spectra import rule_power_cost, sh_analysis_cost
+from envfit.shading.warped_spectrum import spectrum_nbytes
 
 __all__ = ["PREDICTION_MAX_HEIGHT", "MIN_HEIGHT", "advise_plan", "prediction_height"]
 
@@ -47,11 +48,11 @@ __all__ = ["PREDICTION_MAX_HEIGHT", "MIN_HEIGHT", "advise_plan", "prediction_hei
 PREDICTION_MAX_HEIGHT = 1024
 #: the fewest rows a downsampled map may keep (below, the run is refused)
 MIN_HEIGHT = 64
-#: bytes per pixel of the renderer rows' setup and one warped spectrum (the scaled, source and
-#: rest maps, two samplers, the map technique's quadrature nodes and the pixel moments), and
-#: their fixed part (the lobe grid of (8 B)² points at G = 512); measured +1.93 GB over the
-#: scaled map on a 2048x1024 map (four spectra, G = 512, 32 axes)
-_RENDERER_BYTES_PER_PIXEL, _RENDERER_FIXED = 920, 100 * 2 ** 20
+#: bytes per pixel of the renderer rows' setup (the scaled, source and rest maps, two
+#: samplers: +296 MB on a 2048x1024 map) and of the map nodes the next spectrum reuses,
+#: beside one spectrum (:func:`envfit.shading.warped_spectrum.spectrum_nbytes`): the whole
+#: renderer section measured +1.93 GB on a 2048x1024 map (four spectra, G = 512, 32 axes)
+_RENDERER_SETUP_BYTES_PER_PIXEL = 270
 #: seconds per pixel and per axis of one warped spectrum (35 s for four spectra of city.exr,
 #: 199 s on a 2048x1024 map; 2 loaded cores)
 _RENDERER_SEC_PER_PIXEL_AXIS = 6e-7
@@ -106,7 +107,8 @@ def advise_plan(height: int, channels: int, opts: AdviseOptions, *,
     if opts.renderer:
         nspec = len({STRATEGIES[s] for s in opts.strategies})
         stages.append(Stage("renderer spectra",
-                            _RENDERER_BYTES_PER_PIXEL * pix + _RENDERER_FIXED,
+                            _RENDERER_SETUP_BYTES_PER_PIXEL * pix
+                            + spectrum_nbytes(h, opts.renderer_grid),
                             nspec * _RENDERER_SEC_PER_PIXEL_AXIS * pix
                             * opts.renderer_spectrum_axes,
                             f"{nspec} warped spectra, grid {opts.renderer_grid}"))

@@ -178,6 +178,20 @@ def _horizon_negligible(weight: WeightFunction, height: int) -> bool:
     return band <= 1e-13 * pmax
 
 
+def _check_sh_memory(envmap: EnvMap, lmax: int, axes: int) -> None:
+    """The SH ground truth's memory guard, before the analysis: the interpolant's SH
+    coefficients to ``lmax`` (:func:`envfit.shading.spectra.sh_analysis_cost`) and the
+    synthesis at ``axes`` axes; one line naming the rows that fit."""
+    from envfit.base.resources import check_memory
+    from envfit.shading.spectra import rows_within, sh_analysis_cost
+    need, secs = sh_analysis_cost(envmap.height, envmap.channels, lmax)
+    check_memory(need + 16 * (int(axes) + lmax * lmax) * envmap.channels,
+                 f"the SH ground truth of a {envmap.width}x{envmap.height} map to degree "
+                 f"{lmax} (~{secs:.0f} s)",
+                 hint=f"downsample the map to at most {rows_within(envmap.channels, lmax)} "
+                      f"rows (--max-height)")
+
+
 def shading_integral(envmap: EnvMap, axes, brdf="diffuse", shininess: float = 30.0, *,
                      method: str = "sh", lmax: int | None = None,
                      nthreads: int = 0) -> np.ndarray:
@@ -211,6 +225,7 @@ def shading_integral(envmap: EnvMap, axes, brdf="diffuse", shininess: float = 30
     h = envmap.height
     if method == "sh":
         L = default_sh_lmax(weight, h) if lmax is None else check_int(lmax, "lmax", 0)
+        _check_sh_memory(envmap, L, A.shape[0])
         lam = funk_hecke_factors(weight, L)
         alm = bilinear_sh_coefficients(envmap, L, nthreads=nthreads)
         return synthesize_convolution(alm, L, lam, A, nthreads=nthreads)

@@ -36,7 +36,7 @@ from envfit.shading.bilinear_sh import bilinear_sh_coefficients
 __all__ = ["rule_error_power", "bandlimited_worst_case_error", "bandlimited_worst_case_errors",
            "map_degree_power", "pixel_degree_power", "lookup_transfer", "map_transfer",
            "degree_weights", "band_e2", "sh_truncation_curve_transfer", "spectral_rmse",
-           "model_scatter", "low_degree_power_ratio", "sh_analysis_cost", "rule_power_cost"]
+           "model_scatter", "low_degree_power_ratio", "sh_analysis_cost", "rule_power_cost", "rows_within"]
 
 #: seconds per (ring node x degree²) of the bilinear interpolant's Legendre analysis
 #: (``ducc0.sht.leg2alm``), measured on a 2048x1024 map (19.6 s to l = 2047, 3.3 s to
@@ -186,12 +186,14 @@ def map_degree_power(scaled: EnvMap, lmax: int) -> np.ndarray:
     need, secs = sh_analysis_cost(scaled.height, scaled.channels, lmax)
     check_memory(need, f"the SH power of a {scaled.width}x{scaled.height} map to degree {lmax} "
                        f"(~{secs:.0f} s)",
-                 hint=f"use a map of at most {_rows_within(scaled.channels, lmax)} rows")
+                 hint=f"downsample the map to at most {rows_within(scaled.channels, lmax)} "
+                      f"rows (--max-height)")
     return _power_by_degree(bilinear_sh_coefficients(scaled, lmax), lmax)
 
 
-def _rows_within(channels: int, lmax: int) -> int:
-    """The most rows (a power of 2) whose analysis to min(lmax, 2H - 1) fits the budget."""
+def rows_within(channels: int, lmax: int) -> int:
+    """The most rows (a power of 2, at least 1) whose SH analysis to min(lmax, 2H - 1) fits
+    the memory budget (:func:`sh_analysis_cost`)."""
     from envfit.base.resources import memory_budget_bytes
     budget, h = memory_budget_bytes(), 1
     while h < 2 ** 16 and sh_analysis_cost(2 * h, channels, min(lmax, 4 * h - 1))[0] <= budget:
