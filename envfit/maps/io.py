@@ -413,6 +413,24 @@ def _clean_values(pixels: np.ndarray, p: Path, notes: list[str], *, fix_nonfinit
     return pixels
 
 
+def _encoded(data: np.ndarray, ext: str, half: bool, p: Path) -> tuple[str, np.ndarray]:
+    """``(OIIO format, contiguous pixels)`` for writing ``data`` as ``ext``: float (half for
+    ``.exr`` with ``half``), or 8-bit ``round(255 v)`` of display-referred data in [0, 1]."""
+    if ext in FLOAT_EXTENSIONS:
+        fmt = "half" if (half and ext == ".exr") else "float"
+        return fmt, np.ascontiguousarray(data, dtype=np.float32)
+    if not np.all(np.isfinite(data)):
+        raise ParameterError(f"{p}: 8-bit output needs finite display-referred data in "
+                             "[0, 1]; the data holds NaN/Inf")
+    lo, hi = float(data.min()), float(data.max())
+    if lo < -1e-6 or hi > 1 + 1e-6:
+        raise ParameterError(
+            f"{p}: 8-bit output needs display-referred data in [0, 1], got "
+            f"[{lo:.4g}, {hi:.4g}]; apply envfit.maps.scales.fit_scale('display', map) first "
+            "or save as .exr")
+    return "uint8", np.ascontiguousarray(np.rint(np.clip(data, 0.0, 1.0) * 255.0), dtype=np.uint8)
+
+
 def save_envmap(path, envmap_or_array, *, half: bool = False, up: str | None = None) -> Path:
     """Write a map (EnvMap or H x W [x C] array) atomically; returns the path.
 
@@ -444,22 +462,7 @@ def save_envmap(path, envmap_or_array, *, half: bool = False, up: str | None = N
         raise ParameterError(f"{p}: cannot save as {ext or 'a file without extension'!r}; use "
                              f"one of {', '.join(FLOAT_EXTENSIONS + PREVIEW_EXTENSIONS)}")
     h, w, c = data.shape
-    if ext in FLOAT_EXTENSIONS:
-        fmt = "half" if (half and ext == ".exr") else "float"
-        pixels = np.ascontiguousarray(data, dtype=np.float32)
-    else:
-        if not np.all(np.isfinite(data)):
-            raise ParameterError(f"{p}: 8-bit output needs finite display-referred data in "
-                                 "[0, 1]; the data holds NaN/Inf")
-        lo, hi = float(data.min()), float(data.max())
-        if lo < -1e-6 or hi > 1 + 1e-6:
-            raise ParameterError(
-                f"{p}: 8-bit output needs display-referred data in [0, 1], got "
-                f"[{lo:.4g}, {hi:.4g}]; apply envfit.maps.scales.fit_scale('display', map) first "
-                "or save as .exr")
-        fmt = "uint8"
-        pixels = np.ascontiguousarray(np.rint(np.clip(data, 0.0, 1.0) * 255.0), dtype=np.uint8)
-
+    fmt, pixels = _encoded(data, ext, half, p)
     p.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{p.stem}.", suffix=p.suffix, dir=p.parent)
     os.close(fd)
