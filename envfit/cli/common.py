@@ -402,7 +402,8 @@ def add_executor_arguments(p: argparse.ArgumentParser) -> None:
                         '(pip install "envfit[dask]")')
     g.add_argument("--scheduler", metavar="tcp://HOST:PORT", default=None,
                    help="address of a running dask scheduler (default with --executor dask: "
-                        "a LocalCluster on this machine)")
+                        "a LocalCluster on this machine); each handshake with it waits at "
+                        "most ENVFIT_DASK_TIMEOUT seconds (default 10)")
     g.add_argument("--workers", type=positive_int, default=None, metavar="K",
                    help="worker processes for local/LocalCluster (default: as many as useful, "
                         "at most the cores, within the memory budget)")
