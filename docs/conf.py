@@ -35,7 +35,7 @@ exclude_patterns = ["_build", "_generated", "Thumbs.db", ".DS_Store"]
 myst_heading_anchors = 3
 
 autosummary_generate = True
-autosummary_imported_members = True
+autosummary_imported_members = False
 autodoc_default_options = {"members": False}
 # numpydoc: the member lists of classes would each need their own autosummary stub pages
 numpydoc_show_class_members = False
