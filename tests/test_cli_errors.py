@@ -198,3 +198,22 @@ def test_library_out_or_map_file_inside_an_input_folder(tmp_path, tiny, capsys):
     line = _refused(capsys, ["table2", str(lib / "*.exr"), "--n", "50", "--json",
                              lib / "a.exr"], lib / "a.exr")                   # a pattern
     assert f"is the input map {lib / 'a.exr'}" in line
+
+
+def test_theory_json_among_its_out_files_and_validate_name_collision(tmp_path, tiny, capsys):
+    out = tmp_path / "figs"
+    line = _refused(capsys, [*WCE, "--n", "16", "--out", out, "--json", out / "wce_spectrum.csv"])
+    assert line == (f"envfit theory wce: error: --json {out / 'wce_spectrum.csv'} is also "
+                    f"written by --out {out} (wce_spectrum.csv): each output needs its own path")
+    # a map whose name validate writes (its figures) inside --out; another name is fine
+    png = tmp_path / "validate_s_choice.png"
+    from envfit.maps.io import save_envmap
+    save_envmap(png, np.full((8, 16, 3), 0.5, dtype=np.float32))
+    line = _refused(capsys, ["validate", png, "--quick", "--out", tmp_path], png)
+    assert "which the command writes there (validate_s_choice.png)" in line
+    from envfit.cli.overlap import check_no_overlap
+    import argparse
+    ok = argparse.Namespace(command="validate", map=str(tmp_path / "validate_map.exr"),
+                            json=None, out=tmp_path)
+    (tmp_path / "validate_map.exr").write_bytes(b"x")      # not a name validate writes
+    check_no_overlap(ok, tmp_path, None)

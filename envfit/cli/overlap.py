@@ -39,13 +39,16 @@ OUT_FILES = {
     "synth": lambda a: (f"{_stem(a.output, 'synth')}_preview.png",),
     "sh": ("sh.png", "sh.json", "sh.csv", "sh.glsl", "ringing.csv"),
     "advise": ("advise.png", "advise_rules.png", "advise.csv", "advise.json"),
-    "fit": _STORE + ("fit_*.png", "library_fit*", "*/fit_*"),
-    "table2": _STORE + ("table2*", "reconstruction_s*", "library_*", "*/table2*",
-                        "*/reconstruction_s*"),
-    "validate": _STORE + ("validate*", "report.md", "renderer*"),
-    "theory wce": ("wce_spectrum.*",),
-    "theory table1": ("table1*",),
-    "theory figures": ("fig*", "bnot_spectrum.*"),
+    "fit": _STORE + ("fit_*.png", "library_fit.csv", "library_fit.json", "library_fit_s.png"),
+    "table2": _STORE + ("table2.csv", "table2_rmse.png", "reconstruction_s*.exr",
+                        "reconstruction_s*.png", "library_table2.csv", "library_table2.json",
+                        "library_summary.csv", "library_s_best.png", "*/table2.csv",
+                        "*/reconstruction_s*.exr", "*/reconstruction_s*.png"),
+    "validate": _STORE + ("validate.json", "validate_*.png", "report.md", "renderer.png"),
+    "theory wce": ("wce_spectrum.csv", "wce_spectrum.png"),
+    "theory table1": ("table1.csv", "table1.png", "table1_wce_by_L.csv"),
+    "theory figures": ("fig[1-5]_*.png", "fig[1-5]_*.csv", "bnot_spectrum.png",
+                       "bnot_spectrum.csv"),
 }
 
 
