@@ -94,3 +94,63 @@ def test_cli_table2_outputs(tmp_path, small_map, monkeypatch, capsys):
     assert cli.main(["table2", str(path), "--s", "2.3", "--n", "30"]) == 2
     err = capsys.readouterr().err
     assert "1 < s < 2" in err and "Traceback" not in err
+
+
+def _curve(mse, n=500):
+    from envfit.fit.kriging import KrigingCurve, SynthesisModel
+    m = SynthesisModel.data_gen(1.5, 32, 16)
+    mse = np.asarray(mse, dtype=float)
+    return KrigingCurve(model=m, n=n, s_values=[1.3, 1.5, 1.7, 1.9], mse_pixel=mse,
+                        mse_solid_angle=mse, variance=1.0, rows=16)
+
+
+def test_known_s_sentence_is_true_both_ways():
+    from envfit.fit.kriging import known_s_sentence
+    above = _curve([4.0, 3.0, 2.0, 2.5])                 # expected optimum 1.7 > s0
+    s = known_s_sentence(above, 1.7, "linear")
+    assert "lowest at s = 1.7 among these s (parabola vertex 1.7" in s
+    assert "not at s0 = 1.5, because the band limit, resize and lookup" in s
+    assert s.endswith("at s = 1.7, the same s.") and "computed on the linear" not in s
+    s = known_s_sentence(above, 1.9, "display")
+    assert "a different s" in s and "the same s" not in s
+    assert "(computed on the linear scale)" in s and "RMSE on the display scale is at s = 1.9" in s
+    at_s0 = known_s_sentence(_curve([3.0, 1.0, 2.0, 2.5]), 1.5, "linear")
+    assert "lowest at s = 1.5 = s0" in at_s0 and "because" not in at_s0
+    below = known_s_sentence(_curve([1.0, 2.0, 3.0, 4.0]), 1.5, "linear")
+    assert "lowest at s = 1.3 among these s, not at s0" in below      # grid end: no vertex
+    assert "because" not in below and "a different s" in below
+
+
+def test_builtin_synthesis_recognises_only_the_builtin_map(small_map):
+    from envfit.fit.kriging import builtin_synthesis
+    from envfit.maps.default_map import DEFAULT_HEIGHT, DEFAULT_S0, default_envmap
+    assert builtin_synthesis(small_map) is None
+    m = builtin_synthesis(default_envmap(height=64))
+    assert (m.s0, m.height, m.lmax, m.factor) == (DEFAULT_S0, 64, 63, 1)
+    m = builtin_synthesis(default_envmap().resized(64))
+    assert (m.height, m.lmax, m.factor) == (64, DEFAULT_HEIGHT - 1, DEFAULT_HEIGHT // 64)
+    assert builtin_synthesis(default_envmap(height=48).resized(32)) is None
+
+
+def test_cli_table2_builtin_map_says_what_to_conclude(tmp_path, small_map, monkeypatch, capsys):
+    monkeypatch.setattr(cli, "COMMANDS", ("table2",))
+    js = tmp_path / "t2.json"
+    assert cli.main(["table2", "--max-height", "64", "--s", "1.3,1.9", "--n", "100,300",
+                     "--scale", "linear", "--json", str(js)]) == 0
+    printed = capsys.readouterr().out
+    d = json.loads(js.read_text())
+    k = d["known_s"]
+    rows = {(r["s"], r["n"]): r["rmse"] for r in d["rows"]}
+    measured = min((1.3, 1.9), key=lambda s: rows[(s, 300)])          # from the rows
+    expected = (1.3, 1.9)[int(np.argmin(k["expected_rmse_pixel"]))]
+    assert k["n"] == 300 and k["measured_s_best"] == measured and k["expected_s_best"] == expected
+    line = [ln for ln in printed.splitlines() if ln.startswith("Known s:")]
+    assert len(line) == 1 and line[0] == k["sentence"]
+    assert f"lowest at s = {expected:g}" in line[0]
+    assert f"measured RMSE is at s = {measured:g}" in line[0]
+    assert ("the same s" in line[0]) == (measured == expected)
+    # the expected RMSE is of the size measured (one map, 3 channels: within 20 %)
+    assert abs(k["expected_rmse_pixel"][0] / rows[(1.3, 300)] - 1) < 0.2
+    path = save_envmap(tmp_path / "m.exr", small_map)
+    assert cli.main(["table2", str(path), "--s", "1.3", "--n", "30"]) == 0
+    assert "Known s" not in capsys.readouterr().out

@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import argparse
 
+import numpy as np
+
 from .common import (add_common_arguments, add_executor_arguments, add_map_arguments, emit_json,
                      executor_kwargs, float_list, guarded_write, int_list, library_maps,
                      library_mode, load_map_from_args, load_options_from_args, out_dir,
@@ -77,6 +79,9 @@ def _run_single(args, s_values, n_values) -> int:
     say(args, "", format_table2(res, paper=args.paper), "",
         format_table2(res, key="rmse_solid_angle"), "",
         f"s with the lowest RMSE at N = {res.n_values[-1]}: {res.s_best:g}")
+    known = _known_s(env, res) if not args.quiet or args.json else None
+    if known is not None:
+        say(args, known["sentence"])
     if out is not None:
         from envfit.base.atomic import atomic_write_csv
         from envfit.plots.table2 import plot_table2
@@ -94,8 +99,41 @@ def _run_single(args, s_values, n_values) -> int:
                 written.append(str(path))
         if written:
             say(args, "wrote " + " and ".join(written))
-    emit_json(args, res.to_dict())
+    d = res.to_dict()
+    if known is not None:
+        d["known_s"] = known
+    emit_json(args, d)
     return 0
+
+
+#: the largest N at which the built-in map's closed-form expected RMSE is computed (an N x N
+#: Cholesky per s plus O(N^2) table gathers: about half a minute at 4000 on 2 cores)
+KNOWN_S_MAX_N = 4000
+
+
+def _known_s(env, res) -> dict | None:
+    """On the built-in map (a GP of known s0): the closed-form expected RMSE against s for
+    its synthesis, resize and lookup (:mod:`envfit.fit.kriging`) at the largest N of the
+    table up to :data:`KNOWN_S_MAX_N`, and one sentence comparing its optimum with the
+    measured one. ``None`` for any other map."""
+    from envfit.fit.kriging import builtin_synthesis, expected_interpolation_mse, known_s_sentence
+    model = builtin_synthesis(env)
+    if model is None:
+        return None
+    ns = [n for n in res.n_values if n <= KNOWN_S_MAX_N]
+    if not ns:
+        return {"sentence": f"Known s: this map is a GP sample of s0 = {model.s0:g}; the "
+                            f"closed-form expected optimum is computed for N <= "
+                            f"{KNOWN_S_MAX_N} only (bench/known_s.py)."}
+    n = ns[-1]
+    curve = expected_interpolation_mse(model, res.s_values, n, pointset=res.pointset,
+                                       seed=res.seed, max_pixels=4096)
+    measured = res.s_best_by_n()[n]
+    return {"sentence": known_s_sentence(curve, measured, res.scale), "n": n,
+            "model": model.describe(), "s_values": list(res.s_values),
+            "expected_rmse_pixel": [float(v) for v in np.sqrt(curve.mse_pixel)],
+            "expected_rmse_solid_angle": [float(v) for v in np.sqrt(curve.mse_solid_angle)],
+            "expected_s_best": curve.s_best, "measured_s_best": measured}
 
 
 def format_library_table2(lib) -> str:

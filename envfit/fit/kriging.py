@@ -373,9 +373,13 @@ def known_s_sentence(curve: KrigingCurve, measured_best: float, scale: str) -> s
     else:
         causes = [c for c, on in (("band limit", m.lmax is not None), ("resize", m.factor > 1),
                                   ("lookup", m.lookup)) if on]
-        why = (f", because the {' and '.join(causes)} make the map smoother than K_s0 near "
+        names = ", ".join(causes[:-1]) + (" and " if len(causes) > 1 else "") + causes[-1] \
+            if causes else ""
+        why = (f", because the {names} make the map smoother than K_s0 near "
                "its pixel scale" if best > m.s0 and causes else "")
-        expect = (f"is lowest at s = {best:g} among these s (parabola vertex {vertex:.2f}), "
+        k = curve.s_values.index(best)
+        vtx = (f" (parabola vertex {vertex:.2f})" if 0 < k < len(curve.s_values) - 1 else "")
+        expect = (f"is lowest at s = {best:g} among these s{vtx}, "
                   f"not at s0 = {m.s0:g}{why}")
     on = "" if scale == "linear" else f" on the {scale} scale"
     agree = ("the same s" if abs(measured_best - best) < 1e-9
