@@ -190,3 +190,24 @@ def test_cli_refuses_in_one_line(tmp_path):
     assert proc.returncode == 2, proc.stderr
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "advise on the 512x256 map even at 128x64" in lines[0]
+
+
+def test_lobe_rows_against_the_lobes_funk_hecke_factors():
+    """lobe_rows: the fewest H with λ_2H <= 0.1, λ_l = sqrt(4π/(2l+1)) b_l from the lobe's
+    own SH coefficients (a second algorithm: the quadrature of theory.brdf)."""
+    from envfit.advisor.budget import lobe_rows
+    from envfit.theory.brdf import Glossy
+    for n in (300.0, 2000.0):
+        h = lobe_rows(AdviseOptions(brdf="glossy", shininess=n, target_rmse=0.01))
+        b = Glossy(n).sh_coefficients(2 * h + 2)
+        lam = [np.sqrt(4 * np.pi / (2 * l + 1)) * abs(b[l]) for l in (2 * h - 2, 2 * h)]
+        assert lam[1] <= 0.1 + 0.01 and lam[0] > 0.1 - 0.01, (n, h, lam)
+    assert lobe_rows(AdviseOptions(target_rmse=0.01)) == 1
+
+
+def test_sharp_lobe_keeps_the_rows_it_needs():
+    """A glossy n = 1e6 lobe on a 4096-row map is planned at 2048 rows (>= 1073), not 1024."""
+    env = EnvMap(np.ones((4096, 8192, 1), np.float16))
+    h, _ = prediction_height(env, AdviseOptions(brdf="glossy", shininess=1e6,
+                                                target_rmse=0.01))
+    assert h == 2048

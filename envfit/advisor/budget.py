@@ -42,7 +42,8 @@ from envfit.shading.renderer_rules import STRATEGIES
 from envfit.shading.spectra import rule_power_cost, sh_analysis_cost
 from envfit.shading.warped_spectrum import spectrum_nbytes
 
-__all__ = ["PREDICTION_MAX_HEIGHT", "MIN_HEIGHT", "advise_plan", "prediction_height"]
+__all__ = ["PREDICTION_MAX_HEIGHT", "MIN_HEIGHT", "advise_plan", "lobe_rows",
+           "prediction_height"]
 
 #: the most rows the advisor's predictions use (see the module docstring)
 PREDICTION_MAX_HEIGHT = 1024
@@ -120,6 +121,22 @@ def advise_plan(height: int, channels: int, opts: AdviseOptions, *,
     return Plan("advise", stages, resident=int(resident) + 8 * pix * c * 2)
 
 
+def lobe_rows(opts: AdviseOptions, tol: float = 0.1) -> int:
+    r"""The fewest rows whose predictions (to degree 2H − 1) hold what a glossy lobe of
+    exponent n passes: :math:`\lambda_{2H} \approx e^{-2H(2H+1)/2n} \le` ``tol``, i.e.
+    :math:`2H(2H+1) \ge 2n\ln(1/\text{tol})` (the large-n form of the lobe's Funk–Hecke
+    factors, which the sharp lobes that need many rows satisfy); 1 for the diffuse lobe. A
+    downsampled map keeps at least these rows (n = 1e6 needs 1073: 2048 rows of an 8K map).
+
+    >>> lobe_rows(AdviseOptions(brdf="glossy", shininess=1e6, target_rmse=0.01))
+    1073
+    """
+    if opts.brdf != "glossy" or opts.shininess is None:
+        return 1
+    need = 2.0 * float(opts.shininess) * math.log(1.0 / tol)
+    return max(1, math.ceil((-1.0 + math.sqrt(1.0 + 4.0 * need)) / 4.0))
+
+
 def _heights(h: int) -> list[int]:
     """Candidate heights, largest first: H, then H / k for the integer factors k of H (a
     block mean), ending at :data:`MIN_HEIGHT` or the smallest factor above it."""
@@ -156,8 +173,8 @@ def _refusal(envmap: EnvMap, opts: AdviseOptions, plan: Plan, h: int) -> MemoryB
 
 def prediction_height(envmap: EnvMap, opts: AdviseOptions) -> tuple[int, Plan]:
     """The height of the map the predictions use and its plan: the largest candidate
-    (:func:`_heights`) at most :data:`PREDICTION_MAX_HEIGHT` whose plan fits the memory
-    budget. Costs no allocation.
+    (:func:`_heights`) at most :data:`PREDICTION_MAX_HEIGHT` (or the rows a sharp glossy lobe
+    needs, :func:`lobe_rows`) whose plan fits the memory budget. Costs no allocation.
 
     Raises
     ------
@@ -166,9 +183,12 @@ def prediction_height(envmap: EnvMap, opts: AdviseOptions) -> tuple[int, Plan]:
         fits (``--no-renderer``, no ``--check``, smaller ``--osw-nmax``/``--nmax``).
     """
     h0, c = envmap.height, envmap.channels
+    need, heights = lobe_rows(opts), _heights(h0)
+    cap = PREDICTION_MAX_HEIGHT if need <= PREDICTION_MAX_HEIGHT else \
+        min((k for k in heights if k >= need), default=h0)
     plan = None
-    for h in _heights(h0):
-        if h > PREDICTION_MAX_HEIGHT:
+    for h in heights:
+        if h > cap:
             continue
         plan = advise_plan(h, c, opts, resident=8 * 2 * h * h * c if h < h0 else 0,
                            source_height=h0)
