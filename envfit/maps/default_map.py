@@ -1,7 +1,10 @@
 """The built-in default map: a synthesized map of known smoothness, so every command runs
 without a file. It is a Gaussian-process sample with covariance K_gd^(1.5) (data_gen),
-RGB, 256×512, made positive by a constant offset (a constant only changes the l = 0 term,
-so the smoothness is still exactly s0 = 1.5 on the linear scale).
+RGB, 256×512, made positive by a constant offset (a constant only changes the l = 0 term).
+Its spectrum is exactly :math:`a_l^{(1.5)}` for l ≤ 255 (the grid's Nyquist degree) and zero
+above, and Table 2 reads it through the bilinear lookup (resized for ``--quick``): at the
+pixel scale it is smoother than :math:`K_{1.5}`, so Table 2's best s on it is expected above
+1.5 (:mod:`envfit.fit.kriging` gives the expected optimum; ``envfit table2`` prints it).
 """
 from __future__ import annotations
 
