@@ -596,3 +596,48 @@ def test_cli_empty_config_is_one_note_and_another_run_is_still_refused(map_file,
     assert cli_table2(map_file, out, "--seed", "3") == 2           # a real other run
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "different table2 run" in err[0] and "seed" in err[0]
+
+
+def _forge_cell(victim: Path, edit) -> None:
+    """Edit a stored cell and give it a *valid* checksum again (the store's rule: sha256 of
+    the canonical JSON of format, config, key and cell)."""
+    doc = json.loads(victim.read_text())
+    edit(doc["cell"])
+    doc["sha256"] = canonical_sha256({k: doc[k] for k in ("format", "config", "key", "cell")})
+    victim.write_text(json.dumps(doc))
+
+
+FORGED_CELLS = {
+    "rmse-string": (_set("rmse", "abc"), "rmse is a string, not a number"),
+    "rmse-nan": (_set("rmse", float("nan")), "rmse is nan, not finite"),
+    "rmse-negative": (_set("rmse", -0.5), "rmse = -0.5 is negative"),
+    "other-n": (_set("n", 1000000000), "n is 1000000000, not 100"),
+    "bad-solver": (_set("solver", "gmres"), "solver is 'gmres', not 'cholesky' or 'iterative'"),
+}
+
+
+@pytest.mark.parametrize("fault", list(FORGED_CELLS))
+def test_forged_table2_cell_with_a_valid_checksum_is_recomputed(fault, map_file, reference,
+                                                                tmp_path):
+    env = load_envmap(map_file)
+    run_table2(env, S, N, scale="linear", out=tmp_path)
+    victim = tmp_path / "cells" / f"{VICTIM}.json"
+    edit, why = FORGED_CELLS[fault]
+    _forge_cell(victim, edit)
+    notes = []
+    res = run_table2(env, S, N, scale="linear", out=tmp_path, on_note=notes.append)
+    assert notes == [f"recomputed {victim}: invalid cell: {why}"]
+    assert res.cell(1.7, 100).rmse == pytest.approx(reference.cell(1.7, 100).rmse, rel=1e-12)
+    assert stored_cell(tmp_path / "cells")["n"] == 100
+
+
+def test_library_recomputes_a_forged_cell(tmp_path):
+    maps = [gp(1), gp(2)]
+    out = tmp_path / "lib"
+    run_table2_library(maps, S, N, scale="linear", out=out, workers=1)
+    victim = out / "gp2" / "cells" / f"{VICTIM}.json"
+    _forge_cell(victim, _set("rmse_solid_angle", None))
+    lib = run_table2_library(maps, S, N, scale="linear", out=out, workers=1)
+    assert [n for n in lib.notes if str(victim) in n] == [
+        f"recomputed {victim}: invalid cell: rmse_solid_angle is null, not a number"]
+    assert lib.cells_computed == 1 and lib.cells_resumed == 7

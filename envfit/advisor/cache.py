@@ -57,7 +57,8 @@ from typing import Any, Callable
 import numpy as np
 
 from envfit.base.atomic import atomic_write_json, to_jsonable
-from envfit.base.store import canonical_sha256, move_aside, read_json_file
+from envfit.base.store import (canonical_sha256, json_type as _what, move_aside,
+                               number_problem as _bad_real, read_json_file)
 
 __all__ = ["AdviseCache", "default_cache_dir", "cache_write_problem", "CACHE_VERSION",
            "CACHE_FORMAT", "SCHEMAS", "entry_problem"]
@@ -109,30 +110,6 @@ def cache_write_problem(folder: str | os.PathLike | None = None) -> str | None:
 
 # ------------------------------------------------------------------- entry schemas
 _NUMBER = (int, float)
-
-
-def _what(v: Any) -> str:
-    """``v``'s JSON type in words, for a note."""
-    if v is None:
-        return "null"
-    if isinstance(v, bool):
-        return "a boolean"
-    return {str: "a string", list: "a list", dict: "an object"}.get(type(v), type(v).__name__)
-
-
-def _bad_real(v: Any, name: str, lo: float = -math.inf, hi: float = math.inf, *,
-              open_: bool = False, integer: bool = False) -> str | None:
-    """Why ``v`` is not a finite number (an integer if ``integer``) in [lo, hi] (or
-    (lo, hi) when ``open_``), or None."""
-    if isinstance(v, bool) or not isinstance(v, int if integer else _NUMBER):
-        return f"{name} is {_what(v)}, not {'an integer' if integer else 'a number'}"
-    if not math.isfinite(v):
-        return f"{name} is {v!r}, not finite"
-    if (lo < v < hi) if open_ else (lo <= v <= hi):
-        return None
-    if lo == 0 and hi == math.inf and not open_:
-        return f"{name} = {v!r} is negative"
-    return f"{name} = {v!r} is outside {'(' if open_ else '['}{lo:g}, {hi:g}{')' if open_ else ']'}"
 
 
 def _leaves_are_numbers(v: Any, ndim: int) -> bool:

@@ -52,13 +52,14 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 import re
 import socket
 import sys
 import threading
 from pathlib import Path
-from typing import Any, Callable, Iterable, Iterator
+from typing import Any, Callable, Iterable, Iterator, Mapping
 
 import numpy as np
 
@@ -67,7 +68,7 @@ from envfit.base.errors import EnvfitError, ParameterError
 
 __all__ = ["ResultStore", "FolderLock", "StoreBusyError", "StoreWriteError", "STORE_FORMAT",
            "LOCK_TIMEOUT", "array_fingerprint", "canonical_sha256", "print_note", "move_aside",
-           "config_problem", "read_json_file"]
+           "config_problem", "read_json_file", "json_type", "number_problem", "number", "one_of"]
 
 #: 1: bare cell dicts (no identity, no checksum); 2: identity + key + SHA-256 envelope
 STORE_FORMAT = 2
@@ -163,6 +164,55 @@ def config_problem(doc: Any, kind: str) -> str | None:
     if doc["kind"] != kind:
         return f"kind {doc['kind']!r}, not {kind!r}"
     return None
+
+
+# ------------------------------------------------------------- value checks (schemas)
+def json_type(v: Any) -> str:
+    """``v``'s JSON type in words, for a note (``"a string"``, ``"null"``, …)."""
+    if v is None:
+        return "null"
+    if isinstance(v, bool):
+        return "a boolean"
+    return {str: "a string", list: "a list", dict: "an object"}.get(type(v), type(v).__name__)
+
+
+def number_problem(v: Any, name: str, lo: float = -math.inf, hi: float = math.inf, *,
+                   open_: bool = False, integer: bool = False) -> str | None:
+    """Why the stored ``v`` is not a finite number (an integer if ``integer``; booleans are
+    not numbers) in [lo, hi] ((lo, hi) when ``open_``), or None.
+
+    >>> number_problem(5, "s", 1, 2, open_=True), number_problem("x", "rmse")
+    ('s = 5 is outside (1, 2)', 'rmse is a string, not a number')
+    """
+    if isinstance(v, bool) or not isinstance(v, int if integer else (int, float)):
+        return f"{name} is {json_type(v)}, not {'an integer' if integer else 'a number'}"
+    if not math.isfinite(v):
+        return f"{name} is {v!r}, not finite"
+    if (lo < v < hi) if open_ else (lo <= v <= hi):
+        return None
+    if lo == 0 and hi == math.inf and not open_:
+        return f"{name} = {v!r} is negative"
+    return f"{name} = {v!r} is outside {'(' if open_ else '['}{lo:g}, {hi:g}{')' if open_ else ']'}"
+
+
+def number(lo: float = -math.inf, hi: float = math.inf, *, open_: bool = False,
+           integer: bool = False) -> Callable[[Any, str], str | None]:
+    """A field check for :meth:`ResultStore.get`: :func:`number_problem` with these bounds."""
+    return lambda v, name: number_problem(v, name, lo, hi, open_=open_, integer=integer)
+
+
+def one_of(*allowed: Any) -> Callable[[Any, str], str | None]:
+    """A field check for :meth:`ResultStore.get`: the value is one of ``allowed`` (numbers
+    compared to 1e-9 relative, as a cell's s against its key)."""
+    def check(v, name):
+        for a in allowed:
+            if isinstance(a, (int, float)) and not isinstance(a, bool):
+                if not number_problem(v, name) and math.isclose(v, a, rel_tol=1e-9):
+                    return None
+            elif v == a:
+                return None
+        return f"{name} is {v!r}, not {' or '.join(repr(a) for a in allowed)}"
+    return check
 
 
 def _safe_key(key: str) -> str:
@@ -390,7 +440,8 @@ class ResultStore:
             return None, "not a cell file"
         return doc["cell"], None
 
-    def _load(self, path: Path, key: str, fields: Iterable[str]) -> dict | None:
+    def _load(self, path: Path, key: str, fields: Iterable[str],
+              checks: Mapping | None = None) -> dict | None:
         """The checked cell at ``path``; None (after one note) if it is not sound."""
         doc, why = read_json_file(path)
         cell = None
@@ -400,6 +451,11 @@ class ResultStore:
             lacking = [f for f in fields if f not in cell]
             if lacking:
                 cell, why = None, f"lacks {', '.join(lacking)}"
+            elif checks:
+                why = next((w for f, check in checks.items() if f in cell
+                            for w in (check(cell[f], f),) if w is not None), None)
+                if why is not None:
+                    cell, why = None, f"invalid cell: {why}"
         if why is not None:
             if path.is_dir() and not path.is_symlink():
                 why += self._move_aside(path)
@@ -413,14 +469,19 @@ class ResultStore:
         """Rename a folder standing where a cell file belongs (:func:`move_aside`)."""
         return move_aside(path)
 
-    def get(self, key: str, *, fields: Iterable[str] = ()) -> dict | None:
+    def get(self, key: str, *, fields: Iterable[str] = (),
+            checks: Mapping[str, Callable[[Any, str], str | None]] | None = None) -> dict | None:
         """The finished cell ``key``, or None if it has not been computed or is not sound
         (undecodable, edited, another cell's or run's, older format; one note each).
-        ``fields``: names the cell must hold (else it is treated as not sound)."""
+        ``fields``: names the cell must hold (else it is treated as not sound); ``checks``:
+        name → ``check(value, name) -> why | None`` for each of those fields the cell holds
+        (e.g. :func:`number`, :func:`one_of`) — a cell forged with a valid checksum but a
+        wrong type or an out-of-range value is then not sound either
+        (``invalid cell: rmse is a string, not a number``)."""
         key = _safe_key(key)
         if self.folder is None or key in self._memory:
             return self._memory.get(key)
-        return self._load(self.cells_dir / f"{key}.json", key, tuple(fields))
+        return self._load(self.cells_dir / f"{key}.json", key, tuple(fields), checks)
 
     def put(self, key: str, cell: dict) -> None:
         """Store ``cell`` under ``key`` (atomically, with identity and checksum)."""

@@ -59,6 +59,7 @@ from envfit.maps.scales import SCALES, check_not_constant
 from envfit.batch.scheduler import Task, drive
 from envfit.base.store import FolderLock, ResultStore
 from envfit.fit.table2 import _FIELDS as _TABLE2_FIELDS
+from envfit.fit.table2 import cell_checks
 from envfit.fit.table2 import (PAPER_N, PAPER_S, Table2Cell, Table2Result, _cell_key, _recon_stem,
                      check_grid)
 
@@ -212,7 +213,7 @@ def _resume(stores, sources, s_values, n_values, on_cell):
     for i, st in enumerate(stores):
         for n in n_values:
             for s in s_values:
-                d = st.get(_cell_key(s, n), fields=_FIELDS)
+                d = st.get(_cell_key(s, n), fields=_FIELDS, checks=cell_checks(s, n))
                 if d is None:
                     missing.setdefault((s, n), []).append(i)
                     continue

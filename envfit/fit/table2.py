@@ -33,7 +33,7 @@ from envfit.maps.latlong import local_to_world
 from envfit.maps.metrics import rmse, rmse_solid_angle
 from envfit.base.resources import SOLVERS, plan_memory
 from envfit.maps.scales import check_not_constant, fit_scale
-from envfit.base.store import ResultStore, array_fingerprint
+from envfit.base.store import ResultStore, array_fingerprint, number, one_of
 
 __all__ = ["PAPER_S", "PAPER_N", "QUICK_N", "RMSE_RTOL", "Table2Cell", "Table2Result", "run_table2",
            "sample_directions", "format_table2", "check_grid", "plan_table2_memory",
@@ -182,6 +182,18 @@ def _cell_key(s: float, n: int) -> str:
     return f"s{s:.4f}_n{n}"
 
 
+def cell_checks(s: float, n: int) -> dict:
+    """The types and ranges a stored cell (s, N) must have to be used
+    (:meth:`~envfit.base.store.ResultStore.get`): a cell forged with a valid checksum but a
+    string, NaN or negative RMSE, or another s or N than its key, is recomputed."""
+    nonneg = number(0.0)
+    return {"s": one_of(float(s)), "n": one_of(int(n)), "rmse": nonneg,
+            "rmse_solid_angle": nonneg, "seconds": nonneg, "seconds_fit": nonneg,
+            "seconds_evaluate": nonneg, "solver": one_of("cholesky", "iterative"),
+            "iterations": number(0, integer=True), "residual": nonneg,
+            "rmse_change_bound": nonneg}
+
+
 def run_table2(envmap: EnvMap, s_values: Sequence[float] = PAPER_S,
                n_values: Sequence[int] = PAPER_N, *, pointset: str = "sf",
                scale: str = "display", seed: int = 0, out: str | Path | None = None,
@@ -238,7 +250,7 @@ def run_table2(envmap: EnvMap, s_values: Sequence[float] = PAPER_S,
         for n in n_values:
             for s in s_values:
                 key = _cell_key(s, n)
-                done = store.get(key, fields=_FIELDS)
+                done = store.get(key, fields=_FIELDS, checks=cell_checks(s, n))
                 cell = (Table2Cell(**{k: done[k] for k in _FIELDS + _OPTIONAL if k in done})
                         if done is not None else None)
                 if cell is None:
