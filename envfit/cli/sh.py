@@ -64,7 +64,8 @@ def register(sub) -> None:
     p.add_argument("--no-check", action="store_true",
                    help="skip the measured error and the dense negative-fraction check")
     p.add_argument("--check-axes", type=positive_int, default=CHECK_AXES, metavar="N",
-                   help=f"directions of the measured error, >= 1 (default: {CHECK_AXES})")
+                   help=f"directions of the measured irradiance error, >= 1 (default: "
+                        f"{CHECK_AXES}; radiance is measured on a 2H-row grid)")
     p.add_argument("--check-height", type=positive_int, default=DENSE_HEIGHT, metavar="H",
                    help=f"rows of the dense check's lat-long grid, >= 1 (default: "
                         f"{DENSE_HEIGHT})")

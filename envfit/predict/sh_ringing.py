@@ -209,9 +209,9 @@ def measured_rmse(envmap: EnvMap, exports, axes: int = CHECK_AXES, alm=None) -> 
     disc; the map's own pixel centres would weigh a one-pixel peak of the interpolant as
     its whole pixel).
     """
-    A = spherical_fibonacci_sphere(check_int(axes, "axes", 1))
-    irr = np.pi * shading_integral(envmap, A, "diffuse") if any(
-        e.irradiance for e in exports) else None
+    axes = check_int(axes, "axes", 1)
+    A = spherical_fibonacci_sphere(axes) if any(e.irradiance for e in exports) else None
+    irr = None if A is None else np.pi * shading_integral(envmap, A, "diffuse")
     h2 = 2 * envmap.height
     if alm is None:
         alm = bilinear_sh_coefficients(envmap, max(e.lmax for e in exports))
