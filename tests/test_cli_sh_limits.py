@@ -158,3 +158,32 @@ def test_dense_check_estimate_within_a_factor_of_its_time(sun_env):
     est = next(s for s in sh_stages(32, 3, 2, 8, dense_height=height, rates=rates)
                if s.option == "--check-height").seconds
     assert est / 8 < took + 0.05 and took < 8 * est + 0.5, (est, took)
+
+
+def test_note_before_a_long_run_states_the_plan_both_ways(tmp_path, monkeypatch, capsys):
+    from envfit.maps.io import save_envmap
+    small = save_envmap(tmp_path / "s.exr", np.full((8, 16, 3), 0.5, dtype=np.float32))
+    argv = ["sh", str(small), "--lmax", "1", "--table-lmax", "2", "--check-axes", "64",
+            "--check-height", "16", "--json", str(tmp_path / "r.json")]
+    slow = Rates(basis=1e-2, flop=2e-10, synthesis=1e-9, rotation=2e-9)    # a slow machine
+    monkeypatch.setattr(sh_plan, "machine_rates", lambda: slow)
+    monkeypatch.delenv("ENVFIT_TIME_LIMIT", raising=False)
+    assert cli.main(argv) == 0
+    err = [ln for ln in capsys.readouterr().err.splitlines() if "note: about" in ln]
+    stages = sh_stages(8, 3, 1, 2, check_axes=64, dense_height=16, rates=slow)
+    dense = next(s for s in stages if s.option == "--check-height")
+    assert dense.seconds == pytest.approx(2 * 16 ** 2 * 9 * (1e-2 + 27 * 2e-10))  # t = 2, K = 27
+    assert err == [f"envfit sh: note: about {sum(s.seconds for s in stages):.0f} s of work on "
+                   f"this machine (estimated; the dense check (27 signals on a 32x16 grid): "
+                   f"{dense.seconds:.0f} s, sized by --check-height)"]
+    monkeypatch.setattr(sh_plan, "machine_rates", lambda: RATES)           # a fast one: none
+    assert cli.main(argv) == 0
+    assert "note: about" not in capsys.readouterr().err
+
+
+def test_radiance_check_makes_no_directions(sun_env, monkeypatch):
+    import envfit.predict.sh_ringing as ringing
+    monkeypatch.setattr(ringing, "spherical_fibonacci_sphere",
+                        lambda n: (_ for _ in ()).throw(AssertionError("directions made")))
+    e = sh_coefficients(sun_env, 2)
+    assert ringing.measured_rmse(sun_env, [e], axes=10 ** 9)[0] > 0
