@@ -128,3 +128,23 @@ def test_pixel_covariance_table_is_the_block_average_of_point_covariances(h, f, 
     q = np.arange(h * w)
     got = T[q[:, None] // w, q[None, :] // w, (q[None, :] % w - q[:, None] % w) % w]
     assert np.allclose(got, C, atol=1e-12)
+
+
+def test_expected_likelihood_minimal_at_s0_when_exact_and_matches_mc():
+    from envfit.fit.kriging import expected_profiled_likelihood
+    s = [1.3, 1.4, 1.5, 1.6, 1.7]
+    exact = expected_profiled_likelihood(SynthesisModel(1.5, 16, None, lookup=False), s, 150)
+    assert int(np.argmin(exact)) == 2
+    # E[g^T K^-1 g] by Monte Carlo over synthesized maps read by the lookup (the log's argument)
+    model = SynthesisModel.data_gen(1.5, 32)
+    f = gaussian_process_map(1.5, 32, seed=3, channels=300)
+    pts = sample_directions(200)
+    g = EnvMap(f).lookup(pts)                                          # (N, maps)
+    it = SobolevInterpolator(pts, g, 1.7)
+    quad = np.einsum("jk,jk->k", g, it.coefficients) / 200.0           # g^T K^-1 g / N per map
+    nll = expected_profiled_likelihood(model, [1.7], 200)[0]
+    logdet = 2 * np.sum(np.log(np.diag(np.linalg.cholesky(
+        kernel_from_distance2(1.7, np.sum((pts[:, None] - pts[None]) ** 2, -1))))))
+    expected_quad = np.exp(2 * nll - logdet / 200 - 1 - np.log(2 * np.pi))
+    se = quad.std(ddof=1) / np.sqrt(quad.size)
+    assert abs(quad.mean() - expected_quad) < 3.5 * se, (quad.mean(), expected_quad, se)

@@ -46,7 +46,8 @@ from envfit.theory.errors import check_smoothness
 from envfit.theory.sobolev import kernel_from_distance2, sobolev_coefficients
 
 __all__ = ["SynthesisModel", "KrigingCurve", "field_covariance", "bilinear_stencil",
-           "expected_interpolation_mse"]
+           "expected_interpolation_mse", "expected_profiled_likelihood", "builtin_synthesis",
+           "known_s_sentence"]
 
 #: samples of t = u·v in [−1, 1] of the tabulated band-limited covariance (linear
 #: interpolation: absolute error below 1e-6 at l_max = 255, where k_0(1) = 2.66)
@@ -388,3 +389,33 @@ def known_s_sentence(curve: KrigingCurve, measured_best: float, scale: str) -> s
     return (f"Known s: this map is a GP sample of s0 = {m.s0:g} {band}{how}, {seen}; "
             f"for such maps the expected RMSE at N = {curve.n}{where} {expect}; "
             f"this map's lowest measured RMSE{on} is at s = {measured_best:g}, {agree}.")
+
+
+def expected_profiled_likelihood(model: SynthesisModel, s_values, n: int, *,
+                                 pointset: str = "sf", seed: int = 0) -> np.ndarray:
+    r"""Expected negative profiled log-likelihood per sample of ``envfit fit``'s default
+    criterion (kernel ``full``, samples by bilinear lookup) on maps of ``model``, per s.
+
+    With G = Cov(g, g) the node covariance of the map as read and c its offset,
+    :math:`E[g^T K_s^{-1} g] = \mathrm{tr}(K_s^{-1} G) + c^2\,1^T K_s^{-1} 1`, and to first
+    order in 1/N (the quadratic form concentrates)
+
+    .. math::  -E\ell(s)/N \approx \tfrac12\big(\log(E[g^T K_s^{-1} g]/N)
+               + \log\det K_s / N + 1 + \log 2\pi\big),
+
+    minimal where the likelihood fit converges for this synthesis and N (at s0 exactly for
+    the full process seen exactly: the Kullback–Leibler divergence is zero there only).
+    """
+    from envfit.fit.table2 import check_grid
+    from envfit.theory.sobolev import generalized_distance_kernel
+    s_values, _ = check_grid(s_values, [n])
+    setup = _Setup(model, int(n), pointset, seed, max_pixels=1)
+    one = np.ones(setup.nodes.shape[0])
+    out = []
+    for s in s_values:
+        cf = cho_factor(generalized_distance_kernel(s, setup.nodes, setup.nodes), lower=True)
+        quad = np.trace(cho_solve(cf, setup.G)) + model.offset ** 2 * (one @ cho_solve(cf, one))
+        logdet = 2.0 * np.sum(np.log(np.diag(cf[0])))
+        nn = one.size
+        out.append(0.5 * (np.log(quad / nn) + logdet / nn + 1.0 + np.log(2 * np.pi)))
+    return np.array(out)
