@@ -8,10 +8,14 @@ parameter error) becomes a one-line message on stderr and exit code 2.
 Reliability (one line on stderr, exit 2, never a traceback for what the user or the machine
 caused):
 
+* a bad option value, a missing or unknown argument: ``envfit CMD: error: WHAT (see
+  'envfit CMD --help')``, one line (:class:`OneLineParser`), not argparse's usage block;
+  ``--help`` prints the full help (exit 0);
 * a subcommand module that is missing or fails to import is an error, not a silently
   absent command;
 * every output (``--out``, ``--json``, synth's file, the advisor cache) is checked before any
-  work (:func:`envfit.cli.common.preflight_outputs`);
+  work (:func:`envfit.cli.common.preflight_outputs`), and none may name an input
+  (:mod:`envfit.cli.overlap`);
 * a write that fails after the work (disk full, EIO) does not lose the results: they are
   printed (the JSON goes to stdout if its file failed, or if ``--quiet`` printed nothing),
   then "could not write PATH: REASON (the results above are complete)", exit 2;

@@ -1,8 +1,8 @@
 """Options every subcommand shares (``--json``, ``--out``, ``--seed``, ``--quiet``), strict
 argument types, the preflight of outputs and the output helpers.
 
-Parsing is strict (argparse ``type=`` functions, so a bad value is argparse's one-line usage
-error, exit 2): an integer option takes a whole number only — written ``100``, or in decimal
+Parsing is strict (argparse ``type=`` functions, so a bad value is one error line, exit 2:
+``envfit CMD: error: argument --n: 100.5 is not a whole number (see 'envfit CMD --help')``): an integer option takes a whole number only — written ``100``, or in decimal
 or scientific notation when its value is exactly whole (``1e3`` and ``100.0`` are 1000 and
 100; ``100.5``, ``1e-3``, ``nan``, ``inf`` are refused) — within its range (``--n`` ≥ 1,
 ``--seed`` ≥ 0, …); a list (``--s 1.1,1.5``, ``--n 100,500``) must be non-empty, without an

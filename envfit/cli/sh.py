@@ -7,6 +7,12 @@ Without ``--out`` the ``--format`` document (json, csv or glsl) goes to stdout a
 summary to stderr; with ``--out DIR`` the folder gets ``sh.png`` (look here first),
 ``sh.json``, ``sh.csv``, ``sh.glsl`` and ``ringing.csv`` and the summary goes to stdout.
 
+Every option is checked before the work (:func:`envfit.predict.sh_report.plan`): ``--lmax``
+and ``--table-lmax`` within the map's band limit H − 1, and the planned time and memory
+(:mod:`envfit.predict.sh_plan`) within the machine's memory budget and ``ENVFIT_TIME_LIMIT``
+(seconds, default 900); a value beyond is refused in one line naming the largest that fits.
+A run estimated over 10 s is announced on stderr with its largest stage.
+
 Example::
 
     envfit sh forest.exr --lmax 2 --irradiance --format json > forest_sh.json
