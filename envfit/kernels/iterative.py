@@ -51,8 +51,10 @@ by the reproducing property,
 inner product; :math:`\lambda_{\min}` is estimated by the smallest Ritz value of CG's
 Lanczos matrix, halved for safety — the Ritz value approaches :math:`\lambda_{\min}` from
 above, so this step is an estimate, not a proof; the tests check the bound against the
-dense solution). CG stops when this bound is below ``tol`` per channel,
-so any RMSE of the reconstruction (per pixel or weighted, against any map) moves by at most
+dense solution; a channel that takes no CG step — it met its tolerance at once, e.g. on
+a warm start — has an empty Lanczos matrix and uses the smallest Ritz value of the other
+channels or of earlier solves, BK being one operator). CG stops when this bound is below
+``tol`` per channel, so any RMSE of the reconstruction (per pixel or weighted, against any map) moves by at most
 ``tol`` (:math:`|\,\|a\| - \|b\|\,| \le \|a - b\|`).
 
 Channels are solved side by side: each column has its own CG coefficients (the result is
@@ -382,14 +384,12 @@ def pcg_adef2(op: NodeOperator, prec: LagrangePreconditioner, f: np.ndarray, tol
     ``tol`` (C,): stop a column when :math:`\sqrt{c_s r^T z / (\lambda_{\min}/2)} \le`
     ``tol`` (the sup-norm bound of the interpolant's change, module docstring), with
     :math:`\lambda_{\min}` from :func:`_lambda_for_bound` (``lambda_prior``: the smallest
-    Ritz value of earlier solves with the same operator). A column that meets its tolerance
-    before its first step keeps an empty Lanczos matrix while the others iterate on.
-    ``x0`` (optional warm start :math:`\bar x`) enters as :math:`x_0 = \bar x + Q(f - K\bar x)`.
-    Returns ``(x, stats)``, stats with ``iterations``, ``bound`` (C,), ``lambda_min``,
-    ``lambda_max`` (NaN where no column took a step), ``converged``.
+    Ritz value of earlier solves with the same operator; a column that meets its tolerance
+    at once keeps an empty Lanczos matrix). ``x0`` (warm start :math:`\bar x`) enters as
+    :math:`x_0 = \bar x + Q(f - K\bar x)`. Returns ``(x, stats)``: ``iterations``,
+    ``bound`` (C,), ``lambda_min``, ``lambda_max`` (NaN if no step), ``converged``.
     """
-    n, nc = f.shape
-    cs = op.c
+    nc, cs = f.shape[1], op.c
     if x0 is None:
         x, kx = prec.coarse_solve(f)
     else:
