@@ -148,3 +148,8 @@ def test_expected_likelihood_minimal_at_s0_when_exact_and_matches_mc():
     expected_quad = np.exp(2 * nll - logdet / 200 - 1 - np.log(2 * np.pi))
     se = quad.std(ddof=1) / np.sqrt(quad.size)
     assert abs(quad.mean() - expected_quad) < 3.5 * se, (quad.mean(), expected_quad, se)
+
+
+def test_too_large_synthesis_refused_before_work():
+    with pytest.raises(ParameterError, match="at most 256 rows"):
+        SynthesisModel.data_gen(1.5, 512, 256)

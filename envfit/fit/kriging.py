@@ -52,6 +52,9 @@ __all__ = ["SynthesisModel", "KrigingCurve", "field_covariance", "bilinear_stenc
 #: samples of t = u·v in [−1, 1] of the tabulated band-limited covariance (linear
 #: interpolation: absolute error below 1e-6 at l_max = 255, where k_0(1) = 2.66)
 _TABLE_POINTS = (1 << 19) + 1
+#: largest synthesized height whose pixel covariance tables are made (the point table of
+#: 8 H³ bytes, the map's of 16 H³ / factor³: 256 MiB at 256 rows)
+MAX_SYNTH_HEIGHT = 256
 #: evaluation pixels per block (bounds the N×M temporaries)
 _BLOCK = 2048
 
@@ -141,6 +144,11 @@ class SynthesisModel:
             v = getattr(self, name)
             if int(v) != v or v < 1:
                 raise ParameterError(f"{name} must be a positive integer, got {v!r}")
+        if self.lookup and self.height * self.factor > MAX_SYNTH_HEIGHT:
+            raise ParameterError(
+                f"the closed form tabulates the pixel covariances of a map synthesized at "
+                f"{self.height * self.factor} rows; at most {MAX_SYNTH_HEIGHT} rows "
+                f"({16 * MAX_SYNTH_HEIGHT ** 3 // 2 ** 20} MiB table) are supported")
         if self.factor > 1 and not self.lookup:
             raise ParameterError("a block-averaged map is only seen through its pixels: "
                                  "lookup=False needs factor = 1")
