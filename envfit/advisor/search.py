@@ -109,8 +109,9 @@ class _RuleCurve:
     error power runs to ``model.spectral_lmax`` = 2H − 1 (prediction (c) with its tail)."""
 
     def __init__(self, pointset, weights, wf, model: MapModel, opts: AdviseOptions,
-                 store: AdviseCache):
+                 store: AdviseCache, bar=None):
         self.pointset, self.weights, self.wf, self.model = pointset, weights, wf, model
+        self.bar = bar
         self.seeds = seed_list(pointset, opts.seed, opts.seeds)
         self.workers, self.store = opts.workers, store
         self.key = {"s": model.s_rounded, "brdf": opts.brdf, "shininess": opts.shininess,
@@ -124,6 +125,8 @@ class _RuleCurve:
         """The map-independent terms at N, from the curve or computed."""
         t = self.points.get(n)
         if t is None or len(t.get("power", ())) != self.model.spectral_lmax + 1:
+            if self.bar is not None:
+                self.bar.set_postfix_str(f"{self.pointset}/{self.weights} N = {n}")
             t = {**(t or {}), **rule_terms(self.pointset, n, self.wf, self.model.s_rounded,
                                            self.weights, self.seeds, self.model.spectral_lmax)}
             self.points[n] = self.new[n] = t
@@ -202,12 +205,13 @@ def _fill_quadrature(row: AdviceRow, curve: _RuleCurve, n: int | None, upper: in
 
 
 def search_quadrature(pointset: str, weights: str, wf, model: MapModel, opts: AdviseOptions,
-                      store: AdviseCache) -> AdviceRow:
+                      store: AdviseCache, bar=None) -> AdviceRow:
     """Smallest N of one rule on the map (``wf`` the lobe) by the predictor of
     :mod:`envfit.advisor.choice`; the curve's cached points hold the map-independent terms,
     weighted here by the map's :math:`a_l(s')\\tau_l` (``model.dw``, (b')) and its
-    :math:`\\hat P_l` (``model.map_power``, (c))."""
-    curve = _RuleCurve(pointset, weights, wf, model, opts, store)
+    :math:`\\hat P_l` (``model.map_power``, (c)). ``bar``: a progress bar whose postfix names
+    each N whose error power is computed (seconds each on a 2048x1024 map)."""
+    curve = _RuleCurve(pointset, weights, wf, model, opts, store, bar)
     upper = opts.nmax if weights == "equal" else opts.osw_upper
     row = AdviceRow(method="quadrature", pointset=pointset, weights=weights,
                     realisations=max(1, len(curve.seeds)), searched_max=upper)
@@ -367,7 +371,7 @@ def search_rules(wf, model: MapModel, opts: AdviseOptions, store: AdviseCache) -
             if hasattr(bar, "set_postfix_str"):
                 bar.set_postfix_str(f"{ps}/{w}" if ps else method)
             if method == "quadrature":
-                rows.append(search_quadrature(ps, w, wf, model, opts, store))
+                rows.append(search_quadrature(ps, w, wf, model, opts, store, bar))
             else:
                 rows.append(search_truncation(method, wf, model, opts))
             bar.update(1)
