@@ -174,7 +174,7 @@ import time
 
 import numpy as np
 
-from envfit.advisor.budget import PREDICTION_MAX_HEIGHT, prediction_height
+from envfit.advisor.budget import PREDICTION_MAX_HEIGHT, lobe_rows, prediction_height
 from envfit.advisor.cache import AdviseCache
 from envfit.advisor.check import check_rows
 from envfit.advisor.model import MapModel, map_key, map_model
@@ -353,8 +353,11 @@ def _prediction_map(envmap: EnvMap, opts: AdviseOptions):
     if h == envmap.height:
         return envmap, plan, []
     small = envmap.resized(h, quiet=opts.quiet)
+    need = lobe_rows(opts)
+    top = PREDICTION_MAX_HEIGHT if need <= PREDICTION_MAX_HEIGHT else need
     why = (f"to fit the memory budget of {format_bytes(memory_budget_bytes())}"
-           if h < min(envmap.height, PREDICTION_MAX_HEIGHT) else
+           if h < min(envmap.height, top) else
+           f"the glossy lobe needs at least {need} rows" if h > PREDICTION_MAX_HEIGHT else
            f"the predictions use at most {PREDICTION_MAX_HEIGHT} rows")
     note = (f"the predictions use the {envmap.width}x{envmap.height} map downsampled to "
             f"{small.width}x{small.height} ({why}; solid-angle block means, mean kept): "
