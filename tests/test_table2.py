@@ -130,6 +130,7 @@ def test_builtin_synthesis_recognises_only_the_builtin_map(small_map):
     m = builtin_synthesis(default_envmap().resized(64))
     assert (m.height, m.lmax, m.factor) == (64, DEFAULT_HEIGHT - 1, DEFAULT_HEIGHT // 64)
     assert builtin_synthesis(default_envmap(height=48).resized(32)) is None
+    assert builtin_synthesis(default_envmap(height=512).resized(256)) is None
 
 
 def test_cli_table2_builtin_map_says_what_to_conclude(tmp_path, small_map, monkeypatch, capsys):

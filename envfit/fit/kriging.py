@@ -356,14 +356,15 @@ def builtin_synthesis(envmap) -> SynthesisModel | None:
     """The :class:`SynthesisModel` of the built-in map (:mod:`envfit.maps.default_map`) as
     loaded (its name records s0 and the synthesized height; a resize to a divisor of that
     height is a block average), with the map's solid-angle mean of channel 0 as the
-    offset; ``None`` for any other map or a resize by a non-integer factor."""
+    offset; ``None`` for any other map, a resize by a non-integer factor or a synthesis
+    above :data:`MAX_SYNTH_HEIGHT` rows."""
     import re
     m = re.fullmatch(r"builtin:gp\(s0=([0-9.]+),height=([0-9]+),seed=[0-9]+\)",
                      getattr(envmap, "name", "") or "")
     if m is None:
         return None
     s0, synth_h = float(m.group(1)), int(m.group(2))
-    if synth_h % envmap.height:
+    if synth_h % envmap.height or synth_h > MAX_SYNTH_HEIGHT:
         return None
     offset = float(envmap.mean()[0])
     return SynthesisModel.data_gen(s0, synth_h, envmap.height, up=envmap.up, offset=offset)
