@@ -18,7 +18,8 @@ import time
 import numpy as np
 
 from envfit.data_gen.gp import gaussian_process_map
-from envfit.fit.kriging import SynthesisModel, expected_interpolation_mse
+from envfit.fit.kriging import (SynthesisModel, expected_interpolation_mse,
+                                expected_profiled_likelihood)
 from envfit.fit.table2 import run_table2
 from envfit.maps.envmap import EnvMap
 
@@ -49,6 +50,16 @@ def attribution(s0, height, n, s_values, max_pixels):
     return lines
 
 
+def likelihood_line(s0, height, n):
+    """Where envfit fit's likelihood (full kernel, lookups) converges on such maps."""
+    grid = [round(s0 + d, 3) for d in (-0.05, 0.0, 0.05, 0.1, 0.15, 0.2, 0.25)]
+    v = expected_profiled_likelihood(SynthesisModel.data_gen(s0, height), grid, n)
+    k = int(np.clip(np.argmin(v), 1, len(grid) - 2))
+    c = np.polyfit(grid[k - 1:k + 2], v[k - 1:k + 2], 2)
+    return (f"  likelihood fit (full kernel, lookups), N = {n}: expected optimum s = "
+            f"{-c[1] / (2 * c[0]):.3f} (grid {grid[0]:g}..{grid[-1]:g})")
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--height", type=int, default=256)
@@ -57,6 +68,8 @@ def main() -> None:
     p.add_argument("--seeds", default="0,1,2")
     p.add_argument("--max-pixels", type=int, default=8192,
                    help="closed form: evaluation pixels (evenly spaced rows)")
+    p.add_argument("--likelihood-n", type=int, default=3000,
+                   help="N of the expected likelihood optimum (envfit fit's default); 0: skip")
     a = p.parse_args()
     s_values = list(S_GRID)
     n_values = [int(v) for v in a.n.split(",")]
@@ -77,7 +90,9 @@ def main() -> None:
             print(f"          best  {c.s_best:<5g} (vertex {c.s_vertex():.2f}) {best}")
         for line in attribution(s0, a.height, n_values[0], s_values, a.max_pixels):
             print(line)
-        print(f"  ({time.perf_counter() - t0:.0f} s)")
+        if a.likelihood_n:
+            print(likelihood_line(s0, a.height, a.likelihood_n))
+        print(f"  ({time.perf_counter() - t0:.0f} s)", flush=True)
 
 
 if __name__ == "__main__":
