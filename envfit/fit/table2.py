@@ -59,7 +59,7 @@ class Table2Cell:
     """One (s, N) reconstruction: RMSE per pixel (as the paper) and solid-angle weighted.
 
     ``solver``: how the coefficients were obtained (``"cholesky"`` or ``"iterative"``);
-    ``iterations``: CG iterations (0 for Cholesky); ``residual``: largest relative residual
+    ``iterations``: CG iterations, refinements included (0 for Cholesky); ``residual``: largest relative residual
     ``|f - K alpha| / |f|`` over the channels (0 for Cholesky: not computed);
     ``rmse_change_bound``: bound of the RMSE's relative change against the exact solution
     (iterative: sup-norm bound of the interpolant's change / RMSE, at most
@@ -306,11 +306,13 @@ class _Sweep:
         recon = np.asarray(interp(self.pixel_dirs)).reshape(self.target.shape)
         err = float(rmse(recon, self.target))
         info = interp.solve_info
+        iterations = info.iterations        # CG iterations of the solve and its refinements
         while info.solver == "iterative" and max(info.error_bound) > RMSE_RTOL * err > 0:
             t1 += interp.refine(0.5 * RMSE_RTOL * err).seconds_solve
             new = interp.solve_info        # (auto: the dense path if CG failed; then exact)
-            if new.solver == "iterative" and (not new.converged or new.iterations == 0):
+            if new.solver == "iterative" and not new.converged:
                 break
+            iterations += new.iterations
             info = new
             recon = np.asarray(interp(self.pixel_dirs)).reshape(self.target.shape)
             err = float(rmse(recon, self.target))
@@ -326,7 +328,8 @@ class _Sweep:
                           rmse_solid_angle=float(rmse_solid_angle(recon, self.target,
                                                                   self.weights)),
                           seconds=t2 - t0, seconds_fit=t1 - t0, seconds_evaluate=t2 - t1,
-                          solver=info.solver, iterations=info.iterations,
+                          solver=info.solver,
+                          iterations=iterations if info.solver == "iterative" else 0,
                           residual=max(info.residual) if iterative else 0.0,
                           rmse_change_bound=(max(info.error_bound) / err
                                              if iterative and err > 0 else 0.0))
