@@ -198,6 +198,15 @@ def test_library_out_or_map_file_inside_an_input_folder(tmp_path, tiny, capsys):
     line = _refused(capsys, ["table2", str(lib / "*.exr"), "--n", "50", "--json",
                              lib / "a.exr"], lib / "a.exr")                   # a pattern
     assert f"is the input map {lib / 'a.exr'}" in line
+    line = _refused(capsys, ["table2", str(lib / "*.exr"), "--n", "50", "--json",
+                             lib / "new.exr"])                  # a future match of the pattern
+    assert line == (f"envfit table2: error: --json {lib / 'new.exr'} matches the input pattern "
+                    f"{lib / '*.exr'} and would be read as a map by the next run; choose "
+                    "another path")
+    import argparse
+    from envfit.cli.overlap import check_no_overlap
+    check_no_overlap(argparse.Namespace(command="table2", map=[str(lib / "*.exr")],
+                                        json=lib / "new.json"), None, None)   # no match: fine
 
 
 def test_theory_json_among_its_out_files_and_validate_name_collision(tmp_path, tiny, capsys):

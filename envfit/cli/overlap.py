@@ -102,6 +102,23 @@ def _input_entries(args: argparse.Namespace) -> tuple[list[_Entry], list[_Entry]
     return files, folders
 
 
+def _patterns(args: argparse.Namespace) -> list[str]:
+    """The MAP arguments that are glob patterns (not existing paths)."""
+    maps = getattr(args, "map", None)
+    items = [] if maps is None else ([maps] if isinstance(maps, (str, os.PathLike)) else maps)
+    return [str(i) for i in items if not os.path.exists(str(i)) and any(c in str(i)
+                                                                         for c in "*?[")]
+
+
+def _matches_pattern(path: _Entry, pattern: str) -> bool:
+    """Whether ``glob.glob(pattern)`` would list ``path`` once it exists (same folder, the
+    name matching the pattern's last part)."""
+    folder, name = os.path.split(os.path.abspath(pattern))
+    return (not any(c in folder for c in "*?[")
+            and os.path.realpath(folder) == os.path.dirname(path.real)
+            and fnmatch.fnmatch(os.path.basename(path.real), name))
+
+
 def _command_key(args: argparse.Namespace) -> str:
     sub = getattr(args, "theory_command", None)
     return f"{args.command} {sub}" if sub else str(getattr(args, "command", ""))
@@ -156,6 +173,11 @@ def check_no_overlap(args: argparse.Namespace, out=None, cache=None) -> None:
                     and os.path.realpath(os.path.dirname(o.real)) == d.real):
                 raise OutputError(f"{o} lies in the folder of input maps {d.path} and would be "
                                   "read as a map by the next run; choose another folder")
+    for o in files:
+        for pat in _patterns(args):
+            if _matches_pattern(o, pat):
+                raise OutputError(f"{o} matches the input pattern {pat} and would be read as a "
+                                  "map by the next run; choose another path")
     _check_out_folder(args, inputs, files, folders)
     for k, a in enumerate(files):
         for b in files[k + 1:]:
