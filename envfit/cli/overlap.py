@@ -12,7 +12,8 @@ symlinks followed) are equal or, for files that exist, their ``(st_dev, st_ino)`
 * an output file that is an input file (``envfit info map.exr --json map.exr``);
 * an output folder that is an input file, or that is a folder given as MAP (what is written
   there, e.g. a library's PNG summary, would be read as a map by the next run);
-* an output file with a map extension directly inside a folder given as MAP (the same);
+* an output file with a map extension directly inside a folder given as MAP, or one a MAP
+  glob pattern would list (the same);
 * an input file inside the ``--out`` folder under a name the command writes there
   (``envfit sh sh.png --out .`` would replace the map by the plot);
 * two outputs naming one file (``envfit synth OUT.exr --json OUT.exr``, or ``--json`` naming a
