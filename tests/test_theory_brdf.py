@@ -182,3 +182,76 @@ def test_bad_parameters():
         Glossy(3.0).morph([1.5])
     with pytest.raises(TheoryParameterError):
         ZonalWeight(lambda z: -np.ones_like(z)).r_s
+
+
+# --- sharp glossy lobes (issue 22, item 2): closed forms, no underflow, no warnings ----------
+
+def _glossy_sh_by_quadrature(n: float, ls, t_max: float = 60.0, panels: int = 120,
+                             k: int = 24) -> np.ndarray:
+    r"""b_l of e^{n(z-1)} by composite Gauss–Legendre in t = n(1 - z), an algorithm independent
+    of the Bessel form: :math:`b_l = \frac{1}{n r_s}\sqrt{\frac{2l+1}{4\pi}}\int_0^{n}
+    e^{-t}P_l(1 - t/n)dt` (cut at t = 60: e^{-60} < 1e-26). P_l near z = 1 by the recurrence
+    of the differences d_l = P_l − P_{l−1} in u = t/n, d_{l+1} = (−(2l+1)u P_l + l d_l)/(l+1),
+    so that 1 − u is never formed (it would lose u's digits: 1e-11 at n = 1e6)."""
+    x, w = np.polynomial.legendre.leggauss(k)
+    e = np.linspace(0.0, min(t_max, n), panels + 1)
+    half = 0.5 * (e[1:] - e[:-1])[:, None]
+    t = (0.5 * (e[1:] + e[:-1])[:, None] + half * x).ravel()
+    wt = (half * w).ravel() * np.exp(-t)
+    u = t / n
+    p, d = np.ones_like(u), np.zeros_like(u)
+    top = max(ls)
+    out = {}
+    for l in range(top + 1):
+        if l in ls:
+            out[l] = math.fsum(wt * p)
+        d = (-(2 * l + 1) * u * p + l * d) / (l + 1)
+        p = p + d
+    r_s = -math.expm1(-n) / n
+    return np.array([math.sqrt((2 * l + 1) / (4 * math.pi)) * out[l] / (n * r_s) for l in ls])
+
+
+@pytest.mark.parametrize("n", [2e3, 1e5, 1e6])
+def test_sharp_glossy_sh_coefficients_against_quadrature(n):
+    ls = sorted({0, 1, 7, 60, int(math.sqrt(n)), int(3 * math.sqrt(n))})
+    b = Glossy(n).sh_coefficients(max(ls))[ls]
+    ref = _glossy_sh_by_quadrature(n, ls)
+    np.testing.assert_allclose(b, ref, rtol=0, atol=2e-12)
+    assert b[-1] > 1e-3                      # 3√n: the lobe still passes it (no underflow)
+
+
+def test_glossy_closed_form_meets_generic_path():
+    """At the switch n = GLOSSY_CLOSED_FORM_N the generic quadrature (below) and the Bessel
+    form (above) agree, coefficients and resolution degree."""
+    from envfit.theory.brdf import GLOSSY_CLOSED_FORM_N
+    n = GLOSSY_CLOSED_FORM_N
+    g = Glossy(n)
+    np.testing.assert_allclose(g.sh_coefficients(400), g.sh_coefficients_bessel(400),
+                               rtol=0, atol=1e-12)
+    assert abs(Glossy(n * 1.0001).resolution_degree() - g.resolution_degree()) <= 16
+
+
+@pytest.mark.parametrize("n", [1.0, 1e4, 1e6, 1e8])
+def test_glossy_lobe_no_runtime_warning(n):
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        g = Glossy(n)
+        D = g.resolution_degree()
+        b = g.sh_coefficients(2 * D)
+        h = g.hsh_coefficients(D)
+        z = g.morph(np.linspace(0.0, 1.0, 9))
+    assert b[0] == pytest.approx(1 / (2 * math.sqrt(math.pi)), rel=1e-13)
+    assert h[0] == pytest.approx(1 / math.sqrt(2 * math.pi), rel=1e-13)
+    assert np.all(np.isfinite(b)) and np.all(np.isfinite(z))
+    if n >= 1e4:                             # D ≈ 6√n (the lobe's bandwidth), not 0 or the cap
+        assert 4 * math.sqrt(n) < D < 8 * math.sqrt(n)
+        lam = np.sqrt(4 * np.pi / (2 * np.arange(2 * D + 1) + 1)) * b
+        assert abs(lam[2 * D]) < 1e-12 < abs(lam[D // 2])
+
+
+def test_glossy_shininess_range():
+    from envfit.theory.brdf import GLOSSY_MAX_SHININESS
+    Glossy(GLOSSY_MAX_SHININESS)
+    with pytest.raises(TheoryParameterError, match="must be <= 1e\\+09"):
+        Glossy(2 * GLOSSY_MAX_SHININESS)

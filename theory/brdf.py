@@ -44,10 +44,19 @@ from .errors import TheoryParameterError, check_degree
 from .sh import legendre_moments as _legendre_moments
 
 __all__ = ["WeightFunction", "ZonalWeight", "Diffuse", "Glossy", "Phong",
-           "hsh_to_sh_matrix", "gauss_legendre_01"]
+           "hsh_to_sh_matrix", "gauss_legendre_01", "GLOSSY_CLOSED_FORM_N",
+           "GLOSSY_MAX_SHININESS"]
 
 _RESOLVE_TOL = 1e-12          # a rounding plateau of the shifted-Legendre moments lies below this·int|p|
 _RESOLVE_MAX_NODES = 1 << 14  # give up resolving p beyond this many nodes (warns)
+#: above this shininess the glossy lobe's b_l and D come from closed (Bessel) forms, where the
+#: generic quadrature's rounding plateau (≈ l·eps·n of ∫p) would hide them (it warns from
+#: n ≈ 1e4, and every node underflows at n = 1e6)
+GLOSSY_CLOSED_FORM_N = 1000.0
+#: the largest glossy exponent: its lobe is ≈ 1/√n = 3e-5 rad wide and resolved to double
+#: precision by SH degree D ≈ 6√n ≈ 1.9e5 (:meth:`Glossy.resolution_degree`), the most the
+#: coefficient arrays here are sized for
+GLOSSY_MAX_SHININESS = 1e9
 _SHARED_CACHE: dict = {}      # (class, parameters) -> derived arrays, LRU order
 _SHARED_CACHE_SIZE = 32
 
@@ -433,9 +442,11 @@ class Diffuse(WeightFunction):
 class Glossy(WeightFunction):
     r"""Gaussian lobe :math:`p(z) = e^{n(z-1)}` about the mirror direction (Sec. 4.3, Eq. 25).
 
+    Valid for 0 < n ≤ :data:`GLOSSY_MAX_SHININESS` (1e9).
     :math:`r_s = (1-e^{-n})/n`. SH coefficients exact by Gauss–Legendre quadrature of
-    Eq. 26 (errata: :math:`b_l = \frac{1}{r_s}\sqrt{\frac{2l+1}{4\pi}}\int_0^1 e^{n(z-1)}P_l dz`);
-    :meth:`sh_coefficients_bessel` gives the full-sphere approximation Eq. 27. HSH
+    Eq. 26 (errata: :math:`b_l = \frac{1}{r_s}\sqrt{\frac{2l+1}{4\pi}}\int_0^1 e^{n(z-1)}P_l dz`)
+    for n ≤ :data:`GLOSSY_CLOSED_FORM_N`, and above by the full-sphere Bessel form Eq. 27
+    (:meth:`sh_coefficients_bessel`, exponentially scaled: no underflow), exact there. HSH
     coefficients by the exact Bessel form Eq. 30 (= Eqs. 28/29). Morph Eq. 67 in the
     stable form :math:`z = 1 + \ln(z' + (1-z')e^{-n})/n`.
 
@@ -455,6 +466,11 @@ class Glossy(WeightFunction):
             raise TheoryParameterError(f"shininess must be a number, got {n!r}") from None
         if not (np.isfinite(n) and n > 0):
             raise TheoryParameterError(f"shininess n must be > 0, got {n!r}")
+        if n > GLOSSY_MAX_SHININESS:
+            raise TheoryParameterError(
+                f"shininess n must be <= {GLOSSY_MAX_SHININESS:.0e} (a lobe {1 / math.sqrt(n):.1e} "
+                f"rad wide needs SH degrees beyond {int(6 * math.sqrt(GLOSSY_MAX_SHININESS))}), "
+                f"got {n:g}")
         object.__setattr__(self, "shininess", n)
 
     def _cache_key(self):
@@ -468,6 +484,43 @@ class Glossy(WeightFunction):
         n = self.shininess
         return float(-np.expm1(-n) / n)
 
+    def resolution_degree(self) -> int:
+        r"""Polynomial degree D of :math:`e^{n(z-1)}` on [0, 1] to double precision.
+
+        n ≤ :data:`GLOSSY_CLOSED_FORM_N`: the generic search (:meth:`WeightFunction.resolution_degree`).
+        Above, its rounding plateau (≈ l·eps·n of ∫p) hides the decay, so D is read from the
+        closed form of the shifted-Legendre moments,
+        :math:`\int_0^1 e^{n(z-1)}P_l(2z-1)dz = \sqrt{\pi/n}\,e^{-n/2}I_{l+1/2}(n/2)` (the
+        HSH integral of Eq. 30): the last l whose moment exceeds 1e-15·r_s (the generic
+        search's D within ±2 for 30 ≤ n ≤ 1000). D ≈ 6√n.
+        """
+        n = self.shininess
+        if n <= GLOSSY_CLOSED_FORM_N:
+            return WeightFunction.resolution_degree(self)
+        cache = self._cache()
+        if "D" not in cache:
+            top = int(12.0 * math.sqrt(n)) + 64
+            nu = np.arange(top + 1) + 0.5
+            with np.errstate(under="ignore"):
+                rel = math.sqrt(math.pi * n) * special.ive(nu, 0.5 * n) / (-math.expm1(-n))
+            above = np.nonzero(rel > 1e-15)[0]
+            cache["D"] = int(above[-1]) if above.size else 0
+        return cache["D"]
+
+    def sh_coefficients(self, lmax: int) -> np.ndarray:
+        r"""Normalised SH coefficients :math:`b_l` (Eq. 26, errata), l = 0…lmax.
+
+        n ≤ :data:`GLOSSY_CLOSED_FORM_N`: the generic Gauss–Legendre path (exact to rounding).
+        Above, the full-sphere Bessel form Eq. 27 (:meth:`sh_coefficients_bessel`), whose only
+        error is the lower-hemisphere part, :math:`|\Delta b_l| \le
+        \sqrt{(2l+1)/4\pi}\,e^{-n}/(n r_s) < 10^{-400}`: exact in double precision, and never
+        underflowing where the generic path does (every node's :math:`e^{n(z-1)}` is 0 for
+        n = 1e6 on a 32-node rule).
+        """
+        if self.shininess <= GLOSSY_CLOSED_FORM_N:
+            return WeightFunction.sh_coefficients(self, lmax)
+        return self._coefficients("sh", lmax, self.sh_coefficients_bessel)
+
     def sh_coefficients_bessel(self, lmax: int) -> np.ndarray:
         r"""Eq. 27: :math:`b_l \approx \frac{e^{-n}}{1-e^{-n}}\sqrt{n\nu}\,I_\nu(n)`, ν = l + ½.
 
@@ -478,14 +531,16 @@ class Glossy(WeightFunction):
         lmax = check_degree(lmax)
         n = self.shininess
         nu = np.arange(lmax + 1) + 0.5
-        return np.sqrt(n * nu) * special.ive(nu, n) / (-np.expm1(-n))
+        with np.errstate(under="ignore"):        # far beyond √n: 0, as it is
+            return np.sqrt(n * nu) * special.ive(nu, n) / (-np.expm1(-n))
 
     def hsh_coefficients(self, lmax: int) -> np.ndarray:
         r"""Eq. 30 (exact): :math:`\tilde b_l = \frac{e^{-n/2}}{1-e^{-n}}\sqrt{n\nu}\,I_\nu(n/2)`, ν = l + ½."""
         lmax = check_degree(lmax)
         n = self.shininess
         nu = np.arange(lmax + 1) + 0.5
-        return np.sqrt(n * nu) * special.ive(nu, 0.5 * n) / (-np.expm1(-n))
+        with np.errstate(under="ignore"):
+            return np.sqrt(n * nu) * special.ive(nu, 0.5 * n) / (-np.expm1(-n))
 
     def cdf(self, z):
         n = self.shininess

@@ -179,6 +179,7 @@ from envfit.advisor.cache import AdviseCache
 from envfit.advisor.check import check_rows
 from envfit.advisor.model import MapModel, map_key, map_model
 from envfit.advisor.options import AdviseOptions
+from envfit.advisor.prediction import check_lobe_resolved
 from envfit.advisor.renderer import advise_renderer, run_renderer_check
 from envfit.advisor.result import Advice, AdviceRow, recommendation_text
 from envfit.advisor.search import search_rules
@@ -309,6 +310,7 @@ def advise_with(envmap: EnvMap, options: AdviseOptions) -> Advice:
     plan_advise_memory(envmap, pointsets=opts.pointsets, weights=opts.weights, nmin=opts.nmin,
                        nmax=opts.nmax, osw_nmax=opts.osw_nmax, fit_n=opts.fit_n,
                        check=opts.check, workers=opts.workers)
+    check_lobe_resolved(opts.lobe(), envmap.height)      # the lobe's valid range on this map
     store = AdviseCache(opts.cache_dir, enabled=opts.cache)
     model = map_model(envmap, opts, store)
     wf = opts.lobe()

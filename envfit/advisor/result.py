@@ -148,6 +148,21 @@ class Advice:
     warnings: list[str] = field(default_factory=list)
     renderer: object = None
 
+    def __post_init__(self) -> None:
+        """A reached row predicted 0 (or not finite) is never recommended: on a map that is
+        not constant (the advisor refuses constant ones) 0 only says that the rule errs
+        nowhere in the degrees the prediction holds (SH at L ≥ H − 1 for (b′), ≥ 2H − 1 for
+        (c)), not that it is exact. Such rows get a note and a warning line."""
+        for r in self.rows:
+            p = r.predicted
+            if r.reached and r.recommendable and not (p is not None and math.isfinite(p)
+                                                      and p > 0.0):
+                r.recommendable = False
+                why = (f"predicted {p!r} by {r.predictor_short}: no error within the degrees "
+                       f"that prediction holds, not an exact rule; not recommended")
+                r.note = "; ".join(x for x in (r.note, why) if x)
+                self.warnings.append(f"rule {r.label}: {why}")
+
     def to_dict(self) -> dict:
         """Every field, the rows with their ``reached``, ``label`` and ``predicted_rmse_used``
         (the prediction of their ``predictor``; what ``--json`` writes), and the renderer
