@@ -286,3 +286,43 @@ def test_cli_renderer_table_json_and_png(exr16, tmp_path):
     p = _cli([*common[:-1], "--no-renderer", "--json", "b.json"], tmp_path)
     assert p.returncode == 0 and "renderer" not in p.stdout
     assert json.loads((tmp_path / "b.json").read_text())["renderer"] is None
+
+
+# ----------------------------------------------------------------------------- the box note
+# (issue 22, item 8: "conservative" was printed where the check measured 1.48x the prediction)
+
+@pytest.mark.parametrize("low, high, says", [
+    (0.0141, 0.0155, "not conservative here"),           # the whole interval above: 1.48x
+    (0.0060, 0.0080, "conservative here"),               # the whole interval below
+    (0.0090, 0.0110, "cannot tell whether it is conservative"),   # straddles the prediction
+])
+def test_box_note_is_what_the_measurement_says(low, high, says):
+    from envfit.advisor.renderer import extrapolation_note
+    r = RendererRow("brdf", "sf", n=24576, predicted_rmse=0.01, box=4096)
+    before = extrapolation_note(r)
+    assert before.endswith("; not checked") and "conservative" not in before
+    r.measured_rmse, r.measured_low, r.measured_high = 0.5 * (low + high), low, high
+    after = extrapolation_note(r)
+    assert after.endswith(says) and after.startswith(before[:-len("; not checked")])
+    assert f"measured {r.measured_rmse / 0.01:.2f}x the prediction" in after
+    if says == "conservative here":
+        assert "not conservative" not in after
+
+
+def test_box_note_on_a_searched_and_checked_row(setup16, model16):
+    """A sobol row sized beyond the grid-32 box (16): the note says "not checked" and never
+    "conservative"; after the check it states where the measured interval lies."""
+    pred = {n: predict_rule(model16, RendererRule("map", "sobol", n)).rmse
+            for n in renderer_n_grid("sobol", 4, 256)}
+    target = 0.5 * (pred[32] + pred[64])                  # N = 64 > (32/8)^2 = 16
+    r = search_renderer_row(model16, "map", "sobol", target, 4, 256)
+    assert r.n == 64 and r.box == 16
+    assert r.note.endswith("not checked") and "conservative" not in r.note
+    check_renderer_rows(setup16, [r], "diffuse", 30.0, target, seed=3, axes_start=8,
+                        max_axes=16)
+    p = r.predicted_rmse
+    want = ("conservative here" if r.measured_high <= p else "not conservative here"
+            if r.measured_low > p else "cannot tell")
+    assert want in r.note and "not checked" not in r.note
+    q = search_renderer_row(model16, "map", "sobol", pred[8] * 1.0001, 4, 256)
+    assert q.n <= 16 and q.box is None and "box" not in q.note
