@@ -115,10 +115,10 @@ def _known_s(env, res) -> dict | None:
     """On the built-in map (a GP of known s0): the closed-form expected RMSE against s for
     its synthesis, resize and lookup (:mod:`envfit.fit.kriging`) at the largest N of the
     table up to :data:`KNOWN_S_MAX_N`, and one sentence comparing its optimum with the
-    measured one. ``None`` for any other map."""
+    measured one. ``None`` for any other map or a single s."""
     from envfit.fit.kriging import builtin_synthesis, expected_interpolation_mse, known_s_sentence
     model = builtin_synthesis(env)
-    if model is None:
+    if model is None or len(res.s_values) < 2:          # one s: no optimum to compare
         return None
     ns = [n for n in res.n_values if n <= KNOWN_S_MAX_N]
     if not ns:
