@@ -57,7 +57,10 @@ __all__ = ["LOBE_TAIL_TRANSFER", "lobe_tail_transfer", "glossy_transfer",
 
 
 #: the most of the map's content just above the predictions' top degree 2H − 1 that the lobe
-#: may pass (its Funk–Hecke factor |λ_l| there; ≤ 1 % of the power)
+#: may pass (its Funk–Hecke factor |λ_l| there; ≤ 1 % of the power). The same 0.1 as
+#: envfit.advisor.budget.lobe_rows (the rows a downsampled map keeps). Loose on sun maps: on a
+#: 128-row one glossy n = 1e4 (λ = 0.037 at l = 256) measured 1.33× its (c), against
+#: 1.07–1.10 at n = 30 and 1000; 0.01 would refuse it (change both together)
 LOBE_TAIL_TRANSFER = 0.1
 
 
@@ -132,6 +135,7 @@ def check_lobe_resolved(wf, height: int, tol: float = LOBE_TAIL_TRANSFER) -> Non
     (bandwidth ≈ √n above 2H − 1) shades with content no prediction holds, and they come
     out low: on a 32-row sun map, random/equal measured 1.18× its (c) at n = 500
     (λ = 0.016 at l = 64), 1.36× at n = 1500 (λ = 0.25), SH at L = 60 2.5× at n = 3000;
+    on a 128-row one sf/osw 1.33× at n = 1e4 (λ = 0.037 at l = 256, 1.07–1.10 at n ≤ 1000);
     the issue's 1e5 on a 128-row map (λ = 0.72 at l = 256) 5×, and at n = 1e6 every
     coefficient of the old quadrature underflowed (predicted 0). Allowed: |λ| ≤ ``tol``
     (:data:`LOBE_TAIL_TRANSFER`) at 2H, 2H + 1 (:func:`lobe_tail_transfer`).
