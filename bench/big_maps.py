@@ -108,6 +108,8 @@ def main(argv: list[str]) -> None:
         sec, peak = smp.done.get(st.name, (float("nan"), 0))
         pred = rss0 + plan.resident + st.nbytes
         print(f"{st.name:20s} {pred / 1e9:9.2f}G {peak / 1e9:9.2f}G {st.seconds:8.0f} {sec:8.1f}")
+    evals = [(r.label, r.evaluations) for r in adv.rows if r.method == "quadrature"]
+    print("error-power evaluations per rule:", ", ".join(f"{a} {b}" for a, b in evals))
     for note in adv.notes:
         print("note:", note)
 

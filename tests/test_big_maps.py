@@ -211,3 +211,21 @@ def test_sharp_lobe_keeps_the_rows_it_needs():
     h, _ = prediction_height(env, AdviseOptions(brdf="glossy", shininess=1e6,
                                                 target_rmse=0.01))
     assert h == 2048
+
+
+def test_refusal_names_the_option_that_fits(monkeypatch):
+    """Nothing fits with the renderer rows, everything without: the one line says
+    ``--no-renderer`` (both plans recomputed here)."""
+    env = EnvMap(np.ones((128, 256, 3), np.float32))
+    opts = AdviseOptions(target_rmse=0.01, renderer=True)
+    res = 8 * 2 * 64 * 64 * 3
+    with_r = advise_plan(64, 3, opts, resident=res, source_height=128).peak()
+    without = advise_plan(64, 3, AdviseOptions(target_rmse=0.01), resident=res,
+                          source_height=128).peak()
+    assert without < with_r
+    monkeypatch.setenv("ENVFIT_MEMORY_LIMIT", str(int((without + with_r) / 2 / 0.8)))
+    with pytest.raises(MemoryBudgetError) as ei:
+        prediction_height(env, opts)
+    msg = str(ei.value)
+    assert msg.startswith("advise on the 256x128 map even at 128x64: renderer spectra")
+    assert msg.endswith("it fits with --no-renderer")

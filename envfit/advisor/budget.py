@@ -61,23 +61,36 @@ _RENDERER_SEC_PER_PIXEL_AXIS = 6e-7
 _RULE_BYTES_PER_POINT = 8 * 24
 
 
+def _stream_seconds(upper: int, nmin: int, L: int, osw: bool) -> float:
+    """At most the seconds of one rule's search to ``upper`` (:func:`~envfit.advisor.search.
+    smallest_n`): the doubling from ``nmin`` (one error power per N, the N-terms summing to
+    < 2 upper) and a bisection of log₂(upper / 2) evaluations at up to ``upper`` points, each
+    :func:`envfit.shading.spectra.rule_power_cost`; OSW adds an N×N Cholesky solve (N³/3
+    flops at ~3 GFlop/s) per evaluation."""
+    doubling = math.ceil(math.log2(max(2, upper / max(1, nmin)))) + 1
+    bisection = math.log2(max(2, upper / 2))
+    t1 = rule_power_cost(1, L)[1]                     # the degree part of one evaluation
+    tn = rule_power_cost(upper, L)[1] - t1             # the point part at N = upper
+    secs = (doubling + bisection) * t1 + tn * (2 + bisection)
+    return secs + (1e-10 * upper ** 3 * (doubling + bisection) if osw else 0.0)
+
+
 def _search_stage(h: int, opts: AdviseOptions) -> Stage:
     """The quadrature searches: one rule error power to 2H − 1 per evaluated N (and OSW's
-    N×N solve); seconds for ~log₂(nmax/nmin)/4 + 1 evaluations per rule and realisation
-    plus one at ``nmax`` (157 s measured for the 22 streams of the defaults on a 2048x1024
-    map, target 0.01, predicted 325 s: a rough upper figure)."""
+    N×N solve); seconds: the most a search can take (:func:`_stream_seconds`) for each rule
+    and realisation (the cache and rules that stop early take less: on a 2048x1024 GP map
+    with a sun, target 1 %, predicted ~2900 s, measured 950 s on 2 loaded cores)."""
     L = 2 * h - 1
-    streams = sum(opts.seeds if ps in ("random", "jitter", "bnot") else 1
-                  for ps in opts.pointsets for _ in opts.weights)
-    evals = math.log2(max(2, opts.nmax / max(1, opts.nmin))) / 4 + 1
-    nb, t_max = rule_power_cost(opts.nmax, L) if opts.pointsets else (0, 0.0)
-    t_min = rule_power_cost(opts.nmin, L)[1]
-    if opts.pointsets and "osw" in opts.weights:
-        n = opts.osw_upper
-        nb = max(nb, interpolator_nbytes(n, 1) + rule_power_cost(n, L)[0])
-    secs = streams * (evals * t_min + max(0.0, t_max - t_min))
+    nb, secs = 0, 0.0
+    for ps in opts.pointsets:
+        k = opts.seeds if ps in ("random", "jitter", "bnot") else 1
+        for w in opts.weights:
+            upper = opts.nmax if w == "equal" else opts.osw_upper
+            secs += k * _stream_seconds(upper, opts.nmin, L, w == "osw")
+            nb = max(nb, rule_power_cost(upper, L)[0]
+                     + (interpolator_nbytes(upper, 1) if w == "osw" else 0))
     return Stage("quadrature search", int(nb), secs,
-                 f"rule error power to l = {L} per N, up to N = {opts.nmax}")
+                 f"rule error power to l = {L} per N, up to N = {opts.nmax}; time at most")
 
 
 def advise_plan(height: int, channels: int, opts: AdviseOptions, *,
