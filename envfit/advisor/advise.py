@@ -350,24 +350,34 @@ def _prediction_map(envmap: EnvMap, opts: AdviseOptions):
     (:func:`envfit.advisor.budget.prediction_height`), else its solid-angle block means at
     the planned height, with a note saying so and how much of the map's variance they keep.
     Raises :class:`~envfit.base.errors.MemoryBudgetError` (one line) when nothing fits."""
-    from envfit.maps.envmap import variance_kept
     h, plan = prediction_height(envmap, opts)
     if h == envmap.height:
         return envmap, plan, []
     small = envmap.resized(h, quiet=opts.quiet)
-    need = lobe_rows(opts)
+    return small, plan, [_downsample_note(envmap, small, plan, opts)]
+
+
+def _downsample_note(envmap: EnvMap, small: EnvMap, plan, opts: AdviseOptions) -> str:
+    """The note of a downsampled map: why, what the predictions keep (band limit, the degree
+    a rule of ``nmax`` points resolves, :math:`\\sqrt{\\pi N}/2` for points
+    :math:`\\sqrt{4\\pi/N}` apart), the variance kept and the plan's stages."""
+    from envfit.maps.envmap import variance_kept
+    h, need = small.height, lobe_rows(opts)
     top = PREDICTION_MAX_HEIGHT if need <= PREDICTION_MAX_HEIGHT else need
     why = (f"to fit the memory budget of {format_bytes(memory_budget_bytes())}"
            if h < min(envmap.height, top) else
            f"the glossy lobe needs at least {need} rows" if h > PREDICTION_MAX_HEIGHT else
            f"the predictions use at most {PREDICTION_MAX_HEIGHT} rows")
-    note = (f"the predictions use the {envmap.width}x{envmap.height} map downsampled to "
+    l_res = int(np.sqrt(np.pi * opts.nmax) / 2)
+    res = (f"above the l ~ {l_res} that rules of N <= {opts.nmax} points resolve"
+           if l_res < h - 1 else
+           f"below the l ~ {l_res} that rules of N <= {opts.nmax} points resolve: a smaller "
+           f"--nmax or a larger memory budget would keep them")
+    return (f"the predictions use the {envmap.width}x{envmap.height} map downsampled to "
             f"{small.width}x{small.height} ({why}; solid-angle block means, mean kept): "
-            f"band limit l <= {h - 1}, (c) to l = {2 * h - 1}, above the degrees the rules "
-            f"resolve; the block means keep {variance_kept(envmap, small):.1%} of the map's "
-            f"variance; --check measures on the downsampled map; plan: "
-            + "; ".join(plan.lines()))
-    return small, plan, [note]
+            f"band limit l <= {h - 1}, (c) to l = {2 * h - 1}, {res}; the block means keep "
+            f"{variance_kept(envmap, small):.1%} of the map's variance; --check measures on "
+            f"the downsampled map; plan: " + "; ".join(plan.lines()))
 
 
 def _advice(envmap: EnvMap, opts: AdviseOptions, model: MapModel,
