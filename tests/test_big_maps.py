@@ -56,7 +56,7 @@ def _run_limited(body: str, gib: float, env_extra: dict | None = None) -> dict:
 
 
 def test_8k_map_is_downsampled_before_any_big_allocation_under_rlimit_as():
-    """With 1 GiB of address space left, the 8K map's predictions are planned at a height
+    """With 1.5 GiB of address space left, the 8K map's predictions are planned at a height
     whose every stage fits, and the block means are made without a MemoryError, in seconds
     (the run of issue 22 reached 19.9 GB in the map power to l = 8191)."""
     out = _run_limited("""
@@ -70,10 +70,10 @@ def test_8k_map_is_downsampled_before_any_big_allocation_under_rlimit_as():
                "budget": memory_budget_bytes(), "notes": notes,
                "mean": [float(big.mean()[0]), float(small.mean()[0])],
                "seconds": time.perf_counter() - t}
-    """, 1.0)
+    """, 1.5)
     assert out["h"] < PREDICTION_MAX_HEIGHT and out["w"] == 2 * out["h"]
     assert out["peak"] <= out["budget"]
-    assert out["seconds"] < 30
+    assert out["seconds"] < 60                                      # ~3 s unloaded
     assert abs(out["mean"][1] / out["mean"][0] - 1) < 1e-6          # block means keep it
     note = out["notes"][0]
     assert f"8192x4096 map downsampled to {out['w']}x{out['h']}" in note
