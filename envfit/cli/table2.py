@@ -79,7 +79,7 @@ def _run_single(args, s_values, n_values) -> int:
     say(args, "", format_table2(res, paper=args.paper), "",
         format_table2(res, key="rmse_solid_angle"), "",
         f"s with the lowest RMSE at N = {res.n_values[-1]}: {res.s_best:g}")
-    known = _known_s(env, res) if not args.quiet or args.json else None
+    known = _known_s(env, res, quiet=args.quiet) if not args.quiet or args.json else None
     if known is not None:
         say(args, known["sentence"])
     if out is not None:
@@ -111,7 +111,7 @@ def _run_single(args, s_values, n_values) -> int:
 KNOWN_S_MAX_N = 4000
 
 
-def _known_s(env, res) -> dict | None:
+def _known_s(env, res, quiet: bool = False) -> dict | None:
     """On the built-in map (a GP of known s0): the closed-form expected RMSE against s for
     its synthesis, resize and lookup (:mod:`envfit.fit.kriging`) at the largest N of the
     table up to :data:`KNOWN_S_MAX_N`, and one sentence comparing its optimum with the
@@ -127,7 +127,7 @@ def _known_s(env, res) -> dict | None:
                             f"{KNOWN_S_MAX_N} only (bench/known_s.py)."}
     n = ns[-1]
     curve = expected_interpolation_mse(model, res.s_values, n, pointset=res.pointset,
-                                       seed=res.seed, max_pixels=4096)
+                                       seed=res.seed, max_pixels=2048, quiet=quiet)
     measured = res.s_best_by_n()[n]
     return {"sentence": known_s_sentence(curve, measured, res.scale), "n": n,
             "model": model.describe(), "s_values": list(res.s_values),

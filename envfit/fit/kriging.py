@@ -41,6 +41,7 @@ import numpy as np
 from scipy.linalg import cho_factor, cho_solve
 
 from envfit.base.errors import ParameterError
+from envfit.base.progress import progress
 from envfit.maps.latlong import direction_to_pixel, pixel_angles, row_solid_angles
 from envfit.theory.errors import check_smoothness
 from envfit.theory.sobolev import kernel_from_distance2, sobolev_coefficients
@@ -288,11 +289,12 @@ class _Setup:
             self.table = _pixel_covariance_table(model, k0)
             self.idx, self.beta = bilinear_stencil(self.nodes, h, up=model.up)
             self.var = _cov_pix(self.table, self.pix, self.pix)
+            r, c = np.divmod(self.idx, w)                               # (n, 4) rows, columns
             self.G = np.zeros((n, n))
             for a in range(4):
                 for b in range(4):
-                    self.G += (self.beta[:, a, None] * self.beta[None, :, b]
-                               * _cov_pix(self.table, self.idx[:, a, None], self.idx[None, :, b]))
+                    cov = self.table[r[:, a, None], r[None, :, b], (c[None, :, b] - c[:, a, None]) % w]
+                    self.G += self.beta[:, a, None] * self.beta[None, :, b] * cov
         else:
             self.k0 = k0
             self.var = np.full(self.pix.size, float(k0(0.0)))
@@ -327,13 +329,15 @@ def _expected_mse_at(setup: _Setup, s: float, offset: float) -> tuple[float, flo
 
 def expected_interpolation_mse(model: SynthesisModel, s_values, n: int, *,
                                pointset: str = "sf", seed: int = 0,
-                               max_pixels: int | None = 16384) -> KrigingCurve:
+                               max_pixels: int | None = 16384,
+                               quiet: bool = True) -> KrigingCurve:
     r"""Expected MSE of Table 2's reconstruction of a GP map, for each s at N nodes.
 
     :math:`E|t(x) - I_s(g + c)(x)|^2` averaged over the map's pixels (module doc), with the
     nodes of :func:`envfit.fit.table2.sample_directions` (``pointset``, ``seed``, the map's
     ``up``). ``max_pixels``: evaluate on all pixels of evenly spaced rows, at most this many
-    pixels (``None``: every pixel; the average over rows is then exact).
+    pixels (``None``: every pixel; the average over rows is then exact). ``quiet=False``
+    shows a progress bar over ``s_values`` (one Cholesky factorisation of N × N each).
 
     >>> m = SynthesisModel(1.5, 8, lmax=None, lookup=False)
     >>> c = expected_interpolation_mse(m, [1.3, 1.5, 1.7], 40)
@@ -346,7 +350,9 @@ def expected_interpolation_mse(model: SynthesisModel, s_values, n: int, *,
     if n > model.height * 2 * model.height:
         raise ParameterError(f"N = {n} exceeds the {2 * model.height ** 2} pixels of the map")
     setup = _Setup(model, n, pointset, seed, max_pixels)
-    res = np.array([_expected_mse_at(setup, s, float(model.offset)) for s in s_values])
+    res = np.array([_expected_mse_at(setup, s, float(model.offset))
+                    for s in progress(s_values, desc=f"expected RMSE (N = {n})", unit="s",
+                                      quiet=quiet)])
     return KrigingCurve(model=model, n=n, s_values=s_values, mse_pixel=res[:, 0],
                         mse_solid_angle=res[:, 1], variance=float(setup.w_pixel @ setup.var),
                         rows=int(setup.rows.size))
