@@ -28,7 +28,7 @@ from envfit.plots.advise_rules import plot_advise_rules
 from envfit.plots.preview import plot_map_preview
 from envfit.plots.table2 import plot_fit_curve, plot_table2
 from envfit.plots.validate import plot_all
-from envfit.shading.map_preview import map_preview
+from envfit.maps.preview import map_preview
 from envfit.validate.config import quick_config
 
 ARG = sys.argv[1] if len(sys.argv) > 1 else ""

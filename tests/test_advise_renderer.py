@@ -3,7 +3,7 @@ renderer table, --strategies, --renderer-pointsets, --no-renderer, advise.png) a
 early stop of the paper rows' N search (envfit.advisor.search.smallest_n).
 
 Reference values come from a second path: every N of the renderer grid predicted directly
-with :func:`envfit.predict.renderer.predict_rule` against the search; rows constructed by hand
+with :func:`envfit.predict.renderer.predictor.predict_rule` against the search; rows constructed by hand
 against the recommendation; a fresh model against the cached one; :func:`measure_rule` called
 directly against the check; the doubling-and-bisection search written out again against the
 early-stopping one. Maps are 16 rows (a sun on a GP background, a GP map), the spectra on a
@@ -31,8 +31,8 @@ from envfit.data_gen.gp import gaussian_process_map
 from envfit.data_gen.sun_gp import sun_gp_map
 from envfit.maps.envmap import EnvMap
 from envfit.maps.io import save_envmap
-from envfit.predict.renderer import predict_rule, renderer_model
-from envfit.shading.renderer_rules import STRATEGIES, RendererRule, RendererSetup, measure_rule
+from envfit.predict.renderer.predictor import predict_rule, renderer_model
+from envfit.sampling.rules import STRATEGIES, RendererRule, RendererSetup, measure_rule
 
 GRID, AXES = 32, 8
 KEY = {"fingerprint": "test", "shape": [16, 32, 1], "up": "y", "scale": "linear"}

@@ -11,13 +11,13 @@ import numpy as np
 import pytest
 
 import envfit.cli as cli
-import envfit.predict.sh_plan as sh_plan
+import envfit.export.plan as sh_plan
 from envfit.base.errors import MemoryBudgetError, ParameterError
 from envfit.maps.envmap import EnvMap
 from envfit.maps.latlong import pixel_directions, pixel_solid_angles
-from envfit.predict.sh_plan import Rates, check_sh_plan, sh_stages
-from envfit.predict.sh_ringing import dense_negative_fractions
-from envfit.shading.sh_export import sh_coefficients, sh_eval
+from envfit.export.plan import Rates, check_sh_plan, sh_stages
+from envfit.export.ringing import dense_negative_fractions
+from envfit.export.sh_export import sh_coefficients, sh_eval
 
 #: fixed kernel speeds (this machine's order of magnitude), so messages are deterministic
 RATES = Rates(basis=2e-8, flop=2e-10, synthesis=1e-9, rotation=2e-9)
@@ -182,7 +182,7 @@ def test_note_before_a_long_run_states_the_plan_both_ways(tmp_path, monkeypatch,
 
 
 def test_radiance_check_makes_no_directions(sun_env, monkeypatch):
-    import envfit.predict.sh_ringing as ringing
+    import envfit.export.ringing as ringing
     monkeypatch.setattr(ringing, "spherical_fibonacci_sphere",
                         lambda n: (_ for _ in ()).throw(AssertionError("directions made")))
     e = sh_coefficients(sun_env, 2)

@@ -8,7 +8,7 @@ import pytest
 
 from envfit.maps import latlong
 from envfit.maps.envmap import EnvMap
-from envfit.shading.map_sampler import MapSampler
+from envfit.sampling.map_sampler import MapSampler
 
 
 def _special_directions(h, w, up):

@@ -1,4 +1,4 @@
-"""Tests of envfit.shading.importance and map_sampler: the map sampler (pdf, histogram, round trip), the map /
+"""Tests of envfit.sampling.importance and map_sampler: the map sampler (pdf, histogram, round trip), the map /
 BRDF / MIS estimators of the shading integral (unbiasedness against the ground truth of
 envfit.shading.ground_truth, zero-variance cases, equality with quadrature_estimates), the MIS
 weights and the one-sample balance = mixture-pdf identity (checked by an independent
@@ -16,8 +16,8 @@ from envfit.maps import latlong
 from envfit.maps.envmap import EnvMap
 from envfit.shading import estimators as E
 from envfit.shading import ground_truth as G
-from envfit.shading import importance as I
-from envfit.shading.map_sampler import MapSampler
+from envfit.sampling import importance as I
+from envfit.sampling.map_sampler import MapSampler
 from envfit.theory.brdf import Glossy
 from envfit.theory.pointsets import frame_from_axis, lambert_to_hemisphere, square_points
 

@@ -1,5 +1,5 @@
-"""The exact random-point RMSE of renderer estimators (envfit.shading.is_variance) against the
-RMSE the estimators themselves make (envfit.shading.importance), on a sun + sky map and a GP
+"""The exact random-point RMSE of renderer estimators (oracles.is_variance) against the
+RMSE the estimators themselves make (envfit.sampling.importance), on a sun + sky map and a GP
 map. The two modules were written independently; here the variance integral (a quadrature
 over the map) must predict a Monte Carlo measurement over axes and realisations.
 """
@@ -12,9 +12,9 @@ from envfit.data_gen.analytic import SunSkyMap
 from envfit.data_gen.gp import gaussian_process_map
 from envfit.maps.envmap import EnvMap
 from envfit.shading.ground_truth import shading_integral
-from envfit.shading.importance import brdf_sampling_estimates, map_is_estimates, mis_estimates
-from envfit.shading.is_variance import LobePdf, MapPdf, is_variance, mis_variance
-from envfit.shading.map_sampler import MapSampler
+from envfit.sampling.importance import brdf_sampling_estimates, map_is_estimates, mis_estimates
+from oracles.is_variance import LobePdf, MapPdf, is_variance, mis_variance
+from envfit.sampling.map_sampler import MapSampler
 
 N, M, R = 32, 60, 40          # samples per estimate, axes, independent realisations
 

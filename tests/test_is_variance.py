@@ -1,4 +1,4 @@
-"""envfit.shading.is_variance: the exact variances of random-point importance sampling,
+"""oracles.is_variance: the exact variances of random-point importance sampling,
 checked against Monte Carlo simulations of the estimators written here in plain numpy
 (inverse-CDF sampling of the pixels, uniform in (cos θ, φ) inside a pixel; the lobe by its
 inverse CDF about the axis), against a finer quadrature and against the ground truth."""
@@ -11,9 +11,9 @@ from envfit.maps.envmap import EnvMap
 from envfit.maps.latlong import local_to_world, pixel_solid_angles
 from envfit.shading.estimators import rmse_over_axes
 from envfit.shading.ground_truth import shading_integral, weight_function
-from envfit.shading.is_variance import (LobePdf, MapPdf, is_variance, mis_variance,
-                                        mixture_pdf, predicted_rmse_random)
-from envfit.shading.sphere_quadrature import sphere_integrals
+from oracles.is_variance import (LobePdf, MapPdf, is_variance, mis_variance, mixture_pdf,
+                                 predicted_rmse_random)
+from oracles.sphere_quadrature import sphere_integrals
 from envfit.theory.brdf import gauss_legendre_01
 from envfit.theory.pointsets import frame_from_axis
 

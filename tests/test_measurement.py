@@ -1,8 +1,8 @@
-"""envfit.shading.measurement: the bootstrap interval of the RMSE over axes covers the true
+"""envfit.measure.adaptive_rmse: the bootstrap interval of the RMSE over axes covers the true
 RMSE as often as it says (normal errors), stays honest under a heavy tail where the
 normal-theory interval fails, the adaptive measurement stops at its target reusing every
 axis, and on a real estimator (random-point BRDF sampling of a GP map) the adaptive
-interval contains the exact RMSE of envfit.shading.is_variance.
+interval contains the exact RMSE of oracles.is_variance.
 """
 from __future__ import annotations
 
@@ -17,9 +17,9 @@ from envfit.data_gen.gp import gaussian_process_map
 from envfit.maps.envmap import EnvMap
 from envfit.shading.estimators import quadrature_estimates, rmse_over_axes
 from envfit.shading.ground_truth import shading_integral, weight_function
-from envfit.shading.is_variance import LobePdf, is_variance
-from envfit.shading.measurement import (RMSEInterval, adaptive_rmse, agreement_with_interval,
-                                        rmse_interval, squared_errors_per_axis)
+from oracles.is_variance import LobePdf, is_variance
+from envfit.measure.adaptive_rmse import (RMSEInterval, adaptive_rmse, agreement_with_interval,
+                                          rmse_interval, squared_errors_per_axis)
 from envfit.theory.pointsets import lambert_to_hemisphere
 
 C = 3                     # channels

@@ -23,7 +23,7 @@ from envfit.maps.conventions import convention, convention_names
 from envfit.maps.envmap import EnvMap
 from envfit.maps.io import save_envmap
 from envfit.maps.latlong import local_to_world, row_solid_angles
-from envfit.shading.map_preview import envfit_layout, list_sources, map_preview
+from envfit.maps.preview import envfit_layout, list_sources, map_preview
 
 LAYOUTS = [n for n in convention_names() if n != "pbrt4"] + ["up-x", "up-z"]
 

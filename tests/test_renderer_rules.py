@@ -1,4 +1,4 @@
-"""Renderer rules: their measurement (envfit.shading.renderer_rules) against their prediction
+"""Renderer rules: their measurement (envfit.sampling.rules) against their prediction
 (envfit.predict.renderer), two independent algorithms — brute-force estimates over random
 axes, twists and shifts versus the warped integrand's spectrum and pixel-quadrature variances."""
 import numpy as np
@@ -7,9 +7,9 @@ import pytest
 from envfit.base.errors import ParameterError
 from envfit.data_gen.sun_gp import sun_gp_map
 from envfit.maps.envmap import EnvMap
-from envfit.predict.renderer import predict_rule, renderer_model
-from envfit.shading.renderer_rules import (RendererRule, RendererSetup, measure_rule,
-                                           replicates, rule_estimates, rule_points)
+from envfit.predict.renderer.predictor import predict_rule, renderer_model
+from envfit.sampling.rules import (RendererRule, RendererSetup, measure_rule, replicates,
+                                   rule_estimates, rule_points)
 
 
 @pytest.fixture(scope="module")

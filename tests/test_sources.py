@@ -1,4 +1,4 @@
-"""Tests of envfit.shading.sources (bright-source detection, exact source / rest split) on
+"""Tests of envfit.sampling.sources (bright-source detection, exact source / rest split) on
 the sun-on-GP maps of envfit.data_gen.sun_gp, whose sun is known exactly.
 
 All maps have H = 32 (pixel ≈ 0.098 rad); ground truth = shading_integral(method="pixels").
@@ -12,9 +12,9 @@ from envfit.data_gen.sun_gp import pixel_solid_angles, sun_gp_map
 from envfit.maps import latlong
 from envfit.maps.envmap import EnvMap
 from envfit.shading.ground_truth import shading_integral
-from envfit.shading.importance import brdf_sampling_estimates, mis_estimates
-from envfit.shading.sources import (BrightSource, find_bright_sources, source_integrals,
-                                    sphere_dilate, sphere_label, split_estimates, split_map)
+from envfit.sampling.importance import brdf_sampling_estimates, mis_estimates
+from envfit.sampling.sources import (BrightSource, find_bright_sources, source_integrals,
+                                     sphere_dilate, sphere_label, split_estimates, split_map)
 
 H = 32
 PIXEL = np.pi / H

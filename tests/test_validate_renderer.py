@@ -2,8 +2,8 @@
 (envfit.validate.report_renderer and the ``renderer_*`` conditions), envfit.plots.renderer and
 the CLI flags.
 
-Independent references: :func:`envfit.predict.renderer.predict_rule` and
-:func:`envfit.shading.renderer_rules.measure_rule` called directly on a fresh setup (a second
+Independent references: :func:`envfit.predict.renderer.predictor.predict_rule` and
+:func:`envfit.sampling.rules.measure_rule` called directly on a fresh setup (a second
 path, same seeds), ``statistics.median`` and hand-written loops for the summaries,
 ``json`` for the round trip, matplotlib's PNG reader, and results constructed by hand where a
 report condition holds and where it fails. A 32×16 sun-on-GP map, N ≤ 32, few axes.
@@ -25,9 +25,9 @@ from envfit.base.errors import ParameterError
 from envfit.data_gen.sun_gp import sun_gp_map
 from envfit.maps.envmap import EnvMap
 from envfit.maps.io import load_envmap, save_envmap
-from envfit.predict.renderer import predict_rule, renderer_model
-from envfit.shading.measurement import agreement_with_interval
-from envfit.shading.renderer_rules import RendererRule, RendererSetup, measure_rule
+from envfit.predict.renderer.predictor import predict_rule, renderer_model
+from envfit.measure.adaptive_rmse import agreement_with_interval
+from envfit.sampling.rules import RendererRule, RendererSetup, measure_rule
 from envfit.validate import report_conditions as RC
 from envfit.validate import report_renderer as RR
 

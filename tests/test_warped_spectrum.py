@@ -1,7 +1,7 @@
-"""The warped-integrand spectrum predicts the shifted estimators' error (envfit.shading.warped_spectrum).
+"""The warped-integrand spectrum predicts the shifted estimators' error (envfit.predict.renderer.warped_spectrum).
 
 Every reference is independent: brute-force means over thousands of Cranley–Patterson shifts
-and twists of the estimators themselves, the exact variances of envfit.shading.is_variance
+and twists of the estimators themselves, the exact variances of oracles.is_variance
 (sphere quadrature, a second algorithm), the dual lattice of a rank-1 lattice and Funk–Hecke's
 mean of the shading integral.
 """
@@ -13,11 +13,11 @@ from envfit.theory.pointsets import square_points
 from envfit.base.errors import ParameterError
 from envfit.maps.envmap import EnvMap
 from envfit.maps.latlong import pixel_solid_angles
-from envfit.shading import warped_spectrum as ws
+from envfit.predict.renderer import warped_spectrum as ws
 from envfit.shading.ground_truth import shading_integral, weight_function
-from envfit.shading.importance import importance_estimates
-from envfit.shading.is_variance import LobePdf, MapPdf, is_variance, mis_variance
-from envfit.shading.map_sampler import MapSampler
+from envfit.sampling.importance import importance_estimates
+from oracles.is_variance import LobePdf, MapPdf, is_variance, mis_variance
+from envfit.sampling.map_sampler import MapSampler
 
 
 @pytest.fixture(scope="module")

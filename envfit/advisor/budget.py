@@ -38,9 +38,9 @@ from envfit.base.resources import (Plan, Stage, format_bytes, interpolator_nbyte
 from envfit.kernels.bandlimited import max_samples
 from envfit.maps.envmap import EnvMap
 from envfit.shading.ground_truth import default_sh_lmax
-from envfit.shading.renderer_rules import STRATEGIES
+from envfit.sampling.rules import STRATEGIES
 from envfit.shading.spectra import rule_power_cost, sh_analysis_cost
-from envfit.shading.warped_spectrum import spectrum_nbytes
+from envfit.predict.renderer.warped_spectrum import spectrum_nbytes
 
 __all__ = ["PREDICTION_MAX_HEIGHT", "MIN_HEIGHT", "advise_plan", "lobe_rows",
            "prediction_height"]
@@ -51,7 +51,7 @@ PREDICTION_MAX_HEIGHT = 1024
 MIN_HEIGHT = 64
 #: bytes per pixel of the renderer rows' setup (the scaled, source and rest maps, two
 #: samplers: +296 MB on a 2048x1024 map) and of the map nodes the next spectrum reuses,
-#: beside one spectrum (:func:`envfit.shading.warped_spectrum.spectrum_nbytes`): the whole
+#: beside one spectrum (:func:`envfit.predict.renderer.warped_spectrum.spectrum_nbytes`): the whole
 #: renderer section measured +1.93 GB on a 2048x1024 map (four spectra, G = 512, 32 axes)
 _RENDERER_SETUP_BYTES_PER_PIXEL = 270
 #: seconds per pixel and per axis of one warped spectrum (35 s for four spectra of city.exr,

@@ -34,7 +34,7 @@ from envfit.base.errors import ParameterError
 from envfit.fit.sigma import parse_s
 from envfit.maps.scales import SCALES
 from envfit.shading.ground_truth import weight_function
-from envfit.shading.renderer_rules import STRATEGIES
+from envfit.sampling.rules import STRATEGIES
 from envfit.theory.pointsets import POINTSETS as SQUARE_POINTSETS
 
 __all__ = ["AdviseOptions", "ALL_POINTSETS", "DEFAULT_POINTSETS", "WEIGHTINGS", "BASES", "BRDFS",
@@ -132,7 +132,7 @@ class AdviseOptions:
         (:data:`envfit.advisor.renderer.RENDERER_GRID`, ``RENDERER_SPECTRUM_AXES``).
     renderer_axes_start, renderer_max_axes : int
         Renderer check: the adaptive measurement's first and largest number of axes
-        (:func:`envfit.shading.renderer_rules.measure_rule`).
+        (:func:`envfit.sampling.rules.measure_rule`).
     renderer_curves : bool
         Renderer rows: predict every grid N (for the plot), not only those the search needs.
     workers : int

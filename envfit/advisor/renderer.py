@@ -1,13 +1,13 @@
 r"""The advisor's renderer rows: how many samples per shading point for BRDF sampling, map
 importance sampling, MIS and the source split, with a given point set, for the target error.
 
-A renderer rule (:class:`envfit.shading.renderer_rules.RendererRule`) is a strategy of
-:data:`~envfit.shading.renderer_rules.STRATEGIES` — ``brdf`` (BRDF sampling), ``map`` (map
+A renderer rule (:class:`envfit.sampling.rules.RendererRule`) is a strategy of
+:data:`~envfit.sampling.rules.STRATEGIES` — ``brdf`` (BRDF sampling), ``map`` (map
 importance sampling ∝ luminance × solid angle, pbrt/Mitsuba style), ``mis`` (multi-sample
 MIS, balance heuristic, N/2 each) or ``split`` (the bright sources integrated exactly, MIS on
 the rest of the map) — a point set and N. Its RMSE over uniform axes is predicted from the
-warped integrand's spectrum (:func:`envfit.predict.renderer.renderer_model`, once per map,
-lobe and technique; then :func:`envfit.predict.renderer.predict_rule`, one NUFFT per N):
+warped integrand's spectrum (:func:`envfit.predict.renderer.predictor.renderer_model`, once per map,
+lobe and technique; then :func:`envfit.predict.renderer.predictor.predict_rule`, one NUFFT per N):
 exact in expectation for random points ("random-variance") and for the QMC sets up to
 N ≈ (grid/8)² ("warped-spectrum"; beyond it the frequencies above the box are counted at the
 Monte Carlo rate: an extrapolation, not a bound — on a night map with lamps brdf/sf at
@@ -24,7 +24,7 @@ scanned upward and the row's N is the *smallest* grid N whose prediction is at m
 target (so the grid N below it misses). Cost per shading point: N samples; for ``split``
 also the exact integral over the sources, which visits every source pixel once per shading
 point (``sum(pixels)`` of :attr:`RendererSetup.sources
-<envfit.shading.renderer_rules.RendererSetup>`), reported beside N and added to it
+<envfit.sampling.rules.RendererSetup>`), reported beside N and added to it
 (:attr:`RendererRow.cost`). The recommendation (:func:`renderer_recommendation`) is the
 reached row of least cost, ties broken by the lower prediction.
 
@@ -51,7 +51,7 @@ the rows land for a 1 % target (N ≈ 256–4096), which a check at 1.25× the t
 absorb. So grid 512 (the box exact for QMC to N ≈ (512/8)² = 4096) with 32 axes: the
 validated accuracy at less than half its cost. These comparisons used the map technique's
 spectrum from a uniform grid, before its exact quadrature nodes; with the nodes, the
-single-precision NUFFT and the 8B lobe grid of :mod:`envfit.shading.warped_spectrum` the four
+single-precision NUFFT and the 8B lobe grid of :mod:`envfit.predict.renderer.warped_spectrum` the four
 spectra take 35 s wall on city.exr (2 cores, load 3–4, raised priority;
 docs/guides/advise.md, "Renderer rules in envfit advise").
 
@@ -59,11 +59,11 @@ The spectra are cached (:mod:`envfit.advisor.cache`, kind ``"renderer"``): one c
 JSON file per (technique, on the rest map), keyed by the map's fingerprint
 (:func:`envfit.advisor.model.map_key`), scale, lobe, grid, axes, technique, on_rest and the
 sources' pixel count; :func:`spectrum_to_json` / :func:`spectrum_from_json` round-trip a
-:class:`~envfit.shading.warped_spectrum.WarpedSpectrum` exactly (``cross`` as real and
+:class:`~envfit.predict.renderer.warped_spectrum.WarpedSpectrum` exactly (``cross`` as real and
 imaginary lists), so cached predictions are bit-identical to fresh ones.
 
 ``check`` (:func:`check_renderer_rows`): every reached row measured at its N with
-:func:`envfit.shading.renderer_rules.measure_rule` (one :class:`RendererSetup`, one seed:
+:func:`envfit.sampling.rules.measure_rule` (one :class:`RendererSetup`, one seed:
 the axes and their ground truths are shared by all rows), its bootstrap 95 % interval,
 measured/target and measured/predicted.
 
@@ -83,9 +83,9 @@ from envfit.advisor.cache import AdviseCache
 from envfit.base.errors import ParameterError
 from envfit.base.progress import progress_bar
 from envfit.maps.envmap import EnvMap
-from envfit.predict.renderer import RendererModel, predict_rule, renderer_model
-from envfit.shading.renderer_rules import STRATEGIES, RendererRule, RendererSetup, measure_rule
-from envfit.shading.warped_spectrum import SPECTRUM_FORMAT, WarpedSpectrum
+from envfit.predict.renderer.predictor import RendererModel, predict_rule, renderer_model
+from envfit.sampling.rules import STRATEGIES, RendererRule, RendererSetup, measure_rule
+from envfit.predict.renderer.warped_spectrum import SPECTRUM_FORMAT, WarpedSpectrum
 
 __all__ = ["RENDERER_GRID", "RENDERER_SPECTRUM_AXES", "DEFAULT_STRATEGIES",
            "DEFAULT_RENDERER_POINTSETS", "STRATEGY_NAMES", "RendererRow", "RendererAdvice",
@@ -173,7 +173,7 @@ def spectrum_cache_key(map_key: dict, brdf: str, shininess: float | None, grid: 
                        technique: str, on_rest: bool, source_pixels: int) -> dict:
     """The cache key of one spectrum: the map's key (fingerprint, shape, up, scale), the lobe,
     the grid and axes, the technique, whether on the rest map, the sources' pixel count, and
-    the spectrum algorithm's version (:data:`envfit.shading.warped_spectrum.SPECTRUM_FORMAT`)."""
+    the spectrum algorithm's version (:data:`envfit.predict.renderer.warped_spectrum.SPECTRUM_FORMAT`)."""
     return {**map_key, "spectrum_format": SPECTRUM_FORMAT, "brdf": brdf, "shininess": None if brdf == "diffuse" else shininess,
             "grid": int(grid), "axes": int(axes), "technique": technique,
             "on_rest": bool(on_rest), "source_pixels": int(source_pixels)}
@@ -246,7 +246,7 @@ class RendererRow:
     ``extra_cost`` is the source pixels the split's exact integral visits per shading point
     (0 for the other strategies); ``cost`` = N + ``extra_cost`` (None when not reached).
     ``predicted_rmse`` is the prediction at N (at ``searched_max`` when not reached),
-    ``predictor`` its name (:data:`envfit.predict.renderer.RENDERER_PREDICTORS`), ``curve``
+    ``predictor`` its name (:data:`envfit.predict.renderer.predictor.RENDERER_PREDICTORS`), ``curve``
     ``{"n": [...], "predicted": [...]}`` the predictions at every evaluated grid N.
     ``measured_*`` are filled by the check (:func:`check_renderer_rows`).
     """

@@ -11,9 +11,9 @@ longitude ``atan2(x, z)``) and the continuous pixel ``(col, row)`` at which C lo
 direction up in the file (C's own formula; integers are pixel centres; sizes W×H).
 
 Bright sources (the sun, lamps: connected regions above a robust threshold holding at least
-5 % of the map's luminous power, :func:`envfit.shading.sources.find_bright_sources`) are
+5 % of the map's luminous power, :func:`envfit.sampling.sources.find_bright_sources`) are
 listed with their direction, angles and pixel in the layout, equivalent solid angle and share
-of the power (:func:`envfit.shading.map_preview.list_sources`).
+of the power (:func:`envfit.maps.preview.list_sources`).
 
 With ``--out DIR``: ``DIR/<map>_preview.png``, the map tone-mapped (display scale) in the
 file's layout with its axes in the layout's angles and the sources marked
@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from envfit.maps.envmap import EnvMap
-from envfit.shading.map_preview import describe_envmap, list_sources
+from envfit.maps.preview import describe_envmap, list_sources
 from .common import (add_common_arguments, add_map_arguments, emit_json, guarded_write,
                      load_map_from_args, map_convention, out_dir, say)
 
@@ -76,7 +76,7 @@ def write_preview(args: argparse.Namespace, env: EnvMap, conv, out: Path, stem: 
     """``out/<stem>_preview.png`` of ``env`` in ``conv``'s layout (None: envfit's grid), the
     sources marked; a failed write is recorded (:func:`guarded_write`) and gives None."""
     from envfit.plots.preview import plot_map_preview
-    from envfit.shading.map_preview import map_preview
+    from envfit.maps.preview import map_preview
     path = out / f"{stem}_preview.png"
     png = guarded_write(args, path, plot_map_preview, map_preview(env, conv, sources=sources), path)
     if png is not None:

@@ -1,15 +1,15 @@
 """``envfit sh MAP --lmax L``: real SH coefficients of a map for engines, with the predicted
 truncation error, the ringing table (windows x degrees: predicted error and the share of
 directions where the truncated signal goes negative) and the degree/window to use for a
-target (:mod:`envfit.predict.sh_report`).
+target (:mod:`envfit.export.report`).
 
 Without ``--out`` the ``--format`` document (json, csv or glsl) goes to stdout and the
 summary to stderr; with ``--out DIR`` the folder gets ``sh.png`` (look here first),
 ``sh.json``, ``sh.csv``, ``sh.glsl`` and ``ringing.csv`` and the summary goes to stdout.
 
-Every option is checked before the work (:func:`envfit.predict.sh_report.plan`): ``--lmax``
+Every option is checked before the work (:func:`envfit.export.report.plan`): ``--lmax``
 and ``--table-lmax`` within the map's band limit H − 1, and the planned time and memory
-(:mod:`envfit.predict.sh_plan`) within the machine's memory budget and ``ENVFIT_TIME_LIMIT``
+(:mod:`envfit.export.plan`) within the machine's memory budget and ``ENVFIT_TIME_LIMIT``
 (seconds, default 900); a value beyond is refused in one line naming the largest that fits.
 A run estimated over 10 s is announced on stderr with its largest stage.
 
@@ -29,9 +29,9 @@ from .common import (add_common_arguments, add_map_arguments, emit_json, guarded
 
 
 def register(sub) -> None:
-    from envfit.predict.sh_report import FORMATS
-    from envfit.predict.sh_ringing import CHECK_AXES, DENSE_HEIGHT, TABLE_LMAX
-    from envfit.shading.sh_export import WINDOWS
+    from envfit.export.report import FORMATS
+    from envfit.export.ringing import CHECK_AXES, DENSE_HEIGHT, TABLE_LMAX
+    from envfit.export.sh_export import WINDOWS
     p = sub.add_parser(
         "sh", help="real SH coefficients for engines (irradiance, windows, ringing predictor)",
         description="Real spherical-harmonic coefficients of the map to degree L in the "
@@ -94,7 +94,7 @@ def _plan_note(args: argparse.Namespace, stages) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from envfit.predict.sh_report import document, plan, sh_outputs, sh_report
+    from envfit.export.report import document, plan, sh_outputs, sh_report
     env = load_map_from_args(args)
     conv = map_convention(args)
     opts = dict(irradiance=args.irradiance, window=args.window,

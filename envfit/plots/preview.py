@@ -3,7 +3,7 @@ lat-long image in the file's layout, its axes in the layout's angles, the bright
 marked and listed.
 
 :func:`plot_map_preview` takes a preview object with the attributes of
-:class:`envfit.shading.map_preview.MapPreview` (plain data: the image, the affine maps
+:class:`envfit.maps.preview.MapPreview` (plain data: the image, the affine maps
 θ(row) and φ(col) in degrees, the sources with their ``position`` ``{col, row}``,
 ``radius_deg``, ``label()``) — plots import nothing above :mod:`envfit.base`. Pixel
 ``(row, col)`` is drawn centred at ``(col, row)`` (``extent`` = the pixel edges), so a

@@ -1,18 +1,18 @@
 r"""``envfit validate --renderer``: the renderer estimators' predicted RMSE against the measured one.
 
 For every lobe (diffuse; glossy with the run's shininess), strategy of
-:data:`envfit.shading.renderer_rules.STRATEGIES` (``brdf``, ``map``, ``mis``, ``split``),
+:data:`envfit.sampling.rules.STRATEGIES` (``brdf``, ``map``, ``mis``, ``split``),
 point set (default random, sobol, sf) and N (default 16, 64, 256, 1024) — one *cell* —:
 
-* **predicted** — :func:`envfit.predict.renderer.predict_rule` on the warped-integrand spectra
-  of the map (:func:`envfit.predict.renderer.renderer_model`, one model per lobe, built only
+* **predicted** — :func:`envfit.predict.renderer.predictor.predict_rule` on the warped-integrand spectra
+  of the map (:func:`envfit.predict.renderer.predictor.renderer_model`, one model per lobe, built only
   for the strategies of the cells still to compute), with its predictor's name
   (``warped-spectrum`` or ``random-variance``);
-* **measured** — :func:`envfit.shading.renderer_rules.measure_rule`: the RMSE over uniform
+* **measured** — :func:`envfit.sampling.rules.measure_rule`: the RMSE over uniform
   random axes with its BCa bootstrap 95 % interval, doubling the axes from ``axes_start`` until
   the interval is within ±``target_relative`` (or ``max_axes`` are measured); one seed for
   every rule, so the axes and their ground truths are shared;
-* **agreement** — :func:`envfit.shading.measurement.agreement_with_interval`: the ratio
+* **agreement** — :func:`envfit.measure.adaptive_rmse.agreement_with_interval`: the ratio
   predicted/measured, ``within_band`` (\|ratio − 1\| ≤ 20 %), ``inside_interval`` and
   ``agrees`` (either of the two).
 
@@ -62,10 +62,10 @@ from envfit.base.progress import progress_bar
 from envfit.base.resources import machine_cores
 from envfit.base.store import ResultStore, array_fingerprint
 from envfit.maps.envmap import EnvMap
-from envfit.predict.renderer import predict_rule, renderer_model
-from envfit.shading.measurement import agreement_with_interval
-from envfit.shading.renderer_rules import (AXIS_SAMPLING, STRATEGIES, RendererRule,
-                                           RendererSetup, measure_rule)
+from envfit.predict.renderer.predictor import predict_rule, renderer_model
+from envfit.measure.adaptive_rmse import agreement_with_interval
+from envfit.sampling.rules import (AXIS_SAMPLING, STRATEGIES, RendererRule, RendererSetup,
+                                   measure_rule)
 from envfit.theory.pointsets import POINTSETS
 
 from .config import BRDFS
@@ -92,7 +92,7 @@ class RendererValidationConfig:
 
     Attributes
     ----------
-    strategies : of :data:`envfit.shading.renderer_rules.STRATEGIES`.
+    strategies : of :data:`envfit.sampling.rules.STRATEGIES`.
     pointsets : of :data:`envfit.theory.pointsets.POINTSETS` (default random, sobol, sf).
     lobes, shininess : "diffuse" and/or "glossy" (n = ``shininess``).
     n_values : the sample counts N ≥ 2.
@@ -194,7 +194,7 @@ class RendererCell:
     ``measured_low``/``measured_high`` the 95 % interval, ``axes`` how many were measured,
     ``target_met`` whether the interval reached ±``target_relative``; ``ratio`` =
     predicted/measured (None if undefined); ``within_band``, ``inside_interval``, ``agrees``
-    (either) as :class:`envfit.shading.measurement.Agreement`; ``settings``
+    (either) as :class:`envfit.measure.adaptive_rmse.Agreement`; ``settings``
     (:meth:`RendererValidationConfig.cell_settings`); seconds of the prediction and the
     measurement; ``resumed`` whether it was read from the store; ``axis_sampling`` how its
     axes were drawn ("importance" or "uniform"; records older than the field: "uniform").

@@ -19,7 +19,7 @@ jitter, Sobol, LP, BNOT, the square lattice of spherical Fibonacci, see
 :func:`envfit.theory.pointsets.square_points` — to directions with a known pdf per solid
 angle, so quasi-Monte Carlo and importance sampling combine):
 
-* **map** — :class:`envfit.shading.map_sampler.MapSampler`: pdf ∝ luminance × pixel solid
+* **map** — :class:`envfit.sampling.map_sampler.MapSampler`: pdf ∝ luminance × pixel solid
   angle, piecewise constant, sampled by inverse CDF (pbrt-v4's image infinite light, Mitsuba
   3's ``envmap`` emitter).
 * **brdf** — the lobe's own sampler, the morph of :mod:`envfit.theory.pointsets`
@@ -72,7 +72,7 @@ from envfit.base.resources import check_memory
 from envfit.maps.envmap import EnvMap
 from envfit.shading.estimators import LOOKUP_BLOCK, twisted_frames
 from envfit.shading.ground_truth import weight_function
-from envfit.shading.map_sampler import MapSampler, _square
+from envfit.sampling.map_sampler import MapSampler, _square
 from envfit.theory.brdf import WeightFunction
 from envfit.theory.pointsets import lambert_to_hemisphere
 
@@ -402,7 +402,7 @@ def mis_estimates(envmap: EnvMap, axes, u, sampler: MapSampler | None = None,
                   shift: bool | str = True) -> np.ndarray:
     r"""Multiple importance sampling of the map and lobe techniques (Veach 1997, ch. 9), (M, C).
 
-    With :math:`p_1` the map pdf (:class:`~envfit.shading.map_sampler.MapSampler`),
+    With :math:`p_1` the map pdf (:class:`~envfit.sampling.map_sampler.MapSampler`),
     :math:`p_2 = q_a` the lobe pdf (:func:`brdf_pdf`), :math:`g = f\rho_a` the integrand and
     :math:`\nu_k` the shares,
 

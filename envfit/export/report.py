@@ -8,8 +8,8 @@ The map is first put on its value scale (``linear``: radiance as is; ``display``
 display-referred values of :mod:`envfit.maps.scales`); then the exact local coefficients
 of its bilinear interpolant are computed once to :math:`L_P = 2H-1`
 (:func:`envfit.shading.bilinear_sh.bilinear_sh_coefficients`), giving the export
-(:func:`envfit.shading.sh_export.sh_coefficients`), the power per degree of the predictions
-and the ringing table (:mod:`envfit.predict.sh_ringing`).
+(:func:`envfit.export.sh_export.sh_coefficients`), the power per degree of the predictions
+and the ringing table (:mod:`envfit.export.ringing`).
 
 Example
 -------
@@ -36,16 +36,15 @@ from envfit.base.progress import progress
 from envfit.base.errors import ParameterError
 from envfit.maps.envmap import EnvMap
 from envfit.maps.scales import SCALES, fit_scale
-from envfit.predict.sh_plan import check_sh_plan
-from envfit.predict.sh_ringing import (CHECK_AXES, DENSE_HEIGHT, TABLE_LMAX, RingingRow,
-                                       check_lmax, choose, dense_negative_fractions,
-                                       measured_rmse, negative_fraction, ringing_rows,
-                                       signal_mean, truncation_rmse)
+from envfit.export.plan import check_sh_plan
+from envfit.export.ringing import (CHECK_AXES, DENSE_HEIGHT, TABLE_LMAX, RingingRow, check_lmax,
+                                   choose, dense_negative_fractions, measured_rmse,
+                                   negative_fraction, ringing_rows, signal_mean, truncation_rmse)
 from envfit.shading.bilinear_sh import bilinear_sh_coefficients
-from envfit.shading.sh_export import (NORMALISATION, ORDERING, RH_CONSTANTS, WINDOWS,
-                                      SHCoefficients, clamped_cosine_sh, pixel_synthesis,
-                                      sh_coefficients, shading_factors, truncate_alm)
-from envfit.shading.sh_format import signed_coefficients, to_csv, to_glsl
+from envfit.export.sh_export import (NORMALISATION, ORDERING, RH_CONSTANTS, WINDOWS,
+                                     SHCoefficients, clamped_cosine_sh, pixel_synthesis,
+                                     sh_coefficients, shading_factors, truncate_alm)
+from envfit.export.sh_format import signed_coefficients, to_csv, to_glsl
 from envfit.shading.spectra import _power_by_degree   # the alm are computed here once
 
 __all__ = ["FORMATS", "SHReport", "sh_report", "plan", "default_table_lmax", "document",
@@ -157,7 +156,7 @@ def plan(envmap: EnvMap, lmax, *, irradiance: bool = False, window: str = "none"
          dense_height: int = DENSE_HEIGHT) -> list:
     """Every option checked before any work (ParameterError / MemoryBudgetError, one line):
     names and ranges, then the planned time and memory
-    (:func:`envfit.predict.sh_plan.check_sh_plan`); returns its stages."""
+    (:func:`envfit.export.plan.check_sh_plan`); returns its stages."""
     if not isinstance(envmap, EnvMap):
         raise ParameterError("sh_report needs an EnvMap")
     check_lmax(lmax, envmap.height)
@@ -202,7 +201,7 @@ def sh_report(envmap: EnvMap, lmax: int, *, irradiance: bool = False, window: st
     envmap : the map (its ``up`` / convention fixes the world axes of the coefficients).
     lmax : the cut-off L, 0 ≤ L ≤ H − 1.
     irradiance : export :math:`\\hat A_l L_{lm}` (R&H 2001) instead of :math:`L_{lm}`.
-    window : one of :data:`envfit.shading.sh_export.WINDOWS` for the export.
+    window : one of :data:`envfit.export.sh_export.WINDOWS` for the export.
     target_relative : the relative RMSE the choice must meet.
     scale : "linear" or "display" (the values the coefficients are of).
     table_lmax : the ringing table covers L = 1…table_lmax and ``lmax``, 1 ≤ table_lmax ≤
@@ -313,7 +312,7 @@ def _display(values: np.ndarray) -> np.ndarray:
 def preview_images(r: SHReport) -> dict:
     """The map and the exported signal at the map's pixels (display RGB) and where the signal
     is negative (any channel): the signal by ``ducc0.sht.synthesis_2d`` on the map's own
-    equiangular grid (:func:`envfit.shading.sh_export.pixel_synthesis`)."""
+    equiangular grid (:func:`envfit.export.sh_export.pixel_synthesis`)."""
     m, e = r.scaled, r.export
     f = np.asarray(e.window_weights) * shading_factors(e.lmax, e.irradiance)
     vals = pixel_synthesis(m, bilinear_sh_coefficients(m, e.lmax), f, e.lmax)

@@ -295,7 +295,7 @@ def adaptive_rmse(measure: Callable, *, axes_start: int = 500, max_axes: int = 6
         axes; the bootstrap of every round uses a generator from the same seed).
     proposal : None (uniform axes) or an importance density over axes with
         ``draw(rng, K) -> (axes (K, 3), weights (K,))``, the weights :math:`u/q` of the
-        uniform density over it (:class:`envfit.shading.axis_proposal.AxisProposal`); the
+        uniform density over it (:class:`envfit.measure.axis_proposal.AxisProposal`); the
         bootstrap unit is then :math:`w_m d_m`, whose mean is unbiased for the uniform mean
         (importance sampling), and far less skewed when q follows d.
 

@@ -1,7 +1,7 @@
-r"""Prediction of the renderer rules' RMSE (:mod:`envfit.shading.renderer_rules`) from the map.
+r"""Prediction of the renderer rules' RMSE (:mod:`envfit.sampling.rules`) from the map.
 
 One predictor, exact for every strategy and point set: the *warped integrand's spectrum*
-(:mod:`envfit.shading.warped_spectrum`). A rule's estimator is a Cranley–Patterson-shifted,
+(:mod:`envfit.predict.renderer.warped_spectrum`). A rule's estimator is a Cranley–Patterson-shifted,
 twisted mean of its technique's warped integrand :math:`h_i` over its square points, so
 
 .. math:: \mathrm{MSE} = \sum_{k\ne0}\Big|\sum_i\hat h_i(k)S_i(k)\Big|^2
@@ -16,7 +16,7 @@ Example
 -------
 >>> import numpy as np
 >>> from envfit.maps.envmap import EnvMap
->>> from envfit.shading.renderer_rules import RendererRule, RendererSetup
+>>> from envfit.sampling.rules import RendererRule, RendererSetup
 >>> setup = RendererSetup.of(EnvMap(np.full((8, 16, 1), 2.0)), sources=[])
 >>> model = renderer_model(setup, "diffuse", strategies=["brdf"], grid=16, axes=4)
 >>> p = predict_rule(model, RendererRule("brdf", "sobol", 16))
@@ -29,11 +29,11 @@ import math
 from dataclasses import dataclass
 
 from envfit.base.errors import ParameterError
-from envfit.shading.renderer_rules import STRATEGIES, RendererRule, RendererSetup, rule_points
-from envfit.shading.warped_spectrum import (WarpedSpectrum, random_mse, shifted_mse_terms,
-                                            warped_spectrum)
+from envfit.sampling.rules import STRATEGIES, RendererRule, RendererSetup, rule_points
+from envfit.predict.renderer.warped_spectrum import (WarpedSpectrum, random_mse, shifted_mse_terms,
+                                                     warped_spectrum)
 
-from .context import Prediction
+from envfit.predict.context import Prediction
 
 __all__ = ["RendererModel", "renderer_model", "predict_rule", "RENDERER_PREDICTORS"]
 

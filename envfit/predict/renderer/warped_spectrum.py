@@ -2,12 +2,12 @@ r"""The exact error of a Cranley–Patterson-shifted estimator from the spectrum
 integrand*: the prediction of envfit for every renderer estimator (map importance sampling,
 BRDF sampling, MIS) driven by *any* point set, random or quasi-random.
 
-Every estimator of :mod:`envfit.shading.importance` is a mean over square points,
+Every estimator of :mod:`envfit.sampling.importance` is a mean over square points,
 :math:`F = \sum_i \frac{1}{n_i}\sum_{j} h_i(u_{ij} + \Delta)`, where technique i (one for map
 or BRDF sampling, two for multi-sample MIS) has its *warped integrand*
 :math:`h_i(u) = w_i(\omega)\,f(\omega)\rho_a(\omega)/p_i(\omega)` at :math:`\omega = T_i(u)`
 (its sampler :math:`T_i`, pdf :math:`p_i`, MIS weight :math:`w_i`; 1 without MIS) and Δ the
-shift, uniform on the torus, shared by all points of an axis (:mod:`envfit.shading.importance`,
+shift, uniform on the torus, shared by all points of an axis (:mod:`envfit.sampling.importance`,
 ``shift=True``). With :math:`h_i(u) = \sum_k \hat h_i(k)e^{2\pi i k\cdot u}` and the point set's
 exponential sums :math:`S_i(k) = \frac1{n_i}\sum_j e^{2\pi i k\cdot u_{ij}}`,
 
@@ -21,7 +21,7 @@ estimators draw it) shifts the lobe technique's :math:`u_1` by α/2π, so the cr
 techniques survive only on the column :math:`k_1 = 0`. For i.i.d. uniform points
 :math:`\mathbb E|S_i(k)|^2 = 1/n_i` and the formula is the Monte Carlo variance
 :math:`\sum_i V_i/n_i`, :math:`V_i = \mathrm{Var}\,h_i` — the exact variance of
-:mod:`envfit.shading.is_variance`, which this module reproduces by a second algorithm.
+:mod:`oracles.is_variance`, which this module reproduces by a second algorithm.
 
 Computation (:func:`warped_spectrum`, once per map, lobe and technique; :func:`shifted_rmse`
 then costs one non-uniform FFT per point set):
@@ -42,7 +42,7 @@ then costs one non-uniform FFT per point set):
   (where the square's edges and the sampler's row boundaries put it, and where QMC sets'
   stratified projections have tiny sums) continued as a power law with the set's own sums,
   the rest at the Monte Carlo weight :math:`1/n_i` (the mean of :math:`|S_i|^2` over high
-  frequencies for every set; :mod:`envfit.shading.spectral_tail`): so the prediction is
+  frequencies for every set; :mod:`envfit.predict.renderer.spectral_tail`): so the prediction is
   exact for random points and for QMC sets up to :math:`N \approx (B/2)^2`, and beyond it
   tends to the Monte Carlo rate (conservative);
 * the mean over axes (uniform on the sphere) by importance: ``axes`` axes drawn systematically
@@ -86,9 +86,9 @@ from envfit.maps import latlong
 from envfit.maps.envmap import EnvMap
 from envfit.shading.estimators import twisted_frames
 from envfit.shading.ground_truth import weight_function
-from envfit.shading.importance import HEURISTICS, brdf_pdf
-from envfit.shading.map_sampler import MapSampler, _bilinear_cell_average, _square
-from envfit.shading.spectral_tail import strip_fits, strip_tail
+from envfit.sampling.importance import HEURISTICS, brdf_pdf
+from envfit.sampling.map_sampler import MapSampler, _bilinear_cell_average, _square
+from envfit.predict.renderer.spectral_tail import strip_fits, strip_tail
 from envfit.theory.pointsets import lambert_to_hemisphere
 from envfit.theory.sphere_points import spherical_fibonacci_sphere
 
@@ -188,7 +188,7 @@ class WarpedSpectrum:
     @cached_property
     def strip_fits(self) -> list:
         """Per part, the power laws of the strips above the box
-        (:func:`envfit.shading.spectral_tail.strip_fits`), fitted once per spectrum."""
+        (:func:`envfit.predict.renderer.spectral_tail.strip_fits`), fitted once per spectrum."""
         return [strip_fits(p) for p in self.power]
 
     def to_dict(self) -> dict:
@@ -239,7 +239,7 @@ def cell_square_average(data: np.ndarray) -> np.ndarray:
 
 def _cell_average(data: np.ndarray) -> np.ndarray:
     """Mean of the bilinear interpolant over each pixel cell, (H, W, C): the sampler's own
-    :func:`envfit.shading.map_sampler._bilinear_cell_average`, per channel."""
+    :func:`envfit.sampling.map_sampler._bilinear_cell_average`, per channel."""
     d = np.asarray(data, dtype=np.float64)
     return np.stack([_bilinear_cell_average(d[..., c]) for c in range(d.shape[-1])], axis=-1)
 
@@ -677,7 +677,7 @@ def warped_spectrum(envmap: EnvMap, technique: str = "mis", brdf="diffuse",
         estimator uses.
     grid : G, a multiple of 4; the box is B = G/4 (QMC predictions exact to N ≈ (B/2)²).
     axes : axes of the importance sample over the sphere (:func:`proposal_axes`).
-    heuristic, fraction : MIS heuristic (:data:`envfit.shading.importance.HEURISTICS`) and
+    heuristic, fraction : MIS heuristic (:data:`envfit.sampling.importance.HEURISTICS`) and
         the map's share ν₁ of the samples.
 
     Work: per axis (2G)² lookups and a real FFT of (2G)² per channel for the lobe part (BRDF,
@@ -727,7 +727,7 @@ def _exp_sums(u: np.ndarray, band: int) -> np.ndarray:
 
 def _split_points(spec: WarpedSpectrum, u) -> list[np.ndarray]:
     """The point sets of the parts: one set; for MIS the first round(ν₁N) points and the rest,
-    or a given pair (u_map, u_brdf) (as :func:`envfit.shading.importance.mis_estimates`)."""
+    or a given pair (u_map, u_brdf) (as :func:`envfit.sampling.importance.mis_estimates`)."""
     if TECHNIQUES[spec.technique] == 1:
         return [_square(u)]
     if isinstance(u, (tuple, list)) and len(u) == 2 and np.ndim(u[0]) == 2:
@@ -746,7 +746,7 @@ def shifted_mse_terms(spec: WarpedSpectrum, u) -> dict:
     points u: ``box`` :math:`\sum_i\sum_{box}|\hat h_i|^2|S_i|^2` (+ the MIS cross term),
     ``tail`` the power above the box, :math:`\max(V_i - \sum_{box}|\hat h_i|^2, 0)`, with
     the strips along the axes continued with the set's sums and the rest at 1/n_i
-    (:func:`envfit.shading.spectral_tail.strip_tail`), ``random``
+    (:func:`envfit.predict.renderer.spectral_tail.strip_tail`), ``random``
     :math:`\sum_i V_i/n_i` (what i.i.d. points would give)."""
     pts = _split_points(spec, u)
     box = tail = rnd = 0.0

@@ -21,8 +21,8 @@ and so do the shading integrals (Eq. 17):
 
 :math:`I_s` is computed with the pixel-exact ground truth
 (:func:`envfit.shading.ground_truth.shading_integral`, ``method="pixels"``, ~1e-9) and
-:math:`\hat I_r` with an estimator of :mod:`envfit.shading.importance` on the rest map (its
-own :class:`~envfit.shading.map_sampler.MapSampler`). Nothing is approximated: the estimate
+:math:`\hat I_r` with an estimator of :mod:`envfit.sampling.importance` on the rest map (its
+own :class:`~envfit.sampling.map_sampler.MapSampler`). Nothing is approximated: the estimate
 is unbiased whenever the rest estimator is, and its error is the rest estimator's error
 only — the variance of the source is gone.
 
@@ -70,8 +70,8 @@ from envfit.base.errors import ParameterError
 from envfit.maps import latlong
 from envfit.maps.envmap import REC709_WEIGHTS, EnvMap
 from envfit.shading.ground_truth import shading_integral
-from envfit.shading.importance import ESTIMATORS
-from envfit.shading.map_sampler import MapSampler
+from envfit.sampling.importance import ESTIMATORS
+from envfit.sampling.map_sampler import MapSampler
 
 __all__ = ["BrightSource", "SplitResult", "find_bright_sources", "split_map",
            "source_integrals", "split_estimates", "DETECTORS", "DEFAULT_SHARE",
@@ -412,7 +412,7 @@ def split_estimates(envmap: EnvMap, axes, u, sources=None, rest_method: str = "m
     sources : :class:`BrightSource` list (from :func:`find_bright_sources` of this map);
         None detects them with the defaults; ``[]`` splits nothing.
     rest_method : "mis" (default), "map" or "brdf" — the estimator of
-        :data:`envfit.shading.importance.ESTIMATORS` applied to the rest map.
+        :data:`envfit.sampling.importance.ESTIMATORS` applied to the rest map.
     brdf, shininess : the lobe.
     sampler : a :class:`MapSampler` *of the rest map* (built when None; reuse it across calls).
     seed, shift, kwargs : passed to the rest estimator (with a seed and shift it is unbiased

@@ -1,6 +1,6 @@
 r"""Quadrature over the sphere of lobe-weighted map integrands: :math:`J_k(a) = \int_{S^2}
 g_k(\omega; a)\,d\omega` per axis (:func:`sphere_integrals`), the engine of the exact
-importance-sampling variances of :mod:`envfit.shading.is_variance`.
+importance-sampling variances of :mod:`oracles.is_variance`.
 
 Each :math:`g_k` carries a factor :math:`f = L\rho_a` (L the map's bilinear interpolant,
 ``envmap.lookup``; :math:`\rho_a` the normalised zonal lobe,
@@ -8,7 +8,7 @@ Each :math:`g_k` carries a factor :math:`f = L\rho_a` (L the map's bilinear inte
 
 Quadrature (:func:`sphere_integrals`)
 -------------------------------------
-Every integrand of :mod:`envfit.shading.is_variance` is smooth on each *cell* of the grid that
+Every integrand of :mod:`oracles.is_variance` is smooth on each *cell* of the grid that
 splits every pixel into 2×2 (``refine`` = 1; :math:`(2r)^2` for ``refine`` = r) equal-angle
 quarters: inside a cell L is bilinear in (θ, φ) (the cell lies in one bilinear patch,
 :mod:`envfit.shading.patches`) and a pixel-constant pdf is constant. On each cell a q×q
@@ -24,7 +24,7 @@ the horizon crosses the cell's rings, θ clipped at the horizon per φ node, as 
 horizon (glossy n ≳ 30). The MIS weights make the integrands sharper than the lobe (the power
 heuristic switches from one technique to the other over a ring of width ~1/(nγ) about the axis;
 near the horizon of a diffuse lobe where ρ_a ≈ p_map), so
-:func:`~envfit.shading.is_variance.mis_variance` uses 2q (balance) or 3q (power) nodes per
+:func:`~oracles.is_variance.mis_variance` uses 2q (balance) or 3q (power) nodes per
 direction, and a pdf given as an arbitrary callable 2q. Measured accuracy
 (tests/test_is_variance.py, a 32×16 map with a sun, diffuse and glossy n = 5…1000, six axes,
 against ``refine=2`` with 2q + 4 nodes): relative differences of every second moment ≤ 2e-11

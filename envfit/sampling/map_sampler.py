@@ -8,7 +8,7 @@ Jakob, Humphreys, *Physically Based Rendering*, 4th ed., §12.5 "Image Infinite 
 (``src/emitters/envmap.cpp``: luminance × sin θ warp), on envfit's lat-long geometry (exact
 pixel solid angles). The luminance is smoothed as the bilinear interpolant sees it and
 floored at :data:`DEFAULT_FLOOR` of its mean (a defensive mixture). The estimators that use
-it are in :mod:`envfit.shading.importance`.
+it are in :mod:`envfit.sampling.importance`.
 
 Example
 -------
@@ -26,7 +26,7 @@ import numpy as np
 from envfit.base.errors import ParameterError
 from envfit.maps import latlong
 from envfit.maps.envmap import EnvMap
-from envfit.shading._sample_kernel import pixel_indices, warp_points
+from envfit.sampling._sample_kernel import pixel_indices, warp_points
 
 __all__ = ["MapSampler", "DEFAULT_FLOOR"]
 

@@ -5,7 +5,7 @@ A *rule* is what a renderer engineer chooses: a strategy of :data:`STRATEGIES`
 * ``brdf`` — BRDF (lobe) sampling;
 * ``map`` — environment-map importance sampling (pdf ∝ luminance × solid angle);
 * ``mis`` — multi-sample MIS of the two, balance heuristic, N/2 samples each;
-* ``split`` — the bright sources (:func:`envfit.shading.sources.find_bright_sources`)
+* ``split`` — the bright sources (:func:`envfit.sampling.sources.find_bright_sources`)
   integrated exactly and the rest of the map by ``mis``;
 
 a point set of :func:`envfit.theory.pointsets.square_points` (random, jitter, sobol, lp, bnot,
@@ -19,9 +19,9 @@ every point shifted independently (``shift="points"``): i.i.d. uniform points, a
 for every estimate, so its measured RMSE is the mean over random sets.
 
 :func:`measure_rule` measures a rule's RMSE over uniform axes — on axes importance-sampled
-from the map's :class:`envfit.shading.axis_proposal.AxisProposal` and weighted, by default —
+from the map's :class:`envfit.measure.axis_proposal.AxisProposal` and weighted, by default —
 with a bootstrap 95 % interval and as many axes as the interval needs to be within ±10 %
-(:func:`envfit.shading.measurement.adaptive_rmse`); the ground truth of each axis is computed
+(:func:`envfit.measure.adaptive_rmse.adaptive_rmse`); the ground truth of each axis is computed
 once per :class:`RendererSetup` and brdf and reused by every rule that draws it.
 
 Example
@@ -46,18 +46,18 @@ import numpy as np
 from envfit.base.checks import check_int
 from envfit.base.errors import ParameterError
 from envfit.maps.envmap import EnvMap
-from envfit.shading.axis_proposal import AxisProposal
+from envfit.measure.axis_proposal import AxisProposal
 from envfit.shading.ground_truth import shading_integral, weight_function
-from envfit.shading.importance import ESTIMATORS
-from envfit.shading.map_sampler import MapSampler
-from envfit.shading.measurement import AdaptiveRMSE, adaptive_rmse
-from envfit.shading.sources import BrightSource, find_bright_sources, split_map
+from envfit.sampling.importance import ESTIMATORS
+from envfit.sampling.map_sampler import MapSampler
+from envfit.measure.adaptive_rmse import AdaptiveRMSE, adaptive_rmse
+from envfit.sampling.sources import BrightSource, find_bright_sources, split_map
 from envfit.theory.pointsets import POINTSETS, square_points
 
 __all__ = ["STRATEGIES", "RendererRule", "RendererSetup", "rule_points", "rule_estimates",
            "measure_rule", "replicates", "SAMPLES_PER_AXIS", "AXIS_SAMPLING"]
 
-#: strategy → (technique of envfit.shading.importance, on the rest map after the split?)
+#: strategy → (technique of envfit.sampling.importance, on the rest map after the split?)
 STRATEGIES: dict[str, tuple[str, bool]] = {
     "brdf": ("brdf", False),
     "map": ("map", False),
@@ -142,7 +142,7 @@ class RendererSetup:
         return cls(envmap, MapSampler(envmap), srcs, smap, rmap, MapSampler(rmap))
 
     def proposal(self, brdf: str, shininess: float, *, part: str = "whole") -> AxisProposal:
-        """The axis proposal (:class:`envfit.shading.axis_proposal.AxisProposal`) of the whole
+        """The axis proposal (:class:`envfit.measure.axis_proposal.AxisProposal`) of the whole
         map, or (``part="rest"``) of the rest map, for the lobe; built once."""
         key = (part, brdf, float(shininess))
         if key not in self._proposals:
@@ -167,7 +167,7 @@ def rule_estimates(setup: RendererSetup, rule: RendererRule, axes, brdf="diffuse
                    shininess: float = 30.0, *, seed: int = 0, point_seed: int = 0,
                    shift: bool | str = True) -> np.ndarray:
     """The rule's estimates (M, C) at the axes, twisted and shifted with ``seed`` (``shift``
-    as :mod:`envfit.shading.importance`: ``"points"`` makes any set i.i.d. uniform); the
+    as :mod:`envfit.sampling.importance`: ``"points"`` makes any set i.i.d. uniform); the
     source part of ``split`` is computed once per distinct axis."""
     A = np.asarray(axes, dtype=np.float64)
     pts = rule_points(rule, point_seed)
@@ -192,11 +192,11 @@ def measure_rule(setup: RendererSetup, rule: RendererRule, brdf="diffuse",
                  axes_start: int = 500, max_axes: int = 16000,
                  resamples: int = 2000, sampling: str = "importance") -> AdaptiveRMSE:
     """The rule's RMSE over uniform random axes with its bootstrap 95 % interval, adaptive
-    (:func:`envfit.shading.measurement.adaptive_rmse`: doubling the axes from ``axes_start``
+    (:func:`envfit.measure.adaptive_rmse.adaptive_rmse`: doubling the axes from ``axes_start``
     until the interval is within ±``target_relative`` or ``max_axes`` are measured).
 
     ``sampling`` (:data:`AXIS_SAMPLING`): ``"importance"`` draws the axes from the map's
-    :class:`envfit.shading.axis_proposal.AxisProposal` for the lobe (the rest map's for
+    :class:`envfit.measure.axis_proposal.AxisProposal` for the lobe (the rest map's for
     ``split``) and weights each axis's squared error by u/q — unbiased for the mean over
     uniform axes, and on a map with a sun far less skewed than ``"uniform"`` axes, whose
     sample usually holds too few of the axes that catch the sun and so measures low.

@@ -41,7 +41,7 @@ Identities (exact; each is checked by simulation in tests/test_is_variance.py)
 
 Quadrature
 ----------
-Every integral is computed by :func:`envfit.shading.sphere_quadrature.sphere_integrals`
+Every integral is computed by :func:`oracles.sphere_quadrature.sphere_integrals`
 (Gauss–Legendre per quarter-pixel cell, horizon clipped exactly; ~1e-12 relative, see that
 module). A :class:`MapPdf` of the map's size is looked up per pixel and a :class:`LobePdf`
 evaluated as ρ_a(z), without calls; :func:`mis_variance` uses 2q (balance) or 3q (power) nodes
@@ -76,10 +76,10 @@ from envfit.base.checks import as_unit_vectors
 from envfit.base.errors import ParameterError
 from envfit.maps.envmap import EnvMap
 from envfit.maps.latlong import local_to_world, pixel_solid_angles
-from envfit.shading.map_sampler import DEFAULT_FLOOR, MapSampler
+from envfit.sampling.map_sampler import DEFAULT_FLOOR, MapSampler
 from envfit.shading.estimators import RMSE
 from envfit.shading.ground_truth import weight_function
-from envfit.shading.sphere_quadrature import sphere_integrals
+from oracles.sphere_quadrature import sphere_integrals
 
 __all__ = ["MapPdf", "LobePdf", "mixture_pdf", "is_variance", "mis_variance",
            "predicted_rmse_random"]
@@ -91,7 +91,7 @@ class MapPdf:
     r"""Map importance-sampling pdf: piecewise constant per pixel, uniform in (cos θ, φ) inside.
 
     Pixel probabilities :math:`q_{ij}`: those of the sampler that draws the samples,
-    :class:`envfit.shading.map_sampler.MapSampler` (luminance × solid angle with its floor ε =
+    :class:`envfit.sampling.map_sampler.MapSampler` (luminance × solid angle with its floor ε =
     ``floor`` and its bilinear-cell smoothing, ``smooth``; one construction for the sampler
     and its variance), or given directly (``probabilities``, (H, W), normalised here). The density
     in solid angle is :math:`p(\omega) = q_{ij}/\Omega_{ij}` for ω in pixel (i, j)
@@ -257,7 +257,7 @@ def is_variance(envmap: EnvMap, axes, pdf, brdf="diffuse", shininess: float = 30
         module's sampler.
     brdf, shininess : the lobe (:func:`envfit.shading.ground_truth.weight_function`).
     order, refine : quadrature controls (:func:`sphere_integrals`; the defaults give
-        ~1e-12 relative, see :mod:`envfit.shading.sphere_quadrature`; a generic callable
+        ~1e-12 relative, see :mod:`oracles.sphere_quadrature`; a generic callable
         gets 2q nodes).
     moments : also return the mean I (M, C) and the second moment :math:`\int f^2/p` (M, C).
 

@@ -1,0 +1,1 @@
+"""Spherical-harmonic export for engines: coefficients, formats, ringing, reports."""

@@ -1,0 +1,1 @@
+"""Measurement statistics: adaptive RMSE over axes, bootstrap intervals, axis proposal."""

@@ -1,0 +1,1 @@
+"""The renderer error prediction: warped spectra, their tail, the predictor."""

@@ -1,0 +1,1 @@
+"""How a renderer draws: map samplers, BSDF sampling and MIS, sources, rules."""

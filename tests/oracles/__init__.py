@@ -1,0 +1,1 @@
+"""Second algorithms the tests compare against (not part of the product)."""
