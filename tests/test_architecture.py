@@ -7,13 +7,17 @@ higher one nor another sub-package of its own layer (one pipeline leaning on ano
     theory
     data_gen                      (synthetic maps: theory only)
     base                          (errors, checks, atomic writes, store, memory guard, progress)
-    maps, plots
-    kernels, shading
+    maps, plots                   (maps: also bright-source detection and the preview)
+    kernels, shading              (shading: ground truth, the paper's estimators, spectra)
+    sampling                      (how a renderer draws: map sampler, MIS, sources, rules)
+    measure                       (adaptive RMSE, axis proposal, renderer rules' measurement)
     fit
-    predict                       (named predictors: use fitted s and σ̂)
-    validate, advisor
+    predict                       (named predictors: use fitted s and σ̂; renderer/ sub-package)
+    export, validate, advisor     (export: SH coefficients, formats, ringing, sh report)
     batch
     cli
+
+A sub-package's own sub-packages (``predict/renderer``) count as the sub-package.
 
 ``envfit/__init__.py`` only re-exports names lazily and is not part of any layer.
 """
@@ -27,7 +31,8 @@ import pytest
 
 
 LAYERS = [("theory",), ("data_gen",), ("base",), ("maps", "plots"), ("kernels", "shading"),
-          ("fit",), ("predict",), ("validate", "advisor"), ("batch",), ("cli",)]
+          ("sampling",), ("measure",), ("fit",), ("predict",), ("export", "validate", "advisor"),
+          ("batch",), ("cli",)]
 RANK = {pkg: i for i, group in enumerate(LAYERS) for pkg in group}
 
 
