@@ -13,8 +13,8 @@ from envfit.maps import latlong
 from envfit.maps.envmap import EnvMap
 from envfit.shading.ground_truth import shading_integral
 from envfit.sampling.importance import brdf_sampling_estimates, mis_estimates
-from envfit.sampling.sources import (BrightSource, find_bright_sources, source_integrals,
-                                     sphere_dilate, sphere_label, split_estimates, split_map)
+from envfit.maps.sources import BrightSource, find_bright_sources, sphere_dilate, sphere_label
+from envfit.sampling.sources import source_integrals, split_estimates, split_map
 
 H = 32
 PIXEL = np.pi / H

@@ -5,7 +5,7 @@ A *rule* is what a renderer engineer chooses: a strategy of :data:`STRATEGIES`
 * ``brdf`` — BRDF (lobe) sampling;
 * ``map`` — environment-map importance sampling (pdf ∝ luminance × solid angle);
 * ``mis`` — multi-sample MIS of the two, balance heuristic, N/2 samples each;
-* ``split`` — the bright sources (:func:`envfit.sampling.sources.find_bright_sources`)
+* ``split`` — the bright sources (:func:`envfit.maps.sources.find_bright_sources`)
   integrated exactly and the rest of the map by ``mis``;
 
 a point set of :func:`envfit.theory.pointsets.square_points` (random, jitter, sobol, lp, bnot,
@@ -51,7 +51,8 @@ from envfit.shading.ground_truth import shading_integral, weight_function
 from envfit.sampling.importance import ESTIMATORS
 from envfit.sampling.map_sampler import MapSampler
 from envfit.measure.adaptive_rmse import AdaptiveRMSE, adaptive_rmse
-from envfit.sampling.sources import BrightSource, find_bright_sources, split_map
+from envfit.maps.sources import BrightSource, find_bright_sources
+from envfit.sampling.sources import split_map
 from envfit.theory.pointsets import POINTSETS, square_points
 
 __all__ = ["STRATEGIES", "RendererRule", "RendererSetup", "rule_points", "rule_estimates",
