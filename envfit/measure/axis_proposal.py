@@ -21,7 +21,7 @@ whose weights are bounded by 3 whatever the map (so the estimate is never worse 
 the uniform one's variance), with :math:`q_\mathrm{brdf}, q_\mathrm{map}` piecewise constant
 on an equal-area grid of R × 2R cells over the sphere (rows uniform in cos θ of the map's
 frame, columns uniform in φ), each cell's mass proportional to a proxy of the squared error
-of BRDF and map sampling at its centre (:func:`envfit.predict.renderer.warped_spectrum.proxy_second_moments`:
+of BRDF and map sampling at its centre (:func:`envfit.sampling.proxies.proxy_second_moments`:
 :math:`\int\rho_a L^2` and :math:`\int\rho_a^2 L^2/p` by a block quadrature of the map).
 A draw picks a component, then a cell, then a point uniform in the cell (uniform in cos θ
 and φ within it: uniform in solid angle).
@@ -102,7 +102,7 @@ class AxisProposal:
         r"""The module's mixture for a map, its sampler and a lobe: a third uniform, a third
         :math:`\propto\int\rho_a L^2` (BRDF sampling's second moment), a third
         :math:`\propto\int\rho_a^2 L^2/p` (map sampling's), at the cell centres."""
-        from envfit.predict.renderer.warped_spectrum import normalised_moments, proxy_second_moments
+        from envfit.sampling.proxies import normalised_moments, proxy_second_moments
 
         r = check_int(rows, "rows", 1)
         moments = proxy_second_moments(envmap, sampler, weight, cell_centres(r, envmap.up))

@@ -88,6 +88,7 @@ from envfit.shading.estimators import twisted_frames
 from envfit.shading.ground_truth import weight_function
 from envfit.sampling.importance import HEURISTICS, brdf_pdf
 from envfit.sampling.map_sampler import MapSampler, _bilinear_cell_average, _square
+from envfit.sampling.proxies import normalised_moments, proxy_second_moments
 from envfit.predict.renderer.spectral_tail import strip_fits, strip_tail
 from envfit.theory.pointsets import lambert_to_hemisphere
 from envfit.theory.sphere_points import spherical_fibonacci_sphere
@@ -98,8 +99,6 @@ __all__ = [
     "WarpedSpectrum",
     "cell_square_average",
     "proposal_axes",
-    "normalised_moments",
-    "proxy_second_moments",
     "random_mse",
     "shifted_mse_per_axis",
     "shifted_mse_terms",
@@ -118,8 +117,6 @@ STRIPS_NEGLIGIBLE = 1e-3
 TECHNIQUES = {"brdf": 1, "map": 1, "mis": 2}
 #: spherical Fibonacci axes the importance sample of axes is drawn from
 AXIS_POOL = 2048
-#: pixel block of the axis proposal's proxy quadrature
-PROXY_BLOCK = 8
 #: a variance m2 - m1² at most this fraction of m2 is rounding (16 ulps), counted as 0
 _ROUNDING = 16.0 * np.finfo(np.float64).eps
 #: the lobe technique's grid is this many times the box B per side (see the module docstring)
@@ -457,46 +454,6 @@ def _fibonacci_axes(m: int) -> np.ndarray:
     bands = max(1, round(math.sqrt(m / 2.0)))
     band = np.minimum((0.5 * (1.0 - pts[:, 2]) * bands).astype(int), bands - 1)
     return pts[np.lexsort((np.where(band % 2 == 0, phi, -phi), band))]
-
-
-def proxy_second_moments(envmap: EnvMap, sampler: MapSampler, weight, axes: np.ndarray):
-    r"""Proxies of the squared error of BRDF and map sampling of the luminance at ``axes``
-    (K, 3): :math:`\int\rho_a Y^2\,d\omega` and :math:`\int\rho_a^2 Y^2/p\,d\omega` by a
-    quadrature on blocks of :data:`PROXY_BLOCK`² pixels (the lobe at the block's centroid of
-    :math:`Y^2\omega`, so that a sun smaller than a block is where it is);
-    the axes in chunks, so memory stays near 2²² values whatever K and the map's size."""
-    h, w = envmap.height, envmap.width
-    b = max(1, min(PROXY_BLOCK, h // 4))
-    hb, wb = h // b, w // b
-    y = np.abs(envmap.luminance())[:hb * b, :wb * b]
-    om = latlong.pixel_solid_angles(h, w)[:hb * b, :wb * b]
-    pdf = sampler.pixel_pdf[:hb * b, :wb * b]
-    y2o = (y * y * om).reshape(hb, b, wb, b).sum(axis=(1, 3)).ravel()
-    y2op = (y * y * om / np.maximum(pdf, 1e-300)).reshape(hb, b, wb, b).sum(axis=(1, 3)).ravel()
-    dirs = latlong.pixel_directions(h, w, up=envmap.up)[:hb * b, :wb * b]
-    # each block's direction: its centroid of Y²ω (a sun's, in the block holding it), the
-    # geometric centre where the block is black
-    mass = (y * y * om)[..., None] + 1e-300
-    centres = (dirs * mass).reshape(hb, b, wb, b, 3).sum(axis=(1, 3)).reshape(-1, 3)
-    centres /= np.linalg.norm(centres, axis=1, keepdims=True)
-    axes = np.asarray(axes, dtype=np.float64)
-    m1, m2 = np.empty(axes.shape[0]), np.empty(axes.shape[0])
-    step = max(1, (1 << 22) // centres.shape[0])
-    for i in range(0, axes.shape[0], step):
-        rho = brdf_pdf(weight, np.einsum("kc,bc->kb", axes[i:i + step], centres))  # (chunk, blocks)
-        m1[i:i + step], m2[i:i + step] = rho @ y2o, (rho * rho) @ y2op
-    return m1, m2
-
-
-def normalised_moments(moments) -> list[np.ndarray]:
-    """Each proxy of :func:`proxy_second_moments` (negatives clipped) as probabilities over
-    its axes; uniform where a proxy is all zero (a black map)."""
-    out = []
-    for m in moments:
-        m = np.maximum(np.asarray(m, dtype=np.float64), 0.0)
-        tot = float(m.sum())
-        out.append(m / tot if tot > 0 else np.full(m.shape, 1.0 / m.size))
-    return out
 
 
 def proposal_axes(envmap: EnvMap, sampler: MapSampler, weight, count: int):
