@@ -32,7 +32,8 @@ from envfit.data_gen.sun_gp import sun_gp_map
 from envfit.maps.envmap import EnvMap
 from envfit.maps.io import save_envmap
 from envfit.predict.renderer.predictor import predict_rule, renderer_model
-from envfit.sampling.rules import STRATEGIES, RendererRule, RendererSetup, measure_rule
+from envfit.sampling.rules import STRATEGIES, RendererRule
+from envfit.measure.rules import RendererSetup, measure_rule
 
 GRID, AXES = 32, 8
 KEY = {"fingerprint": "test", "shape": [16, 32, 1], "up": "y", "scale": "linear"}

@@ -19,7 +19,8 @@ from envfit.measure.axis_proposal import UNIFORM_SHARE, AxisProposal, cell_centr
 from envfit.shading.ground_truth import weight_function
 from envfit.sampling.map_sampler import MapSampler
 from envfit.measure.adaptive_rmse import adaptive_rmse
-from envfit.sampling.rules import RendererRule, RendererSetup, measure_rule
+from envfit.sampling.rules import RendererRule
+from envfit.measure.rules import RendererSetup, measure_rule
 
 SUN = np.array([np.sin(0.7) * np.cos(1.0), np.sin(0.7) * np.sin(1.0), np.cos(0.7)])
 

@@ -8,8 +8,8 @@ from envfit.base.errors import ParameterError
 from envfit.data_gen.sun_gp import sun_gp_map
 from envfit.maps.envmap import EnvMap
 from envfit.predict.renderer.predictor import predict_rule, renderer_model
-from envfit.sampling.rules import (RendererRule, RendererSetup, measure_rule, replicates,
-                                   rule_estimates, rule_points)
+from envfit.sampling.rules import RendererRule, rule_points
+from envfit.measure.rules import RendererSetup, measure_rule, replicates, rule_estimates
 
 
 @pytest.fixture(scope="module")

@@ -3,7 +3,7 @@
 the CLI flags.
 
 Independent references: :func:`envfit.predict.renderer.predictor.predict_rule` and
-:func:`envfit.sampling.rules.measure_rule` called directly on a fresh setup (a second
+:func:`envfit.measure.rules.measure_rule` called directly on a fresh setup (a second
 path, same seeds), ``statistics.median`` and hand-written loops for the summaries,
 ``json`` for the round trip, matplotlib's PNG reader, and results constructed by hand where a
 report condition holds and where it fails. A 32×16 sun-on-GP map, N ≤ 32, few axes.
@@ -27,7 +27,8 @@ from envfit.maps.envmap import EnvMap
 from envfit.maps.io import load_envmap, save_envmap
 from envfit.predict.renderer.predictor import predict_rule, renderer_model
 from envfit.measure.adaptive_rmse import agreement_with_interval
-from envfit.sampling.rules import RendererRule, RendererSetup, measure_rule
+from envfit.sampling.rules import RendererRule
+from envfit.measure.rules import RendererSetup, measure_rule
 from envfit.validate import report_conditions as RC
 from envfit.validate import report_renderer as RR
 

@@ -142,7 +142,7 @@ keywords)
 5. with ``renderer`` (default), the renderer rows — strategy × point set × N, sized by the
    warped spectra (:mod:`envfit.advisor.renderer`), ``Advice.renderer``;
 6. with ``check``, the measurement (:mod:`envfit.advisor.check`; the renderer rows by
-   :func:`envfit.sampling.rules.measure_rule`).
+   :func:`envfit.measure.rules.measure_rule`).
 
 Example
 -------

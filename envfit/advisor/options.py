@@ -132,7 +132,7 @@ class AdviseOptions:
         (:data:`envfit.advisor.renderer.RENDERER_GRID`, ``RENDERER_SPECTRUM_AXES``).
     renderer_axes_start, renderer_max_axes : int
         Renderer check: the adaptive measurement's first and largest number of axes
-        (:func:`envfit.sampling.rules.measure_rule`).
+        (:func:`envfit.measure.rules.measure_rule`).
     renderer_curves : bool
         Renderer rows: predict every grid N (for the plot), not only those the search needs.
     workers : int

@@ -24,7 +24,7 @@ scanned upward and the row's N is the *smallest* grid N whose prediction is at m
 target (so the grid N below it misses). Cost per shading point: N samples; for ``split``
 also the exact integral over the sources, which visits every source pixel once per shading
 point (``sum(pixels)`` of :attr:`RendererSetup.sources
-<envfit.sampling.rules.RendererSetup>`), reported beside N and added to it
+<envfit.measure.rules.RendererSetup>`), reported beside N and added to it
 (:attr:`RendererRow.cost`). The recommendation (:func:`renderer_recommendation`) is the
 reached row of least cost, ties broken by the lower prediction.
 
@@ -63,7 +63,7 @@ sources' pixel count; :func:`spectrum_to_json` / :func:`spectrum_from_json` roun
 imaginary lists), so cached predictions are bit-identical to fresh ones.
 
 ``check`` (:func:`check_renderer_rows`): every reached row measured at its N with
-:func:`envfit.sampling.rules.measure_rule` (one :class:`RendererSetup`, one seed:
+:func:`envfit.measure.rules.measure_rule` (one :class:`RendererSetup`, one seed:
 the axes and their ground truths are shared by all rows), its bootstrap 95 % interval,
 measured/target and measured/predicted.
 
@@ -84,7 +84,8 @@ from envfit.base.errors import ParameterError
 from envfit.base.progress import progress_bar
 from envfit.maps.envmap import EnvMap
 from envfit.predict.renderer.predictor import RendererModel, predict_rule, renderer_model
-from envfit.sampling.rules import STRATEGIES, RendererRule, RendererSetup, measure_rule
+from envfit.sampling.rules import STRATEGIES, RendererRule
+from envfit.measure.rules import RendererSetup, measure_rule
 from envfit.predict.renderer.warped_spectrum import SPECTRUM_FORMAT, WarpedSpectrum
 
 __all__ = ["RENDERER_GRID", "RENDERER_SPECTRUM_AXES", "DEFAULT_STRATEGIES",

@@ -8,7 +8,7 @@ point set (default random, sobol, sf) and N (default 16, 64, 256, 1024) — one 
   of the map (:func:`envfit.predict.renderer.predictor.renderer_model`, one model per lobe, built only
   for the strategies of the cells still to compute), with its predictor's name
   (``warped-spectrum`` or ``random-variance``);
-* **measured** — :func:`envfit.sampling.rules.measure_rule`: the RMSE over uniform
+* **measured** — :func:`envfit.measure.rules.measure_rule`: the RMSE over uniform
   random axes with its BCa bootstrap 95 % interval, doubling the axes from ``axes_start`` until
   the interval is within ±``target_relative`` (or ``max_axes`` are measured); one seed for
   every rule, so the axes and their ground truths are shared;
@@ -64,8 +64,8 @@ from envfit.base.store import ResultStore, array_fingerprint
 from envfit.maps.envmap import EnvMap
 from envfit.predict.renderer.predictor import predict_rule, renderer_model
 from envfit.measure.adaptive_rmse import agreement_with_interval
-from envfit.sampling.rules import (AXIS_SAMPLING, STRATEGIES, RendererRule, RendererSetup,
-                                   measure_rule)
+from envfit.measure.rules import AXIS_SAMPLING, RendererSetup, measure_rule
+from envfit.sampling.rules import STRATEGIES, RendererRule
 from envfit.theory.pointsets import POINTSETS
 
 from .config import BRDFS

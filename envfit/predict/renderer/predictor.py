@@ -16,7 +16,8 @@ Example
 -------
 >>> import numpy as np
 >>> from envfit.maps.envmap import EnvMap
->>> from envfit.sampling.rules import RendererRule, RendererSetup
+>>> from envfit.sampling.rules import RendererRule
+>>> from envfit.measure.rules import RendererSetup
 >>> setup = RendererSetup.of(EnvMap(np.full((8, 16, 1), 2.0)), sources=[])
 >>> model = renderer_model(setup, "diffuse", strategies=["brdf"], grid=16, axes=4)
 >>> p = predict_rule(model, RendererRule("brdf", "sobol", 16))
@@ -29,7 +30,8 @@ import math
 from dataclasses import dataclass
 
 from envfit.base.errors import ParameterError
-from envfit.sampling.rules import STRATEGIES, RendererRule, RendererSetup, rule_points
+from envfit.sampling.rules import STRATEGIES, RendererRule, rule_points
+from envfit.measure.rules import RendererSetup
 from envfit.predict.renderer.warped_spectrum import (WarpedSpectrum, random_mse, shifted_mse_terms,
                                                      warped_spectrum)
 
