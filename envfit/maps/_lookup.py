@@ -3,7 +3,7 @@
 One fused pass per direction — local angles, continuous pixel coordinates, the snapped
 floor/fraction, the two (possibly virtual, across-the-pole) rows and their longitude
 interpolation — with exactly the arithmetic of the numpy reference
-(:func:`envfit.maps.latlong._bilinear_lookup_numpy`), without its ~20 temporaries per block.
+(``bilinear_lookup_numpy`` of tests/oracles/numpy_kernels.py), without its ~20 temporaries per block.
 Two builds of one kernel: parallel over directions (numba ``prange``) for the main thread,
 serial for calls from worker threads (numba's ``workqueue`` threading layer, the fallback
 where neither OpenMP nor TBB is present, must not be entered by two threads at once).

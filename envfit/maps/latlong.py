@@ -345,7 +345,7 @@ def bilinear_lookup(image, dirs, *, up: str = "y") -> np.ndarray:
     -------
     float64 array of shape ``dirs.shape[:-1] + (C,)`` (``dirs.shape[:-1]`` for a 2-D image).
     One compiled pass per direction (:mod:`envfit.maps._lookup`), parallel over directions;
-    :func:`_bilinear_lookup_numpy` is the same arithmetic in numpy (the tests' reference).
+    the tests hold the same arithmetic in numpy (``tests/oracles/numpy_kernels.py``).
 
     >>> img = np.arange(8.0).reshape(2, 4)
     >>> bilinear_lookup(img, pixel_directions(2)).tolist() == img.tolist()
@@ -369,21 +369,3 @@ def bilinear_lookup(image, dirs, *, up: str = "y") -> np.ndarray:
     if img.ndim == 2:
         return out.reshape(lead)
     return out.reshape(lead + (nch,))
-
-
-
-def _bilinear_lookup_numpy(flat: np.ndarray, d: np.ndarray, m: np.ndarray, h: int,
-                           w: int) -> np.ndarray:
-    """:func:`bilinear_lookup` of the (H·W, C) table ``flat`` at finite directions d (N, 3)
-    in numpy blocks of ``LOOKUP_BLOCK``: the reference the compiled kernel is tested against."""
-    out = np.empty((d.shape[0], flat.shape[1]), dtype=np.float64)
-    for s in range(0, d.shape[0], LOOKUP_BLOCK):
-        row, col = _dirs_to_rowcol(d[s:s + LOOKUP_BLOCK], h, w, m)
-        r0, a = _floor_and_fraction(row)
-        r0 = r0.astype(np.int64)            # in [-1, H-1]
-        top = _gather_row(flat, r0, col, h, w)
-        if np.any(a > 0.0):
-            bot = _gather_row(flat, r0 + 1, col, h, w)
-            top += a[:, None] * (bot - top)
-        out[s:s + LOOKUP_BLOCK] = top
-    return out

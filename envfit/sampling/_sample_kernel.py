@@ -3,7 +3,8 @@
 Per point: the row by binary search in the marginal CDF, the column by binary search in that
 row's conditional CDF (W + 1 entries, not the whole stacked table), the fractions inside the
 pixel, and the direction (cos θ linear between the row's edges, φ linear across the column) —
-the arithmetic of the numpy form :meth:`MapSampler._sample_numpy` (the tests' reference).
+the arithmetic of the numpy form ``sample_numpy`` in tests/oracles/numpy_kernels.py
+(the tests' reference).
 Two builds, as :mod:`envfit.maps._lookup`: parallel in the main thread, serial elsewhere.
 """
 from __future__ import annotations

@@ -172,19 +172,6 @@ class MapSampler:
         return warp_points(U, self._row_cdf, self._col_cdf, self._z_edges, self.pixel_pdf,
                            self._m)
 
-    def _sample_numpy(self, U: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`sample` of checked points U (N, 2) in numpy (the compiled kernel's
-        reference in the tests): searches in the stacked conditional table."""
-        h, w = self.height, self.width
-        i = np.clip(np.searchsorted(self._row_cdf, U[:, 0], side="right") - 1, 0, h - 1)
-        lo = self._row_cdf[i]
-        t = np.clip((U[:, 0] - lo) / np.maximum(self._row_cdf[i + 1] - lo, 1e-300), 0.0, 1.0)
-        k = np.searchsorted(self._col_flat, U[:, 1] + i, side="right") - 1
-        j = np.clip(k - i * (w + 1), 0, w - 1)
-        c0 = self._col_cdf[i, j]
-        s = np.clip((U[:, 1] - c0) / np.maximum(self._col_cdf[i, j + 1] - c0, 1e-300), 0.0, 1.0)
-        return self.pixel_point(i, j, t, s), self.pixel_pdf[i, j]
-
     def pixel_point(self, i, j, t, s) -> np.ndarray:
         """World directions (N, 3) at fractions (t, s) ∈ [0, 1]² of pixels (i, j): cos θ
         linear between the row's edges, φ linear across the column (the sampler's warp)."""
@@ -202,15 +189,6 @@ class MapSampler:
             raise ParameterError(f"directions must have shape (..., 3), got {d.shape}")
         i, j = pixel_indices(d.reshape(-1, 3), self._m, self.height, self.width)
         return i.reshape(d.shape[:-1]), j.reshape(d.shape[:-1])
-
-    def _pixel_of_numpy(self, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`pixel_of` in numpy (the compiled kernel's reference in the tests)."""
-        loc = latlong.rows_times(d, self._m)                            # rows: local = world M
-        theta = np.arctan2(np.hypot(loc[..., 0], loc[..., 1]), loc[..., 2])
-        phi = np.mod(np.arctan2(loc[..., 1], loc[..., 0]), 2.0 * np.pi)
-        i = np.clip(np.floor(theta * (self.height / np.pi)).astype(np.int64), 0, self.height - 1)
-        j = np.floor(phi * (self.width / (2.0 * np.pi))).astype(np.int64) % self.width
-        return i, j
 
     def pdf(self, dirs) -> np.ndarray:
         r"""Density per solid angle at world directions (..., 3): :math:`P_{ij}/\Omega_{ij}` of
