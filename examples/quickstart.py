@@ -23,13 +23,10 @@ import time
 from pathlib import Path
 
 from envfit import advise, default_envmap, fit_smoothness, run_table2, run_validation
-from envfit.fit.table2 import format_table2
-from envfit.plots.advise_rules import plot_advise_rules
-from envfit.plots.preview import plot_map_preview
-from envfit.plots.table2 import plot_fit_curve, plot_table2
-from envfit.plots.validate import plot_all
-from envfit.maps.preview import map_preview
-from envfit.validate.config import quick_config
+from envfit.fit import format_table2
+from envfit.maps import map_preview
+from envfit.plots import plot_advise_rules, plot_all, plot_fit_curve, plot_map_preview, plot_table2
+from envfit.validate import quick_config
 
 ARG = sys.argv[1] if len(sys.argv) > 1 else ""
 OUT = Path(ARG if ARG and not ARG.startswith("-") else "quickstart_out")   # Jupyter: -f …

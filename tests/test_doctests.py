@@ -5,6 +5,7 @@ from __future__ import annotations
 import doctest
 import importlib
 import pkgutil
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -32,3 +33,13 @@ def test_docstring_examples(name, tmp_path, monkeypatch):
         result = doctest.testmod(module, optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE,
                                  verbose=False, report=True)
     assert result.failed == 0, f"{result.failed} of {result.attempted} examples failed in {name}"
+
+
+ORACLES = sorted(p.stem for p in (Path(__file__).parent / "oracles").glob("*.py")
+                 if p.stem != "__init__")
+
+
+@pytest.mark.parametrize("name", ORACLES)
+def test_oracle_docstring_examples(name, tmp_path, monkeypatch):
+    """The test oracles (tests/oracles/, second algorithms not shipped) keep their examples."""
+    test_docstring_examples(f"oracles.{name}", tmp_path, monkeypatch)

@@ -1,3 +1,45 @@
-"""Plumbing every layer may use: errors, argument checks, atomic writes, the verified
-resumable store, the memory guard, progress bars. Imports nothing else of envfit.
+r"""Plumbing every layer may use: errors, argument checks, atomic writes, the verified resumable
+store, the memory guard, progress bars. Imports nothing else of envfit.
+
+Modules:
+
+* :mod:`~envfit.base.atomic` — Atomic file writes: a result file is either the old one or
+  the complete new one.
+* :mod:`~envfit.base.checks` — Checks of user-given names, integers and positive numbers
+  shared by the pipelines (validate, advise).
+* :mod:`~envfit.base.errors` — The exception types of envfit.
+* :mod:`~envfit.base.html` — Compact HTML tables of results, for Jupyter's rich display
+  (``_repr_html_``).
+* :mod:`~envfit.base.progress` — Progress bars (tqdm on stderr), switched off by ``quiet``.
+* :mod:`~envfit.base.resources` — Memory budget: check before allocating, fail with a clear
+  message instead of swapping.
+* :mod:`~envfit.base.store` — A resumable result store: one JSON file per finished cell,
+  written atomically, checked on read.
+
+The names of ``__all__`` are imported lazily, on first use (PEP 562), so that
+importing the package loads none of its modules.
 """
+from __future__ import annotations
+
+import importlib
+
+_LAZY = {
+    "DuplicatePointsError": "errors", "EnvfitError": "errors", "EnvMapFileError": "errors",
+    "EnvMapFormatError": "errors", "MemoryBudgetError": "errors", "NonFiniteError": "errors",
+    "ParameterError": "errors",
+}
+
+__all__ = sorted(_LAZY)
+
+
+def __getattr__(name: str):
+    mod = _LAZY.get(name)
+    if mod is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{mod}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))

@@ -1,3 +1,51 @@
-"""Libraries of maps: one factorisation per (s, N) for all maps, tasks, local and dask
+r"""Libraries of maps: one factorisation per (s, N) for all maps, tasks, local and dask
 executors, the driver loop and the library report.
+
+Modules:
+
+* :mod:`~envfit.batch.executor` — Where a sweep's tasks run: in this process, a local
+  process pool, or a dask cluster.
+* :mod:`~envfit.batch.fit_tasks` — Worker-side tasks of a library fit: sample a map;
+  evaluate the fit criterion at one s for many maps with one factorisation.
+* :mod:`~envfit.batch.library` — The paper's Table 2 (Sec. 9.1) over a whole library of
+  maps, one factorisation per (s, N).
+* :mod:`~envfit.batch.library_fit` — Fit the Sobolev smoothness s of every map of a library,
+  one factorisation per s.
+* :mod:`~envfit.batch.library_result` — What every library run reports, whatever it computes
+  per map: the maps' labels and slugs, the value scale and sampling, the shared
+  factorisations, time, executor, notes, unwritten cells and the files written; one summary
+  row and one result per map.
+* :mod:`~envfit.batch.report` — Files of a library run: per-map CSV, a summary across maps
+  (CSV + JSON), a histogram of s.
+* :mod:`~envfit.batch.scheduler` — The driver loop of a sweep: submit tasks by priority,
+  handle results as they arrive.
+* :mod:`~envfit.batch.tasks` — Worker-side tasks of a library sweep: sample a map, factorise
+  once for many maps, evaluate one map. Module-level functions of picklable arguments, so
+  that a process pool or a dask worker can run them; each loads at most one map at a time.
+
+The names of ``__all__`` are imported lazily, on first use (PEP 562), so that
+importing the package loads none of its modules.
 """
+from __future__ import annotations
+
+import importlib
+
+_LAZY = {
+    "LibraryTable2Result": "library", "run_table2_library": "library",
+    "fit_smoothness_library": "library_fit", "LibraryFitResult": "library_fit",
+}
+
+__all__ = sorted(_LAZY)
+
+
+def __getattr__(name: str):
+    mod = _LAZY.get(name)
+    if mod is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{mod}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))

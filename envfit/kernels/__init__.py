@@ -1,3 +1,50 @@
-"""The Sobolev kernel K_gd on the sphere: interpolation (Cholesky + near/far fast
-summation), the band-limited kernel, and their numba hot loops.
+r"""The Sobolev kernel K_gd on the sphere: interpolation (Cholesky + near/far fast summation),
+the band-limited kernel, and their numba hot loops.
+
+Modules:
+
+* ``_bandlimited_kernels`` (private) — Numba loop behind :mod:`envfit.kernels.bandlimited`:
+  a kernel matrix from a table in the angle.
+* ``_kernels`` (private) — Numba kernels behind :mod:`envfit.kernels.interpolation` (the hot
+  loops of envfit).
+* :mod:`~envfit.kernels.bandlimited` — The generalized distance kernel band-limited to a
+  map's resolution, and the Gaussian-process likelihood of s and σ under it.
+* :mod:`~envfit.kernels.interpolation` — Kernel interpolation of scattered samples on the
+  sphere with the generalized distance kernel.
+* :mod:`~envfit.kernels.iterative` — Preconditioned conjugate gradients for the Sobolev
+  kernel system :math:`K\alpha = f` without the N x N matrix: O(N log N) products, O(N k)
+  memory.
+* :mod:`~envfit.kernels.likelihood` — The Gaussian-process log-likelihood with the scale
+  profiled out, implemented once.
+* :mod:`~envfit.kernels.nearfar` — The near/far split that evaluates kernel sums in O(N log
+  N): the kernel's power part :math:`g(t) = (2 - 2t)^{s-1}` outside a cap of chordal radius
+  δ is a polynomial :math:`P_L(t)`, i.e. an SH convolution (ducc0), and pairs closer than δ
+  get the exact correction :math:`g - P_L` from a 3-D cell list (see
+  :mod:`envfit.kernels.interpolation`).
+
+The names of ``__all__`` are imported lazily, on first use (PEP 562), so that
+importing the package loads none of its modules.
 """
+from __future__ import annotations
+
+import importlib
+
+_LAZY = {
+    "ProfiledLikelihood": "interpolation", "SobolevInterpolator": "interpolation",
+    "SolveInfo": "interpolation",
+}
+
+__all__ = sorted(_LAZY)
+
+
+def __getattr__(name: str):
+    mod = _LAZY.get(name)
+    if mod is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{mod}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))

@@ -1,1 +1,41 @@
-"""Measurement statistics: adaptive RMSE over axes, bootstrap intervals, axis proposal."""
+r"""Measurement statistics: the adaptive RMSE over axes with bootstrap intervals, the axis
+proposal, and the measured RMSE of renderer rules.
+
+Modules:
+
+* :mod:`~envfit.measure.adaptive_rmse` — Measuring an estimator's RMSE over random axes with
+  a confidence interval that survives heavy tails, an adaptive number of axes, and the
+  comparison of a prediction with it.
+* :mod:`~envfit.measure.axis_proposal` — An importance density over shading axes, for
+  measuring an RMSE over *uniform* axes.
+* :mod:`~envfit.measure.rules` — The measured error of a renderer rule
+  (:class:`envfit.sampling.rules.RendererRule`) on a map.
+
+The names of ``__all__`` are imported lazily, on first use (PEP 562), so that
+importing the package loads none of its modules.
+"""
+from __future__ import annotations
+
+import importlib
+
+_LAZY = {
+    "AdaptiveRMSE": "adaptive_rmse", "rmse_interval": "adaptive_rmse",
+    "RMSEInterval": "adaptive_rmse",
+    "AxisProposal": "axis_proposal",
+    "measure_rule": "rules", "RendererSetup": "rules",
+}
+
+__all__ = sorted(_LAZY)
+
+
+def __getattr__(name: str):
+    mod = _LAZY.get(name)
+    if mod is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{mod}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))

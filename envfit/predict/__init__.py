@@ -1,15 +1,53 @@
-r"""Named predictors of a rule's shading error on a map (layer: beside :mod:`envfit.fit`).
+r"""Named predictors of a rule's shading error on a map: one module per predictor, each ``f(ctx:
+PredictionContext, rule: Rule) -> Prediction``, registered in PREDICTORS and dispatched by
+predict(); the renderer predictor is the sub-package :mod:`envfit.predict.renderer`.
 
-One module per predictor, each ``f(ctx: PredictionContext, rule: Rule) -> Prediction``
-(:mod:`envfit.predict.context`), registered by name in :data:`PREDICTORS` and dispatched by
-:func:`predict`: ``plain`` (b) σ̂·E, ``bandlimited`` (b′) the band-limited model with the
-lookup transfer and the mean term, ``spectral`` (c) the map's own spectrum.
+Modules:
+
+* :mod:`~envfit.predict.bandlimited` — Prediction (b′), *band-limited*: the plain model made
+  exact for what a lat-long map is.
+* :mod:`~envfit.predict.context` — What a prediction is made from: a map
+  (:class:`PredictionContext`), a quadrature rule (:class:`Rule`), and what it says
+  (:class:`Prediction`).
+* :mod:`~envfit.predict.plain` — Prediction (b), *plain*: :math:`\hat R = \hat\sigma\,E(\hat
+  s)`.
+* :mod:`~envfit.predict.registry` — The registry of predictors (as colour-science's method
+  registries) and its dispatcher.
+* :mod:`~envfit.predict.spectral` — Prediction (c), *spectral*: the map's own power per
+  degree times the rule's error power — no model, no s, no σ: the exact mean over Haar-
+  random rotations on this map.
+* :mod:`~envfit.predict.renderer` (sub-package) — The renderer error prediction: the warped
+  integrand's spectrum per technique, its tail beyond the box, and the predictor of a
+  renderer rule's RMSE.
+
+The names of ``__all__`` are imported lazily, on first use (PEP 562), so that
+importing the package loads none of its modules.
 """
-from .bandlimited import predict_bandlimited
-from .context import Prediction, PredictionContext, Rule
-from .plain import predict_plain
-from .registry import PREDICTORS, Predictor, predict
-from .spectral import predict_spectral
+from __future__ import annotations
 
-__all__ = ["PREDICTORS", "Predictor", "predict", "Prediction", "PredictionContext", "Rule",
-           "predict_plain", "predict_bandlimited", "predict_spectral"]
+import importlib
+
+_LAZY = {
+    "predict_bandlimited": "bandlimited",
+    "Prediction": "context", "PredictionContext": "context", "Rule": "context",
+    "predict_plain": "plain",
+    "predict": "registry", "Predictor": "registry", "PREDICTORS": "registry",
+    "predict_rule": "renderer", "renderer_model": "renderer", "RENDERER_PREDICTORS": "renderer",
+    "RendererModel": "renderer", "WarpedSpectrum": "renderer",
+    "predict_spectral": "spectral",
+}
+
+__all__ = sorted(_LAZY)
+
+
+def __getattr__(name: str):
+    mod = _LAZY.get(name)
+    if mod is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{mod}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))

@@ -1,9 +1,49 @@
-"""Shading integrals on a map: the ground truth, the estimators (quadrature, SH/HSH
-truncation) and the spectra (per-degree map and rule power, lookup transfer).
-map_sampler: the map's importance-sampling distribution (luminance × solid angle, smoothed, floored).
-importance: the renderer estimators — map importance sampling, BRDF sampling and their MIS.
-is_variance: the exact variance / RMSE of those random-point estimators (IS, MIS), from the map.
-sphere_quadrature: the quadrature over the sphere behind is_variance (lobe-cut cells, exact horizon).
-sources: bright-source detection (sun, lamps) and the exact source / rest split of those estimators.
-measurement: bootstrap (BCa) confidence intervals of the RMSE over axes, adaptive axis counts, prediction agreement.
+r"""Shading integrals on a map: the ground truth (exact integrals at any frame), the paper's
+estimators (quadrature, SH/HSH truncation) and the spectra (per-degree map and rule power,
+lookup transfer).
+
+Modules:
+
+* :mod:`~envfit.shading.bilinear_sh` — Exact SH coefficients of a map's bilinear interpolant
+  and the zonal convolution at axes.
+* :mod:`~envfit.shading.estimators` — Estimators of the normalised shading integral (Eq. 17)
+  on a lat-long map, and their RMSE.
+* :mod:`~envfit.shading.ground_truth` — Ground truth of the normalised shading integral (Eq.
+  17) on a lat-long map, two ways.
+* :mod:`~envfit.shading.hemisphere` — Direct quadrature of hemisphere integrals of a map's
+  bilinear interpolant (the reference).
+* :mod:`~envfit.shading.patches` — Bilinear patches of a lat-long map: the geometry both
+  ground-truth methods share.
+* :mod:`~envfit.shading.quadrature` — Quadrature estimates of shading integrals (Eq. 34) for
+  many axes and weightings at once.
+* :mod:`~envfit.shading.spectra` — Spectra behind predictions (b') and (c) of ``envfit
+  validate``: per-degree error power of a rule, a map's realised power per degree, and the
+  bilinear lookup's transfer.
+
+The names of ``__all__`` are imported lazily, on first use (PEP 562), so that
+importing the package loads none of its modules.
 """
+from __future__ import annotations
+
+import importlib
+
+_LAZY = {
+    "hsh_truncation_estimates": "estimators", "quadrature_estimates": "estimators",
+    "sh_truncation_estimates": "estimators", "twisted_frames": "estimators",
+    "shading_integral": "ground_truth", "weight_function": "ground_truth",
+}
+
+__all__ = sorted(_LAZY)
+
+
+def __getattr__(name: str):
+    mod = _LAZY.get(name)
+    if mod is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{mod}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))

@@ -1,3 +1,73 @@
-"""Predicted against measured shading errors on a map (the paper's Figs. 7-8) and the
-report that states them.
+r"""Predicted against measured shading errors on a map (the paper's Figs. 7-8) and the report
+that states them.
+
+Modules:
+
+* :mod:`~envfit.validate.agreement` — Agreement between measured and predicted errors: log-
+  log slopes, shape constants, rank agreement, equivalent N, and the per-cell verdicts that
+  ``report.md`` states.
+* :mod:`~envfit.validate.cells` — The stored quadrature cells of ``envfit validate``: their
+  keys, the measured statistics they keep, whether a stored one is current, and the
+  :class:`envfit.predict.Rule` one gives.
+* :mod:`~envfit.validate.config` — What ``envfit validate`` runs: :class:`ValidateConfig`,
+  the ``--quick`` preset (:func:`quick_config`, :data:`QUICK_DESCRIPTION`) and the named
+  sets it draws from.
+* :mod:`~envfit.validate.fitting` — The two fits of ``envfit validate``, each a stored cell:
+  the paper's (s and σ for predictions (a) and (b)) and the band-limited model's (ŝ′, σ̂′
+  for (b′)).
+* :mod:`~envfit.validate.keys` — Where each predictor of :data:`envfit.predict.PREDICTORS`
+  lands in the result of ``envfit validate`` (the keys the report, the plots and the JSON
+  readers use).
+* :mod:`~envfit.validate.pipeline` — Predicted errors checked against ground-truth shading
+  integrals on a map (Figs. 7–8).
+* :mod:`~envfit.validate.renderer` — ``envfit validate --renderer``: the renderer
+  estimators' predicted RMSE against the measured one.
+* :mod:`~envfit.validate.report` — ``report.md``: a short validation report written from the
+  result of ``envfit validate``.
+* :mod:`~envfit.validate.report_conditions` — The judgements of ``report.md``: named
+  thresholds, pure predicates and the :data:`CONDITIONS` table.
+* :mod:`~envfit.validate.report_format` — Small formatting helpers of ``report.md``
+  (:mod:`envfit.validate.report`).
+* :mod:`~envfit.validate.report_renderer` — The "Renderer rules" section of ``report.md``
+  (``envfit validate --renderer``).
+* :mod:`~envfit.validate.report_sections` — The descriptive sections and the agreement
+  tables of ``report.md``.
+* :mod:`~envfit.validate.report_statements` — The "What disagrees and why" section of
+  ``report.md``.
+* :mod:`~envfit.validate.results` — The result of ``envfit validate``:
+  :class:`ValidationResult` (its :meth:`~ValidationResult.to_json` is the JSON-ready dict
+  the report, the plots, ``--json`` and ``validate.json`` read), and the per-rule entries of
+  ``results`` with every predictor of :data:`envfit.predict.PREDICTORS`.
+* :mod:`~envfit.validate.truncation` — The truncation part of ``envfit validate`` (Fig. 8):
+  SH truncation at degree L on the full map and all axes, HSH truncation on the map
+  downscaled to ``hsh_max_height`` rows and the first ``hsh_axes`` axes, each curve a stored
+  cell with its worst-case error E(L) (Eqs. 51–52), the band-limited E′(L) of prediction
+  (b′), and the QMC-equivalent N.
+
+The names of ``__all__`` are imported lazily, on first use (PEP 562), so that
+importing the package loads none of its modules.
 """
+from __future__ import annotations
+
+import importlib
+
+_LAZY = {
+    "quick_config": "config", "ValidateConfig": "config",
+    "run_validation": "pipeline",
+    "ValidationResult": "results",
+}
+
+__all__ = sorted(_LAZY)
+
+
+def __getattr__(name: str):
+    mod = _LAZY.get(name)
+    if mod is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{mod}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))

@@ -1,1 +1,43 @@
-"""The renderer error prediction: warped spectra, their tail, the predictor."""
+r"""The renderer error prediction: the warped integrand's spectrum per technique, its tail
+beyond the box, and the predictor of a renderer rule's RMSE.
+
+Modules:
+
+* :mod:`~envfit.predict.renderer.predictor` — Prediction of the renderer rules' RMSE
+  (:mod:`envfit.sampling.rules`) from the map.
+* :mod:`~envfit.predict.renderer.spectral_tail` — The error of a shifted point set from the
+  warped integrand's power *above the box*, with the strips along the axes of frequency
+  space resolved.
+* :mod:`~envfit.predict.renderer.warped_spectrum` — The exact error of a Cranley–Patterson-
+  shifted estimator from the spectrum of its *warped integrand*: the prediction of envfit
+  for every renderer estimator (map importance sampling, BRDF sampling, MIS) driven by *any*
+  point set, random or quasi-random.
+
+The names of ``__all__`` are imported lazily, on first use (PEP 562), so that
+importing the package loads none of its modules.
+"""
+from __future__ import annotations
+
+import importlib
+
+_LAZY = {
+    "predict_rule": "predictor", "renderer_model": "predictor",
+    "RENDERER_PREDICTORS": "predictor", "RendererModel": "predictor",
+    "strip_tail": "spectral_tail",
+    "shifted_rmse": "warped_spectrum", "WarpedSpectrum": "warped_spectrum",
+}
+
+__all__ = sorted(_LAZY)
+
+
+def __getattr__(name: str):
+    mod = _LAZY.get(name)
+    if mod is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{mod}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))

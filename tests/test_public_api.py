@@ -1,0 +1,98 @@
+"""The public API: every sub-package's ``__all__`` resolves (lazily, PEP 562), importing a
+sub-package loads none of its modules, and the README, the docs and the examples import
+envfit names only from ``envfit`` or ``envfit.<sub-package>`` — never from a module."""
+from __future__ import annotations
+
+import ast
+import importlib
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import envfit
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _sub_packages() -> list[str]:
+    found = sorted(".".join(("envfit",) + p.parent.relative_to(ROOT / "envfit").parts)
+                   for p in (ROOT / "envfit").rglob("__init__.py") if p.parent != ROOT / "envfit")
+    return [f for f in found if f != "envfit.cli"]          # the entry point: main only
+
+
+PACKAGES = _sub_packages()
+
+
+@pytest.mark.parametrize("name", PACKAGES)
+def test_every_public_name_resolves(name):
+    pkg = importlib.import_module(name)
+    assert pkg.__doc__ and len(pkg.__doc__.split()) > 10, f"{name} has no role docstring"
+    assert pkg.__all__, f"{name} declares no public names"
+    for attr in pkg.__all__:
+        value = getattr(pkg, attr)
+        assert not isinstance(value, type(envfit)), f"{name}.{attr} is a module, not a name"
+
+
+def test_envfit_names_resolve():
+    for attr in envfit.__all__:
+        getattr(envfit, attr)
+
+
+def test_importing_a_sub_package_loads_none_of_its_modules():
+    code = ("import sys, importlib\n"
+            f"for name in {PACKAGES!r}:\n"
+            "    importlib.import_module(name)\n"
+            "loaded = sorted(m for m in sys.modules if m.startswith('envfit.') and m not in "
+            f"{PACKAGES!r} and m not in ('envfit.base.errors',))\n"
+            "print(loaded)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
+
+
+def _python_blocks(path: Path) -> list[str]:
+    text = path.read_text()
+    if path.suffix == ".py":
+        return [text]
+    return re.findall(r"```(?:python|py|pycon)\n(.*?)```", text, re.S)
+
+
+def _deep_imports(code: str) -> list[str]:
+    bad = []
+    lines = [ln[4:] if ln.startswith((">>> ", "... ")) else ln for ln in code.splitlines()]
+    try:
+        tree = ast.parse("\n".join(lines))
+    except SyntaxError:                 # a fragment: look at the import lines alone
+        tree = ast.parse("\n".join(ln for ln in lines if ln.lstrip().startswith(("from ", "import "))
+                                   and not ln.rstrip().endswith(("(", ","))))
+    for node in ast.walk(tree):
+        names = []
+        if isinstance(node, ast.ImportFrom) and node.module:
+            names = [node.module]
+        elif isinstance(node, ast.Import):
+            names = [a.name for a in node.names]
+        for n in names:
+            parts = n.split(".")
+            if parts[0] == "envfit" and n != "envfit" and n not in PACKAGES \
+                    and n not in ("envfit.theory", "envfit.data_gen"):
+                bad.append(n)
+    return bad
+
+
+DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md")),
+        *sorted((ROOT / "examples").glob("*.py"))]
+
+
+@pytest.mark.parametrize("path", [p for p in DOCS if "_build" not in p.parts],
+                         ids=lambda p: str(p.relative_to(ROOT)))
+def test_docs_import_only_public_names(path):
+    bad = [n for block in _python_blocks(path) for n in _deep_imports(block)]
+    assert bad == [], f"{path.name} imports from implementation modules: {bad}"
+
+
+def test_the_checker_sees_a_deep_import():
+    assert _deep_imports("from envfit.sampling.map_sampler import MapSampler") == \
+        ["envfit.sampling.map_sampler"]
+    assert _deep_imports(">>> from envfit.sampling import MapSampler") == []
