@@ -65,20 +65,38 @@ def public_packages() -> list[str]:
     return names[:1] + sorted(names[1:])
 
 
-def package_page(name: str) -> str:
-    """The reStructuredText of one package: its docstring and an autosummary of its ``__all__``."""
+def package_page(name: str, seen: dict | None = None) -> str:
+    """The reStructuredText of one package: its docstring and an autosummary of its ``__all__``.
+
+    A name re-exported by several packages (``envfit.EnvMap`` is ``envfit.maps.EnvMap``) is
+    documented once, where it is first met (``envfit``, then the sub-packages in order);
+    the later packages link to that page."""
     module = importlib.import_module(name)
+    seen = {} if seen is None else seen
     public = [n for n in module.__all__ if not (n.startswith("__") and n.endswith("__"))]
+    own, also = [], []
+    for n in public:
+        obj = getattr(module, n)
+        key = (getattr(obj, "__module__", None), getattr(obj, "__qualname__", None))
+        if key[1] is not None and key in seen:
+            also.append(f"``{n}`` (:obj:`{seen[key]}.{n}`)")
+            continue
+        if key[1] is not None:
+            seen[key] = name
+        own.append(n)
     lines = [name, "=" * len(name), "", f".. automodule:: {name}", "   :no-members:", "",
              f".. currentmodule:: {name}", "", ".. autosummary::", "   :toctree: generated", ""]
-    lines += [f"   {n}" for n in public]
+    lines += [f"   {n}" for n in own]
+    if also:
+        lines += ["", "Also here: " + ", ".join(also) + "."]
     return "\n".join(lines) + "\n"
 
 
 def write_api_pages() -> None:
     """Write ``api/<package>.rst`` and ``api/index.rst`` (only where the text changed)."""
     API.mkdir(exist_ok=True)
-    pages = {f"{name}.rst": package_page(name) for name in public_packages()}
+    seen: dict = {}
+    pages = {f"{name}.rst": package_page(name, seen) for name in public_packages()}
     toc = ["API reference", "=============", "",
            "The supported names: ``envfit.__all__`` and each sub-package's ``__all__``",
            "(generated from the docstrings; implementation modules are not listed).", "",
@@ -86,6 +104,12 @@ def write_api_pages() -> None:
     pages["index.rst"] = "\n".join(toc + [f"   {p[:-4]}" for p in pages]) + "\n"
     for stale in API.glob("*.rst"):
         if stale.name not in pages:
+            stale.unlink()
+    # autosummary's pages of names no longer listed (a name now documented elsewhere)
+    listed = {f"{p[:-4]}.{ln.strip()}.rst" for p, text in pages.items()
+              for ln in text.splitlines() if ln.startswith("   ") and not ln.strip().startswith(":")}
+    for stale in (API / "generated").glob("*.rst"):
+        if stale.name not in listed:
             stale.unlink()
     for fname, text in pages.items():
         _write_if_changed(API / fname, text)

@@ -163,9 +163,10 @@ class BrightSource:
     direction : (3,) world unit vector (the map's ``up``): the excess-power-weighted mean of
         the pixel directions, :math:`\sum w_{ij} d_{ij}/|\cdot|`,
         :math:`w_{ij} = \max(Y_{ij} - \bar Y, 0)\,\Omega_{ij}`
-    solid_angle : equivalent solid angle :math:`\sum_{M} (Y_{ij} - \bar Y)\Omega_{ij} /
-        (Y_{peak} - \bar Y)`: for a uniform disc rendered as cell averages on a background
-        :math:`\bar Y`, the disc's solid angle whatever its edge pixels' coverage
+    solid_angle : float
+        equivalent solid angle :math:`\sum_{M} (Y_{ij} - \bar Y)\Omega_{ij} / (Y_{peak} - \bar Y)`:
+        for a uniform disc rendered as cell averages on a background :math:`\bar Y`, the
+        disc's solid angle whatever its edge pixels' coverage
     pixel_solid_angle : :math:`\sum_M \Omega_{ij}`
     power : :math:`\sum_M Y_{ij}\Omega_{ij}` (luminance)
     share : power / :math:`\sum_{all} Y_{ij}\Omega_{ij}`
