@@ -52,8 +52,9 @@ MIN_HEIGHT = 64
 #: bytes per pixel of the renderer rows' setup (the scaled, source and rest maps, two
 #: samplers: +296 MB on a 2048x1024 map) and of the map nodes the next spectrum reuses,
 #: beside one spectrum (:func:`envfit.shading.warped_spectrum.spectrum_nbytes`): the whole
-#: renderer section measured +1.93 GB on a 2048x1024 map (four spectra, G = 512, 32 axes)
-_RENDERER_SETUP_BYTES_PER_PIXEL = 270
+#: renderer section measured +1.93 GB on a 2048x1024 map (four spectra, G = 512, 32 axes);
+#: bench/big_maps.py on a 2048x1024 GP map with a sun: 2.36 GB resident, predicted 2.40 GB
+_RENDERER_SETUP_BYTES_PER_PIXEL = 300
 #: seconds per pixel and per axis of one warped spectrum (35 s for four spectra of city.exr,
 #: 199 s on a 2048x1024 map; 2 loaded cores)
 _RENDERER_SEC_PER_PIXEL_AXIS = 6e-7
@@ -79,7 +80,8 @@ def _search_stage(h: int, opts: AdviseOptions) -> Stage:
     """The quadrature searches: one rule error power to 2H − 1 per evaluated N (and OSW's
     N×N solve); seconds: the most a search can take (:func:`_stream_seconds`) for each rule
     and realisation (the cache and rules that stop early take less: on a 2048x1024 GP map
-    with a sun, target 1 %, predicted ~2900 s, measured 950 s on 2 loaded cores)."""
+    with a sun, target 1 % of the mean, predicted at most ~4100 s, measured 1256 s on 2
+    loaded cores, bench/big_maps.py)."""
     L = 2 * h - 1
     nb, secs = 0, 0.0
     for ps in opts.pointsets:
