@@ -53,8 +53,9 @@ MIN_HEIGHT = 64
 #: samplers: +296 MB on a 2048x1024 map) and of the map nodes the next spectrum reuses,
 #: beside one spectrum (:func:`envfit.shading.warped_spectrum.spectrum_nbytes`): the whole
 #: renderer section measured +1.93 GB on a 2048x1024 map (four spectra, G = 512, 32 axes);
-#: bench/big_maps.py on a 2048x1024 GP map with a sun: 2.36 GB resident, predicted 2.40 GB
-_RENDERER_SETUP_BYTES_PER_PIXEL = 300
+#: bench/big_maps.py on a 2048x1024 GP map with a sun: 2.36 GB resident (predicted 2.61 GB);
+#: envfit advise on an 8192x4096 map (predictions at 2048x1024): 2.81 GB (predicted 2.87 GB)
+_RENDERER_SETUP_BYTES_PER_PIXEL = 400
 #: seconds per pixel and per axis of one warped spectrum (35 s for four spectra of city.exr,
 #: 199 s on a 2048x1024 map; 2 loaded cores)
 _RENDERER_SEC_PER_PIXEL_AXIS = 6e-7
