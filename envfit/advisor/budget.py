@@ -34,7 +34,7 @@ from dataclasses import replace
 from envfit.advisor.options import AdviseOptions
 from envfit.base.errors import MemoryBudgetError
 from envfit.base.resources import (Plan, Stage, format_bytes, interpolator_nbytes,
-                                   memory_budget_bytes)
+                                   largest_n_within, memory_budget_bytes)
 from envfit.kernels.bandlimited import max_samples
 from envfit.maps.envmap import EnvMap
 from envfit.shading.ground_truth import default_sh_lmax
@@ -93,7 +93,7 @@ def _search_stage(h: int, opts: AdviseOptions) -> Stage:
             nb = max(nb, rule_power_cost(upper, L)[0]
                      + (interpolator_nbytes(upper, 1) if w == "osw" else 0))
     return Stage("quadrature search", int(nb), secs,
-                 f"rule error power to l = {L} per N, up to N = {opts.nmax}; time at most")
+                 f"rule error power to l = {L} per N, up to N = {opts.nmax}")
 
 
 def advise_plan(height: int, channels: int, opts: AdviseOptions, *,
@@ -165,11 +165,37 @@ def _heights(h: int) -> list[int]:
     return out
 
 
+def _search_refusal(envmap: EnvMap, opts: AdviseOptions, plan: Plan, h: int,
+                    kw: dict) -> MemoryBudgetError | None:
+    """Where the quadrature search alone is over budget and lowering one N option makes the
+    plan fit: one line naming that option and the largest value of it that fits (the plan
+    is arithmetic: the bisection allocates nothing); None otherwise."""
+    if plan.worst().name != "quadrature search":
+        return None
+    c, budget = envmap.channels, memory_budget_bytes()
+    names = (("osw_nmax",) if "osw" in opts.weights else ()) + ("nmax",)
+    for name in names:
+        def peak(n, name=name):
+            return advise_plan(h, c, replace(opts, **{name: max(opts.nmin, n)}), **kw).peak()
+        if peak(opts.nmin) > budget:
+            continue
+        fits = max(opts.nmin, largest_n_within(peak, budget, getattr(opts, name)))
+        return MemoryBudgetError(
+            f"advise on the {envmap.width}x{envmap.height} map at {name} = "
+            f"{getattr(opts, name)}: the quadrature search ({plan.worst().detail}) needs "
+            f"{format_bytes(plan.peak())} but only {format_bytes(budget)} can be used; "
+            f"the largest {name} that fits is {fits}")
+    return None
+
+
 def _refusal(envmap: EnvMap, opts: AdviseOptions, plan: Plan, h: int) -> MemoryBudgetError:
     """One line: the smallest plan's worst stage, and the option that makes it fit."""
     c, res = envmap.channels, 8 * 2 * h * h * envmap.channels
     fixes = []
     kw = {"resident": res, "source_height": envmap.height}
+    search = _search_refusal(envmap, opts, plan, h, kw)
+    if search is not None:
+        return search
     if opts.renderer and advise_plan(h, c, replace(opts, renderer=False), **kw).fits():
         fixes.append("--no-renderer")
     if opts.check and advise_plan(h, c, replace(opts, check=False), **kw).fits():
