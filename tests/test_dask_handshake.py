@@ -186,3 +186,34 @@ def test_cli_one_line_exit_2(monkeypatch, endpoint, tmp_path, capsys):
         assert len(err.splitlines()) == 1 and "Traceback" not in err
         assert err.startswith("envfit table2: error: cannot reach the dask scheduler at "
                               + e.address)
+
+
+def test_refusal_named_when_the_retry_loop_ends_cancelled():
+    """On a loaded machine distributed's retry loop can end in its own cancelled last attempt:
+    the OSError's chain then holds a CancelledError, not the refusal. A plain TCP probe still
+    names the refusal (and does not invent one where something listens)."""
+    import asyncio
+
+    from envfit.batch.executor import _connect_failure
+
+    def cancelled_oserror():
+        try:
+            try:
+                raise asyncio.CancelledError()
+            except BaseException as c:
+                raise OSError("Timed out trying to connect") from c
+        except OSError as e:
+            return e
+
+    s = socket.socket()
+    s.bind(("127.0.0.1", 0))
+    port = s.getsockname()[1]
+    s.close()                                   # closed: refused
+    assert _connect_failure(cancelled_oserror(), 0.8,
+                            f"tcp://127.0.0.1:{port}").startswith("connection refused")
+    with socket.socket() as listener:           # something listens: not a refusal
+        listener.bind(("127.0.0.1", 0))
+        listener.listen(1)
+        msg = _connect_failure(cancelled_oserror(), 0.8,
+                               f"tcp://127.0.0.1:{listener.getsockname()[1]}")
+        assert "refused" not in msg and "CancelledError" in msg

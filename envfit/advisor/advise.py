@@ -341,7 +341,8 @@ def advise_with(envmap: EnvMap, options: AdviseOptions) -> Advice:
         adv.notes.append(f"memory and time: peak {format_bytes(peak_rss_bytes())} resident "
                          f"(predicted {format_bytes(rss0 + plan.peak())}: "
                          f"{format_bytes(rss0)} before the work + the plan's peak), "
-                         f"{adv.timings['total']:.0f} s (predicted ~{plan.seconds():.0f} s)")
+                         f"{adv.timings['total']:.0f} s (the plan: ~{plan.seconds():.0f} s, "
+                         f"its search an upper bound)")
     return adv
 
 

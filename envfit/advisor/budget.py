@@ -34,7 +34,7 @@ from dataclasses import replace
 from envfit.advisor.options import AdviseOptions
 from envfit.base.errors import MemoryBudgetError
 from envfit.base.resources import (Plan, Stage, format_bytes, interpolator_nbytes,
-                                   memory_budget_bytes)
+                                   largest_n_within, memory_budget_bytes)
 from envfit.kernels.bandlimited import max_samples
 from envfit.maps.envmap import EnvMap
 from envfit.shading.ground_truth import default_sh_lmax
@@ -52,8 +52,10 @@ MIN_HEIGHT = 64
 #: bytes per pixel of the renderer rows' setup (the scaled, source and rest maps, two
 #: samplers: +296 MB on a 2048x1024 map) and of the map nodes the next spectrum reuses,
 #: beside one spectrum (:func:`envfit.predict.renderer.warped_spectrum.spectrum_nbytes`): the whole
-#: renderer section measured +1.93 GB on a 2048x1024 map (four spectra, G = 512, 32 axes)
-_RENDERER_SETUP_BYTES_PER_PIXEL = 270
+#: renderer section measured +1.93 GB on a 2048x1024 map (four spectra, G = 512, 32 axes);
+#: bench/big_maps.py on a 2048x1024 GP map with a sun: 2.36 GB resident (predicted 2.61 GB);
+#: envfit advise on an 8192x4096 map (predictions at 2048x1024): 2.81 GB (predicted 2.87 GB)
+_RENDERER_SETUP_BYTES_PER_PIXEL = 400
 #: seconds per pixel and per axis of one warped spectrum (35 s for four spectra of city.exr,
 #: 199 s on a 2048x1024 map; 2 loaded cores)
 _RENDERER_SEC_PER_PIXEL_AXIS = 6e-7
@@ -79,7 +81,8 @@ def _search_stage(h: int, opts: AdviseOptions) -> Stage:
     """The quadrature searches: one rule error power to 2H − 1 per evaluated N (and OSW's
     N×N solve); seconds: the most a search can take (:func:`_stream_seconds`) for each rule
     and realisation (the cache and rules that stop early take less: on a 2048x1024 GP map
-    with a sun, target 1 %, predicted ~2900 s, measured 950 s on 2 loaded cores)."""
+    with a sun, target 1 % of the mean, predicted at most ~4100 s, measured 1256 s on 2
+    loaded cores, bench/big_maps.py)."""
     L = 2 * h - 1
     nb, secs = 0, 0.0
     for ps in opts.pointsets:
@@ -90,7 +93,7 @@ def _search_stage(h: int, opts: AdviseOptions) -> Stage:
             nb = max(nb, rule_power_cost(upper, L)[0]
                      + (interpolator_nbytes(upper, 1) if w == "osw" else 0))
     return Stage("quadrature search", int(nb), secs,
-                 f"rule error power to l = {L} per N, up to N = {opts.nmax}; time at most")
+                 f"rule error power to l = {L} per N, up to N = {opts.nmax}")
 
 
 def advise_plan(height: int, channels: int, opts: AdviseOptions, *,
@@ -162,11 +165,37 @@ def _heights(h: int) -> list[int]:
     return out
 
 
+def _search_refusal(envmap: EnvMap, opts: AdviseOptions, plan: Plan, h: int,
+                    kw: dict) -> MemoryBudgetError | None:
+    """Where the quadrature search alone is over budget and lowering one N option makes the
+    plan fit: one line naming that option and the largest value of it that fits (the plan
+    is arithmetic: the bisection allocates nothing); None otherwise."""
+    if plan.worst().name != "quadrature search":
+        return None
+    c, budget = envmap.channels, memory_budget_bytes()
+    names = (("osw_nmax",) if "osw" in opts.weights else ()) + ("nmax",)
+    for name in names:
+        def peak(n, name=name):
+            return advise_plan(h, c, replace(opts, **{name: max(opts.nmin, n)}), **kw).peak()
+        if peak(opts.nmin) > budget:
+            continue
+        fits = max(opts.nmin, largest_n_within(peak, budget, getattr(opts, name)))
+        return MemoryBudgetError(
+            f"advise on the {envmap.width}x{envmap.height} map at {name} = "
+            f"{getattr(opts, name)}: the quadrature search ({plan.worst().detail}) needs "
+            f"{format_bytes(plan.peak())} but only {format_bytes(budget)} can be used; "
+            f"the largest {name} that fits is {fits}")
+    return None
+
+
 def _refusal(envmap: EnvMap, opts: AdviseOptions, plan: Plan, h: int) -> MemoryBudgetError:
     """One line: the smallest plan's worst stage, and the option that makes it fit."""
     c, res = envmap.channels, 8 * 2 * h * h * envmap.channels
     fixes = []
     kw = {"resident": res, "source_height": envmap.height}
+    search = _search_refusal(envmap, opts, plan, h, kw)
+    if search is not None:
+        return search
     if opts.renderer and advise_plan(h, c, replace(opts, renderer=False), **kw).fits():
         fixes.append("--no-renderer")
     if opts.check and advise_plan(h, c, replace(opts, check=False), **kw).fits():

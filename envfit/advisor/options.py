@@ -40,7 +40,8 @@ from envfit.theory.pointsets import POINTSETS as SQUARE_POINTSETS
 __all__ = ["AdviseOptions", "ALL_POINTSETS", "DEFAULT_POINTSETS", "WEIGHTINGS", "BASES", "BRDFS",
            "DEFAULT_FIT_N", "DEFAULT_NMIN", "DEFAULT_NMAX", "DEFAULT_OSW_NMAX", "DEFAULT_SEEDS",
            "DEFAULT_AXES", "DEFAULT_SHININESS", "DEFAULT_SCALE", "DEFAULT_TARGET_RELATIVE",
-           "PREDICTOR_CHOICES", "RENDERER_AXES_START", "RENDERER_MAX_AXES"]
+           "PREDICTOR_CHOICES", "RENDERER_AXES_START", "RENDERER_MAX_AXES", "MAX_AXES",
+           "MAX_SPECTRUM_AXES", "MAX_SEEDS"]
 
 #: every point set (envfit.theory.pointsets); BNOT costs ≈15 s per realisation at N = 4096
 ALL_POINTSETS = ("sf", "sobol", "lp", "bnot", "random", "jitter")
@@ -69,6 +70,35 @@ PREDICTOR_CHOICES = ("auto", "bandlimited", "spectral")
 #: the renderer check's adaptive measurement: axes to start with and at most
 RENDERER_AXES_START = 250
 RENDERER_MAX_AXES = 4000
+#: the most axes of a check (``axes``, ``check_hsh_axes``, ``renderer_max_axes``): the RMSE
+#: over M axes has a Monte-Carlo error ≈ 1/√(2M), 0.2 % here; more buys no information and
+#: costs M shading integrals and rule evaluations (1e9 axes was killed for memory)
+MAX_AXES = 100_000
+#: the most axes of the renderer's warped spectra (≈ 1 s each per strategy on 2 cores: the
+#: default 32 costs ≈ 32 s; 1e8 held 11 GB and ran on)
+MAX_SPECTRUM_AXES = 1024
+#: the most realisations per N of a stochastic point set (each one multiplies the search's
+#: cost; the mean's scatter is 1/16 of one realisation's at 256)
+MAX_SEEDS = 256
+
+
+def _check_at_most(value: int, top: int, what: str, why: str) -> int:
+    """``value`` if ≤ ``top``, else a one-line ParameterError saying why the bound."""
+    if value > top:
+        raise ParameterError(f"{what} must be <= {top} ({why}), got {value}")
+    return value
+
+
+def _check_axes(value, what: str) -> int:
+    """An axis count in [2, :data:`MAX_AXES`].
+
+    >>> _check_axes(10 ** 9, "axes (--axes)")
+    Traceback (most recent call last):
+    ...
+    envfit.base.errors.ParameterError: axes (--axes) must be <= 100000 (the RMSE over M axes is known to ≈ 1/√(2M): 0.2 % at 100000), got 1000000000
+    """
+    return _check_at_most(check_int(value, what, 2), MAX_AXES, what,
+                          f"the RMSE over M axes is known to ≈ 1/√(2M): 0.2 % at {MAX_AXES}")
 
 
 @dataclass(frozen=True)
@@ -109,13 +139,14 @@ class AdviseOptions:
         Search: the N range (``nmin`` ≥ 1, ``nmax`` ≥ ``nmin``); OSW up to
         ``min(nmax, osw_nmax)``.
     seeds : int
-        Search: realisations averaged per N for random, jitter and BNOT (≥ 1).
+        Search: realisations averaged per N for random, jitter and BNOT (1 … :data:`MAX_SEEDS`).
     check : bool
         Check: measure the RMSE at the chosen N/L.
     axes : int
-        Check: random axes of the measurement (≥ 2).
+        Check: random axes of the measurement (2 … :data:`MAX_AXES`).
     check_hsh_height, check_hsh_axes : int
-        Check: rows of the map and axes of the (dear) HSH measurement.
+        Check: rows of the map (≥ 4; at most the map's) and axes (2 … :data:`MAX_AXES`;
+        at most ``axes``) of the (dear) HSH measurement.
     cache : bool
         Cache: read and write the on-disk cache (:mod:`envfit.advisor.cache`).
     cache_dir : path or None
@@ -128,11 +159,12 @@ class AdviseOptions:
         Renderer rows: strategies (brdf, map, mis, split) and point sets (of
         :func:`envfit.theory.pointsets.square_points`; default sobol, sf, random).
     renderer_grid, renderer_spectrum_axes : int
-        Renderer rows: the warped spectra's grid (a multiple of 4, ≥ 8) and axes
+        Renderer rows: the warped spectra's grid (a multiple of 4, ≥ 8; its memory checked by
+        the advisor's budget) and axes (1 … :data:`MAX_SPECTRUM_AXES`)
         (:data:`envfit.advisor.renderer.RENDERER_GRID`, ``RENDERER_SPECTRUM_AXES``).
     renderer_axes_start, renderer_max_axes : int
         Renderer check: the adaptive measurement's first and largest number of axes
-        (:func:`envfit.measure.rules.measure_rule`).
+        (2 ≤ start ≤ max ≤ :data:`MAX_AXES`; :func:`envfit.measure.rules.measure_rule`).
     renderer_curves : bool
         Renderer rows: predict every grid N (for the plot), not only those the search needs.
     workers : int
@@ -236,10 +268,11 @@ class AdviseOptions:
                "seed": check_int(self.seed, "seed", 0), "nmin": check_int(self.nmin, "nmin", 1)}
         out["nmax"] = check_int(self.nmax, "nmax", out["nmin"])
         return {**out, "osw_nmax": check_int(self.osw_nmax, "osw_nmax", 1),
-                "seeds": check_int(self.seeds, "seeds", 1),
-                "axes": check_int(self.axes, "axes", 2),
+                "seeds": _check_at_most(check_int(self.seeds, "seeds", 1), MAX_SEEDS,
+                                        "seeds (--realisations)", "realisations per N"),
+                "axes": _check_axes(self.axes, "axes (--axes)"),
                 "check_hsh_height": check_int(self.check_hsh_height, "check_hsh_height", 4),
-                "check_hsh_axes": check_int(self.check_hsh_axes, "check_hsh_axes", 2),
+                "check_hsh_axes": _check_axes(self.check_hsh_axes, "check_hsh_axes"),
                 **self._checked_renderer_numbers()}
 
     def _checked_renderer_numbers(self) -> dict:
@@ -248,12 +281,15 @@ class AdviseOptions:
         if grid % 4:
             raise ParameterError(f"the renderer spectra's grid must be a multiple of 4, got "
                                  f"{grid}")
-        start = check_int(self.renderer_axes_start, "renderer_axes_start", 2)
+        start = _check_axes(self.renderer_axes_start, "renderer_axes_start")
+        sp_axes = check_int(self.renderer_spectrum_axes, "the renderer spectra's axes", 1)
         return {"renderer_grid": grid, "renderer_axes_start": start,
-                "renderer_spectrum_axes": check_int(self.renderer_spectrum_axes,
-                                                    "the renderer spectra's axes", 1),
-                "renderer_max_axes": check_int(self.renderer_max_axes, "renderer_max_axes",
-                                               start),
+                "renderer_spectrum_axes": _check_at_most(
+                    sp_axes, MAX_SPECTRUM_AXES, "the renderer spectra's axes "
+                    "(--renderer-spectrum-axes)", "≈ 1 s each per strategy"),
+                "renderer_max_axes": _check_axes(check_int(self.renderer_max_axes,
+                                                           "renderer_max_axes", start),
+                                                 "renderer_max_axes"),
                 "renderer": bool(self.renderer), "renderer_curves": bool(self.renderer_curves)}
 
     @classmethod

@@ -257,17 +257,38 @@ def _why(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {msg[:200]}" if msg else type(exc).__name__
 
 
-def _connect_failure(exc: OSError, seconds: float) -> str:
-    """What a failed ``distributed.comm.connect`` means, in a few words."""
+def _connect_failure(exc: OSError, seconds: float, address: str | None = None) -> str:
+    """What a failed ``distributed.comm.connect`` to ``address`` means, in a few words."""
     chain, e = [], exc
     while e is not None and len(chain) < 5:
         chain.append(e)
         e = e.__cause__ or e.__context__
+    refused = (f"connection refused (nothing listens there; retried for {seconds:.3g} s, "
+               "ENVFIT_DASK_TIMEOUT sets the limit)")
     if any(isinstance(e, ConnectionRefusedError) or "Connection refused" in str(e)
            for e in chain):
-        return (f"connection refused (nothing listens there; retried for {seconds:.3g} s, "
-                "ENVFIT_DASK_TIMEOUT sets the limit)")
+        return refused
+    if address is not None and _tcp_refused(address):
+        # distributed's retry loop can end in its own cancelled last attempt (a loaded
+        # machine): the chain then holds CancelledError, not the refusal; a plain TCP probe
+        # tells the two apart
+        return refused
     return _why(chain[-1] if len(chain) > 1 else exc)
+
+
+def _tcp_refused(address: str) -> bool:
+    """True when a plain TCP connect to ``address`` (tcp://HOST:PORT) is refused at once."""
+    import socket
+    from distributed.comm.addressing import get_address_host_port
+
+    try:
+        host, port = get_address_host_port(address)
+        socket.create_connection((host, int(port)), timeout=1.0).close()
+    except ConnectionRefusedError:
+        return True
+    except (OSError, ValueError, TypeError):
+        return False
+    return False
 
 
 def identify_scheduler(address: str, timeout: float) -> dict:
@@ -288,7 +309,7 @@ def identify_scheduler(address: str, timeout: float) -> dict:
                             "it a dask scheduler's address? ENVFIT_DASK_TIMEOUT sets the "
                             "limit)") from None
     except OSError as exc:  # refused (retried until the deadline), reset, closed
-        raise ExecutorError(f"{where}: {_connect_failure(exc, 0.8 * timeout)}") from None
+        raise ExecutorError(f"{where}: {_connect_failure(exc, 0.8 * timeout, address)}") from None
     except Exception as exc:  # its bytes are not dask messages (HTTP, garbage, ...)
         raise ExecutorError(f"{where}: the endpoint does not speak dask's protocol (reading "
                             f"its answer failed: {_why(exc)})") from None

@@ -44,7 +44,8 @@ then costs one non-uniform FFT per point set):
   the rest at the Monte Carlo weight :math:`1/n_i` (the mean of :math:`|S_i|^2` over high
   frequencies for every set; :mod:`envfit.predict.renderer.spectral_tail`): so the prediction is
   exact for random points and for QMC sets up to :math:`N \approx (B/2)^2`, and beyond it
-  tends to the Monte Carlo rate (conservative);
+  tends to the Monte Carlo rate (an extrapolation, not a bound: a night map with lamps
+  measured 1.48× it; :func:`envfit.advisor.renderer.extrapolation_note`);
 * the mean over axes (uniform on the sphere) by importance: ``axes`` axes drawn systematically
   from 2048 spherical Fibonacci axes with probability ⅓ uniform + ⅓ ∝ a proxy of BRDF
   sampling's and ⅓ of map sampling's second moment (an 8×8-pixel-block quadrature of the
