@@ -229,3 +229,27 @@ def test_refusal_names_the_option_that_fits(monkeypatch):
     msg = str(ei.value)
     assert msg.startswith("advise on the 256x128 map even at 128x64: renderer spectra")
     assert msg.endswith("it fits with --no-renderer")
+
+
+def test_validate_refuses_the_map_power_before_the_fit(monkeypatch):
+    """validate's spectral stages (the map power to H − 1, one rule's error power at the
+    largest N) are planned before the fit: over budget, one line naming the stage and
+    ``--max-height``, and the fit is never started."""
+    import envfit.validate.pipeline as pipeline
+    from envfit.validate.config import ValidateConfig
+
+    def boom(*a, **k):
+        raise AssertionError("the fit ran before the spectral plan was checked")
+
+    monkeypatch.setattr(pipeline, "fit_both", boom)
+    rng = np.random.default_rng(0)
+    env = EnvMap(rng.random((2048, 4096, 1), dtype=np.float32) + 1.0, name="big.exr")
+    cfg = ValidateConfig(n_values=[16, 64], fit_n=200, truncation=False)
+    plan = pipeline._spectral_plan(env, cfg)
+    # a budget between the earlier guards' needs and this plan's peak
+    monkeypatch.setenv("ENVFIT_MEMORY_LIMIT", str(int(plan.peak() / 0.8 * 0.6)))
+    with pytest.raises(MemoryBudgetError, match=r"^validate: map power .* --max-height"):
+        pipeline.run_validation(env, cfg)
+    monkeypatch.setenv("ENVFIT_MEMORY_LIMIT", str(int(plan.peak() / 0.8 * 1.05)))
+    with pytest.raises(AssertionError, match="the fit ran"):   # fits: on to the fit
+        pipeline.run_validation(env, cfg)

@@ -147,14 +147,15 @@ import numpy as np
 
 from envfit.base.errors import ParameterError
 from envfit.base.progress import progress_bar
-from envfit.base.resources import plan_memory
+from envfit.base.resources import Plan, Stage, plan_memory
 from envfit.base.store import ResultStore, array_fingerprint
 from envfit.maps.envmap import EnvMap, check_sample_count
 from envfit.maps.scales import Scale, check_not_constant, fit_scale
 from envfit.predict import PredictionContext
 from envfit.shading.ground_truth import shading_integral, weight_function
 from envfit.shading.quadrature import LOOKUP_BLOCK, quadrature_estimates_multi, random_axes
-from envfit.shading.spectra import bandlimited_worst_case_errors, low_degree_power_ratio, rule_error_power
+from envfit.shading.spectra import (bandlimited_worst_case_errors, low_degree_power_ratio,
+                                    rule_error_power, rule_power_cost, sh_analysis_cost)
 from envfit.theory.errors import TheoryParameterError
 from envfit.theory.pointsets import generate
 from envfit.theory.quadrature import worst_case_error
@@ -187,6 +188,23 @@ def plan_validation_memory(envmap: EnvMap, cfg: ValidateConfig) -> None:
                 + 8 * cfg.axes * (9 + 2 * c * len(cfg.weights)))
     plan_fit_memory(cfg.fit_n, envmap.width, envmap.height, c, method=cfg.fit_method,
                     what="validate's smoothness fit", n_name="fit_n")
+    _spectral_plan(envmap, cfg).check(hint="--max-height reads the map at fewer rows")
+
+
+def _spectral_plan(envmap: EnvMap, cfg: ValidateConfig) -> Plan:
+    """The stages after the fit whose size grows with the map (checked before the fit): the
+    map's power per degree to the band limit H − 1 (prediction (c),
+    :func:`envfit.shading.spectra.sh_analysis_cost`) and one rule's error power at the
+    largest N to the same degree (:func:`envfit.shading.spectra.rule_power_cost`); resident:
+    the scaled map and its per-pixel arrays (as the quadrature rules' guard above)."""
+    h, c, lmax = envmap.height, envmap.channels, envmap.height - 1
+    n = int(cfg.n_values[-1])
+    nb, t = sh_analysis_cost(h, c, lmax)
+    rb, rt = rule_power_cost(n, lmax)
+    return Plan("validate", [
+        Stage("map power", nb, t, f"SH coefficients of the interpolant to l = {lmax}"),
+        Stage("rule error power", rb, rt, f"N = {n} points to l = {lmax}")],
+        resident=8 * envmap.width * envmap.height * (c + 4))
 
 
 # ----------------------------------------------------------------------------- the run's state
