@@ -27,7 +27,7 @@ importing the package loads none of its modules.
 """
 from __future__ import annotations
 
-import importlib
+from envfit.base.lazy import lazy_exports
 
 _LAZY = {
     "ProfiledLikelihood": "interpolation", "SobolevInterpolator": "interpolation",
@@ -36,15 +36,4 @@ _LAZY = {
 
 __all__ = sorted(_LAZY)
 
-
-def __getattr__(name: str):
-    mod = _LAZY.get(name)
-    if mod is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(f".{mod}", __name__), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__():
-    return sorted(set(globals()) | set(_LAZY))
+__getattr__, __dir__ = lazy_exports(__name__, _LAZY)
