@@ -5,6 +5,7 @@ Layers, lowest first; a module may import its own sub-package and any lower laye
 higher one nor another sub-package of its own layer (one pipeline leaning on another)::
 
     theory
+    defaults                      (the module envfit/defaults.py: default numbers, vocabularies)
     data_gen                      (synthetic maps: theory only)
     base                          (errors, checks, atomic writes, store, memory guard, progress)
     maps, plots                   (maps: also bright-source detection and the preview)
@@ -17,7 +18,9 @@ higher one nor another sub-package of its own layer (one pipeline leaning on ano
     batch
     cli
 
-A sub-package's own sub-packages (``predict/renderer``) count as the sub-package.
+A sub-package's own sub-packages (``predict/renderer``) count as the sub-package; the one
+layered top-level module, ``envfit/defaults.py``, counts as a package of its own (it imports
+theory only, so every sub-package may import it; theory never imports envfit).
 
 ``envfit/__init__.py`` only re-exports names lazily and is not part of any layer.
 """
@@ -29,8 +32,11 @@ from pathlib import Path
 
 import pytest
 
+import envfit
 
-LAYERS = [("theory",), ("data_gen",), ("base",), ("maps", "plots"), ("kernels", "shading"),
+
+LAYERS = [("theory",), ("defaults",), ("data_gen",), ("base",), ("maps", "plots"),
+          ("kernels", "shading"),
           ("sampling",), ("measure",), ("fit",), ("predict",), ("export", "validate", "advisor"),
           ("batch",), ("cli",)]
 RANK = {pkg: i for i, group in enumerate(LAYERS) for pkg in group}
@@ -43,6 +49,7 @@ def _package_dirs() -> dict[str, Path]:
             if p.is_dir() and (p / "__init__.py").exists()}
     dirs["theory"] = Path(envfit.theory.__file__).parent
     dirs["data_gen"] = Path(envfit.data_gen.__file__).parent
+    dirs["defaults"] = Path(envfit.__file__).parent / "defaults.py"     # a module, not a folder
     return dirs
 
 
@@ -75,7 +82,7 @@ def _violations() -> list[str]:
     bad = []
     for pkg, folder in _package_dirs().items():
         assert pkg in RANK, f"envfit.{pkg} is in no layer: add it to LAYERS and docs/architecture.md"
-        for path in sorted(folder.rglob("*.py")):
+        for path in [folder] if folder.is_file() else sorted(folder.rglob("*.py")):
             for dep in sorted(_imports(path, pkg) - {pkg}):
                 if dep not in RANK:
                     continue                       # __version__, lazy names of envfit/__init__
@@ -94,6 +101,16 @@ def test_the_checker_sees_a_violation(tmp_path):
     f = tmp_path / "m.py"
     f.write_text("def g():\n    from envfit.cli.common import say\n    from ..advisor import advise\n")
     assert _imports(f, "fit") == {"cli", "advisor"}
+
+
+def test_defaults_sits_below_every_sub_package(tmp_path):
+    """envfit.defaults is importable by every sub-package (data_gen up) and imports only
+    theory; theory importing it is a violation."""
+    assert all(RANK["defaults"] < RANK[p] for p in RANK if p not in ("theory", "defaults"))
+    assert _imports(Path(envfit.__file__).parent / "defaults.py", "defaults") <= {"theory"}
+    f = tmp_path / "m.py"
+    f.write_text("from envfit.defaults import DEFAULT_SHININESS\n")
+    assert _imports(f, "theory") == {"defaults"} and RANK["defaults"] > RANK["theory"]
 
 
 def test_one_top_level_package_installed():

@@ -45,7 +45,7 @@ from .sh import legendre_moments as _legendre_moments
 
 __all__ = ["WeightFunction", "ZonalWeight", "Diffuse", "Glossy", "Phong",
            "hsh_to_sh_matrix", "gauss_legendre_01", "GLOSSY_CLOSED_FORM_N", "GLOSSY_SPLIT_N",
-           "GLOSSY_MAX_SHININESS"]
+           "GLOSSY_MAX_SHININESS", "BRDFS", "PAPER_SHININESS"]
 
 _RESOLVE_TOL = 1e-12          # a rounding plateau of the shifted-Legendre moments lies below this·int|p|
 _RESOLVE_MAX_NODES = 1 << 14  # give up resolving p beyond this many nodes (warns)
@@ -53,6 +53,12 @@ _RESOLVE_MAX_NODES = 1 << 14  # give up resolving p beyond this many nodes (warn
 #: generic quadrature's rounding plateau (≈ l·eps·n of ∫p) would hide them (it warns from
 #: n ≈ 1e4, and every node underflows at n = 1e6)
 GLOSSY_CLOSED_FORM_N = 1000.0
+#: the names of the two lobes of the paper's experiments (Sec. 7): "diffuse" (p = z) and
+#: "glossy" (p = e^{n(z−1)}); every BRDF name list of theory and envfit is this tuple
+BRDFS = ("diffuse", "glossy")
+#: the glossy exponent n of the paper's Table 1 and Secs. 7–8 (n = 30), the default of every
+#: glossy lobe in theory (envfit's :data:`envfit.defaults.DEFAULT_SHININESS` is this value)
+PAPER_SHININESS = 30.0
 #: at or below this shininess the lobe's jump e^{-n} at the horizon is ≥ 1e-7 and b_l decays
 #: only as l^{-3/2}: b_l by the half-range Legendre products (:meth:`Glossy._sh_split`),
 #: O(K·lmax) instead of the quadrature's O(lmax²)
@@ -460,7 +466,7 @@ class Glossy(WeightFunction):
     True
     """
 
-    shininess: float = 30.0
+    shininess: float = PAPER_SHININESS
     name: str = field(default="glossy", compare=False)
 
     def __post_init__(self):

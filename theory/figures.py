@@ -45,7 +45,7 @@ from typing import Iterable
 import numpy as np
 
 from .bnot import BNOTDiagnostics, bnot_diagnostics, bnot_square, radial_power_spectrum
-from .brdf import Diffuse, Glossy, WeightFunction
+from .brdf import BRDFS, PAPER_SHININESS, Diffuse, Glossy, WeightFunction
 from .errors import TheoryParameterError, check_smoothness
 from .pointsets import DETERMINISTIC_POINTSETS, POINTSETS, generate, random_square
 from .quadrature import error_spectrum, worst_case_error
@@ -53,7 +53,7 @@ from .table1 import CASES, case_weight
 from .truncation import truncation_error_curve
 from .wce_curves import (Progress, _check_int, extrapolate_wce_curve, fit_convergence_slope,
                          invert_wce_curve, qmc_wce_curve)
-from .weights import equal_weights, optimal_weights
+from .weights import WEIGHTINGS, equal_weights, optimal_weights
 
 __all__ = ["POINTSET_ORDER", "POINTSET_LABELS", "BRDFS", "WEIGHTINGS", "PAPER_LMAX",
            "make_weight", "quadrature_rule", "SpectrumRecord", "SpectraData", "spectra_data",
@@ -65,9 +65,8 @@ __all__ = ["POINTSET_ORDER", "POINTSET_LABELS", "BRDFS", "WEIGHTINGS", "PAPER_LM
 POINTSET_ORDER = ("sobol", "bnot", "lp", "sf", "random", "jitter")
 POINTSET_LABELS = {"sobol": "Sobol", "bnot": "BNOT", "lp": "LP", "sf": "SF",
                    "random": "Random", "jitter": "SJ"}
-BRDFS = ("diffuse", "glossy")
-#: "equal": w_j = 1/N; "osw": optimal sample weights K^{-1} z (Sec. 7.1)
-WEIGHTINGS = ("equal", "osw")
+# BRDFS (theory.brdf) and WEIGHTINGS ("equal": w_j = 1/N; "osw": optimal sample weights
+# K^{-1} z, Sec. 7.1; theory.weights) are imported above and re-exported
 #: the highest SH degree of the paper's spectra
 PAPER_LMAX = 170
 
@@ -80,7 +79,7 @@ def _check_names(names: Iterable[str], allowed, what: str) -> tuple[str, ...]:
     return out
 
 
-def make_weight(brdf: str, shininess: float = 30.0) -> WeightFunction:
+def make_weight(brdf: str, shininess: float = PAPER_SHININESS) -> WeightFunction:
     """The weight function named ``brdf`` ("diffuse" or "glossy" with ``shininess``).
 
     >>> make_weight("glossy", 10)
@@ -162,7 +161,8 @@ class SpectraData:
         return self.records[(brdf, weights, pointset)]
 
 
-def spectra_data(n: int = 256, s: float = 1.5, shininess: float = 30.0, lmax: int = PAPER_LMAX, *,
+def spectra_data(n: int = 256, s: float = 1.5, shininess: float = PAPER_SHININESS,
+                 lmax: int = PAPER_LMAX, *,
                  seed: int = 0, pointsets: Iterable[str] = POINTSET_ORDER,
                  brdfs: Iterable[str] = BRDFS, weightings: Iterable[str] = WEIGHTINGS,
                  morph: bool = True, progress: Progress | None = None) -> SpectraData:
@@ -275,7 +275,7 @@ class ConvergenceData:
         return out
 
 
-def convergence_data(nmax: int = 2048, s: float = 1.5, shininess: float = 30.0, *,
+def convergence_data(nmax: int = 2048, s: float = 1.5, shininess: float = PAPER_SHININESS, *,
                      nmin: int = 16, seed: int = 0, pointsets: Iterable[str] = POINTSET_ORDER,
                      brdfs: Iterable[str] = BRDFS, weightings: Iterable[str] = WEIGHTINGS,
                      morph: bool = True, realizations: int = 1, fit_nmin: int = 64,
@@ -347,7 +347,7 @@ class TruncationFigureData:
     morphed: bool = True
 
 
-def truncation_figure_data(s: float = 1.5, shininess: float = 30.0, Lmax: int = 20, *,
+def truncation_figure_data(s: float = 1.5, shininess: float = PAPER_SHININESS, Lmax: int = 20, *,
                            qmc_nmax: int = 16384, per_octave: int = 8,
                            progress: Progress | None = None) -> TruncationFigureData:
     r"""The data of Fig. 5: truncation errors and QMC equivalents for every L.

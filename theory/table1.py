@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .brdf import Diffuse, Glossy, WeightFunction
+from .brdf import PAPER_SHININESS, Diffuse, Glossy, WeightFunction    # n = 30 (Table 1)
 from .errors import TheoryParameterError, check_smoothness
 from .truncation import equivalent_qmc_points, truncation_error_curve
 
@@ -50,7 +50,6 @@ CASES = (("diffuse-sh", "diffuse", "sh"), ("glossy-sh", "glossy", "sh"),
 
 #: the parameters of the paper's Table 1 and Sec. 8
 PAPER_S = 1.5
-PAPER_SHININESS = 30.0
 
 #: Table 1 as printed (target E = 2.5e-3, s = 1.5, n = 30)
 PAPER_TABLE1 = {

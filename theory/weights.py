@@ -24,7 +24,11 @@ from .quadrature import kernel_mean_embedding
 from .sh import check_points_weights
 from .sobolev import kernel_constant
 
-__all__ = ["equal_weights", "optimal_weights", "kernel_matrix"]
+__all__ = ["equal_weights", "optimal_weights", "kernel_matrix", "WEIGHTINGS"]
+
+#: the weightings of a quadrature rule (Sec. 7.1): "equal" (w_j = 1/N, :func:`equal_weights`)
+#: and "osw" (optimal sample weights K^{-1} z, :func:`optimal_weights`)
+WEIGHTINGS = ("equal", "osw")
 
 #: refuse kernel matrices larger than this (bytes); N = 20 000 is 3.2 GB
 MAX_MATRIX_BYTES = 4 * 2 ** 30

@@ -27,10 +27,12 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, fields
 
-from envfit.advisor.renderer import (DEFAULT_RENDERER_POINTSETS, DEFAULT_STRATEGIES,
-                                     RENDERER_GRID, RENDERER_SPECTRUM_AXES)
+from envfit.advisor.renderer import DEFAULT_RENDERER_POINTSETS, DEFAULT_STRATEGIES
 from envfit.base.checks import check_int, check_names, check_positive
 from envfit.base.errors import ParameterError
+from envfit.defaults import (ADVISE_SPECTRUM_AXES as RENDERER_SPECTRUM_AXES, ALL_POINTSETS,
+                             BRDFS, DEFAULT_POINTSETS, DEFAULT_SHININESS, RENDERER_GRID,
+                             WEIGHTINGS)
 from envfit.fit.sigma import parse_s
 from envfit.maps.scales import SCALES
 from envfit.shading.ground_truth import weight_function
@@ -43,14 +45,10 @@ __all__ = ["AdviseOptions", "ALL_POINTSETS", "DEFAULT_POINTSETS", "WEIGHTINGS", 
            "PREDICTOR_CHOICES", "RENDERER_AXES_START", "RENDERER_MAX_AXES", "MAX_AXES",
            "MAX_SPECTRUM_AXES", "MAX_SEEDS"]
 
-#: every point set (envfit.theory.pointsets); BNOT costs ≈15 s per realisation at N = 4096
-ALL_POINTSETS = ("sf", "sobol", "lp", "bnot", "random", "jitter")
-#: the default point sets (BNOT only when asked for)
-DEFAULT_POINTSETS = ("sf", "sobol", "lp", "random", "jitter")
-WEIGHTINGS = ("equal", "osw")
+# ALL_POINTSETS (every point set of envfit.theory.pointsets), DEFAULT_POINTSETS (BNOT only
+# when asked for: ≈15 s per realisation at N = 4096), WEIGHTINGS, BRDFS and DEFAULT_SHININESS
+# are envfit.defaults', re-exported
 BASES = ("sh", "hsh")
-BRDFS = ("diffuse", "glossy")
-DEFAULT_SHININESS = 30.0
 DEFAULT_FIT_N = 3000
 DEFAULT_NMIN = 4
 DEFAULT_NMAX = 65536

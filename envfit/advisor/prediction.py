@@ -39,6 +39,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from envfit.base.errors import ParameterError
+from envfit.defaults import DEFAULT_SHININESS
 from envfit.maps.envmap import EnvMap
 from envfit.predict.bandlimited import bandlimited_rmse
 from envfit.shading.bilinear_sh import bilinear_sh_coefficients
@@ -299,7 +300,7 @@ def spectral_predictions(power, map_power, band_lmax: int) -> tuple[float, float
 
 def _terms_of_row(adv, row, n: int) -> tuple[dict, float]:
     """A quadrature row's terms at N to ``adv.spectral_lmax``, recomputed (no cache), and s'."""
-    wf = weight_function(adv.brdf, adv.shininess or 30.0)
+    wf = weight_function(adv.brdf, adv.shininess or DEFAULT_SHININESS)
     seeds = seed_list(row.pointset, adv.settings["seed"], adv.settings["seeds"])
     s = s_key(adv.s)
     lmax = max(adv.band_lmax, int(getattr(adv, "spectral_lmax", 0) or 0))

@@ -82,6 +82,8 @@ import numpy as np
 from envfit.advisor.cache import AdviseCache
 from envfit.base.errors import ParameterError
 from envfit.base.progress import progress_bar
+from envfit.defaults import (ADVISE_RENDERER_POINTSETS, ADVISE_SPECTRUM_AXES, DEFAULT_SHININESS,
+                             RENDERER_GRID)
 from envfit.maps.envmap import EnvMap
 from envfit.predict.renderer.predictor import RendererModel, predict_rule, renderer_model
 from envfit.sampling.rules import STRATEGIES, RendererRule
@@ -95,12 +97,12 @@ __all__ = ["RENDERER_GRID", "RENDERER_SPECTRUM_AXES", "DEFAULT_STRATEGIES",
            "renderer_recommendation", "check_renderer_rows", "advise_renderer",
            "source_cost"]
 
-#: the warped spectra's grid G for advise (the box B = G/4; QMC exact to N ≈ (G/8)²)
-RENDERER_GRID = 512
+# RENDERER_GRID (envfit.defaults): the warped spectra's grid G for advise (the box B = G/4;
+# QMC exact to N ≈ (G/8)²)
 #: axes of the spectra's importance sample over the sphere, for advise
-RENDERER_SPECTRUM_AXES = 32
+RENDERER_SPECTRUM_AXES = ADVISE_SPECTRUM_AXES
 DEFAULT_STRATEGIES = tuple(STRATEGIES)
-DEFAULT_RENDERER_POINTSETS = ("sobol", "sf", "random")
+DEFAULT_RENDERER_POINTSETS = ADVISE_RENDERER_POINTSETS
 #: strategy → its name in sentences
 STRATEGY_NAMES = {"brdf": "BRDF sampling", "map": "map importance sampling", "mis": "MIS",
                   "split": "the source split (sources exact + MIS on the rest)"}
@@ -518,7 +520,7 @@ def advise_renderer(envmap: EnvMap, scaled: EnvMap, map_key: dict, opts, target:
     with the spectra cached under ``map_key``; (the section, its :class:`RendererSetup`)."""
     t0 = time.perf_counter()
     setup = RendererSetup.of(scaled)
-    shin = opts.shininess if opts.shininess is not None else 30.0
+    shin = opts.shininess if opts.shininess is not None else DEFAULT_SHININESS
     rmodel, n_loaded, n_new = cached_renderer_model(
         setup, map_key, opts.brdf, shin, opts.strategies, opts.renderer_grid,
         opts.renderer_spectrum_axes, store, quiet=opts.quiet)
@@ -544,7 +546,7 @@ def run_renderer_check(sec: RendererAdvice, setup: RendererSetup, opts) -> None:
     """``check``: :func:`check_renderer_rows` on every reached row with the options' seed and
     axes, and the summary in ``sec.check``."""
     t0 = time.perf_counter()
-    shin = opts.shininess if opts.shininess is not None else 30.0
+    shin = opts.shininess if opts.shininess is not None else DEFAULT_SHININESS
     check_renderer_rows(setup, sec.rows, opts.brdf, shin, sec.target_rmse, seed=opts.seed,
                         axes_start=opts.renderer_axes_start, max_axes=opts.renderer_max_axes)
     done = [r for r in sec.rows if r.measured_rmse is not None]

@@ -4,6 +4,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from envfit.defaults import BRDFS, DEFAULT_SHININESS
 from .common import (add_common_arguments, add_map_arguments, emit_json, guarded_write,
                      load_map_from_args, out_dir, positive_float, positive_int, say, str_list)
 
@@ -29,9 +30,10 @@ def register(sub) -> None:
                     "and a recommendation; --check measures the actual RMSE at the chosen N/L "
                     "on the map.")
     add_map_arguments(p)
-    p.add_argument("--brdf", choices=("diffuse", "glossy"), default="diffuse",
+    p.add_argument("--brdf", choices=BRDFS, default="diffuse",
                    help="weight function (default: diffuse)")
-    p.add_argument("--shininess", type=positive_float, default=30.0, help="glossy exponent n (default: 30)")
+    p.add_argument("--shininess", type=positive_float, default=DEFAULT_SHININESS,
+                   help=f"glossy exponent n (default: {DEFAULT_SHININESS:g})")
     tg = p.add_mutually_exclusive_group()
     tg.add_argument("--target-rmse", type=positive_float, metavar="E",
                     help="target RMS shading error, on the --scale values")

@@ -17,6 +17,7 @@ import time
 import numpy as np
 
 from envfit.base.errors import ParameterError
+from envfit.defaults import ALL_POINTSETS, BRDFS, DEFAULT_SHININESS, WEIGHTINGS
 from .common import (add_common_arguments, emit_json, finite_float, guarded_write, nonneg_int,
                      out_dir, positive_float, positive_int, say)
 from .theory_common import (DEFAULT_SPLIT_LMAX, MORPH_HELP, SHININESS_HELP, check_positive_int,
@@ -57,11 +58,12 @@ def _register_wce(tsub) -> None:
                     "(Eq. 17) over the unit ball of H^s: the closed form Eq. 41 (no truncation), "
                     "its zonal and anisotropic parts (Eqs. 46-47) summed to --lmax, and the tail "
                     "E^2 - sum_{l<=lmax} e_l^2. " + MORPH_HELP)
-    w.add_argument("--brdf", choices=("diffuse", "glossy"), required=True)
-    w.add_argument("--shininess", type=positive_float, default=30.0, help=SHININESS_HELP)
-    w.add_argument("--pointset", choices=("sf", "sobol", "lp", "bnot", "random", "jitter"),
+    w.add_argument("--brdf", choices=BRDFS, required=True)
+    w.add_argument("--shininess", type=positive_float, default=DEFAULT_SHININESS,
+                   help=SHININESS_HELP)
+    w.add_argument("--pointset", choices=ALL_POINTSETS,
                    required=True, help="point set of Sec. 7.1 (bnot is slow beyond a few thousand)")
-    w.add_argument("--weights", choices=("equal", "osw"), default="equal",
+    w.add_argument("--weights", choices=WEIGHTINGS, default="equal",
                    help="equal 1/N or the optimal sample weights K^-1 z (default: equal)")
     w.add_argument("--n", type=positive_int, required=True, help="number of points N")
     w.add_argument("--s", type=finite_float, default=1.5, help="Sobolev smoothness in (1, 2) (default 1.5)")
@@ -87,7 +89,8 @@ def _register_table1(tsub) -> None:
                     "paper's values (Table 1, Sec. 8.2, Fig. 5(a) caption).")
     t.add_argument("--target", type=positive_float, default=2.5e-3, help="worst-case error (default 2.5e-3)")
     t.add_argument("--s", type=finite_float, default=1.5, help="Sobolev smoothness in (1, 2) (default 1.5)")
-    t.add_argument("--shininess", type=positive_float, default=30.0, help=SHININESS_HELP)
+    t.add_argument("--shininess", type=positive_float, default=DEFAULT_SHININESS,
+                   help=SHININESS_HELP)
     add_common_arguments(t)
     t.set_defaults(func=run_table1)
 

@@ -7,14 +7,15 @@ from __future__ import annotations
 import math
 
 from envfit.base.errors import ParameterError
+from envfit.defaults import DEFAULT_SHININESS
 
 #: the paper's highest spectral degree (default --lmax of ``figures``)
 DEFAULT_SPLIT_LMAX = 170
 
 #: help of --shininess (wce, table1, figures)
-SHININESS_HELP = ("glossy exponent n (default 30, the paper's); n of about 10 or less is slow "
-                  "on first use (minutes: the lobe's jump at the horizon, e^-n, makes the "
-                  "engine sum the kernel embedding to SH degree 32768)")
+SHININESS_HELP = (f"glossy exponent n (default {DEFAULT_SHININESS:g}, the paper's); n of about 10 "
+                  "or less is slow on first use (minutes: the lobe's jump at the horizon, "
+                  "e^-n, makes the engine sum the kernel embedding to SH degree 32768)")
 #: the note on morphed points closing the descriptions of wce and figures
 MORPH_HELP = ("Points are morphed for the BRDF by default: their heights are importance-sampled "
               "from p (diffuse z = sqrt(z'), glossy Eq. 67; Sec. 7.2), so that equal weights "

@@ -12,6 +12,7 @@ import math
 import time
 
 from envfit.base.errors import ParameterError
+from envfit.defaults import DEFAULT_SHININESS
 from .common import (add_common_arguments, emit_json, finite_float, guarded_write, out_dir,
                      positive_float, positive_int, say, str_list)
 from .theory_common import (DEFAULT_SPLIT_LMAX, MORPH_HELP, SHININESS_HELP, check_positive_int,
@@ -32,7 +33,8 @@ def register_figures(tsub) -> None:
                     "the radial power spectrum and capacity check of BNOT. " + MORPH_HELP)
     f.add_argument("--n", type=positive_int, default=256, help="N of Figs. 1-3 and the BNOT check (default 256)")
     f.add_argument("--s", type=finite_float, default=1.5, help="Sobolev smoothness in (1, 2) (default 1.5)")
-    f.add_argument("--shininess", type=positive_float, default=30.0, help=SHININESS_HELP)
+    f.add_argument("--shininess", type=positive_float, default=DEFAULT_SHININESS,
+                   help=SHININESS_HELP)
     f.add_argument("--nmax", type=positive_int, default=2048,
                    help="largest N of Fig. 4 (powers of two from 16; default 2048)")
     f.add_argument("--lmax", type=positive_int, default=DEFAULT_SPLIT_LMAX,

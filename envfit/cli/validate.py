@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 
+from envfit.defaults import DEFAULT_SHININESS
 from .common import (add_common_arguments, add_map_arguments, emit_json, guarded_write, int_list,
                      load_map_from_args, nonneg_int_list, out_dir, positive_float, positive_int,
                      record_unwritten, say, str_list)
@@ -26,7 +27,8 @@ def register(sub) -> None:
                    help="smoothness of the prediction: 'auto' (fit it, default) or a value in (1, 2)")
     p.add_argument("--brdf", type=str_list, default=None, metavar="diffuse,glossy",
                    help="BRDFs (default: diffuse,glossy)")
-    p.add_argument("--shininess", type=positive_float, default=30.0, help="glossy exponent n (default: 30)")
+    p.add_argument("--shininess", type=positive_float, default=DEFAULT_SHININESS,
+                   help=f"glossy exponent n (default: {DEFAULT_SHININESS:g})")
     p.add_argument("--pointsets", type=str_list, default=None, metavar="sf,sobol,…",
                    help="point sets among sf, sobol, lp, bnot, random, jitter (default: all six; "
                         "--quick: without bnot)")

@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from envfit.defaults import DEFAULT_SHININESS
 from envfit.base.errors import ParameterError
 from envfit.maps.envmap import EnvMap
 from envfit.maps.sources import BrightSource, find_bright_sources
@@ -94,7 +95,7 @@ class RendererSetup:
 
 
 def rule_estimates(setup: RendererSetup, rule: RendererRule, axes, brdf="diffuse",
-                   shininess: float = 30.0, *, seed: int = 0, point_seed: int = 0,
+                   shininess: float = DEFAULT_SHININESS, *, seed: int = 0, point_seed: int = 0,
                    shift: bool | str = True) -> np.ndarray:
     """The rule's estimates (M, C) at the axes, twisted and shifted with ``seed`` (``shift``
     as :mod:`envfit.sampling.importance`: ``"points"`` makes any set i.i.d. uniform); the
@@ -118,7 +119,8 @@ def replicates(n: int) -> int:
 
 
 def measure_rule(setup: RendererSetup, rule: RendererRule, brdf="diffuse",
-                 shininess: float = 30.0, *, seed: int = 0, target_relative: float = 0.10,
+                 shininess: float = DEFAULT_SHININESS, *, seed: int = 0,
+                 target_relative: float = 0.10,
                  axes_start: int = 500, max_axes: int = 16000,
                  resamples: int = 2000, sampling: str = "importance") -> AdaptiveRMSE:
     """The rule's RMSE over uniform random axes with its bootstrap 95 % interval, adaptive

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from envfit.defaults import DEFAULT_SHININESS
 from . import matplotlib  # noqa: F401  (selects the Agg backend)
 from ._save import save_figure
 
@@ -116,7 +117,7 @@ def plot_renderer(renderer: dict, path: str | Path) -> Path:
     strategies = list(dict.fromkeys(c["strategy"] for c in cells))
     pointsets = list(dict.fromkeys(c["pointset"] for c in cells))
     fig, axes = plt.subplots(1, len(lobes), figsize=(5.4 * len(lobes), 4.6), squeeze=False)
-    shin = renderer.get("config", {}).get("shininess", 30.0)
+    shin = renderer.get("config", {}).get("shininess", DEFAULT_SHININESS)
     for ax, lobe in zip(axes[0], lobes):
         title = f"glossy (n = {shin:g})" if lobe == "glossy" else lobe
         _panel(ax, _series(cells, lobe), title, f"RMSE over random axes ({renderer['scale']} scale)")

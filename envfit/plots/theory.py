@@ -12,6 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
+from envfit.defaults import WEIGHTINGS
+
 from . import matplotlib  # noqa: F401  (selects the Agg backend)
 from ._save import save_figure
 from ._ticks import count_log_axis, integer_axis
@@ -106,7 +108,7 @@ def plot_error_spectra(data, path: str | Path) -> Path:
     """Fig. 3: e_l² = a_l (d_l² + C_l²), equal vs OSW; rows diffuse / glossy."""
     import matplotlib.pyplot as plt
     rows = data.brdfs
-    cols = [w for w in ("equal", "osw") if w in data.weightings]
+    cols = [w for w in WEIGHTINGS if w in data.weightings]
     fig, axes = plt.subplots(len(rows), len(cols), figsize=(5.5 * len(cols), 4.0 * len(rows)),
                              squeeze=False, sharex=True, layout="constrained")
     for i, brdf in enumerate(rows):

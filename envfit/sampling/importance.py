@@ -66,6 +66,7 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
+from envfit.defaults import DEFAULT_SHININESS
 from envfit.base.checks import as_unit_vectors
 from envfit.base.errors import ParameterError
 from envfit.base.resources import check_memory
@@ -179,7 +180,7 @@ def _setup(envmap, axes, brdf, shininess, seed, shift):
 
 
 def map_is_estimates(envmap: EnvMap, axes, u, sampler: MapSampler | None = None,
-                     brdf="diffuse", shininess: float = 30.0, *, seed=None,
+                     brdf="diffuse", shininess: float = DEFAULT_SHININESS, *, seed=None,
                      shift: bool | str = True) -> np.ndarray:
     r"""Map importance-sampling estimates :math:`\frac1N\sum_j f(\omega_j)\rho_a(\omega_j)/p(\omega_j)`, (M, C).
 
@@ -229,7 +230,7 @@ def map_is_estimates(envmap: EnvMap, axes, u, sampler: MapSampler | None = None,
 
 
 def brdf_sampling_estimates(envmap: EnvMap, axes, u, sampler=None, brdf="diffuse",
-                            shininess: float = 30.0, *, seed=None,
+                            shininess: float = DEFAULT_SHININESS, *, seed=None,
                             shift: bool | str = True) -> np.ndarray:
     r"""BRDF (lobe) importance-sampling estimates :math:`\frac1N\sum_j f(\omega_j)\rho_a(\omega_j)/q_a(\omega_j)`, (M, C).
 
@@ -397,7 +398,8 @@ def _mis_block(envmap, sampler, weight, A, R, Ub, sel, nu, heur) -> np.ndarray:
 
 
 def mis_estimates(envmap: EnvMap, axes, u, sampler: MapSampler | None = None,
-                  brdf="diffuse", shininess: float = 30.0, *, heuristic: str = "balance",
+                  brdf="diffuse", shininess: float = DEFAULT_SHININESS, *,
+                  heuristic: str = "balance",
                   mode: str = "multi", fraction: float = 0.5, seed=None,
                   shift: bool | str = True) -> np.ndarray:
     r"""Multiple importance sampling of the map and lobe techniques (Veach 1997, ch. 9), (M, C).

@@ -55,6 +55,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from envfit.defaults import DEFAULT_SHININESS
 from envfit.base.checks import as_unit_vectors
 from envfit.base.errors import ParameterError
 from envfit.maps.envmap import EnvMap
@@ -103,7 +104,8 @@ def split_map(envmap: EnvMap, sources) -> tuple[EnvMap, EnvMap]:
             EnvMap(x - s, up=envmap.up, name=envmap.name + " (rest)"))
 
 
-def source_integrals(source_map: EnvMap, axes, brdf="diffuse", shininess: float = 30.0) -> np.ndarray:
+def source_integrals(source_map: EnvMap, axes, brdf="diffuse",
+                     shininess: float = DEFAULT_SHININESS) -> np.ndarray:
     r"""Exact shading integrals (M, C) of a source map: ``shading_integral(method="pixels")``
     (Gauss–Legendre on every bilinear patch, horizon clipped exactly, ~1e-9), computed once
     per distinct axis.
@@ -137,7 +139,8 @@ class SplitResult(NamedTuple):
 
 
 def split_estimates(envmap: EnvMap, axes, u, sources=None, rest_method: str = "mis",
-                    brdf="diffuse", shininess: float = 30.0, *, sampler: MapSampler | None = None,
+                    brdf="diffuse", shininess: float = DEFAULT_SHININESS, *,
+                    sampler: MapSampler | None = None,
                     seed=None, shift: bool = True, **kwargs) -> SplitResult:
     r"""Shading estimates with the bright sources integrated exactly: :math:`\hat I = I_s + \hat I_r`.
 

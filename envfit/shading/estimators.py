@@ -53,6 +53,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from envfit.defaults import DEFAULT_SHININESS
 from envfit.theory.pointsets import frame_from_axis
 
 from envfit.maps.envmap import EnvMap
@@ -145,7 +146,7 @@ def quadrature_estimates(envmap: EnvMap, axes, local_points, weights, *, seed=No
 # ----------------------------------------------------------------------------- SH truncation
 
 def sh_truncation_curve(envmap: EnvMap, axes, brdf="diffuse", Ls=(0, 1, 2), *,
-                        shininess: float = 30.0, nthreads: int = 0) -> np.ndarray:
+                        shininess: float = DEFAULT_SHININESS, nthreads: int = 0) -> np.ndarray:
     r"""SH truncation estimates (Eq. 35) for several cut-off degrees, (len(Ls), M, C).
 
     :math:`\tilde I_L(a) = \sum_{l\le L} b_l f^{(a)}_{l,0} = \sum_{l\le L}\lambda_l\sum_m
@@ -169,7 +170,7 @@ def sh_truncation_curve(envmap: EnvMap, axes, brdf="diffuse", Ls=(0, 1, 2), *,
 
 
 def sh_truncation_estimates(envmap: EnvMap, axes, brdf="diffuse", L: int = 2, *,
-                            shininess: float = 30.0, nthreads: int = 0) -> np.ndarray:
+                            shininess: float = DEFAULT_SHININESS, nthreads: int = 0) -> np.ndarray:
     r"""SH truncation estimate (Eq. 35) :math:`\sum_{l\le L} b_l f^{(a)}_{l,0}` at each axis, (M, C).
 
     See :func:`sh_truncation_curve`.
@@ -230,7 +231,7 @@ def hsh_projections(envmap: EnvMap, axes, lmax: int) -> np.ndarray:
 
 
 def hsh_truncation_curve(envmap: EnvMap, axes, brdf="diffuse", Ls=(0, 1, 2), *,
-                         shininess: float = 30.0) -> np.ndarray:
+                         shininess: float = DEFAULT_SHININESS) -> np.ndarray:
     r"""HSH truncation estimates (Eq. 35, HSH) for several cut-off degrees, (len(Ls), M, C).
 
     :math:`\tilde I_L(a) = \sum_{l\le L}\tilde b_l\,\tilde f_{l,0}(a)` with
@@ -248,7 +249,7 @@ def hsh_truncation_curve(envmap: EnvMap, axes, brdf="diffuse", Ls=(0, 1, 2), *,
 
 
 def hsh_truncation_estimates(envmap: EnvMap, axes, brdf="diffuse", L: int = 2, *,
-                             shininess: float = 30.0) -> np.ndarray:
+                             shininess: float = DEFAULT_SHININESS) -> np.ndarray:
     r"""HSH truncation estimate :math:`\sum_{l\le L}\tilde b_l\tilde f_{l,0}(a)` at each axis, (M, C).
 
     Computed as one hemispherical quadrature with the single kernel

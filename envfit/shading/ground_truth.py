@@ -50,6 +50,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from envfit.defaults import DEFAULT_SHININESS
 from envfit.theory.brdf import Diffuse, Glossy, WeightFunction
 
 from envfit.base.checks import check_int
@@ -68,7 +69,7 @@ METHODS = ("sh", "pixels")
 
 # ----------------------------------------------------------------------------- parameters
 
-def weight_function(brdf="diffuse", shininess: float = 30.0) -> WeightFunction:
+def weight_function(brdf="diffuse", shininess: float = DEFAULT_SHININESS) -> WeightFunction:
     """The :class:`envfit.theory.brdf.WeightFunction` named by ``brdf``.
 
     ``"diffuse"`` → :class:`~envfit.theory.brdf.Diffuse` (p = z); ``"glossy"`` →
@@ -192,7 +193,7 @@ def _check_sh_memory(envmap: EnvMap, lmax: int, axes: int) -> None:
                       f"rows (--max-height)")
 
 
-def shading_integral(envmap: EnvMap, axes, brdf="diffuse", shininess: float = 30.0, *,
+def shading_integral(envmap: EnvMap, axes, brdf="diffuse", shininess: float = DEFAULT_SHININESS, *,
                      method: str = "sh", lmax: int | None = None,
                      nthreads: int = 0) -> np.ndarray:
     r"""Normalised shading integral (Eq. 17) of the map's bilinear interpolant about each axis, (M, C).

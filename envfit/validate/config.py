@@ -7,19 +7,18 @@ from typing import Sequence
 
 from envfit.base.checks import check_int, check_ints, check_names, check_positive
 from envfit.base.errors import ParameterError
+from envfit.defaults import (ALL_POINTSETS, BRDFS, DEFAULT_POINTSETS, DEFAULT_SHININESS,
+                             QUICK_N, VALIDATE_N, WEIGHTINGS)
 from envfit.fit.sigma import parse_s
 from envfit.theory.pointsets import POINTSETS
 
 __all__ = ["ValidateConfig", "quick_config", "ALL_POINTSETS", "WEIGHTINGS", "BRDFS", "DEFAULT_N",
            "QUICK_N", "QUICK_POINTSETS", "S_CANDIDATES", "QUICK_DESCRIPTION", "BRDF_INDEX"]
 
-#: the paper's six point sets (Sec. 7.1), in a fixed order (also the seed index)
-ALL_POINTSETS = ("sf", "sobol", "lp", "bnot", "random", "jitter")
-WEIGHTINGS = ("equal", "osw")
-BRDFS = ("diffuse", "glossy")
-DEFAULT_N = tuple(2 ** k for k in range(4, 13))            # 16 … 4096
-QUICK_N = tuple(2 ** k for k in range(4, 11))              # 16 … 1024
-QUICK_POINTSETS = ("sf", "sobol", "lp", "random", "jitter")
+# ALL_POINTSETS (the paper's six point sets, Sec. 7.1, in the registry's order: also the
+# seed index), WEIGHTINGS, BRDFS and QUICK_N (16 … 1024) are envfit.defaults', re-exported
+DEFAULT_N = VALIDATE_N                                     # 16 … 4096
+QUICK_POINTSETS = DEFAULT_POINTSETS                        # all but BNOT
 #: smoothness values against which the fitted s is compared (shape residual)
 S_CANDIDATES = (1.1, 1.3, 1.5, 1.7, 1.9)
 
@@ -58,7 +57,7 @@ class ValidateConfig:
 
     s: float | str = "auto"
     brdfs: Sequence[str] = BRDFS
-    shininess: float = 30.0
+    shininess: float = DEFAULT_SHININESS
     pointsets: Sequence[str] = ALL_POINTSETS
     weights: Sequence[str] = WEIGHTINGS
     n_values: Sequence[int] = DEFAULT_N

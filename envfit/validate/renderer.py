@@ -68,7 +68,8 @@ from envfit.measure.rules import AXIS_SAMPLING, RendererSetup, measure_rule
 from envfit.sampling.rules import STRATEGIES, RendererRule
 from envfit.theory.pointsets import POINTSETS
 
-from .config import BRDFS
+from envfit.defaults import (BRDFS, DEFAULT_SHININESS, QUICK_RENDERER_GRID, QUICK_SPECTRUM_AXES,
+                             RENDERER_GRID, VALIDATE_RENDERER_POINTSETS, VALIDATE_SPECTRUM_AXES)
 
 __all__ = ["RendererValidationConfig", "renderer_quick_config", "renderer_config",
            "RendererCell", "RendererRuleSummary", "RendererLobeSummary", "RendererValidation",
@@ -76,8 +77,8 @@ __all__ = ["RendererValidationConfig", "renderer_quick_config", "renderer_config
            "worst_ratio", "summary_lines", "RENDERER_POINTSETS", "RENDERER_N", "RENDERER_QUICK_N",
            "RENDERER_CELL_FORMAT"]
 
-#: the default point sets of the renderer rules (random: plain Monte Carlo)
-RENDERER_POINTSETS = ("random", "sobol", "sf")
+#: the default point sets of the renderer rules (random: plain Monte Carlo; envfit.defaults)
+RENDERER_POINTSETS = VALIDATE_RENDERER_POINTSETS
 RENDERER_N = (16, 64, 256, 1024)
 RENDERER_QUICK_N = (16, 256)
 #: bumped when what a stored renderer cell holds changes (older cells are recomputed)
@@ -109,10 +110,10 @@ class RendererValidationConfig:
     strategies: Sequence[str] = tuple(STRATEGIES)
     pointsets: Sequence[str] = RENDERER_POINTSETS
     lobes: Sequence[str] = BRDFS
-    shininess: float = 30.0
+    shininess: float = DEFAULT_SHININESS
     n_values: Sequence[int] = RENDERER_N
-    grid: int = 512
-    spectrum_axes: int = 256
+    grid: int = RENDERER_GRID
+    spectrum_axes: int = VALIDATE_SPECTRUM_AXES
     axes_start: int = 500
     max_axes: int = 16000
     target_relative: float = 0.10
@@ -164,7 +165,8 @@ def renderer_quick_config(**overrides) -> RendererValidationConfig:
     >>> c.n_values, c.grid, c.spectrum_axes, c.axes_start, c.max_axes
     ((16, 256), 256, 32, 250, 4000)
     """
-    base = dict(n_values=RENDERER_QUICK_N, grid=256, spectrum_axes=32, axes_start=250,
+    base = dict(n_values=RENDERER_QUICK_N, grid=QUICK_RENDERER_GRID,
+                spectrum_axes=QUICK_SPECTRUM_AXES, axes_start=250,
                 max_axes=4000, quick=True)
     base.update(overrides)
     return RendererValidationConfig(**base)

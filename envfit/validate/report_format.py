@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import math
 
+from envfit.defaults import DEFAULT_SHININESS
+
 # ----------------------------------------------------------------------------- formatting
 
 def _f(v, fmt=".3g", none="–"):
@@ -38,7 +40,8 @@ def _table(header: list[str], rows: list[list]) -> list[str]:
 
 def _brdf_name(result, b):
     """Display name of BRDF ``b`` (the glossy one with its shininess)."""
-    return f"glossy (n = {result['config'].get('shininess', 30):g})" if b == "glossy" else b
+    n = result["config"].get("shininess", DEFAULT_SHININESS)
+    return f"glossy (n = {n:g})" if b == "glossy" else b
 
 
 def _band(r):

@@ -15,6 +15,7 @@ Example
 """
 from __future__ import annotations
 
+from envfit.defaults import DEFAULT_SHININESS
 from .report_conditions import RENDERER_RATIO_HIGH, RENDERER_RATIO_LOW
 from .report_conditions import _say_renderer as _say
 from .report_format import _f, _table
@@ -23,7 +24,7 @@ __all__: list[str] = []
 
 
 def _lobe_name(rd: dict, lobe: str) -> str:
-    shin = rd.get("config", {}).get("shininess", 30.0)
+    shin = rd.get("config", {}).get("shininess", DEFAULT_SHININESS)
     return f"glossy (n = {shin:g})" if lobe == "glossy" else lobe
 
 

@@ -29,6 +29,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from envfit.defaults import DEFAULT_SHININESS, REFERENCE_SPECTRUM_AXES, RENDERER_GRID
 from envfit.base.errors import ParameterError
 from envfit.sampling.rules import STRATEGIES, RendererRule, rule_points
 from envfit.measure.rules import RendererSetup
@@ -60,8 +61,9 @@ class RendererModel:
         return self.spectra[key]
 
 
-def renderer_model(setup: RendererSetup, brdf: str = "diffuse", shininess: float = 30.0, *,
-                   strategies=tuple(STRATEGIES), grid: int = 512, axes: int = 64,
+def renderer_model(setup: RendererSetup, brdf: str = "diffuse",
+                   shininess: float = DEFAULT_SHININESS, *, strategies=tuple(STRATEGIES),
+                   grid: int = RENDERER_GRID, axes: int = REFERENCE_SPECTRUM_AXES,
                    progress=None) -> RendererModel:
     """The warped spectra the ``strategies`` need on ``setup``'s map (and rest map), for
     :func:`predict_rule`. ``progress(label)`` is called before each spectrum.

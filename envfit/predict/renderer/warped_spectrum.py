@@ -80,6 +80,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import special
 
+from envfit.defaults import DEFAULT_SHININESS, REFERENCE_SPECTRUM_AXES, RENDERER_GRID
 from envfit.base.checks import check_int
 from envfit.base.resources import check_memory, machine_cores
 from envfit.base.errors import ParameterError
@@ -620,8 +621,9 @@ def spectrum_nbytes(height: int, grid: int) -> int:
 
 
 def warped_spectrum(envmap: EnvMap, technique: str = "mis", brdf="diffuse",
-                    shininess: float = 30.0, *, sampler: MapSampler | None = None,
-                    grid: int = 512, axes: int = 64, heuristic: str = "balance",
+                    shininess: float = DEFAULT_SHININESS, *, sampler: MapSampler | None = None,
+                    grid: int = RENDERER_GRID, axes: int = REFERENCE_SPECTRUM_AXES,
+                    heuristic: str = "balance",
                     fraction: float = 0.5) -> WarpedSpectrum:
     r"""The warped integrand's spectrum and variance of ``technique`` on ``envmap``, mean
     over uniform axes (module docstring), for :func:`shifted_rmse`.
@@ -744,8 +746,8 @@ def shifted_rmse(spec: WarpedSpectrum, u) -> float:
 
 
 def shifted_mse_per_axis(envmap: EnvMap, axes, u, technique: str = "mis", brdf="diffuse",
-                         shininess: float = 30.0, *, sampler: MapSampler | None = None,
-                         grid: int = 512, heuristic: str = "balance",
+                         shininess: float = DEFAULT_SHININESS, *, sampler: MapSampler | None = None,
+                         grid: int = RENDERER_GRID, heuristic: str = "balance",
                          fraction: float = 0.5) -> np.ndarray:
     """The predicted mean squared error (over shifts, twists and channels) at each given
     axis, (M,) — the per-axis form of :func:`shifted_rmse`, for checks against brute force.

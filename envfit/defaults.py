@@ -1,0 +1,83 @@
+r"""Every default number and name list of envfit, defined once and imported, never re-typed.
+
+The base layer (``tests/test_architecture.py``): imports only :mod:`envfit.theory`, so every
+sub-package may import it. theory keeps its own defaults (theory never imports envfit); the
+ones both share are taken from there (:data:`DEFAULT_SHININESS` is
+:data:`envfit.theory.brdf.PAPER_SHININESS`).
+
+Vocabularies (registries; a module checking a name imports these):
+
+* point sets: :data:`envfit.theory.pointsets.POINTSETS` (the registry), :data:`ALL_POINTSETS`
+  its names in registry order (also the seed index of ``envfit validate``'s cells);
+* BRDFs: :data:`BRDFS` (:data:`envfit.theory.brdf.BRDFS`); weightings: :data:`WEIGHTINGS`
+  (:data:`envfit.theory.weights.WEIGHTINGS`);
+* renderer strategies: :data:`envfit.sampling.rules.STRATEGIES`; lat-long conventions:
+  :data:`envfit.maps.conventions.CONVENTIONS`; value scales: :data:`envfit.maps.scales.SCALES`
+  (those registries carry behaviour and stay with it).
+
+>>> DEFAULT_SHININESS, RENDERER_GRID, ADVISE_SPECTRUM_AXES, VALIDATE_SPECTRUM_AXES
+(30.0, 512, 32, 256)
+>>> DEFAULT_POINTSETS
+('sf', 'sobol', 'lp', 'random', 'jitter')
+"""
+from __future__ import annotations
+
+from envfit.theory.brdf import BRDFS, PAPER_SHININESS
+from envfit.theory.pointsets import POINTSETS
+from envfit.theory.weights import WEIGHTINGS
+
+__all__ = ["BRDFS", "WEIGHTINGS", "ALL_POINTSETS", "DEFAULT_POINTSETS", "DEFAULT_SHININESS",
+           "RENDERER_GRID", "ADVISE_SPECTRUM_AXES", "VALIDATE_SPECTRUM_AXES",
+           "QUICK_RENDERER_GRID", "QUICK_SPECTRUM_AXES", "REFERENCE_SPECTRUM_AXES",
+           "ADVISE_RENDERER_POINTSETS", "VALIDATE_RENDERER_POINTSETS", "VALIDATE_N", "QUICK_N"]
+
+# ----------------------------------------------------------------------------- vocabularies
+
+#: the paper's six point sets (Sec. 7.1) in the registry's order (theory.pointsets.POINTSETS):
+#: sf, sobol, lp, bnot, random, jitter; the order is also ``validate``'s seed index of a set
+ALL_POINTSETS = tuple(POINTSETS)
+#: the point sets of ``advise`` and of ``validate --quick``: all but BNOT, whose
+#: optimal-transport construction alone costs ≈ 10 s at N = 1024 and ≈ 15 s per realisation
+#: at N = 4096 (:mod:`envfit.validate.pipeline`'s costs; BNOT only when asked for)
+DEFAULT_POINTSETS = tuple(p for p in ALL_POINTSETS if p != "bnot")
+
+# ----------------------------------------------------------------------------- the lobe
+
+#: the glossy exponent n when none is given: the paper's n = 30 (Table 1, Secs. 7–8), used by
+#: every glossy lobe of envfit (CLI ``--shininess``, the estimators, the renderer techniques)
+DEFAULT_SHININESS = PAPER_SHININESS
+
+# ----------------------------------------------------------------------------- renderer model
+
+#: the warped spectra's grid G of the renderer prediction (``advise`` and ``validate
+#: --renderer``): the box B = G/4, exact for QMC to N ≈ (G/8)² = 4096; measured on city.exr
+#: (table in :mod:`envfit.advisor.renderer`): a coarser grid under-predicts MIS with QMC
+#: points by 10–40 % at N ≈ 256–4096
+RENDERER_GRID = 512
+#: axes of the spectra's importance sample over the sphere for ``advise``: on city.exr 32
+#: axes gave 0.96–1.08 of the 512/64 reference at every N for less than half its CPU time
+#: (:mod:`envfit.advisor.renderer`)
+ADVISE_SPECTRUM_AXES = 32
+#: the same for ``validate --renderer``: on the s0 = 1.3 sun + GP map, glossy BRDF sampling
+#: with sf at N = 1024 was predicted 0.219 from 64 axes, 0.153 from 256 and 0.161 from 1024
+#: against a measured 0.157 [0.154, 0.161] (docs/guides/validate.md)
+VALIDATE_SPECTRUM_AXES = 256
+#: ``validate --renderer --quick``: grid 256 with 32 axes (the quick preset's cost cut; the
+#: quick N are 16 and 256)
+QUICK_RENDERER_GRID = 256
+QUICK_SPECTRUM_AXES = 32
+#: the axes of a warped spectrum when a caller gives none (:func:`warped_spectrum`,
+#: :func:`renderer_model`): the reference resolution of those measurements (grid 512, 64 axes)
+REFERENCE_SPECTRUM_AXES = 64
+#: the renderer rules' point sets: ``advise`` lists QMC first (sobol, sf, random);
+#: ``validate --renderer`` plain Monte Carlo first (random, sobol, sf); the orders are the
+#: tables' row orders
+ADVISE_RENDERER_POINTSETS = ("sobol", "sf", "random")
+VALIDATE_RENDERER_POINTSETS = ("random", "sobol", "sf")
+
+# ----------------------------------------------------------------------------- N ranges
+
+#: ``envfit validate``'s sample counts: N = 16 … 4096 (powers of two; the paper's Figs. 4–6)
+VALIDATE_N = tuple(2 ** k for k in range(4, 13))
+#: ``validate --quick``: N = 16 … 1024
+QUICK_N = tuple(2 ** k for k in range(4, 11))
