@@ -15,9 +15,10 @@ Example
 """
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
+
+from scipy import stats
 
 __all__ = ["CONDITIONS", "RENDERER_CONDITIONS", "Condition"]
 
@@ -26,6 +27,10 @@ __all__ = ["CONDITIONS", "RENDERER_CONDITIONS", "Condition"]
 #: Spearman rank correlation of the power ratio against l needed to call it rising: a
 #: monotone trend, not one high degree (ρ = 0.8 is the usual "strong" cut).
 RISE_MIN_SPEARMAN = 0.8
+#: rounding of scipy's ρ (Pearson's r of the ranks): ρ = 1 − 6Σd²/(n(n²−1)) is exactly 0.8
+#: for some rankings (n = 5, Σd² = 4), which spearmanr returns as 0.7999999999999999; ρ's
+#: distinct values are ≥ 1/n³ apart, so this tolerance only restores the exact comparison
+SPEARMAN_ROUNDING = 1e-12
 #: ... and the last degree's ratio over the first's: a rise well beyond one map's scatter.
 RISE_MIN_FACTOR = 1.5
 #: At least this many degrees for a trend in l (two points always have ρ = ±1).
@@ -70,29 +75,16 @@ RENDERER_RATIO_HIGH = 1.1
 # ----------------------------------------------------------------------------- predicates
 
 def _spearman(x: list[float], y: list[float]) -> float:
-    """Spearman rank correlation of ``x`` and ``y`` (average ranks for ties; 0 if constant).
+    """Spearman rank correlation of ``x`` and ``y``: ``scipy.stats.spearmanr`` (Pearson's r of
+    the average ranks, so ties share a rank); 0 if either is constant (where scipy warns and
+    gives NaN); a NaN value gives NaN (no trend is then claimed: NaN ≥ ρ_min is false).
 
     >>> _spearman([1, 2, 3], [0.1, 0.5, 0.4])
     0.5
     """
-    def ranks(v):
-        order = sorted(range(len(v)), key=lambda i: v[i])
-        rk = [0.0] * len(v)
-        i = 0
-        while i < len(v):
-            j = i
-            while j + 1 < len(v) and v[order[j + 1]] == v[order[i]]:
-                j += 1
-            for k in range(i, j + 1):
-                rk[order[k]] = 0.5 * (i + j)
-            i = j + 1
-        return rk
-    rx, ry = ranks(list(x)), ranks(list(y))
-    mx, my = sum(rx) / len(rx), sum(ry) / len(ry)
-    sxy = sum((a - mx) * (b - my) for a, b in zip(rx, ry))
-    sxx = sum((a - mx) ** 2 for a in rx)
-    syy = sum((b - my) ** 2 for b in ry)
-    return 0.0 if sxx == 0 or syy == 0 else sxy / math.sqrt(sxx * syy)
+    if len(set(x)) < 2 or len(set(y)) < 2:
+        return 0.0
+    return float(stats.spearmanr(x, y).statistic)
 
 
 def _rises_with_degree(ratios: list[float]) -> bool:
@@ -104,7 +96,8 @@ def _rises_with_degree(ratios: list[float]) -> bool:
     if len(ratios) < TREND_MIN_POINTS or ratios[0] <= 0:
         return False
     rho = _spearman(list(range(len(ratios))), ratios)
-    return rho >= RISE_MIN_SPEARMAN and ratios[-1] / ratios[0] >= RISE_MIN_FACTOR
+    return (rho >= RISE_MIN_SPEARMAN - SPEARMAN_ROUNDING
+            and ratios[-1] / ratios[0] >= RISE_MIN_FACTOR)
 
 
 def _looks_gaussian(kurtosis: float) -> bool:
