@@ -24,14 +24,14 @@ from envfit.advisor.advise import advise
 from envfit.advisor.cache import AdviseCache
 from envfit.advisor.renderer import (RendererRow, best_renderer_row, cached_renderer_model,
                                      check_renderer_rows, renderer_n_grid,
-                                     renderer_recommendation, search_renderer_row,
-                                     spectrum_from_json, spectrum_to_json)
+                                     renderer_recommendation, search_renderer_row)
 from envfit.advisor.search import smallest_n
 from envfit.data_gen.gp import gaussian_process_map
 from envfit.data_gen.sun_gp import sun_gp_map
 from envfit.maps.envmap import EnvMap
 from envfit.maps.io import save_envmap
 from envfit.predict.renderer.predictor import predict_rule, renderer_model
+from envfit.predict.renderer.warped_spectrum import WarpedSpectrum
 from envfit.sampling.rules import STRATEGIES, RendererRule
 from envfit.measure.rules import RendererSetup, measure_rule
 
@@ -140,7 +140,7 @@ def test_recommendation_ties_go_to_the_lower_prediction_and_none_is_said():
 
 def test_cached_spectra_give_bit_identical_predictions(setup16, model16, tmp_path):
     for key, spec in model16.spectra.items():
-        back = spectrum_from_json(json.loads(json.dumps(spectrum_to_json(spec))))
+        back = WarpedSpectrum.from_json(json.loads(json.dumps(spec.to_json())))
         for name in ("variance", "power", "cross"):
             assert np.array_equal(getattr(back, name), getattr(spec, name))
     store = AdviseCache(tmp_path)

@@ -45,8 +45,9 @@ import numpy as np
 
 from envfit.advisor.cache import AdviseCache
 from envfit.advisor.options import AdviseOptions
-from envfit.advisor.prediction import mean_shading_value, s_key
+from envfit.advisor.prediction import mean_shading_value
 from envfit.base.errors import ParameterError
+from envfit.base.keys import s_value
 from envfit.base.progress import progress_bar
 from envfit.base.store import array_fingerprint
 from envfit.fit.sigma import bandlimited_profiled_sigma, combine_sigma
@@ -106,7 +107,7 @@ class MapModel:
     fit_cached : bool
         Whether ``fit`` came from the cache.
     s, s_rounded, sigma : float
-        The fitted s', s' rounded (:func:`~envfit.advisor.prediction.s_key`) and σ'.
+        The fitted s', s' rounded (:func:`~envfit.base.keys.s_value`) and σ'.
     sigma_channels : list of float
         σ' per channel.
     tau, dw : ndarray
@@ -253,7 +254,7 @@ def map_model(envmap: EnvMap, opts: AdviseOptions, store: AdviseCache) -> MapMod
     t0 = time.perf_counter()
     fit, fit_cached = cached_fit(envmap, scaled, opts, store)
     t_fit = time.perf_counter() - t0
-    s_rounded = s_key(float(fit["s"]))
+    s_rounded = s_value(float(fit["s"]))
     sigma_ch = [float(x) for x in fit["sigma_channels"]]
     sigma = combine_sigma(sigma_ch)
     if not sigma > 0:

@@ -39,6 +39,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from envfit.base.errors import ParameterError
+from envfit.base.keys import s_value
 from envfit.defaults import DEFAULT_SHININESS
 from envfit.maps.envmap import EnvMap
 from envfit.predict.bandlimited import bandlimited_rmse
@@ -52,7 +53,7 @@ from envfit.theory.weights import equal_weights, optimal_weights
 
 __all__ = ["LOBE_TAIL_TRANSFER", "lobe_tail_transfer", "glossy_transfer",
            "max_resolved_shininess", "rows_resolving", "check_lobe_resolved",
-           "mean_shading_value", "s_key", "seed_list", "make_rule",
+           "mean_shading_value", "seed_list", "make_rule",
            "rule_terms", "rule_plain_wce2", "row_prediction", "bandlimited_prediction",
            "spectral_predictions", "row_prediction_spectral"]
 
@@ -183,15 +184,6 @@ def mean_shading_value(scaled: EnvMap) -> float:
     return float(np.mean(alm[:, 0].real) / math.sqrt(4.0 * math.pi))
 
 
-def s_key(s: float) -> float:
-    """s rounded to 1e-6: the s of the OSW weights and of the curves' cache keys.
-
-    >>> s_key(1.23456789)
-    1.234568
-    """
-    return round(float(s), 6)
-
-
 def seed_list(pointset: str, seed: int, k: int) -> list[int]:
     """Realisation seeds of a stochastic point set ([] for a deterministic one)."""
     if pointset in DETERMINISTIC_POINTSETS:
@@ -302,7 +294,7 @@ def _terms_of_row(adv, row, n: int) -> tuple[dict, float]:
     """A quadrature row's terms at N to ``adv.spectral_lmax``, recomputed (no cache), and s'."""
     wf = weight_function(adv.brdf, adv.shininess or DEFAULT_SHININESS)
     seeds = seed_list(row.pointset, adv.settings["seed"], adv.settings["seeds"])
-    s = s_key(adv.s)
+    s = s_value(adv.s)
     lmax = max(adv.band_lmax, int(getattr(adv, "spectral_lmax", 0) or 0))
     return rule_terms(row.pointset, n, wf, s, row.weights, seeds, lmax), s
 

@@ -58,9 +58,10 @@ docs/guides/advise.md, "Renderer rules in envfit advise").
 The spectra are cached (:mod:`envfit.advisor.cache`, kind ``"renderer"``): one checksummed
 JSON file per (technique, on the rest map), keyed by the map's fingerprint
 (:func:`envfit.advisor.model.map_key`), scale, lobe, grid, axes, technique, on_rest and the
-sources' pixel count; :func:`spectrum_to_json` / :func:`spectrum_from_json` round-trip a
-:class:`~envfit.predict.renderer.warped_spectrum.WarpedSpectrum` exactly (``cross`` as real and
-imaginary lists), so cached predictions are bit-identical to fresh ones.
+sources' pixel count; a spectrum is stored by
+:meth:`~envfit.predict.renderer.warped_spectrum.WarpedSpectrum.to_json` and read back exactly by
+:meth:`~envfit.predict.renderer.warped_spectrum.WarpedSpectrum.from_json` (``cross`` as real
+and imaginary lists), so cached predictions are bit-identical to fresh ones.
 
 ``check`` (:func:`check_renderer_rows`): every reached row measured at its N with
 :func:`envfit.measure.rules.measure_rule` (one :class:`RendererSetup`, one seed:
@@ -77,8 +78,6 @@ from __future__ import annotations
 import time
 from dataclasses import asdict, dataclass, field
 
-import numpy as np
-
 from envfit.advisor.cache import AdviseCache
 from envfit.base.errors import ParameterError
 from envfit.base.progress import progress_bar
@@ -92,7 +91,7 @@ from envfit.predict.renderer.warped_spectrum import SPECTRUM_FORMAT, WarpedSpect
 
 __all__ = ["RENDERER_GRID", "RENDERER_SPECTRUM_AXES", "DEFAULT_STRATEGIES",
            "DEFAULT_RENDERER_POINTSETS", "STRATEGY_NAMES", "RendererRow", "RendererAdvice",
-           "renderer_n_grid", "spectrum_to_json", "spectrum_from_json", "spectrum_cache_key",
+           "renderer_n_grid", "spectrum_cache_key",
            "cached_renderer_model", "search_renderer_row", "best_renderer_row",
            "renderer_recommendation", "check_renderer_rows", "advise_renderer",
            "source_cost"]
@@ -130,48 +129,6 @@ def renderer_n_grid(pointset: str, nmin: int, nmax: int) -> list[int]:
 
 # ----------------------------------------------------------------------------- cache
 
-def spectrum_to_json(spec: WarpedSpectrum) -> dict:
-    """Every field of ``spec`` as JSON-able values (arrays as nested lists, ``cross`` as
-    ``{"real": …, "imag": …}``); :func:`spectrum_from_json` inverts it exactly."""
-    return {"technique": spec.technique, "brdf": spec.brdf, "shininess": spec.shininess,
-            "heuristic": spec.heuristic, "fraction": float(spec.fraction),
-            "band": int(spec.band), "grid": int(spec.grid),
-            "variance": np.asarray(spec.variance, dtype=np.float64).tolist(),
-            "power": np.asarray(spec.power, dtype=np.float64).tolist(),
-            "cross": {"real": np.real(spec.cross).astype(np.float64).tolist(),
-                      "imag": np.imag(spec.cross).astype(np.float64).tolist()},
-            "mean": float(spec.mean), "axes": int(spec.axes)}
-
-
-def spectrum_from_json(d: dict) -> WarpedSpectrum:
-    """The :class:`WarpedSpectrum` of :func:`spectrum_to_json`'s dict.
-
-    Raises
-    ------
-    envfit.base.errors.ParameterError
-        A dict whose arrays do not have the shapes of its band and technique.
-    """
-    try:
-        band = int(d["band"])
-        power = np.asarray(d["power"], dtype=np.float64)
-        variance = np.asarray(d["variance"], dtype=np.float64)
-        re = np.asarray(d["cross"]["real"], dtype=np.float64)
-        im = np.asarray(d["cross"]["imag"], dtype=np.float64)
-        parts = variance.shape[0]
-        if power.shape != (parts, 2 * band + 1, band + 1) or re.shape != (2 * band + 1,) \
-                or im.shape != re.shape:
-            raise ValueError("shapes")
-        cross = np.empty(re.shape, dtype=np.complex128)
-        cross.real, cross.imag = re, im
-        return WarpedSpectrum(technique=str(d["technique"]), brdf=str(d["brdf"]),
-                              shininess=None if d["shininess"] is None else float(d["shininess"]),
-                              heuristic=str(d["heuristic"]), fraction=float(d["fraction"]),
-                              band=band, grid=int(d["grid"]), variance=variance, power=power,
-                              cross=cross, mean=float(d["mean"]), axes=int(d["axes"]))
-    except (KeyError, TypeError, ValueError, IndexError) as exc:
-        raise ParameterError(f"not a stored warped spectrum ({exc})") from None
-
-
 def spectrum_cache_key(map_key: dict, brdf: str, shininess: float | None, grid: int, axes: int,
                        technique: str, on_rest: bool, source_pixels: int) -> dict:
     """The cache key of one spectrum: the map's key (fingerprint, shape, up, scale), the lobe,
@@ -207,7 +164,7 @@ def cached_renderer_model(setup: RendererSetup, map_key: dict, brdf: str, shinin
         doc = store.load("renderer", key)
         if doc is not None:
             try:
-                spectra[(tech, rest)] = spectrum_from_json(doc)
+                spectra[(tech, rest)] = WarpedSpectrum.from_json(doc)
                 continue
             except ParameterError as exc:
                 store.notes.append(f"cache: recomputed {store.path('renderer', key)}: {exc}")
@@ -233,7 +190,7 @@ def cached_renderer_model(setup: RendererSetup, map_key: dict, brdf: str, shinin
             spectra[(tech, rest)] = spec
             store.save("renderer", spectrum_cache_key(map_key, brdf, shininess, grid, axes,
                                                       tech, rest, pixels),
-                       spectrum_to_json(spec))
+                       spec.to_json())
     whole = [v for (t, r), v in spectra.items() if not r]
     mean = whole[0].mean if whole else float("nan")
     return RendererModel(str(brdf), float(shininess), spectra, mean), loaded, len(missing)

@@ -26,6 +26,7 @@ from envfit.theory.sphere_points import sphere_points
 
 from envfit.base.checks import check_ints
 from envfit.base.html import html_result
+from envfit.base.keys import s_key
 from envfit.maps.envmap import EnvMap, check_sample_count
 from envfit.base.errors import ParameterError
 from envfit.kernels.interpolation import SobolevInterpolator
@@ -179,7 +180,7 @@ _OPTIONAL = tuple(f for f in Table2Cell.__dataclass_fields__ if f not in _FIELDS
 
 
 def _cell_key(s: float, n: int) -> str:
-    return f"s{s:.4f}_n{n}"
+    return f"s{s_key(s)}_n{n}"
 
 
 def cell_checks(s: float, n: int) -> dict:

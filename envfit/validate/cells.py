@@ -3,7 +3,7 @@ they keep, whether a stored one is current, and the :class:`envfit.predict.Rule`
 
 A cell is one (BRDF, point set, weighting, N): the measured RMSE over the axes (total and
 per channel, its relative standard error, the errors' kurtosis), the worst-case error per
-candidate s (``wce``, keyed by :func:`s_key`), the band-limited one per s without the
+candidate s (``wce``, keyed by :func:`envfit.base.keys.s_key`), the band-limited one per s without the
 lookup transfer (``wce_bandlimited_by_s``), the rule's error power per degree to the map's
 band limit (``error_power``), :math:`\sum_j w_j` (``weight_sum``), the seconds it cost, and
 ``error`` (the message when the weights could not be computed; every value None then).
@@ -14,12 +14,13 @@ import math
 
 import numpy as np
 
+from envfit.base.keys import s_key
 from envfit.predict import Rule
 from envfit.shading.estimators import rmse_over_axes
 
 from .config import ALL_POINTSETS, BRDF_INDEX
 
-__all__ = ["cell_key", "s_key", "twist_seed", "error_stats", "cell_is_current", "rule_from_cell"]
+__all__ = ["cell_key", "twist_seed", "error_stats", "cell_is_current", "rule_from_cell"]
 
 
 def cell_key(brdf: str, pointset: str, weights: str, n: int) -> str:
@@ -29,15 +30,6 @@ def cell_key(brdf: str, pointset: str, weights: str, n: int) -> str:
     'quad_glossy_sf_osw_64'
     """
     return f"quad_{brdf}_{pointset}_{weights}_{n}"
-
-
-def s_key(s: float) -> str:
-    """The key of a smoothness value in a cell's per-s dicts (4 decimals).
-
-    >>> s_key(1.5)
-    '1.5000'
-    """
-    return f"{float(s):.4f}"
 
 
 def twist_seed(seed: int, brdf: str, pointset: str, n: int) -> list[int]:

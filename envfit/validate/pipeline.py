@@ -146,6 +146,7 @@ from typing import Callable
 import numpy as np
 
 from envfit.base.errors import ParameterError
+from envfit.base.keys import s_key
 from envfit.base.progress import progress_bar
 from envfit.base.resources import Plan, Stage, plan_memory
 from envfit.base.store import ResultStore, array_fingerprint
@@ -162,7 +163,7 @@ from envfit.theory.quadrature import worst_case_error
 from envfit.theory.weights import equal_weights, optimal_weights
 
 from .agreement import SLOPE_RANGE, agreement
-from .cells import cell_is_current, cell_key, error_stats, s_key, twist_seed
+from .cells import cell_is_current, cell_key, error_stats, twist_seed
 from .config import QUICK_DESCRIPTION, ValidateConfig
 from .fitting import fit_both
 from .renderer import RendererValidation, RendererValidationConfig, run_renderer_validation

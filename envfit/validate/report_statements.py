@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import math
 
+from envfit.base.keys import s_key
+
 from .report_conditions import (LEVEL_HIGH, LEVEL_LOW, LOW_DEGREE_TOLERANCE, LOW_DEGREES,
                                 RESOLUTION_FACTOR, SPECTRAL_TOLERANCE, TREND_MIN_POINTS,
                                 _fitted_s_is_best, _join, _overpredicts, _rank_identical, _say,
@@ -225,8 +227,8 @@ def _power_ratio_statement(pr: dict, channels: int) -> str:
 
 def _s_choice_statement(b: str, label: str, used: float, best: float, res: dict) -> str:
     """Whether the fitted s gives the best shape match for one BRDF and wce variant."""
-    rb = res.get(f"{best:.4f}", {}).get("residual_dex")
-    ru = res.get(f"{used:.4f}", {}).get("residual_dex")
+    rb = res.get(s_key(best), {}).get("residual_dex")
+    ru = res.get(s_key(used), {}).get("residual_dex")
     if _fitted_s_is_best(best, used):
         return _say("fitted_s_best", (best, used), brdf=b, label=label, used=used,
                     best_residual=_f(rb, ".3f"))

@@ -10,11 +10,12 @@ from typing import Sequence
 import numpy as np
 
 from envfit.base.html import html_result
+from envfit.base.keys import s_key
 from envfit.maps.envmap import EnvMap
 from envfit.predict import PREDICTORS, PredictionContext
 
 from .agreement import loglog_slope, measured_equivalent_n
-from .cells import rule_from_cell, s_key
+from .cells import rule_from_cell
 from .keys import prediction_keys
 
 __all__ = ["ValidationResult", "rule_entry", "fill_shape", "fill_measured_equivalents",

@@ -190,8 +190,51 @@ class WarpedSpectrum:
         (:func:`envfit.predict.renderer.spectral_tail.strip_fits`), fitted once per spectrum."""
         return [strip_fits(p) for p in self.power]
 
+    def to_json(self) -> dict:
+        """Every field as JSON-able values, the cache format of :data:`SPECTRUM_FORMAT`
+        (arrays as nested float64 lists, ``cross`` as ``{"real": …, "imag": …}``);
+        :meth:`from_json` inverts it exactly."""
+        return {"technique": self.technique, "brdf": self.brdf, "shininess": self.shininess,
+                "heuristic": self.heuristic, "fraction": float(self.fraction),
+                "band": int(self.band), "grid": int(self.grid),
+                "variance": np.asarray(self.variance, dtype=np.float64).tolist(),
+                "power": np.asarray(self.power, dtype=np.float64).tolist(),
+                "cross": {"real": np.real(self.cross).astype(np.float64).tolist(),
+                          "imag": np.imag(self.cross).astype(np.float64).tolist()},
+                "mean": float(self.mean), "axes": int(self.axes)}
+
+    @classmethod
+    def from_json(cls, d: dict) -> "WarpedSpectrum":
+        """The spectrum of :meth:`to_json`'s dict.
+
+        Raises
+        ------
+        envfit.base.errors.ParameterError
+            A dict whose arrays do not have the shapes of its band and technique.
+        """
+        try:
+            band = int(d["band"])
+            power = np.asarray(d["power"], dtype=np.float64)
+            variance = np.asarray(d["variance"], dtype=np.float64)
+            re = np.asarray(d["cross"]["real"], dtype=np.float64)
+            im = np.asarray(d["cross"]["imag"], dtype=np.float64)
+            parts = variance.shape[0]
+            if power.shape != (parts, 2 * band + 1, band + 1) or re.shape != (2 * band + 1,) \
+                    or im.shape != re.shape:
+                raise ValueError("shapes")
+            cross = np.empty(re.shape, dtype=np.complex128)
+            cross.real, cross.imag = re, im
+            return cls(technique=str(d["technique"]), brdf=str(d["brdf"]),
+                       shininess=None if d["shininess"] is None else float(d["shininess"]),
+                       heuristic=str(d["heuristic"]), fraction=float(d["fraction"]),
+                       band=band, grid=int(d["grid"]), variance=variance, power=power,
+                       cross=cross, mean=float(d["mean"]), axes=int(d["axes"]))
+        except (KeyError, TypeError, ValueError, IndexError) as exc:
+            raise ParameterError(f"not a stored warped spectrum ({exc})") from None
+
     def to_dict(self) -> dict:
-        """The scalars (not the spectra), for JSON."""
+        """The scalars (not the spectra), for JSON reports (:meth:`to_json`: the whole
+        spectrum, for the cache)."""
         return {"technique": self.technique, "brdf": self.brdf, "shininess": self.shininess,
                 "heuristic": self.heuristic, "fraction": self.fraction, "band": self.band,
                 "grid": self.grid, "variance": [float(v) for v in self.variance],
