@@ -300,13 +300,16 @@ class Stage:
     ``nbytes``: its peak memory beyond the plan's resident bytes (the map and what every stage
     keeps); ``seconds``: its predicted wall time on one core of a 2020s x86 server (a model
     calibrated on envfit's own measurements: a rough figure, within ~2x on a loaded machine);
-    ``detail``: what dominates it (e.g. ``"SH coefficients to l = 2047"``).
+    ``detail``: what dominates it (e.g. ``"SH coefficients to l = 2047"``); ``option``: the
+    command-line option that sizes it, when one does (e.g. ``"--lmax"``, in
+    :func:`envfit.export.plan.check_sh_plan`'s refusals).
     """
 
     name: str
     nbytes: int
     seconds: float = 0.0
     detail: str = ""
+    option: str = ""
 
 
 @dataclass

@@ -90,7 +90,7 @@ def _plan_note(args: argparse.Namespace, stages) -> None:
         return
     top = max(stages, key=lambda s: s.seconds)
     print(f"envfit sh: note: about {total:.0f} s of work on this machine (estimated; "
-          f"{top.what}: {top.seconds:.0f} s, sized by {top.option})", file=sys.stderr)
+          f"{top.name}: {top.seconds:.0f} s, sized by {top.option})", file=sys.stderr)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -48,10 +48,10 @@ from functools import lru_cache
 import numpy as np
 
 from envfit.base.errors import MemoryBudgetError, ParameterError
-from envfit.base.resources import format_bytes, memory_budget_bytes
 from envfit.export.ringing import DENSE_BLOCK_BYTES, DIRECT_LMAX
+from envfit.base.resources import Stage, format_bytes, memory_budget_bytes
 
-__all__ = ["DEFAULT_TIME_LIMIT", "Rates", "Stage", "time_limit_seconds", "machine_rates",
+__all__ = ["DEFAULT_TIME_LIMIT", "Rates", "time_limit_seconds", "machine_rates",
            "sh_stages", "check_sh_plan", "check_degree"]
 
 #: seconds the planned work of one ``envfit sh`` may take (``ENVFIT_TIME_LIMIT`` overrides)
@@ -68,16 +68,6 @@ class Rates:
     flop: float        # one multiply-add of a basis @ coefficients product
     synthesis: float   # one unit of a GL synthesis (module docstring)
     rotation: float    # one (l+1)^3 unit of rotate_alm
-
-
-@dataclass(frozen=True)
-class Stage:
-    """One stage of the work: what it is, the option that sizes it, its time and memory."""
-
-    what: str
-    option: str
-    seconds: float
-    nbytes: int
 
 
 def time_limit_seconds() -> float:
@@ -184,15 +174,16 @@ def _table(h: int, c: int, Ls, check: bool, irradiance: bool, r: Rates) -> Stage
                 secs += _WINDOWS * c * r.synthesis * _syn_units(l, 2 * h)
     grid = 3 * 8 * c * 2 * _nlat(top) ** 2
     radiance = 0 if irradiance or not check else 4 * 8 * c * 2 * (2 * h) ** 2
-    return Stage(f"the ringing table (L = 1..{top}, {_WINDOWS} windows)", "--table-lmax",
-                 secs, grid + radiance)
+    return Stage(f"the ringing table (L = 1..{top}, {_WINDOWS} windows)", grid + radiance,
+                 secs, option="--table-lmax")
 
 
 def _export(c: int, L: int, r: Rates) -> Stage:
     """The export of degree L: rotation to the world frame, its negative fraction."""
     secs = c * (2 * r.rotation * (L + 1) ** 3 + r.synthesis * _syn_units(L, _nlat(L)))
     return Stage(f"the export to L = {L} (world rotation, negativity on a {_nlat(L)}-ring "
-                 "grid)", "--lmax", secs, 3 * 8 * c * 2 * _nlat(L) ** 2 + 48 * c * (L + 1) ** 2)
+                 "grid)", 3 * 8 * c * 2 * _nlat(L) ** 2 + 48 * c * (L + 1) ** 2, secs,
+                 option="--lmax")
 
 
 def _dense(c: int, Ls, L: int, hd: int, r: Rates) -> Stage:
@@ -200,12 +191,12 @@ def _dense(c: int, Ls, L: int, hd: int, r: Rates) -> Stage:
     degrees = [l for l in Ls if l <= DIRECT_LMAX]
     k = c * (_WINDOWS * len(degrees) + (L <= DIRECT_LMAX))
     if k == 0:
-        return Stage("the dense check (nothing to check)", "--check-height", 0.0, 0)
+        return Stage("the dense check (nothing to check)", 0, 0.0, option="--check-height")
     n = (max(degrees + ([L] if L <= DIRECT_LMAX else [])) + 1) ** 2
     pixels = 2.0 * hd * hd
-    return Stage(f"the dense check ({k} signals on a {2 * hd}x{hd} grid)", "--check-height",
-                 pixels * n * (r.basis + k * r.flop),
-                 DENSE_BLOCK_BYTES + _BASIS_CHUNK + 8 * (n * k + 4 * hd))
+    return Stage(f"the dense check ({k} signals on a {2 * hd}x{hd} grid)",
+                 DENSE_BLOCK_BYTES + _BASIS_CHUNK + 8 * (n * k + 4 * hd),
+                 pixels * n * (r.basis + k * r.flop), option="--check-height")
 
 
 def _measured(h: int, c: int, Ls, L: int, axes: int, irradiance: bool, r: Rates) -> Stage:
@@ -213,14 +204,14 @@ def _measured(h: int, c: int, Ls, L: int, axes: int, irradiance: bool, r: Rates)
     ground truth and each export's evaluation (direct sums to DIRECT_LMAX, above it a
     synthesis at the directions)."""
     if not irradiance:
-        return Stage("the measured error (radiance: on the 2H grid)", "--check-axes", 0.0, 0)
+        return Stage("the measured error (radiance: on the 2H grid)", 0, 0.0,
+                     option="--check-axes")
     lsh = max(h - 1, min(2 * h - 1, 511))
     degrees = [l for l in Ls for _ in range(_WINDOWS)] + [L]
     direct = sum((l + 1) ** 2 for l in degrees if l <= DIRECT_LMAX)
     general = sum(l + 1 for l in degrees if l > DIRECT_LMAX) + (lsh + 1)
-    return Stage(f"the measured error at {axes} directions", "--check-axes",
-                 axes * (direct * r.basis + c * general * r.synthesis),
-                 _BASIS_CHUNK + 8 * axes * (6 + 4 * c))
+    return Stage(f"the measured error at {axes} directions", _BASIS_CHUNK + 8 * axes * (6 + 4 * c),
+                 axes * (direct * r.basis + c * general * r.synthesis), option="--check-axes")
 
 
 def sh_stages(height: int, channels: int, lmax: int, table_lmax: int, *, check: bool = True,
@@ -301,10 +292,10 @@ def check_sh_plan(height: int, channels: int, lmax: int, table_lmax: int, *,
 def _refusal(stage: Stage, value: int, stages, limit: float, budget: int, hint: str):
     if stage.nbytes > budget:
         return MemoryBudgetError(
-            f"{stage.option} {value}: {stage.what} needs {format_bytes(stage.nbytes)} but only "
+            f"{stage.option} {value}: {stage.name} needs {format_bytes(stage.nbytes)} but only "
             f"{format_bytes(budget)} can be used (80% of available memory); {hint}")
     total = sum(s.seconds for s in stages)
     return ParameterError(
         f"{stage.option} {value}: the work would take about {_seconds(total)} on this machine "
-        f"({stage.what}: {_seconds(stage.seconds)}), over the {_seconds(limit)} limit "
+        f"({stage.name}: {_seconds(stage.seconds)}), over the {_seconds(limit)} limit "
         f"(ENVFIT_TIME_LIMIT); {hint}")
