@@ -29,9 +29,25 @@ from envfit.theory.weights import WEIGHTINGS
 __all__ = ["BRDFS", "WEIGHTINGS", "ALL_POINTSETS", "DEFAULT_POINTSETS", "DEFAULT_SHININESS",
            "RENDERER_GRID", "ADVISE_SPECTRUM_AXES", "VALIDATE_SPECTRUM_AXES",
            "QUICK_RENDERER_GRID", "QUICK_SPECTRUM_AXES", "REFERENCE_SPECTRUM_AXES",
-           "ADVISE_RENDERER_POINTSETS", "VALIDATE_RENDERER_POINTSETS", "VALIDATE_N", "QUICK_N"]
+           "ADVISE_RENDERER_POINTSETS", "VALIDATE_RENDERER_POINTSETS", "VALIDATE_N", "QUICK_N",
+           "RENDERER_AXES_START", "RENDERER_MAX_AXES", "UPS", "SOLVERS", "FIT_METHODS",
+           "EXECUTORS", "PREDICTOR_CHOICES"]
 
 # ----------------------------------------------------------------------------- vocabularies
+
+#: the accepted values of ``up``, the world axis that row 0 of a map touches
+#: (:mod:`envfit.maps.latlong`; ``--up``)
+UPS = ("y", "z", "x")
+#: the interpolator's linear solvers (:class:`envfit.kernels.interpolation.SobolevInterpolator`;
+#: ``table2 --solver``)
+SOLVERS = ("auto", "cholesky", "iterative")
+#: the smoothness fit's criteria (:func:`envfit.fit.smoothness.fit_smoothness`; ``--fit-method``)
+FIT_METHODS = ("likelihood", "loo", "holdout")
+#: the batch executors (:mod:`envfit.batch.executor`; ``--executor``)
+EXECUTORS = ("local", "dask")
+#: which prediction sizes N/L in ``advise``: "auto" (the choice rule of
+#: :mod:`envfit.advisor.choice`), or one of them forced: "bandlimited" (b′), "spectral" (c)
+PREDICTOR_CHOICES = ("auto", "bandlimited", "spectral")
 
 #: the paper's six point sets (Sec. 7.1) in the registry's order (theory.pointsets.POINTSETS):
 #: sf, sobol, lp, bnot, random, jitter; the order is also ``validate``'s seed index of a set
@@ -74,6 +90,11 @@ REFERENCE_SPECTRUM_AXES = 64
 #: tables' row orders
 ADVISE_RENDERER_POINTSETS = ("sobol", "sf", "random")
 VALIDATE_RENDERER_POINTSETS = ("random", "sobol", "sf")
+
+#: the renderer rules' adaptive measurement (``advise --check`` and ``validate --renderer
+#: --quick``): axes to start with and at most (the full ``validate --renderer``: 500 → 16000)
+RENDERER_AXES_START = 250
+RENDERER_MAX_AXES = 4000
 
 # ----------------------------------------------------------------------------- N ranges
 

@@ -31,6 +31,11 @@ VOCABULARIES = {
     "default point sets": (D.DEFAULT_POINTSETS, ENVFIT / "defaults.py"),
     "advise's renderer point sets": (D.ADVISE_RENDERER_POINTSETS, ENVFIT / "defaults.py"),
     "validate's renderer point sets": (D.VALIDATE_RENDERER_POINTSETS, ENVFIT / "defaults.py"),
+    "up axes": (D.UPS, ENVFIT / "defaults.py"),
+    "solvers": (D.SOLVERS, ENVFIT / "defaults.py"),
+    "fit methods": (D.FIT_METHODS, ENVFIT / "defaults.py"),
+    "executors": (D.EXECUTORS, ENVFIT / "defaults.py"),
+    "predictor choices": (D.PREDICTOR_CHOICES, ENVFIT / "defaults.py"),
 }
 #: literals that are another vocabulary's permutation on purpose: (file, assigned name) -> why
 ALLOWED = {(THEORY / "figures.py", "POINTSET_ORDER"): "the paper's figure order (Sec. 7.1)"}
@@ -140,6 +145,21 @@ def test_the_commands_take_their_defaults_from_the_module():
     assert (a.renderer_grid, a.renderer_spectrum_axes) == (512, 32)
     assert AdviseOptions(brdf="glossy").shininess == 30.0
     assert tuple(a.pointsets) == ("sf", "sobol", "lp", "random", "jitter")
+    assert (a.renderer_axes_start, a.renderer_max_axes) == (rq.axes_start, rq.max_axes) == (250, 4000)
+
+
+def test_the_registries_are_the_modules_own():
+    """The modules that check a name hold the very tuple of envfit.defaults."""
+    from envfit.advisor import options
+    from envfit.base import resources
+    from envfit.batch import executor
+    from envfit.fit import smoothness
+    from envfit.maps import latlong
+    from envfit.theory import figures
+    assert latlong.UPS is D.UPS and resources.SOLVERS is D.SOLVERS
+    assert smoothness.METHODS is D.FIT_METHODS and executor.EXECUTORS is D.EXECUTORS
+    assert options.PREDICTOR_CHOICES is D.PREDICTOR_CHOICES and options.BRDFS is D.BRDFS
+    assert figures.BRDFS is D.BRDFS and figures.WEIGHTINGS is D.WEIGHTINGS
 
 
 def _exact_spearman(x, y) -> Fraction:

@@ -31,8 +31,8 @@ from envfit.advisor.renderer import DEFAULT_RENDERER_POINTSETS, DEFAULT_STRATEGI
 from envfit.base.checks import check_int, check_names, check_positive
 from envfit.base.errors import ParameterError
 from envfit.defaults import (ADVISE_SPECTRUM_AXES as RENDERER_SPECTRUM_AXES, ALL_POINTSETS,
-                             BRDFS, DEFAULT_POINTSETS, DEFAULT_SHININESS, RENDERER_GRID,
-                             WEIGHTINGS)
+                             BRDFS, DEFAULT_POINTSETS, DEFAULT_SHININESS, PREDICTOR_CHOICES,
+                             RENDERER_AXES_START, RENDERER_GRID, RENDERER_MAX_AXES, WEIGHTINGS)
 from envfit.fit.sigma import parse_s
 from envfit.maps.scales import SCALES
 from envfit.shading.ground_truth import weight_function
@@ -62,12 +62,8 @@ DEFAULT_AXES = 1000
 DEFAULT_SCALE = "linear"
 #: the target when none is given: 1 % of the map's mean shading value
 DEFAULT_TARGET_RELATIVE = 0.01
-#: which prediction sizes N/L: "auto" (the choice rule of :mod:`envfit.advisor.choice`),
-#: or one of them forced: "bandlimited" (b′), "spectral" (c)
-PREDICTOR_CHOICES = ("auto", "bandlimited", "spectral")
-#: the renderer check's adaptive measurement: axes to start with and at most
-RENDERER_AXES_START = 250
-RENDERER_MAX_AXES = 4000
+# PREDICTOR_CHOICES (which prediction sizes N/L: "auto" or one forced) and the renderer
+# check's adaptive measurement (RENDERER_AXES_START, RENDERER_MAX_AXES) are envfit.defaults'
 #: the most axes of a check (``axes``, ``check_hsh_axes``, ``renderer_max_axes``): the RMSE
 #: over M axes has a Monte-Carlo error ≈ 1/√(2M), 0.2 % here; more buys no information and
 #: costs M shading integrals and rule evaluations (1e9 axes was killed for memory)

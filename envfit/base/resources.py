@@ -6,6 +6,7 @@ import os
 from dataclasses import dataclass, field
 
 from envfit.base.errors import MemoryBudgetError, ParameterError
+from envfit.defaults import SOLVERS
 
 __all__ = ["machine_cores", "interpolator_nbytes", "iterative_nbytes", "iterative_coarse_nodes", "largest_feasible_n", "SOLVERS", "available_memory_bytes", "check_memory", "format_bytes", "memory_budget_bytes",
            "plan_memory", "largest_n_within", "Stage", "Plan", "peak_rss_bytes",
@@ -221,8 +222,7 @@ def plan_memory(n: int, what: str, *, channels: int = 1, kernel: bool = True,
 _WORKSPACE_BYTES = 96 * 2**20
 
 
-#: the interpolator's linear solvers (:class:`envfit.kernels.interpolation.SobolevInterpolator`)
-SOLVERS = ("auto", "cholesky", "iterative")
+# SOLVERS, the interpolator's linear solvers, is envfit.defaults', imported above
 #: the iterative path's memory model: near pairs per node, local Lagrange neighbours k
 _ITER_NEAR, _ITER_K = 48, 60
 

@@ -55,6 +55,7 @@ import threading
 from typing import Any, Callable, Iterable
 
 from envfit.base.errors import ExecutorError, ParameterError
+from envfit.defaults import EXECUTORS
 from envfit.base.resources import (MEMORY_FRACTION, available_memory_bytes, format_bytes,
                                    machine_cores)
 
@@ -62,7 +63,7 @@ __all__ = ["EXECUTORS", "machine_cores", "run_pinned", "plan_workers", "LocalExe
            "DaskExecutor", "make_executor", "dask_timeout", "identify_scheduler",
            "DEFAULT_DASK_TIMEOUT"]
 
-EXECUTORS = ("local", "dask")
+# EXECUTORS ("local", "dask") is envfit.defaults', imported above
 DASK_HINT = 'install it with: pip install "envfit[dask]"'
 #: seconds allowed for each network handshake with a dask scheduler (``ENVFIT_DASK_TIMEOUT``)
 DEFAULT_DASK_TIMEOUT = 10.0

@@ -50,6 +50,7 @@ import numpy as np
 
 from envfit.maps.envmap import check_sample_count
 from envfit.base.errors import ParameterError
+from envfit.defaults import SOLVERS
 from envfit.batch.executor import make_executor
 from envfit.batch.library_result import LibraryResult
 from envfit.batch.tasks import SweepSpec, evaluate_task, sample_task, solve_task
@@ -156,7 +157,7 @@ def run_table2_library(maps: Sequence, s_values: Sequence[float] = PAPER_S,
     # the memory guard of the largest N (one factorisation task: the interpolator with the
     # right-hand sides of one group of maps), before any sample point is made
     group = min(len(sources), max(1, int(rhs_budget_bytes // (2 * 8 * n_values[-1] * _PLAN_CHANNELS))))
-    if solver not in ("auto", "cholesky", "iterative"):
+    if solver not in SOLVERS:
         raise ParameterError(f"solver must be auto, cholesky or iterative; got {solver!r}")
     dense_fits = (interpolator_nbytes(n_values[-1], _PLAN_CHANNELS * group)
                   <= memory_budget_bytes())

@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from envfit.defaults import BRDFS, DEFAULT_SHININESS
+from envfit.defaults import BRDFS, DEFAULT_SHININESS, PREDICTOR_CHOICES
 from .common import (add_common_arguments, add_map_arguments, emit_json, guarded_write,
                      load_map_from_args, out_dir, positive_float, positive_int, say, str_list)
 
@@ -43,7 +43,7 @@ def register(sub) -> None:
     p.add_argument("--scale", choices=("linear", "display", "log"), default="linear",
                    help="value scale of the integrand and the fit (default: linear, the raw "
                         "radiance a renderer integrates)")
-    p.add_argument("--predictor", choices=("auto", "bandlimited", "spectral"), default="auto",
+    p.add_argument("--predictor", choices=PREDICTOR_CHOICES, default="auto",
                    help="prediction that sizes N/L: auto (default: (c) on the linear scale and "
                         "where (b') and (c) disagree by > 1.25x, else (b')), bandlimited (b'), "
                         "spectral (c)")

@@ -25,6 +25,7 @@ from typing import Any, Callable
 
 from envfit.base.atomic import (atomic_write_json, check_writable_dir, check_writable_file, os_reason,
                       to_jsonable)
+from envfit.defaults import EXECUTORS, UPS
 from .overlap import check_no_overlap
 
 #: the largest integer an option accepts (exponent notation beyond it is surely a typo)
@@ -324,7 +325,7 @@ def add_map_arguments(p: argparse.ArgumentParser, *, optional: bool = True, many
                    help="lat-long HDR map (EXR, HDR, PNG, … anything OpenImageIO reads)"
                         + ("; without it, the built-in synthesized default map" if optional else ""))
     g = p.add_argument_group("map loading")
-    g.add_argument("--up", choices=("y", "z", "x"), default=None,
+    g.add_argument("--up", choices=UPS, default=None,
                    help="which world axis is the map's top row, on envfit's pixel grid "
                         "(centres at theta = pi(i+1/2)/H, phi = 2pi(j+1/2)/W; default: y, "
                         "OpenEXR's orientation); not with --convention")
@@ -396,7 +397,7 @@ def load_map_from_args(args: argparse.Namespace, path=None):
 def add_executor_arguments(p: argparse.ArgumentParser) -> None:
     """``--executor``, ``--scheduler``, ``--workers``: where a library sweep runs."""
     g = p.add_argument_group("execution (several maps: one factorisation per s serves them all)")
-    g.add_argument("--executor", choices=("local", "dask"), default=None,
+    g.add_argument("--executor", choices=EXECUTORS, default=None,
                    help="local: this machine's cores (a process pool, BLAS threads pinned per "
                         "worker; the default); dask: a dask.distributed cluster "
                         '(pip install "envfit[dask]")')

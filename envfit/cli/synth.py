@@ -18,6 +18,7 @@ import numpy as np
 
 from envfit.base.atomic import os_reason
 from envfit.base.errors import EnvfitError, OutputError, ParameterError
+from envfit.defaults import UPS
 from .common import (CONVENTION_HELP, add_common_arguments, colour_list, emit_json, finite_float,
                      map_convention, map_up, out_dir, positive_float, positive_int, say)
 
@@ -38,7 +39,7 @@ def register(sub) -> None:
     p.add_argument("output", metavar="OUT.exr", type=Path)
     p.add_argument("--kind", choices=KINDS, default="gp")
     p.add_argument("--height", type=positive_int, default=256, help="rows (width = 2 x height)")
-    p.add_argument("--up", choices=("y", "z", "x"), default=None,
+    p.add_argument("--up", choices=UPS, default=None,
                    help="world up axis stored with the map, on envfit's grid (default: y); "
                         "not with --convention")
     p.add_argument("--convention", metavar="NAME", default=None, help=CONVENTION_HELP.replace(

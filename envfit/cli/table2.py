@@ -5,6 +5,7 @@ import argparse
 
 import numpy as np
 
+from envfit.defaults import SOLVERS
 from .common import (add_common_arguments, add_executor_arguments, add_map_arguments, emit_json,
                      executor_kwargs, float_list, guarded_write, int_list, library_maps,
                      library_mode, load_map_from_args, load_options_from_args, out_dir,
@@ -33,7 +34,7 @@ def register(sub) -> None:
     p.add_argument("--quick", action="store_true",
                    help="a small grid on a map of at most 128 rows (seconds)")
     p.add_argument("--paper", action="store_true", help="print the paper's Table 2 beside")
-    p.add_argument("--solver", choices=("auto", "cholesky", "iterative"), default="auto",
+    p.add_argument("--solver", choices=SOLVERS, default="auto",
                    help="linear solver of each cell: dense Cholesky, preconditioned CG with "
                         "O(N log N) products (RMSE equal to Cholesky's to 1e-6 relative), or "
                         "auto (default: one map by the measured crossover N; a library by "

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import argparse
 
-from envfit.defaults import DEFAULT_SHININESS
+from envfit.defaults import DEFAULT_SHININESS, FIT_METHODS
 from .common import (add_common_arguments, add_map_arguments, emit_json, guarded_write, int_list,
                      load_map_from_args, nonneg_int_list, out_dir, positive_float, positive_int,
                      record_unwritten, say, str_list)
@@ -40,7 +40,7 @@ def register(sub) -> None:
                    help="number of random axes (default: 2000; --quick: 500)")
     p.add_argument("--scale", choices=("display", "linear", "log"), default="display",
                    help="value scale of the integrand and of the fit (default: display)")
-    p.add_argument("--fit-method", choices=("likelihood", "loo", "holdout"), default="likelihood",
+    p.add_argument("--fit-method", choices=FIT_METHODS, default="likelihood",
                    help="criterion of the s fit for --s auto (default: likelihood)")
     p.add_argument("--fit-n", type=positive_int, default=None,
                    help="samples of the s / sigma fit (default: 1500; --quick: 600)")

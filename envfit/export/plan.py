@@ -48,8 +48,8 @@ from functools import lru_cache
 import numpy as np
 
 from envfit.base.errors import MemoryBudgetError, ParameterError
-from envfit.export.ringing import DENSE_BLOCK_BYTES, DIRECT_LMAX
 from envfit.base.resources import Stage, format_bytes, memory_budget_bytes
+from envfit.export.ringing import CHECK_AXES, DENSE_BLOCK_BYTES, DENSE_HEIGHT, DIRECT_LMAX
 
 __all__ = ["DEFAULT_TIME_LIMIT", "Rates", "time_limit_seconds", "machine_rates",
            "sh_stages", "check_sh_plan", "check_degree"]
@@ -215,8 +215,8 @@ def _measured(h: int, c: int, Ls, L: int, axes: int, irradiance: bool, r: Rates)
 
 
 def sh_stages(height: int, channels: int, lmax: int, table_lmax: int, *, check: bool = True,
-              check_axes: int = 4096, dense_height: int = 512, irradiance: bool = False,
-              rates: Rates | None = None) -> list[Stage]:
+              check_axes: int = CHECK_AXES, dense_height: int = DENSE_HEIGHT,
+              irradiance: bool = False, rates: Rates | None = None) -> list[Stage]:
     """The stages of :func:`envfit.export.report.sh_report` with their estimated
     seconds and peak bytes (module docstring), in the order they run."""
     r = machine_rates() if rates is None else rates
@@ -253,8 +253,9 @@ def _seconds(s: float) -> str:
 
 
 def check_sh_plan(height: int, channels: int, lmax: int, table_lmax: int, *,
-                  check: bool = True, check_axes: int = 4096, dense_height: int = 512,
-                  irradiance: bool = False, rates: Rates | None = None) -> list[Stage]:
+                  check: bool = True, check_axes: int = CHECK_AXES,
+                  dense_height: int = DENSE_HEIGHT, irradiance: bool = False,
+                  rates: Rates | None = None) -> list[Stage]:
     """Every option of ``envfit sh`` in its range and the planned work within the machine's
     memory budget and the time limit, before any work; returns the stages.
 

@@ -45,6 +45,7 @@ from envfit.base.checks import check_int
 from envfit.base.html import html_result
 from envfit.maps.envmap import EnvMap, check_sample_count
 from envfit.base.errors import ParameterError
+from envfit.defaults import FIT_METHODS
 from envfit.base.resources import plan_memory
 from envfit.maps.scales import check_not_constant, fit_scale
 from envfit.fit.criterion import (N_BOOTSTRAP, bootstrap_indices, constant_columns,  # noqa: F401
@@ -57,7 +58,7 @@ __all__ = ["METHODS", "KERNELS", "DEFAULT_METHOD", "DEFAULT_N", "FitResult", "Sa
            "fit_smoothness", "fit_smoothness_samples", "S_GRID", "DEFAULT_REFINE", "SCORE_NAMES",
            "holdout_pixels", "bootstrap_indices", "bootstrap_argmin_interval", "plan_fit_memory"]
 
-METHODS = ("likelihood", "loo", "holdout")
+METHODS = FIT_METHODS                      # envfit.defaults
 #: ``full``: K_gd (Eq. 14), samples by bilinear lookup; ``bandlimited``: K_gd truncated at the
 #: map's Nyquist degree H − 1, samples at pixel centres (:mod:`envfit.kernels.bandlimited`)
 KERNELS = ("full", "bandlimited")

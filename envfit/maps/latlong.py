@@ -61,6 +61,7 @@ from __future__ import annotations
 import numpy as np
 
 from envfit.base.errors import ParameterError
+from envfit.defaults import UPS
 from envfit.maps._lookup import lookup_rows
 
 __all__ = [
@@ -75,8 +76,8 @@ __all__ = [
     "bilinear_lookup",
 ]
 
-#: the accepted values of ``up`` (the world axis that row 0 of a map touches)
-UPS = ("y", "z", "x")
+# UPS, the accepted values of ``up`` (the world axis that row 0 of a map touches), is
+# envfit.defaults', imported above
 
 #: world = M @ local, local = (sinθ cosφ, sinθ sinφ, cosθ)
 _LOCAL_TO_WORLD = {

@@ -69,7 +69,8 @@ from envfit.sampling.rules import STRATEGIES, RendererRule
 from envfit.theory.pointsets import POINTSETS
 
 from envfit.defaults import (BRDFS, DEFAULT_SHININESS, QUICK_RENDERER_GRID, QUICK_SPECTRUM_AXES,
-                             RENDERER_GRID, VALIDATE_RENDERER_POINTSETS, VALIDATE_SPECTRUM_AXES)
+                             RENDERER_AXES_START, RENDERER_GRID, RENDERER_MAX_AXES,
+                             VALIDATE_RENDERER_POINTSETS, VALIDATE_SPECTRUM_AXES)
 
 __all__ = ["RendererValidationConfig", "renderer_quick_config", "renderer_config",
            "RendererCell", "RendererRuleSummary", "RendererLobeSummary", "RendererValidation",
@@ -166,8 +167,8 @@ def renderer_quick_config(**overrides) -> RendererValidationConfig:
     ((16, 256), 256, 32, 250, 4000)
     """
     base = dict(n_values=RENDERER_QUICK_N, grid=QUICK_RENDERER_GRID,
-                spectrum_axes=QUICK_SPECTRUM_AXES, axes_start=250,
-                max_axes=4000, quick=True)
+                spectrum_axes=QUICK_SPECTRUM_AXES, axes_start=RENDERER_AXES_START,
+                max_axes=RENDERER_MAX_AXES, quick=True)
     base.update(overrides)
     return RendererValidationConfig(**base)
 
