@@ -11,6 +11,7 @@ import json
 import os
 import subprocess
 import sys
+import tempfile
 import textwrap
 import tracemalloc
 
@@ -48,8 +49,10 @@ def _run_limited(body: str, gib: float, env_extra: dict | None = None) -> dict:
     env = dict(os.environ)
     env.pop("ENVFIT_MEMORY_LIMIT", None)
     env.update(env_extra or {})
+    # cwd away from the repository: there ``envfit`` would be the source folder, not the
+    # installed package (envfit.theory and envfit.data_gen are mapped only when installed)
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          timeout=120, env=env)
+                          timeout=120, env=env, cwd=tempfile.gettempdir())
     assert proc.returncode == 0, proc.stderr[-3000:]
     line = [l for l in proc.stdout.splitlines() if l.startswith("RESULT ")][-1]
     return json.loads(line[len("RESULT "):])
@@ -186,7 +189,7 @@ def test_cli_refuses_in_one_line(tmp_path):
                        half=True)
     proc = subprocess.run([sys.executable, "-m", "envfit.cli", "advise", str(path), "-q",
                            "--no-cache"], capture_output=True, text=True, timeout=120,
-                          env={**os.environ, "ENVFIT_MEMORY_LIMIT": "30M"})
+                          env={**os.environ, "ENVFIT_MEMORY_LIMIT": "30M"}, cwd=tmp_path)
     assert proc.returncode == 2, proc.stderr
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "advise on the 512x256 map even at 128x64" in lines[0]
