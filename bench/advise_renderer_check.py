@@ -20,7 +20,7 @@ import tempfile
 import time
 
 from envfit import load_envmap
-from envfit.advisor.advise import advise
+from envfit.advisor._advise import advise
 
 TOLERANCE = 1.25
 

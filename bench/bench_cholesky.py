@@ -1,14 +1,14 @@
-"""Benchmark: envfit's blocked Cholesky (envfit.theory.cholesky) against bare LAPACK ``dpotrf``.
+"""Benchmark: envfit's blocked Cholesky (envfit.theory._cholesky) against bare LAPACK ``dpotrf``.
 
 Run:  python bench/bench_cholesky.py [--n 4000,8000,12000,16000,20000] [--s 1.5]
       [--repeats 1] [--json out.json]
 
 Every factorisation runs in its own child process (``--worker``), so a crash of bare
 ``dpotrf`` (OpenBLAS's threaded ``dsyrk`` overruns its buffer on AVX-512 CPUs with two or
-more threads for N >= 16 000, see ``theory/cholesky.py``) is recorded as "SIGSEGV" instead
+more threads for N >= 16 000, see ``theory/_cholesky.py``) is recorded as "SIGSEGV" instead
 of ending the run. Methods, interleaved per N so that they see the same machine load:
 
-* ``blocked``  -- :func:`envfit.theory.cholesky.cholesky_inplace`, all BLAS threads;
+* ``blocked``  -- :func:`envfit.theory._cholesky.cholesky_inplace`, all BLAS threads;
 * ``dpotrf``   -- bare ``scipy.linalg.lapack.dpotrf(lower=1, overwrite_a=1)``, all threads;
 * ``dpotrf-1t`` -- bare ``dpotrf`` with one BLAS thread (threadpoolctl): a known-safe
   workaround, shown for its cost;
@@ -42,7 +42,7 @@ METHODS = ("blocked", "dpotrf", "dpotrf-1t", "dpotrf-haswell")
 def _matrix(n: int, s: float):
     import numpy as np
     from envfit.kernels import _kernels as _kernels
-    from envfit.theory.sobolev import kernel_constant
+    from envfit.theory._sobolev import kernel_constant
     j = np.arange(n)
     z = 1.0 - (2 * j + 1) / n
     phi = 2 * np.pi * np.mod(j / ((1 + 5 ** 0.5) / 2), 1.0)
@@ -59,7 +59,7 @@ def worker(method: str, n: int, s: float) -> dict:
     import numpy as np
     from scipy.linalg import lapack
     from threadpoolctl import threadpool_info, threadpool_limits
-    from envfit.theory.cholesky import cholesky_inplace
+    from envfit.theory._cholesky import cholesky_inplace
     a = _matrix(n, s)
     limit = 1 if method == "dpotrf-1t" else None
     with threadpool_limits(limits=limit, user_api="blas"):

@@ -1,4 +1,4 @@
-"""Benchmark of the Sobolev kernel interpolator (envfit.kernels.interpolation) against its baselines.
+"""Benchmark of the Sobolev kernel interpolator (envfit.kernels._interpolation) against its baselines.
 
 Run:  /tmp/venv/bin/python bench/bench_interpolation.py [--quick] [--json out.json]
       [--repeats 3] [--s 1.1,1.5,1.9] [--n 20000] [--height 512]
@@ -44,10 +44,10 @@ from scipy.linalg import lapack                                  # noqa: E402
 from threadpoolctl import threadpool_info, threadpool_limits     # noqa: E402
 
 from envfit.kernels import _kernels as _kernels  # noqa: E402
-from envfit.kernels.interpolation import SobolevInterpolator
-from envfit.kernels.nearfar import far_field_expansion, near_radius
-from envfit.maps.latlong import pixel_directions                      # noqa: E402
-from envfit.theory.sobolev import kernel_constant                       # noqa: E402
+from envfit.kernels._interpolation import SobolevInterpolator
+from envfit.kernels._nearfar import far_field_expansion, near_radius
+from envfit.maps._latlong import pixel_directions                      # noqa: E402
+from envfit.theory._sobolev import kernel_constant                       # noqa: E402
 
 
 # ----------------------------------------------------------------------------- data

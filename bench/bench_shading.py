@@ -27,12 +27,12 @@ import numpy as np
 import ducc0
 
 
-from envfit.data_gen.analytic import SkyGradientMap, SunSkyMap          # noqa: E402
-from envfit.data_gen.gp import gaussian_process_map                     # noqa: E402
-from envfit.shading import estimators as E  # noqa: E402
-from envfit.shading import ground_truth as S  # noqa: E402
-from envfit.maps.envmap import EnvMap                                 # noqa: E402
-from envfit.theory.brdf import gauss_legendre_01                      # noqa: E402
+from envfit.data_gen._analytic import SkyGradientMap, SunSkyMap          # noqa: E402
+from envfit.data_gen._gp import gaussian_process_map                     # noqa: E402
+from envfit.shading import _estimators as E  # noqa: E402
+from envfit.shading import _ground_truth as S  # noqa: E402
+from envfit.maps._envmap import EnvMap                                 # noqa: E402
+from envfit.theory._brdf import gauss_legendre_01                      # noqa: E402
 
 
 def _timed(fn, repeat=3):

@@ -1,4 +1,4 @@
-"""Benchmark: the iterative solver (envfit.kernels.iterative) against the dense Cholesky.
+"""Benchmark: the iterative solver (envfit.kernels._iterative) against the dense Cholesky.
 
 Run:  nice -n 5 python bench/bench_solver.py [--quick] [--map forest.exr] [--n 5000,20000,80000,200000]
       [--s 1.1,1.5,1.9] [--cell-n 20000] [--no-verify] [--json out.json] [--csv out.csv]
@@ -14,7 +14,7 @@ Sections, each measured in this run (the load average is recorded with every row
     ``OPENBLAS_CORETYPE=Haswell`` on AVX-512 CPUs where a bare threaded ``dpotrf`` segfaults
     for N >= 16 000) where it fits in memory and N <= ``--dense-max``.
 (b) **Table 2 cell** on the map at ``--cell-n``: solve + evaluation at every pixel with the
-    iterative solver (:func:`envfit.fit.table2.run_table2`), its ratio to (a)'s bare
+    iterative solver (:func:`envfit.fit._table2.run_table2`), its ratio to (a)'s bare
     ``dpotrf``, and (unless ``--no-verify``) the same cell with the Cholesky: RMSE relative
     difference (target <= 1e-6).
 (c) **Crossover** (``auto``'s constant): fit time of both solvers for N in ``--cross-n``.
@@ -35,12 +35,12 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_cholesky import cpu_description, run_child  # noqa: E402
 
-from envfit.base.atomic import atomic_write_csv, atomic_write_json  # noqa: E402
-from envfit.base.resources import memory_budget_bytes  # noqa: E402
-from envfit.fit.table2 import run_table2, sample_directions  # noqa: E402
-from envfit.kernels.interpolation import SobolevInterpolator  # noqa: E402
-from envfit.maps.io import load_envmap  # noqa: E402
-from envfit.maps.scales import fit_scale  # noqa: E402
+from envfit.base._atomic import atomic_write_csv, atomic_write_json  # noqa: E402
+from envfit.base._resources import memory_budget_bytes  # noqa: E402
+from envfit.fit._table2 import run_table2, sample_directions  # noqa: E402
+from envfit.kernels._interpolation import SobolevInterpolator  # noqa: E402
+from envfit.maps._io import load_envmap  # noqa: E402
+from envfit.maps._scales import fit_scale  # noqa: E402
 
 DEFAULT_MAP = "/work/shared/envmaps/forest.exr"
 FIELDS = ("section", "n", "s", "solver", "setup_s", "solve_s", "evaluate_s", "iterations",

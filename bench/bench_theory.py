@@ -8,7 +8,7 @@ threads; the machine load average is recorded because the numbers scale with it)
 1. ``worst_case_error`` (closed form Eq. 41, O(N²)) for N = 10 000 (target < 1.5 s), with
    1 and 2 worker threads, and N = 100 000 once (reported; skipped with --quick);
 2. ``error_spectrum`` N = 1000, lmax = 1500 (ducc0 adjoint SH synthesis; target < 3 s), and
-   once the O(N² lmax) Legendre pair form of Eq. 44 (``envfit.theory.sh._power_spectrum_legendre_pairs``)
+   once the O(N² lmax) Legendre pair form of Eq. 44 (``envfit.theory._sh._power_spectrum_legendre_pairs``)
    as the baseline, in the same process: the speed ratio and the agreement of C_l²;
 3. ``optimal_weights`` N = 4096 (float64 Cholesky; target < 5 s);
 4. ``envfit theory table1`` end to end in a fresh Python process (target < 30 s).
@@ -30,11 +30,11 @@ from pathlib import Path
 import numpy as np
 
 
-from envfit.theory.brdf import Diffuse                                  # noqa: E402
-from envfit.theory.pointsets import generate                            # noqa: E402
-from envfit.theory.quadrature import error_spectrum, worst_case_error   # noqa: E402
-from envfit.theory.sh import _power_spectrum_legendre_pairs             # noqa: E402
-from envfit.theory.weights import equal_weights, optimal_weights        # noqa: E402
+from envfit.theory._brdf import Diffuse                                  # noqa: E402
+from envfit.theory._pointsets import generate                            # noqa: E402
+from envfit.theory._quadrature import error_spectrum, worst_case_error   # noqa: E402
+from envfit.theory._sh import _power_spectrum_legendre_pairs             # noqa: E402
+from envfit.theory._weights import equal_weights, optimal_weights        # noqa: E402
 
 S = 1.5
 
@@ -159,7 +159,7 @@ def main(argv=None) -> int:
     info["loadavg_end"] = os.getloadavg()
     print(f"load average at end {info['loadavg_end'][0]:.2f}")
     if args.json:
-        from envfit.base.atomic import atomic_write_json
+        from envfit.base._atomic import atomic_write_json
         atomic_write_json(args.json, {"info": info, "results": results})
         print(f"wrote {args.json}")
     missed = [e["name"] for e in results if e["ok"] is False]

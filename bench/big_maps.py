@@ -1,5 +1,5 @@
 """Predicted vs measured peak memory and time of every stage of ``envfit advise`` on a map
-(issue 22, item 1): the plan of :mod:`envfit.advisor.budget` beside the resident memory
+(issue 22, item 1): the plan of :mod:`envfit.advisor._budget` beside the resident memory
 sampled every 20 ms while each stage runs.
 
 Usage::
@@ -61,8 +61,8 @@ class _Sampler:
 
 def make_map(height: int, path: str) -> None:
     """A float16 test map of ``height`` rows: GP s = 1.5 at 256 rows upsampled, a sun, noise."""
-    from envfit.data_gen.gp import gaussian_process_map
-    from envfit.maps.io import save_envmap
+    from envfit.data_gen._gp import gaussian_process_map
+    from envfit.maps._io import save_envmap
     base = np.exp(gaussian_process_map(1.5, 256, seed=0, channels=3))
     f = height // 256
     data = np.repeat(np.repeat(base.astype(np.float32), f, 0), f, 1)
@@ -79,11 +79,11 @@ def main(argv: list[str]) -> None:
     if argv and argv[0] == "--make":
         make_map(int(argv[1]), argv[2])
         return
-    from envfit.advisor import advise as A, model as M, search as S
-    from envfit.advisor.budget import prediction_height
-    from envfit.advisor.options import AdviseOptions
-    from envfit.maps import envmap as E
-    from envfit.maps.io import load_envmap
+    from envfit.advisor import _advise as A, _model as M, _search as S
+    from envfit.advisor._budget import prediction_height
+    from envfit.advisor._options import AdviseOptions
+    from envfit.maps import _envmap as E
+    from envfit.maps._io import load_envmap
     kw = dict(a.split("=", 1) for a in argv[1:])
     opts = AdviseOptions(target_relative=float(kw.pop("target_relative", 0.01)),
                          renderer=bool(int(kw.pop("renderer", "1"))), cache=False,

@@ -1,7 +1,7 @@
 """Why Table 2 on a GP map of known s0 does not pick s0 (issue 22, item 10).
 
 For s0 in {1.25, 1.5} and N in {1000, 2000, 4000}: the closed-form expected RMSE of Table 2's
-reconstruction (envfit.fit.kriging, the map as data_gen synthesizes it: band-limited at
+reconstruction (envfit.fit._kriging, the map as data_gen synthesizes it: band-limited at
 l <= H - 1, read through the bilinear lookup) against s, beside Table 2's measured RMSE on
 data_gen maps (linear scale, seeds 0, 1, 2, 3 channels each), and the s that minimises each.
 At the smallest N it also splits the shift into its causes: the full process seen exactly
@@ -17,11 +17,11 @@ import time
 
 import numpy as np
 
-from envfit.data_gen.gp import gaussian_process_map
-from envfit.fit.kriging import (SynthesisModel, expected_interpolation_mse,
-                                expected_profiled_likelihood)
-from envfit.fit.table2 import run_table2
-from envfit.maps.envmap import EnvMap
+from envfit.data_gen._gp import gaussian_process_map
+from envfit.fit._kriging import (SynthesisModel, expected_interpolation_mse,
+                                 expected_profiled_likelihood)
+from envfit.fit._table2 import run_table2
+from envfit.maps._envmap import EnvMap
 
 S_GRID = (1.1, 1.25, 1.4, 1.5, 1.6, 1.7, 1.9)
 

@@ -2,7 +2,7 @@
 
 For each map (linear radiance) — the files given, plus two synthesized sun + GP maps with
 a sun of known radiance and radius — run the renderer validation of ``envfit validate
---renderer`` (envfit.validate.renderer.run_renderer_validation, full settings unless
+--renderer`` (envfit.validate._renderer.run_renderer_validation, full settings unless
 --quick): every strategy (brdf, map, mis, split) × point set (random, sobol, sf) × N × lobe
 (diffuse, glossy n = 30), predicted vs measured RMSE with its bootstrap 95 % interval. Prints
 per rule the median ratio predicted/measured and the fraction of cells that agree (within
@@ -22,10 +22,10 @@ import subprocess
 import time
 from pathlib import Path
 
-from envfit.data_gen.sun_gp import sun_gp_map
-from envfit.maps.envmap import EnvMap
-from envfit.maps.io import load_envmap
-from envfit.validate.renderer import renderer_config, run_renderer_validation
+from envfit.data_gen._sun_gp import sun_gp_map
+from envfit.maps._envmap import EnvMap
+from envfit.maps._io import load_envmap
+from envfit.validate._renderer import renderer_config, run_renderer_validation
 
 #: the synthesized maps: (name, sun_gp_map keywords)
 SYNTH = [

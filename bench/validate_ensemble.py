@@ -1,7 +1,7 @@
 """Ensemble check of prediction (b') on independent Gaussian-process maps.
 
 One map is one realisation of the field; prediction (b') is an expectation over the
-ensemble. This script runs :func:`envfit.validate.pipeline.run_validation` (diffuse, equal weights,
+ensemble. This script runs :func:`envfit.validate._pipeline.run_validation` (diffuse, equal weights,
 random and spherical Fibonacci points) on ``--maps`` independent GP maps of ``--channels``
 channels each and prints, per map, the ratio predicted (b') / measured per N, the expected
 one-map spread (``model_scatter``) and the map's realised power at l = 1 relative to the
@@ -19,11 +19,11 @@ import sys
 import numpy as np
 
 
-from envfit.data_gen.gp import gaussian_process_map                        # noqa: E402
-from envfit.maps.envmap import EnvMap                                    # noqa: E402
-from envfit.fit.sigma import parse_s
-from envfit.validate.config import ValidateConfig
-from envfit.validate.pipeline import run_validation
+from envfit.data_gen._gp import gaussian_process_map                        # noqa: E402
+from envfit.maps._envmap import EnvMap                                    # noqa: E402
+from envfit.fit._sigma import parse_s
+from envfit.validate._config import ValidateConfig
+from envfit.validate._pipeline import run_validation
 
 
 def main(argv=None) -> int:

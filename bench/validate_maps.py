@@ -7,14 +7,14 @@ Run (the full configuration, resumable in --out; ~5–10 min per 1024×512 map o
 
     /tmp/venv/bin/python bench/validate_maps.py --quick ...     # the --quick configuration
 
-For every map it runs :func:`envfit.validate.pipeline.run_validation` (s fitted by the likelihood,
+For every map it runs :func:`envfit.validate._pipeline.run_validation` (s fitted by the likelihood,
 the default point sets, weightings, N and axes), writes the map's report.md, figures and
 validate.json under ``--out/<name>/`` and prints (and writes to ``--out/validate_maps.md``)
 the agreement table:
 
 * real maps on each of the ``--real-scale`` scales (default: display, as the paper's
   Table 2, and linear, raw radiance, where a sun dominates);
-* GP maps (:func:`envfit.data_gen.gp.gaussian_process_map`, s0 known, independent channels,
+* GP maps (:func:`envfit.data_gen._gp.gaussian_process_map`, s0 known, independent channels,
   zero mean, band-limited at degree H − 1; default 12 channels = 12 independent
   realisations pooled) on the linear scale, where the model holds.
 
@@ -35,14 +35,14 @@ import time
 from pathlib import Path
 
 
-from envfit.data_gen.gp import gaussian_process_map                      # noqa: E402
-from envfit.base.atomic import atomic_write_json, atomic_write_text    # noqa: E402
-from envfit.maps.envmap import EnvMap                                 # noqa: E402
-from envfit.maps.io import load_envmap                                 # noqa: E402
-from envfit.validate.agreement import SLOPE_CHECK_POINTSETS
-from envfit.validate.config import ValidateConfig
-from envfit.validate.pipeline import run_validation
-from envfit.validate.config import quick_config
+from envfit.data_gen._gp import gaussian_process_map                      # noqa: E402
+from envfit.base._atomic import atomic_write_json, atomic_write_text    # noqa: E402
+from envfit.maps._envmap import EnvMap                                 # noqa: E402
+from envfit.maps._io import load_envmap                                 # noqa: E402
+from envfit.validate._agreement import SLOPE_CHECK_POINTSETS
+from envfit.validate._config import ValidateConfig
+from envfit.validate._pipeline import run_validation
+from envfit.validate._config import quick_config
 
 DEFAULT_MAPS = ("/work/shared/envmaps/forest.exr", "/work/shared/envmaps/city.exr")
 #: S0:HEIGHT:SEED:CHANNELS — 12 channels are 12 independent realisations of the field, pooled
@@ -149,8 +149,8 @@ def main(argv=None) -> int:
         if not args.quiet:
             print(f"== {env.name} ({env.height}x{env.width}, {scale} scale) -> {folder}", flush=True)
         res = run_validation(env, cfg, out=folder, quiet=args.quiet).to_json()
-        from envfit.plots.validate import plot_all
-        from envfit.validate.report import write_report
+        from envfit.plots._validate import plot_all
+        from envfit.validate._report import write_report
         files = plot_all(res, folder)
         write_report(res, folder / "report.md", files)
         res["s0"] = s0

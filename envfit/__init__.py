@@ -2,14 +2,14 @@
 
 The public API (imported lazily, so ``import envfit`` stays fast)::
 
-    from envfit import load_envmap, save_envmap, EnvMap          # maps (envfit.maps.io, .envmap)
+    from envfit import load_envmap, save_envmap, EnvMap          # maps (envfit.maps._io, .envmap)
     from envfit import SobolevInterpolator                       # kernel interpolation, Eq. 14
     from envfit import fit_smoothness, run_table2                # s of a map; the paper's Table 2
     from envfit import shading_integral                          # ground-truth shading integrals
     from envfit import run_validation                            # measured vs predicted errors
 
 Conventions (lat-long geometry, value scales) are documented in docs/conventions.md and implemented
-in :mod:`envfit.maps.latlong` and :mod:`envfit.maps.scales`.
+in :mod:`envfit.maps._latlong` and :mod:`envfit.maps._scales`.
 """
 from __future__ import annotations
 
@@ -17,22 +17,23 @@ import importlib
 
 __version__ = "0.1.0"
 
-from envfit.base.errors import (DuplicatePointsError, EnvfitError, EnvMapFileError, EnvMapFormatError,
-                     MemoryBudgetError, NonFiniteError, ParameterError)
+from envfit.base._errors import (DuplicatePointsError, EnvfitError, EnvMapFileError,
+                                 EnvMapFormatError, MemoryBudgetError, NonFiniteError,
+                                 ParameterError)
 
 _LAZY = {
-    "EnvMap": "maps.envmap", "load_envmap": "maps.io", "save_envmap": "maps.io",
-    "fit_scale": "maps.scales", "Scale": "maps.scales",
-    "SobolevInterpolator": "kernels.interpolation",
-    "fit_smoothness": "fit.smoothness", "FitResult": "fit.smoothness",
-    "run_table2": "fit.table2", "Table2Result": "fit.table2",
-    "shading_integral": "shading.ground_truth",
-    "quadrature_estimates": "shading.estimators", "sh_truncation_estimates": "shading.estimators",
-    "hsh_truncation_estimates": "shading.estimators",
-    "run_validation": "validate.pipeline", "ValidateConfig": "validate.config",
-    "ValidationResult": "validate.results",
-    "default_envmap": "maps.default_map",
-    "advise": "advisor.advise", "Advice": "advisor.result", "AdviseOptions": "advisor.options",
+    "EnvMap": "maps._envmap", "load_envmap": "maps._io", "save_envmap": "maps._io",
+    "fit_scale": "maps._scales", "Scale": "maps._scales",
+    "SobolevInterpolator": "kernels._interpolation",
+    "fit_smoothness": "fit._smoothness", "FitResult": "fit._smoothness",
+    "run_table2": "fit._table2", "Table2Result": "fit._table2",
+    "shading_integral": "shading._ground_truth",
+    "quadrature_estimates": "shading._estimators", "sh_truncation_estimates": "shading._estimators",
+    "hsh_truncation_estimates": "shading._estimators",
+    "run_validation": "validate._pipeline", "ValidateConfig": "validate._config",
+    "ValidationResult": "validate._results",
+    "default_envmap": "maps._default_map",
+    "advise": "advisor._advise", "Advice": "advisor._result", "AdviseOptions": "advisor._options",
 }
 
 __all__ = ["__version__", "EnvfitError", "EnvMapFileError", "EnvMapFormatError",

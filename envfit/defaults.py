@@ -3,16 +3,16 @@ r"""Every default number and name list of envfit, defined once and imported, nev
 The base layer (``tests/test_architecture.py``): imports only :mod:`envfit.theory`, so every
 sub-package may import it. theory keeps its own defaults (theory never imports envfit); the
 ones both share are taken from there (:data:`DEFAULT_SHININESS` is
-:data:`envfit.theory.brdf.PAPER_SHININESS`).
+:data:`envfit.theory._brdf.PAPER_SHININESS`).
 
 Vocabularies (registries; a module checking a name imports these):
 
-* point sets: :data:`envfit.theory.pointsets.POINTSETS` (the registry), :data:`ALL_POINTSETS`
+* point sets: :data:`envfit.theory._pointsets.POINTSETS` (the registry), :data:`ALL_POINTSETS`
   its names in registry order (also the seed index of ``envfit validate``'s cells);
-* BRDFs: :data:`BRDFS` (:data:`envfit.theory.brdf.BRDFS`); weightings: :data:`WEIGHTINGS`
-  (:data:`envfit.theory.weights.WEIGHTINGS`);
-* renderer strategies: :data:`envfit.sampling.rules.STRATEGIES`; lat-long conventions:
-  :data:`envfit.maps.conventions.CONVENTIONS`; value scales: :data:`envfit.maps.scales.SCALES`
+* BRDFs: :data:`BRDFS` (:data:`envfit.theory._brdf.BRDFS`); weightings: :data:`WEIGHTINGS`
+  (:data:`envfit.theory._weights.WEIGHTINGS`);
+* renderer strategies: :data:`envfit.sampling._rules.STRATEGIES`; lat-long conventions:
+  :data:`envfit.maps._conventions.CONVENTIONS`; value scales: :data:`envfit.maps._scales.SCALES`
   (those registries carry behaviour and stay with it).
 
 >>> DEFAULT_SHININESS, RENDERER_GRID, ADVISE_SPECTRUM_AXES, VALIDATE_SPECTRUM_AXES
@@ -22,9 +22,9 @@ Vocabularies (registries; a module checking a name imports these):
 """
 from __future__ import annotations
 
-from envfit.theory.brdf import BRDFS, PAPER_SHININESS
-from envfit.theory.pointsets import POINTSETS
-from envfit.theory.weights import WEIGHTINGS
+from envfit.theory._brdf import BRDFS, PAPER_SHININESS
+from envfit.theory._pointsets import POINTSETS
+from envfit.theory._weights import WEIGHTINGS
 
 __all__ = ["BRDFS", "WEIGHTINGS", "ALL_POINTSETS", "DEFAULT_POINTSETS", "DEFAULT_SHININESS",
            "RENDERER_GRID", "ADVISE_SPECTRUM_AXES", "VALIDATE_SPECTRUM_AXES",
@@ -36,17 +36,17 @@ __all__ = ["BRDFS", "WEIGHTINGS", "ALL_POINTSETS", "DEFAULT_POINTSETS", "DEFAULT
 # ----------------------------------------------------------------------------- vocabularies
 
 #: the accepted values of ``up``, the world axis that row 0 of a map touches
-#: (:mod:`envfit.maps.latlong`; ``--up``)
+#: (:mod:`envfit.maps._latlong`; ``--up``)
 UPS = ("y", "z", "x")
-#: the interpolator's linear solvers (:class:`envfit.kernels.interpolation.SobolevInterpolator`;
+#: the interpolator's linear solvers (:class:`envfit.kernels._interpolation.SobolevInterpolator`;
 #: ``table2 --solver``)
 SOLVERS = ("auto", "cholesky", "iterative")
-#: the smoothness fit's criteria (:func:`envfit.fit.smoothness.fit_smoothness`; ``--fit-method``)
+#: the smoothness fit's criteria (:func:`envfit.fit._smoothness.fit_smoothness`; ``--fit-method``)
 FIT_METHODS = ("likelihood", "loo", "holdout")
-#: the batch executors (:mod:`envfit.batch.executor`; ``--executor``)
+#: the batch executors (:mod:`envfit.batch._executor`; ``--executor``)
 EXECUTORS = ("local", "dask")
 #: which prediction sizes N/L in ``advise``: "auto" (the choice rule of
-#: :mod:`envfit.advisor.choice`), or one of them forced: "bandlimited" (b′), "spectral" (c)
+#: :mod:`envfit.advisor._choice`), or one of them forced: "bandlimited" (b′), "spectral" (c)
 PREDICTOR_CHOICES = ("auto", "bandlimited", "spectral")
 
 #: the paper's six point sets (Sec. 7.1) in the registry's order (theory.pointsets.POINTSETS):
@@ -54,7 +54,7 @@ PREDICTOR_CHOICES = ("auto", "bandlimited", "spectral")
 ALL_POINTSETS = tuple(POINTSETS)
 #: the point sets of ``advise`` and of ``validate --quick``: all but BNOT, whose
 #: optimal-transport construction alone costs ≈ 10 s at N = 1024 and ≈ 15 s per realisation
-#: at N = 4096 (:mod:`envfit.validate.pipeline`'s costs; BNOT only when asked for)
+#: at N = 4096 (:mod:`envfit.validate._pipeline`'s costs; BNOT only when asked for)
 DEFAULT_POINTSETS = tuple(p for p in ALL_POINTSETS if p != "bnot")
 
 # ----------------------------------------------------------------------------- the lobe
@@ -67,12 +67,12 @@ DEFAULT_SHININESS = PAPER_SHININESS
 
 #: the warped spectra's grid G of the renderer prediction (``advise`` and ``validate
 #: --renderer``): the box B = G/4, exact for QMC to N ≈ (G/8)² = 4096; measured on city.exr
-#: (table in :mod:`envfit.advisor.renderer`): a coarser grid under-predicts MIS with QMC
+#: (table in :mod:`envfit.advisor._renderer`): a coarser grid under-predicts MIS with QMC
 #: points by 10–40 % at N ≈ 256–4096
 RENDERER_GRID = 512
 #: axes of the spectra's importance sample over the sphere for ``advise``: on city.exr 32
 #: axes gave 0.96–1.08 of the 512/64 reference at every N for less than half its CPU time
-#: (:mod:`envfit.advisor.renderer`)
+#: (:mod:`envfit.advisor._renderer`)
 ADVISE_SPECTRUM_AXES = 32
 #: the same for ``validate --renderer``: on the s0 = 1.3 sun + GP map, glossy BRDF sampling
 #: with sf at N = 1024 was predicted 0.219 from 64 axes, 0.153 from 256 and 0.161 from 1024

@@ -16,21 +16,21 @@ import numpy as np
 import pytest
 
 import envfit
-import envfit.advisor.model as model_mod
-import envfit.advisor.prediction as prediction_mod
-import envfit.shading.spectra as spectra_mod
-from envfit.data_gen.gp import gaussian_process_map
-from envfit.advisor.advise import advise
-from envfit.advisor.result import Advice
-from envfit.shading.spectra import band_e2, degree_weights
-from envfit.advisor.prediction import mean_shading_value, rule_terms
-from envfit.predict.bandlimited import bandlimited_rmse
-from envfit.advisor.search import smallest_n
-from envfit.advisor.cache import AdviseCache
-from envfit.maps.envmap import EnvMap
-from envfit.base.errors import ParameterError
-from envfit.shading.ground_truth import shading_integral, weight_function
-from envfit.theory.sphere_points import sphere_points
+import envfit.advisor._model as model_mod
+import envfit.advisor._prediction as prediction_mod
+import envfit.shading._spectra as spectra_mod
+from envfit.data_gen._gp import gaussian_process_map
+from envfit.advisor._advise import advise
+from envfit.advisor._result import Advice
+from envfit.shading._spectra import band_e2, degree_weights
+from envfit.advisor._prediction import mean_shading_value, rule_terms
+from envfit.predict._bandlimited import bandlimited_rmse
+from envfit.advisor._search import smallest_n
+from envfit.advisor._cache import AdviseCache
+from envfit.maps._envmap import EnvMap
+from envfit.base._errors import ParameterError
+from envfit.shading._ground_truth import shading_integral, weight_function
+from envfit.theory._sphere_points import sphere_points
 
 
 @pytest.fixture(scope="module")
@@ -147,8 +147,8 @@ def test_advise_returns_sorted_rows_meeting_the_target(gp32, tmp_path):
             assert prediction_mod.row_prediction(a, r, r.n) == pytest.approx(r.predicted_rmse, rel=1e-12)
     # the truncation rows: smallest L of the band-limited curve, recomputed independently
     # (SH: E'^2(L) = sum_{L<l<=H-1} a_l tau_l b_l^2; HSH: Eqs. 51-52 to H-1, no tau)
-    from envfit.theory.sobolev import sobolev_coefficients
-    from envfit.theory.truncation import truncation_error_curve
+    from envfit.theory._sobolev import sobolev_coefficients
+    from envfit.theory._truncation import truncation_error_curve
     wf = weight_function("glossy", 30.0)
     H1 = a.band_lmax
     tau = np.asarray(a.lookup_transfer)
@@ -166,7 +166,7 @@ def test_advise_returns_sorted_rows_meeting_the_target(gp32, tmp_path):
     best = a.best()
     assert best is not None and best.label in a.recommendation
     assert a.to_dict()["rows"][0]["label"] == a.rows[0].label
-    json.dumps(envfit.base.atomic.to_jsonable(a.to_dict()))
+    json.dumps(envfit.base._atomic.to_jsonable(a.to_dict()))
 
 
 def test_osw_mean_term_and_plain_prediction(gp32, tmp_path):
@@ -180,16 +180,16 @@ def test_osw_mean_term_and_plain_prediction(gp32, tmp_path):
 
 
 def test_quadrature_prediction_equals_an_independent_spectral_computation(gp32, tmp_path):
-    """Prediction (b') of envfit validate, recomputed from envfit.shading.spectra: sigma' by the
+    """Prediction (b') of envfit validate, recomputed from envfit.shading._spectra: sigma' by the
     band-limited profiled likelihood at the given s, tau_l of the bilinear lookup, e_l of each
     realisation of the rule; predicted RMSE = (sigma'^2 mean(sum_l a_l tau_l e_l)
     + mean((sum w - 1)^2) m2)^1/2."""
-    from envfit.shading.spectra import (bandlimited_worst_case_errors, lookup_transfer,
-                                map_degree_power, pixel_degree_power, rule_error_power)
-    from envfit.fit.sigma import bandlimited_profiled_sigma
-    from envfit.theory.pointsets import generate
-    from envfit.theory.sobolev import sobolev_coefficients
-    from envfit.theory.weights import equal_weights, optimal_weights
+    from envfit.shading._spectra import (bandlimited_worst_case_errors, lookup_transfer,
+                                         map_degree_power, pixel_degree_power, rule_error_power)
+    from envfit.fit._sigma import bandlimited_profiled_sigma
+    from envfit.theory._pointsets import generate
+    from envfit.theory._sobolev import sobolev_coefficients
+    from envfit.theory._weights import equal_weights, optimal_weights
     a = _small(gp32, tmp_path, brdf="diffuse", target_rmse=0.02, pointsets=("sf", "random"),
                bases=())
     scaled = gp32                                          # linear scale: the raw values
@@ -225,7 +225,7 @@ def test_quadrature_prediction_equals_an_independent_spectral_computation(gp32, 
 
 
 def test_auto_fit_is_the_band_limited_likelihood_fit(gp32, tmp_path):
-    from envfit.fit.smoothness import fit_smoothness
+    from envfit.fit._smoothness import fit_smoothness
     a = advise(gp32, "diffuse", 0.05, scale="linear", fit_n=200, pointsets=("sf",),
                weights=("equal",), bases=(), cache_dir=tmp_path)
     res = fit_smoothness(gp32, method="likelihood", n=200, scale="linear", seed=0,
@@ -237,7 +237,7 @@ def test_auto_fit_is_the_band_limited_likelihood_fit(gp32, tmp_path):
 
 def test_a_cached_full_kernel_fit_is_not_reused(gp32, tmp_path):
     """A fit stored under the key of the full-kernel advisor (no "kernel" in it) is ignored."""
-    from envfit.base.store import array_fingerprint
+    from envfit.base._store import array_fingerprint
     old_key = {"fingerprint": array_fingerprint(gp32.data), "shape": list(gp32.data.shape),
                "up": gp32.up, "scale": "linear", "s": 1.5, "method": "likelihood", "n": 100,
                "seed": 0}
@@ -261,8 +261,8 @@ def test_unreached_target_is_reported_not_raised(gp32, tmp_path):
 def test_options_are_the_keywords_of_advise(gp32, tmp_path):
     """advise(**kw) is advise_with(AdviseOptions(**kw)); the options are checked once, frozen."""
     import dataclasses
-    from envfit.advisor.advise import advise_with
-    from envfit.advisor.options import AdviseOptions
+    from envfit.advisor._advise import advise_with
+    from envfit.advisor._options import AdviseOptions
     kw = dict(scale="linear", s=1.5, fit_n=200, pointsets=("SF",), weights=["equal"], bases=("sh",),
               cache_dir=tmp_path)
     a = advise(gp32, "Glossy", 0.05, **kw)
@@ -433,7 +433,7 @@ def test_measured_rmse_on_a_gp_map_is_within_25_percent_of_the_target(tmp_path):
     """A GP map (the model exactly true, s' and sigma' fitted band-limited): at the
     recommended N the RMSE over random axes is within 25 % of the target for spherical
     Fibonacci, both weightings, and within 15 % of the prediction (b'). 15 %: one map is one
-    realisation of the model (its power per degree scatters, envfit.shading.spectra.model_scatter)
+    realisation of the model (its power per degree scatters, envfit.shading._spectra.model_scatter)
     and 600 axes leave a Monte-Carlo error of a few %; measured/predicted here is 0.97 and
     1.00, and 0.98-1.06 on seeds 12 and 13."""
     env = EnvMap(gaussian_process_map(1.5, 64, seed=11, channels=3), name="gp64")

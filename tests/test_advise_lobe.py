@@ -16,15 +16,14 @@ import warnings
 import numpy as np
 import pytest
 
-from envfit.advisor.advise import advise
-from envfit.advisor.prediction import (LOBE_TAIL_TRANSFER, check_lobe_resolved, glossy_transfer,
-                                       lobe_tail_transfer, max_resolved_shininess,
-                                       rows_resolving)
-from envfit.advisor.result import Advice, AdviceRow
-from envfit.base.errors import ParameterError
-from envfit.data_gen.gp import gaussian_process_map
-from envfit.maps.envmap import EnvMap
-from envfit.theory.brdf import Diffuse, Glossy, WeightFunction
+from envfit.advisor._advise import advise
+from envfit.advisor._prediction import (LOBE_TAIL_TRANSFER, check_lobe_resolved, glossy_transfer,
+                                        lobe_tail_transfer, max_resolved_shininess, rows_resolving)
+from envfit.advisor._result import Advice, AdviceRow
+from envfit.base._errors import ParameterError
+from envfit.data_gen._gp import gaussian_process_map
+from envfit.maps._envmap import EnvMap
+from envfit.theory._brdf import Diffuse, Glossy, WeightFunction
 
 
 def test_glossy_transfer_against_generic_quadrature_and_asymptote():
@@ -102,7 +101,7 @@ def test_embedding_tail_warning_is_not_the_users(monkeypatch):
     """Shininess 1 (a jump at the horizon) warns from the embedding series' cap
     (≈ 140 s to reproduce, so the warning is injected): rule_plain_wce2 silences exactly that
     one and lets any other RuntimeWarning through."""
-    import envfit.advisor.prediction as pm
+    import envfit.advisor._prediction as pm
     wf = Glossy(20.0)
 
     def fake(msg):

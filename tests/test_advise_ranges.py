@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import pytest
 
-from envfit.advisor.options import MAX_AXES, MAX_SEEDS, MAX_SPECTRUM_AXES, AdviseOptions
-from envfit.base.errors import ParameterError
+from envfit.advisor._options import MAX_AXES, MAX_SEEDS, MAX_SPECTRUM_AXES, AdviseOptions
+from envfit.base._errors import ParameterError
 
 CASES = [("axes", MAX_AXES, "axes (--axes) must be <= 100000"),
          ("check_hsh_axes", MAX_AXES, "check_hsh_axes must be <= 100000"),

@@ -1,9 +1,9 @@
-"""Tests of the advisor's renderer rows (envfit.advisor.renderer; ``envfit advise`` with its
+"""Tests of the advisor's renderer rows (envfit.advisor._renderer; ``envfit advise`` with its
 renderer table, --strategies, --renderer-pointsets, --no-renderer, advise.png) and of the
-early stop of the paper rows' N search (envfit.advisor.search.smallest_n).
+early stop of the paper rows' N search (envfit.advisor._search.smallest_n).
 
 Reference values come from a second path: every N of the renderer grid predicted directly
-with :func:`envfit.predict.renderer.predictor.predict_rule` against the search; rows constructed by hand
+with :func:`envfit.predict.renderer._predictor.predict_rule` against the search; rows constructed by hand
 against the recommendation; a fresh model against the cached one; :func:`measure_rule` called
 directly against the check; the doubling-and-bisection search written out again against the
 early-stopping one. Maps are 16 rows (a sun on a GP background, a GP map), the spectra on a
@@ -20,20 +20,20 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from envfit.advisor.advise import advise
-from envfit.advisor.cache import AdviseCache
-from envfit.advisor.renderer import (RendererRow, best_renderer_row, cached_renderer_model,
-                                     check_renderer_rows, renderer_n_grid,
-                                     renderer_recommendation, search_renderer_row)
-from envfit.advisor.search import smallest_n
-from envfit.data_gen.gp import gaussian_process_map
-from envfit.data_gen.sun_gp import sun_gp_map
-from envfit.maps.envmap import EnvMap
-from envfit.maps.io import save_envmap
-from envfit.predict.renderer.predictor import predict_rule, renderer_model
-from envfit.predict.renderer.warped_spectrum import WarpedSpectrum
-from envfit.sampling.rules import STRATEGIES, RendererRule
-from envfit.measure.rules import RendererSetup, measure_rule
+from envfit.advisor._advise import advise
+from envfit.advisor._cache import AdviseCache
+from envfit.advisor._renderer import (RendererRow, best_renderer_row, cached_renderer_model,
+                                      check_renderer_rows, renderer_n_grid,
+                                      renderer_recommendation, search_renderer_row)
+from envfit.advisor._search import smallest_n
+from envfit.data_gen._gp import gaussian_process_map
+from envfit.data_gen._sun_gp import sun_gp_map
+from envfit.maps._envmap import EnvMap
+from envfit.maps._io import save_envmap
+from envfit.predict.renderer._predictor import predict_rule, renderer_model
+from envfit.predict.renderer._warped_spectrum import WarpedSpectrum
+from envfit.sampling._rules import STRATEGIES, RendererRule
+from envfit.measure._rules import RendererSetup, measure_rule
 
 GRID, AXES = 32, 8
 KEY = {"fingerprint": "test", "shape": [16, 32, 1], "up": "y", "scale": "linear"}
@@ -298,7 +298,7 @@ def test_cli_renderer_table_json_and_png(exr16, tmp_path):
     (0.0090, 0.0110, "cannot tell whether it is conservative"),   # straddles the prediction
 ])
 def test_box_note_is_what_the_measurement_says(low, high, says):
-    from envfit.advisor.renderer import extrapolation_note
+    from envfit.advisor._renderer import extrapolation_note
     r = RendererRow("brdf", "sf", n=24576, predicted_rmse=0.01, box=4096)
     before = extrapolation_note(r)
     assert before.endswith("; not checked") and "conservative" not in before

@@ -20,25 +20,25 @@ import sys
 import numpy as np
 import pytest
 
-from envfit.advisor.advise import advise
-from envfit.advisor.choice import DISAGREEMENT
-from envfit.advisor.prediction import row_prediction, row_prediction_spectral, seed_list
-from envfit.advisor.search import smallest_n
-from envfit.data_gen.gp import gaussian_process_map
-from envfit.data_gen.sun_gp import sun_gp_map
-from envfit.fit.sigma import combine_sigma
-from envfit.maps.envmap import EnvMap
-from envfit.maps.io import load_envmap, save_envmap
+from envfit.advisor._advise import advise
+from envfit.advisor._choice import DISAGREEMENT
+from envfit.advisor._prediction import row_prediction, row_prediction_spectral, seed_list
+from envfit.advisor._search import smallest_n
+from envfit.data_gen._gp import gaussian_process_map
+from envfit.data_gen._sun_gp import sun_gp_map
+from envfit.fit._sigma import combine_sigma
+from envfit.maps._envmap import EnvMap
+from envfit.maps._io import load_envmap, save_envmap
 from envfit.predict import PredictionContext, Rule, predict_spectral
-from envfit.shading.bilinear_sh import bilinear_sh_coefficients
-from envfit.shading.estimators import rmse_over_axes, sh_truncation_curve
-from envfit.shading.ground_truth import shading_integral, weight_function
-from envfit.shading.quadrature import quadrature_estimates_multi, random_axes
-from envfit.shading.spectra import rule_error_power
-from envfit.theory.pointsets import generate
-from envfit.theory.sobolev import sobolev_coefficients
-from envfit.theory.sphere_points import sphere_points
-from envfit.theory.weights import equal_weights, optimal_weights
+from envfit.shading._bilinear_sh import bilinear_sh_coefficients
+from envfit.shading._estimators import rmse_over_axes, sh_truncation_curve
+from envfit.shading._ground_truth import shading_integral, weight_function
+from envfit.shading._quadrature import quadrature_estimates_multi, random_axes
+from envfit.shading._spectra import rule_error_power
+from envfit.theory._pointsets import generate
+from envfit.theory._sobolev import sobolev_coefficients
+from envfit.theory._sphere_points import sphere_points
+from envfit.theory._weights import equal_weights, optimal_weights
 
 H = 32
 
@@ -130,7 +130,7 @@ def test_c_with_tail_matches_the_measured_rmse(which, request):
     measured over 4000 random axes; (c) to H - 1 alone is >= 10 % low for one of the rules,
     and the fitted Sobolev tail sigma'^2 a_l(s') in place of the interpolant's power is > 25 %
     high (why the advisor does not use it)."""
-    from envfit.fit.smoothness import fit_smoothness
+    from envfit.fit._smoothness import fit_smoothness
     env = request.getfixturevalue(which)
     A = random_axes(4000, 5)
     L = 2 * H - 1
@@ -219,7 +219,7 @@ def test_sun_map_on_linear_scale_uses_c_and_prints_the_warning(sun_map, tmp_path
             f"N = {r['n']}); using (c)")
     assert line in text.splitlines()
     assert " (c) " in next(ln for ln in text.splitlines() if ln.strip().startswith("sf/equal"))
-    from envfit.advisor.result import Advice, AdviceRow
+    from envfit.advisor._result import Advice, AdviceRow
     adv = Advice(**{**{k: d[k] for k in Advice.__dataclass_fields__ if k != "rows"},
                     "rows": []})
     row = AdviceRow(method="quadrature", pointset="sf", weights="equal")
@@ -272,7 +272,7 @@ def test_cli_defaults_linear_scale_and_one_percent_target(tmp_path):
 
 
 def test_options_default_target_and_scale():
-    from envfit.advisor.options import AdviseOptions
+    from envfit.advisor._options import AdviseOptions
     o = AdviseOptions(brdf="glossy")
     assert (o.scale, o.target_relative, o.target_rmse, o.predictor) == ("linear", 0.01, None,
                                                                         "auto")
@@ -285,16 +285,16 @@ def test_hsh_row_not_sized_where_bandlimited_fails(sun_map, tmp_path):
     """Glossy, linear sun map: (b′) and (c) of SH truncation disagree, so the HSH row (which
     only (b′) predicts) is not sized and says why; the ratio in the line is recomputed from
     the SH row's own curves at that L."""
-    from envfit.advisor.search import _ShCurves
-    from envfit.shading.ground_truth import weight_function
+    from envfit.advisor._search import _ShCurves
+    from envfit.shading._ground_truth import weight_function
     a = _advise(sun_map, tmp_path, brdf="glossy", target_rmse=0.3, pointsets=(), bases=("hsh",))
     (row,) = a.rows
     assert not row.reached and not row.recommendable and row.L is None
     assert row.warning and row.warning in a.warnings and "not sized" in row.warning
     L = row.searched_max
-    from envfit.advisor.model import map_model
-    from envfit.advisor.options import AdviseOptions
-    from envfit.advisor.cache import AdviseCache
+    from envfit.advisor._model import map_model
+    from envfit.advisor._options import AdviseOptions
+    from envfit.advisor._cache import AdviseCache
     opts = AdviseOptions(brdf="glossy", target_rmse=0.3, scale="linear", s=1.5, fit_n=300,
                          pointsets=(), bases=("hsh",), cache_dir=tmp_path)
     cv = _ShCurves(weight_function("glossy", 30.0),

@@ -99,7 +99,7 @@ def test_import_layers():
 
 def test_the_checker_sees_a_violation(tmp_path):
     f = tmp_path / "m.py"
-    f.write_text("def g():\n    from envfit.cli.common import say\n    from ..advisor import advise\n")
+    f.write_text("def g():\n    from envfit.cli._common import say\n    from ..advisor import advise\n")
     assert _imports(f, "fit") == {"cli", "advisor"}
 
 

@@ -1,9 +1,9 @@
-"""envfit.measure.axis_proposal and the importance-sampled measurement: the proposal is a
+"""envfit.measure._axis_proposal and the importance-sampled measurement: the proposal is a
 density (it integrates to 1 over the sphere, its draws fall in the cells as often as it
 says), the weighted mean is unbiased for a closed-form mean over uniform axes and far less
 variable than the uniform mean where the integrand is peaked, and measure_rule's
 importance-sampled interval contains the exact RMSE of random BRDF sampling of a sun map
-(closed form, envfit.predict.renderer.warped_spectrum.exact_mean_variances) and is narrower than the
+(closed form, envfit.predict.renderer._warped_spectrum.exact_mean_variances) and is narrower than the
 uniform one.
 """
 from __future__ import annotations
@@ -12,15 +12,15 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from envfit.base.errors import ParameterError
-from envfit.data_gen.sun_gp import sun_gp_map
-from envfit.maps.envmap import EnvMap
-from envfit.measure.axis_proposal import UNIFORM_SHARE, AxisProposal, cell_centres
-from envfit.shading.ground_truth import weight_function
-from envfit.sampling.map_sampler import MapSampler
-from envfit.measure.adaptive_rmse import adaptive_rmse
-from envfit.sampling.rules import RendererRule
-from envfit.measure.rules import RendererSetup, measure_rule
+from envfit.base._errors import ParameterError
+from envfit.data_gen._sun_gp import sun_gp_map
+from envfit.maps._envmap import EnvMap
+from envfit.measure._axis_proposal import UNIFORM_SHARE, AxisProposal, cell_centres
+from envfit.shading._ground_truth import weight_function
+from envfit.sampling._map_sampler import MapSampler
+from envfit.measure._adaptive_rmse import adaptive_rmse
+from envfit.sampling._rules import RendererRule
+from envfit.measure._rules import RendererSetup, measure_rule
 
 SUN = np.array([np.sin(0.7) * np.cos(1.0), np.sin(0.7) * np.sin(1.0), np.cos(0.7)])
 
@@ -97,7 +97,7 @@ def test_adaptive_rmse_with_a_proposal(proposal):
 
 
 def test_measure_rule_importance_contains_the_exact_rmse(sun_map):
-    from envfit.predict.renderer.warped_spectrum import _Pixels, exact_mean_variances
+    from envfit.predict.renderer._warped_spectrum import _Pixels, exact_mean_variances
 
     setup = RendererSetup.of(sun_map, sources=[])
     weight = weight_function("glossy", 30.0)

@@ -1,5 +1,5 @@
-"""The band-limited kernel K_L (envfit.kernels.bandlimited), its likelihood, the pixel-centre samples,
-the band-limited fit of s, and the lookup transfer τ_l (envfit.shading.spectra)."""
+"""The band-limited kernel K_L (envfit.kernels._bandlimited), its likelihood, the pixel-centre samples,
+the band-limited fit of s, and the lookup transfer τ_l (envfit.shading._spectra)."""
 from __future__ import annotations
 
 import math
@@ -8,18 +8,19 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from envfit.data_gen.gp import expected_variance, gaussian_process_map
-from envfit.data_gen.sht import real_index, synthesize
-from envfit.kernels.bandlimited import (BandlimitedKernel, bandlimited_log_likelihood,
-                                pixel_centre_samples)
-from envfit.maps.envmap import EnvMap
-from envfit.base.errors import ParameterError
-from envfit.fit.smoothness import fit_smoothness
-from envfit.shading.spectra import (bandlimited_worst_case_errors, lookup_transfer, map_degree_power,
-                            pixel_degree_power, rule_error_power, spectral_rmse)
-from envfit.theory.brdf import Glossy
-from envfit.theory.pointsets import generate
-from envfit.theory.sobolev import kernel_series, sobolev_coefficients
+from envfit.data_gen._gp import expected_variance, gaussian_process_map
+from envfit.data_gen._sht import real_index, synthesize
+from envfit.kernels._bandlimited import (BandlimitedKernel, bandlimited_log_likelihood,
+                                         pixel_centre_samples)
+from envfit.maps._envmap import EnvMap
+from envfit.base._errors import ParameterError
+from envfit.fit._smoothness import fit_smoothness
+from envfit.shading._spectra import (bandlimited_worst_case_errors, lookup_transfer,
+                                     map_degree_power, pixel_degree_power, rule_error_power,
+                                     spectral_rmse)
+from envfit.theory._brdf import Glossy
+from envfit.theory._pointsets import generate
+from envfit.theory._sobolev import kernel_series, sobolev_coefficients
 
 
 def _unit(rng, n):
@@ -114,7 +115,7 @@ def test_bandlimited_fit_recovers_s0_on_gp_maps_where_the_full_kernel_does_not()
 
 
 def test_pixel_degree_power_of_known_coefficients():
-    """The pixel analysis returns the power put in by envfit.data_gen.sht.synthesize, exactly."""
+    """The pixel analysis returns the power put in by envfit.data_gen._sht.synthesize, exactly."""
     c = np.zeros(25)
     c[real_index(2, np.arange(-2, 3))] = [1.0, 0.0, 2.0, 0.0, -1.0]
     c[real_index(4, 1)] = 3.0
@@ -162,6 +163,6 @@ def test_small_maps_cap_the_samples_at_half_the_degrees_of_freedom():
     with pytest.raises(ParameterError, match="too small"):
         fit_smoothness(EnvMap(gaussian_process_map(1.5, 4, seed=1)), n=50, scale="linear",
                        kernel="bandlimited")
-    from envfit.fit.sigma import bandlimited_profiled_sigma
+    from envfit.fit._sigma import bandlimited_profiled_sigma
     sig, used = bandlimited_profiled_sigma(env, 1.5, n=3000)
     assert used <= 128 and np.all(sig > 0)

@@ -18,16 +18,16 @@ import tracemalloc
 import numpy as np
 import pytest
 
-from envfit.advisor.budget import PREDICTION_MAX_HEIGHT, advise_plan, prediction_height
-from envfit.advisor.options import AdviseOptions
-from envfit.base.errors import MemoryBudgetError
-from envfit.base.resources import Plan, Stage, format_bytes
-from envfit.maps.envmap import EnvMap, solid_angle_variance, variance_kept
-from envfit.shading.spectra import map_degree_power, sh_analysis_cost
+from envfit.advisor._budget import PREDICTION_MAX_HEIGHT, advise_plan, prediction_height
+from envfit.advisor._options import AdviseOptions
+from envfit.base._errors import MemoryBudgetError
+from envfit.base._resources import Plan, Stage, format_bytes
+from envfit.maps._envmap import EnvMap, solid_angle_variance, variance_kept
+from envfit.shading._spectra import map_degree_power, sh_analysis_cost
 
 _MAKE_8K = """
 import numpy as np
-from envfit.maps.envmap import EnvMap
+from envfit.maps._envmap import EnvMap
 x = np.linspace(0.0, 4.0, 8192, dtype=np.float32)
 y = np.cos(np.linspace(0.0, 3.0, 4096, dtype=np.float32))
 big = EnvMap((1.0 + 0.5 * np.sin(x)[None, :] * y[:, None]).astype(np.float16)[:, :, None],
@@ -40,7 +40,7 @@ def _run_limited(body: str, gib: float, env_extra: dict | None = None) -> dict:
     address space may grow by at most ``gib`` GiB once envfit is imported."""
     code = textwrap.dedent("""
         import json, resource, sys
-        import envfit.advisor.advise, ducc0, numpy
+        import envfit.advisor._advise, ducc0, numpy
         with open("/proc/self/status") as fh:
             vm = next(int(l.split()[1]) * 1024 for l in fh if l.startswith("VmSize:"))
         resource.setrlimit(resource.RLIMIT_AS, (vm + int(%r * 2 ** 30), resource.RLIM_INFINITY))
@@ -64,9 +64,9 @@ def test_8k_map_is_downsampled_before_any_big_allocation_under_rlimit_as():
     (the run of issue 22 reached 19.9 GB in the map power to l = 8191)."""
     out = _run_limited("""
         import time
-        from envfit.advisor.advise import _prediction_map
-        from envfit.advisor.options import AdviseOptions
-        from envfit.base.resources import memory_budget_bytes
+        from envfit.advisor._advise import _prediction_map
+        from envfit.advisor._options import AdviseOptions
+        from envfit.base._resources import memory_budget_bytes
         t = time.perf_counter()
         small, plan, notes = _prediction_map(big, AdviseOptions(target_rmse=0.01, renderer=True))
         out = {"h": small.height, "w": small.width, "peak": plan.peak(),
@@ -88,9 +88,9 @@ def test_8k_map_refused_in_one_line_before_any_big_allocation(tmp_path):
     allocation (tracemalloc peak under 40 MB, the block means of a 64-row map are 0.4 MB)."""
     out = _run_limited("""
         import tracemalloc
-        from envfit.advisor.advise import advise_with
-        from envfit.advisor.options import AdviseOptions
-        from envfit.base.errors import MemoryBudgetError
+        from envfit.advisor._advise import advise_with
+        from envfit.advisor._options import AdviseOptions
+        from envfit.base._errors import MemoryBudgetError
         tracemalloc.start()
         try:
             advise_with(big, AdviseOptions(target_rmse=0.01, renderer=True, cache=False))
@@ -184,7 +184,7 @@ def test_variance_kept_against_direct_sums():
 
 def test_cli_refuses_in_one_line(tmp_path):
     """envfit advise on a map whose smallest plan does not fit: exit 2, one line."""
-    from envfit.maps.io import save_envmap
+    from envfit.maps._io import save_envmap
     path = save_envmap(tmp_path / "m.exr", np.random.default_rng(0).random((256, 512, 3)),
                        half=True)
     proc = subprocess.run([sys.executable, "-m", "envfit.cli", "advise", str(path), "-q",
@@ -198,8 +198,8 @@ def test_cli_refuses_in_one_line(tmp_path):
 def test_lobe_rows_against_the_lobes_funk_hecke_factors():
     """lobe_rows: the fewest H with λ_2H <= 0.1, λ_l = sqrt(4π/(2l+1)) b_l from the lobe's
     own SH coefficients (a second algorithm: the quadrature of theory.brdf)."""
-    from envfit.advisor.budget import lobe_rows
-    from envfit.theory.brdf import Glossy
+    from envfit.advisor._budget import lobe_rows
+    from envfit.theory._brdf import Glossy
     for n in (300.0, 2000.0):
         h = lobe_rows(AdviseOptions(brdf="glossy", shininess=n, target_rmse=0.01))
         b = Glossy(n).sh_coefficients(2 * h + 2)
@@ -238,8 +238,8 @@ def test_validate_refuses_the_map_power_before_the_fit(monkeypatch):
     """validate's spectral stages (the map power to H − 1, one rule's error power at the
     largest N) are planned before the fit: over budget, one line naming the stage and
     ``--max-height``, and the fit is never started."""
-    import envfit.validate.pipeline as pipeline
-    from envfit.validate.config import ValidateConfig
+    import envfit.validate._pipeline as pipeline
+    from envfit.validate._config import ValidateConfig
 
     def boom(*a, **k):
         raise AssertionError("the fit ran before the spectral plan was checked")

@@ -1,4 +1,4 @@
-"""envfit.theory.cholesky: the blocked Cholesky that avoids OpenBLAS's threaded-dsyrk crash.
+"""envfit.theory._cholesky: the blocked Cholesky that avoids OpenBLAS's threaded-dsyrk crash.
 
 Oracles: scipy.linalg.cholesky (LAPACK in one call) on small matrices, L L^T = A, LAPACK's
 info convention on matrices with a known first non-positive pivot, and, at N = 16 000 (the
@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from envfit.theory.cholesky import PANEL, TILE, cho_factor, cho_solve, cholesky, cholesky_inplace
+from envfit.theory._cholesky import PANEL, TILE, cho_factor, cho_solve, cholesky, cholesky_inplace
 
 
 def _spd(n, seed=0, rank=30):
@@ -86,8 +86,8 @@ def test_table2_cell_at_16000_samples_does_not_crash(tmp_path):
     samples (checked by the direct kernel sum, which does not use the factor)."""
     code = textwrap.dedent("""
         import numpy as np
-        from envfit.kernels.interpolation import SobolevInterpolator
-        from envfit.theory.sphere_points import sphere_points
+        from envfit.kernels._interpolation import SobolevInterpolator
+        from envfit.theory._sphere_points import sphere_points
         n = 16000
         p = sphere_points("sf", n, seed=0)
         f = np.c_[p[:, 2] ** 2 + 0.3 * p[:, 0], np.abs(p[:, 1])]

@@ -96,7 +96,7 @@ def test_one_line_in_a_real_process(tmp_path):
 # ============================================================== item 4: outputs vs inputs
 @pytest.fixture
 def tiny(tmp_path) -> Path:
-    from envfit.maps.io import save_envmap
+    from envfit.maps._io import save_envmap
     a = np.random.default_rng(1).random((8, 16, 3)).astype(np.float32) + 0.1
     return save_envmap(tmp_path / "tiny.exr", a)
 
@@ -169,7 +169,7 @@ def test_out_folder_and_cache_folder_naming_the_input(tiny, capsys):
 
 def test_input_inside_out_under_a_name_the_command_writes(tmp_path, tiny, capsys):
     png = tmp_path / "sh.png"                 # a PNG map named as sh's plot
-    from envfit.maps.io import save_envmap
+    from envfit.maps._io import save_envmap
     save_envmap(png, np.full((8, 16, 3), 0.5, dtype=np.float32))
     line = _refused(capsys, ["sh", png, "--lmax", "1", "--out", tmp_path], png)
     assert line == (f"envfit sh: error: --out {tmp_path} holds the input map {png}, which the "
@@ -204,7 +204,7 @@ def test_library_out_or_map_file_inside_an_input_folder(tmp_path, tiny, capsys):
                     f"{lib / '*.exr'} and would be read as a map by the next run; choose "
                     "another path")
     import argparse
-    from envfit.cli.overlap import check_no_overlap
+    from envfit.cli._overlap import check_no_overlap
     check_no_overlap(argparse.Namespace(command="table2", map=[str(lib / "*.exr")],
                                         json=lib / "new.json"), None, None)   # no match: fine
 
@@ -216,11 +216,11 @@ def test_theory_json_among_its_out_files_and_validate_name_collision(tmp_path, t
                     f"written by --out {out} (wce_spectrum.csv): each output needs its own path")
     # a map whose name validate writes (its figures) inside --out; another name is fine
     png = tmp_path / "validate_s_choice.png"
-    from envfit.maps.io import save_envmap
+    from envfit.maps._io import save_envmap
     save_envmap(png, np.full((8, 16, 3), 0.5, dtype=np.float32))
     line = _refused(capsys, ["validate", png, "--quick", "--out", tmp_path], png)
     assert "which the command writes there (validate_s_choice.png)" in line
-    from envfit.cli.overlap import check_no_overlap
+    from envfit.cli._overlap import check_no_overlap
     import argparse
     ok = argparse.Namespace(command="validate", map=str(tmp_path / "validate_map.exr"),
                             json=None, out=tmp_path)

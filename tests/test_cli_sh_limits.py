@@ -11,13 +11,13 @@ import numpy as np
 import pytest
 
 import envfit.cli as cli
-import envfit.export.plan as sh_plan
-from envfit.base.errors import MemoryBudgetError, ParameterError
-from envfit.maps.envmap import EnvMap
-from envfit.maps.latlong import pixel_directions, pixel_solid_angles
-from envfit.export.plan import Rates, check_sh_plan, sh_stages
-from envfit.export.ringing import dense_negative_fractions
-from envfit.export.sh_export import sh_coefficients, sh_eval
+import envfit.export._plan as sh_plan
+from envfit.base._errors import MemoryBudgetError, ParameterError
+from envfit.maps._envmap import EnvMap
+from envfit.maps._latlong import pixel_directions, pixel_solid_angles
+from envfit.export._plan import Rates, check_sh_plan, sh_stages
+from envfit.export._ringing import dense_negative_fractions
+from envfit.export._sh_export import sh_coefficients, sh_eval
 
 #: fixed kernel speeds (this machine's order of magnitude), so messages are deterministic
 RATES = Rates(basis=2e-8, flop=2e-10, synthesis=1e-9, rotation=2e-9)
@@ -31,7 +31,7 @@ def fixed_rates(monkeypatch):
 
 @pytest.fixture
 def map64(tmp_path):
-    from envfit.maps.io import save_envmap
+    from envfit.maps._io import save_envmap
     d = pixel_directions(64, up="y")
     return save_envmap(tmp_path / "m64.exr", (1.0 + 0.3 * d).astype(np.float32))   # 128x64
 
@@ -115,7 +115,7 @@ def test_nothing_fits_says_what_to_do(fixed_rates, monkeypatch):
 
 
 def test_default_table_on_a_small_map_and_bad_values(tmp_path, capsys):
-    from envfit.maps.io import save_envmap
+    from envfit.maps._io import save_envmap
     small = save_envmap(tmp_path / "s.exr", np.full((4, 8, 1), 0.5, dtype=np.float32))
     rc = cli.main(["sh", str(small), "--lmax", "1", "--check-axes", "64", "--check-height",
                    "16", "--json", str(tmp_path / "r.json"), "-q"])
@@ -161,7 +161,7 @@ def test_dense_check_estimate_within_a_factor_of_its_time(sun_env):
 
 
 def test_note_before_a_long_run_states_the_plan_both_ways(tmp_path, monkeypatch, capsys):
-    from envfit.maps.io import save_envmap
+    from envfit.maps._io import save_envmap
     small = save_envmap(tmp_path / "s.exr", np.full((8, 16, 3), 0.5, dtype=np.float32))
     argv = ["sh", str(small), "--lmax", "1", "--table-lmax", "2", "--check-axes", "64",
             "--check-height", "16", "--json", str(tmp_path / "r.json")]
@@ -182,7 +182,7 @@ def test_note_before_a_long_run_states_the_plan_both_ways(tmp_path, monkeypatch,
 
 
 def test_radiance_check_makes_no_directions(sun_env, monkeypatch):
-    import envfit.export.ringing as ringing
+    import envfit.export._ringing as ringing
     monkeypatch.setattr(ringing, "spherical_fibonacci_sphere",
                         lambda n: (_ for _ in ()).throw(AssertionError("directions made")))
     e = sh_coefficients(sun_env, 2)

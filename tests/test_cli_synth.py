@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 import envfit.cli as cli
-from envfit.maps.io import load_envmap
-from envfit.maps.latlong import local_to_world
-from envfit.theory.sobolev import sobolev_coefficients
+from envfit.maps._io import load_envmap
+from envfit.maps._latlong import local_to_world
+from envfit.theory._sobolev import sobolev_coefficients
 
 
 @pytest.fixture(autouse=True)
@@ -63,7 +63,7 @@ def test_sun_disk_energy(tmp_path):
 def test_sun_gp_map_holds_the_recorded_sun_on_a_positive_background(tmp_path):
     """sun-gp: the map minus the same seed's GP background (offset as recorded) integrates to
     radiance × 2π(1 − cos ρ), and the brightest pixel is the recorded direction."""
-    from envfit.data_gen.sun_gp import sun_gp_map
+    from envfit.data_gen._sun_gp import sun_gp_map
 
     out, js = tmp_path / "sg.exr", tmp_path / "sg.json"
     assert cli.main(["synth", str(out), "--kind", "sun-gp", "--height", "64", "--seed", "4",

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 import envfit.cli as cli
-from envfit.theory.brdf import Diffuse, Glossy
-from envfit.theory.pointsets import generate
-from envfit.theory.quadrature import worst_case_error
-from envfit.theory.weights import equal_weights, optimal_weights
+from envfit.theory._brdf import Diffuse, Glossy
+from envfit.theory._pointsets import generate
+from envfit.theory._quadrature import worst_case_error
+from envfit.theory._weights import equal_weights, optimal_weights
 
 
 @pytest.fixture(autouse=True)

@@ -6,9 +6,9 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import pytest
 
-from envfit.maps import latlong
-from envfit.maps.envmap import EnvMap
-from envfit.sampling.map_sampler import MapSampler
+from envfit.maps import _latlong as latlong
+from envfit.maps._envmap import EnvMap
+from envfit.sampling._map_sampler import MapSampler
 from oracles.numpy_kernels import bilinear_lookup_numpy, pixel_of_numpy, sample_numpy
 
 
@@ -42,7 +42,7 @@ def test_lookup_kernel_equals_numpy_reference(up, dtype):
 
 
 def test_lookup_rejects_nonfinite():
-    from envfit.base.errors import ParameterError
+    from envfit.base._errors import ParameterError
     with pytest.raises(ParameterError, match="NaN or Inf"):
         latlong.bilinear_lookup(np.ones((4, 8)), [[np.nan, 0, 1.0]])
 

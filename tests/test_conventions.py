@@ -1,4 +1,4 @@
-"""Renderer lat-long conventions (envfit.maps.conventions, --convention, synth --kind marker).
+"""Renderer lat-long conventions (envfit.maps._conventions, --convention, synth --kind marker).
 
 Each renderer's formula is re-written here from its source, independently of the module
 (which uses one canonical table); the tests compare the two, pixel by pixel.
@@ -13,12 +13,12 @@ import numpy as np
 import pytest
 
 import envfit.cli as cli
-from envfit.base.errors import ParameterError
-from envfit.data_gen.marker import MARKERS, marker_for_colour
-from envfit.maps import latlong
-from envfit.maps.conventions import CONVENTIONS, convention
-from envfit.maps.envmap import EnvMap
-from envfit.maps.io import load_envmap, save_envmap
+from envfit.base._errors import ParameterError
+from envfit.data_gen._marker import MARKERS, marker_for_colour
+from envfit.maps import _latlong as latlong
+from envfit.maps._conventions import CONVENTIONS, convention
+from envfit.maps._envmap import EnvMap
+from envfit.maps._io import load_envmap, save_envmap
 
 H, W = 32, 64
 LATLONG = [n for n in CONVENTIONS if n != "pbrt4"]

@@ -17,10 +17,9 @@ import pytest
 pytest.importorskip("distributed")
 
 import envfit.cli as cli  # noqa: E402
-from envfit.base.errors import ExecutorError, ParameterError  # noqa: E402
-from envfit.batch.executor import (DEFAULT_DASK_TIMEOUT, DaskExecutor, dask_timeout,  # noqa: E402
-                                   make_executor)
-from envfit.maps.io import save_envmap  # noqa: E402
+from envfit.base._errors import ExecutorError, ParameterError  # noqa: E402
+from envfit.batch._executor import DEFAULT_DASK_TIMEOUT, DaskExecutor, dask_timeout, make_executor
+from envfit.maps._io import save_envmap  # noqa: E402
 
 T = 1.0             # the handshake limit used by these tests, seconds
 SLACK = 8.0         # thread start, the distributed import, a loaded 2-core machine
@@ -194,7 +193,7 @@ def test_refusal_named_when_the_retry_loop_ends_cancelled():
     names the refusal (and does not invent one where something listens)."""
     import asyncio
 
-    from envfit.batch.executor import _connect_failure
+    from envfit.batch._executor import _connect_failure
 
     def cancelled_oserror():
         try:

@@ -1,4 +1,4 @@
-"""Tests of envfit.data_gen.analytic: closed-form shading integrals (Eq. 17) vs brute-force quadrature.
+"""Tests of envfit.data_gen._analytic: closed-form shading integrals (Eq. 17) vs brute-force quadrature.
 
 References computed here, independently of the module's formulas:
 * smooth maps: a product rule in the *axis* frame (Gauss–Legendre in t = u·axis on [0, 1],
@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 from scipy import integrate
 
-from envfit.data_gen import analytic as A
-from envfit.data_gen.errors import SyntheticMapError
+from envfit.data_gen import _analytic as A
+from envfit.data_gen._errors import SyntheticMapError
 
 RTOL = 1e-6
 

@@ -1,4 +1,4 @@
-"""Tests of envfit.data_gen.gp and envfit.data_gen.sht: Gaussian-process maps of known Sobolev smoothness.
+"""Tests of envfit.data_gen._gp and envfit.data_gen._sht: Gaussian-process maps of known Sobolev smoothness.
 
 Every statistic is checked against an independent computation: the SH projection below uses
 its own normalised associated-Legendre recurrence (checked against scipy.special.sph_harm_y),
@@ -12,9 +12,10 @@ import pytest
 from scipy import stats
 from scipy.special import sph_harm_y
 
-from envfit.data_gen import gp, sht
-from envfit.data_gen.errors import SyntheticMapError
-from envfit.theory.sobolev import generalized_distance_kernel, kernel_constant, sobolev_coefficients
+from envfit.data_gen import _gp as gp, _sht as sht
+from envfit.data_gen._errors import SyntheticMapError
+from envfit.theory._sobolev import (generalized_distance_kernel, kernel_constant,
+                                    sobolev_coefficients)
 
 
 # ----------------------------------------------------------------------------- references

@@ -17,7 +17,7 @@ import envfit
 import envfit.data_gen
 import envfit.theory
 from envfit import defaults as D
-from envfit.theory.pointsets import POINTSETS
+from envfit.theory._pointsets import POINTSETS
 
 ENVFIT = Path(envfit.__file__).parent
 THEORY = Path(envfit.theory.__file__).parent
@@ -25,9 +25,9 @@ DATA_GEN = Path(envfit.data_gen.__file__).parent
 
 #: vocabulary -> the module that defines it (the one place its literal may appear)
 VOCABULARIES = {
-    "point sets": (tuple(POINTSETS), THEORY / "pointsets.py"),
-    "BRDFs": (D.BRDFS, THEORY / "brdf.py"),
-    "weightings": (D.WEIGHTINGS, THEORY / "weights.py"),
+    "point sets": (tuple(POINTSETS), THEORY / "_pointsets.py"),
+    "BRDFs": (D.BRDFS, THEORY / "_brdf.py"),
+    "weightings": (D.WEIGHTINGS, THEORY / "_weights.py"),
     "default point sets": (D.DEFAULT_POINTSETS, ENVFIT / "defaults.py"),
     "advise's renderer point sets": (D.ADVISE_RENDERER_POINTSETS, ENVFIT / "defaults.py"),
     "validate's renderer point sets": (D.VALIDATE_RENDERER_POINTSETS, ENVFIT / "defaults.py"),
@@ -38,7 +38,7 @@ VOCABULARIES = {
     "predictor choices": (D.PREDICTOR_CHOICES, ENVFIT / "defaults.py"),
 }
 #: literals that are another vocabulary's permutation on purpose: (file, assigned name) -> why
-ALLOWED = {(THEORY / "figures.py", "POINTSET_ORDER"): "the paper's figure order (Sec. 7.1)"}
+ALLOWED = {(THEORY / "_figures.py", "POINTSET_ORDER"): "the paper's figure order (Sec. 7.1)"}
 
 
 def _sources() -> list[Path]:
@@ -110,7 +110,7 @@ def test_the_default_shininess_is_typed_only_in_defaults_and_theory():
     assert bad == []
     # theory types it once, beside the lobes, and the rest of theory imports it
     in_theory = {p.name: typed_shininess(p) for p in THEORY.rglob("*.py") if typed_shininess(p)}
-    assert list(in_theory) == ["brdf.py"] and len(in_theory["brdf.py"]) == 1
+    assert list(in_theory) == ["_brdf.py"] and len(in_theory["_brdf.py"]) == 1
 
 
 def test_the_scans_see_a_violation(tmp_path):
@@ -126,11 +126,11 @@ def test_the_scans_see_a_violation(tmp_path):
 
 
 def test_the_commands_take_their_defaults_from_the_module():
-    from envfit.advisor.options import AdviseOptions
-    from envfit.theory.brdf import Glossy
-    from envfit.theory.table1 import PAPER_SHININESS
-    from envfit.validate.config import ValidateConfig, quick_config
-    from envfit.validate.renderer import RendererValidationConfig, renderer_quick_config
+    from envfit.advisor._options import AdviseOptions
+    from envfit.theory._brdf import Glossy
+    from envfit.theory._table1 import PAPER_SHININESS
+    from envfit.validate._config import ValidateConfig, quick_config
+    from envfit.validate._renderer import RendererValidationConfig, renderer_quick_config
     assert D.DEFAULT_SHININESS == PAPER_SHININESS == Glossy().shininess == 30.0
     assert D.ALL_POINTSETS == ("sf", "sobol", "lp", "bnot", "random", "jitter")
     v, q = ValidateConfig(), quick_config()
@@ -150,12 +150,12 @@ def test_the_commands_take_their_defaults_from_the_module():
 
 def test_the_registries_are_the_modules_own():
     """The modules that check a name hold the very tuple of envfit.defaults."""
-    from envfit.advisor import options
-    from envfit.base import resources
-    from envfit.batch import executor
-    from envfit.fit import smoothness
-    from envfit.maps import latlong
-    from envfit.theory import figures
+    from envfit.advisor import _options as options
+    from envfit.base import _resources as resources
+    from envfit.batch import _executor as executor
+    from envfit.fit import _smoothness as smoothness
+    from envfit.maps import _latlong as latlong
+    from envfit.theory import _figures as figures
     assert latlong.UPS is D.UPS and resources.SOLVERS is D.SOLVERS
     assert smoothness.METHODS is D.FIT_METHODS and executor.EXECUTORS is D.EXECUTORS
     assert options.PREDICTOR_CHOICES is D.PREDICTOR_CHOICES and options.BRDFS is D.BRDFS
@@ -176,15 +176,14 @@ def _exact_spearman(x, y) -> Fraction:
 @pytest.mark.parametrize("y", [[0.1, 0.5, 0.4], [1.0, 3.0, 2.0, 5.0, 4.0], [2, 2, 1, 3, 3, 0],
                                [5, 4, 3, 2, 1], [0.3, 0.3, 0.9, 0.1, 0.8, 0.7, 0.2]])
 def test_spearman_is_scipys_and_exact(y):
-    from envfit.validate.report_conditions import _spearman
+    from envfit.validate._report_conditions import _spearman
     rho = _spearman(list(range(len(y))), y)
     signed_sq = (1 if rho >= 0 else -1) * rho * rho
     assert signed_sq == pytest.approx(float(_exact_spearman(list(range(len(y))), y)), abs=1e-14)
 
 
 def test_spearman_constant_and_an_exact_threshold():
-    from envfit.validate.report_conditions import (RISE_MIN_SPEARMAN, _rises_with_degree,
-                                                   _spearman)
+    from envfit.validate._report_conditions import RISE_MIN_SPEARMAN, _rises_with_degree, _spearman
     assert _spearman([0, 1, 2], [1.0, 1.0, 1.0]) == 0.0
     ratios = [1.0, 3.0, 2.0, 5.0, 4.0]           # ranks 0 2 1 4 3: ρ = 1 − 6·4/120 = 0.8
     assert _exact_spearman(list(range(5)), ratios) == Fraction(16, 25)

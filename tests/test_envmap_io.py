@@ -1,4 +1,4 @@
-"""Tests of envfit.maps.envmap (the EnvMap container) and envfit.maps.io (load_envmap /
+"""Tests of envfit.maps._envmap (the EnvMap container) and envfit.maps._io (load_envmap /
 save_envmap and their errors)."""
 from __future__ import annotations
 
@@ -8,11 +8,11 @@ import numpy as np
 import OpenImageIO as oiio
 import pytest
 
-from envfit.maps.envmap import EnvMap
-from envfit.maps.io import load_envmap, save_envmap
-from envfit.base.errors import (EnvMapFileError, EnvMapFormatError, MemoryBudgetError,
-                           NonFiniteError, ParameterError)
-from envfit.maps.latlong import pixel_angles, pixel_directions
+from envfit.maps._envmap import EnvMap
+from envfit.maps._io import load_envmap, save_envmap
+from envfit.base._errors import (EnvMapFileError, EnvMapFormatError, MemoryBudgetError,
+                                 NonFiniteError, ParameterError)
+from envfit.maps._latlong import pixel_angles, pixel_directions
 
 
 def _write_raw(path, array, fmt="float", names=None):

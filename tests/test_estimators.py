@@ -1,24 +1,24 @@
-"""Tests of envfit.shading.estimators: quadrature (Eq. 34), SH and HSH truncation (Eq. 35), RMSE.
+"""Tests of envfit.shading._estimators: quadrature (Eq. 34), SH and HSH truncation (Eq. 35), RMSE.
 
-Expected values come from the ground truth (envfit.shading.ground_truth, itself checked against closed
-forms), from closed forms (envfit.data_gen.analytic, the errata's b̃_l = 0 for l >= 2), from an
+Expected values come from the ground truth (envfit.shading._ground_truth, itself checked against closed
+forms), from closed forms (envfit.data_gen._analytic, the errata's b̃_l = 0 for l >= 2), from an
 exact 1-D formula for the mean of the bilinear interpolant, from a brute-force product rule
 in the axis frame through envmap.lookup, and from explicit rotations with
-envfit.theory.pointsets.
+envfit.theory._pointsets.
 """
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from envfit.data_gen.analytic import SkyGradientMap, SunSkyMap
-from envfit.data_gen.gp import gaussian_process_map
-from envfit.shading import estimators as E
-from envfit.shading import ground_truth as S
-from envfit.maps.envmap import EnvMap
-from envfit.base.errors import ParameterError
-from envfit.theory.brdf import Glossy
-from envfit.theory.pointsets import frame_from_axis, rotate_to_axes
+from envfit.data_gen._analytic import SkyGradientMap, SunSkyMap
+from envfit.data_gen._gp import gaussian_process_map
+from envfit.shading import _estimators as E
+from envfit.shading import _ground_truth as S
+from envfit.maps._envmap import EnvMap
+from envfit.base._errors import ParameterError
+from envfit.theory._brdf import Glossy
+from envfit.theory._pointsets import frame_from_axis, rotate_to_axes
 
 
 def _axes(n, seed):
@@ -71,7 +71,7 @@ def test_random_rotation_is_seeded_and_blocking_independent(gp_map, monkeypatch)
     d = E.quadrature_estimates(gp_map, axes, pts, w)
     assert np.array_equal(a, b)
     assert np.abs(a - c).max() > 1e-6 and np.abs(a - d).max() > 1e-6
-    # the same as rotating explicitly with envfit.theory.pointsets (one draw for all axes)
+    # the same as rotating explicitly with envfit.theory._pointsets (one draw for all axes)
     explicit = np.einsum("mnc,n->mc", gp_map.lookup(rotate_to_axes(pts, axes, seed=42)), w)
     np.testing.assert_allclose(a, explicit, rtol=0, atol=1e-12)
     no_twist = np.einsum("mnc,n->mc", gp_map.lookup(np.einsum("mij,nj->mni",

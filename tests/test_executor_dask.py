@@ -13,11 +13,11 @@ distributed = pytest.importorskip("distributed")
 import dask  # noqa: E402
 
 import envfit.cli as cli  # noqa: E402
-from envfit.maps.io import save_envmap  # noqa: E402
-from envfit.base.errors import ExecutorError  # noqa: E402
-from envfit.batch.executor import DaskExecutor  # noqa: E402
-from envfit.batch.library import run_table2_library  # noqa: E402
-from envfit.batch.library_fit import fit_smoothness_library  # noqa: E402
+from envfit.maps._io import save_envmap  # noqa: E402
+from envfit.base._errors import ExecutorError  # noqa: E402
+from envfit.batch._executor import DaskExecutor  # noqa: E402
+from envfit.batch._library import run_table2_library  # noqa: E402
+from envfit.batch._library_fit import fit_smoothness_library  # noqa: E402
 from test_library import S, N, assert_same_tables, gp_map, killing_sources  # noqa: E402
 
 pytestmark = pytest.mark.dask

@@ -16,8 +16,8 @@ import OpenImageIO as oiio
 import pytest
 
 import envfit.cli as cli
-from envfit.base.errors import EnvMapFormatError
-from envfit.maps.io import load_envmap
+from envfit.base._errors import EnvMapFormatError
+from envfit.maps._io import load_envmap
 
 H, W = 64, 128
 

@@ -24,11 +24,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import envfit.base.atomic as atomic
+import envfit.base._atomic as atomic
 import envfit.cli as cli
 import envfit.plots._save as plot_save
-from envfit.cli import common
-from envfit.base.errors import EnvfitError, OutputError
+from envfit.cli import _common as common
+from envfit.base._errors import EnvfitError, OutputError
 
 TINY = ["--max-height", "16"]
 
@@ -49,7 +49,7 @@ def afile(tmp_path) -> Path:
 
 @pytest.fixture
 def tiny_map(tmp_path) -> Path:
-    from envfit.maps.io import save_envmap
+    from envfit.maps._io import save_envmap
     a = np.random.default_rng(0).random((8, 16, 3)).astype(np.float32) + 0.1
     return save_envmap(tmp_path / "tiny.exr", a)
 
@@ -361,11 +361,11 @@ def test_whole_numbers_and_lists_accepted():
 
 # ============================================================== broken subcommand module
 def test_broken_subcommand_module_is_an_error(monkeypatch, capsys):
-    monkeypatch.setitem(sys.modules, "envfit.cli.validate", None)    # import now fails
+    monkeypatch.setitem(sys.modules, "envfit.cli._validate", None)    # import now fails
     rc = cli.main(["validate", "--quick"])
     line, out = _one_error(capsys, rc)
     assert line.startswith("envfit validate: error: cannot load the 'validate' subcommand: "
-                           "envfit.cli.validate failed to import (ModuleNotFoundError")
+                           "envfit.cli._validate failed to import (ModuleNotFoundError")
     assert out == ""
     rc = cli.main(["--help"])                 # the full parser: not silently without validate
     line, out = _one_error(capsys, rc)
@@ -381,14 +381,14 @@ def test_missing_subcommand_module_is_an_error(monkeypatch, capsys):
 
 
 def test_subcommand_raising_on_import_is_an_error(tmp_path, capsys):
-    # a real process whose envfit.cli.info raises on import (a broken install)
+    # a real process whose envfit.cli._info raises on import (a broken install)
     site = tmp_path / "site"
     site.mkdir()
     (site / "sitecustomize.py").write_text(
         "import sys, importlib.abc\n"
         "class F(importlib.abc.MetaPathFinder):\n"
         "    def find_spec(self, name, path, target=None):\n"
-        "        if name == 'envfit.cli.info':\n"
+        "        if name == 'envfit.cli._info':\n"
         "            raise SyntaxError('invalid syntax (info.py, line 1)')\n"
         "sys.meta_path.insert(0, F())\n")
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(
@@ -405,7 +405,7 @@ def test_disk_full_mid_run_keeps_every_cell_and_names_the_file(tmp_path, monkeyp
     """A resumable cell that cannot be written mid-run (disk full): the sweep goes on with the
     cell in memory, the table is printed complete, one note says resumability is lost, and
     the run ends with exit 2 naming the file. The RMSEs equal a run that wrote everything."""
-    import envfit.base.store as store_mod
+    import envfit.base._store as store_mod
     orig = store_mod.atomic_write_json
 
     def fake(path, obj):

@@ -11,20 +11,20 @@ import time
 import numpy as np
 import pytest
 
-import envfit.advisor.advise
-import envfit.advisor.prediction
-import envfit.fit.sigma
-import envfit.fit.smoothness
-import envfit.batch.library
-import envfit.batch.library_fit
-import envfit.fit.table2
-import envfit.validate.pipeline
-from envfit.data_gen.gp import gaussian_process_map
+import envfit.advisor._advise
+import envfit.advisor._prediction
+import envfit.fit._sigma
+import envfit.fit._smoothness
+import envfit.batch._library
+import envfit.batch._library_fit
+import envfit.fit._table2
+import envfit.validate._pipeline
+from envfit.data_gen._gp import gaussian_process_map
 from envfit import cli
-from envfit.maps.envmap import EnvMap, check_sample_count
-from envfit.maps.io import load_envmap, save_envmap
-from envfit.base.errors import EnvfitError, MemoryBudgetError, ParameterError
-from envfit.base.resources import memory_budget_bytes, plan_memory
+from envfit.maps._envmap import EnvMap, check_sample_count
+from envfit.maps._io import load_envmap, save_envmap
+from envfit.base._errors import EnvfitError, MemoryBudgetError, ParameterError
+from envfit.base._resources import memory_budget_bytes, plan_memory
 
 HUGE = 1_000_000_000
 
@@ -115,25 +115,25 @@ def test_huge_n_library_commands(tmp_path, gp16, capsys):
 
 def test_guard_runs_before_any_sample_point(monkeypatch, gp16):
     """The API entry points refuse a huge N before making sample points or point sets."""
-    _forbid(monkeypatch, envfit.fit.table2, "sample_directions")
-    _forbid(monkeypatch, envfit.fit.smoothness, "sample_directions")
-    _forbid(monkeypatch, envfit.fit.sigma, "sphere_points")
-    _forbid(monkeypatch, envfit.validate.pipeline, "generate")
-    _forbid(monkeypatch, envfit.advisor.prediction, "generate")
-    _forbid(monkeypatch, envfit.batch.library_fit, "fit_sample_task")
-    _forbid(monkeypatch, envfit.batch.library, "sample_task")
+    _forbid(monkeypatch, envfit.fit._table2, "sample_directions")
+    _forbid(monkeypatch, envfit.fit._smoothness, "sample_directions")
+    _forbid(monkeypatch, envfit.fit._sigma, "sphere_points")
+    _forbid(monkeypatch, envfit.validate._pipeline, "generate")
+    _forbid(monkeypatch, envfit.advisor._prediction, "generate")
+    _forbid(monkeypatch, envfit.batch._library_fit, "fit_sample_task")
+    _forbid(monkeypatch, envfit.batch._library, "sample_task")
     calls = [
-        lambda: envfit.fit.table2.run_table2(gp16, [1.5], [HUGE]),
-        lambda: envfit.fit.smoothness.fit_smoothness(gp16, n=HUGE),
-        lambda: envfit.fit.smoothness.fit_smoothness(gp16, n=HUGE, method="loo"),
-        lambda: envfit.validate.pipeline.run_validation(
-            gp16, envfit.validate.pipeline.ValidateConfig(n_values=[16, HUGE], truncation=False)),
-        lambda: envfit.validate.pipeline.run_validation(
-            gp16, envfit.validate.pipeline.ValidateConfig(n_values=[16], fit_n=HUGE, truncation=False)),
-        lambda: envfit.fit.sigma.profiled_sigma(gp16, 1.5, n=HUGE),
-        lambda: envfit.advisor.advise.advise(gp16, "diffuse", 0.01, nmax=HUGE, weights=("equal",)),
-        lambda: envfit.batch.library.run_table2_library([gp16, gp16], [1.5], [HUGE], workers=1),
-        lambda: envfit.batch.library_fit.fit_smoothness_library([gp16, gp16], n=HUGE, workers=1),
+        lambda: envfit.fit._table2.run_table2(gp16, [1.5], [HUGE]),
+        lambda: envfit.fit._smoothness.fit_smoothness(gp16, n=HUGE),
+        lambda: envfit.fit._smoothness.fit_smoothness(gp16, n=HUGE, method="loo"),
+        lambda: envfit.validate._pipeline.run_validation(
+            gp16, envfit.validate._pipeline.ValidateConfig(n_values=[16, HUGE], truncation=False)),
+        lambda: envfit.validate._pipeline.run_validation(
+            gp16, envfit.validate._pipeline.ValidateConfig(n_values=[16], fit_n=HUGE, truncation=False)),
+        lambda: envfit.fit._sigma.profiled_sigma(gp16, 1.5, n=HUGE),
+        lambda: envfit.advisor._advise.advise(gp16, "diffuse", 0.01, nmax=HUGE, weights=("equal",)),
+        lambda: envfit.batch._library.run_table2_library([gp16, gp16], [1.5], [HUGE], workers=1),
+        lambda: envfit.batch._library_fit.fit_smoothness_library([gp16, gp16], n=HUGE, workers=1),
     ]
     for call in calls:
         t0 = time.perf_counter()
@@ -154,12 +154,12 @@ def test_small_budget_gives_the_guard_message(monkeypatch, tmp_path, capsys):
     fits = int(re.search(r"the largest N that fits is (\d+)$", line).group(1))
     assert 1000 < fits < 5000
     px = env.width * env.height
-    envfit.fit.table2.plan_table2_memory(fits, env.width, env.height, 3)        # passes
+    envfit.fit._table2.plan_table2_memory(fits, env.width, env.height, 3)        # passes
     with pytest.raises(MemoryBudgetError):
-        envfit.fit.table2.plan_table2_memory(fits + 1, env.width, env.height, 3)
+        envfit.fit._table2.plan_table2_memory(fits + 1, env.width, env.height, 3)
     assert px < 5000 < 8 * fits               # the memory message comes before the pixel one
     with pytest.raises(MemoryBudgetError, match="fit at n = 5000"):
-        envfit.fit.smoothness.fit_smoothness(env, n=5000)
+        envfit.fit._smoothness.fit_smoothness(env, n=5000)
     # a budget too small for anything says so
     monkeypatch.setenv("ENVFIT_MEMORY_LIMIT", "1M")
     with pytest.raises(MemoryBudgetError, match="not even N = 2 fits"):
@@ -246,11 +246,11 @@ def test_more_samples_than_pixels_is_an_error(h, tmp_path, capsys):
     env = EnvMap(np.random.default_rng(0).random((h, w, 3)) + 1.0, name=f"m{w}x{h}.exr")
     px = w * h
     with pytest.raises(ParameterError, match=rf"the largest sensible N is {px}$"):
-        envfit.fit.table2.run_table2(env, [1.5], [5000])
+        envfit.fit._table2.run_table2(env, [1.5], [5000])
     with pytest.raises(ParameterError, match=rf"\({w}x{h}\).*largest sensible n is {px}$"):
-        envfit.fit.smoothness.fit_smoothness(env, n=5000, scale="linear")
+        envfit.fit._smoothness.fit_smoothness(env, n=5000, scale="linear")
     with pytest.raises(ParameterError, match="pixels"):
-        envfit.batch.library.run_table2_library([env], [1.5], [5000], workers=1)
+        envfit.batch._library.run_table2_library([env], [1.5], [5000], workers=1)
     path = save_envmap(tmp_path / env.name, env)
     for argv in (["table2", str(path), "--n", "5000"], ["fit", str(path), "--n", "5000"]):
         assert cli.main(argv) == 2
@@ -262,26 +262,26 @@ def test_sample_count_limits_and_validate_fit_n():
     assert check_sample_count(32, 8, 4) == 32
     env = EnvMap(gaussian_process_map(1.5, 8, seed=2, channels=1) + 2.0, name="g8")
     with pytest.raises(ParameterError, match="fit_n = 500 samples is more than the 128 pixels"):
-        envfit.validate.pipeline.run_validation(env, envfit.validate.pipeline.ValidateConfig(
+        envfit.validate._pipeline.run_validation(env, envfit.validate._pipeline.ValidateConfig(
             n_values=[16], fit_n=500, truncation=False))
     # the band-limited fit keeps its stricter cap (half of H^2) with a note, not an error
     env16 = EnvMap(gaussian_process_map(1.5, 16, seed=2, channels=1) + 2.0)
-    r = envfit.fit.smoothness.fit_smoothness(env16, n=5000, scale="linear", kernel="bandlimited")
+    r = envfit.fit._smoothness.fit_smoothness(env16, n=5000, scale="linear", kernel="bandlimited")
     assert r.n <= 128 and any("capped at 128" in n for n in r.notes)
 
 
 @pytest.mark.parametrize("bad", [3.5, "x", None, 0, -5, True])
 def test_n_must_be_a_positive_integer_in_the_api(bad, gp16):
     with pytest.raises(ParameterError, match="must be an integer"):
-        envfit.fit.smoothness.fit_smoothness(gp16, n=bad)
+        envfit.fit._smoothness.fit_smoothness(gp16, n=bad)
     with pytest.raises(ParameterError, match="must be an integer"):
-        envfit.fit.table2.run_table2(gp16, [1.5], [100, bad])
+        envfit.fit._table2.run_table2(gp16, [1.5], [100, bad])
     with pytest.raises(ParameterError, match="must be an integer"):
-        envfit.validate.pipeline.ValidateConfig(n_values=[16, bad])
+        envfit.validate._pipeline.ValidateConfig(n_values=[16, bad])
     with pytest.raises(ParameterError, match="must be an integer"):
-        envfit.batch.library_fit.fit_smoothness_library([gp16], n=bad, workers=1)
+        envfit.batch._library_fit.fit_smoothness_library([gp16], n=bad, workers=1)
     with pytest.raises(ParameterError):
-        envfit.advisor.advise.advise(gp16, "diffuse", 0.01, nmax=bad)
+        envfit.advisor._advise.advise(gp16, "diffuse", 0.01, nmax=bad)
 
 
 # ------------------------------------------------------------------------- nothing to fit
@@ -302,20 +302,20 @@ def test_all_zero_map_is_one_line(tmp_path, capsys):
     assert cli.main(["table2", str(path), "--scale", "linear", "--n", "100"]) == 2
     assert "all zero on the linear scale" in _one_error_line(capsys, "table2")
     # through the API, every pipeline
-    for call in (lambda: envfit.fit.smoothness.fit_smoothness(zero, n=100, scale="linear"),
-                 lambda: envfit.fit.smoothness.fit_smoothness(zero, n=100, scale="linear", method="loo"),
-                 lambda: envfit.fit.table2.run_table2(zero, [1.5], [100], scale="linear"),
-                 lambda: envfit.validate.pipeline.run_validation(zero, envfit.validate.pipeline.ValidateConfig(
+    for call in (lambda: envfit.fit._smoothness.fit_smoothness(zero, n=100, scale="linear"),
+                 lambda: envfit.fit._smoothness.fit_smoothness(zero, n=100, scale="linear", method="loo"),
+                 lambda: envfit.fit._table2.run_table2(zero, [1.5], [100], scale="linear"),
+                 lambda: envfit.validate._pipeline.run_validation(zero, envfit.validate._pipeline.ValidateConfig(
                      n_values=[16], fit_n=100, scale="linear", truncation=False)),
-                 lambda: envfit.advisor.advise.advise(zero, "diffuse", 0.01, scale="linear", fit_n=100),
-                 lambda: envfit.batch.library_fit.fit_smoothness_library([zero], n=100, scale="linear",
+                 lambda: envfit.advisor._advise.advise(zero, "diffuse", 0.01, scale="linear", fit_n=100),
+                 lambda: envfit.batch._library_fit.fit_smoothness_library([zero], n=100, scale="linear",
                                                                    workers=1),
-                 lambda: envfit.batch.library.run_table2_library([zero], [1.5], [100],
+                 lambda: envfit.batch._library.run_table2_library([zero], [1.5], [100],
                                                            scale="linear", workers=1)):
         with pytest.raises(ParameterError, match="all zero on the linear scale"):
             call()
     with pytest.raises(ParameterError, match="all zero: the log scale"):
-        envfit.fit.smoothness.fit_smoothness(zero, n=100, scale="log")
+        envfit.fit._smoothness.fit_smoothness(zero, n=100, scale="log")
 
 
 def test_constant_map_and_constant_channel(tmp_path, capsys):
@@ -326,15 +326,15 @@ def test_constant_map_and_constant_channel(tmp_path, capsys):
         "envfit fit: error: map grey.exr is constant on the linear scale (value 0.5): there is "
         "nothing to fit")
     with pytest.raises(ParameterError, match="constant on the display scale"):
-        envfit.fit.smoothness.fit_smoothness(const, n=100)
+        envfit.fit._smoothness.fit_smoothness(const, n=100)
     with pytest.raises(ParameterError, match="constant on the log scale"):
-        envfit.fit.table2.run_table2(const, [1.5], [100], scale="log")
+        envfit.fit._table2.run_table2(const, [1.5], [100], scale="log")
     with pytest.raises(ParameterError, match="nothing to fit"):
-        envfit.fit.smoothness.fit_smoothness_samples(np.eye(3)[[0, 1, 2] * 5] * [1, 1, 1], np.ones(15))
+        envfit.fit._smoothness.fit_smoothness_samples(np.eye(3)[[0, 1, 2] * 5] * [1, 1, 1], np.ones(15))
     # one constant channel among varying ones: fitted on the others, noted, no NaN
     f = gaussian_process_map(1.5, 16, seed=6, channels=2)
     f[:, :, 1] = 0.0
-    r = envfit.fit.smoothness.fit_smoothness(EnvMap(f), n=150, scale="linear")
+    r = envfit.fit._smoothness.fit_smoothness(EnvMap(f), n=150, scale="linear")
     assert 1.0 < r.s < 2.0 and r.sigma[1] == 0.0 and r.sigma[0] > 0
     assert all(np.isfinite(r.s_interval))
     assert any("channel(s) 1 constant" in n for n in r.notes)

@@ -16,10 +16,10 @@ import numpy as np
 import pytest
 
 from envfit import cli
-from envfit.maps.envmap import EnvMap
-from envfit.maps.io import save_envmap
-from envfit.base.errors import EnvMapFileError
-from envfit.maps.mapsource import resolve_map_sources
+from envfit.maps._envmap import EnvMap
+from envfit.maps._io import save_envmap
+from envfit.base._errors import EnvMapFileError
+from envfit.maps._mapsource import resolve_map_sources
 
 GRID = ["--max-height", "32", "--s", "1.2,1.4,1.6,1.8", "--n", "100,200,400,800,1200,1600"]
 
@@ -71,7 +71,7 @@ def test_map_changed_through_the_cli_is_one_line(tmp_path, capsys, monkeypatch):
     a, b = tmp_path / "lib" / "a.exr", tmp_path / "lib" / "b.exr"
     for p in (a, b):
         save_envmap(p, EnvMap(np.random.default_rng(len(p.name)).random((8, 16, 3)).astype(np.float32)))
-    from envfit.maps import mapsource as mapsource
+    from envfit.maps import _mapsource as mapsource
     real_load = mapsource.MapSource.load
 
     touched = []

@@ -1,4 +1,4 @@
-"""Stores you can trust (envfit.base.store, envfit.advisor.cache): faulty cells are recomputed with
+"""Stores you can trust (envfit.base._store, envfit.advisor._cache): faulty cells are recomputed with
 one note, two runs never share an --out folder, a dead run's lock blocks nobody, and an
 unusable advisor cache is a note.
 
@@ -20,16 +20,16 @@ import numpy as np
 import pytest
 
 import envfit.cli as cli
-import envfit.fit.table2 as table2_mod
-from envfit.data_gen.gp import gaussian_process_map
-from envfit.advisor.advise import advise
-from envfit.advisor.cache import cache_write_problem
-from envfit.maps.envmap import EnvMap
-from envfit.maps.io import load_envmap, save_envmap
-from envfit.batch.library import run_table2_library
-from envfit.batch.library_fit import fit_smoothness_library
-from envfit.base.store import LOCK_NAME, FolderLock, StoreBusyError
-from envfit.fit.table2 import run_table2
+import envfit.fit._table2 as table2_mod
+from envfit.data_gen._gp import gaussian_process_map
+from envfit.advisor._advise import advise
+from envfit.advisor._cache import cache_write_problem
+from envfit.maps._envmap import EnvMap
+from envfit.maps._io import load_envmap, save_envmap
+from envfit.batch._library import run_table2_library
+from envfit.batch._library_fit import fit_smoothness_library
+from envfit.base._store import LOCK_NAME, FolderLock, StoreBusyError
+from envfit.fit._table2 import run_table2
 
 S, N = [1.3, 1.7], [50, 100]
 VICTIM, OTHER = "s1.7000_n100", "s1.3000_n100"
@@ -217,7 +217,7 @@ def test_library_fit_recomputes_an_edited_evaluation(tmp_path):
 
 
 def test_validate_recomputes_an_edited_cell(tmp_path, capsys):
-    import envfit.validate.pipeline as V
+    import envfit.validate._pipeline as V
     env = EnvMap(gaussian_process_map(1.5, 16, seed=4, channels=2), name="gp-tiny")
     cfg = V.ValidateConfig(s=1.5, brdfs=("diffuse",), pointsets=("sf",), weights=("equal",),
                            n_values=(16, 32), axes=40, scale="linear", truncation=False,
@@ -241,8 +241,8 @@ def test_validate_recomputes_an_edited_cell(tmp_path, capsys):
 # -------------------------------------------------------------------------------- the lock
 PAUSED_RUN = """
 import sys
-from envfit.maps.io import load_envmap
-from envfit.fit.table2 import run_table2
+from envfit.maps._io import load_envmap
+from envfit.fit._table2 import run_table2
 state = {"paused": False}
 def on_cell(cell, resumed):
     if not state["paused"]:
@@ -255,8 +255,8 @@ run_table2(load_envmap(sys.argv[1]), [1.3, 1.7], [50, 100], scale="linear", out=
 
 KILLED_RUN = """
 import os, signal, sys
-from envfit.maps.io import load_envmap
-from envfit.fit.table2 import run_table2
+from envfit.maps._io import load_envmap
+from envfit.fit._table2 import run_table2
 done = []
 def on_cell(cell, resumed):
     done.append(cell)
@@ -276,7 +276,7 @@ def _python(code: str, *args, **kw) -> subprocess.Popen:
 
 def test_second_run_on_a_busy_folder_exits_2_and_computes_nothing(
         map_file, tmp_path, monkeypatch, capsys, count_interpolators):
-    """Choice (envfit.base.store): a second run exits 2 at once; no cell is computed twice."""
+    """Choice (envfit.base._store): a second run exits 2 at once; no cell is computed twice."""
     monkeypatch.setattr(cli, "COMMANDS", ("table2",))
     out = tmp_path / "out"
     first = _python(PAUSED_RUN, map_file, out, stdin=subprocess.PIPE, stdout=subprocess.PIPE)
@@ -301,7 +301,7 @@ def test_second_run_on_a_busy_folder_exits_2_and_computes_nothing(
 
 
 def test_library_run_on_a_locked_folder_is_refused(tmp_path):
-    holder = _python("import sys; from envfit.base.store import FolderLock\n"
+    holder = _python("import sys; from envfit.base._store import FolderLock\n"
                      "l = FolderLock(sys.argv[1]).acquire(); print('held', flush=True)\n"
                      "sys.stdin.readline()", tmp_path, stdin=subprocess.PIPE,
                      stdout=subprocess.PIPE)
@@ -416,9 +416,9 @@ def test_cli_advise_with_an_unwritable_cache_is_a_note(tmp_path, monkeypatch, ca
 
 
 # ------------------------------------- issue 22 item 9: forged entries, folders, corrupt configs
-import envfit.advisor.cache as cache_mod                  # noqa: E402
-from envfit.advisor.cache import AdviseCache, entry_problem   # noqa: E402
-from envfit.base.store import canonical_sha256            # noqa: E402
+import envfit.advisor._cache as cache_mod                  # noqa: E402
+from envfit.advisor._cache import AdviseCache, entry_problem   # noqa: E402
+from envfit.base._store import canonical_sha256            # noqa: E402
 
 
 def _forge(victim: Path, edit) -> None:

@@ -7,12 +7,12 @@ import numpy as np
 import pytest
 
 import envfit.cli as cli
-from envfit.data_gen.gp import gaussian_process_map, gaussian_process_values
-from envfit.maps.envmap import EnvMap
-from envfit.maps.io import save_envmap
-from envfit.base.errors import ParameterError
-from envfit.fit.smoothness import fit_smoothness, fit_smoothness_samples
-from envfit.theory.sphere_points import spherical_fibonacci_sphere
+from envfit.data_gen._gp import gaussian_process_map, gaussian_process_values
+from envfit.maps._envmap import EnvMap
+from envfit.maps._io import save_envmap
+from envfit.base._errors import ParameterError
+from envfit.fit._smoothness import fit_smoothness, fit_smoothness_samples
+from envfit.theory._sphere_points import spherical_fibonacci_sphere
 
 N = 400
 SEEDS = range(4)
@@ -75,11 +75,11 @@ def test_fit_map_outputs_and_cli(tmp_path, monkeypatch, capsys):
 
 
 def test_search_matches_a_fine_brent_optimum_and_its_crossings(samples):
-    """The lattice search (envfit.fit.search): ŝ and the profile interval's ends within 1e-4
+    """The lattice search (envfit.fit._search): ŝ and the profile interval's ends within 1e-4
     of a 1e-8 Brent optimum and the exact crossings of the criterion."""
     from scipy import optimize
-    from envfit.fit.criterion import evaluate_criterion
-    from envfit.fit.search import CHI2_1_95
+    from envfit.fit._criterion import evaluate_criterion
+    from envfit.fit._search import CHI2_1_95
     pts, vals = samples
     v = vals[1.3][1]
     r = fit_smoothness_samples(pts, v, method="likelihood")
@@ -98,7 +98,7 @@ def test_search_matches_a_fine_brent_optimum_and_its_crossings(samples):
 def test_search_result_does_not_depend_on_extra_evaluations():
     """Cells beyond what a search requests (resumed, or evaluated for another map) leave its
     ŝ unchanged: the library and a single map get the same ŝ whatever they share."""
-    from envfit.fit.search import SmoothnessSearch, run_searches
+    from envfit.fit._search import SmoothnessSearch, run_searches
     def cell(s):
         return {"score": (s - 1.43) ** 2 + 0.3 * (s - 1.43) ** 3, "sigma": [1.0 / (2 - s)],
                 "boot": None}

@@ -1,4 +1,4 @@
-"""``_repr_html_`` of the result classes (Jupyter's rich display, :mod:`envfit.base.html`).
+"""``_repr_html_`` of the result classes (Jupyter's rich display, :mod:`envfit.base._html`).
 
 Every result is built by hand with known field values; its HTML is parsed with the standard
 library's :class:`html.parser.HTMLParser` (tags must nest and close), and the cells must
@@ -12,12 +12,12 @@ from html.parser import HTMLParser
 import numpy as np
 import pytest
 
-from envfit.advisor.result import Advice, AdviceRow
-from envfit.base.html import format_value, html_result
-from envfit.batch.library_fit import LibraryFitResult
-from envfit.fit.smoothness import FitResult
-from envfit.fit.table2 import Table2Cell, Table2Result
-from envfit.validate.results import ValidationResult
+from envfit.advisor._result import Advice, AdviceRow
+from envfit.base._html import format_value, html_result
+from envfit.batch._library_fit import LibraryFitResult
+from envfit.fit._smoothness import FitResult
+from envfit.fit._table2 import Table2Cell, Table2Result
+from envfit.validate._results import ValidationResult
 
 EVIL = "<sky & sun>.exr"
 

@@ -1,6 +1,6 @@
-"""Tests of envfit.sampling.importance and map_sampler: the map sampler (pdf, histogram, round trip), the map /
+"""Tests of envfit.sampling._importance and map_sampler: the map sampler (pdf, histogram, round trip), the map /
 BRDF / MIS estimators of the shading integral (unbiasedness against the ground truth of
-envfit.shading.ground_truth, zero-variance cases, equality with quadrature_estimates), the MIS
+envfit.shading._ground_truth, zero-variance cases, equality with quadrature_estimates), the MIS
 weights and the one-sample balance = mixture-pdf identity (checked by an independent
 implementation here)."""
 from __future__ import annotations
@@ -9,17 +9,17 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from envfit.base.errors import ParameterError
-from envfit.data_gen.analytic import SunSkyMap
-from envfit.data_gen.gp import gaussian_process_map
-from envfit.maps import latlong
-from envfit.maps.envmap import EnvMap
-from envfit.shading import estimators as E
-from envfit.shading import ground_truth as G
-from envfit.sampling import importance as I
-from envfit.sampling.map_sampler import MapSampler
-from envfit.theory.brdf import Glossy
-from envfit.theory.pointsets import frame_from_axis, lambert_to_hemisphere, square_points
+from envfit.base._errors import ParameterError
+from envfit.data_gen._analytic import SunSkyMap
+from envfit.data_gen._gp import gaussian_process_map
+from envfit.maps import _latlong as latlong
+from envfit.maps._envmap import EnvMap
+from envfit.shading import _estimators as E
+from envfit.shading import _ground_truth as G
+from envfit.sampling import _importance as I
+from envfit.sampling._map_sampler import MapSampler
+from envfit.theory._brdf import Glossy
+from envfit.theory._pointsets import frame_from_axis, lambert_to_hemisphere, square_points
 
 
 def _axes(n, seed):

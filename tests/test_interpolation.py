@@ -1,7 +1,7 @@
-"""Tests of envfit.kernels.interpolation (kernel interpolation with K_gd, Eq. 14) and its numba kernels.
+"""Tests of envfit.kernels._interpolation (kernel interpolation with K_gd, Eq. 14) and its numba kernels.
 
 Every expected value comes from an independent computation: numpy's libm power, dense
-numpy/scipy linear algebra on a kernel matrix built by ``envfit.theory.sobolev``, scipy's
+numpy/scipy linear algebra on a kernel matrix built by ``envfit.theory._sobolev``, scipy's
 RBFInterpolator, explicit leave-one-out refits, scipy.stats.multivariate_normal.
 """
 from __future__ import annotations
@@ -17,13 +17,13 @@ from numpy.polynomial import legendre
 from scipy.interpolate import RBFInterpolator
 
 from envfit.kernels import _kernels as _kernels
-from envfit.base.errors import DuplicatePointsError, MemoryBudgetError, ParameterError
-from envfit.base.resources import interpolator_nbytes, largest_feasible_n
-from envfit.base.checks import as_unit_vectors
-from envfit.kernels.interpolation import SobolevInterpolator
-from envfit.kernels.nearfar import far_field_expansion
-from envfit.base.resources import MEMORY_FRACTION, available_memory_bytes
-from envfit.theory.sobolev import kernel_constant, kernel_from_distance2
+from envfit.base._errors import DuplicatePointsError, MemoryBudgetError, ParameterError
+from envfit.base._resources import interpolator_nbytes, largest_feasible_n
+from envfit.base._checks import as_unit_vectors
+from envfit.kernels._interpolation import SobolevInterpolator
+from envfit.kernels._nearfar import far_field_expansion
+from envfit.base._resources import MEMORY_FRACTION, available_memory_bytes
+from envfit.theory._sobolev import kernel_constant, kernel_from_distance2
 
 
 def unit(n, seed):
@@ -40,7 +40,7 @@ def field(p):
 
 
 def dense_kernel(s, p):
-    """K_ij from envfit.theory.sobolev with |p_i - p_j|^2 from coordinate differences (the Gram form
+    """K_ij from envfit.theory._sobolev with |p_i - p_j|^2 from coordinate differences (the Gram form
     2 - 2 p.p loses the diagonal: (2e-16)^(s-1) is 0.027 at s = 1.1)."""
     return kernel_from_distance2(s, ((p[:, None, :] - p[None, :, :]) ** 2).sum(-1))
 
@@ -90,7 +90,7 @@ def test_reproduces_data_at_nodes(s):
     assert it.coefficients.shape == (300, 3)
     for method in ("direct", "nearfar"):
         assert np.max(np.abs(it.evaluate(p, method=method) - f)) < 1e-8 * np.abs(f).max()
-    # the coefficients solve K alpha = f with K from envfit.theory.sobolev (an independent build)
+    # the coefficients solve K alpha = f with K from envfit.theory._sobolev (an independent build)
     K = dense_kernel(s, p)
     assert np.max(np.abs(K @ it.coefficients - f)) < 1e-9 * np.abs(f).max()
 
@@ -354,7 +354,7 @@ def test_loo_closed_form_equals_explicit_refits(s):
 
 
 def test_inverse_diagonal_in_blocks_matches_dense_inverse():
-    from envfit.theory.cholesky import inverse_diagonal
+    from envfit.theory._cholesky import inverse_diagonal
     p = unit(700, 21)
     it = SobolevInterpolator(p, np.ones(700), 1.6)
     K = dense_kernel(1.6, p)
@@ -396,16 +396,16 @@ def test_normalisation_is_idempotent_and_row_independent():
 
 
 def test_profiled_log_likelihood_is_one_formula_for_all_three_paths():
-    """envfit.kernels.likelihood.profiled_log_likelihood against scipy's multivariate normal,
+    """envfit.kernels._likelihood.profiled_log_likelihood against scipy's multivariate normal,
     and the interpolator, the band-limited likelihood and fit.sigma.profiled_sigma all
     giving its numbers."""
-    from envfit.data_gen.gp import gaussian_process_map
-    from envfit.fit.sigma import profiled_sigma
-    from envfit.kernels.bandlimited import BandlimitedKernel, bandlimited_log_likelihood
-    from envfit.kernels.likelihood import profiled_log_likelihood
-    from envfit.maps.envmap import EnvMap
-    from envfit.maps.latlong import local_to_world
-    from envfit.theory.sphere_points import sphere_points
+    from envfit.data_gen._gp import gaussian_process_map
+    from envfit.fit._sigma import profiled_sigma
+    from envfit.kernels._bandlimited import BandlimitedKernel, bandlimited_log_likelihood
+    from envfit.kernels._likelihood import profiled_log_likelihood
+    from envfit.maps._envmap import EnvMap
+    from envfit.maps._latlong import local_to_world
+    from envfit.theory._sphere_points import sphere_points
     rng = np.random.default_rng(5)
     n = 40
     A = rng.normal(size=(n, n))

@@ -1,5 +1,5 @@
 """The exact random-point RMSE of renderer estimators (oracles.is_variance) against the
-RMSE the estimators themselves make (envfit.sampling.importance), on a sun + sky map and a GP
+RMSE the estimators themselves make (envfit.sampling._importance), on a sun + sky map and a GP
 map. The two modules were written independently; here the variance integral (a quadrature
 over the map) must predict a Monte Carlo measurement over axes and realisations.
 """
@@ -8,13 +8,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from envfit.data_gen.analytic import SunSkyMap
-from envfit.data_gen.gp import gaussian_process_map
-from envfit.maps.envmap import EnvMap
-from envfit.shading.ground_truth import shading_integral
-from envfit.sampling.importance import brdf_sampling_estimates, map_is_estimates, mis_estimates
+from envfit.data_gen._analytic import SunSkyMap
+from envfit.data_gen._gp import gaussian_process_map
+from envfit.maps._envmap import EnvMap
+from envfit.shading._ground_truth import shading_integral
+from envfit.sampling._importance import brdf_sampling_estimates, map_is_estimates, mis_estimates
 from oracles.is_variance import LobePdf, MapPdf, is_variance, mis_variance
-from envfit.sampling.map_sampler import MapSampler
+from envfit.sampling._map_sampler import MapSampler
 
 N, M, R = 32, 60, 40          # samples per estimate, axes, independent realisations
 

@@ -7,15 +7,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from envfit.maps.envmap import EnvMap
-from envfit.maps.latlong import local_to_world, pixel_solid_angles
-from envfit.shading.estimators import rmse_over_axes
-from envfit.shading.ground_truth import shading_integral, weight_function
+from envfit.maps._envmap import EnvMap
+from envfit.maps._latlong import local_to_world, pixel_solid_angles
+from envfit.shading._estimators import rmse_over_axes
+from envfit.shading._ground_truth import shading_integral, weight_function
 from oracles.is_variance import (LobePdf, MapPdf, is_variance, mis_variance, mixture_pdf,
                                  predicted_rmse_random)
 from oracles.sphere_quadrature import sphere_integrals
-from envfit.theory.brdf import gauss_legendre_01
-from envfit.theory.pointsets import frame_from_axis
+from envfit.theory._brdf import gauss_legendre_01
+from envfit.theory._pointsets import frame_from_axis
 
 NSIGMA = 4.5
 
@@ -300,8 +300,8 @@ def test_quadrature_against_a_finer_one_and_the_ground_truth(brdf, n):
                                   moments=True, **kw)[2],
         lambda **kw: mis_variance(m, axes, pm, pb, brdf, n, mode="one", moments=True, **kw)[2],
     ]
-    from envfit.shading.ground_truth import polynomial_degree
-    from envfit.shading.patches import gauss_legendre_order
+    from envfit.shading._ground_truth import polynomial_degree
+    from envfit.shading._patches import gauss_legendre_order
     D = polynomial_degree(weight_function(brdf, n))
     q = max(4, gauss_legendre_order((2 * D + 3) * (np.pi / 32) / 2))
     for case in cases:
@@ -325,7 +325,7 @@ def test_cell_interpolant_is_the_lookup():
 
 
 def test_parameter_errors():
-    from envfit.base.errors import ParameterError
+    from envfit.base._errors import ParameterError
     m = _test_map()
     with pytest.raises(ParameterError):
         mis_variance(m, AXES, MapPdf(m), LobePdf(), mode="both")

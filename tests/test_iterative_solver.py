@@ -1,4 +1,4 @@
-"""The iterative solver (envfit.kernels.iterative): CG with near/far products and the
+"""The iterative solver (envfit.kernels._iterative): CG with near/far products and the
 local Lagrange + coarse preconditioner, against the dense Cholesky (a second algorithm)."""
 from __future__ import annotations
 
@@ -6,15 +6,15 @@ import numpy as np
 import pytest
 
 import envfit.cli as cli
-import envfit.kernels.interpolation as interp_mod
-from envfit.base.errors import MemoryBudgetError, ParameterError
-from envfit.base.resources import (interpolator_nbytes, iterative_nbytes, largest_feasible_n,
-                                   memory_budget_bytes)
-from envfit.fit.table2 import run_table2, sample_directions
-from envfit.kernels.interpolation import SobolevInterpolator
-from envfit.kernels.iterative import IterativeSolver, _kernel_block
-from envfit.maps.envmap import EnvMap
-from envfit.maps.io import save_envmap
+import envfit.kernels._interpolation as interp_mod
+from envfit.base._errors import MemoryBudgetError, ParameterError
+from envfit.base._resources import (interpolator_nbytes, iterative_nbytes, largest_feasible_n,
+                                    memory_budget_bytes)
+from envfit.fit._table2 import run_table2, sample_directions
+from envfit.kernels._interpolation import SobolevInterpolator
+from envfit.kernels._iterative import IterativeSolver, _kernel_block
+from envfit.maps._envmap import EnvMap
+from envfit.maps._io import save_envmap
 
 
 def _values(p):
@@ -184,10 +184,10 @@ def test_tiny_node_sets(nodes):
 
 
 # ------------------------------------------------- issue 22: tiny Krylov spaces, dense fallback
-import envfit.fit.table2 as table2_mod                    # noqa: E402
-import envfit.kernels.iterative as iterative_mod          # noqa: E402
-from envfit.base.errors import EnvfitError                # noqa: E402
-from envfit.kernels.iterative import IterativeSolverError, _ritz_extremes   # noqa: E402
+import envfit.fit._table2 as table2_mod                    # noqa: E402
+import envfit.kernels._iterative as iterative_mod          # noqa: E402
+from envfit.base._errors import EnvfitError                # noqa: E402
+from envfit.kernels._iterative import IterativeSolverError, _ritz_extremes   # noqa: E402
 
 
 def _plain_cg(a, r0, k):
@@ -309,7 +309,7 @@ def test_issue22_reproducer_synth_height64_table2_n3000(tmp_path):
     assert cli.main(["table2", str(m), "--s", "1.9", "--n", "3000", "--out", str(out), "-q"]) == 0
     row = (out / "table2.csv").read_text().splitlines()[1].split(",")
     assert row[5] == "iterative"
-    from envfit.maps.io import load_envmap
+    from envfit.maps._io import load_envmap
     ref = run_table2(load_envmap(m), [1.9], [3000], solver="cholesky").cells[0]
     assert float(row[2]) == pytest.approx(ref.rmse, rel=1e-6)
 

@@ -1,4 +1,4 @@
-"""Issue 23, point 3: one key of s (envfit.base.keys), the warped spectrum's cache format on
+"""Issue 23, point 3: one key of s (envfit.base._keys), the warped spectrum's cache format on
 its class, one Stage — each checked against the bytes that earlier versions stored."""
 from __future__ import annotations
 
@@ -8,11 +8,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from envfit.base.errors import ParameterError
-from envfit.base.keys import s_key, s_value
-from envfit.base.resources import Plan, Stage
-from envfit.predict.renderer.warped_spectrum import SPECTRUM_FORMAT, WarpedSpectrum
-from envfit.validate.cells import cell_is_current, rule_from_cell
+from envfit.base._errors import ParameterError
+from envfit.base._keys import s_key, s_value
+from envfit.base._resources import Plan, Stage
+from envfit.predict.renderer._warped_spectrum import SPECTRUM_FORMAT, WarpedSpectrum
+from envfit.validate._cells import cell_is_current, rule_from_cell
 
 DATA = Path(__file__).parent / "data"
 
@@ -49,8 +49,8 @@ def test_a_validate_cell_stored_before_is_current_and_read():
 
 
 def test_table2_cells_keep_their_file_names(tmp_path):
-    from envfit.fit.table2 import run_table2
-    from envfit.maps.envmap import EnvMap
+    from envfit.fit._table2 import run_table2
+    from envfit.maps._envmap import EnvMap
     data = 1.0 + np.random.default_rng(2).random((8, 16, 1))
     run_table2(EnvMap(data.astype(np.float32)), [1.15, 1.5], [12], scale="linear", out=tmp_path,
                save_reconstructions=False, quiet=True)
@@ -61,7 +61,7 @@ def test_table2_cells_keep_their_file_names(tmp_path):
 # ----------------------------------------------------------------------------- spectrum
 
 def test_a_spectrum_cached_by_the_old_code_loads_and_writes_back_the_same_bytes():
-    # written by envfit.advisor.renderer.spectrum_to_json before it moved onto the class
+    # written by envfit.advisor._renderer.spectrum_to_json before it moved onto the class
     # (MIS, glossy 20, grid 8, 4 axes on a random 16x8 map; SPECTRUM_FORMAT 2)
     text = (DATA / "warped_spectrum_format2.json").read_text().strip()
     assert SPECTRUM_FORMAT == 2
@@ -90,7 +90,7 @@ def test_spectrum_round_trip_is_exact_and_a_bad_one_refused():
 # ----------------------------------------------------------------------------- stage
 
 def test_the_sh_plan_stages_are_the_plan_stages():
-    from envfit.export.plan import Rates, sh_stages
+    from envfit.export._plan import Rates, sh_stages
     rates = Rates(basis=1e-8, flop=1e-10, synthesis=1e-9, rotation=1e-9)
     stages = sh_stages(16, 3, 4, 6, rates=rates)
     assert all(type(s) is Stage for s in stages)

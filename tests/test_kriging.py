@@ -1,4 +1,4 @@
-"""Tests of envfit.fit.kriging: the closed-form expected interpolation error of a GP map.
+"""Tests of envfit.fit._kriging: the closed-form expected interpolation error of a GP map.
 
 The closed form is the oracle; Monte Carlo over many synthesized maps (data_gen, the real
 lookup, resize and interpolator of Table 2) must agree with it within the MC confidence
@@ -9,15 +9,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from envfit.base.errors import ParameterError
-from envfit.data_gen.gp import gaussian_process_map
-from envfit.fit.kriging import (SynthesisModel, bilinear_stencil, expected_interpolation_mse,
-                                field_covariance)
-from envfit.fit.table2 import sample_directions
-from envfit.kernels.interpolation import SobolevInterpolator
-from envfit.maps.envmap import EnvMap
-from envfit.maps.latlong import bilinear_lookup, pixel_directions, row_solid_angles
-from envfit.theory.sobolev import kernel_from_distance2, kernel_series
+from envfit.base._errors import ParameterError
+from envfit.data_gen._gp import gaussian_process_map
+from envfit.fit._kriging import (SynthesisModel, bilinear_stencil, expected_interpolation_mse,
+                                 field_covariance)
+from envfit.fit._table2 import sample_directions
+from envfit.kernels._interpolation import SobolevInterpolator
+from envfit.maps._envmap import EnvMap
+from envfit.maps._latlong import bilinear_lookup, pixel_directions, row_solid_angles
+from envfit.theory._sobolev import kernel_from_distance2, kernel_series
 
 
 def test_stencil_is_the_bilinear_lookup():
@@ -117,7 +117,7 @@ def test_bad_models_refused():
 @pytest.mark.parametrize("h, f, lmax", [(6, 1, 20), (4, 2, 15), (3, 3, None), (2, 4, 7)])
 def test_pixel_covariance_table_is_the_block_average_of_point_covariances(h, f, lmax):
     """Brute force: R K R^T with R the solid-angle weighted block average of EnvMap.resized."""
-    from envfit.fit.kriging import _pixel_covariance_table, _sq_dist
+    from envfit.fit._kriging import _pixel_covariance_table, _sq_dist
     k0 = field_covariance(1.5, lmax)
     T = _pixel_covariance_table(SynthesisModel(1.5, h, lmax, factor=f), k0)
     hf, w = h * f, 2 * h
@@ -131,7 +131,7 @@ def test_pixel_covariance_table_is_the_block_average_of_point_covariances(h, f, 
 
 
 def test_expected_likelihood_minimal_at_s0_when_exact_and_matches_mc():
-    from envfit.fit.kriging import expected_profiled_likelihood
+    from envfit.fit._kriging import expected_profiled_likelihood
     s = [1.3, 1.4, 1.5, 1.6, 1.7]
     exact = expected_profiled_likelihood(SynthesisModel(1.5, 16, None, lookup=False), s, 150)
     assert int(np.argmin(exact)) == 2

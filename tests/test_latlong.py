@@ -1,12 +1,12 @@
-"""Tests of envfit.maps.latlong: the lat-long convention, solid angles, coordinates, bilinear lookup."""
+"""Tests of envfit.maps._latlong: the lat-long convention, solid angles, coordinates, bilinear lookup."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 from scipy.interpolate import RegularGridInterpolator
 
-import envfit.maps.latlong as ll
-from envfit.base.errors import ParameterError
+import envfit.maps._latlong as ll
+from envfit.base._errors import ParameterError
 
 
 # -- angles and solid angles -------------------------------------------------------------

@@ -13,16 +13,16 @@ import numpy as np
 import pytest
 
 import envfit.cli as cli
-from envfit.data_gen.gp import gaussian_process_map
-from envfit.maps.envmap import EnvMap
-from envfit.maps.io import save_envmap
-from envfit.base.errors import EnvMapFileError, ExecutorError, ParameterError
-from envfit.fit.smoothness import fit_smoothness
-from envfit.kernels.interpolation import SobolevInterpolator
-from envfit.batch.library import run_table2_library
-from envfit.batch.library_fit import fit_smoothness_library
-from envfit.maps.mapsource import MapSource, resolve_map_sources
-from envfit.fit.table2 import run_table2
+from envfit.data_gen._gp import gaussian_process_map
+from envfit.maps._envmap import EnvMap
+from envfit.maps._io import save_envmap
+from envfit.base._errors import EnvMapFileError, ExecutorError, ParameterError
+from envfit.fit._smoothness import fit_smoothness
+from envfit.kernels._interpolation import SobolevInterpolator
+from envfit.batch._library import run_table2_library
+from envfit.batch._library_fit import fit_smoothness_library
+from envfit.maps._mapsource import MapSource, resolve_map_sources
+from envfit.fit._table2 import run_table2
 
 S, N = [1.3, 1.7], [60, 250]
 
@@ -140,7 +140,7 @@ def test_bad_input(maps, tmp_path):
 
 @pytest.mark.parametrize("method", ["likelihood", "loo"])
 def test_fit_library_matches_single_map_fits(maps, count_factorizations, method):
-    """One search (envfit.fit.search) for both: a map alone and the same map inside a library
+    """One search (envfit.fit._search) for both: a map alone and the same map inside a library
     get the same ŝ and interval to rounding; σ̂ (exact at ŝ alone, the lattice spline in a
     library) to 1e-6."""
     two = maps[1:]

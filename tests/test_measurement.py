@@ -1,4 +1,4 @@
-"""envfit.measure.adaptive_rmse: the bootstrap interval of the RMSE over axes covers the true
+"""envfit.measure._adaptive_rmse: the bootstrap interval of the RMSE over axes covers the true
 RMSE as often as it says (normal errors), stays honest under a heavy tail where the
 normal-theory interval fails, the adaptive measurement stops at its target reusing every
 axis, and on a real estimator (random-point BRDF sampling of a GP map) the adaptive
@@ -12,15 +12,15 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from envfit.base.errors import ParameterError
-from envfit.data_gen.gp import gaussian_process_map
-from envfit.maps.envmap import EnvMap
-from envfit.shading.estimators import quadrature_estimates, rmse_over_axes
-from envfit.shading.ground_truth import shading_integral, weight_function
+from envfit.base._errors import ParameterError
+from envfit.data_gen._gp import gaussian_process_map
+from envfit.maps._envmap import EnvMap
+from envfit.shading._estimators import quadrature_estimates, rmse_over_axes
+from envfit.shading._ground_truth import shading_integral, weight_function
 from oracles.is_variance import LobePdf, is_variance
-from envfit.measure.adaptive_rmse import (RMSEInterval, adaptive_rmse, agreement_with_interval,
-                                          rmse_interval, squared_errors_per_axis)
-from envfit.theory.pointsets import lambert_to_hemisphere
+from envfit.measure._adaptive_rmse import (RMSEInterval, adaptive_rmse, agreement_with_interval,
+                                           rmse_interval, squared_errors_per_axis)
+from envfit.theory._pointsets import lambert_to_hemisphere
 
 C = 3                     # channels
 REPS = 200                # repetitions of a coverage experiment

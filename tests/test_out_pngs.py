@@ -16,7 +16,7 @@ import pytest
 
 import envfit.cli as cli
 from envfit.data_gen import SunSkyMap
-from envfit.maps.io import save_envmap
+from envfit.maps._io import save_envmap
 
 ADVISE_QUICK = ["--brdf", "diffuse", "--no-renderer", "--no-cache", "--pointsets", "sf",
                 "--weights", "equal", "--bases", "sh", "--fit-n", "100", "--nmax", "256",

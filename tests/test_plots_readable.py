@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import envfit.plots.library as PL
-import envfit.plots.validate as PV
+import envfit.plots._library as PL
+import envfit.plots._validate as PV
 
 N = [16, 32, 64, 128]
 

@@ -3,9 +3,9 @@ dispatcher, and that run_validation really loops over the registry.
 
 Independent references: the formulas re-derived here from envfit.theory (Sobolev
 coefficients a_l, the closed-form wce with the other embedding), the map's transfer by
-envfit.shading.spectra.map_transfer, and the RMSE measured over Haar-random rotations
+envfit.shading._spectra.map_transfer, and the RMSE measured over Haar-random rotations
 (uniform axes, uniform twist) on a tiny map whose bilinear interpolant is nearly
-band-limited, with ground truth from envfit.shading.ground_truth.shading_integral. Tiny maps,
+band-limited, with ground truth from envfit.shading._ground_truth.shading_integral. Tiny maps,
 few points; never /work/shared.
 """
 from __future__ import annotations
@@ -16,21 +16,21 @@ import math
 import numpy as np
 import pytest
 
-from envfit.base.errors import ParameterError
-from envfit.data_gen.gp import gaussian_process_map
-from envfit.data_gen.sht import synthesize
-from envfit.maps.envmap import EnvMap
+from envfit.base._errors import ParameterError
+from envfit.data_gen._gp import gaussian_process_map
+from envfit.data_gen._sht import synthesize
+from envfit.maps._envmap import EnvMap
 from envfit.predict import (PREDICTORS, Prediction, PredictionContext, Rule, predict,
                             predict_bandlimited, predict_plain, predict_spectral)
-from envfit.shading.estimators import quadrature_estimates, rmse_over_axes
-from envfit.shading.ground_truth import shading_integral
-from envfit.shading.quadrature import random_axes
-from envfit.shading.spectra import map_transfer, rule_error_power
-from envfit.theory.brdf import Diffuse, Glossy
-from envfit.theory.pointsets import generate
-from envfit.theory.quadrature import worst_case_error
-from envfit.theory.sobolev import sobolev_coefficients
-from envfit.theory.weights import optimal_weights
+from envfit.shading._estimators import quadrature_estimates, rmse_over_axes
+from envfit.shading._ground_truth import shading_integral
+from envfit.shading._quadrature import random_axes
+from envfit.shading._spectra import map_transfer, rule_error_power
+from envfit.theory._brdf import Diffuse, Glossy
+from envfit.theory._pointsets import generate
+from envfit.theory._quadrature import worst_case_error
+from envfit.theory._sobolev import sobolev_coefficients
+from envfit.theory._weights import optimal_weights
 
 
 def _osw_rule(wf, n: int, s: float, lmax: int) -> Rule:
@@ -201,7 +201,7 @@ def test_rule_from_points():
 def test_run_validation_loops_over_the_registry(monkeypatch):
     """A predictor added to PREDICTORS appears in every rule of run_validation's result
     and in the agreement statistics, under predicted_rmse_<name>."""
-    from envfit.validate import pipeline as V
+    from envfit.validate import _pipeline as V
 
     def predict_double(ctx, rule):
         return Prediction(name="double", rmse=None if rule.wce is None else 2 * ctx.sigma * rule.wce)

@@ -4,7 +4,7 @@ known size and power and against the marker map's axes, and the CLI's files.
 
 Independent references: :meth:`LatLongConvention.angles` of
 :meth:`LatLongConvention.pixel_to_direction` (each renderer's formula, cited in
-:mod:`envfit.maps.conventions`) for the axis maps; the display scale written out here
+:mod:`envfit.maps._conventions`) for the axis maps; the display scale written out here
 (exposure 0.18 / solid-angle mean luminance, sRGB OETF of IEC 61966-2-1) for the image; the
 disc's closed-form solid angle 2π(1 − cos ρ) and power share LΩ/(4π + LΩ) for the sources;
 the argmax of the marker's channel in the file for the source positions.
@@ -18,12 +18,12 @@ import pytest
 
 import envfit.cli as cli
 from envfit.data_gen import SunSkyMap
-from envfit.data_gen.marker import marker_map
-from envfit.maps.conventions import convention, convention_names
-from envfit.maps.envmap import EnvMap
-from envfit.maps.io import save_envmap
-from envfit.maps.latlong import local_to_world, row_solid_angles
-from envfit.maps.preview import envfit_layout, list_sources, map_preview
+from envfit.data_gen._marker import marker_map
+from envfit.maps._conventions import convention, convention_names
+from envfit.maps._envmap import EnvMap
+from envfit.maps._io import save_envmap
+from envfit.maps._latlong import local_to_world, row_solid_angles
+from envfit.maps._preview import envfit_layout, list_sources, map_preview
 
 LAYOUTS = [n for n in convention_names() if n != "pbrt4"] + ["up-x", "up-z"]
 
@@ -133,7 +133,7 @@ def test_info_out_disk_full_prints_the_results_and_exits_2(tmp_path, monkeypatch
     import os
     from pathlib import Path
 
-    import envfit.base.atomic as atomic
+    import envfit.base._atomic as atomic
     import envfit.plots._save as plot_save
     monkeypatch.setattr(cli, "COMMANDS", ("info",))
     orig = atomic.atomic_write_bytes

@@ -47,7 +47,7 @@ def test_importing_a_sub_package_loads_none_of_its_modules():
             f"for name in {PACKAGES!r}:\n"
             "    importlib.import_module(name)\n"
             "loaded = sorted(m for m in sys.modules if m.startswith('envfit.') and m not in "
-            f"{PACKAGES!r} and m not in ('envfit.base.errors', 'envfit.base.lazy'))\n"
+            f"{PACKAGES!r} and m not in ('envfit.base._errors', 'envfit.base._lazy'))\n"
             "print(loaded)\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
@@ -94,6 +94,24 @@ def test_docs_import_only_public_names(path):
 
 
 def test_the_checker_sees_a_deep_import():
-    assert _deep_imports("from envfit.sampling.map_sampler import MapSampler") == \
-        ["envfit.sampling.map_sampler"]
+    assert _deep_imports("from envfit.sampling._map_sampler import MapSampler") == \
+        ["envfit.sampling._map_sampler"]
     assert _deep_imports(">>> from envfit.sampling import MapSampler") == []
+
+
+#: the modules that are public by design: the CLI's ``python -m envfit.cli`` entry and the one
+#: table of defaults and vocabularies (docs/architecture.md)
+PUBLIC_MODULES = {"envfit/defaults.py", "envfit/cli/__main__.py"}
+
+
+def test_implementation_modules_are_private():
+    """As scipy.stats.qmc: the public surface is ``envfit`` and each sub-package's ``__all__``;
+    every module that implements them is private (``_name.py``)."""
+    public = []
+    for top in ("envfit", "theory", "data_gen"):
+        for p in (ROOT / top).rglob("*.py"):
+            rel = p.relative_to(ROOT).as_posix()
+            if p.name == "__init__.py" or p.name.startswith("_") or rel in PUBLIC_MODULES:
+                continue
+            public.append(rel)
+    assert public == [], f"implementation modules with public names: {sorted(public)}"

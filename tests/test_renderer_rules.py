@@ -1,15 +1,15 @@
-"""Renderer rules: their measurement (envfit.sampling.rules) against their prediction
+"""Renderer rules: their measurement (envfit.sampling._rules) against their prediction
 (envfit.predict.renderer), two independent algorithms — brute-force estimates over random
 axes, twists and shifts versus the warped integrand's spectrum and pixel-quadrature variances."""
 import numpy as np
 import pytest
 
-from envfit.base.errors import ParameterError
-from envfit.data_gen.sun_gp import sun_gp_map
-from envfit.maps.envmap import EnvMap
-from envfit.predict.renderer.predictor import predict_rule, renderer_model
-from envfit.sampling.rules import RendererRule, rule_points
-from envfit.measure.rules import RendererSetup, measure_rule, replicates, rule_estimates
+from envfit.base._errors import ParameterError
+from envfit.data_gen._sun_gp import sun_gp_map
+from envfit.maps._envmap import EnvMap
+from envfit.predict.renderer._predictor import predict_rule, renderer_model
+from envfit.sampling._rules import RendererRule, rule_points
+from envfit.measure._rules import RendererSetup, measure_rule, replicates, rule_estimates
 
 
 @pytest.fixture(scope="module")

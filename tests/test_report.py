@@ -1,7 +1,7 @@
-"""Tests of envfit.validate.report (and its report_* modules): every judgement of report.md is
+"""Tests of envfit.validate._report (and its report_* modules): every judgement of report.md is
 chosen by a named predicate.
 
-Each condition of :data:`envfit.validate.report_conditions.CONDITIONS` is rendered both ways
+Each condition of :data:`envfit.validate._report_conditions.CONDITIONS` is rendered both ways
 from a small synthetic result dict (the keys ``run_validation`` returns, only those the
 sentence reads): the sentence for the outcome the numbers satisfy appears, with the numbers
 given, and the other one does not. A real quick run on a 16-row GP map checks that the
@@ -15,18 +15,18 @@ import inspect
 import math
 
 import pytest
-from envfit.data_gen.gp import gaussian_process_map
+from envfit.data_gen._gp import gaussian_process_map
 
-from envfit.maps.envmap import EnvMap
-from envfit.validate import config as VC
-from envfit.validate import pipeline as V
-from envfit.validate import report as R
-from envfit.validate import report_conditions as C
-from envfit.validate import report_format as F
-from envfit.validate import report_sections as S
-from envfit.validate import report_statements as D
-from envfit.validate.report import render_report, write_report
-from envfit.validate.report_conditions import CONDITIONS
+from envfit.maps._envmap import EnvMap
+from envfit.validate import _config as VC
+from envfit.validate import _pipeline as V
+from envfit.validate import _report as R
+from envfit.validate import _report_conditions as C
+from envfit.validate import _report_format as F
+from envfit.validate import _report_sections as S
+from envfit.validate import _report_statements as D
+from envfit.validate._report import render_report, write_report
+from envfit.validate._report_conditions import CONDITIONS
 
 
 def _result(agreement=None, results=None, map_stats=None, truncation=None):

@@ -1,4 +1,4 @@
-"""Tests of envfit.maps.scales (value scales) and envfit.maps.metrics (RMSE, PSNR, SSIM)."""
+"""Tests of envfit.maps._scales (value scales) and envfit.maps._metrics (RMSE, PSNR, SSIM)."""
 from __future__ import annotations
 
 import dataclasses
@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 from scipy.ndimage import uniform_filter
 
-from envfit.maps.envmap import EnvMap
-from envfit.base.errors import ParameterError
-from envfit.maps.latlong import pixel_solid_angles
-from envfit.maps.metrics import psnr, rmse, rmse_solid_angle, ssim
-from envfit.maps.scales import SCALES, Scale, fit_scale, srgb_oetf
+from envfit.maps._envmap import EnvMap
+from envfit.base._errors import ParameterError
+from envfit.maps._latlong import pixel_solid_angles
+from envfit.maps._metrics import psnr, rmse, rmse_solid_angle, ssim
+from envfit.maps._scales import SCALES, Scale, fit_scale, srgb_oetf
 
 
 # -- sRGB --------------------------------------------------------------------------------

@@ -23,20 +23,21 @@ import pytest
 from scipy.special import sph_harm_y
 
 from envfit import cli
-from envfit.data_gen.sun_gp import sun_gp_map
-from envfit.maps.conventions import convention
-from envfit.maps.envmap import EnvMap
-from envfit.maps.latlong import pixel_directions, pixel_solid_angles
-from envfit.export.ringing import (RingingRow, choose, dense_negative_fractions, negative_fraction,
-                                   truncation_rmse)
-from envfit.export.report import sh_report
-from envfit.shading.bilinear_sh import bilinear_sh_coefficients
-from envfit.shading.ground_truth import funk_hecke_factors, shading_integral
-from envfit.export.sh_export import (RH_CONSTANTS, clamped_cosine_sh, real_sh_basis, rh_irradiance,
-                                     sh_coefficients, sloan_lambda, sloan_window, window_weights)
-from envfit.shading.spectra import map_degree_power
-from envfit.theory.brdf import Diffuse
-from envfit.theory.sphere_points import spherical_fibonacci_sphere
+from envfit.data_gen._sun_gp import sun_gp_map
+from envfit.maps._conventions import convention
+from envfit.maps._envmap import EnvMap
+from envfit.maps._latlong import pixel_directions, pixel_solid_angles
+from envfit.export._ringing import (RingingRow, choose, dense_negative_fractions,
+                                    negative_fraction, truncation_rmse)
+from envfit.export._report import sh_report
+from envfit.shading._bilinear_sh import bilinear_sh_coefficients
+from envfit.shading._ground_truth import funk_hecke_factors, shading_integral
+from envfit.export._sh_export import (RH_CONSTANTS, clamped_cosine_sh, real_sh_basis,
+                                      rh_irradiance, sh_coefficients, sloan_lambda, sloan_window,
+                                      window_weights)
+from envfit.shading._spectra import map_degree_power
+from envfit.theory._brdf import Diffuse
+from envfit.theory._sphere_points import spherical_fibonacci_sphere
 
 RNG_DIRS = np.random.default_rng(0).standard_normal((200, 3))
 DIRS = RNG_DIRS / np.linalg.norm(RNG_DIRS, axis=1, keepdims=True)
@@ -102,7 +103,7 @@ def test_known_coefficients_in_each_convention(name):
 def test_condon_shortley_signs_match_sloans_basis():
     """Written with ``condon_shortley``, the coefficients times the basis with the phase
     (Sloan 2008, D3DX: √2 Re/Im of scipy's complex Y) give the same function."""
-    from envfit.export.sh_format import signed_coefficients
+    from envfit.export._sh_format import signed_coefficients
     env = EnvMap(_poly(pixel_directions(32, up="z"))[..., None], up="z")
     sh = sh_coefficients(env, 2, condon_shortley=True)
     th, ph = np.arccos(DIRS[:, 2]), np.arctan2(DIRS[:, 1], DIRS[:, 0])
@@ -141,7 +142,7 @@ def test_rh_constants_and_quadratic_form():
 def test_nine_coefficients_reproduce_ground_truth_irradiance():
     """Measured RMSE of the 9-coefficient irradiance against the patch quadrature ground
     truth (no SH inside) equals the predicted truncation error of the map's spectrum."""
-    from envfit.data_gen.gp import gaussian_process_map
+    from envfit.data_gen._gp import gaussian_process_map
     env = EnvMap(gaussian_process_map(1.5, 16, seed=3, offset=4.0), up="y")
     A = spherical_fibonacci_sphere(400)
     truth = np.pi * shading_integral(env, A, "diffuse", method="pixels")
@@ -190,7 +191,7 @@ def test_negative_fraction_of_a_lone_sun_closed_form(L, window):
     (2l+1)/(4π) F_l P_l(c), F_l = 2π∫_{cos ρ}^1 P_l; the negative share of the sphere is the
     measure of {c : E(c) < 0} / 2 (c uniform on [−1, 1] for uniform directions)."""
     from numpy.polynomial import legendre as leg
-    from envfit.data_gen.analytic import SunSkyMap
+    from envfit.data_gen._analytic import SunSkyMap
     rho = 0.15
     sun = SunSkyMap(sun_theta=1.0, sun_phi=2.0, sun_radius=rho, sun_radiance=1.0, sky=0.0,
                     subsamples=16)
@@ -242,7 +243,7 @@ def test_choice_sentences():
 # ------------------------------------------------------------------ command line
 @pytest.fixture(scope="module")
 def sun_file(tmp_path_factory, sun_env):
-    from envfit.maps.io import save_envmap
+    from envfit.maps._io import save_envmap
     return save_envmap(tmp_path_factory.mktemp("sh") / "sun.exr",
                        sun_env.data.astype(np.float32))
 

@@ -1,9 +1,9 @@
-"""Tests of envfit.shading.ground_truth: the ground truth of the normalised shading integral (Eq. 17).
+"""Tests of envfit.shading._ground_truth: the ground truth of the normalised shading integral (Eq. 17).
 
 Every expected value is obtained independently: closed forms (constant and sky-gradient
-maps, envfit.data_gen.analytic), 1-D scipy quadrature of an exactly known bilinear interpolant,
+maps, envfit.data_gen._analytic), 1-D scipy quadrature of an exactly known bilinear interpolant,
 a brute-force product rule in the axis frame through envmap.lookup, the closed-form
-coefficients of envfit.theory.brdf, and the other of the two methods.
+coefficients of envfit.theory._brdf, and the other of the two methods.
 """
 from __future__ import annotations
 
@@ -11,17 +11,17 @@ import numpy as np
 import pytest
 from scipy import integrate, special
 
-from envfit.data_gen.analytic import ConstantMap, SkyGradientMap, SunSkyMap
-from envfit.data_gen.gp import gaussian_process_map
-from envfit.shading import ground_truth as S
-from envfit.shading.patches import gauss_legendre_order
-from envfit.shading.bilinear_sh import alm_l_index
-from envfit.shading.patches import bilinear_in_patch, patch_rows
-from envfit.maps.envmap import EnvMap
-from envfit.base.errors import ParameterError
-from envfit.maps.latlong import local_to_world
-from envfit.theory.brdf import Diffuse, Glossy, Phong
-from envfit.theory.pointsets import frame_from_axis
+from envfit.data_gen._analytic import ConstantMap, SkyGradientMap, SunSkyMap
+from envfit.data_gen._gp import gaussian_process_map
+from envfit.shading import _ground_truth as S
+from envfit.shading._patches import gauss_legendre_order
+from envfit.shading._bilinear_sh import alm_l_index
+from envfit.shading._patches import bilinear_in_patch, patch_rows
+from envfit.maps._envmap import EnvMap
+from envfit.base._errors import ParameterError
+from envfit.maps._latlong import local_to_world
+from envfit.theory._brdf import Diffuse, Glossy, Phong
+from envfit.theory._pointsets import frame_from_axis
 
 
 def _axes(n, seed):
@@ -38,7 +38,7 @@ def _rel(a, b):
                          ids=["diffuse", "glossy30", "glossy3", "phong7"])
 def test_lobe_coefficients_match_direct_quadrature(weight):
     # λ_l = ∫_0^1 p P_l dz / r_s and b̃_l = sqrt((2l+1)/2π) ∫_0^1 p P_l(2z-1) dz / r_s,
-    # by scipy quad on p itself (independent of envfit.theory.brdf's Gauss-Legendre path)
+    # by scipy quad on p itself (independent of envfit.theory._brdf's Gauss-Legendre path)
     r_s = integrate.quad(lambda z: float(weight.p(z)), 0, 1, epsabs=1e-14, epsrel=1e-13)[0]
     assert r_s == pytest.approx(float(weight.r_s), rel=1e-12)
     lam = S.funk_hecke_factors(weight, 12)

@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 
 import envfit.cli as cli
-from envfit.data_gen.gp import gaussian_process_map
-from envfit.maps.envmap import EnvMap
-from envfit.maps.io import save_envmap
-from envfit.base.errors import ParameterError
-from envfit.fit.table2 import format_table2, run_table2
+from envfit.data_gen._gp import gaussian_process_map
+from envfit.maps._envmap import EnvMap
+from envfit.maps._io import save_envmap
+from envfit.base._errors import ParameterError
+from envfit.fit._table2 import format_table2, run_table2
 
 
 @pytest.fixture(scope="module")
@@ -36,7 +36,7 @@ def test_rmse_matches_direct_computation(small_map):
     # recompute one cell independently: scipy's RBFInterpolator is a second algorithm for s = 1.5
     from scipy.interpolate import RBFInterpolator
 
-    from envfit.fit.table2 import sample_directions
+    from envfit.fit._table2 import sample_directions
     res = run_table2(small_map, [1.5], [200], scale="linear")
     pts = sample_directions(200, up=small_map.up)
     vals = small_map.lookup(pts).reshape(200, -1)
@@ -97,7 +97,7 @@ def test_cli_table2_outputs(tmp_path, small_map, monkeypatch, capsys):
 
 
 def _curve(mse, n=500):
-    from envfit.fit.kriging import KrigingCurve, SynthesisModel
+    from envfit.fit._kriging import KrigingCurve, SynthesisModel
     m = SynthesisModel.data_gen(1.5, 32, 16)
     mse = np.asarray(mse, dtype=float)
     return KrigingCurve(model=m, n=n, s_values=[1.3, 1.5, 1.7, 1.9], mse_pixel=mse,
@@ -105,7 +105,7 @@ def _curve(mse, n=500):
 
 
 def test_known_s_sentence_is_true_both_ways():
-    from envfit.fit.kriging import known_s_sentence
+    from envfit.fit._kriging import known_s_sentence
     above = _curve([4.0, 3.0, 2.0, 2.5])                 # expected optimum 1.7 > s0
     s = known_s_sentence(above, 1.7, "linear")
     assert "lowest at s = 1.7 among these s (parabola vertex 1.7" in s
@@ -122,8 +122,8 @@ def test_known_s_sentence_is_true_both_ways():
 
 
 def test_builtin_synthesis_recognises_only_the_builtin_map(small_map):
-    from envfit.fit.kriging import builtin_synthesis
-    from envfit.maps.default_map import DEFAULT_HEIGHT, DEFAULT_S0, default_envmap
+    from envfit.fit._kriging import builtin_synthesis
+    from envfit.maps._default_map import DEFAULT_HEIGHT, DEFAULT_S0, default_envmap
     assert builtin_synthesis(small_map) is None
     m = builtin_synthesis(default_envmap(height=64))
     assert (m.s0, m.height, m.lmax, m.factor) == (DEFAULT_S0, 64, 63, 1)

@@ -1,4 +1,4 @@
-"""Tests for envfit.theory.bnot: periodic power diagrams, capacity weights, BNOT, spectra."""
+"""Tests for envfit.theory._bnot: periodic power diagrams, capacity weights, BNOT, spectra."""
 from __future__ import annotations
 
 import numpy as np
@@ -6,11 +6,11 @@ import pytest
 from scipy.optimize import linprog
 from scipy.spatial import HalfspaceIntersection, Voronoi
 
-from envfit.theory import bnot
-from envfit.theory.bnot import (bnot_diagnostics, bnot_square, capacity_weights,
-                                min_toroidal_distance, radial_power_spectrum)
-from envfit.theory.power_cells import power_diagram
-from envfit.theory.errors import TheoryParameterError
+from envfit.theory import _bnot as bnot
+from envfit.theory._bnot import (bnot_diagnostics, bnot_square, capacity_weights,
+                                 min_toroidal_distance, radial_power_spectrum)
+from envfit.theory._power_cells import power_diagram
+from envfit.theory._errors import TheoryParameterError
 
 TILES = np.array([(i, j) for i in (-1, 0, 1) for j in (-1, 0, 1)], dtype=float)
 

@@ -6,9 +6,9 @@ import pytest
 from scipy import integrate
 from scipy.special import eval_legendre
 
-from envfit.theory.brdf import (Diffuse, Glossy, Phong, WeightFunction, ZonalWeight,
-                         gauss_legendre_01, hsh_to_sh_matrix)
-from envfit.theory.errors import TheoryParameterError
+from envfit.theory._brdf import (Diffuse, Glossy, Phong, WeightFunction, ZonalWeight,
+                                 gauss_legendre_01, hsh_to_sh_matrix)
+from envfit.theory._errors import TheoryParameterError
 
 
 pytestmark = pytest.mark.filterwarnings("ignore::scipy.integrate.IntegrationWarning")
@@ -223,7 +223,7 @@ def test_sharp_glossy_sh_coefficients_against_quadrature(n):
 def test_glossy_closed_form_meets_generic_path():
     """At the switch n = GLOSSY_CLOSED_FORM_N the generic quadrature (below) and the Bessel
     form (above) agree, coefficients and resolution degree."""
-    from envfit.theory.brdf import GLOSSY_CLOSED_FORM_N
+    from envfit.theory._brdf import GLOSSY_CLOSED_FORM_N
     n = GLOSSY_CLOSED_FORM_N
     g = Glossy(n)
     np.testing.assert_allclose(g.sh_coefficients(400), g.sh_coefficients_bessel(400),
@@ -251,7 +251,7 @@ def test_glossy_lobe_no_runtime_warning(n):
 
 
 def test_glossy_shininess_range():
-    from envfit.theory.brdf import GLOSSY_MAX_SHININESS
+    from envfit.theory._brdf import GLOSSY_MAX_SHININESS
     Glossy(GLOSSY_MAX_SHININESS)
     with pytest.raises(TheoryParameterError, match="must be <= 1e\\+09"):
         Glossy(2 * GLOSSY_MAX_SHININESS)
@@ -263,7 +263,7 @@ def test_glossy_with_a_horizon_jump_fast_and_exact(n):
     quadrature to 1e-14, and to the embedding's 65536 degrees in well under the generic
     quadrature's 140 s (O(lmax²)) at n = 1."""
     import time
-    from envfit.theory.brdf import GLOSSY_SPLIT_N
+    from envfit.theory._brdf import GLOSSY_SPLIT_N
     assert n <= GLOSSY_SPLIT_N
     ls = [0, 1, 2, 3, 10, 50, 200, 1000]
     g = Glossy(n)

@@ -1,4 +1,4 @@
-"""Tests for envfit.theory.pointsets: square generators, SF, Lambert lift, morphs, rotations."""
+"""Tests for envfit.theory._pointsets: square generators, SF, Lambert lift, morphs, rotations."""
 from __future__ import annotations
 
 import functools
@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 from scipy import integrate, stats
 
-from envfit.theory.errors import TheoryParameterError
-from envfit.theory.pointsets import (DETERMINISTIC_POINTSETS, POINTSETS, frame_from_axis, generate,
-                              hemisphere_points, jitter_strata, lambert_to_hemisphere,
-                              larcher_pillichshammer, morph_diffuse, morph_glossy,
-                              random_square, rotate_to_axes, sobol02, spherical_fibonacci,
-                              square_points, stratified_jitter)
+from envfit.theory._errors import TheoryParameterError
+from envfit.theory._pointsets import (DETERMINISTIC_POINTSETS, POINTSETS, frame_from_axis,
+                                      generate, hemisphere_points, jitter_strata,
+                                      lambert_to_hemisphere, larcher_pillichshammer, morph_diffuse,
+                                      morph_glossy, random_square, rotate_to_axes, sobol02,
+                                      spherical_fibonacci, square_points, stratified_jitter)
 
 
 # ----------------------------------------------------------------------------- helpers

@@ -6,16 +6,16 @@ import pytest
 from scipy import integrate
 from scipy.special import eval_legendre, sph_harm_y
 
-from envfit.theory.brdf import Diffuse, Glossy
-from envfit.theory.errors import TheoryParameterError
-from envfit.theory.quadrature import (error_spectrum, initial_error, kernel_mean_embedding,
-                               weighted_energy_sum, worst_case_error,
-                               worst_case_error_squared, embedding_coefficients)
-from envfit.theory.sh import (_power_spectrum_legendre_pairs, legendre_p, legendre_series,
-                       point_set_power_spectrum, point_set_sh_coefficients, points_to_angles,
-                       zonal_sums)
-from envfit.theory.sobolev import kernel_constant, kernel_series, sobolev_coefficients
-from envfit.theory.weights import equal_weights, kernel_matrix, optimal_weights
+from envfit.theory._brdf import Diffuse, Glossy
+from envfit.theory._errors import TheoryParameterError
+from envfit.theory._quadrature import (error_spectrum, initial_error, kernel_mean_embedding,
+                                       weighted_energy_sum, worst_case_error,
+                                       worst_case_error_squared, embedding_coefficients)
+from envfit.theory._sh import (_power_spectrum_legendre_pairs, legendre_p, legendre_series,
+                               point_set_power_spectrum, point_set_sh_coefficients,
+                               points_to_angles, zonal_sums)
+from envfit.theory._sobolev import kernel_constant, kernel_series, sobolev_coefficients
+from envfit.theory._weights import equal_weights, kernel_matrix, optimal_weights
 
 
 pytestmark = pytest.mark.filterwarnings("ignore::scipy.integrate.IntegrationWarning")
@@ -33,7 +33,7 @@ def hemisphere_points(n, seed, brdf=None):
 def gd_kernel(s, u, v):
     """K_gd (Eq. 14) with |u - v| from coordinate differences: exactly 0 for u = v.
 
-    (envfit.theory.sobolev.generalized_distance_kernel uses 2 - 2 u.v, whose rounding gives
+    (envfit.theory._sobolev.generalized_distance_kernel uses 2 - 2 u.v, whose rounding gives
     |u - u|^{2s-2} ~ 1e-8 on the diagonal.)
     """
     d2 = np.sum((u[:, None, :] - v[None, :, :]) ** 2, axis=-1)
@@ -133,7 +133,7 @@ def test_embedding_chebyshev_path_equals_series():
 
 def test_initial_error_eq57_matches_double_integral():
     # E_0^2 = (1/(4 pi^2 r_s^2)) iint K p p = int_0^1 int_0^1 p^(z1) p^(z2) kbar(z1, z2)
-    from envfit.theory.truncation import azimuthal_mean_kernel
+    from envfit.theory._truncation import azimuthal_mean_kernel
     for brdf in (Diffuse(), Glossy(30.0)):
         r = brdf.r_s
 
@@ -323,7 +323,7 @@ def test_input_validation():
 def test_kernel_matrix_condition_grows_like_n_to_the_s(s):
     """docs/ERRATA.md (Table 2): cond(K) of the OSW system grows like N^s, so at N = 20000 and
     s = 1.9 it is far beyond what a float32 factorisation resolves (1/eps32 ≈ 8.4e6)."""
-    from envfit.theory.pointsets import generate
+    from envfit.theory._pointsets import generate
     ns = np.array([128, 256, 512])
     cond = []
     for n in ns:

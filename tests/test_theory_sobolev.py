@@ -1,12 +1,12 @@
-"""envfit.theory.sobolev: a_l (Eqs. 15-16) against the definition Eq. 9 by quadrature, and Eq. 8."""
+"""envfit.theory._sobolev: a_l (Eqs. 15-16) against the definition Eq. 9 by quadrature, and Eq. 8."""
 import numpy as np
 import pytest
 from scipy.integrate import quad
 from scipy.special import eval_legendre
 
-from envfit.theory.errors import TheoryParameterError
-from envfit.theory.sobolev import (generalized_distance_kernel, kernel_constant, kernel_from_distance2,
-                            kernel_series, sobolev_coefficients)
+from envfit.theory._errors import TheoryParameterError
+from envfit.theory._sobolev import (generalized_distance_kernel, kernel_constant,
+                                    kernel_from_distance2, kernel_series, sobolev_coefficients)
 
 
 @pytest.mark.parametrize("s", [1.1, 1.3, 1.5, 1.75, 1.9])

@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-from envfit.theory.errors import TheoryParameterError
-from envfit.theory.sphere_points import random_sphere, sphere_points, spherical_fibonacci_sphere
+from envfit.theory._errors import TheoryParameterError
+from envfit.theory._sphere_points import random_sphere, sphere_points, spherical_fibonacci_sphere
 
 
 def test_fibonacci_is_unit_and_equal_area():

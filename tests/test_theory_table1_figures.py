@@ -1,8 +1,8 @@
-"""Tests of envfit.theory.table1 (the paper's Table 1) and envfit.theory.figures (the data of Figs. 1–5).
+"""Tests of envfit.theory._table1 (the paper's Table 1) and envfit.theory._figures (the data of Figs. 1–5).
 
 Independent references: the published values of Table 1 / Sec. 8.2, closed forms of a_l
 and of the diffuse b_l (errata), the spatial double integral Eq. 66, the O(N² lmax)
-Legendre pair sum of Eq. 44, the bisection of envfit.theory.truncation.equivalent_qmc_points,
+Legendre pair sum of Eq. 44, the bisection of envfit.theory._truncation.equivalent_qmc_points,
 and the expected squared error of i.i.d. importance sampling, E[E²] = (C − E0²)/N.
 """
 from __future__ import annotations
@@ -12,19 +12,19 @@ import math
 import numpy as np
 import pytest
 
-from envfit.theory.brdf import Glossy
-from envfit.theory.figures import (POINTSET_ORDER, bnot_figure_data, convergence_data,
-                            low_order_closeup, make_weight, quadrature_rule, spectra_data)
-from envfit.theory.errors import TheoryParameterError
-from envfit.theory.quadrature import initial_error, worst_case_error
-from envfit.theory.sh import _power_spectrum_legendre_pairs
-from envfit.theory.sobolev import kernel_constant
-from envfit.theory.table1 import (PAPER_SEC82, PAPER_TABLE1, cutoff_degree, paper_comparison, table1)
-from envfit.theory.truncation import (equivalent_qmc_points, morphed_spherical_fibonacci,
-                               spatial_truncation_error)
-from envfit.theory.wce_curves import (extrapolate_wce_curve, fit_convergence_slope, invert_wce_curve,
-                               log_grid, qmc_wce_curve)
-from envfit.theory.weights import equal_weights
+from envfit.theory._brdf import Glossy
+from envfit.theory._figures import (POINTSET_ORDER, bnot_figure_data, convergence_data,
+                                    low_order_closeup, make_weight, quadrature_rule, spectra_data)
+from envfit.theory._errors import TheoryParameterError
+from envfit.theory._quadrature import initial_error, worst_case_error
+from envfit.theory._sh import _power_spectrum_legendre_pairs
+from envfit.theory._sobolev import kernel_constant
+from envfit.theory._table1 import PAPER_SEC82, PAPER_TABLE1, cutoff_degree, paper_comparison, table1
+from envfit.theory._truncation import (equivalent_qmc_points, morphed_spherical_fibonacci,
+                                       spatial_truncation_error)
+from envfit.theory._wce_curves import (extrapolate_wce_curve, fit_convergence_slope,
+                                       invert_wce_curve, log_grid, qmc_wce_curve)
+from envfit.theory._weights import equal_weights
 
 S = 1.5
 TARGET = 2.5e-3
@@ -235,7 +235,7 @@ def test_bnot_figure_data_blue_noise_and_capacity():
 def test_claim_anisotropic_part_dominates_the_wce(spectra):
     """Sec. 5.2 / Fig. 1 caption (docs/ERRATA.md): E = (E_Z^2 + E_A^2)^(1/2), and for the QMC
     rules of Sec. 7 the anisotropic part E_A is the larger one."""
-    from envfit.theory.claims import anisotropic_dominance_claim
+    from envfit.theory._claims import anisotropic_dominance_claim
     c = anisotropic_dominance_claim(spectra, "diffuse", "equal")
     assert c.id == "fig1.anisotropic-dominates.diffuse" and c.threshold == 1.0 and c.holds
     for ps, ratio in c.values["zonal_over_anisotropic"].items():
@@ -247,8 +247,8 @@ def test_claim_anisotropic_part_dominates_the_wce(spectra):
 
 def test_claim_fig5a_caption_is_not_reproducible():
     """Fig. 5(a) caption (docs/ERRATA.md): E(3) ≈ 4.4e-3 contradicts b_3 = 0, E(3) = E(2)."""
-    from envfit.theory.claims import caption_fig5a_claim
-    from envfit.theory.figures import truncation_figure_data
+    from envfit.theory._claims import caption_fig5a_claim
+    from envfit.theory._figures import truncation_figure_data
     td = truncation_figure_data(S, 30.0, 4, qmc_nmax=64)
     c = caption_fig5a_claim(td)
     assert c.values["b3_zero"] and c.values["wce_L3"] == c.values["wce_L2"]
@@ -257,8 +257,9 @@ def test_claim_fig5a_caption_is_not_reproducible():
 
 
 def test_claims_verdicts_follow_their_thresholds():
-    from envfit.theory.claims import figure_claims, random_slope_claims, structured_beat_random_claims
-    from envfit.theory.figures import bnot_figure_data
+    from envfit.theory._claims import (figure_claims, random_slope_claims,
+                                       structured_beat_random_claims)
+    from envfit.theory._figures import bnot_figure_data
     cd = convergence_data(256, S, 30.0, seed=0, pointsets=("random", "sf"), brdfs=("glossy",))
     slopes = {c.id: c for c in random_slope_claims(cd)}
     assert set(slopes) == {"fig4.random-slope-equal.glossy", "fig4.random-slope-osw.glossy"}

@@ -5,14 +5,14 @@ import numpy as np
 import pytest
 from scipy import integrate
 
-from envfit.theory.brdf import Diffuse, Glossy
-from envfit.theory.errors import TheoryParameterError
-from envfit.theory.quadrature import worst_case_error
-from envfit.theory.sobolev import kernel_constant, sobolev_coefficients
-from envfit.theory.truncation import (azimuthal_mean_kernel, equivalent_qmc_points,
-                               morphed_spherical_fibonacci, smallest_degree,
-                               spatial_truncation_error, truncation_error,
-                               truncation_error_curve)
+from envfit.theory._brdf import Diffuse, Glossy
+from envfit.theory._errors import TheoryParameterError
+from envfit.theory._quadrature import worst_case_error
+from envfit.theory._sobolev import kernel_constant, sobolev_coefficients
+from envfit.theory._truncation import (azimuthal_mean_kernel, equivalent_qmc_points,
+                                       morphed_spherical_fibonacci, smallest_degree,
+                                       spatial_truncation_error, truncation_error,
+                                       truncation_error_curve)
 
 S = 1.5
 
@@ -41,7 +41,7 @@ def test_diffuse_sh_curve_values_and_b3_zero():
     assert E[5] == E[4] and E[7] == E[6]
     assert np.all(np.diff(E) <= 0)
     # E(0)^2 = E_0^2 - a_0 b_0^2 = initial error minus the l = 0 term
-    from envfit.theory.quadrature import initial_error
+    from envfit.theory._quadrature import initial_error
     assert E[0] ** 2 == pytest.approx(initial_error(Diffuse(), S) - kernel_constant(S) / 2, rel=1e-12)
 
 

@@ -1,8 +1,8 @@
-"""Tests of envfit.validate.pipeline (pipeline + agreement statistics), envfit.validate.report, envfit.plots.validate
+"""Tests of envfit.validate._pipeline (pipeline + agreement statistics), envfit.validate._report, envfit.plots._validate
 and the ``envfit validate`` CLI.
 
-Independent references: ``envfit.theory.quadrature.worst_case_error`` / ``error_spectrum`` (the
-closed form and the spectral sum), ``envfit.shading.estimators.quadrature_estimates`` (the
+Independent references: ``envfit.theory._quadrature.worst_case_error`` / ``error_spectrum`` (the
+closed form and the spectral sum), ``envfit.shading._estimators.quadrature_estimates`` (the
 one-weight-vector estimator), a direct dense solve for σ̂, ``np.polyfit``, hand-computed
 log-mean ratios, ``scipy.stats.kendalltau`` on known orders, and the Gaussian-process
 identity E[(Ĩ − I)²] = σ²·wce² checked on a synthesized GP map. Tiny maps, few axes and N;
@@ -16,23 +16,23 @@ import math
 import numpy as np
 import pytest
 
-from envfit.data_gen.gp import gaussian_process_map
-from envfit.fit import sigma as SG
-from envfit.shading import quadrature as Q
-from envfit.validate import agreement as AG
-from envfit.shading import spectra as SP
-from envfit.validate import config as VC
-from envfit.validate import pipeline as V
-from envfit.base.atomic import to_jsonable
-from envfit.maps.envmap import EnvMap
-from envfit.maps.io import save_envmap
-from envfit.base.errors import ParameterError
-from envfit.shading.estimators import quadrature_estimates
-from envfit.theory.brdf import Diffuse, Glossy
-from envfit.theory.pointsets import generate
-from envfit.theory.quadrature import error_spectrum, worst_case_error
-from envfit.theory.sobolev import generalized_distance_kernel
-from envfit.theory.weights import optimal_weights
+from envfit.data_gen._gp import gaussian_process_map
+from envfit.fit import _sigma as SG
+from envfit.shading import _quadrature as Q
+from envfit.validate import _agreement as AG
+from envfit.shading import _spectra as SP
+from envfit.validate import _config as VC
+from envfit.validate import _pipeline as V
+from envfit.base._atomic import to_jsonable
+from envfit.maps._envmap import EnvMap
+from envfit.maps._io import save_envmap
+from envfit.base._errors import ParameterError
+from envfit.shading._estimators import quadrature_estimates
+from envfit.theory._brdf import Diffuse, Glossy
+from envfit.theory._pointsets import generate
+from envfit.theory._quadrature import error_spectrum, worst_case_error
+from envfit.theory._sobolev import generalized_distance_kernel
+from envfit.theory._weights import optimal_weights
 
 TINY = dict(s=1.5, brdfs=("diffuse", "glossy"), pointsets=("sf", "random"),
             weights=("equal", "osw"), n_values=(16, 32, 64), axes=60, scale="linear",
@@ -195,9 +195,9 @@ def test_profiled_sigma_matches_dense_solve():
     env = EnvMap(gaussian_process_map(1.5, 16, seed=7, channels=2, scale=3.0))
     n = 120
     sig = SG.profiled_sigma(env, 1.4, n=n, seed=0)
-    # independent: explicit kernel from envfit.theory.sobolev, numpy solve, same sampling directions
-    from envfit.theory.sphere_points import sphere_points
-    from envfit.maps.latlong import local_to_world
+    # independent: explicit kernel from envfit.theory._sobolev, numpy solve, same sampling directions
+    from envfit.theory._sphere_points import sphere_points
+    from envfit.maps._latlong import local_to_world
     loc = sphere_points("sf", n)
     v = env.lookup(loc @ local_to_world(env.up).T).reshape(n, 2)
     v = v - v.mean(axis=0)
@@ -283,7 +283,7 @@ def test_truncation_truth(tiny_result):
 # ----------------------------------------------------------------------------- report, plots, CLI
 
 def test_report_sections(tiny_result):
-    from envfit.validate.report import render_report
+    from envfit.validate._report import render_report
     md = render_report(tiny_result.to_json(), {"validate_quadrature_glossy.png": "/x/validate_quadrature_glossy.png"})
     for head in ("## What was run", "## Agreement", "### Rank order", "### Truncation",
                  "## What disagrees and why"):
@@ -325,7 +325,7 @@ def test_cli_end_to_end(tmp_path, capsys):
 
 
 def test_auto_s_path(gp_map):
-    """--s auto: s and σ come from envfit.fit.smoothness (likelihood); σ matches the profiled σ̂ at that s."""
+    """--s auto: s and σ come from envfit.fit._smoothness (likelihood); σ matches the profiled σ̂ at that s."""
     cfg = V.ValidateConfig(**{**TINY, "s": "auto", "truncation": False, "n_values": (16,),
                               "pointsets": ("sf",), "weights": ("equal",), "fit_n": 150})
     r = V.run_validation(gp_map, cfg)
@@ -339,11 +339,11 @@ def test_auto_s_path(gp_map):
 def test_low_degree_power_ratio_on_known_spectrum():
     """A map with known real SH coefficients at l = 2 only: ρ_2 = P_2/(σ² a_2), ρ_l ≈ 0 elsewhere.
 
-    Reference: the coefficients put in (envfit.data_gen.sht.synthesize); the bilinear interpolant of a
+    Reference: the coefficients put in (envfit.data_gen._sht.synthesize); the bilinear interpolant of a
     64-row map changes a degree-2 coefficient by O((l π/H)²) ≈ 1e-3 relative.
     """
-    from envfit.data_gen.sht import real_index, synthesize
-    from envfit.theory.sobolev import sobolev_coefficients
+    from envfit.data_gen._sht import real_index, synthesize
+    from envfit.theory._sobolev import sobolev_coefficients
     c = np.zeros(9)
     c[real_index(2, np.arange(-2, 3))] = [1.0, 2.0, 0.0, -1.0, 0.5]
     env = EnvMap(synthesize(c, 64)[:, :, None] + 3.0)           # an offset only changes l = 0
@@ -354,9 +354,9 @@ def test_low_degree_power_ratio_on_known_spectrum():
 
 
 def test_map_degree_power_of_known_coefficients():
-    """P̂_l of a map built from known real SH coefficients (envfit.data_gen.sht.synthesize): the
+    """P̂_l of a map built from known real SH coefficients (envfit.data_gen._sht.synthesize): the
     sum of squares / (2l+1) put in, to the O((lπ/H)²) bilinear change; l = 0 is 4π·mean²."""
-    from envfit.data_gen.sht import real_index, synthesize
+    from envfit.data_gen._sht import real_index, synthesize
     c = np.zeros(16)
     c[real_index(1, np.arange(-1, 2))] = [0.3, -1.0, 0.0]
     c[real_index(3, np.arange(-3, 4))] = [0.0, 0.5, 0.0, 0.0, 2.0, 0.0, -0.25]
@@ -370,9 +370,9 @@ def test_map_degree_power_of_known_coefficients():
 
 
 def test_rule_error_power_sums_to_wce():
-    """Σ_l a_l e_l = wce² of envfit.theory.quadrature.worst_case_error (closed form); the sum stops
+    """Σ_l a_l e_l = wce² of envfit.theory._quadrature.worst_case_error (closed form); the sum stops
     at l = 4000, whose tail (a_l e_l ~ l^(1-2s)) is ~3e-4 of the total at s = 1.7."""
-    from envfit.theory.sobolev import sobolev_coefficients
+    from envfit.theory._sobolev import sobolev_coefficients
     pts = generate("sf", 40, morph=Glossy(10.0).morph)
     w = np.full(40, 1 / 40)
     e = V.rule_error_power(pts, w, Glossy(10.0), 4000)
@@ -386,7 +386,7 @@ def test_spectral_prediction_matches_measured_rmse():
     on a fine grid. Agreement within 3 standard errors of the measured RMSE (the Monte Carlo
     error of M axes, also an independent computation: ground truth by shading_integral,
     estimates by bilinear lookups)."""
-    from envfit.data_gen.sht import synthesize
+    from envfit.data_gen._sht import synthesize
     rng = np.random.default_rng(5)
     c = rng.normal(size=100) / (1.0 + np.repeat(np.arange(10), 2 * np.arange(10) + 1))
     env = EnvMap(np.stack([synthesize(c, 96), synthesize(rng.permutation(c), 96)], axis=2) + 1.0)
@@ -404,7 +404,7 @@ def test_spectral_prediction_matches_measured_rmse():
 def test_model_scatter_against_sampled_spectra():
     """model_scatter (delta method) against the spread of sqrt(Σ P̂_l e_l) over sampled
     realisations P̂_l ~ σ² a_l χ²_{(2l+1)C}/((2l+1)C) (numpy's chi-square sampler)."""
-    from envfit.theory.sobolev import sobolev_coefficients
+    from envfit.theory._sobolev import sobolev_coefficients
     pts = generate("random", 64, seed=2, morph=Diffuse().morph)
     e = V.rule_error_power(pts, np.full(64, 1 / 64), Diffuse(), 60)
     sig = [1.0, 2.0, 0.5]

@@ -1,9 +1,9 @@
-"""Tests of ``envfit validate --renderer``: envfit.validate.renderer, its report section
-(envfit.validate.report_renderer and the ``renderer_*`` conditions), envfit.plots.renderer and
+"""Tests of ``envfit validate --renderer``: envfit.validate._renderer, its report section
+(envfit.validate._report_renderer and the ``renderer_*`` conditions), envfit.plots._renderer and
 the CLI flags.
 
-Independent references: :func:`envfit.predict.renderer.predictor.predict_rule` and
-:func:`envfit.measure.rules.measure_rule` called directly on a fresh setup (a second
+Independent references: :func:`envfit.predict.renderer._predictor.predict_rule` and
+:func:`envfit.measure._rules.measure_rule` called directly on a fresh setup (a second
 path, same seeds), ``statistics.median`` and hand-written loops for the summaries,
 ``json`` for the round trip, matplotlib's PNG reader, and results constructed by hand where a
 report condition holds and where it fails. A 32×16 sun-on-GP map, N ≤ 32, few axes.
@@ -19,18 +19,18 @@ import sys
 import numpy as np
 import pytest
 
-import envfit.validate.renderer as VR
-from envfit.base.atomic import to_jsonable
-from envfit.base.errors import ParameterError
-from envfit.data_gen.sun_gp import sun_gp_map
-from envfit.maps.envmap import EnvMap
-from envfit.maps.io import load_envmap, save_envmap
-from envfit.predict.renderer.predictor import predict_rule, renderer_model
-from envfit.measure.adaptive_rmse import agreement_with_interval
-from envfit.sampling.rules import RendererRule
-from envfit.measure.rules import RendererSetup, measure_rule
-from envfit.validate import report_conditions as RC
-from envfit.validate import report_renderer as RR
+import envfit.validate._renderer as VR
+from envfit.base._atomic import to_jsonable
+from envfit.base._errors import ParameterError
+from envfit.data_gen._sun_gp import sun_gp_map
+from envfit.maps._envmap import EnvMap
+from envfit.maps._io import load_envmap, save_envmap
+from envfit.predict.renderer._predictor import predict_rule, renderer_model
+from envfit.measure._adaptive_rmse import agreement_with_interval
+from envfit.sampling._rules import RendererRule
+from envfit.measure._rules import RendererSetup, measure_rule
+from envfit.validate import _report_conditions as RC
+from envfit.validate import _report_renderer as RR
 
 SMALL = dict(strategies=("map", "split"), pointsets=("sobol", "random"), lobes=("diffuse",),
              n_values=(16, 32), grid=64, spectrum_axes=8, axes_start=60, max_axes=120,
@@ -281,7 +281,7 @@ def test_measured_axes_sentence_both_ways():
 
 
 def test_report_has_the_section_only_with_renderer(result):
-    from envfit.validate.report_renderer import _renderer_section
+    from envfit.validate._report_renderer import _renderer_section
     lines = _renderer_section({"renderer": result.to_json()})
     assert lines[0] == "## Renderer rules (`--renderer`)"
     assert sum(1 for x in lines if x.startswith("| diffuse ")) == len(result.rules)
@@ -298,7 +298,7 @@ def _png_shape(path):
 
 
 def test_plot_renderer_writes_a_png(tmp_path):
-    from envfit.plots.renderer import plot_renderer
+    from envfit.plots._renderer import plot_renderer
     cells = [_cell(s, p, n, pred=1.0 / n, meas=1.1 / n, lobe=lb).to_json()
              for lb in ("diffuse", "glossy") for s in ("map", "mis") for p in ("sobol", "random")
              for n in (16, 64)]

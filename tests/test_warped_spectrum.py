@@ -1,4 +1,4 @@
-"""The warped-integrand spectrum predicts the shifted estimators' error (envfit.predict.renderer.warped_spectrum).
+"""The warped-integrand spectrum predicts the shifted estimators' error (envfit.predict.renderer._warped_spectrum).
 
 Every reference is independent: brute-force means over thousands of Cranley–Patterson shifts
 and twists of the estimators themselves, the exact variances of oracles.is_variance
@@ -7,17 +7,17 @@ mean of the shading integral.
 """
 import numpy as np
 import pytest
-from envfit.data_gen.sun_gp import sun_gp_map
-from envfit.theory.pointsets import square_points
+from envfit.data_gen._sun_gp import sun_gp_map
+from envfit.theory._pointsets import square_points
 
-from envfit.base.errors import ParameterError
-from envfit.maps.envmap import EnvMap
-from envfit.maps.latlong import pixel_solid_angles
-from envfit.predict.renderer import warped_spectrum as ws
-from envfit.shading.ground_truth import shading_integral, weight_function
-from envfit.sampling.importance import importance_estimates
+from envfit.base._errors import ParameterError
+from envfit.maps._envmap import EnvMap
+from envfit.maps._latlong import pixel_solid_angles
+from envfit.predict.renderer import _warped_spectrum as ws
+from envfit.shading._ground_truth import shading_integral, weight_function
+from envfit.sampling._importance import importance_estimates
 from oracles.is_variance import LobePdf, MapPdf, is_variance, mis_variance
-from envfit.sampling.map_sampler import MapSampler
+from envfit.sampling._map_sampler import MapSampler
 
 
 @pytest.fixture(scope="module")

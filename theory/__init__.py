@@ -4,23 +4,23 @@ Pure numerical code (numpy/scipy/ducc0), no I/O, never imports ``envfit``. Each 
 holds one concept of Marques, Bouville & Bouatouch, "Spectral Analysis of Quadrature Rules
 and Fourier Truncation-based Methods Applied to Shading Integrals" (IEEE TVCG 2019):
 
-- :mod:`envfit.theory.sobolev` — a_l^(s) (Eqs. 15–16), the generalized distance kernel (Eq. 14);
-- :mod:`envfit.theory.brdf` — zonal weight functions, b_l, b̃_l, HSH→SH (Eqs. 20–33);
-- :mod:`envfit.theory.sh` — Legendre/SH sums of point sets (Eqs. 44–45, 54);
-- :mod:`envfit.theory.pointsets`, :mod:`envfit.theory.bnot` (on :mod:`envfit.theory.power_cells`),
-  :mod:`envfit.theory.sphere_points` — point sets;
-- :mod:`envfit.theory.weights` — equal and optimal sample weights;
-- :mod:`envfit.theory.cholesky` — the dense Cholesky every factorisation uses (blocked, safe from
+- :mod:`envfit.theory._sobolev` — a_l^(s) (Eqs. 15–16), the generalized distance kernel (Eq. 14);
+- :mod:`envfit.theory._brdf` — zonal weight functions, b_l, b̃_l, HSH→SH (Eqs. 20–33);
+- :mod:`envfit.theory._sh` — Legendre/SH sums of point sets (Eqs. 44–45, 54);
+- :mod:`envfit.theory._pointsets`, :mod:`envfit.theory._bnot` (on :mod:`envfit.theory._power_cells`),
+  :mod:`envfit.theory._sphere_points` — point sets;
+- :mod:`envfit.theory._weights` — equal and optimal sample weights;
+- :mod:`envfit.theory._cholesky` — the dense Cholesky every factorisation uses (blocked, safe from
   OpenBLAS's threaded-``dsyrk`` crash on AVX-512 at N >= 16 000);
-- :mod:`envfit.theory.quadrature` — worst-case error Eq. 41 and its spectrum Eq. 42;
-- :mod:`envfit.theory.truncation` — SH/HSH truncation error Eqs. 51–52, N-versus-L equivalence;
-- :mod:`envfit.theory.table1` — the paper's Table 1; :mod:`envfit.theory.figures` — the data of
-  Figs. 1–5 and a BNOT check; :mod:`envfit.theory.claims` — the paper's claims about them,
-  checked; :mod:`envfit.theory.wce_curves` — E(N) curve tools (slopes, log grids, inversion).
+- :mod:`envfit.theory._quadrature` — worst-case error Eq. 41 and its spectrum Eq. 42;
+- :mod:`envfit.theory._truncation` — SH/HSH truncation error Eqs. 51–52, N-versus-L equivalence;
+- :mod:`envfit.theory._table1` — the paper's Table 1; :mod:`envfit.theory._figures` — the data of
+  Figs. 1–5 and a BNOT check; :mod:`envfit.theory._claims` — the paper's claims about them,
+  checked; :mod:`envfit.theory._wce_curves` — E(N) curve tools (slopes, log grids, inversion).
 """
 import importlib
 
-#: public name -> submodule; loaded on first use (PEP 562), so ``import envfit.theory.errors`` or a
+#: public name -> submodule (the private module ``_<submodule>``); loaded on first use (PEP 562), so ``import envfit.theory._errors`` or a
 #: command line that needs one module does not pay for scipy.stats, the BNOT solver, …
 _EXPORTS = {
     "errors": ("TheoryParameterError", "check_smoothness"),
@@ -53,11 +53,11 @@ __all__ = sorted(_LAZY)
 
 def __getattr__(name: str):
     if name in _LAZY:
-        value = getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
+        value = getattr(importlib.import_module(f"._{_LAZY[name]}", __name__), name)
         globals()[name] = value
         return value
     if name in _SUBMODULES:
-        return importlib.import_module(f".{name}", __name__)
+        return importlib.import_module(f"._{name}", __name__)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 

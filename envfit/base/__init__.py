@@ -3,17 +3,17 @@ store, the memory guard, progress bars. Imports nothing else of envfit.
 
 Modules:
 
-* :mod:`~envfit.base.atomic` — Atomic file writes: a result file is either the old one or
+* :mod:`~envfit.base._atomic` — Atomic file writes: a result file is either the old one or
   the complete new one.
-* :mod:`~envfit.base.checks` — Checks of user-given names, integers and positive numbers
+* :mod:`~envfit.base._checks` — Checks of user-given names, integers and positive numbers
   shared by the pipelines (validate, advise).
-* :mod:`~envfit.base.errors` — The exception types of envfit.
-* :mod:`~envfit.base.html` — Compact HTML tables of results, for Jupyter's rich display
+* :mod:`~envfit.base._errors` — The exception types of envfit.
+* :mod:`~envfit.base._html` — Compact HTML tables of results, for Jupyter's rich display
   (``_repr_html_``).
-* :mod:`~envfit.base.progress` — Progress bars (tqdm on stderr), switched off by ``quiet``.
-* :mod:`~envfit.base.resources` — Memory budget: check before allocating, fail with a clear
+* :mod:`~envfit.base._progress` — Progress bars (tqdm on stderr), switched off by ``quiet``.
+* :mod:`~envfit.base._resources` — Memory budget: check before allocating, fail with a clear
   message instead of swapping.
-* :mod:`~envfit.base.store` — A resumable result store: one JSON file per finished cell,
+* :mod:`~envfit.base._store` — A resumable result store: one JSON file per finished cell,
   written atomically, checked on read.
 
 The names of ``__all__`` are imported lazily, on first use (PEP 562), so that
@@ -21,12 +21,12 @@ importing the package loads none of its modules.
 """
 from __future__ import annotations
 
-from envfit.base.lazy import lazy_exports
+from envfit.base._lazy import lazy_exports
 
 _LAZY = {
-    "DuplicatePointsError": "errors", "EnvfitError": "errors", "EnvMapFileError": "errors",
-    "EnvMapFormatError": "errors", "MemoryBudgetError": "errors", "NonFiniteError": "errors",
-    "ParameterError": "errors",
+    "DuplicatePointsError": "_errors", "EnvfitError": "_errors", "EnvMapFileError": "_errors",
+    "EnvMapFormatError": "_errors", "MemoryBudgetError": "_errors", "NonFiniteError": "_errors",
+    "ParameterError": "_errors",
 }
 
 __all__ = sorted(_LAZY)

@@ -3,23 +3,23 @@ executors, the driver loop and the library report.
 
 Modules:
 
-* :mod:`~envfit.batch.executor` — Where a sweep's tasks run: in this process, a local
+* :mod:`~envfit.batch._executor` — Where a sweep's tasks run: in this process, a local
   process pool, or a dask cluster.
-* :mod:`~envfit.batch.fit_tasks` — Worker-side tasks of a library fit: sample a map;
+* :mod:`~envfit.batch._fit_tasks` — Worker-side tasks of a library fit: sample a map;
   evaluate the fit criterion at one s for many maps with one factorisation.
-* :mod:`~envfit.batch.library` — The paper's Table 2 (Sec. 9.1) over a whole library of
+* :mod:`~envfit.batch._library` — The paper's Table 2 (Sec. 9.1) over a whole library of
   maps, one factorisation per (s, N).
-* :mod:`~envfit.batch.library_fit` — Fit the Sobolev smoothness s of every map of a library,
+* :mod:`~envfit.batch._library_fit` — Fit the Sobolev smoothness s of every map of a library,
   one factorisation per s.
-* :mod:`~envfit.batch.library_result` — What every library run reports, whatever it computes
+* :mod:`~envfit.batch._library_result` — What every library run reports, whatever it computes
   per map: the maps' labels and slugs, the value scale and sampling, the shared
   factorisations, time, executor, notes, unwritten cells and the files written; one summary
   row and one result per map.
-* :mod:`~envfit.batch.report` — Files of a library run: per-map CSV, a summary across maps
+* :mod:`~envfit.batch._report` — Files of a library run: per-map CSV, a summary across maps
   (CSV + JSON), a histogram of s.
-* :mod:`~envfit.batch.scheduler` — The driver loop of a sweep: submit tasks by priority,
+* :mod:`~envfit.batch._scheduler` — The driver loop of a sweep: submit tasks by priority,
   handle results as they arrive.
-* :mod:`~envfit.batch.tasks` — Worker-side tasks of a library sweep: sample a map, factorise
+* :mod:`~envfit.batch._tasks` — Worker-side tasks of a library sweep: sample a map, factorise
   once for many maps, evaluate one map. Module-level functions of picklable arguments, so
   that a process pool or a dask worker can run them; each loads at most one map at a time.
 
@@ -28,11 +28,11 @@ importing the package loads none of its modules.
 """
 from __future__ import annotations
 
-from envfit.base.lazy import lazy_exports
+from envfit.base._lazy import lazy_exports
 
 _LAZY = {
-    "LibraryTable2Result": "library", "run_table2_library": "library",
-    "fit_smoothness_library": "library_fit", "LibraryFitResult": "library_fit",
+    "LibraryTable2Result": "_library", "run_table2_library": "_library",
+    "fit_smoothness_library": "_library_fit", "LibraryFitResult": "_library_fit",
 }
 
 __all__ = sorted(_LAZY)

@@ -2,7 +2,7 @@
 
 Each subcommand lives in its own module ``envfit/cli/<name>.py`` exposing
 ``register(subparsers)``, which adds its parser and sets ``func`` to a ``run(args) -> int``.
-The CLI holds no logic of its own. Any :class:`envfit.base.errors.EnvfitError` (or a theory
+The CLI holds no logic of its own. Any :class:`envfit.base._errors.EnvfitError` (or a theory
 parameter error) becomes a one-line message on stderr and exit code 2.
 
 Reliability (one line on stderr, exit 2, never a traceback for what the user or the machine
@@ -14,8 +14,8 @@ caused):
 * a subcommand module that is missing or fails to import is an error, not a silently
   absent command;
 * every output (``--out``, ``--json``, synth's file, the advisor cache) is checked before any
-  work (:func:`envfit.cli.common.preflight_outputs`), and none may name an input
-  (:mod:`envfit.cli.overlap`);
+  work (:func:`envfit.cli._common.preflight_outputs`), and none may name an input
+  (:mod:`envfit.cli._overlap`);
 * a write that fails after the work (disk full, EIO) does not lose the results: they are
   printed (the JSON goes to stdout if its file failed, or if ``--quiet`` printed nothing),
   then "could not write PATH: REASON (the results above are complete)", exit 2;
@@ -31,8 +31,8 @@ import sys
 import threading
 
 from envfit import __version__
-from envfit.base.atomic import os_reason
-from envfit.base.errors import EnvfitError
+from envfit.base._atomic import os_reason
+from envfit.base._errors import EnvfitError
 
 #: subcommands, in the order ``envfit --help`` lists them
 COMMANDS = ("synth", "info", "fit", "table2", "theory", "validate", "advise", "sh")
@@ -63,7 +63,7 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
     for name in COMMANDS:
         if only is not None and name != only:
             continue
-        modname = f"{__name__}.{name}"
+        modname = f"{__name__}._{name}"
         try:
             module = importlib.import_module(modname)
         except Exception as exc:  # missing or broken: say so instead of dropping the command
@@ -104,7 +104,7 @@ def _install_sigterm_handler():
 def _report_write_failures(args: argparse.Namespace) -> int:
     """After a run whose writes (partly) failed: make sure the result reached stdout, then
     one line on stderr naming the first file that could not be written; exit code 2."""
-    from .common import command_name, print_json, write_failures
+    from envfit.cli._common import command_name, print_json, write_failures
     failures = write_failures(args)
     result = getattr(args, "_result", None)
     nothing_printed = getattr(args, "quiet", False) or str(getattr(args, "json", "")) == "-"
@@ -133,9 +133,9 @@ def _innermost_parser(parser: argparse.ArgumentParser,
 
 
 def main(argv: list[str] | None = None) -> int:
-    from envfit.theory.errors import TheoryParameterError
+    from envfit.theory._errors import TheoryParameterError
 
-    from .common import command_name, preflight_outputs, write_failures
+    from envfit.cli._common import command_name, preflight_outputs, write_failures
 
     argv = sys.argv[1:] if argv is None else list(argv)
     first = next((a for a in argv if not a.startswith("-")), None)

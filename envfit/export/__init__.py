@@ -3,33 +3,33 @@ ringing and negativity checks, the plan and the ``envfit sh`` report.
 
 Modules:
 
-* :mod:`~envfit.export.plan` — Time and memory of ``envfit sh`` before the work: every
+* :mod:`~envfit.export._plan` — Time and memory of ``envfit sh`` before the work: every
   option's valid range (issue 22, item 7).
-* :mod:`~envfit.export.report` — ``envfit sh``'s whole result: the exported coefficients,
+* :mod:`~envfit.export._report` — ``envfit sh``'s whole result: the exported coefficients,
   their predicted (and measured) error and negativity, the ringing table over degrees and
   windows, and the choice for a target (:func:`sh_report`, :class:`SHReport`); its documents
   (JSON, CSV, GLSL: :func:`document`), its files for ``--out`` (:func:`sh_outputs`) and the
   preview images of ``sh.png`` (:func:`preview_images`).
-* :mod:`~envfit.export.ringing` — ``envfit sh``'s predictions: the truncation error of
+* :mod:`~envfit.export._ringing` — ``envfit sh``'s predictions: the truncation error of
   exported SH coefficients, the fraction of directions where the windowed, truncated signal
   goes negative, and the (degree, window) to use for a target.
-* :mod:`~envfit.export.sh_export` — Real spherical-harmonic coefficients of a map for
+* :mod:`~envfit.export._sh_export` — Real spherical-harmonic coefficients of a map for
   engines: conversion, irradiance, windows.
-* :mod:`~envfit.export.sh_format` — Text forms of
-  :class:`envfit.export.sh_export.SHCoefficients` for engines: CSV and GLSL.
+* :mod:`~envfit.export._sh_format` — Text forms of
+  :class:`envfit.export._sh_export.SHCoefficients` for engines: CSV and GLSL.
 
 The names of ``__all__`` are imported lazily, on first use (PEP 562), so that
 importing the package loads none of its modules.
 """
 from __future__ import annotations
 
-from envfit.base.lazy import lazy_exports
+from envfit.base._lazy import lazy_exports
 
 _LAZY = {
-    "check_sh_plan": "plan",
-    "sh_report": "report", "SHReport": "report",
-    "sh_coefficients": "sh_export", "SHCoefficients": "sh_export",
-    "to_csv": "sh_format", "to_glsl": "sh_format",
+    "check_sh_plan": "_plan",
+    "sh_report": "_report", "SHReport": "_report",
+    "sh_coefficients": "_sh_export", "SHCoefficients": "_sh_export",
+    "to_csv": "_sh_format", "to_glsl": "_sh_format",
 }
 
 __all__ = sorted(_LAZY)

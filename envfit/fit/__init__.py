@@ -2,21 +2,21 @@ r"""The smoothness s of a map: the fit criteria and search, σ̂, and the paper'
 
 Modules:
 
-* :mod:`~envfit.fit.criterion` — The fit criterion at one s, for one map or for many maps
+* :mod:`~envfit.fit._criterion` — The fit criterion at one s, for one map or for many maps
   sharing one factorisation.
-* :mod:`~envfit.fit.kriging` — Closed-form expected interpolation error of a Gaussian-
+* :mod:`~envfit.fit._kriging` — Closed-form expected interpolation error of a Gaussian-
   process map (the kriging error).
-* :mod:`~envfit.fit.search` — The search for ŝ and its 95 % interval, implemented once: a
+* :mod:`~envfit.fit._search` — The search for ŝ and its 95 % interval, implemented once: a
   coarse grid, a shared refinement lattice and a cubic spline.
-* :mod:`~envfit.fit.sigma` — σ̂, the scale of the GP model :math:`f \sim GP(0, \sigma^2
+* :mod:`~envfit.fit._sigma` — σ̂, the scale of the GP model :math:`f \sim GP(0, \sigma^2
   K_{gd}^{(s)})` of a map at a given s: the paper's kernel (:func:`profiled_sigma`) and the
   band-limited one (:func:`bandlimited_profiled_sigma`), channels combined
   (:func:`combine_sigma`), and the ``"auto" | value`` choice of s (:func:`parse_s`). Used by
   validation and by the advisor.
-* :mod:`~envfit.fit.smoothness` — Estimate the Sobolev smoothness s of a map on the
+* :mod:`~envfit.fit._smoothness` — Estimate the Sobolev smoothness s of a map on the
   continuous range (1, 2), with an uncertainty, by one of three explicit criteria (beyond
   the paper's Table 2 grid search):
-* :mod:`~envfit.fit.table2` — The paper's Table 2 experiment (Sec. 9.1): reconstruct a map
+* :mod:`~envfit.fit._table2` — The paper's Table 2 experiment (Sec. 9.1): reconstruct a map
   from N samples with the Sobolev kernel K_gd^(s) for a grid of (s, N), and report the
   reconstruction RMSE.
 
@@ -25,12 +25,12 @@ importing the package loads none of its modules.
 """
 from __future__ import annotations
 
-from envfit.base.lazy import lazy_exports
+from envfit.base._lazy import lazy_exports
 
 _LAZY = {
-    "fit_smoothness": "smoothness", "FitResult": "smoothness",
-    "format_table2": "table2", "run_table2": "table2", "sample_directions": "table2",
-    "Table2Result": "table2",
+    "fit_smoothness": "_smoothness", "FitResult": "_smoothness",
+    "format_table2": "_table2", "run_table2": "_table2", "sample_directions": "_table2",
+    "Table2Result": "_table2",
 }
 
 __all__ = sorted(_LAZY)

@@ -3,35 +3,35 @@ the band-limited kernel, and their numba hot loops.
 
 Modules:
 
-* ``_bandlimited_kernels`` (private) — Numba loop behind :mod:`envfit.kernels.bandlimited`:
+* ``_bandlimited_kernels`` (private) — Numba loop behind :mod:`envfit.kernels._bandlimited`:
   a kernel matrix from a table in the angle.
-* ``_kernels`` (private) — Numba kernels behind :mod:`envfit.kernels.interpolation` (the hot
+* ``_kernels`` (private) — Numba kernels behind :mod:`envfit.kernels._interpolation` (the hot
   loops of envfit).
-* :mod:`~envfit.kernels.bandlimited` — The generalized distance kernel band-limited to a
+* :mod:`~envfit.kernels._bandlimited` — The generalized distance kernel band-limited to a
   map's resolution, and the Gaussian-process likelihood of s and σ under it.
-* :mod:`~envfit.kernels.interpolation` — Kernel interpolation of scattered samples on the
+* :mod:`~envfit.kernels._interpolation` — Kernel interpolation of scattered samples on the
   sphere with the generalized distance kernel.
-* :mod:`~envfit.kernels.iterative` — Preconditioned conjugate gradients for the Sobolev
+* :mod:`~envfit.kernels._iterative` — Preconditioned conjugate gradients for the Sobolev
   kernel system :math:`K\alpha = f` without the N x N matrix: O(N log N) products, O(N k)
   memory.
-* :mod:`~envfit.kernels.likelihood` — The Gaussian-process log-likelihood with the scale
+* :mod:`~envfit.kernels._likelihood` — The Gaussian-process log-likelihood with the scale
   profiled out, implemented once.
-* :mod:`~envfit.kernels.nearfar` — The near/far split that evaluates kernel sums in O(N log
+* :mod:`~envfit.kernels._nearfar` — The near/far split that evaluates kernel sums in O(N log
   N): the kernel's power part :math:`g(t) = (2 - 2t)^{s-1}` outside a cap of chordal radius
   δ is a polynomial :math:`P_L(t)`, i.e. an SH convolution (ducc0), and pairs closer than δ
   get the exact correction :math:`g - P_L` from a 3-D cell list (see
-  :mod:`envfit.kernels.interpolation`).
+  :mod:`envfit.kernels._interpolation`).
 
 The names of ``__all__`` are imported lazily, on first use (PEP 562), so that
 importing the package loads none of its modules.
 """
 from __future__ import annotations
 
-from envfit.base.lazy import lazy_exports
+from envfit.base._lazy import lazy_exports
 
 _LAZY = {
-    "ProfiledLikelihood": "interpolation", "SobolevInterpolator": "interpolation",
-    "SolveInfo": "interpolation",
+    "ProfiledLikelihood": "_interpolation", "SobolevInterpolator": "_interpolation",
+    "SolveInfo": "_interpolation",
 }
 
 __all__ = sorted(_LAZY)

@@ -4,36 +4,36 @@ metrics, library map sources, the built-in map, bright-source detection and the 
 Modules:
 
 * ``_lookup`` (private) — The compiled bilinear lat-long lookup behind
-  :func:`envfit.maps.latlong.bilinear_lookup`.
-* :mod:`~envfit.maps.conventions` — Lat-long conventions of renderers: each renderer's
+  :func:`envfit.maps._latlong.bilinear_lookup`.
+* :mod:`~envfit.maps._conventions` — Lat-long conventions of renderers: each renderer's
   direction ↔ pixel formula, and the conversion of a map in that convention into envfit's
-  (:mod:`envfit.maps.latlong`).
-* :mod:`~envfit.maps.default_map` — The built-in default map: a synthesized map of known
+  (:mod:`envfit.maps._latlong`).
+* :mod:`~envfit.maps._default_map` — The built-in default map: a synthesized map of known
   smoothness, so every command runs without a file. It is a Gaussian-process sample with
   covariance K_gd^(1.5) (data_gen), RGB, 256×512, made positive by a constant offset (a
   constant only changes the l = 0 term). Its spectrum is exactly :math:`a_l^{(1.5)}` for l ≤
   255 (the grid's Nyquist degree) and zero above, and Table 2 reads it through the bilinear
   lookup (resized for ``--quick``): at the pixel scale it is smoother than :math:`K_{1.5}`,
-  so Table 2's best s on it is expected above 1.5 (:mod:`envfit.fit.kriging` gives the
+  so Table 2's best s on it is expected above 1.5 (:mod:`envfit.fit._kriging` gives the
   expected optimum; ``envfit table2`` prints it).
-* :mod:`~envfit.maps.envmap` — Environment maps: the :class:`EnvMap` container (geometry,
+* :mod:`~envfit.maps._envmap` — Environment maps: the :class:`EnvMap` container (geometry,
   lookup, resizing) and the sample-count guard :func:`check_sample_count`.
-* :mod:`~envfit.maps.io` — Environment map file I/O through OpenImageIO: :func:`load_envmap`
+* :mod:`~envfit.maps._io` — Environment map file I/O through OpenImageIO: :func:`load_envmap`
   and :func:`save_envmap`.
-* :mod:`~envfit.maps.latlong` — The latitude-longitude (equirectangular) convention of
+* :mod:`~envfit.maps._latlong` — The latitude-longitude (equirectangular) convention of
   envfit — the ONE place it is defined.
-* :mod:`~envfit.maps.mapsource` — Maps of a library, named but not loaded: files (loaded
-  lazily, on whichever worker needs them) or in-memory :class:`~envfit.maps.envmap.EnvMap`
+* :mod:`~envfit.maps._mapsource` — Maps of a library, named but not loaded: files (loaded
+  lazily, on whichever worker needs them) or in-memory :class:`~envfit.maps._envmap.EnvMap`
   objects.
-* :mod:`~envfit.maps.metrics` — Image error metrics between a reference map and a
+* :mod:`~envfit.maps._metrics` — Image error metrics between a reference map and a
   reconstruction (same shape).
-* :mod:`~envfit.maps.preview` — What ``envfit info`` says of a map (:func:`describe_envmap`)
+* :mod:`~envfit.maps._preview` — What ``envfit info`` says of a map (:func:`describe_envmap`)
   and what its preview shows: its pixels tone-mapped in the file's lat-long layout, the
   angles along its axes in that layout's terms, and its bright sources with their direction,
   solid angle and share of the power (``envfit info --out``, ``envfit synth --out``).
-* :mod:`~envfit.maps.scales` — Value scales on which images are compared (the scale of an
+* :mod:`~envfit.maps._scales` — Value scales on which images are compared (the scale of an
   RMSE is an explicit choice).
-* :mod:`~envfit.maps.sources` — Bright-source detection on a map (the sun, lamps): connected
+* :mod:`~envfit.maps._sources` — Bright-source detection on a map (the sun, lamps): connected
   bright regions on the sphere.
 
 The names of ``__all__`` are imported lazily, on first use (PEP 562), so that
@@ -41,19 +41,19 @@ importing the package loads none of its modules.
 """
 from __future__ import annotations
 
-from envfit.base.lazy import lazy_exports
+from envfit.base._lazy import lazy_exports
 
 _LAZY = {
-    "convention": "conventions", "CONVENTIONS": "conventions",
-    "default_envmap": "default_map",
-    "EnvMap": "envmap",
-    "load_envmap": "io", "save_envmap": "io",
-    "bilinear_lookup": "latlong", "pixel_directions": "latlong",
-    "pixel_solid_angles": "latlong",
-    "describe_envmap": "preview", "list_sources": "preview", "map_preview": "preview",
-    "MapPreview": "preview",
-    "fit_scale": "scales", "Scale": "scales",
-    "BrightSource": "sources", "find_bright_sources": "sources",
+    "convention": "_conventions", "CONVENTIONS": "_conventions",
+    "default_envmap": "_default_map",
+    "EnvMap": "_envmap",
+    "load_envmap": "_io", "save_envmap": "_io",
+    "bilinear_lookup": "_latlong", "pixel_directions": "_latlong",
+    "pixel_solid_angles": "_latlong",
+    "describe_envmap": "_preview", "list_sources": "_preview", "map_preview": "_preview",
+    "MapPreview": "_preview",
+    "fit_scale": "_scales", "Scale": "_scales",
+    "BrightSource": "_sources", "find_bright_sources": "_sources",
 }
 
 __all__ = sorted(_LAZY)

@@ -1,4 +1,4 @@
-"""The compiled bilinear lat-long lookup behind :func:`envfit.maps.latlong.bilinear_lookup`.
+"""The compiled bilinear lat-long lookup behind :func:`envfit.maps._latlong.bilinear_lookup`.
 
 One fused pass per direction — local angles, continuous pixel coordinates, the snapped
 floor/fraction, the two (possibly virtual, across-the-pole) rows and their longitude

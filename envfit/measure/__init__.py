@@ -3,26 +3,26 @@ proposal, and the measured RMSE of renderer rules.
 
 Modules:
 
-* :mod:`~envfit.measure.adaptive_rmse` — Measuring an estimator's RMSE over random axes with
+* :mod:`~envfit.measure._adaptive_rmse` — Measuring an estimator's RMSE over random axes with
   a confidence interval that survives heavy tails, an adaptive number of axes, and the
   comparison of a prediction with it.
-* :mod:`~envfit.measure.axis_proposal` — An importance density over shading axes, for
+* :mod:`~envfit.measure._axis_proposal` — An importance density over shading axes, for
   measuring an RMSE over *uniform* axes.
-* :mod:`~envfit.measure.rules` — The measured error of a renderer rule
-  (:class:`envfit.sampling.rules.RendererRule`) on a map.
+* :mod:`~envfit.measure._rules` — The measured error of a renderer rule
+  (:class:`envfit.sampling._rules.RendererRule`) on a map.
 
 The names of ``__all__`` are imported lazily, on first use (PEP 562), so that
 importing the package loads none of its modules.
 """
 from __future__ import annotations
 
-from envfit.base.lazy import lazy_exports
+from envfit.base._lazy import lazy_exports
 
 _LAZY = {
-    "AdaptiveRMSE": "adaptive_rmse", "rmse_interval": "adaptive_rmse",
-    "RMSEInterval": "adaptive_rmse",
-    "AxisProposal": "axis_proposal",
-    "measure_rule": "rules", "RendererSetup": "rules",
+    "AdaptiveRMSE": "_adaptive_rmse", "rmse_interval": "_adaptive_rmse",
+    "RMSEInterval": "_adaptive_rmse",
+    "AxisProposal": "_axis_proposal",
+    "measure_rule": "_rules", "RendererSetup": "_rules",
 }
 
 __all__ = sorted(_LAZY)

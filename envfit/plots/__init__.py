@@ -5,24 +5,24 @@ Modules:
 * ``_save`` (private) — Atomic PNG saving for matplotlib figures.
 * ``_ticks`` (private) — Tick helpers for axes that count things (maps, samples N, degrees
   L): whole numbers only.
-* :mod:`~envfit.plots.advise` — The figure of ``envfit advise --out DIR``: the renderer
+* :mod:`~envfit.plots._advise` — The figure of ``envfit advise --out DIR``: the renderer
   rules' predicted RMSE against N.
-* :mod:`~envfit.plots.advise_rules` — The figure every ``envfit advise --out DIR`` writes
+* :mod:`~envfit.plots._advise_rules` — The figure every ``envfit advise --out DIR`` writes
   (``advise_rules.png``): what each rule costs to reach the target.
-* :mod:`~envfit.plots.library` — Figures of a library run: how the smoothness s is
+* :mod:`~envfit.plots._library` — Figures of a library run: how the smoothness s is
   distributed across the maps.
-* :mod:`~envfit.plots.preview` — The preview figure of a map (``envfit info --out``,
+* :mod:`~envfit.plots._preview` — The preview figure of a map (``envfit info --out``,
   ``envfit synth --out``): the tone-mapped lat-long image in the file's layout, its axes in
   the layout's angles, the bright sources marked and listed.
-* :mod:`~envfit.plots.renderer` — The figure of ``envfit validate --renderer``: renderer
+* :mod:`~envfit.plots._renderer` — The figure of ``envfit validate --renderer``: renderer
   rules, measured and predicted RMSE vs N.
-* :mod:`~envfit.plots.sh` — The figure of ``envfit sh --out DIR`` (``sh.png``): what the
+* :mod:`~envfit.plots._sh` — The figure of ``envfit sh --out DIR`` (``sh.png``): what the
   exported SH coefficients look like, and the ringing table.
-* :mod:`~envfit.plots.table2` — Table 2 and fit figures.
-* :mod:`~envfit.plots.theory` — Figures 1–5 of the paper and the BNOT check, drawn from
-  :mod:`envfit.theory.figures` data; the error spectrum of one rule (``envfit theory wce
+* :mod:`~envfit.plots._table2` — Table 2 and fit figures.
+* :mod:`~envfit.plots._theory` — Figures 1–5 of the paper and the BNOT check, drawn from
+  :mod:`envfit.theory._figures` data; the error spectrum of one rule (``envfit theory wce
   --out``) and Table 1's E(L) curves (``envfit theory table1 --out``).
-* :mod:`~envfit.plots.validate` — Figures of ``envfit validate``: measured errors with the
+* :mod:`~envfit.plots._validate` — Figures of ``envfit validate``: measured errors with the
   predicted curves overlaid.
 
 The names of ``__all__`` are imported lazily, on first use (PEP 562), so that
@@ -30,17 +30,17 @@ importing the package loads none of its modules.
 """
 from __future__ import annotations
 
-from envfit.base.lazy import lazy_exports
+from envfit.base._lazy import lazy_exports
 
 import matplotlib
 
 matplotlib.use("Agg", force=False)
 
 _LAZY = {
-    "plot_advise_rules": "advise_rules",
-    "plot_map_preview": "preview",
-    "plot_fit_curve": "table2", "plot_table2": "table2",
-    "plot_all": "validate",
+    "plot_advise_rules": "_advise_rules",
+    "plot_map_preview": "_preview",
+    "plot_fit_curve": "_table2", "plot_table2": "_table2",
+    "plot_all": "_validate",
 }
 
 __all__ = sorted(_LAZY)

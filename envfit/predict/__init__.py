@@ -4,16 +4,16 @@ predict(); the renderer predictor is the sub-package :mod:`envfit.predict.render
 
 Modules:
 
-* :mod:`~envfit.predict.bandlimited` — Prediction (b′), *band-limited*: the plain model made
+* :mod:`~envfit.predict._bandlimited` — Prediction (b′), *band-limited*: the plain model made
   exact for what a lat-long map is.
-* :mod:`~envfit.predict.context` — What a prediction is made from: a map
+* :mod:`~envfit.predict._context` — What a prediction is made from: a map
   (:class:`PredictionContext`), a quadrature rule (:class:`Rule`), and what it says
   (:class:`Prediction`).
-* :mod:`~envfit.predict.plain` — Prediction (b), *plain*: :math:`\hat R = \hat\sigma\,E(\hat
+* :mod:`~envfit.predict._plain` — Prediction (b), *plain*: :math:`\hat R = \hat\sigma\,E(\hat
   s)`.
-* :mod:`~envfit.predict.registry` — The registry of predictors (as colour-science's method
+* :mod:`~envfit.predict._registry` — The registry of predictors (as colour-science's method
   registries) and its dispatcher.
-* :mod:`~envfit.predict.spectral` — Prediction (c), *spectral*: the map's own power per
+* :mod:`~envfit.predict._spectral` — Prediction (c), *spectral*: the map's own power per
   degree times the rule's error power — no model, no s, no σ: the exact mean over Haar-
   random rotations on this map.
 * :mod:`~envfit.predict.renderer` (sub-package) — The renderer error prediction: the warped
@@ -25,16 +25,16 @@ importing the package loads none of its modules.
 """
 from __future__ import annotations
 
-from envfit.base.lazy import lazy_exports
+from envfit.base._lazy import lazy_exports
 
 _LAZY = {
-    "predict_bandlimited": "bandlimited",
-    "Prediction": "context", "PredictionContext": "context", "Rule": "context",
-    "predict_plain": "plain",
-    "predict": "registry", "Predictor": "registry", "PREDICTORS": "registry",
+    "predict_bandlimited": "_bandlimited",
+    "Prediction": "_context", "PredictionContext": "_context", "Rule": "_context",
+    "predict_plain": "_plain",
+    "predict": "_registry", "Predictor": "_registry", "PREDICTORS": "_registry",
     "predict_rule": "renderer", "renderer_model": "renderer", "RENDERER_PREDICTORS": "renderer",
     "RendererModel": "renderer", "WarpedSpectrum": "renderer",
-    "predict_spectral": "spectral",
+    "predict_spectral": "_spectral",
 }
 
 __all__ = sorted(_LAZY)

@@ -1,4 +1,4 @@
-"""The compiled inverse-CDF warp of :meth:`envfit.sampling.map_sampler.MapSampler.sample`.
+"""The compiled inverse-CDF warp of :meth:`envfit.sampling._map_sampler.MapSampler.sample`.
 
 Per point: the row by binary search in the marginal CDF, the column by binary search in that
 row's conditional CDF (W + 1 entries, not the whole stacked table), the fractions inside the

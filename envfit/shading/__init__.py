@@ -4,19 +4,19 @@ lookup transfer).
 
 Modules:
 
-* :mod:`~envfit.shading.bilinear_sh` — Exact SH coefficients of a map's bilinear interpolant
+* :mod:`~envfit.shading._bilinear_sh` — Exact SH coefficients of a map's bilinear interpolant
   and the zonal convolution at axes.
-* :mod:`~envfit.shading.estimators` — Estimators of the normalised shading integral (Eq. 17)
+* :mod:`~envfit.shading._estimators` — Estimators of the normalised shading integral (Eq. 17)
   on a lat-long map, and their RMSE.
-* :mod:`~envfit.shading.ground_truth` — Ground truth of the normalised shading integral (Eq.
+* :mod:`~envfit.shading._ground_truth` — Ground truth of the normalised shading integral (Eq.
   17) on a lat-long map, two ways.
-* :mod:`~envfit.shading.hemisphere` — Direct quadrature of hemisphere integrals of a map's
+* :mod:`~envfit.shading._hemisphere` — Direct quadrature of hemisphere integrals of a map's
   bilinear interpolant (the reference).
-* :mod:`~envfit.shading.patches` — Bilinear patches of a lat-long map: the geometry both
+* :mod:`~envfit.shading._patches` — Bilinear patches of a lat-long map: the geometry both
   ground-truth methods share.
-* :mod:`~envfit.shading.quadrature` — Quadrature estimates of shading integrals (Eq. 34) for
+* :mod:`~envfit.shading._quadrature` — Quadrature estimates of shading integrals (Eq. 34) for
   many axes and weightings at once.
-* :mod:`~envfit.shading.spectra` — Spectra behind predictions (b') and (c) of ``envfit
+* :mod:`~envfit.shading._spectra` — Spectra behind predictions (b') and (c) of ``envfit
   validate``: per-degree error power of a rule, a map's realised power per degree, and the
   bilinear lookup's transfer.
 
@@ -25,12 +25,12 @@ importing the package loads none of its modules.
 """
 from __future__ import annotations
 
-from envfit.base.lazy import lazy_exports
+from envfit.base._lazy import lazy_exports
 
 _LAZY = {
-    "hsh_truncation_estimates": "estimators", "quadrature_estimates": "estimators",
-    "sh_truncation_estimates": "estimators", "twisted_frames": "estimators",
-    "shading_integral": "ground_truth", "weight_function": "ground_truth",
+    "hsh_truncation_estimates": "_estimators", "quadrature_estimates": "_estimators",
+    "sh_truncation_estimates": "_estimators", "twisted_frames": "_estimators",
+    "shading_integral": "_ground_truth", "weight_function": "_ground_truth",
 }
 
 __all__ = sorted(_LAZY)

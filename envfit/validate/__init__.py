@@ -3,42 +3,42 @@ that states them.
 
 Modules:
 
-* :mod:`~envfit.validate.agreement` — Agreement between measured and predicted errors: log-
+* :mod:`~envfit.validate._agreement` — Agreement between measured and predicted errors: log-
   log slopes, shape constants, rank agreement, equivalent N, and the per-cell verdicts that
   ``report.md`` states.
-* :mod:`~envfit.validate.cells` — The stored quadrature cells of ``envfit validate``: their
+* :mod:`~envfit.validate._cells` — The stored quadrature cells of ``envfit validate``: their
   keys, the measured statistics they keep, whether a stored one is current, and the
   :class:`envfit.predict.Rule` one gives.
-* :mod:`~envfit.validate.config` — What ``envfit validate`` runs: :class:`ValidateConfig`,
+* :mod:`~envfit.validate._config` — What ``envfit validate`` runs: :class:`ValidateConfig`,
   the ``--quick`` preset (:func:`quick_config`, :data:`QUICK_DESCRIPTION`) and the named
   sets it draws from.
-* :mod:`~envfit.validate.fitting` — The two fits of ``envfit validate``, each a stored cell:
+* :mod:`~envfit.validate._fitting` — The two fits of ``envfit validate``, each a stored cell:
   the paper's (s and σ for predictions (a) and (b)) and the band-limited model's (ŝ′, σ̂′
   for (b′)).
-* :mod:`~envfit.validate.keys` — Where each predictor of :data:`envfit.predict.PREDICTORS`
+* :mod:`~envfit.validate._keys` — Where each predictor of :data:`envfit.predict.PREDICTORS`
   lands in the result of ``envfit validate`` (the keys the report, the plots and the JSON
   readers use).
-* :mod:`~envfit.validate.pipeline` — Predicted errors checked against ground-truth shading
+* :mod:`~envfit.validate._pipeline` — Predicted errors checked against ground-truth shading
   integrals on a map (Figs. 7–8).
-* :mod:`~envfit.validate.renderer` — ``envfit validate --renderer``: the renderer
+* :mod:`~envfit.validate._renderer` — ``envfit validate --renderer``: the renderer
   estimators' predicted RMSE against the measured one.
-* :mod:`~envfit.validate.report` — ``report.md``: a short validation report written from the
+* :mod:`~envfit.validate._report` — ``report.md``: a short validation report written from the
   result of ``envfit validate``.
-* :mod:`~envfit.validate.report_conditions` — The judgements of ``report.md``: named
+* :mod:`~envfit.validate._report_conditions` — The judgements of ``report.md``: named
   thresholds, pure predicates and the :data:`CONDITIONS` table.
-* :mod:`~envfit.validate.report_format` — Small formatting helpers of ``report.md``
-  (:mod:`envfit.validate.report`).
-* :mod:`~envfit.validate.report_renderer` — The "Renderer rules" section of ``report.md``
+* :mod:`~envfit.validate._report_format` — Small formatting helpers of ``report.md``
+  (:mod:`envfit.validate._report`).
+* :mod:`~envfit.validate._report_renderer` — The "Renderer rules" section of ``report.md``
   (``envfit validate --renderer``).
-* :mod:`~envfit.validate.report_sections` — The descriptive sections and the agreement
+* :mod:`~envfit.validate._report_sections` — The descriptive sections and the agreement
   tables of ``report.md``.
-* :mod:`~envfit.validate.report_statements` — The "What disagrees and why" section of
+* :mod:`~envfit.validate._report_statements` — The "What disagrees and why" section of
   ``report.md``.
-* :mod:`~envfit.validate.results` — The result of ``envfit validate``:
+* :mod:`~envfit.validate._results` — The result of ``envfit validate``:
   :class:`ValidationResult` (its :meth:`~ValidationResult.to_json` is the JSON-ready dict
   the report, the plots, ``--json`` and ``validate.json`` read), and the per-rule entries of
   ``results`` with every predictor of :data:`envfit.predict.PREDICTORS`.
-* :mod:`~envfit.validate.truncation` — The truncation part of ``envfit validate`` (Fig. 8):
+* :mod:`~envfit.validate._truncation` — The truncation part of ``envfit validate`` (Fig. 8):
   SH truncation at degree L on the full map and all axes, HSH truncation on the map
   downscaled to ``hsh_max_height`` rows and the first ``hsh_axes`` axes, each curve a stored
   cell with its worst-case error E(L) (Eqs. 51–52), the band-limited E′(L) of prediction
@@ -49,12 +49,12 @@ importing the package loads none of its modules.
 """
 from __future__ import annotations
 
-from envfit.base.lazy import lazy_exports
+from envfit.base._lazy import lazy_exports
 
 _LAZY = {
-    "quick_config": "config", "ValidateConfig": "config",
-    "run_validation": "pipeline",
-    "ValidationResult": "results",
+    "quick_config": "_config", "ValidateConfig": "_config",
+    "run_validation": "_pipeline",
+    "ValidationResult": "_results",
 }
 
 __all__ = sorted(_LAZY)

@@ -9,14 +9,14 @@ angle is :math:`p(\omega) = p(u, v)/(2\pi^2\sin\theta)` for the image coordinate
 :math:`(u, v) \in [0,1]^2`; a pdf that is constant in (cos θ, φ) inside a pixel is its
 pixel probability over the pixel's solid angle, :math:`q_{ij}/\Omega_{ij}`).
 
-The integrand is the one of the ground truth (:mod:`envfit.shading.ground_truth`):
+The integrand is the one of the ground truth (:mod:`envfit.shading._ground_truth`):
 
 .. math:: f(\omega) = L(\omega)\,\rho_a(\omega), \qquad
           \rho_a(\omega) = \frac{p(\omega\cdot a)}{2\pi r_s}\ (\omega\cdot a > 0),\ 0\ \text{below},
           \qquad I(a) = \int_{S^2} f\,d\omega,
 
 with :math:`L` the map's bilinear interpolant (``envmap.lookup``) and :math:`\rho_a` the
-normalised zonal lobe (:func:`envfit.shading.ground_truth.weight_function`), a density.
+normalised zonal lobe (:func:`envfit.shading._ground_truth.weight_function`), a density.
 
 Identities (exact; each is checked by simulation in tests/test_is_variance.py)
 ------------------------------------------------------------------------------
@@ -52,7 +52,7 @@ direction such as a lobe no sharper than the BRDF's).
 Example
 -------
 >>> import numpy as np
->>> from envfit.maps.envmap import EnvMap
+>>> from envfit.maps._envmap import EnvMap
 >>> m = EnvMap(np.full((8, 16, 1), 2.0))
 >>> axes = [[0.0, 1.0, 0.0], [0.6, 0.0, 0.8]]
 >>> v = is_variance(m, axes, LobePdf("glossy", 30), "glossy", 30)       # f/p = L = 2
@@ -70,15 +70,15 @@ from typing import Callable
 
 import numpy as np
 
-from envfit.theory.brdf import WeightFunction
+from envfit.theory._brdf import WeightFunction
 
-from envfit.base.checks import as_unit_vectors
-from envfit.base.errors import ParameterError
-from envfit.maps.envmap import EnvMap
-from envfit.maps.latlong import local_to_world, pixel_solid_angles
-from envfit.sampling.map_sampler import DEFAULT_FLOOR, MapSampler
-from envfit.shading.estimators import RMSE
-from envfit.shading.ground_truth import weight_function
+from envfit.base._checks import as_unit_vectors
+from envfit.base._errors import ParameterError
+from envfit.maps._envmap import EnvMap
+from envfit.maps._latlong import local_to_world, pixel_solid_angles
+from envfit.sampling._map_sampler import DEFAULT_FLOOR, MapSampler
+from envfit.shading._estimators import RMSE
+from envfit.shading._ground_truth import weight_function
 from oracles.sphere_quadrature import sphere_integrals
 
 __all__ = ["MapPdf", "LobePdf", "mixture_pdf", "is_variance", "mis_variance",
@@ -91,7 +91,7 @@ class MapPdf:
     r"""Map importance-sampling pdf: piecewise constant per pixel, uniform in (cos θ, φ) inside.
 
     Pixel probabilities :math:`q_{ij}`: those of the sampler that draws the samples,
-    :class:`envfit.sampling.map_sampler.MapSampler` (luminance × solid angle with its floor ε =
+    :class:`envfit.sampling._map_sampler.MapSampler` (luminance × solid angle with its floor ε =
     ``floor`` and its bilinear-cell smoothing, ``smooth``; one construction for the sampler
     and its variance), or given directly (``probabilities``, (H, W), normalised here). The density
     in solid angle is :math:`p(\omega) = q_{ij}/\Omega_{ij}` for ω in pixel (i, j)
@@ -101,7 +101,7 @@ class MapPdf:
     ``envmap``. Calling it with world directions (..., 3) (and optionally axes, ignored)
     returns the density (...).
 
-    >>> from envfit.maps.envmap import EnvMap
+    >>> from envfit.maps._envmap import EnvMap
     >>> p = MapPdf(EnvMap(np.ones((4, 8, 3))))
     >>> bool(np.allclose(p([[0.0, 1.0, 0.0]]), 1.0 / (4.0 * np.pi)))
     True
@@ -255,7 +255,7 @@ def is_variance(envmap: EnvMap, axes, pdf, brdf="diffuse", shininess: float = 30
         any callable ``pdf(dirs)`` / ``pdf(dirs, axes)`` of world directions (P, n, 3) and
         axes (P, 1, 3) returning densities (P, n) — e.g. :func:`mixture_pdf` or another
         module's sampler.
-    brdf, shininess : the lobe (:func:`envfit.shading.ground_truth.weight_function`).
+    brdf, shininess : the lobe (:func:`envfit.shading._ground_truth.weight_function`).
     order, refine : quadrature controls (:func:`sphere_integrals`; the defaults give
         ~1e-12 relative, see :mod:`oracles.sphere_quadrature`; a generic callable
         gets 2q nodes).
@@ -265,7 +265,7 @@ def is_variance(envmap: EnvMap, axes, pdf, brdf="diffuse", shininess: float = 30
     (the estimator is then biased). The MSE of the mean of N i.i.d. samples is var/N
     (:func:`predicted_rmse_random`).
 
-    >>> from envfit.maps.envmap import EnvMap
+    >>> from envfit.maps._envmap import EnvMap
     >>> m = EnvMap(np.full((8, 16, 1), 1.0))
     >>> v, I, S = is_variance(m, [0.0, 1.0, 0.0], MapPdf(m, floor=0.0), "diffuse", moments=True)
     >>> round(float(I[0, 0]), 10), round(float(S[0, 0]), 10)                # 4π ∫ρ² = 4π · 2/(3π)
@@ -338,7 +338,7 @@ def mis_variance(envmap: EnvMap, axes, map_pdf, brdf_pdf, brdf="diffuse",
     ``(var, I_i, S_i)`` with :math:`I_i = \int w_if` and :math:`S_i = \int w_i^2f^2/p_i`
     (multi; for one-sample :math:`S_i = \int w_i^2f^2/(c_ip_i)`), each (2, M, C).
 
-    >>> from envfit.maps.envmap import EnvMap
+    >>> from envfit.maps._envmap import EnvMap
     >>> m = EnvMap(np.full((8, 16, 1), 1.0))
     >>> v = mis_variance(m, [0.0, 1.0, 0.0], MapPdf(m), LobePdf("diffuse"), counts=(1, 1))
     >>> bool(0.0 < float(v[0, 0]) < 1.0 / 3.0)       # below map-only sampling's 1/3
@@ -391,7 +391,7 @@ def predicted_rmse_random(variance, n=1) -> RMSE:
     ``variance`` (M, C): per-sample variances (:func:`is_variance`, :func:`mis_variance`
     with ``mode="one"``; then ``n`` = N samples) or estimator variances
     (``mode="multi"``, n = 1). Same convention as
-    :func:`envfit.shading.estimators.rmse_over_axes` (the expectation of its square over
+    :func:`envfit.shading._estimators.rmse_over_axes` (the expectation of its square over
     the randomness is this one's square): ``total`` over axes and channels,
     ``per_channel`` over axes; ``n`` may be an array of sample counts (leading shape of
     the result).

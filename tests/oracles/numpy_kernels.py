@@ -6,15 +6,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from envfit.maps import latlong
-from envfit.sampling.map_sampler import MapSampler
+from envfit.maps import _latlong as latlong
+from envfit.sampling._map_sampler import MapSampler
 
 __all__ = ["bilinear_lookup_numpy", "sample_numpy", "pixel_of_numpy"]
 
 
 def bilinear_lookup_numpy(flat: np.ndarray, d: np.ndarray, m: np.ndarray, h: int,
                           w: int) -> np.ndarray:
-    """:func:`envfit.maps.latlong.bilinear_lookup` of the (H·W, C) table ``flat`` at finite
+    """:func:`envfit.maps._latlong.bilinear_lookup` of the (H·W, C) table ``flat`` at finite
     directions d (N, 3) in numpy blocks of ``LOOKUP_BLOCK``: the reference the compiled
     kernel is tested against."""
     out = np.empty((d.shape[0], flat.shape[1]), dtype=np.float64)

@@ -4,23 +4,23 @@ importance-sampling variances of :mod:`oracles.is_variance`.
 
 Each :math:`g_k` carries a factor :math:`f = L\rho_a` (L the map's bilinear interpolant,
 ``envmap.lookup``; :math:`\rho_a` the normalised zonal lobe,
-:func:`envfit.shading.ground_truth.weight_function`), so it vanishes where the lobe does.
+:func:`envfit.shading._ground_truth.weight_function`), so it vanishes where the lobe does.
 
 Quadrature (:func:`sphere_integrals`)
 -------------------------------------
 Every integrand of :mod:`oracles.is_variance` is smooth on each *cell* of the grid that
 splits every pixel into 2×2 (``refine`` = 1; :math:`(2r)^2` for ``refine`` = r) equal-angle
 quarters: inside a cell L is bilinear in (θ, φ) (the cell lies in one bilinear patch,
-:mod:`envfit.shading.patches`) and a pixel-constant pdf is constant. On each cell a q×q
+:mod:`envfit.shading._patches`) and a pixel-constant pdf is constant. On each cell a q×q
 Gauss–Legendre rule in (θ, φ) with the weight sin θ, q =
-:func:`~envfit.shading.patches.gauss_legendre_order` of :math:`(2D + 3)\Delta/2` (Δ the cell's
-side, D the lobe's bandwidth, :func:`~envfit.shading.ground_truth.polynomial_degree`: the rule
+:func:`~envfit.shading._patches.gauss_legendre_order` of :math:`(2D + 3)\Delta/2` (Δ the cell's
+side, D the lobe's bandwidth, :func:`~envfit.shading._ground_truth.polynomial_degree`: the rule
 integrates :math:`L^2\rho_a^2\sin\theta` to ~1e-10 of each cell's scale; q ≥ 4). Cells where the
 lobe is below 1e-16 of its peak for every point (rigorous corner bound) are skipped, so a sharp
 glossy lobe (n = 1000) costs only the cells of its cap. Cells the horizon
 :math:`\omega\cdot a = 0` may cut are integrated over their part above it exactly (φ split where
 the horizon crosses the cell's rings, θ clipped at the horizon per φ node, as in
-:mod:`envfit.shading.hemisphere`) unless the lobe is below 1e-13 of its peak within 2π/H of the
+:mod:`envfit.shading._hemisphere`) unless the lobe is below 1e-13 of its peak within 2π/H of the
 horizon (glossy n ≳ 30). The MIS weights make the integrands sharper than the lobe (the power
 heuristic switches from one technique to the other over a ring of width ~1/(nγ) about the axis;
 near the horizon of a diffuse lobe where ρ_a ≈ p_map), so
@@ -30,7 +30,7 @@ direction, and a pdf given as an arbitrary callable 2q. Measured accuracy
 against ``refine=2`` with 2q + 4 nodes): relative differences of every second moment ≤ 2e-11
 (map, BRDF, MIS balance and power, one- and multi-sample); with only q nodes the power heuristic
 would be off by 6e-4 at n = 1000. The mean I agrees with
-:func:`~envfit.shading.ground_truth.shading_integral` (``method="pixels"``) to ~1e-12. Pdfs
+:func:`~envfit.shading._ground_truth.shading_integral` (``method="pixels"``) to ~1e-12. Pdfs
 given as arbitrary callables are integrated exactly only if they are smooth on these cells
 (constant per pixel, or smooth functions of the direction such as a lobe no sharper than the
 BRDF's); the rule is then the same.
@@ -38,7 +38,7 @@ BRDF's); the rule is then the same.
 Example
 -------
 >>> import numpy as np
->>> from envfit.maps.envmap import EnvMap
+>>> from envfit.maps._envmap import EnvMap
 >>> m = EnvMap(np.full((4, 8, 1), 2.0))
 >>> J = sphere_integrals(m, [[0.0, 1.0, 0.0]], lambda nd: [nd.rho, nd.L * nd.rho[..., None]], 2)
 >>> [round(float(v), 12) for v in J[0, :, 0]]                  # ∫ρ_a = 1, ∫Lρ_a = 2
@@ -50,16 +50,15 @@ import math
 
 import numpy as np
 
-from envfit.theory.brdf import WeightFunction, gauss_legendre_01
+from envfit.theory._brdf import WeightFunction, gauss_legendre_01
 
-from envfit.base.checks import as_unit_vectors, check_int
-from envfit.base.resources import check_memory
-from envfit.maps.envmap import EnvMap
-from envfit.maps.latlong import local_to_world
-from envfit.shading.ground_truth import polynomial_degree, weight_function
-from envfit.shading.patches import (axes_to_local, gauss_legendre_order, horizon_breaks,
-                                    local_angles,
-                                    patch_corner_values)
+from envfit.base._checks import as_unit_vectors, check_int
+from envfit.base._resources import check_memory
+from envfit.maps._envmap import EnvMap
+from envfit.maps._latlong import local_to_world
+from envfit.shading._ground_truth import polynomial_degree, weight_function
+from envfit.shading._patches import (axes_to_local, gauss_legendre_order, horizon_breaks,
+                                     local_angles, patch_corner_values)
 
 __all__ = ["sphere_integrals", "PAIR_BLOCK"]
 

@@ -3,12 +3,12 @@ beyond the box, and the predictor of a renderer rule's RMSE.
 
 Modules:
 
-* :mod:`~envfit.predict.renderer.predictor` — Prediction of the renderer rules' RMSE
-  (:mod:`envfit.sampling.rules`) from the map.
-* :mod:`~envfit.predict.renderer.spectral_tail` — The error of a shifted point set from the
+* :mod:`~envfit.predict.renderer._predictor` — Prediction of the renderer rules' RMSE
+  (:mod:`envfit.sampling._rules`) from the map.
+* :mod:`~envfit.predict.renderer._spectral_tail` — The error of a shifted point set from the
   warped integrand's power *above the box*, with the strips along the axes of frequency
   space resolved.
-* :mod:`~envfit.predict.renderer.warped_spectrum` — The exact error of a Cranley–Patterson-
+* :mod:`~envfit.predict.renderer._warped_spectrum` — The exact error of a Cranley–Patterson-
   shifted estimator from the spectrum of its *warped integrand*: the prediction of envfit
   for every renderer estimator (map importance sampling, BRDF sampling, MIS) driven by *any*
   point set, random or quasi-random.
@@ -18,13 +18,13 @@ importing the package loads none of its modules.
 """
 from __future__ import annotations
 
-from envfit.base.lazy import lazy_exports
+from envfit.base._lazy import lazy_exports
 
 _LAZY = {
-    "predict_rule": "predictor", "renderer_model": "predictor",
-    "RENDERER_PREDICTORS": "predictor", "RendererModel": "predictor",
-    "strip_tail": "spectral_tail",
-    "shifted_rmse": "warped_spectrum", "WarpedSpectrum": "warped_spectrum",
+    "predict_rule": "_predictor", "renderer_model": "_predictor",
+    "RENDERER_PREDICTORS": "_predictor", "RendererModel": "_predictor",
+    "strip_tail": "_spectral_tail",
+    "shifted_rmse": "_warped_spectrum", "WarpedSpectrum": "_warped_spectrum",
 }
 
 __all__ = sorted(_LAZY)

@@ -1,0 +1,449 @@
+"""Options every subcommand shares (``--json``, ``--out``, ``--seed``, ``--quiet``), strict
+argument types, the preflight of outputs and the output helpers.
+
+Parsing is strict (argparse ``type=`` functions, so a bad value is one error line, exit 2:
+``envfit CMD: error: argument --n: 100.5 is not a whole number (see 'envfit CMD --help')``): an integer option takes a whole number only — written ``100``, or in decimal
+or scientific notation when its value is exactly whole (``1e3`` and ``100.0`` are 1000 and
+100; ``100.5``, ``1e-3``, ``nan``, ``inf`` are refused) — within its range (``--n`` ≥ 1,
+``--seed`` ≥ 0, …); a list (``--s 1.1,1.5``, ``--n 100,500``) must be non-empty, without an
+empty entry, NaN/inf or a repeated value.
+
+Outputs are checked before any work (:func:`preflight_outputs`, called by ``main`` for every
+subcommand); a write that fails after the work is recorded by :func:`guarded_write` /
+:func:`emit_json` instead of raised, so the results are still printed, and ``main`` then
+names what could not be written and exits 2.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from decimal import Decimal, InvalidOperation
+from pathlib import Path
+from typing import Any, Callable
+
+from envfit.base._atomic import (atomic_write_json, check_writable_dir, check_writable_file,
+                                 os_reason, to_jsonable)
+from envfit.defaults import EXECUTORS, UPS
+from envfit.cli._overlap import check_no_overlap
+
+#: the largest integer an option accepts (exponent notation beyond it is surely a typo)
+_INT_LIMIT = 10 ** 18
+
+#: ``--help`` of ``--convention`` (the names are those of envfit.maps._conventions.CONVENTIONS)
+CONVENTION_HELP = (
+    "the renderer whose lat-long layout the MAP file has: envfit (= --up y), openexr "
+    "(ImfEnvmap LatLongMap: +y up, first/last row on the poles, first/last column on "
+    "longitude +-pi), usd (DomeLight: = openexr), mitsuba3 (+y up, rows on the poles, "
+    "theta = pi i/(H-1)), pbrt3 (+z up, = --up z), blender (Cycles: +z up, mirrored: "
+    "u = 1/2 - atan2(y,x)/2pi); pbrt4 is refused (equal-area square maps). The map is "
+    "converted to envfit's grid (exactly where only pixels move, else bilinear). Not with "
+    "--up; one map at a time")
+
+
+# ------------------------------------------------------------------ strict argument types
+def _whole(text: str) -> int:
+    """``text`` as an exact whole number (``"100"``, ``"1e3"``, ``"100.0"``) or
+    ArgumentTypeError ("100.5 is not a whole number")."""
+    t = str(text).strip()
+    if not t:
+        raise argparse.ArgumentTypeError("expected a whole number, got an empty value")
+    try:
+        return int(t)
+    except ValueError:
+        pass
+    try:
+        d = Decimal(t)
+    except InvalidOperation:
+        raise argparse.ArgumentTypeError(f"{t} is not a number") from None
+    if not d.is_finite():
+        raise argparse.ArgumentTypeError(f"{t} is not a whole number")
+    if d.adjusted() > 18:
+        raise argparse.ArgumentTypeError(f"{t} is too large")
+    if d != d.to_integral_value():
+        raise argparse.ArgumentTypeError(f"{t} is not a whole number")
+    return int(d)
+
+
+def _int_in_range(text: str, lo: int) -> int:
+    k = _whole(text)
+    if k < lo:
+        raise argparse.ArgumentTypeError(
+            f"{str(text).strip()} is not {'positive' if lo == 1 else f'>= {lo}'}")
+    if k > _INT_LIMIT:
+        raise argparse.ArgumentTypeError(f"{str(text).strip()} is too large")
+    return k
+
+
+def positive_int(text: str) -> int:
+    """A whole number >= 1 (argparse ``type=``): ``"100"``, ``"1e3"``; not ``"100.5"``, ``"0"``.
+
+    >>> positive_int("1e3"), positive_int("64")
+    (1000, 64)
+    """
+    return _int_in_range(text, 1)
+
+
+def nonneg_int(text: str) -> int:
+    """A whole number >= 0 (argparse ``type=``), e.g. ``--seed``, ``--lmax``."""
+    return _int_in_range(text, 0)
+
+
+def _finite(text: str) -> float:
+    t = str(text).strip()
+    try:
+        v = float(t)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"{t} is not a number" if t else "expected a number, got an empty value") from None
+    if not math.isfinite(v):
+        raise argparse.ArgumentTypeError(f"{t} is not a finite number")
+    return v
+
+
+def finite_float(text: str) -> float:
+    """A finite number (argparse ``type=``): not NaN, not inf."""
+    return _finite(text)
+
+
+def positive_float(text: str) -> float:
+    """A finite number > 0 (argparse ``type=``), e.g. ``--shininess``, ``--target``."""
+    v = _finite(text)
+    if not v > 0:
+        raise argparse.ArgumentTypeError(f"{str(text).strip()} is not positive")
+    return v
+
+
+def _items(text: str) -> list[str]:
+    raw = str(text)
+    items = [x.strip() for x in raw.split(",")]
+    if not raw.strip():
+        raise argparse.ArgumentTypeError("empty list; give comma-separated values")
+    if any(not x for x in items):
+        raise argparse.ArgumentTypeError(f"empty entry in {raw!r}")
+    return items
+
+
+def _unique(values: list, items: list[str], raw: str) -> list:
+    seen: dict = {}
+    for v, x in zip(values, items):
+        if v in seen:
+            raise argparse.ArgumentTypeError(
+                f"{x} is given twice in {raw!r}" if seen[v] == x
+                else f"{seen[v]} and {x} are the same value in {raw!r}")
+        seen[v] = x
+    return values
+
+
+def float_list(text: str) -> list[float]:
+    """Parse ``"1.1,1.5,1.9"`` into distinct finite floats (argparse ``type=``); an empty
+    list, an empty entry, NaN/inf or a repeated value is an error.
+
+    >>> float_list("1.1, 1.5")
+    [1.1, 1.5]
+    """
+    items = _items(text)
+    return _unique([_finite(x) for x in items], items, str(text))
+
+
+def colour_list(text: str) -> list[float]:
+    """Parse a colour ``"1"`` or ``"0.2,0.2,0.9"`` into finite floats (repeats allowed)."""
+    return [_finite(x) for x in _items(text)]
+
+
+def int_list(text: str) -> list[int]:
+    """Parse ``"100,500,1000"`` into distinct positive whole numbers (argparse ``type=``);
+    ``1e3`` is 1000; ``100.5``, an empty list, an empty entry or a repeat is an error.
+
+    >>> int_list("100,1e3")
+    [100, 1000]
+    """
+    items = _items(text)
+    return _unique([positive_int(x) for x in items], items, str(text))
+
+
+def nonneg_int_list(text: str) -> list[int]:
+    """As :func:`int_list`, with 0 allowed (cut-off degrees ``--sh-L 0,1,2``)."""
+    items = _items(text)
+    return _unique([nonneg_int(x) for x in items], items, str(text))
+
+
+def str_list(text: str) -> list[str]:
+    """Parse ``"sf,sobol"`` into names; an empty list is an error (repeats are merged by the
+    pipelines' checks)."""
+    items = [x.strip() for x in str(text).split(",") if x.strip()]
+    if not items:
+        raise argparse.ArgumentTypeError("empty list; give comma-separated names")
+    return items
+
+
+# ------------------------------------------------------------------ shared options
+def add_common_arguments(p: argparse.ArgumentParser, *, seed: bool = True) -> None:
+    """Add ``--json FILE``, ``--out DIR``, ``--seed``, ``--quiet`` to a subcommand parser."""
+    g = p.add_argument_group("output")
+    g.add_argument("--json", metavar="FILE", type=Path, default=None,
+                   help="write the machine-readable result to FILE ('-' for stdout)")
+    g.add_argument("--out", metavar="DIR", type=Path, default=None,
+                   help="folder for plots, CSV and images")
+    if seed:
+        g.add_argument("--seed", type=nonneg_int, default=0, help="random seed (default: 0)")
+    g.add_argument("--quiet", "-q", action="store_true", help="no progress bars or tables")
+
+
+# ------------------------------------------------------------------ preflight of outputs
+def preflight_outputs(args: argparse.Namespace) -> None:
+    """Check every output of the command *before* any work; ``main`` calls it for every
+    subcommand. Raises :class:`envfit.base._errors.OutputError` (one line, exit 2) for:
+
+    * an output that names an input (resolved: symlinks and hard links included), lies where
+      it would be read as one, or two outputs naming one file
+      (:func:`envfit.cli._overlap.check_no_overlap`; checked first, before anything is made);
+    * ``--out`` (or the command's default folder ``out_default``): created if missing, and a
+      temporary file created and removed inside;
+    * ``--json FILE`` (``-`` = stdout passes) and synth's ``OUT.exr`` (``args.output``): not a
+      folder, nearest existing parent folder writable;
+
+    raises :class:`envfit.base._errors.ParameterError` for a bad ``--convention``
+    (:func:`map_convention`), and prints a note on stderr if the advisor cache (``--cache-dir`` or the default; not with
+    ``--no-cache``) cannot be written: the results are then not cached, which is no error.
+    """
+    map_convention(args)                # --convention: a known name, not with --up
+    out = getattr(args, "out", None)
+    if out is None:
+        out = getattr(args, "out_default", None)
+    check_no_overlap(args, out, advisor_cache_dir(args))   # no output names an input
+    if out is not None:
+        check_writable_dir(out, "--out")
+    if getattr(args, "json", None) is not None:
+        check_writable_file(args.json, "--json")
+    if getattr(args, "output", None) is not None:
+        check_writable_file(args.output, getattr(args, "output_metavar", "output"))
+    if hasattr(args, "cache_dir") and not getattr(args, "no_cache", False):
+        from envfit.advisor import _cache as advisor_cache
+        probe = getattr(advisor_cache, "cache_write_problem", None)
+        problem = probe(args.cache_dir) if probe is not None else None
+        if problem:  # "the advisor cache … is not writable (…); advise works without it …"
+            args.cache_note = f"note: {problem}"
+            print(f"envfit {command_name(args)}: {args.cache_note}", file=sys.stderr)
+
+
+def advisor_cache_dir(args: argparse.Namespace):
+    """The advisor cache folder the command writes (``--cache-dir`` or the default), or None
+    (no cache option, or ``--no-cache``)."""
+    if not hasattr(args, "cache_dir") or getattr(args, "no_cache", False):
+        return None
+    if args.cache_dir is not None:
+        return args.cache_dir
+    from envfit.advisor._cache import default_cache_dir
+    return default_cache_dir()
+
+
+# ------------------------------------------------------------------ writes after the work
+def command_name(args: argparse.Namespace) -> str:
+    """``"table2"``, ``"theory figures"``: how messages name the command."""
+    sub = getattr(args, "theory_command", None)
+    return f"{args.command} {sub}" if sub else str(args.command)
+
+
+def write_failures(args: argparse.Namespace) -> list[tuple[str, str]]:
+    """The ``(path, reason)`` of every write that failed after the work (main reports them)."""
+    if not hasattr(args, "_write_failures"):
+        args._write_failures = []
+    return args._write_failures
+
+
+def record_write_failure(args: argparse.Namespace, path, exc: BaseException) -> None:
+    reason = os_reason(exc)
+    prefix = f"{path}: "
+    if reason.startswith(prefix):           # "p: write failed: …" of an EnvMapFileError
+        reason = reason[len(prefix):]
+    write_failures(args).append((str(path), reason))
+
+
+def record_unwritten(args: argparse.Namespace, unwritten) -> None:
+    """Record the ``(path, reason)`` pairs a pipeline could not write mid-run (its result's
+    ``unwritten``) for ``main`` to report after the results (exit 2)."""
+    write_failures(args).extend((str(p), str(r)) for p, r in unwritten or ())
+
+
+def guarded_write(args: argparse.Namespace, path, write: Callable[..., Any], *a, **kw) -> Any:
+    """``write(*a, **kw)`` (an atomic write or a plot save of ``path``); if it raises
+    ``OSError`` (disk full, EIO, permission lost meanwhile) the failure is recorded for
+    ``main`` to report (exit 2) and None is returned, so the command goes on printing its
+    results."""
+    try:
+        return write(*a, **kw)
+    except OSError as exc:
+        record_write_failure(args, path, exc)
+        return None
+
+
+def emit_json(args: argparse.Namespace, result: dict[str, Any]) -> None:
+    """Write ``result`` where ``--json`` says (atomically), or to stdout for ``--json -``.
+
+    A failed write is recorded (see :func:`guarded_write`) and the JSON goes to stdout
+    instead, so the machine-readable result is not lost.
+    """
+    args._result = result
+    if args.json is None:
+        return
+    if str(args.json) == "-":
+        print_json(result)
+        args._json_on_stdout = True
+    elif guarded_write(args, args.json, atomic_write_json, args.json, result) is None:
+        print_json(result)
+        args._json_on_stdout = True
+
+
+def print_json(result: dict[str, Any]) -> None:
+    json.dump(to_jsonable(result), sys.stdout, indent=2)
+    sys.stdout.write("\n")
+    sys.stdout.flush()
+
+
+def say(args: argparse.Namespace, *lines: str) -> None:
+    """Print human-readable lines unless ``--quiet`` (or ``--json -`` owns stdout)."""
+    if getattr(args, "quiet", False) or str(getattr(args, "json", "")) == "-":
+        return
+    for line in lines:
+        print(line)
+
+
+def out_dir(args: argparse.Namespace, default: str | None = None) -> Path | None:
+    """The ``--out`` folder (created and checked writable), or ``default`` if given, else None."""
+    d = args.out if args.out is not None else (Path(default) if default else None)
+    if d is not None:
+        check_writable_dir(d, "--out")
+    return d
+
+
+def add_map_arguments(p: argparse.ArgumentParser, *, optional: bool = True, many: bool = False) -> None:
+    """The MAP positional and the loading options shared by every command that reads a map."""
+    nargs = "*" if many else ("?" if optional else None)
+    p.add_argument("map", metavar="MAP", nargs=nargs, default=None,
+                   help="lat-long HDR map (EXR, HDR, PNG, … anything OpenImageIO reads)"
+                        + ("; without it, the built-in synthesized default map" if optional else ""))
+    g = p.add_argument_group("map loading")
+    g.add_argument("--up", choices=UPS, default=None,
+                   help="which world axis is the map's top row, on envfit's pixel grid "
+                        "(centres at theta = pi(i+1/2)/H, phi = 2pi(j+1/2)/W; default: y, "
+                        "OpenEXR's orientation); not with --convention")
+    g.add_argument("--convention", metavar="NAME", default=None,
+                   help=CONVENTION_HELP)
+    g.add_argument("--max-height", type=positive_int, default=None, metavar="H",
+                   help="downscale the map (scikit-image, anti-aliased) to at most H rows")
+    g.add_argument("--fix-nonfinite", action="store_true",
+                   help="replace NaN/Inf pixels instead of refusing the map (reported)")
+    g.add_argument("--allow-negative", action="store_true",
+                   help="keep negative pixel values instead of clamping them to 0 (reported)")
+
+
+def map_convention(args: argparse.Namespace):
+    """The :mod:`envfit.maps._conventions` entry ``--convention`` names, or None.
+
+    :class:`ParameterError` (one line, exit 2) for an unknown name, for ``--convention``
+    together with ``--up`` (the convention fixes the up axis), and for ``pbrt4`` (not
+    lat-long). ``main`` runs it before any work (:func:`preflight_outputs`).
+    """
+    from envfit.base._errors import ParameterError
+    from envfit.maps._conventions import NotLatLong, convention
+    name = getattr(args, "convention", None)
+    if name is None:
+        return None
+    conv = convention(name)
+    if getattr(args, "up", None) is not None:
+        raise ParameterError(f"--up {args.up} and --convention {conv.name} exclude each other: "
+                             f"the convention fixes the up axis (+{getattr(conv, 'up', '?')}); "
+                             "--up is envfit's own grid with that axis up")
+    if isinstance(conv, NotLatLong):
+        conv.to_internal(None)          # raises its one-line reason
+    return conv
+
+
+def map_up(args: argparse.Namespace) -> str:
+    """The up axis of the maps the command reads: ``--up``, the convention's, or ``"y"``."""
+    conv = map_convention(args)
+    if conv is not None:
+        return conv.up
+    return getattr(args, "up", None) or "y"
+
+
+def load_map_from_args(args: argparse.Namespace, path=None):
+    """Load ``path`` (default ``args.map``) with the loading options, or the built-in map.
+
+    With ``--convention C`` the file's pixels are read in C's layout and converted to
+    envfit's convention (:meth:`envfit.maps._conventions.LatLongConvention.to_internal`:
+    an exact permutation where the grids allow it, else bilinear resampling), *before*
+    ``--max-height``; the built-in map is synthesized with C's up axis.
+    """
+    from envfit.maps._default_map import default_envmap
+    from envfit.maps._io import load_envmap
+    conv = map_convention(args)
+    path = args.map if path is None else path
+    if path is None:
+        env = default_envmap(up=map_up(args))
+    elif conv is None:
+        return load_envmap(path, up=map_up(args), allow_negative=args.allow_negative,
+                           fix_nonfinite=args.fix_nonfinite, max_height=args.max_height)
+    else:
+        env = conv.to_internal(load_envmap(path, up=conv.up, allow_negative=args.allow_negative,
+                                           fix_nonfinite=args.fix_nonfinite))
+    if args.max_height:
+        env = env.resized(args.max_height)
+    return env
+
+
+def add_executor_arguments(p: argparse.ArgumentParser) -> None:
+    """``--executor``, ``--scheduler``, ``--workers``: where a library sweep runs."""
+    g = p.add_argument_group("execution (several maps: one factorisation per s serves them all)")
+    g.add_argument("--executor", choices=EXECUTORS, default=None,
+                   help="local: this machine's cores (a process pool, BLAS threads pinned per "
+                        "worker; the default); dask: a dask.distributed cluster "
+                        '(pip install "envfit[dask]")')
+    g.add_argument("--scheduler", metavar="tcp://HOST:PORT", default=None,
+                   help="address of a running dask scheduler (default with --executor dask: "
+                        "a LocalCluster on this machine); each handshake with it waits at "
+                        "most ENVFIT_DASK_TIMEOUT seconds (default 10)")
+    g.add_argument("--workers", type=positive_int, default=None, metavar="K",
+                   help="worker processes for local/LocalCluster (default: as many as useful, "
+                        "at most the cores, within the memory budget)")
+
+
+def library_mode(args: argparse.Namespace) -> bool:
+    """Several maps, a folder or a pattern, or executor options: the library engine.
+
+    One existing file without executor options keeps the single-map behaviour and output.
+    """
+    maps = args.map or []
+    if args.executor is not None or args.scheduler is not None or args.workers is not None:
+        return True
+    return len(maps) > 1 or (len(maps) == 1 and not Path(maps[0]).is_file()
+                             and (Path(maps[0]).is_dir() or any(c in str(maps[0]) for c in "*?[")))
+
+
+def library_maps(args: argparse.Namespace) -> list:
+    """What the library engine runs on: the MAP arguments, or the built-in map if none."""
+    if args.map:
+        return list(args.map)
+    args.map = None
+    return [load_map_from_args(args)]
+
+
+def load_options_from_args(args: argparse.Namespace):
+    """The map-loading options of ``args`` as :class:`envfit.maps._mapsource.LoadOptions`."""
+    from envfit.base._errors import ParameterError
+    from envfit.maps._mapsource import LoadOptions
+    conv = map_convention(args)
+    if conv is not None and conv.name != "envfit":
+        raise ParameterError(f"--convention {conv.name} reads one map at a time; several maps "
+                             "(a folder, a pattern, --executor) are read on envfit's grid: "
+                             "convert them first, or run the command once per map")
+    return LoadOptions(up=map_up(args), max_height=args.max_height,
+                       fix_nonfinite=args.fix_nonfinite, allow_negative=args.allow_negative)
+
+
+def executor_kwargs(args: argparse.Namespace) -> dict:
+    """``executor``, ``workers``, ``scheduler`` for the library functions."""
+    kind = args.executor or ("dask" if args.scheduler else "local")
+    return {"executor": kind, "workers": args.workers, "scheduler": args.scheduler}

@@ -1,0 +1,206 @@
+"""``envfit validate``: predicted errors against ground-truth shading integrals (Figs. 7–8)."""
+from __future__ import annotations
+
+import argparse
+
+from envfit.defaults import DEFAULT_SHININESS, FIT_METHODS
+from envfit.cli._common import (add_common_arguments, add_map_arguments, emit_json, guarded_write,
+                                int_list, load_map_from_args, nonneg_int_list, out_dir,
+                                positive_float, positive_int, record_unwritten, say, str_list)
+
+
+def register(sub) -> None:
+    from envfit.validate._config import QUICK_DESCRIPTION
+    p = sub.add_parser(
+        "validate",
+        help="check predicted quadrature / truncation errors against measured ones on a map",
+        description="For each BRDF, point set, weighting and N: the RMSE over M random axes of "
+                    "the quadrature estimates (importance-sampled point sets, rotated and "
+                    "twisted per axis) against the exact shading integrals, next to the "
+                    "worst-case error for the map's fitted s — shape only (one fitted factor "
+                    "per BRDF, as the paper) and absolute (sigma*wce under the Gaussian-process "
+                    "reading). Likewise RMSE vs L for SH/HSH truncation. Writes plots and "
+                    "report.md to --out; resumable there.",
+        epilog=QUICK_DESCRIPTION.replace("%", "%%"))
+    add_map_arguments(p)
+    p.add_argument("--s", default="auto", metavar="auto|VALUE",
+                   help="smoothness of the prediction: 'auto' (fit it, default) or a value in (1, 2)")
+    p.add_argument("--brdf", type=str_list, default=None, metavar="diffuse,glossy",
+                   help="BRDFs (default: diffuse,glossy)")
+    p.add_argument("--shininess", type=positive_float, default=DEFAULT_SHININESS,
+                   help=f"glossy exponent n (default: {DEFAULT_SHININESS:g})")
+    p.add_argument("--pointsets", type=str_list, default=None, metavar="sf,sobol,…",
+                   help="point sets among sf, sobol, lp, bnot, random, jitter (default: all six; "
+                        "--quick: without bnot)")
+    p.add_argument("--weights", type=str_list, default=None, metavar="equal,osw",
+                   help="weightings (default: equal,osw)")
+    p.add_argument("--n", type=int_list, default=None, metavar="N1,N2,…",
+                   help="numbers of samples (default: 16,32,…,4096; --quick: 16…1024)")
+    p.add_argument("--axes", type=positive_int, default=None, metavar="M",
+                   help="number of random axes (default: 2000; --quick: 500)")
+    p.add_argument("--scale", choices=("display", "linear", "log"), default="display",
+                   help="value scale of the integrand and of the fit (default: display)")
+    p.add_argument("--fit-method", choices=FIT_METHODS, default="likelihood",
+                   help="criterion of the s fit for --s auto (default: likelihood)")
+    p.add_argument("--fit-n", type=positive_int, default=None,
+                   help="samples of the s / sigma fit (default: 1500; --quick: 600)")
+    p.add_argument("--no-truncation", action="store_true", help="skip the SH/HSH truncation part")
+    p.add_argument("--sh-L", type=nonneg_int_list, default=None, metavar="L1,L2,…",
+                   help="SH cut-off degrees (default: 0…20; --quick: 0…12)")
+    p.add_argument("--hsh-L", type=nonneg_int_list, default=None, metavar="L1,L2,…",
+                   help="glossy HSH cut-off degrees (default: 0…16; --quick: 0…10)")
+    p.add_argument("--hsh-axes", type=positive_int, default=None,
+                   help="axes of the HSH measurement (default: 250; --quick: 100)")
+    p.add_argument("--hsh-max-height", type=positive_int, default=None,
+                   help="map rows for the HSH measurement (default: 128; --quick: 64)")
+    p.add_argument("--quick", action="store_true",
+                   help="a reduced run in under a minute (map at most 256 rows; see below)")
+    _add_renderer_arguments(p)
+    add_common_arguments(p)
+    p.set_defaults(func=run)
+
+
+def _add_renderer_arguments(p) -> None:
+    """``--renderer`` and the options of its rules."""
+    g = p.add_argument_group("renderer rules (--renderer)")
+    g.add_argument("--renderer", action="store_true",
+                   help="also validate the renderer estimators (BRDF, map, MIS, sources + MIS "
+                        "sampling): predicted vs measured RMSE with a 95 %% interval, after the "
+                        "paper's cells, on --scale (linear is what renderers integrate); "
+                        "writes renderer.png")
+    g.add_argument("--strategies", type=str_list, default=None, metavar="brdf,map,mis,split",
+                   help="renderer strategies (default: all four)")
+    g.add_argument("--renderer-pointsets", type=str_list, default=None, metavar="random,sobol,sf",
+                   help="point sets of the renderer rules (default: random,sobol,sf)")
+    g.add_argument("--renderer-n", type=int_list, default=None, metavar="N1,N2,…",
+                   help="sample counts of the renderer rules (default: 16,64,256,1024; "
+                        "--quick: 16,256)")
+    g.add_argument("--renderer-axes", default=None, metavar="importance|uniform",
+                   help="how the renderer measurement draws its axes: importance-sampled "
+                        "from the map's axis proposal and weighted (default), or uniform")
+
+
+def _config(args: argparse.Namespace):
+    from envfit.fit._sigma import parse_s
+    from envfit.validate._config import ValidateConfig
+    from envfit.validate._config import quick_config
+    s = parse_s(args.s)                      # a bad --s: ParameterError, one line, exit 2
+    over = {"s": s, "shininess": args.shininess, "scale": args.scale, "seed": args.seed,
+            "fit_method": args.fit_method, "truncation": not args.no_truncation}
+    for key, val in (("brdfs", args.brdf), ("pointsets", args.pointsets), ("weights", args.weights),
+                     ("n_values", args.n), ("axes", args.axes), ("fit_n", args.fit_n),
+                     ("sh_L", args.sh_L), ("hsh_L", args.hsh_L), ("hsh_axes", args.hsh_axes),
+                     ("hsh_max_height", args.hsh_max_height)):
+        if val is not None:
+            over[key] = val
+    return quick_config(**over) if args.quick else ValidateConfig(**over)
+
+
+def _renderer_config(args: argparse.Namespace, cfg):
+    """The renderer validation's configuration (None without ``--renderer``); the renderer
+    options without it are an error. Checked before any work."""
+    from envfit.base._errors import ParameterError
+    from envfit.validate._renderer import renderer_config
+    given = [flag for flag, v in (("--strategies", args.strategies),
+                                  ("--renderer-pointsets", args.renderer_pointsets),
+                                  ("--renderer-n", args.renderer_n),
+                                  ("--renderer-axes", args.renderer_axes)) if v is not None]
+    if not args.renderer:
+        if given:
+            raise ParameterError(f"{', '.join(given)} need(s) --renderer")
+        return None
+    return renderer_config(args.quick, strategies=args.strategies,
+                           pointsets=args.renderer_pointsets, n_values=args.renderer_n,
+                           axis_sampling=args.renderer_axes, lobes=cfg.brdfs,
+                           shininess=cfg.shininess, seed=cfg.seed)
+
+
+def _summary(res: dict) -> list[str]:
+    agr = res["agreement"]
+    lo, hi = agr["slope_range"]
+    lines = [f"s = {res['s']:.3f} ({res['fit']['source']}), sigma = {res['sigma']:.4g} "
+             f"({res['scale']} scale), M = {res['axes']} axes"]
+    if res.get("s_refined") is not None:
+        lines.append(f"s' = {res['s_refined']:.3f}, sigma' = {res['sigma_refined']:.4g} (band-limited "
+                     f"fit, L = {res['fit_refined'].get('band_lmax')}, samples at pixel centres: "
+                     "prediction (b'))")
+    lines += ["",
+             f"slopes over N = {lo}…{hi} (measured / predicted / refined b'):"]
+    for s in agr["slopes"]:
+        f = (lambda v: "  –   " if v is None else f"{v:+.3f}")
+        lines.append(f"  {s['brdf']:8s} {s['pointset']:7s} {s['weights']:6s} "
+                     f"{f(s['measured'])} / {f(s['predicted'])} / {f(s.get('predicted_refined'))}")
+    for k in agr["rank"]:
+        tau = "–" if k["kendall_tau"] is None else f"{k['kendall_tau']:.3f}"
+        lines.append(f"rank {k['brdf']}/{k['weights']}: measured {' < '.join(k['measured_order'])}; "
+                     f"predicted {' < '.join(k['predicted_order'])}; tau = {tau}")
+    for key, label in (("slope_range", "(b) sigma*wce"), ("slope_range_refined", "(b') refined"),
+                       ("slope_range_spectral", "(c) spectral")):
+        d = agr["absolute"].get(key)
+        if d:
+            lines.append(f"{label}: predicted/measured median {d['median_ratio']:.2f}, range "
+                         f"{d['min_ratio']:.2f}…{d['max_ratio']:.2f}, {d['fraction_within']:.0%} within "
+                         f"{agr['absolute']['tolerance']:.0%}")
+    a = agr["acceptance"]
+    lines.append(f"acceptance: slopes {'ok' if a['slopes_ok'] else 'NO'} "
+                 f"({a['slopes_within']}/{a['slopes_checked']}), rank {'ok' if a['rank_ok'] else 'NO'}, "
+                 f"absolute (b) {'ok' if a['absolute_ok'] else 'NO'}")
+    return lines
+
+
+def run(args: argparse.Namespace) -> int:
+    from envfit.base._atomic import atomic_write_json
+    from envfit.validate._pipeline import run_validation
+    cfg = _config(args)
+    rcfg = _renderer_config(args, cfg)
+    if args.quick and args.max_height is None:
+        args.max_height = 256
+    env = load_map_from_args(args)
+    out = out_dir(args)
+    for note in getattr(env, "notes", []):
+        say(args, f"note: {note}")
+    say(args, f"map {env.name}: {env.width}x{env.height}, {env.channels} channel(s)"
+              + (f"; cells in {out} (resumable)" if out else "; use --out DIR for plots, report.md "
+                                                         "and resuming"))
+    resumed = []
+
+    def on_cell(key, was_resumed):
+        if was_resumed:
+            resumed.append(key)
+
+    result = run_validation(env, cfg, out=out, quiet=args.quiet, on_cell=on_cell, renderer=rcfg)
+    record_unwritten(args, result.unwritten)
+    res = result.to_json()                   # what the report, the plots and --json take
+    res["resumed_cells"] = len(resumed)
+    if resumed:
+        say(args, f"resumed {len(resumed)} finished cell(s) from {out}")
+    say(args, *_summary(res))
+    if res.get("renderer"):
+        from envfit.validate._renderer import summary_lines
+        say(args, "", *summary_lines(res["renderer"]))
+    if out is not None:
+        from envfit.plots._validate import plot_all
+        from envfit.validate._report import write_report
+        files = guarded_write(args, f"the figures in {out}", plot_all, res, out)
+        files = {} if files is None else files
+        if res.get("renderer"):
+            from envfit.plots._renderer import plot_renderer
+            png = guarded_write(args, out / "renderer.png", plot_renderer, res["renderer"],
+                                out / "renderer.png")
+            if png is not None:
+                files["renderer"] = str(png)
+        figures = len(files)
+        report = guarded_write(args, out / "report.md", write_report, res, out / "report.md", files)
+        if report is not None:
+            files["report.md"] = str(report)
+        res["files"] = files
+        if guarded_write(args, out / "validate.json", atomic_write_json, out / "validate.json",
+                         res) is not None:
+            res["files"]["validate.json"] = str(out / "validate.json")
+        written = ([f"{figures} figure(s)"] if figures else []) + [
+            files[k] for k in ("report.md", "validate.json") if k in files]
+        if written:
+            say(args, "wrote " + ", ".join(written))
+    say(args, f"({res['timings']['total']:.0f} s)")
+    emit_json(args, res)
+    return 0

@@ -1,0 +1,570 @@
+r"""Kernel interpolation of scattered samples on the sphere with the generalized distance kernel.
+
+Marques, Bouville, Bouatouch, Sec. 9.1 / Table 2: an environment map is sampled at N unit
+vectors :math:`p_j` and reconstructed with the reproducing kernel of the Sobolev space
+:math:`H^s(S^2)`,
+
+.. math::  K^{(s)}_{gd}(u, v) = \frac{2^{2s-1}}{s} - |u - v|^{2s-2}, \qquad 1 < s < 2
+           \quad (14)
+
+.. math::  \tilde f(u) = \sum_{j=1}^N \alpha_j K(u, p_j), \qquad K\alpha = f
+
+(:math:`K_{ij} = K(p_i, p_j)`, symmetric positive definite for distinct nodes). The
+interpolant is the minimum-norm element of :math:`H^s` through the data and, under the
+Gaussian-process reading (``envfit.theory._sobolev``), the posterior mean for the prior
+covariance :math:`\sigma^2 K`.
+
+Numerics
+--------
+* **Factorisation.** float64 Cholesky, *in place*: the matrix is written straight into a
+  Fortran-ordered buffer (lower triangle only) by a parallel numba kernel and factorised by
+  :func:`envfit.theory._cholesky.cholesky_inplace` (LAPACK ``dpotrf`` on 2048-column panels,
+  BLAS-3 updates in tiles that stay clear of OpenBLAS's threaded-``dsyrk`` crash on
+  AVX-512 CPUs at N >= 16 000; same speed as one ``dpotrf``): one N x N allocation, 3.2 GB at N = 20000
+  (``scipy.linalg.cho_factor`` on a C-ordered matrix would copy it). The condition
+  number grows like :math:`N^s` (~5e8 at s = 1.9, N = 20000), so there is no float32
+  shortcut. A memory guard (:func:`envfit.base._resources.check_memory`) runs before the
+  allocation and names the largest N that fits.
+* **Distances** are formed from coordinate differences, ``|u - v|^2 = sum (u_k - v_k)^2``,
+  which keeps full relative accuracy next to the cusp of the kernel; the Gram form
+  ``2 - 2 u.v`` (a rank-3 "BLAS" product, memory bound anyway) loses it there.
+* **Evaluation** :math:`\tilde f(q) = c_s \sum_j \alpha_j - \sum_j \alpha_j |q - p_j|^{2s-2}`,
+  two methods:
+
+  ``"direct"`` (exact)
+      a fused numba loop (distance, power, accumulation; no temporaries) with a
+      vectorised float64 power (``envfit.kernels._kernels.fast_pow``, ~1e-15 relative; ``sqrt``
+      for s = 1.5). M N power evaluations.
+  ``"nearfar"`` (fast summation)
+      the kernel's power part :math:`g(t) = (2 - 2t)^{s-1}`, ``t = q.p``, is replaced
+      outside a cap of chordal radius :math:`\delta` by a polynomial :math:`P_L(t)`
+      (Chebyshev interpolation on :math:`[-1, 1 - \delta^2/2]` truncated at 1e-15;
+      L ~ 20-25/delta), which by the addition theorem is a spherical-harmonic convolution:
+      :math:`\sum_j \alpha_j P_L(q\cdot p_j) = \sum_{lm} w_l Y_{lm}(q) \sum_j \alpha_j
+      Y^*_{lm}(p_j)` (two ducc0 NUFFT-based SH transforms, accuracy 3e-13). Pairs closer
+      than :math:`\delta` get the exact correction :math:`g - P_L` (3-D cell list,
+      ~8 neighbours per query). Cost O(C (L^2 log L + M + N)) for the transforms plus
+      ~8 M C near pairs, instead of M N C; error
+      ~1e-12 :math:`\sum_j |\alpha_j K(q, p_j)|` (vs ~1e-15 for direct), which is far
+      below the interpolation error (the RMSE against a map is unchanged to 6+ digits).
+
+  ``"auto"`` (default) picks ``"nearfar"`` when M N >= 5e7 and N >= 500.
+* **Threads.** numba kernels, BLAS/LAPACK calls and ducc0 transforms alternate and never
+  overlap; each uses all cores (``numba.get_num_threads()``; BLAS via its own pool, limit it
+  with ``threadpoolctl`` if the caller runs several interpolators in parallel).
+* **Leave-one-out residuals** (Rippa 1999) :math:`e_i = \alpha_i / (K^{-1})_{ii}` need the
+  diagonal of :math:`K^{-1} = L^{-T} L^{-1}`: :math:`(K^{-1})_{ii} = \|L^{-1} e_i\|^2`,
+  computed in column blocks by BLAS ``dtrsm`` on the trailing triangle (no copy of L,
+  N x 512 workspace). Cost N^3/3 flops, the same as the Cholesky factorisation itself
+  (~45 s at N = 20000 on 2 cores); computed once and cached.
+* **Profiled likelihood** :math:`\ell = -\tfrac12(N\log\hat\sigma^2 + \log\det K +
+  N(1+\log 2\pi))`, :math:`\hat\sigma^2 = f^T K^{-1} f / N` per channel, log det from the
+  Cholesky diagonal: O(N C) once the factor exists.
+
+Example
+-------
+>>> import numpy as np
+>>> rng = np.random.default_rng(0)
+>>> p = rng.normal(size=(200, 3))
+>>> f = p[:, 2] ** 2                      # any samples
+>>> it = SobolevInterpolator(p, f, 1.5)
+>>> bool(np.allclose(it(p), f, atol=1e-9))  # interpolates the data
+True
+"""
+from __future__ import annotations
+
+import math
+import time
+
+import numba
+import numpy as np
+from scipy.linalg import lapack
+from scipy.spatial import cKDTree
+
+from envfit.theory._cholesky import cholesky_inplace, inverse_diagonal
+from envfit.theory._sobolev import kernel_constant
+
+from envfit.kernels import _kernels
+from envfit.kernels._iterative import IterativeSolver, IterativeSolverError, SolveInfo
+from envfit.kernels._nearfar import CellList, near_radius, nearfar_power_sums
+from envfit.kernels._likelihood import ProfiledLikelihood, profiled_log_likelihood
+from envfit.base._checks import as_unit_vectors, check_s
+from envfit.base._errors import DuplicatePointsError, ParameterError
+from envfit.base._resources import (MEMORY_FRACTION, SOLVERS, available_memory_bytes, check_memory,
+                                    format_bytes, interpolator_nbytes, largest_feasible_n,
+                                    memory_budget_bytes)
+
+__all__ = ["SobolevInterpolator", "ProfiledLikelihood", "as_unit_vectors", "SolveInfo",
+           "DUPLICATE_DISTANCE", "EVAL_METHODS", "SOLVERS", "SOLVER_RTOL", "AUTO_ITERATIVE_MIN_N"]
+
+#: two nodes closer than this (chordal distance) are duplicates
+DUPLICATE_DISTANCE = 1e-12
+#: a Cholesky pivot p with p^2 < this * c_s means coincident nodes (rounding-level pivot)
+_SINGULAR_PIVOT = 64 * np.finfo(np.float64).eps
+EVAL_METHODS = ("auto", "direct", "nearfar")
+#: bytes of temporaries one evaluation block may use
+_BLOCK_BYTES = 64 * 2**20
+#: "auto" uses near/far above this many kernel entries (and N >= _AUTO_MIN_N)
+_AUTO_MIN_ENTRIES = 5e7
+_AUTO_MIN_N = 500
+#: iterative solver's default stopping rule: the bound of the interpolant's change
+#: (sup norm) at most this times the RMS of each channel's samples
+SOLVER_RTOL = 1e-8
+#: ``solver="auto"`` solves iteratively from this N on (below it the dense Cholesky is
+#: as fast or faster). Measured with ``bench/bench_solver.py`` section (c) on the 2-core
+#: AMD EPYC (Zen 4, AVX-512) of this project, forest.exr samples, 3 channels, s = 1.5, load
+#: 2.4-3.6: Cholesky / iterative fit 0.20 / 0.32 s at N = 1000, 0.41 / 0.42 s at 2000,
+#: 0.86 / 0.62 s at 3000, 2.21 / 0.82 s at 4000 (docs/performance.md, "The iterative solver").
+AUTO_ITERATIVE_MIN_N = 3000
+
+
+# ----------------------------------------------------------------------------- helpers
+
+def _as_values(values, n: int, *, name: str = "values") -> tuple[np.ndarray, bool]:
+    """(N, C) float64 Fortran-ordered copy of ``values`` and whether the input was 1-D."""
+    try:
+        v = np.asarray(values, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{name} must be a numeric array") from None
+    vector = v.ndim == 1
+    if vector:
+        v = v[:, None]
+    if v.ndim != 2 or v.shape[0] != n:
+        raise ParameterError(f"{name} must have shape ({n},) or ({n}, C), got {np.shape(values)}")
+    if v.shape[1] == 0:
+        raise ParameterError(f"{name} has no channels")
+    if not np.isfinite(v).all():
+        raise ParameterError(f"{name} contain NaN or Inf")
+    return np.array(v, dtype=np.float64, order="F"), vector
+
+
+def _closest_pair(points: np.ndarray) -> tuple[int, int, float]:
+    """Indices (i < j) and chordal distance of the closest pair of nodes (kd-tree, O(N log N))."""
+    if points.shape[0] < 2:
+        return 0, 0, math.inf
+    dist, idx = cKDTree(points).query(points, k=2)
+    i = int(np.argmin(dist[:, 1]))
+    # with exact duplicates the query may list the point itself second: take the other one
+    j = int(idx[i, 1]) if int(idx[i, 1]) != i else int(idx[i, 0])
+    return min(i, j), max(i, j), float(dist[i, 1])
+
+
+def _nthreads() -> int:
+    return max(1, int(numba.get_num_threads()))
+
+
+# ------------------------------------------------------------------ the interpolator
+
+class SobolevInterpolator:
+    r"""Interpolate values at unit vectors with the generalized distance kernel (Eq. 14).
+
+    Parameters
+    ----------
+    points : (N, 3) array
+        Node directions (normalised here; NaN/Inf or zero vectors are rejected).
+    values : (N,) or (N, C) array
+        Samples (one column per channel or per map; one factorisation serves them all).
+    s : float
+        Sobolev smoothness, 1 < s < 2.
+    check_duplicates : bool
+        Look for nodes closer than :data:`DUPLICATE_DISTANCE` before factorising
+        (kd-tree, O(N log N)). A failed factorisation is always reported as
+        :class:`~envfit.base._errors.DuplicatePointsError` with the closest pair.
+
+    Attributes
+    ----------
+    points (N, 3), s, n, nchannels, kernel_constant (:math:`c_s = 2^{2s-1}/s`),
+    coefficients (:math:`\alpha`, N x C), cholesky (``(L, True)``, the in-place factor as
+    :func:`scipy.linalg.cho_solve` expects it), log_det (:math:`\log\det K`).
+
+    Raises
+    ------
+    ParameterError, DuplicatePointsError, MemoryBudgetError
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(1)
+    >>> p = rng.normal(size=(300, 3)); f = np.c_[p[:, 0], p[:, 1] ** 2]
+    >>> it = SobolevInterpolator(p, f, 1.7)
+    >>> it.coefficients.shape, it([0.0, 0.0, 1.0]).shape
+    ((300, 2), (2,))
+    """
+
+    def __init__(self, points, values, s, *, check_duplicates: bool = True,
+                 solver: str = "auto", rtol: float = SOLVER_RTOL):
+        self.s = check_s(s)
+        if solver not in SOLVERS:
+            raise ParameterError(f"unknown solver {solver!r}; choose one of {', '.join(SOLVERS)}")
+        if not (isinstance(rtol, (int, float)) and 0.0 < float(rtol) < 1.0):
+            raise ParameterError(f"rtol must be a number in (0, 1), got {rtol!r}")
+        pts = as_unit_vectors(points)
+        n = pts.shape[0]
+        vals, self._vector = _as_values(values, n)
+        self._setup_nodes(pts, vals.shape[1])
+        self._solver_mode = solver
+        path, reason = self._choose_solver(solver)
+        budget = available_memory_bytes() * MEMORY_FRACTION
+        what = (f"interpolating {n} samples (the {n}x{n} float64 kernel matrix alone is "
+                f"{format_bytes(8.0 * n * n)})" if path == "cholesky" else
+                f"interpolating {n} samples with the iterative solver (sparse preconditioner "
+                f"and near-field matrix, O(N k))")
+        check_memory(interpolator_nbytes(n, self.nchannels, path), what,
+                     hint=f"the largest N that fits is "
+                          f"{largest_feasible_n(budget, self.nchannels, path)}")
+        if check_duplicates and n > 1:
+            i, j, d = _closest_pair(pts)
+            if d < DUPLICATE_DISTANCE:
+                raise DuplicatePointsError(
+                    f"points {i} and {j} coincide (distance {d:.1e} < {DUPLICATE_DISTANCE:g}): "
+                    f"the kernel matrix is singular; remove or merge duplicate samples")
+        self._values = vals
+        self.rtol = float(rtol)
+        if path == "iterative":
+            path, reason = self._solve_iterative(pts, vals, reason)
+        if path == "cholesky":
+            self._solve_dense(reason, fallback=self._fallback)
+        self.last_solve_info = self.solve_info
+
+    def _solve_dense(self, reason: str, fallback: str = "") -> None:
+        """Factorise K and solve for the stored values (sets coefficients, solve_info)."""
+        self._iterative = None
+        self._factor = self._factorize()
+        self.log_det = float(2.0 * np.sum(np.log(np.diagonal(self._factor))))
+        t = time.perf_counter()
+        self._alpha = self._solve_matrix(self._values)
+        self.timings["solve"] = time.perf_counter() - t
+        self.solve_info = SolveInfo(solver="cholesky", reason=reason, fallback=fallback,
+                                    seconds_setup=self.timings["matrix"] + self.timings["cholesky"],
+                                    seconds_solve=self.timings["solve"])
+
+    def _solve_iterative(self, pts: np.ndarray, vals: np.ndarray, reason: str) -> tuple[str, str]:
+        """CG (sets coefficients, solve_info); ``("cholesky", why)`` to fall back: ``auto``
+        whose CG broke down or did not converge while the dense matrix fits. ``"iterative"``
+        raises :class:`~envfit.kernels._iterative.IterativeSolverError` then."""
+        t = time.perf_counter()
+        self._iterative = IterativeSolver(pts, self.s, nthreads=_nthreads())
+        self.timings["setup"] = time.perf_counter() - t
+        try:
+            self._alpha, self.solve_info = self._iterative.solve(vals, self._tol(vals),
+                                                                 reason=reason)
+        except IterativeSolverError as exc:
+            return "cholesky", self._iterative_failed(reason, str(exc))
+        self.timings["solve"] = self.solve_info.seconds_solve
+        if self.solve_info.converged:
+            return "iterative", reason
+        return "cholesky", self._iterative_failed(
+            reason, f"CG did not converge after {self.solve_info.iterations} iterations")
+
+    def _iterative_failed(self, reason: str, why: str) -> str:
+        """The reason of the dense fallback (``solver="auto"`` where K fits in memory);
+        else :class:`~envfit.kernels._iterative.IterativeSolverError` saying what to do."""
+        fits = interpolator_nbytes(self.n, self.nchannels, "cholesky") <= memory_budget_bytes()
+        if self._solver_mode == "auto" and fits:
+            self._fallback = why
+            return f"{reason}; {why}: dense fallback"
+        hint = ("solver 'auto' falls back to the dense Cholesky path (--solver auto)"
+                if fits else f"the dense {self.n}x{self.n} matrix does not fit in memory "
+                             f"either: use fewer samples")
+        raise IterativeSolverError(f"the iterative solver failed on {self.n} samples: {why}; "
+                                   f"{hint}")
+
+    def _setup_nodes(self, pts: np.ndarray, nchannels: int) -> None:
+        """The attributes every interpolant has (nodes, s, constants), nothing solved yet."""
+        self.n = pts.shape[0]
+        self.nchannels = nchannels
+        self.kernel_constant = kernel_constant(self.s)
+        self._a = self.s - 1.0
+        self._kind = _kernels.power_kind(self._a)
+        self.points = pts
+        self._px = np.ascontiguousarray(pts[:, 0])
+        self._py = np.ascontiguousarray(pts[:, 1])
+        self._pz = np.ascontiguousarray(pts[:, 2])
+        #: wall-clock seconds of the construction steps ("matrix", "cholesky", "solve";
+        #: iterative: "setup", "solve")
+        self.timings = {}
+        self._factor = None
+        self._iterative = None
+        self._fallback = ""
+        self.log_det = float("nan")
+        self._kinv_diag = None
+        self._cells = {}
+
+    def _choose_solver(self, solver: str) -> tuple[str, str]:
+        """The path (``"cholesky"`` or ``"iterative"``) and why."""
+        if solver != "auto":
+            return solver, f"solver={solver!r} requested"
+        n = self.n
+        if interpolator_nbytes(n, self.nchannels, "cholesky") > memory_budget_bytes():
+            return "iterative", (f"auto: the dense {n}x{n} matrix does not fit in memory "
+                                 f"({format_bytes(8.0 * n * n)})")
+        if n >= AUTO_ITERATIVE_MIN_N:
+            return "iterative", f"auto: N = {n} >= {AUTO_ITERATIVE_MIN_N} (measured crossover)"
+        return "cholesky", f"auto: N = {n} < {AUTO_ITERATIVE_MIN_N} (measured crossover)"
+
+    @property
+    def solver(self) -> str:
+        """``"cholesky"`` or ``"iterative"``: how :attr:`coefficients` were obtained."""
+        return self.solve_info.solver
+
+    def _tol(self, vals: np.ndarray) -> np.ndarray:
+        """Per channel absolute bound of the interpolant's change: rtol x RMS(samples)."""
+        rms = np.sqrt(np.mean(vals * vals, axis=0))
+        return self.rtol * np.where(rms > 0, rms, np.finfo(float).tiny)
+
+    def refine(self, tol) -> SolveInfo:
+        r"""Iterate on until the interpolant moves by at most ``tol`` (absolute, sup norm;
+        scalar or per channel) from the exact solution; warm start from the current
+        coefficients. Returns (and stores in :attr:`solve_info`) the new solve's record.
+        Cholesky interpolants are exact already: their record is returned unchanged. With
+        ``solver="auto"``, a refinement whose CG breaks down or does not converge is replaced
+        by the dense solve where K fits (``solve_info.fallback`` says why)."""
+        if self._iterative is None:
+            return self.solve_info
+        tol = np.broadcast_to(np.asarray(tol, dtype=np.float64), (self.nchannels,))
+        reason = self.solve_info.reason
+        try:
+            alpha, info = self._iterative.solve(self._values, tol, reason=reason, x0=self._alpha)
+        except IterativeSolverError as exc:
+            self._solve_dense(self._iterative_failed(reason, f"refinement: {exc}"),
+                              fallback=f"refinement: {exc}")
+            return self.solve_info
+        if not info.converged and self._solver_mode == "auto":
+            why = f"refinement: CG did not converge after {info.iterations} iterations"
+            try:
+                self._solve_dense(self._iterative_failed(reason, why), fallback=why)
+                return self.solve_info
+            except IterativeSolverError:
+                pass                 # the dense matrix does not fit: keep the CG result
+        self._alpha = alpha
+        self.solve_info = info
+        return info
+
+    @classmethod
+    def from_coefficients(cls, points, coefficients, s) -> "SobolevInterpolator":
+        r"""An evaluation-only interpolant :math:`\sum_j \alpha_j K(\cdot, p_j)` from known
+        coefficients :math:`\alpha` (N,) or (N, C), without building or factorising K.
+
+        Used where the factorisation happened elsewhere (e.g. one factorisation solved for
+        a whole library of maps, :mod:`envfit.batch._library`): evaluation needs only the nodes and
+        :math:`\alpha` (O(N C) memory), so a worker can evaluate without the N x N factor.
+        :meth:`evaluate` gives bit-for-bit what the fitted interpolator gives for the same
+        :math:`\alpha`; :meth:`solve`, :meth:`loo_residuals` and
+        :meth:`log_likelihood_profiled` raise :class:`~envfit.base._errors.ParameterError`.
+
+        >>> import numpy as np
+        >>> p = np.random.default_rng(2).normal(size=(50, 3))
+        >>> full = SobolevInterpolator(p, p[:, 2], 1.5)
+        >>> light = SobolevInterpolator.from_coefficients(p, full.coefficients[:, 0], 1.5)
+        >>> bool(np.array_equal(light(p[:5]), full(p[:5])))
+        True
+        """
+        self = cls.__new__(cls)
+        self.s = check_s(s)
+        pts = as_unit_vectors(points)
+        alpha, self._vector = _as_values(coefficients, pts.shape[0], name="coefficients")
+        self._setup_nodes(pts, alpha.shape[1])
+        self._solver_mode = None
+        self._values = None
+        self._alpha = alpha
+        self.solve_info = SolveInfo(solver="given", reason="from_coefficients")
+        return self
+
+    # -- construction ------------------------------------------------------------
+    def _factorize(self) -> np.ndarray:
+        n = self.n
+        # the only N x N allocation: Fortran order, lower triangle written by the kernel
+        t0 = time.perf_counter()
+        # zeros (calloc: pages are zeroed lazily, no extra pass) so the unused upper triangle
+        # holds no garbage: cho_solve(check_finite=True) on .cholesky must not see NaNs
+        buf = np.zeros((n, n), dtype=np.float64, order="F")
+        _kernels.fill_kernel_matrix(self._px, self._py, self._pz, self._a, self._kind,
+                                    self.kernel_constant, buf)
+        t1 = time.perf_counter()
+        info = cholesky_inplace(buf)
+        c = buf
+        self.timings["matrix"] = t1 - t0
+        self.timings["cholesky"] = time.perf_counter() - t1
+        if info < 0:  # pragma: no cover - argument error
+            raise RuntimeError(f"dpotrf argument {-info} is invalid")
+        if info == 0:
+            # coincident nodes can also slip through with a pivot at rounding level
+            pivot = float(np.min(np.diagonal(c)))
+            if pivot * pivot >= _SINGULAR_PIVOT * self.kernel_constant:
+                return c
+        i, j, d = _closest_pair(self.points)
+        where = f"dpotrf failed at column {info}" if info > 0 else "a pivot at rounding level"
+        raise DuplicatePointsError(
+            f"the {n}x{n} kernel matrix is numerically singular ({where}); closest nodes: "
+            f"points {i} and {j} at distance {d:.1e}: remove or merge (near-)duplicate samples")
+
+    # -- linear algebra ------------------------------------------------------------
+    @property
+    def cholesky(self) -> tuple[np.ndarray, bool]:
+        """``(L, True)``: lower Cholesky factor of K (Fortran order, factorised in place).
+
+        Only the lower triangle is meaningful (the strict upper one was never written).
+        Usable directly with :func:`scipy.linalg.cho_solve`.
+        """
+        self._require_factor()
+        return self._factor, True
+
+    @property
+    def coefficients(self) -> np.ndarray:
+        r""":math:`\alpha = K^{-1} f`, shape (N, C)."""
+        return self._alpha
+
+    def _require_factor(self) -> None:
+        """Make sure the dense factor exists: ``solver="auto"`` builds it on demand (log det,
+        LOO, likelihood need it); ``"iterative"`` and ``from_coefficients`` raise."""
+        if self._factor is not None:
+            return
+        if self._iterative is None:
+            raise ParameterError("this interpolant was built from coefficients alone "
+                                 "(from_coefficients): it has no factorisation to solve with")
+        if self._solver_mode != "auto":
+            raise ParameterError(
+                "the log-determinant, leave-one-out residuals, likelihood and Cholesky factor "
+                "need the dense factorisation, and this interpolator was built with "
+                "solver='iterative': build it with solver='cholesky' (or 'auto', which "
+                "factorises on demand)")
+        n = self.n
+        check_memory(interpolator_nbytes(n, self.nchannels, "cholesky"),
+                     f"the dense factorisation for the log-determinant / LOO ({n}x{n} float64 "
+                     f"kernel matrix, {format_bytes(8.0 * n * n)})",
+                     hint="the iterative solver gives coefficients and evaluations, not log det K")
+        self._factor = self._factorize()
+        self.log_det = float(2.0 * np.sum(np.log(np.diagonal(self._factor))))
+
+    def _solve_matrix(self, vals: np.ndarray) -> np.ndarray:
+        self._require_factor()
+        x, info = lapack.dpotrs(self._factor, vals, lower=1)
+        if info != 0:  # pragma: no cover
+            raise RuntimeError(f"dpotrs failed (info={info})")
+        return x
+
+    def solve(self, new_values) -> np.ndarray:
+        r""":math:`K^{-1} f` for new samples at the same nodes (same factorisation, or the
+        same iterative product and preconditioner).
+
+        ``new_values`` (N,) or (N, C); the result has the same shape. Cost: two triangular
+        solves, O(N^2 C); iterative: a few O(N log N) products per channel (stopping rule of
+        the constructor's ``rtol``; the record is in :attr:`last_solve_info`).
+        """
+        vals, vector = _as_values(new_values, self.n, name="new_values")
+        if self._factor is None and self._iterative is not None:
+            x, self.last_solve_info = self._iterative.solve(vals, self._tol(vals),
+                                                            reason=self.solve_info.reason)
+        else:
+            x = self._solve_matrix(vals)
+        return x[:, 0] if vector else x
+
+    def _coefficients_for(self, values):
+        if values is None:
+            self._require_factor()
+            alpha = self._alpha if self._iterative is None else self._solve_matrix(self._values)
+            return self._values, alpha, self._vector
+        vals, vector = _as_values(values, self.n)
+        return vals, self._solve_matrix(vals), vector
+
+    def inverse_diagonal(self) -> np.ndarray:
+        r""":math:`\mathrm{diag}(K^{-1})` (N,), computed once (N^3/3 flops, see module doc)."""
+        self._require_factor()
+        if self._kinv_diag is None:
+            block = int(min(512, max(64, _BLOCK_BYTES // (8 * max(self.n, 1)))))
+            self._kinv_diag = inverse_diagonal(self._factor, block=block)
+        return self._kinv_diag
+
+    def loo_residuals(self, values=None) -> np.ndarray:
+        r"""Leave-one-out residuals :math:`e_i = f_i - \tilde f^{(-i)}(p_i) = \alpha_i / (K^{-1})_{ii}`.
+
+        Rippa's closed form: no refits. ``values`` default to the fitted ones; shape (N,) or
+        (N, C) like them.
+        """
+        _, alpha, vector = self._coefficients_for(values)
+        e = alpha / self.inverse_diagonal()[:, None]
+        return e[:, 0] if vector else e
+
+    def log_likelihood_profiled(self, values=None) -> ProfiledLikelihood:
+        r"""GP marginal log-likelihood of the samples with the scale profiled out, per channel.
+
+        Model :math:`f \sim N(0, \sigma^2 K)`; the maximising
+        :math:`\hat\sigma^2 = f^T K^{-1} f / N` gives
+        :math:`\ell = -\tfrac12 (N \log\hat\sigma^2 + \log\det K + N (1 + \log 2\pi))`.
+        Returns ``(loglik, sigma)`` (:math:`\hat\sigma`), arrays of shape (C,) or scalars for
+        1-D values (:func:`envfit.kernels._likelihood.profiled_log_likelihood`, from this
+        factorisation's solve and log-determinant).
+        """
+        vals, alpha, vector = self._coefficients_for(values)
+        return profiled_log_likelihood(vals[:, 0] if vector else vals,
+                                       alpha[:, 0] if vector else alpha, self.log_det)
+
+    # -- evaluation ----------------------------------------------------------------
+    def __call__(self, query) -> np.ndarray:
+        """Interpolant at ``query`` (..., 3) directions: shape (...,) or (..., C) like ``values``."""
+        return self.evaluate(query)
+
+    def evaluate(self, query, coefficients=None, *, method: str = "auto") -> np.ndarray:
+        r""":math:`\sum_j \alpha_j K(q, p_j)` at query directions (..., 3).
+
+        ``coefficients`` (N,) or (N, C) default to the fitted :attr:`coefficients`; the
+        output is (...,) or (..., C) accordingly. ``method``: ``"direct"``, ``"nearfar"``
+        or ``"auto"`` (see the module docstring).
+        """
+        if method not in EVAL_METHODS:
+            raise ParameterError(f"unknown evaluation method {method!r}; choose one of "
+                                 f"{', '.join(EVAL_METHODS)}")
+        qshape = np.shape(query)[:-1] if np.ndim(query) >= 1 else ()
+        q = as_unit_vectors(query, name="query")
+        if coefficients is None:
+            alpha, vector = self._alpha, self._vector
+        else:
+            alpha, vector = _as_values(coefficients, self.n, name="coefficients")
+        m = q.shape[0]
+        if method == "auto":
+            method = ("nearfar" if (m * self.n >= _AUTO_MIN_ENTRIES and self.n >= _AUTO_MIN_N)
+                      else "direct")
+        if method == "direct":
+            out = self._power_sums_direct(q, alpha)
+        else:
+            out = self._power_sums_nearfar(q, alpha)
+        # f(q) = c sum_j alpha_j - sum_j alpha_j |q - p_j|^(2s-2)
+        np.subtract(self.kernel_constant * alpha.sum(axis=0), out, out=out)
+        if vector:
+            return out[:, 0].reshape(qshape)
+        return out.reshape(qshape + (alpha.shape[1],))
+
+    def _power_sums_direct(self, q: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+        m, nc = q.shape[0], alpha.shape[1]
+        out = np.empty((m, nc))
+        a, kind = self._a, self._kind
+        if nc == 1:
+            _kernels.power_sums_1(q, self._px, self._py, self._pz,
+                                  np.ascontiguousarray(alpha[:, 0]), a, kind, out[:, 0])
+        elif nc == 3:
+            w = [np.ascontiguousarray(alpha[:, c]) for c in range(3)]
+            _kernels.power_sums_3(q, self._px, self._py, self._pz, w[0], w[1], w[2], a, kind, out)
+        else:  # many right-hand sides: power block (bounded memory) then BLAS
+            rows = max(1, _BLOCK_BYTES // (8 * self.n))
+            block = np.empty((min(rows, m), self.n))
+            for i0 in range(0, m, rows):
+                i1 = min(m, i0 + rows)
+                blk = block[: i1 - i0]
+                _kernels.power_block(q[i0:i1], self._px, self._py, self._pz, a, kind, blk)
+                np.matmul(blk, alpha, out=out[i0:i1])
+        return out
+
+    def _cell_list(self, delta: float) -> CellList:
+        cl = self._cells.get(delta)
+        if cl is None:
+            cl = self._cells[delta] = CellList.build(self.points, delta)
+        return cl
+
+    def _power_sums_nearfar(self, q: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+        delta = near_radius(self.n)
+        return nearfar_power_sums(self.points, self._cell_list(delta), q, alpha, self.s, delta,
+                                  self._a, self._kind, _nthreads())
+
+    def __repr__(self) -> str:
+        return (f"SobolevInterpolator(n={self.n}, channels={self.nchannels}, s={self.s:g}, "
+                f"solver={self.solve_info.solver}, log_det={self.log_det:.6g})")

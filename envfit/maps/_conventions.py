@@ -1,0 +1,550 @@
+r"""Lat-long conventions of renderers: each renderer's direction ↔ pixel formula, and the
+conversion of a map in that convention into envfit's (:mod:`envfit.maps._latlong`).
+
+Every convention is written in one canonical form, read off the renderer's source:
+
+.. math::  d_{world} = F\,(\sin\theta\cos\phi,\ \sin\theta\sin\phi,\ \cos\theta),\qquad
+           \theta = \pi\,\frac{row + a_r}{H - b_r},\qquad \phi = 2\pi\,\frac{col + a_c}{W - b_c},
+
+with a fixed orthogonal frame ``F`` and one of two pixel grids per axis: **centred**
+(``a = ½, b = 0``: pixel centres at half-integers, no row on a pole; envfit, pbrt-v3,
+Blender/Cycles) or **endpoints** (``a = 0, b = 1``: first and last row *on* the poles, or
+first and last column on the same meridian; OpenEXR's ``LatLongMap``, Mitsuba 3's rows).
+``row``/``col`` are continuous pixel coordinates with pixel ``(i, j)`` at ``(i, j)``, row 0
+the top row of the file. The renderer's own formula is in each class's docstring, with the
+source file and function it was verified against.
+
+=========  =====  ============================================================  ==========
+name       up     world direction of pixel (row, col)                           grid
+=========  =====  ============================================================  ==========
+envfit     +y     (sinθ sinφ, cosθ, −sinθ cosφ), θ = π(r+½)/H, φ = 2π(c+½)/W     centred
+openexr    +y     same orientation, θ = π r/(H−1), φ = 2π c/(W−1)               endpoints
+usd        +y     = openexr (UsdLuxDomeLight adopts the OpenEXR specification)  endpoints
+mitsuba3   +y     same orientation, θ = π r/(H−1), φ = 2π(c+½)/W                rows: ends
+pbrt3      +z     (sinθ cosφ, sinθ sinφ, cosθ), θ = π(r+½)/H, φ = 2π(c+½)/W     centred
+blender    +z     (−sinθ cosφ, sinθ sinφ, cosθ) (x mirrored), centred grid      centred
+pbrt4      —      not lat-long: equal-area square (octahedral) maps; refused     —
+=========  =====  ============================================================  ==========
+
+Conversion into envfit's convention (:meth:`LatLongConvention.to_internal`): the internal
+map keeps the convention's world frame (its ``up`` is the world axis of the convention's
+pole, so ``+z`` for pbrt-v3 and Blender) and has envfit's centred grid. If every internal
+pixel centre falls exactly on a pixel of the convention's grid (a permutation or flip of
+rows and columns: pbrt-v3, Blender, envfit) the pixels are **permuted**, bit-exactly;
+otherwise (OpenEXR, USD, Mitsuba 3) the renderer's bilinear interpolant of the map is
+evaluated at the internal pixel centres with ``scipy.ndimage.map_coordinates`` (order 1,
+periodic in longitude). Everything downstream (fits, shading, advise) is then unchanged.
+
+Example
+-------
+>>> import numpy as np
+>>> c = convention("pbrt3")
+>>> r, col = c.direction_to_pixel([0.0, 0.0, 1.0], 4, 8)       # +z: pbrt-v3's top edge
+>>> float(r), float(col)
+(-0.5, -0.5)
+>>> bool(np.allclose(c.pixel_to_direction(r, col, 4, 8), [0, 0, 1]))
+True
+>>> sorted(CONVENTIONS)
+['blender', 'envfit', 'mitsuba3', 'openexr', 'pbrt3', 'pbrt4', 'usd']
+"""
+from __future__ import annotations
+
+from typing import ClassVar, NamedTuple
+
+import numpy as np
+
+from envfit.base._errors import ParameterError
+from envfit.maps import _latlong as latlong
+from envfit.maps._envmap import EnvMap
+
+__all__ = ["Grid", "CENTRED", "ENDPOINTS", "LatLongConvention", "NotLatLong", "CONVENTIONS",
+           "convention", "convention_names"]
+
+#: an internal pixel centre this close (in pixels) to a pixel of the convention's grid
+#: counts as "on the grid" (the exact permutation path)
+EXACT_TOLERANCE = 1e-6
+
+
+class Grid(NamedTuple):
+    r"""A pixel grid along one axis: ``angle = span (index + offset) / (n − shrink)``.
+
+    >>> float(CENTRED.angle(0, 4, np.pi) / np.pi), float(ENDPOINTS.angle(3, 4, np.pi) / np.pi)
+    (0.125, 1.0)
+    """
+
+    offset: float
+    shrink: int
+    label: str
+
+    def angle(self, index, n: int, span: float):
+        """The angle of continuous pixel coordinate ``index`` on an axis of ``n`` pixels."""
+        return span * (np.asarray(index, dtype=np.float64) + self.offset) / (n - self.shrink)
+
+    def index(self, angle, n: int, span: float):
+        """The continuous pixel coordinate of ``angle`` (inverse of :meth:`angle`)."""
+        return np.asarray(angle, dtype=np.float64) * ((n - self.shrink) / span) - self.offset
+
+    def period(self, n: int) -> int:
+        """Distinct pixels around the axis (the last endpoint column repeats the first)."""
+        return n - self.shrink
+
+
+#: pixel centres at half-integers: θ = π(i+½)/H, φ = 2π(j+½)/W (envfit, pbrt-v3, Cycles)
+CENTRED = Grid(0.5, 0, "centred")
+#: first and last pixel on the ends: θ = π i/(H−1), φ = 2π j/(W−1) (OpenEXR, Mitsuba rows)
+ENDPOINTS = Grid(0.0, 1, "endpoints")
+
+_L_Y = latlong.local_to_world("y")
+
+
+class LatLongConvention:
+    r"""A renderer's lat-long convention (subclasses set the class attributes).
+
+    Attributes
+    ----------
+    name, renderer : the CLI name and the renderer it describes
+    frame : (3, 3) orthogonal ``F``: ``d_world = F (sinθ cosφ, sinθ sinφ, cosθ)``
+    rows, cols : the :class:`Grid` of θ (over π, H rows) and of φ (over 2π, W columns)
+    azimuth : ``(sign, offset, low)``: the renderer's own azimuth is
+        ``φ_r = sign φ + offset`` wrapped into ``[low, low + 2π)`` (see :meth:`angles`)
+    azimuth_label : how the renderer computes its azimuth, for messages
+    source : where the formula was verified
+    """
+
+    name: ClassVar[str] = ""
+    renderer: ClassVar[str] = ""
+    frame: ClassVar[np.ndarray] = _L_Y
+    rows: ClassVar[Grid] = CENTRED
+    cols: ClassVar[Grid] = CENTRED
+    azimuth: ClassVar[tuple[float, float, float]] = (1.0, 0.0, 0.0)
+    azimuth_label: ClassVar[str] = "φ"
+    source: ClassVar[str] = ""
+
+    # ---------------------------------------------------------------- geometry
+    @property
+    def up(self) -> str:
+        """The world axis of the convention's top row, ``"x"``, ``"y"`` or ``"z"`` (the
+        internal map's ``up``)."""
+        return "xyz"[int(np.argmax(np.abs(self.frame[:, 2])))]
+
+    def pixel_to_direction(self, row, col, height: int, width: int | None = None) -> np.ndarray:
+        r"""Unit world direction at continuous pixel coordinates of this convention.
+
+        .. math::  d = F(\sin\theta\cos\phi, \sin\theta\sin\phi, \cos\theta),\quad
+                   \theta = \pi(row + a_r)/(H - b_r),\quad \phi = 2\pi(col + a_c)/(W - b_c).
+
+        ``row`` and ``col`` broadcast; returns ``broadcast shape + (3,)``.
+
+        >>> convention("openexr").pixel_to_direction(0, 0, 4, 8).round(12) + 0.0   # top row: +y
+        array([0., 1., 0.])
+        """
+        h, w = latlong._size(height, width)
+        theta = self.rows.angle(row, h, np.pi)
+        phi = self.cols.angle(col, w, 2.0 * np.pi)
+        return latlong._local_dirs(theta, phi) @ self.frame.T
+
+    def direction_to_pixel(self, dirs, height: int,
+                           width: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+        r"""Continuous pixel coordinates ``(row, col)`` of world directions (any nonzero length).
+
+        With ``(x, y, z) = F^T d``: ``θ = atan2(√(x²+y²), z)``, ``φ = atan2(y, x)`` in
+        ``[0, 2π)``, ``row = θ(H − b_r)/π − a_r``, ``col = φ(W − b_c)/(2π) − a_c``.
+
+        >>> r, c = convention("mitsuba3").direction_to_pixel([0.0, -1.0, 0.0], 5, 10)
+        >>> float(r)                                     # −y: Mitsuba's last row, on the pole
+        4.0
+        """
+        h, w = latlong._size(height, width)
+        local = self._local(dirs)
+        theta = np.arctan2(np.hypot(local[..., 0], local[..., 1]), local[..., 2])
+        phi = np.mod(np.arctan2(local[..., 1], local[..., 0]), 2.0 * np.pi)
+        phi = np.where(phi >= 2.0 * np.pi, 0.0, phi)          # mod can round up to 2π
+        return self.rows.index(theta, h, np.pi), self.cols.index(phi, w, 2.0 * np.pi)
+
+    def pixel_directions(self, height: int, width: int | None = None) -> np.ndarray:
+        """World direction of every pixel of an ``H x W`` map in this convention, (H, W, 3).
+
+        >>> convention("blender").pixel_directions(4).shape
+        (4, 8, 3)
+        """
+        h, w = latlong._size(height, width)
+        return self.pixel_to_direction(np.arange(h)[:, None], np.arange(w)[None, :], h, w)
+
+    def angles(self, dirs) -> tuple[np.ndarray, np.ndarray]:
+        r"""The renderer's own angles of world directions, in radians: θ, the polar angle from
+        its up axis, and its azimuth ``φ_r = sign·φ + offset`` in ``[low, low + 2π)``
+        (:attr:`azimuth_label` says how the renderer computes it).
+
+        >>> t, p = convention("blender").angles([1.0, 0.0, 0.0])   # Cycles: atan2(y, x) = 0
+        >>> round(float(t), 12), round(float(p), 12)
+        (1.570796326795, 0.0)
+        """
+        local = self._local(dirs)
+        theta = np.arctan2(np.hypot(local[..., 0], local[..., 1]), local[..., 2])
+        sign, offset, low = self.azimuth
+        phi = sign * np.arctan2(local[..., 1], local[..., 0]) + offset
+        return theta, np.mod(phi - low, 2.0 * np.pi) + low
+
+    def _local(self, dirs) -> np.ndarray:
+        d = latlong._as_dirs(dirs)
+        if not np.all(np.isfinite(d)):
+            raise ParameterError("directions contain NaN or Inf")
+        return d @ self.frame          # F^T d, as row vectors
+
+    # ---------------------------------------------------------------- conversion
+    def exact_indices(self, height: int, width: int | None = None):
+        """``(rows, cols)`` integer arrays (H, W) such that internal pixel ``(i, j)`` is
+        pixel ``(rows[i, j], cols[i, j])`` of the map in this convention, or None when the
+        grids differ by more than a permutation or flip (then :meth:`to_internal` resamples).
+
+        >>> r, c = convention("blender").exact_indices(2)          # columns reversed, shifted
+        >>> c[0].tolist()
+        [1, 0, 3, 2]
+        """
+        h, w = latlong._size(height, width)
+        row, col = self.direction_to_pixel(latlong.pixel_directions(h, w, up=self.up), h, w)
+        ri, ci = np.rint(row), np.rint(col)
+        if np.max(np.abs(row - ri)) > EXACT_TOLERANCE or np.max(np.abs(col - ci)) > EXACT_TOLERANCE:
+            return None
+        if ri.min() < 0 or ri.max() > h - 1:
+            return None
+        return ri.astype(np.int64), np.mod(ci.astype(np.int64), self.cols.period(w))
+
+    def resample(self, image, height_out: int | None = None) -> np.ndarray:
+        r"""The renderer's bilinear interpolant of ``image`` (H, W[, C], this convention)
+        evaluated at envfit's pixel centres (same H unless ``height_out``), float64.
+
+        Coordinates are :meth:`direction_to_pixel` of :func:`latlong.pixel_directions`
+        (``up`` = :attr:`up`); values come from ``scipy.ndimage.map_coordinates(order=1)``
+        on the image padded by one pixel: columns periodic (period ``W − b_c``), and, for
+        a centred row grid, the rows beyond a pole continued across it (row −1 = row 0 at
+        φ + π); an endpoint row grid needs no padding (its rows span [0, π]).
+
+        >>> img = np.arange(8.0).reshape(2, 4)
+        >>> bool(np.allclose(convention("pbrt3").resample(img), img))     # identity grid
+        True
+        """
+        from scipy.ndimage import map_coordinates
+
+        img = np.asarray(image, dtype=np.float64)
+        flat = img.ndim == 2
+        img = img[:, :, None] if flat else img
+        h, w = img.shape[:2]
+        ho = h if height_out is None else int(height_out)
+        row, col = self.direction_to_pixel(latlong.pixel_directions(ho, 2 * ho, up=self.up), h, w)
+        period = self.cols.period(w)
+        base = img[:, :period]
+        shift = period // 2
+        top = np.roll(base[:1], shift, axis=1) if self.rows is CENTRED else base[:1]
+        bottom = np.roll(base[-1:], shift, axis=1) if self.rows is CENTRED else base[-1:]
+        ext = np.concatenate([top, base, bottom], axis=0)
+        ext = np.concatenate([ext[:, -1:], ext, ext[:, :1]], axis=1)
+        coords = [row.ravel() + 1.0, np.mod(col.ravel(), period) + 1.0]
+        out = np.stack([map_coordinates(ext[:, :, k], coords, order=1, mode="nearest",
+                                        prefilter=False) for k in range(img.shape[2])], axis=-1)
+        out = out.reshape(ho, 2 * ho, img.shape[2])
+        return out[:, :, 0] if flat else out
+
+    def to_internal(self, env, *, exact: bool | None = None) -> EnvMap:
+        r"""The map ``env`` (an :class:`EnvMap` or an H x 2H [x C] array whose pixels are laid
+        out in this convention) in envfit's convention, with ``up`` = :attr:`up`.
+
+        ``exact=None``: permute pixels when :meth:`exact_indices` finds the grids equal up
+        to a permutation or flip, else resample (:meth:`resample`); ``True``: permutation or
+        :class:`ParameterError`; ``False``: always resample. A note says which was done.
+
+        >>> m = convention("blender").to_internal(np.arange(8.0).reshape(2, 4))
+        >>> m.up, m.data[0, :, 0].tolist()
+        ('z', [1.0, 0.0, 3.0, 2.0])
+        """
+        src = env if isinstance(env, EnvMap) else EnvMap(np.asarray(env))
+        h, w = src.height, src.width
+        idx = self.exact_indices(h, w) if exact is not False else None
+        if exact and idx is None:
+            raise ParameterError(f"the {self.name} grid is not envfit's up to a permutation; "
+                                 "it can only be resampled")
+        if idx is not None:
+            data = src.data[idx[0], idx[1]]
+            how = "pixels permuted exactly, no resampling"
+        else:
+            data = self.resample(src.data).astype(src.data.dtype)
+            how = f"resampled bilinearly to envfit's pixel centres ({self.rows.label} rows, " \
+                  f"{self.cols.label} columns)"
+        notes = list(src.notes)
+        if self.name != "envfit":
+            notes.append(f"read as a {self.renderer} lat-long map (+{self.up} up): {how}")
+        return EnvMap(data, up=self.up, name=src.name, notes=notes)
+
+    def from_internal(self, env: EnvMap) -> np.ndarray:
+        r"""The pixels of an :class:`EnvMap` laid out in this convention, (H, W, C) float64:
+        ``env.lookup`` (bilinear) at :meth:`pixel_directions`, which is bit-exact where the
+        grids coincide (lookups at pixel centres are exact).
+
+        >>> e = EnvMap(np.random.default_rng(0).random((4, 8, 1)), up="z")
+        >>> c = convention("blender")
+        >>> bool(np.array_equal(c.to_internal(c.from_internal(e)).data, e.data))
+        True
+        """
+        if not isinstance(env, EnvMap):
+            raise ParameterError("from_internal needs an EnvMap (its up axis says where it is)")
+        return env.lookup(self.pixel_directions(env.height, env.width))
+
+    def describe(self) -> str:
+        """One line: name, renderer, up axis, grids."""
+        return (f"{self.name}: {self.renderer}, +{self.up} up, {self.rows.label} rows, "
+                f"{self.cols.label} columns")
+
+    def __repr__(self) -> str:
+        return f"convention({self.name!r})"
+
+
+# ---------------------------------------------------------------------------- conventions
+class EnvfitConvention(LatLongConvention):
+    r"""envfit's own convention (:mod:`envfit.maps._latlong`, ``up="y"``; what ``--up y`` reads).
+
+    ``d = (sinθ sinφ, cosθ, −sinθ cosφ)``, ``θ = π(row+½)/H``, ``φ = 2π(col+½)/W``:
+    OpenEXR's orientation on a centred pixel grid (no row on a pole).
+
+    >>> bool(np.allclose(convention("envfit").pixel_directions(4), latlong.pixel_directions(4)))
+    True
+    """
+
+    name = "envfit"
+    renderer = "envfit"
+    source = "envfit/maps/_latlong.py"
+
+
+class OpenEXRConvention(LatLongConvention):
+    r"""OpenEXR's latitude-longitude map, exactly as ``ImfEnvmap`` defines it.
+
+    Source: OpenEXR ``src/lib/OpenEXR/ImfEnvmap.h`` (the "Latitude-Longitude Map" comment)
+    and ``ImfEnvmap.cpp``, namespace ``LatLongMap``, functions ``latLong(dir)``,
+    ``latLong(dataWindow, pixelPosition)``, ``pixelPosition`` and ``direction``
+    (AcademySoftwareFoundation/openexr, read at commit 41253757e6bb):
+
+    .. code-block:: text
+
+        latitude  = −π ((y − min.y)/(max.y − min.y) − ½)
+        longitude = −2π ((x − min.x)/(max.x − min.x) − ½)
+        direction = (sin(lon) cos(lat), sin(lat), cos(lon) cos(lat))
+        latLong(dir): lat = asin(dir.y/|dir|), lon = atan2(dir.x, dir.z)
+
+    "Pixel (dataWindow.min.x, dataWindow.min.y) has latitude +pi/2 and longitude +pi;
+    pixel (dataWindow.max.x, dataWindow.max.y) has latitude −pi/2 and longitude −pi."
+    With the data window ``[0, W−1] x [0, H−1]``, ``θ = π/2 − lat = π row/(H−1)`` and
+    ``φ = π − lon = 2π col/(W−1)``: the same orientation as envfit's default
+    (``+y`` up, centre column towards ``+z``, φ = π/2 towards ``+x``) but on the
+    **endpoint** grid: the first and last rows lie on the poles and the first and last
+    columns on the same meridian (``lon = ±π``). Maps are therefore resampled, not
+    permuted; the difference from envfit's grid is half a pixel at the edges.
+
+    >>> r, c = convention("openexr").direction_to_pixel([0.0, 0.0, 1.0], 4, 8)   # lat 0, lon 0
+    >>> round(float(r), 12), round(float(c), 12)                  # (y, x) = ((H−1)/2, (W−1)/2)
+    (1.5, 3.5)
+    """
+
+    name = "openexr"
+    renderer = "OpenEXR (ImfEnvmap LatLongMap)"
+    rows = ENDPOINTS
+    cols = ENDPOINTS
+    azimuth = (-1.0, np.pi, -np.pi)
+    azimuth_label = "longitude = atan2(x, z)"
+    source = ("OpenEXR src/lib/OpenEXR/ImfEnvmap.cpp LatLongMap::latLong / pixelPosition / "
+              "direction, ImfEnvmap.h")
+
+
+class USDConvention(OpenEXRConvention):
+    r"""USD's ``DomeLight`` with a ``latlong`` texture: the OpenEXR convention.
+
+    Source: the UsdLux schema documentation, ``DomeLight``
+    (https://openusd.org/release/user_guides/schemas/usdLux/DomeLight.html): "The dome's
+    default orientation is such that its top pole is aligned with the world's +Y axis.
+    This adheres to the OpenEXR specification for latitude-longitude maps", followed by the
+    OpenEXR text quoted in :class:`OpenEXRConvention`. (``DomeLight_1``, USD 23.11, adds
+    ``poleAxis``, whose fallback ``"scene"`` puts the pole on the stage's up axis; this
+    convention is the ``+Y`` one, i.e. ``DomeLight`` or ``DomeLight_1`` on a Y-up stage.)
+    The formulas are those of :class:`OpenEXRConvention`.
+
+    >>> convention("usd").pixel_to_direction(0.0, 0.0, 4).round(12) + 0.0
+    array([0., 1., 0.])
+    """
+
+    name = "usd"
+    renderer = "USD (UsdLuxDomeLight)"
+    source = ("openusd.org usdLux DomeLight schema docs (OpenEXR specification); "
+              "formulas of OpenEXR ImfEnvmap.cpp")
+
+
+class Mitsuba3Convention(LatLongConvention):
+    r"""Mitsuba 3's ``envmap`` emitter.
+
+    Source: mitsuba-renderer/mitsuba3 ``src/emitters/envmap.cpp`` (read at commit
+    0179ad9f28b5), ``EnvironmentMapEmitter::direction_to_uv``, ``uv_to_direction`` and
+    ``eval_spectrum``:
+
+    .. code-block:: text
+
+        direction_to_uv(d) = (atan2(d.x, −d.z) / 2π, acos(d.y) / π)
+        uv_to_direction(u, v) = (sin φ sin θ, cos θ, −cos φ sin θ), θ = π v, φ = 2π u
+        eval_spectrum: u −= ½/(res.x − 1); uv −= floor(uv); uv *= (res.x − 1, res.y − 1)
+
+    where the texture ``m_data`` is the file plus one periodic column (``res.x = W + 1``),
+    so the lookup position is ``(u W − ½, v (H − 1))``, bilinear: columns are centred
+    (``φ = 2π(col+½)/W``, as envfit) but rows are on the **endpoint** grid,
+    ``θ = π row/(H−1)`` (the first and last rows on the poles; the sampling warp's
+    ``sin θ`` uses ``θ = π y/(H−1)`` too). Orientation: envfit's default (``+y`` up).
+    Maps are resampled (rows), not permuted.
+
+    >>> float(convention("mitsuba3").direction_to_pixel([0.0, 1.0, 0.0], 5, 10)[0])  # +y: row 0
+    0.0
+    """
+
+    name = "mitsuba3"
+    renderer = "Mitsuba 3 (envmap emitter)"
+    rows = ENDPOINTS
+    azimuth_label = "2π u = atan2(x, −z) in [0, 2π)"
+    source = ("mitsuba3 src/emitters/envmap.cpp EnvironmentMapEmitter::direction_to_uv / "
+              "uv_to_direction / eval_spectrum")
+
+
+class Pbrt3Convention(LatLongConvention):
+    r"""pbrt-v3's ``infinite`` light (``InfiniteAreaLight``), ``+z`` up.
+
+    Source: mmp/pbrt-v3 ``src/lights/infinite.cpp`` (read at commit fdc6f73b52ea),
+    ``InfiniteAreaLight::Le`` and ``Sample_Li``, and ``src/core/mipmap.h``,
+    ``MIPMap::triangle`` (the bilinear lookup):
+
+    .. code-block:: text
+
+        Le:        st = (SphericalPhi(w)/2π, SphericalTheta(w)/π)   (light space)
+        Sample_Li: θ = π v, φ = 2π u, wi = LightToWorld(sinθ cosφ, sinθ sinφ, cosθ)
+        triangle:  s = st[0]·width − ½, t = st[1]·height − ½
+
+    ``SphericalTheta = acos(w.z)``, ``SphericalPhi = atan2(w.y, w.x)`` in ``[0, 2π)``: the
+    centred grid with envfit's ``--up z`` frame (identity), ``θ = π(row+½)/H``,
+    ``φ = 2π(col+½)/W``. Converted exactly (the identity permutation, ``up = "z"``).
+
+    >>> convention("pbrt3").exact_indices(2)[1][0].tolist()
+    [0, 1, 2, 3]
+    """
+
+    name = "pbrt3"
+    renderer = "pbrt-v3 (InfiniteAreaLight)"
+    frame = np.eye(3)
+    azimuth_label = "SphericalPhi = atan2(y, x) in [0, 2π)"
+    source = "pbrt-v3 src/lights/infinite.cpp InfiniteAreaLight::Le / Sample_Li, src/core/mipmap.h"
+
+
+class BlenderConvention(LatLongConvention):
+    r"""Blender Cycles' Environment Texture node (equirectangular projection), ``+z`` up.
+
+    Source: blender/blender ``intern/cycles/kernel/camera/projection.h``,
+    ``direction_to_equirectangular_range`` and ``direction_to_equirectangular`` (range
+    ``(−2π, π, −π, π)``); ``intern/cycles/kernel/svm/image.h``,
+    ``svm_node_tex_environment`` (``uv = direction_to_equirectangular(normalize(co))``);
+    ``intern/cycles/scene/image_oiio.cpp``, ``oiio_load_pixels`` (the file is read with a
+    negative row stride: its **top row becomes v = 1**); and
+    ``intern/cycles/kernel/device/cpu/image.h``, ``interp_linear``
+    (``x·width − ½``: centred texels):
+
+    .. code-block:: text
+
+        u = (atan2(d.y, d.x) − π)/(−2π) = ½ − atan2(d.y, d.x)/2π
+        v = (acos(d.z/|d|) − π)/(−π)    = 1 − acos(d.z)/π
+
+    With file row ``r`` (top = 0) at ``v = 1 − (r+½)/H`` and column ``c`` at
+    ``u = (c+½)/W``: ``θ = π(r+½)/H`` and ``atan2(y, x) = π − φ`` with envfit's
+    ``φ = 2π(c+½)/W``, i.e. ``d = (−sinθ cosφ, sinθ sinφ, cosθ)``: envfit's ``--up z``
+    **mirrored in x**. Both grids are centred, so the conversion is exact: internal
+    column ``j`` is Blender column ``W/2 − 1 − j (mod W)``.
+
+    >>> r, c = convention("blender").direction_to_pixel([1.0, 0.0, 0.0], 4, 8)   # u = ½, v = ½
+    >>> round(float(r), 12), round(float(c), 12)
+    (1.5, 3.5)
+    """
+
+    name = "blender"
+    renderer = "Blender Cycles (Environment Texture)"
+    frame = np.diag([-1.0, 1.0, 1.0])
+    azimuth = (-1.0, np.pi, -np.pi)
+    azimuth_label = "atan2(y, x)"
+    source = ("Blender intern/cycles/kernel/camera/projection.h "
+              "direction_to_equirectangular_range; kernel/svm/image.h svm_node_tex_environment; "
+              "scene/image_oiio.cpp oiio_load_pixels (rows flipped)")
+
+
+class NotLatLong:
+    """A renderer whose environment maps are not lat-long: every use raises
+    :class:`ParameterError` with :attr:`reason` (one line)."""
+
+    name: ClassVar[str] = ""
+    renderer: ClassVar[str] = ""
+    reason: ClassVar[str] = ""
+    source: ClassVar[str] = ""
+
+    def _refuse(self, *args, **kwargs):
+        raise ParameterError(f"--convention {self.name}: {self.reason}")
+
+    direction_to_pixel = pixel_to_direction = pixel_directions = angles = _refuse
+    exact_indices = resample = to_internal = from_internal = _refuse
+
+    def describe(self) -> str:
+        return f"{self.name}: {self.renderer}: {self.reason}"
+
+    def __repr__(self) -> str:
+        return f"convention({self.name!r})"
+
+
+class Pbrt4Convention(NotLatLong):
+    """pbrt-v4's ``infinite`` light reads **equal-area square** maps, not lat-long ones.
+
+    Source: mmp/pbrt-v4 ``src/pbrt/lights.cpp``, ``Light::Create`` (``"infinite"`` with a
+    ``filename`` builds an ``ImageInfiniteLight``, whose pixel ``(x, y)`` is the direction
+    ``EqualAreaSquareToSphere(((x+½)/W, (y+½)/H))``, Clarberg's octahedral equal-area map)
+    and pbrt-v4's README ("the environment map parameterization has also changed (from
+    equi-rect to an equi-area mapping); you can upgrade environment maps using
+    ``imgtool makeequiarea old.exr --outfile new.exr``"). A 2:1 lat-long file is not such a
+    map, so envfit refuses it instead of guessing.
+
+    >>> convention("pbrt4").to_internal(None)
+    Traceback (most recent call last):
+    ...
+    envfit.base._errors.ParameterError: --convention pbrt4: pbrt-v4 reads equal-area square (octahedral) environment maps, not lat-long ones; give the lat-long map that pbrt-v4's `imgtool makeequiarea` converts (read it as --convention pbrt3 for pbrt-v3, or envfit)
+    """
+
+    name = "pbrt4"
+    renderer = "pbrt-v4 (ImageInfiniteLight)"
+    reason = ("pbrt-v4 reads equal-area square (octahedral) environment maps, not lat-long "
+              "ones; give the lat-long map that pbrt-v4's `imgtool makeequiarea` converts "
+              "(read it as --convention pbrt3 for pbrt-v3, or envfit)")
+    source = "pbrt-v4 src/pbrt/lights.cpp Light::Create / ImageInfiniteLight; README.md"
+
+
+#: name → convention (one instance each)
+CONVENTIONS: dict[str, LatLongConvention | NotLatLong] = {
+    c.name: c() for c in (EnvfitConvention, OpenEXRConvention, USDConvention,
+                          Mitsuba3Convention, Pbrt3Convention, BlenderConvention,
+                          Pbrt4Convention)}
+
+
+def convention_names() -> tuple[str, ...]:
+    """The accepted names, in the order of :data:`CONVENTIONS`."""
+    return tuple(CONVENTIONS)
+
+
+def convention(name) -> LatLongConvention | NotLatLong:
+    """The convention called ``name`` (case-insensitive); :class:`ParameterError` otherwise.
+
+    >>> convention("Mitsuba3").name
+    'mitsuba3'
+    >>> convention("maya")
+    Traceback (most recent call last):
+    ...
+    envfit.base._errors.ParameterError: unknown --convention 'maya'; use one of envfit, openexr, usd, mitsuba3, pbrt3, blender, pbrt4
+    """
+    key = str(name).strip().lower() if isinstance(name, str) else None
+    try:
+        return CONVENTIONS[key]
+    except KeyError:
+        raise ParameterError(f"unknown --convention {name!r}; use one of "
+                             f"{', '.join(convention_names())}") from None
