@@ -1,0 +1,38 @@
+r"""Exact error predictions for every way a renderer randomises the N points of a pixel:
+independent, jittered (stratified), correlated multi-jittered, random digital (XOR) shift,
+Owen-scrambled nets and Cranley–Patterson shifts, all from one input — the warped integrand h
+on the unit square summarised on a dyadic grid (:class:`DyadicGrid`) — and the cross term of
+two techniques' streams (MIS).
+
+Modules (private, one per method; each cites its equation and reference):
+
+* ``_grid`` — :class:`DyadicGrid` (cell means of h and h², the variance; from a callable or
+  arrays) and :class:`RandomisedMSE` (mse per channel, resolved / above the grid).
+* ``_strata`` — moments over the rectangles of a product partition.
+* ``_walsh`` — Walsh coefficients by the fast Walsh–Hadamard transform; dyadic block sums.
+* ``_nets`` — the digital nets' generator matrices and dual nets (:data:`NETS`).
+* ``_independent``, ``_jittered``, ``_cmj``, ``_digital_shift``, ``_owen``, ``_cp_shift`` — the
+  methods.
+* ``_registry`` — :data:`RANDOMISATIONS` and the dispatcher :func:`randomised_mse`.
+* ``_mis`` — :func:`mis_mse`, two streams, independent or sharing one point set.
+
+The names of ``__all__`` are imported lazily, on first use (PEP 562), so that
+importing the package loads none of its modules.
+"""
+from __future__ import annotations
+
+from envfit.base._lazy import lazy_exports
+
+_LAZY = {
+    "DyadicGrid": "_grid", "RandomisedMSE": "_grid",
+    "DigitalNet": "_nets", "NETS": "_nets",
+    "mitsuba_cmj_shape": "_cmj",
+    "owen_gains": "_owen",
+    "walsh_coefficients": "_walsh",
+    "RANDOMISATIONS": "_registry", "Randomisation": "_registry", "randomised_mse": "_registry",
+    "MisMSE": "_mis", "mis_mse": "_mis",
+}
+
+__all__ = sorted(_LAZY)
+
+__getattr__, __dir__ = lazy_exports(__name__, _LAZY)

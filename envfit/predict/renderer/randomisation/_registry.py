@@ -1,0 +1,101 @@
+r"""The registry of randomisations (as colour-science's method registries) and its dispatcher
+:func:`randomised_mse`: one name per way a renderer randomises the N points of a pixel, each
+taking the same :class:`DyadicGrid` of the warped integrand.
+
+============== ======================================================== ==================
+name           randomisation                                            renderers
+============== ======================================================== ==================
+independent    i.i.d. uniform points                                     Mitsuba, pbrt
+jittered       r × r strata, fresh uniform jitter (option ``r``)         Mitsuba/pbrt
+                                                                        ``stratified``
+cmj            correlated multi-jittering (options ``nx``, ``ny``)       Mitsuba
+                                                                        ``multijitter``
+digital_shift  random XOR shift of a digital net (option ``net``)        Mitsuba
+                                                                        ``ldsampler``
+owen           nested uniform scrambling of a digital net (``net``)      pbrt ``zsobol``,
+                                                                        Cycles
+cp_shift       Cranley–Patterson shift of a point set (``points``,       pbrt ``pmj02bn``,
+               ``net``)                                                 envfit's rules
+============== ======================================================== ==================
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+from envfit.base import ParameterError
+
+from ._cmj import cmj_mse
+from ._cp_shift import cp_shift_mse
+from ._digital_shift import digital_shift_mse
+from ._grid import DyadicGrid, RandomisedMSE
+from ._independent import independent_mse
+from ._jittered import jittered_mse
+from ._owen import owen_mse
+
+__all__ = ["RANDOMISATIONS", "Randomisation", "randomised_mse"]
+
+
+@dataclass(frozen=True)
+class Randomisation:
+    """One registered randomisation: its function ``f(grid, n, **options)`` and options."""
+
+    name: str
+    function: Callable[..., RandomisedMSE]
+    options: tuple[str, ...]
+    description: str
+
+
+RANDOMISATIONS = {r.name: r for r in (
+    Randomisation("independent", independent_mse, (), "i.i.d. uniform points: V/N"),
+    Randomisation("jittered", jittered_mse, ("r",), "r x r jittered strata"),
+    Randomisation("cmj", cmj_mse, ("nx", "ny"), "Kensler's correlated multi-jittering"),
+    Randomisation("digital_shift", digital_shift_mse, ("net",),
+                  "random XOR shift of a digital net"),
+    Randomisation("owen", owen_mse, ("net",), "nested uniform (Owen) scrambling of a net"),
+    Randomisation("cp_shift", cp_shift_mse, ("points", "net"),
+                  "Cranley-Patterson shift of a point set"),
+)}
+
+
+def randomised_mse(name: str, grid: DyadicGrid, n: int, **options) -> RandomisedMSE:
+    r"""The exact mean squared error of :math:`\frac1N\sum_j h(u_j)` over the randomisation
+    ``name`` of N = ``n`` points, from the grid of h.
+
+    Parameters
+    ----------
+    name : str
+        A key of :data:`RANDOMISATIONS`.
+    grid : DyadicGrid
+        The warped integrand's cell means, mean squares and variance.
+    n : int
+        Points per estimate (the renderer's samples per pixel after its own rounding).
+    **options
+        The method's options (``RANDOMISATIONS[name].options``).
+
+    Raises
+    ------
+    ParameterError
+        Unknown name or option, N < 1, N not allowed by the method or the grid.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> g = DyadicGrid.from_callable(lambda u: u[:, 0] + u[:, 1], 6, nodes=2)
+    >>> r = randomised_mse("independent", g, 16)
+    >>> bool(np.isclose(r.mse[0], (1 / 6) / 16))     # Var(u1 + u2) = 2/12
+    True
+    """
+    if name not in RANDOMISATIONS:
+        raise ParameterError(f"unknown randomisation {name!r}; known: "
+                             f"{', '.join(RANDOMISATIONS)}")
+    if not isinstance(grid, DyadicGrid):
+        raise ParameterError(f"grid must be a DyadicGrid, got {type(grid).__name__}")
+    if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+        raise ParameterError(f"n must be an integer >= 1, got {n!r}")
+    entry = RANDOMISATIONS[name]
+    unknown = sorted(set(options) - set(entry.options))
+    if unknown:
+        raise ParameterError(f"{name} takes the options {list(entry.options)}, "
+                             f"not {unknown}")
+    return entry.function(grid, n, **options)
