@@ -1,0 +1,357 @@
+r"""Rendering the sphere of :mod:`._sphere` with Blender's Cycles through ``bpy`` (PyPI
+``bpy`` 5.0.1: ``pip install 'envfit[cycles]'``), and its measured shading error.
+
+The scene (built once per :class:`CyclesSphere`, from Blender's empty factory settings):
+
+* **the sphere**: a point cloud of one point of radius 1 at the origin (a mesh vertex through
+  the Geometry Nodes *Mesh to Points* node), which Cycles intersects as an exact analytic
+  sphere (``kernel/geom/point_intersect.h``), so its normals are exact — not a tessellated
+  mesh with interpolated normals. Material: the **Diffuse BSDF**, colour 1, roughness 0 —
+  Lambertian (``kernel/closure/bsdf_diffuse.h``; Oren–Nayar only for roughness > 0), cosine
+  sampling by the concentric map (``kernel/sample/mapping.h``: ``sample_cos_hemisphere``);
+* **the world**: an *Environment Texture* (equirectangular, Linear interpolation) of the map
+  written to a temporary EXR, looked up at the vector (d_z, d_x, d_y) of the ray direction d
+  (Texture Coordinate *Generated* → Separate/Combine XYZ). Cycles' equirectangular lookup
+  (``kernel/camera/projection.h``: ``direction_to_equirectangular_range``) puts direction
+  (−sinθ cosφ, sinθ sinφ, cosθ) at the pixel of (θ, φ) (z up, centred grid); envfit's ``up="y"``
+  puts (sinθ sinφ, cosθ, −sinθ cosφ) there (:mod:`envfit.maps`), and the permutation maps the
+  second onto the first, so the map is seen in envfit's convention (checked by rendering a
+  map with one bright pixel). World *Sampling*: ``AUTOMATIC`` for ``mis`` (one light sample +
+  one BSDF sample per spp, power heuristic: ``kernel/integrator/shade_surface.h``), ``NONE``
+  for ``brdf``; emitter sampling alone exists only in debug builds (``map`` is refused);
+* **light paths**: max bounces 1 (diffuse 1, others 0): the camera hit and its one bounce;
+  with one convex sphere a bounce leaving it can only escape to the world, so this is direct
+  lighting exactly (tested: more bounces give the same image); clamping off; denoising and
+  adaptive sampling off; the light tree at its default (on); the **box** pixel filter of
+  width 1; the CPU device;
+* **sampling pattern**: Tabulated Sobol (the factory startup scene's) or Blue Noise
+  (:data:`PATTERNS`); a random seed per render (consecutive seeds are correlated: Cycles XORs
+  the seed into each pixel's hash, ``kernel/sample/pattern.h``: ``path_rng_pixel_init``);
+* six orthographic cameras, ``ortho_scale`` 2 (the image covers [−1, 1]²), at 3v looking
+  along −v with the view's up: Blender's camera looks along its local −z with local +y up,
+  so its world matrix has the columns (u × v, u, v, 3v).
+
+bpy holds one global Blender session: one :class:`CyclesSphere` at a time (a new one resets
+the session to the empty factory settings).
+"""
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from envfit.base import ParameterError
+from envfit.maps import EnvMap, save_envmap
+from envfit.measure.renderers._reference import ReferencePair, cached_reference, map_digest
+from envfit.measure.renderers._sphere import (VIEWS, SphereMeasurement, check_strategy,
+                                              measurement, sphere_error, sphere_geometry,
+                                              view_seeds)
+
+__all__ = ["PATTERNS", "CYCLES_PATTERNS", "WORLD_SAMPLING", "CyclesOptions", "CyclesSphere",
+           "import_bpy", "cycles_normals"]
+
+#: envfit's pattern names → Cycles' ``sampling_pattern`` enum
+PATTERNS = {"tabulated_sobol": "TABULATED_SOBOL", "blue_noise": "BLUE_NOISE",
+            "automatic": "AUTOMATIC"}
+CYCLES_PATTERNS = tuple(PATTERNS)
+#: strategy → the world's ``cycles.sampling_method``
+WORLD_SAMPLING = {"mis": "AUTOMATIC", "brdf": "NONE"}
+
+
+def import_bpy():
+    """The ``bpy`` module; :class:`ParameterError` (one line) if it is not installed."""
+    try:
+        import bpy
+    except ImportError:
+        raise ParameterError("Blender's Cycles is not available: pip install bpy==5.0.1 "
+                             "(or pip install 'envfit[cycles]')") from None
+    return bpy
+
+
+@dataclass(frozen=True)
+class CyclesOptions:
+    """Settings of the Cycles sphere renders.
+
+    Attributes
+    ----------
+    resolution : pixels per side of each view.
+    reference_spp : spp of each of the two reference renders (Tabulated Sobol, MIS).
+    reference_seed : seed of the reference renders' seeds.
+    threads : CPU threads (None: all cores).
+    cache_dir : folder of the reference cache (None: no cache).
+    max_bounces : light-path bounces (1: direct lighting; more only to check that it is).
+    """
+
+    resolution: int = 64
+    reference_spp: int = 4096
+    reference_seed: int = 20241
+    threads: int | None = None
+    cache_dir: str | None = None
+    max_bounces: int = 1
+
+    def __post_init__(self):
+        for name, lo in (("resolution", 4), ("reference_spp", 1), ("max_bounces", 1)):
+            v = getattr(self, name)
+            if not isinstance(v, (int, np.integer)) or v < lo:
+                raise ParameterError(f"{name} must be an integer >= {lo}, got {v!r}")
+
+
+def _material(bpy):
+    mat = bpy.data.materials.new("white diffuse")
+    mat.use_nodes = True
+    nt = mat.node_tree
+    for n in list(nt.nodes):
+        nt.nodes.remove(n)
+    out, dif = nt.nodes.new("ShaderNodeOutputMaterial"), nt.nodes.new("ShaderNodeBsdfDiffuse")
+    dif.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    dif.inputs["Roughness"].default_value = 0.0
+    nt.links.new(dif.outputs["BSDF"], out.inputs["Surface"])
+    return mat
+
+
+def _sphere_object(bpy, scene, mat):
+    """One vertex at the origin → Mesh to Points (radius 1) → Set Material: an exact sphere."""
+    me = bpy.data.meshes.new("vertex")
+    me.from_pydata([(0.0, 0.0, 0.0)], [], [])
+    ob = bpy.data.objects.new("sphere", me)
+    scene.collection.objects.link(ob)
+    gn = bpy.data.node_groups.new("sphere points", "GeometryNodeTree")
+    gn.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    gn.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    gi, go = gn.nodes.new("NodeGroupInput"), gn.nodes.new("NodeGroupOutput")
+    m2p = gn.nodes.new("GeometryNodeMeshToPoints")
+    m2p.inputs["Radius"].default_value = 1.0
+    sm = gn.nodes.new("GeometryNodeSetMaterial")
+    sm.inputs["Material"].default_value = mat
+    gn.links.new(gi.outputs[0], m2p.inputs["Mesh"])
+    gn.links.new(m2p.outputs["Points"], sm.inputs["Geometry"])
+    gn.links.new(sm.outputs["Geometry"], go.inputs[0])
+    ob.modifiers.new("points", "NODES").node_group = gn
+    return ob
+
+
+def _world(bpy, scene, map_path: str):
+    """The Environment Texture world, looked up at (d_z, d_x, d_y) (module docstring)."""
+    world = bpy.data.worlds.new("envmap")
+    scene.world = world
+    world.use_nodes = True
+    wt = world.node_tree
+    for n in list(wt.nodes):
+        wt.nodes.remove(n)
+    tc, sep = wt.nodes.new("ShaderNodeTexCoord"), wt.nodes.new("ShaderNodeSeparateXYZ")
+    comb, env = wt.nodes.new("ShaderNodeCombineXYZ"), wt.nodes.new("ShaderNodeTexEnvironment")
+    bg, wo = wt.nodes.new("ShaderNodeBackground"), wt.nodes.new("ShaderNodeOutputWorld")
+    env.image = bpy.data.images.load(map_path)
+    env.interpolation = "Linear"
+    env.projection = "EQUIRECTANGULAR"
+    wt.links.new(tc.outputs["Generated"], sep.inputs[0])
+    for src, dst in (("Z", "X"), ("X", "Y"), ("Y", "Z")):
+        wt.links.new(sep.outputs[src], comb.inputs[dst])
+    wt.links.new(comb.outputs[0], env.inputs["Vector"])
+    wt.links.new(env.outputs["Color"], bg.inputs["Color"])
+    bg.inputs["Strength"].default_value = 1.0
+    wt.links.new(bg.outputs[0], wo.inputs["Surface"])
+    return world
+
+
+def _settings(scene, options: CyclesOptions) -> None:
+    r, c = scene.render, scene.cycles
+    r.engine = "CYCLES"
+    r.resolution_x = r.resolution_y = options.resolution
+    r.resolution_percentage = 100
+    r.threads_mode = "FIXED"
+    r.threads = int(options.threads or os.cpu_count() or 1)
+    r.image_settings.file_format = "OPEN_EXR"
+    r.image_settings.color_depth = "32"
+    r.film_transparent = False
+    scene.view_settings.view_transform = "Standard"
+    scene.view_settings.look = "None"
+    scene.view_settings.exposure = 0.0
+    scene.view_settings.gamma = 1.0
+    c.device = "CPU"
+    c.use_adaptive_sampling = False
+    c.use_denoising = False
+    c.pixel_filter_type = "BOX"
+    c.filter_width = 1.0
+    c.max_bounces = c.diffuse_bounces = options.max_bounces
+    c.glossy_bounces = c.transmission_bounces = c.volume_bounces = 0
+    c.transparent_max_bounces = 0
+    c.sample_clamp_direct = c.sample_clamp_indirect = 0.0
+    c.use_animated_seed = False
+    c.use_light_tree = True
+
+
+def _camera(bpy, scene):
+    cam = bpy.data.cameras.new("ortho")
+    cam.type = "ORTHO"
+    cam.ortho_scale = 2.0
+    cam.clip_start, cam.clip_end = 0.01, 100.0
+    ob = bpy.data.objects.new("camera", cam)
+    scene.collection.objects.link(ob)
+    scene.camera = ob
+    return ob
+
+
+def _view_matrix(view):
+    from mathutils import Matrix
+    r, u, v = (np.asarray(a, float) for a in (view.right, view.up, view.axis))
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = r, u, v, 3.0 * v
+    return Matrix(m.tolist())
+
+
+def _read_exr(path: Path, channels=None) -> np.ndarray:
+    import OpenImageIO as oiio
+    buf = oiio.ImageBuf(str(path))
+    spec = buf.spec()
+    names = list(spec.channelnames)
+    px = np.asarray(buf.get_pixels(oiio.FLOAT), dtype=np.float64)
+    if channels and not all(c in names for c in channels):
+        raise RuntimeError(f"{path}: no channels {channels} in {names}")
+    idx = [names.index(c) for c in channels] if channels else [0, 1, 2]
+    return px[..., idx]
+
+
+class CyclesSphere:
+    """The sphere of :mod:`._sphere` in Cycles on one map (module docstring); a context
+    manager (the temporary files are removed on exit)."""
+
+    renderer = "cycles"
+
+    def __init__(self, envmap: EnvMap, options: CyclesOptions | None = None):
+        self.bpy = bpy = import_bpy()
+        self.options = options or CyclesOptions()
+        data = np.asarray(envmap.data, dtype=np.float32)
+        if data.shape[2] == 1:
+            data = np.repeat(data, 3, axis=2)
+        elif data.shape[2] != 3:
+            raise ParameterError(f"Cycles renders RGB maps; this one has {data.shape[2]} channels")
+        self.envmap = EnvMap(data, up="y", name=envmap.name)
+        self.digest = map_digest(self.envmap)
+        self.geometry = sphere_geometry(self.options.resolution)
+        self._dir = Path(tempfile.mkdtemp(prefix="envfit-cycles-"))
+        path = save_envmap(self._dir / f"map-{self.digest[:16]}.exr", self.envmap)
+        bpy.ops.wm.read_factory_settings(use_empty=True)
+        self.scene = bpy.context.scene
+        _sphere_object(bpy, self.scene, _material(bpy))
+        self.world = _world(bpy, self.scene, str(path))
+        self.camera = _camera(bpy, self.scene)
+        _settings(self.scene, self.options)
+        self.version = bpy.app.version_string
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def close(self) -> None:
+        """Remove the temporary files."""
+        shutil.rmtree(self._dir, ignore_errors=True)
+
+    def _render_view(self, k: int, out: Path, channels=None) -> tuple[np.ndarray, float]:
+        self.camera.matrix_world = _view_matrix(VIEWS[k])
+        self.scene.render.filepath = str(out)
+        t = time.perf_counter()
+        self.bpy.ops.render.render(write_still=True)
+        secs = time.perf_counter() - t
+        img = _read_exr(out, channels)
+        out.unlink()
+        return img, secs
+
+    def render(self, strategy: str, pattern: str, spp: int, seed) -> tuple[np.ndarray, list]:
+        """The six views (6, R, R, 3) and the seconds of each render (wall time of Cycles'
+        render call, scene sync and the world's importance map included)."""
+        if check_strategy(strategy) not in WORLD_SAMPLING:
+            raise ParameterError("Cycles samples the world alone (no BSDF rays) only in debug "
+                                 "builds: strategy must be 'mis' or 'brdf'")
+        if pattern not in PATTERNS:
+            raise ParameterError(f"Cycles sampling pattern must be one of "
+                                 f"{', '.join(PATTERNS)}; got {pattern!r}")
+        if not isinstance(spp, (int, np.integer)) or spp < 1:
+            raise ParameterError(f"spp must be an integer >= 1, got {spp!r}")
+        c = self.scene.cycles
+        c.sampling_pattern = PATTERNS[pattern]
+        c.samples = int(spp)
+        self.world.cycles.sampling_method = WORLD_SAMPLING[strategy]
+        images, secs = [], []
+        for k, s in enumerate(view_seeds(seed)):
+            c.seed = int(s)
+            img, t = self._render_view(k, self._dir / f"view{k}.exr")
+            images.append(img)
+            secs.append(t)
+        return np.stack(images), secs
+
+    def reference(self) -> ReferencePair:
+        """Two reference renders (Tabulated Sobol, MIS, ``reference_spp``), cached."""
+        o = self.options
+        key = {"renderer": self.renderer, "version": self.version, "map": self.digest,
+               "spp": o.reference_spp, "resolution": o.resolution, "seed": o.reference_seed,
+               "strategy": "mis", "pattern": "tabulated_sobol", "bounces": o.max_bounces}
+
+        def render():
+            rng = np.random.default_rng(o.reference_seed)
+            a, ta = self.render("mis", "tabulated_sobol", o.reference_spp, rng)
+            b, tb = self.render("mis", "tabulated_sobol", o.reference_spp, rng)
+            return a, b, sum(ta) + sum(tb)
+
+        return cached_reference(key, render, o.cache_dir)
+
+    def measure(self, strategy: str, pattern: str, spp: int, *, seed=0,
+                reference: ReferencePair | None = None) -> SphereMeasurement:
+        """The measured RMSE over normals of one configuration against :meth:`reference`."""
+        ref = self.reference() if reference is None else reference
+        rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+        imgs, secs = self.render(strategy, pattern, spp, rng)
+        err = sphere_error(imgs, ref.a, ref.b, self.geometry, seed=rng)
+        opts = {"world_sampling": WORLD_SAMPLING[strategy], "blender": self.version,
+                "device": "CPU", "filter": "box 1 px", "light_tree": True,
+                "max_bounces": self.options.max_bounces}
+        return measurement(err, spp=spp, renderer=self.renderer, sampler=pattern,
+                           strategy=strategy, reference_spp=self.options.reference_spp,
+                           view_seconds=secs, resolution=self.options.resolution,
+                           options=opts)
+
+    def normals(self, spp: int = 16) -> np.ndarray:
+        """World normals (6, R, R, 3) of the sphere per pixel, rendered by Cycles: the
+        sphere's material swapped for an Emission of colour (N + 1)/2, N the Geometry node's
+        normal (the camera sees the emission directly, so a pixel is the mean of (n + 1)/2
+        over its footprint), for checking :func:`._sphere.view_normals`."""
+        bpy, s = self.bpy, self.scene
+        mat = bpy.data.materials.new("normal emission")
+        mat.use_nodes = True
+        nt = mat.node_tree
+        for n in list(nt.nodes):
+            nt.nodes.remove(n)
+        geo, vm = nt.nodes.new("ShaderNodeNewGeometry"), nt.nodes.new("ShaderNodeVectorMath")
+        em, out = nt.nodes.new("ShaderNodeEmission"), nt.nodes.new("ShaderNodeOutputMaterial")
+        vm.operation = "MULTIPLY_ADD"
+        vm.inputs[1].default_value = (0.5, 0.5, 0.5)
+        vm.inputs[2].default_value = (0.5, 0.5, 0.5)
+        nt.links.new(geo.outputs["Normal"], vm.inputs[0])
+        nt.links.new(vm.outputs[0], em.inputs["Color"])
+        em.inputs["Strength"].default_value = 1.0
+        nt.links.new(em.outputs[0], out.inputs["Surface"])
+        node = bpy.data.node_groups["sphere points"].nodes["Set Material"]
+        white = node.inputs["Material"].default_value
+        node.inputs["Material"].default_value = mat
+        s.cycles.samples = int(spp)
+        try:
+            out = [self._render_view(k, self._dir / f"normal{k}.exr")[0]
+                   for k in range(len(VIEWS))]
+        finally:
+            node.inputs["Material"].default_value = white
+        return 2.0 * np.stack(out) - 1.0
+
+
+def cycles_normals(resolution: int, spp: int = 16) -> np.ndarray:
+    """World normals (6, R, R, 3) of the sphere per pixel of each view from Cycles' Normal
+    pass (on a constant map)."""
+    env = EnvMap(np.ones((4, 8, 3), np.float32))
+    with CyclesSphere(env, CyclesOptions(resolution=int(resolution), reference_spp=1)) as r:
+        return r.normals(spp)

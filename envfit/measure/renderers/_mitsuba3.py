@@ -1,0 +1,264 @@
+r"""Rendering the sphere of :mod:`._sphere` with Mitsuba 3 (``scalar_rgb``), and its measured
+shading error.
+
+The scene, one per (sampler, ``mis_compensation``), holds the map, the sphere and six
+sensors (:data:`._sphere.VIEWS`):
+
+* ``envmap`` from the map written to a temporary EXR (atomically, a distinct folder per
+  :class:`Mitsuba3Sphere`; removed on :meth:`Mitsuba3Sphere.close`). Mitsuba reads the file in
+  its own lat-long convention (``src/emitters/envmap.cpp``: ``uv_to_direction``,
+  ``eval_spectrum``: rows on the poles, θ = π y/(H − 1), φ texel-centred, +y up, the same
+  orientation as envfit's ``up="y"``: :class:`envfit.maps.convention` ``"mitsuba3"``), and
+  samples it with its piecewise-bilinear ``Hierarchical2D`` density (``rebuild_distribution``;
+  ``mis_compensation`` subtracts the mean luminance first, Karlík et al. 2019);
+* ``sphere`` (radius 1 at the origin, an exact analytic shape) with the ``diffuse`` BSDF of
+  reflectance 1 (``src/bsdfs/diffuse.cpp``: cosine sampling by the concentric map,
+  ``include/mitsuba/core/warp.h``: ``square_to_cosine_hemisphere``);
+* six ``orthographic`` sensors (``src/sensors/orthographic.cpp``: the image plane covers
+  [−1, 1]² of the camera frame; ``look_at`` from 3v with the view's up, so image right is
+  u × v), an ``hdrfilm`` of R × R RGB pixels with the ``box`` filter, and the sampler by its
+  Mitsuba name (:data:`SAMPLERS`) with ``sample_count`` = spp and a seed per render.
+
+The integrator is ``direct`` (``src/integrators/direct.cpp``: ``DirectIntegrator::sample``,
+the power heuristic with the sample counts) with ``emitter_samples``/``bsdf_samples`` per
+strategy (:data:`STRATEGY_SAMPLES`: map = 1/0, brdf = 0/1, mis = 1/1). The reference is two
+renders with the ``independent`` sampler and MIS at ``reference_spp``, cached on disk
+(:func:`._reference.cached_reference`), shared by every strategy and sampler of the map.
+
+Example
+-------
+>>> import numpy as np
+>>> from envfit.maps import EnvMap
+>>> opts = Mitsuba3Options(resolution=8, reference_spp=16)
+>>> with Mitsuba3Sphere(EnvMap(np.full((8, 16, 3), 0.5)), opts) as r:     # doctest: +SKIP
+...     m = r.measure("mis", "independent", 4, seed=1)
+>>> round(m.rmse, 6)                                                      # doctest: +SKIP
+0.0
+"""
+from __future__ import annotations
+
+import shutil
+import tempfile
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from envfit.base import ParameterError
+from envfit.maps import EnvMap, save_envmap
+from envfit.measure.renderers._reference import ReferencePair, cached_reference, map_digest
+from envfit.measure.renderers._sphere import (VIEWS, SphereMeasurement, check_strategy,
+                                              measurement, sphere_error, sphere_geometry,
+                                              view_seeds)
+
+__all__ = ["SAMPLERS", "MITSUBA_SAMPLERS", "STRATEGY_SAMPLES", "Mitsuba3Options", "Mitsuba3Sphere",
+           "import_mitsuba", "mitsuba_normals"]
+
+#: Mitsuba 3's sampler plugins measured here
+SAMPLERS = ("independent", "stratified", "multijitter", "ldsampler", "orthogonal")
+MITSUBA_SAMPLERS = SAMPLERS
+#: strategy → (emitter_samples, bsdf_samples) of the ``direct`` integrator
+STRATEGY_SAMPLES = {"map": (1, 0), "brdf": (0, 1), "mis": (1, 1)}
+#: the variant used: the LLVM variants abort in this machine's LLVM 14/15 code generator
+VARIANT = "scalar_rgb"
+
+
+def import_mitsuba():
+    """The ``mitsuba`` module with the ``scalar_rgb`` variant set; :class:`ParameterError`
+    (one line) if Mitsuba 3 is not installed."""
+    try:
+        import mitsuba as mi
+    except ImportError:
+        raise ParameterError("Mitsuba 3 is not installed: pip install mitsuba (or "
+                             "pip install 'envfit[test]')") from None
+    if mi.variant() != VARIANT:
+        mi.set_variant(VARIANT)
+    return mi
+
+
+@dataclass(frozen=True)
+class Mitsuba3Options:
+    """Settings of the Mitsuba 3 sphere renders.
+
+    Attributes
+    ----------
+    resolution : pixels per side of each view.
+    reference_spp : spp of each of the two reference renders (independent sampler, MIS).
+    reference_seed : seed of the reference renders' seeds.
+    mis_compensation : the ``envmap`` plugin's ``mis_compensation`` for the renders under
+        test (the reference never uses it: it does not change the expectation).
+    cache_dir : folder of the reference cache (None: no cache).
+    """
+
+    resolution: int = 64
+    reference_spp: int = 4096
+    reference_seed: int = 20240
+    mis_compensation: bool = False
+    cache_dir: str | None = None
+
+    def __post_init__(self):
+        for name, lo in (("resolution", 4), ("reference_spp", 1)):
+            v = getattr(self, name)
+            if not isinstance(v, (int, np.integer)) or v < lo:
+                raise ParameterError(f"{name} must be an integer >= {lo}, got {v!r}")
+
+
+def _sensor(mi, view, resolution: int, sampler: str) -> dict:
+    v = np.asarray(view.axis)
+    return {"type": "orthographic",
+            "to_world": mi.ScalarTransform4f().look_at(origin=(3.0 * v).tolist(),
+                                                       target=[0, 0, 0], up=list(view.up)),
+            "film": {"type": "hdrfilm", "width": resolution, "height": resolution,
+                     "rfilter": {"type": "box"}, "pixel_format": "rgb"},
+            "sampler": {"type": sampler, "sample_count": 4}}
+
+
+def _check_sampler(sampler: str) -> str:
+    if sampler not in SAMPLERS:
+        raise ParameterError(f"Mitsuba 3 sampler must be one of {', '.join(SAMPLERS)}; "
+                             f"got {sampler!r}")
+    return sampler
+
+
+def _check_spp(spp) -> int:
+    if not isinstance(spp, (int, np.integer)) or spp < 1:
+        raise ParameterError(f"spp must be an integer >= 1, got {spp!r}")
+    return int(spp)
+
+
+class Mitsuba3Sphere:
+    """The sphere of :mod:`._sphere` in Mitsuba 3 on one map (module docstring); a context
+    manager (the temporary map file is removed on exit).
+
+    Parameters
+    ----------
+    envmap : the map (written as it is: Mitsuba reads it in its own convention, module
+        docstring); one channel is repeated to RGB.
+    options : :class:`Mitsuba3Options`.
+    """
+
+    renderer = "mitsuba3"
+
+    def __init__(self, envmap: EnvMap, options: Mitsuba3Options | None = None):
+        self.mi = import_mitsuba()
+        self.options = options or Mitsuba3Options()
+        data = np.asarray(envmap.data, dtype=np.float32)
+        if data.shape[2] == 1:
+            data = np.repeat(data, 3, axis=2)
+        elif data.shape[2] != 3:
+            raise ParameterError(f"Mitsuba renders RGB maps; this one has {data.shape[2]} channels")
+        self.envmap = EnvMap(data, up=envmap.up, name=envmap.name)
+        self.digest = map_digest(self.envmap)
+        self.geometry = sphere_geometry(self.options.resolution)
+        self._dir = Path(tempfile.mkdtemp(prefix="envfit-mitsuba3-"))
+        self._path = save_envmap(self._dir / f"map-{self.digest[:16]}.exr", self.envmap)
+        self._scenes: dict = {}
+        self._integrators: dict = {}
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def close(self) -> None:
+        """Remove the temporary map file."""
+        shutil.rmtree(self._dir, ignore_errors=True)
+        self._scenes.clear()
+
+    def _scene(self, sampler: str, compensation: bool):
+        key = (sampler, bool(compensation))
+        if key not in self._scenes:
+            mi = self.mi
+            d = {"type": "scene",
+                 "sphere": {"type": "sphere",
+                            "bsdf": {"type": "diffuse",
+                                     "reflectance": {"type": "rgb", "value": [1.0, 1.0, 1.0]}}},
+                 "env": {"type": "envmap", "filename": str(self._path),
+                         "mis_compensation": bool(compensation)}}
+            for k, view in enumerate(VIEWS):
+                d[f"sensor{k}"] = _sensor(mi, view, self.options.resolution, sampler)
+            self._scenes[key] = mi.load_dict(d)
+        return self._scenes[key]
+
+    def _integrator(self, strategy: str):
+        if strategy not in self._integrators:
+            es, bs = STRATEGY_SAMPLES[check_strategy(strategy)]
+            self._integrators[strategy] = self.mi.load_dict(
+                {"type": "direct", "emitter_samples": es, "bsdf_samples": bs})
+        return self._integrators[strategy]
+
+    def spp_used(self, sampler: str, spp: int) -> int:
+        """The sample count Mitsuba's ``sampler`` actually takes for ``spp`` (it rounds, e.g.
+        ``ldsampler`` to a power of two, ``orthogonal`` to p² with p prime)."""
+        s = self.mi.load_dict({"type": _check_sampler(sampler), "sample_count": _check_spp(spp)})
+        return int(s.sample_count())
+
+    def render(self, strategy: str, sampler: str, spp: int, seed, *,
+               compensation: bool | None = None) -> tuple[np.ndarray, list[float]]:
+        """The six views (6, R, R, 3) and the seconds of each render; ``seed`` (an int or a
+        Generator) draws one random seed per view (:func:`._sphere.view_seeds`)."""
+        check_strategy(strategy)
+        spp = _check_spp(spp)
+        comp = self.options.mis_compensation if compensation is None else compensation
+        scene = self._scene(_check_sampler(sampler), comp)
+        integ = self._integrator(strategy)
+        images, secs = [], []
+        for k, s in enumerate(view_seeds(seed)):
+            t = time.perf_counter()
+            img = self.mi.render(scene, sensor=k, integrator=integ, spp=spp, seed=s)
+            images.append(np.array(img, dtype=np.float64))
+            secs.append(time.perf_counter() - t)
+        return np.stack(images), secs
+
+    def reference(self) -> ReferencePair:
+        """The two reference renders (independent sampler, MIS, ``reference_spp``), from the
+        cache when present."""
+        o = self.options
+        key = {"renderer": self.renderer, "version": self.mi.__version__, "variant": VARIANT,
+               "map": self.digest, "spp": o.reference_spp, "resolution": o.resolution,
+               "seed": o.reference_seed, "strategy": "mis", "sampler": "independent"}
+
+        def render():
+            rng = np.random.default_rng(o.reference_seed)
+            a, ta = self.render("mis", "independent", o.reference_spp, rng, compensation=False)
+            b, tb = self.render("mis", "independent", o.reference_spp, rng, compensation=False)
+            return a, b, sum(ta) + sum(tb)
+
+        return cached_reference(key, render, o.cache_dir)
+
+    def measure(self, strategy: str, sampler: str, spp: int, *, seed=0,
+                reference: ReferencePair | None = None) -> SphereMeasurement:
+        """The measured RMSE over normals of one configuration (:class:`SphereMeasurement`)
+        against :meth:`reference` (or the given pair); ``seed`` draws the render seeds and
+        the bootstrap."""
+        ref = self.reference() if reference is None else reference
+        rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+        imgs, secs = self.render(strategy, sampler, spp, rng)
+        err = sphere_error(imgs, ref.a, ref.b, self.geometry, seed=rng)
+        opts = {"mis_compensation": bool(self.options.mis_compensation), "variant": VARIANT,
+                "integrator": "direct", "filter": "box"}
+        return measurement(err, spp=spp, renderer=self.renderer, sampler=sampler,
+                           strategy=strategy, reference_spp=self.options.reference_spp,
+                           view_seconds=secs, resolution=self.options.resolution,
+                           spp_used=self.spp_used(sampler, spp), options=opts)
+
+
+def mitsuba_normals(resolution: int, spp: int = 16) -> np.ndarray:
+    """World normals (6, R, R, 3) of the sphere per pixel of each view, rendered by Mitsuba's
+    ``aov`` integrator (``nn:sh_normal``, box filter: the pixel's mean normal), for checking
+    :func:`._sphere.view_normals`; background pixels are 0."""
+    mi = import_mitsuba()
+    out = []
+    for view in VIEWS:
+        scene = mi.load_dict({"type": "scene", "sphere": {"type": "sphere"},
+                              "sensor": _sensor(mi, view, int(resolution), "independent"),
+                              "integrator": {"type": "aov", "aovs": "nn:sh_normal"}})
+        out.append(np.array(mi.render(scene, spp=int(spp), seed=1), dtype=np.float64)[..., :3])
+    return np.stack(out)
+
+
+def options_dict(options: Mitsuba3Options) -> dict:
+    """The options as a plain dict (for JSON)."""
+    return asdict(options)
