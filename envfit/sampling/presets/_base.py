@@ -1,0 +1,376 @@
+r"""The shared parts of the renderer presets: the environment-map technique protocol, the
+preset and sampler records, the concentric cosine map, the power/balance MIS weights.
+
+A *technique* (:class:`EnvmapTechnique`) is one renderer's environment-map emitter as its
+source builds it — Mitsuba 3's style: one object holding the radiance lookup
+(:meth:`~EnvmapTechnique.eval`), the sampling warp (:meth:`~EnvmapTechnique.sample`) and the
+density (:meth:`~EnvmapTechnique.pdf`) on one shared data structure. Directions are in
+envfit's *world* frame of the map's ``up`` (:mod:`envfit.maps._latlong`): the frame in
+which :meth:`envfit.maps.EnvMap.lookup` sees file pixel (i, j) at
+:math:`\theta = \pi(i+\frac12)/H`, :math:`\phi = 2\pi(j+\frac12)/W`. Each technique states
+the renderer's own (native) frame for the same file and the fixed orthogonal matrix
+:attr:`EnvmapTechnique.native_to_world` that maps it to envfit's.
+
+A *preset* (:class:`RendererPreset`) adds the rest of the renderer's direct-light
+estimator: the cosine BSDF sampling map and the renderer's tangent frame, the MIS
+heuristic, the integrator settings per strategy, the samplers by their own names (with the
+spp each one actually runs and its randomisation tag, :data:`RANDOMISATIONS`), and the scene
+text a user pastes (:meth:`RendererPreset.snippet`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable, Mapping
+
+import numpy as np
+
+from envfit.base import ParameterError
+
+__all__ = ["RANDOMISATIONS", "PAIRINGS", "STRATEGY_NAMES", "DirectionSample",
+           "EnvmapTechnique", "SamplerSpec", "StrategySetting", "RendererPreset",
+           "square_points", "unit_directions", "concentric_disk", "cosine_hemisphere",
+           "power_heuristic", "balance_heuristic", "map_rgb"]
+
+#: randomisation tags of the samplers (the exact predictor of each is built elsewhere):
+#: i.i.d. points; r×r (or x×y) jittered strata with fresh jitter; Kensler's correlated
+#: multi-jittering; a random XOR (digital) shift of a (0, 2)-net; nested uniform (Owen)
+#: scrambling of a Sobol' net; a Cranley–Patterson rotation of a fixed point set; a
+#: randomised orthogonal array; random digit permutations (Halton: outside the issue's list)
+RANDOMISATIONS = ("independent", "jittered", "cmj", "digital_shift", "owen", "cp_shift",
+                  "orthogonal_array", "digit_permutation")
+
+#: how the emitter's and the BSDF's 2-D samples of one pixel relate: independently
+#: randomised dimensions; the same randomised net in two orders (Mitsuba ``ldsampler``);
+#: columns of one randomised orthogonal array (jointly stratified); two point sets moved by
+#: one common random shift (envfit's own MIS)
+PAIRINGS = ("independent", "same_net_permuted", "joint_array", "shared_shift")
+
+#: the strategies of a direct-light estimate: emitter sampling only, BSDF sampling only, both
+STRATEGY_NAMES = ("map", "brdf", "mis")
+
+_TWO_PI = 2.0 * np.pi
+
+
+@dataclass(frozen=True)
+class DirectionSample:
+    """Sampled directions (K, 3) and their densities per solid angle (K,); unpacks as
+    ``dirs, pdf = technique.sample(u)``."""
+
+    directions: np.ndarray
+    pdf: np.ndarray
+
+    def __iter__(self):
+        return iter((self.directions, self.pdf))
+
+
+def square_points(u, name: str = "u") -> np.ndarray:
+    """Square points (..., 2) as a float64 (K, 2) array in [0, 1]²; ParameterError otherwise."""
+    try:
+        a = np.asarray(u, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{name} must be an array of points in [0, 1]^2") from None
+    if a.ndim < 1 or a.shape[-1] != 2:
+        raise ParameterError(f"{name} must have shape (..., 2), got {a.shape}")
+    a = a.reshape(-1, 2)
+    if not np.all(np.isfinite(a)) or a.size and (a.min() < 0.0 or a.max() > 1.0):
+        raise ParameterError(f"{name} must be finite points in [0, 1]^2")
+    return a
+
+
+def unit_directions(dirs, name: str = "directions") -> np.ndarray:
+    """Directions (..., 3) as float64 (K, 3) unit vectors; ParameterError for zero or
+    non-finite vectors or a wrong shape."""
+    try:
+        d = np.asarray(dirs, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{name} must be an array of 3-vectors") from None
+    if d.ndim < 1 or d.shape[-1] != 3:
+        raise ParameterError(f"{name} must have shape (..., 3), got {d.shape}")
+    d = d.reshape(-1, 3)
+    n = np.linalg.norm(d, axis=1)
+    if not (np.all(np.isfinite(n)) and np.all(n > 0)):
+        raise ParameterError(f"{name} must be finite nonzero vectors")
+    return d / n[:, None]
+
+
+def map_rgb(envmap) -> np.ndarray:
+    """The map's pixels as a float64 (H, W, 3) RGB array, as the renderers load a file: one
+    channel is replicated to grey (Mitsuba ``Bitmap::convert`` Y → RGB), a fourth (alpha)
+    is dropped; two channels are refused."""
+    a = np.asarray(envmap.data, dtype=np.float64)
+    if a.ndim == 2:
+        a = a[:, :, None]
+    c = a.shape[2]
+    if c == 1:
+        return np.repeat(a, 3, axis=2)
+    if c in (3, 4):
+        return np.ascontiguousarray(a[:, :, :3])
+    raise ParameterError(f"a renderer's environment map has 1, 3 or 4 channels, not {c}")
+
+
+class EnvmapTechnique:
+    """One renderer's environment-map emitter: radiance lookup, sampling warp and density on
+    one shared data structure (Mitsuba 3's emitter style).
+
+    Subclasses set :attr:`name`, :attr:`renderer`, :attr:`source` (file:function @ commit)
+    and :attr:`native_to_world` (3×3 orthogonal, ``world = M @ native``), and implement
+    :meth:`_eval_native`, :meth:`_sample_native` and :meth:`_pdf_native` on directions in
+    the renderer's own frame.
+    """
+
+    name: str = ""
+    renderer: str = ""
+    source: str = ""
+    native_to_world: np.ndarray = np.eye(3)
+
+    def eval(self, dirs) -> np.ndarray:
+        """Radiance (K, 3) (RGB) at world directions (K, 3), as the renderer looks it up."""
+        d = unit_directions(dirs) @ self.native_to_world     # rows: M.T @ d
+        return self._eval_native(d)
+
+    def sample(self, u) -> DirectionSample:
+        """World directions (K, 3) and their solid-angle pdf (K,) from square points u (K, 2)
+        (``u[:, 0]``, ``u[:, 1]`` are the renderer's first and second sample coordinate)."""
+        d, pdf = self._sample_native(square_points(u))
+        return DirectionSample(d @ self.native_to_world.T, pdf)
+
+    def pdf(self, dirs) -> np.ndarray:
+        """The renderer's solid-angle density (K,) at world directions (K, 3)."""
+        d = unit_directions(dirs) @ self.native_to_world
+        return self._pdf_native(d)
+
+    def sample_radiance(self, u):
+        """:meth:`sample` and the radiance (K, 3) the renderer weights each sample with
+        (its emitter's value at the sampled point; by default :meth:`eval` there)."""
+        s = self.sample(u)
+        return s, self.eval(s.directions)
+
+    def _eval_native(self, d: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _sample_native(self, u: np.ndarray):  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _pdf_native(self, d: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def __repr__(self) -> str:
+        return f"<{type(self).__name__} {self.renderer}>"
+
+
+def concentric_disk(u) -> np.ndarray:
+    r"""Shirley–Chiu concentric square-to-disk map (K, 2): with :math:`a = 2u_0 - 1`,
+    :math:`b = 2u_1 - 1`, :math:`r = a,\ \phi = \frac\pi4 b/a` where :math:`a^2 > b^2`,
+    else :math:`r = b,\ \phi = \frac\pi2 - \frac\pi4 a/b`; the point :math:`(r\cos\phi,
+    r\sin\phi)`, the origin for :math:`a = b = 0`.
+
+    The same formula in all three renderers: Mitsuba 3 ``include/mitsuba/core/warp.h``:
+    ``square_to_uniform_disk_concentric`` (Dave Cline's branch-reduced form, which picks the
+    ``b`` branch on ``|a| < |b|`` — the same point where ``|a| = |b|``); pbrt-v4
+    ``src/pbrt/util/sampling.h``: ``SampleUniformDiskConcentric``; Cycles
+    ``src/kernel/sample/mapping.h``: ``sample_uniform_disk``.
+
+    >>> concentric_disk([[1.0, 0.5], [0.5, 1.0]]).round(12).tolist()
+    [[1.0, 0.0], [0.0, 1.0]]
+    """
+    U = square_points(u)
+    a, b = 2.0 * U[:, 0] - 1.0, 2.0 * U[:, 1] - 1.0
+    use_a = a * a > b * b
+    r = np.where(use_a, a, b)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        phi = np.where(use_a, 0.25 * np.pi * (b / a), 0.5 * np.pi - 0.25 * np.pi * (a / b))
+    phi = np.where((a == 0.0) & (b == 0.0), 0.0, phi)
+    return np.column_stack([r * np.cos(phi), r * np.sin(phi)])
+
+
+def cosine_hemisphere(u) -> DirectionSample:
+    r"""Cosine-weighted hemisphere directions (K, 3) in the local frame (normal +z) and their
+    pdf :math:`\cos\theta/\pi` (K,): the concentric disk point lifted,
+    :math:`z = \sqrt{\max(0, 1 - x^2 - y^2)}`.
+
+    Mitsuba 3 ``warp.h``: ``square_to_cosine_hemisphere`` (``safe_sqrt``), pbrt-v4
+    ``sampling.h``: ``SampleCosineHemisphere`` (``SafeSqrt``), Cycles ``mapping.h``:
+    ``sample_cos_hemisphere`` (``safe_sqrtf``), each after :func:`concentric_disk`.
+
+    >>> d, p = cosine_hemisphere([[0.5, 0.5]])
+    >>> d.tolist(), bool(np.isclose(p[0], 1 / np.pi))
+    ([[0.0, 0.0, 1.0]], True)
+    """
+    p = concentric_disk(u)
+    z = np.sqrt(np.maximum(1.0 - p[:, 0] ** 2 - p[:, 1] ** 2, 0.0))
+    return DirectionSample(np.column_stack([p, z]), z / np.pi)
+
+
+def power_heuristic(pdf_a, pdf_b, frac_a: float = 1.0, frac_b: float = 1.0) -> np.ndarray:
+    r"""Veach's power heuristic (β = 2) weight of technique a,
+    :math:`w_a = (\nu_a p_a)^2 / ((\nu_a p_a)^2 + (\nu_b p_b)^2)`, 0 where it is not finite
+    (Mitsuba 3 ``src/integrators/direct.cpp``: ``mis_weight`` with ``m_frac_lum``,
+    ``m_frac_bsdf``; pbrt-v4 ``sampling.h``: ``PowerHeuristic(nf, fPdf, ng, gPdf)``; Cycles
+    ``src/kernel/sample/mis.h``: ``power_heuristic``).
+
+    >>> power_heuristic([1.0, 2.0], [1.0, 0.0]).tolist()
+    [0.5, 1.0]
+    """
+    a = (frac_a * np.asarray(pdf_a, dtype=np.float64)) ** 2
+    b = (frac_b * np.asarray(pdf_b, dtype=np.float64)) ** 2
+    with np.errstate(invalid="ignore", divide="ignore"):
+        w = a / (a + b)
+    return np.where(np.isfinite(w), w, 0.0)
+
+
+def balance_heuristic(pdf_a, pdf_b, frac_a: float = 1.0, frac_b: float = 1.0) -> np.ndarray:
+    r"""Veach's balance heuristic weight :math:`\nu_a p_a/(\nu_a p_a + \nu_b p_b)` (0 where
+    not finite): envfit's own MIS (:func:`envfit.sampling._importance.mis_weights`).
+
+    >>> balance_heuristic([1.0], [3.0]).tolist()
+    [0.25]
+    """
+    a = frac_a * np.asarray(pdf_a, dtype=np.float64)
+    b = frac_b * np.asarray(pdf_b, dtype=np.float64)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        w = a / (a + b)
+    return np.where(np.isfinite(w), w, 0.0)
+
+
+@dataclass(frozen=True)
+class SamplerSpec:
+    """A renderer's sampler by its own name.
+
+    Attributes
+    ----------
+    name : the renderer's name (``ldsampler``, ``zsobol``, ``tabulated_sobol``, …)
+    randomisation : a tag of :data:`RANDOMISATIONS`
+    pairing : a tag of :data:`PAIRINGS` (how the emitter's and the BSDF's 2-D samples relate)
+    rounding : spp requested → spp the renderer runs (its own rule, read from its source)
+    description : what it does per pixel, with file:function
+    default : the renderer's default sampler
+    """
+
+    name: str
+    randomisation: str
+    pairing: str
+    rounding: Callable[[int], int]
+    description: str
+    default: bool = False
+
+    def __post_init__(self):
+        if self.randomisation not in RANDOMISATIONS:
+            raise ParameterError(f"unknown randomisation {self.randomisation!r}")
+        if self.pairing not in PAIRINGS:
+            raise ParameterError(f"unknown pairing {self.pairing!r}")
+
+    def spp(self, requested) -> int:
+        """The spp the renderer runs when ``requested`` (an int ≥ 1) is asked for."""
+        try:
+            n = int(requested)
+        except (TypeError, ValueError):
+            raise ParameterError(f"spp must be an integer >= 1, got {requested!r}") from None
+        if n != requested or n < 1:
+            raise ParameterError(f"spp must be an integer >= 1, got {requested!r}")
+        return int(self.rounding(n))
+
+
+@dataclass(frozen=True)
+class StrategySetting:
+    """How the renderer renders one strategy (``map``, ``brdf`` or ``mis``): whether it can
+    (``renderable``), the integrator and its settings, the samples of each technique per
+    spp (``emitter_samples``, ``bsdf_samples``) and which map density it samples
+    (``density``: e.g. ``"compensated"`` for pbrt-v4's path integrator)."""
+
+    strategy: str
+    renderable: bool
+    integrator: str
+    settings: Mapping[str, object] = field(default_factory=dict)
+    emitter_samples: int = 0
+    bsdf_samples: int = 0
+    density: str = "plain"
+    note: str = ""
+
+
+_HEURISTICS = {"power": power_heuristic, "balance": balance_heuristic}
+
+
+@dataclass(frozen=True)
+class RendererPreset:
+    """One renderer's direct-light estimator, read from its source.
+
+    Attributes
+    ----------
+    name : registry key (``mitsuba3``, ``pbrt4``, ``cycles``, ``envfit``)
+    renderer : the renderer and the commit read
+    technique : factory ``technique(envmap, **options) -> EnvmapTechnique``
+    cosine : square points (K, 2) → :class:`DirectionSample` of the diffuse BSDF's sampling
+        in the local frame (normal +z)
+    tangent_frame : unit normals (K, 3) → (K, 3, 3) frames, rows (tangent, bitangent,
+        normal): the renderer's local frame of a shading point (local → world is
+        ``local @ frame``)
+    heuristic : ``"power"`` or ``"balance"``
+    strategies : strategy → :class:`StrategySetting`
+    samplers : name → :class:`SamplerSpec`
+    snippet_fn : ``(StrategySetting, SamplerSpec, spp) -> str``
+    source : where each part was read (file:function @ commit)
+    """
+
+    name: str
+    renderer: str
+    technique: Callable
+    cosine: Callable[[np.ndarray], DirectionSample]
+    tangent_frame: Callable[[np.ndarray], np.ndarray]
+    heuristic: str
+    strategies: Mapping[str, StrategySetting]
+    samplers: Mapping[str, SamplerSpec]
+    snippet_fn: Callable[[StrategySetting, SamplerSpec, int], str]
+    source: str = ""
+
+    def __post_init__(self):
+        if self.heuristic not in _HEURISTICS:
+            raise ParameterError(f"unknown heuristic {self.heuristic!r}")
+        if set(self.strategies) != set(STRATEGY_NAMES):
+            raise ParameterError(f"a preset sets every strategy of {STRATEGY_NAMES}")
+        if sum(s.default for s in self.samplers.values()) != 1:
+            raise ParameterError("a preset has exactly one default sampler")
+
+    @property
+    def default_sampler(self) -> str:
+        """The renderer's default sampler (pattern)."""
+        return next(n for n, s in self.samplers.items() if s.default)
+
+    def sampler(self, name=None) -> SamplerSpec:
+        """The sampler called ``name`` (the default for None); ParameterError otherwise."""
+        key = self.default_sampler if name is None else name
+        try:
+            return self.samplers[key]
+        except (KeyError, TypeError):
+            raise ParameterError(f"--sampler for {self.name} must be one of "
+                                 f"{', '.join(self.samplers)}; got {name!r}") from None
+
+    def strategy(self, name) -> StrategySetting:
+        """The setting of strategy ``name`` (``map``, ``brdf``, ``mis``)."""
+        try:
+            return self.strategies[name]
+        except (KeyError, TypeError):
+            raise ParameterError(f"strategy must be one of {', '.join(STRATEGY_NAMES)}; "
+                                 f"got {name!r}") from None
+
+    def mis_weights(self, pdf_map, pdf_brdf, strategy: str = "mis"):
+        r"""The weights (map, BSDF) of the two techniques at the same directions, as the
+        renderer's integrator weights its samples for ``strategy``: the heuristic with the
+        sample fractions :math:`n_e/(n_e+n_b)`, :math:`n_b/(n_e+n_b)` (Mitsuba's
+        ``m_frac_lum``, ``m_frac_bsdf``); weight 1 for the only technique of ``map`` or
+        ``brdf``."""
+        s = self.strategy(strategy)
+        total = s.emitter_samples + s.bsdf_samples
+        fa, fb = s.emitter_samples / total, s.bsdf_samples / total
+        h = _HEURISTICS[self.heuristic]
+        return h(pdf_map, pdf_brdf, fa, fb), h(pdf_brdf, pdf_map, fb, fa)
+
+    def snippet(self, strategy: str, sampler=None, spp: int = 64, **options) -> str:
+        """The scene text a user pastes for ``strategy`` with ``sampler`` at ``spp``
+        (rounded as the renderer rounds it); ParameterError for a strategy the renderer
+        cannot render. ``options`` go to the renderer's snippet (all take ``filename``;
+        Mitsuba also ``form="python"|"xml"`` and ``mis_compensation``, pbrt-v4 ``up``)."""
+        s = self.strategy(strategy)
+        if not s.renderable:
+            raise ParameterError(f"{self.name} cannot render strategy {strategy!r}: {s.note}")
+        spec = self.sampler(sampler)
+        return self.snippet_fn(s, spec, spec.spp(spp), **options)

@@ -1,0 +1,337 @@
+r"""Cycles' world (background) light with an Environment Texture, its importance map and its
+path-tracing direct light, in numpy.
+
+Read from blender/cycles (the standalone mirror of Blender's ``intern/cycles``) at tag
+``v5.0.0`` (``2eba41024174``; Blender 5.0 is what PyPI ``bpy`` 5.0.1 embeds), paths under
+``src/``:
+
+* ``scene/shader_nodes.cpp`` — ``EnvironmentTextureNode``: interpolation socket default
+  ``INTERPOLATION_LINEAR``, ``image_params``: ``extension = EXTENSION_REPEAT``;
+* ``kernel/device/cpu/image.h`` — ``interp_linear`` / ``interp_closest``: texel-centred
+  (``x·width − 0.5``), ``EXTENSION_REPEAT`` wraps **both** axes periodically (so within half
+  a texel of a pole the lookup blends the first and the last row of the file);
+* ``kernel/camera/projection.h`` — ``direction_to_equirectangular``,
+  ``equirectangular_to_direction`` (range (−2π, π, −π, π));
+* ``scene/light.cpp`` — ``LightManager::device_update_background`` (the resolution rule),
+  ``shade_background_pixels`` (cell centres), ``background_cdf`` (cell value =
+  ``average(fabs(rgb))·sin θ(cell centre)``, conditional/marginal CDFs with the totals
+  stored in the last entries);
+* ``kernel/bake/bake.h`` — ``kernel_background_evaluate`` (the world shader at
+  ``equirectangular_to_direction(u, v)``);
+* ``kernel/light/background.h`` — ``background_map_sample`` (marginal by ``rand.y``,
+  conditional by ``rand.x``, ``std::lower_bound``-style searches, ``inverse_lerp``),
+  ``background_map_pdf``;
+* ``kernel/sample/mapping.h`` — ``sample_cos_hemisphere``; ``util/math_float3.h`` —
+  ``make_orthonormals``.
+
+Orientation (``scene/image_oiio.cpp``: the file is loaded bottom row first, so file row i is
+at :math:`v = 1 - (i+\frac12)/H`; :mod:`envfit.maps._conventions`, ``blender``): file pixel
+(θ, φ) of envfit is at Blender's :math:`(-\sin\theta\cos\phi, \sin\theta\sin\phi,
+\cos\theta)`, envfit's ``up="z"`` frame mirrored in x; :attr:`native_to_world` =
+:math:`M_{up}\,\mathrm{diag}(-1, 1, 1)` (for ``up="y"`` a proper rotation: Blender
+(x, y, z) = envfit (z, x, y)).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from envfit.base import ParameterError
+from envfit.maps._latlong import local_to_world
+from envfit.sampling.presets._base import (EnvmapTechnique, RendererPreset, SamplerSpec,
+                                           StrategySetting, cosine_hemisphere, map_rgb)
+
+__all__ = ["cycles_map_resolution", "CyclesBackground", "cycles_frame", "INTERPOLATIONS",
+           "CYCLES"]
+
+#: the Environment Texture interpolations implemented (Cycles' default is ``linear``)
+INTERPOLATIONS = ("linear", "closest")
+
+
+def cycles_map_resolution(image_size=None, *, sampling: str = "auto",
+                          map_resolution: int = 1024, single_sun: bool = False):
+    r"""The importance map's (res_x, res_y) as ``device_update_background`` sets it.
+
+    ``sampling="manual"``: (R, R/2) with R = ``map_resolution`` (Blender's sync passes the
+    world's *Map Resolution* only for *Manual*). ``"auto"`` (Blender passes 0): the largest
+    Environment Texture size (``image_size`` = (width, height)), raised to at least
+    4096 × 2048 — unless the world has exactly one Sky Texture sun (``single_sun``: at least
+    512 × 256, sun guiding on); 1024 × 512 if still 0.
+
+    >>> cycles_map_resolution((1024, 512)), cycles_map_resolution((8192, 4096))
+    ((4096, 2048), (8192, 4096))
+    >>> cycles_map_resolution((1024, 512), sampling="manual", map_resolution=1024)
+    (1024, 512)
+    """
+    if sampling == "manual":
+        r = int(map_resolution)
+        if r < 2:
+            raise ParameterError(f"map_resolution must be >= 2, got {map_resolution!r}")
+        return r, r // 2
+    if sampling != "auto":
+        raise ParameterError(f"sampling must be 'auto' or 'manual', got {sampling!r}")
+    w, h = (0, 0) if image_size is None else (int(image_size[0]), int(image_size[1]))
+    floor = (512, 256) if single_sun else (4096, 2048)
+    w, h = max(w, floor[0]), max(h, floor[1])
+    return (w, h) if w > 0 and h > 0 else (1024, 512)
+
+
+def _axis_linear(coord: np.ndarray, n: int):
+    """Indices (i0, i1) and weight t of ``interp_linear`` along one periodic axis."""
+    x = coord * n - 0.5
+    i = np.floor(x).astype(np.int64)
+    return i % n, (i + 1) % n, x - i
+
+
+class CyclesBackground(EnvmapTechnique):
+    r"""Cycles' world light with one Environment Texture (equirectangular, Background
+    strength ``strength``) and world importance sampling on.
+
+    **Radiance**: the texture at :math:`(u, v)` = ``direction_to_equirectangular(d)``,
+    :math:`u = (\mathrm{atan2}(d_y, d_x) - \pi)/(-2\pi)`, :math:`v = 1 - \mathrm{acos}(d_z)/\pi`,
+    ``linear`` (default): bilinear at :math:`(uW - \frac12, vH - \frac12)` with both axes
+    periodic (``EXTENSION_REPEAT``), or ``closest``: pixel :math:`(\lfloor uW\rfloor,
+    \lfloor vH\rfloor)`; Cycles' texture rows run bottom to top.
+
+    **Importance map**: a res_x × res_y grid (:func:`cycles_map_resolution`; ``"auto"`` by
+    default: at least 4096 × 2048), cell (x, y) =
+    :math:`\frac13\sum_c|L_c(u_x, v_y)|\,\sin(\pi(y + \frac12)/\mathrm{res}_y)` with
+    :math:`(u_x, v_y) = ((x + \frac12)/\mathrm{res}_x, (y + \frac12)/\mathrm{res}_y)` — the
+    texture point-sampled at the cell centre, no floor.
+
+    **Sampling** (``background_map_sample``): row = ``max(0, lower_bound(marginal, rand.y) −
+    1)``, :math:`v = (i_v + d_v)/\mathrm{res}_y`; column likewise with ``rand.x``; pdf
+    :math:`f_u f_v / (2\pi^2\sin(\pi v)\,T_u T_v)` with the **sampled** v's sin θ (0 where it
+    vanishes).
+
+    >>> from envfit.maps import EnvMap
+    >>> t = CyclesBackground(EnvMap(np.full((4, 8, 3), 3.0)), sampling="manual", map_resolution=16)
+    >>> d, p = t.sample([[0.3, 0.6]])
+    >>> t.eval(d).round(6).tolist(), bool(np.allclose(t.pdf(d), p))
+    ([[3.0, 3.0, 3.0]], True)
+    """
+
+    name = "cycles"
+    renderer = "Cycles 5.0 world light"
+    source = ("cycles @ 2eba41024174 (v5.0.0): src/scene/light.cpp {device_update_background, "
+              "shade_background_pixels, background_cdf}; src/kernel/light/background.h "
+              "{background_map_sample, background_map_pdf}; src/kernel/device/cpu/image.h "
+              "interp_linear")
+
+    def __init__(self, envmap, *, sampling: str = "auto", map_resolution: int = 1024,
+                 interpolation: str = "linear", strength: float = 1.0):
+        if interpolation not in INTERPOLATIONS:
+            raise ParameterError(f"interpolation must be one of {', '.join(INTERPOLATIONS)}; "
+                                 f"got {interpolation!r}")
+        rgb = map_rgb(envmap)
+        self.texture = np.ascontiguousarray(rgb[::-1]).astype(np.float32)   # bottom row first
+        self.interpolation = interpolation
+        self.strength = float(strength)
+        h, w = rgb.shape[:2]
+        self.res_x, self.res_y = cycles_map_resolution((w, h), sampling=sampling,
+                                                       map_resolution=map_resolution)
+        self.native_to_world = local_to_world(getattr(envmap, "up", "y")) @ np.diag([-1.0, 1, 1])
+        self._build()
+
+    def _cell_values(self) -> np.ndarray:
+        """The importance grid's cell values (res_y, res_x): RGB mean of |L| at the cell
+        centres (separable: u depends on x only, v on y only) times sin θ of the centre."""
+        rx, ry = self.res_x, self.res_y
+        u = (np.arange(rx) + 0.5) / rx
+        v = (np.arange(ry) + 0.5) / ry
+        acc = np.zeros((ry, rx), dtype=np.float32)
+        tex = self.texture
+        h, w = tex.shape[:2]
+        if self.interpolation == "closest":
+            iy, ix = np.floor(v * h).astype(np.int64) % h, np.floor(u * w).astype(np.int64) % w
+            for c in range(3):
+                acc += np.abs(tex[iy][:, ix, c])
+        else:
+            y0, y1, ty = _axis_linear(v, h)
+            x0, x1, tx = _axis_linear(u, w)
+            tx, ty = tx.astype(np.float32), ty.astype(np.float32)[:, None]
+            for c in range(3):
+                rows = tex[y0, :, c] * (1 - ty) + tex[y1, :, c] * ty        # (ry, W)
+                acc += np.abs(rows[:, x0] * (1 - tx) + rows[:, x1] * tx)
+        sin_t = np.sin(np.pi * (np.arange(ry) + 0.5) / ry)
+        return (acc / 3.0 * self.strength).astype(np.float64) * sin_t[:, None]
+
+    def _build(self) -> None:
+        """``background_cdf`` and the marginal: CDFs normalised to 1, totals kept."""
+        f = self._cell_values()
+        rx, ry = self.res_x, self.res_y
+        self.func = f
+        self.row_total = f.sum(axis=1) / rx                                  # cdf_last_u.x
+        cdf = np.concatenate([np.zeros((ry, 1)), np.cumsum(f, axis=1) / rx], axis=1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            cdf = np.where(self.row_total[:, None] > 0, cdf / self.row_total[:, None], cdf)
+        cdf[:, -1] = 1.0
+        self.cond_cdf = cdf
+        self.total = float(self.row_total.sum() / ry)                        # cdf_last_v.x
+        marg = np.concatenate([[0.0], np.cumsum(self.row_total) / ry])
+        if self.total > 0:
+            marg = marg / self.total
+        marg[-1] = 1.0
+        self.marg_cdf = marg
+        self._flat = (cdf + 2.0 * np.arange(ry)[:, None]).ravel()
+        if not self.total > 0:
+            raise ParameterError("the world has no light to sample (all cells are 0)")
+
+    def _texture(self, uv: np.ndarray) -> np.ndarray:
+        tex = self.texture
+        h, w = tex.shape[:2]
+        if self.interpolation == "closest":
+            iy = np.floor(uv[:, 1] * h).astype(np.int64) % h
+            ix = np.floor(uv[:, 0] * w).astype(np.int64) % w
+            return tex[iy, ix].astype(np.float64) * self.strength
+        x0, x1, tx = _axis_linear(uv[:, 0], w)
+        y0, y1, ty = _axis_linear(uv[:, 1], h)
+        tx, ty = tx[:, None], ty[:, None]
+        top = tex[y0, x0] * (1 - tx) + tex[y0, x1] * tx
+        bot = tex[y1, x0] * (1 - tx) + tex[y1, x1] * tx
+        return (top * (1 - ty) + bot * ty) * self.strength
+
+    @staticmethod
+    def _uv(d: np.ndarray) -> np.ndarray:
+        """``direction_to_equirectangular``."""
+        u = (np.arctan2(d[:, 1], d[:, 0]) - np.pi) / (-2.0 * np.pi)
+        v = (np.arccos(np.clip(d[:, 2], -1.0, 1.0)) - np.pi) / (-np.pi)
+        return np.column_stack([u, v])
+
+    def _eval_native(self, d):
+        return self._texture(self._uv(d))
+
+    def _sample_native(self, rand):
+        rx, ry = self.res_x, self.res_y
+        first = np.searchsorted(self.marg_cdf[:ry], rand[:, 1], side="left")
+        iv = np.maximum(0, first - 1)
+        c0, c1 = self.marg_cdf[iv], self.marg_cdf[iv + 1]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            v = (iv + (rand[:, 1] - c0) / (c1 - c0)) / ry
+        shifted = rand[:, 0] + 2.0 * iv
+        first = np.minimum(np.searchsorted(self._flat, shifted, side="left") - iv * (rx + 1), rx)
+        iu = np.maximum(0, first - 1)
+        k = iv * (rx + 1) + iu
+        c0, c1 = self._flat[k], self._flat[k + 1]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            u = (iu + (shifted - c0) / (c1 - c0)) / rx
+        phi, theta = np.pi - 2.0 * np.pi * u, np.pi - np.pi * v
+        st = np.sin(theta)
+        d = np.column_stack([st * np.cos(phi), st * np.sin(phi), np.cos(theta)])
+        return d, self._pdf_cells(iu, iv, np.sin(np.pi * v))
+
+    def _pdf_cells(self, iu, iv, sin_theta):
+        denom = 2.0 * np.pi ** 2 * sin_theta * self.row_total[iv] * self.total
+        with np.errstate(invalid="ignore", divide="ignore"):
+            pdf = self.func[iv, iu] * self.row_total[iv] / denom
+        return np.where((sin_theta == 0) | (denom == 0), 0.0, pdf)
+
+    def _pdf_native(self, d):
+        uv = self._uv(d)
+        iu = np.clip((uv[:, 0] * self.res_x).astype(np.int64), 0, self.res_x - 1)
+        iv = np.clip((uv[:, 1] * self.res_y).astype(np.int64), 0, self.res_y - 1)
+        return self._pdf_cells(iu, iv, np.sin(uv[:, 1] * np.pi))
+
+
+def cycles_frame(normals) -> np.ndarray:
+    r"""Cycles' ``make_orthonormals(N)`` frame (K, 3, 3), rows (T, B, N):
+    :math:`a = (N_z - N_y, N_x - N_z, N_y - N_x)` (= (1, 1, 1) × N), or
+    :math:`(N_z - N_y, N_x + N_z, -N_y - N_x)` when :math:`N_x = N_y = N_z`; T = a/|a|,
+    B = N × T (``src/util/math_float3.h``), as ``sample_cos_hemisphere`` uses it."""
+    n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
+    x, y, z = n[:, 0], n[:, 1], n[:, 2]
+    same = (x == y) & (x == z)
+    a = np.where(same[:, None], np.column_stack([z - y, x + z, -y - x]),
+                 np.column_stack([z - y, x - z, y - x]))
+    t = a / np.linalg.norm(a, axis=1)[:, None]
+    return np.stack([t, np.cross(n, t), n], axis=1)
+
+
+# ----------------------------------------------------------------------------- samplers
+
+_C = "cycles @ 2eba4102 (v5.0.0) src/kernel/sample/"
+SAMPLERS = {
+    "tabulated_sobol": SamplerSpec(
+        "tabulated_sobol", "owen", "independent", int,
+        "per pixel and dimension: one of 256 fixed 4-D Owen-scrambled Sobol' tables "
+        "(hash_shuffle_uint(dimension, 256, pixel seed)) and the sample index Owen-scrambled "
+        "(nested_uniform_scramble, seeded per dimension and pixel): its high bits are constant "
+        "for the pixel's first 2^m indices, so the N = 2^m points are one aligned block of N "
+        "consecutive table entries - a (0, m, 2)-net in the light's (x, y) - from a finite set "
+        "of scrambled nets; the pixel seed is hash_iqnt2d(x, y) ^ scene seed; scrambling "
+        "distance 1 (default) adds no shift; spp unchanged. Blender 'TABULATED_SOBOL' "
+        "('Classic'); the factory scene's pattern. " + _C + "tabulated_sobol.h", default=True),
+    "blue_noise": SamplerSpec(
+        "blue_noise", "owen", "independent", int,
+        "one Sobol-Burley (Owen-scrambled) sequence shared by all pixels, pixel p using "
+        "indices sample + p*N, p a base-4 Owen scramble of its Morton code; Blender "
+        "'BLUE_NOISE' (and 'AUTOMATIC' for final renders); spp unchanged. " + _C + "pattern.h "
+        "blue_noise_indexing"),
+    "sobol_burley": SamplerSpec(
+        "sobol_burley", "owen", "independent", int,
+        "per pixel Owen-scrambled Sobol' (index shuffled, coordinates scrambled with seeds "
+        "from the pixel hash and the dimension); debug UI only; spp unchanged. "
+        + _C + "sobol_burley.h"),
+}
+
+
+# ----------------------------------------------------------------------------- integrator
+
+_S = "src/kernel/integrator/shade_surface.h, src/kernel/light/sample.h "
+STRATEGIES = {
+    "map": StrategySetting(
+        "map", False, "path", {}, 1, 0, "plain",
+        "light-only (direct_light_sampling_type NEXT_EVENT_ESTIMATION) is read only under "
+        "#ifdef WITH_CYCLES_DEBUG: release builds always combine. " + _S),
+    "brdf": StrategySetting(
+        "brdf", True, "path", {"world.cycles.sampling_method": "NONE"}, 0, 1, "plain",
+        "World > Settings > Sampling 'None': the world is not a light, escaped BSDF rays get "
+        "weight 1. " + _S),
+    "mis": StrategySetting(
+        "mis", True, "path", {"world.cycles.sampling_method": "AUTOMATIC"}, 1, 1, "plain",
+        "one light (NEE) + one BSDF sample per spp, power_heuristic; importance map at "
+        "max(image, 4096 x 2048) under Auto. " + _S),
+}
+
+
+def _snippet(s: StrategySetting, spec: SamplerSpec, spp: int, *,
+             filename: str = "envmap.exr") -> str:
+    """bpy settings: direct light only (``max_bounces`` 0), no denoising or adaptive
+    sampling, the pattern and spp, the world's Environment Texture and its sampling."""
+    method = s.settings["world.cycles.sampling_method"]
+    return (f"import bpy\n"
+            f"scene = bpy.context.scene\n"
+            f'scene.render.engine = "CYCLES"\n'
+            f'scene.cycles.device = "CPU"\n'
+            f"scene.cycles.samples = {spp}\n"
+            f'scene.cycles.sampling_pattern = "{spec.name.upper()}"\n'
+            f"scene.cycles.use_adaptive_sampling = False\n"
+            f"scene.cycles.use_denoising = False\n"
+            f"scene.cycles.max_bounces = 0\n"
+            f"world = scene.world\n"
+            f"world.use_nodes = True\n"
+            f"nodes = world.node_tree.nodes\n"
+            f'env = nodes.new("ShaderNodeTexEnvironment")\n'
+            f"env.image = bpy.data.images.load({filename!r})\n"
+            f'env.interpolation = "Linear"\n'
+            f'world.node_tree.links.new(env.outputs["Color"], nodes["Background"].inputs["Color"])\n'
+            f'world.cycles.sampling_method = "{method}"\n')
+
+
+def _technique(envmap, **options) -> CyclesBackground:
+    return CyclesBackground(envmap, **options)
+
+
+CYCLES = RendererPreset(
+    name="cycles",
+    renderer="Cycles 5.0 (blender/cycles @ 2eba41024174, v5.0.0), world light + path",
+    technique=_technique,
+    cosine=cosine_hemisphere,
+    tangent_frame=cycles_frame,
+    heuristic="power",
+    strategies=STRATEGIES,
+    samplers=SAMPLERS,
+    snippet_fn=_snippet,
+    source=("src/scene/light.cpp; src/kernel/light/background.h; src/kernel/sample/mapping.h "
+            "sample_cos_hemisphere; src/kernel/sample/mis.h power_heuristic; "
+            "src/kernel/sample/tabulated_sobol.h"),
+)

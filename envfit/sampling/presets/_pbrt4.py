@@ -1,0 +1,278 @@
+r"""pbrt-v4's image infinite light (``ImageInfiniteLight``) on an equal-area square map, its
+``imgtool makeequiarea`` conversion of a lat-long map, and its ``path`` integrator, in numpy.
+
+Read from mmp/pbrt-v4 at ``5f7a606806a4`` (no release tag):
+
+* ``src/pbrt/util/math.cpp`` — ``EqualAreaSquareToSphere``, ``EqualAreaSphereToSquare``
+  (Clarberg's octahedral equal-area map; the inverse with pbrt's 6th-degree minimax
+  polynomial for :math:`\frac2\pi\arctan`), ``WrapEqualAreaSquare``;
+* ``src/pbrt/lights.cpp`` / ``lights.h`` — ``ImageInfiniteLight::ImageInfiniteLight`` (the
+  plain and the *compensated* distribution), ``SampleLi``, ``PDF_Li``, ``ImageLe``;
+* ``src/pbrt/util/image.h`` — ``GetSamplingDistribution`` (pixel value = mean of its
+  channels), ``LookupNearestChannel``, ``RemapPixelCoords`` (``WrapMode::OctahedralSphere``),
+  ``BilerpChannel``;
+* ``src/pbrt/util/sampling.h`` — ``PiecewiseConstant1D``, ``PiecewiseConstant2D``
+  (``Sample``: rows by ``u[1]``, columns by ``u[0]``; ``PDF``), ``SampleCosineHemisphere``;
+* ``src/pbrt/cmd/imgtool.cpp`` — ``makeequiarea``; ``src/pbrt/filters.h``/``filters.cpp``
+  — ``GaussianFilter``, ``FilterSampler``;
+* ``src/pbrt/cpu/integrators.cpp`` — ``PathIntegrator::SampleLd``/``Li``,
+  ``SimplePathIntegrator::Li``; ``src/pbrt/lightsamplers.cpp`` — ``BVHLightSampler`` (an
+  infinite light has no bounds, so with no other light the BVH is empty and
+  ``pInfinite`` = 1).
+
+Orientation: ``makeequiarea`` reads the lat-long file with pbrt-v3's convention,
+:math:`\theta` = ``SphericalTheta(dir)`` = acos z, :math:`\phi` = ``SphericalPhi(dir)`` =
+atan2(y, x) ∈ [0, 2π), looked up at :math:`(\phi/2\pi, \theta/\pi)` with texel-centred
+bilinear ``Bilerp`` — envfit's *local* frame (``up="z"``) of the same file. So the light's
+frame maps to envfit's world by :math:`M_{up}` (:func:`envfit.maps._latlong.local_to_world`);
+with ``up="z"`` the two coincide. A user's own square equal-area image is taken in the light
+frame (``up="z"``).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from envfit.base import ParameterError
+from envfit.maps._latlong import local_to_world
+from envfit.sampling.presets._base import (DirectionSample, EnvmapTechnique, RendererPreset,
+                                           SamplerSpec, StrategySetting, cosine_hemisphere,
+                                           square_points)
+from envfit.sampling.presets._pbrt4_image import (PiecewiseConstant2D, equal_area_sphere_to_square,
+                                                  equal_area_square_to_sphere, make_equal_area)
+
+__all__ = ["Pbrt4ImageInfiniteLight", "pbrt_sphere_frame", "PBRT4"]
+
+# ----------------------------------------------------------------------------- the light
+
+def _octahedral_nearest(img: np.ndarray, uv: np.ndarray) -> np.ndarray:
+    """``LookupNearestChannel(uv, c, WrapMode::OctahedralSphere)``: pixel
+    (int(u·N), int(v·N)), remapped across the square's edges (``RemapPixelCoords``)."""
+    ny, nx = img.shape[:2]
+    x = (uv[:, 0] * nx).astype(np.int64)
+    y = (uv[:, 1] * ny).astype(np.int64)
+    flip = (x < 0) | (x >= nx)
+    x = np.where(x < 0, -x, np.where(x >= nx, 2 * nx - 1 - x, x))
+    y = np.where(flip, ny - 1 - y, y)
+    flip = (y < 0) | (y >= ny)
+    x = np.where(flip, nx - 1 - x, x)
+    y = np.where(y < 0, -y, np.where(y >= ny, 2 * ny - 1 - y, y))
+    return img[np.clip(y, 0, ny - 1), np.clip(x, 0, nx - 1)]
+
+
+def _compensated(d: np.ndarray) -> np.ndarray:
+    """The constructor's compensated function: max(v − mean, 0); all ones if all vanish."""
+    c = np.maximum(d - d.mean(), 0.0)
+    return c if np.any(c != 0) else np.ones_like(d)
+
+
+class Pbrt4ImageInfiniteLight(EnvmapTechnique):
+    r"""pbrt-v4's ``ImageInfiniteLight`` (``infinite`` light with ``filename``).
+
+    **Image**: a square equal-area image, either the user's (``equal_area=``, (N, N, 3),
+    in the light frame) or :func:`make_equal_area` of ``envmap`` (``resolution`` = N,
+    default the lat-long width). A non-square image is refused, as pbrt refuses it.
+
+    **Radiance** (``ImageLe``): the nearest pixel at :func:`equal_area_sphere_to_square`
+    of the direction (``WrapMode::OctahedralSphere``), clamped at 0, times ``scale``.
+
+    **Density**: :class:`PiecewiseConstant2D` over the pixels, value = the mean of the
+    pixel's channels (``GetSamplingDistribution``), no sin θ (equal areas), no floor;
+    ``compensated=True`` (default: what ``PathIntegrator`` samples and weights with,
+    ``allowIncompletePDF = true``) uses max(v − mean, 0) instead (ones if all vanish); the
+    ``simplepath`` integrator samples the plain one (``compensated=False``). Solid-angle pdf
+    = mapPDF/(4π).
+
+    >>> from envfit.maps import EnvMap
+    >>> t = Pbrt4ImageInfiniteLight(equal_area=np.ones((4, 4, 3)), compensated=False)
+    >>> d, p = t.sample([[0.3, 0.6]])
+    >>> bool(np.isclose(p[0], 1 / (4 * np.pi))), t.eval(d).tolist()
+    (True, [[1.0, 1.0, 1.0]])
+    """
+
+    name = "pbrt4"
+    renderer = "pbrt-v4 ImageInfiniteLight"
+    source = ("pbrt-v4 @ 5f7a606806a4: src/pbrt/lights.cpp ImageInfiniteLight::"
+              "{ImageInfiniteLight, PDF_Li}; src/pbrt/lights.h ImageInfiniteLight::{SampleLi, "
+              "ImageLe}; src/pbrt/util/math.cpp EqualArea*; src/pbrt/cmd/imgtool.cpp makeequiarea")
+
+    def __init__(self, envmap=None, *, equal_area=None, resolution: int | None = None,
+                 compensated: bool = True, scale: float = 1.0):
+        if (envmap is None) == (equal_area is None):
+            raise ParameterError("give either a lat-long envmap or an equal_area image")
+        if equal_area is not None:
+            img = np.asarray(equal_area, dtype=np.float64)
+            img = img[:, :, None] if img.ndim == 2 else img
+            self.native_to_world = np.eye(3)
+        else:
+            img = make_equal_area(envmap, resolution)
+            self.native_to_world = local_to_world(getattr(envmap, "up", "y"))
+        if img.ndim != 3 or img.shape[0] != img.shape[1] or not np.all(np.isfinite(img)):
+            raise ParameterError(f"pbrt-v4 needs a finite square equal-area image; got shape "
+                                 f"{img.shape} (it is unlikely to be an equal-area map)")
+        self.image = np.repeat(img, 3, axis=2) if img.shape[2] == 1 else img[:, :, :3]
+        self.scale = float(scale)
+        self.compensated = bool(compensated)
+        d = img.mean(axis=2)                      # GetChannels({x, y}).Average()
+        self.plain = PiecewiseConstant2D(d)
+        self.compensated_distribution = PiecewiseConstant2D(_compensated(d))
+        self.distribution = self.compensated_distribution if compensated else self.plain
+
+    def _eval_native(self, d):
+        uv = equal_area_sphere_to_square(d)
+        return np.maximum(_octahedral_nearest(self.image, uv), 0.0) * self.scale
+
+    def _sample_native(self, u):
+        uv, map_pdf = self.distribution.sample(u)
+        return equal_area_square_to_sphere(uv), map_pdf / (4.0 * np.pi)
+
+    def sample_radiance(self, u):
+        """``SampleLi``: directions, pdf and the radiance ``ImageLe(uv)`` at the **sampled**
+        uv (not re-derived from the direction, whose polynomial inverse can land in a
+        neighbouring pixel within ~2e-6 of an edge)."""
+        uv, map_pdf = self.distribution.sample(square_points(u))
+        d = equal_area_square_to_sphere(uv) @ self.native_to_world.T
+        le = np.maximum(_octahedral_nearest(self.image, uv), 0.0) * self.scale
+        return DirectionSample(d, map_pdf / (4.0 * np.pi)), le
+
+    def _pdf_native(self, d):
+        return self.distribution.pdf(equal_area_sphere_to_square(d)) / (4.0 * np.pi)
+
+
+def pbrt_sphere_frame(normals) -> np.ndarray:
+    r"""pbrt-v4's BSDF shading frame on a ``sphere`` shape (K, 3, 3), rows (x, y, n):
+    ``Frame::FromXZ(Normalize(dpdu), n)`` (``src/pbrt/bsdf.h``, ``BSDF::BSDF``) with the
+    sphere's :math:`\partial p/\partial u \propto (-n_y, n_x, 0)` in object space
+    (``src/pbrt/shapes.h``, ``Sphere::InteractionFromIntersection``), y = n × x. Undefined at
+    the poles n = ±z (pbrt's dpdu vanishes there; the x axis is returned)."""
+    n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
+    x = np.column_stack([-n[:, 1], n[:, 0], np.zeros(len(n))])
+    ln = np.linalg.norm(x, axis=1)
+    x = np.where(ln[:, None] > 0, x / np.where(ln > 0, ln, 1.0)[:, None], [1.0, 0.0, 0.0])
+    return np.stack([x, np.cross(n, x), n], axis=1)
+
+
+# ----------------------------------------------------------------------------- samplers
+
+def _floor_pow2(n: int) -> int:
+    """``ZSobolSampler::SamplesPerPixel`` = 1 << Log2Int(spp) (a power of two, rounded down)."""
+    return 1 << (int(n).bit_length() - 1)
+
+
+def _grid(n: int) -> tuple[int, int]:
+    """``StratifiedSampler::Create`` with ``--spp n``: y = the largest divisor d ≤ √n,
+    x = n/d."""
+    d = int(np.sqrt(n))
+    while n % d:
+        d -= 1
+    return n // d, d
+
+
+_P = "pbrt-v4 @ 5f7a6068 src/pbrt/samplers.h/.cpp "
+SAMPLERS = {
+    "zsobol": SamplerSpec(
+        "zsobol", "owen", "independent", _floor_pow2,
+        "Sobol' dims 0,1 at the pixel's Morton-ordered block of indices (base-4 digits "
+        "permuted), FastOwen-scrambled with Hash(dimension, seed) - the scramble is shared by "
+        "all pixels; spp -> 2^floor(log2 spp). " + _P + "ZSobolSampler", default=True),
+    "paddedsobol": SamplerSpec(
+        "paddedsobol", "owen", "independent", int,
+        "per pixel and dimension an independently FastOwen-scrambled first-spp Sobol' net "
+        "in a hashed order; spp unchanged (warns if not a power of two). "
+        + _P + "PaddedSobolSampler"),
+    "sobol": SamplerSpec(
+        "sobol", "owen", "independent", int,
+        "one global Sobol' sequence over the image, dimension-seeded FastOwen scramble "
+        "shared by all pixels; spp unchanged. " + _P + "SobolSampler"),
+    "pmj02bn": SamplerSpec(
+        "pmj02bn", "cp_shift", "independent", int,
+        "precomputed pmj02bn sets, Cranley-Patterson rotated by BlueNoise(dimension, pixel); "
+        "spp unchanged (warns unless a power of 4). " + _P + "PMJ02BNSampler"),
+    "halton": SamplerSpec(
+        "halton", "digit_permutation", "independent", int,
+        "global Halton over the image, random digit permutations per dimension (seeded "
+        "once); spp unchanged. " + _P + "HaltonSampler"),
+    "stratified": SamplerSpec(
+        "stratified", "jittered", "independent", int,
+        "x*y jittered strata (x = spp/d, y = d, d the largest divisor <= sqrt spp), the "
+        "stratum of each sample index PermutationElement(index, spp, Hash(pixel, dimension, "
+        "seed)); spp unchanged. " + _P + "StratifiedSampler"),
+    "independent": SamplerSpec(
+        "independent", "independent", "independent", int,
+        "RNG Hash(pixel, seed) advanced to index*65536 + dimension; spp unchanged. "
+        + _P + "IndependentSampler"),
+}
+
+
+# ----------------------------------------------------------------------------- integrator
+
+_I = "src/pbrt/cpu/integrators.cpp "
+STRATEGIES = {
+    "map": StrategySetting(
+        "map", True, "simplepath", {"maxdepth": 1, "samplelights": True, "samplebsdf": True},
+        1, 0, "plain", "light sample without MIS (SampleLi, allowIncompletePDF = false: the "
+        "plain distribution); escaped BSDF rays add nothing. " + _I + "SimplePathIntegrator::Li"),
+    "brdf": StrategySetting(
+        "brdf", True, "simplepath", {"maxdepth": 1, "samplelights": False, "samplebsdf": True},
+        0, 1, "plain", "escaped BSDF rays add Le. " + _I + "SimplePathIntegrator::Li"),
+    "mis": StrategySetting(
+        "mis", True, "path", {"maxdepth": 1}, 1, 1, "compensated",
+        "one light + one BSDF sample, PowerHeuristic(1, p_l, 1, p_b), the light sampled and "
+        "weighted with the compensated distribution; the default bvh light sampler picks the "
+        "infinite light with probability 1 when it is the only light (no bounded light: the "
+        "BVH is empty). " + _I + "PathIntegrator::{Li, SampleLd}; src/pbrt/lightsamplers.cpp"),
+}
+
+
+def _transform_line(up: str) -> str:
+    """``ConcatTransform`` (column-major 4×4) taking pbrt's light frame (= envfit's local
+    frame of the lat-long file) to envfit's world frame of ``up``."""
+    m = local_to_world(up)
+    vals = [m[r, c] for c in range(3) for r in range(3)]
+    cols = [vals[0:3] + [0], vals[3:6] + [0], vals[6:9] + [0], [0, 0, 0, 1]]
+    flat = " ".join(f"{v:g}" for col in cols for v in col)
+    return f"    ConcatTransform [ {flat} ]\n"
+
+
+def _snippet(s: StrategySetting, spec: SamplerSpec, spp: int, *,
+             filename: str = "envmap.exr", up: str = "y") -> str:
+    """pbrt-v4 scene lines: the conversion command, the integrator for the strategy, the
+    sampler at the spp it runs, a diffuse sphere lit by the equal-area map."""
+    eq = filename.rsplit(".", 1)[0] + "-equiarea.exr"
+    opts = " ".join(f'"{"integer" if isinstance(v, int) and not isinstance(v, bool) else "bool"} '
+                    f'{k}" [ {str(v).lower()} ]' for k, v in s.settings.items())
+    if spec.name == "stratified":
+        x, y = _grid(spp)
+        samp = f'Sampler "stratified" "integer xsamples" [ {x} ] "integer ysamples" [ {y} ]'
+    else:
+        samp = f'Sampler "{spec.name}" "integer pixelsamples" [ {spp} ]'
+    return (f"# imgtool makeequiarea {filename} --outfile {eq}\n"
+            f'Integrator "{s.integrator}" {opts}\n'
+            f"{samp}\n"
+            f'Film "rgb" "string filename" [ "sphere.exr" ]\n'
+            f'Camera "perspective"\n'
+            f"WorldBegin\n"
+            f"AttributeBegin\n{_transform_line(up)}"
+            f'    LightSource "infinite" "string filename" [ "{eq}" ]\n'
+            f"AttributeEnd\n"
+            f'Material "diffuse"\n'
+            f'Shape "sphere"\n')
+
+
+def _technique(envmap=None, **options) -> Pbrt4ImageInfiniteLight:
+    return Pbrt4ImageInfiniteLight(envmap, **options)
+
+
+PBRT4 = RendererPreset(
+    name="pbrt4",
+    renderer="pbrt-v4 (mmp/pbrt-v4 @ 5f7a606806a4), infinite light + path/simplepath",
+    technique=_technique,
+    cosine=cosine_hemisphere,
+    tangent_frame=pbrt_sphere_frame,
+    heuristic="power",
+    strategies=STRATEGIES,
+    samplers=SAMPLERS,
+    snippet_fn=_snippet,
+    source=("src/pbrt/lights.cpp/.h ImageInfiniteLight; src/pbrt/util/sampling.h "
+            "SampleCosineHemisphere, PowerHeuristic; src/pbrt/bxdfs.h DiffuseBxDF::Sample_f; "
+            "src/pbrt/cpu/integrators.cpp; src/pbrt/samplers.h/.cpp"),
+)
