@@ -206,3 +206,7 @@ def test_errors_are_parameter_errors(monkeypatch):
     from envfit.measure.renderers._mitsuba3 import import_mitsuba
     with pytest.raises(ParameterError, match="Mitsuba 3 is not installed"):
         import_mitsuba()
+    monkeypatch.setitem(sys.modules, "bpy", None)
+    from envfit.measure.renderers._cycles import import_bpy
+    with pytest.raises(ParameterError, match="Cycles is not available"):
+        import_bpy()

@@ -101,9 +101,19 @@ class CyclesOptions:
                 raise ParameterError(f"{name} must be an integer >= {lo}, got {v!r}")
 
 
+def _use_nodes(datablock) -> None:
+    """Give a material or world its node tree (``use_nodes``, deprecated in Blender 5 where
+    new ones have it already, to be removed in 6)."""
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        if getattr(datablock, "node_tree", None) is None or not datablock.use_nodes:
+            datablock.use_nodes = True
+
+
 def _material(bpy):
     mat = bpy.data.materials.new("white diffuse")
-    mat.use_nodes = True
+    _use_nodes(mat)
     nt = mat.node_tree
     for n in list(nt.nodes):
         nt.nodes.remove(n)
@@ -139,7 +149,7 @@ def _world(bpy, scene, map_path: str):
     """The Environment Texture world, looked up at (d_z, d_x, d_y) (module docstring)."""
     world = bpy.data.worlds.new("envmap")
     scene.world = world
-    world.use_nodes = True
+    _use_nodes(world)
     wt = world.node_tree
     for n in list(wt.nodes):
         wt.nodes.remove(n)
@@ -324,7 +334,7 @@ class CyclesSphere:
         over its footprint), for checking :func:`._sphere.view_normals`."""
         bpy, s = self.bpy, self.scene
         mat = bpy.data.materials.new("normal emission")
-        mat.use_nodes = True
+        _use_nodes(mat)
         nt = mat.node_tree
         for n in list(nt.nodes):
             nt.nodes.remove(n)

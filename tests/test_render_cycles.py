@@ -1,0 +1,85 @@
+"""The sphere measurement with Blender's Cycles (envfit.measure.renderers._cycles), on tiny
+scenes: 16×16-pixel views, small maps, low spp. Only where ``bpy`` is installed (the
+``cycles`` extra, not in CI's test extra); slow (each render with world sampling builds
+Cycles' 4096×2048 importance map, ≈ 1 s).
+
+Independent values: the orthographic geometry against Cycles' own shading normals; the map's
+pixel direction in envfit's convention against the direction Cycles lights the sphere from.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+pytest.importorskip("bpy")
+
+from envfit.base import ParameterError  # noqa: E402
+from envfit.maps import EnvMap, pixel_directions  # noqa: E402
+from envfit.measure.renderers import (VIEWS, CyclesOptions, CyclesSphere,  # noqa: E402
+                                      sphere_geometry, view_normals)
+
+pytestmark = pytest.mark.slow
+R = 16
+
+
+def test_normals_match_cycles():
+    """The orthographic geometry's normals are the ones Cycles shades with."""
+    g = sphere_geometry(R)
+    with CyclesSphere(EnvMap(np.ones((4, 8, 3))), CyclesOptions(resolution=R)) as r:
+        n = r.normals(16)
+    for k, view in enumerate(VIEWS):
+        d = np.abs(n[k][g.keep] - view_normals(view, g)[g.keep])
+        assert d.mean() < 0.005 and d.max() < 0.02, view.name
+
+
+def test_constant_map_and_direct_lighting_only():
+    """Constant map L: BSDF sampling renders L exactly; MIS is unbiased around L; one bounce
+    is all there is (a convex sphere: more bounces give the same image, same seed)."""
+    L = 0.5
+    g = sphere_geometry(R)
+    env = EnvMap(np.full((8, 16, 3), L))
+    with CyclesSphere(env, CyclesOptions(resolution=R)) as r:
+        brdf, secs = r.render("brdf", "tabulated_sobol", 4, seed=1)
+        mis1, _ = r.render("mis", "blue_noise", 16, seed=2)
+        with pytest.raises(ParameterError, match="debug builds"):
+            r.render("map", "tabulated_sobol", 4, seed=1)
+    with CyclesSphere(env, CyclesOptions(resolution=R, max_bounces=3)) as r:
+        mis3, _ = r.render("mis", "blue_noise", 16, seed=2)
+    assert len(secs) == len(VIEWS) and all(s > 0 for s in secs)
+    assert np.abs(brdf[:, g.keep] - L).max() < 1e-5
+    assert np.array_equal(mis1, mis3)
+    assert abs(mis1[:, g.keep].mean() - L) < 0.01 * L
+
+
+def test_world_mapping_is_envfits_convention():
+    """A map with one bright pixel lights the sphere from that pixel's direction in envfit's
+    convention (up="y"): the direction fitted to the lit pixels' radiance ∝ n·s is within a
+    degree of it."""
+    h = 32
+    data = np.zeros((h, 2 * h, 3), np.float32)
+    data[9, 21] = 5000.0
+    s = pixel_directions(h, 2 * h, up="y")[9, 21]
+    res = 32
+    with CyclesSphere(EnvMap(data), CyclesOptions(resolution=res)) as r:
+        img, _ = r.render("mis", "tabulated_sobol", 64, seed=3)
+    g = sphere_geometry(res)
+    n = np.concatenate([view_normals(v, g)[g.keep] for v in VIEWS])
+    y = np.concatenate([img[k][g.keep].mean(axis=-1) for k in range(len(VIEWS))])
+    lit = y > 0.3 * y.max()
+    fit = np.linalg.lstsq(n[lit], y[lit], rcond=None)[0]
+    angle = np.degrees(np.arccos(np.clip(fit @ s / np.linalg.norm(fit), -1, 1)))
+    assert angle < 1.0
+
+
+def test_cycles_measurement_fields(tmp_path):
+    g = sphere_geometry(R)
+    f = np.random.default_rng(0).random((8, 16, 3)) + 0.5
+    opts = CyclesOptions(resolution=R, reference_spp=256, cache_dir=str(tmp_path))
+    with CyclesSphere(EnvMap(f), opts) as r:
+        ref = r.reference()
+        m = r.measure("brdf", "tabulated_sobol", 16, seed=4, reference=ref)
+        again = r.reference()
+    assert again.cached and np.array_equal(again.a, ref.a)
+    assert m.renderer == "cycles" and m.sampler == "tabulated_sobol" and m.spp == 16
+    assert m.pixels == len(VIEWS) * g.kept and 0 < m.low <= m.rmse <= m.high
+    assert len(m.view_seconds) == len(VIEWS)
