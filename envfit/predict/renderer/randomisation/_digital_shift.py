@@ -12,12 +12,21 @@ dual net :math:`D^*` and 0 elsewhere; the Walsh functions are orthonormal in Δ,
 
 (the Walsh analogue of the shifted-lattice variance of Sloan & Joe 1994, Lemma 2.3; J. Dick,
 F. Pillichshammer, *Digital Nets and Sequences* (2010), ch. 13; exact for every h in L²). Indices below M come exactly from the grid's Walsh
-coefficients (:mod:`._walsh`). Above the grid (:math:`k_1 \ge M` or :math:`k_2 \ge M`, M ≥ N)
-membership is fixed by the low m digits; for a (0, m, 2)-net every dyadic block there holds
-exactly a fraction 1/N of dual indices, so the part is taken as :math:`P_\text{above}/N` —
-exact on average over the digits' order inside each block (it *is* the Owen-scrambled value
-of that power), not exact for the shift: it lies in :math:`[0, P_\text{above}]`, and is
-reported with ``exact=False``.
+coefficients (:mod:`._walsh`). Above the grid (:math:`k_1 \ge M` or :math:`k_2 \ge M`)
+membership is fixed by the low m digits, i.e. by :math:`k \bmod M`; the part is estimated as
+
+.. math::  P_\text{above}\;\frac{\sum_{k\in\text{shell}\,\cap D^*}\hat h(k)^2}
+           {\sum_{k\in\text{shell}}\hat h(k)^2},\qquad
+           \text{shell} = \{k < M:\ \max(k_1, k_2)\ge M/2\}
+
+(needs N ≤ M/2), the dual net's share of the power in the grid's finest resolved shell. It is
+exact when h is linear inside the cells of the level-(L−1) grid (the Walsh coefficients of the
+within-cell ramps sit at :math:`(c_1 + 2^{s-1}, c_2)`, s > L − 1, with the membership of
+:math:`(c_1, c_2)`, the same at every level beyond m), and tends to the density 1/N of dual
+indices when the fine structure is incoherent from cell to cell (a jump along a non-dyadic
+line). It is an estimate (``exact=False``) within :math:`[0, P_\text{above}]`; where N = M it
+falls back to 1/N (the Owen-scrambled value of that power). On the tests' smooth integrand at
+M = 4N the plain 1/N rule misses 8 % of the MSE, this one 1.5 %.
 
 The order in which a renderer visits the points does not change the mean, so Mitsuba's
 per-dimension index permutation plays no part.
@@ -30,7 +39,7 @@ from ._grid import DyadicGrid, RandomisedMSE, make_result
 from ._nets import get_net, net_exponent
 from ._walsh import walsh_coefficients
 
-__all__ = ["digital_shift_mse", "dual_sum"]
+__all__ = ["digital_shift_mse", "dual_sum", "shell_share"]
 
 
 def dual_sum(first: np.ndarray, second: np.ndarray, mask: np.ndarray) -> np.ndarray:
@@ -40,12 +49,26 @@ def dual_sum(first: np.ndarray, second: np.ndarray, mask: np.ndarray) -> np.ndar
     return np.einsum("cij,cij->c", first * mask, second)
 
 
+def shell_share(coeffs: np.ndarray, mask: np.ndarray, n: int) -> np.ndarray:
+    """The dual net's share of the Walsh power in the finest shell of the grid, per channel
+    (1/N where N = M or the shell holds no power)."""
+    size = mask.shape[0]
+    if n > size // 2:
+        return np.full(coeffs.shape[0], 1.0 / n)
+    power = coeffs[:, size // 2:, :] ** 2, coeffs[:, :size // 2, size // 2:] ** 2
+    total = power[0].sum(axis=(1, 2)) + power[1].sum(axis=(1, 2))
+    dual = (power[0] * mask[size // 2:, :]).sum(axis=(1, 2)) \
+        + (power[1] * mask[:size // 2, size // 2:]).sum(axis=(1, 2))
+    return np.where(total > 0, dual / np.where(total > 0, total, 1.0), 1.0 / n)
+
+
 def digital_shift_mse(grid: DyadicGrid, n: int, *, net: str = "sobol") -> RandomisedMSE:
     """The MSE of the first ``n`` points of ``net`` under a uniform random digital shift."""
     m = net_exponent(n, grid.size)
     coeffs = walsh_coefficients(grid.centred()[0])
     mask = get_net(net).dual_mask(m, grid.size)
     resolved = dual_sum(coeffs, coeffs, mask)
-    return make_result("digital_shift", n, resolved, grid.above / n, exact=False,
-                       note="indices < M exact; the power above the grid at the net's block "
-                            "density 1/N (approximation within [0, P_above])")
+    share = shell_share(coeffs, mask, n)
+    return make_result("digital_shift", n, resolved, grid.above * share, exact=False,
+                       note="indices < M exact; the power above the grid at the dual net's "
+                            "share of the finest resolved shell (an estimate)")
