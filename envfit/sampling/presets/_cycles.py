@@ -165,14 +165,14 @@ class CyclesBackground(EnvmapTechnique):
         with np.errstate(invalid="ignore", divide="ignore"):
             cdf = np.where(self.row_total[:, None] > 0, cdf / self.row_total[:, None], cdf)
         cdf[:, -1] = 1.0
-        self.cond_cdf = cdf
         self.total = float(self.row_total.sum() / ry)                        # cdf_last_v.x
         marg = np.concatenate([[0.0], np.cumsum(self.row_total) / ry])
         if self.total > 0:
             marg = marg / self.total
         marg[-1] = 1.0
         self.marg_cdf = marg
-        self._flat = (cdf + 2.0 * np.arange(ry)[:, None]).ravel()
+        cdf += 2.0 * np.arange(ry)[:, None]          # rows 2 apart: one monotone table
+        self._flat = cdf.ravel()
         if not self.total > 0:
             raise ParameterError("the world has no light to sample (all cells are 0)")
 
