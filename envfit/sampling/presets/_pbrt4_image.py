@@ -32,7 +32,7 @@ def equal_area_square_to_sphere(p) -> np.ndarray:
     r\sqrt{2 - r^2}` with the signs of u and v. Area-preserving: the unit square's area 1
     maps to 4π.
 
-    >>> equal_area_square_to_sphere([[0.5, 0.5], [0.0, 0.0], [1.0, 0.5]]).round(12).tolist()
+    >>> (equal_area_square_to_sphere([[0.5, 0.5], [0.0, 0.0], [1.0, 0.5]]).round(12) + 0.0).tolist()
     [[0.0, 0.0, 1.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]]
     """
     p = np.asarray(p, dtype=np.float64).reshape(-1, 2)
