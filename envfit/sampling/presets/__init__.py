@@ -10,6 +10,18 @@ tangent frame, its MIS heuristic, the integrator settings per strategy (``map``,
 spp each runs and a randomisation tag (:data:`RANDOMISATIONS`), and the scene text a user
 pastes (:meth:`RendererPreset.snippet`).
 
+Which coordinate of the square sample drives what (each as the renderer's source does it):
+
+=========  ==============================================  ===================================
+preset     ``u[:, 0]``                                     ``u[:, 1]``
+=========  ==============================================  ===================================
+mitsuba3   column (φ) at each 2 × 2 level, then x in the   row (θ) at each level, first; then
+           leaf patch (``Hierarchical2D::sample``)          y in the leaf patch
+pbrt4      column of the equal-area square (conditional)   row of the square (marginal)
+cycles     ``rand.x``: column / u (φ) (conditional)         ``rand.y``: row / v (θ) (marginal)
+envfit     row (θ) (marginal, :class:`MapSampler`)          column (φ)
+=========  ==============================================  ===================================
+
 Modules:
 
 * ``_base`` — the technique protocol, the preset and sampler records, the concentric
