@@ -6,7 +6,9 @@
   (checked point by point) and its MSE is the digital-shift prediction; its emitter and BSDF
   dimensions (two ``next_2d`` per sample) share the shift: the MIS cross term is predicted;
 * ``multijitter`` (16 = 4 × 4, 32 → 35 = 7 × 5, 64) — the correlated multi-jittering
-  prediction with Mitsuba's shape, though its permutations are Kensler's hashes, not uniform;
+  prediction with Mitsuba's shape over the distribution of its permutations (Kensler's hashes,
+  ported and checked against ``mi.permute_kensler``; not uniform: the uniform-permutation
+  value is 5–7 % off at spp 16);
 * ``stratified`` (16, 32 → 36, 64) — the jittered prediction.
 
 Tolerance: |prediction − brute force| ≤ Z standard errors of the brute force (+1 %)."""
@@ -20,7 +22,7 @@ import pytest
 from oracles.randomisers import INTEGRANDS, mse_estimate, sobol_digits
 
 from envfit.predict.renderer.randomisation import (DyadicGrid, mis_mse, mitsuba_cmj_shape,
-                                                   randomised_mse)
+                                                   permute_kensler, randomised_mse)
 
 mi = pytest.importorskip("mitsuba")
 
@@ -117,13 +119,36 @@ def test_ldsampler_mis_cross_term(grids, spp):
         + 0.01 * pred.mse[0]
 
 
+def test_permute_kensler_port_is_mitsubas():
+    rng = np.random.default_rng(3)
+    for length in (1, 2, 3, 4, 5, 7, 8, 16, 35):
+        for seed in rng.integers(0, 1 << 32, size=20, dtype=np.uint64).tolist():
+            mine = permute_kensler(np.arange(length), length, seed)
+            assert mine.tolist() == [mi.permute_kensler(i, length, seed) for i in range(length)]
+
+
 @pytest.mark.parametrize("name", sorted(INTEGRANDS))
 @pytest.mark.parametrize("spp", [16, 32, 64])
 def test_multijitter_is_correlated_multi_jittering(grids, name, spp):
+    """Over Mitsuba's hashed permutations (``permutations="mitsuba"``)."""
     pts = mitsuba_points("multijitter", spp, SEEDS)[:, :, 0]
     nx, ny = mitsuba_cmj_shape(spp)
     assert pts.shape[1] == nx * ny                                     # 32 → 35
-    _agree(randomised_mse("cmj", grids[name], nx * ny).mse[0], pts, name)
+    res = randomised_mse("cmj", grids[name], nx * ny, permutations="mitsuba")
+    _agree(res.mse[0], pts, name)
+
+
+@pytest.mark.parametrize("name", ["smooth", "edge"])
+def test_multijitter_permutations_are_not_uniform(grids, name):
+    """At spp 16 (4 × 4) Kensler's hash is far from a uniform permutation of 4: with 30000
+    pixels the uniform-permutation value is off by > 4 standard errors (5–7 %), the value over
+    Mitsuba's permutation distribution is not."""
+    pts = mitsuba_points("multijitter", 16, 15 * SEEDS)[:, :, 0]
+    bf, se = mse_estimate(INTEGRANDS[name], pts)
+    uniform = randomised_mse("cmj", grids[name], 16).mse[0]
+    hashed = randomised_mse("cmj", grids[name], 16, permutations="mitsuba").mse[0]
+    assert abs(uniform - bf) > Z * se
+    assert abs(hashed - bf) <= Z * se + 0.01 * hashed
 
 
 @pytest.mark.parametrize("name", sorted(INTEGRANDS))

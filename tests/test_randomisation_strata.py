@@ -14,6 +14,9 @@ from oracles.randomisers import (INTEGRANDS, jittered_points, kensler_cmj_points
                                  mse_estimate)
 
 from envfit.predict.renderer.randomisation import DyadicGrid, randomised_mse
+from envfit.predict.renderer.randomisation._cmj import table_moments
+from envfit.predict.renderer.randomisation._kensler import uniform_pair_table
+from envfit.predict.renderer.randomisation._strata import rectangle_moments
 
 #: randomisations per brute-force estimate, and the z-score allowed
 REPS, Z = 3000, 4.0
@@ -75,3 +78,16 @@ def test_power_above_the_grid_enters_at_one_over_n():
         np.testing.assert_allclose(res.resolved, 0.0, atol=1e-12)
         np.testing.assert_allclose(res.mse, g.variance / 16, rtol=1e-12)
     np.testing.assert_allclose(g.variance, 1.0, rtol=1e-12)
+
+
+@pytest.mark.parametrize("nx, ny", [(1, 4), (4, 1), (3, 3), (7, 5), (16, 16)])
+def test_cmj_inclusion_exclusion_equals_the_table_contraction(grids, nx, ny):
+    """Two algorithms for the uniform-permutation expectation: inclusion–exclusion over the
+    marginals of G (cmj_mse) and the pair-table contraction with uniform tables."""
+    n = nx * ny
+    e = np.arange(n + 1) / n
+    fine, within = rectangle_moments(grids["edge"], e, e)
+    g, w = fine[0].reshape(nx, ny, ny, nx), within[0].reshape(nx, ny, ny, nx)
+    pairs, jitter = table_moments(g, w, uniform_pair_table(nx), uniform_pair_table(ny))
+    res = randomised_mse("cmj", grids["edge"], n, nx=nx, ny=ny)
+    np.testing.assert_allclose(res.mse[0], (pairs + jitter) / n ** 2, rtol=1e-11)

@@ -11,6 +11,8 @@ Modules (private, one per method; each cites its equation and reference):
 * ``_strata`` — moments over the rectangles of a product partition.
 * ``_walsh`` — Walsh coefficients by the fast Walsh–Hadamard transform; dyadic block sums.
 * ``_nets`` — the digital nets' generator matrices and dual nets (:data:`NETS`).
+* ``_kensler`` — Kensler's hashed permutation (Mitsuba's ``permute_kensler``) and the
+  distribution of its permutations (pair tables).
 * ``_independent``, ``_jittered``, ``_cmj``, ``_digital_shift``, ``_owen``, ``_cp_shift`` — the
   methods.
 * ``_registry`` — :data:`RANDOMISATIONS` and the dispatcher :func:`randomised_mse`.
@@ -27,6 +29,7 @@ _LAZY = {
     "DyadicGrid": "_grid", "RandomisedMSE": "_grid",
     "DigitalNet": "_nets", "NETS": "_nets",
     "mitsuba_cmj_shape": "_cmj",
+    "pair_table": "_kensler", "permute_kensler": "_kensler",
     "owen_gains": "_owen",
     "walsh_coefficients": "_walsh",
     "RANDOMISATIONS": "_registry", "Randomisation": "_registry", "randomised_mse": "_registry",

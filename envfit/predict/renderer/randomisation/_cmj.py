@@ -28,6 +28,20 @@ equal, :math:`\sum_{S}(-1)^{|S|}\sum_{\text{indices in }S}(\sum_{\text{others}} 
 squared marginals of G, O(N²) in all. The power above the grid enters exactly as
 :math:`P_\text{above}/N` (inside W) when N divides M; otherwise the fine cells cut grid cells
 (:mod:`._strata`).
+
+Mitsuba's permutations are Kensler's hashes (``permute_kensler``), far from uniform for small
+:math:`n_x, n_y` (:mod:`._kensler`). With ``permutations="mitsuba"`` the expectation is taken
+over their distribution instead, through the pair tables
+:math:`P_x[(x,a),(x',a')] = \Pr(\sigma_x(x)=a, \sigma_x(x')=a')` (and :math:`P_y`), σ_x and
+σ_y independent (their seeds are different odd multiples of one per-pixel hash):
+
+.. math::  E\Big(\sum_p g_p\Big)^2 = \sum P_x[(x,a),(x',a')]\,
+           \big(\mathbf G P_y \mathbf G^\top\big)[(x,a),(x',a')],\qquad
+           \mathbf G[(x,a),(y,b)] = G[x,b,y,a],
+
+two matrix products of side N (the uniform tables give back the formula above — a test),
+and the jitter term weights each fine cell's within-variance by
+:math:`\Pr(\sigma_x(x)=a)\Pr(\sigma_y(y)=b)`.
 """
 from __future__ import annotations
 
@@ -39,9 +53,13 @@ import numpy as np
 from envfit.base import ParameterError
 
 from ._grid import DyadicGrid, RandomisedMSE, make_result
+from ._kensler import TABLE_SEEDS, pair_table
 from ._strata import rectangle_moments
 
-__all__ = ["cmj_mse", "mitsuba_cmj_shape"]
+__all__ = ["PERMUTATIONS", "cmj_mse", "mitsuba_cmj_shape", "table_moments"]
+
+#: the permutation distributions of :func:`cmj_mse`
+PERMUTATIONS = ("uniform", "mitsuba")
 
 _AXES = ("x", "b", "y", "a")            # G's axes: coarse column, sub-column, row, sub-row
 
@@ -78,10 +96,18 @@ def _pair_sum(g: np.ndarray, nx: int, ny: int) -> float:
     return out
 
 
-def cmj_mse(grid: DyadicGrid, n: int, *, nx: int | None = None,
-            ny: int | None = None) -> RandomisedMSE:
-    """The exact MSE of correlated multi-jittered sampling on an nx × ny grid, N = nx·ny
-    (default: Mitsuba's shape for ``n``, which must then equal nx·ny)."""
+def table_moments(g: np.ndarray, within: np.ndarray, px: np.ndarray,
+                  py: np.ndarray) -> tuple[float, float]:
+    r"""(E(Σ_p g_p)², E Σ_p w_p) for one channel over permutations with pair tables
+    ``px`` (nx², nx²) and ``py`` (ny², ny²); g and within are (nx, ny, ny, nx) = [x, b, y, a]."""
+    nx, ny = g.shape[0], g.shape[1]
+    gm = g.transpose(0, 3, 2, 1).reshape(nx * nx, ny * ny)           # [(x, a), (y, b)]
+    pairs = float(np.sum(px * (gm @ py @ gm.T)))
+    wm = within.transpose(0, 3, 2, 1).reshape(nx * nx, ny * ny)
+    return pairs, float(np.diag(px) @ wm @ np.diag(py))
+
+
+def _shape(n: int, nx, ny) -> tuple[int, int]:
     if nx is None and ny is None:
         nx, ny = mitsuba_cmj_shape(n)
     elif nx is None or ny is None:
@@ -91,14 +117,34 @@ def cmj_mse(grid: DyadicGrid, n: int, *, nx: int | None = None,
         raise ParameterError(f"correlated multi-jittering takes N = nx·ny points: N = {n}, "
                              f"nx = {nx!r}, ny = {ny!r} (Mitsuba's multijitter rounds spp up "
                              f"to nx·ny: {n} → {math.prod(mitsuba_cmj_shape(n))})")
-    nx, ny = int(nx), int(ny)
+    return int(nx), int(ny)
+
+
+def cmj_mse(grid: DyadicGrid, n: int, *, nx: int | None = None, ny: int | None = None,
+            permutations: str = "uniform") -> RandomisedMSE:
+    """The exact MSE of correlated multi-jittered sampling on an nx × ny grid, N = nx·ny
+    (default: Mitsuba's shape for ``n``, which must then equal nx·ny), over uniformly random
+    permutations or over Mitsuba's hashed ones (``permutations="mitsuba"``)."""
+    nx, ny = _shape(n, nx, ny)
+    if permutations not in PERMUTATIONS:
+        raise ParameterError(f"permutations must be one of {PERMUTATIONS}, got {permutations!r}")
     edges = np.arange(n + 1) / n
     fine, within = rectangle_moments(grid, edges, edges)       # (C, N, N): X along u1
     g = fine.reshape(grid.channels, nx, ny, ny, nx)            # [c, x, b, y, a]
-    perm = np.array([_pair_sum(g[c], nx, ny) for c in range(grid.channels)]) / float(n * n)
-    jitter = within.mean(axis=(1, 2)) / n
+    if permutations == "uniform":
+        perm = np.array([_pair_sum(g[c], nx, ny) for c in range(grid.channels)])
+        jitter = within.mean(axis=(1, 2)) * n
+    else:
+        px, py = pair_table(nx), pair_table(ny)
+        w = within.reshape(grid.channels, nx, ny, ny, nx)
+        both = np.array([table_moments(g[c], w[c], px, py) for c in range(grid.channels)])
+        perm, jitter = both[:, 0], both[:, 1]
+    total = (perm + jitter) / float(n * n)
     above = grid.above / n
-    aligned = grid.size % n == 0
-    note = "exact (N divides M)" if aligned else \
-        "fine cells cut grid cells: their share by the cell-constant interpolant"
-    return make_result("cmj", n, perm + jitter - above, above, exact=aligned, note=note)
+    aligned = grid.size % n == 0 and permutations == "uniform"
+    note = f"{permutations} permutations; " + ("exact (N divides M)" if grid.size % n == 0 else
+                                               "fine cells cut grid cells: their share by the "
+                                               "cell-constant interpolant")
+    if permutations == "mitsuba":
+        note += f"; Mitsuba's permutation pairs estimated from {TABLE_SEEDS} seeds"
+    return make_result("cmj", n, total - above, above, exact=aligned, note=note)

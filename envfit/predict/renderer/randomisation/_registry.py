@@ -2,21 +2,18 @@ r"""The registry of randomisations (as colour-science's method registries) and i
 :func:`randomised_mse`: one name per way a renderer randomises the N points of a pixel, each
 taking the same :class:`DyadicGrid` of the warped integrand.
 
-============== ======================================================== ==================
-name           randomisation                                            renderers
-============== ======================================================== ==================
-independent    i.i.d. uniform points                                     Mitsuba, pbrt
-jittered       r × r strata, fresh uniform jitter (option ``r``)         Mitsuba/pbrt
-                                                                        ``stratified``
-cmj            correlated multi-jittering (options ``nx``, ``ny``)       Mitsuba
-                                                                        ``multijitter``
-digital_shift  random XOR shift of a digital net (option ``net``)        Mitsuba
-                                                                        ``ldsampler``
-owen           nested uniform scrambling of a digital net (``net``)      pbrt ``zsobol``,
-                                                                        Cycles
-cp_shift       Cranley–Patterson shift of a point set (``points``,       pbrt ``pmj02bn``,
-               ``net``)                                                 envfit's rules
-============== ======================================================== ==================
+* ``independent`` — i.i.d. uniform points (Mitsuba and pbrt ``independent``);
+* ``jittered`` — r × r strata with fresh uniform jitter, option ``r`` (Mitsuba and pbrt
+  ``stratified``);
+* ``cmj`` — correlated multi-jittering, options ``nx``, ``ny`` and ``permutations``
+  (``"uniform"``, Kensler's algorithm; ``"mitsuba"``, its hashed permutations: Mitsuba
+  ``multijitter``);
+* ``digital_shift`` — a random XOR shift of a digital net, option ``net`` (Mitsuba
+  ``ldsampler``);
+* ``owen`` — nested uniform scrambling of a digital net, option ``net`` (pbrt ``zsobol``,
+  ``paddedsobol``; Cycles' Sobol patterns);
+* ``cp_shift`` — a Cranley–Patterson shift of a point set, options ``points``, ``net``
+  (pbrt ``pmj02bn``; envfit's own rules).
 """
 from __future__ import annotations
 
@@ -49,7 +46,7 @@ class Randomisation:
 RANDOMISATIONS = {r.name: r for r in (
     Randomisation("independent", independent_mse, (), "i.i.d. uniform points: V/N"),
     Randomisation("jittered", jittered_mse, ("r",), "r x r jittered strata"),
-    Randomisation("cmj", cmj_mse, ("nx", "ny"), "Kensler's correlated multi-jittering"),
+    Randomisation("cmj", cmj_mse, ("nx", "ny", "permutations"), "Kensler's correlated multi-jittering"),
     Randomisation("digital_shift", digital_shift_mse, ("net",),
                   "random XOR shift of a digital net"),
     Randomisation("owen", owen_mse, ("net",), "nested uniform (Owen) scrambling of a net"),
