@@ -6,6 +6,9 @@ makeequiarea`` (the lat-long → equal-area conversion), in numpy: the image sid
 """
 from __future__ import annotations
 
+import math
+
+import numba
 import numpy as np
 
 from envfit.base import ParameterError
@@ -195,46 +198,78 @@ def gaussian_filter_offsets(sqrt_samples: int = 6):
     return p, f[iy, ix] / pdf
 
 
-def _bilerp_latlong(img: np.ndarray, p: np.ndarray) -> np.ndarray:
-    """``Image::Bilerp`` with ``WrapMode2D(Repeat, Clamp)``: texel-centred, x periodic,
-    y clamped; ``p`` (K, 2) in [0, 1]², returns (K, C)."""
-    h, w = img.shape[:2]
-    x, y = p[:, 0] * w - 0.5, p[:, 1] * h - 0.5
-    xi, yi = np.floor(x).astype(np.int64), np.floor(y).astype(np.int64)
-    dx, dy = (x - xi)[:, None], (y - yi)[:, None]
-    x0, x1 = xi % w, (xi + 1) % w
-    y0, y1 = np.clip(yi, 0, h - 1), np.clip(yi + 1, 0, h - 1)
-    return ((1 - dx) * (1 - dy) * img[y0, x0] + dx * (1 - dy) * img[y0, x1]
-            + (1 - dx) * dy * img[y1, x0] + dx * dy * img[y1, x1])
-
-
-def make_equal_area(envmap, resolution: int | None = None, *, rows_per_block: int = 32):
+def make_equal_area(envmap, resolution: int | None = None) -> np.ndarray:
     r"""pbrt-v4's ``imgtool makeequiarea`` of a lat-long map: an N × N equal-area image
     (N = the lat-long width unless ``resolution``), pixel (u, v) (column, row) the filter-
     weighted mean of bilinear lat-long lookups at the equal-area points
     ``WrapEqualAreaSquare(((u + ½ + o_x)/N, (v + ½ + o_y)/N))`` for the 36 offsets of
     :func:`gaussian_filter_offsets` (pbrt jitters them; here stratum midpoints), each mapped
     by :func:`equal_area_square_to_sphere` to (φ/2π, θ/π) (``SphericalPhi``,
-    ``SphericalTheta``), clamped at 0. Returns (N, N, 3) float64 (row 0 = the file's top).
+    ``SphericalTheta``) and looked up by ``Image::Bilerp`` with ``WrapMode2D(Repeat,
+    Clamp)`` (texel-centred, φ periodic, θ clamped: no blending across a pole), clamped at
+    0. Returns (N, N, 3) float64 (row 0 = the file's top). A compiled loop
+    (:func:`_equal_area_kernel`): 2.5–3 s for N = 1024 on a loaded 2-core machine, where
+    the numpy form (tests/oracles/pbrt_equiarea.py) took 9 s.
+
+    >>> from envfit.maps import EnvMap
+    >>> bool(np.allclose(make_equal_area(EnvMap(np.full((4, 8, 3), 0.5)), 6), 0.5))
+    True
     """
-    img = map_rgb(envmap)
+    img = np.ascontiguousarray(map_rgb(envmap))
     n = int(resolution) if resolution is not None else img.shape[1]
     if n < 1:
         raise ParameterError(f"the equal-area resolution must be >= 1, got {resolution!r}")
     off, wt = gaussian_filter_offsets()
-    out = np.empty((n, n, img.shape[2]))
-    cols = np.arange(n) + 0.5
-    for v0 in range(0, n, rows_per_block):
-        rows = np.arange(v0, min(n, v0 + rows_per_block)) + 0.5
-        px = (cols[None, :, None] + off[None, None, :, 0]) / n          # (1, N, S)
-        py = (rows[:, None, None] + off[None, None, :, 1]) / n          # (R, 1, S)
-        px, py = np.broadcast_arrays(px, py)
-        sq = wrap_equal_area_square(np.column_stack([px.ravel(), py.ravel()]))
-        d = equal_area_square_to_sphere(sq)
-        phi = np.arctan2(d[:, 1], d[:, 0])
-        phi = np.where(phi < 0, phi + 2 * np.pi, phi)
-        theta = np.arccos(np.clip(d[:, 2], -1.0, 1.0))
-        vals = _bilerp_latlong(img, np.column_stack([phi / (2 * np.pi), theta / np.pi]))
-        vals = vals.reshape(len(rows), n, len(wt), -1)
-        out[v0:v0 + len(rows)] = np.einsum("rnsc,s->rnc", vals, wt) / wt.sum()
-    return np.maximum(out, 0.0)
+    return _equal_area_kernel(img, n, np.ascontiguousarray(off), wt)
+
+
+@numba.njit(cache=True)
+def _square_to_phi_theta(px: float, py: float):
+    """``WrapEqualAreaSquare`` then ``EqualAreaSquareToSphere`` then (``SphericalPhi``,
+    ``SphericalTheta``) of one point (the scalar form of the numpy functions above)."""
+    if px < 0.0:
+        px, py = -px, 1.0 - py
+    elif px > 1.0:
+        px, py = 2.0 - px, 1.0 - py
+    if py < 0.0:
+        px, py = 1.0 - px, -py
+    elif py > 1.0:
+        px, py = 1.0 - px, 2.0 - py
+    u, v = 2.0 * px - 1.0, 2.0 * py - 1.0
+    up, vp = abs(u), abs(v)
+    sd = 1.0 - (up + vp)
+    r = 1.0 - abs(sd)
+    phi = (1.0 if r == 0.0 else (vp - up) / r + 1.0) * (math.pi / 4.0)
+    z = math.copysign(1.0 - r * r, sd)
+    k = r * math.sqrt(max(2.0 - r * r, 0.0))
+    x, y = math.copysign(math.cos(phi), u) * k, math.copysign(math.sin(phi), v) * k
+    ph = math.atan2(y, x)
+    if ph < 0.0:
+        ph += 2.0 * math.pi
+    return ph, math.acos(min(max(z, -1.0), 1.0))
+
+
+@numba.njit(cache=True)
+def _equal_area_kernel(img, n, off, wt):
+    """The loop of ``makeequiarea`` over output pixels and filter samples (see
+    :func:`make_equal_area`); ``Bilerp`` with x periodic and y clamped."""
+    h, w, nc = img.shape
+    out = np.zeros((n, n, nc))
+    wsum = wt.sum()
+    for v in range(n):
+        for u in range(n):
+            for s in range(off.shape[0]):
+                ph, th = _square_to_phi_theta((u + 0.5 + off[s, 0]) / n, (v + 0.5 + off[s, 1]) / n)
+                fx, fy = ph / (2.0 * math.pi) * w - 0.5, th / math.pi * h - 0.5
+                xi, yi = math.floor(fx), math.floor(fy)
+                dx, dy = fx - xi, fy - yi
+                x0, x1 = int(xi) % w, (int(xi) + 1) % w
+                y0, y1 = min(max(int(yi), 0), h - 1), min(max(int(yi) + 1, 0), h - 1)
+                for c in range(nc):
+                    out[v, u, c] += wt[s] * ((1 - dx) * (1 - dy) * img[y0, x0, c]
+                                             + dx * (1 - dy) * img[y0, x1, c]
+                                             + (1 - dx) * dy * img[y1, x0, c]
+                                             + dx * dy * img[y1, x1, c])
+            for c in range(nc):
+                out[v, u, c] = max(out[v, u, c] / wsum, 0.0)
+    return out
