@@ -1,8 +1,8 @@
 """Randomised digital nets and shifted point sets: the exact MSE of
 envfit.predict.renderer.randomisation against brute force over thousands of randomisations
 (seeded numpy Generators) of the (van der Corput, Sobol' 2) net built by the oracle's own loops —
-uniform random 32-bit XOR shifts, a bit-by-bit nested uniform (Owen) scramble, random torus
-shifts — and the MIS cross term of two streams sharing one shifted net in two random orders.
+uniform random 32-bit XOR shifts, a bit-by-bit nested uniform (Owen) scramble, pbrt-v4's
+hashed Owen scramblers (ported), random torus shifts — and the MIS cross term of two streams sharing one shifted net in two random orders.
 Owen's variance identity (gains × Haar components) is *checked* here, not assumed.
 Tolerance: |prediction − brute force| ≤ Z standard errors of the brute force (+1 %)."""
 from __future__ import annotations
@@ -11,8 +11,8 @@ import math
 
 import numpy as np
 import pytest
-from oracles.randomisers import (INTEGRANDS, mse_estimate, owen_scrambled_points, sobol_digits,
-                                 xor_shifted_points)
+from oracles.randomisers import (INTEGRANDS, mse_estimate, owen_scrambled_points,
+                                 pbrt_scrambled_points, sobol_digits, xor_shifted_points)
 
 from envfit.predict.renderer.randomisation import (NETS, DyadicGrid, mis_mse,
                                                    randomised_mse)
@@ -44,6 +44,18 @@ def test_owen_scrambling_against_bit_by_bit_scrambles(grids, name, n):
     _agree(res.mse[0], pts, name)
 
 
+@pytest.mark.parametrize("scrambler", ["fastowen", "owen"])
+@pytest.mark.parametrize("name", sorted(INTEGRANDS))
+def test_owen_prediction_holds_for_pbrts_hashed_scramblers(grids, scrambler, name):
+    """pbrt-v4's ``FastOwenScrambler`` (its default; a hash, not a nested uniform scramble)
+    and ``OwenScrambler``, ported from its source, with random 32-bit seeds per pixel and
+    coordinate (``PaddedSobolSampler``): the nested-uniform prediction holds for both."""
+    rng = np.random.default_rng(500)
+    for n in (16, 64):
+        pts = pbrt_scrambled_points(rng, REPS, sobol_digits(n), scrambler)
+        _agree(randomised_mse("owen", grids[name], n).mse[0], pts, name)
+
+
 @pytest.mark.parametrize("name, n", CASES)
 def test_digital_shift_against_random_xor_shifts(grids, name, n):
     """Exact below the grid; above it the dual net's share of the finest shell (on the smooth
@@ -64,15 +76,21 @@ def test_cp_shift_against_random_torus_shifts(grids, name):
         _agree(randomised_mse("cp_shift", grids[name], n).mse[0], pts, name)
 
 
+@pytest.fixture(scope="module")
+def edge_plus_peak():
+    one, two = INTEGRANDS["edge"], INTEGRANDS["peak"]
+    return DyadicGrid.from_callable(lambda u: one.h(u) + two.h(u), 10, nodes=3)
+
+
 @pytest.mark.parametrize("n", [16, 64, 256])
-def test_mis_cross_term_of_one_shifted_net_in_two_orders(grids, n):
+def test_mis_cross_term_of_one_shifted_net_in_two_orders(grids, edge_plus_peak, n):
     """Mitsuba's ldsampler gives the emitter and the BSDF stream the same XOR-shifted net in
     two random orders: C12 = Σ_{D*\\0} ĥ1 ĥ2, checked against E[(F1 − I1)(F2 − I2)] by brute
     force; independent streams have C12 = 0 (checked too)."""
     rng = np.random.default_rng(400 + n)
     one, two = INTEGRANDS["edge"], INTEGRANDS["peak"]
-    both = DyadicGrid.from_callable(lambda u: one.h(u) + two.h(u), 10, nodes=3)
-    pred = mis_mse("digital_shift", grids["edge"], grids["peak"], n, shared=True, total=both)
+    pred = mis_mse("digital_shift", grids["edge"], grids["peak"], n, shared=True,
+                   total=edge_plus_peak)
     pts = xor_shifted_points(rng, REPS, sobol_digits(n))
     order = rng.random((REPS, n)).argsort(axis=1)[:, :, None]
     pts2 = np.take_along_axis(pts, order, axis=1)

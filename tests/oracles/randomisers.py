@@ -16,7 +16,12 @@ formulas):
 * :func:`owen_scrambled_points` — nested uniform scrambling bit by bit: digit s of a coordinate
   is flipped by a random bit drawn for each distinct prefix (digits 1…s−1) in that replicate,
   and the digits below the net's resolution, all 0 with distinct prefixes, become a uniform
-  random tail.
+  random tail;
+* :func:`pbrt_scrambled_points` — pbrt-v4's own hashed scramblers, ported from
+  ``src/pbrt/util/lowdiscrepancy.h`` (``FastOwenScrambler``: Laine–Karras-style
+  multiply-xor on the reversed bits; ``OwenScrambler``: bit by bit, the flip of bit b a bit of
+  ``MixBits((v & prefix mask) ^ seed)``, ``src/pbrt/util/hash.h``), one random 32-bit seed per
+  replicate and coordinate as ``PaddedSobolSampler::Get2D`` draws them from its hash.
 
 :func:`mse_estimate` gives the mean of (F − I)² over the replicates and its standard error.
 """
@@ -142,6 +147,59 @@ def owen_scrambled_points(rng: np.random.Generator, reps: int, digits: np.ndarra
             scr |= (bit ^ flip) << (m - 1 - s)
         out[:, :, d] = ((scr + rng.random(reps * n)) / float(1 << m)).reshape(reps, n)
     return out
+
+
+def _reverse32(v: np.ndarray) -> np.ndarray:
+    v = v.astype(np.uint32)
+    out = np.zeros_like(v)
+    for t in range(32):
+        out |= ((v >> np.uint32(t)) & np.uint32(1)) << np.uint32(31 - t)
+    return out
+
+
+def fast_owen(v: np.ndarray, seed: np.ndarray) -> np.ndarray:
+    """pbrt-v4 ``FastOwenScrambler(seed)(v)`` on uint32 arrays."""
+    u32 = np.uint32
+    with np.errstate(over="ignore"):
+        v = _reverse32(v)
+        v ^= v * u32(0x3D20ADEA)
+        v = v + seed
+        v = v * ((seed >> u32(16)) | u32(1))
+        v ^= v * u32(0x05526C56)
+        v ^= v * u32(0x53A22864)
+    return _reverse32(v)
+
+
+def _mix_bits(v: np.ndarray) -> np.ndarray:
+    u64 = np.uint64
+    with np.errstate(over="ignore"):
+        v = v ^ (v >> u64(31))
+        v = v * u64(0x7FB5D329728EA185)
+        v = v ^ (v >> u64(27))
+        v = v * u64(0x81DADEF4BC2DD44D)
+        return v ^ (v >> u64(33))
+
+
+def pbrt_owen(v: np.ndarray, seed: np.ndarray) -> np.ndarray:
+    """pbrt-v4 ``OwenScrambler(seed)(v)`` on uint32 arrays."""
+    v = v.astype(np.uint64) & np.uint64(0xFFFFFFFF)
+    seed = seed.astype(np.uint64)
+    v = np.where(seed & np.uint64(1), v ^ np.uint64(1 << 31), v)
+    for b in range(1, 32):
+        mask = np.uint64((0xFFFFFFFF << (32 - b)) & 0xFFFFFFFF)
+        flip = (_mix_bits((v & mask) ^ seed) & np.uint64(1 << b)) != 0
+        v = np.where(flip, v ^ np.uint64(1 << (31 - b)), v)
+    return v.astype(np.uint32)
+
+
+def pbrt_scrambled_points(rng: np.random.Generator, reps: int, digits: np.ndarray,
+                          scrambler: str) -> np.ndarray:
+    """(reps, N, 2): the net's 32-bit points scrambled per replicate and coordinate by pbrt's
+    ``"fastowen"`` or ``"owen"`` scrambler with uniformly random 32-bit seeds."""
+    f = {"fastowen": fast_owen, "owen": pbrt_owen}[scrambler]
+    seeds = rng.integers(0, 1 << 32, size=(reps, 1, 2), dtype=np.uint64).astype(np.uint32)
+    v = np.broadcast_to(digits.astype(np.uint32)[None], (reps,) + digits.shape)
+    return f(v, np.broadcast_to(seeds, v.shape)).astype(np.float64) / 2.0 ** 32
 
 
 def mse_estimate(integrand: Integrand, points: np.ndarray) -> tuple[float, float]:
