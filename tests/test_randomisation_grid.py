@@ -98,6 +98,22 @@ def test_from_arrays_trusts_the_given_variance():
     np.testing.assert_allclose(even.within, 0.25)
 
 
+def test_combined_grid_is_the_grid_of_the_sum():
+    def h1(u):
+        return np.exp(u[:, 0]) * u[:, 1]
+
+    def h2(u):
+        return (u[:, 0] + 0.3 * u[:, 1] > 0.5).astype(float)
+
+    g1, g2 = (DyadicGrid.from_callable(h, 4, nodes=4) for h in (h1, h2))
+    cross = DyadicGrid.from_callable(lambda u: h1(u) * h2(u), 4, nodes=4).mean
+    both = DyadicGrid.from_callable(lambda u: h1(u) + h2(u), 4, nodes=4)
+    got = g1.combined(g2, cross)
+    np.testing.assert_allclose(got.mean, both.mean, rtol=1e-13)
+    np.testing.assert_allclose(got.variance, both.variance, rtol=1e-12)
+    assert randomised_mse("owen", got, np.int64(4)).n == 4             # numpy ints accepted
+
+
 @pytest.mark.parametrize("call, match", [
     (lambda g: randomised_mse("sobolish", g, 4), "unknown randomisation"),
     (lambda g: randomised_mse("owen", g, 0), "n must be"),

@@ -20,6 +20,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
+import numpy as np
+
 from envfit.base import ParameterError
 
 from ._cmj import cmj_mse
@@ -88,8 +90,9 @@ def randomised_mse(name: str, grid: DyadicGrid, n: int, **options) -> Randomised
                              f"{', '.join(RANDOMISATIONS)}")
     if not isinstance(grid, DyadicGrid):
         raise ParameterError(f"grid must be a DyadicGrid, got {type(grid).__name__}")
-    if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+    if isinstance(n, (bool, np.bool_)) or not isinstance(n, (int, np.integer)) or n < 1:
         raise ParameterError(f"n must be an integer >= 1, got {n!r}")
+    n = int(n)
     entry = RANDOMISATIONS[name]
     unknown = sorted(set(options) - set(entry.options))
     if unknown:
