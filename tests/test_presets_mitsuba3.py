@@ -106,8 +106,8 @@ def _sphere_grid(n_z=1200, n_phi=2400):
 def test_density_integrates_to_one():
     for comp in (False, True):
         tech = Mitsuba3Envmap(EnvMap(_sun_map().astype(np.float64)), mis_compensation=comp)
-        d, dw = _sphere_grid()
-        assert abs(tech.pdf(d).sum() * dw - 1.0) < 2e-3
+        d, dw = _sphere_grid(500, 1000)
+        assert abs(tech.pdf(d).sum() * dw - 1.0) < 2e-4       # midpoint rule: ~3e-5 here
 
 
 def test_histogram_matches_pdf():

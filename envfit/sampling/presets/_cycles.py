@@ -256,8 +256,9 @@ SAMPLERS = {
         "(hash_shuffle_uint(dimension, 256, pixel seed)) and the sample index Owen-scrambled "
         "(nested_uniform_scramble, seeded per dimension and pixel): its high bits are constant "
         "for the pixel's first 2^m indices, so the N = 2^m points are one aligned block of N "
-        "consecutive table entries - a (0, m, 2)-net in the light's (x, y) - from a finite set "
-        "of scrambled nets; the pixel seed is hash_iqnt2d(x, y) ^ scene seed; scrambling "
+        "consecutive table entries - a (0, m, 2)-net in the light's (x, y) (checked by re-running "
+        "Cycles' generator: bench/cycles_tabulated_sobol_nets.py) - from a finite set of "
+        "scrambled nets; the pixel seed is hash_iqnt2d(x, y) ^ scene seed; scrambling "
         "distance 1 (default) adds no shift; spp unchanged. Blender 'TABULATED_SOBOL' "
         "('Classic'); the factory scene's pattern. " + _C + "tabulated_sobol.h", default=True),
     "blue_noise": SamplerSpec(
