@@ -122,7 +122,7 @@ def _session(renderer: str, env: EnvMap, args):
     if renderer == "mitsuba3":
         from envfit.measure.renderers import Mitsuba3Options, Mitsuba3Sphere
         opts = dict(resolution=args.resolution, reference_spp=args.reference_spp,
-                    cache_dir=args.cache)
+                    cache_dir=args.cache, reference_sampler=args.reference_sampler)
         plain = Mitsuba3Sphere(env, Mitsuba3Options(**opts))
         comp = Mitsuba3Sphere(env, Mitsuba3Options(**opts, mis_compensation=True))
         return {"plain": plain, "comp": comp}
@@ -212,6 +212,8 @@ def main(argv=None) -> int:
     ap.add_argument("--spp", nargs="+", type=int, default=[16, 64, 256, 1024])
     ap.add_argument("--resolution", type=int, default=64, help="pixels per view side")
     ap.add_argument("--reference-spp", type=int, default=4096)
+    ap.add_argument("--reference-sampler", default="independent",
+                    help="Mitsuba 3: the references' sampler (ldsampler: far less noise)")
     ap.add_argument("--grid", type=int, default=512, help="envfit's spectrum grid")
     ap.add_argument("--axes", type=int, default=64, help="envfit's spectrum axes")
     ap.add_argument("--synth-height", type=int, default=256)
@@ -236,7 +238,9 @@ def main(argv=None) -> int:
         saved = json.loads(path.read_text())
         rows, meta = saved["rows"], saved["meta"]
     meta.update(cpu=_cpu(), renderer=args.renderer, resolution=args.resolution,
-                reference_spp=args.reference_spp, argv=sys.argv[1:])
+                reference_spp=args.reference_spp, argv=sys.argv[1:],
+                reference_sampler=args.reference_sampler if args.renderer == "mitsuba3"
+                else "tabulated_sobol")
     t = time.perf_counter()
     for spec in args.maps:
         run_map(spec, args, rows, meta, out)
