@@ -5,7 +5,9 @@ holds one concept of Marques, Bouville & Bouatouch, "Spectral Analysis of Quadra
 and Fourier Truncation-based Methods Applied to Shading Integrals" (IEEE TVCG 2019):
 
 - :mod:`envfit.theory._sobolev` — a_l^(s) (Eqs. 15–16), the generalized distance kernel (Eq. 14);
-- :mod:`envfit.theory._brdf` — zonal weight functions, b_l, b̃_l, HSH→SH (Eqs. 20–33);
+- :mod:`envfit.theory._weight_function` — the generic zonal weight function: b_l, b̃_l by
+  quadrature, its inverse CDF, HSH→SH (Eqs. 18–20, 31–33);
+- :mod:`envfit.theory._brdf` — the diffuse, glossy and Phong lobes in closed form (Eqs. 20–30);
 - :mod:`envfit.theory._sh` — Legendre/SH sums of point sets (Eqs. 44–45, 54);
 - :mod:`envfit.theory._pointsets`, :mod:`envfit.theory._bnot` (on :mod:`envfit.theory._power_cells`),
   :mod:`envfit.theory._sphere_points` — point sets;
@@ -26,7 +28,8 @@ _EXPORTS = {
     "errors": ("TheoryParameterError", "check_smoothness"),
     "sobolev": ("generalized_distance_kernel", "kernel_constant", "kernel_from_distance2",
                 "kernel_series", "sobolev_coefficients"),
-    "brdf": ("Diffuse", "Glossy", "Phong", "WeightFunction", "ZonalWeight", "hsh_to_sh_matrix"),
+    "brdf": ("Diffuse", "Glossy", "Phong"),
+    "weight_function": ("WeightFunction", "ZonalWeight", "hsh_to_sh_matrix"),
     "sh": ("anisotropic_power_spectrum", "legendre_p", "legendre_series", "point_set_power_spectrum",
            "point_set_sh_coefficients", "zonal_sums"),
     "pointsets": ("DETERMINISTIC_POINTSETS", "POINTSETS", "frame_from_axis", "generate",
