@@ -49,7 +49,7 @@ from envfit.data_gen._analytic import SunSkyMap, direction
 from envfit.data_gen._errors import SyntheticMapError
 from envfit.data_gen._gp import gaussian_process_map
 
-__all__ = ["SunRecord", "sun_gp_map", "luminance", "pixel_solid_angles"]
+__all__ = ["SunGPOptions", "SunRecord", "sun_gp_map", "luminance", "pixel_solid_angles"]
 
 _REC709 = (0.2126, 0.7152, 0.0722)
 
@@ -113,15 +113,34 @@ class SunRecord:
     sun: SunSkyMap
 
 
+@dataclass(frozen=True)
+class SunGPOptions:
+    """Numerical settings of :func:`sun_gp_map` (the defaults suit every use so far).
+
+    Attributes
+    ----------
+    lmax : band limit of the GP background (``method="sht"``; default H − 1, the grid's
+        Nyquist degree), as :func:`envfit.data_gen._gp.gaussian_process_map`.
+    method : ``"sht"`` (band-limited synthesis) or ``"exact"`` (Cholesky, H ≤ 48).
+    subsamples : per-axis supersampling of the disc's edge pixels
+        (:meth:`SunSkyMap.disk_coverage`).
+    """
+
+    lmax: int | None = None
+    method: str = "sht"
+    subsamples: int = 32
+
+
 def sun_gp_map(height: int, *, seed, s0: float = 1.5, sun_theta: float = 0.6,
                sun_phi: float = 1.0, sun_radius: float = 0.1, sun_radiance=1000.0,
-               channels: int = 1, offset=4.0, scale=1.0, subsamples: int = 32,
-               lmax: int | None = None, method: str = "sht") -> tuple[np.ndarray, SunRecord]:
+               channels: int = 1, offset=4.0, scale=1.0,
+               options: SunGPOptions | None = None) -> tuple[np.ndarray, SunRecord]:
     r"""H×2H×C map "sun on a GP background" and the record of its sun (local frame).
 
     :math:`f_{ij} = b_{ij} + L\,\mathrm{cov}_{ij}`, b = ``gaussian_process_map(s0, height,
     seed=seed, channels, offset, scale, lmax, method)``, cov the disc's coverage
-    (:meth:`SunSkyMap.disk_coverage` with ``subsamples``).
+    (:meth:`SunSkyMap.disk_coverage` with ``subsamples``; ``lmax``, ``method`` and
+    ``subsamples`` are those of ``options``, a :class:`SunGPOptions`).
 
     Parameters
     ----------
@@ -131,10 +150,11 @@ def sun_gp_map(height: int, *, seed, s0: float = 1.5, sun_theta: float = 0.6,
     sun_theta, sun_phi : local angles of the disc centre (θ from up).
     sun_radius : angular radius ρ ∈ (0, π/2].
     sun_radiance : L, scalar or one value per channel (added to the background).
-    channels, offset, scale, lmax, method : of the GP background. Keep ``offset`` a few
-        standard deviations (:func:`envfit.data_gen._gp.expected_variance`) above 0 for a
-        positive background.
-    subsamples : per-axis supersampling of the disc's edge pixels.
+    channels, offset, scale : of the GP background. Keep ``offset`` a few standard
+        deviations (:func:`envfit.data_gen._gp.expected_variance`) above 0 for a positive
+        background.
+    options : :class:`SunGPOptions` (the background's ``lmax`` and ``method``, the edge's
+        ``subsamples``); default ``SunGPOptions()``.
 
     Returns
     -------
@@ -144,9 +164,10 @@ def sun_gp_map(height: int, *, seed, s0: float = 1.5, sun_theta: float = 0.6,
     >>> f.shape, sun.radiance.tolist()
     ((8, 16, 3), [300.0, 200.0, 100.0])
     """
+    opts = SunGPOptions() if options is None else options
     h = sht._check_height(height)
     bg = gaussian_process_map(s0, h, seed=seed, channels=channels, offset=offset, scale=scale,
-                              lmax=lmax, method=method)
+                              lmax=opts.lmax, method=opts.method)
     c = bg.shape[-1]
     L = np.atleast_1d(np.asarray(sun_radiance, dtype=np.float64))
     if L.ndim != 1 or L.size not in (1, c) or not np.all(np.isfinite(L)):
@@ -154,7 +175,7 @@ def sun_gp_map(height: int, *, seed, s0: float = 1.5, sun_theta: float = 0.6,
                                 f"({c}), got {sun_radiance!r}")
     L = np.broadcast_to(L, (c,)).copy()
     sun = SunSkyMap(sun_theta=sun_theta, sun_phi=sun_phi, sun_radius=sun_radius,
-                    sun_radiance=L, sky=np.zeros(c), subsamples=subsamples)
+                    sun_radiance=L, sky=np.zeros(c), subsamples=opts.subsamples)
     cov = sun.disk_coverage(h)
     f = bg + cov[..., None] * L
     om = pixel_solid_angles(h)
