@@ -133,7 +133,7 @@ class CyclesBackground(EnvmapTechnique):
         self._build()
 
     def _cell_values(self) -> np.ndarray:
-        """The importance grid's cell values (res_y, res_x): RGB mean of |L| at the cell
+        """The importance grid's cell values (res_y, res_x): RGB mean of :math:`|L|` at the cell
         centres (separable: u depends on x only, v on y only) times sin θ of the centre."""
         rx, ry = self.res_x, self.res_y
         u = (np.arange(rx) + 0.5) / rx
@@ -235,7 +235,8 @@ class CyclesBackground(EnvmapTechnique):
 def cycles_frame(normals) -> np.ndarray:
     r"""Cycles' ``make_orthonormals(N)`` frame (K, 3, 3), rows (T, B, N):
     :math:`a = (N_z - N_y, N_x - N_z, N_y - N_x)` (= (1, 1, 1) × N), or
-    :math:`(N_z - N_y, N_x + N_z, -N_y - N_x)` when :math:`N_x = N_y = N_z`; T = a/|a|,
+    :math:`(N_z - N_y, N_x + N_z, -N_y - N_x)` when :math:`N_x = N_y = N_z`;
+    :math:`T = a/\lVert a\rVert`,
     B = N × T (``src/util/math_float3.h``), as ``sample_cos_hemisphere`` uses it."""
     n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
     x, y, z = n[:, 0], n[:, 1], n[:, 2]
