@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from envfit.predict.renderer._spectral_tail import strip_tail
-from envfit.predict.renderer._warped_spectrum import _box_sum, _exp_sums
+from envfit.predict.renderer._prediction_sums import _box_sum, _exp_sums
 from envfit.theory._pointsets import square_points
 
 B = 32

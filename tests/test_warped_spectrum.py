@@ -1,4 +1,5 @@
-"""The warped-integrand spectrum predicts the shifted estimators' error (envfit.predict.renderer._warped_spectrum).
+"""The warped-integrand spectrum predicts the shifted estimators' error
+(envfit.predict.renderer._warped_spectrum and the modules it is split into).
 
 Every reference is independent: brute-force means over thousands of Cranley–Patterson shifts
 and twists of the estimators themselves, the exact variances of oracles.is_variance
@@ -14,6 +15,10 @@ from envfit.base._errors import ParameterError
 from envfit.maps._envmap import EnvMap
 from envfit.maps._latlong import pixel_solid_angles
 from envfit.predict.renderer import _warped_spectrum as ws
+from envfit.predict.renderer._pixel_moments import (_cell_average, _pixel_moments, _Pixels,
+                                                    _subdivision)
+from envfit.predict.renderer._prediction_sums import _exp_sums
+from envfit.predict.renderer._techniques import Technique
 from envfit.shading._ground_truth import shading_integral, weight_function
 from envfit.sampling._importance import importance_estimates
 from oracles.is_variance import LobePdf, MapPdf, is_variance, mis_variance
@@ -54,19 +59,19 @@ def test_variances_equal_the_sphere_quadrature_of_is_variance(sun_map, brdf):
     """The pixel-quadrature V of each technique against is_variance / mis_variance."""
     m, sampler = sun_map
     wf = weight_function(brdf, 30.0)
-    px = ws._Pixels(m, sampler, ws._subdivision(m, wf))
-    nu = np.array([0.5, 0.5])
-    heur = ws.HEURISTICS["balance"]
+    px = _Pixels(m, sampler, _subdivision(m, wf))
     for tech, ref in [("map", is_variance(m, AXES, MapPdf(m), brdf, 30.0)),
                       ("brdf", is_variance(m, AXES, LobePdf(brdf, 30.0), brdf, 30.0))]:
-        got = np.array([ws._pixel_moments(px, tech, wf, nu, heur, a)[0][0, 0] for a in AXES])
+        t = Technique.of(tech, wf, "balance", 0.5)
+        got = np.array([_pixel_moments(px, t, a).variance[0, 0] for a in AXES])
         # 4 %: on this 32×16 map a diffuse lobe gets 2×2 midpoint nodes per pixel (no
         # cell-exact square), and the sun is 1.3 pixels wide
         np.testing.assert_allclose(got, np.asarray(ref).reshape(len(AXES), -1)[:, 0], rtol=0.04)
     # multi-sample MIS with n1 = n2 = 1: Var F = V1 + V2
     ref = np.asarray(mis_variance(m, AXES, MapPdf(m), LobePdf(brdf, 30.0), brdf, 30.0,
                                   counts=(1, 1))).reshape(len(AXES), -1)[:, 0]
-    got = np.array([ws._pixel_moments(px, "mis", wf, nu, heur, a)[0][:, 0].sum() for a in AXES])
+    t = Technique.of("mis", wf, "balance", 0.5)
+    got = np.array([_pixel_moments(px, t, a).variance[:, 0].sum() for a in AXES])
     np.testing.assert_allclose(got, ref, rtol=0.04)
 
 
@@ -85,7 +90,7 @@ def test_exponential_sums_of_a_rank1_lattice_live_on_its_dual():
     """Fibonacci lattice N = 13, z = (1, 8): |S(k)| = 1 iff k0 + 8 k1 ≡ 0 (mod 13), else 0."""
     n, z = 13, np.array([1, 8])
     u = (np.arange(n)[:, None] * z[None, :] / n) % 1.0
-    S = ws._exp_sums(u, 6)
+    S = _exp_sums(u, 6)
     k0, k1 = np.meshgrid(np.arange(-6, 7), np.arange(0, 7), indexing="ij")
     dual = (k0 * z[0] + k1 * z[1]) % n == 0
     np.testing.assert_allclose(np.abs(S), dual.astype(float), atol=1e-9)
@@ -96,7 +101,7 @@ def test_mean_is_the_solid_angle_mean_of_the_map(sun_map):
     spec = ws.warped_spectrum(m, "mis", sampler=sampler, grid=64, axes=256)
     om = pixel_solid_angles(16, 32)
     # Funk–Hecke: the mean of I over the sphere of axes is the map's solid-angle mean
-    ref = float((ws._cell_average(m.data)[:, :, 0] * om).sum() / (4 * np.pi))
+    ref = float((_cell_average(m.data)[:, :, 0] * om).sum() / (4 * np.pi))
     assert abs(spec.mean / ref - 1) < 0.01
 
 
@@ -123,3 +128,66 @@ def test_bad_parameters_are_one_line_errors(kw, msg):
     args = {"technique": "mis", "grid": 32, **kw}
     with pytest.raises(ParameterError, match=msg):
         ws.warped_spectrum(m, args.pop("technique"), **args)
+
+
+@pytest.mark.parametrize("brdf", ["diffuse", "glossy"])
+@pytest.mark.parametrize("technique", ["map", "brdf"])
+def test_warped_integrand_mean_is_the_estimate(sun_map, brdf, technique):
+    """The mean of h over the points is the (unshifted, untwisted) estimator with them (Sobol
+    moved off its point (0, 0): there the diffuse lobe is 0, where h takes BRDF sampling's
+    ratio ρ/q as 0 and the estimator as 1)."""
+    m, sampler = sun_map
+    u = (square_points("sobol", 64) + 1.0 / 128) % 1.0
+    for a in AXES:
+        h = ws.warped_integrand(m, technique, a, u, brdf=brdf, shininess=30.0, sampler=sampler)
+        est = importance_estimates(m, a, u, technique, sampler=sampler, brdf=brdf,
+                                   shininess=30.0)
+        assert h.shape == (1, 64, 1)
+        np.testing.assert_allclose(h[0].mean(axis=0), est[0], rtol=1e-12)
+
+
+@pytest.mark.parametrize("heuristic, n_map", [("balance", 32), ("power", 16)])
+def test_warped_integrand_of_mis_sums_to_the_mis_estimate(sun_map, heuristic, n_map):
+    """Multi-sample MIS with n₁ map and n₂ lobe points: Σ_i mean_j h_i(u_ij) = F."""
+    m, sampler = sun_map
+    u_map, u_brdf = square_points("sobol", n_map), square_points("random", 64 - n_map, seed=2)
+    fraction = n_map / 64
+    for a in AXES:
+        h_map = ws.warped_integrand(m, "mis", a, u_map, brdf="glossy", shininess=30.0,
+                                    sampler=sampler, heuristic=heuristic, fraction=fraction)
+        h_brdf = ws.warped_integrand(m, "mis", a, u_brdf, brdf="glossy", shininess=30.0,
+                                     sampler=sampler, heuristic=heuristic, fraction=fraction)
+        est = importance_estimates(m, a, (u_map, u_brdf), "mis", sampler=sampler,
+                                   brdf="glossy", shininess=30.0, heuristic=heuristic)
+        got = h_map[0].mean(axis=0) + h_brdf[1].mean(axis=0)
+        np.testing.assert_allclose(got, est[0], rtol=1e-12)
+        assert h_map.shape == (2, n_map, 1)
+
+
+def test_warped_integrand_rejects_several_axes_and_bad_points():
+    m = EnvMap(np.ones((8, 16, 1)))
+    with pytest.raises(ParameterError, match="one vector"):
+        ws.warped_integrand(m, "map", AXES, [[0.5, 0.5]])
+    with pytest.raises(ParameterError, match="technique must be one of"):
+        ws.warped_integrand(m, "bogus", [0, 0, 1.0], [[0.5, 0.5]])
+    with pytest.raises(ParameterError):
+        ws.warped_integrand(m, "map", [0, 0, 1.0], [[1.5, 0.5]])
+
+
+def test_shared_inputs_give_the_spectra_of_fresh_ones(sun_map):
+    """Spectra built with one SpectrumInputs equal those built alone (bit for bit), and the
+    map's nodes, pixels and exact means are computed once for all techniques."""
+    m, sampler = sun_map
+    inputs = ws.SpectrumInputs.of(m, sampler)
+    shared = {t: ws.warped_spectrum(m, t, "glossy", 30.0, sampler=sampler, grid=32, axes=8,
+                                    inputs=inputs) for t in ("map", "mis", "brdf")}
+    nodes, px = inputs.nodes(8), inputs.pixels(weight_function("glossy", 30.0))
+    for t, s in shared.items():
+        alone = ws.warped_spectrum(m, t, "glossy", 30.0, sampler=sampler, grid=32, axes=8)
+        for f in ("variance", "power", "cross"):
+            assert np.array_equal(getattr(s, f), getattr(alone, f)), (t, f)
+        assert s.to_dict() == alone.to_dict()
+    assert inputs.nodes(8) is nodes and inputs.pixels(weight_function("glossy", 30.0)) is px
+    other = EnvMap(np.ones((16, 32, 1)))
+    with pytest.raises(ParameterError, match="another map"):
+        ws.warped_spectrum(other, "map", grid=32, axes=8, inputs=inputs)
