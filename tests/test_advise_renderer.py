@@ -22,9 +22,10 @@ import pytest
 
 from envfit.advisor._advise import advise
 from envfit.advisor._cache import AdviseCache
-from envfit.advisor._renderer import (RendererRow, best_renderer_row, cached_renderer_model,
-                                      check_renderer_rows, renderer_n_grid,
-                                      renderer_recommendation, search_renderer_row)
+from envfit.advisor._renderer import (RendererRow, best_renderer_row, check_renderer_rows,
+                                      renderer_n_grid, renderer_recommendation,
+                                      search_renderer_row)
+from envfit.advisor._renderer_cache import cached_renderer_model
 from envfit.advisor._search import smallest_n
 from envfit.data_gen._gp import gaussian_process_map
 from envfit.data_gen._sun_gp import sun_gp_map

@@ -3,7 +3,7 @@ predictor per row, the warning line) and the new defaults of ``envfit advise`` (
 target 1 % of the mean shading value).
 
 Reference values are obtained independently of the advisor: validate's code path
-(PredictionContext.from_map + Rule.from_points + predict_spectral) for (c) to H - 1, the
+(PredictionContext.from_map + QuadratureRule.from_points + predict_spectral) for (c) to H - 1, the
 map's SH coefficients squared by hand for the tail, RMSEs measured over 4000 random axes with
 envfit.shading on maps that have power above H - 1 (a GP map drawn to degree 3H - 1 and a sun
 map), and the mean of ground-truth shading integrals for the default target. Maps <= 64x32,
@@ -29,7 +29,7 @@ from envfit.data_gen._sun_gp import sun_gp_map
 from envfit.fit._sigma import combine_sigma
 from envfit.maps._envmap import EnvMap
 from envfit.maps._io import load_envmap, save_envmap
-from envfit.predict import PredictionContext, Rule, predict_spectral
+from envfit.predict import PredictionContext, QuadratureRule, predict_spectral
 from envfit.shading._bilinear_sh import bilinear_sh_coefficients
 from envfit.shading._estimators import rmse_over_axes, sh_truncation_curve
 from envfit.shading._ground_truth import shading_integral, weight_function
@@ -97,7 +97,7 @@ def test_in_band_c_equals_validate_predict_spectral(gp_aliased, tmp_path):
         ms = []
         for sd in seed_list(r.pointset, 0, 2) or [None]:
             pts, w = _rule(r.pointset, r.n, wf, r.weights, sd, 1.5)
-            rule = Rule.from_points(pts, w, wf, 1.5, H - 1)
+            rule = QuadratureRule.from_points(pts, w, wf, 1.5, H - 1)
             ms.append(predict_spectral(ctx, rule).rmse ** 2)
         expect = math.sqrt(float(np.mean(ms)))
         assert r.predicted_rmse_spectral_band == pytest.approx(expect, rel=1e-12, abs=0), r.label

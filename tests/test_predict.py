@@ -20,8 +20,10 @@ from envfit.base._errors import ParameterError
 from envfit.data_gen._gp import gaussian_process_map
 from envfit.data_gen._sht import synthesize
 from envfit.maps._envmap import EnvMap
-from envfit.predict import (PREDICTORS, Prediction, PredictionContext, Rule, predict,
-                            predict_bandlimited, predict_plain, predict_spectral)
+from envfit.predict import (PREDICTORS, Prediction, PredictionContext, QuadratureRule,
+                            RendererRule, Rule, predict, predict_bandlimited, predict_plain,
+                            predict_random_variance, predict_spectral,
+                            predict_warped_spectrum, predictors_for)
 from envfit.shading._estimators import quadrature_estimates, rmse_over_axes
 from envfit.shading._ground_truth import shading_integral
 from envfit.shading._quadrature import random_axes
@@ -33,28 +35,47 @@ from envfit.theory._sobolev import sobolev_coefficients
 from envfit.theory._weights import optimal_weights
 
 
-def _osw_rule(wf, n: int, s: float, lmax: int) -> Rule:
+def _osw_rule(wf, n: int, s: float, lmax: int) -> QuadratureRule:
     pts = generate("sf", n, morph=wf.morph)
-    return Rule.from_points(pts, optimal_weights(pts, wf, s), wf, s, lmax)
+    return QuadratureRule.from_points(pts, optimal_weights(pts, wf, s), wf, s, lmax)
 
 
 # ----------------------------------------------------------------------------- registry
 
-def test_registry_holds_three_predictors_of_one_signature():
-    assert list(PREDICTORS) == ["plain", "bandlimited", "spectral"]
+def test_registry_holds_five_predictors_of_one_signature():
+    assert list(PREDICTORS) == ["plain", "bandlimited", "spectral", "random-variance",
+                                "warped-spectrum"]
     assert PREDICTORS["plain"] is predict_plain
     assert PREDICTORS["bandlimited"] is predict_bandlimited
     assert PREDICTORS["spectral"] is predict_spectral
+    assert PREDICTORS["random-variance"] is predict_random_variance
+    assert PREDICTORS["warped-spectrum"] is predict_warped_spectrum
     for f in PREDICTORS.values():
         assert list(inspect.signature(f).parameters) == ["ctx", "rule"]
+        assert issubclass(f.rule_type, Rule)
+
+
+def test_one_rule_concept_two_kinds():
+    """Both kinds are Rules; each predictor reads one kind and predict() refuses the other."""
+    q, r = QuadratureRule(n=16, wce=0.5), RendererRule("map", "sf", 16)
+    assert isinstance(q, Rule) and isinstance(r, Rule) and q.n == r.n == 16
+    assert list(predictors_for(QuadratureRule)) == ["plain", "bandlimited", "spectral"]
+    assert list(predictors_for(RendererRule)) == ["random-variance", "warped-spectrum"]
+    ctx = PredictionContext(s=1.5, sigma=1.0)
+    for name in PREDICTORS:
+        bad = r if name in predictors_for(QuadratureRule) else q
+        with pytest.raises(ParameterError, match=f"predictor '{name}' reads a"):
+            predict(name, ctx, bad)
+    with pytest.raises(ParameterError, match="needs renderer"):
+        predict("warped-spectrum", ctx, r)
 
 
 def test_dispatcher_calls_the_named_predictor():
-    rule = Rule(n=4, wce=0.3, error_power=[0.0, 0.5, 0.25], weight_sum=1.0)
+    rule = QuadratureRule(n=4, wce=0.3, error_power=[0.0, 0.5, 0.25], weight_sum=1.0)
     ctx = PredictionContext(s=1.5, sigma=2.0, s_bandlimited=1.4, sigma_bandlimited=1.5,
                             sigma_bandlimited_channels=(1.5,), band_lmax=2,
                             map_power=np.array([[1.0, 0.2, 0.1]]), mean_rms=0.5)
-    for name, f in PREDICTORS.items():
+    for name, f in predictors_for(QuadratureRule).items():
         p = predict(name, ctx, rule)
         assert isinstance(p, Prediction) and p.name == name
         assert p == f(ctx, rule)
@@ -63,12 +84,13 @@ def test_dispatcher_calls_the_named_predictor():
 @pytest.mark.parametrize("bad", ["exact", "Plain", "", None, ["plain"]])
 def test_unknown_predictor_is_a_parameter_error_listing_the_names(bad):
     with pytest.raises(ParameterError) as info:
-        predict(bad, PredictionContext(s=1.5, sigma=1.0), Rule(n=4, wce=0.1))
-    assert str(info.value).endswith("choose from plain, bandlimited, spectral")
+        predict(bad, PredictionContext(s=1.5, sigma=1.0), QuadratureRule(n=4, wce=0.1))
+    assert str(info.value).endswith("choose from plain, bandlimited, spectral, random-variance, "
+                                    "warped-spectrum")
 
 
 def test_a_predictor_names_the_context_fields_it_lacks():
-    rule = Rule(n=4, error_power=[0.0, 1.0], weight_sum=1.0)
+    rule = QuadratureRule(n=4, error_power=[0.0, 1.0], weight_sum=1.0)
     with pytest.raises(ParameterError, match="s_bandlimited, sigma_bandlimited, band_lmax"):
         predict("bandlimited", PredictionContext(s=1.5, sigma=1.0), rule)
     with pytest.raises(ParameterError, match="map_power"):
@@ -83,12 +105,12 @@ def test_plain_is_sigma_times_the_closed_form_wce():
     wf = Glossy(30.0)
     pts = generate("sf", 48, morph=wf.morph)
     w = np.full(48, 1 / 48)
-    rule = Rule.from_points(pts, w, wf, 1.5, 20)
+    rule = QuadratureRule.from_points(pts, w, wf, 1.5, 20)
     ref = worst_case_error(pts, w, wf, 1.5, embedding="series")
     assert rule.wce == pytest.approx(ref, rel=1e-9)
     p = predict_plain(PredictionContext(s=1.5, sigma=0.7), rule)
     assert p.rmse == 0.7 * rule.wce and p.wce == rule.wce
-    assert predict_plain(PredictionContext(s=1.5, sigma=0.7), Rule(n=48)).rmse is None
+    assert predict_plain(PredictionContext(s=1.5, sigma=0.7), QuadratureRule(n=48)).rmse is None
 
 
 # ----------------------------------------------------------------------------- (b') band-limited
@@ -110,9 +132,9 @@ def test_bandlimited_is_the_refined_formula():
     assert p.rmse == pytest.approx(math.sqrt(0.64 * e2 + me * me), rel=1e-13)
     assert p.relative_sd is not None and 0 < p.relative_sd < 1
     # a truncation: no weights (no mean term), E' given directly
-    t = predict_bandlimited(ctx, Rule(n=3, wce_bandlimited=0.25))
+    t = predict_bandlimited(ctx, QuadratureRule(n=3, wce_bandlimited=0.25))
     assert t.rmse == 0.8 * 0.25 and t.mean_error is None and t.relative_sd is None
-    assert predict_bandlimited(ctx, Rule(n=3)).rmse is None
+    assert predict_bandlimited(ctx, QuadratureRule(n=3)).rmse is None
 
 
 def test_bandlimited_equals_spectral_on_the_models_spectrum():
@@ -143,10 +165,10 @@ def test_bandlimited_equals_spectral_on_the_models_spectrum():
 def test_spectral_is_the_realised_power_formula():
     P = np.array([[3.0, 0.5, 0.25, 0.1], [1.0, 2.0, 0.5, 0.0]])
     e = np.array([1e-3, 0.2, 0.05, 0.4])
-    p = predict_spectral(PredictionContext(s=1.5, sigma=1.0, map_power=P), Rule(n=8, error_power=e))
+    p = predict_spectral(PredictionContext(s=1.5, sigma=1.0, map_power=P), QuadratureRule(n=8, error_power=e))
     assert p.rmse == pytest.approx(math.sqrt((P @ e).mean()), rel=1e-15)
     assert p.wce is None and p.mean_error is None
-    assert predict_spectral(PredictionContext(s=1.5, sigma=1.0, map_power=P), Rule(n=8)).rmse is None
+    assert predict_spectral(PredictionContext(s=1.5, sigma=1.0, map_power=P), QuadratureRule(n=8)).rmse is None
 
 
 def test_spectral_is_the_mean_over_haar_random_rotations():
@@ -167,7 +189,7 @@ def test_spectral_is_the_mean_over_haar_random_rotations():
             measured = rmse_over_axes(est, truth).total
             e2 = ((est - truth) ** 2).mean(axis=1)
             rel_se = e2.std(ddof=1) / (2 * math.sqrt(e2.size) * e2.mean())
-            rule = Rule(n=12, error_power=rule_error_power(pts, w, wf, ctx.band_lmax),
+            rule = QuadratureRule(n=12, error_power=rule_error_power(pts, w, wf, ctx.band_lmax),
                         weight_sum=float(w.sum()))
             got = predict("spectral", ctx, rule).rmse
             assert abs(got / measured - 1.0) <= 3 * rel_se + 0.01, (brdf, ps, got / measured)
@@ -189,7 +211,7 @@ def test_rule_from_points():
     wf = Glossy(30.0)
     pts = generate("random", 20, seed=3, morph=wf.morph)
     w = np.random.default_rng(0).uniform(0.02, 0.08, 20)
-    r = Rule.from_points(pts, w, wf, 1.7, 10)
+    r = QuadratureRule.from_points(pts, w, wf, 1.7, 10)
     assert r.n == 20 and r.weight_sum == pytest.approx(w.sum(), rel=1e-15)
     # the same transform twice: ducc0's threaded sums may round differently between calls
     np.testing.assert_allclose(r.error_power, rule_error_power(pts, w, wf, 10), rtol=1e-12, atol=0)

@@ -172,7 +172,7 @@ def test_resume_reads_stored_cells(sun_map, cfg, tmp_path, monkeypatch):
 
     def boom(*a, **k):
         raise RuntimeError("recomputed")
-    for name in ("measure_rule", "renderer_model", "predict_rule"):
+    for name in ("measure_rule", "renderer_model", "predict"):
         monkeypatch.setattr(VR, name, boom)
     seen = []
     again = VR.run_renderer_validation(sun_map, cfg, out=tmp_path,

@@ -330,20 +330,31 @@ def advise_with(envmap: EnvMap, options: AdviseOptions) -> Advice:
         if setup is not None:
             run_renderer_check(adv.renderer, setup, opts)
     adv.notes.extend(plan_notes + store.notes)
+    _record_run(adv, store, model, {"search": t_search, "check": t_check}, t_start)
+    if envmap is not original:
+        adv.notes.append(_memory_note(adv, plan, rss0))
+    return adv
+
+
+def _record_run(adv: Advice, store: AdviseCache, model: MapModel, steps: dict,
+                t_start: float) -> None:
+    """The cache's counts and the seconds of each step (``steps``: search, check; the
+    renderer section's, prefixed ``renderer_``) into ``adv``."""
     adv.cache = {"enabled": store.enabled, "folder": str(store.folder), "hits": store.hits,
                  "misses": store.misses, "writes": store.writes}
-    adv.timings = {"fit": model.seconds_fit, "transfer": model.seconds_transfer,
-                   "search": t_search, "check": t_check,
+    adv.timings = {"fit": model.seconds_fit, "transfer": model.seconds_transfer, **steps,
                    **({f"renderer_{k}": v for k, v in adv.renderer.timings.items()}
                       if adv.renderer is not None else {}),
                    "total": time.perf_counter() - t_start}
-    if envmap is not original:
-        adv.notes.append(f"memory and time: peak {format_bytes(peak_rss_bytes())} resident "
-                         f"(predicted {format_bytes(rss0 + plan.peak())}: "
-                         f"{format_bytes(rss0)} before the work + the plan's peak), "
-                         f"{adv.timings['total']:.0f} s (the plan: ~{plan.seconds():.0f} s, "
-                         f"its search an upper bound)")
-    return adv
+
+
+def _memory_note(adv: Advice, plan, rss0: int) -> str:
+    """The note of a downsampled run: the peak resident memory and seconds against the plan's."""
+    return (f"memory and time: peak {format_bytes(peak_rss_bytes())} resident "
+            f"(predicted {format_bytes(rss0 + plan.peak())}: "
+            f"{format_bytes(rss0)} before the work + the plan's peak), "
+            f"{adv.timings['total']:.0f} s (the plan: ~{plan.seconds():.0f} s, "
+            f"its search an upper bound)")
 
 
 def _prediction_map(envmap: EnvMap, opts: AdviseOptions):

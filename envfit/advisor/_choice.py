@@ -1,10 +1,10 @@
 r"""Which prediction sizes a row: (b′) "bandlimited" or (c) "spectral", and the warning when they
 disagree.
 
-(b′) (:func:`envfit.predict._bandlimited.bandlimited_rmse`) is a Sobolev model fitted to the
+(b′) (:func:`envfit.predict.predict_bandlimited`) is a Sobolev model fitted to the
 map, :math:`\hat R_{b'}^2 = \sigma'^2\sum_{l\le H-1} a_l(s')\tau_l e_l + (\sum w-1)^2
-\overline{m^2}`; (c) (:func:`envfit.shading._spectra.spectral_rmse`, with the tail of
-:func:`envfit.advisor._prediction.spectral_predictions`) is the map's own power per degree
+\overline{m^2}`; (c) (:func:`envfit.predict.predict_spectral` on the map's power to 2H − 1,
+:meth:`envfit.advisor._model.MapModel.context`) is the map's own power per degree
 times the rule's error power, :math:`\hat R_c^2 = \frac1C\sum_c\sum_{l\le 2H-1}\hat P_{l,c}e_l`,
 the exact mean over Haar-random rotations for the interpolant's content to 2H − 1. On linear
 HDR maps with a sun (a heavy-tailed field, not of the :math:`l^{-2s}` model) (b′) is off by

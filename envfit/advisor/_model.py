@@ -53,6 +53,7 @@ from envfit.base._store import array_fingerprint
 from envfit.fit._sigma import bandlimited_profiled_sigma, combine_sigma
 from envfit.maps._envmap import EnvMap
 from envfit.maps._scales import check_not_constant, fit_scale
+from envfit.predict import PredictionContext
 from envfit.shading._spectra import (degree_weights, lookup_transfer, map_degree_power,
                                      pixel_degree_power)
 
@@ -138,6 +139,18 @@ class MapModel:
     seconds_transfer: float
     spectral_lmax: int = 0
     map_power: np.ndarray | None = None
+
+    def context(self, *, band: bool = False) -> PredictionContext:
+        r"""The :class:`envfit.predict.PredictionContext` of the map for
+        :func:`envfit.predict.predict`: σ′ and s′ (rounded) for (b) and (b′), τ, the band limit,
+        :math:`(\overline{m^2})^{1/2}` and :math:`\hat P_{l,c}` to
+        :math:`L_\mathrm{tail} = 2H - 1` for (c) with its tail (``band``: to H − 1, validate's
+        (c))."""
+        P = self.map_power if not band else self.map_power[:, :self.band_lmax + 1]
+        return PredictionContext(s=self.s_rounded, sigma=self.sigma,
+                                 s_bandlimited=self.s_rounded, sigma_bandlimited=self.sigma,
+                                 band_lmax=self.band_lmax, transfer=self.tau, map_power=P,
+                                 mean_rms=self.mean_rms)
 
 
 def absolute_target(opts: AdviseOptions, mean_shading: float) -> float:

@@ -3,13 +3,16 @@ r"""The advisor's prediction of one rule's RMS shading error on a map, from map-
 A rule (point set, weighting, N, realisation seeds) contributes its error power per degree
 :math:`e_l`, l = 0…H − 1 (:func:`envfit.shading._spectra.rule_error_power`, averaged over the
 realisations of a stochastic set) and the squared deviation :math:`(\sum_j w_j - 1)^2` of its
-weights' sum (:func:`rule_terms`); the map contributes σ', :math:`a_l(s')\tau_l`
-(:func:`envfit.shading._spectra.degree_weights`) and :math:`\overline{m^2}`. The prediction (b')
-is :math:`(\sigma'^2 E'^2 + (\sum w-1)^2\overline{m^2})^{1/2}` with
-:math:`E'^2 = \sum_{l\le H-1} a_l\tau_l e_l` (:func:`envfit.predict._bandlimited.bandlimited_rmse`,
-:func:`envfit.shading._spectra.band_e2`); see :mod:`envfit.advisor._advise` for the model.
+weights' sum (:func:`rule_terms`), as a :class:`envfit.predict.QuadratureRule`
+(:func:`terms_rule`); the map contributes σ', :math:`a_l(s')\tau_l`
+(:func:`envfit.shading._spectra.degree_weights`) and :math:`\overline{m^2}`
+(:meth:`envfit.advisor._model.MapModel.context`). The predictions are the registry's
+(:func:`envfit.predict.predict`): (b') ``"bandlimited"``,
+:math:`(\sigma'^2 E'^2 + (\sum w-1)^2\overline{m^2})^{1/2}` with
+:math:`E'^2 = \sum_{l\le H-1} a_l\tau_l e_l` (:func:`envfit.predict.predict_bandlimited`);
+see :mod:`envfit.advisor._advise` for the model.
 
-Prediction (c) (:func:`spectral_predictions`) weights the same :math:`e_l` by the map's own
+Prediction (c) (``"spectral"``, :func:`envfit.predict.predict_spectral`) weights the same :math:`e_l` by the map's own
 realised power per degree :math:`\hat P_{l,c}` (of its bilinear interpolant), to
 :math:`L_\mathrm{tail} = 2H - 1` (:func:`envfit.advisor._model.spectral_lmax`):
 
@@ -42,10 +45,10 @@ from envfit.base._errors import ParameterError
 from envfit.base._keys import s_value
 from envfit.defaults import DEFAULT_SHININESS
 from envfit.maps._envmap import EnvMap
-from envfit.predict._bandlimited import bandlimited_rmse
+from envfit.predict import PredictionContext, QuadratureRule, predict
 from envfit.shading._bilinear_sh import bilinear_sh_coefficients
 from envfit.shading._ground_truth import weight_function
-from envfit.shading._spectra import band_e2, degree_weights, rule_error_power, spectral_rmse
+from envfit.shading._spectra import rule_error_power
 from envfit.theory._pointsets import DETERMINISTIC_POINTSETS, generate
 from envfit.theory._quadrature import worst_case_error
 from envfit.theory._brdf import GLOSSY_MAX_SHININESS, Glossy
@@ -54,8 +57,8 @@ from envfit.theory._weights import equal_weights, optimal_weights
 __all__ = ["LOBE_TAIL_TRANSFER", "lobe_tail_transfer", "glossy_transfer",
            "max_resolved_shininess", "rows_resolving", "check_lobe_resolved",
            "mean_shading_value", "seed_list", "make_rule",
-           "rule_terms", "rule_plain_wce2", "row_prediction", "bandlimited_prediction",
-           "spectral_predictions", "row_prediction_spectral"]
+           "rule_terms", "rule_plain_wce2", "terms_rule", "advice_context", "row_prediction",
+           "row_prediction_spectral"]
 
 
 #: the most of the map's content just above the predictions' top degree 2H − 1 that the lobe
@@ -263,31 +266,29 @@ def rule_plain_wce2(pointset: str, n: int, wf, s: float, weights: str, seeds: Se
     return float(np.mean(out))
 
 
-def bandlimited_prediction(power, dev2: float, sigma: float, dw, mean_sq: float) -> float:
-    r"""(b′) from a rule's terms: :math:`(\sigma'^2\sum_{l\le H-1} a_l\tau_l e_l +
-    (\sum w - 1)^2\overline{m^2})^{1/2}` with ``dw`` = :math:`a_l(s')\tau_l`, l = 0…H − 1
-    (``power`` may hold more degrees: the first H are used).
+def terms_rule(n: int, terms: dict) -> QuadratureRule:
+    r"""The :class:`envfit.predict.QuadratureRule` of a curve's terms at N
+    (:func:`rule_terms`: the error power, :math:`\sum_j w_j` and :math:`(\sum_j w_j - 1)^2`,
+    each averaged over the realisations), for :func:`envfit.predict.predict`.
 
-    >>> bandlimited_prediction([1.0, 2.0, 5.0], 0.0, 2.0, np.array([0.5, 0.25]), 0.0)
-    2.0
+    >>> r = terms_rule(8, {"power": [0.0, 2.0], "dev2": 0.25, "weight_sum": 1.5})
+    >>> r.n, r.weight_dev2, r.weight_sum
+    (8, 0.25, 1.5)
     """
-    p = np.asarray(power, dtype=np.float64)[:len(dw)]
-    return bandlimited_rmse(sigma, band_e2(p, dw), dev2, mean_sq)
+    return QuadratureRule(n=int(n), error_power=terms["power"], weight_sum=terms["weight_sum"],
+                          weight_dev2=terms["dev2"])
 
 
-def spectral_predictions(power, map_power, band_lmax: int) -> tuple[float, float]:
-    r"""Prediction (c) with its tail and without: (:math:`\hat R_c` summed to the common
-    degree of ``power`` and ``map_power``, :math:`\hat R_c` summed to ``band_lmax`` = H − 1,
-    validate's (c)), both :func:`envfit.shading._spectra.spectral_rmse` (see the module
-    docstring).
-
-    >>> spectral_predictions([0.0, 2.0, 1.0], [[5.0, 0.5, 2.0]], 1)
-    (1.7320508075688772, 1.0)
-    """
-    P = np.atleast_2d(np.asarray(map_power, dtype=np.float64))
-    e = np.asarray(power, dtype=np.float64)
-    h = int(band_lmax) + 1
-    return spectral_rmse(e, P), spectral_rmse(e[:h], P[:, :h])
+def advice_context(adv, *, band: bool = False) -> PredictionContext:
+    r"""The :class:`envfit.predict.PredictionContext` of an
+    :class:`~envfit.advisor._result.Advice` (its fit rounded as the search used it, τ,
+    :math:`\hat P` averaged over channels; ``band``: to H − 1)."""
+    P = np.atleast_2d(np.asarray(adv.map_power, dtype=np.float64))
+    s = s_value(adv.s)
+    return PredictionContext(s=s, sigma=adv.sigma, s_bandlimited=s, sigma_bandlimited=adv.sigma,
+                             band_lmax=adv.band_lmax, transfer=adv.lookup_transfer,
+                             map_power=P[:, :adv.band_lmax + 1] if band else P,
+                             mean_rms=adv.mean_rms)
 
 
 def _terms_of_row(adv, row, n: int) -> tuple[dict, float]:
@@ -302,13 +303,12 @@ def _terms_of_row(adv, row, n: int) -> tuple[dict, float]:
 def row_prediction(adv, row, n: int) -> float:
     """The prediction (b′) of quadrature row ``row`` of :class:`~envfit.advisor._result.Advice`
     ``adv`` at N, recomputed from ``adv``'s fit (no cache; for tests and examples)."""
-    t, s = _terms_of_row(adv, row, n)
-    dw = degree_weights(s, adv.band_lmax, adv.lookup_transfer)
-    return bandlimited_prediction(t["power"], t["dev2"], adv.sigma, dw, adv.mean_rms ** 2)
+    t, _ = _terms_of_row(adv, row, n)
+    return predict("bandlimited", advice_context(adv), terms_rule(n, t)).rmse
 
 
 def row_prediction_spectral(adv, row, n: int) -> float:
     r"""The prediction (c) with its tail of quadrature row ``row`` at N, recomputed (no cache)
     from ``adv.map_power`` (:math:`\frac1C\sum_c\hat P_{l,c}`, l = 0…L_tail)."""
     t, _ = _terms_of_row(adv, row, n)
-    return spectral_predictions(t["power"], [adv.map_power], adv.band_lmax)[0]
+    return predict("spectral", advice_context(adv), terms_rule(n, t)).rmse

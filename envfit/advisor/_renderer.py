@@ -1,13 +1,14 @@
 r"""The advisor's renderer rows: how many samples per shading point for BRDF sampling, map
 importance sampling, MIS and the source split, with a given point set, for the target error.
 
-A renderer rule (:class:`envfit.sampling._rules.RendererRule`) is a strategy of
-:data:`~envfit.sampling._rules.STRATEGIES` — ``brdf`` (BRDF sampling), ``map`` (map
+A renderer rule (:class:`envfit.sampling.RendererRule`) is a strategy of
+:data:`~envfit.sampling.STRATEGIES` — ``brdf`` (BRDF sampling), ``map`` (map
 importance sampling ∝ luminance × solid angle, pbrt/Mitsuba style), ``mis`` (multi-sample
 MIS, balance heuristic, N/2 each) or ``split`` (the bright sources integrated exactly, MIS on
 the rest of the map) — a point set and N. Its RMSE over uniform axes is predicted from the
-warped integrand's spectrum (:func:`envfit.predict.renderer._predictor.renderer_model`, once per map,
-lobe and technique; then :func:`envfit.predict.renderer._predictor.predict_rule`, one NUFFT per N):
+warped integrand's spectrum (:func:`envfit.predict.renderer_model`, once per map, lobe and
+technique; then :func:`envfit.predict.predict` of :func:`envfit.predict.renderer_predictor`
+on a context holding the model, one NUFFT per N):
 exact in expectation for random points ("random-variance") and for the QMC sets up to
 N ≈ (grid/8)² ("warped-spectrum"; beyond it the frequencies above the box are counted at the
 Monte Carlo rate: an extrapolation, not a bound — on a night map with lamps brdf/sf at
@@ -55,7 +56,8 @@ single-precision NUFFT and the 8B lobe grid of :mod:`envfit.predict.renderer._wa
 spectra take 35 s wall on city.exr (2 cores, load 3–4, raised priority;
 docs/guides/advise.md, "Renderer rules in envfit advise").
 
-The spectra are cached (:mod:`envfit.advisor._cache`, kind ``"renderer"``): one checksummed
+The spectra are cached (:mod:`envfit.advisor._renderer_cache`, in :mod:`envfit.advisor._cache`,
+kind ``"renderer"``): one checksummed
 JSON file per (technique, on the rest map), keyed by the map's fingerprint
 (:func:`envfit.advisor._model.map_key`), scale, lobe, grid, axes, technique, on_rest and the
 sources' pixel count; a spectrum is stored by
@@ -80,21 +82,18 @@ from dataclasses import asdict, dataclass, field
 
 from envfit.advisor._cache import AdviseCache
 from envfit.base._errors import ParameterError
-from envfit.base._progress import progress_bar
 from envfit.defaults import (ADVISE_RENDERER_POINTSETS, ADVISE_SPECTRUM_AXES, DEFAULT_SHININESS,
                              RENDERER_GRID)
 from envfit.maps._envmap import EnvMap
-from envfit.predict.renderer._predictor import RendererModel, predict_rule, renderer_model
-from envfit.sampling._rules import STRATEGIES, RendererRule
-from envfit.measure._rules import RendererSetup, measure_rule
-from envfit.predict.renderer._warped_spectrum import SPECTRUM_FORMAT, WarpedSpectrum
+from envfit.advisor._renderer_cache import cached_renderer_model, source_cost
+from envfit.measure import RendererSetup, measure_rule
+from envfit.predict import PredictionContext, RendererModel, predict, renderer_predictor
+from envfit.sampling import STRATEGIES, RendererRule
 
 __all__ = ["RENDERER_GRID", "RENDERER_SPECTRUM_AXES", "DEFAULT_STRATEGIES",
            "DEFAULT_RENDERER_POINTSETS", "STRATEGY_NAMES", "RendererRow", "RendererAdvice",
-           "renderer_n_grid", "spectrum_cache_key",
-           "cached_renderer_model", "search_renderer_row", "best_renderer_row",
-           "renderer_recommendation", "check_renderer_rows", "advise_renderer",
-           "source_cost"]
+           "renderer_n_grid", "search_renderer_row", "best_renderer_row",
+           "renderer_recommendation", "check_renderer_rows", "advise_renderer"]
 
 # RENDERER_GRID (envfit.defaults): the warped spectra's grid G for advise (the box B = G/4;
 # QMC exact to N ≈ (G/8)²)
@@ -127,75 +126,6 @@ def renderer_n_grid(pointset: str, nmin: int, nmax: int) -> list[int]:
     return sorted(set(out))
 
 
-# ----------------------------------------------------------------------------- cache
-
-def spectrum_cache_key(map_key: dict, brdf: str, shininess: float | None, grid: int, axes: int,
-                       technique: str, on_rest: bool, source_pixels: int) -> dict:
-    """The cache key of one spectrum: the map's key (fingerprint, shape, up, scale), the lobe,
-    the grid and axes, the technique, whether on the rest map, the sources' pixel count, and
-    the spectrum algorithm's version (:data:`envfit.predict.renderer._warped_spectrum.SPECTRUM_FORMAT`)."""
-    return {**map_key, "spectrum_format": SPECTRUM_FORMAT, "brdf": brdf, "shininess": None if brdf == "diffuse" else shininess,
-            "grid": int(grid), "axes": int(axes), "technique": technique,
-            "on_rest": bool(on_rest), "source_pixels": int(source_pixels)}
-
-
-def source_cost(setup: RendererSetup) -> int:
-    """The exact source integral's cost per shading point: the source pixels it visits,
-    ``sum(pixels)`` over ``setup.sources``."""
-    return int(sum(s.summary()["pixels"] for s in setup.sources))
-
-
-def cached_renderer_model(setup: RendererSetup, map_key: dict, brdf: str, shininess: float,
-                          strategies, grid: int, axes: int, store: AdviseCache, *,
-                          quiet: bool = True) -> tuple[RendererModel, int, int]:
-    """The :class:`RendererModel` of ``strategies`` with each spectrum from the cache or
-    computed (:func:`renderer_model`) and saved; (model, spectra loaded, spectra computed).
-
-    A cached entry that does not parse as a spectrum is recomputed with a note in
-    ``store.notes`` (checksum failures are noted by the cache itself); a progress bar over
-    the spectra computed unless ``quiet``."""
-    pixels = source_cost(setup)
-    spectra, missing = {}, []
-    for s in strategies:
-        tech, rest = STRATEGIES[s]
-        if (tech, rest) in spectra or s in missing:
-            continue
-        key = spectrum_cache_key(map_key, brdf, shininess, grid, axes, tech, rest, pixels)
-        doc = store.load("renderer", key)
-        if doc is not None:
-            try:
-                spectra[(tech, rest)] = WarpedSpectrum.from_json(doc)
-                continue
-            except ParameterError as exc:
-                store.notes.append(f"cache: recomputed {store.path('renderer', key)}: {exc}")
-        missing.append(s)
-    loaded = len(spectra)
-    if missing:
-        bar = progress_bar(len(missing), desc="advise: renderer spectra", quiet=quiet,
-                           unit="spectrum")
-        step = [0]
-
-        def progress(label: str) -> None:
-            if step[0]:
-                bar.update(1)
-            step[0] += 1
-            if hasattr(bar, "set_postfix_str"):
-                bar.set_postfix_str(label)
-        try:
-            fresh = renderer_model(setup, brdf, shininess, strategies=missing, grid=grid,
-                                   axes=axes, progress=progress)
-        finally:
-            bar.close()
-        for (tech, rest), spec in fresh.spectra.items():
-            spectra[(tech, rest)] = spec
-            store.save("renderer", spectrum_cache_key(map_key, brdf, shininess, grid, axes,
-                                                      tech, rest, pixels),
-                       spec.to_json())
-    whole = [v for (t, r), v in spectra.items() if not r]
-    mean = whole[0].mean if whole else float("nan")
-    return RendererModel(str(brdf), float(shininess), spectra, mean), loaded, len(missing)
-
-
 # ----------------------------------------------------------------------------- rows
 
 @dataclass
@@ -206,7 +136,7 @@ class RendererRow:
     ``extra_cost`` is the source pixels the split's exact integral visits per shading point
     (0 for the other strategies); ``cost`` = N + ``extra_cost`` (None when not reached).
     ``predicted_rmse`` is the prediction at N (at ``searched_max`` when not reached),
-    ``predictor`` its name (:data:`envfit.predict.renderer._predictor.RENDERER_PREDICTORS`), ``curve``
+    ``predictor`` its name (:func:`envfit.predict.renderer_predictor`), ``curve``
     ``{"n": [...], "predicted": [...]}`` the predictions at every evaluated grid N.
     ``measured_*`` are filled by the check (:func:`check_renderer_rows`).
     """
@@ -257,7 +187,9 @@ def search_renderer_row(rmodel: RendererModel, strategy: str, pointset: str, tar
                         nmin: int, nmax: int, extra_cost: int = 0, *,
                         full_curve: bool = False) -> RendererRow:
     """The row of ``strategy``/``pointset``: the largest grid N first (a miss: "N > nmax"),
-    else the grid scanned upward to the first N whose :func:`predict_rule` ≤ ``target``;
+    else the grid scanned upward to the first N whose prediction ≤ ``target``
+    (:func:`envfit.predict.predict` of :func:`envfit.predict.renderer_predictor` on a context
+    holding ``rmodel``);
     with ``full_curve`` every grid N is predicted (for the plot). ``extra_cost`` is added to
     a reached row's cost (the split's source pixels)."""
     grid = renderer_n_grid(pointset, nmin, nmax)
@@ -266,10 +198,12 @@ def search_renderer_row(rmodel: RendererModel, strategy: str, pointset: str, tar
     row = RendererRow(strategy=strategy, pointset=pointset, searched_max=grid[-1],
                       extra_cost=int(extra_cost) if strategy == "split" else 0)
     seen: dict[int, float] = {}
+    ctx = PredictionContext(renderer=rmodel)
 
     def pred(n: int) -> float:
         if n not in seen:
-            p = predict_rule(rmodel, RendererRule(strategy, pointset, n))
+            rule = RendererRule(strategy, pointset, n)
+            p = predict(renderer_predictor(rule), ctx, rule)
             seen[n], row.predictor = float(p.rmse), p.name
         return seen[n]
 

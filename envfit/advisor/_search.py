@@ -36,13 +36,13 @@ from envfit.advisor._cache import AdviseCache
 from envfit.advisor._choice import disagree, disagreement_line, first_predictor, ratio
 from envfit.advisor._model import MapModel
 from envfit.advisor._options import AdviseOptions
-from envfit.advisor._prediction import (bandlimited_prediction, rule_plain_wce2, rule_terms,
-                                        seed_list, spectral_predictions)
+from envfit.advisor._prediction import rule_plain_wce2, rule_terms, seed_list, terms_rule
 from envfit.advisor._result import AdviceRow, sort_rows
 from envfit.base._errors import ParameterError
 from envfit.base._progress import progress_bar
+from envfit.predict import QuadratureRule, predict
 from envfit.predict._spectral import spectral_truncation_curve
-from envfit.shading._spectra import band_e2, sh_truncation_curve_transfer
+from envfit.shading._spectra import sh_truncation_curve_transfer
 from envfit.theory._errors import TheoryParameterError
 from envfit.theory._truncation import truncation_error_curve
 
@@ -115,6 +115,7 @@ class _RuleCurve:
         self.points = store.load_curve(self.key)
         self.new: dict[int, dict] = {}
         self.evaluations = 0
+        self.ctx, self.ctx_band = model.context(), model.context(band=True)
 
     def terms(self, n: int) -> dict:
         """The map-independent terms at N, from the curve or computed."""
@@ -139,15 +140,13 @@ class _RuleCurve:
         return t
 
     def bandlimited(self, n: int) -> float:
-        """The prediction (b') at N on the map."""
-        t, m = self.terms(n), self.model
-        return bandlimited_prediction(t["power"], t["dev2"], m.sigma, m.dw, m.mean_rms ** 2)
+        """The prediction (b') at N on the map (:func:`envfit.predict.predict`)."""
+        return predict("bandlimited", self.ctx, terms_rule(n, self.terms(n))).rmse
 
     def spectral(self, n: int, band: bool = False) -> float:
         """The prediction (c) at N on the map, with its tail to 2H − 1 (``band``: to H − 1)."""
-        c = spectral_predictions(self.terms(n)["power"], self.model.map_power,
-                                 self.model.band_lmax)
-        return c[1] if band else c[0]
+        ctx = self.ctx_band if band else self.ctx
+        return predict("spectral", ctx, terms_rule(n, self.terms(n))).rmse
 
     def predictor(self, name: str) -> Callable[[int], float]:
         """N → the prediction named ``name`` ("bandlimited" or "spectral")."""
@@ -186,7 +185,7 @@ def _fill_quadrature(row: AdviceRow, curve: _RuleCurve, n: int | None, upper: in
     row.predicted_rmse_spectral_band = curve.spectral(at, band=True)
     row.spectral_lmax = model.spectral_lmax
     row.spectral_ratio = ratio(row.predicted_rmse, row.predicted_rmse_spectral)
-    row.wce_bandlimited = math.sqrt(band_e2(t["power"][:model.band_lmax + 1], model.dw))
+    row.wce_bandlimited = predict("bandlimited", curve.ctx, terms_rule(at, t)).wce
     row.weight_sum = t["weight_sum"]
     if n is None:
         why = (" (OSW: an NxN solve per N; raise --osw-nmax)"
@@ -196,15 +195,17 @@ def _fill_quadrature(row: AdviceRow, curve: _RuleCurve, n: int | None, upper: in
     else:
         row.n = row.cost = n
         row.wce = math.sqrt(t["e2_plain"])
-        row.predicted_rmse_plain = model.sigma * row.wce
+        row.predicted_rmse_plain = predict("plain", curve.ctx,
+                                           QuadratureRule(n=n, wce=row.wce)).rmse
 
 
 def search_quadrature(pointset: str, weights: str, wf, model: MapModel, opts: AdviseOptions,
                       store: AdviseCache, bar=None) -> AdviceRow:
     """Smallest N of one rule on the map (``wf`` the lobe) by the predictor of
     :mod:`envfit.advisor._choice`; the curve's cached points hold the map-independent terms,
-    weighted here by the map's :math:`a_l(s')\\tau_l` (``model.dw``, (b')) and its
-    :math:`\\hat P_l` (``model.map_power``, (c)). ``bar``: a progress bar whose postfix names
+    predicted by :func:`envfit.predict.predict` on the map's context
+    (:meth:`~envfit.advisor._model.MapModel.context`: :math:`a_l(s')\\tau_l` for (b'),
+    :math:`\\hat P_l` for (c)). ``bar``: a progress bar whose postfix names
     each N whose error power is computed (seconds each on a 2048x1024 map)."""
     curve = _RuleCurve(pointset, weights, wf, model, opts, store, bar)
     upper = opts.nmax if weights == "equal" else opts.osw_upper

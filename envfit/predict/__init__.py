@@ -1,13 +1,15 @@
 r"""Named predictors of a rule's shading error on a map: one module per predictor, each ``f(ctx:
 PredictionContext, rule: Rule) -> Prediction``, registered in PREDICTORS and dispatched by
-predict(); the renderer predictor is the sub-package :mod:`envfit.predict.renderer`.
+predict(); a rule is a :class:`QuadratureRule` (the paper's) or a :class:`RendererRule` (both
+:class:`envfit.sampling.Rule`); the renderer predictors (``random-variance``,
+``warped-spectrum``) are in the sub-package :mod:`envfit.predict.renderer`.
 
 Modules:
 
 * :mod:`~envfit.predict._bandlimited` — Prediction (b′), *band-limited*: the plain model made
   exact for what a lat-long map is.
 * :mod:`~envfit.predict._context` — What a prediction is made from: a map
-  (:class:`PredictionContext`), a quadrature rule (:class:`Rule`), and what it says
+  (:class:`PredictionContext`), a rule (:class:`Rule`), and what it says
   (:class:`Prediction`).
 * :mod:`~envfit.predict._plain` — Prediction (b), *plain*: :math:`\hat R = \hat\sigma\,E(\hat
   s)`.
@@ -29,11 +31,14 @@ from envfit.base._lazy import lazy_exports
 
 _LAZY = {
     "predict_bandlimited": "_bandlimited",
-    "Prediction": "_context", "PredictionContext": "_context", "Rule": "_context",
+    "Prediction": "_context", "PredictionContext": "_context", "reads": "_context",
+    "Rule": "_context", "QuadratureRule": "_context", "RendererRule": "_context",
     "predict_plain": "_plain",
     "predict": "_registry", "Predictor": "_registry", "PREDICTORS": "_registry",
+    "predictors_for": "_registry",
     "predict_rule": "renderer", "renderer_model": "renderer", "RENDERER_PREDICTORS": "renderer",
-    "RendererModel": "renderer", "WarpedSpectrum": "renderer",
+    "RendererModel": "renderer", "WarpedSpectrum": "renderer", "renderer_predictor": "renderer",
+    "predict_random_variance": "renderer", "predict_warped_spectrum": "renderer",
     "predict_spectral": "_spectral",
 }
 

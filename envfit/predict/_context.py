@@ -1,29 +1,50 @@
-r"""What a prediction is made from: a map (:class:`PredictionContext`), a quadrature rule
-(:class:`Rule`), and what it says (:class:`Prediction`).
+r"""What a prediction is made from: a map (:class:`PredictionContext`), a rule
+(:class:`envfit.sampling.Rule`: a :class:`~envfit.sampling.QuadratureRule` or a
+:class:`~envfit.sampling.RendererRule`), and what it says (:class:`Prediction`).
 
 Every predictor of :mod:`envfit.predict` is a function ``f(ctx, rule) -> Prediction``: the
 context holds what the map gives (the fitted :math:`\hat s, \hat\sigma`, the band-limited
 fit :math:`\hat s', \hat\sigma'`, the band limit H − 1, the bilinear lookup's transfer
 :math:`\tau_l`, the map's realised power per degree :math:`\hat P_{l,c}` and the RMS of
-its mean), the rule what a point set with weights gives (N, its worst-case error E(ŝ), its
-error power per degree :math:`e_l`, :math:`\sum_j w_j`). Both are plain frozen
-dataclasses: a predictor reads them and computes nothing about the map or the points.
+its mean; for the renderer rules the warped integrand's spectra,
+:class:`envfit.predict.renderer.RendererModel`), the rule what a point set gives (for a
+quadrature rule N, its worst-case error E(ŝ), its error power per degree :math:`e_l`,
+:math:`\sum_j w_j`; for a renderer rule its strategy, point set and N). Both are plain frozen
+dataclasses. :func:`reads` marks the kind of rule a predictor reads, which
+:func:`envfit.predict.predict` checks.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
 from envfit.base._errors import ParameterError
 from envfit.fit._sigma import combine_sigma
 from envfit.maps._envmap import EnvMap
-from envfit.theory._quadrature import worst_case_error
-from envfit.shading._spectra import (lookup_transfer, map_degree_power, pixel_degree_power,
-                                     rule_error_power)
+from envfit.sampling import QuadratureRule, RendererRule, Rule
+from envfit.shading._spectra import (degree_weights, lookup_transfer, map_degree_power,
+                                     pixel_degree_power)
 
-__all__ = ["PredictionContext", "Rule", "Prediction"]
+__all__ = ["PredictionContext", "Prediction", "reads", "Rule", "QuadratureRule",
+           "RendererRule"]
+
+
+def reads(rule_type: type) -> Callable:
+    """Decorator of a predictor: the kind of :class:`envfit.sampling.Rule` it reads, stored as
+    its ``rule_type`` (:func:`envfit.predict.predict` refuses another kind; a predictor
+    without it reads any rule).
+
+    >>> @reads(QuadratureRule)
+    ... def f(ctx, rule): ...
+    >>> f.rule_type.__name__
+    'QuadratureRule'
+    """
+    def mark(f: Callable) -> Callable:
+        f.rule_type = rule_type
+        return f
+    return mark
 
 
 @dataclass(frozen=True)
@@ -45,10 +66,14 @@ class PredictionContext:
     mean_rms : :math:`(\overline{m^2})^{1/2}`, the RMS over channels of the map's
         solid-angle mean: a rule with :math:`\sum_j w_j \ne 1` errs by
         :math:`\bar m(\sum_j w_j - 1)` on every axis.
+    renderer : the warped integrand's spectra of the map and lobe
+        (:class:`envfit.predict.renderer.RendererModel`) — the renderer rules' predictors.
+    point_seed : the seed of a stochastic renderer point set
+        (:func:`envfit.sampling.rule_points`; 0: the sets the measurement uses).
     """
 
-    s: float
-    sigma: float
+    s: float | None = None
+    sigma: float | None = None
     s_bandlimited: float | None = None
     sigma_bandlimited: float | None = None
     sigma_bandlimited_channels: Sequence[float] = ()
@@ -56,6 +81,8 @@ class PredictionContext:
     transfer: np.ndarray | None = None
     map_power: np.ndarray | None = None
     mean_rms: float = 0.0
+    renderer: object | None = None
+    point_seed: int = 0
 
     @classmethod
     def from_map(cls, scaled: EnvMap, s: float, sigma_channels, s_bandlimited: float,
@@ -79,6 +106,15 @@ class PredictionContext:
                    transfer=transfer, map_power=map_power,
                    mean_rms=float(np.sqrt(np.mean(scaled.mean() ** 2))))
 
+    def degree_weights(self) -> np.ndarray:
+        r""":math:`a_l(\hat s')\tau_l`, l = 0…H − 1, of (b′)
+        (:func:`envfit.shading._spectra.degree_weights`), computed once per context."""
+        dw = self.__dict__.get("_degree_weights")
+        if dw is None:
+            dw = degree_weights(self.s_bandlimited, self.band_lmax, self.transfer)
+            object.__setattr__(self, "_degree_weights", dw)
+        return dw
+
     def need(self, *names: str, who: str) -> None:
         """Raise :class:`envfit.base._errors.ParameterError` naming the fields of ``names``
         that are unset (None) but needed by the predictor ``who``."""
@@ -86,53 +122,6 @@ class PredictionContext:
         if missing:
             raise ParameterError(f"predictor {who!r} needs {', '.join(missing)} in its "
                                  "PredictionContext (see PredictionContext.from_map)")
-
-
-@dataclass(frozen=True)
-class Rule:
-    r"""What a quadrature rule (or a truncation) gives to the predictors.
-
-    Attributes
-    ----------
-    n : the number of points N (for a truncation: the cut-off degree L).
-    wce : its worst-case error :math:`E(\hat s)` (Eq. 41) at the context's s; None: unknown.
-    error_power : :math:`e_l`, l = 0…H − 1, the squared error of the rule on the degree-l
-        harmonics (:func:`envfit.shading._spectra.rule_error_power`); None: unknown.
-    weight_sum : :math:`\sum_j w_j`; None for a rule without weights (a truncation keeps
-        :math:`b_0` exactly: no error from the map's mean).
-    wce_bandlimited : :math:`E'(\hat s')` given directly, used by (b′) when there is no
-        ``error_power`` (a truncation's closed form,
-        :func:`envfit.shading._spectra.sh_truncation_curve_transfer`).
-    points, weights, brdf : the rule itself, when at hand (informative only).
-    """
-
-    n: int
-    wce: float | None = None
-    error_power: Sequence[float] | np.ndarray | None = None
-    weight_sum: float | None = None
-    wce_bandlimited: float | None = None
-    points: np.ndarray | None = None
-    weights: np.ndarray | None = None
-    brdf: object | None = None
-
-    @classmethod
-    def from_points(cls, points, weights, brdf, s: float, band_lmax: int, *,
-                    workers: int = 1) -> "Rule":
-        r"""The rule of ``points`` and ``weights`` for ``brdf``: E(s)
-        (:func:`envfit.theory._quadrature.worst_case_error`), :math:`e_l` to
-        ``band_lmax`` (:func:`envfit.shading._spectra.rule_error_power`), :math:`\sum_j w_j`.
-
-        >>> from envfit.theory._brdf import Diffuse
-        >>> r = Rule.from_points(np.array([[0.0, 0.0, 1.0]]), [1.0], Diffuse(), 1.5, 4)
-        >>> r.n, r.weight_sum, r.error_power.shape
-        (1, 1.0, (5,))
-        """
-        pts = np.asarray(points, dtype=np.float64)
-        w = np.asarray(weights, dtype=np.float64)
-        return cls(n=int(pts.shape[0]),
-                   wce=worst_case_error(pts, w, brdf, s, workers=workers),
-                   error_power=rule_error_power(pts, w, brdf, band_lmax),
-                   weight_sum=float(np.sum(w)), points=pts, weights=w, brdf=brdf)
 
 
 @dataclass(frozen=True)

@@ -6,12 +6,13 @@ norm of the error's representer, Eq. 39 of Marques et al.), so σ̂·E uses no m
 """
 from __future__ import annotations
 
-from envfit.predict._context import Prediction, PredictionContext, Rule
+from envfit.predict._context import Prediction, PredictionContext, QuadratureRule, reads
 
 __all__ = ["predict_plain"]
 
 
-def predict_plain(ctx: PredictionContext, rule: Rule) -> Prediction:
+@reads(QuadratureRule)
+def predict_plain(ctx: PredictionContext, rule: QuadratureRule) -> Prediction:
     r"""Prediction (b): the fitted σ̂ times the rule's worst-case error at ŝ,
 
     .. math:: \hat R = \hat\sigma\,E(\hat s), \qquad
@@ -23,7 +24,7 @@ def predict_plain(ctx: PredictionContext, rule: Rule) -> Prediction:
     Parameters
     ----------
     ctx : :class:`PredictionContext`; uses ``sigma``.
-    rule : :class:`Rule`; uses ``wce``.
+    rule : :class:`~envfit.sampling.QuadratureRule`; uses ``wce``.
 
     Returns
     -------
@@ -31,8 +32,11 @@ def predict_plain(ctx: PredictionContext, rule: Rule) -> Prediction:
 
     Examples
     --------
-    >>> predict_plain(PredictionContext(s=1.5, sigma=2.0), Rule(n=16, wce=0.125)).rmse
+    >>> predict_plain(PredictionContext(s=1.5, sigma=2.0), QuadratureRule(n=16, wce=0.125)).rmse
     0.25
     """
-    rmse = None if rule.wce is None else ctx.sigma * rule.wce
+    if rule.wce is None:
+        return Prediction(name="plain", rmse=None, wce=None)
+    ctx.need("sigma", who="plain")
+    rmse = ctx.sigma * rule.wce
     return Prediction(name="plain", rmse=rmse, wce=rule.wce)

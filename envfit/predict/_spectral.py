@@ -7,12 +7,13 @@ import numpy as np
 from envfit.base._errors import ParameterError
 from envfit.shading._spectra import spectral_rmse
 
-from envfit.predict._context import Prediction, PredictionContext, Rule
+from envfit.predict._context import Prediction, PredictionContext, QuadratureRule, reads
 
 __all__ = ["predict_spectral", "spectral_truncation_curve"]
 
 
-def predict_spectral(ctx: PredictionContext, rule: Rule) -> Prediction:
+@reads(QuadratureRule)
+def predict_spectral(ctx: PredictionContext, rule: QuadratureRule) -> Prediction:
     r"""Prediction (c): the rule's RMSE on *this* map averaged over random rotations,
 
     .. math:: \hat R^2 = \frac1C\sum_c\sum_{l\le H-1} \hat P_{l,c}\, e_l ,
@@ -27,7 +28,7 @@ def predict_spectral(ctx: PredictionContext, rule: Rule) -> Prediction:
     Parameters
     ----------
     ctx : :class:`PredictionContext`; uses ``map_power``.
-    rule : :class:`Rule`; uses ``error_power``.
+    rule : :class:`~envfit.sampling.QuadratureRule`; uses ``error_power``.
 
     Returns
     -------
@@ -37,7 +38,7 @@ def predict_spectral(ctx: PredictionContext, rule: Rule) -> Prediction:
     --------
     >>> import numpy as np
     >>> ctx = PredictionContext(s=1.5, sigma=1.0, map_power=np.array([[5.0, 0.5], [7.0, 1.5]]))
-    >>> predict_spectral(ctx, Rule(n=8, error_power=[0.0, 2.0])).rmse
+    >>> predict_spectral(ctx, QuadratureRule(n=8, error_power=[0.0, 2.0])).rmse
     1.4142135623730951
     """
     ctx.need("map_power", who="spectral")

@@ -14,8 +14,8 @@ Modules:
   (:class:`MapSampler`): pdf ∝ luminance × solid angle.
 * :mod:`~envfit.sampling._proxies` — Proxies of the second moments of the renderer's sampling
   techniques, per axis.
-* :mod:`~envfit.sampling._rules` — Renderer sampling rules — a strategy, a point set and N —
-  the renderer's choice.
+* :mod:`~envfit.sampling._rules` — Rules: what a shading estimate integrates with — one
+  concept, two kinds (the paper's quadrature rule, the renderer's strategy + point set + N).
 * :mod:`~envfit.sampling._sources` — Bright sources of a map (the sun, lamps) and the source
   / rest split of the shading estimators.
 
@@ -31,7 +31,8 @@ _LAZY = {
     "HEURISTICS": "_importance", "map_is_estimates": "_importance", "mis_estimates": "_importance",
     "MapSampler": "_map_sampler",
     "proxy_second_moments": "_proxies",
-    "RendererRule": "_rules", "rule_points": "_rules", "STRATEGIES": "_rules",
+    "QuadratureRule": "_rules", "RendererRule": "_rules", "Rule": "_rules",
+    "rule_points": "_rules", "STRATEGIES": "_rules",
     "split_estimates": "_sources", "split_map": "_sources", "SplitResult": "_sources",
 }
 

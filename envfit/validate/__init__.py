@@ -8,7 +8,7 @@ Modules:
   ``report.md`` states.
 * :mod:`~envfit.validate._cells` — The stored quadrature cells of ``envfit validate``: their
   keys, the measured statistics they keep, whether a stored one is current, and the
-  :class:`envfit.predict.Rule` one gives.
+  :class:`envfit.predict.QuadratureRule` one gives.
 * :mod:`~envfit.validate._config` — What ``envfit validate`` runs: :class:`ValidateConfig`,
   the ``--quick`` preset (:func:`quick_config`, :data:`QUICK_DESCRIPTION`) and the named
   sets it draws from.
@@ -22,6 +22,8 @@ Modules:
   integrals on a map (Figs. 7–8).
 * :mod:`~envfit.validate._renderer` — ``envfit validate --renderer``: the renderer
   estimators' predicted RMSE against the measured one.
+* :mod:`~envfit.validate._renderer_results` — What ``envfit validate --renderer`` returns and
+  prints: the cells, their summaries per rule and per lobe, the section and its table.
 * :mod:`~envfit.validate._report` — ``report.md``: a short validation report written from the
   result of ``envfit validate``.
 * :mod:`~envfit.validate._report_conditions` — The judgements of ``report.md``: named
@@ -37,7 +39,7 @@ Modules:
 * :mod:`~envfit.validate._results` — The result of ``envfit validate``:
   :class:`ValidationResult` (its :meth:`~ValidationResult.to_json` is the JSON-ready dict
   the report, the plots, ``--json`` and ``validate.json`` read), and the per-rule entries of
-  ``results`` with every predictor of :data:`envfit.predict.PREDICTORS`.
+  ``results`` with every quadrature-rule predictor of :data:`envfit.predict.PREDICTORS`.
 * :mod:`~envfit.validate._truncation` — The truncation part of ``envfit validate`` (Fig. 8):
   SH truncation at degree L on the full map and all axes, HSH truncation on the map
   downscaled to ``hsh_max_height`` rows and the first ``hsh_axes`` axes, each curve a stored

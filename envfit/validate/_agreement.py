@@ -4,7 +4,7 @@ agreement, equivalent N, and the per-cell verdicts that ``report.md`` states.
 :func:`agreement` is a handful of named steps, each a public function on the ``results``
 entries of :func:`envfit.validate._pipeline.run_validation`: :func:`slope_statistics`,
 :func:`shape_statistics` (prediction (a) and the choice of s), :func:`rank_statistics`,
-:func:`absolute_statistics` (every predictor of :data:`envfit.predict.PREDICTORS`),
+:func:`absolute_statistics` (every predictor of a quadrature rule in :data:`envfit.predict.PREDICTORS`),
 :func:`truncation_statistics` and :func:`acceptance_summary`.
 """
 from __future__ import annotations
@@ -15,7 +15,7 @@ from typing import Sequence
 import numpy as np
 
 from envfit.base._errors import ParameterError
-from envfit.predict import PREDICTORS
+from envfit.predict import QuadratureRule, predictors_for
 
 from envfit.validate._keys import prediction_keys, variant
 
@@ -286,13 +286,14 @@ def _absolute_one(results: list[dict], name: str, lo: int, hi: int, tolerance: f
 
 def absolute_statistics(results: list[dict], lo: int, hi: int,
                         tolerance: float = ABSOLUTE_TOLERANCE) -> dict:
-    """Every predictor of :data:`envfit.predict.PREDICTORS` against the measured RMSE: per
+    """Every predictor of a quadrature rule (:func:`envfit.predict.predictors_for`) against
+    the measured RMSE: per
     rule the ratio predicted/measured per N (with the expected one-map spread where the
     predictor gives one); over all cells and over N ∈ [lo, hi] the median, extremes and
     fraction within ``tolerance``. Keys carry the predictor's suffix
     (:func:`envfit.validate._keys.variant`: ``per_rule``, ``slope_range_refined``, …)."""
     out = {"tolerance": tolerance}
-    for name in PREDICTORS:
+    for name in predictors_for(QuadratureRule):
         out.update(_absolute_one(results, name, lo, hi, tolerance))
     return out
 

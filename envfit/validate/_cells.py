@@ -1,5 +1,5 @@
 r"""The stored quadrature cells of ``envfit validate``: their keys, the measured statistics
-they keep, whether a stored one is current, and the :class:`envfit.predict.Rule` one gives.
+they keep, whether a stored one is current, and the :class:`envfit.predict.QuadratureRule` one gives.
 
 A cell is one (BRDF, point set, weighting, N): the measured RMSE over the axes (total and
 per channel, its relative standard error, the errors' kurtosis), the worst-case error per
@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 from envfit.base._keys import s_key
-from envfit.predict import Rule
+from envfit.predict import QuadratureRule
 from envfit.shading._estimators import rmse_over_axes
 
 from envfit.validate._config import ALL_POINTSETS, BRDF_INDEX
@@ -69,8 +69,8 @@ def cell_is_current(cell: dict | None, band_lmax: int, s_keys) -> bool:
                     for k in s_keys))
 
 
-def rule_from_cell(cell: dict, s_used: float) -> Rule:
-    """The :class:`envfit.predict.Rule` of a stored cell: N, the wce at ``s_used``, the error
+def rule_from_cell(cell: dict, s_used: float) -> QuadratureRule:
+    """The :class:`envfit.predict.QuadratureRule` of a stored cell: N, the wce at ``s_used``, the error
     power and :math:`\\sum_j w_j` (None in a cell whose weights failed).
 
     >>> r = rule_from_cell({"n": 16, "wce": {"1.5000": 0.2}, "error_power": [0.0, 1.0],
@@ -78,5 +78,5 @@ def rule_from_cell(cell: dict, s_used: float) -> Rule:
     >>> r.n, r.wce, r.weight_sum
     (16, 0.2, 1.0)
     """
-    return Rule(n=int(cell["n"]), wce=cell["wce"].get(s_key(s_used)),
+    return QuadratureRule(n=int(cell["n"]), wce=cell["wce"].get(s_key(s_used)),
                 error_power=cell.get("error_power"), weight_sum=cell.get("weight_sum"))

@@ -1,13 +1,14 @@
 r"""``envfit validate --renderer``: the renderer estimators' predicted RMSE against the measured one.
 
 For every lobe (diffuse; glossy with the run's shininess), strategy of
-:data:`envfit.sampling._rules.STRATEGIES` (``brdf``, ``map``, ``mis``, ``split``),
+:data:`envfit.sampling.STRATEGIES` (``brdf``, ``map``, ``mis``, ``split``),
 point set (default random, sobol, sf) and N (default 16, 64, 256, 1024) — one *cell* —:
 
-* **predicted** — :func:`envfit.predict.renderer._predictor.predict_rule` on the warped-integrand spectra
-  of the map (:func:`envfit.predict.renderer._predictor.renderer_model`, one model per lobe, built only
-  for the strategies of the cells still to compute), with its predictor's name
-  (``warped-spectrum`` or ``random-variance``);
+* **predicted** — :func:`envfit.predict.predict` of the rule's renderer predictor
+  (:func:`envfit.predict.renderer_predictor`: ``warped-spectrum`` or ``random-variance``) on
+  a context holding the warped-integrand spectra of the map
+  (:func:`envfit.predict.renderer_model`, one model per lobe, built only for the strategies
+  of the cells still to compute), with the predictor's name;
 * **measured** — :func:`envfit.measure._rules.measure_rule`: the RMSE over uniform
   random axes with its BCa bootstrap 95 % interval, doubling the axes from ``axes_start`` until
   the interval is within ±``target_relative`` (or ``max_axes`` are measured); one seed for
@@ -31,7 +32,8 @@ lobe whose cells are all stored builds no spectra).
 Steps of :func:`run_renderer_validation`: :func:`_prepare` (the sampler and the sources),
 :func:`_stored_cells` (resume), :func:`_models` (the spectra the missing cells need),
 :func:`_compute_cell` for each missing cell, :func:`summarize_rules` /
-:func:`summarize_lobes`.
+:func:`summarize_lobes`. The result objects and the printed table are in
+:mod:`envfit.validate._renderer_results`.
 
 Example
 -------
@@ -53,7 +55,7 @@ from __future__ import annotations
 import math
 import time
 from concurrent.futures import ThreadPoolExecutor, as_completed
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass
 from typing import Callable, Sequence
 
 from envfit.base._checks import check_int, check_ints, check_names, check_positive
@@ -62,12 +64,16 @@ from envfit.base._progress import progress_bar
 from envfit.base._resources import machine_cores
 from envfit.base._store import ResultStore, array_fingerprint
 from envfit.maps._envmap import EnvMap
-from envfit.predict.renderer._predictor import predict_rule, renderer_model
+from envfit.predict import PredictionContext, predict, renderer_model, renderer_predictor
 from envfit.measure._adaptive_rmse import agreement_with_interval
 from envfit.measure._rules import AXIS_SAMPLING, RendererSetup, measure_rule
-from envfit.sampling._rules import STRATEGIES, RendererRule
+from envfit.sampling import STRATEGIES, RendererRule
 from envfit.theory._pointsets import POINTSETS
 
+from envfit.validate._renderer_results import (RendererCell, RendererLobeSummary,
+                                               RendererRuleSummary, RendererValidation,
+                                               summarize_lobes, summarize_rules, summary_lines,
+                                               worst_ratio)
 from envfit.defaults import (BRDFS, DEFAULT_SHININESS, QUICK_RENDERER_GRID, QUICK_SPECTRUM_AXES,
                              RENDERER_AXES_START, RENDERER_GRID, RENDERER_MAX_AXES,
                              VALIDATE_RENDERER_POINTSETS, VALIDATE_SPECTRUM_AXES)
@@ -94,7 +100,7 @@ class RendererValidationConfig:
 
     Attributes
     ----------
-    strategies : of :data:`envfit.sampling._rules.STRATEGIES`.
+    strategies : of :data:`envfit.sampling.STRATEGIES`.
     pointsets : of :data:`envfit.theory._pointsets.POINTSETS` (default random, sobol, sf).
     lobes, shininess : "diffuse" and/or "glossy" (n = ``shininess``).
     n_values : the sample counts N ≥ 2.
@@ -184,213 +190,11 @@ def renderer_config(quick: bool = False, **overrides) -> RendererValidationConfi
     return renderer_quick_config(**over) if quick else RendererValidationConfig(**over)
 
 
-# ----------------------------------------------------------------------------- results
+# ----------------------------------------------------------------------------- the steps
 
 def _finite_or_none(x):
     return None if x is None or not math.isfinite(x) else float(x)
 
-
-@dataclass
-class RendererCell:
-    """One lobe × strategy × point set × N: predicted and measured RMSE, their agreement.
-
-    ``measured_low``/``measured_high`` the 95 % interval, ``axes`` how many were measured,
-    ``target_met`` whether the interval reached ±``target_relative``; ``ratio`` =
-    predicted/measured (None if undefined); ``within_band``, ``inside_interval``, ``agrees``
-    (either) as :class:`envfit.measure._adaptive_rmse.Agreement`; ``settings``
-    (:meth:`RendererValidationConfig.cell_settings`); seconds of the prediction and the
-    measurement; ``resumed`` whether it was read from the store; ``axis_sampling`` how its
-    axes were drawn ("importance" or "uniform"; records older than the field: "uniform").
-    """
-
-    lobe: str
-    strategy: str
-    pointset: str
-    n: int
-    predictor: str
-    predicted_rmse: float
-    measured_rmse: float
-    measured_low: float
-    measured_high: float
-    relative_half_width: float
-    axes: int
-    target_met: bool
-    interval_method: str
-    ratio: float | None
-    within_band: bool
-    inside_interval: bool
-    agrees: bool
-    settings: dict
-    seconds_predict: float = 0.0
-    seconds_measure: float = 0.0
-    resumed: bool = False
-    axis_sampling: str = "uniform"
-
-    @property
-    def rule_label(self) -> str:
-        """``strategy/pointset``."""
-        return f"{self.strategy}/{self.pointset}"
-
-    def to_json(self) -> dict:
-        return {f.name: getattr(self, f.name) for f in fields(self)}
-
-    @classmethod
-    def from_json(cls, d: dict) -> "RendererCell":
-        return cls(**{f.name: d[f.name] for f in fields(cls) if f.name in d})
-
-
-@dataclass
-class RendererRuleSummary:
-    """One lobe × strategy × point set over its N: median ratio, fraction of cells that
-    agree, the worst ratio (farthest from 1 in log) and the N where it occurs."""
-
-    lobe: str
-    strategy: str
-    pointset: str
-    cells: int
-    median_ratio: float | None
-    fraction_agree: float
-    worst_ratio: float | None
-    worst_n: int | None
-
-    def to_json(self) -> dict:
-        return asdict(self)
-
-
-@dataclass
-class RendererLobeSummary:
-    """All cells of one lobe: median ratio, fraction that agree, worst ratio and its rule;
-    ``lowest_by_n``: per N the strategy with the lowest measured RMSE (at its best point set)
-    and the runner-up strategy (None when only one strategy was measured)."""
-
-    lobe: str
-    cells: int
-    median_ratio: float | None
-    fraction_agree: float
-    worst_ratio: float | None
-    worst_rule: str | None
-    worst_n: int | None
-    lowest_by_n: list[dict] = field(default_factory=list)
-
-    def to_json(self) -> dict:
-        return asdict(self)
-
-
-@dataclass
-class RendererValidation:
-    """What :func:`run_renderer_validation` returns; ``to_json()`` is the ``renderer``
-    section of ``envfit validate``'s JSON, :meth:`from_json` reads it back."""
-
-    map: str
-    map_size: list[int]
-    scale: str
-    config: dict
-    sources: list[dict]
-    cells: list[RendererCell]
-    rules: list[RendererRuleSummary]
-    lobes: list[RendererLobeSummary]
-    timings: dict
-    resumed_cells: int = 0
-
-    def to_json(self) -> dict:
-        return {"map": self.map, "map_size": list(self.map_size), "scale": self.scale,
-                "config": self.config, "sources": self.sources,
-                "cells": [c.to_json() for c in self.cells],
-                "rules": [r.to_json() for r in self.rules],
-                "lobes": [x.to_json() for x in self.lobes], "timings": self.timings,
-                "resumed_cells": self.resumed_cells}
-
-    @classmethod
-    def from_json(cls, d: dict) -> "RendererValidation":
-        return cls(map=d["map"], map_size=list(d["map_size"]), scale=d["scale"],
-                   config=d["config"], sources=d["sources"],
-                   cells=[RendererCell.from_json(c) for c in d["cells"]],
-                   rules=[RendererRuleSummary(**r) for r in d["rules"]],
-                   lobes=[RendererLobeSummary(**x) for x in d["lobes"]], timings=d["timings"],
-                   resumed_cells=int(d.get("resumed_cells", 0)))
-
-    def cell(self, lobe: str, strategy: str, pointset: str, n: int) -> RendererCell:
-        """The cell of one rule and N; KeyError if none."""
-        for c in self.cells:
-            if (c.lobe, c.strategy, c.pointset, c.n) == (lobe, strategy, pointset, int(n)):
-                return c
-        raise KeyError(f"no renderer cell {lobe}/{strategy}/{pointset}/{n}")
-
-
-# ----------------------------------------------------------------------------- summaries
-
-def _median(xs: list[float]) -> float | None:
-    xs = sorted(x for x in xs if x is not None)
-    if not xs:
-        return None
-    k = len(xs) // 2
-    return xs[k] if len(xs) % 2 else 0.5 * (xs[k - 1] + xs[k])
-
-
-def worst_ratio(cells: Sequence[RendererCell]) -> RendererCell | None:
-    """The cell whose ratio is farthest from 1 in log (a ratio of 0 is the farthest; cells
-    without a ratio are skipped).
-
-    >>> cs = [RendererCell("diffuse", "map", "sf", n, "warped-spectrum", r, 1.0, 0.9, 1.1, 0.1,
-    ...                    100, True, "bca", r, True, True, True, {}) for n, r in ((16, 1.3), (64, 0.7))]
-    >>> worst_ratio(cs).n
-    64
-    """
-    ok = [c for c in cells if c.ratio is not None]
-    if not ok:
-        return None
-    return max(ok, key=lambda c: math.inf if c.ratio <= 0 else abs(math.log(c.ratio)))
-
-
-def summarize_rules(cells: Sequence[RendererCell]) -> list[RendererRuleSummary]:
-    """One :class:`RendererRuleSummary` per lobe × strategy × point set, in the cells' order."""
-    groups: dict[tuple, list[RendererCell]] = {}
-    for c in cells:
-        groups.setdefault((c.lobe, c.strategy, c.pointset), []).append(c)
-    out = []
-    for (lobe, strategy, pointset), cs in groups.items():
-        w = worst_ratio(cs)
-        out.append(RendererRuleSummary(
-            lobe, strategy, pointset, len(cs), _median([c.ratio for c in cs]),
-            sum(c.agrees for c in cs) / len(cs), None if w is None else w.ratio,
-            None if w is None else w.n))
-    return out
-
-
-def _lowest_by_n(cells: Sequence[RendererCell]) -> list[dict]:
-    """Per N: the strategy with the lowest measured RMSE (its best point set) and the runner-up."""
-    out = []
-    for n in sorted({c.n for c in cells}):
-        best: dict[str, RendererCell] = {}
-        for c in cells:
-            if c.n == n and (c.strategy not in best or c.measured_rmse < best[c.strategy].measured_rmse):
-                best[c.strategy] = c
-        ranked = sorted(best.values(), key=lambda c: c.measured_rmse)
-        out.append({"n": n, "lowest": _lowest_entry(ranked[0]),
-                    "runner_up": _lowest_entry(ranked[1] if len(ranked) > 1 else None)})
-    return out
-
-
-def _lowest_entry(c: RendererCell | None) -> dict | None:
-    return None if c is None else {
-        "strategy": c.strategy, "pointset": c.pointset, "measured_rmse": c.measured_rmse,
-        "measured_low": c.measured_low, "measured_high": c.measured_high}
-
-
-def summarize_lobes(cells: Sequence[RendererCell]) -> list[RendererLobeSummary]:
-    """One :class:`RendererLobeSummary` per lobe, in the cells' order."""
-    out = []
-    for lobe in dict.fromkeys(c.lobe for c in cells):
-        cs = [c for c in cells if c.lobe == lobe]
-        w = worst_ratio(cs)
-        out.append(RendererLobeSummary(
-            lobe, len(cs), _median([c.ratio for c in cs]), sum(c.agrees for c in cs) / len(cs),
-            None if w is None else w.ratio, None if w is None else w.rule_label,
-            None if w is None else w.n, _lowest_by_n(cs)))
-    return out
-
-
-# ----------------------------------------------------------------------------- the steps
 
 def renderer_cell_key(lobe: str, strategy: str, pointset: str, n: int) -> str:
     """The store key of a renderer cell.
@@ -451,7 +255,8 @@ def _compute_cell(setup: RendererSetup, model, cfg: RendererValidationConfig, lo
                   rule: RendererRule) -> RendererCell:
     """Step 4 for one cell: the prediction, the measurement and their agreement."""
     t0 = time.perf_counter()
-    pred = predict_rule(model, rule)            # point seed 0: the sets measure_rule uses
+    # point seed 0: the sets measure_rule uses
+    pred = predict(renderer_predictor(rule), PredictionContext(renderer=model), rule)
     t1 = time.perf_counter()
     meas = measure_rule(setup, rule, lobe, cfg.shininess, seed=cfg.seed,
                         target_relative=cfg.target_relative, axes_start=cfg.axes_start,
@@ -509,11 +314,8 @@ def run_renderer_validation(envmap: EnvMap, config: RendererValidationConfig | N
         t0 = time.perf_counter()
         setup, sources = _prepare(envmap)
         timings = {"setup": time.perf_counter() - t0}
-        rules = _all_rules(cfg)
         stored = _stored_cells(store, cfg)
-        todo = [(lb, r) for lb, r in rules
-                if renderer_cell_key(lb, r.strategy, r.pointset, r.n) not in stored]
-        cells = _run_cells(setup, cfg, store, rules, stored, todo, timings, quiet, on_cell)
+        cells = _run_cells(setup, cfg, store, stored, timings, quiet, on_cell)
     finally:
         if own:
             store.close()
@@ -528,9 +330,12 @@ def run_renderer_validation(envmap: EnvMap, config: RendererValidationConfig | N
                               resumed_cells=len(stored))
 
 
-def _run_cells(setup, cfg, store, rules, stored, todo, timings, quiet, on_cell):
+def _run_cells(setup, cfg, store, stored, timings, quiet, on_cell):
     """Steps 3–4 under one progress bar: the resumed cells, the spectra, the missing cells
-    (each stored as soon as it is done); the cells in the order of ``rules``."""
+    (each stored as soon as it is done); the cells in the order of :func:`_all_rules`."""
+    rules = _all_rules(cfg)
+    todo = [(lb, r) for lb, r in rules
+            if renderer_cell_key(lb, r.strategy, r.pointset, r.n) not in stored]
     bar = progress_bar(len(rules), desc="validate: renderer", quiet=quiet, unit="cell")
     try:
         for key in stored:
@@ -567,36 +372,3 @@ def _run_cells(setup, cfg, store, rules, stored, todo, timings, quiet, on_cell):
     timings["measure"] = sum(c.seconds_measure for c in done.values())
     all_cells = {**stored, **done}
     return [all_cells[renderer_cell_key(lb, r.strategy, r.pointset, r.n)] for lb, r in rules]
-
-
-# ----------------------------------------------------------------------------- printing
-
-def _g(v, fmt=".4g"):
-    return "–" if v is None else format(v, fmt)
-
-
-def summary_lines(renderer: dict) -> list[str]:
-    """The compact table (rule, N, predicted, measured [low, high], ratio, agrees) and the
-    per-rule summary of a ``renderer`` JSON section, as printed by ``envfit validate``."""
-    lines = [f"renderer rules on {renderer['map']} ({renderer['scale']} scale): predicted vs "
-             "measured RMSE (95 % interval)",
-             f"  {'rule':22s} {'N':>5s} {'predicted':>10s} {'measured [low, high]':>32s} "
-             f"{'ratio':>6s} agrees"]
-    for c in renderer["cells"]:
-        rule = f"{c['lobe']} {c['strategy']}/{c['pointset']}"
-        meas = f"{_g(c['measured_rmse'])} [{_g(c['measured_low'])}, {_g(c['measured_high'])}]"
-        flag = "yes" if c["agrees"] else "NO"
-        if not c["target_met"]:
-            flag += " (interval > target)"
-        lines.append(f"  {rule:22s} {c['n']:5d} {_g(c['predicted_rmse']):>10s} {meas:>32s} "
-                     f"{_g(c['ratio'], '.2f'):>6s} {flag}")
-    lines.append("per rule: median ratio, cells that agree, worst ratio (at N)")
-    for r in renderer["rules"]:
-        lines.append(f"  {r['lobe'] + ' ' + r['strategy'] + '/' + r['pointset']:22s} "
-                     f"{_g(r['median_ratio'], '.2f'):>6s} {r['fraction_agree']:5.0%} "
-                     f"{_g(r['worst_ratio'], '.2f'):>6s} (N = {_g(r['worst_n'], 'd')})")
-    for s in renderer["sources"]:
-        d = ", ".join(f"{x:+.2f}" for x in s["direction"])
-        lines.append(f"split off: source at ({d}), {s['solid_angle']:.3g} sr, "
-                     f"{s['share']:.0%} of the power")
-    return lines

@@ -1,6 +1,7 @@
 r"""The result of ``envfit validate``: :class:`ValidationResult` (its :meth:`~ValidationResult.to_json`
 is the JSON-ready dict the report, the plots, ``--json`` and ``validate.json`` read), and the
-per-rule entries of ``results`` with every predictor of :data:`envfit.predict.PREDICTORS`.
+per-rule entries of ``results`` with every quadrature-rule predictor of
+:data:`envfit.predict.PREDICTORS`.
 """
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ import numpy as np
 from envfit.base._html import html_result
 from envfit.base._keys import s_key
 from envfit.maps._envmap import EnvMap
-from envfit.predict import PREDICTORS, PredictionContext
+from envfit.predict import PredictionContext, QuadratureRule, predict, predictors_for
 
 from envfit.validate._agreement import loglog_slope, measured_equivalent_n
 from envfit.validate._cells import rule_from_cell
@@ -48,6 +49,10 @@ class ValidationResult:
     unwritten : [key, reason] of the cells that could not be written (resumability lost).
     renderer : the ``--renderer`` section (:meth:`envfit.validate._renderer.RendererValidation.to_json`:
         config, sources, cells, per-rule and per-lobe summaries, timings), or None.
+    verdicts : every statement ``report.md`` makes on this result, as data
+        (:func:`envfit.validate._report_verdicts.report_verdicts`, each
+        :meth:`~envfit.validate._report_predicates.Verdict.to_json`: section, bullet,
+        statement, holds, values, inputs).
     """
 
     map: str
@@ -77,6 +82,7 @@ class ValidationResult:
     notes: list[str] = field(default_factory=list)
     unwritten: list[list] = field(default_factory=list)
     renderer: dict | None = None
+    verdicts: list[dict] = field(default_factory=list)
 
     def to_json(self) -> dict:
         """The JSON-ready dict (every field, in order; the nested values are shared, not
@@ -109,10 +115,11 @@ class ValidationResult:
 
 
 def _predictions(rules, ctx: PredictionContext) -> dict:
-    """Every predictor of :data:`PREDICTORS` for each rule: {result key: list over N}."""
+    """Every predictor of a quadrature rule (:func:`envfit.predict.predictors_for`) for each
+    rule, by :func:`envfit.predict.predict`: {result key: list over N}."""
     out = {}
-    for name, predictor in PREDICTORS.items():
-        preds = [predictor(ctx, r) for r in rules]
+    for name in predictors_for(QuadratureRule):
+        preds = [predict(name, ctx, r) for r in rules]
         for attr, key in prediction_keys(name).items():
             out[key] = [getattr(p, attr) for p in preds]
     return out

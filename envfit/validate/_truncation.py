@@ -11,7 +11,7 @@ from typing import Sequence
 import numpy as np
 
 from envfit.base._progress import progress_bar
-from envfit.predict import PREDICTORS, PredictionContext, Rule
+from envfit.predict import PredictionContext, QuadratureRule, predict
 from envfit.shading._estimators import hsh_truncation_curve, rmse_over_axes, sh_truncation_curve
 from envfit.shading._ground_truth import shading_integral, weight_function
 from envfit.shading._spectra import sh_truncation_curve_transfer
@@ -85,7 +85,7 @@ def _predict_curve(cell: dict, ctx: PredictionContext) -> dict:
     :math:`b_0` exactly: its rule has no weights, so (b′) has no mean term)."""
     cell = dict(cell)
     for name, key in TRUNCATION_PREDICTIONS.items():
-        cell[key] = [PREDICTORS[name](ctx, Rule(n=L, wce=w, wce_bandlimited=wb)).rmse
+        cell[key] = [predict(name, ctx, QuadratureRule(n=L, wce=w, wce_bandlimited=wb)).rmse
                      for L, w, wb in zip(cell["L"], cell["predicted_wce"],
                                          cell["predicted_wce_bandlimited"])]
     return cell

@@ -4,7 +4,8 @@ beyond the box, and the predictor of a renderer rule's RMSE.
 Modules:
 
 * :mod:`~envfit.predict.renderer._predictor` — Prediction of the renderer rules' RMSE
-  (:mod:`envfit.sampling._rules`) from the map.
+  (:class:`envfit.sampling.RendererRule`) from the map: the predictors ``random-variance``
+  and ``warped-spectrum`` of :data:`envfit.predict.PREDICTORS`.
 * :mod:`~envfit.predict.renderer._spectral_tail` — The error of a shifted point set from the
   warped integrand's power *above the box*, with the strips along the axes of frequency
   space resolved.
@@ -23,6 +24,8 @@ from envfit.base._lazy import lazy_exports
 _LAZY = {
     "predict_rule": "_predictor", "renderer_model": "_predictor",
     "RENDERER_PREDICTORS": "_predictor", "RendererModel": "_predictor",
+    "predict_random_variance": "_predictor", "predict_warped_spectrum": "_predictor",
+    "renderer_predictor": "_predictor",
     "strip_tail": "_spectral_tail",
     "shifted_rmse": "_warped_spectrum", "WarpedSpectrum": "_warped_spectrum",
 }
