@@ -10,8 +10,10 @@ digit, so :math:`x^{(d)}_j = 2^{-32}\,\mathrm{XOR}_{t:\,j_t = 1} v_t`.
   ``include/mitsuba/core/qmc.h``: ``radical_inverse_2``; pbrt ``SobolMatrices32`` dimension 0)
   and :math:`u_2` Sobol's second dimension, the Pascal matrix mod 2 (:math:`v_0 = 2^{31}`,
   :math:`v_{t+1} = v_t \oplus (v_t \gg 1)`; Mitsuba ``qmc.h``: ``sobol_2``; pbrt
-  ``src/pbrt/util/primes.cpp``/``sobolmatrices.cpp``: ``SobolMatrices32`` dimension 1:
-  0x80000000, 0xc0000000, 0xa0000000, 0xf0000000, 0x88000000, …). Its first 2^m points are a
+  ``src/pbrt/util/sobolmatrices.cpp``: ``SobolMatrices32``, dimension 0 the identity
+  columns 0x80000000, 0x40000000, …, dimension 1 0x80000000, 0xc0000000, 0xa0000000,
+  0xf0000000, 0x88000000, … — Joe & Kuo's table, read there; pbrt's ``SobolSample`` XORs
+  these columns as here). Its first 2^m points are a
   (0, m, 2)-net.
 
 The dual net (Dick & Pillichshammer 2010, Def. 4.76): with :math:`\mathrm{tr}_m(k)` the digit
