@@ -46,10 +46,13 @@ Example
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from scipy import special
 
-__all__ = ["strip_tail", "strip_fits", "strip_exp_sums", "STRIP_HALF_WIDTH", "STRIP_LENGTH_MAX"]
+__all__ = ["strip_tail", "strip_fits", "strip_exp_sums", "StripFit", "STRIP_HALF_WIDTH",
+           "STRIP_LENGTH_MAX"]
 
 #: w: the strips are the rows |k_⊥| ≤ w beside each axis
 STRIP_HALF_WIDTH = 3
@@ -91,6 +94,20 @@ def strip_exp_sums(u: np.ndarray, length: int, half_width: int) -> tuple[np.ndar
     return out[0], out[1]
 
 
+@dataclass(frozen=True)
+class StripFit:
+    r"""The power law :math:`c\,k^{-\alpha}` of one ray of the strips: ``kind`` "row" (along
+    :math:`k_0` at :math:`k_1` = ``perp``, ``sign`` ±1 the direction) or "col" (along
+    :math:`k_1 > 0` at :math:`k_0` = ``perp``), counted ``weight`` times (its mirror image)."""
+
+    weight: float
+    kind: str
+    perp: int
+    sign: int
+    c: float
+    alpha: float
+
+
 def _rays(power: np.ndarray, band: int, w: int):
     """The strips' rays of the half box: (in-box profile at k = 1..B, weight, kind, k_⊥, sign)."""
     k = np.arange(1, band + 1)
@@ -127,10 +144,10 @@ def _power_law(profile: np.ndarray, band: int):
     return s2 / float(np.sum(k[hi] ** -alpha)), float(alpha)
 
 
-def strip_fits(power: np.ndarray, half_width: int = STRIP_HALF_WIDTH) -> list:
-    """(weight, kind, k_⊥, sign, c, α) of every ray of the strips with a power law, for a
-    half-box ``power`` (2B+1, B+1); they depend on the spectrum only, so a spectrum fits them
-    once for all its point sets (:attr:`WarpedSpectrum.strip_fits`)."""
+def strip_fits(power: np.ndarray, half_width: int = STRIP_HALF_WIDTH) -> list[StripFit]:
+    """The :class:`StripFit` of every ray of the strips with a power law, for a half-box
+    ``power`` (2B+1, B+1); they depend on the spectrum only, so a spectrum fits them once for
+    all its point sets (:attr:`envfit.predict.renderer.WarpedSpectrum.strip_fits`)."""
     power = np.asarray(power, dtype=np.float64)
     band = power.shape[1] - 1
     w = min(int(half_width), band // 2)
@@ -138,7 +155,7 @@ def strip_fits(power: np.ndarray, half_width: int = STRIP_HALF_WIDTH) -> list:
     for profile, weight, kind, perp, sign in _rays(power, band, w):
         fit = _power_law(profile, band)
         if fit is not None:
-            out.append((weight, kind, perp, sign) + fit)
+            out.append(StripFit(weight, kind, perp, sign, *fit))
     return out
 
 
@@ -168,12 +185,12 @@ def strip_tail(power: np.ndarray, variance: float, u: np.ndarray, *,
     terms, total = [], 0.0
     if fits is None:
         fits = strip_fits(power, half_width)
-    for weight, kind, perp, sign, c, alpha in fits:
-        total += weight * c * float(special.zeta(alpha, band + 1))
-        s = rows[K + sign * k, w + perp] if kind == "row" else cols[w + perp, K + k]
-        terms.append((weight, c, alpha, float(np.sum(kf ** -alpha * np.abs(s) ** 2))))
+    for f in fits:
+        total += f.weight * f.c * float(special.zeta(f.alpha, band + 1))
+        s = rows[K + f.sign * k, w + f.perp] if f.kind == "row" else cols[w + f.perp, K + k]
+        terms.append((f, float(np.sum(kf ** -f.alpha * np.abs(s) ** 2))))
     scale = min(1.0, above / total) if total > 0 else 0.0
-    strips = sum(wt * c * scale * (inside + float(special.zeta(a, K + 1)) / n)
-                 for wt, c, a, inside in terms)
+    strips = sum(f.weight * f.c * scale * (inside + float(special.zeta(f.alpha, K + 1)) / n)
+                 for f, inside in terms)
     return {"strips": float(strips), "rest": (above - scale * total) / n,
             "strip_power": float(scale * total), "above": above}
