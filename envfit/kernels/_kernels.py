@@ -41,6 +41,8 @@ True
 """
 from __future__ import annotations
 
+from collections import namedtuple
+
 import numpy as np
 from llvmlite import ir
 from numba import njit, prange, types
@@ -48,7 +50,7 @@ from numba.extending import intrinsic
 
 __all__ = ["fast_pow", "power_kind", "KIND_GENERIC", "KIND_SQRT",
            "fill_kernel_matrix", "power_sums_1", "power_sums_3", "power_block",
-           "near_field_correction", "pow_array", "local_lagrange"]
+           "near_field_correction", "NearCells", "NearLaw", "pow_array", "local_lagrange"]
 
 #: generic exponent: :func:`fast_pow`
 KIND_GENERIC = 0
@@ -267,19 +269,31 @@ def power_block(q, px, py, pz, a, kind, out):
 _NEAR_BUFFER = 128
 _NEAR_BLOCK = 64
 
+#: the near field's cell list as the kernel reads it: nodes sorted by the cell of a uniform
+#: 3-D grid of side ``h >= delta`` (``ngrid`` cells per axis over [-1, 1], z fastest),
+#: ``cell_start`` (ngrid^3 + 1) the CSR offsets of the cells, ``px, py, pz`` the sorted nodes
+NearCells = namedtuple("NearCells", "h ngrid cell_start px py pz")
+#: the near zone's law: pairs with ``d2 < delta2`` get ``d2^a - S(d2)``, ``a`` with its
+#: :func:`power_kind` ``kind``, ``S(d2) = sum_k cheb[k] T_k(2 d2 / delta2 - 1)``
+NearLaw = namedtuple("NearLaw", "delta2 a kind cheb")
+#: a thread's buffer of candidate pairs: squared distances, node indices, and the two
+#: Clenshaw registers (each of length ``_NEAR_BUFFER + 1``)
+_NearBuffer = namedtuple("_NearBuffer", "d2 k b1 b2")
+
 
 @njit(inline="always", **_OPTS)
-def _flush_near(nb, bd2, bk, b1, b2, sw, a, kind, cheb, scale, acc):
-    """acc[c] += sum_t (d2_t^a - S(d2_t)) sw[k_t, c] over the buffered near pairs.
+def _flush_near(nb, buf, sw, law, scale, acc):
+    """acc[c] += sum_t (d2_t^a - S(d2_t)) sw[k_t, c] over the ``nb`` buffered near pairs.
 
     Loops run over the buffer (vectorised), the Clenshaw recurrence for S one coefficient
     at a time across all pairs (throughput- instead of latency-bound).
     """
-    nk = cheb.shape[0]
+    bd2, bk, b1, b2 = buf.d2, buf.k, buf.b1, buf.b2
+    cheb = law.cheb
     for t in range(nb):
         b1[t] = 0.0
         b2[t] = 0.0
-    for k in range(nk - 1, 0, -1):
+    for k in range(cheb.shape[0] - 1, 0, -1):
         ck = cheb[k]
         for t in range(nb):
             y2 = 2.0 * (bd2[t] * scale - 1.0)
@@ -289,7 +303,7 @@ def _flush_near(nb, bd2, bk, b1, b2, sw, a, kind, cheb, scale, acc):
     c0 = cheb[0]
     for t in range(nb):
         x = bd2[t]
-        b1[t] = _power(x, a, kind) - ((x * scale - 1.0) * b1[t] - b2[t] + c0)
+        b1[t] = _power(x, law.a, law.kind) - ((x * scale - 1.0) * b1[t] - b2[t] + c0)
     for c in range(sw.shape[1]):
         s = 0.0
         for t in range(nb):
@@ -297,61 +311,120 @@ def _flush_near(nb, bd2, bk, b1, b2, sw, a, kind, cheb, scale, acc):
         acc[c] += s
 
 
+@njit(inline="always", **_OPTS)
+def _near_of_query(qx, qy, qz, cells, sw, law, buf, acc):
+    """acc[c] = sum over the nodes closer than delta to q of sw[k, c] (d2^a - S(d2)).
+
+    Every such node lies in the 27 cells around q's cell (9 contiguous runs of 3 cells);
+    candidates are compacted branch-free into ``buf`` and flushed in vectorised passes.
+    """
+    ngrid, cell_start = cells.ngrid, cells.cell_start
+    spx, spy, spz = cells.px, cells.py, cells.pz
+    bd2, bk = buf.d2, buf.k
+    delta2 = law.delta2
+    scale = 2.0 / delta2
+    inv_h = 1.0 / cells.h
+    cx = min(int((qx + 1.0) * inv_h), ngrid - 1)
+    cy = min(int((qy + 1.0) * inv_h), ngrid - 1)
+    cz = min(int((qz + 1.0) * inv_h), ngrid - 1)
+    for c in range(acc.shape[0]):
+        acc[c] = 0.0
+    nb = 0
+    for ix in range(max(cx - 1, 0), min(cx + 2, ngrid)):
+        for iy in range(max(cy - 1, 0), min(cy + 2, ngrid)):
+            base = (ix * ngrid + iy) * ngrid
+            for k in range(cell_start[base + max(cz - 1, 0)], cell_start[base + min(cz + 2, ngrid)]):
+                dx = qx - spx[k]
+                dy = qy - spy[k]
+                dz = qz - spz[k]
+                d2 = dx * dx + dy * dy + dz * dz
+                bd2[nb] = d2
+                bk[nb] = k
+                if d2 < delta2:
+                    nb += 1
+                    if nb == _NEAR_BUFFER:
+                        _flush_near(nb, buf, sw, law, scale, acc)
+                        nb = 0
+    if nb > 0:
+        _flush_near(nb, buf, sw, law, scale, acc)
+
+
 @njit(parallel=True, **_OPTS)
-def near_field_correction(q, h, ngrid, cell_start, spx, spy, spz, sw, delta2, a, kind,
-                          cheb, out):
+def near_field_correction(q, cells, sw, law, out):
     """Near-field part of the near/far split (see ``envfit.kernels._nearfar.FarFieldExpansion``).
 
     ``out[i, c] = sum_{j: d2_ij < delta2} sw[j, c] (d2_ij^a - S(d2_ij))`` where
     ``S(d2) = sum_k cheb[k] T_k(2 d2 / delta2 - 1)`` is the far-field polynomial restricted
-    to the near zone.  Nodes are sorted by cell of a uniform 3-D grid of side ``h >= delta``
-    (``ngrid`` cells per axis over [-1, 1], z fastest); ``cell_start`` (ngrid^3 + 1) are CSR
-    offsets. Every node closer than ``delta`` to ``q_i`` lies in the 27 cells around
-    q_i's cell (9 contiguous runs of 3 cells). Candidates are compacted branch-free into a
-    small buffer that is processed in vectorised passes.
+    to the near zone (``law``, a :data:`NearLaw`), over the nodes of the cell list ``cells``
+    (a :data:`NearCells`; ``sw`` their weights in the same order). Queries run in blocks of
+    ``_NEAR_BLOCK`` per thread, each with one candidate buffer (:func:`_near_of_query`).
     """
     m = q.shape[0]
     nc = sw.shape[1]
-    inv_h = 1.0 / h
-    scale = 2.0 / delta2
     nblocks = (m + _NEAR_BLOCK - 1) // _NEAR_BLOCK
     for blk in prange(nblocks):
-        bd2 = np.empty(_NEAR_BUFFER + 1)
-        bk = np.empty(_NEAR_BUFFER + 1, dtype=np.int64)
-        b1 = np.empty(_NEAR_BUFFER + 1)
-        b2 = np.empty(_NEAR_BUFFER + 1)
+        buf = _NearBuffer(np.empty(_NEAR_BUFFER + 1), np.empty(_NEAR_BUFFER + 1, dtype=np.int64),
+                          np.empty(_NEAR_BUFFER + 1), np.empty(_NEAR_BUFFER + 1))
         acc = np.empty(nc)
         for i in range(blk * _NEAR_BLOCK, min(m, (blk + 1) * _NEAR_BLOCK)):
-            qx = q[i, 0]
-            qy = q[i, 1]
-            qz = q[i, 2]
-            cx = min(int((qx + 1.0) * inv_h), ngrid - 1)
-            cy = min(int((qy + 1.0) * inv_h), ngrid - 1)
-            cz = min(int((qz + 1.0) * inv_h), ngrid - 1)
-            for c in range(nc):
-                acc[c] = 0.0
-            nb = 0
-            for ix in range(max(cx - 1, 0), min(cx + 2, ngrid)):
-                for iy in range(max(cy - 1, 0), min(cy + 2, ngrid)):
-                    base = (ix * ngrid + iy) * ngrid
-                    k0 = cell_start[base + max(cz - 1, 0)]
-                    k1 = cell_start[base + min(cz + 2, ngrid)]
-                    for k in range(k0, k1):
-                        dx = qx - spx[k]
-                        dy = qy - spy[k]
-                        dz = qz - spz[k]
-                        d2 = dx * dx + dy * dy + dz * dz
-                        bd2[nb] = d2
-                        bk[nb] = k
-                        if d2 < delta2:
-                            nb += 1
-                            if nb == _NEAR_BUFFER:
-                                _flush_near(nb, bd2, bk, b1, b2, sw, a, kind, cheb, scale, acc)
-                                nb = 0
-            if nb > 0:
-                _flush_near(nb, bd2, bk, b1, b2, sw, a, kind, cheb, scale, acc)
+            _near_of_query(q[i, 0], q[i, 1], q[i, 2], cells, sw, law, buf, acc)
             for c in range(nc):
                 out[i, c] = acc[c]
+
+
+@njit(inline="always", **_OPTS)
+def _local_matrix(m, nbi, pts, a, kind, c):
+    """Lower triangle of :math:`K_{loc} = c - |p_a - p_b|^{2a}` over the neighbours ``nbi``."""
+    px, py, pz = pts
+    k = nbi.shape[0]
+    for jj in range(k):
+        j = nbi[jj]
+        m[jj, jj] = c
+        for ll in range(jj + 1, k):
+            l2 = nbi[ll]
+            dx = px[j] - px[l2]
+            dy = py[j] - py[l2]
+            dz = pz[j] - pz[l2]
+            m[ll, jj] = c - _power(dx * dx + dy * dy + dz * dz, a, kind)
+
+
+@njit(inline="always", **_OPTS)
+def _cholesky_lower(m):
+    """In-place Cholesky factor of the lower triangle of ``m`` (column by column)."""
+    k = m.shape[0]
+    for jj in range(k):
+        d = m[jj, jj]
+        for t in range(jj):
+            d -= m[jj, t] * m[jj, t]
+        d = np.sqrt(d)
+        m[jj, jj] = d
+        for ll in range(jj + 1, k):
+            acc = m[ll, jj]
+            for t in range(jj):
+                acc -= m[ll, t] * m[jj, t]
+            m[ll, jj] = acc / d
+
+
+@njit(inline="always", **_OPTS)
+def _cholesky_solve_two(m, u, v):
+    """u, v <- (L L^T)^{-1} u, (L L^T)^{-1} v in place, L the lower triangle of ``m``."""
+    k = m.shape[0]
+    for jj in range(k):
+        su = u[jj]
+        sv = v[jj]
+        for t in range(jj):
+            su -= m[jj, t] * u[t]
+            sv -= m[jj, t] * v[t]
+        u[jj] = su / m[jj, jj]
+        v[jj] = sv / m[jj, jj]
+    for jj in range(k - 1, -1, -1):
+        su = u[jj]
+        sv = v[jj]
+        for t in range(jj + 1, k):
+            su -= m[t, jj] * u[t]
+            sv -= m[t, jj] * v[t]
+        u[jj] = su / m[jj, jj]
+        v[jj] = sv / m[jj, jj]
 
 
 @njit(parallel=True, **_OPTS)
@@ -360,56 +433,21 @@ def local_lagrange(px, py, pz, nb, a, kind, c, out):
     preconditioner, :mod:`envfit.kernels._iterative`).
 
     For node i with neighbours ``nb[i]`` (k indices, ``nb[i, 0] = i``):
-    :math:`K_{loc} = c - |p_a - p_b|^{2a}` (k x k, SPD), Cholesky in place,
-    :math:`u = K_{loc}^{-1} e_1`, :math:`v = K_{loc}^{-1} 1`,
-    ``out[i] = u - v (1^T u) / (1^T v)`` (so ``sum(out[i]) = 0``): the coefficients of
-    :math:`[K_{loc}\; 1; 1^T\; 0][c; d] = [e_1; 0]`. O(k^3 / 6) per node, no temporaries
-    beyond one k x k block per thread.
+    :math:`K_{loc} = c - |p_a - p_b|^{2a}` (k x k, SPD, :func:`_local_matrix`), Cholesky in
+    place (:func:`_cholesky_lower`), :math:`u = K_{loc}^{-1} e_1`, :math:`v = K_{loc}^{-1} 1`
+    (:func:`_cholesky_solve_two`), ``out[i] = u - v (1^T u) / (1^T v)`` (so
+    ``sum(out[i]) = 0``): the coefficients of :math:`[K_{loc}\; 1; 1^T\; 0][c; d] = [e_1; 0]`.
+    O(k^3 / 6) per node, no temporaries beyond one k x k block per thread.
     """
     n, k = nb.shape
     for i in prange(n):
         m = np.empty((k, k))
         u = np.zeros(k)
         v = np.ones(k)
-        for jj in range(k):
-            j = nb[i, jj]
-            m[jj, jj] = c
-            for ll in range(jj + 1, k):
-                l2 = nb[i, ll]
-                dx = px[j] - px[l2]
-                dy = py[j] - py[l2]
-                dz = pz[j] - pz[l2]
-                m[ll, jj] = c - _power(dx * dx + dy * dy + dz * dz, a, kind)
-        # Cholesky (lower, column by column)
-        for jj in range(k):
-            d = m[jj, jj]
-            for t in range(jj):
-                d -= m[jj, t] * m[jj, t]
-            d = np.sqrt(d)
-            m[jj, jj] = d
-            for ll in range(jj + 1, k):
-                acc = m[ll, jj]
-                for t in range(jj):
-                    acc -= m[ll, t] * m[jj, t]
-                m[ll, jj] = acc / d
+        _local_matrix(m, nb[i], (px, py, pz), a, kind, c)
+        _cholesky_lower(m)
         u[0] = 1.0
-        # forward then backward substitution, both right-hand sides
-        for jj in range(k):
-            su = u[jj]
-            sv = v[jj]
-            for t in range(jj):
-                su -= m[jj, t] * u[t]
-                sv -= m[jj, t] * v[t]
-            u[jj] = su / m[jj, jj]
-            v[jj] = sv / m[jj, jj]
-        for jj in range(k - 1, -1, -1):
-            su = u[jj]
-            sv = v[jj]
-            for t in range(jj + 1, k):
-                su -= m[t, jj] * u[t]
-                sv -= m[t, jj] * v[t]
-            u[jj] = su / m[jj, jj]
-            v[jj] = sv / m[jj, jj]
+        _cholesky_solve_two(m, u, v)
         su = 0.0
         sv = 0.0
         for jj in range(k):

@@ -185,6 +185,9 @@ def nearfar_power_sums(points: np.ndarray, cells: "CellList", q: np.ndarray, alp
         alm *= weights
         alms.append(alm)
     sw = np.ascontiguousarray(alpha[cells.order])
+    near_cells = _kernels.NearCells(cells.h, cells.ngrid, cells.cell_start, cells.px, cells.py,
+                                    cells.pz)
+    law = _kernels.NearLaw(delta * delta, a, kind, ff.near_cheb)
     out = np.empty((m, nc))
     near = np.empty((min(m, 2**18), nc))
     for i0 in range(0, m, 2**18):  # bounded temporaries: loc (4 MB) and near (2 MB * C)
@@ -192,9 +195,7 @@ def nearfar_power_sums(points: np.ndarray, cells: "CellList", q: np.ndarray, alp
         qb = q[i0:i1]
         qloc = _to_theta_phi(qb)
         nb = near[: i1 - i0]
-        _kernels.near_field_correction(qb, cells.h, cells.ngrid, cells.cell_start, cells.px,
-                                       cells.py, cells.pz, sw, delta * delta, a,
-                                       kind, ff.near_cheb, nb)
+        _kernels.near_field_correction(qb, near_cells, sw, law, nb)
         for c in range(nc):
             far = ducc0.sht.synthesis_general(alm=alms[c], spin=0, lmax=lmax, loc=qloc,
                                               epsilon=SHT_EPSILON, nthreads=nthreads)
