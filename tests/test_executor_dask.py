@@ -16,9 +16,8 @@ import envfit.cli as cli  # noqa: E402
 from envfit.maps._io import save_envmap  # noqa: E402
 from envfit.base._errors import ExecutorError  # noqa: E402
 from envfit.batch._executor import DaskExecutor  # noqa: E402
-from envfit.batch._library import run_table2_library  # noqa: E402
-from envfit.batch._library_fit import fit_smoothness_library  # noqa: E402
-from test_library import S, N, assert_same_tables, gp_map, killing_sources  # noqa: E402
+from envfit.batch import LibraryOptions, fit_smoothness_library, run_table2_library  # noqa: E402
+from test_library import INLINE, S, N, assert_same_tables, gp_map, killing_sources  # noqa: E402
 
 pytestmark = pytest.mark.dask
 
@@ -44,19 +43,20 @@ def client():
 
 @pytest.fixture(scope="module")
 def reference(maps):
-    return run_table2_library(maps, S, N, workers=1)
+    return run_table2_library(maps, S, N, options=INLINE)
 
 
 def test_dask_gives_the_local_numbers(maps, client, reference, tmp_path):
     ex = DaskExecutor(client=client)
     assert ex.slots == 2 and ex.blas_threads >= 1
-    lib = run_table2_library(maps, S, N, executor=ex, out=tmp_path)
+    lib = run_table2_library(maps, S, N, options=LibraryOptions(executor=ex), out=tmp_path)
     assert lib.factorizations == len(S) * len(N) and lib.executor.startswith("dask")
     for a, b in zip(lib.maps, reference.maps):
         assert_same_tables(a, b)
     assert len(list(tmp_path.glob("*/cells/*.json"))) == len(maps) * len(S) * len(N)
-    local = fit_smoothness_library(maps[2:], n=120, scale="linear", workers=1)
-    remote = fit_smoothness_library(maps[2:], n=120, scale="linear", executor=ex)
+    local = fit_smoothness_library(maps[2:], n=120, scale="linear", options=INLINE)
+    remote = fit_smoothness_library(maps[2:], n=120, scale="linear",
+                                    options=LibraryOptions(executor=ex))
     for a, b in zip(local.fits, remote.fits):
         assert a.s == pytest.approx(b.s, rel=1e-10)
         assert a.s_interval == pytest.approx(b.s_interval, rel=1e-10)
@@ -74,14 +74,14 @@ def test_killed_worker_keeps_cells_and_rerun_completes(maps, client, reference, 
             flag.touch()
 
     with pytest.raises(ExecutorError, match="lost with their worker"):
-        run_table2_library(srcs, S, N, executor=ex, out=out, on_cell=arm)
+        run_table2_library(srcs, S, N, options=LibraryOptions(executor=ex), out=out, on_cell=arm)
     assert not flag.exists()
     finished = list(out.glob("*/cells/*.json"))
     total = len(maps) * len(S) * len(N)
     assert 1 <= len(finished) < total
     client.wait_for_workers(2, timeout=60)
     assert set(client.run(os.getpid).values()) != pids            # the nanny restarted one
-    again = run_table2_library(srcs, S, N, executor=ex, out=out)
+    again = run_table2_library(srcs, S, N, options=LibraryOptions(executor=ex), out=out)
     assert again.cells_resumed == len(finished) and again.cells_computed == total - len(finished)
     for a, b in zip(again.maps, reference.maps):
         assert_same_tables(a, b)

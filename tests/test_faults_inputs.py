@@ -17,6 +17,7 @@ import envfit.fit._sigma
 import envfit.fit._smoothness
 import envfit.batch._library
 import envfit.batch._library_fit
+from envfit.batch import LibraryOptions
 import envfit.fit._table2
 import envfit.validate._pipeline
 from envfit.data_gen._gp import gaussian_process_map
@@ -27,6 +28,7 @@ from envfit.base._errors import EnvfitError, MemoryBudgetError, ParameterError
 from envfit.base._resources import memory_budget_bytes, plan_memory
 
 HUGE = 1_000_000_000
+INLINE = LibraryOptions(workers=1)  # every task in this process
 
 
 def srgb_eotf(c):
@@ -132,8 +134,8 @@ def test_guard_runs_before_any_sample_point(monkeypatch, gp16):
             gp16, envfit.validate._pipeline.ValidateConfig(n_values=[16], fit_n=HUGE, truncation=False)),
         lambda: envfit.fit._sigma.profiled_sigma(gp16, 1.5, n=HUGE),
         lambda: envfit.advisor._advise.advise(gp16, "diffuse", 0.01, nmax=HUGE, weights=("equal",)),
-        lambda: envfit.batch._library.run_table2_library([gp16, gp16], [1.5], [HUGE], workers=1),
-        lambda: envfit.batch._library_fit.fit_smoothness_library([gp16, gp16], n=HUGE, workers=1),
+        lambda: envfit.batch._library.run_table2_library([gp16, gp16], [1.5], [HUGE], options=INLINE),
+        lambda: envfit.batch._library_fit.fit_smoothness_library([gp16, gp16], n=HUGE, options=INLINE),
     ]
     for call in calls:
         t0 = time.perf_counter()
@@ -250,7 +252,7 @@ def test_more_samples_than_pixels_is_an_error(h, tmp_path, capsys):
     with pytest.raises(ParameterError, match=rf"\({w}x{h}\).*largest sensible n is {px}$"):
         envfit.fit._smoothness.fit_smoothness(env, n=5000, scale="linear")
     with pytest.raises(ParameterError, match="pixels"):
-        envfit.batch._library.run_table2_library([env], [1.5], [5000], workers=1)
+        envfit.batch._library.run_table2_library([env], [1.5], [5000], options=INLINE)
     path = save_envmap(tmp_path / env.name, env)
     for argv in (["table2", str(path), "--n", "5000"], ["fit", str(path), "--n", "5000"]):
         assert cli.main(argv) == 2
@@ -279,7 +281,7 @@ def test_n_must_be_a_positive_integer_in_the_api(bad, gp16):
     with pytest.raises(ParameterError, match="must be an integer"):
         envfit.validate._pipeline.ValidateConfig(n_values=[16, bad])
     with pytest.raises(ParameterError, match="must be an integer"):
-        envfit.batch._library_fit.fit_smoothness_library([gp16], n=bad, workers=1)
+        envfit.batch._library_fit.fit_smoothness_library([gp16], n=bad, options=INLINE)
     with pytest.raises(ParameterError):
         envfit.advisor._advise.advise(gp16, "diffuse", 0.01, nmax=bad)
 
@@ -309,9 +311,9 @@ def test_all_zero_map_is_one_line(tmp_path, capsys):
                      n_values=[16], fit_n=100, scale="linear", truncation=False)),
                  lambda: envfit.advisor._advise.advise(zero, "diffuse", 0.01, scale="linear", fit_n=100),
                  lambda: envfit.batch._library_fit.fit_smoothness_library([zero], n=100, scale="linear",
-                                                                   workers=1),
+                                                                   options=INLINE),
                  lambda: envfit.batch._library.run_table2_library([zero], [1.5], [100],
-                                                           scale="linear", workers=1)):
+                                                           scale="linear", options=INLINE)):
         with pytest.raises(ParameterError, match="all zero on the linear scale"):
             call()
     with pytest.raises(ParameterError, match="all zero: the log scale"):

@@ -28,10 +28,12 @@ from envfit.maps._envmap import EnvMap
 from envfit.maps._io import load_envmap, save_envmap
 from envfit.batch._library import run_table2_library
 from envfit.batch._library_fit import fit_smoothness_library
+from envfit.batch import LibraryOptions
 from envfit.base._store import LOCK_NAME, FolderLock, StoreBusyError
 from envfit.fit._table2 import run_table2
 
 S, N = [1.3, 1.7], [50, 100]
+INLINE = LibraryOptions(workers=1)  # every task in this process
 VICTIM, OTHER = "s1.7000_n100", "s1.3000_n100"
 
 
@@ -184,13 +186,13 @@ def test_unreadable_config_is_rewritten_and_cells_still_resume(map_file, tmp_pat
 @pytest.mark.parametrize("fault", ["edited-rmse", "other-cell", "directory"])
 def test_library_recomputes_a_faulty_cell_with_one_note(fault, tmp_path):
     maps = [gp(1), gp(2)]
-    fresh = run_table2_library(maps, S, N, scale="linear", workers=1)
+    fresh = run_table2_library(maps, S, N, scale="linear", options=INLINE)
     out = tmp_path / "lib"
-    run_table2_library(maps, S, N, scale="linear", out=out, workers=1)
+    run_table2_library(maps, S, N, scale="linear", out=out, options=INLINE)
     victim = out / "gp2" / "cells" / f"{VICTIM}.json"
     make_fault, why = FAULTS[fault]
     make_fault(victim)
-    lib = run_table2_library(maps, S, N, scale="linear", out=out, workers=1)
+    lib = run_table2_library(maps, S, N, scale="linear", out=out, options=INLINE)
     assert [n for n in lib.notes if str(victim) in n] == [f"recomputed {victim}: {why}"]
     assert lib.cells_computed == 1 and lib.cells_resumed == 7
     assert lib.maps[1].cell(1.7, 100).rmse == pytest.approx(fresh.maps[1].cell(1.7, 100).rmse,
@@ -199,15 +201,15 @@ def test_library_recomputes_a_faulty_cell_with_one_note(fault, tmp_path):
 
 def test_library_fit_recomputes_an_edited_evaluation(tmp_path):
     maps = [gp(1, channels=1), gp(2, channels=1)]
-    fresh = fit_smoothness_library(maps, n=200, scale="linear", workers=1)
+    fresh = fit_smoothness_library(maps, n=200, scale="linear", options=INLINE)
     out = tmp_path / "fit"
-    first = fit_smoothness_library(maps, n=200, scale="linear", out=out, workers=1)
+    first = fit_smoothness_library(maps, n=200, scale="linear", out=out, options=INLINE)
     cells = sorted((out / "gp1" / "fit_likelihood_n200" / "cells").glob("s*.json"))
     victim = cells[len(cells) // 2]
     doc = json.loads(victim.read_text())
     doc["cell"]["score"] = -1e9                                # would become the minimum
     victim.write_text(json.dumps(doc))
-    lib = fit_smoothness_library(maps, n=200, scale="linear", out=out, workers=1)
+    lib = fit_smoothness_library(maps, n=200, scale="linear", out=out, options=INLINE)
     assert [n for n in lib.notes if str(victim) in n] == [
         f"recomputed {victim}: checksum mismatch (edited or corrupt)"]
     total = first.evaluations_resumed + sum(len(f.curve) for f in first.fits)
@@ -308,7 +310,7 @@ def test_library_run_on_a_locked_folder_is_refused(tmp_path):
     try:
         assert holder.stdout.readline().strip() == "held"
         with pytest.raises(StoreBusyError, match=rf"\(pid {holder.pid}\)"):
-            run_table2_library([gp(1)], S, N, scale="linear", out=tmp_path, workers=1)
+            run_table2_library([gp(1)], S, N, scale="linear", out=tmp_path, options=INLINE)
         assert not list(tmp_path.glob("*/cells"))
     finally:
         holder.stdin.close()
@@ -634,10 +636,10 @@ def test_forged_table2_cell_with_a_valid_checksum_is_recomputed(fault, map_file,
 def test_library_recomputes_a_forged_cell(tmp_path):
     maps = [gp(1), gp(2)]
     out = tmp_path / "lib"
-    run_table2_library(maps, S, N, scale="linear", out=out, workers=1)
+    run_table2_library(maps, S, N, scale="linear", out=out, options=INLINE)
     victim = out / "gp2" / "cells" / f"{VICTIM}.json"
     _forge_cell(victim, _set("rmse_solid_angle", None))
-    lib = run_table2_library(maps, S, N, scale="linear", out=out, workers=1)
+    lib = run_table2_library(maps, S, N, scale="linear", out=out, options=INLINE)
     assert [n for n in lib.notes if str(victim) in n] == [
         f"recomputed {victim}: invalid cell: rmse_solid_angle is null, not a number"]
     assert lib.cells_computed == 1 and lib.cells_resumed == 7

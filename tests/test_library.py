@@ -19,12 +19,12 @@ from envfit.maps._io import save_envmap
 from envfit.base._errors import EnvMapFileError, ExecutorError, ParameterError
 from envfit.fit._smoothness import fit_smoothness
 from envfit.kernels._interpolation import SobolevInterpolator
-from envfit.batch._library import run_table2_library
-from envfit.batch._library_fit import fit_smoothness_library
+from envfit.batch import LibraryOptions, fit_smoothness_library, run_table2_library
 from envfit.maps._mapsource import MapSource, resolve_map_sources
 from envfit.fit._table2 import run_table2
 
 S, N = [1.3, 1.7], [60, 250]
+INLINE = LibraryOptions(workers=1)  # every task in this process
 
 
 def gp_map(seed, height=32, channels=3):
@@ -57,7 +57,7 @@ def assert_same_tables(a, b, rel=1e-10):
 
 
 def test_library_equals_single_map_runs_with_one_factorization_per_cell(maps, count_factorizations):
-    lib = run_table2_library(maps, S, N, scale="display", workers=1)
+    lib = run_table2_library(maps, S, N, scale="display", options=INLINE)
     assert len(count_factorizations) == len(S) * len(N) == lib.factorizations
     assert sorted(count_factorizations) == sorted(N * len(S))
     del count_factorizations[:]
@@ -74,7 +74,7 @@ def test_library_iterative_one_preconditioner_for_all_maps(maps, count_factoriza
     """solver="iterative": every map's columns side by side in one CG solve per (s, N), no
     dense factorisation; each cell records the solver, and the RMSEs equal the single-map
     Cholesky runs to 1e-6 relative (the stopping rule's promise)."""
-    lib = run_table2_library(maps, S, N, scale="display", workers=1, solver="iterative")
+    lib = run_table2_library(maps, S, N, scale="display", options=INLINE, solver="iterative")
     assert count_factorizations == [] and lib.factorizations == len(S) * len(N)
     for m, r in zip(maps, lib.maps):
         for c in r.cells:
@@ -90,7 +90,8 @@ def test_library_solver_checked_before_work(maps):
 
 
 def test_resume_factorizes_only_missing_cells(maps, tmp_path, count_factorizations):
-    first = run_table2_library(maps, [1.5], N, out=tmp_path, workers=1, save_reconstructions=True)
+    first = run_table2_library(maps, [1.5], N, out=tmp_path, options=INLINE,
+                               save_reconstructions=True)
     assert first.cells_computed == 6 and len(count_factorizations) == 2
     assert (tmp_path / "gp0" / "cells" / "s1.5000_n250.json").exists()
     assert (tmp_path / "gp2" / "reconstruction_s1.50_n250.exr").exists()
@@ -98,7 +99,7 @@ def test_resume_factorizes_only_missing_cells(maps, tmp_path, count_factorizatio
     assert not (tmp_path / "gp2" / "reconstruction_s1.50_n60.exr").exists()
     del count_factorizations[:]
     seen = []
-    second = run_table2_library(maps, [1.5, 1.8], N, out=tmp_path, workers=1,
+    second = run_table2_library(maps, [1.5, 1.8], N, out=tmp_path, options=INLINE,
                                 on_cell=lambda label, c, resumed: seen.append((label, c.s, resumed)))
     assert second.cells_resumed == 6 and second.cells_computed == 6
     assert len(count_factorizations) == 2                     # only s = 1.8, at both N
@@ -129,7 +130,11 @@ def test_bad_input(maps, tmp_path):
     with pytest.raises(ParameterError, match="1 < s < 2"):
         run_table2_library(maps, [2.5], N)
     with pytest.raises(ParameterError, match="--scheduler needs --executor dask"):
-        run_table2_library(maps, S, N, executor="local", scheduler="tcp://127.0.0.1:1")
+        run_table2_library(maps, S, N, options=LibraryOptions(executor="local",
+                                                              scheduler="tcp://127.0.0.1:1"))
+    for call in (run_table2_library, fit_smoothness_library):    # options is a dataclass
+        with pytest.raises(ParameterError, match="options must be a LibraryOptions, got dict"):
+            call(maps, options={"workers": 1})
     # duplicates are read once; equal stems in different folders get distinct slugs
     (tmp_path / "b").mkdir()
     save_envmap(tmp_path / "b" / "a.exr", maps[1])
@@ -144,7 +149,7 @@ def test_fit_library_matches_single_map_fits(maps, count_factorizations, method)
     get the same ŝ and interval to rounding; σ̂ (exact at ŝ alone, the lattice spline in a
     library) to 1e-6."""
     two = maps[1:]
-    lib = fit_smoothness_library(two, n=200, scale="linear", workers=1, method=method)
+    lib = fit_smoothness_library(two, n=200, scale="linear", options=INLINE, method=method)
     shared = len(count_factorizations)
     assert shared == lib.factorizations
     # each distinct s is factorised once per round for the maps requesting it
@@ -220,7 +225,7 @@ def killing_sources(maps, flag: Path) -> list[MapSource]:
 
 @pytest.mark.slow
 def test_process_pool_killed_worker_then_rerun(maps, tmp_path):
-    reference = run_table2_library(maps, S, N, workers=1)
+    reference = run_table2_library(maps, S, N, options=INLINE)
     flag, out = tmp_path / "kill-now", tmp_path / "out"
     srcs = killing_sources(maps, flag)
 
@@ -230,10 +235,10 @@ def test_process_pool_killed_worker_then_rerun(maps, tmp_path):
             flag.touch()
 
     with pytest.raises(ExecutorError, match="run the same command again"):
-        run_table2_library(srcs, S, N, out=out, workers=2, on_cell=arm)
+        run_table2_library(srcs, S, N, out=out, options=LibraryOptions(workers=2), on_cell=arm)
     finished = list(out.glob("*/cells/*.json"))
     assert 1 <= len(finished) < len(maps) * len(S) * len(N)
-    again = run_table2_library(srcs, S, N, out=out, workers=1)
+    again = run_table2_library(srcs, S, N, out=out, options=INLINE)
     assert again.cells_resumed == len(finished)
     assert again.cells_resumed + again.cells_computed == len(maps) * len(S) * len(N)
     for a, b in zip(again.maps, reference.maps):

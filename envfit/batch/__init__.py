@@ -14,7 +14,8 @@ Modules:
 * :mod:`~envfit.batch._library_result` — What every library run reports, whatever it computes
   per map: the maps' labels and slugs, the value scale and sampling, the shared
   factorisations, time, executor, notes, unwritten cells and the files written; one summary
-  row and one result per map.
+  row and one result per map; and how every library run reads its maps and where its tasks
+  run (:class:`LibraryOptions`).
 * :mod:`~envfit.batch._report` — Files of a library run: per-map CSV, a summary across maps
   (CSV + JSON), a histogram of s.
 * :mod:`~envfit.batch._scheduler` — The driver loop of a sweep: submit tasks by priority,
@@ -33,6 +34,7 @@ from envfit.base._lazy import lazy_exports
 _LAZY = {
     "LibraryTable2Result": "_library", "run_table2_library": "_library",
     "fit_smoothness_library": "_library_fit", "LibraryFitResult": "_library_fit",
+    "LibraryOptions": "_library_result",
 }
 
 __all__ = sorted(_LAZY)

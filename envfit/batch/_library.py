@@ -33,7 +33,8 @@ Example
 >>> from envfit.data_gen._gp import gaussian_process_map
 >>> maps = [EnvMap(gaussian_process_map(1.5, 16, seed=k, channels=3) + 3.0, name=f"gp{k}")
 ...         for k in range(3)]
->>> lib = run_table2_library(maps, [1.3, 1.7], [50, 100], scale="linear", workers=1)
+>>> lib = run_table2_library(maps, [1.3, 1.7], [50, 100], scale="linear",
+...                          options=LibraryOptions(workers=1))
 >>> lib.factorizations, len(lib.maps), lib.maps[0].rmse_table().shape
 (4, 3, (2, 2))
 """
@@ -51,10 +52,9 @@ import numpy as np
 from envfit.maps._envmap import check_sample_count
 from envfit.base._errors import ParameterError
 from envfit.defaults import SOLVERS
-from envfit.batch._executor import make_executor
-from envfit.batch._library_result import LibraryResult
+from envfit.batch._library_result import LibraryOptions, LibraryResult
 from envfit.batch._tasks import SweepSpec, evaluate_task, sample_task, solve_task
-from envfit.maps._mapsource import LoadOptions, MapSource, resolve_map_sources
+from envfit.maps._mapsource import MapSource, resolve_map_sources
 from envfit.base._resources import interpolator_nbytes, memory_budget_bytes, plan_memory
 from envfit.maps._scales import SCALES, check_not_constant
 from envfit.batch._scheduler import Task, drive
@@ -120,50 +120,40 @@ def _chunks(items: list[int], n: int, budget: int) -> list[list[int]]:
 
 def run_table2_library(maps: Sequence, s_values: Sequence[float] = PAPER_S,
                        n_values: Sequence[int] = PAPER_N, *, pointset: str = "sf",
-                       scale: str = "display", seed: int = 0, out: str | Path | None = None,
-                       executor="local", workers: int | None = None,
-                       scheduler: str | None = None, load_options: LoadOptions | None = None,
-                       save_reconstructions: bool = False, quiet: bool = True,
+                       scale: str = "display", seed: int = 0, solver: str = "cholesky",
+                       out: str | Path | None = None, save_reconstructions: bool = False,
                        on_cell: Callable[[str, Table2Cell, bool], None] | None = None,
                        rhs_budget_bytes: int = RHS_BUDGET_BYTES,
-                       solver: str = "cholesky") -> LibraryTable2Result:
+                       options: LibraryOptions | None = None) -> LibraryTable2Result:
     """Run the (s, N) sweep on every map of ``maps``; see the module docstring.
 
     Parameters
     ----------
     maps : files, folders, glob patterns and/or :class:`~envfit.maps._envmap.EnvMap` objects
         (:func:`~envfit.maps._mapsource.resolve_map_sources`); files are read lazily with
-        ``load_options``.
+        ``options.load_options``.
     s_values, n_values, pointset, scale, seed : as :func:`~envfit.fit._table2.run_table2`.
+    solver : "cholesky" (one dense factor per (s, N) for all maps), "iterative" (CG with the
+        near/far product, all maps' columns side by side: one preconditioner for all), or
+        "auto" (Cholesky where the dense matrix fits, else iterative); each cell records it
+        (:class:`~envfit.fit._table2.Table2Cell`).
     out : folder: ``OUT/<slug>/cells`` per map (resumable), summary CSV/JSON/PNG at the top.
-    executor : ``"local"``, ``"dask"`` or an executor object (:mod:`envfit.batch._executor`);
-        ``workers`` sizes a local pool / LocalCluster, ``scheduler`` names a running dask
-        scheduler (``tcp://HOST:PORT``).
     save_reconstructions : also write each map's reconstructions at the largest N
         (EXR + PNG into ``OUT/<slug>/``; off by default: a library's images are large).
     on_cell : ``on_cell(map_label, cell, resumed)`` after each cell, in the driver.
     rhs_budget_bytes : memory for one factorisation's right-hand sides; more maps are
         split into groups (one factorisation per group).
-    solver : "cholesky" (one dense factor per (s, N) for all maps), "iterative" (CG with the
-        near/far product, all maps' columns side by side: one preconditioner for all), or
-        "auto" (Cholesky where the dense matrix fits, else iterative); each cell records it
-        (:class:`~envfit.fit._table2.Table2Cell`).
+    options : how the maps are read and where the tasks run (executor, workers, dask
+        scheduler, load options, progress bars):
+        :class:`~envfit.batch._library_result.LibraryOptions`.
     """
     t_start = time.perf_counter()
+    options = LibraryOptions.of(options)
     s_values, n_values = check_grid(s_values, n_values)
     if scale not in SCALES:
         raise ParameterError(f"unknown scale {scale!r}; choose one of {', '.join(SCALES)}")
-    sources = resolve_map_sources(maps, load_options)
-    # the memory guard of the largest N (one factorisation task: the interpolator with the
-    # right-hand sides of one group of maps), before any sample point is made
-    group = min(len(sources), max(1, int(rhs_budget_bytes // (2 * 8 * n_values[-1] * _PLAN_CHANNELS))))
-    if solver not in SOLVERS:
-        raise ParameterError(f"solver must be auto, cholesky or iterative; got {solver!r}")
-    dense_fits = (interpolator_nbytes(n_values[-1], _PLAN_CHANNELS * group)
-                  <= memory_budget_bytes())
-    plan_memory(n_values[-1], "library table2", channels=_PLAN_CHANNELS * group,
-                solver="cholesky" if solver == "cholesky" or (solver == "auto" and dense_fits)
-                else "iterative")
+    sources = resolve_map_sources(maps, options.load_options)
+    _plan_library_memory(len(sources), n_values[-1], solver, rhs_budget_bytes)
     spec = SweepSpec(pointset=pointset, seed=int(seed), scale=scale, up=sources[0].up,
                      solver=solver)
     spec.points(4)  # an unknown point set fails here, before any work
@@ -171,20 +161,16 @@ def run_table2_library(maps: Sequence, s_values: Sequence[float] = PAPER_S,
     notes: list[str] = []                       # the stores' notes (cells recomputed), …
     # one lock for the whole --out folder, taken before any cell is read (module store)
     with FolderLock(out, on_note=notes.append) if out is not None else contextlib.nullcontext():
-        stores = [ResultStore(out / src.slug if out is not None else None,
-                              {"map": src.identity(), "scale": scale, "pointset": pointset,
-                               "seed": int(seed), "up": spec.up}, kind="table2", lock=False,
-                              on_note=notes.append)
-                  for src in sources]
+        stores = [_store(out, src, spec, notes) for src in sources]
         cells, missing, resumed = _resume(stores, sources, s_values, n_values, on_cell)
         lib = LibraryTable2Result(maps=[], labels=[s.label for s in sources],
                                   slugs=[s.slug for s in sources], s_values=s_values,
                                   n_values=n_values, scale=scale, pointset=pointset,
                                   seed=int(seed), cells_resumed=resumed, notes=notes)
+        sweep = _Sweep(lib, sources, stores, cells, spec, out, keep=save_reconstructions,
+                       on_cell=on_cell)
         if missing:
-            _compute(lib, sources, stores, cells, missing, spec, out, executor=executor,
-                     workers=workers, scheduler=scheduler, keep=save_reconstructions,
-                     n_max=n_values[-1], quiet=quiet, on_cell=on_cell, budget=rhs_budget_bytes)
+            _compute(sweep, missing, options, rhs_budget_bytes)
         lib.maps = [_map_result(src, cells[i], lib) for i, src in enumerate(sources)]
         lib.unwritten = [u for st in stores for u in st.unwritten]
         lib.seconds = time.perf_counter() - t_start
@@ -192,6 +178,28 @@ def run_table2_library(maps: Sequence, s_values: Sequence[float] = PAPER_S,
             from envfit.batch._report import write_table2_library
             write_table2_library(lib, out)
     return lib
+
+
+def _plan_library_memory(maps: int, n_max: int, solver: str, budget: int) -> None:
+    """The memory guard of the largest N — one factorisation task: the interpolator with the
+    right-hand sides of one group of maps — before any sample point is made (and the solver
+    name checked)."""
+    group = min(maps, max(1, int(budget // (2 * 8 * n_max * _PLAN_CHANNELS))))
+    if solver not in SOLVERS:
+        raise ParameterError(f"solver must be auto, cholesky or iterative; got {solver!r}")
+    dense_fits = interpolator_nbytes(n_max, _PLAN_CHANNELS * group) <= memory_budget_bytes()
+    plan_memory(n_max, "library table2", channels=_PLAN_CHANNELS * group,
+                solver="cholesky" if solver == "cholesky" or (solver == "auto" and dense_fits)
+                else "iterative")
+
+
+def _store(out: Path | None, src: MapSource, spec: SweepSpec, notes: list[str]) -> ResultStore:
+    """Map ``src``'s cell store under ``out`` (in memory only without ``out``); the driver
+    holds the folder's lock."""
+    return ResultStore(out / src.slug if out is not None else None,
+                       {"map": src.identity(), "scale": spec.scale, "pointset": spec.pointset,
+                        "seed": spec.seed, "up": spec.up}, kind="table2", lock=False,
+                       on_note=notes.append)
 
 
 def _map_result(src, cells: dict[str, dict], lib: LibraryTable2Result) -> Table2Result:
@@ -225,26 +233,39 @@ def _resume(stores, sources, s_values, n_values, on_cell):
     return cells, missing, resumed
 
 
-def _compute(lib, sources: list[MapSource], stores, cells, missing, spec: SweepSpec, out,
-             *, executor, workers, scheduler, keep, n_max, quiet, on_cell, budget) -> None:
-    """Plan the tasks for the missing cells and drive them (fills ``cells`` and ``lib``)."""
+@dataclass
+class _Sweep:
+    """One library run's state in the driver: the result being filled, the maps, their
+    stores and cells (map index → cell key → cell dict), the sweep's sampling, ``out``,
+    whether reconstructions are kept and the per-cell callback."""
+    lib: LibraryTable2Result
+    sources: list[MapSource]
+    stores: list[ResultStore]
+    cells: list[dict[str, dict]]
+    spec: SweepSpec
+    out: Path | None
+    keep: bool = False
+    on_cell: Callable[[str, Table2Cell, bool], None] | None = None
+
+
+def _compute(sweep: _Sweep, missing, options: LibraryOptions, budget: int) -> None:
+    """Plan the tasks for the missing cells and drive them (fills the sweep's cells and
+    result)."""
+    lib = sweep.lib
     chunks = _plan_chunks(lib, missing, budget)
     biggest = max(interpolator_nbytes(n, _PLAN_CHANNELS * len(c)) for _, n, c in chunks)
-    ex, notes = make_executor(executor, workers=workers, scheduler=scheduler,
-                              max_useful=len(chunks), bytes_per_task=biggest)
+    ex, notes = options.make_executor(max_useful=len(chunks), bytes_per_task=biggest)
     lib.notes.extend(notes)
     lib.executor = ex.describe()
     from envfit.base._progress import progress_bar
-    bar = progress_bar(sum(len(c) for _, _, c in chunks), desc="library table2", quiet=quiet,
-                       unit="cell")
-    run = _Table2Run(lib, sources, stores, cells, chunks, spec, out, keep=keep, n_max=n_max,
-                     on_cell=on_cell, bar=bar)
+    bar = progress_bar(sum(len(c) for _, _, c in chunks), desc="library table2",
+                       quiet=options.quiet, unit="cell")
+    run = _Table2Run(sweep, chunks, bar)
     try:
         drive(ex, run.sample_tasks())
     finally:
         bar.close()
-        if ex is not executor:
-            ex.close()
+        options.close(ex)
 
 
 def _plan_chunks(lib, missing, budget) -> list[tuple[float, int, list[int]]]:
@@ -264,11 +285,12 @@ class _Table2Run:
     factorisation per chunk as soon as its maps are sampled, then each map's evaluation;
     samples are dropped once the last chunk using them has been submitted."""
 
-    def __init__(self, lib, sources, stores, cells, chunks, spec, out, *, keep, n_max,
-                 on_cell, bar):
-        self.lib, self.sources, self.stores, self.cells = lib, sources, stores, cells
-        self.chunks, self.spec, self.out = chunks, spec, out
-        self.keep, self.n_max, self.on_cell, self.bar = keep, n_max, on_cell, bar
+    def __init__(self, sweep: _Sweep, chunks, bar):
+        self.sweep, self.chunks, self.bar = sweep, chunks, bar
+        self.lib, self.sources, self.stores = sweep.lib, sweep.sources, sweep.stores
+        self.cells, self.spec, self.out = sweep.cells, sweep.spec, sweep.out
+        self.keep, self.on_cell = sweep.keep, sweep.on_cell
+        self.n_max = sweep.lib.n_values[-1]
         self.needs: dict[int, set[int]] = {}       # map -> the N it must be sampled at
         self.waiting: dict[int, set[int]] = {}     # chunk -> maps whose samples are missing
         self.uses: dict[tuple[int, int], int] = {}  # (map, N) -> chunks still to be submitted

@@ -28,7 +28,8 @@ Example
 >>> from envfit.data_gen._gp import gaussian_process_map
 >>> maps = [EnvMap(gaussian_process_map(1.5, 16, seed=k, channels=1) + 3.0, name=f"gp{k}")
 ...         for k in range(2)]
->>> lib = fit_smoothness_library(maps, n=200, scale="linear", workers=1)
+>>> lib = fit_smoothness_library(maps, n=200, scale="linear",
+...                              options=LibraryOptions(workers=1))
 >>> [1.0 < f.s < 2.0 for f in lib.fits]
 [True, True]
 """
@@ -46,8 +47,7 @@ import numpy as np
 from envfit.base._checks import check_int
 from envfit.maps._envmap import check_sample_count
 from envfit.base._errors import ParameterError
-from envfit.batch._executor import make_executor
-from envfit.batch._library_result import LibraryResult
+from envfit.batch._library_result import LibraryOptions, LibraryResult
 from envfit.fit._search import (DEFAULT_REFINE, SmoothnessSearch, lattice, run_searches,
                                 search_lattice)
 from envfit.fit._smoothness import (DEFAULT_METHOD, DEFAULT_N, METHODS, S_GRID, SCORE_NAMES,
@@ -55,7 +55,7 @@ from envfit.fit._smoothness import (DEFAULT_METHOD, DEFAULT_N, METHODS, S_GRID, 
 from envfit.base._resources import interpolator_nbytes
 from envfit.batch._fit_tasks import criterion_task, fit_sample_task
 from envfit.batch._tasks import SweepSpec
-from envfit.maps._mapsource import LoadOptions, resolve_map_sources
+from envfit.maps._mapsource import resolve_map_sources
 from envfit.base._resources import plan_memory
 from envfit.maps._scales import SCALES, check_not_constant
 from envfit.batch._scheduler import Task, drive
@@ -99,27 +99,29 @@ def _key(s: float) -> str:
 def fit_smoothness_library(maps: Sequence, *, method: str = DEFAULT_METHOD, n: int = DEFAULT_N,
                            scale: str = "display", pointset: str = "sf", seed: int = 0,
                            n_holdout: int = 20000, s_grid=S_GRID, refine: int = DEFAULT_REFINE,
-                           out: str | Path | None = None, executor="local",
-                           workers: int | None = None, scheduler: str | None = None,
-                           load_options: LoadOptions | None = None, quiet: bool = True,
-                           on_round: Callable[[int, int], None] | None = None) -> LibraryFitResult:
+                           out: str | Path | None = None,
+                           on_round: Callable[[int, int], None] | None = None,
+                           options: LibraryOptions | None = None) -> LibraryFitResult:
     """Fit s (interval, σ̂) for every map of ``maps``; see the module docstring.
 
-    ``maps``, ``executor``, ``workers``, ``scheduler``, ``load_options`` as
-    :func:`envfit.batch._library.run_table2_library`; ``method``, ``n``, ``scale``, ``pointset``,
-    ``seed``, ``n_holdout``, ``s_grid``, ``refine`` as :func:`envfit.fit._smoothness.fit_smoothness`
-    (``s_grid`` must be uniform). ``out``: resumable cells per map and the summary files
-    (:func:`envfit.batch._report.write_fit_library`). ``on_round(round, factorisations)``
-    is called after each round of shared evaluations.
+    ``maps`` as :func:`envfit.batch._library.run_table2_library`; ``method``, ``n``, ``scale``,
+    ``pointset``, ``seed``, ``n_holdout``, ``s_grid``, ``refine`` as
+    :func:`envfit.fit._smoothness.fit_smoothness` (``s_grid`` must be uniform). ``out``:
+    resumable cells per map and the summary files (:func:`envfit.batch._report.write_fit_library`).
+    ``on_round(round, factorisations)`` is called after each round of shared evaluations.
+    ``options``: how the maps are read and where the tasks run (executor, workers, dask
+    scheduler, load options, progress bars;
+    :class:`~envfit.batch._library_result.LibraryOptions`).
     """
     t_start = time.perf_counter()
+    options = LibraryOptions.of(options)
     if method not in METHODS:
         raise ParameterError(f"unknown fit method {method!r}; choose one of {', '.join(METHODS)}")
     if scale not in SCALES:
         raise ParameterError(f"unknown scale {scale!r}; choose one of {', '.join(SCALES)}")
     n = check_int(n, "the number of samples n", 10)
     grid = search_lattice(s_grid, refine)[0]
-    sources = resolve_map_sources(maps, load_options)
+    sources = resolve_map_sources(maps, options.load_options)
     # the memory guard (one criterion task: the interpolator with every map's samples as
     # right-hand sides, as the executor is sized below), before any sample is made
     plan_memory(n, "the library fit", channels=2 * 3 * len(sources),
@@ -142,9 +144,8 @@ def fit_smoothness_library(maps: Sequence, *, method: str = DEFAULT_METHOD, n: i
                               on_note=lib.notes.append) for src in sources]
         searches = [SmoothnessSearch(method, n, grid, refine) for _ in sources]
         meta = _resume(lib, stores, searches)
-        run = _LibraryRun(lib, sources, stores, searches, meta, spec, n_holdout, quiet=quiet,
-                          on_round=on_round, executor=executor, workers=workers,
-                          scheduler=scheduler)
+        run = _LibraryRun(lib, sources, stores, searches, meta, spec, n_holdout,
+                          on_round=on_round, options=options)
         with run:
             results = run_searches(searches, run.evaluate_round)
             run.sample([i for i in range(len(sources)) if i not in meta])
@@ -177,12 +178,12 @@ class _LibraryRun:
     maps requesting it; every evaluation is stored as it arrives. A context manager: the
     executor is made at the first round and closed at the end (unless it was given)."""
 
-    def __init__(self, lib, sources, stores, searches, meta, spec, n_holdout, *, quiet,
-                 on_round, executor, workers, scheduler):
+    def __init__(self, lib, sources, stores, searches, meta, spec, n_holdout, *, on_round,
+                 options: LibraryOptions):
         self.lib, self.sources, self.stores, self.searches = lib, sources, stores, searches
-        self.meta, self.spec, self.quiet, self.on_round = meta, spec, quiet, on_round
+        self.meta, self.spec, self.on_round = meta, spec, on_round
         self.n_holdout = n_holdout if lib.method == "holdout" else None
-        self.executor, self.workers, self.scheduler = executor, workers, scheduler
+        self.options, self.quiet = options, options.quiet
         self.grid_set = set(searches[0].grid) if searches else set()
         self.samples: dict[int, dict] = {}
         #: per map, its share of the factorisations' seconds
@@ -193,13 +194,11 @@ class _LibraryRun:
         return self
 
     def __exit__(self, *exc) -> None:
-        if self.ex is not None and self.ex is not self.executor:
-            self.ex.close()
+        self.options.close(self.ex)
 
     def _executor(self):
         if self.ex is None:
-            self.ex, notes = make_executor(
-                self.executor, workers=self.workers, scheduler=self.scheduler,
+            self.ex, notes = self.options.make_executor(
                 max_useful=len(self.grid_set),
                 bytes_per_task=interpolator_nbytes(self.lib.n, 2 * 3 * len(self.sources)))
             self.lib.notes.extend(notes)

@@ -1,17 +1,74 @@
 """What every library run reports, whatever it computes per map: the maps' labels and slugs,
 the value scale and sampling, the shared factorisations, time, executor, notes, unwritten
-cells and the files written; one summary row and one result per map.
+cells and the files written; one summary row and one result per map. And how every library
+run reads its maps and where its tasks run (:class:`LibraryOptions`).
 
 :class:`LibraryResult` is the base of :class:`envfit.batch._library.LibraryTable2Result` (Table 2
-per map) and :class:`envfit.batch._library_fit.LibraryFitResult` (s per map).
+per map) and :class:`envfit.batch._library_fit.LibraryFitResult` (s per map); both runs,
+:func:`envfit.batch._library.run_table2_library` and
+:func:`envfit.batch._library_fit.fit_smoothness_library`, take a :class:`LibraryOptions`.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
+from envfit.base._errors import ParameterError
 from envfit.base._html import html_result
+from envfit.maps._mapsource import LoadOptions
 
-__all__ = ["LibraryResult"]
+__all__ = ["LibraryResult", "LibraryOptions"]
+
+
+@dataclass(frozen=True)
+class LibraryOptions:
+    """How a library run reads its maps and where its tasks run; what it computes is the
+    run's own parameters.
+
+    Attributes
+    ----------
+    executor : ``"local"``, ``"dask"`` or an executor object (:mod:`envfit.batch._executor`;
+        an object is used as is and left open).
+    workers : the size of a local process pool or dask ``LocalCluster`` (None: planned from
+        the cores and the memory per task, :func:`envfit.batch._executor.plan_workers`;
+        1: every task inline, in this process).
+    scheduler : the address of a running dask scheduler (``tcp://HOST:PORT``), with
+        ``executor="dask"``.
+    load_options : how files and folders of the library are read
+        (:class:`envfit.maps._mapsource.LoadOptions`; None: as they are).
+    quiet : no progress bars.
+
+    >>> LibraryOptions(workers=1)
+    LibraryOptions(executor='local', workers=1, scheduler=None, load_options=None, quiet=True)
+    """
+
+    executor: Any = "local"
+    workers: int | None = None
+    scheduler: str | None = None
+    load_options: LoadOptions | None = None
+    quiet: bool = True
+
+    @staticmethod
+    def of(options: "LibraryOptions | None") -> "LibraryOptions":
+        """``options``, or the defaults for None; anything else is refused (ParameterError)."""
+        if options is None:
+            return LibraryOptions()
+        if not isinstance(options, LibraryOptions):
+            raise ParameterError(f"options must be a LibraryOptions, got "
+                                 f"{type(options).__name__}")
+        return options
+
+    def make_executor(self, *, max_useful: int, bytes_per_task: int) -> tuple[Any, list[str]]:
+        """The executor and its notes (:func:`envfit.batch._executor.make_executor`), the
+        local pool sized for ``max_useful`` tasks of ``bytes_per_task`` each."""
+        from envfit.batch._executor import make_executor
+        return make_executor(self.executor, workers=self.workers, scheduler=self.scheduler,
+                             max_useful=max_useful, bytes_per_task=bytes_per_task)
+
+    def close(self, ex) -> None:
+        """Close ``ex`` unless it is the executor object given in :attr:`executor`."""
+        if ex is not None and ex is not self.executor:
+            ex.close()
 
 
 @dataclass(kw_only=True)

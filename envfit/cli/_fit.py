@@ -5,9 +5,9 @@ from __future__ import annotations
 import argparse
 
 from envfit.cli._common import (add_common_arguments, add_executor_arguments, add_map_arguments,
-                                emit_json, executor_kwargs, guarded_write, library_maps,
-                                library_mode, load_map_from_args, load_options_from_args, out_dir,
-                                positive_int, record_unwritten, say)
+                                executor_kwargs, library_maps, library_mode, load_map_from_args,
+                                load_options_from_args, out_dir, positive_int)
+from envfit.cli._output import CommandOutput
 
 
 def register(sub) -> None:
@@ -35,45 +35,45 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def run(args: argparse.Namespace) -> int:
+def run(args: argparse.Namespace, output: CommandOutput) -> int:
     if library_mode(args):
         if args.kernel != "full":
             from envfit.base._errors import ParameterError
             raise ParameterError("--kernel bandlimited fits one map at a time (each map has its "
                                  "own band limit and pixel centres); give a single map")
-        return _run_library(args)
+        return _run_library(args, output)
     args.map = args.map[0] if args.map else None
-    return _run_single(args)
+    return _run_single(args, output)
 
 
-def _run_single(args: argparse.Namespace) -> int:
+def _run_single(args: argparse.Namespace, output: CommandOutput) -> int:
     from envfit.fit._smoothness import fit_smoothness
     env = load_map_from_args(args)
     for note in getattr(env, "notes", []):
-        say(args, f"note: {note}")
+        output.say(f"note: {note}")
     res = fit_smoothness(env, method=args.method, n=args.n, scale=args.scale,
                          pointset=args.pointset, seed=args.seed, kernel=args.kernel,
                          quiet=args.quiet)
     sig = ", ".join(f"{x:.4g}" for x in res.sigma)
-    say(args, f"map {env.name}: {env.width}x{env.height}",
-        f"s = {res.s:.3f}  (95% interval {res.s_interval[0]:.3f} … {res.s_interval[1]:.3f}; "
-        f"method {res.method}, N = {res.n}, {res.scale_description}"
-        + (f", kernel band-limited at L = {res.band_lmax}" if res.kernel == "bandlimited" else "")
-        + ")",
-        f"sigma = {sig}  (per channel, on the {res.scale} scale)",
-        *[f"note: {n}" for n in res.notes],
-        f"({res.seconds:.1f} s)")
+    output.say(f"map {env.name}: {env.width}x{env.height}",
+               f"s = {res.s:.3f}  (95% interval {res.s_interval[0]:.3f} … {res.s_interval[1]:.3f}; "
+               f"method {res.method}, N = {res.n}, {res.scale_description}"
+               + (f", kernel band-limited at L = {res.band_lmax}" if res.kernel == "bandlimited" else "")
+               + ")",
+               f"sigma = {sig}  (per channel, on the {res.scale} scale)",
+               *[f"note: {n}" for n in res.notes],
+               f"({res.seconds:.1f} s)")
     out = out_dir(args)
     d = res.to_dict()
     d["map"] = env.name
     if out is not None:
         from envfit.plots._table2 import plot_fit_curve
         target = out / f"fit_{res.method}.png"
-        png = guarded_write(args, target, plot_fit_curve, res, target)
+        png = output.guarded_write(target, plot_fit_curve, res, target)
         if png is not None:
             d["files"] = {"curve": str(png)}
-            say(args, f"wrote {png}")
-    emit_json(args, d)
+            output.say(f"wrote {png}")
+    output.emit_json(d)
     return 0
 
 
@@ -87,20 +87,21 @@ def format_library_fit(lib) -> str:
     return "\n".join(lines)
 
 
-def _run_library(args: argparse.Namespace) -> int:
-    from envfit.batch._library_fit import fit_smoothness_library
+def _run_library(args: argparse.Namespace, output: CommandOutput) -> int:
+    from envfit.batch import LibraryOptions, fit_smoothness_library
     out = out_dir(args)
+    options = LibraryOptions(load_options=load_options_from_args(args), quiet=args.quiet,
+                             **executor_kwargs(args))
     lib = fit_smoothness_library(library_maps(args), method=args.method, n=args.n,
                                  scale=args.scale, pointset=args.pointset, seed=args.seed,
-                                 out=out, load_options=load_options_from_args(args),
-                                 quiet=args.quiet, **executor_kwargs(args))
-    record_unwritten(args, lib.unwritten)
-    say(args, *[f"note: {n}" for n in lib.notes],
-        f"{len(lib.fits)} maps: {lib.factorizations} factorisation(s) in {lib.rounds} round(s), "
-        f"{lib.evaluations_resumed} evaluations resumed; {lib.seconds:.1f} s"
-        + (f" on {lib.executor}" if lib.executor else ""), "", format_library_fit(lib))
+                                 out=out, options=options)
+    output.record_unwritten(lib.unwritten)
+    output.say(*[f"note: {n}" for n in lib.notes],
+               f"{len(lib.fits)} maps: {lib.factorizations} factorisation(s) in {lib.rounds} round(s), "
+               f"{lib.evaluations_resumed} evaluations resumed; {lib.seconds:.1f} s"
+               + (f" on {lib.executor}" if lib.executor else ""), "", format_library_fit(lib))
     if out is not None:
-        say(args, f"wrote per-map cells to {out}/<map>/ and the summary "
-                  + ", ".join(sorted(lib.files)))
-    emit_json(args, lib.to_dict())
+        output.say(f"wrote per-map cells to {out}/<map>/ and the summary "
+                   + ", ".join(sorted(lib.files)))
+    output.emit_json(lib.to_dict())
     return 0

@@ -7,9 +7,9 @@ import numpy as np
 
 from envfit.defaults import SOLVERS
 from envfit.cli._common import (add_common_arguments, add_executor_arguments, add_map_arguments,
-                                emit_json, executor_kwargs, float_list, guarded_write, int_list,
-                                library_maps, library_mode, load_map_from_args,
-                                load_options_from_args, out_dir, record_unwritten, say)
+                                executor_kwargs, float_list, int_list, library_maps, library_mode,
+                                load_map_from_args, load_options_from_args, out_dir)
+from envfit.cli._output import CommandOutput
 
 
 def register(sub) -> None:
@@ -48,41 +48,41 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def run(args: argparse.Namespace) -> int:
+def run(args: argparse.Namespace, output: CommandOutput) -> int:
     from envfit.fit._table2 import PAPER_N, PAPER_S, QUICK_N
     if args.quick and args.max_height is None:
         args.max_height = 128
     s_values = args.s or list(PAPER_S)
     n_values = args.n or list(QUICK_N if args.quick else PAPER_N)
     if library_mode(args):
-        return _run_library(args, s_values, n_values)
+        return _run_library(args, output, s_values, n_values)
     args.map = args.map[0] if args.map else None
-    return _run_single(args, s_values, n_values)
+    return _run_single(args, output, s_values, n_values)
 
 
-def _run_single(args, s_values, n_values) -> int:
+def _run_single(args, output: CommandOutput, s_values, n_values) -> int:
     from envfit.fit._table2 import format_table2, run_table2
     env = load_map_from_args(args)
     out = out_dir(args)
     for note in getattr(env, "notes", []):
-        say(args, f"note: {note}")
-    say(args, f"map {env.name}: {env.width}x{env.height}, {env.channels} channel(s); "
-              f"{len(s_values)} s x {len(n_values)} N cells" + (f"; results in {out}" if out else ""))
+        output.say(f"note: {note}")
+    output.say(f"map {env.name}: {env.width}x{env.height}, {env.channels} channel(s); "
+               f"{len(s_values)} s x {len(n_values)} N cells" + (f"; results in {out}" if out else ""))
 
     def on_cell(cell, resumed):
         if resumed:
-            say(args, f"  s={cell.s:g} N={cell.n}: resumed from {out}")
+            output.say(f"  s={cell.s:g} N={cell.n}: resumed from {out}")
 
     res = run_table2(env, s_values, n_values, pointset=args.pointset, scale=args.scale,
                      seed=args.seed, out=out, quiet=args.quiet, on_cell=on_cell,
                      solver=args.solver)
-    record_unwritten(args, res.unwritten)
-    say(args, "", format_table2(res, paper=args.paper), "",
-        format_table2(res, key="rmse_solid_angle"), "",
-        f"s with the lowest RMSE at N = {res.n_values[-1]}: {res.s_best:g}")
+    output.record_unwritten(res.unwritten)
+    output.say("", format_table2(res, paper=args.paper), "",
+               format_table2(res, key="rmse_solid_angle"), "",
+               f"s with the lowest RMSE at N = {res.n_values[-1]}: {res.s_best:g}")
     known = _known_s(env, res, quiet=args.quiet) if not args.quiet or args.json else None
     if known is not None:
-        say(args, known["sentence"])
+        output.say(known["sentence"])
     if out is not None:
         from envfit.base._atomic import atomic_write_csv
         from envfit.plots._table2 import plot_table2
@@ -94,16 +94,16 @@ def _run_single(args, s_values, n_values) -> int:
                 ("table2.csv", atomic_write_csv,
                  (out / "table2.csv", ("s", "n", "rmse", "rmse_solid_angle", "seconds", "solver",
                                        "iterations", "residual", "rmse_change_bound"), rows))):
-            path = guarded_write(args, out / name, write, *wargs)
+            path = output.guarded_write(out / name, write, *wargs)
             if path is not None:
                 res.files[name] = str(path)
                 written.append(str(path))
         if written:
-            say(args, "wrote " + " and ".join(written))
+            output.say("wrote " + " and ".join(written))
     d = res.to_dict()
     if known is not None:
         d["known_s"] = known
-    emit_json(args, d)
+    output.emit_json(d)
     return 0
 
 
@@ -152,29 +152,30 @@ def format_library_table2(lib) -> str:
     return "\n".join(lines)
 
 
-def _run_library(args, s_values, n_values) -> int:
-    from envfit.batch._library import run_table2_library
+def _run_library(args, output: CommandOutput, s_values, n_values) -> int:
+    from envfit.batch import LibraryOptions, run_table2_library
     out = out_dir(args)
     maps = library_maps(args)
     if args.paper:
-        say(args, "note: --paper prints beside a single map's table only")
+        output.say("note: --paper prints beside a single map's table only")
 
     def on_cell(label, cell, resumed):
         if resumed:
-            say(args, f"  {label}: s={cell.s:g} N={cell.n}: resumed from {out}")
+            output.say(f"  {label}: s={cell.s:g} N={cell.n}: resumed from {out}")
 
+    options = LibraryOptions(load_options=load_options_from_args(args), quiet=args.quiet,
+                             **executor_kwargs(args))
     lib = run_table2_library(maps, s_values, n_values, pointset=args.pointset, scale=args.scale,
-                             seed=args.seed, out=out, load_options=load_options_from_args(args),
-                             save_reconstructions=args.reconstructions, quiet=args.quiet,
-                             on_cell=on_cell, solver=args.solver, **executor_kwargs(args))
-    record_unwritten(args, lib.unwritten)
-    say(args, *[f"note: {n}" for n in lib.notes],
-        f"{len(lib.maps)} maps, {len(s_values)} s x {len(n_values)} N; {lib.cells_computed} cells "
-        f"computed with {lib.factorizations} factorisation(s), {lib.cells_resumed} resumed; "
-        f"{lib.seconds:.1f} s" + (f" on {lib.executor}" if lib.executor else ""),
-        "", format_library_table2(lib))
+                             seed=args.seed, out=out, save_reconstructions=args.reconstructions,
+                             on_cell=on_cell, solver=args.solver, options=options)
+    output.record_unwritten(lib.unwritten)
+    output.say(*[f"note: {n}" for n in lib.notes],
+               f"{len(lib.maps)} maps, {len(s_values)} s x {len(n_values)} N; {lib.cells_computed} cells "
+               f"computed with {lib.factorizations} factorisation(s), {lib.cells_resumed} resumed; "
+               f"{lib.seconds:.1f} s" + (f" on {lib.executor}" if lib.executor else ""),
+               "", format_library_table2(lib))
     if out is not None:
-        say(args, f"wrote per-map results to {out}/<map>/ and the summary "
-                  + ", ".join(sorted(k for k in lib.files)))
-    emit_json(args, lib.to_dict())
+        output.say(f"wrote per-map results to {out}/<map>/ and the summary "
+                   + ", ".join(sorted(k for k in lib.files)))
+    output.emit_json(lib.to_dict())
     return 0
