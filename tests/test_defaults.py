@@ -176,18 +176,18 @@ def _exact_spearman(x, y) -> Fraction:
 @pytest.mark.parametrize("y", [[0.1, 0.5, 0.4], [1.0, 3.0, 2.0, 5.0, 4.0], [2, 2, 1, 3, 3, 0],
                                [5, 4, 3, 2, 1], [0.3, 0.3, 0.9, 0.1, 0.8, 0.7, 0.2]])
 def test_spearman_is_scipys_and_exact(y):
-    from envfit.validate._report_conditions import _spearman
-    rho = _spearman(list(range(len(y))), y)
+    from envfit.validate._report_predicates import spearman
+    rho = spearman(list(range(len(y))), y)
     signed_sq = (1 if rho >= 0 else -1) * rho * rho
     assert signed_sq == pytest.approx(float(_exact_spearman(list(range(len(y))), y)), abs=1e-14)
 
 
 def test_spearman_constant_and_an_exact_threshold():
-    from envfit.validate._report_conditions import RISE_MIN_SPEARMAN, _rises_with_degree, _spearman
-    assert _spearman([0, 1, 2], [1.0, 1.0, 1.0]) == 0.0
+    from envfit.validate._report_predicates import RISE_MIN_SPEARMAN, rises_with_degree, spearman
+    assert spearman([0, 1, 2], [1.0, 1.0, 1.0]) == 0.0
     ratios = [1.0, 3.0, 2.0, 5.0, 4.0]           # ranks 0 2 1 4 3: ρ = 1 − 6·4/120 = 0.8
     assert _exact_spearman(list(range(5)), ratios) == Fraction(16, 25)
-    assert RISE_MIN_SPEARMAN == 0.8 and _rises_with_degree(ratios)      # ρ ≥ 0.8: rising
+    assert RISE_MIN_SPEARMAN == 0.8 and rises_with_degree(ratios)      # ρ ≥ 0.8: rising
     below = [1.0, 4.0, 2.0, 3.0, 5.0]            # ranks 0 3 1 2 4: ρ = 1 − 6·6/120 = 0.7
     assert _exact_spearman(list(range(5)), below) == Fraction(49, 100)
-    assert not _rises_with_degree(below)         # last/first = 5, but ρ < 0.8
+    assert not rises_with_degree(below)         # last/first = 5, but ρ < 0.8

@@ -1,32 +1,35 @@
-"""Tests of envfit.validate._report (and its report_* modules): every judgement of report.md is
-chosen by a named predicate.
+"""Tests of envfit.validate._report and its parts (_report_predicates, _report_verdicts,
+_report_template): every judgement of report.md is a verdict of a named predicate.
 
-Each condition of :data:`envfit.validate._report_conditions.CONDITIONS` is rendered both ways
+Each condition of :data:`envfit.validate._report_predicates.CONDITIONS` is rendered both ways
 from a small synthetic result dict (the keys ``run_validation`` returns, only those the
 sentence reads): the sentence for the outcome the numbers satisfy appears, with the numbers
-given, and the other one does not. A real quick run on a 16-row GP map checks that the
-rendered report prints no sentence whose condition its own numbers fail, and that the
-functions fit a screen.
+given, and the other one does not; the verdict list (the data ``validate.json`` carries)
+holds that statement with that outcome. A real quick run on a 16-row GP map checks that the
+rendered report prints no sentence whose condition its own numbers fail, that every bullet
+of the report is its verdicts' sentences, that each verdict's outcome is its predicate on
+its inputs, and that the result's stored verdicts are the report's.
 """
 from __future__ import annotations
 
 import ast
 import inspect
+import json
 import math
 
 import pytest
+from envfit.base._atomic import to_jsonable
 from envfit.data_gen._gp import gaussian_process_map
 
 from envfit.maps._envmap import EnvMap
 from envfit.validate import _config as VC
 from envfit.validate import _pipeline as V
 from envfit.validate import _report as R
-from envfit.validate import _report_conditions as C
-from envfit.validate import _report_format as F
-from envfit.validate import _report_sections as S
-from envfit.validate import _report_statements as D
-from envfit.validate._report import render_report, write_report
-from envfit.validate._report_conditions import CONDITIONS
+from envfit.validate import _report_predicates as C
+from envfit.validate import _report_template as T
+from envfit.validate import _report_verdicts as RV
+from envfit.validate._report import render_report, report_verdicts, write_report
+from envfit.validate._report_predicates import CONDITIONS, RENDERER_CONDITIONS, fact, judge
 
 
 def _result(agreement=None, results=None, map_stats=None, truncation=None):
@@ -269,29 +272,60 @@ def test_condition_both_ways(name, holds):
     assert present in md, f"{name}={holds}: {present!r} not in the report"
     for text in absent:
         assert text not in md, f"{name}={holds}: {text!r} printed"
+    outcomes = {v.holds for v in report_verdicts(result) if v.statement == name}
+    assert holds in outcomes, f"{name}: no verdict with holds={holds} in the data"
 
 
 # ----------------------------------------------------------------------------- the predicates
 
 def test_predicates_thresholds():
-    assert C._rises_with_degree([1.0, 3.0, 2.0, 4.0])                 # ρ = 0.8, ×4
-    assert not C._rises_with_degree([1.0, 1.2, 1.4])                  # ρ = 1 but ×1.4
-    assert not C._rises_with_degree([1.0, 2.0])                       # too few degrees
-    assert not C._rises_with_degree([0.17, 0.92, 0.41, 0.55, 0.3])    # the review's map
-    assert C._looks_gaussian(2.0) and C._looks_gaussian(4.0) and not C._looks_gaussian(5.2)
-    assert C._heavy_tailed(6.01) and not C._heavy_tailed(6.0)
-    assert C._spectral_agrees(0.85, 1.15) and not C._spectral_agrees(0.84, 1.0)
-    assert C._band_limit_explains(2, 3) and not C._band_limit_explains(1, 2)
-    assert C._overpredicts(1.26) and not C._overpredicts(1.25)
-    assert C._underpredicts(0.79) and not C._underpredicts(0.8)
-    assert C._rank_identical([1.0 - 1e-12]) and not C._rank_identical([0.8]) and not C._rank_identical([])
-    assert C._spearman([1, 2, 3, 4], [4, 3, 2, 1]) == pytest.approx(-1.0)
-    assert C._spearman([1, 2, 3], [1, 1, 1]) == 0.0
+    assert C.rises_with_degree([1.0, 3.0, 2.0, 4.0])                 # ρ = 0.8, ×4
+    assert not C.rises_with_degree([1.0, 1.2, 1.4])                  # ρ = 1 but ×1.4
+    assert not C.rises_with_degree([1.0, 2.0])                       # too few degrees
+    assert not C.rises_with_degree([0.17, 0.92, 0.41, 0.55, 0.3])    # the review's map
+    assert C.looks_gaussian(2.0) and C.looks_gaussian(4.0) and not C.looks_gaussian(5.2)
+    assert C.heavy_tailed(6.01) and not C.heavy_tailed(6.0)
+    assert C.spectral_agrees(0.85, 1.15) and not C.spectral_agrees(0.84, 1.0)
+    assert C.band_limit_explains(2, 3) and not C.band_limit_explains(1, 2)
+    assert C.overpredicts(1.26) and not C.overpredicts(1.25)
+    assert C.underpredicts(0.79) and not C.underpredicts(0.8)
+    assert C.rank_identical([1.0 - 1e-12]) and not C.rank_identical([0.8]) and not C.rank_identical([])
+    assert C.spearman([1, 2, 3, 4], [4, 3, 2, 1]) == pytest.approx(-1.0)
+    assert C.spearman([1, 2, 3], [1, 1, 1]) == 0.0
 
 
-def test_say_picks_the_sentence_of_the_outcome():
-    assert C._say("errors_gaussian", (3.0,), kurtosis=3.0).startswith("The per-axis errors look Gaussian")
-    assert C._say("rank_identical", ([0.5],), n=1) == ""               # nothing when false
+def test_sentence_of_the_outcome():
+    """A verdict prints the template of its outcome, filled with its values; "" where that
+    outcome prints nothing; a fact prints its one template."""
+    v = judge("errors_gaussian", (3.0,), kurtosis=3.0)
+    assert v.holds is True and v.inputs == (3.0,)
+    assert T.sentence(v).startswith("The per-axis errors look Gaussian (median kurtosis 3.0;")
+    assert T.sentence(judge("rank_identical", ([0.5],), n=1)) == ""        # nothing when false
+    assert T.sentence(fact("slopes_slower", count=2, rules=["a/b/c", "d/e/f"])) == (
+        "2 converge *slower* than predicted: a/b/c, d/e/f.")
+    assert T.bullets([fact("map_range", peak=2.0, half=50.0),
+                      judge("rank_identical", ([0.5],), n=1)], "") == [
+        "Map dynamic range: peak/mean luminance 2; half of the linear energy lies in 50 % of the "
+        "sphere."]
+
+
+def test_missing_numbers_print_a_dash():
+    """``!m`` / :func:`fmt`: "–" for None and non-finite values, the value as it is where the
+    format does not apply (an int format on a float)."""
+    assert [T.fmt(x) for x in (None, math.nan, math.inf, 0.12345)] == ["–", "–", "–", "0.123"]
+    assert T.fmt(3, "d") == "3" and T.fmt(2.5, "d") == "2.5" and T.fmt(0.25, ".0%") == "25%"
+    v = judge("rank_verdict", ([],), tau=None)
+    assert v.holds is False and T.sentence(v) == "min τ = – → no"
+
+
+def test_every_statement_has_its_sentences():
+    """The template tables cover exactly the judgements and the facts the verdicts use; every
+    list field has an item template of a statement that exists."""
+    assert set(T.JUDGED) == set(CONDITIONS) | set(RENDERER_CONDITIONS)
+    assert not set(T.FACTS) & set(T.JUDGED)
+    assert {s for s, _ in T.ITEMS} <= set(T.JUDGED) | set(T.FACTS)
+    for name, (yes, no) in T.JUDGED.items():
+        assert yes is not None or no is not None, name
 
 
 # ----------------------------------------------------------------------------- a real quick run
@@ -318,39 +352,39 @@ def test_real_report_prints_no_sentence_whose_condition_fails(quick_result, tmp_
     md = write_report(r, tmp_path / "report.md").read_text()
     assert md == render_report(r)
     kurts = sorted(k for e in r["results"] for k in e["error_kurtosis"] if k is not None)
-    kurt = F._median(kurts)
-    _expect(md, "errors_gaussian", C._looks_gaussian(kurt),
+    kurt = RV.median(kurts)
+    _expect(md, "errors_gaussian", C.looks_gaussian(kurt),
             f"The per-axis errors look Gaussian (median kurtosis {kurt:.1f};",
             f"The per-axis errors are not Gaussian: median kurtosis {kurt:.1f}")
-    _expect(md, "heavy_tails", C._heavy_tailed(kurt), "Tails that heavy", None)
+    _expect(md, "heavy_tails", C.heavy_tailed(kurt), "Tails that heavy", None)
     pr = r["map_stats"]["power_ratio_low_degrees"]
     rho = [pr[k] for k in sorted(pr, key=int)]
-    _expect(md, "power_rises", C._rises_with_degree(rho), "It rises with l (",
+    _expect(md, "power_rises", C.rises_with_degree(rho), "It rises with l (",
             f"It does not rise with l ({min(rho):.2f}–{max(rho):.2f};")
     low = sum(rho[:3]) / 3
-    _expect(md, "low_degrees_match", C._low_degrees_match(low),
+    _expect(md, "low_degrees_match", C.low_degrees_match(low),
             f"hold {low:.2f}× the model's power, within 30% of it.",
             f"hold {low:.2f}× the model's power: rules whose error")
     ab = r["agreement"]["absolute"]
     d, dc = ab["slope_range"], ab["slope_range_spectral"]
-    _expect(md, "absolute_all_within", C._all_within(d["fraction_within"]),
+    _expect(md, "absolute_all_within", C.all_within(d["fraction_within"]),
             "for every cell with N", f"for {d['fraction_within']:.0%} of the cells with N")
-    _expect(md, "spectral_agrees", C._spectral_agrees(dc["min_ratio"], dc["max_ratio"]),
+    _expect(md, "spectral_agrees", C.spectral_agrees(dc["min_ratio"], dc["max_ratio"]),
             "everywhere: the error spectra and the measurement agree", "off by more than 15% somewhere")
-    _expect(md, "model_overpredicts", C._overpredicts(d["median_ratio"]),
+    _expect(md, "model_overpredicts", C.overpredicts(d["median_ratio"]),
             f"smaller than σ̂·wce (median ratio {d['median_ratio']:.2f}", None)
-    _expect(md, "model_underpredicts", C._underpredicts(d["median_ratio"]),
+    _expect(md, "model_underpredicts", C.underpredicts(d["median_ratio"]),
             f"larger than σ̂·wce (median ratio {d['median_ratio']:.2f}", None)
     diffs = [s["difference"] for s in r["agreement"]["slopes"] if s["difference"] is not None]
-    _expect(md, "slopes_agree", C._all_agree(diffs, 0.1), "fitted slopes agree within",
+    _expect(md, "slopes_agree", C.all_agree(diffs, 0.1), "fitted slopes agree within",
             "Slopes off by more than 0.1")
     taus = [k["kendall_tau"] for k in r["agreement"]["rank"]]
-    _expect(md, "rank_identical", C._rank_identical(taus), "is the predicted one for all", None)
+    _expect(md, "rank_identical", C.rank_identical(taus), "is the predicted one for all", None)
     for b, v in r["agreement"]["s_choice"].items():
         best, used = v["best_s"], v["used_s"]
-        _expect(md, "fitted_s_best", C._fitted_s_is_best(best, used),
+        _expect(md, "fitted_s_best", C.fitted_s_is_best(best, used),
                 f"{b} (wce): the fitted s = {used:.3f} gives the best shape match",
-                f"{b} (wce): the predicted shapes match best" if not C._shapes_tie(
+                f"{b} (wce): the predicted shapes match best" if not C.shapes_tie(
                     v["residual_by_s"][f"{used:.4f}"]["residual_dex"],
                     v["residual_by_s"][f"{best:.4f}"]["residual_dex"]) else None)
 
@@ -365,8 +399,27 @@ def test_real_report_numbers(quick_result):
 
 
 def test_functions_fit_a_screen():
-    """No function of the report modules is over 80 lines; render_report is a handful of calls."""
-    lengths = {n.name: n.end_lineno - n.lineno + 1 for m in (R, C, F, S, D)
+    """No function of the report modules is over 60 lines; render_report and report_verdicts
+    are a handful of calls."""
+    lengths = {n.name: n.end_lineno - n.lineno + 1 for m in (R, C, T, RV)
                for n in ast.walk(ast.parse(inspect.getsource(m))) if isinstance(n, ast.FunctionDef)}
-    assert max(lengths.values()) <= 80, lengths
-    assert lengths["render_report"] <= 30 and lengths["_disagreements"] <= 30
+    assert max(lengths.values()) <= 60, lengths
+    assert lengths["render_report"] <= 30 and lengths["report_verdicts"] <= 30
+
+
+def test_real_report_is_its_verdicts(quick_result):
+    """Every bullet of "What disagrees and why" is the sentences of one bullet's verdicts;
+    every verdict's outcome is its predicate on its inputs; the run's stored verdicts (the
+    ``verdicts`` of validate.json) are the report's."""
+    md = render_report(quick_result)
+    verdicts = report_verdicts(quick_result)
+    section = md.split("## What disagrees and why\n\n")[1].split("\n\n")[0].splitlines()
+    assert section == [f"- {b}" for b in T.bullets(verdicts, "disagreements")] and section
+    for v in verdicts:
+        if v.holds is not None:
+            assert bool(CONDITIONS[v.statement](*v.inputs)) == v.holds, v
+        if T.sentence(v):
+            assert T.sentence(v) in md, v
+    assert {v.section for v in verdicts} == {"acceptance", "disagreements"}
+    assert quick_result["verdicts"] == [v.to_json() for v in verdicts]
+    assert json.loads(json.dumps(to_jsonable(quick_result["verdicts"]))) == quick_result["verdicts"]

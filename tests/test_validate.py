@@ -316,8 +316,16 @@ def test_cli_end_to_end(tmp_path, capsys):
     res = json.loads(capsys.readouterr().out)
     assert res["s"] == 1.4 and res["fit"]["source"] == "given"
     assert [e["brdf"] for e in res["results"]] == ["glossy"] * 4
-    assert (out / "report.md").read_text().startswith("# Validation of predicted")
+    md = (out / "report.md").read_text()
+    assert md.startswith("# Validation of predicted")
     assert json.loads((out / "validate.json").read_text())["s"] == 1.4
+    # the verdicts of the JSON are the report's judgements: its bullets, sentence for sentence
+    from envfit.validate._report_predicates import Verdict
+    from envfit.validate._report_template import bullets
+    verdicts = [Verdict(**v) for v in res["verdicts"]]
+    assert {v.section for v in verdicts} == {"acceptance", "disagreements"}
+    lines = bullets(verdicts, "disagreements")
+    assert lines and all(f"- {x}\n" in md for x in lines)
     for name in ("validate_quadrature_glossy.png", "validate_absolute_glossy.png",
                  "validate_truncation.png", "validate_s_choice.png"):
         with open(out / name, "rb") as fh:

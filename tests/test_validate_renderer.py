@@ -1,5 +1,5 @@
 """Tests of ``envfit validate --renderer``: envfit.validate._renderer, its report section
-(envfit.validate._report_renderer and the ``renderer_*`` conditions), envfit.plots._renderer and
+(envfit.validate._report_verdicts' renderer verdicts and the ``renderer_*`` conditions), envfit.plots._renderer and
 the CLI flags.
 
 Independent references: :func:`envfit.predict.renderer._predictor.predict_rule` and
@@ -29,8 +29,10 @@ from envfit.predict.renderer._predictor import predict_rule, renderer_model
 from envfit.measure._adaptive_rmse import agreement_with_interval
 from envfit.sampling._rules import RendererRule
 from envfit.measure._rules import RendererSetup, measure_rule
-from envfit.validate import _report_conditions as RC
-from envfit.validate import _report_renderer as RR
+from envfit.validate import _report as R
+from envfit.validate import _report_predicates as RC
+from envfit.validate import _report_template as RT
+from envfit.validate import _report_verdicts as RV
 
 SMALL = dict(strategies=("map", "split"), pointsets=("sobol", "random"), lobes=("diffuse",),
              n_values=(16, 32), grid=64, spectrum_axes=8, axes_start=60, max_axes=120,
@@ -204,88 +206,98 @@ TESTED_BOTH_WAYS = {"renderer_ratios_within", "renderer_lobe_agrees", "renderer_
                     "renderer_sources", "renderer_split_helps", "renderer_targets_met"}
 
 
+def _says(rd, *statements):
+    """The sentences of the renderer verdicts of ``rd`` that are one of ``statements``."""
+    return [RT.sentence(v) for v in RV.renderer_verdicts(rd) if v.statement in statements]
+
+
+def _say(rd, statement):
+    """The sentence of ``statement`` on ``rd`` ("" when there is none)."""
+    return " ".join(_says(rd, statement))
+
+
 def test_every_renderer_condition_is_tested():
     assert set(RC.RENDERER_CONDITIONS) == TESTED_BOTH_WAYS
     assert not TESTED_BOTH_WAYS & set(RC.CONDITIONS)
 
 
 def test_predicates_both_ways():
-    assert RC._ratios_in_range([0.95, 1.05]) and not RC._ratios_in_range([0.95, 1.2])
-    assert not RC._ratios_in_range([]) and not RC._ratios_in_range([None])
-    assert RC._interval_below(1.0, 1.5) and not RC._interval_below(1.6, 1.5)
-    assert RC._any_found(1) and not RC._any_found(0)
-    assert RC._all_below([(1, 2)]) and not RC._all_below([(1, 2), (3, 2)])
-    assert not RC._all_below([])
+    assert RC.ratios_in_range([0.95, 1.05]) and not RC.ratios_in_range([0.95, 1.2])
+    assert not RC.ratios_in_range([]) and not RC.ratios_in_range([None])
+    assert RC.interval_below(1.0, 1.5) and not RC.interval_below(1.6, 1.5)
+    assert RC.any_found(1) and not RC.any_found(0)
+    assert RC.all_below([(1, 2)]) and not RC.all_below([(1, 2), (3, 2)])
+    assert not RC.all_below([])
 
 
 def test_ratio_statement_both_ways():
     ok = _section([_cell(pred=1.05), _cell("split", pred=0.95)])
-    assert RR._ratio_statement(ok) == ("For every rule (2) the median predicted/measured ratio "
+    assert _say(ok, "renderer_ratios_within") == ("For every rule (2) the median predicted/measured ratio "
                                        "is within 0.9–1.1 (0.95–1.05).")
     bad = _section([_cell(pred=1.3), _cell("split", pred=0.95)])
-    s = RR._ratio_statement(bad)
+    s = _say(bad, "renderer_ratios_within")
     assert s.startswith("The median predicted/measured ratio is outside 0.9–1.1 for 1 of the 2")
     assert "diffuse map/sobol (1.30)" in s and "split" not in s
 
 
 def test_lobe_statement_both_ways():
-    (ok,) = RR._lobe_statements(_section([_cell(pred=1.05), _cell(n=32, pred=0.9)]))
+    (ok,) = _says(_section([_cell(pred=1.05), _cell(n=32, pred=0.9)]), "renderer_lobe_agrees")
     assert ok.startswith("diffuse: all 2 cells agree") and "worst 0.90 (map/sobol, N = 32)" in ok
-    (bad,) = RR._lobe_statements(_section([_cell(pred=1.05), _cell(n=32, pred=0.5)]))
+    (bad,) = _says(_section([_cell(pred=1.05), _cell(n=32, pred=0.5)]), "renderer_lobe_agrees")
     assert bad.startswith("diffuse: 1 of 2 cells agree") and "worst 0.50" in bad
 
 
 def test_lowest_statement_both_ways():
     resolved = _section([_cell("map", meas=1.0, lo=0.9, hi=1.1), _cell("split", meas=0.5, lo=0.45, hi=0.55)])
-    (s,) = RR._lowest_statements(resolved)
+    (s,) = _says(resolved, "renderer_lowest_resolved")
     assert "`split` (sobol) has the lowest measured RMSE, 0.5 [0.45, 0.55], its interval below" in s
     assert "`map` (sobol, 1 [0.9, 1.1])" in s
     overlap = _section([_cell("map", meas=1.0, lo=0.7, hi=1.3), _cell("split", meas=0.8, lo=0.6, hi=1.0)])
-    (s,) = RR._lowest_statements(overlap)
+    (s,) = _says(overlap, "renderer_lowest_resolved")
     assert "`split` (sobol) has the lowest" in s and "overlaps" in s and "not resolved" in s
-    (s,) = RR._lowest_statements(_section([_cell("map")]))
+    (s,) = _says(_section([_cell("map")]), "renderer_only_strategy")
     assert s.startswith("diffuse, N = 16: only `map` was measured")
 
 
 def test_source_statement_both_ways():
     src = {"direction": [0.0, 1.0, 0.0], "solid_angle": 0.19, "pixels": 24, "share": 0.171}
-    s = RR._source_statement(_section([_cell()], sources=[src]))
+    s = _say(_section([_cell()], sources=[src]), "renderer_sources")
     assert s.startswith("Split off by `split` (1 bright source(s)") and "17.1% of the map's power" in s
     assert "(+0.000, +1.000, +0.000)" in s and "0.19 sr" in s
-    assert RR._source_statement(_section([_cell()])).startswith("No bright source was found")
+    assert _say(_section([_cell()]), "renderer_sources").startswith("No bright source was found")
 
 
 def test_split_statement_both_ways():
     helps = _section([_cell("mis", meas=1.0), _cell("split", meas=0.5)])
-    assert RR._split_statement(helps).startswith("`split` measures below `mis` in all 1 cells")
+    assert _say(helps, "renderer_split_helps").startswith("`split` measures below `mis` in all 1 cells")
     hurts = _section([_cell("mis", meas=1.0), _cell("split", meas=1.5),
                       _cell("mis", n=32, meas=1.0), _cell("split", n=32, meas=0.5)])
-    s = RR._split_statement(hurts)
+    s = _say(hurts, "renderer_split_helps")
     assert s.startswith("`split` does not measure below `mis` in 1 of the 2 cells")
     assert "diffuse sobol N = 16 (1.5 vs 1)" in s
-    assert RR._split_statement(_section([_cell("split")])) == ""      # nothing to compare
+    assert _say(_section([_cell("split")]), "renderer_split_helps") == ""      # nothing to compare
 
 
 def test_target_statement_both_ways():
-    assert RR._target_statement(_section([_cell(), _cell(n=32)])) == (
+    assert _say(_section([_cell(), _cell(n=32)]), "renderer_targets_met") == (
         "Every measured interval reached ±10% (250–250 axes).")
-    s = RR._target_statement(_section([_cell(), _cell(n=32, met=False)]))
+    s = _say(_section([_cell(), _cell(n=32, met=False)]), "renderer_targets_met")
     assert s.startswith("1 of 2 cells stopped at max_axes = 120 before") and "map/sobol N = 32" in s
 
 
 def test_measured_axes_sentence_both_ways():
-    imp = RR._measured_axes({"axis_sampling": "importance"})
+    imp = R._measured_axes({"axis_sampling": "importance"})
     assert "importance-sampled" in imp and "weighted by u/q" in imp
     for c in ({"axis_sampling": "uniform"}, {}):           # a run from before the option
-        assert RR._measured_axes(c) == "the RMSE over uniform random axes"
+        assert R._measured_axes(c) == "the RMSE over uniform random axes"
 
 
 def test_report_has_the_section_only_with_renderer(result):
-    from envfit.validate._report_renderer import _renderer_section
-    lines = _renderer_section({"renderer": result.to_json()})
+    rd = result.to_json()
+    lines = R.renderer_section(rd, RV.renderer_verdicts(rd))
     assert lines[0] == "## Renderer rules (`--renderer`)"
     assert sum(1 for x in lines if x.startswith("| diffuse ")) == len(result.rules)
-    assert _renderer_section({"renderer": None}) == []
+    assert R.renderer_section(None, RV.renderer_verdicts(None)) == []
 
 
 # ----------------------------------------------------------------------------- plot

@@ -25,16 +25,13 @@ Modules:
 * :mod:`~envfit.validate._renderer_results` — What ``envfit validate --renderer`` returns and
   prints: the cells, their summaries per rule and per lobe, the section and its table.
 * :mod:`~envfit.validate._report` — ``report.md``: a short validation report written from the
-  result of ``envfit validate``.
-* :mod:`~envfit.validate._report_conditions` — The judgements of ``report.md``: named
-  thresholds, pure predicates and the :data:`CONDITIONS` table.
-* :mod:`~envfit.validate._report_format` — Small formatting helpers of ``report.md``
-  (:mod:`envfit.validate._report`).
-* :mod:`~envfit.validate._report_renderer` — The "Renderer rules" section of ``report.md``
-  (``envfit validate --renderer``).
-* :mod:`~envfit.validate._report_sections` — The descriptive sections and the agreement
-  tables of ``report.md``.
-* :mod:`~envfit.validate._report_statements` — The "What disagrees and why" section of
+  result of ``envfit validate`` (the descriptive sections, and the assembly).
+* :mod:`~envfit.validate._report_predicates` — The judgements of ``report.md``: named
+  thresholds, pure predicates (:data:`CONDITIONS`) and the :class:`Verdict` data class.
+* :mod:`~envfit.validate._report_verdicts` — Every statement of ``report.md`` on a result,
+  as a list of verdicts (which statement, its numbers, whether its predicate holds): the
+  ``verdicts`` of ``validate.json``.
+* :mod:`~envfit.validate._report_template` — The sentence of every verdict and the tables of
   ``report.md``.
 * :mod:`~envfit.validate._results` — The result of ``envfit validate``:
   :class:`ValidationResult` (its :meth:`~ValidationResult.to_json` is the JSON-ready dict

@@ -168,6 +168,7 @@ from envfit.validate._config import QUICK_DESCRIPTION, ValidateConfig
 from envfit.validate._fitting import fit_both
 from envfit.validate._renderer import (RendererValidation, RendererValidationConfig,
                                        run_renderer_validation)
+from envfit.validate._report_verdicts import report_verdicts
 from envfit.validate._results import (ValidationResult, compute_costs, fill_measured_equivalents,
                                       fill_shape, map_statistics, rule_entry)
 from envfit.validate._truncation import truncation_curves
@@ -214,7 +215,8 @@ def _spectral_plan(envmap: EnvMap, cfg: ValidateConfig) -> Plan:
 @dataclass
 class _Run:
     """What the steps of one :func:`run_validation` share: the configuration, the scaled
-    map, its store, the axes, the ground truths (computed once per BRDF) and the timings."""
+    map, its store, the axes, the ground truths (computed once per BRDF), the timings and
+    when the run started."""
 
     envmap: EnvMap
     cfg: ValidateConfig
@@ -224,6 +226,7 @@ class _Run:
     axes: np.ndarray
     quiet: bool
     on_cell: Callable[[str, bool], None] | None
+    t_start: float
     timings: dict = field(default_factory=lambda: {"fit": 0.0, "truth": 0.0, "quadrature": 0.0,
                                                    "truncation": 0.0, "equivalents": 0.0})
     truths: dict = field(default_factory=dict)
@@ -242,7 +245,8 @@ class _Run:
             self.on_cell(key, resumed)
 
 
-def _start(envmap: EnvMap, cfg: ValidateConfig, out, quiet: bool, on_cell) -> _Run:
+def _start(envmap: EnvMap, cfg: ValidateConfig, out, quiet: bool, on_cell,
+           t_start: float) -> _Run:
     """Step 1: the guards (memory, sample count, a constant map), the value scale, the store
     of the resumable cells (its configuration: what makes a stored cell this run's) and the
     seeded axes."""
@@ -259,7 +263,8 @@ def _start(envmap: EnvMap, cfg: ValidateConfig, out, quiet: bool, on_cell) -> _R
                  "equivalent_nmax": cfg.equivalent_nmax}
     store = ResultStore(out, store_cfg, kind="validate")
     return _Run(envmap=envmap, cfg=cfg, scale=sc, scaled=scaled, store=store,
-                axes=random_axes(cfg.axes, [cfg.seed, 11]), quiet=quiet, on_cell=on_cell)
+                axes=random_axes(cfg.axes, [cfg.seed, 11]), quiet=quiet, on_cell=on_cell,
+                t_start=t_start)
 
 
 def _s_values(cfg: ValidateConfig, s_used: float) -> list[float]:
@@ -298,9 +303,10 @@ def _failed_cell(brdf, pointset, w, n, s_list, band_lmax, msg, seconds) -> dict:
 
 
 def _compute_cells(run: _Run, brdf: str, wf, pointset: str, n: int, todo: list[str],
-                   s_used: float, s_list: list[float], band_lmax: int) -> dict[str, dict]:
-    """Compute the cells (brdf, pointset, n, w) for the weightings in ``todo`` (shared lookups)."""
-    cfg = run.cfg
+                   ctx: PredictionContext, s_list: list[float]) -> dict[str, dict]:
+    """Compute the cells (brdf, pointset, n, w) for the weightings in ``todo`` (shared lookups),
+    with the wce at every s of ``s_list`` and the band-limited ones to ``ctx.band_lmax``."""
+    cfg, s_used, band_lmax = run.cfg, ctx.s, ctx.band_lmax
     t0 = time.perf_counter()
     pts = generate(pointset, n, seed=cfg.seed, morph=wf.morph)
     t_pts = time.perf_counter() - t0
@@ -361,7 +367,7 @@ def _quadrature_cells(run: _Run, ctx: PredictionContext, s_list: list[float]) ->
                             todo.append(w)
                     if not todo:
                         continue
-                    done = _compute_cells(run, b, wf, ps, n, todo, ctx.s, s_list, ctx.band_lmax)
+                    done = _compute_cells(run, b, wf, ps, n, todo, ctx, s_list)
                     for w, c in done.items():
                         run.store.put(keys[w], c)
                         cells[keys[w]] = c
@@ -398,11 +404,12 @@ def _renderer_cells(run: _Run, renderer: RendererValidationConfig | None
 
 
 def _finish(run: _Run, fit: dict, fit_ref: dict, ctx: PredictionContext, results: list[dict],
-            trunc: list[dict], agr: dict, t_start: float,
+            trunc: list[dict], agr: dict,
             rend: RendererValidation | None = None) -> ValidationResult:
-    """Step 7: timings, costs, notes (closing the store first) and the result."""
+    """Step 7: timings, costs, notes (closing the store first), the result and the report's
+    verdicts on it (:func:`envfit.validate._report_verdicts.report_verdicts`)."""
     envmap, cfg, timings = run.envmap, run.cfg, run.timings
-    timings["total"] = time.perf_counter() - t_start
+    timings["total"] = time.perf_counter() - run.t_start
     # what the whole result cost to compute, resumed parts included (stored per cell)
     timings["compute"] = (float(fit.get("seconds") or 0.0) + timings["truth"]
                           + sum(float(s or 0.0) for e in results for s in e["seconds"])
@@ -416,7 +423,7 @@ def _finish(run: _Run, fit: dict, fit_ref: dict, ctx: PredictionContext, results
     stats = {**map_statistics(envmap, run.scaled, run.scale),
              "power_ratio_low_degrees": low_degree_power_ratio(
                  run.scaled, list(ctx.sigma_bandlimited_channels), ctx.s_bandlimited)}
-    return ValidationResult(
+    res = ValidationResult(
         map=envmap.name, map_size=[envmap.width, envmap.height], channels=envmap.channels,
         s=ctx.s, sigma=ctx.sigma, sigma_channels=[float(x) for x in fit["sigma_channels"]],
         s_refined=ctx.s_bandlimited, sigma_refined=ctx.sigma_bandlimited,
@@ -430,6 +437,8 @@ def _finish(run: _Run, fit: dict, fit_ref: dict, ctx: PredictionContext, results
         timings=timings, costs=compute_costs(results), notes=notes,
         unwritten=[list(u) for u in run.store.unwritten],
         renderer=None if rend is None else rend.to_json())
+    res.verdicts = [v.to_json() for v in report_verdicts(res.to_json())]
+    return res
 
 
 def run_validation(envmap: EnvMap, config: ValidateConfig | None = None, *,
@@ -469,7 +478,7 @@ def run_validation(envmap: EnvMap, config: ValidateConfig | None = None, *,
     """
     cfg = config or ValidateConfig()
     t_start = time.perf_counter()
-    run = _start(envmap, cfg, out, quiet, on_cell)
+    run = _start(envmap, cfg, out, quiet, on_cell, t_start)
     fit, fit_ref, run.timings["fit"] = fit_both(envmap, cfg, run.store, quiet, on_cell)
     ctx = PredictionContext.from_map(run.scaled, float(fit["s"]), fit["sigma_channels"],
                                      float(fit_ref["s"]), fit_ref["sigma_channels"])
@@ -485,4 +494,4 @@ def run_validation(envmap: EnvMap, config: ValidateConfig | None = None, *,
     fill_shape(results, trunc, agr)
     fill_measured_equivalents(results, trunc)
     rend = _renderer_cells(run, renderer)
-    return _finish(run, fit, fit_ref, ctx, results, trunc, agr, t_start, rend)
+    return _finish(run, fit, fit_ref, ctx, results, trunc, agr, rend)
