@@ -29,7 +29,7 @@ from envfit.maps._envmap import EnvMap
 from envfit.maps._latlong import pixel_directions, pixel_solid_angles
 from envfit.export._ringing import (RingingRow, choose, dense_negative_fractions,
                                     negative_fraction, truncation_rmse)
-from envfit.export._report import sh_report
+from envfit.export import SHReportOptions, sh_report
 from envfit.shading._bilinear_sh import bilinear_sh_coefficients
 from envfit.shading._ground_truth import funk_hecke_factors, shading_integral
 from envfit.export._sh_export import (RH_CONSTANTS, clamped_cosine_sh, real_sh_basis,
@@ -218,8 +218,8 @@ def test_sloan_lambda_is_minimal_and_non_negative(sun_env):
 
 
 def test_windowed_prediction_matches_measurement(sun_env):
-    r = sh_report(sun_env, 3, window="hanning", table_lmax=3, check_axes=1024,
-                  dense_height=64)
+    r = sh_report(sun_env, 3, SHReportOptions(window="hanning", table_lmax=3, check_axes=1024,
+                                              dense_height=64))
     assert 0.95 < r.measured_relative_rmse / r.predicted_relative_rmse < 1.05
     for row in r.rows:
         assert abs(row.dense_negative_fraction - row.negative_fraction) < 0.01

@@ -23,9 +23,9 @@ from __future__ import annotations
 import argparse
 import sys
 
-from envfit.cli._common import (add_common_arguments, add_map_arguments, emit_json, guarded_write,
-                                load_map_from_args, map_convention, nonneg_int, out_dir,
-                                positive_float, positive_int)
+from envfit.cli._common import (add_common_arguments, add_map_arguments, load_map_from_args,
+                                map_convention, nonneg_int, out_dir, positive_float, positive_int)
+from envfit.cli._output import CommandOutput
 
 
 def register(sub) -> None:
@@ -93,18 +93,18 @@ def _plan_note(args: argparse.Namespace, stages) -> None:
           f"{top.name}: {top.seconds:.0f} s, sized by {top.option})", file=sys.stderr)
 
 
-def run(args: argparse.Namespace) -> int:
-    from envfit.export._report import document, plan, sh_outputs, sh_report
+def run(args: argparse.Namespace, output: CommandOutput) -> int:
+    from envfit.export._report import SHReportOptions, document, plan, sh_outputs, sh_report
     env = load_map_from_args(args)
     conv = map_convention(args)
-    opts = dict(irradiance=args.irradiance, window=args.window,
-                target_relative=args.target_relative, scale=args.scale,
-                table_lmax=args.table_lmax, check=not args.no_check,
-                check_axes=args.check_axes, dense_height=args.check_height)
-    _plan_note(args, plan(env, args.lmax, **opts))      # refused here, before the work
-    r = sh_report(env, args.lmax, **opts, quiet=args.quiet,
-                  convention=None if conv is None else f"{conv.name} ({conv.renderer})",
-                  condon_shortley=args.condon_shortley)
+    opts = SHReportOptions(irradiance=args.irradiance, window=args.window,
+                           target_relative=args.target_relative, scale=args.scale,
+                           table_lmax=args.table_lmax, check=not args.no_check,
+                           check_axes=args.check_axes, dense_height=args.check_height,
+                           convention=None if conv is None else f"{conv.name} ({conv.renderer})",
+                           condon_shortley=args.condon_shortley)
+    _plan_note(args, plan(env, args.lmax, opts))        # refused here, before the work
+    r = sh_report(env, args.lmax, opts, quiet=args.quiet)
     out = out_dir(args)
     json_on_stdout = str(args.json) == "-"
     if out is None and not json_on_stdout:
@@ -112,11 +112,11 @@ def run(args: argparse.Namespace) -> int:
         sys.stdout.flush()
     lines = r.summary_lines()
     if out is not None:
-        files = {name: guarded_write(args, out / name, write, out / name)
+        files = {name: output.guarded_write(out / name, write, out / name)
                  for name, write in sh_outputs(r).items()}
         lines.append("wrote " + ", ".join(str(p) for p in files.values() if p is not None))
     if not args.quiet:
         stream = sys.stdout if out is not None and not json_on_stdout else sys.stderr
         print("\n".join(lines), file=stream)
-    emit_json(args, r.to_dict())
+    output.emit_json(r.to_dict())
     return 0

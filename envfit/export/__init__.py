@@ -27,7 +27,7 @@ from envfit.base._lazy import lazy_exports
 
 _LAZY = {
     "check_sh_plan": "_plan",
-    "sh_report": "_report", "SHReport": "_report",
+    "sh_report": "_report", "SHReport": "_report", "SHReportOptions": "_report",
     "sh_coefficients": "_sh_export", "SHCoefficients": "_sh_export",
     "to_csv": "_sh_format", "to_glsl": "_sh_format",
 }

@@ -1,8 +1,8 @@
 r"""``envfit sh``'s whole result: the exported coefficients, their predicted (and measured)
 error and negativity, the ringing table over degrees and windows, and the choice for a target
-(:func:`sh_report`, :class:`SHReport`); its documents (JSON, CSV, GLSL: :func:`document`), its
-files for ``--out`` (:func:`sh_outputs`) and the preview images of ``sh.png``
-(:func:`preview_images`).
+(:func:`sh_report` with :class:`SHReportOptions`, :class:`SHReport`); its documents (JSON,
+CSV, GLSL: :func:`document`), its files for ``--out`` (:func:`sh_outputs`) and the preview
+images of ``sh.png`` (:func:`preview_images`).
 
 The map is first put on its value scale (``linear``: radiance as is; ``display``: the
 display-referred values of :mod:`envfit.maps._scales`); then the exact local coefficients
@@ -17,7 +17,8 @@ Example
 >>> from envfit.maps._latlong import pixel_directions
 >>> d = pixel_directions(16, up="y")
 >>> env = EnvMap(1.0 + 0.5 * d[..., 1:2], up="y", name="sky")      # 1 + y/2: degree 1
->>> r = sh_report(env, 1, irradiance=True, table_lmax=2, check_axes=256, dense_height=32)
+>>> opts = SHReportOptions(irradiance=True, table_lmax=2, check_axes=256, dense_height=32)
+>>> r = sh_report(env, 1, opts)
 >>> r.predicted_relative_rmse < 1e-3, r.negative_fraction, r.choice.L
 (True, 0.0, 1)
 """
@@ -47,7 +48,7 @@ from envfit.export._sh_export import (NORMALISATION, ORDERING, RH_CONSTANTS, WIN
 from envfit.export._sh_format import signed_coefficients, to_csv, to_glsl
 from envfit.shading._spectra import _power_by_degree   # the alm are computed here once
 
-__all__ = ["FORMATS", "SHReport", "sh_report", "plan", "default_table_lmax", "document",
+__all__ = ["FORMATS", "SHReport", "SHReportOptions", "sh_report", "plan", "default_table_lmax", "document",
            "sh_outputs", "preview_images"]
 
 #: the documents ``--format`` names
@@ -150,107 +151,131 @@ def default_table_lmax(height: int) -> int:
     return max(1, min(TABLE_LMAX, int(height) - 1))
 
 
-def plan(envmap: EnvMap, lmax, *, irradiance: bool = False, window: str = "none",
-         target_relative: float = 0.01, scale: str = "linear", table_lmax: int | None = None,
-         check: bool = True, check_axes: int = CHECK_AXES,
-         dense_height: int = DENSE_HEIGHT) -> list:
-    """Every option checked before any work (ParameterError / MemoryBudgetError, one line):
-    names and ranges, then the planned time and memory
-    (:func:`envfit.export._plan.check_sh_plan`); returns its stages."""
-    if not isinstance(envmap, EnvMap):
-        raise ParameterError("sh_report needs an EnvMap")
-    check_lmax(lmax, envmap.height)
-    if window not in WINDOWS:
-        raise ParameterError(f"unknown --window {window!r}; use one of {', '.join(WINDOWS)}")
-    if scale not in ("linear", "display"):
-        raise ParameterError(f"--scale must be linear or display for SH export, got {scale!r}"
-                             if scale in SCALES else f"unknown --scale {scale!r}")
-    check_positive(target_relative, "--target-relative")
-    table_lmax = default_table_lmax(envmap.height) if table_lmax is None else table_lmax
-    check_int(table_lmax, "--table-lmax", 1)
-    if check:
-        check_int(check_axes, "--check-axes", 1)
-        check_int(dense_height, "--check-height", 1)
-    return check_sh_plan(envmap.height, envmap.channels, lmax, table_lmax, check=check,
-                         check_axes=check_axes, dense_height=dense_height,
-                         irradiance=irradiance)
+@dataclass(frozen=True)
+class SHReportOptions:
+    """What :func:`sh_report` exports and checks (the options of ``envfit sh``).
 
-
-def _checked_rows(scaled: EnvMap, alm, rows, irradiance: bool, export: SHCoefficients,
-                  axes: int, height: int, mean: float, quiet: bool = True):
-    """The rows and the export with their dense negative fraction and measured error."""
-    exps = [sh_coefficients(scaled, r.L, irradiance=irradiance, window=r.window,
-                            lam=r.window_lambda, alm=alm)
-            for r in progress(rows, desc="sh: exports", quiet=quiet)] + [export]
-    dense = dense_negative_fractions(exps, height, quiet=quiet)
-    meas = [m / mean for m in measured_rmse(scaled, exps, axes, alm)]
-    rows = tuple(replace(r, dense_negative_fraction=d, measured_relative_rmse=m)
-                 for r, d, m in zip(rows, dense, meas))
-    return rows, dense[-1], meas[-1]
-
-
-def sh_report(envmap: EnvMap, lmax: int, *, irradiance: bool = False, window: str = "none",
-              target_relative: float = 0.01, scale: str = "linear",
-              table_lmax: int | None = None, check: bool = True, check_axes: int = CHECK_AXES,
-              dense_height: int = DENSE_HEIGHT, convention: str | None = None,
-              condon_shortley: bool = False, quiet: bool = True) -> SHReport:
-    """SH coefficients of ``envmap`` to ``lmax`` for an engine, with predictions and choice.
-
-    Parameters
+    Attributes
     ----------
-    envmap : the map (its ``up`` / convention fixes the world axes of the coefficients).
-    lmax : the cut-off L, 0 ≤ L ≤ H − 1.
     irradiance : export :math:`\\hat A_l L_{lm}` (R&H 2001) instead of :math:`L_{lm}`.
     window : one of :data:`envfit.export._sh_export.WINDOWS` for the export.
     target_relative : the relative RMSE the choice must meet.
     scale : "linear" or "display" (the values the coefficients are of).
     table_lmax : the ringing table covers L = 1…table_lmax and ``lmax``, 1 ≤ table_lmax ≤
-        H − 1 (default: min(:data:`TABLE_LMAX`, H − 1)).
+        H − 1 (None: min(:data:`TABLE_LMAX`, H − 1), :func:`default_table_lmax`).
     check : also measure (ground truth at ``check_axes`` directions) and evaluate the
         negative fractions densely (``dense_height`` rows).
-    quiet : no progress bars (the ringing table's rows, the dense check's blocks).
-
-    Every option is checked before any work, its range and the planned time and memory
-    (:func:`plan`): a value beyond is refused in one line naming the largest that fits.
-    convention : the name reported for the world frame (default: envfit's, ``--up``).
+    check_axes, dense_height : the sizes of that check.
+    convention : the name reported for the world frame (None: envfit's, ``--up``).
     condon_shortley : write the coefficients for the basis with the Condon–Shortley phase
         (Sloan 2008, D3DX: odd m negated) in JSON and CSV (GLSL keeps its own basis).
     """
-    plan(envmap, lmax, irradiance=irradiance, window=window, target_relative=target_relative,
-         scale=scale, table_lmax=table_lmax, check=check, check_axes=check_axes,
-         dense_height=dense_height)
+
+    irradiance: bool = False
+    window: str = "none"
+    target_relative: float = 0.01
+    scale: str = "linear"
+    table_lmax: int | None = None
+    check: bool = True
+    check_axes: int = CHECK_AXES
+    dense_height: int = DENSE_HEIGHT
+    convention: str | None = None
+    condon_shortley: bool = False
+
+
+def _options(options: SHReportOptions | None) -> SHReportOptions:
+    if options is None:
+        return SHReportOptions()
+    if not isinstance(options, SHReportOptions):
+        raise ParameterError(f"options must be an SHReportOptions, got {type(options).__name__}")
+    return options
+
+
+def plan(envmap: EnvMap, lmax, options: SHReportOptions | None = None) -> list:
+    """Every option checked before any work (ParameterError / MemoryBudgetError, one line):
+    names and ranges, then the planned time and memory
+    (:func:`envfit.export._plan.check_sh_plan`); returns its stages."""
+    o = _options(options)
+    if not isinstance(envmap, EnvMap):
+        raise ParameterError("sh_report needs an EnvMap")
+    check_lmax(lmax, envmap.height)
+    if o.window not in WINDOWS:
+        raise ParameterError(f"unknown --window {o.window!r}; use one of {', '.join(WINDOWS)}")
+    if o.scale not in ("linear", "display"):
+        raise ParameterError(f"--scale must be linear or display for SH export, got {o.scale!r}"
+                             if o.scale in SCALES else f"unknown --scale {o.scale!r}")
+    check_positive(o.target_relative, "--target-relative")
+    table_lmax = default_table_lmax(envmap.height) if o.table_lmax is None else o.table_lmax
+    check_int(table_lmax, "--table-lmax", 1)
+    if o.check:
+        check_int(o.check_axes, "--check-axes", 1)
+        check_int(o.dense_height, "--check-height", 1)
+    return check_sh_plan(envmap.height, envmap.channels, lmax, table_lmax, check=o.check,
+                         check_axes=o.check_axes, dense_height=o.dense_height,
+                         irradiance=o.irradiance)
+
+
+def _checked_rows(scaled: EnvMap, alm, rows, export: SHCoefficients, mean: float,
+                  o: SHReportOptions, quiet: bool = True):
+    """The rows and the export with their dense negative fraction and measured error."""
+    exps = [sh_coefficients(scaled, r.L, irradiance=o.irradiance, window=r.window,
+                            lam=r.window_lambda, alm=alm)
+            for r in progress(rows, desc="sh: exports", quiet=quiet)] + [export]
+    dense = dense_negative_fractions(exps, o.dense_height, quiet=quiet)
+    meas = [m / mean for m in measured_rmse(scaled, exps, o.check_axes, alm)]
+    rows = tuple(replace(r, dense_negative_fraction=d, measured_relative_rmse=m)
+                 for r, d, m in zip(rows, dense, meas))
+    return rows, dense[-1], meas[-1]
+
+
+def _signal_mean(envmap: EnvMap, alm, lp: int, o: SHReportOptions) -> tuple[np.ndarray, float]:
+    """The power per degree and the mean of the exported signal (positive, else refused)."""
+    mean = signal_mean(alm, shading_factors(lp, o.irradiance))
+    if not mean > 0:
+        raise ParameterError(f"map {envmap.name or ''} has mean {mean:.6g} on the {o.scale} "
+                             "scale: relative errors and negativity need a positive mean")
+    return _power_by_degree(alm, lp), mean
+
+
+def sh_report(envmap: EnvMap, lmax: int, options: SHReportOptions | None = None, *,
+              quiet: bool = True) -> SHReport:
+    """SH coefficients of ``envmap`` to ``lmax`` for an engine, with predictions and choice.
+
+    ``envmap``'s ``up`` / convention fixes the world axes of the coefficients; ``lmax`` is
+    the cut-off L, 0 ≤ L ≤ H − 1; ``options`` (:class:`SHReportOptions`) what is exported
+    and checked; ``quiet``: no progress bars (the ringing table's rows, the dense check's
+    blocks). Every option is checked before any work, its range and the planned time and
+    memory (:func:`plan`): a value beyond is refused in one line naming the largest that fits.
+    """
+    o = _options(options)
+    plan(envmap, lmax, o)
     L = int(lmax)
-    table_lmax = default_table_lmax(envmap.height) if table_lmax is None else int(table_lmax)
-    sc = fit_scale(scale, envmap)
+    table_lmax = default_table_lmax(envmap.height) if o.table_lmax is None else int(o.table_lmax)
+    sc = fit_scale(o.scale, envmap)
     scaled = envmap.with_data(sc.apply(envmap.data))
     Ls = sorted(set(range(1, int(table_lmax) + 1)) | ({L} if L >= 1 else set()))
     top = max(Ls)
     lp = max(2 * envmap.height - 1, top)
     alm = bilinear_sh_coefficients(scaled, lp)
-    power = _power_by_degree(alm, lp)
-    g = shading_factors(lp, irradiance)
-    mean = signal_mean(alm, g)
-    if not mean > 0:
-        raise ParameterError(f"map {envmap.name or ''} has mean {mean:.6g} on the {scale} "
-                             "scale: relative errors and negativity need a positive mean")
-    export = sh_coefficients(scaled, L, irradiance=irradiance, window=window,
-                             alm=truncate_alm(alm, top), condon_shortley=condon_shortley)
+    power, mean = _signal_mean(envmap, alm, lp, o)
+    g = shading_factors(lp, o.irradiance)
+    export = sh_coefficients(scaled, L, irradiance=o.irradiance, window=o.window,
+                             alm=truncate_alm(alm, top), condon_shortley=o.condon_shortley)
     w = np.asarray(export.window_weights)
-    rows = tuple(ringing_rows(truncate_alm(alm, top), power, irradiance, Ls, quiet=quiet))
+    rows = tuple(ringing_rows(truncate_alm(alm, top), power, o.irradiance, Ls, quiet=quiet))
     kw = {}
-    if check:
+    if o.check:
         rows, kw["dense_negative_fraction"], kw["measured_relative_rmse"] = _checked_rows(
-            scaled, truncate_alm(alm, top), rows, irradiance, export, check_axes,
-            dense_height, mean, quiet)
-        kw.update(check_axes=int(check_axes), dense_height=int(dense_height))
-    choice, sentence = choose(rows, float(target_relative))
+            scaled, truncate_alm(alm, top), rows, export, mean, o, quiet)
+        kw.update(check_axes=int(o.check_axes), dense_height=int(o.dense_height))
+    choice, sentence = choose(rows, float(o.target_relative))
     return SHReport(
         export=export, map_name=envmap.name or "map", width=envmap.width,
-        height=envmap.height, convention=convention or f"envfit grid, +{envmap.up} up",
+        height=envmap.height, convention=o.convention or f"envfit grid, +{envmap.up} up",
         scale=sc.describe(), mean=mean,
         predicted_relative_rmse=truncation_rmse(power, g, w) / mean,
         negative_fraction=negative_fraction(truncate_alm(alm, L), w * g[:L + 1]),
-        rows=rows, target_relative=float(target_relative), choice=choice,
+        rows=rows, target_relative=float(o.target_relative), choice=choice,
         choice_sentence=sentence, power_lmax=lp, notes=tuple(envmap.notes),
         scaled=scaled, **kw)
 
