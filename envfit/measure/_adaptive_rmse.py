@@ -35,6 +35,16 @@ resamples, plus M·(M − 1) for BCa's jackknife — measured ≈ 0.03 s at M = 
 1 s at 16 000 and ≈ 15 s at 64 000 (B = 2000); use ``method="percentile"`` (0.8 s at 64 000)
 for very many axes. Memory is bounded by batches of about :data:`BATCH_ELEMENTS` values.
 
+*Adaptive axes* (:func:`adaptive_rmse`). Each axis is measured exactly once, so measure
+sees :math:`M_\mathrm{final}` axes in :math:`1 + \lceil\log_2(M_\mathrm{final}/M_0)\rceil`
+calls; since the half-width falls like :math:`M^{-1/2}`,
+:math:`M_\mathrm{final} \lesssim 2M_0(h_0/t)^2` for an initial relative half-width
+:math:`h_0` and target t (at most twice the axes the target needs). The bootstrap of the
+rounds costs about twice the last one (BCa is O(M²), above; ``method="percentile"`` for
+huge M). Stopping when the interval is narrow is an optional-stopping rule: the final
+interval's coverage can be a little below nominal, most so at the first round; a larger
+``axes_start`` reduces that.
+
 * :func:`rmse_interval` — the interval, as :class:`RMSEInterval`.
 * :func:`adaptive_rmse` — doubles the axes until the interval is within ±target of the RMSE.
 * :func:`agreement_with_interval` — a predicted RMSE against a measured interval.
@@ -277,14 +287,7 @@ def adaptive_rmse(measure: Callable, *, axes_start: int = 500, max_axes: int = 6
     ``numpy.random.default_rng(seed)``, so the first M axes of a run do not depend on when
     it stopped.
 
-    Cost: each axis is measured exactly once, so measure sees M_final axes in
-    :math:`1 + \lceil\log_2(M_\mathrm{final}/M_0)\rceil` calls; since the half-width falls like
-    :math:`M^{-1/2}`, :math:`M_\mathrm{final} \lesssim 2M_0(h_0/t)^2` for an initial relative
-    half-width :math:`h_0` and target t (at most twice the axes the target needs). The
-    bootstrap of the rounds costs about twice the last one (BCa is O(M²): ≈ 15 s at 64 000
-    axes, see the module docstring; ``method="percentile"`` for huge M). Stopping when the
-    interval is narrow is an optional-stopping rule: the final interval's coverage can be
-    a little below nominal, most so at the first round; a larger ``axes_start`` reduces that.
+    Its cost and the coverage of its final interval: the module docstring, *Adaptive axes*.
 
     Parameters
     ----------
@@ -308,6 +311,29 @@ def adaptive_rmse(measure: Callable, *, axes_start: int = 500, max_axes: int = 6
     >>> out.target_met, out.axes, out.rounds, bool(out.interval.low < 0.1 < out.interval.high)
     (True, 400, 4, True)
     """
+    m0, m_max, target, conf, b = _check_adaptive(measure, axes_start, max_axes,
+                                                 target_relative, confidence, resamples, method)
+    rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+    boot_seed = rng.integers(0, 2 ** 63)                # one bootstrap seed for all rounds
+    parts: list[np.ndarray] = []
+    have, want, rounds = 0, m0, 0
+    while True:
+        new, wts = _draw_axes(rng, want - have, proposal)
+        d = _measured_errors(measure, new)
+        parts.append(d if wts is None else d * wts)
+        have, rounds = want, rounds + 1
+        interval = _interval_of(np.concatenate(parts), conf, b, int(boot_seed), method)
+        met = interval.relative_half_width <= target
+        if met or have >= m_max:
+            return AdaptiveRMSE(interval, have, bool(met), rounds,
+                                "uniform" if proposal is None else "importance")
+        want = min(2 * have, m_max)
+
+
+def _check_adaptive(measure, axes_start, max_axes, target_relative, confidence, resamples,
+                    method) -> tuple[int, int, float, float, int]:
+    """``(M_0, M_max, target, confidence, B)`` of :func:`adaptive_rmse`, checked
+    (ParameterError)."""
     m0 = check_int(axes_start, "axes_start", 2)
     m_max = check_int(max_axes, "max_axes", m0)
     try:
@@ -319,34 +345,31 @@ def adaptive_rmse(measure: Callable, *, axes_start: int = 500, max_axes: int = 6
     conf, b = _check_options(confidence, resamples, method)
     if not callable(measure):
         raise ParameterError("measure must be a callable axes -> (estimates, truth)")
-    rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
-    boot_seed = rng.integers(0, 2 ** 63)                # one bootstrap seed for all rounds
-    parts: list[np.ndarray] = []
-    have, want, rounds = 0, m0, 0
-    while True:
-        if proposal is None:
-            new, wts = _uniform_axes(rng, want - have), None
-        else:
-            new, wts = proposal.draw(rng, want - have)
-        result = measure(new)
-        if isinstance(result, np.ndarray) and result.ndim == 1:
-            d = result                                    # squared errors per axis, given
-        else:
-            try:
-                est, tru = result
-            except (TypeError, ValueError):
-                raise ParameterError("measure must return (estimates, truth)") from None
-            d = squared_errors_per_axis(est, tru)
-        if d.shape[0] != new.shape[0]:
-            raise ParameterError(f"measure returned {d.shape[0]} axes for {new.shape[0]}")
-        parts.append(d if wts is None else d * wts)
-        have, rounds = want, rounds + 1
-        interval = _interval_of(np.concatenate(parts), conf, b, int(boot_seed), method)
-        met = interval.relative_half_width <= target
-        if met or have >= m_max:
-            return AdaptiveRMSE(interval, have, bool(met), rounds,
-                                "uniform" if proposal is None else "importance")
-        want = min(2 * have, m_max)
+    return m0, m_max, target, conf, b
+
+
+def _draw_axes(rng: np.random.Generator, count: int, proposal):
+    """``(axes (count, 3), weights (count,) or None)``: uniform axes, or ``proposal``'s."""
+    if proposal is None:
+        return _uniform_axes(rng, count), None
+    return proposal.draw(rng, count)
+
+
+def _measured_errors(measure: Callable, axes: np.ndarray) -> np.ndarray:
+    """:math:`d_m` of the new ``axes``: ``measure(axes)`` as given squared errors per axis
+    (a 1-D array) or ``(estimates, truth)`` (:func:`squared_errors_per_axis`)."""
+    result = measure(axes)
+    if isinstance(result, np.ndarray) and result.ndim == 1:
+        d = result                                        # squared errors per axis, given
+    else:
+        try:
+            est, tru = result
+        except (TypeError, ValueError):
+            raise ParameterError("measure must return (estimates, truth)") from None
+        d = squared_errors_per_axis(est, tru)
+    if d.shape[0] != axes.shape[0]:
+        raise ParameterError(f"measure returned {d.shape[0]} axes for {axes.shape[0]}")
+    return d
 
 
 def agreement_with_interval(predicted: float, interval: RMSEInterval, band: float = 0.2) -> Agreement:
