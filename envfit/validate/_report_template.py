@@ -34,23 +34,24 @@ _RANGE = ("Map dynamic range: peak/mean luminance {peak:.3g}; half of the linear
           "{half:.3g} % of the sphere")
 _SPECTRAL = ("(c) spectral, from the map's own power spectrum: ratio {min:.2f} … {max:.2f}, "
              "median {median:.2f} — ")
-_LOWEST = "{lobe}, N = {n}: `{strategy}` ({pointset}) has the lowest measured RMSE, {rmse!m:.3g} " \
-          "[{low!m:.3g}, {high!m:.3g}]"
+_LOWEST = ("{lobe}, N = {n}: `{strategy}` ({pointset}) has the lowest measured RMSE, "
+           "{rmse!m:.3g} [{low!m:.3g}, {high!m:.3g}]")
 _NEXT = "`{next}` ({next_pointset}, {next_rmse!m:.3g} [{next_low!m:.3g}, {next_high!m:.3g}])"
+
+
+def _yes_no(numbers: str) -> tuple[str, str]:
+    """The two cells of an acceptance-table verdict: ``numbers → yes`` / ``numbers → no``."""
+    return numbers + " → yes", numbers + " → no"
+
 
 #: Judgement → (sentence when its predicate holds, sentence when it fails); None: nothing.
 JUDGED: dict[str, tuple[str | None, str | None]] = {
-    # acceptance table cells
-    "slopes_verdict": ("{within}/{checked} (max abs difference {difference!m:.3f}) → yes",
-                       "{within}/{checked} (max abs difference {difference!m:.3f}) → no"),
-    "refined_slopes_verdict": ("max abs difference {difference!m:.3f} → yes",
-                               "max abs difference {difference!m:.3f} → no"),
-    "rank_verdict": ("min τ = {tau!m:.3f} → yes", "min τ = {tau!m:.3f} → no"),
-    "absolute_verdict": (
-        "median ratio {median:.2f}, range {min:.2f} … {max:.2f}, {fraction:.0%} of {cells} cells "
-        "within → yes",
-        "median ratio {median:.2f}, range {min:.2f} … {max:.2f}, {fraction:.0%} of {cells} cells "
-        "within → no"),
+    # acceptance table cells: the numbers → yes / no
+    "slopes_verdict": _yes_no("{within}/{checked} (max abs difference {difference!m:.3f})"),
+    "refined_slopes_verdict": _yes_no("max abs difference {difference!m:.3f}"),
+    "rank_verdict": _yes_no("min τ = {tau!m:.3f}"),
+    "absolute_verdict": _yes_no("median ratio {median:.2f}, range {min:.2f} … {max:.2f}, "
+                                "{fraction:.0%} of {cells} cells within"),
     # slopes
     "slopes_agree": ("All {n} fitted slopes agree within {tol} with the prediction.",
                      "Slopes off by more than {tol}: {offenders}."),
@@ -239,36 +240,28 @@ ITEMS: dict[tuple[str, str], tuple[str, str]] = {
 
 # ----------------------------------------------------------------------------- filling
 
-class _Missing:
-    """A missing or non-finite number under ``!m``."""
-
-
-class _AsIs:
-    """A number under ``!m``: formatted, or printed as it is when the format does not apply."""
+class _Number:
+    """A value under ``!m``: "–" when missing or non-finite, else formatted (or as it is when
+    the format does not apply)."""
 
     def __init__(self, value):
         self.value = value
+
+    def __format__(self, spec: str) -> str:
+        v = self.value
+        if v is None or (isinstance(v, float) and not math.isfinite(v)):
+            return "–"
+        try:
+            return format(v, spec)
+        except (TypeError, ValueError):
+            return str(v)
 
 
 class _Formatter(string.Formatter):
     """:meth:`str.format` with the ``!m`` conversion (see the module docstring)."""
 
     def convert_field(self, value, conversion):
-        if conversion != "m":
-            return super().convert_field(value, conversion)
-        if value is None or (isinstance(value, float) and not math.isfinite(value)):
-            return _Missing()
-        return _AsIs(value)
-
-    def format_field(self, value, format_spec):
-        if isinstance(value, _Missing):
-            return "–"
-        if isinstance(value, _AsIs):
-            try:
-                return format(value.value, format_spec)
-            except (TypeError, ValueError):
-                return str(value.value)
-        return super().format_field(value, format_spec)
+        return _Number(value) if conversion == "m" else super().convert_field(value, conversion)
 
 
 _FORMATTER = _Formatter()
