@@ -11,8 +11,16 @@ Prints one row per (integrand, method, generator, N): predicted, brute force ± 
 ratio and z-score; the map integrand's brute force is the unbiased sample variance (its
 integral is not known in closed form; every method is unbiased).
 
+With ``--mis`` (and a map) the two streams of MIS instead: envfit's warped integrands of
+balance-heuristic MIS (``envfit.predict.renderer.warped_integrand``, fraction ½: N map and N
+lobe samples), predicted by ``mis_mse`` — the streams sharing one XOR-shifted net for
+Mitsuba's ldsampler (its two 2-D dimensions), independent for multijitter and stratified —
+against Mitsuba's own points of two consecutive 2-D dimensions per pixel; the row also gives
+the predicted cross term's share 2·C12/MSE.
+
     python bench/randomisation_check.py                     # test integrands, N = 4 … 1024
     python bench/randomisation_check.py --map /work/shared/envmaps/city.exr --reps 4000
+    python bench/randomisation_check.py --map /work/shared/envmaps/city.exr --mis --mitsuba
 """
 from __future__ import annotations
 
@@ -31,7 +39,7 @@ from oracles.randomisers import (INTEGRANDS, Integrand, jittered_points,  # noqa
                                  xor_shifted_points)
 
 from envfit.predict.renderer.randomisation import (NETS, DyadicGrid,  # noqa: E402
-                                                   mitsuba_cmj_shape, randomised_mse)
+                                                   mis_mse, mitsuba_cmj_shape, randomised_mse)
 
 #: points per chunk of the brute force (memory)
 CHUNK = 1 << 21
@@ -104,17 +112,70 @@ def _brute(f: Integrand, make, reps: int, n: int, rng, unbiased: bool):
     return float(e2.mean()), float(e2.std(ddof=1) / math.sqrt(reps))
 
 
-def _map_integrand(path: str, height: int) -> Integrand:
-    from envfit.maps import load_envmap
-    from envfit.sampling import MapSampler
-    m = load_envmap(path, max_height=height)
-    sampler = MapSampler(m)
+def _axis_near_sun(m, sampler) -> np.ndarray:
+    """A lobe axis between the map's brightest pixel and the zenith."""
     lum = m.data.mean(axis=-1)
     i, j = np.unravel_index(np.argmax(lum), lum.shape)
     sun = sampler.pixel_point(np.array([i]), np.array([j]), np.array([0.5]), np.array([0.5]))[0]
     up = {"y": np.array([0.0, 1.0, 0.0]), "z": np.array([0.0, 0.0, 1.0])}.get(m.up)
     axis = sun + (up if up is not None else np.array([0.0, 1.0, 0.0]))
-    axis /= np.linalg.norm(axis)
+    return axis / np.linalg.norm(axis)
+
+
+def _mis_rows(path: str, args) -> None:
+    """MIS: two streams, the grids of h1, h2 and h1 + h2 from one pass of the integrand."""
+    from envfit.maps import load_envmap
+    from envfit.predict.renderer import warped_integrand
+    from envfit.sampling import MapSampler
+    m = load_envmap(path, max_height=args.height)
+    sampler = MapSampler(m)
+    axis = _axis_near_sun(m, sampler)
+    c = m.data.shape[-1]
+
+    def parts(u):
+        w = warped_integrand(m, "mis", axis, u, sampler=sampler)          # (2, K, C)
+        return np.concatenate((w[0], w[1], w[0] + w[1]), axis=-1)
+
+    t = time.time()
+    g = DyadicGrid.from_callable(parts, args.level, nodes=args.nodes)
+    grids = [DyadicGrid.from_arrays(g.mean[k * c:(k + 1) * c], g.mean_sq[k * c:(k + 1) * c])
+             for k in range(3)]
+    print(f"# mis:{Path(path).stem}: grids in {time.time() - t:.1f} s", flush=True)
+    plan = {"ldsampler": ("digital_shift", True), "multijitter": ("cmj", False),
+            "stratified": ("jittered", False), "independent": ("independent", False)}
+    for kind, (method, shared) in plan.items():
+        for spp in [int(v) for v in args.n.split(",")]:
+            import mitsuba as mi
+            mi.set_variant("scalar_rgb")
+            s = mi.load_dict({"type": kind, "sample_count": spp})
+            n = s.sample_count()
+            opts = {"permutations": "mitsuba"} if kind == "multijitter" else {}
+            res = mis_mse(method, grids[0], grids[1], n, shared=shared, total=grids[2], **opts)
+            pred, cross = float(np.mean(res.mse)), float(np.mean(2 * res.cross))
+            reps = args.reps if n <= 256 else max(500, args.reps // 4)
+            pts = np.empty((reps, n, 2, 2))
+            for r in range(reps):
+                s.seed(r)
+                for i in range(n):
+                    a, b = s.next_2d(), s.next_2d()
+                    pts[r, i] = (a[0], a[1]), (b[0], b[1])
+                    s.advance()
+            w1 = warped_integrand(m, "mis", axis, pts[:, :, 0].reshape(-1, 2), sampler=sampler)
+            w2 = warped_integrand(m, "mis", axis, pts[:, :, 1].reshape(-1, 2), sampler=sampler)
+            F = w1[0].reshape(reps, n, c).mean(axis=1) + w2[1].reshape(reps, n, c).mean(axis=1)
+            e2 = ((F - F.mean(axis=0)) ** 2).mean(axis=1) * reps / (reps - 1)
+            bf, se = float(e2.mean()), float(e2.std(ddof=1) / math.sqrt(reps))
+            print(f"{'mis:' + Path(path).stem:12s} {method:14s} {kind:12s} {n:5d} {pred:11.4e} "
+                  f"{bf:11.4e} ± {se:8.1e} {pred / bf:7.3f} {(pred - bf) / se:+6.2f} "
+                  f"2C12/MSE {cross / pred:+.3f}", flush=True)
+
+
+def _map_integrand(path: str, height: int) -> Integrand:
+    from envfit.maps import load_envmap
+    from envfit.sampling import MapSampler
+    m = load_envmap(path, max_height=height)
+    sampler = MapSampler(m)
+    axis = _axis_near_sun(m, sampler)
 
     def h(u):
         d, p = sampler.sample(np.asarray(u).reshape(-1, 2))
@@ -156,12 +217,16 @@ def main(argv=None) -> None:
     ap.add_argument("--n", default="4,16,64,256,1024")
     ap.add_argument("--methods", default="independent,jittered,cmj,digital_shift,owen,cp_shift")
     ap.add_argument("--mitsuba", action="store_true", help="also Mitsuba 3's generators")
+    ap.add_argument("--mis", action="store_true", help="MIS's two streams (needs --map)")
     args = ap.parse_args(argv)
     cpu = subprocess.run("lscpu | grep 'Model name'", shell=True, capture_output=True,
                          text=True).stdout.strip()
     print(f"# {cpu}; reps {args.reps} (a quarter above N = 256), grid M = {1 << args.level}")
     print(f"{'integrand':12s} {'method':14s} {'generator':12s} {'N':>5s} {'predicted':>11s} "
           f"{'brute force':>11s}   {'se':>8s} {'ratio':>7s} {'z':>6s} {'t_pred':>7s}")
+    if args.mis:
+        _mis_rows(args.map, args)
+        return
     n_values = [int(v) for v in args.n.split(",")]
     generators = ["numpy"] + (sorted(MITSUBA) if args.mitsuba else [])
     cases = [(f, False) for f in INTEGRANDS.values()] if not args.map else \
