@@ -188,15 +188,22 @@ def test_unwritable_cache_is_a_note_not_an_error_cli(tmp_path, afile, monkeypatc
 
 
 def test_unwritable_cache_is_a_note_not_an_error(tmp_path, afile, capsys):
+    from envfit.base._notes import NoteKind
+    from envfit.cli._output import CommandOutput
     args = argparse.Namespace(command="advise", out=None, json=None, cache_dir=afile / "c",
                               no_cache=False)
-    common.preflight_outputs(args)                         # no exception: not an error
+    output = CommandOutput.for_args(args)
+    common.preflight_outputs(args, output)                 # no exception: not an error
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("envfit advise: note: the advisor cache ")
     assert "not writable (Not a directory)" in err[0] and "error" not in err[0]
+    assert [n.kind for n in output.notes] == [NoteKind.CACHE_OFF]          # a note of a kind
+    assert err[0] == f"envfit advise: note: {output.notes[0]}"
+    assert not vars(args).keys() - {"command", "out", "json", "cache_dir", "no_cache"}
     args.no_cache = True                                   # --no-cache: nothing to check
-    common.preflight_outputs(args)
-    assert capsys.readouterr().err == ""
+    output = CommandOutput.for_args(args)
+    common.preflight_outputs(args, output)
+    assert capsys.readouterr().err == "" and not output.has_note(NoteKind.CACHE_OFF)
 
 
 # ============================================================== failed writes after the work
@@ -377,7 +384,7 @@ def test_missing_subcommand_module_is_an_error(monkeypatch, capsys):
     rc = cli.main(["nosuch"])
     line, _ = _one_error(capsys, rc)
     assert line.startswith("envfit nosuch: error: cannot load the 'nosuch' subcommand: "
-                           "envfit.cli.nosuch failed to import (ModuleNotFoundError")
+                           "envfit.cli._nosuch failed to import (ModuleNotFoundError")
 
 
 def test_subcommand_raising_on_import_is_an_error(tmp_path, capsys):

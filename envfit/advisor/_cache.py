@@ -57,6 +57,7 @@ from typing import Any, Callable
 import numpy as np
 
 from envfit.base._atomic import atomic_write_json, to_jsonable
+from envfit.base._notes import Note, NoteKind
 from envfit.base._store import (canonical_sha256, json_type as _what, move_aside,
                                 number_problem as _bad_real, read_json_file)
 
@@ -281,7 +282,8 @@ class AdviseCache:
 
     def _disable(self, exc: OSError) -> None:
         if self.enabled:
-            self.notes.append(f"cache switched off: cannot write under {self.folder} ({exc})")
+            self.notes.append(Note(f"cache switched off: cannot write under {self.folder} "
+                                   f"({exc})", NoteKind.CACHE_OFF))
         self.enabled = False
 
     def _note_file(self, p: Path, why: str) -> None:

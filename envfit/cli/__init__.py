@@ -1,7 +1,10 @@
 """The ``envfit`` command line: parse, call the Python API, print, exit codes.
 
-Each subcommand lives in its own module ``envfit/cli/<name>.py`` exposing
-``register(subparsers)``, which adds its parser and sets ``func`` to a ``run(args) -> int``.
+Each subcommand lives in its own module ``envfit/cli/_<name>.py`` exposing
+``register(subparsers)``, which adds its parser and sets ``func`` to a
+``run(args, output) -> int``: ``args`` the parsed options (read, never written), ``output``
+the run's :class:`~envfit.cli._output.CommandOutput` (printing, the result, the writes that
+failed, the notes said before the work).
 The CLI holds no logic of its own. Any :class:`envfit.base._errors.EnvfitError` (or a theory
 parameter error) becomes a one-line message on stderr and exit code 2.
 
@@ -101,23 +104,6 @@ def _install_sigterm_handler():
     return signal.signal(signal.SIGTERM, _raise_terminated)
 
 
-def _report_write_failures(args: argparse.Namespace) -> int:
-    """After a run whose writes (partly) failed: make sure the result reached stdout, then
-    one line on stderr naming the first file that could not be written; exit code 2."""
-    from envfit.cli._common import command_name, print_json, write_failures
-    failures = write_failures(args)
-    result = getattr(args, "_result", None)
-    nothing_printed = getattr(args, "quiet", False) or str(getattr(args, "json", "")) == "-"
-    if result is not None and nothing_printed and not getattr(args, "_json_on_stdout", False):
-        print_json(result)                     # --quiet: the results would be nowhere else
-    path, reason = failures[0]
-    more = f"; {len(failures) - 1} more file(s) not written" if len(failures) > 1 else ""
-    sys.stdout.flush()
-    print(f"envfit {command_name(args)}: error: could not write {path}: {reason}{more} "
-          "(the results above are complete)", file=sys.stderr)
-    return 2
-
-
 def _innermost_parser(parser: argparse.ArgumentParser,
                       args: argparse.Namespace) -> argparse.ArgumentParser:
     """The parser of the (sub-)subcommand ``args`` selected (``envfit theory wce``), so an
@@ -135,7 +121,8 @@ def _innermost_parser(parser: argparse.ArgumentParser,
 def main(argv: list[str] | None = None) -> int:
     from envfit.theory._errors import TheoryParameterError
 
-    from envfit.cli._common import command_name, preflight_outputs, write_failures
+    from envfit.cli._common import preflight_outputs
+    from envfit.cli._output import CommandOutput, command_name
 
     argv = sys.argv[1:] if argv is None else list(argv)
     first = next((a for a in argv if not a.startswith("-")), None)
@@ -155,11 +142,12 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 2
     previous = _install_sigterm_handler()
+    output = CommandOutput.for_args(args)   # the run's output: result, failed writes, notes
     try:
-        preflight_outputs(args)             # before any work: an unwritable output fails now
-        rc = int(args.func(args) or 0)
-        if write_failures(args):
-            return _report_write_failures(args)
+        preflight_outputs(args, output)     # before any work: an unwritable output fails now
+        rc = int(args.func(args, output) or 0)
+        if output.write_failures:
+            return output.report_write_failures()
         return rc
     except (EnvfitError, TheoryParameterError) as exc:
         print(f"envfit {command_name(args)}: error: {' '.join(str(exc).split())}",

@@ -4,10 +4,11 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from envfit.base._notes import NoteKind, note_kind
 from envfit.defaults import BRDFS, DEFAULT_SHININESS, PREDICTOR_CHOICES
-from envfit.cli._common import (add_common_arguments, add_map_arguments, emit_json, guarded_write,
-                                load_map_from_args, out_dir, positive_float, positive_int, say,
-                                str_list)
+from envfit.cli._common import (add_common_arguments, add_map_arguments, load_map_from_args,
+                                out_dir, positive_float, positive_int, str_list)
+from envfit.cli._output import CommandOutput
 
 
 def register(sub) -> None:
@@ -203,52 +204,53 @@ def options_from_args(args: argparse.Namespace):
         **{k: v for k, v in given.items() if v is not None})
 
 
-def run(args: argparse.Namespace) -> int:
+def run(args: argparse.Namespace, output: CommandOutput) -> int:
     from envfit.advisor._advise import advise_with
     from envfit.base._atomic import atomic_write_csv, atomic_write_json
     opts = options_from_args(args)          # bad names and values: one line, before the map
     env = load_map_from_args(args)
     out = out_dir(args)
     adv = advise_with(env, opts)
+    said_before = output.has_note(NoteKind.CACHE_OFF)    # on stderr, before the work
     for note in adv.notes:
-        if getattr(args, "cache_note", None) and note.startswith("cache switched off"):
-            continue  # said before the work (preflight), on stderr
-        say(args, f"note: {note}")
-    say(args, *_header(adv), *adv.table_lines(), *_renderer_lines(adv),
-        *(f"warning: {w}" for w in adv.warnings), adv.recommendation)
+        if said_before and note_kind(note) is NoteKind.CACHE_OFF:
+            continue
+        output.say(f"note: {note}")
+    output.say(*_header(adv), *adv.table_lines(), *_renderer_lines(adv),
+               *(f"warning: {w}" for w in adv.warnings), adv.recommendation)
     if adv.renderer is not None:
-        say(args, adv.renderer.recommendation)
+        output.say(adv.renderer.recommendation)
     if adv.check is not None:
-        say(args, *_check_lines(adv))
+        output.say(*_check_lines(adv))
     t = adv.timings
-    say(args, f"({t['total']:.1f} s: fit {t['fit']:.1f}, search {t['search']:.1f}"
-              + (f", renderer model {t['renderer_model']:.1f}, renderer rows "
+    output.say(f"({t['total']:.1f} s: fit {t['fit']:.1f}, search {t['search']:.1f}"
+               + (f", renderer model {t['renderer_model']:.1f}, renderer rows "
                  f"{t['renderer_search']:.1f}" if adv.renderer is not None else "")
-              + (f", check {t['check']:.1f}" if adv.check is not None else "")
-              + (f", renderer check {t['renderer_check']:.1f}" if "renderer_check" in t else "")
-              + f"; cache {adv.cache['hits']} hit(s), {adv.cache['writes']} write(s))")
+               + (f", check {t['check']:.1f}" if adv.check is not None else "")
+               + (f", renderer check {t['renderer_check']:.1f}" if "renderer_check" in t else "")
+               + f"; cache {adv.cache['hits']} hit(s), {adv.cache['writes']} write(s))")
     d = adv.to_dict()
     if out is not None and adv.renderer is not None:
         from envfit.plots._advise import plot_advise
-        png = guarded_write(args, out / "advise.png", plot_advise, d, out / "advise.png")
+        png = output.guarded_write(out / "advise.png", plot_advise, d, out / "advise.png")
         if png is not None:
-            say(args, f"wrote {png}")
+            output.say(f"wrote {png}")
     if out is not None:
         from envfit.plots._advise_rules import plot_advise_rules
-        png = guarded_write(args, out / "advise_rules.png", plot_advise_rules, d,
-                            out / "advise_rules.png")
+        png = output.guarded_write(out / "advise_rules.png", plot_advise_rules, d,
+                                   out / "advise_rules.png")
         if png is not None:
-            say(args, f"wrote {png}")
+            output.say(f"wrote {png}")
         cols = ["label", "method", "pointset", "weights", "n", "L", "cost", "predictor",
                 "predicted_rmse", "predicted_rmse_spectral", "predicted_rmse_spectral_band",
                 "predicted_rmse_plain", "measured_rmse", "measured_over_predicted", "note"]
-        csv_path = guarded_write(args, out / "advise.csv", atomic_write_csv, out / "advise.csv",
-                                 cols, [[r.get(c) for c in cols] for r in d["rows"]])
-        json_path = guarded_write(args, out / "advise.json", atomic_write_json,
-                                  out / "advise.json", d)
+        csv_path = output.guarded_write(out / "advise.csv", atomic_write_csv, out / "advise.csv",
+                                        cols, [[r.get(c) for c in cols] for r in d["rows"]])
+        json_path = output.guarded_write(out / "advise.json", atomic_write_json,
+                                         out / "advise.json", d)
         d["files"] = {k: str(v) for k, v in (("csv", csv_path), ("json", json_path))
                       if v is not None}
         if d["files"]:
-            say(args, "wrote " + " and ".join(d["files"].values()))
-    emit_json(args, d)
+            output.say("wrote " + " and ".join(d["files"].values()))
+    output.emit_json(d)
     return 0

@@ -9,23 +9,22 @@ or scientific notation when its value is exactly whole (``1e3`` and ``100.0`` ar
 empty entry, NaN/inf or a repeated value.
 
 Outputs are checked before any work (:func:`preflight_outputs`, called by ``main`` for every
-subcommand); a write that fails after the work is recorded by :func:`guarded_write` /
-:func:`emit_json` instead of raised, so the results are still printed, and ``main`` then
-names what could not be written and exits 2.
+subcommand); a write that fails after the work is recorded by the run's
+:class:`~envfit.cli._output.CommandOutput` (``guarded_write``, ``emit_json``) instead of
+raised, so the results are still printed, and ``main`` then names what could not be
+written and exits 2.
 """
 from __future__ import annotations
 
 import argparse
-import json
 import math
-import sys
 from decimal import Decimal, InvalidOperation
 from pathlib import Path
-from typing import Any, Callable
 
-from envfit.base._atomic import (atomic_write_json, check_writable_dir, check_writable_file,
-                                 os_reason, to_jsonable)
+from envfit.base._atomic import check_writable_dir, check_writable_file
+from envfit.base._notes import NoteKind
 from envfit.defaults import EXECUTORS, UPS
+from envfit.cli._output import CommandOutput
 from envfit.cli._overlap import check_no_overlap
 
 #: the largest integer an option accepts (exponent notation beyond it is surely a typo)
@@ -192,7 +191,7 @@ def add_common_arguments(p: argparse.ArgumentParser, *, seed: bool = True) -> No
 
 
 # ------------------------------------------------------------------ preflight of outputs
-def preflight_outputs(args: argparse.Namespace) -> None:
+def preflight_outputs(args: argparse.Namespace, output: CommandOutput) -> None:
     """Check every output of the command *before* any work; ``main`` calls it for every
     subcommand. Raises :class:`envfit.base._errors.OutputError` (one line, exit 2) for:
 
@@ -205,8 +204,10 @@ def preflight_outputs(args: argparse.Namespace) -> None:
       folder, nearest existing parent folder writable;
 
     raises :class:`envfit.base._errors.ParameterError` for a bad ``--convention``
-    (:func:`map_convention`), and prints a note on stderr if the advisor cache (``--cache-dir`` or the default; not with
-    ``--no-cache``) cannot be written: the results are then not cached, which is no error.
+    (:func:`map_convention`), and says a note of kind ``NoteKind.CACHE_OFF`` on stderr
+    (:meth:`CommandOutput.note`) if the advisor cache (``--cache-dir`` or the default; not
+    with ``--no-cache``) cannot be written: the results are then not cached, which is no
+    error.
     """
     map_convention(args)                # --convention: a known name, not with --up
     out = getattr(args, "out", None)
@@ -224,8 +225,7 @@ def preflight_outputs(args: argparse.Namespace) -> None:
         probe = getattr(advisor_cache, "cache_write_problem", None)
         problem = probe(args.cache_dir) if probe is not None else None
         if problem:  # "the advisor cache … is not writable (…); advise works without it …"
-            args.cache_note = f"note: {problem}"
-            print(f"envfit {command_name(args)}: {args.cache_note}", file=sys.stderr)
+            output.note(NoteKind.CACHE_OFF, problem)
 
 
 def advisor_cache_dir(args: argparse.Namespace):
@@ -239,77 +239,7 @@ def advisor_cache_dir(args: argparse.Namespace):
     return default_cache_dir()
 
 
-# ------------------------------------------------------------------ writes after the work
-def command_name(args: argparse.Namespace) -> str:
-    """``"table2"``, ``"theory figures"``: how messages name the command."""
-    sub = getattr(args, "theory_command", None)
-    return f"{args.command} {sub}" if sub else str(args.command)
-
-
-def write_failures(args: argparse.Namespace) -> list[tuple[str, str]]:
-    """The ``(path, reason)`` of every write that failed after the work (main reports them)."""
-    if not hasattr(args, "_write_failures"):
-        args._write_failures = []
-    return args._write_failures
-
-
-def record_write_failure(args: argparse.Namespace, path, exc: BaseException) -> None:
-    reason = os_reason(exc)
-    prefix = f"{path}: "
-    if reason.startswith(prefix):           # "p: write failed: …" of an EnvMapFileError
-        reason = reason[len(prefix):]
-    write_failures(args).append((str(path), reason))
-
-
-def record_unwritten(args: argparse.Namespace, unwritten) -> None:
-    """Record the ``(path, reason)`` pairs a pipeline could not write mid-run (its result's
-    ``unwritten``) for ``main`` to report after the results (exit 2)."""
-    write_failures(args).extend((str(p), str(r)) for p, r in unwritten or ())
-
-
-def guarded_write(args: argparse.Namespace, path, write: Callable[..., Any], *a, **kw) -> Any:
-    """``write(*a, **kw)`` (an atomic write or a plot save of ``path``); if it raises
-    ``OSError`` (disk full, EIO, permission lost meanwhile) the failure is recorded for
-    ``main`` to report (exit 2) and None is returned, so the command goes on printing its
-    results."""
-    try:
-        return write(*a, **kw)
-    except OSError as exc:
-        record_write_failure(args, path, exc)
-        return None
-
-
-def emit_json(args: argparse.Namespace, result: dict[str, Any]) -> None:
-    """Write ``result`` where ``--json`` says (atomically), or to stdout for ``--json -``.
-
-    A failed write is recorded (see :func:`guarded_write`) and the JSON goes to stdout
-    instead, so the machine-readable result is not lost.
-    """
-    args._result = result
-    if args.json is None:
-        return
-    if str(args.json) == "-":
-        print_json(result)
-        args._json_on_stdout = True
-    elif guarded_write(args, args.json, atomic_write_json, args.json, result) is None:
-        print_json(result)
-        args._json_on_stdout = True
-
-
-def print_json(result: dict[str, Any]) -> None:
-    json.dump(to_jsonable(result), sys.stdout, indent=2)
-    sys.stdout.write("\n")
-    sys.stdout.flush()
-
-
-def say(args: argparse.Namespace, *lines: str) -> None:
-    """Print human-readable lines unless ``--quiet`` (or ``--json -`` owns stdout)."""
-    if getattr(args, "quiet", False) or str(getattr(args, "json", "")) == "-":
-        return
-    for line in lines:
-        print(line)
-
-
+# ------------------------------------------------------------------ folders and maps
 def out_dir(args: argparse.Namespace, default: str | None = None) -> Path | None:
     """The ``--out`` folder (created and checked writable), or ``default`` if given, else None."""
     d = args.out if args.out is not None else (Path(default) if default else None)
@@ -372,23 +302,20 @@ def map_up(args: argparse.Namespace) -> str:
 def load_map_from_args(args: argparse.Namespace, path=None):
     """Load ``path`` (default ``args.map``) with the loading options, or the built-in map.
 
-    With ``--convention C`` the file's pixels are read in C's layout and converted to
-    envfit's convention (:meth:`envfit.maps._conventions.LatLongConvention.to_internal`:
-    an exact permutation where the grids allow it, else bilinear resampling), *before*
-    ``--max-height``; the built-in map is synthesized with C's up axis.
+    :func:`envfit.maps._io.load_envmap` with ``convention`` and ``max_height``: with
+    ``--convention C`` the file's pixels are read in C's layout and converted to envfit's
+    convention (exact where only pixels move, else bilinear), *before* ``--max-height``; the
+    built-in map is synthesized with C's up axis.
     """
     from envfit.maps._default_map import default_envmap
     from envfit.maps._io import load_envmap
     conv = map_convention(args)
     path = args.map if path is None else path
-    if path is None:
-        env = default_envmap(up=map_up(args))
-    elif conv is None:
-        return load_envmap(path, up=map_up(args), allow_negative=args.allow_negative,
+    if path is not None:
+        return load_envmap(path, up=None if conv is not None else map_up(args), convention=conv,
+                           allow_negative=args.allow_negative,
                            fix_nonfinite=args.fix_nonfinite, max_height=args.max_height)
-    else:
-        env = conv.to_internal(load_envmap(path, up=conv.up, allow_negative=args.allow_negative,
-                                           fix_nonfinite=args.fix_nonfinite))
+    env = default_envmap(up=map_up(args))
     if args.max_height:
         env = env.resized(args.max_height)
     return env

@@ -34,8 +34,9 @@ import numpy as np
 
 from envfit.maps._envmap import EnvMap
 from envfit.maps._preview import describe_envmap, list_sources
-from envfit.cli._common import (add_common_arguments, add_map_arguments, emit_json, guarded_write,
-                                load_map_from_args, map_convention, out_dir, say)
+from envfit.cli._common import (add_common_arguments, add_map_arguments, load_map_from_args,
+                                map_convention, out_dir)
+from envfit.cli._output import CommandOutput
 
 
 def register(subparsers) -> None:
@@ -71,20 +72,21 @@ def _source_lines(sources) -> list[str]:
               f"({e.position['col']:.2f}, {e.position['row']:.2f})" for e in sources)]
 
 
-def write_preview(args: argparse.Namespace, env: EnvMap, conv, out: Path, stem: str,
+def write_preview(output: CommandOutput, env: EnvMap, conv, out: Path, stem: str,
                   sources=None) -> Path | None:
     """``out/<stem>_preview.png`` of ``env`` in ``conv``'s layout (None: envfit's grid), the
-    sources marked; a failed write is recorded (:func:`guarded_write`) and gives None."""
+    sources marked; a failed write is recorded (:meth:`CommandOutput.guarded_write`) and
+    gives None."""
     from envfit.plots._preview import plot_map_preview
     from envfit.maps._preview import map_preview
     path = out / f"{stem}_preview.png"
-    png = guarded_write(args, path, plot_map_preview, map_preview(env, conv, sources=sources), path)
+    png = output.guarded_write(path, plot_map_preview, map_preview(env, conv, sources=sources), path)
     if png is not None:
-        say(args, f"wrote {png}")
+        output.say(f"wrote {png}")
     return png
 
 
-def run(args: argparse.Namespace) -> int:
+def run(args: argparse.Namespace, output: CommandOutput) -> int:
     from envfit.base._atomic import atomic_write_json
     m = load_map_from_args(args)
     conv = map_convention(args)
@@ -94,27 +96,27 @@ def run(args: argparse.Namespace) -> int:
     info["path"] = str(args.map)
     b = info["brightest"]
     dr = info["dynamic_range"]
-    say(args,
-        f"{args.map}: {info['width']}x{info['height']} lat-long, {info['channels']} channel(s), "
-        f"up={info['up']}",
-        f"  min   {_fmt(info['min'])}",
-        f"  max   {_fmt(info['max'])}",
-        f"  mean  {_fmt(info['mean'])}  (solid-angle weighted)",
-        f"  luminance: mean {info['mean_luminance']:.6g}, max {info['max_luminance']:.6g}, "
-        + (f"dynamic range {dr:.4g}:1 ({info['dynamic_range_stops']:.1f} stops)" if dr
+    output.say(
+               f"{args.map}: {info['width']}x{info['height']} lat-long, {info['channels']} channel(s), "
+               f"up={info['up']}",
+               f"  min   {_fmt(info['min'])}",
+               f"  max   {_fmt(info['max'])}",
+               f"  mean  {_fmt(info['mean'])}  (solid-angle weighted)",
+               f"  luminance: mean {info['mean_luminance']:.6g}, max {info['max_luminance']:.6g}, "
+               + (f"dynamic range {dr:.4g}:1 ({info['dynamic_range_stops']:.1f} stops)" if dr
            else "dynamic range undefined (no positive pixel)"),
-        f"  brightest pixel: row {b['row']}, col {b['col']}, direction {_fmt(b['direction'])} "
-        f"(theta {b['theta_deg']:.2f} deg from up, phi {b['phi_deg']:.2f} deg)",
-        *_convention_lines(b["convention"], info["width"], info["height"]),
-        *_source_lines(sources),
-        *(f"  note: {n}" for n in info["notes"]))
+               f"  brightest pixel: row {b['row']}, col {b['col']}, direction {_fmt(b['direction'])} "
+               f"(theta {b['theta_deg']:.2f} deg from up, phi {b['phi_deg']:.2f} deg)",
+               *_convention_lines(b["convention"], info["width"], info["height"]),
+               *_source_lines(sources),
+               *(f"  note: {n}" for n in info["notes"]))
     if out is not None:
         stem = Path(args.map).stem if args.map else "builtin"
-        png = write_preview(args, m, conv, out, stem, sources)
+        png = write_preview(output, m, conv, out, stem, sources)
         info["files"] = {"preview": None if png is None else str(png),
                          "json": str(out / f"{stem}_info.json")}
-        if guarded_write(args, out / f"{stem}_info.json", atomic_write_json,
-                         out / f"{stem}_info.json", info) is not None:
-            say(args, f"wrote {out / f'{stem}_info.json'}")
-    emit_json(args, info)
+        if output.guarded_write(out / f"{stem}_info.json", atomic_write_json,
+                                out / f"{stem}_info.json", info) is not None:
+            output.say(f"wrote {out / f'{stem}_info.json'}")
+    output.emit_json(info)
     return 0

@@ -18,8 +18,9 @@ import numpy as np
 
 from envfit.base._errors import ParameterError
 from envfit.defaults import ALL_POINTSETS, BRDFS, DEFAULT_SHININESS, WEIGHTINGS
-from envfit.cli._common import (add_common_arguments, emit_json, finite_float, guarded_write,
-                                nonneg_int, out_dir, positive_float, positive_int, say)
+from envfit.cli._common import (add_common_arguments, finite_float, nonneg_int, out_dir,
+                                positive_float, positive_int)
+from envfit.cli._output import CommandOutput
 from envfit.cli._theory_common import (DEFAULT_SPLIT_LMAX, MORPH_HELP, SHININESS_HELP,
                                        check_positive_int, check_s, check_shininess)
 from envfit.cli._theory_figures import register_figures
@@ -45,7 +46,7 @@ def register(sub) -> None:
                     "quadrature rules for shading integrals in a Sobolev space H^s, their spectra, "
                     "and the error of SH/HSH truncation.")
     tsub = p.add_subparsers(dest="theory_command", metavar="WHAT")
-    p.set_defaults(func=lambda args: _usage(p))
+    p.set_defaults(func=lambda args, output: _usage(p))
     _register_wce(tsub)
     _register_table1(tsub)
     register_figures(tsub)
@@ -101,7 +102,7 @@ def _usage(p: argparse.ArgumentParser) -> int:
 
 
 # ============================================================================ wce
-def run_wce(args: argparse.Namespace) -> int:
+def run_wce(args: argparse.Namespace, output: CommandOutput) -> int:
     from envfit.theory._figures import make_weight, quadrature_rule
     from envfit.theory._quadrature import error_spectrum
     from envfit.base._resources import check_memory
@@ -116,7 +117,7 @@ def run_wce(args: argparse.Namespace) -> int:
         check_memory(8 * n * n, f"the {n}x{n} kernel matrix of the optimal weights",
                      hint="use fewer points or --weights equal")
     if args.pointset == "bnot" and n > 8192:
-        say(args, f"note: BNOT with N = {n} takes minutes (≈ 15 s at 4096)")
+        output.say(f"note: BNOT with N = {n} takes minutes (≈ 15 s at 4096)")
     weight = make_weight(args.brdf, shin)
     morphed = not args.no_morph
     t0 = time.perf_counter()
@@ -135,25 +136,28 @@ def run_wce(args: argparse.Namespace) -> int:
         result["spectrum"] = [{"l": int(l), "d2": float(d), "C2": float(c), "e2": float(e)}
                               for l, d, c, e in zip(sp.l, sp.d2, sp.C2, sp.e2)]
     lobe = "diffuse" if args.brdf == "diffuse" else f"glossy n = {shin:g}"
-    _print_wce(args, sp, lobe, n, s, lmax, morphed, secs)
+    _print_wce(args, output, sp, lobe, result)
     if args.out is not None:
-        _write_wce_csv(args, sp, lobe, n, s, morphed)
-    emit_json(args, result)
+        _write_wce_csv(args, output, sp, lobe, result)
+    output.emit_json(result)
     return 0
 
 
-def _print_wce(args, sp, lobe: str, n: int, s: float, lmax: int, morphed: bool, secs: float) -> None:
+def _print_wce(args, output: CommandOutput, sp, lobe: str, result: dict) -> None:
+    """The wce lines (N, s, l_max, morphing and time from ``result``, the command's JSON)."""
+    n, s, lmax, morphed = result["n"], result["s"], result["lmax"], result["morphed"]
+    secs = result["seconds"]
     e2 = sp.wce ** 2
-    say(args,
-        f"{lobe}, {args.pointset}, N = {n}, {args.weights} weights, s = {s:g}, "
-        + ("points morphed for the BRDF (importance sampling)" if morphed else "points NOT morphed"),
-        f"  worst-case error E = {sp.wce:.6e}   (closed form Eq. 41, no truncation)",
-        f"  zonal E_Z = {sp.wce_zonal:.6e}, anisotropic E_A = {sp.wce_anisotropic:.6e}"
-        f"   (Eqs. 46-47, l <= {lmax}{'' if args.lmax is not None else ', automatic'})",
-        f"  tail E^2 - sum_(l<={lmax}) e_l^2 = {sp.tail:.3e}"
-        + (f"  ({100 * sp.tail / e2:.2f} % of E^2, mostly anisotropic: C_l^2 -> "
+    output.say(
+               f"{lobe}, {args.pointset}, N = {n}, {args.weights} weights, s = {s:g}, "
+               + ("points morphed for the BRDF (importance sampling)" if morphed else "points NOT morphed"),
+               f"  worst-case error E = {sp.wce:.6e}   (closed form Eq. 41, no truncation)",
+               f"  zonal E_Z = {sp.wce_zonal:.6e}, anisotropic E_A = {sp.wce_anisotropic:.6e}"
+               f"   (Eqs. 46-47, l <= {lmax}{'' if args.lmax is not None else ', automatic'})",
+               f"  tail E^2 - sum_(l<={lmax}) e_l^2 = {sp.tail:.3e}"
+               + (f"  ({100 * sp.tail / e2:.2f} % of E^2, mostly anisotropic: C_l^2 -> "
            f"(2l+1)/(4 pi) sum w_j^2)" if e2 > 0 else ""),
-        f"  ({secs:.2f} s)")
+               f"  ({secs:.2f} s)")
     if args.lmax is not None and not args.quiet and str(args.json) != "-":
         show = list(range(min(lmax, 10) + 1))
         print("  l      d_l^2        C_l^2        e_l^2")
@@ -163,7 +167,8 @@ def _print_wce(args, sp, lobe: str, n: int, s: float, lmax: int, morphed: bool, 
             print(f"  … (l up to {lmax} in --json)")
 
 
-def _write_wce_csv(args, sp, lobe: str, n: int, s: float, morphed: bool) -> None:
+def _write_wce_csv(args, output: CommandOutput, sp, lobe: str, result: dict) -> None:
+    n, s, morphed = result["n"], result["s"], result["morphed"]
     from envfit.base._atomic import atomic_write_text
     d = out_dir(args)
     rows = [f"{l},{a:.17g},{dd:.17g},{c:.17g},{e:.17g}"
@@ -172,14 +177,14 @@ def _write_wce_csv(args, sp, lobe: str, n: int, s: float, morphed: bool) -> None
             f"s = {s:g}, seed {args.seed}, "
             + ("points morphed for the BRDF (Sec. 7.2)" if morphed else "points not morphed")
             + f"; E = {sp.wce:.10e}\nl,a,d2,C2,e2\n")
-    path = guarded_write(args, d / "wce_spectrum.csv", atomic_write_text,
-                         d / "wce_spectrum.csv", head + "\n".join(rows) + "\n")
+    path = output.guarded_write(d / "wce_spectrum.csv", atomic_write_text,
+                                d / "wce_spectrum.csv", head + "\n".join(rows) + "\n")
     from envfit.plots._theory import plot_wce_spectrum
-    png = guarded_write(args, d / "wce_spectrum.png", plot_wce_spectrum, sp,
-                        d / "wce_spectrum.png", head.splitlines()[0][2:])
+    png = output.guarded_write(d / "wce_spectrum.png", plot_wce_spectrum, sp,
+                               d / "wce_spectrum.png", head.splitlines()[0][2:])
     written = [str(p) for p in (path, png) if p is not None]
     if written:
-        say(args, "wrote " + " and ".join(written))
+        output.say("wrote " + " and ".join(written))
 
 
 # ============================================================================ table1
@@ -227,7 +232,7 @@ def _format_comparison(c: dict) -> str:
     return f"  {c['what']}: paper {c['paper']:g}, ours {ours_txt}: {mark}{why}"
 
 
-def run_table1(args: argparse.Namespace) -> int:
+def run_table1(args: argparse.Namespace, output: CommandOutput) -> int:
     from envfit.theory._table1 import table1_report
 
     s = check_s(args.s)
@@ -237,28 +242,28 @@ def run_table1(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     tab, comp = table1_report(args.target, s, shin)
     secs = time.perf_counter() - t0
-    say(args, format_table1(tab, comp), "", f"computed in {secs:.1f} s")
+    output.say(format_table1(tab, comp), "", f"computed in {secs:.1f} s")
     result = tab.to_dict()
     result["paper_comparison"] = comp
     result["seconds"] = secs
     if args.out is not None:
         from envfit.base._atomic import atomic_write_csv
         d = out_dir(args)
-        p1 = guarded_write(args, d / "table1.csv", atomic_write_csv, d / "table1.csv",
-                           ("case", "L", "wce_at_L", "L_paper_reading", "wce_at_L_paper_reading",
+        p1 = output.guarded_write(d / "table1.csv", atomic_write_csv, d / "table1.csv",
+                                  ("case", "L", "wce_at_L", "L_paper_reading", "wce_at_L_paper_reading",
                             "qmc_points", "qmc_wce"),
-                           [(r.case, r.L, r.wce_at_L, r.L_paper_reading, r.wce_at_L_paper_reading,
+                                  [(r.case, r.L, r.wce_at_L, r.L_paper_reading, r.wce_at_L_paper_reading,
                              r.qmc_points, r.qmc_wce) for r in tab.rows])
-        p2 = guarded_write(args, d / "table1_wce_by_L.csv", atomic_write_csv,
-                           d / "table1_wce_by_L.csv", ("case", "L", "wce"),
-                           [(r.case, L, float(e)) for r in tab.rows
+        p2 = output.guarded_write(d / "table1_wce_by_L.csv", atomic_write_csv,
+                                  d / "table1_wce_by_L.csv", ("case", "L", "wce"),
+                                  [(r.case, L, float(e)) for r in tab.rows
                             for L, e in enumerate(r.wce_by_L)])
         from envfit.plots._theory import plot_table1
-        p3 = guarded_write(args, d / "table1.png", plot_table1, tab, d / "table1.png")
+        p3 = output.guarded_write(d / "table1.png", plot_table1, tab, d / "table1.png")
         written = [str(p) for p in (p1, p2, p3) if p is not None]
         if written:
-            say(args, "wrote " + ", ".join(written))
-    emit_json(args, result)
+            output.say("wrote " + ", ".join(written))
+    output.emit_json(result)
     return 0
 
 

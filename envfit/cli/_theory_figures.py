@@ -13,8 +13,9 @@ import time
 
 from envfit.base._errors import ParameterError
 from envfit.defaults import DEFAULT_SHININESS
-from envfit.cli._common import (add_common_arguments, emit_json, finite_float, guarded_write,
-                                out_dir, positive_float, positive_int, say, str_list)
+from envfit.cli._common import (add_common_arguments, finite_float, out_dir, positive_float,
+                                positive_int, str_list)
+from envfit.cli._output import CommandOutput
 from envfit.cli._theory_common import (DEFAULT_SPLIT_LMAX, MORPH_HELP, SHININESS_HELP,
                                        check_positive_int, check_s, check_shininess,
                                        progress_callback)
@@ -90,8 +91,9 @@ def _int_or(x, empty):
 class _FigureRun:
     """What every figure of one ``figures`` run shares: parameters, output folder, writer."""
 
-    def __init__(self, args: argparse.Namespace):
+    def __init__(self, args: argparse.Namespace, output: CommandOutput):
         self.args = args
+        self.output = output
         self.s = check_s(args.s)
         self.shin = check_shininess(args.shininess)
         self.n = check_positive_int(args.n, "--n", 2)
@@ -113,7 +115,7 @@ class _FigureRun:
     def save(self, name: str, write, *wargs) -> None:
         """Write one figure / CSV (``write(*wargs)``); a failure is recorded, not raised, so
         the other figures are still computed and the numbers printed."""
-        path = guarded_write(self.args, self.out / name, write, *wargs)
+        path = self.output.guarded_write(self.out / name, write, *wargs)
         if path is not None:
             self.files[name] = str(path)
 
@@ -125,10 +127,10 @@ class _FigureRun:
         return progress_bar(total, desc=desc, quiet=self.args.quiet)
 
 
-def run_figures(args: argparse.Namespace) -> int:
+def run_figures(args: argparse.Namespace, output: CommandOutput) -> int:
     from envfit.base._resources import check_memory
 
-    run = _FigureRun(args)
+    run = _FigureRun(args, output)
     m = max(run.n, run.nmax)
     check_memory(8 * m ** 2, f"the {m}x{m} kernel matrix of the optimal weights",
                  hint="lower --n / --nmax")
@@ -146,8 +148,8 @@ def run_figures(args: argparse.Namespace) -> int:
     if "bnot" in run.only:
         result["bnot"] = _figure_bnot(run)
     result["seconds"] = time.perf_counter() - t_all
-    say(args, f"wrote {len(run.files)} files to {run.out} in {result['seconds']:.1f} s")
-    emit_json(args, result)
+    output.say(f"wrote {len(run.files)} files to {run.out} in {result['seconds']:.1f} s")
+    output.emit_json(result)
     return 0
 
 
@@ -186,13 +188,13 @@ def _figures_spectra(run: _FigureRun) -> dict:
     low = {ps: {"equal": red.values["sum_equal"][ps], "osw": red.values["sum_osw"][ps],
                 "ratio": red.values["ratio"][ps]} for ps in sd.pointsets}
     lab, za = F.POINTSET_LABELS, dom.values["zonal_over_anisotropic"]
-    say(run.args, f"Figs. 1-3 (N = {n}, l <= {run.lmax}): {time.perf_counter() - t0:.1f} s",
-        "  Fig. 2, sum of C_l^2 over l = 1..10 (diffuse), OSW / equal: "
-        + ", ".join(f"{lab[p]} {v['ratio']:.3g}" for p, v in low.items())
-        + _yes(red, "", "  (OSW do NOT reduce it for every set)"),
-        "  E_Z / E_A (diffuse, equal weights, l <= lmax): "
-        + ", ".join(f"{lab[p]} {za[p]:.2g}" for p in sd.pointsets)
-        + _yes(dom, "  (the anisotropic part dominates)",
+    run.output.say(f"Figs. 1-3 (N = {n}, l <= {run.lmax}): {time.perf_counter() - t0:.1f} s",
+                   "  Fig. 2, sum of C_l^2 over l = 1..10 (diffuse), OSW / equal: "
+                   + ", ".join(f"{lab[p]} {v['ratio']:.3g}" for p, v in low.items())
+                   + _yes(red, "", "  (OSW do NOT reduce it for every set)"),
+                   "  E_Z / E_A (diffuse, equal weights, l <= lmax): "
+                   + ", ".join(f"{lab[p]} {za[p]:.2g}" for p in sd.pointsets)
+                   + _yes(dom, "  (the anisotropic part dominates)",
                "  (the anisotropic part does NOT dominate for every set)"))
     return {"wce": {f"{b}/{w}/{p}": r.wce for (b, w, p), r in recs},
             "wce_zonal": {f"{b}/{w}/{p}": r.wce_zonal for (b, w, p), r in recs},
@@ -239,7 +241,7 @@ def _figure_convergence(run: _FigureRun) -> dict:
     if not beats:
         lines.append(f"  (no N >= {C.BEATS_RANDOM_NMIN}: raise --nmax for the structured-vs-random "
                      "comparison)")
-    say(run.args, *lines)
+    run.output.say(*lines)
     return {"ns": cd.ns, "fit_range": [lo, hi],
             "slopes": {f"{b}/{w}/{p}": k for (b, w, p), k in cd.slopes.items()},
             "beats_random_equal_N_ge_256": {c.id.rsplit(".", 1)[1]: c.values["per_pointset"]
@@ -279,7 +281,7 @@ def _figure_truncation(run: _FigureRun) -> dict:
                      f"points; ours E(3) "
                      + (f"= E(2) = {v['wce_L3']:.3g} (b_3 = 0)" if v["b3_zero"] else f"= {v['wce_L3']:.3g}")
                      + ", N = " + ("-" if v["qmc_points_L3"] is None else str(v["qmc_points_L3"])))
-    say(run.args, *lines)
+    run.output.say(*lines)
     return {"L": td.L, "wce": td.wce,
             "qmc_points": {k: [_int_or(x, None) for x in v] for k, v in td.qmc_points.items()},
             "qmc_points_extrapolated": {k: [_int_or(x, None) for x in v]
@@ -301,15 +303,15 @@ def _figure_bnot(run: _FigureRun) -> dict:
             zip(bd.radius, bd.power_bnot, bd.power_random))
     db, dr = bd.diagnostics_bnot, bd.diagnostics_random
     cap, blue = C.bnot_capacity_claim(bd), C.bnot_blue_noise_claim(bd)
-    say(run.args, f"BNOT check (N = {n}): {time.perf_counter() - t0:.1f} s",
-        f"  blue noise: mean power for |k| < sqrt(N)/2 = {bd.low_band:.3g}: BNOT "
-        f"{bd.low_power_bnot:.3g}, random {bd.low_power_random:.3g}"
-        + _yes(blue, "", f" (NOT blue: BNOT >= {blue.threshold:g} x random)"),
-        f"  capacity: cell areas = 1/N within {db.max_relative_area_error:.1e} relative "
-        f"({_yes(cap, 'OK', 'FAILED')}, required {_sci(cap.threshold)}); centroid residual "
-        f"|b_i - x_i| sqrt(N): BNOT {db.centroid_residual:.3g}, random {dr.centroid_residual:.3g}; "
-        f"min distance x sqrt(N): BNOT {db.min_distance_normalised:.3g}, "
-        f"random {dr.min_distance_normalised:.3g}")
+    run.output.say(f"BNOT check (N = {n}): {time.perf_counter() - t0:.1f} s",
+                   f"  blue noise: mean power for |k| < sqrt(N)/2 = {bd.low_band:.3g}: BNOT "
+                   f"{bd.low_power_bnot:.3g}, random {bd.low_power_random:.3g}"
+                   + _yes(blue, "", f" (NOT blue: BNOT >= {blue.threshold:g} x random)"),
+                   f"  capacity: cell areas = 1/N within {db.max_relative_area_error:.1e} relative "
+                   f"({_yes(cap, 'OK', 'FAILED')}, required {_sci(cap.threshold)}); centroid residual "
+                   f"|b_i - x_i| sqrt(N): BNOT {db.centroid_residual:.3g}, random {dr.centroid_residual:.3g}; "
+                   f"min distance x sqrt(N): BNOT {db.min_distance_normalised:.3g}, "
+                   f"random {dr.min_distance_normalised:.3g}")
     return {"low_band": bd.low_band, "low_power_bnot": bd.low_power_bnot,
             "low_power_random": bd.low_power_random,
             "max_relative_area_error": db.max_relative_area_error,

@@ -4,9 +4,10 @@ from __future__ import annotations
 import argparse
 
 from envfit.defaults import DEFAULT_SHININESS, FIT_METHODS
-from envfit.cli._common import (add_common_arguments, add_map_arguments, emit_json, guarded_write,
-                                int_list, load_map_from_args, nonneg_int_list, out_dir,
-                                positive_float, positive_int, record_unwritten, say, str_list)
+from envfit.cli._common import (add_common_arguments, add_map_arguments, int_list,
+                                load_map_from_args, nonneg_int_list, out_dir, positive_float,
+                                positive_int, str_list)
+from envfit.cli._output import CommandOutput
 
 
 def register(sub) -> None:
@@ -148,7 +149,7 @@ def _summary(res: dict) -> list[str]:
     return lines
 
 
-def run(args: argparse.Namespace) -> int:
+def run(args: argparse.Namespace, output: CommandOutput) -> int:
     from envfit.base._atomic import atomic_write_json
     from envfit.validate._pipeline import run_validation
     cfg = _config(args)
@@ -158,9 +159,9 @@ def run(args: argparse.Namespace) -> int:
     env = load_map_from_args(args)
     out = out_dir(args)
     for note in getattr(env, "notes", []):
-        say(args, f"note: {note}")
-    say(args, f"map {env.name}: {env.width}x{env.height}, {env.channels} channel(s)"
-              + (f"; cells in {out} (resumable)" if out else "; use --out DIR for plots, report.md "
+        output.say(f"note: {note}")
+    output.say(f"map {env.name}: {env.width}x{env.height}, {env.channels} channel(s)"
+               + (f"; cells in {out} (resumable)" if out else "; use --out DIR for plots, report.md "
                                                          "and resuming"))
     resumed = []
 
@@ -169,38 +170,38 @@ def run(args: argparse.Namespace) -> int:
             resumed.append(key)
 
     result = run_validation(env, cfg, out=out, quiet=args.quiet, on_cell=on_cell, renderer=rcfg)
-    record_unwritten(args, result.unwritten)
+    output.record_unwritten(result.unwritten)
     res = result.to_json()                   # what the report, the plots and --json take
     res["resumed_cells"] = len(resumed)
     if resumed:
-        say(args, f"resumed {len(resumed)} finished cell(s) from {out}")
-    say(args, *_summary(res))
+        output.say(f"resumed {len(resumed)} finished cell(s) from {out}")
+    output.say(*_summary(res))
     if res.get("renderer"):
         from envfit.validate._renderer import summary_lines
-        say(args, "", *summary_lines(res["renderer"]))
+        output.say("", *summary_lines(res["renderer"]))
     if out is not None:
         from envfit.plots._validate import plot_all
         from envfit.validate._report import write_report
-        files = guarded_write(args, f"the figures in {out}", plot_all, res, out)
+        files = output.guarded_write(f"the figures in {out}", plot_all, res, out)
         files = {} if files is None else files
         if res.get("renderer"):
             from envfit.plots._renderer import plot_renderer
-            png = guarded_write(args, out / "renderer.png", plot_renderer, res["renderer"],
-                                out / "renderer.png")
+            png = output.guarded_write(out / "renderer.png", plot_renderer, res["renderer"],
+                                       out / "renderer.png")
             if png is not None:
                 files["renderer"] = str(png)
         figures = len(files)
-        report = guarded_write(args, out / "report.md", write_report, res, out / "report.md", files)
+        report = output.guarded_write(out / "report.md", write_report, res, out / "report.md", files)
         if report is not None:
             files["report.md"] = str(report)
         res["files"] = files
-        if guarded_write(args, out / "validate.json", atomic_write_json, out / "validate.json",
-                         res) is not None:
+        if output.guarded_write(out / "validate.json", atomic_write_json, out / "validate.json",
+                                res) is not None:
             res["files"]["validate.json"] = str(out / "validate.json")
         written = ([f"{figures} figure(s)"] if figures else []) + [
             files[k] for k in ("report.md", "validate.json") if k in files]
         if written:
-            say(args, "wrote " + ", ".join(written))
-    say(args, f"({res['timings']['total']:.0f} s)")
-    emit_json(args, res)
+            output.say("wrote " + ", ".join(written))
+    output.say(f"({res['timings']['total']:.0f} s)")
+    output.emit_json(res)
     return 0

@@ -7,7 +7,7 @@ Modules:
   :func:`envfit.maps._latlong.bilinear_lookup`.
 * :mod:`~envfit.maps._conventions` — Lat-long conventions of renderers: each renderer's
   direction ↔ pixel formula, and the conversion of a map in that convention into envfit's
-  (:mod:`envfit.maps._latlong`).
+  (:mod:`envfit.maps._latlong`); the grids and the base class are in ``_convention_base``.
 * :mod:`~envfit.maps._default_map` — The built-in default map: a synthesized map of known
   smoothness, so every command runs without a file. It is a Gaussian-process sample with
   covariance K_gd^(1.5) (data_gen), RGB, 256×512, made positive by a constant offset (a
@@ -19,7 +19,8 @@ Modules:
 * :mod:`~envfit.maps._envmap` — Environment maps: the :class:`EnvMap` container (geometry,
   lookup, resizing) and the sample-count guard :func:`check_sample_count`.
 * :mod:`~envfit.maps._io` — Environment map file I/O through OpenImageIO: :func:`load_envmap`
-  and :func:`save_envmap`.
+  (with a renderer's ``convention`` and ``max_height``, in that order) and
+  :func:`save_envmap`; the pixel reading itself is ``_oiio_read``.
 * :mod:`~envfit.maps._latlong` — The latitude-longitude (equirectangular) convention of
   envfit — the ONE place it is defined.
 * :mod:`~envfit.maps._mapsource` — Maps of a library, named but not loaded: files (loaded
@@ -33,6 +34,9 @@ Modules:
   solid angle and share of the power (``envfit info --out``, ``envfit synth --out``).
 * :mod:`~envfit.maps._scales` — Value scales on which images are compared (the scale of an
   RMSE is an explicit choice).
+* :mod:`~envfit.maps._synth` — :func:`synthesize_envmap`: a kind of
+  :data:`envfit.data_gen.SYNTH_KINDS` laid out on envfit's grid or in a renderer's layout
+  (what ``envfit synth`` writes).
 * :mod:`~envfit.maps._sources` — Bright-source detection on a map (the sun, lamps): connected
   bright regions on the sphere.
 
@@ -45,6 +49,7 @@ from envfit.base._lazy import lazy_exports
 
 _LAZY = {
     "convention": "_conventions", "CONVENTIONS": "_conventions",
+    "lat_long_convention": "_conventions",
     "default_envmap": "_default_map",
     "EnvMap": "_envmap",
     "load_envmap": "_io", "save_envmap": "_io",
@@ -54,6 +59,7 @@ _LAZY = {
     "MapPreview": "_preview",
     "fit_scale": "_scales", "Scale": "_scales",
     "BrightSource": "_sources", "find_bright_sources": "_sources",
+    "synthesize_envmap": "_synth", "SynthesizedEnvMap": "_synth",
 }
 
 __all__ = sorted(_LAZY)
