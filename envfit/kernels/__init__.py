@@ -11,6 +11,9 @@ Modules:
   map's resolution, and the Gaussian-process likelihood of s and σ under it.
 * :mod:`~envfit.kernels._interpolation` — Kernel interpolation of scattered samples on the
   sphere with the generalized distance kernel.
+* :mod:`~envfit.kernels._kernel_nodes` — The kernel on a node set: the nodes as the numba
+  kernels read them, the kernel matrix factorised in place, and the power sums that evaluate
+  an interpolant (direct or near/far).
 * :mod:`~envfit.kernels._iterative` — Preconditioned conjugate gradients for the Sobolev
   kernel system :math:`K\alpha = f` without the N x N matrix: O(N log N) products, O(N k)
   memory.

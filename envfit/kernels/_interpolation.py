@@ -28,27 +28,10 @@ Numerics
 * **Distances** are formed from coordinate differences, ``|u - v|^2 = sum (u_k - v_k)^2``,
   which keeps full relative accuracy next to the cusp of the kernel; the Gram form
   ``2 - 2 u.v`` (a rank-3 "BLAS" product, memory bound anyway) loses it there.
-* **Evaluation** :math:`\tilde f(q) = c_s \sum_j \alpha_j - \sum_j \alpha_j |q - p_j|^{2s-2}`,
-  two methods:
-
-  ``"direct"`` (exact)
-      a fused numba loop (distance, power, accumulation; no temporaries) with a
-      vectorised float64 power (``envfit.kernels._kernels.fast_pow``, ~1e-15 relative; ``sqrt``
-      for s = 1.5). M N power evaluations.
-  ``"nearfar"`` (fast summation)
-      the kernel's power part :math:`g(t) = (2 - 2t)^{s-1}`, ``t = q.p``, is replaced
-      outside a cap of chordal radius :math:`\delta` by a polynomial :math:`P_L(t)`
-      (Chebyshev interpolation on :math:`[-1, 1 - \delta^2/2]` truncated at 1e-15;
-      L ~ 20-25/delta), which by the addition theorem is a spherical-harmonic convolution:
-      :math:`\sum_j \alpha_j P_L(q\cdot p_j) = \sum_{lm} w_l Y_{lm}(q) \sum_j \alpha_j
-      Y^*_{lm}(p_j)` (two ducc0 NUFFT-based SH transforms, accuracy 3e-13). Pairs closer
-      than :math:`\delta` get the exact correction :math:`g - P_L` (3-D cell list,
-      ~8 neighbours per query). Cost O(C (L^2 log L + M + N)) for the transforms plus
-      ~8 M C near pairs, instead of M N C; error
-      ~1e-12 :math:`\sum_j |\alpha_j K(q, p_j)|` (vs ~1e-15 for direct), which is far
-      below the interpolation error (the RMSE against a map is unchanged to 6+ digits).
-
-  ``"auto"`` (default) picks ``"nearfar"`` when M N >= 5e7 and N >= 500.
+* **Evaluation** :math:`\tilde f(q) = c_s \sum_j \alpha_j - \sum_j \alpha_j |q - p_j|^{2s-2}`
+  by the power sums of :class:`envfit.kernels._kernel_sums.KernelNodes`: ``"direct"`` (a fused
+  numba loop, exact to ~1e-15), ``"nearfar"`` (an SH convolution plus an exact near-field
+  correction, O(N log N), ~1e-12) or ``"auto"`` (``"nearfar"`` when M N >= 5e7 and N >= 500).
 * **Threads.** numba kernels, BLAS/LAPACK calls and ducc0 transforms alternate and never
   overlap; each uses all cores (``numba.get_num_threads()``; BLAS via its own pool, limit it
   with ``threadpoolctl`` if the caller runs several interpolators in parallel).
@@ -73,20 +56,16 @@ True
 """
 from __future__ import annotations
 
-import math
 import time
 
-import numba
 import numpy as np
 from scipy.linalg import lapack
-from scipy.spatial import cKDTree
 
-from envfit.theory._cholesky import cholesky_inplace, inverse_diagonal
-from envfit.theory._sobolev import kernel_constant
+from envfit.theory._cholesky import inverse_diagonal
 
-from envfit.kernels import _kernels
 from envfit.kernels._iterative import IterativeSolver, IterativeSolverError, SolveInfo
-from envfit.kernels._nearfar import CellList, near_radius, nearfar_power_sums
+from envfit.kernels._kernel_nodes import (BLOCK_BYTES, DUPLICATE_DISTANCE, EVAL_METHODS, KernelNodes,
+                                          closest_pair, nthreads)
 from envfit.kernels._likelihood import ProfiledLikelihood, profiled_log_likelihood
 from envfit.base._checks import as_unit_vectors, check_s
 from envfit.base._errors import DuplicatePointsError, ParameterError
@@ -97,16 +76,6 @@ from envfit.base._resources import (MEMORY_FRACTION, SOLVERS, available_memory_b
 __all__ = ["SobolevInterpolator", "ProfiledLikelihood", "as_unit_vectors", "SolveInfo",
            "DUPLICATE_DISTANCE", "EVAL_METHODS", "SOLVERS", "SOLVER_RTOL", "AUTO_ITERATIVE_MIN_N"]
 
-#: two nodes closer than this (chordal distance) are duplicates
-DUPLICATE_DISTANCE = 1e-12
-#: a Cholesky pivot p with p^2 < this * c_s means coincident nodes (rounding-level pivot)
-_SINGULAR_PIVOT = 64 * np.finfo(np.float64).eps
-EVAL_METHODS = ("auto", "direct", "nearfar")
-#: bytes of temporaries one evaluation block may use
-_BLOCK_BYTES = 64 * 2**20
-#: "auto" uses near/far above this many kernel entries (and N >= _AUTO_MIN_N)
-_AUTO_MIN_ENTRIES = 5e7
-_AUTO_MIN_N = 500
 #: iterative solver's default stopping rule: the bound of the interpolant's change
 #: (sup norm) at most this times the RMS of each channel's samples
 SOLVER_RTOL = 1e-8
@@ -136,21 +105,6 @@ def _as_values(values, n: int, *, name: str = "values") -> tuple[np.ndarray, boo
     if not np.isfinite(v).all():
         raise ParameterError(f"{name} contain NaN or Inf")
     return np.array(v, dtype=np.float64, order="F"), vector
-
-
-def _closest_pair(points: np.ndarray) -> tuple[int, int, float]:
-    """Indices (i < j) and chordal distance of the closest pair of nodes (kd-tree, O(N log N))."""
-    if points.shape[0] < 2:
-        return 0, 0, math.inf
-    dist, idx = cKDTree(points).query(points, k=2)
-    i = int(np.argmin(dist[:, 1]))
-    # with exact duplicates the query may list the point itself second: take the other one
-    j = int(idx[i, 1]) if int(idx[i, 1]) != i else int(idx[i, 0])
-    return min(i, j), max(i, j), float(dist[i, 1])
-
-
-def _nthreads() -> int:
-    return max(1, int(numba.get_num_threads()))
 
 
 # ------------------------------------------------------------------ the interpolator
@@ -213,7 +167,7 @@ class SobolevInterpolator:
                      hint=f"the largest N that fits is "
                           f"{largest_feasible_n(budget, self.nchannels, path)}")
         if check_duplicates and n > 1:
-            i, j, d = _closest_pair(pts)
+            i, j, d = closest_pair(pts)
             if d < DUPLICATE_DISTANCE:
                 raise DuplicatePointsError(
                     f"points {i} and {j} coincide (distance {d:.1e} < {DUPLICATE_DISTANCE:g}): "
@@ -243,7 +197,7 @@ class SobolevInterpolator:
         whose CG broke down or did not converge while the dense matrix fits. ``"iterative"``
         raises :class:`~envfit.kernels._iterative.IterativeSolverError` then."""
         t = time.perf_counter()
-        self._iterative = IterativeSolver(pts, self.s, nthreads=_nthreads())
+        self._iterative = IterativeSolver(pts, self.s, nthreads=nthreads())
         self.timings["setup"] = time.perf_counter() - t
         try:
             self._alpha, self.solve_info = self._iterative.solve(vals, self._tol(vals),
@@ -273,13 +227,9 @@ class SobolevInterpolator:
         """The attributes every interpolant has (nodes, s, constants), nothing solved yet."""
         self.n = pts.shape[0]
         self.nchannels = nchannels
-        self.kernel_constant = kernel_constant(self.s)
-        self._a = self.s - 1.0
-        self._kind = _kernels.power_kind(self._a)
+        self._nodes = KernelNodes.build(pts, self.s)
+        self.kernel_constant = self._nodes.constant
         self.points = pts
-        self._px = np.ascontiguousarray(pts[:, 0])
-        self._py = np.ascontiguousarray(pts[:, 1])
-        self._pz = np.ascontiguousarray(pts[:, 2])
         #: wall-clock seconds of the construction steps ("matrix", "cholesky", "solve";
         #: iterative: "setup", "solve")
         self.timings = {}
@@ -288,7 +238,6 @@ class SobolevInterpolator:
         self._fallback = ""
         self.log_det = float("nan")
         self._kinv_diag = None
-        self._cells = {}
 
     def _choose_solver(self, solver: str) -> tuple[str, str]:
         """The path (``"cholesky"`` or ``"iterative"``) and why."""
@@ -372,31 +321,8 @@ class SobolevInterpolator:
 
     # -- construction ------------------------------------------------------------
     def _factorize(self) -> np.ndarray:
-        n = self.n
-        # the only N x N allocation: Fortran order, lower triangle written by the kernel
-        t0 = time.perf_counter()
-        # zeros (calloc: pages are zeroed lazily, no extra pass) so the unused upper triangle
-        # holds no garbage: cho_solve(check_finite=True) on .cholesky must not see NaNs
-        buf = np.zeros((n, n), dtype=np.float64, order="F")
-        _kernels.fill_kernel_matrix(self._px, self._py, self._pz, self._a, self._kind,
-                                    self.kernel_constant, buf)
-        t1 = time.perf_counter()
-        info = cholesky_inplace(buf)
-        c = buf
-        self.timings["matrix"] = t1 - t0
-        self.timings["cholesky"] = time.perf_counter() - t1
-        if info < 0:  # pragma: no cover - argument error
-            raise RuntimeError(f"dpotrf argument {-info} is invalid")
-        if info == 0:
-            # coincident nodes can also slip through with a pivot at rounding level
-            pivot = float(np.min(np.diagonal(c)))
-            if pivot * pivot >= _SINGULAR_PIVOT * self.kernel_constant:
-                return c
-        i, j, d = _closest_pair(self.points)
-        where = f"dpotrf failed at column {info}" if info > 0 else "a pivot at rounding level"
-        raise DuplicatePointsError(
-            f"the {n}x{n} kernel matrix is numerically singular ({where}); closest nodes: "
-            f"points {i} and {j} at distance {d:.1e}: remove or merge (near-)duplicate samples")
+        """The in-place Cholesky factor of K (:meth:`~envfit.kernels._kernel_nodes.KernelNodes.factorize`)."""
+        return self._nodes.factorize(self.timings)
 
     # -- linear algebra ------------------------------------------------------------
     @property
@@ -471,7 +397,7 @@ class SobolevInterpolator:
         r""":math:`\mathrm{diag}(K^{-1})` (N,), computed once (N^3/3 flops, see module doc)."""
         self._require_factor()
         if self._kinv_diag is None:
-            block = int(min(512, max(64, _BLOCK_BYTES // (8 * max(self.n, 1)))))
+            block = int(min(512, max(64, BLOCK_BYTES // (8 * max(self.n, 1)))))
             self._kinv_diag = inverse_diagonal(self._factor, block=block)
         return self._kinv_diag
 
@@ -520,11 +446,7 @@ class SobolevInterpolator:
             alpha, vector = self._alpha, self._vector
         else:
             alpha, vector = _as_values(coefficients, self.n, name="coefficients")
-        m = q.shape[0]
-        if method == "auto":
-            method = ("nearfar" if (m * self.n >= _AUTO_MIN_ENTRIES and self.n >= _AUTO_MIN_N)
-                      else "direct")
-        if method == "direct":
+        if self._nodes.method_for(q.shape[0], method) == "direct":
             out = self._power_sums_direct(q, alpha)
         else:
             out = self._power_sums_nearfar(q, alpha)
@@ -535,35 +457,10 @@ class SobolevInterpolator:
         return out.reshape(qshape + (alpha.shape[1],))
 
     def _power_sums_direct(self, q: np.ndarray, alpha: np.ndarray) -> np.ndarray:
-        m, nc = q.shape[0], alpha.shape[1]
-        out = np.empty((m, nc))
-        a, kind = self._a, self._kind
-        if nc == 1:
-            _kernels.power_sums_1(q, self._px, self._py, self._pz,
-                                  np.ascontiguousarray(alpha[:, 0]), a, kind, out[:, 0])
-        elif nc == 3:
-            w = [np.ascontiguousarray(alpha[:, c]) for c in range(3)]
-            _kernels.power_sums_3(q, self._px, self._py, self._pz, w[0], w[1], w[2], a, kind, out)
-        else:  # many right-hand sides: power block (bounded memory) then BLAS
-            rows = max(1, _BLOCK_BYTES // (8 * self.n))
-            block = np.empty((min(rows, m), self.n))
-            for i0 in range(0, m, rows):
-                i1 = min(m, i0 + rows)
-                blk = block[: i1 - i0]
-                _kernels.power_block(q[i0:i1], self._px, self._py, self._pz, a, kind, blk)
-                np.matmul(blk, alpha, out=out[i0:i1])
-        return out
-
-    def _cell_list(self, delta: float) -> CellList:
-        cl = self._cells.get(delta)
-        if cl is None:
-            cl = self._cells[delta] = CellList.build(self.points, delta)
-        return cl
+        return self._nodes.power_sums_direct(q, alpha)
 
     def _power_sums_nearfar(self, q: np.ndarray, alpha: np.ndarray) -> np.ndarray:
-        delta = near_radius(self.n)
-        return nearfar_power_sums(self.points, self._cell_list(delta), q, alpha, self.s, delta,
-                                  self._a, self._kind, _nthreads())
+        return self._nodes.power_sums_nearfar(q, alpha)
 
     def __repr__(self) -> str:
         return (f"SobolevInterpolator(n={self.n}, channels={self.nchannels}, s={self.s:g}, "

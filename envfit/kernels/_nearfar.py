@@ -53,29 +53,11 @@ def _chebyshev_coefficients(values: np.ndarray) -> np.ndarray:
     return c
 
 
-@functools.lru_cache(maxsize=32)
-def far_field_expansion(s: float, delta: float, rtol: float = 1e-15) -> FarFieldExpansion:
-    r"""The near/far split of the kernel for smoothness s and near radius ``delta``.
-
-    1. Chebyshev interpolation of :math:`g(t) = (2-2t)^{s-1}` on :math:`[-1, t_0]`,
-       :math:`t_0 = 1 - \delta^2/2`, evaluated as :math:`(d^2)^{s-1}` with
-       :math:`d^2 = \delta^2 + (4 - \delta^2)\sin^2(\theta_k/2)` (no cancellation);
-       truncated after the last coefficient above ``rtol * 4^(s-1)``: degree L.
-    2. Legendre coefficients of :math:`P_L` on [-1, 1] by interpolation at the L + 1
-       Gauss-Legendre nodes.
-    3. :math:`S(d^2) = P_L(1 - d^2/2)` re-expanded on the near interval (degree ~20).
-
-    >>> ff = far_field_expansion(1.5, 0.1)
-    >>> ff.lmax > 100 and ff.far_error < 1e-13
-    True
-    """
-    s = check_s(s)
-    a = s - 1.0
-    delta = float(delta)
-    if not (0.0 < delta < 2.0):
-        raise ParameterError(f"near radius delta must be in (0, 2), got {delta}")
-    d2min = delta * delta
-    t0 = 1.0 - d2min / 2.0
+def _far_chebyshev(a: float, d2min: float, rtol: float) -> np.ndarray:
+    r"""Step 1: Chebyshev coefficients of :math:`g(t) = (2-2t)^a` on :math:`[-1, t_0]`,
+    :math:`t_0 = 1 - \delta^2/2`, evaluated as :math:`(d^2)^a` with
+    :math:`d^2 = \delta^2 + (4 - \delta^2)\sin^2(\theta_k/2)` (no cancellation); truncated
+    after the last coefficient above ``rtol * 4^a`` (the grid quadruples until it resolves)."""
     gmax = 4.0 ** a
     n = 1024
     while True:
@@ -88,33 +70,76 @@ def far_field_expansion(s: float, delta: float, rtol: float = 1e-15) -> FarField
         if lmax < 0.6 * n or n >= 2**16:
             break
         n *= 4
-    c = c[: lmax + 1]
+    return c[: lmax + 1]
 
-    def poly(t):  # P_L(t) through the mapped Chebyshev variable
-        x = (2.0 * t - (t0 - 1.0)) / (t0 + 1.0)
-        return np.polynomial.chebyshev.chebval(x, c)
 
-    # Legendre coefficients g_l of P_L: interpolation at the L + 1 Gauss-Legendre nodes
-    # (a well-conditioned square solve; the quadrature form sum_i w_i P_L(u_i) P_l(u_i)
-    # is mathematically the same but scipy's weights near +-1 carry ~1e-11 relative errors,
-    # which show up as 1e-10 errors of the series at t = -1)
+def _far_poly(t, c: np.ndarray, t0: float):
+    """P_L(t) through the mapped Chebyshev variable of :func:`_far_chebyshev` on [-1, t0]."""
+    x = (2.0 * t - (t0 - 1.0)) / (t0 + 1.0)
+    return np.polynomial.chebyshev.chebval(x, c)
+
+
+def _sh_weights(poly, lmax: int) -> np.ndarray:
+    r"""Step 2: :math:`w_l = 4\pi g_l/(2l+1)`, :math:`P_L = \sum_l g_l P_l`, so that
+    :math:`P_L(u\cdot v) = \sum_{lm} w_l Y_{lm}(u) Y^*_{lm}(v)`.
+
+    The Legendre coefficients g_l by interpolation at the L + 1 Gauss-Legendre nodes (a
+    well-conditioned square solve; the quadrature form sum_i w_i P_L(u_i) P_l(u_i) is
+    mathematically the same but scipy's weights near +-1 carry ~1e-11 relative errors, which
+    show up as 1e-10 errors of the series at t = -1)."""
     u, _ = special.roots_legendre(lmax + 1)
     vander = np.polynomial.legendre.legvander(u, lmax)
     g = np.linalg.solve(vander, poly(u))
-    # P_L(u.v) = sum_l g_l P_l(u.v) = sum_lm [4 pi g_l / (2l+1)] Y_lm(u) Y*_lm(v)
-    weights = 4.0 * np.pi * g / (2.0 * np.arange(lmax + 1) + 1.0)
-    # near-zone representation of P_L
+    return 4.0 * np.pi * g / (2.0 * np.arange(lmax + 1) + 1.0)
+
+
+def _near_chebyshev(poly, d2min: float, gmax: float) -> np.ndarray:
+    r"""Step 3: Chebyshev coefficients of :math:`S(d^2) = P_L(1 - d^2/2)` on
+    :math:`[0, \delta^2]` (degree ~20: those above 1e-14·4^a, plus two)."""
     m = 64
     y = np.cos(np.pi * (np.arange(m) + 0.5) / m)
     d2n = d2min * (1.0 + y) / 2.0
     cn = _chebyshev_coefficients(poly(1.0 - d2n / 2.0))
     keep = np.nonzero(np.abs(cn) > 1e-14 * gmax)[0]
-    cn = cn[: (int(keep[-1]) + 3 if keep.size else 1)].copy()
-    # check the far-field error on a fine grid in d2 (geometric near the cut)
+    return np.ascontiguousarray(cn[: (int(keep[-1]) + 3 if keep.size else 1)])
+
+
+def _far_error(poly, d2min: float, a: float) -> float:
+    """Max |P_L - g| on the far interval, on a fine grid in d2 (geometric near the cut)."""
     d2c = np.concatenate([d2min * np.geomspace(1.0, 4.0 / d2min, 4001), np.linspace(d2min, 4.0, 4001)])
-    err = float(np.max(np.abs(poly(1.0 - d2c / 2.0) - d2c ** a)))
-    return FarFieldExpansion(s=s, delta=delta, lmax=lmax, sh_weights=weights,
-                             near_cheb=np.ascontiguousarray(cn), far_error=err)
+    return float(np.max(np.abs(poly(1.0 - d2c / 2.0) - d2c ** a)))
+
+
+@functools.lru_cache(maxsize=32)
+def far_field_expansion(s: float, delta: float, rtol: float = 1e-15) -> FarFieldExpansion:
+    r"""The near/far split of the kernel for smoothness s and near radius ``delta``.
+
+    1. Chebyshev interpolation of :math:`g(t) = (2-2t)^{s-1}` on :math:`[-1, t_0]`,
+       :math:`t_0 = 1 - \delta^2/2`, evaluated as :math:`(d^2)^{s-1}` with
+       :math:`d^2 = \delta^2 + (4 - \delta^2)\sin^2(\theta_k/2)` (no cancellation);
+       truncated after the last coefficient above ``rtol * 4^(s-1)``: degree L
+       (:func:`_far_chebyshev`).
+    2. Legendre coefficients of :math:`P_L` on [-1, 1] by interpolation at the L + 1
+       Gauss-Legendre nodes (:func:`_sh_weights`).
+    3. :math:`S(d^2) = P_L(1 - d^2/2)` re-expanded on the near interval (degree ~20,
+       :func:`_near_chebyshev`), and the far error checked on a fine grid (:func:`_far_error`).
+
+    >>> ff = far_field_expansion(1.5, 0.1)
+    >>> ff.lmax > 100 and ff.far_error < 1e-13
+    True
+    """
+    s = check_s(s)
+    a = s - 1.0
+    delta = float(delta)
+    if not (0.0 < delta < 2.0):
+        raise ParameterError(f"near radius delta must be in (0, 2), got {delta}")
+    d2min = delta * delta
+    c = _far_chebyshev(a, d2min, rtol)
+    lmax = c.size - 1
+    poly = functools.partial(_far_poly, c=c, t0=1.0 - d2min / 2.0)
+    return FarFieldExpansion(s=s, delta=delta, lmax=lmax, sh_weights=_sh_weights(poly, lmax),
+                             near_cheb=_near_chebyshev(poly, d2min, 4.0 ** a),
+                             far_error=_far_error(poly, d2min, a))
 
 
 def near_radius(n: int) -> float:
