@@ -62,6 +62,7 @@ Example
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Callable, NamedTuple
 
 import numpy as np
@@ -382,18 +383,29 @@ def _mis_assign(Ub: np.ndarray, sel_pos, split) -> tuple[np.ndarray, np.ndarray]
     return sel, np.clip(Ub, 0.0, np.nextafter(1.0, 0.0))
 
 
-def _mis_block(envmap, sampler, weight, A, R, Ub, sel, nu, heur) -> np.ndarray:
+@dataclass(frozen=True)
+class _MISTechniques:
+    """What every block of a MIS run shares: the map, its sampler, the BRDF weight function,
+    the techniques' shares ν and the heuristic (:func:`mis_weights`)."""
+    envmap: EnvMap
+    sampler: MapSampler
+    weight: WeightFunction
+    nu: np.ndarray
+    heur: Heuristic
+
+
+def _mis_block(t: _MISTechniques, A, R, Ub, sel) -> np.ndarray:
     r"""Per-axis sum of :math:`w_i g/(\nu_i p_i)` over a block's N samples, (mb, C): axes A
     (mb, 3), frames R (mb, 3, 3), points Ub (mb, N, 2), map samples ``sel`` (mb, N)."""
     mb, n = sel.shape
     axis_of = np.broadcast_to(np.arange(mb)[:, None], (mb, n))
-    contrib = np.zeros((mb, n, envmap.channels))
+    contrib = np.zeros((mb, n, t.envmap.channels))
     steps = ((_map_technique, A, np.nonzero(sel)), (_brdf_technique, R, np.nonzero(~sel)))
     for i, (technique, frames, k) in enumerate(steps):
         if k[0].size:
-            f, pm, rho = technique(envmap, sampler, weight, frames[axis_of[k]], Ub[k])
-            q = np.stack([nu[0] * pm, nu[1] * rho])
-            contrib[k] = f * (rho * heur.over_q(q, i))[:, None]
+            f, pm, rho = technique(t.envmap, t.sampler, t.weight, frames[axis_of[k]], Ub[k])
+            q = np.stack([t.nu[0] * pm, t.nu[1] * rho])
+            contrib[k] = f * (rho * t.heur.over_q(q, i))[:, None]
     return contrib.sum(axis=1)
 
 
@@ -451,11 +463,11 @@ def mis_estimates(envmap: EnvMap, axes, u, sampler: MapSampler | None = None,
     n, c = U.shape[0], envmap.channels
     sel_pos, nu, split = MODES[mode]((U, n1), c1, n)
     sampler = MapSampler(envmap) if sampler is None else sampler
+    techniques = _MISTechniques(envmap, sampler, weight, nu, heur)
     out = np.empty((A.shape[0], c))
     for m0, m1 in _blocks(A.shape[0], n, c, "multiple importance sampling"):
         sel, Ub = _mis_assign(_shifted(U, s.block(m0, m1, n)), sel_pos, split)
-        out[m0:m1] = _mis_block(envmap, sampler, weight, A[m0:m1], R[m0:m1], Ub, sel,
-                                nu, heur) / n
+        out[m0:m1] = _mis_block(techniques, A[m0:m1], R[m0:m1], Ub, sel) / n
     return out
 
 

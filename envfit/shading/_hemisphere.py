@@ -144,18 +144,21 @@ def _horizon_pieces(s, j, sa, ca, pa, lo, hi, w):
     return np.nonzero(keep)[0], plo[keep], phi_[keep]
 
 
-def _clipped_nodes(s_, sa, ca, pa, plo, phi_hi, lo, hi, xf, wf):
+def _clipped_nodes(t_lo, t_hi, sa, ca, pa, plo, phi_hi, rule):
     r"""Gauss nodes (θ, φ), u·a and weights (P, qf, qf) of the pieces above the horizon.
 
-    Per piece the φ-range [plo, phi_hi] gets qf nodes; at each the θ-range of patch row
-    s is clipped at the root :math:`\theta^*` of :math:`A\sin\theta + B\cos\theta = u\cdot a = 0`,
+    Per piece the φ-range [plo, phi_hi] gets qf nodes (``rule`` = (nodes, weights) of the
+    qf-point Gauss–Legendre rule on [0, 1]); at each the θ-range [t_lo, t_hi] of the piece's
+    patch row is clipped at the root :math:`\theta^*` of
+    :math:`A\sin\theta + B\cos\theta = u\cdot a = 0`,
     :math:`A = \sin\theta_a\cos(\varphi - \varphi_a)`, :math:`B = \cos\theta_a`.
     """
+    xf, wf = rule
     L = phi_hi - plo
     phn = plo[:, None] + L[:, None] * xf[None, :]                          # (P, qf)
     wphn = L[:, None] * wf[None, :]
     Aph = sa[:, None] * np.cos(phn - pa[:, None])                          # (P, qf)
-    t0, t1 = lo[s_][:, None], hi[s_][:, None]
+    t0, t1 = t_lo[:, None], t_hi[:, None]
     ztop = Aph * np.sin(t0) + ca[:, None] * np.cos(t0)
     zbot = Aph * np.sin(t1) + ca[:, None] * np.cos(t1)
     # the root of A sinθ + B cosθ in [0, π]
@@ -182,14 +185,14 @@ def _add_cut(out: np.ndarray, data: np.ndarray, flag: np.ndarray, sa, ca, pa, gr
     nb, c = out.shape[0], out.shape[2]
     pair, plo, phi_hi = _horizon_pieces(ss, jj, sa[mm], ca[mm], pa[mm], grid.lo, grid.hi,
                                         data.shape[1])
-    xf, wf = gauss_legendre_01(grid.q + 1)
+    rule = gauss_legendre_01(grid.q + 1)
     step = int(max(1, BLOCK_ELEMENTS // (4 * (grid.q + 1) ** 2)))
     for p0 in range(0, pair.size, step):
         p1 = min(pair.size, p0 + step)
         pr = pair[p0:p1]
         s_, j_, m_ = ss[pr], jj[pr], mm[pr]
-        thn, phb, z, wn = _clipped_nodes(s_, sa[m_], ca[m_], pa[m_], plo[p0:p1], phi_hi[p0:p1],
-                                         grid.lo, grid.hi, xf, wf)
+        thn, phb, z, wn = _clipped_nodes(grid.lo[s_], grid.hi[s_], sa[m_], ca[m_], pa[m_],
+                                         plo[p0:p1], phi_hi[p0:p1], rule)
         P = s_.size
         fv = bilinear_in_patch(data, s_, j_, thn.reshape(P, -1), phb.reshape(P, -1))
         fw = fv * wn.reshape(P, -1)[:, :, None]                              # (P, n, C)
