@@ -252,22 +252,7 @@ def find_bright_sources(envmap: EnvMap, *, share: float = DEFAULT_SHARE,
     >>> find_bright_sources(EnvMap(np.ones((8, 16, 3))))
     []
     """
-    if not isinstance(envmap, EnvMap):
-        raise ParameterError(f"envmap must be an EnvMap, got {type(envmap).__name__}")
-    try:
-        det = DETECTORS[method]
-    except (KeyError, TypeError):
-        raise ParameterError(f"method must be one of {', '.join(DETECTORS)}; got {method!r}") from None
-    try:
-        smin = float(share)
-    except (TypeError, ValueError):
-        raise ParameterError(f"share must be a number in [0, 1], got {share!r}") from None
-    if not 0.0 <= smin <= 1.0:
-        raise ParameterError(f"share must be a number in [0, 1], got {share!r}")
-    k = det.default_k if threshold is None else float(threshold)
-    if not np.isfinite(k):
-        raise ParameterError(f"threshold must be finite, got {threshold!r}")
-    grow = check_int(grow, "grow", 0)
+    det, k, smin, grow = _check_detection(envmap, share, threshold, method, grow)
     x = envmap.data.astype(np.float64)
     if not np.all(np.isfinite(x)):
         raise ParameterError("the map has non-finite values; cannot detect sources")
@@ -289,3 +274,24 @@ def find_bright_sources(envmap: EnvMap, *, share: float = DEFAULT_SHARE,
     union = np.logical_or.reduce(masks)
     found = [_describe(envmap, mk, union, total) for mk in masks]
     return sorted(found, key=lambda s: -s.power)
+
+
+def _check_detection(envmap, share, threshold, method, grow) -> tuple[Detector, float, float, int]:
+    """``(detector, k, share, grow)`` of :func:`find_bright_sources`, checked
+    (ParameterError)."""
+    if not isinstance(envmap, EnvMap):
+        raise ParameterError(f"envmap must be an EnvMap, got {type(envmap).__name__}")
+    try:
+        det = DETECTORS[method]
+    except (KeyError, TypeError):
+        raise ParameterError(f"method must be one of {', '.join(DETECTORS)}; got {method!r}") from None
+    try:
+        smin = float(share)
+    except (TypeError, ValueError):
+        raise ParameterError(f"share must be a number in [0, 1], got {share!r}") from None
+    if not 0.0 <= smin <= 1.0:
+        raise ParameterError(f"share must be a number in [0, 1], got {share!r}")
+    k = det.default_k if threshold is None else float(threshold)
+    if not np.isfinite(k):
+        raise ParameterError(f"threshold must be finite, got {threshold!r}")
+    return det, k, smin, check_int(grow, "grow", 0)
