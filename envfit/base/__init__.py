@@ -10,11 +10,16 @@ Modules:
 * :mod:`~envfit.base._errors` — The exception types of envfit.
 * :mod:`~envfit.base._html` — Compact HTML tables of results, for Jupyter's rich display
   (``_repr_html_``).
-* :mod:`~envfit.base._progress` — Progress bars (tqdm on stderr), switched off by ``quiet``.
+* :mod:`~envfit.base._lock` — The advisory lock of an output folder: one envfit run per
+  folder.
+* :mod:`~envfit.base._progress` — Progress bars (tqdm on stderr), switched off by ``quiet``,
+  and notes printed past them.
 * :mod:`~envfit.base._resources` — Memory budget: check before allocating, fail with a clear
   message instead of swapping.
 * :mod:`~envfit.base._store` — A resumable result store: one JSON file per finished cell,
   written atomically, checked on read.
+* :mod:`~envfit.base._stored_json` — Stored JSON read without a traceback, and its values
+  checked.
 
 The names of ``__all__`` are imported lazily, on first use (PEP 562), so that
 importing the package loads none of its modules.

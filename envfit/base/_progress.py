@@ -1,6 +1,7 @@
-"""Progress bars (tqdm on stderr), switched off by ``quiet``."""
+"""Progress bars (tqdm on stderr), switched off by ``quiet``, and notes printed past them."""
 from __future__ import annotations
 
+import sys
 from typing import Iterable, TypeVar
 
 T = TypeVar("T")
@@ -38,3 +39,14 @@ class _NullBar:
 
     def __exit__(self, *exc) -> None:
         pass
+
+
+def print_note(text: str) -> None:
+    """The default ``on_note``: ``note: text`` on a line of its own on stderr (through
+    ``tqdm.write``, which lifts a running progress bar out of the way)."""
+    try:
+        from tqdm import tqdm
+    except ImportError:  # pragma: no cover - tqdm is a dependency
+        print(f"note: {text}", file=sys.stderr, flush=True)
+        return
+    tqdm.write(f"note: {text}", file=sys.stderr)

@@ -149,6 +149,27 @@ def largest_n_within(nbytes_of, budget: int, upper: int) -> int:
     return lo if nbytes_of(lo) <= budget else 0
 
 
+def _size_model(kernel: bool, channels: int, solver: str, per_n: int, fixed: int):
+    """The planned bytes as a function of N (increasing), as :func:`plan_memory` accounts them."""
+    if kernel:
+        def nbytes_of(k: int) -> int:
+            return interpolator_nbytes(k, channels, solver) + per_n * k + fixed
+    else:
+        def nbytes_of(k: int) -> int:
+            return 8 * k * (3 + channels) + per_n * k + fixed
+    return nbytes_of
+
+
+def _what_needs(n: int, total: int, kernel: bool, solver: str) -> str:
+    """What needs ``total`` bytes at N = n, in words, for :func:`plan_memory`'s message."""
+    if kernel and solver == "cholesky":
+        return f"the {n}x{n} float64 kernel matrix and the N-sized arrays need {format_bytes(total)}"
+    if kernel:
+        return (f"the iterative solver's sparse preconditioner, near-field matrix and "
+                f"N-sized arrays need {format_bytes(total)}")
+    return f"the {n} points, values and per-point temporaries need {format_bytes(total)}"
+
+
 def plan_memory(n: int, what: str, *, channels: int = 1, kernel: bool = True,
                 per_n_bytes: int = 0, fixed_bytes: int = 0, n_name: str = "N",
                 smallest: int = 2, solver: str = "cholesky") -> int:
@@ -184,32 +205,17 @@ def plan_memory(n: int, what: str, *, channels: int = 1, kernel: bool = True,
     True
     """
     n = int(n)
-    c = max(1, int(channels))
-    per_n = int(per_n_bytes)
-    fixed = int(fixed_bytes)
     solver = _check_solver(solver)
-    if kernel:
-
-        def nbytes_of(k: int) -> int:
-            return interpolator_nbytes(k, c, solver) + per_n * k + fixed
-    else:
-        def nbytes_of(k: int) -> int:
-            return 8 * k * (3 + c) + per_n * k + fixed
+    nbytes_of = _size_model(kernel, max(1, int(channels)), solver, int(per_n_bytes),
+                            int(fixed_bytes))
     total = nbytes_of(n)
     budget = memory_budget_bytes()
     if total <= budget:
         return total
     fits = largest_n_within(nbytes_of, budget, n)
-    if kernel and solver == "cholesky":
-        needs = f"the {n}x{n} float64 kernel matrix and the N-sized arrays need {format_bytes(total)}"
-    elif kernel:
-        needs = (f"the iterative solver's sparse preconditioner, near-field matrix and "
-                 f"N-sized arrays need {format_bytes(total)}")
-    else:
-        needs = (f"the {n} points, values and per-point temporaries need "
-                 f"{format_bytes(total)}")
-    msg = (f"{what} at {n_name} = {n}: {needs} but only {format_bytes(budget)} can be used "
-           f"({int(MEMORY_FRACTION * 100)}% of available memory); ")
+    msg = (f"{what} at {n_name} = {n}: {_what_needs(n, total, kernel, solver)} but only "
+           f"{format_bytes(budget)} can be used ({int(MEMORY_FRACTION * 100)}% of available "
+           f"memory); ")
     if fits >= smallest:
         msg += f"the largest {n_name} that fits is {fits}"
     else:

@@ -31,54 +31,34 @@ the CLI prints); without one they are printed to stderr as ``note: …``.
 
 One run per folder
 ------------------
-A run holds :class:`FolderLock` on its output folder (``.envfit.lock`` there, a
-:class:`filelock.FileLock`; the holder's pid in ``.envfit.lock.owner``). A second run on the
-same folder waits :data:`LOCK_TIMEOUT` seconds, then **exits** with
-:class:`StoreBusyError` (exit code 2 in the CLI: ``OUT is in use by another envfit run (pid
-N); wait for it or use another --out``). Exiting was chosen over waiting: a sweep can run for
-hours, and a second command that silently blocks that long looks hung; after the first run
-ends, the same command resumes every cell it finished, so nothing is computed twice either
-way. The short wait only covers a run that is just finishing.
-
-The lock is ``flock(2)``: the kernel releases it when its process dies, so a run killed by
-SIGKILL leaves a lock *file* that blocks nobody, and a re-run resumes. Only the driver
-process writes cells and holds the lock; executor workers (process pool, dask) never touch
-the store, and they are spawned (fresh interpreters, no inherited descriptors), so a
-surviving worker cannot keep a dead driver's lock. Within one process the lock is shared
-(acquisitions are counted), so nested or repeated runs in one interpreter never block
-themselves; it protects against other processes, not other threads.
+A run holds :class:`~envfit.base._lock.FolderLock` on its output folder (a second run on it
+exits with :class:`~envfit.base._lock.StoreBusyError`; :mod:`envfit.base._lock`).
 """
 from __future__ import annotations
 
 import hashlib
 import json
-import math
-import os
 import re
-import socket
-import sys
-import threading
 from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator, Mapping
 
 import numpy as np
 
-from envfit.base._atomic import atomic_write_json, atomic_write_text, to_jsonable
+from envfit.base._atomic import atomic_write_json, to_jsonable
 from envfit.base._errors import EnvfitError, ParameterError
+from envfit.base._lock import LOCK_NAME, LOCK_TIMEOUT, FolderLock, StoreBusyError
+from envfit.base._progress import print_note
+from envfit.base._stored_json import (config_problem, json_type, move_aside, number,
+                                      number_problem, one_of, read_json_file)
 
+# FolderLock & co. (_lock), print_note (_progress) and the JSON checks (_stored_json) are
+# re-exported: the store's callers import them from here
 __all__ = ["ResultStore", "FolderLock", "StoreBusyError", "StoreWriteError", "STORE_FORMAT",
-           "LOCK_TIMEOUT", "array_fingerprint", "canonical_sha256", "print_note", "move_aside",
+           "LOCK_TIMEOUT", "LOCK_NAME", "array_fingerprint", "canonical_sha256", "print_note", "move_aside",
            "config_problem", "read_json_file", "json_type", "number_problem", "number", "one_of"]
 
 #: 1: bare cell dicts (no identity, no checksum); 2: identity + key + SHA-256 envelope
 STORE_FORMAT = 2
-#: seconds a second run waits for a busy folder before it gives up (see the module docstring)
-LOCK_TIMEOUT = 1.0
-LOCK_NAME = ".envfit.lock"
-
-
-class StoreBusyError(EnvfitError, RuntimeError):
-    """Another envfit process holds the output folder's lock."""
 
 
 class StoreWriteError(EnvfitError, OSError):
@@ -104,218 +84,10 @@ def canonical_sha256(obj: Any) -> str:
     return hashlib.sha256(text.encode("ascii")).hexdigest()
 
 
-def print_note(text: str) -> None:
-    """The default ``on_note``: ``note: text`` on a line of its own on stderr (through
-    ``tqdm.write``, which lifts a running progress bar out of the way)."""
-    try:
-        from tqdm import tqdm
-    except ImportError:  # pragma: no cover - tqdm is a dependency
-        print(f"note: {text}", file=sys.stderr, flush=True)
-        return
-    tqdm.write(f"note: {text}", file=sys.stderr)
-
-
-def read_json_file(path: Path) -> tuple[Any, str | None]:
-    """``(document, None)``, or ``(None, why)`` for a file that cannot be decoded;
-    ``(None, None)`` when there is no file at all."""
-    try:
-        raw = path.read_bytes()
-    except (FileNotFoundError, NotADirectoryError):     # nothing there (or cannot be)
-        return None, None
-    except IsADirectoryError:
-        return None, "a folder, not a file"
-    except OSError as exc:
-        return None, f"unreadable ({exc.strerror or exc})"
-    if not raw.strip():
-        return None, "an empty file"
-    try:
-        return json.loads(raw.decode("utf-8")), None
-    except UnicodeDecodeError:
-        return None, "not a JSON file (binary data)"
-    except (ValueError, RecursionError):
-        return None, "not valid JSON (truncated or corrupt)"
-
-
-def move_aside(path: Path) -> str:
-    """Rename a folder standing where a JSON file belongs (so that the file can be written)
-    to ``<name>.folder``, ``<name>.folder1``, …; returns `` (moved to NAME)``, or "" if it
-    could not be moved (the caller then keeps its value in memory)."""
-    for k in range(100):
-        aside = path.with_name(f"{path.name}.folder{k or ''}")
-        if not os.path.lexists(aside):
-            try:
-                os.rename(path, aside)
-            except OSError:
-                break
-            return f" (moved to {aside.name})"
-    return ""
-
-
-def config_problem(doc: Any, kind: str) -> str | None:
-    """Why ``doc``, read from a store's ``<kind>_config.json``, is not a config at all
-    (corrupt: not a JSON object, ``{}``, no ``kind`` or another one), or None when it is one
-    (equal to this run's or not)."""
-    if not isinstance(doc, dict):
-        return f"a JSON {type(doc).__name__}, not an object"
-    if not doc:
-        return "an empty JSON object {}"
-    if "kind" not in doc:
-        return "no 'kind' field"
-    if doc["kind"] != kind:
-        return f"kind {doc['kind']!r}, not {kind!r}"
-    return None
-
-
-# ------------------------------------------------------------- value checks (schemas)
-def json_type(v: Any) -> str:
-    """``v``'s JSON type in words, for a note (``"a string"``, ``"null"``, …)."""
-    if v is None:
-        return "null"
-    if isinstance(v, bool):
-        return "a boolean"
-    return {str: "a string", list: "a list", dict: "an object"}.get(type(v), type(v).__name__)
-
-
-def number_problem(v: Any, name: str, lo: float = -math.inf, hi: float = math.inf, *,
-                   open_: bool = False, integer: bool = False) -> str | None:
-    """Why the stored ``v`` is not a finite number (an integer if ``integer``; booleans are
-    not numbers) in [lo, hi] ((lo, hi) when ``open_``), or None.
-
-    >>> number_problem(5, "s", 1, 2, open_=True), number_problem("x", "rmse")
-    ('s = 5 is outside (1, 2)', 'rmse is a string, not a number')
-    """
-    if isinstance(v, bool) or not isinstance(v, int if integer else (int, float)):
-        return f"{name} is {json_type(v)}, not {'an integer' if integer else 'a number'}"
-    if not math.isfinite(v):
-        return f"{name} is {v!r}, not finite"
-    if (lo < v < hi) if open_ else (lo <= v <= hi):
-        return None
-    if lo == 0 and hi == math.inf and not open_:
-        return f"{name} = {v!r} is negative"
-    return f"{name} = {v!r} is outside {'(' if open_ else '['}{lo:g}, {hi:g}{')' if open_ else ']'}"
-
-
-def number(lo: float = -math.inf, hi: float = math.inf, *, open_: bool = False,
-           integer: bool = False) -> Callable[[Any, str], str | None]:
-    """A field check for :meth:`ResultStore.get`: :func:`number_problem` with these bounds."""
-    return lambda v, name: number_problem(v, name, lo, hi, open_=open_, integer=integer)
-
-
-def one_of(*allowed: Any) -> Callable[[Any, str], str | None]:
-    """A field check for :meth:`ResultStore.get`: the value is one of ``allowed`` (numbers
-    compared to 1e-9 relative, as a cell's s against its key)."""
-    def check(v, name):
-        for a in allowed:
-            if isinstance(a, (int, float)) and not isinstance(a, bool):
-                if not number_problem(v, name) and math.isclose(v, a, rel_tol=1e-9):
-                    return None
-            elif v == a:
-                return None
-        return f"{name} is {v!r}, not {' or '.join(repr(a) for a in allowed)}"
-    return check
-
-
 def _safe_key(key: str) -> str:
     if not re.fullmatch(r"[A-Za-z0-9._=+-]+", key):
         raise ValueError(f"store keys must be file-name safe, got {key!r}")
     return key
-
-
-# ------------------------------------------------------------------------------ the lock
-_held: dict[str, list] = {}           # canonical lock path -> [FileLock, acquisitions]
-_held_guard = threading.Lock()
-
-
-class FolderLock:
-    """The advisory lock of one output folder (``folder/.envfit.lock``); see the module doc.
-
-    Use as a context manager, or :meth:`acquire` / :meth:`release`. A folder where no lock
-    file can be created (read-only) is used without a lock, with a note: nothing can be
-    written there anyway.
-
-    Parameters
-    ----------
-    folder : the output folder (created if missing).
-    timeout : seconds to wait for another process's lock before :class:`StoreBusyError`.
-    on_note : where the read-only note goes (default :func:`print_note`); ``notes`` keeps it.
-    """
-
-    def __init__(self, folder: str | os.PathLike, *, timeout: float | None = None,
-                 on_note: Callable[[str], None] | None = None):
-        self.folder = Path(folder)
-        self.timeout = LOCK_TIMEOUT if timeout is None else float(timeout)
-        self.on_note = on_note or print_note
-        self._path = os.path.realpath(self.folder / LOCK_NAME)
-        self.held = False
-        self.notes: list[str] = []
-
-    def acquire(self) -> "FolderLock":
-        """Take the lock (counted within this process); StoreBusyError if another has it."""
-        if self.held:
-            return self
-        from filelock import FileLock, Timeout
-        with _held_guard:
-            entry = _held.get(self._path)
-            if entry is None:
-                try:
-                    self.folder.mkdir(parents=True, exist_ok=True)
-                    lock = FileLock(self._path, timeout=self.timeout)
-                    lock.acquire()
-                except Timeout:
-                    raise StoreBusyError(
-                        f"{self.folder} is in use by another envfit run ({self._owner()}); "
-                        f"wait for it or use another --out") from None
-                except OSError as exc:
-                    self.notes.append(f"cannot lock {self.folder} ({exc.strerror or exc}): "
-                                      f"running without a lock; do not start a second run on it")
-                    self.on_note(self.notes[-1])
-                    return self
-                entry = _held[self._path] = [lock, 0]
-                self._write_owner()
-            entry[1] += 1
-            self.held = True
-        return self
-
-    def release(self) -> None:
-        """Give the lock back (the file stays; it blocks nobody once released)."""
-        with _held_guard:
-            if not self.held:
-                return
-            self.held = False
-            entry = _held.get(self._path)
-            if entry is None:
-                return
-            entry[1] -= 1
-            if entry[1] <= 0:
-                del _held[self._path]
-                entry[0].release()
-
-    def _write_owner(self) -> None:
-        try:
-            atomic_write_text(f"{self._path}.owner",
-                              json.dumps({"pid": os.getpid(), "host": socket.gethostname()}))
-        except OSError:
-            pass                          # the pid is a courtesy for the busy message
-
-    def _owner(self) -> str:
-        doc, _ = read_json_file(Path(f"{self._path}.owner"))
-        if not isinstance(doc, dict) or not isinstance(doc.get("pid"), int):
-            return "pid unknown"
-        host = doc.get("host")
-        where = f" on {host}" if isinstance(host, str) and host != socket.gethostname() else ""
-        return f"pid {doc['pid']}{where}"
-
-    def __enter__(self) -> "FolderLock":
-        return self.acquire()
-
-    def __exit__(self, *exc) -> None:
-        self.release()
-
-    def __del__(self):
-        try:
-            self.release()
-        except Exception:  # pragma: no cover - interpreter shutdown
-            pass
 
 
 # ------------------------------------------------------------------------------ the store
