@@ -29,11 +29,11 @@ then costs one non-uniform FFT per point set):
 * :math:`\hat h_i(k)` on the box :math:`|k_0|, |k_1| \le B = G/4`: the map technique's from
   exact per-pixel quadrature nodes (:class:`._box_spectra._MapNodes`), the lobe technique's
   from :math:`h_i` at the midpoints of a :data:`._box_spectra.LOBE_OVERSAMPLING`·B square
-  grid (a real FFT; aliasing comes
-  only from frequencies above 7B: the lobe part jumps where the map pdf of MIS does, and the
-  glossy warp compresses the grazing directions, so a 4B grid over-counts the box — on a
-  128-row sun + GP map by 3–8 % for MIS with a diffuse lobe and 3–27 % for glossy BRDF
-  sampling at N = 256–1024, against a 16B grid; 8B is within 1–2 % of it);
+  grid (a real FFT; aliasing comes only from frequencies above 7B: the lobe part jumps
+  where the map pdf of MIS does, and the glossy warp compresses the grazing directions, so
+  a 4B grid over-counts the box — on a 128-row sun + GP map by 3–8 % for MIS with a diffuse
+  lobe and 3–27 % for glossy BRDF sampling at N = 256–1024, against a 16B grid; 8B is
+  within 1–2 % of it);
 * :math:`V_i = \int h_i^2 - (\int h_i)^2` by *pixel quadrature in direction space* (each pixel's
   cell integral of the bilinear interpolant's square, exactly :math:`v^\top(M\otimes M)v` over
   its 3×3 neighbourhood, times its solid angle, lobe and pdf at its centre) — exact at a sun a
