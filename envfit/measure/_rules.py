@@ -1,4 +1,4 @@
-r"""The measured error of a renderer rule (:class:`envfit.sampling._rules.RendererRule`) on a map.
+r"""The measured error of a renderer rule (:class:`envfit.sampling.RendererRule`) on a map.
 
 :func:`measure_rule` measures a rule's RMSE over uniform axes — on axes importance-sampled
 from the map's :class:`envfit.measure._axis_proposal.AxisProposal` and weighted, by default —
@@ -10,7 +10,7 @@ Example
 -------
 >>> import numpy as np
 >>> from envfit.maps._envmap import EnvMap
->>> from envfit.sampling._rules import RendererRule
+>>> from envfit.sampling import RendererRule
 >>> setup = RendererSetup.of(EnvMap(np.full((8, 16, 1), 2.0)), sources=[])
 >>> out = measure_rule(setup, RendererRule("brdf", "sobol", 16), "diffuse", axes_start=20,
 ...                    max_axes=20, resamples=200)
@@ -29,10 +29,7 @@ from envfit.maps._envmap import EnvMap
 from envfit.maps._sources import BrightSource, find_bright_sources
 from envfit.measure._adaptive_rmse import AdaptiveRMSE, adaptive_rmse
 from envfit.measure._axis_proposal import AxisProposal
-from envfit.sampling._importance import ESTIMATORS
-from envfit.sampling._map_sampler import MapSampler
-from envfit.sampling._rules import RendererRule, rule_points
-from envfit.sampling._sources import split_map
+from envfit.sampling import ESTIMATORS, MapSampler, RendererRule, rule_points, split_map
 from envfit.shading._ground_truth import shading_integral, weight_function
 
 __all__ = ["RendererSetup", "rule_estimates", "measure_rule", "replicates", "SAMPLES_PER_AXIS",
