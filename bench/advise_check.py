@@ -22,9 +22,8 @@ import time
 
 import numpy as np  # noqa: E402
 
-from envfit.data_gen._gp import gaussian_process_map  # noqa: E402
-from envfit.advisor._advise import advise  # noqa: E402
-from envfit.maps._envmap import EnvMap  # noqa: E402
+from envfit import EnvMap, advise  # noqa: E402
+from envfit.data_gen import gaussian_process_map  # noqa: E402
 
 TOLERANCE = 0.25
 #: default targets per s0: N in the hundreds to a few thousand for sf

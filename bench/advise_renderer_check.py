@@ -19,8 +19,7 @@ import subprocess
 import tempfile
 import time
 
-from envfit import load_envmap
-from envfit.advisor._advise import advise
+from envfit import advise, load_envmap
 
 TOLERANCE = 1.25
 

@@ -41,8 +41,8 @@ METHODS = ("blocked", "dpotrf", "dpotrf-1t", "dpotrf-haswell")
 
 def _matrix(n: int, s: float):
     import numpy as np
-    from envfit.kernels import _kernels as _kernels
-    from envfit.theory._sobolev import kernel_constant
+    from envfit.kernels import _kernels  # internal: the numba kernel-matrix fill, timed bare
+    from envfit.theory import kernel_constant
     j = np.arange(n)
     z = 1.0 - (2 * j + 1) / n
     phi = 2 * np.pi * np.mod(j / ((1 + 5 ** 0.5) / 2), 1.0)
@@ -59,7 +59,7 @@ def worker(method: str, n: int, s: float) -> dict:
     import numpy as np
     from scipy.linalg import lapack
     from threadpoolctl import threadpool_info, threadpool_limits
-    from envfit.theory._cholesky import cholesky_inplace
+    from envfit.theory._cholesky import cholesky_inplace  # internal: the blocked kernel under test
     a = _matrix(n, s)
     limit = 1 if method == "dpotrf-1t" else None
     with threadpool_limits(limits=limit, user_api="blas"):

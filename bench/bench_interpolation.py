@@ -43,11 +43,11 @@ from scipy.interpolate import RBFInterpolator                    # noqa: E402
 from scipy.linalg import lapack                                  # noqa: E402
 from threadpoolctl import threadpool_info, threadpool_limits     # noqa: E402
 
-from envfit.kernels import _kernels as _kernels  # noqa: E402
-from envfit.kernels._interpolation import SobolevInterpolator
-from envfit.kernels._nearfar import far_field_expansion, near_radius
-from envfit.maps._latlong import pixel_directions                      # noqa: E402
-from envfit.theory._sobolev import kernel_constant                       # noqa: E402
+from envfit.kernels import SobolevInterpolator  # noqa: E402
+from envfit.kernels import _kernels  # noqa: E402  # internal: the kernel fill, timed bare
+from envfit.kernels._nearfar import far_field_expansion, near_radius  # noqa: E402  # internal: the near/far product's parts, timed one by one
+from envfit.maps import pixel_directions  # noqa: E402
+from envfit.theory import kernel_constant  # noqa: E402
 
 
 # ----------------------------------------------------------------------------- data

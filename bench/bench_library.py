@@ -6,7 +6,7 @@ Run:  /tmp/venv/bin/python bench/bench_library.py [--n 20000] [--maps 20] [--hei
 The kernel matrix depends on the sample directions and s only, so a library of M maps
 should cost one factorisation (N^3/3 flops; ~40 s and 3.2 GB at N = 20000) plus M
 evaluations (~1 s each at 1024 x 512), not M factorisations. This script measures it
-with the product's own entry point, :func:`envfit.batch._library.run_table2_library`:
+with the product's own entry point, :func:`envfit.batch.run_table2_library`:
 
 * **one**: the first map alone (one factorisation, one evaluation);
 * **many**: all M maps (one factorisation, M right-hand sides, M evaluations streamed map
@@ -41,10 +41,11 @@ def load() -> float:
 
 def phase(args: argparse.Namespace) -> None:
     """Child process: run one library sweep and print a JSON line with its figures."""
-    from envfit.batch._library import run_table2_library
+    from envfit.batch import LibraryOptions, run_table2_library
     maps = json.loads(args.phase_maps)
     t0 = time.perf_counter()
-    lib = run_table2_library(maps, [args.s], [args.n], scale="display", workers=args.workers)
+    lib = run_table2_library(maps, [args.s], [args.n], scale="display",
+                             options=LibraryOptions(workers=args.workers))
     wall = time.perf_counter() - t0
     cells = [r.cells[0] for r in lib.maps]
     print(json.dumps({
@@ -58,9 +59,8 @@ def phase(args: argparse.Namespace) -> None:
 def synthesize(folder: Path, count: int, height: int) -> list[str]:
     import numpy as np
 
-    from envfit.data_gen._gp import gaussian_process_map
-    from envfit.maps._envmap import EnvMap
-    from envfit.maps._io import save_envmap
+    from envfit.data_gen import gaussian_process_map
+    from envfit.maps import EnvMap, save_envmap
     paths = []
     for k in range(count):
         f = gaussian_process_map(1.5, height, seed=k, channels=3)
@@ -97,7 +97,7 @@ def main() -> int:
         return 0
     if args.quick:
         args.n, args.count, args.height = 2000, 5, 128
-    from envfit.maps._mapsource import resolve_map_sources
+    from envfit.maps._mapsource import resolve_map_sources  # internal: the library run's own file resolver
     with tempfile.TemporaryDirectory(prefix="bench_library_") as tmp:
         if args.maps:
             maps = [s.path for s in resolve_map_sources(args.maps)]

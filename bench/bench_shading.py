@@ -27,12 +27,14 @@ import numpy as np
 import ducc0
 
 
-from envfit.data_gen._analytic import SkyGradientMap, SunSkyMap          # noqa: E402
-from envfit.data_gen._gp import gaussian_process_map                     # noqa: E402
-from envfit.shading import _estimators as E  # noqa: E402
-from envfit.shading import _ground_truth as S  # noqa: E402
-from envfit.maps._envmap import EnvMap                                 # noqa: E402
-from envfit.theory._brdf import gauss_legendre_01                      # noqa: E402
+from envfit.data_gen import SkyGradientMap, SunSkyMap, gaussian_process_map  # noqa: E402
+from envfit.maps import EnvMap  # noqa: E402
+from envfit.shading import (default_sh_lmax, funk_hecke_factors,  # noqa: E402
+                            hsh_truncation_curve, quadrature_estimates, rmse_over_axes,
+                            sh_truncation_curve, shading_integral, weight_function)
+from envfit.shading._bilinear_sh import synthesize_convolution  # noqa: E402  # internal: the SH method's step
+from envfit.shading._patches import axes_to_local  # noqa: E402  # internal: the ground truth's frame
+from envfit.theory._weight_function import gauss_legendre_01  # noqa: E402  # internal: the product's GL rule
 
 
 def _timed(fn, repeat=3):
@@ -66,7 +68,7 @@ def piecewise_constant_integral(m: EnvMap, axes, weight, q: int = 4) -> np.ndarr
     wph = np.tile(2 * np.pi / w * wq, w)
     vals = np.repeat(np.repeat(m.data.astype(np.float64), q, axis=0), q, axis=1)
     wf = (vals * (wth[:, None, None] * wph[None, :, None])).reshape(-1, c)
-    loc = S.axes_to_local(axes, m.up)
+    loc = axes_to_local(axes, m.up)
     r_s = float(weight.r_s)
     out = np.empty((loc.shape[0], c))
     st, ct = np.sin(th), np.cos(th)
@@ -80,12 +82,12 @@ def bandlimited_integral(m: EnvMap, axes, weight) -> np.ndarray:
     """The band-limited interpolant of the pixel centres (ducc0 analysis_2d, F1, lmax = H−1)."""
     h, w, c = m.data.shape
     L = h - 1
-    lam = S.funk_hecke_factors(weight, L)
+    lam = funk_hecke_factors(weight, L)
     alm = np.stack([ducc0.sht.analysis_2d(map=np.ascontiguousarray(m.data[None, :, :, ch],
                                                                     dtype=np.float64),
                                           spin=0, lmax=L, geometry="F1", phi0=np.pi / w)[0]
                     for ch in range(c)])
-    return S.synthesize_convolution(alm, L, lam, S.axes_to_local(axes, m.up))
+    return synthesize_convolution(alm, L, lam, axes_to_local(axes, m.up))
 
 
 def main(argv=None):
@@ -103,9 +105,9 @@ def main(argv=None):
 
     # 1. SH method
     for name, brdf in (("diffuse", "diffuse"), ("glossy30", "glossy")):
-        w = S.weight_function(brdf, 30)
-        L = S.default_sh_lmax(w, H)
-        med, times, val = _timed(lambda: S.shading_integral(m, axes, brdf, 30))
+        w = weight_function(brdf, 30)
+        L = default_sh_lmax(w, H)
+        med, times, val = _timed(lambda: shading_integral(m, axes, brdf, 30))
         rep[f"sh_{name}"] = {"lmax": L, "median_s": med, "times_s": times}
         print(f"[sh] {name:9s} lmax={L:4d}: median {med:.2f} s  (runs {', '.join(f'{t:.2f}' for t in times)})")
         rep[f"_val_{name}"] = val
@@ -114,13 +116,13 @@ def main(argv=None):
     sub = axes[:args.pixel_axes]
     for name, brdf in (("diffuse", "diffuse"), ("glossy30", "glossy")):
         t = time.perf_counter()
-        pix = S.shading_integral(m, sub, brdf, 30, method="pixels")
+        pix = shading_integral(m, sub, brdf, 30, method="pixels")
         dt = time.perf_counter() - t
         scale = np.abs(pix).max()
         line = {"axes": len(sub), "seconds": dt, "per_axis_s": dt / len(sub)}
         if name == "diffuse":
             for L in sorted({H - 1, 2 * H - 1, 255, 511} - {0}):
-                sh = S.shading_integral(m, sub, brdf, lmax=L)
+                sh = shading_integral(m, sub, brdf, lmax=L)
                 line[f"maxrel_sh_lmax{L}"] = float(np.abs(sh - pix).max() / scale)
         sh = rep[f"_val_{name}"][:len(sub)]
         line["maxrel_sh_default"] = float(np.abs(sh - pix).max() / scale)
@@ -137,8 +139,8 @@ def main(argv=None):
         for mapname, mp in (("sunsky", mm), ("gp", gp)):
             sub2 = axes[:200]
             for name, brdf in (("diffuse", "diffuse"), ("glossy30", "glossy")):
-                wgt = S.weight_function(brdf, 30)
-                truth = S.shading_integral(mp, sub2, brdf, 30)
+                wgt = weight_function(brdf, 30)
+                truth = shading_integral(mp, sub2, brdf, 30)
                 pc = piecewise_constant_integral(mp, sub2, wgt, q=4)
                 bl = bandlimited_integral(mp, sub2, wgt)
                 spread = np.abs(truth - truth.mean(axis=0)).max()
@@ -160,23 +162,23 @@ def main(argv=None):
     z = np.sqrt(zp)
     pts = np.stack([np.sqrt(1 - z * z) * np.cos(phi), np.sqrt(1 - z * z) * np.sin(phi), z], 1)
     qa = axes[:2000]
-    med, times, est = _timed(lambda: E.quadrature_estimates(m, qa, pts, np.full(n, 1.0 / n), seed=0), 1)
+    med, times, est = _timed(lambda: quadrature_estimates(m, qa, pts, np.full(n, 1.0 / n), seed=0), 1)
     ref = rep["_val_diffuse"][:len(qa)]
-    rmse = E.rmse_over_axes(est, ref).total / np.abs(ref).mean()
+    rmse = rmse_over_axes(est, ref).total / np.abs(ref).mean()
     rep["quadrature_2000x4096"] = {"axes": len(qa), "seconds": med, "relative_rmse": float(rmse)}
     print(f"[estimators] quadrature {len(qa)} axes x 4096 SF points (diffuse): {med:.2f} s "
           f"(RMSE / mean {rmse:.2e})")
     Ls = list(range(0, 21))
-    med, times, curve = _timed(lambda: E.sh_truncation_curve(m, axes, "glossy", Ls), 1)
-    rm = E.rmse_over_axes(curve, rep["_val_glossy30"]).total
+    med, times, curve = _timed(lambda: sh_truncation_curve(m, axes, "glossy", Ls), 1)
+    rm = rmse_over_axes(curve, rep["_val_glossy30"]).total
     rep["sh_curve_L0_20"] = {"seconds": med, "rmse": [float(v) for v in rm]}
     print(f"[estimators] SH truncation curve L=0..20, {len(axes)} axes, glossy: {med:.2f} s; "
           f"RMSE L=0,5,10,20: {rm[0]:.2e} {rm[5]:.2e} {rm[10]:.2e} {rm[20]:.2e}")
     mh = m.resized(128) if H > 128 else m
     ha = axes[:200]
-    truth = S.shading_integral(mh, ha, "glossy", 30)
-    med, times, curve = _timed(lambda: E.hsh_truncation_curve(mh, ha, "glossy", [1, 2, 5, 10]), 1)
-    rm = E.rmse_over_axes(curve, truth).total
+    truth = shading_integral(mh, ha, "glossy", 30)
+    med, times, curve = _timed(lambda: hsh_truncation_curve(mh, ha, "glossy", [1, 2, 5, 10]), 1)
+    rm = rmse_over_axes(curve, truth).total
     rep["hsh_curve"] = {"height": mh.height, "axes": len(ha), "seconds": med,
                         "rmse": [float(v) for v in rm]}
     print(f"[estimators] HSH truncation curve L=1,2,5,10 on {mh.width}x{mh.height}, {len(ha)} axes, "

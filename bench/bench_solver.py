@@ -35,12 +35,11 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_cholesky import cpu_description, run_child  # noqa: E402
 
-from envfit.base._atomic import atomic_write_csv, atomic_write_json  # noqa: E402
-from envfit.base._resources import memory_budget_bytes  # noqa: E402
-from envfit.fit._table2 import run_table2, sample_directions  # noqa: E402
-from envfit.kernels._interpolation import SobolevInterpolator  # noqa: E402
-from envfit.maps._io import load_envmap  # noqa: E402
-from envfit.maps._scales import fit_scale  # noqa: E402
+from envfit.base._atomic import atomic_write_csv, atomic_write_json  # noqa: E402  # internal: the product's atomic, numpy-aware writers
+from envfit.base._resources import memory_budget_bytes  # noqa: E402  # internal: the memory guard's own budget
+from envfit.fit import run_table2, sample_directions  # noqa: E402
+from envfit.kernels import SobolevInterpolator  # noqa: E402
+from envfit.maps import fit_scale, load_envmap  # noqa: E402
 
 DEFAULT_MAP = "/work/shared/envmaps/forest.exr"
 FIELDS = ("section", "n", "s", "solver", "setup_s", "solve_s", "evaluate_s", "iterations",

@@ -61,8 +61,8 @@ class _Sampler:
 
 def make_map(height: int, path: str) -> None:
     """A float16 test map of ``height`` rows: GP s = 1.5 at 256 rows upsampled, a sun, noise."""
-    from envfit.data_gen._gp import gaussian_process_map
-    from envfit.maps._io import save_envmap
+    from envfit.data_gen import gaussian_process_map
+    from envfit.maps import save_envmap
     base = np.exp(gaussian_process_map(1.5, 256, seed=0, channels=3))
     f = height // 256
     data = np.repeat(np.repeat(base.astype(np.float32), f, 0), f, 1)
@@ -79,18 +79,17 @@ def main(argv: list[str]) -> None:
     if argv and argv[0] == "--make":
         make_map(int(argv[1]), argv[2])
         return
-    from envfit.advisor import _advise as A, _model as M, _search as S
-    from envfit.advisor._budget import prediction_height
-    from envfit.advisor._options import AdviseOptions
-    from envfit.maps import _envmap as E
-    from envfit.maps._io import load_envmap
+    from envfit.advisor import _advise as A, _model as M  # internal: the stages, instrumented
+    from envfit.advisor._budget import prediction_height  # internal: the plan under test
+    from envfit.advisor import AdviseOptions
+    from envfit.maps import EnvMap, load_envmap
     kw = dict(a.split("=", 1) for a in argv[1:])
     opts = AdviseOptions(target_relative=float(kw.pop("target_relative", 0.01)),
                          renderer=bool(int(kw.pop("renderer", "1"))), cache=False,
                          quiet=False, **{k: int(v) for k, v in kw.items()})
     env = load_envmap(argv[0])
     smp = _Sampler()
-    for mod, name, stage in [(E.EnvMap, "resized", "downsampling"),
+    for mod, name, stage in [(EnvMap, "resized", "downsampling"),
                              (M, "cached_fit", "band-limited fit"),
                              (M, "cached_map_power", "map power"),
                              (A, "search_rules", "quadrature search"),

@@ -17,11 +17,11 @@ import time
 
 import numpy as np
 
-from envfit.data_gen._gp import gaussian_process_map
-from envfit.fit._kriging import (SynthesisModel, expected_interpolation_mse,
+from envfit.data_gen import gaussian_process_map
+from envfit.fit import (SynthesisModel, expected_interpolation_mse,
                                  expected_profiled_likelihood)
-from envfit.fit._table2 import run_table2
-from envfit.maps._envmap import EnvMap
+from envfit.fit import run_table2
+from envfit.maps import EnvMap
 
 S_GRID = (1.1, 1.25, 1.4, 1.5, 1.6, 1.7, 1.9)
 

@@ -22,10 +22,10 @@ import subprocess
 import time
 from pathlib import Path
 
-from envfit.data_gen._sun_gp import sun_gp_map
-from envfit.maps._envmap import EnvMap
-from envfit.maps._io import load_envmap
-from envfit.validate._renderer import renderer_config, run_renderer_validation
+from envfit.data_gen import sun_gp_map
+from envfit.maps import EnvMap, load_envmap
+from envfit.validate._renderer import (  # internal: the renderer validation has no public entry but the CLI
+    renderer_config, run_renderer_validation)
 
 #: the synthesized maps: (name, sun_gp_map keywords)
 SYNTH = [

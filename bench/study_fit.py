@@ -19,10 +19,10 @@ import time
 
 import numpy as np
 
-from envfit.data_gen._gp import gaussian_process_map, gaussian_process_values
-from envfit.maps._envmap import EnvMap
-from envfit.fit._smoothness import fit_smoothness, fit_smoothness_samples
-from envfit.theory._sphere_points import spherical_fibonacci_sphere
+from envfit.data_gen import gaussian_process_map, gaussian_process_values
+from envfit.maps import EnvMap
+from envfit.fit import fit_smoothness, fit_smoothness_samples
+from envfit.theory import spherical_fibonacci_sphere
 
 
 def main() -> None:

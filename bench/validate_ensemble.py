@@ -19,11 +19,9 @@ import sys
 import numpy as np
 
 
-from envfit.data_gen._gp import gaussian_process_map                        # noqa: E402
-from envfit.maps._envmap import EnvMap                                    # noqa: E402
-from envfit.fit._sigma import parse_s
-from envfit.validate._config import ValidateConfig
-from envfit.validate._pipeline import run_validation
+from envfit.data_gen import gaussian_process_map  # noqa: E402
+from envfit.maps import EnvMap  # noqa: E402
+from envfit.validate import ValidateConfig, run_validation  # noqa: E402
 
 
 def main(argv=None) -> int:
@@ -43,7 +41,7 @@ def main(argv=None) -> int:
     for k in range(1, args.maps + 1):
         env = EnvMap(gaussian_process_map(args.s0, args.height, seed=args.seed + k,
                                           channels=args.channels), name=f"gp{k}")
-        cfg = ValidateConfig(s=parse_s(args.s), brdfs=brdfs, pointsets=("random", "sf"),
+        cfg = ValidateConfig(s=args.s, brdfs=brdfs, pointsets=("random", "sf"),
                              weights=("equal",), n_values=ns, axes=args.axes, scale="linear",
                              truncation=False)
         r = run_validation(env, cfg)

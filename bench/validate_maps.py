@@ -35,14 +35,11 @@ import time
 from pathlib import Path
 
 
-from envfit.data_gen._gp import gaussian_process_map                      # noqa: E402
-from envfit.base._atomic import atomic_write_json, atomic_write_text    # noqa: E402
-from envfit.maps._envmap import EnvMap                                 # noqa: E402
-from envfit.maps._io import load_envmap                                 # noqa: E402
-from envfit.validate._agreement import SLOPE_CHECK_POINTSETS
-from envfit.validate._config import ValidateConfig
-from envfit.validate._pipeline import run_validation
-from envfit.validate._config import quick_config
+from envfit.data_gen import gaussian_process_map  # noqa: E402
+from envfit.base._atomic import atomic_write_json, atomic_write_text  # noqa: E402  # internal: the product's atomic, numpy-aware writers
+from envfit.maps import EnvMap, load_envmap  # noqa: E402
+from envfit.validate import ValidateConfig, quick_config, run_validation  # noqa: E402
+from envfit.validate._agreement import SLOPE_CHECK_POINTSETS  # noqa: E402  # internal: the acceptance's own point sets
 
 DEFAULT_MAPS = ("/work/shared/envmaps/forest.exr", "/work/shared/envmaps/city.exr")
 #: S0:HEIGHT:SEED:CHANNELS — 12 channels are 12 independent realisations of the field, pooled
@@ -149,8 +146,8 @@ def main(argv=None) -> int:
         if not args.quiet:
             print(f"== {env.name} ({env.height}x{env.width}, {scale} scale) -> {folder}", flush=True)
         res = run_validation(env, cfg, out=folder, quiet=args.quiet).to_json()
-        from envfit.plots._validate import plot_all
-        from envfit.validate._report import write_report
+        from envfit.plots import plot_all
+        from envfit.validate._report import write_report  # internal: validate's report writer (the CLI's)
         files = plot_all(res, folder)
         write_report(res, folder / "report.md", files)
         res["s0"] = s0

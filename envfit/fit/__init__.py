@@ -29,6 +29,9 @@ from envfit.base._lazy import lazy_exports
 
 _LAZY = {
     "fit_smoothness": "_smoothness", "FitResult": "_smoothness",
+    "fit_smoothness_samples": "_smoothness", "SampleFit": "_smoothness",
+    "SynthesisModel": "_kriging", "KrigingCurve": "_kriging",
+    "expected_interpolation_mse": "_kriging", "expected_profiled_likelihood": "_kriging",
     "format_table2": "_table2", "run_table2": "_table2", "sample_directions": "_table2",
     "Table2Result": "_table2",
 }

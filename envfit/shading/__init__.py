@@ -30,7 +30,10 @@ from envfit.base._lazy import lazy_exports
 _LAZY = {
     "hsh_truncation_estimates": "_estimators", "quadrature_estimates": "_estimators",
     "sh_truncation_estimates": "_estimators", "twisted_frames": "_estimators",
+    "sh_truncation_curve": "_estimators", "hsh_truncation_curve": "_estimators",
+    "rmse_over_axes": "_estimators", "RMSE": "_estimators",
     "shading_integral": "_ground_truth", "weight_function": "_ground_truth",
+    "funk_hecke_factors": "_ground_truth", "default_sh_lmax": "_ground_truth",
 }
 
 __all__ = sorted(_LAZY)
