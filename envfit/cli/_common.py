@@ -299,25 +299,37 @@ def map_up(args: argparse.Namespace) -> str:
     return getattr(args, "up", None) or "y"
 
 
-def load_map_from_args(args: argparse.Namespace, path=None):
-    """Load ``path`` (default ``args.map``) with the loading options, or the built-in map.
+def max_height_of(args: argparse.Namespace, quick_height: int | None = None) -> int | None:
+    """``--max-height``, or ``quick_height`` when it is not given and ``--quick`` is (the
+    command's quick default: table2 128 rows, validate 256)."""
+    if args.max_height is None and getattr(args, "quick", False):
+        return quick_height
+    return args.max_height
 
-    :func:`envfit.maps._io.load_envmap` with ``convention`` and ``max_height``: with
-    ``--convention C`` the file's pixels are read in C's layout and converted to envfit's
-    convention (exact where only pixels move, else bilinear), *before* ``--max-height``; the
-    built-in map is synthesized with C's up axis.
+
+def load_map_from_args(args: argparse.Namespace, path=None, *, quick_height: int | None = None):
+    """Load ``path`` (default ``args.map``; fit and table2's one-element MAP list is its
+    element) with the loading options, or the built-in map if there is none.
+
+    :func:`envfit.maps._io.load_envmap` with ``convention`` and ``max_height``
+    (:func:`max_height_of`): with ``--convention C`` the file's pixels are read in C's layout
+    and converted to envfit's convention (exact where only pixels move, else bilinear),
+    *before* ``--max-height``; the built-in map is synthesized with C's up axis.
     """
     from envfit.maps._default_map import default_envmap
     from envfit.maps._io import load_envmap
     conv = map_convention(args)
+    height = max_height_of(args, quick_height)
     path = args.map if path is None else path
+    if isinstance(path, list):
+        path = path[0] if path else None
     if path is not None:
         return load_envmap(path, up=None if conv is not None else map_up(args), convention=conv,
                            allow_negative=args.allow_negative,
-                           fix_nonfinite=args.fix_nonfinite, max_height=args.max_height)
+                           fix_nonfinite=args.fix_nonfinite, max_height=height)
     env = default_envmap(up=map_up(args))
-    if args.max_height:
-        env = env.resized(args.max_height)
+    if height:
+        env = env.resized(height)
     return env
 
 
@@ -349,16 +361,16 @@ def library_mode(args: argparse.Namespace) -> bool:
                              and (Path(maps[0]).is_dir() or any(c in str(maps[0]) for c in "*?[")))
 
 
-def library_maps(args: argparse.Namespace) -> list:
+def library_maps(args: argparse.Namespace, *, quick_height: int | None = None) -> list:
     """What the library engine runs on: the MAP arguments, or the built-in map if none."""
     if args.map:
         return list(args.map)
-    args.map = None
-    return [load_map_from_args(args)]
+    return [load_map_from_args(args, quick_height=quick_height)]
 
 
-def load_options_from_args(args: argparse.Namespace):
-    """The map-loading options of ``args`` as :class:`envfit.maps._mapsource.LoadOptions`."""
+def load_options_from_args(args: argparse.Namespace, *, quick_height: int | None = None):
+    """The map-loading options of ``args`` as :class:`envfit.maps._mapsource.LoadOptions`
+    (``max_height``: :func:`max_height_of`)."""
     from envfit.base._errors import ParameterError
     from envfit.maps._mapsource import LoadOptions
     conv = map_convention(args)
@@ -366,7 +378,7 @@ def load_options_from_args(args: argparse.Namespace):
         raise ParameterError(f"--convention {conv.name} reads one map at a time; several maps "
                              "(a folder, a pattern, --executor) are read on envfit's grid: "
                              "convert them first, or run the command once per map")
-    return LoadOptions(up=map_up(args), max_height=args.max_height,
+    return LoadOptions(up=map_up(args), max_height=max_height_of(args, quick_height),
                        fix_nonfinite=args.fix_nonfinite, allow_negative=args.allow_negative)
 
 

@@ -42,7 +42,6 @@ def run(args: argparse.Namespace, output: CommandOutput) -> int:
             raise ParameterError("--kernel bandlimited fits one map at a time (each map has its "
                                  "own band limit and pixel centres); give a single map")
         return _run_library(args, output)
-    args.map = args.map[0] if args.map else None
     return _run_single(args, output)
 
 

@@ -48,21 +48,22 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
+#: ``--quick`` without ``--max-height``: the map downscaled to at most this many rows
+QUICK_HEIGHT = 128
+
+
 def run(args: argparse.Namespace, output: CommandOutput) -> int:
     from envfit.fit._table2 import PAPER_N, PAPER_S, QUICK_N
-    if args.quick and args.max_height is None:
-        args.max_height = 128
     s_values = args.s or list(PAPER_S)
     n_values = args.n or list(QUICK_N if args.quick else PAPER_N)
     if library_mode(args):
         return _run_library(args, output, s_values, n_values)
-    args.map = args.map[0] if args.map else None
     return _run_single(args, output, s_values, n_values)
 
 
 def _run_single(args, output: CommandOutput, s_values, n_values) -> int:
     from envfit.fit._table2 import format_table2, run_table2
-    env = load_map_from_args(args)
+    env = load_map_from_args(args, quick_height=QUICK_HEIGHT)
     out = out_dir(args)
     for note in getattr(env, "notes", []):
         output.say(f"note: {note}")
@@ -155,7 +156,7 @@ def format_library_table2(lib) -> str:
 def _run_library(args, output: CommandOutput, s_values, n_values) -> int:
     from envfit.batch import LibraryOptions, run_table2_library
     out = out_dir(args)
-    maps = library_maps(args)
+    maps = library_maps(args, quick_height=QUICK_HEIGHT)
     if args.paper:
         output.say("note: --paper prints beside a single map's table only")
 
@@ -163,7 +164,8 @@ def _run_library(args, output: CommandOutput, s_values, n_values) -> int:
         if resumed:
             output.say(f"  {label}: s={cell.s:g} N={cell.n}: resumed from {out}")
 
-    options = LibraryOptions(load_options=load_options_from_args(args), quiet=args.quiet,
+    options = LibraryOptions(load_options=load_options_from_args(args, quick_height=QUICK_HEIGHT),
+                             quiet=args.quiet,
                              **executor_kwargs(args))
     lib = run_table2_library(maps, s_values, n_values, pointset=args.pointset, scale=args.scale,
                              seed=args.seed, out=out, save_reconstructions=args.reconstructions,

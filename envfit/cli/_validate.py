@@ -149,14 +149,16 @@ def _summary(res: dict) -> list[str]:
     return lines
 
 
+#: ``--quick`` without ``--max-height``: the map downscaled to at most this many rows
+QUICK_HEIGHT = 256
+
+
 def run(args: argparse.Namespace, output: CommandOutput) -> int:
     from envfit.base._atomic import atomic_write_json
     from envfit.validate._pipeline import run_validation
     cfg = _config(args)
     rcfg = _renderer_config(args, cfg)
-    if args.quick and args.max_height is None:
-        args.max_height = 256
-    env = load_map_from_args(args)
+    env = load_map_from_args(args, quick_height=QUICK_HEIGHT)
     out = out_dir(args)
     for note in getattr(env, "notes", []):
         output.say(f"note: {note}")
