@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 from scipy.special import sph_harm_y
 
-from envfit import cli
+from envfit import ParameterError, cli
 from envfit.data_gen._sun_gp import sun_gp_map
 from envfit.maps._conventions import convention
 from envfit.maps._envmap import EnvMap
@@ -224,6 +224,8 @@ def test_windowed_prediction_matches_measurement(sun_env):
     for row in r.rows:
         assert abs(row.dense_negative_fraction - row.negative_fraction) < 0.01
         assert 0.9 < row.measured_relative_rmse / row.predicted_relative_rmse < 1.1
+    with pytest.raises(ParameterError, match="options must be an SHReportOptions, got dict"):
+        sh_report(sun_env, 3, {"window": "hanning"})         # the options are a dataclass
 
 
 def test_choice_sentences():
