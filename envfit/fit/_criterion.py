@@ -73,39 +73,51 @@ def evaluate_criterion(method: str, points: np.ndarray, values: np.ndarray, s: f
     values = np.asarray(values, dtype=np.float64).reshape(len(points), -1)
     widths = [values.shape[1]] if widths is None else [int(w) for w in widths]
     edges = np.cumsum([0, *widths])
+    spans = list(zip(edges[:-1], edges[1:]))
     constant = constant_columns(values)
     centred = values - values.mean(axis=0, keepdims=True)
-    n = len(points)
     if method == "likelihood":
-        if band_lmax is not None:
-            ll, sigma = bandlimited_log_likelihood(points, centred, s, band_lmax)
-        else:
-            ll, sigma = SobolevInterpolator(points, centred, s,
-                                            solver="cholesky").log_likelihood_profiled()
-        ll, sigma = np.atleast_1d(ll), np.where(constant, 0.0, np.atleast_1d(sigma))
-        return [{"score": -float(np.sum(ll[a:b][~constant[a:b]])) / n,
-                 "sigma": [float(x) for x in sigma[a:b]], "boot": None}
-                for a, b in zip(edges[:-1], edges[1:])]
+        return _likelihood_scores(points, centred, s, band_lmax, constant, spans)
     interp = SobolevInterpolator(points, values, s, solver="cholesky")  # log det, LOO: dense
     sigma = np.where(constant, 0.0, np.atleast_1d(interp.log_likelihood_profiled(centred)[1]))
-    e = interp.loo_residuals() if method == "loo" else None
     out = []
     idx_cache: dict[int, np.ndarray] = {}
-    for k, (a, b) in enumerate(zip(edges[:-1], edges[1:])):
-        if method == "loo":
-            sq = np.sum(e[:, a:b] ** 2, axis=1)
-            score = float(np.sqrt(np.mean(sq) / (b - a)))
-        else:
-            hd, hv = holdout[k]
-            hv = np.asarray(hv, dtype=np.float64).reshape(len(hd), -1)
-            pred = np.asarray(interp.evaluate(hd, coefficients=interp.coefficients[:, a:b]))
-            sq = np.sum((pred.reshape(hv.shape) - hv) ** 2, axis=1)
-            score = float(np.sqrt(np.mean(sq) / hv.shape[1]))
+    for (a, b), (sq, channels) in zip(spans, _squared_errors(method, interp, spans, holdout)):
         boot = None
         if bootstrap:
             m = sq.shape[0]
             if m not in idx_cache:
                 idx_cache[m] = bootstrap_indices(m, seed=seed, n_bootstrap=n_bootstrap)
             boot = [float(x) for x in sq[idx_cache[m]].mean(axis=1)]
-        out.append({"score": score, "sigma": [float(x) for x in sigma[a:b]], "boot": boot})
+        out.append({"score": float(np.sqrt(np.mean(sq) / channels)),
+                    "sigma": [float(x) for x in sigma[a:b]], "boot": boot})
     return out
+
+
+def _likelihood_scores(points, centred, s, band_lmax, constant, spans) -> list[dict]:
+    r"""``likelihood``: per map :math:`-\sum_c \ell_{kc}/N` over its non-constant channels, and
+    σ̂ (0 for the constant ones), by K_gd or the kernel band-limited at ``band_lmax``."""
+    if band_lmax is not None:
+        ll, sigma = bandlimited_log_likelihood(points, centred, s, band_lmax)
+    else:
+        ll, sigma = SobolevInterpolator(points, centred, s,
+                                        solver="cholesky").log_likelihood_profiled()
+    ll, sigma = np.atleast_1d(ll), np.where(constant, 0.0, np.atleast_1d(sigma))
+    n = len(points)
+    return [{"score": -float(np.sum(ll[a:b][~constant[a:b]])) / n,
+             "sigma": [float(x) for x in sigma[a:b]], "boot": None} for a, b in spans]
+
+
+def _squared_errors(method, interp, spans, holdout):
+    """Per map ``(sq, C)``: the per-item squared errors summed over its C channels, Rippa's
+    leave-one-out residuals (``loo``) or the errors at its held-out pixels (``holdout``)."""
+    if method == "loo":
+        e = interp.loo_residuals()
+        for a, b in spans:
+            yield np.sum(e[:, a:b] ** 2, axis=1), b - a
+        return
+    for k, (a, b) in enumerate(spans):
+        hd, hv = holdout[k]
+        hv = np.asarray(hv, dtype=np.float64).reshape(len(hd), -1)
+        pred = np.asarray(interp.evaluate(hd, coefficients=interp.coefficients[:, a:b]))
+        yield np.sum((pred.reshape(hv.shape) - hv) ** 2, axis=1), hv.shape[1]

@@ -225,13 +225,7 @@ def run_table2(envmap: EnvMap, s_values: Sequence[float] = PAPER_S,
     largest N that fits), N against the pixel count, and a map constant on ``scale``
     (:func:`~envfit.maps._scales.check_not_constant`) is refused.
     """
-    s_values, n_values = check_grid(s_values, n_values)
-    if solver not in SOLVERS:
-        raise ParameterError(f"unknown solver {solver!r}; choose one of {', '.join(SOLVERS)}")
-    # the memory guard first (before any sample point), then N against the pixel count
-    plan_table2_memory(n_values[-1], envmap.width, envmap.height, envmap.channels,
-                       solver=solver)
-    check_sample_count(n_values[-1], envmap.width, envmap.height, name=envmap.name)
+    s_values, n_values = _checked_grid(envmap, s_values, n_values, solver)
     sc = fit_scale(scale, envmap)
     target = np.asarray(sc.apply(envmap.data), dtype=np.float64)          # H×W×C on the scale
     check_not_constant(target, scale, envmap.name)
@@ -245,11 +239,41 @@ def run_table2(envmap: EnvMap, s_values: Sequence[float] = PAPER_S,
     sweep = _Sweep(envmap, target, sc, pointset, seed,
                    Path(out) if out is not None and save_reconstructions else None, n_values[-1],
                    solver)
-    from envfit.base._progress import progress_bar
-    bar = progress_bar(len(s_values) * len(n_values), desc="table2", quiet=quiet, unit="cell")
     try:
-        for n in n_values:
-            for s in s_values:
+        _run_cells(store, sweep, result, quiet, on_cell)
+    finally:
+        store.close()
+        result.notes.extend(store.notes)
+        result.unwritten[:0] = store.unwritten
+    if out is not None:
+        result.files.update(_existing_files(Path(out), s_values, n_values[-1]))
+    return result
+
+
+def _checked_grid(envmap: EnvMap, s_values, n_values, solver: str) -> tuple[list[float], list[int]]:
+    """:func:`run_table2`'s checks before anything of size N is made: the grid, the solver,
+    the memory guard for the largest N (before any sample point), then N against the map's
+    pixel count. Returns the grid as :func:`check_grid` does."""
+    s_values, n_values = check_grid(s_values, n_values)
+    if solver not in SOLVERS:
+        raise ParameterError(f"unknown solver {solver!r}; choose one of {', '.join(SOLVERS)}")
+    plan_table2_memory(n_values[-1], envmap.width, envmap.height, envmap.channels,
+                       solver=solver)
+    check_sample_count(n_values[-1], envmap.width, envmap.height, name=envmap.name)
+    return s_values, n_values
+
+
+def _run_cells(store: ResultStore, sweep: "_Sweep", result: Table2Result, quiet: bool,
+               on_cell: Callable[[Table2Cell, bool], None] | None) -> None:
+    """Every (s, N) cell in order (N outer): the stored one where it is sound, else computed
+    (:meth:`_Sweep.cell`) and stored at once; appended to ``result.cells``, reported to
+    ``on_cell(cell, resumed)``, counted on a progress bar unless ``quiet``."""
+    from envfit.base._progress import progress_bar
+    bar = progress_bar(len(result.s_values) * len(result.n_values), desc="table2", quiet=quiet,
+                       unit="cell")
+    try:
+        for n in result.n_values:
+            for s in result.s_values:
                 key = _cell_key(s, n)
                 done = store.get(key, fields=_FIELDS, checks=cell_checks(s, n))
                 cell = (Table2Cell(**{k: done[k] for k in _FIELDS + _OPTIONAL if k in done})
@@ -264,12 +288,6 @@ def run_table2(envmap: EnvMap, s_values: Sequence[float] = PAPER_S,
                     on_cell(cell, done is not None)
     finally:
         bar.close()
-        store.close()
-        result.notes.extend(store.notes)
-        result.unwritten[:0] = store.unwritten
-    if out is not None:
-        result.files.update(_existing_files(Path(out), s_values, n_values[-1]))
-    return result
 
 
 class _Sweep:
