@@ -1,6 +1,6 @@
 """Acceptance of ``envfit advise`` on Gaussian-process maps, where the model is exactly true.
 
-For each GP map (``envfit.data_gen._gp.gaussian_process_map(s0, height, seed, channels=3)``, linear
+For each GP map (``envfit.data_gen.gaussian_process_map(s0, height, seed, channels=3)``, linear
 scale, s' and sigma' fitted by the likelihood of the kernel band-limited at the map's Nyquist
 degree, as ``envfit advise`` does) and each target RMSE, the advisor picks the
 smallest N for spherical Fibonacci and random points with equal and optimal weights; the

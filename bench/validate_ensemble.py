@@ -1,7 +1,7 @@
 """Ensemble check of prediction (b') on independent Gaussian-process maps.
 
 One map is one realisation of the field; prediction (b') is an expectation over the
-ensemble. This script runs :func:`envfit.validate._pipeline.run_validation` (diffuse, equal weights,
+ensemble. This script runs :func:`envfit.validate.run_validation` (diffuse, equal weights,
 random and spherical Fibonacci points) on ``--maps`` independent GP maps of ``--channels``
 channels each and prints, per map, the ratio predicted (b') / measured per N, the expected
 one-map spread (``model_scatter``) and the map's realised power at l = 1 relative to the

@@ -7,14 +7,14 @@ Run (the full configuration, resumable in --out; ~5–10 min per 1024×512 map o
 
     /tmp/venv/bin/python bench/validate_maps.py --quick ...     # the --quick configuration
 
-For every map it runs :func:`envfit.validate._pipeline.run_validation` (s fitted by the likelihood,
+For every map it runs :func:`envfit.validate.run_validation` (s fitted by the likelihood,
 the default point sets, weightings, N and axes), writes the map's report.md, figures and
 validate.json under ``--out/<name>/`` and prints (and writes to ``--out/validate_maps.md``)
 the agreement table:
 
 * real maps on each of the ``--real-scale`` scales (default: display, as the paper's
   Table 2, and linear, raw radiance, where a sun dominates);
-* GP maps (:func:`envfit.data_gen._gp.gaussian_process_map`, s0 known, independent channels,
+* GP maps (:func:`envfit.data_gen.gaussian_process_map`, s0 known, independent channels,
   zero mean, band-limited at degree H − 1; default 12 channels = 12 independent
   realisations pooled) on the linear scale, where the model holds.
 

@@ -286,7 +286,7 @@ class _Table2Run:
     samples are dropped once the last chunk using them has been submitted."""
 
     def __init__(self, sweep: _Sweep, chunks, bar):
-        self.sweep, self.chunks, self.bar = sweep, chunks, bar
+        self.chunks, self.bar = chunks, bar
         self.lib, self.sources, self.stores = sweep.lib, sweep.sources, sweep.stores
         self.cells, self.spec, self.out = sweep.cells, sweep.spec, sweep.out
         self.keep, self.on_cell = sweep.keep, sweep.on_cell
