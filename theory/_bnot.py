@@ -40,6 +40,15 @@ follows that schedule. Note that *any* set of distinct sites admits capacity wei
 what characterises BNOT points is that they are (near) centroids of their
 capacity-constrained cells (:attr:`BNOTDiagnostics.centroid_residual`).
 
+Deviations of :func:`bnot_square` from the reference implementation: Lloyd steps replace
+its final line-searched gradient steps on the same energy (same fixed points); weights are
+warm-started instead of reset each step; ``rounds`` defaults to 3 instead of 20 for
+n > 150, and to 0 for n ≤ 150, where the threshold (relative to a cell's second moment it
+is ≈ 1.6/n) flags most sites, so that breaking amounts to restarting from random points
+(the reference also special-cases n ≤ 150, with 20-step phases). With n = 1024 the radial
+spectrum, low-frequency power and minimum distance are the same with 0, 3 or 20 rounds to
+within a few percent.
+
 Power diagrams come from :mod:`envfit.theory._power_cells` (exact, periodic).
 
 Costs (2-core machine, measured while another job kept it busy — about half that when
@@ -117,20 +126,8 @@ def capacity_weights(sites, weights=None, *, tol: float = 1e-10, max_iter: int =
     it = 0
     while np.max(np.abs(r)) * n > tol and it < max_iter:
         it += 1
-        J = pd.area_jacobian().tocsc()
-        delta = np.zeros(n)
-        delta[1:] = spsolve(J[1:, 1:], r[1:])
-        rn = np.linalg.norm(r)
-        tau = 1.0
-        while True:
-            cand = power_diagram(x, w + tau * delta)
-            rc = target - cand.areas
-            if cand.areas.min() >= eps0 and np.linalg.norm(rc) <= (1.0 - 0.5 * tau) * rn:
-                break
-            tau *= 0.5
-            if tau < 1e-12:  # pragma: no cover - Newton direction is an ascent direction
-                raise TheoryParameterError("capacity_weights: line search failed")
-        w, pd, r = cand.weights, cand, rc
+        pd, r = _damped_newton_step(x, w, pd, r, eps0)
+        w = pd.weights
     if np.max(np.abs(r)) * n > tol:  # pragma: no cover
         raise TheoryParameterError(
             f"capacity_weights did not converge in {max_iter} Newton steps "
@@ -138,6 +135,32 @@ def capacity_weights(sites, weights=None, *, tol: float = 1e-10, max_iter: int =
     if _return_info:
         return w, pd, it
     return w, pd
+
+
+def _damped_newton_step(x: np.ndarray, w: np.ndarray, pd: PowerDiagram, r: np.ndarray,
+                        eps0: float) -> tuple[PowerDiagram, np.ndarray]:
+    r"""One damped Newton step of :func:`capacity_weights` from the weights ``w`` (their
+    diagram ``pd``, residual ``r``): the power diagram at the new weights and its area
+    residual :math:`1/n - |V|`.
+
+    :math:`J\,\delta = r` with J the sparse area Jacobian (one weight pinned), then τ halved
+    from 1 until every cell keeps at least ``eps0`` and :math:`\|r\|` drops by
+    :math:`(1 - \tau/2)` (Kitagawa–Mérigot–Thibert 2019).
+    """
+    n = x.shape[0]
+    J = pd.area_jacobian().tocsc()
+    delta = np.zeros(n)
+    delta[1:] = spsolve(J[1:, 1:], r[1:])
+    rn = np.linalg.norm(r)
+    tau = 1.0
+    while True:
+        cand = power_diagram(x, w + tau * delta)
+        rc = 1.0 / n - cand.areas
+        if cand.areas.min() >= eps0 and np.linalg.norm(rc) <= (1.0 - 0.5 * tau) * rn:
+            return cand, rc
+        tau *= 0.5
+        if tau < 1e-12:  # pragma: no cover - Newton direction is an ascent direction
+            raise TheoryParameterError("capacity_weights: line search failed")
 
 
 # ----------------------------------------------------------------------------- BNOT
@@ -194,6 +217,22 @@ def _bnot_impl(n, seed, iterations, tol, rounds, inner_tol):
     return x, total
 
 
+def _bnot_arguments(n, seed, iterations, tol, rounds, inner_tol) -> tuple:
+    """:func:`bnot_square`'s arguments checked and normalised (``rounds`` defaulted), in the
+    order of :func:`_bnot_impl` (and the cache key of :func:`_bnot_cached`)."""
+    n = int(n)
+    if n < 1:
+        raise TheoryParameterError(f"number of points must be >= 1, got {n}")
+    if rounds is None:
+        rounds = 3 if n > 150 else 0
+    iterations, rounds = int(iterations), int(rounds)
+    if iterations < 0 or rounds < 0:
+        raise TheoryParameterError("iterations and rounds must be >= 0")
+    if not (tol >= 0 and inner_tol > 0):
+        raise TheoryParameterError("tol must be >= 0 and inner_tol > 0")
+    return n, seed, iterations, float(tol), rounds, float(inner_tol)
+
+
 @functools.lru_cache(maxsize=16)
 def _bnot_cached(n, seed, iterations, tol, rounds, inner_tol):
     out, _ = _bnot_impl(n, seed, iterations, tol, rounds, inner_tol)
@@ -224,14 +263,8 @@ def bnot_square(n: int, *, seed=0, iterations: int = 500, tol: float = 3e-3,
        or when step 2 did not converge.
 
     The result is the sites after the last Lloyd step. Deviations from the reference
-    implementation: Lloyd steps replace its final line-searched gradient steps on the same
-    energy (same fixed points); weights are warm-started instead of reset each step;
-    ``rounds`` defaults to 3 instead of 20 for n > 150, and to 0 for n ≤ 150, where the
-    threshold (relative to a cell's second moment it is ≈ 1.6/n) flags most sites, so
-    that breaking amounts to restarting from random points (the reference also
-    special-cases n ≤ 150, with 20-step phases). With n = 1024 the radial spectrum,
-    low-frequency power and minimum distance are the same with 0, 3 or 20 rounds to
-    within a few percent.
+    implementation (Lloyd steps for its final gradient steps, warm-started weights, fewer
+    ``rounds``): see the module docstring.
 
     Parameters
     ----------
@@ -258,17 +291,7 @@ def bnot_square(n: int, *, seed=0, iterations: int = 500, tol: float = 3e-3,
     >>> p.shape, bool(p.min() >= 0 and p.max() < 1)
     ((256, 2), True)
     """
-    n = int(n)
-    if n < 1:
-        raise TheoryParameterError(f"number of points must be >= 1, got {n}")
-    if rounds is None:
-        rounds = 3 if n > 150 else 0
-    iterations, rounds = int(iterations), int(rounds)
-    if iterations < 0 or rounds < 0:
-        raise TheoryParameterError("iterations and rounds must be >= 0")
-    if not (tol >= 0 and inner_tol > 0):
-        raise TheoryParameterError("tol must be >= 0 and inner_tol > 0")
-    args = (n, seed, iterations, float(tol), rounds, float(inner_tol))
+    args = _bnot_arguments(n, seed, iterations, tol, rounds, inner_tol)
     if seed is not None and not isinstance(seed, (int, np.integer)):
         return _bnot_impl(*args)[0]
     return _bnot_cached(*args).copy()

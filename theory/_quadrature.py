@@ -44,7 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.fft import dct
 
-from envfit.theory._brdf import WeightFunction
+from envfit.theory._weight_function import WeightFunction
 from envfit.theory._errors import TheoryParameterError, check_degree, check_smoothness
 from envfit.theory._sh import (anisotropic_power_spectrum, check_points_weights, legendre_series,
                                zonal_sums)

@@ -169,6 +169,28 @@ class Table1:
                 "rows": [r.to_dict() for r in self.rows], "notes": list(self.notes)}
 
 
+def _curves_and_cutoffs(weights: dict, s: float, target: float, Lmax: int | None,
+                        Lcap: int) -> tuple[dict, dict]:
+    """E(L) of every case and its strict cut-off degree: the curves are computed to a degree
+    that doubles (from 32, or ``Lmax``) until every case reaches ``target`` (up to ``Lcap``),
+    then cut (or extended) to ``Lmax``, default ``max(20, L + 4)`` over the cases."""
+    top = 32 if Lmax is None else max(int(Lmax), 1)
+    while True:
+        curves = {name: truncation_error_curve(w, s, top, basis) for name, (w, basis) in weights.items()}
+        Ls = {name: cutoff_degree(c, target) for name, c in curves.items()}
+        if all(v is not None for v in Ls.values()):
+            break
+        if top >= Lcap:
+            bad = [k for k, v in Ls.items() if v is None]
+            raise TheoryParameterError(f"E(L) > {target:g} for all L ≤ {top} in {bad}")
+        top = min(2 * top, Lcap)
+    keep = max(20, max(Ls.values()) + 4) if Lmax is None else max(int(Lmax), max(Ls.values()))
+    curves = {k: (c[:keep + 1] if c.size > keep else
+                  truncation_error_curve(weights[k][0], s, keep, weights[k][1]))
+              for k, c in curves.items()}
+    return curves, Ls
+
+
 def table1(target: float = PAPER_TABLE1["target"], s: float = PAPER_S,
            shininess: float = PAPER_SHININESS, *, rtol_paper_reading: float = PAPER_READING_RTOL,
            Lmax: int | None = None, qmc: bool = True, Lcap: int = 512) -> Table1:
@@ -199,22 +221,7 @@ def table1(target: float = PAPER_TABLE1["target"], s: float = PAPER_S,
     if not (rtol >= 0):
         raise TheoryParameterError(f"rtol_paper_reading must be >= 0, got {rtol_paper_reading!r}")
     weights = {name: case_weight(name, shininess) for name, _, _ in CASES}
-
-    # long enough curves to find every cut-off: double the degree until all are reached
-    top = 32 if Lmax is None else max(int(Lmax), 1)
-    while True:
-        curves = {name: truncation_error_curve(w, s, top, basis) for name, (w, basis) in weights.items()}
-        Ls = {name: cutoff_degree(c, target) for name, c in curves.items()}
-        if all(v is not None for v in Ls.values()):
-            break
-        if top >= Lcap:
-            bad = [k for k, v in Ls.items() if v is None]
-            raise TheoryParameterError(f"E(L) > {target:g} for all L ≤ {top} in {bad}")
-        top = min(2 * top, Lcap)
-    keep = max(20, max(Ls.values()) + 4) if Lmax is None else max(int(Lmax), max(Ls.values()))
-    curves = {k: (c[:keep + 1] if c.size > keep else
-                  truncation_error_curve(weights[k][0], s, keep, weights[k][1]))
-              for k, c in curves.items()}
+    curves, Ls = _curves_and_cutoffs(weights, s, target, Lmax, Lcap)
 
     qmc_by_brdf: dict[str, tuple[int, float]] = {}
     rows = []

@@ -30,13 +30,14 @@ paper's lmax = 170 would be off by up to 2e-5 relative (7e-6 at L = 13).
 """
 from __future__ import annotations
 
+import functools
 import math
 from typing import Callable
 
 import numpy as np
 from scipy import special
 
-from envfit.theory._brdf import WeightFunction, hsh_to_sh_matrix
+from envfit.theory._weight_function import WeightFunction, hsh_to_sh_matrix
 from envfit.theory._errors import TheoryParameterError, check_smoothness
 from envfit.theory._quadrature import worst_case_error
 from envfit.theory._sh import legendre_series
@@ -316,33 +317,40 @@ def equivalent_qmc_points(target_error: float, brdf: WeightFunction, s: float,
     if pointset_fn is None:
         def pointset_fn(n):
             return morphed_spherical_fibonacci(n, brdf)
-    if weights == "equal":
-        def wfn(pts):
-            return equal_weights(pts.shape[0])
-    elif weights == "optimal":
-        def wfn(pts):
-            return optimal_weights(pts, brdf, s)
-    elif callable(weights):
-        wfn = weights
-    else:
-        raise TheoryParameterError(f"weights must be 'equal', 'optimal' or a callable, got {weights!r}")
+    wfn = _weight_rule(weights, brdf, s)
 
-    cache: dict[int, float] = {}
-
+    @functools.lru_cache(maxsize=None)
     def err(n: int) -> float:
-        if n not in cache:
-            pts = np.asarray(pointset_fn(n), dtype=np.float64)
-            cache[n] = worst_case_error(pts, wfn(pts), brdf, s)
-        return cache[n]
+        pts = np.asarray(pointset_fn(n), dtype=np.float64)
+        return worst_case_error(pts, wfn(pts), brdf, s)
 
-    nmin = max(1, _check_L(nmin, "nmin"))
+    n = _first_crossing(err, target, max(1, _check_L(nmin, "nmin")), nmax)
+    return (n, err(n)) if return_error else n
+
+
+def _weight_rule(weights: str | Callable, brdf: WeightFunction, s: float) -> Callable:
+    """The sample weights of :func:`equivalent_qmc_points` as a function of the points:
+    ``"equal"`` (1/N), ``"optimal"`` (OSW for ``brdf`` and s) or the given callable."""
+    if weights == "equal":
+        return lambda pts: equal_weights(pts.shape[0])
+    if weights == "optimal":
+        return lambda pts: optimal_weights(pts, brdf, s)
+    if callable(weights):
+        return weights
+    raise TheoryParameterError(f"weights must be 'equal', 'optimal' or a callable, got {weights!r}")
+
+
+def _first_crossing(err: Callable[[int], float], target: float, nmin: int, nmax: int) -> int:
+    """The n of :func:`equivalent_qmc_points`: n doubles from ``nmin`` until
+    ``err(n) <= target`` (TheoryParameterError beyond ``nmax``), then bisection between the
+    last failing and the first passing n: ``err(n) <= target < err(n - 1)``."""
     if err(nmin) <= target:
-        return (nmin, cache[nmin]) if return_error else nmin
+        return nmin
     lo, hi = nmin, 2 * nmin
     while err(hi) > target:
         lo, hi = hi, 2 * hi
         if hi > nmax:
-            raise TheoryParameterError(f"the worst-case error is still {cache[lo]:.3g} > "
+            raise TheoryParameterError(f"the worst-case error is still {err(lo):.3g} > "
                                        f"{target:g} at n = {lo}; raise nmax")
     while hi - lo > 1:
         mid = (lo + hi) // 2
@@ -350,4 +358,4 @@ def equivalent_qmc_points(target_error: float, brdf: WeightFunction, s: float,
             hi = mid
         else:
             lo = mid
-    return (hi, cache[hi]) if return_error else hi
+    return hi

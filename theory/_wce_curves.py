@@ -17,7 +17,7 @@ from typing import Callable
 
 import numpy as np
 
-from envfit.theory._brdf import WeightFunction
+from envfit.theory._weight_function import WeightFunction
 from envfit.theory._errors import TheoryParameterError, check_smoothness
 from envfit.theory._quadrature import worst_case_error
 from envfit.theory._truncation import morphed_spherical_fibonacci

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from envfit.theory._brdf import WeightFunction
+from envfit.theory._weight_function import WeightFunction
 from envfit.theory._cholesky import cho_factor, cho_solve
 from envfit.theory._errors import TheoryParameterError, check_smoothness
 from envfit.theory._quadrature import kernel_mean_embedding
