@@ -25,7 +25,7 @@ generic E(N) curve tools (slopes, log grids, inversion) are in :mod:`envfit.theo
 
 All quadrature points are *morphed* for the weight function by default (importance
 sampling, Sec. 7.2: the square is lifted by the Lambert equal-area map and its height
-coordinate passed through the inverse CDF of p, :meth:`envfit.theory._brdf.WeightFunction.morph`);
+coordinate passed through the inverse CDF of p, :meth:`envfit.theory._weight_function.WeightFunction.morph`);
 ``morph=False`` lifts them uniformly instead. Points live in the local frame of the lobe
 (axis +z); for the glossy lobe this is the mirror direction (Sec. 4.3).
 

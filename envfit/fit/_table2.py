@@ -213,7 +213,7 @@ def run_table2(envmap: EnvMap, s_values: Sequence[float] = PAPER_S,
     out : folder for the resumable cells, the reconstructions (EXR + PNG) of the largest N.
     on_cell : called as ``on_cell(cell, resumed)`` after each cell (for progress output).
     on_note : called with each note of the store (a stored cell recomputed because it was
-        not sound); default: printed to stderr (:func:`envfit.base._store.print_note`). The notes
+        not sound); default: printed to stderr (:func:`envfit.base._progress.print_note`). The notes
         are also in ``result.notes``.
     solver : the interpolator's solver (:class:`~envfit.kernels._interpolation.SobolevInterpolator`):
         ``"auto"`` (measured crossover; iterative where the dense matrix does not fit),
