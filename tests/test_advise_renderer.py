@@ -33,8 +33,8 @@ from envfit.maps._envmap import EnvMap
 from envfit.maps._io import save_envmap
 from envfit.predict.renderer._predictor import predict_rule, renderer_model
 from envfit.predict.renderer._warped_spectrum import WarpedSpectrum
-from envfit.sampling._rules import STRATEGIES, RendererRule
-from envfit.measure._rules import RendererSetup, measure_rule
+from envfit.sampling import STRATEGIES, RendererRule
+from envfit.measure import RendererSetup, measure_rule
 
 GRID, AXES = 32, 8
 KEY = {"fingerprint": "test", "shape": [16, 32, 1], "up": "y", "scale": "linear"}
@@ -208,6 +208,32 @@ def test_advise_carries_a_renderer_section(sun16, tmp_path):
     assert d["renderer"]["source_pixels"] == sec.source_pixels > 0
     assert advise(sun16, "diffuse", target_relative=0.05, s=1.5, fit_n=100, pointsets=("sf",),
                   weights=("equal",), bases=(), nmax=64, cache=False).renderer is None
+
+
+def test_advise_goes_through_the_predictor_registry(sun16, tmp_path, monkeypatch):
+    """Every prediction of the advisor — the quadrature rows' (b), (b′), (c) and the renderer
+    rows' — is made by envfit.predict.predict from PREDICTORS: wrapping the entries sees
+    every one of them called, and the rows' numbers are the wrapped predictors' own."""
+    from envfit.predict import PREDICTORS
+    calls: dict[str, int] = {}
+
+    def counted(name, f):
+        def g(ctx, rule):
+            calls[name] = calls.get(name, 0) + 1
+            return f(ctx, rule)
+        g.rule_type = f.rule_type
+        return g
+    for name, f in list(PREDICTORS.items()):
+        monkeypatch.setitem(PREDICTORS, name, counted(name, f))
+    a = advise(sun16, "diffuse", target_relative=0.05, s=1.5, fit_n=100, pointsets=("sf",),
+               weights=("equal",), bases=(), nmax=256, renderer=True, strategies=("map",),
+               renderer_pointsets=("sobol", "random"), renderer_grid=GRID,
+               renderer_spectrum_axes=AXES, cache_dir=tmp_path)
+    assert set(calls) == {"plain", "bandlimited", "spectral", "random-variance",
+                          "warped-spectrum"}
+    assert {r.predictor for r in a.renderer.rows} == {"random-variance", "warped-spectrum"}
+    assert sum(len(r.curve["n"]) for r in a.renderer.rows) == (calls["random-variance"] +
+                                                               calls["warped-spectrum"])
 
 
 # ----------------------------------------------------------------------------- the paper search
