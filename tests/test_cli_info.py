@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 import envfit.cli as cli
-from envfit.maps._envmap import EnvMap
-from envfit.maps._io import save_envmap
-from envfit.maps._latlong import pixel_directions, pixel_solid_angles
+from envfit.maps import EnvMap
+from envfit.maps import save_envmap
+from envfit.maps import pixel_directions, pixel_solid_angles
 
 
 @pytest.fixture(autouse=True)

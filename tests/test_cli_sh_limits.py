@@ -13,8 +13,8 @@ import pytest
 import envfit.cli as cli
 import envfit.export._plan as sh_plan
 from envfit.base._errors import MemoryBudgetError, ParameterError
-from envfit.maps._envmap import EnvMap
-from envfit.maps._latlong import pixel_directions, pixel_solid_angles
+from envfit.maps import EnvMap
+from envfit.maps import pixel_directions, pixel_solid_angles
 from envfit.export._plan import Rates, check_sh_plan, sh_stages
 from envfit.export._ringing import dense_negative_fractions
 from envfit.export._sh_export import sh_coefficients, sh_eval

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import envfit.cli as cli
-from envfit.maps._io import load_envmap
+from envfit.maps import load_envmap
 from envfit.maps._latlong import local_to_world
 from envfit.theory._sobolev import sobolev_coefficients
 

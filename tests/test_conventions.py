@@ -14,11 +14,11 @@ import pytest
 
 import envfit.cli as cli
 from envfit.base._errors import ParameterError
-from envfit.data_gen._marker import MARKERS, marker_for_colour
+from envfit.data_gen import MARKERS, marker_for_colour
 from envfit.maps import _latlong as latlong
-from envfit.maps._conventions import CONVENTIONS, convention
-from envfit.maps._envmap import EnvMap
-from envfit.maps._io import load_envmap, save_envmap
+from envfit.maps import CONVENTIONS, convention
+from envfit.maps import EnvMap
+from envfit.maps import load_envmap, save_envmap
 
 H, W = 32, 64
 LATLONG = [n for n in CONVENTIONS if n != "pbrt4"]

@@ -17,7 +17,7 @@ import pytest
 from scipy import integrate
 
 from envfit.data_gen import _analytic as A
-from envfit.data_gen._errors import SyntheticMapError
+from envfit.data_gen import SyntheticMapError
 
 RTOL = 1e-6
 

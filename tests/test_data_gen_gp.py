@@ -13,7 +13,7 @@ from scipy import stats
 from scipy.special import sph_harm_y
 
 from envfit.data_gen import _gp as gp, _sht as sht
-from envfit.data_gen._errors import SyntheticMapError
+from envfit.data_gen import SyntheticMapError
 from envfit.theory._sobolev import (generalized_distance_kernel, kernel_constant,
                                     sobolev_coefficients)
 

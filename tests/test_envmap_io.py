@@ -8,8 +8,8 @@ import numpy as np
 import OpenImageIO as oiio
 import pytest
 
-from envfit.maps._envmap import EnvMap
-from envfit.maps._io import load_envmap, save_envmap
+from envfit.maps import EnvMap
+from envfit.maps import load_envmap, save_envmap
 from envfit.base._errors import (EnvMapFileError, EnvMapFormatError, MemoryBudgetError,
                                  NonFiniteError, ParameterError)
 from envfit.maps._latlong import pixel_angles, pixel_directions

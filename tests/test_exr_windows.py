@@ -17,7 +17,7 @@ import pytest
 
 import envfit.cli as cli
 from envfit.base._errors import EnvMapFormatError
-from envfit.maps._io import load_envmap
+from envfit.maps import load_envmap
 
 H, W = 64, 128
 

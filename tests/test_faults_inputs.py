@@ -20,10 +20,10 @@ import envfit.batch._library_fit
 from envfit.batch import LibraryOptions
 import envfit.fit._table2
 import envfit.validate._pipeline
-from envfit.data_gen._gp import gaussian_process_map
+from envfit.data_gen import gaussian_process_map
 from envfit import cli
 from envfit.maps._envmap import EnvMap, check_sample_count
-from envfit.maps._io import load_envmap, save_envmap
+from envfit.maps import load_envmap, save_envmap
 from envfit.base._errors import EnvfitError, MemoryBudgetError, ParameterError
 from envfit.base._resources import memory_budget_bytes, plan_memory
 

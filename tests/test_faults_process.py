@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 
 from envfit import cli
-from envfit.maps._envmap import EnvMap
-from envfit.maps._io import save_envmap
+from envfit.maps import EnvMap
+from envfit.maps import save_envmap
 from envfit.base._errors import EnvMapFileError
 from envfit.maps._mapsource import resolve_map_sources
 

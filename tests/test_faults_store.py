@@ -21,11 +21,11 @@ import pytest
 
 import envfit.cli as cli
 import envfit.fit._table2 as table2_mod
-from envfit.data_gen._gp import gaussian_process_map
+from envfit.data_gen import gaussian_process_map
 from envfit.advisor._advise import advise
 from envfit.advisor._cache import cache_write_problem
-from envfit.maps._envmap import EnvMap
-from envfit.maps._io import load_envmap, save_envmap
+from envfit.maps import EnvMap
+from envfit.maps import load_envmap, save_envmap
 from envfit.batch._library import run_table2_library
 from envfit.batch._library_fit import fit_smoothness_library
 from envfit.batch import LibraryOptions
@@ -243,7 +243,7 @@ def test_validate_recomputes_an_edited_cell(tmp_path, capsys):
 # -------------------------------------------------------------------------------- the lock
 PAUSED_RUN = """
 import sys
-from envfit.maps._io import load_envmap
+from envfit.maps import load_envmap
 from envfit.fit._table2 import run_table2
 state = {"paused": False}
 def on_cell(cell, resumed):
@@ -257,7 +257,7 @@ run_table2(load_envmap(sys.argv[1]), [1.3, 1.7], [50, 100], scale="linear", out=
 
 KILLED_RUN = """
 import os, signal, sys
-from envfit.maps._io import load_envmap
+from envfit.maps import load_envmap
 from envfit.fit._table2 import run_table2
 done = []
 def on_cell(cell, resumed):
