@@ -135,3 +135,53 @@ def test_pyproject_lists_every_sub_package():
                           for p in (root / "envfit").rglob("__init__.py") if p.parent != root / "envfit"}
     found |= {"envfit.theory", "envfit.data_gen"}
     assert listed == found
+
+
+# ---- size rules (issue 23): a module fits a file, a function a screen, a signature a line ----
+#: at most this many lines per module, per function; parameters of a private / public function
+#: (``self``/``cls`` not counted; beyond them an options dataclass)
+MAX_MODULE_LINES, MAX_FUNCTION_LINES, MAX_PRIVATE_PARAMS, MAX_PUBLIC_PARAMS = 500, 60, 8, 12
+
+
+def size_violations(path: Path, text: str | None = None) -> list[str]:
+    """The size rules ``path`` breaks, one line each."""
+    text = path.read_text() if text is None else text
+    out = []
+    lines = text.count("\n")
+    if lines > MAX_MODULE_LINES:
+        out.append(f"{path.name}: {lines} lines > {MAX_MODULE_LINES}")
+    for node in ast.walk(ast.parse(text)):
+        if not isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            continue
+        length = node.end_lineno - node.lineno + 1
+        if length > MAX_FUNCTION_LINES:
+            out.append(f"{path.name}:{node.lineno} {node.name}: {length} lines")
+        a = node.args
+        n = len(a.posonlyargs) + len(a.args) + len(a.kwonlyargs)
+        n -= bool(a.args and a.args[0].arg in ("self", "cls"))
+        private = node.name.startswith("_") and not node.name.endswith("__")
+        limit = MAX_PRIVATE_PARAMS if private else MAX_PUBLIC_PARAMS
+        if n > limit:
+            out.append(f"{path.name}:{node.lineno} {node.name}: {n} parameters > {limit}")
+    return out
+
+
+def _product_sources() -> list[Path]:
+    root = Path(__file__).resolve().parents[1]
+    return sorted(p for top in ("envfit", "theory", "data_gen") for p in (root / top).rglob("*.py"))
+
+
+def test_size_rules():
+    bad = [v for p in _product_sources() for v in size_violations(p)]
+    assert bad == [], "\n".join(bad)
+
+
+def test_the_size_checker_sees_each_rule(tmp_path):
+    long_fn = "def f():\n" + "    x = 1\n" * 61
+    many = "def _g(a, b, c, d, e, f, g, h, i):\n    pass\n"
+    public = "def g(" + ", ".join(f"a{i}" for i in range(13)) + "):\n    pass\n"
+    ok = "class C:\n    def m(self, a, b, c, d, e, f, g, h):\n        pass\n"
+    f = tmp_path / "m.py"
+    got = size_violations(f, long_fn + many + public + ok + "\n" * 433)
+    assert [g.split(": ")[-1] for g in got] == ["502 lines > 500", "62 lines",
+                                                "9 parameters > 8", "13 parameters > 12"]
