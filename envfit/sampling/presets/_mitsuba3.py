@@ -38,7 +38,7 @@ _EPS32 = 2.0 ** -24
 
 
 def _interval_to_linear(v0, v1, s):
-    """``warp::interval_to_linear``: invert the CDF of the linear density v0 → v1 on [0, 1]
+    r"""``warp::interval_to_linear``: invert the CDF of the linear density v0 → v1 on [0, 1]
     (a square-root inversion), or the identity where :math:`|v_0 - v_1| \le 10^{-4}(v_0 + v_1)`."""
     lin = np.abs(v0 - v1) > 1e-4 * (v0 + v1)
     with np.errstate(invalid="ignore", divide="ignore"):
