@@ -1,0 +1,327 @@
+r"""A real renderer's noise on a white diffuse surface, predicted from its preset: the
+renderer's own estimator (technique, cosine map and frame, MIS weights and sample counts,
+:mod:`envfit.sampling.presets`), its sampler's randomisation of the square samples
+(:mod:`envfit.predict.renderer.randomisation`), averaged over uniform normals as the sphere
+measurement of :mod:`envfit.measure.renderers` averages them.
+
+For a strategy with one emitter and/or one BSDF sample per spp and N = the spp the sampler
+runs (its own rounding, :meth:`~envfit.sampling.presets.SamplerSpec.spp`), the pixel value at
+normal n is :math:`F = \frac1N\sum_j h_e(u_j) + \frac1N\sum_j h_b(u'_j)` with the warped
+integrands of :mod:`._preset_integrand`, and
+
+.. math::  \mathrm{MSE} = \frac13\sum_c \int_{S^2} E(F_c(n) - I_c(n))^2\,\frac{dn}{4\pi}
+           \approx \frac13\sum_c\sum_a \varpi_a\, \mathrm{MSE}_c(n_a),
+
+:math:`\mathrm{MSE}_c(n_a)` the exact MSE of the randomisation (``randomised_mse`` for one
+technique, ``mis_mse`` for two streams: independent dimensions, or one shared net for
+Mitsuba's ``ldsampler``) from the :class:`~envfit.predict.renderer.randomisation.DyadicGrid`
+of each part. The normals :math:`n_a` are drawn systematically from a spherical Fibonacci
+pool of P normals with probability
+:math:`\pi_a = \frac13(\frac1P + \frac{m_e(a)}{\sum m_e} + \frac{m_b(a)}{\sum m_b})`,
+:math:`m_e(a) = E_u[h_e^2]` and :math:`m_b(a) = \int L^2\cos^+/\pi` (both by the map part's
+own table at a coarse level, which finds a sun), and weighted
+:math:`\varpi_a \propto 1/(P\pi_a)` — unbiased for the pool mean; a sun that makes a few
+normals dominate is not missed (as :func:`envfit.predict.renderer._axis_proposal.proposal_axes`
+does for envfit's techniques).
+
+Grid level per randomisation and N (:func:`grid_level`, measured on city.exr's integrands,
+module ``bench/preset_check.py``): V alone for ``independent``; the strata as cells for
+``jittered`` (M = r: exact) and ``cmj`` (M = N: exact, finer grids give the same MSE to 4
+digits); M = 2N for the digital nets — the digital shift's estimate of the power above the
+grid needs N ≤ M/2 (``randomisation._digital_shift``): at M = N the 1/N fallback erred by up
+to 2× per normal, at M = 2N the MSE agrees with M = 4N and 8N within 1–5 %; all capped at
+``max_level``. The cell means come from the
+integrand at the midpoints of level ``max level + 1`` (2 × 2 per cell of the finest grid).
+
+Reference: Marques, Bouville, Bouatouch (the spectral view of a shading integral's error);
+Mitsuba 3.9.1 ``src/integrators/direct.cpp`` and ``src/samplers/*.cpp``.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from envfit.base import ParameterError
+from envfit.predict.renderer._preset_integrand import (BsdfTable, MapTable, bsdf_values,
+                                                       map_values, moment_pyramid)
+from envfit.predict.renderer.randomisation import DyadicGrid, mis_mse, randomised_mse
+from envfit.theory import spherical_fibonacci_sphere
+
+__all__ = ["PresetModelOptions", "PresetModel", "PresetPrediction", "grid_level",
+           "RANDOMISATION_OF"]
+
+#: a sampler's randomisation tag → the registry's name (of envfit.predict.renderer.randomisation)
+RANDOMISATION_OF = {"independent": "independent", "jittered": "jittered", "cmj": "cmj",
+                    "digital_shift": "digital_shift", "owen": "owen", "cp_shift": "cp_shift"}
+_SHARED = {"independent": False, "same_net_permuted": True}
+
+
+def grid_level(randomisation: str, n: int, max_level: int) -> int:
+    """The grid level for ``randomisation`` of N points (module docstring), ≤ max_level."""
+    if randomisation == "independent":
+        want = 2
+    elif randomisation == "jittered":
+        r = math.isqrt(n)
+        want = (r - 1).bit_length() + (0 if r & (r - 1) == 0 else 3)
+    elif randomisation == "cmj":
+        want = (n - 1).bit_length() + (0 if n & (n - 1) == 0 else 1)
+    else:
+        want = (n - 1).bit_length() + 1
+    return max(1, min(int(max_level), want))
+
+
+@dataclass(frozen=True)
+class PresetModelOptions:
+    """Settings of :class:`PresetModel`.
+
+    Attributes
+    ----------
+    normals : K, the normals of the importance sample (more: a smaller sampling error of the
+        mean over normals).
+    pool : P, the spherical Fibonacci normals they are drawn from.
+    max_level : the finest grid level (M = 2^max_level); the integrand is tabulated at level
+        max_level + 1.
+    pilot_level : level of the map-part table that gives the normals' proxies.
+    """
+
+    normals: int = 48
+    pool: int = 1024
+    max_level: int = 9
+    pilot_level: int = 6
+
+    def __post_init__(self):
+        for name, lo, hi in (("normals", 1, 4096), ("pool", 1, 1 << 16), ("max_level", 1, 11),
+                             ("pilot_level", 1, 10)):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not lo <= v <= hi:
+                raise ParameterError(f"{name} must be an integer from {lo} to {hi}, got {v!r}")
+        if self.normals > self.pool:
+            raise ParameterError("normals must not exceed pool")
+
+
+@dataclass(frozen=True)
+class PresetPrediction:
+    """One predicted cell.
+
+    Attributes
+    ----------
+    rmse : √(mean over channels of the MSE averaged over uniform normals) — what the sphere
+        measurement reports.
+    mse : the MSE per channel (C,).
+    strategy, sampler : as asked.
+    spp : spp asked; ``spp_rendered`` : the spp the sampler runs.
+    emitter_samples, bsdf_samples : samples of each technique per spp.
+    randomisation : the registry name used; ``shared`` : one point set for both streams.
+    level : grid level (M = 2^level).
+    parts : mean over normals and channels of the map part's MSE, the BSDF part's and the
+        cross term 2·C₁₂ (keys ``map``, ``brdf``, ``cross``).
+    normals : K.
+    """
+
+    rmse: float
+    mse: np.ndarray
+    strategy: str
+    sampler: str
+    spp: int
+    spp_rendered: int
+    emitter_samples: int
+    bsdf_samples: int
+    randomisation: str
+    shared: bool
+    level: int
+    parts: dict = field(default_factory=dict)
+    normals: int = 0
+
+
+def _serpentine_pool(m: int) -> np.ndarray:
+    """m spherical Fibonacci normals in serpentine order (bands of z, φ alternating), so
+    that systematic sampling along the order stratifies the sphere (as
+    ``_axis_proposal._fibonacci_axes``)."""
+    pts = spherical_fibonacci_sphere(m)
+    phi = np.mod(np.arctan2(pts[:, 1], pts[:, 0]), 2.0 * np.pi)
+    bands = max(1, round(math.sqrt(m / 2.0)))
+    band = np.minimum((0.5 * (1.0 - pts[:, 2]) * bands).astype(int), bands - 1)
+    return pts[np.lexsort((np.where(band % 2 == 0, phi, -phi), band))]
+
+
+def _proposal(table: MapTable, pool: np.ndarray, count: int):
+    """(normals (K, 3), weights (K,) summing to 1) by systematic sampling of the pool with
+    the proxies m_e, m_b of the module docstring."""
+    cos = np.clip(pool @ table.directions.T, 0.0, None)                    # (P, Q)
+    b2 = (table.base ** 2).sum(axis=1)
+    m_e = (cos ** 2) @ b2
+    m_b = cos @ (b2 * np.pi * table.pdf)
+    pi = np.full(len(pool), 1.0 / len(pool))
+    for m in (m_e, m_b):
+        pi = pi + (m / m.sum() if m.sum() > 0 else 1.0 / len(pool))
+    pi /= 3.0
+    cdf = np.cumsum(pi)
+    idx = np.minimum(np.searchsorted(cdf / cdf[-1], (np.arange(count) + 0.5) / count),
+                     len(pool) - 1)
+    w = 1.0 / (len(pool) * pi[idx])
+    return pool[idx], w / w.sum()
+
+
+@dataclass(frozen=True)
+class _Request:
+    strategy: str
+    sampler: str
+    spp: int
+    n: int
+    name: str
+    options: tuple
+    shared: bool
+    level: int
+
+
+class PresetModel:
+    r"""The noise model of one map under one renderer preset (module docstring).
+
+    Parameters
+    ----------
+    envmap : EnvMap
+        The map, its pixels as the renderer reads the file.
+    preset : RendererPreset
+        From :func:`envfit.sampling.presets.preset`.
+    technique_options : dict, optional
+        For the preset's technique factory (Mitsuba: ``mis_compensation``).
+    options : PresetModelOptions, optional
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from envfit.maps import EnvMap
+    >>> from envfit.sampling.presets import preset
+    >>> m = PresetModel(EnvMap(np.full((8, 16, 3), 2.0)), preset("mitsuba3"),
+    ...                 options=PresetModelOptions(normals=4, pool=16, max_level=3))
+    >>> m.predict("brdf", "independent", 16).rmse        # cosine sampling of a constant map
+    0.0
+    """
+
+    def __init__(self, envmap, preset, technique_options: dict | None = None,
+                 options: PresetModelOptions | None = None):
+        self.preset = preset
+        self.options = options or PresetModelOptions()
+        self.technique = preset.technique(envmap, **(technique_options or {}))
+        pilot = MapTable.build(self.technique, self.options.pilot_level)
+        self.normals, self.weights = _proposal(pilot, _serpentine_pool(self.options.pool),
+                                               self.options.normals)
+        self._tables: dict = {}
+        self._cache: dict = {}
+        self.seconds = 0.0
+
+    def request(self, strategy: str, sampler: str, spp: int) -> _Request:
+        """The cell as the renderer runs it: spp rounded, randomisation and its options."""
+        s = self.preset.strategy(strategy)
+        if not s.renderable:
+            raise ParameterError(f"{self.preset.name} cannot render strategy {strategy!r}")
+        spec = self.preset.sampler(sampler)
+        n = spec.spp(spp)
+        if spec.randomisation not in RANDOMISATION_OF:
+            raise ParameterError(f"no exact model of {self.preset.name}'s {sampler} "
+                                 f"({spec.randomisation}) yet")
+        name = RANDOMISATION_OF[spec.randomisation]
+        two = s.emitter_samples > 0 and s.bsdf_samples > 0
+        if two and spec.pairing not in _SHARED:
+            raise ParameterError(f"no model of the pairing {spec.pairing!r} of {sampler}")
+        if max(s.emitter_samples, s.bsdf_samples) > 1:
+            raise ParameterError("the model takes at most one sample per technique and spp")
+        opts = ()
+        if name == "jittered":
+            opts = (("r", math.isqrt(n)),)
+        elif name == "cmj":
+            opts = (("permutations", "mitsuba" if self.preset.name == "mitsuba3"
+                     else "uniform"),)
+        level = grid_level(name, n, self.options.max_level)
+        return _Request(strategy, sampler, int(spp), n, name, opts,
+                        two and _SHARED[spec.pairing], level)
+
+    def predict(self, strategy: str, sampler: str, spp: int) -> PresetPrediction:
+        """The predicted cell (:class:`PresetPrediction`); cached."""
+        return self.predict_many([(strategy, sampler, spp)])[0]
+
+    def predict_many(self, cells) -> list[PresetPrediction]:
+        """Predictions of many (strategy, sampler, spp) cells in one pass over the normals."""
+        reqs = [self.request(*c) for c in cells]
+        todo = list({r for r in reqs if r not in self._cache})
+        if todo:
+            t = time.perf_counter()
+            self._run(todo)
+            self.seconds += time.perf_counter() - t
+        return [self._cache[r] for r in reqs]
+
+    def _table(self, kind: str, level: int):
+        key = (kind, level)
+        if key not in self._tables:
+            self._tables[key] = (MapTable.build(self.technique, level) if kind == "map"
+                                 else BsdfTable.build(self.preset, level))
+        return self._tables[key]
+
+    def _fractions(self, strategy: str) -> tuple[float, float]:
+        s = self.preset.strategy(strategy)
+        tot = s.emitter_samples + s.bsdf_samples
+        return s.emitter_samples / tot, s.bsdf_samples / tot
+
+    def _part_values(self, strategies: set, normal, fine: int) -> dict:
+        """The tabulated parts at one normal: ``map`` (h_e alone), ``brdf`` (h_b alone) and
+        ``mis_e``, ``mis_b``, ``mis_t`` (weighted, and their sum)."""
+        out = {}
+        need_map = bool(strategies & {"map", "mis"})
+        need_bsdf = bool(strategies & {"brdf", "mis"})
+        fr = self._fractions("mis")
+        if need_map:
+            h, w = map_values(self._table("map", fine), normal, fr)
+            out["map"], out["mis_e"] = h, h * w[:, None]
+        if need_bsdf:
+            rad, w = bsdf_values(self.technique, self.preset, self._table("bsdf", fine),
+                                 normal, fr)
+            out["brdf"], out["mis_b"] = rad, rad * w[:, None]
+        if "mis" in strategies:
+            out["mis_t"] = out["mis_e"] + out["mis_b"]
+        return out
+
+    def _run(self, todo: list) -> None:
+        fine = max(r.level for r in todo) + 1
+        strategies = {r.strategy for r in todo}
+        levels = {r.level for r in todo}
+        acc = {r: [0.0, 0.0, 0.0, 0.0] for r in todo}         # mse (C,), map, brdf, cross
+        for normal, wt in zip(self.normals, self.weights):
+            vals = self._part_values(strategies, normal, fine)
+            grids: dict = {}
+            for r in todo:
+                res = self._cell(r, vals, grids, fine, levels)
+                a = acc[r]
+                a[0] = a[0] + wt * res[0]
+                for k in range(3):
+                    a[k + 1] += wt * float(np.mean(res[k + 1]))
+        for r, a in acc.items():
+            mse = np.clip(np.asarray(a[0], dtype=np.float64), 0.0, None)
+            s = self.preset.strategy(r.strategy)
+            self._cache[r] = PresetPrediction(
+                float(np.sqrt(np.mean(mse))), mse, r.strategy, r.sampler, r.spp, r.n,
+                s.emitter_samples, s.bsdf_samples, r.name, r.shared, r.level,
+                {"map": a[1], "brdf": a[2], "cross": a[3]}, len(self.normals))
+
+    def _cell(self, r: _Request, vals: dict, grids: dict, fine: int, levels):
+        """(mse, map part, BSDF part, 2·cross) per channel of one request at one normal."""
+        def grid(part):
+            key = (part, r.level)
+            if key not in grids:
+                if part not in grids:
+                    grids[part] = moment_pyramid(vals[part], fine, levels)
+                a, b = grids[part][r.level]
+                grids[key] = DyadicGrid.from_arrays(a, np.maximum(b, a * a))
+            return grids[key]
+
+        opts = dict(r.options)
+        if r.strategy in ("map", "brdf"):
+            res = randomised_mse(r.name, grid(r.strategy), r.n, **opts)
+            z = np.zeros_like(res.mse)
+            parts = (res.mse, z, z) if r.strategy == "map" else (z, res.mse, z)
+            return (res.mse,) + parts
+        m = mis_mse(r.name, grid("mis_e"), grid("mis_b"), r.n, shared=r.shared,
+                    total=grid("mis_t") if r.shared else None, **opts)
+        return m.mse, m.first.mse, m.second.mse, 2.0 * m.cross
