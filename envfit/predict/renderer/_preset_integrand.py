@@ -167,10 +167,12 @@ def _mitsuba_eval(x0, y0, z0, rgb, scale, warp, out, p):  # pragma: no cover - n
 
 
 @numba.njit(cache=True, parallel=True)
-def _mitsuba_lookup(local, frame, to_native, rgb, scale, warp, fe, fb,
-                    out_l, out_w):  # pragma: no cover - numba
-    """:func:`_mitsuba_eval` at ``local @ frame`` and the BSDF's power-heuristic weight
-    with fractions (fe, fb)."""
+def _mitsuba_lookup(local, frame, to_native, rgb, warp, fractions,
+                    out):  # pragma: no cover - numba
+    """:func:`_mitsuba_eval` at ``local @ frame`` (radiance to ``out[:, :3]``, ``rgb``
+    already scaled) and the BSDF's power-heuristic weight with ``fractions`` (emitter,
+    BSDF) to ``out[:, 3]``."""
+    fe, fb = fractions[0], fractions[1]
     for p in numba.prange(local.shape[0]):
         wd = np.empty(3)
         for k in range(3):
@@ -179,10 +181,10 @@ def _mitsuba_lookup(local, frame, to_native, rgb, scale, warp, fe, fb,
         y0 = wd[0] * to_native[0, 1] + wd[1] * to_native[1, 1] + wd[2] * to_native[2, 1]
         z0 = wd[0] * to_native[0, 2] + wd[1] * to_native[1, 2] + wd[2] * to_native[2, 2]
         nrm = np.sqrt(x0 * x0 + y0 * y0 + z0 * z0)
-        pe = _mitsuba_eval(x0 / nrm, y0 / nrm, z0 / nrm, rgb, scale, warp, out_l, p)
+        pe = _mitsuba_eval(x0 / nrm, y0 / nrm, z0 / nrm, rgb, 1.0, warp, out, p)
         a = (fb * local[p, 2] / np.pi) ** 2
         b = (fe * pe) ** 2
-        out_w[p] = a / (a + b) if a + b > 0.0 else 0.0
+        out[p, 3] = a / (a + b) if a + b > 0.0 else 0.0
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -194,11 +196,12 @@ def _itl(v0, v1, s):  # pragma: no cover - numba
 
 
 @numba.njit(cache=True, parallel=True, error_model="numpy")
-def _mitsuba_sample(u, flat, offsets, widths, data, to_world, rgb, scale,
-                    out_d, out_p, out_l):  # pragma: no cover - numba
+def _mitsuba_sample(u, flat, layout, data, to_world, rgb, out):  # pragma: no cover - numba
     """Mitsuba 3 ``envmap`` ``sample_direction``: ``Hierarchical2D::sample`` (levels packed
-    in ``flat``, coarsest last), ``square_to_bilinear`` in the leaf patch, the half texel,
-    the direction and its solid-angle pdf, and the radiance at it."""
+    in ``flat``, finest first, ``layout`` = their offsets and widths), ``square_to_bilinear``
+    in the leaf patch, the half texel; ``out[:, :3]`` the direction, ``out[:, 3]`` its
+    solid-angle pdf, ``out[:, 4:]`` the radiance there (``rgb`` already scaled)."""
+    offsets, widths = layout[0], layout[1]
     ny, nx = data.shape[0] - 1, data.shape[1] - 1
     w = rgb.shape[1]
     for p in numba.prange(u.shape[0]):
@@ -233,11 +236,11 @@ def _mitsuba_sample(u, flat, offsets, widths, data, to_world, rgb, scale,
         theta, phi = np.pi * ((oy + y) / ny), 2.0 * np.pi * uu
         st = np.sin(theta)
         dn = (np.sin(phi) * st, np.cos(theta), -np.cos(phi) * st)
-        out_p[p] = pdf / max(st, _EPS32) / (2.0 * np.pi ** 2) if pdf > 0 else 0.0
+        out[p, 3] = pdf / max(st, _EPS32) / (2.0 * np.pi ** 2) if pdf > 0 else 0.0
         for k in range(3):
-            out_d[p, k] = to_world[k, 0] * dn[0] + to_world[k, 1] * dn[1] + to_world[k, 2] * dn[2]
+            out[p, k] = to_world[k, 0] * dn[0] + to_world[k, 1] * dn[1] + to_world[k, 2] * dn[2]
         nrm = np.sqrt(dn[0] ** 2 + dn[1] ** 2 + dn[2] ** 2)
-        _mitsuba_eval(dn[0] / nrm, dn[1] / nrm, dn[2] / nrm, rgb, scale, data, out_l, p)
+        _mitsuba_eval(dn[0] / nrm, dn[1] / nrm, dn[2] / nrm, rgb, 1.0, data, out[:, 4:], p)
 
 
 def _mitsuba_map_table(technique, u):
@@ -248,12 +251,11 @@ def _mitsuba_map_table(technique, u):
     offsets = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64) if levels \
         else np.zeros(0, np.int64)
     widths = np.array([lv.shape[1] for lv in levels], dtype=np.int64)
-    k = u.shape[0]
-    d, pdf, rad = np.empty((k, 3)), np.empty(k), np.empty((k, 3))
-    _mitsuba_sample(u, flat, offsets, widths, technique.warp.data,
-                    np.ascontiguousarray(technique.native_to_world), technique.rgb,
-                    float(technique.scale), d, pdf, rad)
-    return d, pdf, rad
+    out = np.empty((u.shape[0], 7))
+    _mitsuba_sample(u, flat, np.stack([offsets, widths]), technique.warp.data,
+                    np.ascontiguousarray(technique.native_to_world),
+                    technique.rgb * float(technique.scale), out)
+    return out[:, :3], out[:, 3], out[:, 4:]
 
 
 def _is_mitsuba(technique) -> bool:
@@ -270,11 +272,11 @@ def bsdf_values(technique, preset, table: BsdfTable, normal,
     fe, fb = float(fractions[0]), float(fractions[1])
     p = table.local.shape[0]
     if _is_mitsuba(technique) and preset.heuristic == "power":
-        out_l, out_w = np.empty((p, 3)), np.empty(p)
+        out = np.empty((p, 4))
         _mitsuba_lookup(table.local, frame, np.ascontiguousarray(technique.native_to_world),
-                        technique.rgb, float(technique.scale), technique.warp.data, fe, fb,
-                        out_l, out_w)
-        return out_l, out_w
+                        technique.rgb * float(technique.scale), technique.warp.data,
+                        np.array([fe, fb]), out)
+        return out[:, :3], out[:, 3]
     rad, wts = [], []
     for i in range(0, p, _CHUNK):
         loc = table.local[i:i + _CHUNK]
