@@ -166,7 +166,7 @@ def test_reference_subtraction_unbiased():
     sig_r = 0.08                                           # the references' noise
     want = float((g.weight[g.keep] * (sig ** 2).mean(axis=-1)[:, g.keep]).sum()
                  / (6 * g.weight[g.keep].sum()))
-    got, raw = [], []
+    got, raw, off = [], [], []
     for _ in range(600):
         img = truth + sig * rng.standard_normal(truth.shape)
         a = truth + sig_r * rng.standard_normal(truth.shape)
@@ -174,9 +174,13 @@ def test_reference_subtraction_unbiased():
         e = sphere_error(img, a, b, g, seed=1, resamples=10)
         got.append(e.rmse ** 2)
         raw.append(e.raw_rmse ** 2)
+        off.append(e.mean_offset)
     se = np.std(got) / math.sqrt(len(got))
     assert abs(np.mean(got) - want) < 4 * se
     assert np.mean(raw) - want > 20 * se                  # the bias the subtraction removes
+    # the mean offset: 0 on average for unbiased renders; a render missing 10 % reads −10 %
+    assert abs(np.mean(off)) < 4 * np.std(off) / math.sqrt(len(off))
+    assert sphere_error(0.9 * truth, truth, truth, g).mean_offset == pytest.approx(-0.1)
 
 
 def test_cache_rejects_corrupt_file(tmp_path):

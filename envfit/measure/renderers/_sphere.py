@@ -147,8 +147,12 @@ def sphere_mean(f, geometry: SphereGeometry) -> float:
 class SphereError:
     """The measured RMSE over the sphere's normals (:func:`sphere_error`): ``rmse`` and its
     bootstrap 95 % interval [``low``, ``high``], the kept ``pixels`` (all views), the
-    reference's own RMS error ``reference_rmse`` (of (a + b)/2: the part subtracted) and the
-    ``raw_rmse`` before the subtraction."""
+    reference's own RMS error ``reference_rmse`` (of (a + b)/2: the part subtracted), the
+    ``raw_rmse`` before the subtraction, and ``mean_offset``, the weighted mean of
+    img − ref relative to the reference's mean: near 0 for an unbiased render, strongly
+    negative where a rare event (BSDF rays hitting a small sun) was missed in this render
+    — then the measured RMSE is far below its expectation and its interval does not say so
+    (a bootstrap over pixels cannot see events that did not happen)."""
 
     rmse: float
     low: float
@@ -156,6 +160,7 @@ class SphereError:
     pixels: int
     reference_rmse: float
     raw_rmse: float
+    mean_offset: float = 0.0
 
 
 def _stack(images, geometry: SphereGeometry, what: str) -> np.ndarray:
@@ -219,12 +224,15 @@ def sphere_error(images, reference_a, reference_b, geometry: SphereGeometry, *, 
         raise ParameterError("a render holds NaN or Inf on the sphere")
     d = e2 - v
     mse = float(np.sum(w * d) / np.sum(w))
+    diff = (img - ref).mean(axis=-1)[:, keep].ravel()
+    level = float(np.sum(w * ref.mean(axis=-1)[:, keep].ravel()))
+    offset = float(np.sum(w * diff) / level) if level > 0 else 0.0
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
     lo, hi = _bootstrap(d, w, rng, int(resamples))
     root = lambda m: float(np.sqrt(max(m, 0.0)))
     return SphereError(rmse=root(mse), low=root(lo), high=root(hi), pixels=int(d.size),
                        reference_rmse=root(float(np.sum(w * v) / np.sum(w))),
-                       raw_rmse=root(float(np.sum(w * e2) / np.sum(w))))
+                       raw_rmse=root(float(np.sum(w * e2) / np.sum(w))), mean_offset=offset)
 
 
 def view_seeds(seed, count: int = len(VIEWS)) -> list[int]:
@@ -254,6 +262,8 @@ class SphereMeasurement:
     pixels : kept pixels (all six views).
     seconds : wall time of the six renders under test; ``view_seconds`` per view.
     reference_rmse : RMS error of the reference (the subtracted part).
+    mean_offset : the render's weighted mean minus the reference's, relative
+        (:class:`SphereError`: strongly negative = a rare event missed, RMSE unreliable).
     resolution : pixels per view side.
     options : the renderer's other settings (dict).
     """
@@ -270,6 +280,7 @@ class SphereMeasurement:
     seconds: float
     view_seconds: tuple = ()
     reference_rmse: float = 0.0
+    mean_offset: float = 0.0
     resolution: int = 0
     spp_used: int = 0
     options: dict | None = None
@@ -289,7 +300,8 @@ def measurement(err: SphereError, *, spp: int, renderer: str, sampler: str, stra
                              reference_spp=int(reference_spp), pixels=err.pixels,
                              seconds=float(sum(view_seconds)),
                              view_seconds=tuple(float(s) for s in view_seconds),
-                             reference_rmse=err.reference_rmse, resolution=int(resolution),
+                             reference_rmse=err.reference_rmse,
+                             mean_offset=err.mean_offset, resolution=int(resolution),
                              spp_used=int(spp_used or spp), options=dict(options or {}))
 
 
