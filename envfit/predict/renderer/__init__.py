@@ -28,6 +28,7 @@ _LAZY = {
     "renderer_predictor": "_predictor",
     "strip_tail": "_spectral_tail",
     "shifted_rmse": "_warped_spectrum", "WarpedSpectrum": "_warped_spectrum",
+    "SpectrumInputs": "_warped_spectrum", "warped_integrand": "_warped_spectrum",
 }
 
 __all__ = sorted(_LAZY)
