@@ -17,9 +17,10 @@ technique, ``mis_mse`` for two streams: independent dimensions, or one shared ne
 Mitsuba's ``ldsampler``) from the :class:`~envfit.predict.renderer.randomisation.DyadicGrid`
 of each part. The normals :math:`n_a` are drawn systematically from a spherical Fibonacci
 pool of P normals with probability
-:math:`\pi_a = \frac13(\frac1P + \frac{m_e(a)}{\sum m_e} + \frac{m_b(a)}{\sum m_b})`,
-:math:`m_e(a) = E_u[h_e^2]` and :math:`m_b(a) = \int L^2\cos^+/\pi` (both by the map part's
-own table at a coarse level, which finds a sun), and weighted
+:math:`\pi_a = \frac13(\frac1P + \frac{v_e(a)}{\sum v_e} + \frac{v_b(a)}{\sum v_b})`,
+:math:`v_e(a) = E_u[h_e^2] - I^2` and :math:`v_b(a) = \int L^2\cos^+/\pi - I^2` the
+variances of map and BSDF sampling (summed over channels; both by the map part's own table at
+a coarse level, which finds a sun), and weighted
 :math:`\varpi_a \propto 1/(P\pi_a)` — unbiased for the pool mean; a sun that makes a few
 normals dominate is not missed (as :func:`envfit.predict.renderer._axis_proposal.proposal_axes`
 does for envfit's techniques).
@@ -149,13 +150,15 @@ def _serpentine_pool(m: int) -> np.ndarray:
 
 def _proposal(table: MapTable, pool: np.ndarray, count: int):
     """(normals (K, 3), weights (K,) summing to 1) by systematic sampling of the pool with
-    the proxies m_e, m_b of the module docstring."""
+    the proxies v_e, v_b of the module docstring."""
     cos = np.clip(pool @ table.directions.T, 0.0, None)                    # (P, Q)
+    q = cos.shape[1]
     b2 = (table.base ** 2).sum(axis=1)
-    m_e = (cos ** 2) @ b2
-    m_b = cos @ (b2 * np.pi * table.pdf)
+    mean2 = (((cos @ table.base) / q) ** 2).sum(axis=1)                     # Σ_c I_c²
+    v_e = np.clip((cos ** 2) @ b2 / q - mean2, 0.0, None)
+    v_b = np.clip(cos @ (b2 * np.pi * table.pdf) / q - mean2, 0.0, None)
     pi = np.full(len(pool), 1.0 / len(pool))
-    for m in (m_e, m_b):
+    for m in (v_e, v_b):
         pi = pi + (m / m.sum() if m.sum() > 0 else 1.0 / len(pool))
     pi /= 3.0
     cdf = np.cumsum(pi)
@@ -284,7 +287,7 @@ class PresetModel:
         return out
 
     def _run(self, todo: list) -> None:
-        fine = max(r.level for r in todo) + 1
+        fine = self.options.max_level + 1            # V's accuracy: never coarser
         strategies = {r.strategy for r in todo}
         levels = {r.level for r in todo}
         acc = {r: [0.0, 0.0, 0.0, 0.0] for r in todo}         # mse (C,), map, brdf, cross
