@@ -1,0 +1,206 @@
+r"""A rough conductor BSDF as Mitsuba 3 ``roughconductor``, pbrt-v4 ``conductor`` and Cycles'
+microfacet reflection closure (the Principled BSDF's metallic lobe) shade it: one class,
+:class:`Conductor`, whose ``eval``, ``pdf`` and ``sample`` share one visible-normal warp.
+
+Conventions (Mitsuba's): local frame, z = the normal; ``wi`` is the direction towards the
+viewer (Mitsuba's and Cycles' ``wi``, pbrt's ``wo``), ``wo`` the direction towards the light;
+``eval`` returns f·cos θ_o (as Mitsuba's ``eval``; pbrt's ``f`` times ``AbsDot(wi, n)``).
+With m the half vector, F the Fresnel factor at cos = ω_i·m:
+
+=========  =====================================  ===================================
+renderer   eval = f·cos θ_o                        pdf (visible normals)
+=========  =====================================  ===================================
+mitsuba3   F D G1(ω_i)G1(ω_o)/(4 cos θ_i)          D G1(ω_i)/(4 cos θ_i)
+pbrt4      F D /(4 cos θ_i (1 + Λ_i + Λ_o))         D/(4 cos θ_i (1 + Λ_i))
+cycles     F D /(4 cos θ_i (1 + Λ_i + Λ_o))         D/(4 cos θ_i (1 + Λ_i))
+=========  =====================================  ===================================
+
+so the sample weight f·cos/pdf is F·G1(ω_o, m) in Mitsuba (``RoughConductor::sample``:
+``weight = distr.smith_g1(bs.wo, m)`` times F) and F (1 + Λ_i)/(1 + Λ_i + Λ_o) in pbrt-v4 and
+Cycles. Sources: Mitsuba ``src/bsdfs/roughconductor.cpp`` (``sample``, ``eval``, ``pdf``);
+pbrt-v4 ``src/pbrt/bxdfs.h`` (``ConductorBxDF::Sample_f``, ``f``, ``PDF``); Cycles
+``src/kernel/closure/bsdf_microfacet.h`` (``bsdf_microfacet_eval``, ``bsdf_microfacet_sample``).
+
+Roughness conventions (:func:`roughness_to_alpha`): Mitsuba takes α itself; pbrt-v4 maps
+``roughness`` to α = √roughness when ``remaproughness`` (the default;
+``TrowbridgeReitzDistribution::RoughnessToAlpha``); Cycles' Principled BSDF sets
+α = roughness² (``src/kernel/svm/closure.h``, ``alpha_x = sqr(roughness)``).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from envfit.base import ParameterError
+from envfit.shading.microfacet._distributions import MicrofacetDistribution
+from envfit.shading.microfacet._fresnel import fr_complex, fresnel_conductor
+from envfit.shading.microfacet._vndf import VNDF_RENDERERS, sample_visible_normals
+
+__all__ = ["BSDFSample", "Conductor", "RENDERERS", "roughness_to_alpha"]
+
+RENDERERS = VNDF_RENDERERS
+
+
+def roughness_to_alpha(roughness: float, renderer: str) -> float:
+    """The microfacet α a renderer uses for a user-facing ``roughness``.
+
+    mitsuba3: α = roughness (``alpha`` is given directly); pbrt4: α = √roughness (pbrt-v4's
+    ``remaproughness`` default); cycles: α = roughness² (Principled BSDF).
+
+    >>> roughness_to_alpha(0.25, "pbrt4"), roughness_to_alpha(0.5, "cycles")
+    (0.5, 0.25)
+    """
+    try:
+        r = float(roughness)
+    except (TypeError, ValueError):
+        raise ParameterError(f"roughness must be a number, got {roughness!r}") from None
+    if not (math.isfinite(r) and 0.0 <= r <= 1.0):
+        raise ParameterError(f"roughness must be in [0, 1], got {roughness!r}")
+    if renderer == "mitsuba3":
+        return r
+    if renderer == "pbrt4":
+        return math.sqrt(r)
+    if renderer == "cycles":
+        return r * r
+    raise ParameterError(f"renderer must be one of {RENDERERS}, got {renderer!r}")
+
+
+@dataclass(frozen=True)
+class BSDFSample:
+    """A batch of BSDF samples: directions ``wo`` (K, 3), their solid-angle ``pdf`` (K,),
+    ``weight`` = f·cos/pdf (K,) (0 where the sample is invalid: below the surface), and the
+    microfacet normals ``m`` (K, 3)."""
+
+    wo: np.ndarray
+    pdf: np.ndarray
+    weight: np.ndarray
+    m: np.ndarray
+
+
+def _dirs(v, name: str) -> np.ndarray:
+    a = np.asarray(v, dtype=np.float64)
+    if a.ndim < 1 or a.shape[-1] != 3:
+        raise ParameterError(f"{name} must have shape (..., 3), got {a.shape}")
+    return a.reshape(-1, 3)
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.einsum("ij,ij->i", a, b)
+
+
+class Conductor:
+    """A rough conductor (GGX or Beckmann) shaded as ``renderer`` shades it.
+
+    Parameters
+    ----------
+    distribution : "ggx" or "beckmann" (pbrt-v4: "ggx" only)
+    alpha : the roughness α in [1e-4, 1] (see :func:`roughness_to_alpha`)
+    renderer : "mitsuba3" (separable G), "pbrt4" or "cycles" (height-correlated G)
+    eta, k : the complex index of refraction η + ik; both None (default): F = 1 (white)
+
+    >>> c = Conductor("ggx", 0.3)
+    >>> wi = np.array([[0.0, 0.0, 1.0]])
+    >>> bool(np.isclose(c.eval(wi, wi)[0], c.pdf(wi, wi)[0] * 1.0))  # G1(normal) = 1
+    True
+    """
+
+    def __init__(self, distribution: str = "ggx", alpha: float = 0.1, renderer: str = "mitsuba3",
+                 eta: float | None = None, k: float | None = None) -> None:
+        if renderer not in RENDERERS:
+            raise ParameterError(f"renderer must be one of {RENDERERS}, got {renderer!r}")
+        if renderer == "pbrt4" and distribution != "ggx":
+            raise ParameterError("pbrt-v4's conductor has only the GGX (Trowbridge-Reitz) "
+                                 f"distribution, got {distribution!r}")
+        if (eta is None) != (k is None):
+            raise ParameterError("give both eta and k (complex IOR) or neither (F = 1)")
+        self.distribution = MicrofacetDistribution(distribution, alpha)
+        self.renderer = renderer
+        self.eta = None if eta is None else float(eta)
+        self.k = None if k is None else float(k)
+
+    def __repr__(self) -> str:
+        d = self.distribution
+        return (f"Conductor({d.kind!r}, {d.alpha:g}, renderer={self.renderer!r}, "
+                f"eta={self.eta}, k={self.k})")
+
+    @property
+    def alpha(self) -> float:
+        return self.distribution.alpha
+
+    def fresnel(self, cos_theta) -> np.ndarray:
+        """F at cos θ = ω_i·m: 1, or the renderer's conductor Fresnel (pbrt: ``FrComplex``)."""
+        c = np.asarray(cos_theta, dtype=np.float64)
+        if self.eta is None:
+            return np.ones_like(c)
+        if self.renderer == "pbrt4":
+            return fr_complex(c, self.eta, self.k)
+        return fresnel_conductor(c, self.eta, self.k)
+
+    def shadowing(self, wi, wo, m) -> np.ndarray:
+        """G2: separable (Mitsuba) or height-correlated (pbrt-v4, Cycles)."""
+        if self.renderer == "mitsuba3":
+            return self.distribution.g_separable(wi, wo, m)
+        return self.distribution.g_correlated(wi, wo)
+
+    def _g1_view(self, wi, m) -> np.ndarray:
+        """The view's masking in the pdf: Mitsuba's ``smith_g1`` (with χ⁺), else 1/(1 + Λ_i)."""
+        if self.renderer == "mitsuba3":
+            return self.distribution.g1(wi, m)
+        return 1.0 / (1.0 + self.distribution.lambda_(wi))
+
+    def eval(self, wi, wo) -> np.ndarray:
+        """f(ω_i, ω_o)·cos θ_o (K,) for view directions ``wi`` and light directions ``wo``."""
+        wi, wo = _dirs(wi, "wi"), _dirs(wo, "wo")
+        ci, co = wi[:, 2], wo[:, 2]
+        ok = (ci > 0) & (co > 0)
+        h = wi + wo
+        n = np.linalg.norm(h, axis=1, keepdims=True)
+        m = np.divide(h, n, out=np.zeros_like(h), where=n > 0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            v = (self.fresnel(_dot(wi, m)) * self.distribution.D(m)
+                 * self.shadowing(wi, wo, m) / (4.0 * ci))
+        return np.where(ok & (n[:, 0] > 0), np.nan_to_num(v), 0.0)
+
+    def pdf(self, wi, wo) -> np.ndarray:
+        """The solid-angle density (K,) of ``sample`` drawing ``wo`` for the view ``wi``."""
+        wi, wo = _dirs(wi, "wi"), _dirs(wo, "wo")
+        ci = wi[:, 2]
+        h = wi + wo
+        n = np.linalg.norm(h, axis=1, keepdims=True)
+        m = np.divide(h, n, out=np.zeros_like(h), where=n > 0)
+        ok = (ci > 0) & (wo[:, 2] > 0) & (_dot(wi, m) > 0) & (_dot(wo, m) > 0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            p = self.distribution.D(m) * self._g1_view(wi, m) / (4.0 * ci)
+        return np.where(ok, np.nan_to_num(p), 0.0)
+
+    def weight_of_normal(self, wi: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """For sampled normals m: the reflected ``wo`` and f·cos/pdf, in closed form (Mitsuba:
+        F·G1(ω_o, m); pbrt-v4, Cycles: F (1 + Λ_i)/(1 + Λ_i + Λ_o)); 0 below the surface."""
+        dot = _dot(wi, m)
+        wo = 2.0 * dot[:, None] * m - wi
+        d = self.distribution
+        if self.renderer == "mitsuba3":
+            w = d.g1(wo, m)
+        else:
+            li = d.lambda_(wi)
+            w = (1.0 + li) / (1.0 + li + d.lambda_(wo))
+        valid = (wo[:, 2] > 0) & (wi[:, 2] > 0) & (d.D(m) > 0)
+        return wo, np.where(valid, self.fresnel(dot) * w, 0.0)
+
+    def sample(self, wi, u) -> BSDFSample:
+        """Draw ``wo`` for views ``wi`` (K, 3) from points ``u`` (K, 2) of the unit square, by
+        the renderer's visible-normal warp; pdf = D_{ω_i}(m)/(4 ω_o·m)."""
+        wi = _dirs(wi, "wi")
+        u = np.asarray(u, dtype=np.float64).reshape(-1, 2)
+        if u.shape[0] != wi.shape[0]:
+            raise ParameterError(f"wi and u must have as many rows, got {wi.shape[0]} and "
+                                 f"{u.shape[0]}")
+        d = self.distribution
+        m = sample_visible_normals(self.renderer, d.kind, d.alpha, wi, u)
+        wo, weight = self.weight_of_normal(wi, m)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            pdf = d.D(m) * self._g1_view(wi, m) / (4.0 * wi[:, 2])
+        pdf = np.where(weight > 0, np.nan_to_num(pdf), 0.0)
+        return BSDFSample(wo=wo, pdf=pdf, weight=weight, m=m)
