@@ -48,7 +48,8 @@ GENERIC_POINTSET = {"independent": "random", "stratified": "jitter", "multijitte
                     "orthogonal": "jitter", "ldsampler": "sobol", "tabulated_sobol": "sobol",
                     "blue_noise": "sobol", "automatic": "sobol"}
 COLUMNS = ["renderer", "map", "sampler", "strategy", "spp", "spp_used", "measured_rmse", "low",
-           "high", "predicted", "ratio", "inside", "reference_rmse", "mean_offset", "seconds",
+           "high", "predicted", "ratio", "inside", "generic", "reference_rmse", "mean_offset",
+           "seconds",
            "seconds_per_view", "pixels"]
 
 
@@ -91,6 +92,21 @@ class Predictor:
         self.renderer, self.env, self.grid, self.axes = renderer, map_as_seen(renderer, env), \
             grid, axes
         self._model = None
+        self.file_env = env              # the pixels as the renderer reads the file
+        self.cells: list = []            # (sampler, strategy, spp) planned: one model pass
+        self._presets: dict = {}
+
+    def preset_model(self, compensation: bool):
+        """The renderer preset's noise model (envfit.predict.renderer._preset_model) of the
+        map, plain or with Mitsuba's mis_compensation, built once."""
+        if compensation not in self._presets:
+            from envfit.predict.renderer._preset_model import PresetModel, PresetModelOptions
+            from envfit.sampling.presets import preset
+            env = EnvMap(self.file_env.data, up="y", name=self.file_env.name)
+            self._presets[compensation] = PresetModel(
+                env, preset(self.renderer), {"mis_compensation": compensation},
+                PresetModelOptions(normals=PRESET_NORMALS, max_level=PRESET_MAX_LEVEL))
+        return self._presets[compensation]
 
     def model(self):
         if self._model is None:
@@ -102,10 +118,32 @@ class Predictor:
         return self._model
 
 
+#: the preset model's normals and finest grid level (bench/preset_check.py measures them)
+PRESET_NORMALS, PRESET_MAX_LEVEL = 32, 9
+
+
 def predict_cell(predictor: Predictor, sampler: str, strategy: str, spp: int) -> float:
     """The predicted RMSE of one cell — THE place the prediction is chosen.
 
-    Today: envfit's generic rules (:func:`envfit.predict.renderer.predict_rule`): the
+    Mitsuba 3: the renderer preset's own estimator and its sampler's exact randomisation
+    (:class:`envfit.predict.renderer._preset_model.PresetModel`; ``mis-comp`` with the
+    envmap's mis_compensation), all planned cells of the map in one pass over the normals.
+    Other renderers: :func:`generic_cell` (their presets are not checked against renders yet).
+    """
+    if predictor.renderer != "mitsuba3":
+        return generic_cell(predictor, sampler, strategy, spp)
+    comp = strategy == "mis-comp"
+    model = predictor.preset_model(comp)
+    plan = [("mis" if st == "mis-comp" else st, s, n) for s, st, n in predictor.cells
+            if (st == "mis-comp") == comp]
+    model.predict_many(plan + [("mis" if comp else strategy, sampler, spp)])
+    return float(model.predict("mis" if comp else strategy, sampler, spp).rmse)
+
+
+def generic_cell(predictor: Predictor, sampler: str, strategy: str, spp: int) -> float:
+    """envfit's generic prediction of one cell (the second column, ``generic``).
+
+    envfit's generic rules (:func:`envfit.predict.renderer.predict_rule`): the
     renderer's sampler as envfit's point set of :data:`GENERIC_POINTSET` (random, jitter,
     sobol), envfit's map sampler (piecewise constant per pixel) and, for MIS, the balance
     heuristic at 2N (the renderer takes one emitter + one BSDF sample per spp; envfit's rule
@@ -147,7 +185,7 @@ def _row(renderer, name, sampler, strategy, spp, m, pred) -> dict:
 def _write(out: Path, renderer: str, rows: list, meta: dict) -> None:
     atomic_write_json(out / f"render_check_{renderer}.json", {"meta": meta, "rows": rows})
     atomic_write_csv(out / f"render_check_{renderer}.csv", COLUMNS,
-                     [[r[c] for c in COLUMNS] for r in rows])
+                     [[r.get(c, "") for c in COLUMNS] for r in rows])
 
 
 def _cells(args):
@@ -161,6 +199,7 @@ def run_map(spec: str, args, rows: list, meta: dict, out: Path) -> None:
     if not todo:
         return
     pred = Predictor(args.renderer, env, args.grid, args.axes)
+    pred.cells = todo
     sessions = _session(args.renderer, env, args)
     bar = progress_bar(len(todo) + 1, desc=f"{args.renderer} {name}", unit="cell")
     try:
@@ -175,6 +214,7 @@ def run_map(spec: str, args, rows: list, meta: dict, out: Path) -> None:
                           seed=rng, reference=ref)
             p = predict_cell(pred, sampler, strategy, m.spp_used)
             rows.append(_row(args.renderer, name, sampler, strategy, spp, m, p))
+            rows[-1]["generic"] = generic_cell(pred, sampler, strategy, m.spp_used)
             _write(out, args.renderer, rows, meta)
             bar.update(1)
         meta.setdefault("map_seconds", {})[name] = time.perf_counter() - t

@@ -41,7 +41,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -172,7 +172,7 @@ def _proposal(table: MapTable, pool: np.ndarray, count: int):
 class _Request:
     strategy: str
     sampler: str
-    spp: int
+    spp: int = field(compare=False)         # cells asked at spp rounding to one n are one
     n: int
     name: str
     options: tuple
@@ -254,7 +254,7 @@ class PresetModel:
             t = time.perf_counter()
             self._run(todo)
             self.seconds += time.perf_counter() - t
-        return [self._cache[r] for r in reqs]
+        return [replace(self._cache[r], spp=r.spp) for r in reqs]
 
     def _table(self, kind: str, level: int):
         key = (kind, level)
