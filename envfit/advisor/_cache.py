@@ -230,11 +230,29 @@ def _bad_spectrum(v: Any) -> str | None:
         "power": lambda x, n: _bad_array(x, n, 3), "cross": cross}, {})
 
 
+def _bad_preset(v: Any) -> str | None:
+    """The renderer advice's predictions ``{"cells": {"strategy:spp": {"rmse", "mse"}}}``:
+    a strategy of map, brdf, mis, spp ≥ 1, finite RMSE ≥ 0 and MSE per channel ≥ 0."""
+    why = _bad_fields(v, {"cells": lambda x, n: None if isinstance(x, dict)
+                          else f"{n} is {_what(x)}, not an object"}, {})
+    if why is not None:
+        return why
+    for k, cell in v["cells"].items():
+        s, _, n = k.partition(":")
+        if s not in ("map", "brdf", "mis") or not (n.isdigit() and int(n) >= 1):
+            return f"cell {k!r} is not strategy:spp"
+        why = _bad_fields(cell, {"rmse": lambda x, m: _bad_real(x, m, 0.0),
+                                 "mse": lambda x, m: _bad_array(x, m, 1, 0.0)}, {})
+        if why is not None:
+            return f"cell {k}: {why}"
+    return None
+
+
 #: the schema of each kind's value: why an entry is not one (types and ranges), or None;
 #: a kind without one is returned as stored
 SCHEMAS: dict[str, Callable[[Any], str | None]] = {
     "fit": _bad_fit, "power": _bad_power, "transfer": _bad_transfer, "wce": _bad_curve,
-    "renderer": _bad_spectrum}
+    "renderer": _bad_spectrum, "preset": _bad_preset}
 
 
 def entry_problem(kind: str, value: Any) -> str | None:

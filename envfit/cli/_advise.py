@@ -8,6 +8,7 @@ from envfit.base._notes import NoteKind, note_kind
 from envfit.defaults import BRDFS, DEFAULT_SHININESS, PREDICTOR_CHOICES
 from envfit.cli._common import (add_common_arguments, add_map_arguments, load_map_from_args,
                                 out_dir, positive_float, positive_int, str_list)
+from envfit.cli._advise_preset import add_preset_arguments, reject_without_renderer, run_preset
 from envfit.cli._output import CommandOutput
 
 
@@ -67,6 +68,7 @@ def register(sub) -> None:
     p.add_argument("--realisations", type=positive_int, default=None, metavar="K",
                    help="realisations averaged per N for random/jitter/bnot (default: 4)")
     _add_check_and_cache_arguments(p)
+    add_preset_arguments(p)
     add_common_arguments(p)
     p.set_defaults(func=run)
 
@@ -207,6 +209,9 @@ def options_from_args(args: argparse.Namespace):
 def run(args: argparse.Namespace, output: CommandOutput) -> int:
     from envfit.advisor._advise import advise_with
     from envfit.base._atomic import atomic_write_csv, atomic_write_json
+    if args.renderer is not None:
+        return run_preset(args, output)
+    reject_without_renderer(args)
     opts = options_from_args(args)          # bad names and values: one line, before the map
     env = load_map_from_args(args)
     out = out_dir(args)

@@ -1,0 +1,272 @@
+r"""Advice in a renderer's own terms: ``envfit advise MAP --renderer mitsuba3 --sampler
+ldsampler`` — the spp that renderer's sampler must run, with its integrator's settings, for
+an RMSE target, and the scene text to paste.
+
+The prediction is the noise of the renderer's *own* estimator as its preset describes it
+(:mod:`envfit.sampling.presets`: the emitter's density and warp, the cosine BSDF sampling, the
+MIS heuristic and the samples per spp of its integrator, the sampler's randomisation) on a
+white diffuse surface: the RMSE over uniform normals, RMS over the colour channels, in the
+map's radiance units (:class:`envfit.predict.renderer._preset_model.PresetModel`). The target
+is ``target_rmse``, or ``target_relative`` (default 1 %) of the map's mean radiance — for the
+diffuse lobe the mean shading value over all normals
+(:func:`envfit.advisor._prediction.mean_shading_value`).
+
+For each strategy the renderer can render (``mis`` = both techniques as its integrator
+combines them, the renderer's default; ``map`` = emitter sampling only; ``brdf`` = BSDF
+sampling only) the answer is the smallest spp the sampler can run whose prediction meets the
+target (:func:`envfit.advisor._preset_search.search_spp`), up to the largest spp the model
+resolves for that sampler (:meth:`~envfit.advisor._preset_options.PresetAdviseOptions.spp_cap`).
+The recommendation is the renderer's default strategy (the first of ``strategies``).
+
+Example
+-------
+>>> import tempfile, numpy as np
+>>> from envfit.maps import EnvMap
+>>> from envfit.advisor._preset_options import PresetAdviseOptions
+>>> env = EnvMap(np.random.default_rng(0).random((8, 16, 3)) + 0.5, name="noise")
+>>> opts = PresetAdviseOptions("mitsuba3", sampler="independent", normals=4, level=3)
+>>> a = advise_preset(env, opts, target_relative=0.05, cache_dir=tempfile.mkdtemp())
+>>> r = a.recommendation
+>>> r["strategy"], r["sampler"], r["predicted_rmse"] <= r["target_rmse"]
+('mis', 'independent', True)
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+from envfit.advisor._cache import AdviseCache
+from envfit.advisor._model import map_key
+from envfit.advisor._prediction import mean_shading_value
+from envfit.advisor._preset_options import (RENDERER_NAMES, STRATEGY_WORDS, PresetAdviseOptions,
+                                            spp_cap)
+from envfit.advisor._preset_search import (CachedPresetModel, StrategyAnswer, runnable_spp,
+                                           search_spp)
+from envfit.base._errors import ParameterError
+
+__all__ = ["PresetAdvice", "advise_preset", "integrator_text"]
+
+
+def integrator_text(preset, strategy: str, mis_compensation: bool = False) -> str:
+    """``direct (emitter_samples=1, bsdf_samples=1)``: the integrator and its settings.
+
+    >>> from envfit.sampling.presets import preset
+    >>> integrator_text(preset("mitsuba3"), "map")
+    'direct (emitter_samples=1, bsdf_samples=0)'
+    """
+    s = preset.strategy(strategy)
+    items = [f"{k}={v}" for k, v in s.settings.items()]
+    if mis_compensation:
+        items.append("envmap mis_compensation=true")
+    return f"{s.integrator} ({', '.join(items)})" if items else s.integrator
+
+
+@dataclass
+class PresetAdvice:
+    """The renderer section of ``envfit advise --renderer``: the answer per strategy, every
+    prediction made, the recommendation (the default strategy's answer) and the scene text.
+
+    ``answers`` maps a strategy to its :class:`~envfit.advisor._preset_search.StrategyAnswer`;
+    ``listed`` is the ``--spp`` list as (requested, runnable) pairs; ``cells`` the predicted
+    RMSE per (strategy, spp); ``spp_cap`` the largest spp searched; ``model`` what the model
+    cost (passes, cells computed and cached, seconds, K, L).
+    """
+
+    options: PresetAdviseOptions
+    target_rmse: float
+    target_relative: float | None
+    mean_radiance: float
+    answers: dict
+    listed: list
+    cells: dict
+    spp_cap: int
+    model: dict = field(default_factory=dict)
+    snippet: str | None = None
+    snippet_spp: int | None = None
+    notes: list = field(default_factory=list)
+
+    @property
+    def display(self) -> str:
+        return RENDERER_NAMES[self.options.renderer]
+
+    @property
+    def default(self) -> StrategyAnswer:
+        return self.answers[self.options.default_strategy]
+
+    @property
+    def recommendation(self) -> dict:
+        """The default strategy's answer as the JSON's ``renderer.recommendation``."""
+        a, p = self.default, self.options.preset
+        s = p.strategy(a.strategy)
+        return {"strategy": a.strategy, "sampler": self.options.sampler, "spp": a.spp,
+                "reached": a.reached, "integrator": s.integrator, "settings": dict(s.settings),
+                "mis_compensation": self.options.mis_compensation,
+                "predicted_rmse": a.predicted_rmse, "target_rmse": self.target_rmse,
+                "searched_max": a.searched_max}
+
+    def predictions(self) -> list[dict]:
+        """Every predicted (strategy, spp): ``{"strategy", "sampler", "spp",
+        "predicted_rmse"}``, the strategies in the renderer's order, spp ascending."""
+        return [{"strategy": s, "sampler": self.options.sampler, "spp": n,
+                 "predicted_rmse": self.cells[(s, n)]}
+                for s in self.options.strategies
+                for n in sorted(n for (t, n) in self.cells if t == s)]
+
+    def _goal(self) -> str:
+        if self.target_relative is not None:
+            return (f"{self.target_relative * 100:g} % of the map's mean radiance "
+                    f"{self.mean_radiance:.4g}")
+        return f"{self.target_rmse / self.mean_radiance:.2%} of the map's mean radiance"
+
+    def _why_max(self, a: StrategyAnswer) -> str:
+        """Why the search stopped at ``a.searched_max``: the model's resolution (and the
+        level that reaches the next runnable spp) or ``--nmax``."""
+        o = self.options
+        spec = o.preset.sampler(o.sampler)
+        nxt = spec.spp(a.searched_max + 1)
+        if nxt > o.max_spp:
+            return "raise --nmax or relax the target"
+        rand = spec.randomisation
+        level = next((lv for lv in range(o.level + 1, 12)
+                      if spp_cap(rand, lv, o.max_spp) >= nxt), None)
+        head = (f"the model resolves {o.sampler} to {a.searched_max} spp at grid level "
+                f"{o.level}")
+        if level is None:
+            return f"{head}; {nxt} spp is beyond its finest level 11"
+        return (f"{head}; {nxt} spp needs --renderer-level {level} "
+                f"({4 ** (level - o.level)}x the time and memory)")
+
+    def answer_line(self, a: StrategyAnswer, *, head: bool) -> str:
+        """One strategy's sentence: the first line (``head``) with the renderer, sampler,
+        target and why the search stopped; the others shorter."""
+        o, p = self.options, self.options.preset
+        who = (f"{self.display}, sampler {o.sampler}, integrator " if head
+               else f"  {STRATEGY_WORDS[a.strategy]}, ")
+        who += integrator_text(p, a.strategy, o.mis_compensation and a.strategy != "brdf")
+        goal = f"an RMSE of at most {self.target_rmse:.3g} ({self._goal()})"
+        if not a.reached:
+            if not head:
+                return (f"{who}: no spp up to {a.searched_max} meets the target (predicted "
+                        f"RMSE {a.predicted_rmse:.4g} at {a.searched_max} spp)")
+            return (f"{who}: no spp up to {a.searched_max} meets {goal}; predicted RMSE "
+                    f"{a.predicted_rmse:.4g} at {a.searched_max} spp ({self._why_max(a)})")
+        below = ("" if a.below is None else
+                 f", {a.below_rmse:.4g} at {a.below} spp (misses)")
+        if not head:
+            return f"{who}: spp = {a.spp} (predicted RMSE {a.predicted_rmse:.4g}{below})"
+        return (f"{who}: spp = {a.spp} for {goal}; predicted RMSE {a.predicted_rmse:.4g} at "
+                f"{a.spp} spp{below}")
+
+    def table_lines(self) -> list[str]:
+        """The ``--spp`` table: the predicted RMSE per strategy at each listed spp."""
+        if not self.listed:
+            return []
+        strategies = self.options.strategies
+        out = [f"predicted RMSE at the listed spp (sampler {self.options.sampler}; target "
+               f"{self.target_rmse:.3g}):",
+               "  " + f"{'spp':>10s}" + "".join(f" {s:>10s}" for s in strategies)]
+        for req, n in self.listed:
+            lab = str(n) if req == n else f"{req}->{n}"
+            out.append("  " + f"{lab:>10s}" + "".join(f" {self.cells[(s, n)]:>10.3e}"
+                                                      for s in strategies))
+        return out
+
+    def lines(self) -> list[str]:
+        """Everything printed, the answer first."""
+        o = self.options
+        out = [self.answer_line(self.default, head=True)]
+        out += [self.answer_line(self.answers[s], head=False) for s in o.strategies[1:]]
+        out += self.table_lines()
+        if self.snippet is not None:
+            a = self.default
+            state = ("the recommendation" if a.reached else
+                     f"the largest spp searched, which misses the target")
+            out.append(f"scene ({self.display}, {STRATEGY_WORDS[a.strategy]}, "
+                       f"{self.snippet_spp} spp: {state}):")
+            out += self.snippet.rstrip("\n").split("\n")
+        m = self.model
+        out.append(f"renderer model: the RMSE over uniform normals of a white diffuse surface "
+                   f"(RMS over the channels), {m['normals']} normals, grid level "
+                   f"{m['level']}; {m['passes']} pass(es), {m['cells_computed']} cell(s) "
+                   f"computed, {m['cells_cached']} from the cache")
+        return out
+
+    def to_dict(self) -> dict:
+        """The JSON's ``renderer`` section."""
+        o = self.options
+        return {"name": o.renderer, "display": self.display, "renderer": o.preset.renderer,
+                "sampler": o.sampler, "strategies": list(o.strategies),
+                "mis_compensation": o.mis_compensation, "target_rmse": self.target_rmse,
+                "target_relative": self.target_relative, "mean_radiance": self.mean_radiance,
+                "recommendation": self.recommendation, "predictions": self.predictions(),
+                "answers": [{**self._answer_dict(self.answers[s])} for s in o.strategies],
+                "listed_spp": [{"requested": r, "spp": n} for r, n in self.listed],
+                "spp_cap": self.spp_cap, "max_spp": o.max_spp, "model": dict(self.model),
+                "snippet": self.snippet, "snippet_spp": self.snippet_spp, "notes": self.notes}
+
+    def _answer_dict(self, a: StrategyAnswer) -> dict:
+        s = self.options.preset.strategy(a.strategy)
+        return {"strategy": a.strategy, "spp": a.spp, "reached": a.reached,
+                "predicted_rmse": a.predicted_rmse, "below_spp": a.below,
+                "below_rmse": a.below_rmse, "searched_max": a.searched_max,
+                "integrator": s.integrator, "settings": dict(s.settings)}
+
+
+def _target(mean: float, target_rmse, target_relative) -> tuple[float, float | None]:
+    """(absolute target, relative or None): ``target_rmse`` or ``target_relative`` (default
+    0.01) × the mean radiance."""
+    if target_rmse is not None:
+        return float(target_rmse), None
+    rel = 0.01 if target_relative is None else float(target_relative)
+    if not mean > 0:
+        raise ParameterError(f"the map's mean radiance is {mean:.3g}, not positive: give "
+                             f"--target-rmse instead")
+    return rel * mean, rel
+
+
+def advise_preset(envmap, opts: PresetAdviseOptions, *, target_rmse: float | None = None,
+                  target_relative: float | None = None, snippet: bool = False,
+                  filename: str = "envmap.exr", cache: bool = True,
+                  cache_dir=None) -> PresetAdvice:
+    """The renderer advice on ``envmap`` (module docstring).
+
+    Parameters
+    ----------
+    envmap : EnvMap
+        The map as the renderer reads its file (linear radiance).
+    opts : PresetAdviseOptions
+        Renderer, sampler, strategies, listed spp, model resolution.
+    target_rmse, target_relative : float, optional
+        The target (at most one; default 1 % of the mean radiance).
+    snippet : bool
+        Also the scene text for the recommendation (:meth:`RendererPreset.snippet`),
+        reading ``filename``.
+    cache, cache_dir
+        The advisor's on-disk cache (:class:`~envfit.advisor._cache.AdviseCache`).
+    """
+    t0 = time.perf_counter()
+    mean = mean_shading_value(envmap)
+    target, rel = _target(mean, target_rmse, target_relative)
+    spec = opts.preset.sampler(opts.sampler)
+    cap = opts.spp_cap()
+    runnable = runnable_spp(spec, cap)
+    listed = [(n, spec.spp(n)) for n in opts.spp]
+    store = AdviseCache(cache_dir, enabled=cache)
+    cm = CachedPresetModel(envmap, opts, store, map_key(envmap, "linear"))
+    answers = search_spp(cm, opts.strategies, runnable, target, [n for _, n in listed],
+                         independent=spec.randomisation == "independent")
+    cells = {(s, n): cm.rmse(s, n) for s in opts.strategies for n in runnable
+             if cm.has(s, n)}
+    adv = PresetAdvice(opts, target, rel, mean, answers, listed, cells, cap, notes=store.notes)
+    if snippet:
+        a = adv.default
+        adv.snippet_spp = a.spp if a.reached else a.searched_max
+        kw = {"mis_compensation": True} if opts.mis_compensation else {}
+        adv.snippet = opts.preset.snippet(a.strategy, opts.sampler, adv.snippet_spp,
+                                          filename=filename, **kw)
+    adv.model = {"normals": opts.model_options().normals, "level": opts.level,
+                 "passes": cm.passes, "cells_computed": cm.cells_computed,
+                 "cells_cached": cm.cells_cached, "seconds_model": cm.seconds,
+                 "seconds": time.perf_counter() - t0, "cache_hits": store.hits,
+                 "cache_writes": store.writes}
+    return adv

@@ -1,0 +1,217 @@
+r"""What ``envfit advise --renderer NAME`` is asked: :class:`PresetAdviseOptions`, checked in
+one place before any work (one-line :class:`~envfit.base.ParameterError`, the CLI's exit 2).
+
+The renderer's own names throughout: the preset (:func:`envfit.sampling.presets.preset`:
+``mitsuba3``, ``pbrt4``, ``cycles``, ``envfit``), its sampler (``--sampler``; default the
+preset's default sampler), the strategies it can render (``map`` = emitter sampling only,
+``brdf`` = BSDF sampling only, ``mis`` = both as its integrator combines them; default every
+strategy the renderer can render and the noise model can predict). A combination is refused
+when the renderer lacks the sampler, cannot render the strategy (Cycles' light-only mode exists
+only in debug builds), or has no exact noise model (e.g. Mitsuba's ``orthogonal``, pbrt-v4's
+``halton``; envfit's MIS with one shared shift): the last by asking the model itself
+(:meth:`envfit.predict.renderer._preset_model.PresetModel.request` on a 4 × 8 map, a few
+milliseconds).
+
+The largest spp searched (:meth:`PresetAdviseOptions.spp_cap`) is ``max_spp`` (default
+65536) or less where the model's grid of level L (M = 2^L cells per side,
+``PresetModelOptions.max_level``) resolves fewer points of the sampler: the digital nets
+(``ldsampler``, ``zsobol``, Cycles' Sobol patterns) need M ≥ 2N, so N ≤ 2^(L−1); Kensler's
+correlated multi-jittering M ≥ N (and its (N, N) tables: at most 1024); a Cranley–Patterson
+shift N ≤ M/8 (:mod:`envfit.predict.renderer.randomisation._cp_shift`); independent and
+jittered samplers any N (V and the strata are resolved at every N).
+
+Example
+-------
+>>> o = PresetAdviseOptions("Mitsuba3", sampler="ldsampler")
+>>> o.renderer, o.sampler, o.strategies, o.default_strategy, o.spp_cap()
+('mitsuba3', 'ldsampler', ('mis', 'map', 'brdf'), 'mis', 256)
+>>> PresetAdviseOptions("cycles", strategies=["map"])
+Traceback (most recent call last):
+...
+envfit.base._errors.ParameterError: Cycles cannot render strategy 'map' (emitter sampling only): light-only (direct_light_sampling_type NEXT_EVENT_ESTIMATION) is read only under #ifdef WITH_CYCLES_DEBUG: release builds always combine. src/kernel/integrator/shade_surface.h, src/kernel/light/sample.h
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from envfit.base._checks import check_int, check_ints, check_names
+from envfit.base._errors import EnvfitError, ParameterError
+from envfit.maps import EnvMap
+from envfit.predict.renderer._preset_model import PresetModel, PresetModelOptions
+from envfit.sampling.presets import STRATEGY_NAMES, preset
+
+__all__ = ["PresetAdviseOptions", "RENDERER_NAMES", "STRATEGY_WORDS", "DEFAULT_MAX_SPP",
+           "DEFAULT_LEVEL", "DEFAULT_NORMALS", "spp_cap"]
+
+#: the renderers' names in sentences
+RENDERER_NAMES = {"mitsuba3": "Mitsuba 3", "pbrt4": "pbrt-v4", "cycles": "Cycles",
+                  "envfit": "envfit"}
+#: a strategy in words
+STRATEGY_WORDS = {"mis": "both techniques (MIS)", "map": "emitter sampling only",
+                  "brdf": "BSDF sampling only"}
+#: the largest spp searched by default
+DEFAULT_MAX_SPP = 65536
+#: the model's finest grid level L (M = 2^L), PresetModelOptions' default
+DEFAULT_LEVEL = PresetModelOptions().max_level
+#: the model's normals K, PresetModelOptions' default
+DEFAULT_NORMALS = PresetModelOptions().normals
+#: envfit's own point sets that the model's Cranley-Patterson shift (Sobol' points) is not
+_NOT_SOBOL = ("lp", "sf", "bnot")
+#: the order of the strategies: the renderer's default (both techniques) first
+_ORDER = ("mis", "map", "brdf")
+
+
+def spp_cap(randomisation: str, level: int, max_spp: int) -> int:
+    """The largest spp the model resolves for ``randomisation`` at grid level ``level``
+    (module docstring), at most ``max_spp``.
+
+    >>> spp_cap("digital_shift", 9, 65536), spp_cap("cmj", 9, 65536), spp_cap("cp_shift", 9, 65536)
+    (256, 512, 64)
+    """
+    top = {"digital_shift": 1 << (level - 1), "owen": 1 << (level - 1),
+           "cmj": min(1 << level, 1024), "cp_shift": max(1, 1 << max(level - 3, 0))}
+    return int(min(max_spp, top.get(randomisation, max_spp)))
+
+
+def _dummy_map() -> EnvMap:
+    """A small non-constant map on which the model's own checks run (no real work)."""
+    v = np.linspace(0.2, 1.0, 4 * 8 * 3).reshape(4, 8, 3)
+    return EnvMap(v, name="check")
+
+
+@dataclass(frozen=True)
+class PresetAdviseOptions:
+    """The renderer advice's parameters, checked and normalised on construction.
+
+    Parameters
+    ----------
+    renderer : str
+        A preset name (case-insensitive).
+    sampler : str or None
+        The renderer's sampler (its own name); None: the preset's default.
+    strategies : sequence of str or None
+        Among ``mis``, ``map``, ``brdf``; None: every one the renderer renders and the model
+        predicts with this sampler (``mis`` first when it can).
+    spp : sequence of int
+        spp listed beside the answer (``--spp``), each ≥ 1 and ≤ ``max_spp``.
+    mis_compensation : bool
+        Mitsuba 3 only: the envmap's ``mis_compensation`` (Karlík et al. 2019).
+    max_spp : int
+        The largest spp searched (≥ 1).
+    level, normals : int
+        The model's grid level L (1…11) and normals K (``PresetModelOptions``).
+
+    Raises
+    ------
+    envfit.base.ParameterError
+        An unknown name, a combination the renderer or the model does not have, a bad number.
+    """
+
+    renderer: str
+    sampler: str | None = None
+    strategies: Sequence[str] | None = None
+    spp: Sequence[int] = ()
+    mis_compensation: bool = False
+    max_spp: int = DEFAULT_MAX_SPP
+    level: int = DEFAULT_LEVEL
+    normals: int = DEFAULT_NORMALS
+
+    def __post_init__(self) -> None:
+        p = preset(self.renderer)
+        set_ = object.__setattr__
+        set_(self, "renderer", p.name)
+        set_(self, "sampler", p.sampler(self.sampler).name)
+        if self.mis_compensation and p.name != "mitsuba3":
+            raise ParameterError(f"--mis-compensation is a setting of Mitsuba 3's envmap, not "
+                                 f"of {RENDERER_NAMES[p.name]}")
+        set_(self, "mis_compensation", bool(self.mis_compensation))
+        set_(self, "max_spp", check_int(self.max_spp, "the largest spp (--nmax)", 1))
+        spp = check_ints(list(self.spp), "--spp", 1)
+        too_big = [n for n in spp if n > self.max_spp]
+        if too_big:
+            raise ParameterError(f"--spp {too_big[0]} is above the largest spp searched "
+                                 f"({self.max_spp}; --nmax)")
+        set_(self, "spp", tuple(dict.fromkeys(spp)))
+        model = self.model_options()          # checks level and normals
+        set_(self, "level", model.max_level)
+        set_(self, "strategies", self._checked_strategies(p))
+        cap, spec = self.spp_cap(), p.sampler(self.sampler)
+        over = [n for n in self.spp if spec.spp(n) > cap]
+        if over:
+            raise ParameterError(f"--spp {over[0]}: {self.sampler} runs {spec.spp(over[0])} "
+                                 f"spp, beyond the {cap} spp the model resolves for it at "
+                                 f"--renderer-level {self.level}")
+
+    def model_options(self) -> PresetModelOptions:
+        """The :class:`PresetModelOptions` of ``level`` and ``normals`` (pool: its default,
+        at least ``normals``)."""
+        for name in ("level", "normals"):
+            check_int(getattr(self, name), f"--renderer-{name}", 1)
+        pool = max(PresetModelOptions().pool, int(self.normals))
+        return PresetModelOptions(normals=int(self.normals), pool=pool,
+                                  max_level=int(self.level))
+
+    def technique_options(self) -> dict:
+        """The preset technique's options (Mitsuba: ``mis_compensation``)."""
+        return {"mis_compensation": True} if self.mis_compensation else {}
+
+    def _checked_strategies(self, p) -> tuple[str, ...]:
+        """The strategies asked (or every one that works), each renderable and predictable."""
+        asked = self.strategies is not None
+        names = check_names(list(self.strategies) if asked else list(_ORDER),
+                            STRATEGY_NAMES, "strategy (with --renderer: mis, map, brdf)")
+        names = sorted(names, key=_ORDER.index)
+        model = PresetModel(_dummy_map(), p, self.technique_options(),
+                            PresetModelOptions(normals=1, pool=1, max_level=1, pilot_level=1))
+        spec = p.sampler(self.sampler)
+        if spec.randomisation == "cp_shift" and spec.name in _NOT_SOBOL:
+            raise ParameterError(f"no noise model of {RENDERER_NAMES[p.name]}'s {spec.name}: "
+                                 f"the model's Cranley-Patterson shift takes Sobol' points; "
+                                 f"choose --sampler sobol, random or jitter")
+        spp = spec.spp(1)
+        ok, first = [], None
+        for s in names:
+            setting = p.strategy(s)
+            why = None
+            if not setting.renderable:
+                why = (f"{RENDERER_NAMES[p.name]} cannot render strategy {s!r} "
+                       f"({STRATEGY_WORDS[s]}): {setting.note.strip()}")
+            else:
+                try:
+                    model.request(s, self.sampler, spp)
+                except EnvfitError as exc:
+                    why = (f"no noise model of {RENDERER_NAMES[p.name]}'s {self.sampler} with "
+                           f"strategy {s!r}: {exc}")
+            if why is None:
+                ok.append(s)
+            elif asked:
+                raise ParameterError(why)
+            first = first or why
+        if not ok:
+            raise ParameterError(first)
+        return tuple(ok)
+
+    @property
+    def preset(self):
+        """The :class:`~envfit.sampling.presets.RendererPreset`."""
+        return preset(self.renderer)
+
+    @property
+    def default_strategy(self) -> str:
+        """The strategy of the first line: ``mis`` (the renderer's default) when asked."""
+        return self.strategies[0]
+
+    def spp_cap(self) -> int:
+        """The largest spp searched for this sampler (:func:`spp_cap`)."""
+        spec = self.preset.sampler(self.sampler)
+        return spp_cap(spec.randomisation, self.level, self.max_spp)
+
+    def key(self) -> dict:
+        """What the predictions depend on besides the map (the cache key's part)."""
+        m = self.model_options()
+        return {"renderer": self.renderer, "sampler": self.sampler,
+                "technique_options": self.technique_options(), "normals": m.normals,
+                "pool": m.pool, "max_level": m.max_level, "pilot_level": m.pilot_level}

@@ -1,0 +1,224 @@
+r"""The renderer advice's search: the smallest spp a renderer's sampler can run whose predicted
+RMSE meets the target, per strategy, with every prediction cached.
+
+Predictions (:class:`CachedPresetModel`): the RMSE over uniform normals of the renderer's own
+estimator on a white diffuse surface,
+:meth:`envfit.predict.renderer._preset_model.PresetModel.predict_many` — one *pass* over the
+model's K normals serves any number of (strategy, spp) cells, and a pass costs the same at
+every spp (the integrand is tabulated at the model's finest level), so the search asks for
+many cells per pass and as few passes as it can. Each cell is stored in the advisor's cache
+(:mod:`envfit.advisor._cache`, kind ``"preset"``: one checksummed JSON file per map, renderer,
+sampler, technique options, model options and :func:`model_version`), so a second run on the
+same map and sampler builds no model at all.
+
+Search (:func:`search_spp`), per strategy over the spp the sampler can run
+(:func:`runnable_spp`, the sampler's own rounding, e.g. ``ldsampler`` 4, 16, 64, …):
+
+1. pass 1: the *coarse* spp — the runnable spp at every power of two (:func:`coarse_spp`),
+   the largest spp searched and the ``--spp`` list; the answer lies between the last coarse
+   spp that misses the target and the first that meets it (the search assumes, as the
+   advisor's other searches do, that the prediction falls with spp between coarse points);
+   none meets it: "not reached up to the largest spp searched";
+2. later passes: up to :data:`CANDIDATES` runnable spp spread over each open bracket (for
+   the ``independent`` sampler also the spp the model's exact 1/N law puts at the target,
+   :math:`\lceil N_c\,\mathrm{MSE}(N_c)/t^2\rceil` and the runnable spp around it), until no
+   runnable spp is left between the last miss and the first meet.
+
+The answer is a *crossing*: prediction(spp) ≤ target < prediction(the runnable spp below it).
+"""
+from __future__ import annotations
+
+import hashlib
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from envfit.advisor._cache import AdviseCache
+from envfit.predict.renderer._preset_model import PresetModel
+
+__all__ = ["CachedPresetModel", "StrategyAnswer", "model_version", "runnable_spp",
+           "coarse_spp", "search_spp", "CANDIDATES", "PRESET_CACHE_FORMAT"]
+
+#: runnable spp evaluated per open bracket and pass
+CANDIDATES = 16
+#: the layout of a cached entry of kind "preset"
+PRESET_CACHE_FORMAT = 1
+
+
+def model_version() -> str:
+    """A digest of the noise model's source (the preset model, its integrands, the
+    randomisations, the presets): any change to them makes cached predictions stale."""
+    import envfit.predict.renderer as pr
+    import envfit.sampling.presets as ps
+    root = Path(pr.__file__).parent
+    files = [root / "_preset_model.py", root / "_preset_integrand.py",
+             *sorted((root / "randomisation").glob("*.py")),
+             *sorted(Path(ps.__file__).parent.glob("*.py"))]
+    h = hashlib.sha256()
+    for f in files:
+        h.update(f.name.encode())
+        h.update(f.read_bytes())
+    return h.hexdigest()[:20]
+
+
+class CachedPresetModel:
+    """Predicted RMSE per (strategy, spp rendered), from the cache or the model (built only
+    when a cell is missing) and written back after every pass.
+
+    Attributes ``passes`` (model passes run), ``cells_computed``, ``cells_cached`` and
+    ``seconds`` (in the model) say what the run cost.
+    """
+
+    def __init__(self, envmap, opts, store: AdviseCache, map_key: dict):
+        self.envmap, self.opts, self.store = envmap, opts, store
+        self.key = {**map_key, **opts.key(), "model_version": model_version(),
+                    "format": PRESET_CACHE_FORMAT}
+        doc = store.load("preset", self.key)
+        self.cells: dict[str, dict] = dict(doc["cells"]) if doc else {}
+        self.cells_cached = len(self.cells)
+        self.asked: set[str] = set()          # the cells of this run (cached or not)
+        self.model: PresetModel | None = None
+        self.passes = self.cells_computed = 0
+        self.seconds = 0.0
+
+    @staticmethod
+    def _name(strategy: str, n: int) -> str:
+        return f"{strategy}:{int(n)}"
+
+    def rmse(self, strategy: str, n: int) -> float:
+        """The stored prediction of a cell (KeyError if not predicted yet)."""
+        return float(self.cells[self._name(strategy, n)]["rmse"])
+
+    def has(self, strategy: str, n: int) -> bool:
+        """Whether this run asked for the cell (so that a cached run takes the same path)."""
+        return self._name(strategy, n) in self.asked
+
+    def predict(self, cells) -> None:
+        """Make sure every (strategy, spp rendered) of ``cells`` is predicted: one model pass
+        for the missing ones, then the cache entry rewritten."""
+        names = {(s, int(n)) for s, n in cells}
+        self.asked.update(self._name(s, n) for s, n in names)
+        todo = sorted((s, n) for s, n in names if self._name(s, n) not in self.cells)
+        if not todo:
+            return
+        t0 = time.perf_counter()
+        if self.model is None:
+            self.model = PresetModel(self.envmap, self.opts.preset,
+                                     self.opts.technique_options(), self.opts.model_options())
+        res = self.model.predict_many([(s, self.opts.sampler, n) for s, n in todo])
+        for (s, n), r in zip(todo, res):
+            self.cells[self._name(s, n)] = {"rmse": float(r.rmse),
+                                            "mse": [float(x) for x in np.ravel(r.mse)]}
+        self.passes += 1
+        self.cells_computed += len(todo)
+        self.seconds += time.perf_counter() - t0
+        self.store.save("preset", self.key, {"cells": self.cells})
+
+
+def runnable_spp(spec, cap: int) -> list[int]:
+    """Every spp the sampler runs (its rounding of 1…cap) that is at most ``cap``.
+
+    >>> from envfit.sampling.presets import preset
+    >>> runnable_spp(preset("mitsuba3").sampler("ldsampler"), 300)
+    [4, 16, 64, 256]
+    """
+    out, n = set(), 1
+    while n <= cap:
+        r = spec.spp(n)
+        if r <= cap:
+            out.add(r)
+        n = max(n + 1, r) if r > n else n + 1
+    return sorted(out)
+
+
+def coarse_spp(runnable: list[int]) -> list[int]:
+    """The runnable spp nearest above each power of two, and the largest.
+
+    >>> coarse_spp([1, 4, 9, 16, 25, 36, 49, 64])
+    [1, 4, 9, 16, 36, 64]
+    """
+    out, p = set(), 1
+    arr = np.asarray(runnable)
+    while p <= runnable[-1]:
+        out.add(int(arr[np.searchsorted(arr, p)]))
+        p *= 2
+    out.add(runnable[-1])
+    return sorted(out)
+
+
+@dataclass
+class StrategyAnswer:
+    """One strategy's answer: ``spp`` the smallest runnable spp meeting the target (None when
+    none up to ``searched_max`` does), ``predicted_rmse`` there (at ``searched_max`` when not
+    reached), ``below`` / ``below_rmse`` the runnable spp under it and its prediction (the
+    crossing's other side; None when ``spp`` is the smallest runnable)."""
+
+    strategy: str
+    spp: int | None
+    predicted_rmse: float
+    searched_max: int
+    below: int | None = None
+    below_rmse: float | None = None
+    evaluated: list = field(default_factory=list)
+
+    @property
+    def reached(self) -> bool:
+        return self.spp is not None
+
+
+def _bracket(cm: CachedPresetModel, strategy: str, runnable: list[int], target: float):
+    """(last evaluated runnable spp that misses below the first that meets, the first that
+    meets) — None for the latter when none evaluated meets."""
+    known = [n for n in runnable if cm.has(strategy, n)]
+    meet = next((n for n in known if cm.rmse(strategy, n) <= target), None)
+    if meet is None:
+        return None, None
+    below = [n for n in known if n < meet]
+    return (below[-1] if below else None), meet
+
+
+def _candidates(cm, strategy, runnable, target, lo, hi, independent: bool) -> list[int]:
+    """Runnable spp strictly between lo and hi to evaluate next (module docstring)."""
+    i0 = 0 if lo is None else runnable.index(lo) + 1
+    inner = runnable[i0:runnable.index(hi)]
+    if not inner:
+        return []
+    pick = {inner[int(round(k))] for k in np.linspace(0, len(inner) - 1,
+                                                       min(CANDIDATES, len(inner)))}
+    if independent:
+        guess = math.ceil(hi * cm.rmse(strategy, hi) ** 2 / target ** 2)
+        j = int(np.searchsorted(inner, guess))
+        pick.update(inner[max(0, j - 1):j + 2])
+    return sorted(pick)
+
+
+def search_spp(cm: CachedPresetModel, strategies, runnable: list[int], target: float,
+               listed=(), *, independent: bool = False) -> dict[str, StrategyAnswer]:
+    """The smallest runnable spp per strategy whose prediction meets ``target`` (module
+    docstring); ``listed`` spp are predicted in the first pass too."""
+    first = set(coarse_spp(runnable)) | {n for n in listed}
+    cm.predict([(s, n) for s in strategies for n in first])
+    while True:
+        todo = []
+        for s in strategies:
+            lo, hi = _bracket(cm, s, runnable, target)
+            if hi is not None:
+                todo += [(s, n) for n in _candidates(cm, s, runnable, target, lo, hi,
+                                                     independent)]
+        if not todo:
+            break
+        cm.predict(todo)
+    out = {}
+    for s in strategies:
+        lo, hi = _bracket(cm, s, runnable, target)
+        ev = [n for n in runnable if cm.has(s, n)]
+        if hi is None:
+            out[s] = StrategyAnswer(s, None, cm.rmse(s, runnable[-1]), runnable[-1],
+                                    evaluated=ev)
+        else:
+            out[s] = StrategyAnswer(s, hi, cm.rmse(s, hi), runnable[-1], lo,
+                                    None if lo is None else cm.rmse(s, lo), ev)
+    return out

@@ -1,0 +1,152 @@
+"""``envfit advise MAP --renderer NAME``: the answer in the renderer's own terms (spp of its
+sampler, its integrator's settings, the scene text), from :mod:`envfit.advisor._preset`.
+
+Without ``--renderer`` none of this runs and ``envfit advise`` is unchanged; the options of
+this module given without it are one-line errors (:func:`reject_without_renderer`).
+"""
+from __future__ import annotations
+
+import argparse
+import time
+
+from envfit.base._errors import ParameterError
+from envfit.cli._common import int_list, positive_int
+from envfit.cli._output import CommandOutput
+
+__all__ = ["add_preset_arguments", "reject_without_renderer", "run_preset"]
+
+#: options that only make sense with --renderer (dest → flag)
+_PRESET_ONLY = {"sampler": "--sampler", "spp": "--spp", "snippet": "--snippet",
+                "mis_compensation": "--mis-compensation", "rules": "--rules",
+                "renderer_level": "--renderer-level", "renderer_normals": "--renderer-normals"}
+#: options of envfit's generic renderer rows, which --renderer replaces
+_GENERIC_ROWS = {"no_renderer": "--no-renderer", "renderer_pointsets": "--renderer-pointsets",
+                 "renderer_grid": "--renderer-grid",
+                 "renderer_spectrum_axes": "--renderer-spectrum-axes",
+                 "renderer_axes_start": "--renderer-axes-start",
+                 "renderer_max_axes": "--renderer-max-axes"}
+
+
+def add_preset_arguments(p) -> None:
+    """The ``--renderer`` group of ``envfit advise``."""
+    g = p.add_argument_group("advice in a renderer's terms (--renderer)")
+    g.add_argument("--renderer", default=None, metavar="mitsuba3|pbrt4|cycles|envfit",
+                   help="answer in this renderer's terms: the spp its sampler must run for the "
+                        "target, with its integrator's settings, predicted for its own "
+                        "estimator (emitter density and warp, BSDF sampling, MIS, sampler); "
+                        "the first lines printed; envfit's generic tables only with --rules")
+    g.add_argument("--sampler", default=None, metavar="NAME",
+                   help="the renderer's sampler by its own name (Mitsuba 3: independent, "
+                        "stratified, multijitter, ldsampler; pbrt-v4: zsobol, paddedsobol, "
+                        "sobol, pmj02bn, stratified, independent; Cycles: tabulated_sobol, "
+                        "blue_noise, sobol_burley; default: the renderer's default)")
+    g.add_argument("--spp", type=int_list, default=None, metavar="16,64,256",
+                   help="also list the predicted RMSE of every strategy at these spp (as the "
+                        "sampler rounds them)")
+    g.add_argument("--snippet", action="store_true",
+                   help="print the scene text of the recommendation (Mitsuba dict, pbrt-v4 "
+                        "scene lines, Cycles bpy settings)")
+    g.add_argument("--mis-compensation", action="store_true",
+                   help="Mitsuba 3: the envmap's mis_compensation (its sampling density minus "
+                        "the mean luminance)")
+    g.add_argument("--rules", action="store_true",
+                   help="with --renderer: also envfit's table of quadrature rules and SH/HSH "
+                        "truncations (the fit and its search: slower)")
+    g.add_argument("--renderer-level", type=positive_int, default=None, metavar="L",
+                   help="the renderer model's finest grid level, M = 2^L cells per side "
+                        "(default 9; the digital nets are resolved to 2^(L-1) spp; each level "
+                        "costs 4x the time and memory)")
+    g.add_argument("--renderer-normals", type=positive_int, default=None, metavar="K",
+                   help="normals of the renderer model's importance sample (default 48)")
+
+
+def reject_without_renderer(args: argparse.Namespace) -> None:
+    """A --renderer option given without --renderer: one line."""
+    for dest, flag in _PRESET_ONLY.items():
+        if getattr(args, dest, None) not in (None, False):
+            raise ParameterError(f"{flag} needs --renderer (mitsuba3, pbrt4, cycles, envfit)")
+
+
+def _options(args: argparse.Namespace):
+    """The checked :class:`PresetAdviseOptions` and, with --rules, :class:`AdviseOptions`
+    (every conflict a one-line error, before the map is read)."""
+    from envfit.advisor._preset_options import (DEFAULT_LEVEL, DEFAULT_MAX_SPP,
+                                                DEFAULT_NORMALS, PresetAdviseOptions)
+    for dest, flag in _GENERIC_ROWS.items():
+        if getattr(args, dest, None) not in (None, False):
+            raise ParameterError(f"{flag} is an option of envfit's generic renderer rows, "
+                                 f"which --renderer replaces")
+    if args.brdf != "diffuse":
+        raise ParameterError("--renderer predicts a white diffuse surface: --brdf must be "
+                             "diffuse")
+    if args.scale != "linear":
+        raise ParameterError("--renderer predicts the renderer's noise in radiance: --scale "
+                             "must be linear")
+    if args.check and not args.rules:
+        raise ParameterError("--check measures envfit's own rules: with --renderer give "
+                             "--rules too (bench/render_check.py renders the renderer itself)")
+    if args.target_relative is not None and args.target_relative >= 1.0:
+        raise ParameterError(f"the relative target (--target-relative) is a fraction of the "
+                             f"mean radiance and must be < 1, got {args.target_relative!r}")
+    popts = PresetAdviseOptions(
+        args.renderer, sampler=args.sampler, strategies=args.strategies, spp=args.spp or (),
+        mis_compensation=args.mis_compensation, max_spp=args.nmax or DEFAULT_MAX_SPP,
+        level=args.renderer_level or DEFAULT_LEVEL,
+        normals=args.renderer_normals or DEFAULT_NORMALS)
+    rules = None
+    if args.rules:
+        from envfit.cli._advise import options_from_args
+        args.strategies, args.no_renderer = None, True
+        rules = options_from_args(args)
+    return popts, rules
+
+
+def _rules_lines(rules_adv) -> list[str]:
+    from envfit.cli._advise import _check_lines, _header
+    out = ["envfit's rules (quadrature and SH/HSH truncation on this map, as without "
+           "--renderer):", *_header(rules_adv), *rules_adv.table_lines(),
+           *(f"warning: {w}" for w in rules_adv.warnings), rules_adv.recommendation]
+    if rules_adv.check is not None:
+        out += _check_lines(rules_adv)
+    return out
+
+
+def run_preset(args: argparse.Namespace, output: CommandOutput) -> int:
+    """``envfit advise MAP --renderer NAME``: options → map → advice → print → JSON."""
+    from envfit.advisor._advise import advise_with
+    from envfit.advisor._preset import advise_preset
+    from envfit.base._atomic import atomic_write_json
+    from envfit.cli._common import load_map_from_args, out_dir
+    t0 = time.perf_counter()
+    popts, ropts = _options(args)         # bad names and combinations: one line, first
+    env = load_map_from_args(args)
+    out = out_dir(args)
+    adv = advise_preset(env, popts, target_rmse=args.target_rmse,
+                        target_relative=args.target_relative, snippet=args.snippet,
+                        filename=str(args.map), cache=not args.no_cache,
+                        cache_dir=args.cache_dir)
+    output.say(*adv.lines())
+    output.say(*(f"note: {n}" for n in [*env.notes, *adv.notes]))
+    rules = advise_with(env, ropts) if ropts is not None else None
+    if rules is not None:
+        output.say(*_rules_lines(rules))
+    m = adv.model
+    output.say(f"({time.perf_counter() - t0:.1f} s: renderer model {m['seconds_model']:.1f}"
+               + (f", rules {rules.timings['total']:.1f}" if rules is not None else "")
+               + f"; cache {m['cache_hits']} hit(s), {m['cache_writes']} write(s))")
+    if rules is not None:
+        d = rules.to_dict()
+    else:
+        d = {"map": env.name, "map_size": [env.width, env.height], "channels": env.channels,
+             "target_rmse": adv.target_rmse, "target_relative": adv.target_relative,
+             "mean_shading": adv.mean_radiance, "notes": [*env.notes, *adv.notes]}
+    d["renderer"] = adv.to_dict()
+    d["timings"] = {**d.get("timings", {}), "renderer_model": m["seconds_model"],
+                    "total": time.perf_counter() - t0}
+    if out is not None:
+        path = output.guarded_write(out / "advise.json", atomic_write_json,
+                                    out / "advise.json", d)
+        if path is not None:
+            output.say(f"wrote {path}")
+    output.emit_json(d)
+    return 0
