@@ -103,11 +103,15 @@ def _radial(kind: str, v: np.ndarray) -> np.ndarray:
     return np.sqrt(-np.log1p(-v))
 
 
-def _start_nodes(bsdf, height: int, opts: GroundTruthOptions) -> int:
-    rho = _radial(bsdf.distribution.kind, np.array([0.99]))[0]
-    span = 4.0 * math.atan(rho * bsdf.alpha)
-    n = math.ceil(opts.nodes_per_pixel * span / (math.pi / height))
-    return int(min(max(n, opts.min_nodes), opts.max_nodes))
+def _start_nodes(bsdf, height: int | None, opts: GroundTruthOptions) -> int:
+    """n from the lobe's footprint in map pixels (``min_nodes`` for a callable), leaving room
+    for one doubling below ``max_nodes``."""
+    n = opts.min_nodes
+    if height is not None:
+        rho = _radial(bsdf.distribution.kind, np.array([0.99]))[0]
+        span = 4.0 * math.atan(rho * bsdf.alpha)
+        n = max(n, math.ceil(opts.nodes_per_pixel * span / (math.pi / height)))
+    return int(max(min(n, opts.max_nodes // 2), 1))
 
 
 def _rule(n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -131,10 +135,11 @@ def _panels(kind: str, alpha: float, wi: np.ndarray) -> list[tuple[float, float,
     else:
         def to_v(r):
             return -math.expm1(-r * r)
-    v1 = to_v((1.0 - s) / (alpha * z))
+    cap = 1e7 if kind == "ggx" else 6.0          # Beckmann: e^{-36} ≈ 2e-16 of the mass beyond
+    v1 = to_v(min((1.0 - s) / (alpha * z), cap))
     out = [(0.0, v1, True)] if v1 > 0 else []
-    if s > 1e-12:
-        out.append((v1, to_v((1.0 + s) / (alpha * z)), False))
+    if s > 1e-12 and v1 < to_v(cap):
+        out.append((v1, to_v(min((1.0 + s) / (alpha * z), cap)), False))
     return out
 
 
@@ -205,7 +210,7 @@ class _Radiance:
             self.height = radiance.height
         elif callable(radiance):
             self.fn = radiance
-            self.height = 512
+            self.height = None
         else:
             raise ParameterError("radiance must be an EnvMap or a callable of directions")
         out = np.asarray(self.fn(probe), dtype=np.float64)
@@ -223,7 +228,7 @@ def microfacet_shading_integral(radiance, bsdf, normals, views,
     Parameters
     ----------
     radiance : EnvMap (its bilinear interpolant) or a callable dirs (M, 3) → (M,) or (M, C)
-        (a callable's footprint rule assumes a 1024×512 map)
+        (for a callable, n starts at ``min_nodes``)
     bsdf : a :class:`~envfit.shading.microfacet.Conductor` (its renderer's G and Fresnel)
     normals, views : (K, 3) world directions: the surface normals and the directions to the
         viewer (ω_i); frames with views below the surface give 0
