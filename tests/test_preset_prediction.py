@@ -93,6 +93,7 @@ def test_constant_map_brdf_is_exact_and_levels():
     assert m.predict("map", "independent", 16).rmse > 0.0       # the cosine is not sampled
     assert grid_level("digital_shift", 64, 9) == 7
     assert grid_level("cmj", 64, 9) == 6 and grid_level("jittered", 64, 9) == 3
+    assert grid_level("digital_shift", 1024, 9) == 10      # nets need M >= N
 
 
 mi = pytest.importorskip("mitsuba")

@@ -25,13 +25,14 @@ a coarse level, which finds a sun), and weighted
 normals dominate is not missed (as :func:`envfit.predict.renderer._axis_proposal.proposal_axes`
 does for envfit's techniques).
 
-Grid level per randomisation and N (:func:`grid_level`, measured on city.exr's integrands,
-module ``bench/preset_check.py``): V alone for ``independent``; the strata as cells for
+Grid level per randomisation and N (:func:`grid_level`, measured on city.exr's integrands at
+three normals): V alone for ``independent``; the strata as cells for
 ``jittered`` (M = r: exact) and ``cmj`` (M = N: exact, finer grids give the same MSE to 4
 digits); M = 2N for the digital nets — the digital shift's estimate of the power above the
 grid needs N ≤ M/2 (``randomisation._digital_shift``): at M = N the 1/N fallback erred by up
 to 2× per normal, at M = 2N the MSE agrees with M = 4N and 8N within 1–5 %; all capped at
-``max_level``. The cell means come from the
+``max_level``, but never below log2 N for the nets and CMJ (they need M ≥ N; then the digital
+shift takes the 1/N rule for the power above the grid). The cell means come from the
 integrand at the midpoints of level ``max level + 1`` (2 × 2 per cell of the finest grid).
 
 Reference: Marques, Bouville, Bouatouch (the spectral view of a shading integral's error);
@@ -71,7 +72,8 @@ def grid_level(randomisation: str, n: int, max_level: int) -> int:
         want = (n - 1).bit_length() + (0 if n & (n - 1) == 0 else 1)
     else:
         want = (n - 1).bit_length() + 1
-    return max(1, min(int(max_level), want))
+    floor = 0 if randomisation in ("independent", "jittered") else (n - 1).bit_length()
+    return max(1, floor, min(int(max_level), want))     # nets and CMJ need M >= N
 
 
 @dataclass(frozen=True)
@@ -287,7 +289,7 @@ class PresetModel:
         return out
 
     def _run(self, todo: list) -> None:
-        fine = self.options.max_level + 1            # V's accuracy: never coarser
+        fine = max(self.options.max_level, *(r.level for r in todo)) + 1   # never coarser
         strategies = {r.strategy for r in todo}
         levels = {r.level for r in todo}
         acc = {r: [0.0, 0.0, 0.0, 0.0] for r in todo}         # mse (C,), map, brdf, cross
