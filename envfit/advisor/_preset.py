@@ -38,8 +38,8 @@ from dataclasses import dataclass, field
 from envfit.advisor._cache import AdviseCache
 from envfit.advisor._model import map_key
 from envfit.advisor._prediction import mean_shading_value
-from envfit.advisor._preset_options import (RENDERER_NAMES, STRATEGY_WORDS, PresetAdviseOptions,
-                                            spp_cap)
+from envfit.advisor._preset_options import (NET_RANDOMISATIONS, RENDERER_NAMES, STRATEGY_WORDS,
+                                            PresetAdviseOptions, spp_cap)
 from envfit.advisor._preset_search import (CachedPresetModel, StrategyAnswer, runnable_spp,
                                            search_spp)
 from envfit.base._errors import ParameterError
@@ -124,6 +124,8 @@ class PresetAdvice:
         o = self.options
         spec = o.preset.sampler(o.sampler)
         nxt = spec.spp(a.searched_max + 1)
+        if spec.randomisation in NET_RANDOMISATIONS:
+            nxt = spec.spp(1 << (nxt - 1).bit_length())
         if nxt > o.max_spp:
             return "raise --nmax or relax the target"
         rand = spec.randomisation
@@ -136,6 +138,15 @@ class PresetAdvice:
         return (f"{head}; {nxt} spp needs --renderer-level {level} "
                 f"({4 ** (level - o.level)}x the time and memory)")
 
+    def _f(self, x: float) -> str:
+        """A number with the digits that tell every printed prediction from the target."""
+        vals = [a.predicted_rmse for a in self.answers.values()] + [
+            a.below_rmse for a in self.answers.values() if a.below_rmse is not None]
+        k = next((k for k in range(4, 13)
+                  if all(f"{v:.{k}g}" != f"{self.target_rmse:.{k}g}"
+                         for v in vals if v != self.target_rmse)), 13)
+        return f"{x:.{k}g}"
+
     def answer_line(self, a: StrategyAnswer, *, head: bool) -> str:
         """One strategy's sentence: the first line (``head``) with the renderer, sampler,
         target and why the search stopped; the others shorter."""
@@ -143,18 +154,19 @@ class PresetAdvice:
         who = (f"{self.display}, sampler {o.sampler}, integrator " if head
                else f"  {STRATEGY_WORDS[a.strategy]}, ")
         who += integrator_text(p, a.strategy, o.mis_compensation and a.strategy != "brdf")
-        goal = f"an RMSE of at most {self.target_rmse:.3g} ({self._goal()})"
+        f = self._f
+        goal = f"an RMSE of at most {f(self.target_rmse)} ({self._goal()})"
         if not a.reached:
             if not head:
                 return (f"{who}: no spp up to {a.searched_max} meets the target (predicted "
-                        f"RMSE {a.predicted_rmse:.4g} at {a.searched_max} spp)")
+                        f"RMSE {f(a.predicted_rmse)} at {a.searched_max} spp)")
             return (f"{who}: no spp up to {a.searched_max} meets {goal}; predicted RMSE "
-                    f"{a.predicted_rmse:.4g} at {a.searched_max} spp ({self._why_max(a)})")
+                    f"{f(a.predicted_rmse)} at {a.searched_max} spp ({self._why_max(a)})")
         below = ("" if a.below is None else
-                 f", {a.below_rmse:.4g} at {a.below} spp (misses)")
+                 f", {f(a.below_rmse)} at {a.below} spp (misses)")
         if not head:
-            return f"{who}: spp = {a.spp} (predicted RMSE {a.predicted_rmse:.4g}{below})"
-        return (f"{who}: spp = {a.spp} for {goal}; predicted RMSE {a.predicted_rmse:.4g} at "
+            return f"{who}: spp = {a.spp} (predicted RMSE {f(a.predicted_rmse)}{below})"
+        return (f"{who}: spp = {a.spp} for {goal}; predicted RMSE {f(a.predicted_rmse)} at "
                 f"{a.spp} spp{below}")
 
     def table_lines(self) -> list[str]:
@@ -250,6 +262,8 @@ def advise_preset(envmap, opts: PresetAdviseOptions, *, target_rmse: float | Non
     spec = opts.preset.sampler(opts.sampler)
     cap = opts.spp_cap()
     runnable = runnable_spp(spec, cap)
+    if spec.randomisation in NET_RANDOMISATIONS:       # the model's nets: N = 2^m
+        runnable = [n for n in runnable if n & (n - 1) == 0]
     listed = [(n, spec.spp(n)) for n in opts.spp]
     store = AdviseCache(cache_dir, enabled=cache)
     cm = CachedPresetModel(envmap, opts, store, map_key(envmap, "linear"))

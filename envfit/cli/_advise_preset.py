@@ -54,8 +54,9 @@ def add_preset_arguments(p) -> None:
                         "truncations (the fit and its search: slower)")
     g.add_argument("--renderer-level", type=positive_int, default=None, metavar="L",
                    help="the renderer model's finest grid level, M = 2^L cells per side "
-                        "(default 9; the digital nets are resolved to 2^(L-1) spp; each level "
-                        "costs 4x the time and memory)")
+                        "(default 7 for independent and stratified samplers, 9 for the others; "
+                        "the digital nets are resolved to 2^(L-1) spp; each level costs 4x "
+                        "the time and memory)")
     g.add_argument("--renderer-normals", type=positive_int, default=None, metavar="K",
                    help="normals of the renderer model's importance sample (default 48)")
 
@@ -70,8 +71,8 @@ def reject_without_renderer(args: argparse.Namespace) -> None:
 def _options(args: argparse.Namespace):
     """The checked :class:`PresetAdviseOptions` and, with --rules, :class:`AdviseOptions`
     (every conflict a one-line error, before the map is read)."""
-    from envfit.advisor._preset_options import (DEFAULT_LEVEL, DEFAULT_MAX_SPP,
-                                                DEFAULT_NORMALS, PresetAdviseOptions)
+    from envfit.advisor._preset_options import (DEFAULT_MAX_SPP, DEFAULT_NORMALS,
+                                                PresetAdviseOptions)
     for dest, flag in _GENERIC_ROWS.items():
         if getattr(args, dest, None) not in (None, False):
             raise ParameterError(f"{flag} is an option of envfit's generic renderer rows, "
@@ -91,7 +92,7 @@ def _options(args: argparse.Namespace):
     popts = PresetAdviseOptions(
         args.renderer, sampler=args.sampler, strategies=args.strategies, spp=args.spp or (),
         mis_compensation=args.mis_compensation, max_spp=args.nmax or DEFAULT_MAX_SPP,
-        level=args.renderer_level or DEFAULT_LEVEL,
+        level=args.renderer_level,
         normals=args.renderer_normals or DEFAULT_NORMALS)
     rules = None
     if args.rules:

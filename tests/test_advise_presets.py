@@ -1,0 +1,222 @@
+"""Tests of ``envfit advise MAP --renderer NAME`` (envfit.advisor._preset, _preset_search,
+_preset_options; envfit.cli._advise_preset): the answer in the renderer's terms.
+
+Reference values come from a second path: a fresh
+:class:`envfit.predict.renderer._preset_model.PresetModel` built here with the same options
+predicts every runnable spp below the answer (all must miss the target) and the answer (it
+must meet it), and the ``--spp`` table and the JSON predictions must equal its numbers; the
+snippet is loaded by Mitsuba itself. Maps: 16-row synthesized maps (a sun on a GP, a smooth
+GP), the model at 6 normals and grid level 5–6, so the whole file runs in seconds.
+"""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from envfit.data_gen import gaussian_process_map, sun_gp_map
+from envfit.maps import EnvMap, save_envmap
+from envfit.predict.renderer._preset_model import PresetModel, PresetModelOptions
+from envfit.sampling.presets import preset
+
+NORMALS = 6
+MODEL = ["--renderer-normals", str(NORMALS)]
+
+
+def _options(level: int) -> PresetModelOptions:
+    """The model options the CLI builds for ``--renderer-level level`` and NORMALS."""
+    return PresetModelOptions(normals=NORMALS, pool=PresetModelOptions().pool, max_level=level)
+
+
+@pytest.fixture(scope="module")
+def sun_file(tmp_path_factory):
+    env = EnvMap(sun_gp_map(16, seed=2, sun_radiance=30.0, sun_radius=0.25)[0], name="sun16")
+    path = tmp_path_factory.mktemp("maps") / "sun16.exr"
+    save_envmap(path, env)
+    return path
+
+
+@pytest.fixture(scope="module")
+def gp_file(tmp_path_factory):
+    env = EnvMap(gaussian_process_map(1.8, 16, seed=3, channels=3) + 2.0, name="gp16")
+    path = tmp_path_factory.mktemp("maps") / "gp16.exr"
+    save_envmap(path, env)
+    return path
+
+
+def _load(path):
+    from envfit.maps import load_envmap
+    return load_envmap(path)
+
+
+def _run(capsys, args, tmp_path):
+    """``envfit advise`` in-process: (exit code, stdout lines, stderr lines, JSON or None)."""
+    from envfit.cli import main
+    out = tmp_path / "a.json"
+    rc = main(["advise", *map(str, args), "--cache-dir", str(tmp_path / "cache"),
+               "--json", str(out)])
+    cap = capsys.readouterr()
+    d = json.loads(out.read_text()) if rc == 0 and out.exists() else None
+    return rc, cap.out.splitlines(), cap.err.strip().splitlines(), d
+
+
+# ----------------------------------------------------------------------------- the answer
+
+def test_independent_answer_is_the_smallest_spp_meeting_the_target(sun_file, tmp_path, capsys):
+    rc, lines, _, d = _run(capsys, [sun_file, "--renderer", "mitsuba3", "--sampler",
+                                    "independent", "--target-relative", "0.05",
+                                    "--renderer-level", "5", *MODEL], tmp_path)
+    assert rc == 0
+    rec = d["renderer"]["recommendation"]
+    n, target = rec["spp"], rec["target_rmse"]
+    assert lines[0].startswith(f"Mitsuba 3, sampler independent, integrator direct "
+                               f"(emitter_samples=1, bsdf_samples=1): spp = {n} for an RMSE of "
+                               f"at most ")
+    assert "(5 % of the map's mean radiance" in lines[0]
+    assert rec["strategy"] == "mis" and rec["reached"] and n > 4
+    # independently: every spp below the answer misses, the answer meets
+    m = PresetModel(_load(sun_file), preset("mitsuba3"), options=_options(5))
+    preds = m.predict_many([("mis", "independent", k) for k in range(1, n + 1)])
+    assert preds[-1].rmse <= target
+    assert all(p.rmse > target for p in preds[:-1])
+    assert preds[n // 2 - 1].rmse > target                     # half of it misses
+    assert rec["predicted_rmse"] == pytest.approx(preds[-1].rmse, rel=1e-12)
+    # one line per other strategy, in the renderer's order
+    assert lines[1].startswith("  emitter sampling only, direct (emitter_samples=1, "
+                               "bsdf_samples=0): ")
+    assert lines[2].startswith("  BSDF sampling only, direct (emitter_samples=0, "
+                               "bsdf_samples=1): ")
+
+
+def test_ldsampler_answer_runs_a_power_of_four_and_the_one_below_misses(gp_file, tmp_path,
+                                                                        capsys):
+    m = PresetModel(_load(gp_file), preset("mitsuba3"), options=_options(6))
+    p4, p16 = (m.predict("mis", "ldsampler", k).rmse for k in (4, 16))
+    assert p16 < p4
+    target = float(np.sqrt(p4 * p16))                         # between the two
+    rc, lines, _, d = _run(capsys, [gp_file, "--renderer", "mitsuba3", "--sampler",
+                                    "ldsampler", "--target-rmse", repr(target),
+                                    "--renderer-level", "6", *MODEL], tmp_path)
+    assert rc == 0 and d["renderer"]["recommendation"]["spp"] == 16
+    assert ": spp = 16 for an RMSE of at most" in lines[0]
+    assert " at 4 spp (misses)" in lines[0]
+    # a target below every runnable spp's prediction: said, not claimed
+    rc, lines, _, d = _run(capsys, [gp_file, "--renderer", "mitsuba3", "--sampler",
+                                    "ldsampler", "--target-rmse", repr(p16 / 2),
+                                    "--renderer-level", "6", *MODEL], tmp_path)
+    rec = d["renderer"]["recommendation"]
+    assert rc == 0 and rec["spp"] is None and not rec["reached"]
+    assert "no spp up to 16 meets an RMSE of at most" in lines[0]
+    assert "64 spp needs --renderer-level 7" in lines[0]
+    assert rec["predicted_rmse"] == pytest.approx(p16, rel=1e-12)
+    assert rec["predicted_rmse"] > rec["target_rmse"]
+
+
+def test_spp_table_json_and_mis_compensation_equal_the_model(sun_file, tmp_path, capsys):
+    rc, lines, _, d = _run(capsys, [sun_file, "--renderer", "mitsuba3", "--sampler",
+                                    "ldsampler", "--spp", "4,8,16", "--mis-compensation",
+                                    "--renderer-level", "5", *MODEL], tmp_path)
+    assert rc == 0
+    r = d["renderer"]
+    assert r["name"] == "mitsuba3" and r["sampler"] == "ldsampler" and r["mis_compensation"]
+    m = PresetModel(_load(sun_file), preset("mitsuba3"), {"mis_compensation": True},
+                    _options(5))
+    for p in r["predictions"]:
+        assert set(p) == {"strategy", "sampler", "spp", "predicted_rmse"}
+        assert p["strategy"] in ("map", "brdf", "mis") and p["sampler"] == "ldsampler"
+        assert isinstance(p["spp"], int) and isinstance(p["predicted_rmse"], float)
+        assert p["predicted_rmse"] == pytest.approx(
+            m.predict(p["strategy"], "ldsampler", p["spp"]).rmse, rel=1e-12)
+    assert {(p["strategy"], p["spp"]) for p in r["predictions"]} >= {
+        (s, n) for s in ("mis", "map", "brdf") for n in (4, 16)}
+    rec = r["recommendation"]
+    assert {"strategy", "sampler", "spp", "integrator", "settings", "predicted_rmse",
+            "target_rmse"} <= set(rec)
+    assert rec["integrator"] == "direct" and rec["settings"] == {"emitter_samples": 1,
+                                                                "bsdf_samples": 1}
+    head = lines.index(next(ln for ln in lines if ln.startswith("predicted RMSE at the")))
+    rows = lines[head + 2:head + 5]
+    assert [row.split()[0] for row in rows] == ["4", "8->16", "16"]
+    for row in rows:
+        n = int(row.split()[0].split("->")[-1])
+        want = [m.predict(s, "ldsampler", n).rmse for s in r["strategies"]]
+        assert [float(x) for x in row.split()[1:]] == pytest.approx(want, rel=1e-3)
+
+
+def test_snippet_loads_in_mitsuba(gp_file, tmp_path, capsys):
+    mi = pytest.importorskip("mitsuba")
+    rc, lines, _, d = _run(capsys, [gp_file, "--renderer", "mitsuba3", "--sampler",
+                                    "independent", "--target-relative", "0.1", "--snippet",
+                                    "--renderer-level", "4", *MODEL], tmp_path)
+    assert rc == 0
+    start = next(i for i, ln in enumerate(lines) if ln.startswith("scene (Mitsuba 3"))
+    stop = next(i for i, ln in enumerate(lines) if ln.startswith("renderer model:"))
+    code = "\n".join(lines[start + 1:stop])
+    assert code == d["renderer"]["snippet"].rstrip("\n")
+    spp = d["renderer"]["recommendation"]["spp"]
+    assert f'"sample_count": {spp}' in code and str(gp_file) in code
+    scope: dict = {}
+    exec(code, scope)                                          # mi.load_dict
+    scene = scope["scene"]
+    assert isinstance(scene, mi.Scene)
+    assert scene.sensors()[0].sampler().sample_count() == spp
+    assert type(scope["mi"]).__name__ == "module"
+
+
+def test_cached_run_prints_the_same_answer_without_the_model(sun_file, tmp_path, capsys):
+    args = [sun_file, "--renderer", "mitsuba3", "--sampler", "independent",
+            "--target-relative", "0.05", "--renderer-level", "4", *MODEL]
+    rc1, first, _, d1 = _run(capsys, args, tmp_path)
+    rc2, second, _, d2 = _run(capsys, args, tmp_path)
+    assert rc1 == rc2 == 0
+    assert first[:3] == second[:3]
+    assert d1["renderer"]["predictions"] == d2["renderer"]["predictions"]
+    assert d2["renderer"]["model"]["passes"] == 0 and d1["renderer"]["model"]["passes"] >= 1
+    assert "0 pass(es), 0 cell(s) computed" in "\n".join(second)
+    # an edited entry is not used: recomputed with a note
+    entry = next((tmp_path / "cache" / "advise" / "preset").glob("*.json"))
+    doc = json.loads(entry.read_text())
+    key = next(iter(doc["value"]["cells"]))
+    doc["value"]["cells"][key]["rmse"] = 123.0
+    entry.write_text(json.dumps(doc))
+    rc3, third, _, d3 = _run(capsys, args, tmp_path)
+    assert rc3 == 0 and third[:3] == first[:3] and d3["renderer"]["model"]["passes"] >= 1
+    assert any(ln.startswith("note: cache: recomputed") for ln in third)
+
+
+# ----------------------------------------------------------------------------- errors
+
+@pytest.mark.parametrize("argv, words", [
+    (["--renderer", "blender"], "--renderer must be one of"),
+    (["--renderer", "mitsuba3", "--sampler", "zsobol"], "--sampler for mitsuba3"),
+    (["--renderer", "cycles", "--strategies", "map"], "Cycles cannot render strategy 'map'"),
+    (["--renderer", "pbrt4", "--mis-compensation"], "setting of Mitsuba 3's envmap"),
+    (["--renderer", "mitsuba3", "--sampler", "orthogonal"], "no noise model"),
+    (["--renderer", "mitsuba3", "--strategies", "split"], "unknown strategy"),
+    (["--renderer", "mitsuba3", "--brdf", "glossy"], "white diffuse"),
+    (["--renderer", "mitsuba3", "--scale", "log"], "--scale must be linear"),
+    (["--renderer", "mitsuba3", "--no-renderer"], "--no-renderer is an option"),
+    (["--renderer", "mitsuba3", "--sampler", "ldsampler", "--spp", "1000"], "beyond the 256"),
+    (["--sampler", "ldsampler"], "--sampler needs --renderer"),
+    (["--spp", "16"], "--spp needs --renderer"),
+    (["--snippet"], "--snippet needs --renderer"),
+])
+def test_bad_combinations_are_one_line_before_the_map_is_read(argv, words, tmp_path, capsys):
+    from envfit.cli import main
+    rc = main(["advise", str(tmp_path / "absent.exr"), "--no-cache", *argv])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and err[0].startswith("envfit advise: error:")
+    assert words in err[0] and "absent.exr" not in err[0]
+
+
+def test_without_renderer_the_output_is_todays(sun_file, tmp_path, capsys):
+    """No --renderer: today's pipeline (notes, then the map header; no renderer
+    answer, the JSON's renderer section is absent)."""
+    rc, lines, _, d = _run(capsys, [sun_file, "--target-rmse", "0.5", "--fit-n", "100",
+                                    "--pointsets", "sf", "--weights", "equal", "--bases",
+                                    "sh", "--no-renderer"], tmp_path)
+    body = [ln for ln in lines if not ln.startswith("note: ")]
+    assert rc == 0 and body[0].startswith("map sun16.exr: 32x16")
+    assert not any("sampler" in ln or "spp" in ln for ln in lines)
+    assert d["renderer"] is None and "rows" in d
