@@ -26,6 +26,9 @@ of the map (π/H rad each), times ``nodes_per_pixel``; then n doubles until two 
 values agree to ``rtol`` (relative to the largest channel) or n reaches ``max_nodes``
 (``converged`` False). Between kinks of the bilinear interpolant the rule converges
 geometrically; across them as O(n⁻²), so the doubling test over-estimates the error by ~3×.
+On a 1024×512 HDR map a GGX lobe's long tail crosses hundreds of pixel kinks: at α = 0.05
+the default ``max_nodes`` = 1024 stops at a relative change of ~2e-4, at α = 0.3 ~3e-3
+(Beckmann, with no tail, converges at n ≈ 140) — read ``converged`` and ``change``.
 """
 from __future__ import annotations
 
