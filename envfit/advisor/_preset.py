@@ -166,8 +166,11 @@ class PresetAdvice:
                  f", {f(a.below_rmse)} at {a.below} spp (misses)")
         if not head:
             return f"{who}: spp = {a.spp} (predicted RMSE {f(a.predicted_rmse)}{below})"
+        spec = p.sampler(o.sampler)
+        pow2 = ("; spp searched at powers of two (the model predicts this sampler's nets "
+                "there)" if spec.randomisation in NET_RANDOMISATIONS and spec.spp(3) == 3 else "")
         return (f"{who}: spp = {a.spp} for {goal}; predicted RMSE {f(a.predicted_rmse)} at "
-                f"{a.spp} spp{below}")
+                f"{a.spp} spp{below}{pow2}")
 
     def table_lines(self) -> list[str]:
         """The ``--spp`` table: the predicted RMSE per strategy at each listed spp."""
