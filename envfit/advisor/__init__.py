@@ -26,6 +26,11 @@ Modules:
   parameters grouped by role and checked in one place, and their defaults.
 * :mod:`~envfit.advisor._prediction` — The advisor's prediction of one rule's RMS shading
   error on a map, from map-independent terms.
+* :mod:`~envfit.advisor._preset` — Advice in a renderer's own terms (``--renderer``): the
+  spp its sampler must run for the target, with its integrator's settings and scene text
+  (:func:`advise_preset`, :class:`PresetAdvice`); its options in
+  :mod:`~envfit.advisor._preset_options` (:class:`PresetAdviseOptions`) and its cached
+  search in :mod:`~envfit.advisor._preset_search`.
 * :mod:`~envfit.advisor._renderer` — The advisor's renderer rows: how many samples per
   shading point for BRDF sampling, map importance sampling, MIS and the source split, with a
   given point set, for the target error.
@@ -47,6 +52,8 @@ from envfit.base._lazy import lazy_exports
 
 _LAZY = {
     "advise_with": "_advise",
+    "advise_preset": "_preset", "PresetAdvice": "_preset",
+    "PresetAdviseOptions": "_preset_options",
     "AdviseOptions": "_options",
     "Advice": "_result",
 }
