@@ -178,7 +178,7 @@ class PresetAdvice:
             return []
         strategies = self.options.strategies
         out = [f"predicted RMSE at the listed spp (sampler {self.options.sampler}; target "
-               f"{self.target_rmse:.3g}):",
+               f"{self._f(self.target_rmse)}):",
                "  " + f"{'spp':>10s}" + "".join(f" {s:>10s}" for s in strategies)]
         for req, n in self.listed:
             lab = str(n) if req == n else f"{req}->{n}"
@@ -272,8 +272,7 @@ def advise_preset(envmap, opts: PresetAdviseOptions, *, target_rmse: float | Non
     cm = CachedPresetModel(envmap, opts, store, map_key(envmap, "linear"))
     answers = search_spp(cm, opts.strategies, runnable, target, [n for _, n in listed],
                          independent=spec.randomisation == "independent")
-    cells = {(s, n): cm.rmse(s, n) for s in opts.strategies for n in runnable
-             if cm.has(s, n)}
+    cells = {(s, n): cm.rmse(s, n) for s in opts.strategies for n in cm.asked_spp(s)}
     adv = PresetAdvice(opts, target, rel, mean, answers, listed, cells, cap, notes=store.notes)
     if snippet:
         a = adv.default

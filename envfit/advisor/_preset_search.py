@@ -96,6 +96,11 @@ class CachedPresetModel:
         """Whether this run asked for the cell (so that a cached run takes the same path)."""
         return self._name(strategy, n) in self.asked
 
+    def asked_spp(self, strategy: str) -> list[int]:
+        """The spp of ``strategy`` this run asked for, ascending."""
+        return sorted(int(k.partition(":")[2]) for k in self.asked
+                      if k.partition(":")[0] == strategy)
+
     def predict(self, cells) -> None:
         """Make sure every (strategy, spp rendered) of ``cells`` is predicted: one model pass
         for the missing ones, then the cache entry rewritten."""
@@ -172,7 +177,8 @@ class StrategyAnswer:
 def _bracket(cm: CachedPresetModel, strategy: str, runnable: list[int], target: float):
     """(last evaluated runnable spp that misses below the first that meets, the first that
     meets) — None for the latter when none evaluated meets."""
-    known = [n for n in runnable if cm.has(strategy, n)]
+    allowed = set(runnable)
+    known = [n for n in cm.asked_spp(strategy) if n in allowed]
     meet = next((n for n in known if cm.rmse(strategy, n) <= target), None)
     if meet is None:
         return None, None
@@ -214,7 +220,7 @@ def search_spp(cm: CachedPresetModel, strategies, runnable: list[int], target: f
     out = {}
     for s in strategies:
         lo, hi = _bracket(cm, s, runnable, target)
-        ev = [n for n in runnable if cm.has(s, n)]
+        ev = cm.asked_spp(s)
         if hi is None:
             out[s] = StrategyAnswer(s, None, cm.rmse(s, runnable[-1]), runnable[-1],
                                     evaluated=ev)
