@@ -159,7 +159,8 @@ class PresetAdvice:
         if not a.reached:
             if not head:
                 return (f"{who}: no spp up to {a.searched_max} meets the target (predicted "
-                        f"RMSE {f(a.predicted_rmse)} at {a.searched_max} spp)")
+                        f"RMSE {f(a.predicted_rmse)} at {a.searched_max} spp; "
+                        f"{self._why_max(a)})")
             return (f"{who}: no spp up to {a.searched_max} meets {goal}; predicted RMSE "
                     f"{f(a.predicted_rmse)} at {a.searched_max} spp ({self._why_max(a)})")
         below = ("" if a.below is None else
