@@ -27,7 +27,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from render_check import SYNTH, _cpu, load_map, map_as_seen  # noqa: E402
 
-from envfit.base._atomic import atomic_write_csv, atomic_write_json  # noqa: E402
+from envfit.base._atomic import atomic_write_csv, atomic_write_json  # noqa: E402  # internal: the atomic writers of the product's outputs
 
 COLUMNS = ["map", "sampler", "strategy", "spp", "spp_used", "measured_rmse", "low", "high",
            "preset", "preset_ratio", "preset_inside", "generic", "generic_ratio",
@@ -41,7 +41,7 @@ def inside(pred: float, r: dict) -> bool:
 
 def models(renderer: str, env, opts):
     """The preset models of one map (plain and, for Mitsuba 3, with mis_compensation)."""
-    from envfit.predict.renderer._preset_model import PresetModel
+    from envfit.predict.renderer import PresetModel
     from envfit.sampling.presets import preset
     from envfit.maps import EnvMap
     p = preset(renderer)
@@ -98,7 +98,7 @@ def summarise(rows: list) -> None:
 
 
 def main(argv=None) -> int:
-    from envfit.predict.renderer._preset_model import PresetModelOptions
+    from envfit.predict.renderer import PresetModelOptions
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("inputs", nargs="+", help="render_check_<renderer>.json files")
     ap.add_argument("--maps", nargs="*", default=[],

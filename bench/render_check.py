@@ -32,8 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
-from envfit.base._atomic import atomic_write_csv, atomic_write_json
-from envfit.base._progress import progress_bar
+from envfit.base._atomic import atomic_write_csv, atomic_write_json  # internal: the atomic writers of the product's outputs
+from envfit.base._progress import progress_bar  # internal: the product's progress bar
 from envfit.maps import EnvMap, convention, load_envmap
 
 #: the synthesized maps: (name, sun_gp_map keywords), as bench/renderer_acceptance.py
@@ -65,7 +65,7 @@ def _cpu() -> str:
 def load_map(spec: str, synth_height: int) -> tuple[str, EnvMap]:
     """A map by path or by the name of a synthesized map of :data:`SYNTH`."""
     if spec in SYNTH:
-        from envfit.data_gen._sun_gp import sun_gp_map
+        from envfit.data_gen import sun_gp_map
         kw = SYNTH[spec]
         arr, _ = sun_gp_map(synth_height, **kw)
         if arr.min() < 0:           # lift the GP background above 0 (as envfit synth does)
@@ -100,7 +100,7 @@ class Predictor:
         """The renderer preset's noise model (envfit.predict.renderer._preset_model) of the
         map, plain or with Mitsuba's mis_compensation, built once."""
         if compensation not in self._presets:
-            from envfit.predict.renderer._preset_model import PresetModel, PresetModelOptions
+            from envfit.predict.renderer import PresetModel, PresetModelOptions
             from envfit.sampling.presets import preset
             env = EnvMap(self.file_env.data, up="y", name=self.file_env.name)
             self._presets[compensation] = PresetModel(

@@ -29,6 +29,8 @@ _LAZY = {
     "strip_tail": "_spectral_tail",
     "shifted_rmse": "_warped_spectrum", "WarpedSpectrum": "_warped_spectrum",
     "SpectrumInputs": "_warped_spectrum", "warped_integrand": "_warped_spectrum",
+    "PresetModel": "_preset_model", "PresetModelOptions": "_preset_model",
+    "PresetPrediction": "_preset_model",
 }
 
 __all__ = sorted(_LAZY)
