@@ -12,7 +12,7 @@ import numpy as np
 
 from envfit.base._errors import ParameterError
 
-__all__ = ["check_names", "check_int", "check_ints", "check_positive"]
+__all__ = ["as_square_points", "check_names", "check_int", "check_ints", "check_positive"]
 
 
 def check_names(values: str | Iterable, allowed: Sequence[str], what: str) -> list[str]:
@@ -80,6 +80,25 @@ def check_s(s) -> float:
         return check_smoothness(s)
     except TheoryParameterError as exc:
         raise ParameterError(str(exc)) from None
+
+
+def as_square_points(u, *, name: str = "u") -> np.ndarray:
+    """Square points (..., 2) as a float64 (K, 2) array in [0, 1]²; :class:`ParameterError`
+    for a wrong shape or a point that is not finite or lies outside the closed square.
+
+    >>> as_square_points([0.25, 1.0]).tolist()
+    [[0.25, 1.0]]
+    """
+    try:
+        a = np.asarray(u, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{name} must be an array of points in [0, 1]^2") from None
+    if a.ndim < 1 or a.shape[-1] != 2:
+        raise ParameterError(f"{name} must have shape (..., 2), got {a.shape}")
+    a = a.reshape(-1, 2)
+    if not np.all(np.isfinite(a)) or a.size and (a.min() < 0.0 or a.max() > 1.0):
+        raise ParameterError(f"{name} must be finite points in [0, 1]^2")
+    return a
 
 
 def as_unit_vectors(points, *, name: str = "points", allow_empty: bool = False) -> np.ndarray:

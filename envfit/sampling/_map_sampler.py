@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from envfit.base._checks import as_square_points
 from envfit.base._errors import ParameterError
 from envfit.maps import _latlong as latlong
 from envfit.maps._envmap import EnvMap
@@ -39,15 +40,7 @@ DEFAULT_FLOOR = 0.01
 
 def _square(u, name: str = "u") -> np.ndarray:
     """Square points (..., 2) as a float64 (N, 2) array in [0, 1) (1 is moved just below 1)."""
-    try:
-        a = np.asarray(u, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{name} must be an array of points in [0, 1)^2") from None
-    if a.ndim < 1 or a.shape[-1] != 2:
-        raise ParameterError(f"{name} must have shape (..., 2), got {a.shape}")
-    a = a.reshape(-1, 2)
-    if not np.all(np.isfinite(a)) or a.size and (a.min() < 0.0 or a.max() > 1.0):
-        raise ParameterError(f"{name} must be finite points in [0, 1]^2")
+    a = as_square_points(u, name=name)
     return np.minimum(a, np.nextafter(1.0, 0.0))
 
 

@@ -25,6 +25,7 @@ from typing import Callable, Mapping
 import numpy as np
 
 from envfit.base import ParameterError
+from envfit.base._checks import as_square_points, as_unit_vectors
 
 __all__ = ["RANDOMISATIONS", "PAIRINGS", "STRATEGY_NAMES", "DirectionSample",
            "EnvmapTechnique", "SamplerSpec", "StrategySetting", "RendererPreset",
@@ -64,33 +65,15 @@ class DirectionSample:
 
 
 def square_points(u, name: str = "u") -> np.ndarray:
-    """Square points (..., 2) as a float64 (K, 2) array in [0, 1]²; ParameterError otherwise."""
-    try:
-        a = np.asarray(u, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{name} must be an array of points in [0, 1]^2") from None
-    if a.ndim < 1 or a.shape[-1] != 2:
-        raise ParameterError(f"{name} must have shape (..., 2), got {a.shape}")
-    a = a.reshape(-1, 2)
-    if not np.all(np.isfinite(a)) or a.size and (a.min() < 0.0 or a.max() > 1.0):
-        raise ParameterError(f"{name} must be finite points in [0, 1]^2")
-    return a
+    """Square points (..., 2) as a float64 (K, 2) array in [0, 1]²; ParameterError otherwise
+    (:func:`envfit.base._checks.as_square_points`)."""
+    return as_square_points(u, name=name)
 
 
 def unit_directions(dirs, name: str = "directions") -> np.ndarray:
     """Directions (..., 3) as float64 (K, 3) unit vectors; ParameterError for zero or
-    non-finite vectors or a wrong shape."""
-    try:
-        d = np.asarray(dirs, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{name} must be an array of 3-vectors") from None
-    if d.ndim < 1 or d.shape[-1] != 3:
-        raise ParameterError(f"{name} must have shape (..., 3), got {d.shape}")
-    d = d.reshape(-1, 3)
-    n = np.linalg.norm(d, axis=1)
-    if not (np.all(np.isfinite(n)) and np.all(n > 0)):
-        raise ParameterError(f"{name} must be finite nonzero vectors")
-    return d / n[:, None]
+    non-finite vectors or a wrong shape (:func:`envfit.base._checks.as_unit_vectors`)."""
+    return as_unit_vectors(dirs, name=name)
 
 
 def map_rgb(envmap) -> np.ndarray:
