@@ -169,7 +169,7 @@ def test_check_writable_dir_reports_a_refusing_folder(tmp_path, monkeypatch):
     # what a read-only mount answers (os.access would say yes for root)
     def refuse(*a, **k):
         raise OSError(errno.EROFS, os.strerror(errno.EROFS))
-    monkeypatch.setattr(atomic.tempfile, "mkstemp", refuse)
+    monkeypatch.setattr(atomic.os, "open", refuse)
     with pytest.raises(OutputError) as e:
         atomic.check_writable_dir(tmp_path, "--out")
     assert str(e.value) == f"cannot write --out {tmp_path}: Read-only file system"
@@ -437,3 +437,29 @@ def test_disk_full_mid_run_keeps_every_cell_and_names_the_file(tmp_path, monkeyp
     assert [r["rmse"] for r in got["rows"]] == [r["rmse"] for r in ref["rows"]]
     assert got["unwritten"] and not ref["unwritten"]
     assert not (out / "cells" / "s1.5000_n100.json").exists()
+
+
+@pytest.mark.parametrize("where", ["open", "fsync", "replace"])
+def test_atomic_write_interrupted_at_each_step_leaves_no_temporary(tmp_path, monkeypatch, where):
+    """A SIGTERM (turned into an exception) or Ctrl-C right after each system call of the
+    write: the old file stays and no ``.r.json.*.tmp`` is left (an interrupted sweep once
+    left one when the signal came the instant after ``tempfile.mkstemp`` created it)."""
+    p = tmp_path / "r.json"
+    atomic.atomic_write_json(p, {"old": 1})
+    owner = atomic if where == "open" else atomic.os
+    real = open if where == "open" else getattr(atomic.os, where)
+    opened = []
+
+    def then_interrupted(*a, **k):
+        opened.append(real(*a, **k))
+        raise KeyboardInterrupt
+    monkeypatch.setattr(owner, where, then_interrupted, raising=False)
+    with pytest.raises(KeyboardInterrupt):
+        atomic.atomic_write_json(p, {"new": 2})
+    monkeypatch.undo()
+    for fh in opened:
+        if hasattr(fh, "close"):
+            fh.close()
+    assert [q.name for q in tmp_path.iterdir()] == ["r.json"]
+    expected = {"new": 2} if where == "replace" else {"old": 1}
+    assert json.loads(p.read_text()) == expected

@@ -30,12 +30,13 @@ True
 from __future__ import annotations
 
 import csv
+import errno
 import io
 import json
 import math
 import os
+import secrets
 import stat
-import tempfile
 from pathlib import Path
 from typing import Any, Iterable, Mapping, Sequence
 
@@ -54,30 +55,43 @@ def current_umask() -> int:
     return mask
 
 
+def _unlink_quietly(tmp: Path) -> None:
+    try:
+        os.unlink(tmp)
+    except OSError:
+        pass
+
+
+def _write_new(tmp: Path, data: bytes) -> None:
+    """Create ``tmp`` (mode ``"xb"``: ``O_EXCL``, FileExistsError if the name is taken; the
+    usual permissions 0666 less the umask) and write ``data`` durably."""
+    with open(tmp, "xb") as fh:
+        fh.write(data)
+        fh.flush()
+        os.fsync(fh.fileno())
+
+
 def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> Path:
-    """Write ``data`` to ``path`` through a temporary file in the same folder + ``os.replace``."""
+    """Write ``data`` to ``path`` through a temporary file in the same folder + ``os.replace``.
+
+    On any exception — disk full, EIO, the folder removed, Ctrl-C, SIGTERM at any bytecode
+    — the old ``path`` is untouched and no temporary ``.<name>.<random>.tmp`` is left. The
+    temporary's name is bound *before* the file exists (``tempfile.mkstemp`` binds it only
+    on return: a SIGTERM in that window left one behind in an interrupted sweep)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
+    for _ in range(100):
+        tmp = path.parent / f".{path.name}.{secrets.token_hex(6)}.tmp"
         try:
-            fh = os.fdopen(fd, "wb")
+            _write_new(tmp, data)
+            os.replace(tmp, path)
+            return path
+        except FileExistsError:         # the 48-bit name is taken: nothing created, draw again
+            continue
         except BaseException:
-            os.close(fd)
+            _unlink_quietly(tmp)
             raise
-        with fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.chmod(tmp, 0o666 & ~current_umask())  # mkstemp creates 0600; give the usual permissions
-        os.replace(tmp, path)
-    except BaseException:  # disk full, EIO, folder removed, Ctrl-C: leave no temporary behind
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
-    return path
+    raise FileExistsError(errno.EEXIST, f"no free temporary name beside {path}")
 
 
 # ------------------------------------------------------------------ preflight of outputs
@@ -89,11 +103,18 @@ def os_reason(exc: BaseException) -> str:
 
 def _probe(folder: Path) -> None:
     """Create and remove a temporary file in ``folder`` (raises ``OSError`` if it cannot)."""
-    fd, tmp = tempfile.mkstemp(prefix=".envfit-write-check.", suffix=".tmp", dir=folder)
-    try:
-        os.close(fd)
-    finally:
+    for _ in range(100):
+        tmp = folder / f".envfit-write-check.{secrets.token_hex(6)}.tmp"  # bound before it exists
+        try:
+            os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
+        except FileExistsError:
+            continue
+        except BaseException:
+            _unlink_quietly(tmp)
+            raise
         os.unlink(tmp)
+        return
+    raise FileExistsError(errno.EEXIST, f"no free temporary name in {folder}")
 
 
 def _label(what: str, path) -> str:
