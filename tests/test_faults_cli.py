@@ -463,3 +463,43 @@ def test_atomic_write_interrupted_at_each_step_leaves_no_temporary(tmp_path, mon
     assert [q.name for q in tmp_path.iterdir()] == ["r.json"]
     expected = {"new": 2} if where == "replace" else {"old": 1}
     assert json.loads(p.read_text()) == expected
+
+
+def test_save_envmap_interrupted_after_the_write_leaves_no_temporary(tmp_path, monkeypatch):
+    """``save_envmap`` writes through OpenImageIO to a temporary named before it exists: a
+    Ctrl-C after the image is written and before the move leaves the old file and nothing
+    else (the name was bound only on ``mkstemp``'s return before)."""
+    from envfit.maps import _io
+    from envfit.maps import load_envmap, save_envmap
+    p = tmp_path / "m.exr"
+    save_envmap(p, np.ones((4, 8, 3)))
+    real = _io._write_image
+
+    def written_then_interrupted(*a, **k):
+        real(*a, **k)
+        raise KeyboardInterrupt
+    monkeypatch.setattr(_io, "_write_image", written_then_interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        save_envmap(p, np.full((4, 8, 3), 2.0))
+    monkeypatch.undo()
+    assert [q.name for q in tmp_path.iterdir()] == ["m.exr"]
+    assert float(load_envmap(p).data.max()) == 1.0
+
+
+def test_cache_probe_interrupted_leaves_no_temporary(tmp_path, monkeypatch):
+    """The advisor cache's write check, interrupted between creating its probe file and
+    removing it, removes the probe anyway."""
+    from envfit.advisor._cache import cache_write_problem
+    real = atomic.os.unlink
+    calls = []
+
+    def interrupted_once(path, *a, **k):
+        calls.append(path)
+        if len(calls) == 1:
+            raise KeyboardInterrupt
+        return real(path, *a, **k)
+    monkeypatch.setattr(atomic.os, "unlink", interrupted_once)
+    with pytest.raises(KeyboardInterrupt):
+        cache_write_problem(tmp_path)
+    monkeypatch.undo()
+    assert len(calls) == 2 and list((tmp_path / "advise").iterdir()) == []

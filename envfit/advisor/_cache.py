@@ -56,7 +56,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from envfit.base._atomic import atomic_write_json, to_jsonable
+from envfit.base._atomic import atomic_write_json, probe_writable, to_jsonable
 from envfit.base._notes import Note, NoteKind
 from envfit.base._store import (canonical_sha256, json_type as _what, move_aside,
                                 number_problem as _bad_real, read_json_file)
@@ -99,9 +99,7 @@ def cache_write_problem(folder: str | os.PathLike | None = None) -> str | None:
     base = (Path(folder) if folder is not None else default_cache_dir()) / "advise"
     try:
         base.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=".envfit-write-check.", suffix=".tmp", dir=base)
-        os.close(fd)
-        os.unlink(tmp)
+        probe_writable(base)
     except OSError as exc:
         reason = " ".join(str(exc.strerror or exc).split())
         return (f"the advisor cache {base} is not writable ({reason}); advise works without it "

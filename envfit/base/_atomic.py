@@ -38,13 +38,13 @@ import os
 import secrets
 import stat
 from pathlib import Path
-from typing import Any, Iterable, Mapping, Sequence
+from typing import Any, Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 
 from envfit.base._errors import OutputError
 
-__all__ = ["atomic_write_bytes", "atomic_write_text", "atomic_write_json", "atomic_write_csv",
+__all__ = ["replace_via_temporary", "probe_writable", "atomic_write_bytes", "atomic_write_text", "atomic_write_json", "atomic_write_csv",
            "to_jsonable", "check_writable_dir", "check_writable_file", "os_reason"]
 
 
@@ -71,19 +71,23 @@ def _write_new(tmp: Path, data: bytes) -> None:
         os.fsync(fh.fileno())
 
 
-def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> Path:
-    """Write ``data`` to ``path`` through a temporary file in the same folder + ``os.replace``.
+def replace_via_temporary(path: str | os.PathLike, write: Callable[[Path], None],
+                          suffix: str = ".tmp") -> Path:
+    """Make ``path`` by ``write(tmp)`` on a temporary beside it, then ``os.replace``.
 
-    On any exception — disk full, EIO, the folder removed, Ctrl-C, SIGTERM at any bytecode
-    — the old ``path`` is untouched and no temporary ``.<name>.<random>.tmp`` is left. The
-    temporary's name is bound *before* the file exists (``tempfile.mkstemp`` binds it only
-    on return: a SIGTERM in that window left one behind in an interrupted sweep)."""
+    ``tmp`` is ``.<name>.<random>{suffix}`` in the same folder (``suffix`` lets a writer that
+    picks its format by extension, such as OpenImageIO, see the right one); ``write`` must
+    create it (mode ``"xb"`` or its own writer) and may raise ``FileExistsError`` for a taken
+    name, which draws another. On any exception — disk full, EIO, the folder removed, Ctrl-C,
+    SIGTERM at any bytecode — the old ``path`` is untouched and no temporary is left: the
+    name is bound *before* the file exists (``tempfile.mkstemp`` binds it only on return, and
+    a SIGTERM in that window left one behind in an interrupted sweep)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     for _ in range(100):
-        tmp = path.parent / f".{path.name}.{secrets.token_hex(6)}.tmp"
+        tmp = path.parent / f".{path.name}.{secrets.token_hex(6)}{suffix}"
         try:
-            _write_new(tmp, data)
+            write(tmp)
             os.replace(tmp, path)
             return path
         except FileExistsError:         # the 48-bit name is taken: nothing created, draw again
@@ -94,6 +98,12 @@ def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> Path:
     raise FileExistsError(errno.EEXIST, f"no free temporary name beside {path}")
 
 
+def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> Path:
+    """Write ``data`` to ``path`` through a temporary file in the same folder + ``os.replace``
+    (:func:`replace_via_temporary`): ``path`` is the old file or the complete new one."""
+    return replace_via_temporary(path, lambda tmp: _write_new(tmp, data))
+
+
 # ------------------------------------------------------------------ preflight of outputs
 def os_reason(exc: BaseException) -> str:
     """The one-line reason of an ``OSError`` ("No space left on device"), else ``str(exc)``."""
@@ -101,19 +111,21 @@ def os_reason(exc: BaseException) -> str:
     return " ".join(str(reason).split())
 
 
-def _probe(folder: Path) -> None:
-    """Create and remove a temporary file in ``folder`` (raises ``OSError`` if it cannot)."""
+def probe_writable(folder: str | os.PathLike) -> None:
+    """Create and remove a temporary file in ``folder`` (raises ``OSError`` if it cannot);
+    the name is bound before the file exists, so an interruption leaves nothing behind."""
+    folder = Path(folder)
     for _ in range(100):
-        tmp = folder / f".envfit-write-check.{secrets.token_hex(6)}.tmp"  # bound before it exists
+        tmp = folder / f".envfit-write-check.{secrets.token_hex(6)}.tmp"
         try:
             os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
+            os.unlink(tmp)
+            return
         except FileExistsError:
             continue
         except BaseException:
             _unlink_quietly(tmp)
             raise
-        os.unlink(tmp)
-        return
     raise FileExistsError(errno.EEXIST, f"no free temporary name in {folder}")
 
 
@@ -165,7 +177,7 @@ def check_writable_dir(path: str | os.PathLike, what: str = "--out") -> Path:
         if st is None:
             _existing_ancestor(path.parent, what, path)
             path.mkdir(parents=True, exist_ok=True)
-        _probe(path)
+        probe_writable(path)
     except OSError as exc:
         raise OutputError(f"cannot write {_label(what, path)}: {os_reason(exc)}") from None
     return path
@@ -191,7 +203,7 @@ def check_writable_file(path: str | os.PathLike, what: str = "--json") -> Path |
                               "would replace it; use '-' for stdout)")
     folder = _existing_ancestor(path.parent, what, path)
     try:
-        _probe(folder)
+        probe_writable(folder)
     except OSError as exc:
         raise OutputError(f"cannot write {_label(what, path)}: {os_reason(exc)}") from None
     return path

@@ -57,12 +57,11 @@ Example
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from envfit.base._atomic import current_umask
+from envfit.base._atomic import replace_via_temporary
 from envfit.base._errors import EnvMapFileError, NonFiniteError, ParameterError
 from envfit.maps import _latlong as latlong
 from envfit.maps._conventions import lat_long_convention
@@ -260,19 +259,8 @@ def save_envmap(path, envmap_or_array, *, half: bool = False, up: str | None = N
         raise ParameterError(f"{p}: cannot save as {ext or 'a file without extension'!r}; use "
                              f"one of {', '.join(FLOAT_EXTENSIONS + PREVIEW_EXTENSIONS)}")
     fmt, pixels = _encoded(data, ext, half, p)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{p.stem}.", suffix=p.suffix, dir=p.parent)
-    os.close(fd)
-    try:
-        _write_image(tmp, p, pixels, fmt, up)
-        os.chmod(tmp, 0o666 & ~current_umask())   # mkstemp makes 0600; the usual permissions
-        os.replace(tmp, p)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
+    replace_via_temporary(p, lambda tmp: _write_image(str(tmp), p, pixels, fmt, up),
+                          suffix=p.suffix)
     return p
 
 

@@ -27,8 +27,6 @@ from __future__ import annotations
 import hashlib
 import io
 import json
-import os
-import tempfile
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -36,6 +34,7 @@ from typing import Callable
 
 import numpy as np
 
+from envfit.base._atomic import atomic_write_bytes
 from envfit.base._errors import OutputError
 
 __all__ = ["ReferencePair", "map_digest", "cached_reference"]
@@ -93,11 +92,7 @@ def _store(path: Path, key_json: str, a, b, seconds: float) -> None:
     np.savez(buf, a=a32, b=b32, key=np.array(key_json), seconds=np.array(float(seconds)),
              digest=np.array(_arrays_digest(a32, b32)))
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".npz", dir=path.parent)
-        with os.fdopen(fd, "wb") as f:
-            f.write(buf.getvalue())
-        os.replace(tmp, path)
+        atomic_write_bytes(path, buf.getvalue())
     except OSError as exc:
         raise OutputError(f"cannot write the reference cache {path}: {exc.strerror or exc}") \
             from None
