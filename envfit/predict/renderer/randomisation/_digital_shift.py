@@ -37,7 +37,6 @@ import numpy as np
 
 from ._grid import DyadicGrid, RandomisedMSE, make_result
 from ._nets import get_net, net_exponent
-from ._walsh import walsh_coefficients
 
 __all__ = ["digital_shift_mse", "dual_sum", "shell_share"]
 
@@ -65,7 +64,7 @@ def shell_share(coeffs: np.ndarray, mask: np.ndarray, n: int) -> np.ndarray:
 def digital_shift_mse(grid: DyadicGrid, n: int, *, net: str = "sobol") -> RandomisedMSE:
     """The MSE of the first ``n`` points of ``net`` under a uniform random digital shift."""
     m = net_exponent(n, grid.size)
-    coeffs = walsh_coefficients(grid.centred()[0])
+    coeffs = grid.walsh
     mask = get_net(net).dual_mask(m, grid.size)
     resolved = dual_sum(coeffs, coeffs, mask)
     share = shell_share(coeffs, mask, n)

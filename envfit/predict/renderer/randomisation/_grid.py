@@ -30,10 +30,13 @@ needs a finer level or more nodes.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
 from envfit.base import ParameterError
+
+from ._walsh import walsh_coefficients
 
 __all__ = ["DyadicGrid", "RandomisedMSE"]
 
@@ -216,6 +219,13 @@ class DyadicGrid:
         c = _as_channels(cross_mean, "cross_mean")
         return DyadicGrid.from_arrays(self.mean + other.mean,
                                       self.mean_sq + other.mean_sq + 2.0 * c)
+
+    @cached_property
+    def walsh(self) -> np.ndarray:
+        r""":math:`\hat h(k)` for :math:`k_1, k_2 < M` of the centred cell means, (C, M, M)
+        (:func:`._walsh.walsh_coefficients`; computed once per grid, read by every net's
+        prediction at this level)."""
+        return walsh_coefficients(self.centred()[0])
 
     def centred(self) -> tuple[np.ndarray, np.ndarray]:
         r"""(A − ∫h, B − 2A∫h + (∫h)²): the cell means of h − ∫h and of its square (the

@@ -34,7 +34,6 @@ from ._digital_shift import dual_sum
 from ._grid import DyadicGrid, RandomisedMSE
 from ._nets import get_net, net_exponent
 from ._registry import randomised_mse
-from ._walsh import walsh_coefficients
 
 __all__ = ["MisMSE", "mis_mse"]
 
@@ -74,8 +73,7 @@ def mis_mse(name: str, first: DyadicGrid, second: DyadicGrid, n: int, *, shared:
     if name == "digital_shift":
         m = net_exponent(n, first.size)
         mask = get_net(options.get("net", "sobol")).dual_mask(m, first.size)
-        below = dual_sum(walsh_coefficients(first.centred()[0]),
-                         walsh_coefficients(second.centred()[0]), mask)
+        below = dual_sum(first.walsh, second.walsh, mask)
         cross = below + (both.above - one.above - two.above) / 2.0
     else:
         cross = (both.mse - one.mse - two.mse) / 2.0

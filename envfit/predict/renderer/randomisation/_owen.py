@@ -30,7 +30,7 @@ import numpy as np
 
 from ._grid import DyadicGrid, RandomisedMSE, make_result
 from ._nets import get_net, net_exponent
-from ._walsh import block_edges, block_sums, walsh_coefficients
+from ._walsh import block_edges, block_sums
 
 __all__ = ["owen_gains", "owen_mse"]
 
@@ -58,7 +58,7 @@ def _above_gain(net: str, m: int) -> tuple[float, bool]:
 def owen_mse(grid: DyadicGrid, n: int, *, net: str = "sobol") -> RandomisedMSE:
     """The variance of the first ``n`` points of ``net`` under nested uniform scrambling."""
     m = net_exponent(n, grid.size)
-    coeffs = walsh_coefficients(grid.centred()[0])
+    coeffs = grid.walsh
     sigma2 = block_sums(coeffs ** 2)
     gains = owen_gains(net, m, grid.size)
     resolved = np.einsum("ij,cij->c", gains, sigma2)
