@@ -423,3 +423,17 @@ def test_real_report_is_its_verdicts(quick_result):
     assert {v.section for v in verdicts} == {"acceptance", "disagreements"}
     assert quick_result["verdicts"] == [v.to_json() for v in verdicts]
     assert json.loads(json.dumps(to_jsonable(quick_result["verdicts"]))) == quick_result["verdicts"]
+
+
+def test_real_report_names_public_functions_only(quick_result, tmp_path):
+    """Every function report.md cites is one a user can import: no private module
+    (``envfit.x._y``) is named (the report once cited two that the house made private)."""
+    import importlib
+    import re
+    md = write_report(quick_result, tmp_path / "report.md").read_text()
+    cited = set(re.findall(r"`(envfit(?:\.\w+)+)`", md))
+    assert cited, "the report cites no envfit name"
+    for name in sorted(cited):
+        assert not re.search(r"\._", name), f"report.md cites the private {name}"
+        mod, _, attr = name.rpartition(".")
+        assert hasattr(importlib.import_module(mod), attr), name

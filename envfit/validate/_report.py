@@ -113,7 +113,7 @@ def _what_was_run(r: dict) -> list[str]:
            f"- **Map**: `{r['map']}`, {size[0]}x{size[1]}, {r.get('channels', '?')} channel(s); "
            f"value scale **{r['scale']}** ({r.get('scale_description', '')}). The integrand is "
            "the bilinear interpolant of the scaled pixels; the ground truth is its exact "
-           "shading integral (`envfit.shading._ground_truth`, SH of the bilinear interpolant)."]
+           "shading integral (`envfit.shading.shading_integral`, SH of the bilinear interpolant)."]
     if fit.get("source") == "fit":
         iv = fit.get("s_interval") or [None, None]
         out.append(f"- **Smoothness**: s = {r['s']:.3f} fitted by `envfit fit --method "

@@ -465,7 +465,7 @@ def _truncation_tables(r: dict) -> list[str]:
     out = ["### Truncation (Fig. 8)", "",
            "Measured RMSE, predictions (a) c·wce (c of the quadrature fit of the same BRDF) and "
            "(b) σ·wce, and the QMC-equivalent N (morphed spherical Fibonacci, equal weights): "
-           "theory (`envfit.theory._truncation.equivalent_qmc_points` on the predicted wce) and "
+           "theory (`envfit.theory.equivalent_qmc_points` on the predicted wce) and "
            "measured (where the measured SF/equal RMSE curve reaches the measured truncation RMSE).",
            ""]
     for tcur in r["truncation"]:
