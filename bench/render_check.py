@@ -88,24 +88,27 @@ def map_as_seen(renderer: str, env: EnvMap) -> EnvMap:
 class Predictor:
     """envfit's predictions of one map as a renderer sees it (the models built once)."""
 
-    def __init__(self, renderer: str, env: EnvMap, grid: int, axes: int):
+    def __init__(self, renderer: str, env: EnvMap, grid: int, axes: int,
+                 max_level: int = 9):
         self.renderer, self.env, self.grid, self.axes = renderer, map_as_seen(renderer, env), \
             grid, axes
+        self.max_level = max_level
         self._model = None
         self.file_env = env              # the pixels as the renderer reads the file
         self.cells: list = []            # (sampler, strategy, spp) planned: one model pass
         self._presets: dict = {}
 
     def preset_model(self, compensation: bool):
-        """The renderer preset's noise model (envfit.predict.renderer._preset_model) of the
-        map, plain or with Mitsuba's mis_compensation, built once."""
+        """The renderer preset's noise model (envfit.predict.renderer.PresetModel) of the map,
+        plain or with Mitsuba's mis_compensation, built once."""
         if compensation not in self._presets:
             from envfit.predict.renderer import PresetModel, PresetModelOptions
             from envfit.sampling.presets import preset
             env = EnvMap(self.file_env.data, up="y", name=self.file_env.name)
+            options = {"mis_compensation": compensation} if self.renderer == "mitsuba3" else {}
             self._presets[compensation] = PresetModel(
-                env, preset(self.renderer), {"mis_compensation": compensation},
-                PresetModelOptions(normals=PRESET_NORMALS, max_level=PRESET_MAX_LEVEL))
+                env, preset(self.renderer), options,
+                PresetModelOptions(normals=PRESET_NORMALS, max_level=self.max_level))
         return self._presets[compensation]
 
     def model(self):
@@ -118,20 +121,19 @@ class Predictor:
         return self._model
 
 
-#: the preset model's normals and finest grid level (bench/preset_check.py measures them)
+#: the preset model's normals and default finest grid level (bench/preset_check.py measures
+#: them); --max-level 10 resolves the nets to 512 spp, 11 to 1024 (each level 4x the time)
 PRESET_NORMALS, PRESET_MAX_LEVEL = 32, 9
 
 
 def predict_cell(predictor: Predictor, sampler: str, strategy: str, spp: int) -> float:
     """The predicted RMSE of one cell — THE place the prediction is chosen.
 
-    Mitsuba 3: the renderer preset's own estimator and its sampler's exact randomisation
-    (:class:`envfit.predict.renderer._preset_model.PresetModel`; ``mis-comp`` with the
-    envmap's mis_compensation), all planned cells of the map in one pass over the normals.
-    Other renderers: :func:`generic_cell` (their presets are not checked against renders yet).
-    """
-    if predictor.renderer != "mitsuba3":
-        return generic_cell(predictor, sampler, strategy, spp)
+    The renderer preset's own estimator and its sampler's exact randomisation
+    (:class:`envfit.predict.renderer.PresetModel`; Mitsuba 3's ``mis-comp`` with the envmap's
+    mis_compensation; Cycles' world importance map, power heuristic and Owen-scrambled
+    patterns), all planned cells of the map in one pass over the normals. The generic rules
+    of :func:`generic_cell` are the second column."""
     comp = strategy == "mis-comp"
     model = predictor.preset_model(comp)
     plan = [("mis" if st == "mis-comp" else st, s, n) for s, st, n in predictor.cells
@@ -198,7 +200,7 @@ def run_map(spec: str, args, rows: list, meta: dict, out: Path) -> None:
     todo = [c for c in _cells(args) if (name, *c) not in done]
     if not todo:
         return
-    pred = Predictor(args.renderer, env, args.grid, args.axes)
+    pred = Predictor(args.renderer, env, args.grid, args.axes, args.max_level)
     pred.cells = todo
     sessions = _session(args.renderer, env, args)
     bar = progress_bar(len(todo) + 1, desc=f"{args.renderer} {name}", unit="cell")
@@ -267,6 +269,8 @@ def main(argv=None) -> int:
                     help="Mitsuba 3: the references' sampler (ldsampler: far less noise)")
     ap.add_argument("--grid", type=int, default=512, help="envfit's spectrum grid")
     ap.add_argument("--axes", type=int, default=64, help="envfit's spectrum axes")
+    ap.add_argument("--max-level", type=int, default=PRESET_MAX_LEVEL,
+                    help="the preset model's finest grid level (nets resolved to 2^(L-1) spp)")
     ap.add_argument("--synth-height", type=int, default=256)
     ap.add_argument("--threads", type=int, default=None, help="Cycles CPU threads")
     ap.add_argument("--seed", type=int, default=0)
