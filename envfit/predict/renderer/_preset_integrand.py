@@ -314,6 +314,21 @@ def _halve(a, b, out_a, out_b):  # pragma: no cover - numba
                                      + (b[c, 2 * i + 1, 2 * j] + b[c, 2 * i + 1, 2 * j + 1]))
 
 
+@numba.njit(cache=True, parallel=True)
+def _halve_values(v, out_a, out_b):  # pragma: no cover - numba
+    """The 2 × 2 block means of h and of h² from the fine values ``v`` (2m, 2m, C) into
+    ``out_a``, ``out_b`` (C, m, m): the first level of the pyramid without a channel-first
+    copy of the fine table or its square."""
+    chans, m = out_a.shape[0], out_a.shape[1]
+    for r in numba.prange(chans * m):
+        c, i = r // m, r % m
+        for j in range(m):
+            x0, x1 = v[2 * i, 2 * j, c], v[2 * i, 2 * j + 1, c]
+            x2, x3 = v[2 * i + 1, 2 * j, c], v[2 * i + 1, 2 * j + 1, c]
+            out_a[c, i, j] = 0.25 * ((x0 + x1) + (x2 + x3))
+            out_b[c, i, j] = 0.25 * ((x0 * x0 + x1 * x1) + (x2 * x2 + x3 * x3))
+
+
 def moment_pyramid(values: np.ndarray, fine_level: int, levels) -> dict:
     """:func:`cell_moments` at every level of ``levels`` at once: {level: (A, B)}, each level
     the 2 × 2 block means of the one below (one compiled pass per level over the fine
@@ -322,11 +337,19 @@ def moment_pyramid(values: np.ndarray, fine_level: int, levels) -> dict:
     if not levels or levels[0] < 0 or levels[-1] > fine_level:
         raise ParameterError(f"levels must lie between 0 and the table's {fine_level}")
     mf = 1 << fine_level
-    a = np.ascontiguousarray(np.moveaxis(values.reshape(mf, mf, -1), -1, 0), dtype=np.float64)
-    b = a * a
+    v = values.reshape(mf, mf, -1)
+    if fine_level in levels or fine_level == 0:
+        a = np.ascontiguousarray(np.moveaxis(v, -1, 0), dtype=np.float64)
+        b = a * a
+        start = fine_level
+    else:
+        m = mf // 2
+        a, b = np.empty((v.shape[-1], m, m)), np.empty((v.shape[-1], m, m))
+        _halve_values(np.ascontiguousarray(v, dtype=np.float64), a, b)
+        start = fine_level - 1
     out = {}
-    for lev in range(fine_level, levels[0] - 1, -1):
-        if lev < fine_level:
+    for lev in range(start, levels[0] - 1, -1):
+        if lev < start:
             m = 1 << lev
             na, nb = np.empty((a.shape[0], m, m)), np.empty((a.shape[0], m, m))
             _halve(a, b, na, nb)
