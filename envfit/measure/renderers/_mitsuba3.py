@@ -99,13 +99,32 @@ class Mitsuba3Options:
     reference_sampler: str = "independent"
     mis_compensation: bool = False
     cache_dir: str | None = None
+    bsdf: tuple | None = None
 
     def __post_init__(self):
+        if self.bsdf is not None and (not isinstance(self.bsdf, tuple)
+                                      or dict(self.bsdf).get("type") != "roughconductor"):
+            raise ParameterError("bsdf must be None (white diffuse) or roughconductor_bsdf(...)")
         for name, lo in (("resolution", 4), ("reference_spp", 1)):
             v = getattr(self, name)
             if not isinstance(v, (int, np.integer)) or v < lo:
                 raise ParameterError(f"{name} must be an integer >= {lo}, got {v!r}")
         _check_sampler(self.reference_sampler)
+
+
+def roughconductor_bsdf(distribution: str = "ggx", alpha: float = 0.1) -> tuple:
+    """The sphere's BSDF for :attr:`Mitsuba3Options.bsdf`: Mitsuba 3's ``roughconductor``
+    with ``material="none"`` (Fresnel = 1, a white conductor: the map alone sets the error),
+    visible-normal sampling (its default), as sorted (key, value) pairs (hashable).
+
+    >>> dict(roughconductor_bsdf("beckmann", 0.3))["alpha"]
+    0.3
+    """
+    if distribution not in ("ggx", "beckmann"):
+        raise ParameterError(f"distribution must be ggx or beckmann, got {distribution!r}")
+    return tuple(sorted({"type": "roughconductor", "distribution": distribution,
+                         "alpha": float(alpha), "material": "none",
+                         "sample_visible": True}.items()))
 
 
 def _sensor(mi, view, resolution: int, sampler: str) -> dict:
@@ -175,10 +194,10 @@ class Mitsuba3Sphere:
         key = (sampler, bool(compensation))
         if key not in self._scenes:
             mi = self.mi
+            bsdf = dict(self.options.bsdf) if self.options.bsdf else \
+                {"type": "diffuse", "reflectance": {"type": "rgb", "value": [1.0, 1.0, 1.0]}}
             d = {"type": "scene",
-                 "sphere": {"type": "sphere",
-                            "bsdf": {"type": "diffuse",
-                                     "reflectance": {"type": "rgb", "value": [1.0, 1.0, 1.0]}}},
+                 "sphere": {"type": "sphere", "bsdf": bsdf},
                  "env": {"type": "envmap", "filename": str(self._path),
                          "mis_compensation": bool(compensation)}}
             for k, view in enumerate(VIEWS):
@@ -223,6 +242,8 @@ class Mitsuba3Sphere:
         key = {"renderer": self.renderer, "version": self.mi.__version__, "variant": VARIANT,
                "map": self.digest, "spp": o.reference_spp, "resolution": o.resolution,
                "seed": o.reference_seed, "strategy": "mis", "sampler": o.reference_sampler}
+        if o.bsdf:                      # keys of the diffuse sphere's references unchanged
+            key["bsdf"] = dict(o.bsdf)
 
         def render():
             rng = np.random.default_rng(o.reference_seed)

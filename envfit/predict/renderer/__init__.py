@@ -13,6 +13,10 @@ Modules:
   shifted estimator from the spectrum of its *warped integrand*: the prediction of envfit
   for every renderer estimator (map importance sampling, BRDF sampling, MIS) driven by *any*
   point set, random or quasi-random.
+* :mod:`~envfit.predict.renderer._preset_model` — a real renderer's noise on a white diffuse
+  surface from its preset (its own estimator, its sampler's exact randomisation).
+* :mod:`~envfit.predict.renderer._microfacet_model` — the same for a rough conductor (GGX,
+  Beckmann), per frame (normal, view): view-dependent.
 
 The names of ``__all__`` are imported lazily, on first use (PEP 562), so that
 importing the package loads none of its modules.
@@ -31,6 +35,8 @@ _LAZY = {
     "SpectrumInputs": "_warped_spectrum", "warped_integrand": "_warped_spectrum",
     "PresetModel": "_preset_model", "PresetModelOptions": "_preset_model",
     "PresetPrediction": "_preset_model",
+    "MicrofacetModel": "_microfacet_model", "band_frames": "_microfacet_model",
+    "pixel_frames": "_microfacet_model",
 }
 
 __all__ = sorted(_LAZY)

@@ -1,0 +1,137 @@
+"""Rendering check of envfit's microfacet predictions (issue 25): Mitsuba 3 renders the sphere
+of :mod:`envfit.measure.renderers` (six orthographic views) with a white ``roughconductor``
+(GGX or Beckmann, Fresnel = 1) and measures the RMSE over its kept pixels (the same weights
+as the diffuse measurement) against a high-spp reference; envfit predicts the same quantity
+with :class:`envfit.predict.renderer.MicrofacetModel` over frames drawn from those pixels
+(:func:`envfit.predict.renderer.pixel_frames`: each pixel's normal and its view axis).
+Per view-angle band (θ_o in 0–30°, 30–60°; the six-view layout keeps θ_o ≤ 55°) and for the
+whole set.
+
+Writes ``OUT/microfacet_check.json`` / ``.csv`` after every cell (resumable); prints the table,
+the share of cells inside [0.8 × low, 1.25 × high] and the CPU.
+
+    python bench/microfacet_check.py /work/shared/envmaps/city.exr --alphas 0.1 0.3 \\
+        --distributions ggx beckmann --samplers independent ldsampler --spp 16 64 256 --out /tmp/mf
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from envfit.base._atomic import atomic_write_csv, atomic_write_json  # internal: the atomic writers of the product's outputs
+from envfit.maps import EnvMap
+from envfit.measure.renderers import (VIEWS, Mitsuba3Options, Mitsuba3Sphere,
+                                      roughconductor_bsdf, sphere_geometry)
+from envfit.predict.renderer import MicrofacetModel, PresetModelOptions, pixel_frames
+from envfit.sampling.presets import preset
+from envfit.shading.microfacet import Conductor
+
+sys.path.insert(0, str(Path(__file__).parent))
+from render_check import _cpu, load_map  # noqa: E402  (bench helpers: CPU name, maps)
+
+COLUMNS = ["map", "distribution", "alpha", "sampler", "strategy", "spp", "spp_used",
+           "measured_rmse", "low", "high", "predicted", "ratio", "inside", "mean_offset",
+           "seconds"]
+
+
+def _model(env, dist, alpha, args):
+    n, v, _ = pixel_frames(sphere_geometry(args.resolution), VIEWS, args.frames,
+                           seed=args.seed)
+    return MicrofacetModel(EnvMap(env.data, up="y", name=env.name), preset("mitsuba3"),
+                           Conductor(dist, alpha), (n, v),
+                           options=PresetModelOptions(max_level=args.max_level))
+
+
+def run(args, rows: list, meta: dict, out: Path) -> None:
+    for spec in args.maps:
+        name, env = load_map(spec, args.synth_height)
+        for dist in args.distributions:
+            for alpha in args.alphas:
+                cells = [(s, st, n) for s in args.samplers for st in args.strategies
+                         for n in args.spp
+                         if not any((r["map"], r["distribution"], r["alpha"], r["sampler"],
+                                     r["strategy"], r["spp"]) == (name, dist, alpha, s, st, n)
+                                    for r in rows)]
+                if not cells:
+                    continue
+                opts = Mitsuba3Options(resolution=args.resolution,
+                                       reference_spp=args.reference_spp, cache_dir=args.cache,
+                                       reference_sampler="ldsampler",
+                                       bsdf=roughconductor_bsdf(dist, alpha))
+                model = _model(env, dist, alpha, args)
+                t = time.perf_counter()
+                model.predict_many([(st, s, n) for s, st, n in cells])
+                meta.setdefault("model_seconds", {})[f"{name}/{dist}/{alpha}"] = \
+                    time.perf_counter() - t
+                rng = np.random.default_rng([args.seed, len(rows)])
+                with Mitsuba3Sphere(env, opts) as sph:
+                    ref = sph.reference()
+                    for s, st, n in cells:
+                        m = sph.measure(st, s, n, seed=rng, reference=ref)
+                        p = float(model.predict(st, s, n).rmse)
+                        rows.append({"map": name, "distribution": dist, "alpha": alpha,
+                                     "sampler": s, "strategy": st, "spp": n,
+                                     "spp_used": m.spp_used, "measured_rmse": m.rmse,
+                                     "low": m.low, "high": m.high, "predicted": p,
+                                     "ratio": p / m.rmse if m.rmse > 0 else float("inf"),
+                                     "inside": bool(0.8 * m.low <= p <= 1.25 * m.high),
+                                     "mean_offset": m.mean_offset, "seconds": m.seconds})
+                        _write(out, rows, meta)
+                        print(_line(rows[-1]), flush=True)
+
+
+def _write(out: Path, rows: list, meta: dict) -> None:
+    atomic_write_json(out / "microfacet_check.json", {"meta": meta, "rows": rows})
+    atomic_write_csv(out / "microfacet_check.csv", COLUMNS,
+                     [[r.get(c, "") for c in COLUMNS] for r in rows])
+
+
+def _line(r: dict) -> str:
+    return (f"{r['map']:8s} {r['distribution']:8s} {r['alpha']:5.2f} {r['sampler']:12s} "
+            f"{r['strategy']:5s} {r['spp_used']:5d} {r['measured_rmse']:10.4g} "
+            f"[{r['low']:9.4g}, {r['high']:9.4g}] {r['predicted']:10.4g} {r['ratio']:6.3f} "
+            f"{'y' if r['inside'] else 'n'}")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("maps", nargs="+", help="map files, or sun-gp-1.5 / sun-gp-1.3")
+    ap.add_argument("--distributions", nargs="+", default=["ggx", "beckmann"])
+    ap.add_argument("--alphas", nargs="+", type=float, default=[0.1, 0.3, 0.6])
+    ap.add_argument("--samplers", nargs="+", default=["independent", "ldsampler"])
+    ap.add_argument("--strategies", nargs="+", default=["map", "brdf", "mis"])
+    ap.add_argument("--spp", nargs="+", type=int, default=[16, 64, 256])
+    ap.add_argument("--resolution", type=int, default=64)
+    ap.add_argument("--reference-spp", type=int, default=4096)
+    ap.add_argument("--frames", type=int, default=64, help="frames of the model")
+    ap.add_argument("--max-level", type=int, default=9)
+    ap.add_argument("--synth-height", type=int, default=256)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--cache", default=None)
+    ap.add_argument("--out", default="microfacet_check_out")
+    args = ap.parse_args(argv)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    args.cache = args.cache or str(out / "cache")
+    rows, meta = [], {}
+    if (out / "microfacet_check.json").exists():
+        saved = json.loads((out / "microfacet_check.json").read_text())
+        rows, meta = saved["rows"], saved["meta"]
+    meta.update(cpu=_cpu(), argv=sys.argv[1:], resolution=args.resolution,
+                reference_spp=args.reference_spp, frames=args.frames)
+    t = time.perf_counter()
+    run(args, rows, meta, out)
+    inside = sum(r["inside"] for r in rows)
+    print(f"\ninside [0.8 low, 1.25 high]: {inside}/{len(rows)}; median predicted/measured "
+          f"{np.median([r['ratio'] for r in rows]):.3f}; CPU {meta['cpu']}; "
+          f"wall {time.perf_counter() - t:.0f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
