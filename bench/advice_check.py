@@ -43,14 +43,16 @@ COLUMNS = ["map", "sampler", "target_relative", "target_rmse", "role", "spp", "s
 def advice(env, sampler: str, target: float, args) -> dict:
     """The advice (recommended spp, half of it as the sampler runs it, their predictions)."""
     t = time.perf_counter()
-    opts = PresetAdviseOptions("mitsuba3", sampler=sampler, strategies=["mis"])
+    opts = PresetAdviseOptions("mitsuba3", sampler=sampler, strategies=["mis"],
+                               level=args.level, normals=args.normals)
     adv = advise_preset(env, opts, target_relative=target, cache_dir=args.cache)
     a = adv.default
     half = half_spp(opts, a.spp) if a.reached else None
     half_pred = None
     if half is not None:            # the model's prediction there (cached cells, one pass)
         adv2 = advise_preset(env, PresetAdviseOptions("mitsuba3", sampler=sampler,
-                                                      strategies=["mis"], spp=[half]),
+                                                      strategies=["mis"], spp=[half],
+                                                      level=args.level, normals=args.normals),
                              target_relative=target, cache_dir=args.cache)
         half_pred = adv2.cells[("mis", half)]
     return {"spp": a.spp, "predicted": a.predicted_rmse, "half": half,
@@ -143,6 +145,10 @@ def main(argv=None) -> int:
     ap.add_argument("maps", nargs="+", help="map files, or sun-gp-1.5 / sun-gp-1.3")
     ap.add_argument("--samplers", nargs="+", default=["independent", "ldsampler"])
     ap.add_argument("--targets", nargs="+", type=float, default=[0.01, 0.05])
+    ap.add_argument("--level", type=int, default=None,
+                    help="advise's --renderer-level (default: the sampler's default; 11 "
+                         "resolves ldsampler to 1024 spp)")
+    ap.add_argument("--normals", type=int, default=48, help="advise's --renderer-normals")
     ap.add_argument("--resolution", type=int, default=64, help="pixels per view side")
     ap.add_argument("--reference-spp", type=int, default=4096)
     ap.add_argument("--reference-sampler", default="ldsampler",
