@@ -35,9 +35,13 @@ import numpy as np
 
 from envfit.base import ParameterError
 from envfit.predict.renderer._preset_integrand import MapTable, midpoints
-from envfit.predict.renderer._preset_model import PresetModel, PresetModelOptions
+from envfit.predict.renderer._preset_model import (PresetModel, PresetModelOptions,
+                                                   PresetPrediction)
 
-__all__ = ["MicrofacetModel", "pixel_frames", "band_frames"]
+__all__ = ["MicrofacetModel", "pixel_frames", "band_frames", "BANDS"]
+
+#: the view-angle bands θ_o (degrees) reported beside the whole-sphere value (issue 25)
+BANDS = ((0.0, 30.0), (30.0, 60.0), (60.0, 80.0))
 
 _CHUNK = 1 << 18
 
@@ -147,9 +151,53 @@ class MicrofacetModel(PresetModel):
         self.technique = preset.technique(envmap, **(technique_options or {}))
         self.normals = list(zip(_unit(normals), _unit(views)))
         self.weights = w / w.sum()
+        self.theta = np.degrees(np.arccos(np.clip(np.sum(_unit(normals) * _unit(views), axis=1),
+                                                  -1.0, 1.0)))
         self._tables: dict = {}
         self._cache: dict = {}
+        self._bands: dict = {}
         self.seconds = 0.0
+
+    def predict_bands(self, strategy: str, sampler: str, spp: int) -> dict:
+        """The predicted RMSE per view-angle band of :data:`BANDS` ({"0-30": rmse, …}; a band
+        with no frame is absent): the weighted mean MSE of the frames whose θ_o lies in it."""
+        self.predict(strategy, sampler, spp)
+        return dict(self._bands[self.request(strategy, sampler, spp)])
+
+    def _run(self, todo: list) -> None:
+        """As :meth:`PresetModel._run`, keeping each frame's MSE for the bands."""
+        fine = max(self.options.max_level, *(r.level for r in todo)) + 1
+        strategies = {r.strategy for r in todo}
+        levels = {r.level for r in todo}
+        k = len(self.normals)
+        per = {r: [None] * k for r in todo}
+        parts = {r: np.zeros((k, 3)) for r in todo}
+        for i, frame in enumerate(self.normals):
+            vals = self._part_values(strategies, frame, fine)
+            grids: dict = {}
+            for r in todo:
+                res = self._cell(r, vals, grids, fine, levels)
+                per[r][i] = np.asarray(res[0], dtype=np.float64)
+                parts[r][i] = [float(np.mean(x)) for x in res[1:]]
+        for r in todo:
+            mse_k = np.clip(np.stack(per[r]), 0.0, None)                 # (K, C)
+            mse = self.weights @ mse_k
+            a = self.weights @ parts[r]
+            s = self.preset.strategy(r.strategy)
+            self._cache[r] = PresetPrediction(
+                float(np.sqrt(np.mean(mse))), mse, r.strategy, r.sampler, r.spp, r.n,
+                s.emitter_samples, s.bsdf_samples, r.name, r.shared, r.level,
+                {"map": a[0], "brdf": a[1], "cross": a[2]}, k)
+            self._bands[r] = self._band_rmse(mse_k)
+
+    def _band_rmse(self, mse_k: np.ndarray) -> dict:
+        out = {}
+        for lo, hi in BANDS:
+            inside = (self.theta >= lo) & (self.theta < hi)
+            w = self.weights * inside
+            if w.sum() > 0:
+                out[f"{lo:g}-{hi:g}"] = float(np.sqrt(np.mean(w @ mse_k / w.sum())))
+        return out
 
     def _table(self, kind: str, level: int):
         key = (kind, level)
