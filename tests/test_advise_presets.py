@@ -194,7 +194,14 @@ def test_cached_run_prints_the_same_answer_without_the_model(sun_file, tmp_path,
     (["--renderer", "pbrt4", "--mis-compensation"], "setting of Mitsuba 3's envmap"),
     (["--renderer", "mitsuba3", "--sampler", "orthogonal"], "no noise model"),
     (["--renderer", "mitsuba3", "--strategies", "split"], "unknown strategy"),
-    (["--renderer", "mitsuba3", "--brdf", "glossy"], "white diffuse"),
+    (["--renderer", "mitsuba3", "--brdf", "glossy"], "no renderer's BSDF"),
+    (["--renderer", "mitsuba3", "--brdf", "ggx"], "needs --roughness"),
+    (["--renderer", "mitsuba3", "--brdf", "ggx", "--roughness", "0.01"], "from 0.05 to 1"),
+    (["--renderer", "pbrt4", "--brdf", "beckmann", "--roughness", "0.1"], "only the GGX"),
+    (["--renderer", "envfit", "--brdf", "ggx", "--roughness", "0.1"], "no microfacet"),
+    (["--renderer", "mitsuba3", "--roughness", "0.1"], "parameter of --brdf ggx"),
+    (["--brdf", "ggx", "--roughness", "0.1"], "--roughness needs --renderer"),
+    (["--brdf", "beckmann"], "--brdf beckmann needs --renderer"),
     (["--renderer", "mitsuba3", "--scale", "log"], "--scale must be linear"),
     (["--renderer", "mitsuba3", "--no-renderer"], "--no-renderer is an option"),
     (["--renderer", "mitsuba3", "--sampler", "ldsampler", "--spp", "1000"], "beyond the 256"),
@@ -220,3 +227,48 @@ def test_without_renderer_the_output_is_todays(sun_file, tmp_path, capsys):
     assert rc == 0 and body[0].startswith("map sun16.exr: 32x16")
     assert not any("sampler" in ln or "spp" in ln for ln in lines)
     assert d["renderer"] is None and "rows" in d
+
+
+# ----------------------------------------------------------------------------- microfacet
+
+def test_microfacet_answer_bands_and_json_equal_the_model(sun_file, tmp_path, capsys):
+    """--brdf ggx --roughness 0.3: the answer's spp meets the target and the runnable spp
+    below misses, per a fresh MicrofacetModel over the same frames; the JSON's predictions
+    carry the per-band values of that model; every band sentence is true of its numbers."""
+    from envfit.defaults import MICROFACET_FRAMES_SEED
+    from envfit.predict.renderer import MicrofacetModel, band_frames
+    from envfit.shading.microfacet import Conductor
+    rc, lines, _, d = _run(capsys, [sun_file, "--renderer", "mitsuba3", "--brdf", "ggx",
+                                    "--roughness", "0.3", "--sampler", "independent",
+                                    "--target-relative", "0.05", "--renderer-level", "5",
+                                    *MODEL], tmp_path)
+    assert rc == 0
+    r = d["renderer"]
+    rec, target = r["recommendation"], r["recommendation"]["target_rmse"]
+    assert r["bsdf"] == {"type": "ggx", "roughness": 0.3, "alpha": 0.3, "fresnel": 1.0}
+    m = MicrofacetModel(_load(sun_file), preset("mitsuba3"), Conductor("ggx", 0.3),
+                        band_frames(NORMALS, (0, 90), seed=MICROFACET_FRAMES_SEED),
+                        options=_options(5))
+    n = rec["spp"]
+    assert m.predict("mis", "independent", n).rmse <= target < \
+        m.predict("mis", "independent", n - 1).rmse
+    for p in r["predictions"]:
+        assert p["predicted_rmse"] == pytest.approx(
+            m.predict(p["strategy"], "independent", p["spp"]).rmse, rel=1e-12)
+        assert p["bands"] == pytest.approx(m.predict_bands(p["strategy"], "independent",
+                                                           p["spp"]), rel=1e-12)
+    assert any("GGX conductor (alpha 0.3, Fresnel 1)" in ln for ln in lines)
+    bands = [ln for ln in lines if ln.startswith("  ") and " deg: predicted RMSE " in ln]
+    assert bands, lines
+    for ln in bands:
+        band = ln.split()[0]
+        rmse = m.predict_bands("mis", "independent", n)[band]
+        assert f"predicted RMSE {rmse:.4g}"[:18] in ln
+        if "meets the target at" in ln:
+            k = int(ln.split("meets the target at ")[1].split()[0])
+            assert m.predict_bands("mis", "independent", k)[band] <= target
+            if ", not at " in ln:
+                j = int(ln.rsplit(" ", 1)[-1])
+                assert j < k and m.predict_bands("mis", "independent", j)[band] > target
+        else:
+            assert "no spp up to" in ln and rmse > target

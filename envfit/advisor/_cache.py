@@ -228,6 +228,17 @@ def _bad_spectrum(v: Any) -> str | None:
         "power": lambda x, n: _bad_array(x, n, 3), "cross": cross}, {})
 
 
+def _bad_bands(v: Any, name: str) -> str | None:
+    """Per view-angle band RMSE of a microfacet cell: {"lo-hi": finite number >= 0}."""
+    if not isinstance(v, dict):
+        return f"{name} is {_what(v)}, not an object"
+    for k, x in v.items():
+        why = _bad_real(x, f"{name}[{k}]", 0.0)
+        if why is not None:
+            return why
+    return None
+
+
 def _bad_preset(v: Any) -> str | None:
     """The renderer advice's predictions ``{"cells": {"strategy:spp": {"rmse", "mse"}}}``:
     a strategy of map, brdf, mis, spp ≥ 1, finite RMSE ≥ 0 and MSE per channel ≥ 0."""
@@ -240,7 +251,8 @@ def _bad_preset(v: Any) -> str | None:
         if s not in ("map", "brdf", "mis") or not (n.isdigit() and int(n) >= 1):
             return f"cell {k!r} is not strategy:spp"
         why = _bad_fields(cell, {"rmse": lambda x, m: _bad_real(x, m, 0.0),
-                                 "mse": lambda x, m: _bad_array(x, m, 1, 0.0)}, {})
+                                 "mse": lambda x, m: _bad_array(x, m, 1, 0.0)},
+                          {"bands": _bad_bands})
         if why is not None:
             return f"cell {k}: {why}"
     return None

@@ -35,6 +35,8 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from envfit.advisor._cache import AdviseCache
 from envfit.advisor._model import map_key
 from envfit.advisor._prediction import mean_shading_value
@@ -84,6 +86,7 @@ class PresetAdvice:
     snippet: str | None = None
     snippet_spp: int | None = None
     notes: list = field(default_factory=list)
+    bands: dict = field(default_factory=dict)
 
     @property
     def display(self) -> str:
@@ -108,9 +111,37 @@ class PresetAdvice:
         """Every predicted (strategy, spp): ``{"strategy", "sampler", "spp",
         "predicted_rmse"}``, the strategies in the renderer's order, spp ascending."""
         return [{"strategy": s, "sampler": self.options.sampler, "spp": n,
-                 "predicted_rmse": self.cells[(s, n)]}
+                 "predicted_rmse": self.cells[(s, n)],
+                 **({"bands": self.bands[(s, n)]} if (s, n) in self.bands else {})}
                 for s in self.options.strategies
                 for n in sorted(n for (t, n) in self.cells if t == s)]
+
+    def band_lines(self) -> list[str]:
+        """A microfacet BSDF: the default strategy's RMSE per view-angle band at the
+        recommended spp (or the largest searched), and where each band meets the target among
+        the spp this run predicted (the smallest that meets it, the largest below it that
+        misses: the band's crossing lies between)."""
+        a = self.default
+        n = a.spp if a.reached else a.searched_max
+        per = self.bands.get((a.strategy, n))
+        if not per:
+            return []
+        asked = sorted(m for (t, m) in self.bands if t == a.strategy)
+        out = [f"per view angle theta_o ({STRATEGY_WORDS[a.strategy]}, {n} spp; target "
+               f"{self._f(self.target_rmse)}):"]
+        for band, rmse in per.items():
+            ok = [m for m in asked if self.bands[(a.strategy, m)].get(band, np.inf)
+                  <= self.target_rmse]
+            if not ok:
+                what = f"no spp up to {asked[-1]} meets the target"
+            else:
+                miss = [m for m in asked if m < ok[0]]
+                what = (f"meets the target at {ok[0]} spp"
+                        + (f" ({ok[0] / n:.3g}x the recommendation)" if a.reached
+                           and ok[0] != n else "")
+                        + (f", not at {miss[-1]}" if miss else ""))
+            out.append(f"  {band} deg: predicted RMSE {self._f(rmse)}; {what}")
+        return out
 
     def _goal(self) -> str:
         if self.target_relative is not None:
@@ -196,16 +227,26 @@ class PresetAdvice:
         if self.snippet is not None:
             a = self.default
             state = ("the recommendation" if a.reached else
-                     f"the largest spp searched, which misses the target")
+                     "the largest spp searched, which misses the target")
             out.append(f"scene ({self.display}, {STRATEGY_WORDS[a.strategy]}, "
                        f"{self.snippet_spp} spp: {state}):")
             out += self.snippet.rstrip("\n").split("\n")
+        out += self.band_lines()
         m = self.model
-        out.append(f"renderer model: the RMSE over uniform normals of a white diffuse surface "
-                   f"(RMS over the channels), {m['normals']} normals, grid level "
+        out.append(f"renderer model: {self._surface()} (RMS over the channels), "
+                   f"{m['normals']} {'frames' if o.microfacet else 'normals'}, grid level "
                    f"{m['level']}; {m['passes']} pass(es), {m['cells_computed']} cell(s) "
                    f"computed, {m['cells_cached']} from the cache")
         return out
+
+    def _surface(self) -> str:
+        o = self.options
+        if not o.microfacet:
+            return "the RMSE over uniform normals of a white diffuse surface"
+        return (f"the RMSE of a white {o.bsdf.upper() if o.bsdf == 'ggx' else o.bsdf.title()} "
+                f"conductor (alpha {o.conductor().alpha:.4g}, Fresnel 1) over the views an "
+                f"orthographic camera has of a sphere (theta_o density cos sin) and uniform "
+                f"map orientations")
 
     def to_dict(self) -> dict:
         """The JSON's ``renderer`` section."""
@@ -213,6 +254,9 @@ class PresetAdvice:
         return {"name": o.renderer, "display": self.display, "renderer": o.preset.renderer,
                 "sampler": o.sampler, "strategies": list(o.strategies),
                 "mis_compensation": o.mis_compensation, "target_rmse": self.target_rmse,
+                "bsdf": ({"type": o.bsdf, "roughness": o.roughness,
+                          "alpha": o.conductor().alpha, "fresnel": 1.0} if o.microfacet
+                         else {"type": "diffuse", "reflectance": 1.0}),
                 "target_relative": self.target_relative, "mean_radiance": self.mean_radiance,
                 "recommendation": self.recommendation, "predictions": self.predictions(),
                 "answers": [{**self._answer_dict(self.answers[s])} for s in o.strategies],
@@ -274,7 +318,8 @@ def advise_preset(envmap, opts: PresetAdviseOptions, *, target_rmse: float | Non
     answers = search_spp(cm, opts.strategies, runnable, target, [n for _, n in listed],
                          independent=spec.randomisation == "independent")
     cells = {(s, n): cm.rmse(s, n) for s in opts.strategies for n in cm.asked_spp(s)}
-    adv = PresetAdvice(opts, target, rel, mean, answers, listed, cells, cap, notes=store.notes)
+    adv = PresetAdvice(opts, target, rel, mean, answers, listed, cells, cap, notes=store.notes,
+                       bands={k: cm.bands(*k) for k in cells if cm.bands(*k)})
     if snippet:
         a = adv.default
         adv.snippet_spp = a.spp if a.reached else a.searched_max

@@ -39,9 +39,11 @@ import numpy as np
 
 from envfit.base._checks import check_int, check_ints, check_names
 from envfit.base._errors import EnvfitError, ParameterError
+from envfit.defaults import MICROFACET_BSDFS, MICROFACET_FRAMES_SEED
 from envfit.maps import EnvMap
 from envfit.predict.renderer._preset_model import PresetModel, PresetModelOptions
 from envfit.sampling.presets import STRATEGY_NAMES, preset
+from envfit.shading.microfacet import RENDERERS, Conductor, roughness_to_alpha
 
 __all__ = ["PresetAdviseOptions", "RENDERER_NAMES", "STRATEGY_WORDS", "DEFAULT_MAX_SPP",
            "DEFAULT_LEVEL", "DEFAULT_LEVEL_V", "DEFAULT_NORMALS", "NET_RANDOMISATIONS",
@@ -124,7 +126,14 @@ class PresetAdviseOptions:
     level : int or None
         The model's grid level L (1…11; None: :func:`default_level` of the sampler).
     normals : int
-        The model's normals K (``PresetModelOptions``).
+        The model's normals K (``PresetModelOptions``); for a microfacet BSDF the frames
+        (normal, view) of :func:`envfit.predict.renderer.band_frames`.
+    bsdf : str
+        ``diffuse`` (white, the default) or a white microfacet conductor ``ggx`` /
+        ``beckmann`` as the renderer shades and samples it (not with ``envfit``; pbrt-v4: ggx).
+    roughness : float or None
+        With a microfacet ``bsdf``: the renderer's own roughness (Mitsuba's α, pbrt-v4's
+        roughness = α², Cycles' roughness = √α), α from 0.05 to 1.
 
     Raises
     ------
@@ -140,12 +149,15 @@ class PresetAdviseOptions:
     max_spp: int = DEFAULT_MAX_SPP
     level: int | None = None
     normals: int = DEFAULT_NORMALS
+    bsdf: str = "diffuse"
+    roughness: float | None = None
 
     def __post_init__(self) -> None:
         p = preset(self.renderer)
         set_ = object.__setattr__
         set_(self, "renderer", p.name)
         set_(self, "sampler", p.sampler(self.sampler).name)
+        self._check_bsdf(p)
         if self.mis_compensation and p.name != "mitsuba3":
             raise ParameterError(f"--mis-compensation is a setting of Mitsuba 3's envmap, not "
                                  f"of {RENDERER_NAMES[p.name]}")
@@ -174,6 +186,38 @@ class PresetAdviseOptions:
             raise ParameterError(f"--spp {over[0]}: {self.sampler} runs {spec.spp(over[0])} "
                                  f"spp, beyond the {cap} spp the model resolves for it at "
                                  f"--renderer-level {self.level}")
+
+    def _check_bsdf(self, p) -> None:
+        """``bsdf`` diffuse (``roughness`` None) or a microfacet conductor the renderer shades
+        (``roughness`` its own parameter, α from 0.05 to 1)."""
+        if self.bsdf == "diffuse":
+            if self.roughness is not None:
+                raise ParameterError("--roughness is a parameter of --brdf ggx or beckmann")
+            return
+        if self.bsdf not in MICROFACET_BSDFS:
+            raise ParameterError(f"with --renderer, --brdf is diffuse, ggx or beckmann (the "
+                                 f"paper's glossy lobe is no renderer's BSDF); got {self.bsdf!r}")
+        if p.name not in RENDERERS:
+            raise ParameterError(f"{RENDERER_NAMES[p.name]} has no microfacet conductor "
+                                 f"preset; use --renderer mitsuba3, pbrt4 or cycles")
+        if self.roughness is None:
+            raise ParameterError(f"--brdf {self.bsdf} needs --roughness (the renderer's own: "
+                                 f"Mitsuba's alpha, pbrt-v4's roughness, Cycles' roughness)")
+        alpha = roughness_to_alpha(self.roughness, p.name)
+        if not 0.05 <= alpha <= 1.0:
+            raise ParameterError(f"--roughness {self.roughness:g} is alpha = {alpha:.4g} in "
+                                 f"{RENDERER_NAMES[p.name]}; the model takes alpha from 0.05 "
+                                 f"to 1")
+        self.conductor()                      # the renderer lacks this distribution: one line
+
+    @property
+    def microfacet(self) -> bool:
+        return self.bsdf != "diffuse"
+
+    def conductor(self) -> Conductor:
+        """The white conductor (Fresnel 1) as the renderer shades and samples it."""
+        return Conductor(self.bsdf, roughness_to_alpha(self.roughness, self.renderer),
+                         renderer=self.renderer)
 
     def model_options(self) -> PresetModelOptions:
         """The :class:`PresetModelOptions` of ``level`` and ``normals`` (pool: its default,
@@ -242,6 +286,10 @@ class PresetAdviseOptions:
     def key(self) -> dict:
         """What the predictions depend on besides the map (the cache key's part)."""
         m = self.model_options()
-        return {"renderer": self.renderer, "sampler": self.sampler,
-                "technique_options": self.technique_options(), "normals": m.normals,
-                "pool": m.pool, "max_level": m.max_level, "pilot_level": m.pilot_level}
+        key = {"renderer": self.renderer, "sampler": self.sampler,
+               "technique_options": self.technique_options(), "normals": m.normals,
+               "pool": m.pool, "max_level": m.max_level, "pilot_level": m.pilot_level}
+        if self.microfacet:                   # the diffuse keys (and caches) unchanged
+            key.update(bsdf=self.bsdf, alpha=self.conductor().alpha,
+                       frames_seed=MICROFACET_FRAMES_SEED)
+        return key

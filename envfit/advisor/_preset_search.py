@@ -37,6 +37,8 @@ from pathlib import Path
 import numpy as np
 
 from envfit.advisor._cache import AdviseCache
+from envfit.defaults import MICROFACET_FRAMES_SEED
+from envfit.predict.renderer._microfacet_model import MicrofacetModel, band_frames
 from envfit.predict.renderer._preset_model import PresetModel
 
 __all__ = ["CachedPresetModel", "StrategyAnswer", "model_version", "runnable_spp",
@@ -55,6 +57,7 @@ def model_version() -> str:
     import envfit.sampling.presets as ps
     root = Path(pr.__file__).parent
     files = [root / "_preset_model.py", root / "_preset_integrand.py",
+             root / "_microfacet_model.py",
              *sorted((root / "randomisation").glob("*.py")),
              *sorted(Path(ps.__file__).parent.glob("*.py"))]
     h = hashlib.sha256()
@@ -84,6 +87,21 @@ class CachedPresetModel:
         self.passes = self.cells_computed = 0
         self.seconds = 0.0
 
+    def _model(self):
+        """The diffuse model over importance-sampled normals, or the microfacet model over
+        frames of an orthographic sphere view and uniform map orientations."""
+        o = self.opts
+        if not o.microfacet:
+            return PresetModel(self.envmap, o.preset, o.technique_options(), o.model_options())
+        frames = band_frames(o.normals, (0.0, 90.0), seed=MICROFACET_FRAMES_SEED)
+        return MicrofacetModel(self.envmap, o.preset, o.conductor(), frames,
+                               technique_options=o.technique_options(),
+                               options=o.model_options())
+
+    def bands(self, strategy: str, n: int) -> dict:
+        """The stored per-band predictions of a cell ({} for the diffuse model)."""
+        return dict(self.cells[self._name(strategy, n)].get("bands", {}))
+
     @staticmethod
     def _name(strategy: str, n: int) -> str:
         return f"{strategy}:{int(n)}"
@@ -111,12 +129,13 @@ class CachedPresetModel:
             return
         t0 = time.perf_counter()
         if self.model is None:
-            self.model = PresetModel(self.envmap, self.opts.preset,
-                                     self.opts.technique_options(), self.opts.model_options())
+            self.model = self._model()
         res = self.model.predict_many([(s, self.opts.sampler, n) for s, n in todo])
         for (s, n), r in zip(todo, res):
-            self.cells[self._name(s, n)] = {"rmse": float(r.rmse),
-                                            "mse": [float(x) for x in np.ravel(r.mse)]}
+            cell = {"rmse": float(r.rmse), "mse": [float(x) for x in np.ravel(r.mse)]}
+            if self.opts.microfacet:
+                cell["bands"] = self.model.predict_bands(s, self.opts.sampler, n)
+            self.cells[self._name(s, n)] = cell
         self.passes += 1
         self.cells_computed += len(todo)
         self.seconds += time.perf_counter() - t0

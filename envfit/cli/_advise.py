@@ -5,7 +5,7 @@ import argparse
 from pathlib import Path
 
 from envfit.base._notes import NoteKind, note_kind
-from envfit.defaults import BRDFS, DEFAULT_SHININESS, PREDICTOR_CHOICES
+from envfit.defaults import BRDFS, DEFAULT_SHININESS, MICROFACET_BSDFS, PREDICTOR_CHOICES
 from envfit.cli._common import (add_common_arguments, add_map_arguments, load_map_from_args,
                                 out_dir, positive_float, positive_int, str_list)
 from envfit.cli._advise_preset import add_preset_arguments, reject_without_renderer, run_preset
@@ -33,8 +33,9 @@ def register(sub) -> None:
                     "and a recommendation; --check measures the actual RMSE at the chosen N/L "
                     "on the map.")
     add_map_arguments(p)
-    p.add_argument("--brdf", choices=BRDFS, default="diffuse",
-                   help="weight function (default: diffuse)")
+    p.add_argument("--brdf", choices=BRDFS + MICROFACET_BSDFS, default="diffuse",
+                   help="weight function (default: diffuse); ggx and beckmann (white "
+                        "microfacet conductors, with --roughness) with --renderer only")
     p.add_argument("--shininess", type=positive_float, default=DEFAULT_SHININESS,
                    help=f"glossy exponent n (default: {DEFAULT_SHININESS:g})")
     tg = p.add_mutually_exclusive_group()

@@ -12,13 +12,15 @@ import time
 from envfit.base._errors import ParameterError
 from envfit.cli._common import int_list, positive_int
 from envfit.cli._output import CommandOutput
+from envfit.defaults import MICROFACET_BSDFS
 
 __all__ = ["add_preset_arguments", "reject_without_renderer", "run_preset"]
 
 #: options that only make sense with --renderer (dest → flag)
 _PRESET_ONLY = {"sampler": "--sampler", "spp": "--spp", "snippet": "--snippet",
                 "mis_compensation": "--mis-compensation", "rules": "--rules",
-                "renderer_level": "--renderer-level", "renderer_normals": "--renderer-normals"}
+                "renderer_level": "--renderer-level", "renderer_normals": "--renderer-normals",
+                "roughness": "--roughness"}
 #: options of envfit's generic renderer rows, which --renderer replaces
 _GENERIC_ROWS = {"no_renderer": "--no-renderer", "renderer_pointsets": "--renderer-pointsets",
                  "renderer_grid": "--renderer-grid",
@@ -58,7 +60,12 @@ def add_preset_arguments(p) -> None:
                         "the digital nets are resolved to 2^(L-1) spp; each level costs 4x "
                         "the time and memory)")
     g.add_argument("--renderer-normals", type=positive_int, default=None, metavar="K",
-                   help="normals of the renderer model's importance sample (default 48)")
+                   help="normals of the renderer model's importance sample (default 48); "
+                        "with --brdf ggx/beckmann the frames (normal, view)")
+    g.add_argument("--roughness", type=float, default=None, metavar="R",
+                   help="with --brdf ggx or beckmann: the renderer's own roughness (Mitsuba's "
+                        "alpha; pbrt-v4's roughness, alpha = sqrt(R); Cycles' roughness, "
+                        "alpha = R^2), alpha from 0.05 to 1")
 
 
 def reject_without_renderer(args: argparse.Namespace) -> None:
@@ -66,6 +73,9 @@ def reject_without_renderer(args: argparse.Namespace) -> None:
     for dest, flag in _PRESET_ONLY.items():
         if getattr(args, dest, None) not in (None, False):
             raise ParameterError(f"{flag} needs --renderer (mitsuba3, pbrt4, cycles, envfit)")
+    if getattr(args, "brdf", "diffuse") in MICROFACET_BSDFS:
+        raise ParameterError(f"--brdf {args.brdf} needs --renderer (mitsuba3, pbrt4, cycles): "
+                             f"the microfacet model predicts a renderer's own estimator")
 
 
 def _options(args: argparse.Namespace):
@@ -77,9 +87,9 @@ def _options(args: argparse.Namespace):
         if getattr(args, dest, None) not in (None, False):
             raise ParameterError(f"{flag} is an option of envfit's generic renderer rows, "
                                  f"which --renderer replaces")
-    if args.brdf != "diffuse":
-        raise ParameterError("--renderer predicts a white diffuse surface: --brdf must be "
-                             "diffuse")
+    if args.brdf not in ("diffuse", *MICROFACET_BSDFS):
+        raise ParameterError(f"--renderer predicts a renderer's BSDF: --brdf diffuse, ggx or "
+                             f"beckmann (the paper's {args.brdf} lobe is no renderer's BSDF)")
     if args.scale != "linear":
         raise ParameterError("--renderer predicts the renderer's noise in radiance: --scale "
                              "must be linear")
@@ -93,7 +103,8 @@ def _options(args: argparse.Namespace):
         args.renderer, sampler=args.sampler, strategies=args.strategies, spp=args.spp or (),
         mis_compensation=args.mis_compensation, max_spp=args.nmax or DEFAULT_MAX_SPP,
         level=args.renderer_level,
-        normals=args.renderer_normals or DEFAULT_NORMALS)
+        normals=args.renderer_normals or DEFAULT_NORMALS, bsdf=args.brdf,
+        roughness=args.roughness)
     rules = None
     if args.rules:
         from envfit.cli._advise import options_from_args
