@@ -3,7 +3,9 @@ of :mod:`envfit.measure.renderers` (six orthographic views) with a white ``rough
 (GGX or Beckmann, Fresnel = 1) and measures the RMSE over its kept pixels (the same weights
 as the diffuse measurement) against a high-spp reference; envfit predicts the same quantity
 with :class:`envfit.predict.renderer.MicrofacetModel` over frames drawn from those pixels
-(:func:`envfit.predict.renderer.pixel_frames`: each pixel's normal and its view axis).
+(:func:`envfit.predict.renderer.pixel_frames`: each pixel's normal and its view axis; a pool
+of ``--pool`` pixels, ``--frames`` of them importance-sampled by the two techniques'
+variances so that the pixels whose lobe catches a sun are not missed).
 Per view-angle band (θ_o in 0–30°, 30–60°; the six-view layout keeps θ_o ≤ 55°) and for the
 whole set.
 
@@ -40,11 +42,12 @@ COLUMNS = ["map", "distribution", "alpha", "sampler", "strategy", "spp", "spp_us
 
 
 def _model(env, dist, alpha, args):
-    n, v, _ = pixel_frames(sphere_geometry(args.resolution), VIEWS, args.frames,
+    n, v, _ = pixel_frames(sphere_geometry(args.resolution), VIEWS, args.pool,
                            seed=args.seed)
     return MicrofacetModel(EnvMap(env.data, up="y", name=env.name), preset("mitsuba3"),
                            Conductor(dist, alpha), (n, v),
-                           options=PresetModelOptions(max_level=args.max_level))
+                           options=PresetModelOptions(max_level=args.max_level),
+                           select=args.frames)
 
 
 def run(args, rows: list, meta: dict, out: Path) -> None:
@@ -109,6 +112,8 @@ def main(argv=None) -> int:
     ap.add_argument("--resolution", type=int, default=64)
     ap.add_argument("--reference-spp", type=int, default=4096)
     ap.add_argument("--frames", type=int, default=64, help="frames of the model")
+    ap.add_argument("--pool", type=int, default=2048,
+                    help="pixels the frames are importance-sampled from")
     ap.add_argument("--max-level", type=int, default=9)
     ap.add_argument("--synth-height", type=int, default=256)
     ap.add_argument("--seed", type=int, default=0)

@@ -246,9 +246,10 @@ def test_microfacet_answer_bands_and_json_equal_the_model(sun_file, tmp_path, ca
     r = d["renderer"]
     rec, target = r["recommendation"], r["recommendation"]["target_rmse"]
     assert r["bsdf"] == {"type": "ggx", "roughness": 0.3, "alpha": 0.3, "fresnel": 1.0}
+    opts = _options(5)
     m = MicrofacetModel(_load(sun_file), preset("mitsuba3"), Conductor("ggx", 0.3),
-                        band_frames(NORMALS, (0, 90), seed=MICROFACET_FRAMES_SEED),
-                        options=_options(5))
+                        band_frames(opts.pool, (0, 90), seed=MICROFACET_FRAMES_SEED),
+                        options=opts, select=NORMALS)
     n = rec["spp"]
     assert m.predict("mis", "independent", n).rmse <= target < \
         m.predict("mis", "independent", n - 1).rmse

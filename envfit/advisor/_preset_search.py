@@ -89,14 +89,16 @@ class CachedPresetModel:
 
     def _model(self):
         """The diffuse model over importance-sampled normals, or the microfacet model over
-        frames of an orthographic sphere view and uniform map orientations."""
+        frames of an orthographic sphere view and uniform map orientations (a pool of
+        ``pool`` frames, ``normals`` of them importance-sampled)."""
         o = self.opts
         if not o.microfacet:
             return PresetModel(self.envmap, o.preset, o.technique_options(), o.model_options())
-        frames = band_frames(o.normals, (0.0, 90.0), seed=MICROFACET_FRAMES_SEED)
+        m = o.model_options()
+        frames = band_frames(max(m.pool, o.normals), (0.0, 90.0), seed=MICROFACET_FRAMES_SEED)
         return MicrofacetModel(self.envmap, o.preset, o.conductor(), frames,
-                               technique_options=o.technique_options(),
-                               options=o.model_options())
+                               technique_options=o.technique_options(), options=m,
+                               select=o.normals)
 
     def bands(self, strategy: str, n: int) -> dict:
         """The stored per-band predictions of a cell ({} for the diffuse model)."""

@@ -121,8 +121,11 @@ class MicrofacetModel(PresetModel):
         equal).
     technique_options : dict, optional
     options : PresetModelOptions, optional
-        ``max_level`` (the finest grid level) is read; the normals' options are not (the
-        frames are given).
+        ``max_level`` (the finest grid level) and ``pilot_level`` are read; the normals'
+        options are not (the frames are given).
+    select : int, optional
+        Treat ``frames`` as a pool and keep this many, importance-sampled by the variances
+        of the two techniques at each frame (:meth:`_select`); None: every frame.
 
     Examples
     --------
@@ -139,7 +142,7 @@ class MicrofacetModel(PresetModel):
 
     def __init__(self, envmap, preset, conductor, frames, weights=None,
                  technique_options: dict | None = None,
-                 options: PresetModelOptions | None = None):
+                 options: PresetModelOptions | None = None, select: int | None = None):
         normals, views = (np.asarray(f, dtype=np.float64).reshape(-1, 3) for f in frames)
         if len(normals) != len(views) or len(normals) == 0:
             raise ParameterError("frames must be (normals, views) of the same length >= 1")
@@ -149,6 +152,9 @@ class MicrofacetModel(PresetModel):
         self.preset, self.conductor = preset, conductor
         self.options = options or PresetModelOptions()
         self.technique = preset.technique(envmap, **(technique_options or {}))
+        if select is not None and select < len(normals):
+            idx, w = self._select(normals, views, w, int(select))
+            normals, views = normals[idx], views[idx]
         self.normals = list(zip(_unit(normals), _unit(views)))
         self.weights = w / w.sum()
         self.theta = np.degrees(np.arccos(np.clip(np.sum(_unit(normals) * _unit(views), axis=1),
@@ -157,6 +163,37 @@ class MicrofacetModel(PresetModel):
         self._cache: dict = {}
         self._bands: dict = {}
         self.seconds = 0.0
+
+    def _select(self, normals, views, w, count: int):
+        r"""``count`` frames of the pool by systematic sampling with probability
+        :math:`\pi_a \propto w_a(\frac13 + \frac{v_e(a)}{3\sum w v_e} + \frac{v_b(a)}{3\sum
+        w v_b})` (each term normalised over the pool), :math:`v_e, v_b` the variances of
+        emitter and visible-normal sampling at the frame estimated on the map part's pilot
+        table (:attr:`PresetModelOptions.pilot_level`), and weights :math:`w_a/\pi_a`:
+        unbiased for the pool's weighted mean, and a frame whose lobe catches a sun is not
+        missed (as the diffuse model's normals)."""
+        tab = MapTable.build(self.technique, self.options.pilot_level)
+        b2 = ((np.pi * tab.base) ** 2).sum(axis=1)                        # Σ_c (L/p_e)²
+        v_e, v_b = np.zeros(len(normals)), np.zeros(len(normals))
+        for a, (n, v) in enumerate(zip(_unit(normals), _unit(views))):
+            rows = np.asarray(self.preset.tangent_frame(n.reshape(1, 3))[0])
+            loc = tab.directions @ rows.T
+            wis = np.broadcast_to(rows @ v, loc.shape)
+            fc = self.conductor.eval(wis, loc)
+            pb = self.conductor.pdf(wis, loc)
+            mean2 = (((np.pi * tab.base) * fc[:, None]).mean(axis=0) ** 2).sum()
+            v_e[a] = max(0.0, float(np.mean(b2 * fc * fc)) - mean2)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                second = np.where(pb > 0, b2 * tab.pdf * fc * fc / pb, 0.0)
+            v_b[a] = max(0.0, float(np.mean(second)) - mean2)
+        pw = w / w.sum()
+        pi = pw / 3.0
+        for m in (v_e, v_b):
+            tot = float(pw @ m)
+            pi = pi + (pw * m / tot if tot > 0 else pw) / 3.0
+        cdf = np.cumsum(pi) / pi.sum()
+        idx = np.minimum(np.searchsorted(cdf, (np.arange(count) + 0.5) / count), len(pi) - 1)
+        return idx, pw[idx] / pi[idx]
 
     def predict_bands(self, strategy: str, sampler: str, spp: int) -> dict:
         """The predicted RMSE per view-angle band of :data:`BANDS` ({"0-30": rmse, …}; a band
