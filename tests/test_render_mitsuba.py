@@ -183,6 +183,24 @@ def test_reference_subtraction_unbiased():
     assert sphere_error(0.9 * truth, truth, truth, g).mean_offset == pytest.approx(-0.1)
 
 
+def test_sphere_error_mask_selects_a_band_of_view_angles():
+    """With a mask the error is the weighted RMS over the masked kept pixels only: errors of
+    1 where θ_o < 30° and 3 elsewhere give 1 and 3 by band (computed here by hand), and a
+    mask that keeps no pixel is one line."""
+    g = sphere_geometry(32)
+    theta = np.degrees(np.arccos(np.clip(g.z, -1, 1)))
+    near = theta < 30.0
+    truth = np.ones((6, 32, 32, 3))
+    img = truth + np.where(near, 1.0, 3.0)[None, :, :, None]
+    assert sphere_error(img, truth, truth, g, mask=near).rmse == pytest.approx(1.0)
+    assert sphere_error(img, truth, truth, g, mask=~near).rmse == pytest.approx(3.0)
+    w = g.weight[g.keep]
+    whole = math.sqrt(float((w * np.where(near[g.keep], 1.0, 9.0)).sum() / w.sum()))
+    assert sphere_error(img, truth, truth, g).rmse == pytest.approx(whole)
+    with pytest.raises(ParameterError, match="selecting kept pixels"):
+        sphere_error(img, truth, truth, g, mask=np.zeros((32, 32), bool))
+
+
 def test_cache_rejects_corrupt_file(tmp_path):
     calls = []
 

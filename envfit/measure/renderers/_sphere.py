@@ -190,7 +190,7 @@ def _bootstrap(d: np.ndarray, w: np.ndarray, rng: np.random.Generator,
 
 
 def sphere_error(images, reference_a, reference_b, geometry: SphereGeometry, *, seed=0,
-                 resamples: int = BOOTSTRAP_RESAMPLES) -> SphereError:
+                 resamples: int = BOOTSTRAP_RESAMPLES, mask=None) -> SphereError:
     r"""The weighted RMSE of ``images`` against the reference (a + b)/2, the reference's own
     variance :math:`\tfrac14(a-b)^2` subtracted, RMS over channels, and its percentile
     bootstrap 95 % interval over the kept pixels (module docstring).
@@ -202,6 +202,8 @@ def sphere_error(images, reference_a, reference_b, geometry: SphereGeometry, *, 
     geometry : the views' :class:`SphereGeometry`.
     seed : the bootstrap's seed (an int or a :class:`numpy.random.Generator`).
     resamples : bootstrap resamples.
+    mask : optional (R, R) booleans: only the kept pixels where it is True (the same in every
+        view), e.g. a band of view angles θ_o = arccos z.
 
     >>> g = sphere_geometry(8)
     >>> ref = np.ones((6, 8, 8, 3))
@@ -216,6 +218,11 @@ def sphere_error(images, reference_a, reference_b, geometry: SphereGeometry, *, 
         raise ParameterError(f"images and references differ in shape: {img.shape}, {a.shape}, "
                              f"{b.shape}")
     keep = geometry.keep
+    if mask is not None:
+        mask = np.asarray(mask, dtype=bool)
+        if mask.shape != keep.shape or not np.any(mask & keep):
+            raise ParameterError(f"mask must be {keep.shape} booleans selecting kept pixels")
+        keep = keep & mask
     ref = 0.5 * (a + b)
     e2 = ((img - ref) ** 2).mean(axis=-1)[:, keep].ravel()
     v = (0.25 * (a - b) ** 2).mean(axis=-1)[:, keep].ravel()
