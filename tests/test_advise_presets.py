@@ -202,6 +202,8 @@ def test_cached_run_prints_the_same_answer_without_the_model(sun_file, tmp_path,
     (["--renderer", "mitsuba3", "--roughness", "0.1"], "parameter of --brdf ggx"),
     (["--brdf", "ggx", "--roughness", "0.1"], "--roughness needs --renderer"),
     (["--brdf", "beckmann"], "--brdf beckmann needs --renderer"),
+    (["--renderer", "cycles", "--brdf", "ggx", "--roughness", "0.5", "--snippet"],
+     "Mitsuba 3 only"),
     (["--renderer", "mitsuba3", "--scale", "log"], "--scale must be linear"),
     (["--renderer", "mitsuba3", "--no-renderer"], "--no-renderer is an option"),
     (["--renderer", "mitsuba3", "--sampler", "ldsampler", "--spp", "1000"], "beyond the 256"),
@@ -273,3 +275,20 @@ def test_microfacet_answer_bands_and_json_equal_the_model(sun_file, tmp_path, ca
                 assert j < k and m.predict_bands("mis", "independent", j)[band] > target
         else:
             assert "no spp up to" in ln and rmse > target
+
+
+def test_microfacet_snippet_loads_in_mitsuba_with_the_rough_conductor(gp_file, tmp_path, capsys):
+    """--brdf beckmann --roughness 0.2 --snippet: Mitsuba loads the printed scene and its
+    sphere's BSDF is a roughconductor with that alpha (read back from the loaded scene)."""
+    rc, lines, _, d = _run(capsys, [gp_file, "--renderer", "mitsuba3", "--brdf", "beckmann",
+                                    "--roughness", "0.2", "--sampler", "independent",
+                                    "--target-relative", "0.2", "--renderer-level", "4",
+                                    "--snippet", *MODEL], tmp_path)
+    assert rc == 0
+    mi = pytest.importorskip("mitsuba")
+    start = next(i for i, ln in enumerate(lines) if ln.startswith("import mitsuba"))
+    end = next(i for i, ln in enumerate(lines) if ln == "})")
+    ns = {}
+    exec("\n".join(lines[start:end + 1]).replace(repr(str(gp_file)), repr(str(gp_file))), ns)
+    bsdf = ns["scene"].shapes()[0].bsdf()
+    assert "RoughConductor" in str(bsdf) and "0.2" in str(bsdf)

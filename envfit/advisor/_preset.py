@@ -324,6 +324,8 @@ def advise_preset(envmap, opts: PresetAdviseOptions, *, target_rmse: float | Non
         a = adv.default
         adv.snippet_spp = a.spp if a.reached else a.searched_max
         kw = {"mis_compensation": True} if opts.mis_compensation else {}
+        if opts.microfacet:                 # Mitsuba only (_preset_options refuses the rest)
+            kw["microfacet"] = (opts.bsdf, opts.conductor().alpha)
         adv.snippet = opts.preset.snippet(a.strategy, opts.sampler, adv.snippet_spp,
                                           filename=filename, **kw)
     adv.model = {"normals": opts.model_options().normals, "level": opts.level,

@@ -334,12 +334,24 @@ STRATEGIES = {
 
 
 def _snippet(s: StrategySetting, spec: SamplerSpec, spp: int, *, filename: str = "envmap.exr",
-             mis_compensation: bool = False, form: str = "python") -> str:
-    """The scene a user pastes: a diffuse sphere lit by the map, Mitsuba's ``direct``
-    integrator with the strategy's counts, the sampler at the spp it runs. ``form``
-    ``"python"`` (a ``mi.load_dict`` call) or ``"xml"`` (scene XML for ``mi.load_string``)."""
+             mis_compensation: bool = False, form: str = "python",
+             microfacet: tuple | None = None) -> str:
+    """The scene a user pastes: a sphere lit by the map — white diffuse, or with
+    ``microfacet`` = (distribution, α) a white ``roughconductor`` (``material="none"``:
+    Fresnel 1) —, Mitsuba's ``direct`` integrator with the strategy's counts, the sampler at
+    the spp it runs. ``form`` ``"python"`` (a ``mi.load_dict`` call) or ``"xml"`` (scene XML
+    for ``mi.load_string``)."""
     ne, nb = s.settings["emitter_samples"], s.settings["bsdf_samples"]
     comp = bool(mis_compensation)
+    if microfacet is None:
+        bsdf_xml, bsdf_py = '<bsdf type="diffuse"/>', '{"type": "diffuse"}'
+    else:
+        dist, alpha = microfacet[0], float(microfacet[1])
+        bsdf_xml = (f'<bsdf type="roughconductor"><string name="distribution" value="{dist}"/>'
+                    f'<float name="alpha" value="{alpha:g}"/>'
+                    f'<string name="material" value="none"/></bsdf>')
+        bsdf_py = (f'{{"type": "roughconductor", "distribution": "{dist}", '
+                   f'"alpha": {alpha:g}, "material": "none"}}')
     if form == "xml":
         return (f'<scene version="3.0.0">\n'
                 f'  <integrator type="direct">\n'
@@ -356,7 +368,7 @@ def _snippet(s: StrategySetting, spec: SamplerSpec, spp: int, *, filename: str =
                 f'    <boolean name="mis_compensation" value="{str(comp).lower()}"/>\n'
                 f'  </emitter>\n'
                 f'  <shape type="sphere">\n'
-                f'    <bsdf type="diffuse"/>\n'
+                f'    {bsdf_xml}\n'
                 f'  </shape>\n'
                 f'</scene>\n')
     if form != "python":
@@ -371,7 +383,7 @@ def _snippet(s: StrategySetting, spec: SamplerSpec, spp: int, *, filename: str =
             f'               "sampler": {{"type": "{spec.name}", "sample_count": {spp}}}}},\n'
             f'    "emitter": {{"type": "envmap", "filename": {filename!r}, '
             f'"mis_compensation": {comp}}},\n'
-            f'    "sphere": {{"type": "sphere", "bsdf": {{"type": "diffuse"}}}},\n'
+            f'    "sphere": {{"type": "sphere", "bsdf": {bsdf_py}}},\n'
             f'}})\n')
 
 
