@@ -6,8 +6,10 @@ with :class:`envfit.predict.renderer.MicrofacetModel` over frames drawn from tho
 (:func:`envfit.predict.renderer.pixel_frames`: each pixel's normal and its view axis; a pool
 of ``--pool`` pixels, ``--frames`` of them importance-sampled by the two techniques'
 variances so that the pixels whose lobe catches a sun are not missed).
-Per view-angle band (θ_o in 0–30°, 30–60°: the six-view layout keeps θ_o ≤ 55°, so its
-60–80° band is empty) and for the whole set.
+Per view-angle band (θ_o in 0–30°, 30–60°, 60–80°) and for the whole set: with ``--layout
+disk`` (default) every pixel of each view's disk, weight 1 (the views an orthographic camera
+has of a sphere, six directions of the map); ``cube`` keeps each normal in its nearest view
+(θ_o ≤ 55°).
 
 Writes ``OUT/microfacet_check.json`` / ``.csv`` after every cell (resumable); prints the table,
 the share of cells inside [0.8 × low, 1.25 × high] and the CPU.
@@ -42,7 +44,7 @@ COLUMNS = ["map", "distribution", "alpha", "sampler", "strategy", "spp", "spp_us
 
 
 def _model(env, dist, alpha, args):
-    n, v, _ = pixel_frames(sphere_geometry(args.resolution), VIEWS, args.pool,
+    n, v, _ = pixel_frames(sphere_geometry(args.resolution, args.layout), VIEWS, args.pool,
                            seed=args.seed)
     return MicrofacetModel(EnvMap(env.data, up="y", name=env.name), preset("mitsuba3"),
                            Conductor(dist, alpha), (n, v),
@@ -75,17 +77,18 @@ def run(args, rows: list, meta: dict, out: Path) -> None:
                 with Mitsuba3Sphere(env, opts) as sph:
                     ref = sph.reference()
                     for s, st, n in cells:
-                        rows.append(_cell(sph, ref, model, (name, dist, alpha, s, st, n), rng))
+                        rows.append(_cell(sph, ref, model, (name, dist, alpha, s, st, n), rng,
+                                          sphere_geometry(args.resolution, args.layout)))
                         _write(out, rows, meta)
                         print(_line(rows[-1]), flush=True)
 
 
-def _cell(sph, ref, model, cell, rng) -> dict:
-    """One rendered cell: the whole set of kept pixels and each view-angle band."""
+def _cell(sph, ref, model, cell, rng, g) -> dict:
+    """One rendered cell: the whole set of kept pixels of geometry ``g`` and each view-angle
+    band."""
     name, dist, alpha, s, st, n = cell
     t = time.perf_counter()
     imgs, _ = sph.render(st, s, n, rng)
-    g = sph.geometry
     theta = np.degrees(np.arccos(np.clip(g.z, -1.0, 1.0)))
     m = sphere_error(imgs, ref.a, ref.b, g, seed=rng)
     p = float(model.predict(st, s, n).rmse)
@@ -143,6 +146,10 @@ def main(argv=None) -> int:
     ap.add_argument("--strategies", nargs="+", default=["map", "brdf", "mis"])
     ap.add_argument("--spp", nargs="+", type=int, default=[16, 64, 256])
     ap.add_argument("--resolution", type=int, default=64)
+    ap.add_argument("--layout", choices=("disk", "cube"), default="disk",
+                    help="pixels measured: disk (every pixel of each view: theta_o 0-90 deg, "
+                         "an orthographic camera's view of a sphere) or cube (each normal in "
+                         "its nearest view: theta_o <= 55 deg, uniform normals)")
     ap.add_argument("--reference-spp", type=int, default=4096)
     ap.add_argument("--frames", type=int, default=64, help="frames of the model")
     ap.add_argument("--pool", type=int, default=2048,
@@ -160,7 +167,7 @@ def main(argv=None) -> int:
     if (out / "microfacet_check.json").exists():
         saved = json.loads((out / "microfacet_check.json").read_text())
         rows, meta = saved["rows"], saved["meta"]
-    meta.update(cpu=_cpu(), argv=sys.argv[1:], resolution=args.resolution,
+    meta.update(cpu=_cpu(), argv=sys.argv[1:], resolution=args.resolution, layout=args.layout,
                 reference_spp=args.reference_spp, frames=args.frames)
     t = time.perf_counter()
     run(args, rows, meta, out)

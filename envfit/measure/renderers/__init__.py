@@ -23,7 +23,7 @@ _LAZY = {
     "BOOTSTRAP_RESAMPLES": "_sphere", "SphereError": "_sphere", "SphereGeometry": "_sphere",
     "SphereMeasurement": "_sphere", "SphereView": "_sphere", "VIEWS": "_sphere",
     "sphere_error": "_sphere", "sphere_geometry": "_sphere", "sphere_mean": "_sphere",
-    "view_normals": "_sphere", "view_seeds": "_sphere",
+    "view_normals": "_sphere", "view_seeds": "_sphere", "LAYOUTS": "_sphere",
     "ReferencePair": "_reference", "cached_reference": "_reference", "map_digest": "_reference",
     "MITSUBA_SAMPLERS": "_mitsuba3", "Mitsuba3Options": "_mitsuba3",
     "Mitsuba3Sphere": "_mitsuba3", "mitsuba_normals": "_mitsuba3",

@@ -101,22 +101,39 @@ class SphereGeometry:
         return int(self.keep.sum())
 
 
-def sphere_geometry(resolution: int) -> SphereGeometry:
+#: pixel layouts of :func:`sphere_geometry`
+LAYOUTS = ("cube", "disk")
+
+
+def sphere_geometry(resolution: int, layout: str = "cube") -> SphereGeometry:
     """The :class:`SphereGeometry` of R × R views (module docstring).
+
+    ``layout="cube"`` (default): each normal kept in the view nearest it, weight 1/z — the
+    mean over uniform normals (white diffuse: the view does not matter). ``"disk"``: every
+    pixel whose square lies on the disk, weight 1 — what an orthographic camera sees of a
+    sphere, θ_o = arccos z from 0 to 90° with density ∝ cos θ_o sin θ_o, for a BSDF whose
+    error depends on the view (a rough conductor); the six views then show the map from six
+    directions.
 
     >>> g = sphere_geometry(16)
     >>> g.kept, bool(np.all(g.weight[g.keep] >= 1.0))
     (116, True)
+    >>> sphere_geometry(16, "disk").kept
+    164
     """
     r = int(resolution)
     if r != resolution or r < 4:
         raise ParameterError(f"the view resolution must be an integer >= 4, got {resolution!r}")
+    if layout not in LAYOUTS:
+        raise ParameterError(f"layout must be one of {', '.join(LAYOUTS)}, got {layout!r}")
     c = (np.arange(r) + 0.5) / r * 2.0 - 1.0
     X, Y = np.meshgrid(c, -c)
     h = 1.0 / r
     inside = (np.abs(X) + h) ** 2 + (np.abs(Y) + h) ** 2 < 1.0
     r2 = X ** 2 + Y ** 2
     z = np.where(r2 < 1.0, np.sqrt(np.clip(1.0 - r2, 0.0, None)), np.nan)
+    if layout == "disk":
+        return SphereGeometry(r, X, Y, z, inside, inside.astype(np.float64))
     with np.errstate(invalid="ignore"):
         keep = inside & (z >= np.abs(X)) & (z >= np.abs(Y))
     w = np.where(keep, 1.0 / np.where(keep, z, 1.0), 0.0)

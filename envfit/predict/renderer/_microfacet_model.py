@@ -124,8 +124,9 @@ class MicrofacetModel(PresetModel):
         ``max_level`` (the finest grid level) and ``pilot_level`` are read; the normals'
         options are not (the frames are given).
     select : int, optional
-        Treat ``frames`` as a pool and keep this many, importance-sampled by the variances
-        of the two techniques at each frame (:meth:`_select`); None: every frame.
+        Treat ``frames`` as a pool and keep about this many (at least ``select // 6`` per
+        view-angle band present), importance-sampled by the variances of the two techniques
+        at each frame (:meth:`_select`); None: every frame.
 
     Examples
     --------
@@ -165,13 +166,39 @@ class MicrofacetModel(PresetModel):
         self.seconds = 0.0
 
     def _select(self, normals, views, w, count: int):
-        r"""``count`` frames of the pool by systematic sampling with probability
-        :math:`\pi_a \propto w_a(\frac13 + \frac{v_e(a)}{3\sum w v_e} + \frac{v_b(a)}{3\sum
-        w v_b})` (each term normalised over the pool), :math:`v_e, v_b` the variances of
-        emitter and visible-normal sampling at the frame estimated on the map part's pilot
-        table (:attr:`PresetModelOptions.pilot_level`), and weights :math:`w_a/\pi_a`:
-        unbiased for the pool's weighted mean, and a frame whose lobe catches a sun is not
-        missed (as the diffuse model's normals)."""
+        r"""``count`` frames of the pool, stratified by the view-angle bands (:data:`BANDS`
+        and the rest up to 90°: each band at least ``count // 6`` frames, the rest by the
+        pool's weight in it) and importance-sampled within each stratum by systematic
+        sampling with probability :math:`\pi_a \propto w_a(\frac13 + \frac{v_e(a)}{3\sum
+        w v_e} + \frac{v_b(a)}{3\sum w v_b})` (sums over the stratum), :math:`v_e, v_b` the
+        variances of emitter and visible-normal sampling at the frame on the map part's pilot
+        table (:attr:`PresetModelOptions.pilot_level`); weights :math:`w_a/(\pi_a k_s)`:
+        unbiased for the pool's weighted mean and for each band's, and a frame whose lobe
+        catches a sun is not missed (as the diffuse model's normals)."""
+        v_e, v_b = self._proxies(normals, views)
+        pw = w / w.sum()
+        theta = np.degrees(np.arccos(np.clip(np.sum(_unit(normals) * _unit(views), axis=1),
+                                             -1.0, 1.0)))
+        edges = [lo for lo, _ in BANDS] + [BANDS[-1][1], 90.0 + 1e-9]
+        strata = [np.flatnonzero((theta >= a) & (theta < b)) for a, b in zip(edges, edges[1:])]
+        strata = [s for s in strata if len(s) and pw[s].sum() > 0]
+        floor = max(1, count // 6)
+        alloc = [max(floor, int(round(count * pw[s].sum()))) for s in strata]
+        idx, wt = [], []
+        for s, k in zip(strata, alloc):
+            p = pw[s] / 3.0
+            for m in (v_e[s], v_b[s]):
+                tot = float(pw[s] @ m)
+                p = p + (pw[s] * m / tot if tot > 0 else pw[s]) / 3.0
+            p = p / p.sum()
+            cdf = np.cumsum(p)
+            j = np.minimum(np.searchsorted(cdf, (np.arange(k) + 0.5) / k), len(s) - 1)
+            idx.append(s[j])
+            wt.append(pw[s][j] / (p[j] * k))
+        return np.concatenate(idx), np.concatenate(wt)
+
+    def _proxies(self, normals, views):
+        """(v_e, v_b) per frame on the pilot table (:meth:`_select`)."""
         tab = MapTable.build(self.technique, self.options.pilot_level)
         b2 = ((np.pi * tab.base) ** 2).sum(axis=1)                        # Σ_c (L/p_e)²
         v_e, v_b = np.zeros(len(normals)), np.zeros(len(normals))
@@ -186,14 +213,7 @@ class MicrofacetModel(PresetModel):
             with np.errstate(divide="ignore", invalid="ignore"):
                 second = np.where(pb > 0, b2 * tab.pdf * fc * fc / pb, 0.0)
             v_b[a] = max(0.0, float(np.mean(second)) - mean2)
-        pw = w / w.sum()
-        pi = pw / 3.0
-        for m in (v_e, v_b):
-            tot = float(pw @ m)
-            pi = pi + (pw * m / tot if tot > 0 else pw) / 3.0
-        cdf = np.cumsum(pi) / pi.sum()
-        idx = np.minimum(np.searchsorted(cdf, (np.arange(count) + 0.5) / count), len(pi) - 1)
-        return idx, pw[idx] / pi[idx]
+        return v_e, v_b
 
     def predict_bands(self, strategy: str, sampler: str, spp: int) -> dict:
         """The predicted RMSE per view-angle band of :data:`BANDS` ({"0-30": rmse, …}; a band
