@@ -118,3 +118,38 @@ def test_selected_frames_estimate_the_pool_mean():
         assert sel.predict(st, "independent", 16).rmse == pytest.approx(ref, rel=0.10), st
         worst_head = max(worst_head, abs(head.predict(st, "independent", 16).rmse / ref - 1))
     assert worst_head > 0.3
+
+
+@pytest.mark.parametrize("kind,renderer", [("ggx", "mitsuba3"), ("beckmann", "mitsuba3"),
+                                           ("ggx", "pbrt4"), ("ggx", "cycles"),
+                                           ("beckmann", "cycles")])
+def test_compiled_conductor_is_the_numpy_conductor(kind, renderer):
+    """The compiled f·cos and pdf equal Conductor.eval and .pdf (the reference) to 1e-10 at
+    random light directions, the pole, the horizon and below it, for three views."""
+    from envfit.predict.renderer._microfacet_kernels import conductor_eval_pdf
+    rng = np.random.default_rng(0)
+    d = rng.standard_normal((20000, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    d[:4] = [[0, 0, 1], [1, 0, 0], [0, 0, -1], [0.6, 0, 0.8]]
+    for alpha in (0.05, 0.4, 1.0):
+        c = Conductor(kind, alpha, renderer=renderer)
+        for wi in ([0, 0, 1.0], [0.5, 0.2, np.sqrt(0.71)], [0.99, 0, np.sqrt(1 - 0.99 ** 2)]):
+            wi = np.array(wi)
+            f, p = conductor_eval_pdf(c, wi, d)
+            w = np.broadcast_to(wi, d.shape)
+            np.testing.assert_allclose(f, c.eval(w, d), rtol=1e-10, atol=0)
+            np.testing.assert_allclose(p, c.pdf(w, d), rtol=1e-10, atol=0)
+
+
+@pytest.mark.parametrize("comp", [False, True])
+def test_compiled_mitsuba_lookup_is_the_technique(comp):
+    """Mitsuba's envmap radiance and emitter pdf at world directions, compiled, equal the
+    technique's numpy eval and pdf."""
+    from envfit.predict.renderer._microfacet_kernels import mitsuba_eval_pdf
+    t = MITSUBA.technique(_sun_map(), mis_compensation=comp)
+    rng = np.random.default_rng(1)
+    d = rng.standard_normal((5000, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    rad, pdf = mitsuba_eval_pdf(t, d)
+    np.testing.assert_allclose(rad, t.eval(d), rtol=1e-10)
+    np.testing.assert_allclose(pdf, t.pdf(d), rtol=1e-10)

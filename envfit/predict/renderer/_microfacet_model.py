@@ -34,7 +34,9 @@ from __future__ import annotations
 import numpy as np
 
 from envfit.base import ParameterError
-from envfit.predict.renderer._preset_integrand import MapTable, midpoints
+from envfit.predict.renderer._microfacet_kernels import (compiled_conductor,
+                                                        conductor_eval_pdf, mitsuba_eval_pdf)
+from envfit.predict.renderer._preset_integrand import MapTable, _is_mitsuba, midpoints
 from envfit.predict.renderer._preset_model import (PresetModel, PresetModelOptions,
                                                    PresetPrediction)
 
@@ -206,8 +208,7 @@ class MicrofacetModel(PresetModel):
             rows = np.asarray(self.preset.tangent_frame(n.reshape(1, 3))[0])
             loc = tab.directions @ rows.T
             wis = np.broadcast_to(rows @ v, loc.shape)
-            fc = self.conductor.eval(wis, loc)
-            pb = self.conductor.pdf(wis, loc)
+            fc, pb = self._eval_pdf(rows @ v, loc, wis)
             mean2 = (((np.pi * tab.base) * fc[:, None]).mean(axis=0) ** 2).sum()
             v_e[a] = max(0.0, float(np.mean(b2 * fc * fc)) - mean2)
             with np.errstate(divide="ignore", invalid="ignore"):
@@ -264,12 +265,21 @@ class MicrofacetModel(PresetModel):
         return self._tables[key]
 
     def _technique_values(self, d: np.ndarray, with_pdf: bool):
+        if _is_mitsuba(self.technique):
+            return mitsuba_eval_pdf(self.technique, d)
         rad, pdf = [], []
         for i in range(0, len(d), _CHUNK):
             rad.append(self.technique.eval(d[i:i + _CHUNK]))
             if with_pdf:
                 pdf.append(self.technique.pdf(d[i:i + _CHUNK]))
         return np.concatenate(rad), (np.concatenate(pdf) if with_pdf else None)
+
+    def _eval_pdf(self, wi, loc, wis):
+        """(f·cos, pdf) of the conductor at the light directions ``loc`` for the view ``wi``:
+        compiled for a white conductor, numpy otherwise."""
+        if compiled_conductor(self.conductor):
+            return conductor_eval_pdf(self.conductor, wi, loc)
+        return self.conductor.eval(wis, loc), self.conductor.pdf(wis, loc)
 
     def _part_values(self, strategies: set, frame, fine: int) -> dict:
         """The tabulated parts at one frame: ``map``, ``brdf``, ``mis_e``, ``mis_b``,
@@ -283,10 +293,11 @@ class MicrofacetModel(PresetModel):
             tab = self._table("map", fine)
             loc = tab.directions @ rows.T
             wis = np.broadcast_to(wi, loc.shape)
-            h = tab.base * (np.pi * self.conductor.eval(wis, loc))[:, None]
+            fc, pb = self._eval_pdf(wi, loc, wis)
+            h = tab.base * (np.pi * fc)[:, None]
             out["map"] = h
             if mis:
-                we = self.preset.mis_weights(tab.pdf, self.conductor.pdf(wis, loc), "mis")[0]
+                we = self.preset.mis_weights(tab.pdf, pb, "mis")[0]
                 out["mis_e"] = h * we[:, None]
         if strategies & {"brdf", "mis"}:
             u = self._table("bsdf", fine)
