@@ -292,3 +292,14 @@ def test_microfacet_snippet_loads_in_mitsuba_with_the_rough_conductor(gp_file, t
     exec("\n".join(lines[start:end + 1]).replace(repr(str(gp_file)), repr(str(gp_file))), ns)
     bsdf = ns["scene"].shapes()[0].bsdf()
     assert "RoughConductor" in str(bsdf) and "0.2" in str(bsdf)
+
+
+def test_the_stop_sentence_names_the_next_spp_the_sampler_runs(gp_file, tmp_path, capsys):
+    """pbrt-v4's zsobol rounds a request down to a power of two (33 -> 32): when the search
+    stops at 32 spp, the sentence names 64 spp and the level that resolves it (it once named
+    32, the spp already searched)."""
+    rc, lines, _, d = _run(capsys, [gp_file, "--renderer", "pbrt4", "--target-rmse", "1e-9",
+                                    "--renderer-level", "6", *MODEL], tmp_path)
+    assert rc == 0 and not d["renderer"]["recommendation"]["reached"]
+    assert "the model resolves zsobol to 32 spp at grid level 6; 64 spp needs " \
+           "--renderer-level 7 (4x the time and memory)" in lines[0]

@@ -154,9 +154,7 @@ class PresetAdvice:
         level that reaches the next runnable spp) or ``--nmax``."""
         o = self.options
         spec = o.preset.sampler(o.sampler)
-        nxt = spec.spp(a.searched_max + 1)
-        if spec.randomisation in NET_RANDOMISATIONS:
-            nxt = spec.spp(1 << (nxt - 1).bit_length())
+        nxt = _next_runnable(spec, a.searched_max)
         if nxt > o.max_spp:
             return "raise --nmax or relax the target"
         rand = spec.randomisation
@@ -270,6 +268,23 @@ class PresetAdvice:
                 "predicted_rmse": a.predicted_rmse, "below_spp": a.below,
                 "below_rmse": a.below_rmse, "searched_max": a.searched_max,
                 "integrator": s.integrator, "settings": dict(s.settings)}
+
+
+def _next_runnable(spec, spp: int) -> int:
+    """The smallest spp above ``spp`` the sampler runs (a power of two for the model's nets;
+    a sampler may round a request down, as pbrt-v4's ``zsobol`` does).
+
+    >>> from envfit.sampling.presets import preset
+    >>> _next_runnable(preset("pbrt4").sampler("zsobol"), 32)
+    64
+    >>> _next_runnable(preset("mitsuba3").sampler("ldsampler"), 256)
+    1024
+    """
+    net = spec.randomisation in NET_RANDOMISATIONS
+    n = 1 << int(spp).bit_length() if net else int(spp) + 1
+    while spec.spp(n) <= spp:
+        n *= 2
+    return spec.spp(n)
 
 
 def _target(mean: float, target_rmse, target_relative) -> tuple[float, float | None]:
