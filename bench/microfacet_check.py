@@ -74,11 +74,12 @@ def run(args, rows: list, meta: dict, out: Path) -> None:
                 meta.setdefault("model_seconds", {})[f"{name}/{dist}/{alpha}"] = \
                     time.perf_counter() - t
                 rng = np.random.default_rng([args.seed, len(rows)])
+                geometry = sphere_geometry(args.resolution, args.layout)
                 with Mitsuba3Sphere(env, opts) as sph:
                     ref = sph.reference()
                     for s, st, n in cells:
                         rows.append(_cell(sph, ref, model, (name, dist, alpha, s, st, n), rng,
-                                          sphere_geometry(args.resolution, args.layout)))
+                                          geometry))
                         _write(out, rows, meta)
                         print(_line(rows[-1]), flush=True)
 

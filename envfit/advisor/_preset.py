@@ -334,7 +334,7 @@ def advise_preset(envmap, opts: PresetAdviseOptions, *, target_rmse: float | Non
                          independent=spec.randomisation == "independent")
     cells = {(s, n): cm.rmse(s, n) for s in opts.strategies for n in cm.asked_spp(s)}
     adv = PresetAdvice(opts, target, rel, mean, answers, listed, cells, cap, notes=store.notes,
-                       bands={k: cm.bands(*k) for k in cells if cm.bands(*k)})
+                       bands={k: b for k in cells if (b := cm.bands(*k))})
     if snippet:
         a = adv.default
         adv.snippet_spp = a.spp if a.reached else a.searched_max

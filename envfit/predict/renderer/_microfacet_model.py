@@ -38,7 +38,7 @@ from envfit.predict.renderer._microfacet_kernels import (compiled_conductor,
                                                         conductor_eval_pdf, mitsuba_eval_pdf)
 from envfit.predict.renderer._preset_integrand import MapTable, _is_mitsuba, midpoints
 from envfit.predict.renderer._preset_model import (PresetModel, PresetModelOptions,
-                                                   PresetPrediction)
+                                                   systematic_indices)
 
 __all__ = ["MicrofacetModel", "pixel_frames", "band_frames", "BANDS"]
 
@@ -193,8 +193,7 @@ class MicrofacetModel(PresetModel):
                 tot = float(pw[s] @ m)
                 p = p + (pw[s] * m / tot if tot > 0 else pw[s]) / 3.0
             p = p / p.sum()
-            cdf = np.cumsum(p)
-            j = np.minimum(np.searchsorted(cdf, (np.arange(k) + 0.5) / k), len(s) - 1)
+            j = systematic_indices(p, k)
             idx.append(s[j])
             wt.append(pw[s][j] / (p[j] * k))
         return np.concatenate(idx), np.concatenate(wt)
@@ -222,31 +221,10 @@ class MicrofacetModel(PresetModel):
         self.predict(strategy, sampler, spp)
         return dict(self._bands[self.request(strategy, sampler, spp)])
 
-    def _run(self, todo: list) -> None:
-        """As :meth:`PresetModel._run`, keeping each frame's MSE for the bands."""
-        fine = max(self.options.max_level, *(r.level for r in todo)) + 1
-        strategies = {r.strategy for r in todo}
-        levels = {r.level for r in todo}
-        k = len(self.normals)
-        per = {r: [None] * k for r in todo}
-        parts = {r: np.zeros((k, 3)) for r in todo}
-        for i, frame in enumerate(self.normals):
-            vals = self._part_values(strategies, frame, fine)
-            grids: dict = {}
-            for r in todo:
-                res = self._cell(r, vals, grids, fine, levels)
-                per[r][i] = np.asarray(res[0], dtype=np.float64)
-                parts[r][i] = [float(np.mean(x)) for x in res[1:]]
-        for r in todo:
-            mse_k = np.clip(np.stack(per[r]), 0.0, None)                 # (K, C)
-            mse = self.weights @ mse_k
-            a = self.weights @ parts[r]
-            s = self.preset.strategy(r.strategy)
-            self._cache[r] = PresetPrediction(
-                float(np.sqrt(np.mean(mse))), mse, r.strategy, r.sampler, r.spp, r.n,
-                s.emitter_samples, s.bsdf_samples, r.name, r.shared, r.level,
-                {"map": a[0], "brdf": a[1], "cross": a[2]}, k)
-            self._bands[r] = self._band_rmse(mse_k)
+    def _store(self, r, mse_k: np.ndarray, parts_k: np.ndarray) -> None:
+        """As :meth:`PresetModel._store`, and each band's RMSE from the frames in it."""
+        super()._store(r, mse_k, parts_k)
+        self._bands[r] = self._band_rmse(np.clip(mse_k, 0.0, None))
 
     def _band_rmse(self, mse_k: np.ndarray) -> dict:
         out = {}

@@ -59,6 +59,7 @@ from envfit.predict.renderer.randomisation import DyadicGrid, mis_mse, randomise
 from envfit.theory import spherical_fibonacci_sphere
 
 __all__ = ["PresetModelOptions", "PresetModel", "PresetPrediction", "grid_level",
+           "systematic_indices",
            "RANDOMISATION_OF"]
 
 #: a sampler's randomisation tag → the registry's name (of envfit.predict.renderer.randomisation)
@@ -156,6 +157,18 @@ def _serpentine_pool(m: int) -> np.ndarray:
     return pts[np.lexsort((np.where(band % 2 == 0, phi, -phi), band))]
 
 
+def systematic_indices(p: np.ndarray, count: int) -> np.ndarray:
+    """``count`` indices drawn from probabilities ``p`` (any scale) by systematic sampling at
+    the midpoints ((j + ½)/count of the cumulative distribution).
+
+    >>> systematic_indices(np.array([1.0, 0.0, 3.0]), 4).tolist()
+    [0, 2, 2, 2]
+    """
+    cdf = np.cumsum(p)
+    return np.minimum(np.searchsorted(cdf / cdf[-1], (np.arange(count) + 0.5) / count),
+                      len(p) - 1)
+
+
 def _proposal(table: MapTable, pool: np.ndarray, count: int):
     """(normals (K, 3), weights (K,) summing to 1) by systematic sampling of the pool with
     the proxies v_e, v_b of the module docstring."""
@@ -169,9 +182,7 @@ def _proposal(table: MapTable, pool: np.ndarray, count: int):
     for m in (v_e, v_b):
         pi = pi + (m / m.sum() if m.sum() > 0 else 1.0 / len(pool))
     pi /= 3.0
-    cdf = np.cumsum(pi)
-    idx = np.minimum(np.searchsorted(cdf / cdf[-1], (np.arange(count) + 0.5) / count),
-                     len(pool) - 1)
+    idx = systematic_indices(pi, count)
     w = 1.0 / (len(pool) * pi[idx])
     return pool[idx], w / w.sum()
 
@@ -295,26 +306,34 @@ class PresetModel:
         return out
 
     def _run(self, todo: list) -> None:
+        """One pass over the normals (frames) for the requests ``todo``: each one's MSE and
+        parts per normal, then :meth:`_store`."""
         fine = max(self.options.max_level, *(r.level for r in todo)) + 1   # never coarser
         strategies = {r.strategy for r in todo}
         levels = {r.level for r in todo}
-        acc = {r: [0.0, 0.0, 0.0, 0.0] for r in todo}         # mse (C,), map, brdf, cross
-        for normal, wt in zip(self.normals, self.weights):
+        k = len(self.normals)
+        per = {r: [None] * k for r in todo}                  # mse (C,) per normal
+        parts = {r: np.zeros((k, 3)) for r in todo}          # map, brdf, cross per normal
+        for i, normal in enumerate(self.normals):
             vals = self._part_values(strategies, normal, fine)
             grids: dict = {}
             for r in todo:
                 res = self._cell(r, vals, grids, fine, levels)
-                a = acc[r]
-                a[0] = a[0] + wt * res[0]
-                for k in range(3):
-                    a[k + 1] += wt * float(np.mean(res[k + 1]))
-        for r, a in acc.items():
-            mse = np.clip(np.asarray(a[0], dtype=np.float64), 0.0, None)
-            s = self.preset.strategy(r.strategy)
-            self._cache[r] = PresetPrediction(
-                float(np.sqrt(np.mean(mse))), mse, r.strategy, r.sampler, r.spp, r.n,
-                s.emitter_samples, s.bsdf_samples, r.name, r.shared, r.level,
-                {"map": a[1], "brdf": a[2], "cross": a[3]}, len(self.normals))
+                per[r][i] = np.asarray(res[0], dtype=np.float64)
+                parts[r][i] = [float(np.mean(x)) for x in res[1:]]
+        for r in todo:
+            self._store(r, np.stack(per[r]), parts[r])
+
+    def _store(self, r: _Request, mse_k: np.ndarray, parts_k: np.ndarray) -> None:
+        """The prediction of ``r`` from its MSE (K, C) and parts (K, 3) per normal: the
+        weighted means."""
+        mse = np.clip(self.weights @ mse_k, 0.0, None)
+        a = self.weights @ parts_k
+        s = self.preset.strategy(r.strategy)
+        self._cache[r] = PresetPrediction(
+            float(np.sqrt(np.mean(mse))), mse, r.strategy, r.sampler, r.spp, r.n,
+            s.emitter_samples, s.bsdf_samples, r.name, r.shared, r.level,
+            {"map": float(a[0]), "brdf": float(a[1]), "cross": float(a[2])}, len(self.normals))
 
     def _cell(self, r: _Request, vals: dict, grids: dict, fine: int, levels):
         """(mse, map part, BSDF part, 2·cross) per channel of one request at one normal."""
