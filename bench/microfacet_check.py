@@ -31,7 +31,8 @@ from envfit.base._atomic import atomic_write_csv, atomic_write_json  # internal:
 from envfit.maps import EnvMap
 from envfit.measure.renderers import (VIEWS, Mitsuba3Options, Mitsuba3Sphere,
                                       roughconductor_bsdf, sphere_error, sphere_geometry)
-from envfit.predict.renderer import MicrofacetModel, PresetModelOptions, pixel_frames
+from envfit.predict.renderer import (MicrofacetModel, PresetModelOptions, pixel_footprints,
+                                     pixel_frames)
 from envfit.sampling.presets import preset
 from envfit.shading.microfacet import Conductor
 
@@ -46,10 +47,12 @@ COLUMNS = ["map", "distribution", "alpha", "sampler", "strategy", "spp", "spp_us
 def _model(env, dist, alpha, args):
     n, v, _ = pixel_frames(sphere_geometry(args.resolution, args.layout), VIEWS, args.pool,
                            seed=args.seed)
+    foot = (pixel_footprints(n, v, args.resolution, args.footprint) if args.footprint > 1
+            else None)
     return MicrofacetModel(EnvMap(env.data, up="y", name=env.name), preset("mitsuba3"),
                            Conductor(dist, alpha), (n, v),
                            options=PresetModelOptions(max_level=args.max_level),
-                           select=args.frames)
+                           select=args.frames, footprints=foot)
 
 
 def run(args, rows: list, meta: dict, out: Path) -> None:
@@ -156,6 +159,9 @@ def main(argv=None) -> int:
     ap.add_argument("--pool", type=int, default=2048,
                     help="pixels the frames are importance-sampled from")
     ap.add_argument("--max-level", type=int, default=9)
+    ap.add_argument("--footprint", type=int, default=4,
+                    help="the model's pixel footprint: side x side normals over each pixel "
+                         "(1: each pixel at its centre, no footprint term)")
     ap.add_argument("--synth-height", type=int, default=256)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--cache", default=None)
@@ -169,7 +175,7 @@ def main(argv=None) -> int:
         saved = json.loads((out / "microfacet_check.json").read_text())
         rows, meta = saved["rows"], saved["meta"]
     meta.update(cpu=_cpu(), argv=sys.argv[1:], resolution=args.resolution, layout=args.layout,
-                reference_spp=args.reference_spp, frames=args.frames)
+                reference_spp=args.reference_spp, frames=args.frames, footprint=args.footprint)
     t = time.perf_counter()
     run(args, rows, meta, out)
     print_summary(rows)

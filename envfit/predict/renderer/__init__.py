@@ -36,7 +36,7 @@ _LAZY = {
     "PresetModel": "_preset_model", "PresetModelOptions": "_preset_model",
     "PresetPrediction": "_preset_model",
     "MicrofacetModel": "_microfacet_model", "band_frames": "_microfacet_model",
-    "pixel_frames": "_microfacet_model",
+    "pixel_frames": "_microfacet_model", "pixel_footprints": "_microfacet_model",
 }
 
 __all__ = sorted(_LAZY)

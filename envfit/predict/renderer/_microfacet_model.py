@@ -40,7 +40,7 @@ from envfit.predict.renderer._preset_integrand import MapTable, _is_mitsuba, mid
 from envfit.predict.renderer._preset_model import (PresetModel, PresetModelOptions,
                                                    systematic_indices)
 
-__all__ = ["MicrofacetModel", "pixel_frames", "band_frames", "BANDS"]
+__all__ = ["MicrofacetModel", "pixel_frames", "pixel_footprints", "band_frames", "BANDS"]
 
 #: the view-angle bands θ_o (degrees) reported beside the whole-sphere value (issue 25)
 BANDS = ((0.0, 30.0), (30.0, 60.0), (60.0, 80.0))
@@ -105,6 +105,42 @@ def pixel_frames(geometry, views, count: int, *, seed=0):
     return n[idx], np.ascontiguousarray(v[idx]), theta
 
 
+def pixel_footprints(normals, views, resolution: int, side: int = 4) -> np.ndarray:
+    r"""The normals (K, side², 3) at side × side stratum midpoints of each frame's pixel: the
+    pixel of an R × R orthographic view (:mod:`envfit.measure.renderers`: the image plane
+    spans [-1, 1]², pixel side h = 2/R) whose centre shows ``normals[k]`` from the view axis
+    ``views[k]`` (one of :data:`envfit.measure.renderers.VIEWS`). A sub-position
+    (X + δx, Y + δy) shows the normal X'r + Y'u + √(1 − X'² − Y'²) v; off the disk it is
+    pulled onto the rim (the layouts keep only pixels whose square lies on the disk).
+
+    >>> from envfit.measure.renderers import VIEWS, sphere_geometry
+    >>> n, v, _ = pixel_frames(sphere_geometry(16), VIEWS, 8, seed=0)
+    >>> f = pixel_footprints(n, v, 16, side=2)
+    >>> f.shape, bool(np.allclose(f.mean(axis=1), n, atol=0.1))
+    ((8, 4, 3), True)
+    """
+    from envfit.measure.renderers import VIEWS
+    n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
+    v = np.asarray(views, dtype=np.float64).reshape(-1, 3)
+    axes = np.array([view.axis for view in VIEWS], dtype=np.float64)
+    which = np.argmax(v @ axes.T, axis=1)
+    if not np.allclose(axes[which], v, atol=1e-9):
+        raise ParameterError("pixel_footprints: each view must be one of the VIEWS' axes")
+    right = np.array([view.right for view in VIEWS], dtype=np.float64)[which]
+    up = np.array([view.up for view in VIEWS], dtype=np.float64)[which]
+    h = 2.0 / int(resolution)
+    d = ((np.arange(int(side)) + 0.5) / int(side) - 0.5) * h
+    dx, dy = (a.ravel() for a in np.meshgrid(d, d))
+    x = np.sum(n * right, axis=1)[:, None] + dx
+    y = np.sum(n * up, axis=1)[:, None] + dy
+    r = np.hypot(x, y)
+    scale = np.where(r > 1.0, 1.0 / np.where(r > 0, r, 1.0), 1.0)
+    x, y = x * scale, y * scale
+    z = np.sqrt(np.clip(1.0 - x * x - y * y, 0.0, None))
+    return _unit(x[..., None] * right[:, None] + y[..., None] * up[:, None]
+                 + z[..., None] * v[:, None])
+
+
 class MicrofacetModel(PresetModel):
     r"""The noise model of one map and one rough conductor under one renderer preset, over
     given frames (module docstring).
@@ -129,6 +165,11 @@ class MicrofacetModel(PresetModel):
         Treat ``frames`` as a pool and keep about this many (at least ``select // 6`` per
         view-angle band present), importance-sampled by the variances of the two techniques
         at each frame (:meth:`_select`); None: every frame.
+    footprints : array (K, J, 3), optional
+        For rendered pixels (:func:`pixel_footprints`): the normals over each frame's pixel,
+        which the renderer's film samples average over. Adds the pixel-footprint term
+        (:meth:`_footprint_parts`, :meth:`_cell`); J times the tables' work. None: each
+        frame is a point (an object of many pixels).
 
     Examples
     --------
@@ -145,7 +186,8 @@ class MicrofacetModel(PresetModel):
 
     def __init__(self, envmap, preset, conductor, frames, weights=None,
                  technique_options: dict | None = None,
-                 options: PresetModelOptions | None = None, select: int | None = None):
+                 options: PresetModelOptions | None = None, select: int | None = None,
+                 footprints=None):
         normals, views = (np.asarray(f, dtype=np.float64).reshape(-1, 3) for f in frames)
         if len(normals) != len(views) or len(normals) == 0:
             raise ParameterError("frames must be (normals, views) of the same length >= 1")
@@ -155,10 +197,19 @@ class MicrofacetModel(PresetModel):
         self.preset, self.conductor = preset, conductor
         self.options = options or PresetModelOptions()
         self.technique = preset.technique(envmap, **(technique_options or {}))
+        foot = None
+        if footprints is not None:
+            foot = np.asarray(footprints, dtype=np.float64)
+            if foot.ndim != 3 or foot.shape[0] != len(normals) or foot.shape[2] != 3:
+                raise ParameterError("footprints must be (K, J, 3): J normals per frame")
         if select is not None and select < len(normals):
             idx, w = self._select(normals, views, w, int(select))
             normals, views = normals[idx], views[idx]
+            foot = None if foot is None else foot[idx]
+        self.footprints = foot
         self.normals = list(zip(_unit(normals), _unit(views)))
+        if foot is not None:
+            self.normals = [(n, v, f) for (n, v), f in zip(self.normals, _unit(foot))]
         self.weights = w / w.sum()
         self.theta = np.degrees(np.arccos(np.clip(np.sum(_unit(normals) * _unit(views), axis=1),
                                                   -1.0, 1.0)))
@@ -259,9 +310,63 @@ class MicrofacetModel(PresetModel):
             return conductor_eval_pdf(self.conductor, wi, loc)
         return self.conductor.eval(wis, loc), self.conductor.pdf(wis, loc)
 
+    def _cell(self, r, vals: dict, grids: dict, fine: int, levels):
+        """As :meth:`PresetModel._cell`, plus the footprint's interaction term when the frame
+        has one (:meth:`_footprint_parts`)."""
+        res = super()._cell(r, vals, grids, fine, levels)
+        if "_var_c" not in vals:
+            return res
+        var_c, var_a = vals["_var_c"], vals["_var_a"]
+        tech = {"map": ("map",), "brdf": ("brdf",), "mis": ("mis_e", "mis_b")}[r.strategy]
+        c = sum(var_c[t] for t in tech)
+        if r.name == "independent":
+            extra = (c + var_a[{"map": "map", "brdf": "brdf", "mis": "mis_t"}[r.strategy]]) / r.n
+        else:
+            extra = c / max(r.n - 1, 1)
+        return (res[0] + extra,) + tuple(res[1:])
+
+    def _footprint_parts(self, strategies: set, frame, fine: int) -> dict:
+        r"""The parts of a frame with a pixel footprint (normal, view, J normals over the
+        pixel).
+
+        A pixel's estimator draws its film position p from its own dimensions, paired at random
+        with the techniques' (every sampler permutes or draws each dimension pair
+        independently), so one spp of technique t is :math:`g_t(p, u)`: the tables of
+        :meth:`_part_values` at the normal seen at p. With the ANOVA split
+        :math:`g_t = \bar g_t(u) + a_t(p) + c_t(p, u)` (:math:`\bar g_t` the mean over the J
+        normals, a the pixel integral's deviation, c the interaction), the parts returned are
+        the main effects :math:`\bar g` — randomised as any table — and ``_var_c``,
+        ``_var_a`` per part, from which :meth:`_cell` adds :math:`\sum_t \mathrm{Var}\,c_t/N`
+        for independent points (with :math:`\mathrm{Var}\,a/N`: the exact
+        :math:`(E_p\mathrm{Var}_u g + \mathrm{Var}_p E_u g)/N`) and
+        :math:`\sum_t \mathrm{Var}\,c_t/(N-1)` for randomly paired nets (each net sums c to
+        about zero, which makes the pairs' cross terms positive; a, integrated by the film's
+        own net, is left out). Running sums: :math:`\mathrm{Var}\,c = E g^2 - E_u \bar g^2
+        - \mathrm{Var}\,a`."""
+        normal, view, foot = frame
+        s1, s2, means = {}, {}, {}
+        for x in foot:
+            vals = self._part_values(strategies, (x, view), fine)
+            for p, g in vals.items():
+                s1[p] = s1.get(p, 0.0) + g
+                s2[p] = s2.get(p, 0.0) + np.mean(g * g, axis=0)
+                means.setdefault(p, []).append(g.mean(axis=0))
+        j = len(foot)
+        out, var_c, var_a = {}, {}, {}
+        for p in s1:
+            gbar = s1[p] / j
+            var_a[p] = np.var(np.stack(means[p]), axis=0)
+            var_c[p] = np.clip(s2[p] / j - np.mean(gbar * gbar, axis=0) - var_a[p], 0.0, None)
+            out[p] = gbar
+        out["_var_c"], out["_var_a"] = var_c, var_a
+        return out
+
     def _part_values(self, strategies: set, frame, fine: int) -> dict:
         """The tabulated parts at one frame: ``map``, ``brdf``, ``mis_e``, ``mis_b``,
-        ``mis_t`` (as the diffuse model's)."""
+        ``mis_t`` (as the diffuse model's); a frame with a footprint through
+        :meth:`_footprint_parts`."""
+        if len(frame) == 3:
+            return self._footprint_parts(strategies, frame, fine)
         normal, view = frame
         rows = np.asarray(self.preset.tangent_frame(normal.reshape(1, 3))[0])  # t, b, n
         wi = rows @ view
