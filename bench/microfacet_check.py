@@ -159,7 +159,7 @@ def main(argv=None) -> int:
     ap.add_argument("--pool", type=int, default=2048,
                     help="pixels the frames are importance-sampled from")
     ap.add_argument("--max-level", type=int, default=9)
-    ap.add_argument("--footprint", type=int, default=4,
+    ap.add_argument("--footprint", type=int, default=2,
                     help="the model's pixel footprint: side x side normals over each pixel "
                          "(1: each pixel at its centre, no footprint term)")
     ap.add_argument("--synth-height", type=int, default=256)
