@@ -31,7 +31,8 @@ __all__ = ["BRDFS", "WEIGHTINGS", "ALL_POINTSETS", "DEFAULT_POINTSETS", "DEFAULT
            "QUICK_RENDERER_GRID", "QUICK_SPECTRUM_AXES", "REFERENCE_SPECTRUM_AXES",
            "ADVISE_RENDERER_POINTSETS", "VALIDATE_RENDERER_POINTSETS", "VALIDATE_N", "QUICK_N",
            "RENDERER_AXES_START", "RENDERER_MAX_AXES", "UPS", "SOLVERS", "FIT_METHODS",
-           "EXECUTORS", "PREDICTOR_CHOICES", "MICROFACET_BSDFS", "MICROFACET_FRAMES_SEED"]
+           "EXECUTORS", "PREDICTOR_CHOICES", "MICROFACET_BSDFS", "MICROFACET_FRAMES_SEED",
+           "FOOTPRINT_SIDE"]
 
 # ----------------------------------------------------------------------------- vocabularies
 
@@ -41,6 +42,9 @@ MICROFACET_BSDFS = ("ggx", "beckmann")
 #: the seed of the advice's frames (normal, view) for a microfacet BSDF
 #: (:func:`envfit.predict.renderer.band_frames`): fixed, so that an answer is reproducible
 MICROFACET_FRAMES_SEED = 20251
+#: the pixel footprint of ``advise --sphere-pixels``: side × side normals over each pixel
+#: (:func:`envfit.predict.renderer.pixel_footprints`; the model's tables cost side² times)
+FOOTPRINT_SIDE = 2
 
 #: the accepted values of ``up``, the world axis that row 0 of a map touches
 #: (:mod:`envfit.maps._latlong`; ``--up``)

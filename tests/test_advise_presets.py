@@ -208,6 +208,10 @@ def test_cached_run_prints_the_same_answer_without_the_model(sun_file, tmp_path,
     (["--renderer", "mitsuba3", "--no-renderer"], "--no-renderer is an option"),
     (["--renderer", "mitsuba3", "--sampler", "ldsampler", "--spp", "1000"], "beyond the 256"),
     (["--sampler", "ldsampler"], "--sampler needs --renderer"),
+    (["--renderer", "mitsuba3", "--sphere-pixels", "64"], "for --brdf ggx or beckmann only"),
+    (["--renderer", "mitsuba3", "--brdf", "ggx", "--roughness", "0.1", "--sphere-pixels", "2"],
+     "--sphere-pixels must be an integer >= 4"),
+    (["--sphere-pixels", "64"], "--sphere-pixels needs --renderer"),
     (["--spp", "16"], "--spp needs --renderer"),
     (["--snippet"], "--snippet needs --renderer"),
 ])
@@ -247,7 +251,8 @@ def test_microfacet_answer_bands_and_json_equal_the_model(sun_file, tmp_path, ca
     assert rc == 0
     r = d["renderer"]
     rec, target = r["recommendation"], r["recommendation"]["target_rmse"]
-    assert r["bsdf"] == {"type": "ggx", "roughness": 0.3, "alpha": 0.3, "fresnel": 1.0}
+    assert r["bsdf"] == {"type": "ggx", "roughness": 0.3, "alpha": 0.3, "fresnel": 1.0,
+                         "sphere_pixels": None}
     opts = _options(5)
     m = MicrofacetModel(_load(sun_file), preset("mitsuba3"), Conductor("ggx", 0.3),
                         band_frames(opts.pool, (0, 90), seed=MICROFACET_FRAMES_SEED),
@@ -275,6 +280,34 @@ def test_microfacet_answer_bands_and_json_equal_the_model(sun_file, tmp_path, ca
                 assert j < k and m.predict_bands("mis", "independent", j)[band] > target
         else:
             assert "no spp up to" in ln and rmse > target
+
+
+def test_sphere_pixels_adds_the_footprint_of_the_model(sun_file, tmp_path, capsys):
+    """--sphere-pixels 8: the predictions are those of a MicrofacetModel whose frames carry
+    their pixels' footprints (pixel_footprints of the same frames, side FOOTPRINT_SIDE), above
+    the point frames' at every cell; the JSON and the model line say so."""
+    from envfit.defaults import FOOTPRINT_SIDE, MICROFACET_FRAMES_SEED
+    from envfit.predict.renderer import MicrofacetModel, band_frames, pixel_footprints
+    from envfit.shading.microfacet import Conductor
+    base = [sun_file, "--renderer", "mitsuba3", "--brdf", "ggx", "--roughness", "0.1",
+            "--sampler", "ldsampler", "--target-relative", "0.05", "--renderer-level", "6",
+            "--spp", "4,16", *MODEL]
+    rc, lines, _, d = _run(capsys, [*base, "--sphere-pixels", "8"], tmp_path)
+    assert rc == 0
+    r = d["renderer"]
+    assert r["bsdf"]["sphere_pixels"] == 8
+    assert any("8 pixels across (each pixel's footprint included)" in ln for ln in lines)
+    opts = _options(6)
+    frames = band_frames(opts.pool, (0, 90), seed=MICROFACET_FRAMES_SEED)
+    m = MicrofacetModel(_load(sun_file), preset("mitsuba3"), Conductor("ggx", 0.1), frames,
+                        options=opts, select=NORMALS,
+                        footprints=pixel_footprints(*frames, 8, FOOTPRINT_SIDE))
+    point = MicrofacetModel(_load(sun_file), preset("mitsuba3"), Conductor("ggx", 0.1),
+                            frames, options=opts, select=NORMALS)
+    for p in r["predictions"]:
+        got = m.predict(p["strategy"], "ldsampler", p["spp"]).rmse
+        assert p["predicted_rmse"] == pytest.approx(got, rel=1e-12)
+        assert got > point.predict(p["strategy"], "ldsampler", p["spp"]).rmse
 
 
 def test_microfacet_snippet_loads_in_mitsuba_with_the_rough_conductor(gp_file, tmp_path, capsys):

@@ -193,7 +193,14 @@ def test_pixel_footprints_are_the_pixels_strata():
                                    atol=1e-12)
         assert np.all(f[k] @ v[k] > 0)
     with pytest.raises(ParameterError):
-        pixel_footprints(n, np.tile([0.6, 0.8, 0.0], (len(n), 1)), r)
+        pixel_footprints(n, -v, r)                           # the normals face away
+    # any view axis (band frames): a square of side h/2 about the centre, in the image plane
+    nb, vb = band_frames(40, (0, 60), seed=4)
+    fb = pixel_footprints(nb, vb, 64, 2)
+    proj = fb - np.sum(fb * vb[:, None], axis=2, keepdims=True) * vb[:, None]
+    centre = nb - np.sum(nb * vb, axis=1, keepdims=True) * vb
+    np.testing.assert_allclose(np.linalg.norm(proj - centre[:, None], axis=2),
+                               np.sqrt(2) * 0.5 / 64, rtol=1e-9)
 
 
 def test_footprint_term_independent_is_the_pixels_variance():

@@ -241,10 +241,12 @@ class PresetAdvice:
         o = self.options
         if not o.microfacet:
             return "the RMSE over uniform normals of a white diffuse surface"
+        pixels = ("" if o.sphere_pixels is None else
+                  f", {o.sphere_pixels} pixels across (each pixel's footprint included)")
         return (f"the RMSE of a white {o.bsdf.upper() if o.bsdf == 'ggx' else o.bsdf.title()} "
                 f"conductor (alpha {o.conductor().alpha:.4g}, Fresnel 1) over the views an "
-                f"orthographic camera has of a sphere (theta_o density cos sin) and uniform "
-                f"map orientations")
+                f"orthographic camera has of a sphere{pixels} (theta_o density cos sin) and "
+                f"uniform map orientations")
 
     def to_dict(self) -> dict:
         """The JSON's ``renderer`` section."""
@@ -253,7 +255,8 @@ class PresetAdvice:
                 "sampler": o.sampler, "strategies": list(o.strategies),
                 "mis_compensation": o.mis_compensation, "target_rmse": self.target_rmse,
                 "bsdf": ({"type": o.bsdf, "roughness": o.roughness,
-                          "alpha": o.conductor().alpha, "fresnel": 1.0} if o.microfacet
+                          "alpha": o.conductor().alpha, "fresnel": 1.0,
+                          "sphere_pixels": o.sphere_pixels} if o.microfacet
                          else {"type": "diffuse", "reflectance": 1.0}),
                 "target_relative": self.target_relative, "mean_radiance": self.mean_radiance,
                 "recommendation": self.recommendation, "predictions": self.predictions(),

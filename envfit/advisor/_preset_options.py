@@ -39,7 +39,7 @@ import numpy as np
 
 from envfit.base._checks import check_int, check_ints, check_names
 from envfit.base._errors import EnvfitError, ParameterError
-from envfit.defaults import MICROFACET_BSDFS, MICROFACET_FRAMES_SEED
+from envfit.defaults import FOOTPRINT_SIDE, MICROFACET_BSDFS, MICROFACET_FRAMES_SEED
 from envfit.maps import EnvMap
 from envfit.predict.renderer._preset_model import PresetModel, PresetModelOptions
 from envfit.sampling.presets import STRATEGY_NAMES, preset
@@ -134,6 +134,11 @@ class PresetAdviseOptions:
     roughness : float or None
         With a microfacet ``bsdf``: the renderer's own roughness (Mitsuba's α, pbrt-v4's
         roughness = α², Cycles' roughness = √α), α from 0.05 to 1.
+    sphere_pixels : int or None
+        With a microfacet ``bsdf``: the sphere's diameter on screen in pixels; the prediction
+        then holds the error of each pixel's footprint (the normals a pixel spans,
+        :func:`envfit.predict.renderer.pixel_footprints`, :data:`FOOTPRINT_SIDE`² of them;
+        that many times the model's work). None: every pixel a point (a large object).
 
     Raises
     ------
@@ -151,6 +156,7 @@ class PresetAdviseOptions:
     normals: int = DEFAULT_NORMALS
     bsdf: str = "diffuse"
     roughness: float | None = None
+    sphere_pixels: int | None = None
 
     def __post_init__(self) -> None:
         p = preset(self.renderer)
@@ -193,7 +199,13 @@ class PresetAdviseOptions:
         if self.bsdf == "diffuse":
             if self.roughness is not None:
                 raise ParameterError("--roughness is a parameter of --brdf ggx or beckmann")
+            if self.sphere_pixels is not None:
+                raise ParameterError("--sphere-pixels (the pixel footprint) is modelled for "
+                                     "--brdf ggx or beckmann only")
             return
+        if self.sphere_pixels is not None:
+            object.__setattr__(self, "sphere_pixels",
+                               check_int(self.sphere_pixels, "--sphere-pixels", 4))
         if self.bsdf not in MICROFACET_BSDFS:
             raise ParameterError(f"with --renderer, --brdf is diffuse, ggx or beckmann (the "
                                  f"paper's glossy lobe is no renderer's BSDF); got {self.bsdf!r}")
@@ -292,4 +304,6 @@ class PresetAdviseOptions:
         if self.microfacet:                   # the diffuse keys (and caches) unchanged
             key.update(bsdf=self.bsdf, alpha=self.conductor().alpha,
                        frames_seed=MICROFACET_FRAMES_SEED)
+            if self.sphere_pixels is not None:
+                key.update(sphere_pixels=self.sphere_pixels, footprint_side=FOOTPRINT_SIDE)
         return key

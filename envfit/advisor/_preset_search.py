@@ -37,8 +37,9 @@ from pathlib import Path
 import numpy as np
 
 from envfit.advisor._cache import AdviseCache
-from envfit.defaults import MICROFACET_FRAMES_SEED
-from envfit.predict.renderer._microfacet_model import MicrofacetModel, band_frames
+from envfit.defaults import FOOTPRINT_SIDE, MICROFACET_FRAMES_SEED
+from envfit.predict.renderer._microfacet_model import (MicrofacetModel, band_frames,
+                                                       pixel_footprints)
 from envfit.predict.renderer._preset_model import PresetModel
 
 __all__ = ["CachedPresetModel", "StrategyAnswer", "model_version", "runnable_spp",
@@ -90,15 +91,18 @@ class CachedPresetModel:
     def _model(self):
         """The diffuse model over importance-sampled normals, or the microfacet model over
         frames of an orthographic sphere view and uniform map orientations (a pool of
-        ``pool`` frames, ``normals`` of them importance-sampled)."""
+        ``pool`` frames, ``normals`` of them importance-sampled; with ``sphere_pixels``, each
+        frame's pixel footprint)."""
         o = self.opts
         if not o.microfacet:
             return PresetModel(self.envmap, o.preset, o.technique_options(), o.model_options())
         m = o.model_options()
         frames = band_frames(max(m.pool, o.normals), (0.0, 90.0), seed=MICROFACET_FRAMES_SEED)
+        foot = (None if o.sphere_pixels is None
+                else pixel_footprints(*frames, o.sphere_pixels, FOOTPRINT_SIDE))
         return MicrofacetModel(self.envmap, o.preset, o.conductor(), frames,
                                technique_options=o.technique_options(), options=m,
-                               select=o.normals)
+                               select=o.normals, footprints=foot)
 
     def bands(self, strategy: str, n: int) -> dict:
         """The stored per-band predictions of a cell ({} for the diffuse model)."""

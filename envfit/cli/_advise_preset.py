@@ -20,7 +20,7 @@ __all__ = ["add_preset_arguments", "reject_without_renderer", "run_preset"]
 _PRESET_ONLY = {"sampler": "--sampler", "spp": "--spp", "snippet": "--snippet",
                 "mis_compensation": "--mis-compensation", "rules": "--rules",
                 "renderer_level": "--renderer-level", "renderer_normals": "--renderer-normals",
-                "roughness": "--roughness"}
+                "roughness": "--roughness", "sphere_pixels": "--sphere-pixels"}
 #: options of envfit's generic renderer rows, which --renderer replaces
 _GENERIC_ROWS = {"no_renderer": "--no-renderer", "renderer_pointsets": "--renderer-pointsets",
                  "renderer_grid": "--renderer-grid",
@@ -66,6 +66,11 @@ def add_preset_arguments(p) -> None:
                    help="with --brdf ggx or beckmann: the renderer's own roughness (Mitsuba's "
                         "alpha; pbrt-v4's roughness, alpha = sqrt(R); Cycles' roughness, "
                         "alpha = R^2), alpha from 0.05 to 1")
+    g.add_argument("--sphere-pixels", type=positive_int, default=None, metavar="D",
+                   help="with --brdf ggx or beckmann: the sphere's diameter on screen in "
+                        "pixels; adds the error of each pixel's footprint (the normals a pixel "
+                        "spans: large for sharp lobes and grazing views on small objects; "
+                        "4x the model's work). Default: every pixel a point")
 
 
 def reject_without_renderer(args: argparse.Namespace) -> None:
@@ -107,7 +112,7 @@ def _options(args: argparse.Namespace):
         mis_compensation=args.mis_compensation, max_spp=args.nmax or DEFAULT_MAX_SPP,
         level=args.renderer_level,
         normals=args.renderer_normals or DEFAULT_NORMALS, bsdf=args.brdf,
-        roughness=args.roughness)
+        roughness=args.roughness, sphere_pixels=args.sphere_pixels)
     rules = None
     if args.rules:
         from envfit.cli._advise import options_from_args

@@ -105,13 +105,30 @@ def pixel_frames(geometry, views, count: int, *, seed=0):
     return n[idx], np.ascontiguousarray(v[idx]), theta
 
 
-def pixel_footprints(normals, views, resolution: int, side: int = 4) -> np.ndarray:
+def _view_basis(views: np.ndarray):
+    """(right, up) per view axis: those of :data:`envfit.measure.renderers.VIEWS` where the
+    axis is one of theirs, else up = the unit part of z (or x) orthogonal to the axis and
+    right = up × axis."""
+    from envfit.measure.renderers import VIEWS
+    axes = np.array([view.axis for view in VIEWS], dtype=np.float64)
+    which = np.argmax(views @ axes.T, axis=1)
+    known = np.all(np.abs(axes[which] - views) < 1e-9, axis=1)
+    ref = np.where(np.abs(views[:, 2:3]) < 0.9, [[0.0, 0.0, 1.0]], [[1.0, 0.0, 0.0]])
+    up = _unit(ref - np.sum(ref * views, axis=1, keepdims=True) * views)
+    right = np.cross(up, views)
+    right = np.where(known[:, None], np.array([v.right for v in VIEWS])[which], right)
+    up = np.where(known[:, None], np.array([v.up for v in VIEWS])[which], up)
+    return right, up
+
+
+def pixel_footprints(normals, views, resolution: int, side: int = 2) -> np.ndarray:
     r"""The normals (K, side², 3) at side × side stratum midpoints of each frame's pixel: the
-    pixel of an R × R orthographic view (:mod:`envfit.measure.renderers`: the image plane
-    spans [-1, 1]², pixel side h = 2/R) whose centre shows ``normals[k]`` from the view axis
-    ``views[k]`` (one of :data:`envfit.measure.renderers.VIEWS`). A sub-position
-    (X + δx, Y + δy) shows the normal X'r + Y'u + √(1 − X'² − Y'²) v; off the disk it is
-    pulled onto the rim (the layouts keep only pixels whose square lies on the disk).
+    pixel of an orthographic view of the unit sphere R pixels across (the image plane spans
+    [-1, 1]², pixel side h = 2/R; :mod:`envfit.measure.renderers` renders R × R views) whose
+    centre shows ``normals[k]`` from the view axis ``views[k]`` (the pixel's axes those of
+    :data:`envfit.measure.renderers.VIEWS` for their axes, else :func:`_view_basis`). A
+    sub-position (X + δx, Y + δy) shows the normal X'r + Y'u + √(1 − X'² − Y'²) v; off the disk
+    it is pulled onto the rim.
 
     >>> from envfit.measure.renderers import VIEWS, sphere_geometry
     >>> n, v, _ = pixel_frames(sphere_geometry(16), VIEWS, 8, seed=0)
@@ -119,22 +136,22 @@ def pixel_footprints(normals, views, resolution: int, side: int = 4) -> np.ndarr
     >>> f.shape, bool(np.allclose(f.mean(axis=1), n, atol=0.1))
     ((8, 4, 3), True)
     """
-    from envfit.measure.renderers import VIEWS
-    n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
-    v = np.asarray(views, dtype=np.float64).reshape(-1, 3)
-    axes = np.array([view.axis for view in VIEWS], dtype=np.float64)
-    which = np.argmax(v @ axes.T, axis=1)
-    if not np.allclose(axes[which], v, atol=1e-9):
-        raise ParameterError("pixel_footprints: each view must be one of the VIEWS' axes")
-    right = np.array([view.right for view in VIEWS], dtype=np.float64)[which]
-    up = np.array([view.up for view in VIEWS], dtype=np.float64)[which]
-    h = 2.0 / int(resolution)
-    d = ((np.arange(int(side)) + 0.5) / int(side) - 0.5) * h
+    n = _unit(np.asarray(normals, dtype=np.float64).reshape(-1, 3))
+    v = _unit(np.asarray(views, dtype=np.float64).reshape(-1, 3))
+    r, s = int(resolution), int(side)
+    if r != resolution or r < 1 or s != side or s < 1:
+        raise ParameterError(f"pixel_footprints: resolution and side must be integers >= 1, "
+                             f"got {resolution!r}, {side!r}")
+    if len(n) != len(v) or np.any(np.sum(n * v, axis=1) < 0):
+        raise ParameterError("pixel_footprints: one view per normal, the normal facing it")
+    right, up = _view_basis(v)
+    h = 2.0 / r
+    d = ((np.arange(s) + 0.5) / s - 0.5) * h
     dx, dy = (a.ravel() for a in np.meshgrid(d, d))
     x = np.sum(n * right, axis=1)[:, None] + dx
     y = np.sum(n * up, axis=1)[:, None] + dy
-    r = np.hypot(x, y)
-    scale = np.where(r > 1.0, 1.0 / np.where(r > 0, r, 1.0), 1.0)
+    rad = np.hypot(x, y)
+    scale = np.where(rad > 1.0, 1.0 / np.where(rad > 0, rad, 1.0), 1.0)
     x, y = x * scale, y * scale
     z = np.sqrt(np.clip(1.0 - x * x - y * y, 0.0, None))
     return _unit(x[..., None] * right[:, None] + y[..., None] * up[:, None]
