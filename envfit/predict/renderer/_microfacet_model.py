@@ -26,6 +26,12 @@ with the view at a polar angle θ_o in a band and the map's orientation uniform
 (:func:`band_frames`: θ_o with density ∝ cos θ_o sin θ_o, what an orthographic camera sees of
 a sphere).
 
+A rendered pixel averages its footprint: the film position is two more dimensions of the
+estimator, paired at random with the techniques'. Given each frame's footprint normals
+(:func:`pixel_footprints`), the model randomises the footprint's mean integrand and adds the
+interaction's variance (:meth:`MicrofacetModel._footprint_parts`) — what a sharp lobe near the
+limb of a small sphere adds.
+
 References: E. Heitz, "Sampling the GGX distribution of visible normals", JCGT 7(4) (2018);
 Mitsuba 3.9.1 ``src/bsdfs/roughconductor.cpp`` and ``src/integrators/direct.cpp``.
 """
