@@ -137,7 +137,7 @@ class PresetAdviseOptions:
     sphere_pixels : int or None
         With a microfacet ``bsdf``: the sphere's diameter on screen in pixels; the prediction
         then holds the error of each pixel's footprint (the normals a pixel spans,
-        :func:`envfit.predict.renderer.pixel_footprints`, :data:`FOOTPRINT_SIDE`² of them;
+        :func:`envfit.predict.renderer.pixel_footprints`, FOOTPRINT_SIDE squared of them;
         that many times the model's work). None: every pixel a point (a large object).
 
     Raises
