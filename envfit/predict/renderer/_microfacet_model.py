@@ -52,6 +52,10 @@ __all__ = ["MicrofacetModel", "pixel_frames", "pixel_footprints", "band_frames",
 BANDS = ((0.0, 30.0), (30.0, 60.0), (60.0, 80.0))
 
 _CHUNK = 1 << 18
+#: the parts of :meth:`MicrofacetModel._part_values` each strategy draws (its streams) and
+#: the part whose mean over u is the pixel's integral
+_STREAMS = {"map": ("map",), "brdf": ("brdf",), "mis": ("mis_e", "mis_b")}
+_TOTAL = {"map": "map", "brdf": "brdf", "mis": "mis_t"}
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
@@ -339,11 +343,9 @@ class MicrofacetModel(PresetModel):
         res = super()._cell(r, vals, grids, fine, levels)
         if "_var_c" not in vals:
             return res
-        var_c, var_a = vals["_var_c"], vals["_var_a"]
-        tech = {"map": ("map",), "brdf": ("brdf",), "mis": ("mis_e", "mis_b")}[r.strategy]
-        c = sum(var_c[t] for t in tech)
+        c = sum(vals["_var_c"][t] for t in _STREAMS[r.strategy])
         if r.name == "independent":
-            extra = (c + var_a[{"map": "map", "brdf": "brdf", "mis": "mis_t"}[r.strategy]]) / r.n
+            extra = (c + vals["_var_a"][_TOTAL[r.strategy]]) / r.n
         else:
             extra = c / max(r.n - 1, 1)
         return (res[0] + extra,) + tuple(res[1:])
