@@ -141,6 +141,31 @@ def test_compiled_conductor_is_the_numpy_conductor(kind, renderer):
             np.testing.assert_allclose(p, c.pdf(w, d), rtol=1e-10, atol=0)
 
 
+@pytest.mark.parametrize("renderer", ["mitsuba3", "pbrt4", "cycles"])
+def test_compiled_sampling_is_the_numpy_conductor(renderer):
+    """The compiled GGX sampling (ω_o, weight, pdf) equals Conductor.sample (the renderers'
+    visible-normal warps in numpy) to 1e-10 at random points, the square's centre, edges and
+    corners, for four views from the pole to grazing; where the reference weight is 0, the
+    compiled one is 0 too."""
+    from envfit.predict.renderer._microfacet_kernels import conductor_sample
+    rng = np.random.default_rng(3)
+    u = rng.random((20000, 2))
+    u[:6] = [[0.5, 0.5], [0, 0], [1, 1], [0, 1], [0.5, 0], [1, 0.5]]
+    for alpha in (0.05, 0.3, 1.0):
+        c = Conductor("ggx", alpha, renderer=renderer)
+        for wi in ([0, 0, 1.0], [0.5, 0.2, np.sqrt(0.71)], [0.3, -0.9, np.sqrt(0.1)],
+                   [0.999, 0, np.sqrt(1 - 0.999 ** 2)]):
+            wi = np.array(wi)
+            wo, w, p = conductor_sample(c, wi, u)
+            ref = c.sample(np.broadcast_to(wi, u.shape[:1] + (3,)), u)
+            live = ref.weight > 0
+            assert live.mean() > 0.3
+            np.testing.assert_allclose(w, ref.weight, rtol=1e-10, atol=1e-12)
+            np.testing.assert_allclose(p[live], ref.pdf[live], rtol=1e-10)
+            np.testing.assert_allclose(wo[live], ref.wo[live], rtol=1e-9, atol=1e-12)
+            assert np.all(p[~live] == 0)
+
+
 @pytest.mark.parametrize("comp", [False, True])
 def test_compiled_mitsuba_lookup_is_the_technique(comp):
     """Mitsuba's envmap radiance and emitter pdf at world directions, compiled, equal the

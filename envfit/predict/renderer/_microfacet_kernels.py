@@ -5,6 +5,12 @@ arithmetic as its numpy reference, which the tests compare it with:
   directions for one view (:meth:`envfit.shading.microfacet.Conductor.eval` and ``pdf`` with
   Fresnel 1: D, Smith Λ of GGX or Beckmann's rational fit, separable G and the view's χ⁺
   masking for Mitsuba 3, height-correlated G for pbrt-v4 and Cycles);
+* :func:`conductor_sample` — a white GGX conductor's BSDF sampling for one view at many
+  points of the square (:meth:`envfit.shading.microfacet.Conductor.sample`: the renderer's
+  visible-normal warp, :func:`envfit.shading.microfacet.sample_visible_normals` — Mitsuba 3's
+  ``sample_visible_11`` with the concentric disk, pbrt-v4's ``Sample_wm`` with the polar
+  disk, Cycles' ``microfacet_ggx_sample_vndf`` with the concentric disk — then the
+  reflection, the weight f·cos/pdf and the pdf);
 * :func:`mitsuba_eval_pdf` — Mitsuba 3 ``envmap``'s radiance and emitter pdf at world
   directions (``Mitsuba3Envmap.eval`` and ``pdf``, through the diffuse model's
   ``_mitsuba_eval``).
@@ -21,9 +27,13 @@ import numpy as np
 
 from envfit.predict.renderer._preset_integrand import _mitsuba_eval
 
-__all__ = ["conductor_eval_pdf", "mitsuba_eval_pdf", "compiled_conductor"]
+__all__ = ["conductor_eval_pdf", "conductor_sample", "mitsuba_eval_pdf", "compiled_conductor",
+           "compiled_sampling"]
 
 _KINDS = {"ggx": 0, "beckmann": 1}
+_VARIANTS = {"mitsuba3": 0, "pbrt4": 1, "cycles": 2}
+_F32_EPS = float(np.finfo(np.float32).eps)
+_BIG = float(np.finfo(np.float64).max)
 
 
 @numba.njit(cache=True)
@@ -58,11 +68,14 @@ def _d(mx, my, mz, alpha, kind):  # pragma: no cover - numba
 
 
 @numba.njit(cache=True, parallel=True)
-def _eval_pdf(wi, dirs, alpha, kind, separable, out):  # pragma: no cover - numba
+def _eval_pdf(wi, dirs, rows, alpha, kind, separable, out):  # pragma: no cover - numba
     ix, iy, iz = wi[0], wi[1], wi[2]
     lam_i = _lambda(ix, iy, iz, alpha, kind)
     for p in numba.prange(dirs.shape[0]):
-        ox, oy, oz = dirs[p, 0], dirs[p, 1], dirs[p, 2]
+        dx, dy, dz = dirs[p, 0], dirs[p, 1], dirs[p, 2]
+        ox = dx * rows[0, 0] + dy * rows[0, 1] + dz * rows[0, 2]
+        oy = dx * rows[1, 0] + dy * rows[1, 1] + dz * rows[1, 2]
+        oz = dx * rows[2, 0] + dy * rows[2, 1] + dz * rows[2, 2]
         hx, hy, hz = ix + ox, iy + oy, iz + oz
         n = math.sqrt(hx * hx + hy * hy + hz * hz)
         out[p, 0] = 0.0
@@ -88,36 +101,242 @@ def _eval_pdf(wi, dirs, alpha, kind, separable, out):  # pragma: no cover - numb
                 out[p, 1] = q if math.isfinite(q) else 0.0
 
 
+@numba.njit(cache=True, error_model="numpy")
+def _disk(u0, u1, polar):  # pragma: no cover - numba
+    """The disk point of ``concentric_disk`` (Shirley–Chiu) or ``polar_disk`` (pbrt-v4)."""
+    if polar:
+        r = math.sqrt(u0)
+        t = 2.0 * math.pi * u1
+        return r * math.cos(t), r * math.sin(t)
+    x, y = 2.0 * u0 - 1.0, 2.0 * u1 - 1.0
+    if x == 0.0 and y == 0.0:
+        return 0.0, 0.0
+    if abs(x) < abs(y):
+        phi = 0.5 * math.pi - 0.25 * math.pi * x / y
+        return y * math.cos(phi), y * math.sin(phi)
+    phi = 0.25 * math.pi * y / x
+    return x * math.cos(phi), x * math.sin(phi)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _ggx_normal(wi, wp, basis, u0, u1, alpha, variant):  # pragma: no cover - numba
+    """One visible normal m from (u0, u1): ``_sample_mitsuba`` (GGX), ``_sample_pbrt`` or
+    ``_sample_cycles_ggx``; ``wp`` the stretched view, ``basis`` the per-view constants."""
+    if variant == 0:
+        cos_i = wp[2]
+        px, py = _disk(u0, u1, False)
+        h = math.sqrt(max(1.0 - px * px, 0.0))
+        y = h + 0.5 * (1.0 + cos_i) * (py - h)
+        z = math.sqrt(max(1.0 - px * px - y * y, 0.0))
+        sin_i = math.sqrt(max(1.0 - cos_i * cos_i, 0.0))
+        norm = 1.0 / (sin_i * y + cos_i * z)
+        s0, s1 = (cos_i * y - sin_i * z) * norm, px * norm
+        cph, sph = basis[0, 0], basis[0, 1]
+        sx = (cph * s0 - sph * s1) * alpha
+        sy = (sph * s0 + cph * s1) * alpha
+        n = math.sqrt(sx * sx + sy * sy + 1.0)
+        return -sx / n, -sy / n, 1.0 / n
+    px, py = _disk(u0, u1, variant == 1)
+    h = math.sqrt(max(1.0 - px * px, 0.0))
+    y = h + 0.5 * (1.0 + wp[2]) * (py - h)
+    z = math.sqrt(max(1.0 - px * px - y * y, 0.0))
+    nx = px * basis[0, 0] + y * basis[1, 0] + z * wp[0]
+    ny = px * basis[0, 1] + y * basis[1, 1] + z * wp[1]
+    nz = px * basis[0, 2] + y * basis[1, 2] + z * wp[2]
+    mz = max(nz, 1e-6) if variant == 1 else max(nz, 0.0)
+    mx, my = alpha * nx, alpha * ny
+    n = math.sqrt(mx * mx + my * my + mz * mz)
+    return mx / n, my / n, mz / n
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _g1(vx, vy, vz, mx, my, mz, alpha):  # pragma: no cover - numba
+    """Mitsuba's ``smith_g1`` (GGX): 0 where v sees the back of m."""
+    if (vx * mx + vy * my + vz * mz) * vz <= 0.0:
+        return 0.0
+    return 1.0 / (1.0 + _lambda(vx, vy, vz, alpha, 0))
+
+
+@numba.njit(cache=True, parallel=True, error_model="numpy")
+def _ggx_sample(wi, wp, basis, u, alpha, variant, wo, out):  # pragma: no cover - numba
+    ix, iy, iz = wi[0], wi[1], wi[2]
+    lam_i = _lambda(ix, iy, iz, alpha, 0)
+    for p in numba.prange(u.shape[0]):
+        mx, my, mz = _ggx_normal(wi, wp, basis, u[p, 0], u[p, 1], alpha, variant)
+        dot = ix * mx + iy * my + iz * mz
+        ox, oy, oz = 2.0 * dot * mx - ix, 2.0 * dot * my - iy, 2.0 * dot * mz - iz
+        d = _d(mx, my, mz, alpha, 0)
+        if variant == 0:
+            w, gview = _g1(ox, oy, oz, mx, my, mz, alpha), _g1(ix, iy, iz, mx, my, mz, alpha)
+        else:
+            w = (1.0 + lam_i) / (1.0 + lam_i + _lambda(ox, oy, oz, alpha, 0))
+            gview = 1.0 / (1.0 + lam_i)
+        if not (oz > 0.0 and iz > 0.0 and d > 0.0 and w > 0.0):
+            wo[p, 0], wo[p, 1], wo[p, 2], out[0, p], out[1, p] = 0.0, 0.0, 1.0, 0.0, 0.0
+            continue
+        q = d * gview / (4.0 * iz)
+        if math.isnan(q):
+            q = 0.0
+        elif math.isinf(q):
+            q = _BIG
+        wo[p, 0], wo[p, 1], wo[p, 2], out[0, p], out[1, p] = ox, oy, oz, w, q
+
+
+def compiled_sampling(conductor) -> bool:
+    """Whether :func:`conductor_sample` repeats ``conductor.sample`` (white GGX)."""
+    return conductor.eta is None and conductor.distribution.kind == "ggx"
+
+
+def _view_constants(wi, alpha, variant):
+    """The stretched view and the per-view basis of each renderer's warp: Mitsuba's
+    (cos φ, sin φ) of the stretched view's azimuth; pbrt-v4's and Cycles' (T1, T2)."""
+    wp = np.array([alpha * wi[0], alpha * wi[1], wi[2]])
+    wp /= np.linalg.norm(wp)
+    basis = np.zeros((2, 3))
+    if variant == 0:
+        sin2 = 1.0 - wp[2] ** 2
+        if abs(sin2) <= 4.0 * _F32_EPS:
+            basis[0, :2] = 1.0, 0.0
+        else:
+            basis[0, :2] = np.clip(wp[:2] / np.sqrt(sin2), -1.0, 1.0)
+        return wp, basis
+    if variant == 1:
+        wp = -wp if wp[2] < 0 else wp
+        ok = wp[2] < 0.99999
+    else:
+        ok = wp[0] ** 2 + wp[1] ** 2 > 1e-7
+    if ok:
+        t1 = np.array([-wp[1], wp[0], 0.0]) / np.hypot(wp[0], wp[1])
+        basis[0], basis[1] = t1, np.cross(wp, t1)
+    else:
+        basis[0] = 1.0, 0.0, 0.0
+        basis[1] = np.cross(wp, basis[0]) if variant == 1 else (0.0, 1.0, 0.0)
+    return wp, basis
+
+
+def conductor_sample(conductor, wi, u) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(ω_o (P, 3), weight f·cos/pdf (P,), pdf (P,)) of a white GGX ``conductor`` sampled for
+    the one view ``wi`` (3,) at the points ``u`` (P, 2), local frame; where the weight is 0,
+    ω_o is the pole and the pdf 0 (``Conductor.sample`` leaves the reflected direction)."""
+    d = conductor.distribution
+    variant = _VARIANTS[conductor.renderer]
+    wi = np.ascontiguousarray(wi, dtype=np.float64)
+    wp, basis = _view_constants(wi, float(d.alpha), variant)
+    wo, out = np.empty((len(u), 3)), np.empty((2, len(u)))
+    _ggx_sample(wi, wp, basis, np.ascontiguousarray(u, dtype=np.float64), float(d.alpha),
+                variant, wo, out)
+    return wo, out[0], out[1]
+
+
 def compiled_conductor(conductor) -> bool:
     """Whether :func:`conductor_eval_pdf` repeats ``conductor`` (Fresnel 1)."""
     return conductor.eta is None and conductor.distribution.kind in _KINDS
 
 
-def conductor_eval_pdf(conductor, wi, dirs) -> tuple[np.ndarray, np.ndarray]:
+def conductor_eval_pdf(conductor, wi, dirs, rows=None) -> tuple[np.ndarray, np.ndarray]:
     """(f·cos, pdf) of a white ``conductor`` for the one view ``wi`` (3,) and light
-    directions ``dirs`` (P, 3), local frame."""
-    out = np.empty((len(dirs), 2))
+    directions ``dirs`` (P, 3): local, or world with ``rows`` the local frame's axes (t, b, n)
+    as rows (local = ``dirs @ rows.T``)."""
+    out = np.empty((2, len(dirs)))
     d = conductor.distribution
+    rows = np.eye(3) if rows is None else np.ascontiguousarray(rows, dtype=np.float64)
     _eval_pdf(np.ascontiguousarray(wi, dtype=np.float64),
-              np.ascontiguousarray(dirs, dtype=np.float64), float(d.alpha), _KINDS[d.kind],
-              conductor.renderer == "mitsuba3", out)
-    return out[:, 0], out[:, 1]
+              np.ascontiguousarray(dirs, dtype=np.float64), rows, float(d.alpha),
+              _KINDS[d.kind], conductor.renderer == "mitsuba3", out.T)
+    return out[0], out[1]
 
 
 @numba.njit(cache=True, parallel=True)
-def _mitsuba_dirs(dirs, to_native, rgb, warp, out):  # pragma: no cover - numba
+def _mitsuba_dirs(dirs, frame, to_native, rgb, warp, skip, rad, pdf):  # pragma: no cover - numba
+    m = np.empty((3, 3))                    # local -> native: frame (rows t, b, n) @ to_native
+    for i in range(3):
+        for k in range(3):
+            m[i, k] = frame[i, 0] * to_native[0, k] + frame[i, 1] * to_native[1, k] + frame[i, 2] * to_native[2, k]
     for p in numba.prange(dirs.shape[0]):
-        x = dirs[p, 0] * to_native[0, 0] + dirs[p, 1] * to_native[1, 0] + dirs[p, 2] * to_native[2, 0]
-        y = dirs[p, 0] * to_native[0, 1] + dirs[p, 1] * to_native[1, 1] + dirs[p, 2] * to_native[2, 1]
-        z = dirs[p, 0] * to_native[0, 2] + dirs[p, 1] * to_native[1, 2] + dirs[p, 2] * to_native[2, 2]
+        if skip.shape[0] > 0 and skip[p] <= 0.0:
+            rad[p, 0], rad[p, 1], rad[p, 2], pdf[p] = 0.0, 0.0, 0.0, 0.0
+            continue
+        x = dirs[p, 0] * m[0, 0] + dirs[p, 1] * m[1, 0] + dirs[p, 2] * m[2, 0]
+        y = dirs[p, 0] * m[0, 1] + dirs[p, 1] * m[1, 1] + dirs[p, 2] * m[2, 1]
+        z = dirs[p, 0] * m[0, 2] + dirs[p, 1] * m[1, 2] + dirs[p, 2] * m[2, 2]
         nrm = math.sqrt(x * x + y * y + z * z)
-        out[p, 3] = _mitsuba_eval(x / nrm, y / nrm, z / nrm, rgb, 1.0, warp, out, p)
+        pdf[p] = _mitsuba_eval(x / nrm, y / nrm, z / nrm, rgb, 1.0, warp, rad, p)
 
 
-def mitsuba_eval_pdf(technique, dirs) -> tuple[np.ndarray, np.ndarray]:
-    """(radiance (P, 3), emitter pdf (P,)) of a ``Mitsuba3Envmap`` at world directions."""
-    out = np.empty((len(dirs), 4))
-    _mitsuba_dirs(np.ascontiguousarray(dirs, dtype=np.float64),
+def mitsuba_eval_pdf(technique, dirs, rows=None, skip=None,
+                     rgb=None) -> tuple[np.ndarray, np.ndarray]:
+    """(radiance (P, 3), emitter pdf (P,)) of a ``Mitsuba3Envmap`` at directions ``dirs``:
+    world, or local with ``rows`` the local frame's axes as rows (world = ``dirs @ rows``);
+    0 and 0 where ``skip`` (P,) is ≤ 0 (a BSDF sample of weight 0). ``rgb``: the technique's
+    texels times its scale, when the caller keeps them (:func:`scaled_texels`)."""
+    rad, pdf = np.empty((len(dirs), 3)), np.empty(len(dirs))
+    rows = np.eye(3) if rows is None else np.ascontiguousarray(rows, dtype=np.float64)
+    skip = np.zeros(0) if skip is None else np.ascontiguousarray(skip, dtype=np.float64)
+    _mitsuba_dirs(np.ascontiguousarray(dirs, dtype=np.float64), rows,
                   np.ascontiguousarray(technique.native_to_world),
-                  technique.rgb * float(technique.scale), technique.warp.data, out)
-    return out[:, :3], out[:, 3]
+                  scaled_texels(technique) if rgb is None else rgb, technique.warp.data, skip,
+                  rad, pdf)
+    return rad, pdf
+
+
+def scaled_texels(technique) -> np.ndarray:
+    """A ``Mitsuba3Envmap``'s texels times its scale (what :func:`mitsuba_eval_pdf` reads)."""
+    return np.ascontiguousarray(technique.rgb * float(technique.scale))
+
+
+# Parts, in the order of the accumulator's first axis (the diffuse model's names).
+PARTS = ("map", "brdf", "mis_e", "mis_b", "mis_t")
+_HEURISTIC_CODES = {"power": 0, "balance": 1}
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _heuristic(pa, pb, fa, fb, power):  # pragma: no cover - numba
+    """``power_heuristic`` / ``balance_heuristic``: technique a's weight, 0 if not finite."""
+    a, b = fa * pa, fb * pb
+    if power:
+        a, b = a * a, b * b
+    w = a / (a + b)
+    return w if math.isfinite(w) else 0.0
+
+
+@numba.njit(cache=True, parallel=True, error_model="numpy")
+def _accumulate(base, fc, pb, tpdf, rad, weight, bpdf, pe, fa, fb, power, acc,
+                sums):  # pragma: no cover - numba
+    p_total = acc.shape[1]
+    chunks = sums.shape[0]
+    size = (p_total + chunks - 1) // chunks
+    has_map, has_bsdf = fc.shape[0] > 0, weight.shape[0] > 0
+    for k in numba.prange(chunks):
+        for p in range(k * size, min(p_total, (k + 1) * size)):
+            we = _heuristic(tpdf[p], pb[p], fa, fb, power) if has_map else 0.0
+            wb = _heuristic(bpdf[p], pe[p], fb, fa, power) if has_bsdf else 0.0
+            for c in range(3):
+                he = base[p, c] * (math.pi * fc[p]) if has_map else 0.0
+                hb = rad[p, c] * weight[p] if has_bsdf else 0.0
+                g = (he, hb, he * we, hb * wb, he * we + hb * wb)
+                for i in range(5):
+                    acc[i, p, c] += g[i]
+                    sums[k, i, 0, c] += g[i]
+                    sums[k, i, 1, c] += g[i] * g[i]
+
+
+def accumulate_parts(acc, map_side, bsdf_side, fractions, heuristic) -> np.ndarray:
+    r"""Add one normal's parts (:data:`PARTS`) to ``acc`` (5, P, 3) in one pass and return
+    their sums :math:`\sum_P g`, :math:`\sum_P g^2` (5, 2, 3).
+
+    ``map_side`` = (base (P, 3), f·cos (P,), conductor pdf (P,), map pdf (P,)) at the map
+    table's directions: map part :math:`h_e = \pi\,f\cos\cdot` base; ``bsdf_side`` =
+    (radiance (P, 3), weight (P,), conductor pdf (P,), map pdf (P,)) at the BSDF table's
+    samples: :math:`h_b` = radiance · weight; either None. The MIS parts weight each by the
+    preset's ``heuristic`` with the sample ``fractions`` (``RendererPreset.mis_weights``),
+    and ``mis_t`` is their sum — the diffuse model's ``_part_values``, fused.
+    """
+    none1 = np.zeros(0)
+    base, fc, pb, tpdf = map_side if map_side is not None else (np.zeros((0, 3)),) + (none1,) * 3
+    rad, w, bpdf, pe = bsdf_side if bsdf_side is not None else (np.zeros((0, 3)),) + (none1,) * 3
+    chunks = 64
+    sums = np.zeros((chunks, 5, 2, 3))
+    f = [np.ascontiguousarray(x, dtype=np.float64) for x in (base, fc, pb, tpdf, rad, w, bpdf, pe)]
+    _accumulate(*f, float(fractions[0]), float(fractions[1]),
+                _HEURISTIC_CODES[heuristic] == 0, acc, sums)
+    return sums.sum(axis=0)

@@ -41,7 +41,9 @@ import numpy as np
 
 from envfit.base import ParameterError
 from envfit.predict.renderer._microfacet_kernels import (compiled_conductor,
-                                                        conductor_eval_pdf, mitsuba_eval_pdf)
+                                                        compiled_sampling, conductor_eval_pdf,
+                                                        conductor_sample, mitsuba_eval_pdf,
+                                                        PARTS, accumulate_parts, scaled_texels)
 from envfit.predict.renderer._preset_integrand import MapTable, _is_mitsuba, midpoints
 from envfit.predict.renderer._preset_model import (PresetModel, PresetModelOptions,
                                                    systematic_indices)
@@ -243,6 +245,7 @@ class MicrofacetModel(PresetModel):
         self._tables: dict = {}
         self._cache: dict = {}
         self._bands: dict = {}
+        self._texels = None
         self.seconds = 0.0
 
     def _select(self, normals, views, w, count: int):
@@ -283,9 +286,7 @@ class MicrofacetModel(PresetModel):
         v_e, v_b = np.zeros(len(normals)), np.zeros(len(normals))
         for a, (n, v) in enumerate(zip(_unit(normals), _unit(views))):
             rows = np.asarray(self.preset.tangent_frame(n.reshape(1, 3))[0])
-            loc = tab.directions @ rows.T
-            wis = np.broadcast_to(rows @ v, loc.shape)
-            fc, pb = self._eval_pdf(rows @ v, loc, wis)
+            fc, pb = self._eval_pdf(rows @ v, tab.directions, rows)
             mean2 = (((np.pi * tab.base) * fc[:, None]).mean(axis=0) ** 2).sum()
             v_e[a] = max(0.0, float(np.mean(b2 * fc * fc)) - mean2)
             with np.errstate(divide="ignore", invalid="ignore"):
@@ -320,21 +321,39 @@ class MicrofacetModel(PresetModel):
                                  else midpoints(level))
         return self._tables[key]
 
-    def _technique_values(self, d: np.ndarray, with_pdf: bool):
+    def _technique_values(self, local: np.ndarray, rows: np.ndarray, weight: np.ndarray):
+        """(radiance, map pdf) at the BSDF samples ``local`` (the frame's ``rows``); Mitsuba's
+        compiled, skipping the samples of weight 0."""
         if _is_mitsuba(self.technique):
-            return mitsuba_eval_pdf(self.technique, d)
+            if self._texels is None:
+                self._texels = scaled_texels(self.technique)
+            return mitsuba_eval_pdf(self.technique, local, rows, weight, self._texels)
+        d = local @ rows
         rad, pdf = [], []
         for i in range(0, len(d), _CHUNK):
             rad.append(self.technique.eval(d[i:i + _CHUNK]))
-            if with_pdf:
-                pdf.append(self.technique.pdf(d[i:i + _CHUNK]))
-        return np.concatenate(rad), (np.concatenate(pdf) if with_pdf else None)
+            pdf.append(self.technique.pdf(d[i:i + _CHUNK]))
+        return np.concatenate(rad), np.concatenate(pdf)
 
-    def _eval_pdf(self, wi, loc, wis):
-        """(f·cos, pdf) of the conductor at the light directions ``loc`` for the view ``wi``:
-        compiled for a white conductor, numpy otherwise."""
+    def _sample(self, wi, u):
+        """(ω_o, weight, pdf) of the conductor's sampling for the view ``wi`` at the table's
+        points ``u``: compiled for a white GGX conductor, numpy otherwise; where the weight is
+        0, ω_o is the pole and the pdf 0 (the parts are 0 there)."""
+        if compiled_sampling(self.conductor):
+            return conductor_sample(self.conductor, wi, u)
+        s = self.conductor.sample(np.broadcast_to(wi, (len(u), 3)), u)
+        dead = s.weight <= 0
+        return (np.where(dead[:, None], [0.0, 0.0, 1.0], s.wo), s.weight,
+                np.where(dead, 0.0, s.pdf))
+
+    def _eval_pdf(self, wi, dirs, rows):
+        """(f·cos, pdf) of the conductor at the world light directions ``dirs`` for the view
+        ``wi``, in the frame whose axes are ``rows``: compiled for a white conductor, numpy
+        otherwise."""
         if compiled_conductor(self.conductor):
-            return conductor_eval_pdf(self.conductor, wi, loc)
+            return conductor_eval_pdf(self.conductor, wi, dirs, rows)
+        loc = dirs @ rows.T
+        wis = np.broadcast_to(wi, loc.shape)
         return self.conductor.eval(wis, loc), self.conductor.pdf(wis, loc)
 
     def _cell(self, r, vals: dict, grids: dict, fine: int, levels):
@@ -369,22 +388,59 @@ class MicrofacetModel(PresetModel):
         own net, is left out). Running sums: :math:`\mathrm{Var}\,c = E g^2 - E_u \bar g^2
         - \mathrm{Var}\,a`."""
         normal, view, foot = frame
-        s1, s2, means = {}, {}, {}
-        for x in foot:
-            vals = self._part_values(strategies, (x, view), fine)
-            for p, g in vals.items():
-                s1[p] = s1.get(p, 0.0) + g
-                s2[p] = s2.get(p, 0.0) + np.mean(g * g, axis=0)
-                means.setdefault(p, []).append(g.mean(axis=0))
-        j = len(foot)
-        out, var_c, var_a = {}, {}, {}
-        for p in s1:
-            gbar = s1[p] / j
-            var_a[p] = np.var(np.stack(means[p]), axis=0)
-            var_c[p] = np.clip(s2[p] / j - np.mean(gbar * gbar, axis=0) - var_a[p], 0.0, None)
-            out[p] = gbar
-        out["_var_c"], out["_var_a"] = var_c, var_a
+        acc, sums = self._accumulated(strategies, foot, view, fine)
+        j, size = len(foot), acc.shape[1]
+        acc /= j                                                      # the mean table g-bar
+        var_a = np.var(sums[:, :, 0] / size, axis=0)                  # (5, 3)
+        e_g2 = sums[:, :, 1].sum(axis=0) / (j * size)
+        var_c = np.clip(e_g2 - np.einsum("ipc,ipc->ic", acc, acc) / size - var_a, 0.0, None)
+        out = self._named(acc, strategies)
+        out["_var_c"] = {p: var_c[PARTS.index(p)] for p in list(out)}
+        out["_var_a"] = {p: var_a[PARTS.index(p)] for p in list(out) if p != "_var_c"}
         return out
+
+    @staticmethod
+    def _named(acc: np.ndarray, strategies: set) -> dict:
+        """The parts of ``acc`` (:data:`PARTS` order) that ``strategies`` use, by name."""
+        names = set()
+        if strategies & {"map", "mis"}:
+            names.add("map")
+        if strategies & {"brdf", "mis"}:
+            names.add("brdf")
+        if "mis" in strategies:
+            names.update(("mis_e", "mis_b", "mis_t"))
+        return {p: acc[i] for i, p in enumerate(PARTS) if p in names}
+
+    def _accumulated(self, strategies: set, normals, view, fine: int):
+        """The parts summed over ``normals`` (5, P, 3) for one ``view``, and each normal's
+        sums of g and g² over the table (J, 5, 2, 3): :func:`accumulate_parts`."""
+        acc, sums = None, []
+        for normal in normals:
+            map_side, bsdf_side = self._sides(strategies, normal, view, fine)
+            if acc is None:
+                size = len((map_side or bsdf_side)[2])
+                acc = np.zeros((len(PARTS), size, 3))
+            sums.append(accumulate_parts(acc, map_side, bsdf_side, self._fractions("mis"),
+                                         self.preset.heuristic))
+        return acc, np.stack(sums)
+
+    def _sides(self, strategies: set, normal, view, fine: int):
+        """The two techniques' values at one normal for one view: the map side (base, f·cos,
+        conductor pdf, map pdf at the map table's directions) and the BSDF side (radiance,
+        weight, conductor pdf, map pdf at the BSDF table's samples), each None when no
+        strategy of ``strategies`` uses it."""
+        rows = np.asarray(self.preset.tangent_frame(normal.reshape(1, 3))[0])  # t, b, n
+        wi = rows @ view
+        map_side = bsdf_side = None
+        if strategies & {"map", "mis"}:
+            tab = self._table("map", fine)
+            fc, pb = self._eval_pdf(wi, tab.directions, rows)
+            map_side = (tab.base, fc, pb, tab.pdf)
+        if strategies & {"brdf", "mis"}:
+            wo, weight, pdf = self._sample(wi, self._table("bsdf", fine))
+            rad, pe = self._technique_values(wo, rows, weight)
+            bsdf_side = (rad, weight, pdf, pe)
+        return map_side, bsdf_side
 
     def _part_values(self, strategies: set, frame, fine: int) -> dict:
         """The tabulated parts at one frame: ``map``, ``brdf``, ``mis_e``, ``mis_b``,
@@ -393,33 +449,4 @@ class MicrofacetModel(PresetModel):
         if len(frame) == 3:
             return self._footprint_parts(strategies, frame, fine)
         normal, view = frame
-        rows = np.asarray(self.preset.tangent_frame(normal.reshape(1, 3))[0])  # t, b, n
-        wi = rows @ view
-        mis = "mis" in strategies
-        out = {}
-        if strategies & {"map", "mis"}:
-            tab = self._table("map", fine)
-            loc = tab.directions @ rows.T
-            wis = np.broadcast_to(wi, loc.shape)
-            fc, pb = self._eval_pdf(wi, loc, wis)
-            h = tab.base * (np.pi * fc)[:, None]
-            out["map"] = h
-            if mis:
-                we = self.preset.mis_weights(tab.pdf, pb, "mis")[0]
-                out["mis_e"] = h * we[:, None]
-        if strategies & {"brdf", "mis"}:
-            u = self._table("bsdf", fine)
-            s = self.conductor.sample(np.broadcast_to(wi, (len(u), 3)), u)
-            live = s.weight > 0
-            d = s.wo[live] @ rows
-            rad, pe = self._technique_values(d, mis)
-            h = np.zeros((len(u), 3))
-            h[live] = rad * s.weight[live, None]
-            out["brdf"] = h
-            if mis:
-                wb = np.zeros(len(u))
-                wb[live] = self.preset.mis_weights(pe, s.pdf[live], "mis")[1]
-                out["mis_b"] = h * wb[:, None]
-        if mis:
-            out["mis_t"] = out["mis_e"] + out["mis_b"]
-        return out
+        return self._named(self._accumulated(strategies, [normal], view, fine)[0], strategies)
