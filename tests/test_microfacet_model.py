@@ -166,6 +166,37 @@ def test_compiled_sampling_is_the_numpy_conductor(renderer):
             assert np.all(p[~live] == 0)
 
 
+@pytest.mark.parametrize("heuristic", ["power", "balance"])
+def test_fused_parts_are_the_heuristics_parts(heuristic):
+    """accumulate_parts adds map, brdf, mis_e, mis_b, mis_t as the preset's heuristic weighs
+    them (numpy: power_heuristic, balance_heuristic; zero and infinite pdfs included), and
+    returns their sums and sums of squares."""
+    from envfit.predict.renderer._microfacet_kernels import PARTS, accumulate_parts
+    from envfit.sampling.presets._base import balance_heuristic, power_heuristic
+    h = {"power": power_heuristic, "balance": balance_heuristic}[heuristic]
+    rng = np.random.default_rng(4)
+    n = 5000
+    base, rad = rng.random((n, 3)), rng.random((n, 3))
+    fc, w = rng.random(n), rng.random(n)
+    pdfs = [rng.exponential(size=n) for _ in range(4)]
+    for q in pdfs:
+        q[rng.random(n) < 0.05] = 0.0
+    pdfs[1][:3], pdfs[3][:3] = np.inf, 0.0
+    fa, fb = 0.5, 0.5
+    acc = np.full((5, n, 3), 0.25)
+    sums = accumulate_parts(acc, (base, fc, pdfs[0], pdfs[1]), (rad, w, pdfs[2], pdfs[3]),
+                            (fa, fb), heuristic)
+    he = base * (np.pi * fc)[:, None]
+    hb = rad * w[:, None]
+    me = he * h(pdfs[1], pdfs[0], fa, fb)[:, None]
+    mb = hb * h(pdfs[2], pdfs[3], fb, fa)[:, None]
+    want = dict(zip(PARTS, (he, hb, me, mb, me + mb)))
+    for i, p in enumerate(PARTS):
+        np.testing.assert_allclose(acc[i], 0.25 + want[p], rtol=1e-12)
+        np.testing.assert_allclose(sums[i, 0], want[p].sum(axis=0), rtol=1e-10)
+        np.testing.assert_allclose(sums[i, 1], (want[p] ** 2).sum(axis=0), rtol=1e-10)
+
+
 @pytest.mark.parametrize("comp", [False, True])
 def test_compiled_mitsuba_lookup_is_the_technique(comp):
     """Mitsuba's envmap radiance and emitter pdf at world directions, compiled, equal the

@@ -300,8 +300,10 @@ def _heuristic(pa, pb, fa, fb, power):  # pragma: no cover - numba
 
 
 @numba.njit(cache=True, parallel=True, error_model="numpy")
-def _accumulate(base, fc, pb, tpdf, rad, weight, bpdf, pe, fa, fb, power, acc,
-                sums):  # pragma: no cover - numba
+def _accumulate(base, mvals, rad, bvals, consts, acc, sums):  # pragma: no cover - numba
+    fc, pb, tpdf = mvals[0], mvals[1], mvals[2]
+    weight, bpdf, pe = bvals[0], bvals[1], bvals[2]
+    fa, fb, power = consts[0], consts[1], consts[2] > 0.0
     p_total = acc.shape[1]
     chunks = sums.shape[0]
     size = (p_total + chunks - 1) // chunks
@@ -331,12 +333,15 @@ def accumulate_parts(acc, map_side, bsdf_side, fractions, heuristic) -> np.ndarr
     preset's ``heuristic`` with the sample ``fractions`` (``RendererPreset.mis_weights``),
     and ``mis_t`` is their sum — the diffuse model's ``_part_values``, fused.
     """
-    none1 = np.zeros(0)
-    base, fc, pb, tpdf = map_side if map_side is not None else (np.zeros((0, 3)),) + (none1,) * 3
-    rad, w, bpdf, pe = bsdf_side if bsdf_side is not None else (np.zeros((0, 3)),) + (none1,) * 3
-    chunks = 64
-    sums = np.zeros((chunks, 5, 2, 3))
-    f = [np.ascontiguousarray(x, dtype=np.float64) for x in (base, fc, pb, tpdf, rad, w, bpdf, pe)]
-    _accumulate(*f, float(fractions[0]), float(fractions[1]),
-                _HEURISTIC_CODES[heuristic] == 0, acc, sums)
+    def packed(side):
+        if side is None:
+            return np.zeros((0, 3)), np.zeros((3, 0))
+        return (np.ascontiguousarray(side[0], dtype=np.float64),
+                np.ascontiguousarray(np.stack(side[1:]), dtype=np.float64))
+
+    base, mvals = packed(map_side)
+    rad, bvals = packed(bsdf_side)
+    consts = np.array([fractions[0], fractions[1], _HEURISTIC_CODES[heuristic] == 0], float)
+    sums = np.zeros((64, 5, 2, 3))                    # per chunk of the table
+    _accumulate(base, mvals, rad, bvals, consts, acc, sums)
     return sums.sum(axis=0)
