@@ -208,7 +208,7 @@ def test_cached_run_prints_the_same_answer_without_the_model(sun_file, tmp_path,
     (["--renderer", "mitsuba3", "--no-renderer"], "--no-renderer is an option"),
     (["--renderer", "mitsuba3", "--sampler", "ldsampler", "--spp", "1000"], "beyond the 256"),
     (["--sampler", "ldsampler"], "--sampler needs --renderer"),
-    (["--renderer", "mitsuba3", "--sphere-pixels", "64"], "for --brdf ggx or beckmann only"),
+    (["--renderer", "mitsuba3", "--sphere-pixels", "3"], "--sphere-pixels must be an integer"),
     (["--renderer", "mitsuba3", "--brdf", "ggx", "--roughness", "0.1", "--sphere-pixels", "2"],
      "--sphere-pixels must be an integer >= 4"),
     (["--sphere-pixels", "64"], "--sphere-pixels needs --renderer"),
@@ -304,6 +304,29 @@ def test_sphere_pixels_adds_the_footprint_of_the_model(sun_file, tmp_path, capsy
                         footprints=pixel_footprints(*frames, 8, FOOTPRINT_SIDE))
     point = MicrofacetModel(_load(sun_file), preset("mitsuba3"), Conductor("ggx", 0.1),
                             frames, options=opts, select=NORMALS)
+    for p in r["predictions"]:
+        got = m.predict(p["strategy"], "ldsampler", p["spp"]).rmse
+        assert p["predicted_rmse"] == pytest.approx(got, rel=1e-12)
+        assert got > point.predict(p["strategy"], "ldsampler", p["spp"]).rmse
+
+
+def test_diffuse_sphere_pixels_is_the_model_with_footprints(sun_file, tmp_path, capsys):
+    """Diffuse --sphere-pixels 8: the predictions are those of a PresetModel whose normals
+    carry the footprints of a sphere 8 pixels across (sphere_pixels=8, side FOOTPRINT_SIDE),
+    above the point normals' at every cell; the JSON and the model line say so."""
+    from dataclasses import replace
+    from envfit.defaults import FOOTPRINT_SIDE
+    base = [sun_file, "--renderer", "mitsuba3", "--sampler", "ldsampler",
+            "--target-relative", "0.05", "--renderer-level", "6", "--spp", "4,16", *MODEL]
+    rc, lines, _, d = _run(capsys, [*base, "--sphere-pixels", "8"], tmp_path)
+    assert rc == 0
+    r = d["renderer"]
+    assert r["bsdf"] == {"type": "diffuse", "reflectance": 1.0, "sphere_pixels": 8}
+    assert any("white diffuse sphere 8 pixels across (each pixel's footprint included), "
+               "each pixel seen by the axis view nearest its normal" in ln for ln in lines)
+    opts = replace(_options(6), sphere_pixels=8, footprint_side=FOOTPRINT_SIDE)
+    m = PresetModel(_load(sun_file), preset("mitsuba3"), options=opts)
+    point = PresetModel(_load(sun_file), preset("mitsuba3"), options=_options(6))
     for p in r["predictions"]:
         got = m.predict(p["strategy"], "ldsampler", p["spp"]).rmse
         assert p["predicted_rmse"] == pytest.approx(got, rel=1e-12)

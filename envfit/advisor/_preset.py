@@ -239,10 +239,13 @@ class PresetAdvice:
 
     def _surface(self) -> str:
         o = self.options
-        if not o.microfacet:
-            return "the RMSE over uniform normals of a white diffuse surface"
         pixels = ("" if o.sphere_pixels is None else
                   f", {o.sphere_pixels} pixels across (each pixel's footprint included)")
+        if not o.microfacet:
+            if o.sphere_pixels is None:
+                return "the RMSE over uniform normals of a white diffuse surface"
+            return (f"the RMSE over uniform normals of a white diffuse sphere{pixels[1:]}, "
+                    f"each pixel seen by the axis view nearest its normal")
         return (f"the RMSE of a white {o.bsdf.upper() if o.bsdf == 'ggx' else o.bsdf.title()} "
                 f"conductor (alpha {o.conductor().alpha:.4g}, Fresnel 1) over the views an "
                 f"orthographic camera has of a sphere{pixels} (theta_o density cos sin) and "
@@ -257,7 +260,8 @@ class PresetAdvice:
                 "bsdf": ({"type": o.bsdf, "roughness": o.roughness,
                           "alpha": o.conductor().alpha, "fresnel": 1.0,
                           "sphere_pixels": o.sphere_pixels} if o.microfacet
-                         else {"type": "diffuse", "reflectance": 1.0}),
+                         else {"type": "diffuse", "reflectance": 1.0,
+                               "sphere_pixels": o.sphere_pixels}),
                 "target_relative": self.target_relative, "mean_radiance": self.mean_radiance,
                 "recommendation": self.recommendation, "predictions": self.predictions(),
                 "answers": [{**self._answer_dict(self.answers[s])} for s in o.strategies],

@@ -135,10 +135,12 @@ class PresetAdviseOptions:
         With a microfacet ``bsdf``: the renderer's own roughness (Mitsuba's α, pbrt-v4's
         roughness = α², Cycles' roughness = √α), α from 0.05 to 1.
     sphere_pixels : int or None
-        With a microfacet ``bsdf``: the sphere's diameter on screen in pixels; the prediction
-        then holds the error of each pixel's footprint (the normals a pixel spans,
+        The sphere's diameter on screen in pixels; the prediction then holds the error of
+        each pixel's footprint (the normals a pixel spans,
         :func:`envfit.predict.renderer.pixel_footprints`, FOOTPRINT_SIDE squared of them;
-        that many times the model's work). None: every pixel a point (a large object).
+        that many times the model's work). Diffuse: each normal's pixel in the axis view
+        nearest it (``PresetModelOptions.sphere_pixels``); microfacet: in the frame's view.
+        None: every pixel a point (a large object).
 
     Raises
     ------
@@ -196,16 +198,13 @@ class PresetAdviseOptions:
     def _check_bsdf(self, p) -> None:
         """``bsdf`` diffuse (``roughness`` None) or a microfacet conductor the renderer shades
         (``roughness`` its own parameter, α from 0.05 to 1)."""
-        if self.bsdf == "diffuse":
-            if self.roughness is not None:
-                raise ParameterError("--roughness is a parameter of --brdf ggx or beckmann")
-            if self.sphere_pixels is not None:
-                raise ParameterError("--sphere-pixels (the pixel footprint) is modelled for "
-                                     "--brdf ggx or beckmann only")
-            return
         if self.sphere_pixels is not None:
             object.__setattr__(self, "sphere_pixels",
                                check_int(self.sphere_pixels, "--sphere-pixels", 4))
+        if self.bsdf == "diffuse":
+            if self.roughness is not None:
+                raise ParameterError("--roughness is a parameter of --brdf ggx or beckmann")
+            return
         if self.bsdf not in MICROFACET_BSDFS:
             raise ParameterError(f"with --renderer, --brdf is diffuse, ggx or beckmann (the "
                                  f"paper's glossy lobe is no renderer's BSDF); got {self.bsdf!r}")
@@ -237,8 +236,10 @@ class PresetAdviseOptions:
         for name in ("level", "normals"):
             check_int(getattr(self, name), f"--renderer-{name}", 1)
         pool = max(PresetModelOptions().pool, int(self.normals))
+        pixels = None if self.microfacet else self.sphere_pixels   # microfacet: per frame
         return PresetModelOptions(normals=int(self.normals), pool=pool,
-                                  max_level=int(self.level))
+                                  max_level=int(self.level), sphere_pixels=pixels,
+                                  footprint_side=FOOTPRINT_SIDE)
 
     def technique_options(self) -> dict:
         """The preset technique's options (Mitsuba: ``mis_compensation``)."""
@@ -304,6 +305,6 @@ class PresetAdviseOptions:
         if self.microfacet:                   # the diffuse keys (and caches) unchanged
             key.update(bsdf=self.bsdf, alpha=self.conductor().alpha,
                        frames_seed=MICROFACET_FRAMES_SEED)
-            if self.sphere_pixels is not None:
-                key.update(sphere_pixels=self.sphere_pixels, footprint_side=FOOTPRINT_SIDE)
+        if self.sphere_pixels is not None:
+            key.update(sphere_pixels=self.sphere_pixels, footprint_side=FOOTPRINT_SIDE)
         return key

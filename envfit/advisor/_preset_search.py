@@ -38,8 +38,8 @@ import numpy as np
 
 from envfit.advisor._cache import AdviseCache
 from envfit.defaults import FOOTPRINT_SIDE, MICROFACET_FRAMES_SEED
-from envfit.predict.renderer._microfacet_model import (MicrofacetModel, band_frames,
-                                                       pixel_footprints)
+from envfit.predict.renderer._footprint import pixel_footprints
+from envfit.predict.renderer._microfacet_model import MicrofacetModel, band_frames
 from envfit.predict.renderer._preset_model import PresetModel
 
 __all__ = ["CachedPresetModel", "StrategyAnswer", "model_version", "runnable_spp",
@@ -58,7 +58,8 @@ def model_version() -> str:
     import envfit.sampling.presets as ps
     root = Path(pr.__file__).parent
     files = [root / "_preset_model.py", root / "_preset_integrand.py",
-             root / "_microfacet_model.py",
+             root / "_microfacet_model.py", root / "_microfacet_kernels.py",
+             root / "_footprint.py",
              *sorted((root / "randomisation").glob("*.py")),
              *sorted(Path(ps.__file__).parent.glob("*.py"))]
     h = hashlib.sha256()

@@ -17,6 +17,8 @@ Modules:
   surface from its preset (its own estimator, its sampler's exact randomisation).
 * :mod:`~envfit.predict.renderer._microfacet_model` — the same for a rough conductor (GGX,
   Beckmann), per frame (normal, view): view-dependent.
+* :mod:`~envfit.predict.renderer._footprint` — a rendered pixel's footprint: the normals it
+  spans and the variance its film position adds.
 
 The names of ``__all__`` are imported lazily, on first use (PEP 562), so that
 importing the package loads none of its modules.
@@ -36,7 +38,7 @@ _LAZY = {
     "PresetModel": "_preset_model", "PresetModelOptions": "_preset_model",
     "PresetPrediction": "_preset_model",
     "MicrofacetModel": "_microfacet_model", "band_frames": "_microfacet_model",
-    "pixel_frames": "_microfacet_model", "pixel_footprints": "_microfacet_model",
+    "pixel_frames": "_microfacet_model", "pixel_footprints": "_footprint",
 }
 
 __all__ = sorted(_LAZY)

@@ -29,7 +29,7 @@ a sphere).
 A rendered pixel averages its footprint: the film position is two more dimensions of the
 estimator, paired at random with the techniques'. Given each frame's footprint normals
 (:func:`pixel_footprints`), the model randomises the footprint's mean integrand and adds the
-interaction's variance (:meth:`MicrofacetModel._footprint_parts`) — what a sharp lobe near the
+interaction's variance (:mod:`._footprint`) — what a sharp lobe near the
 limb of a small sphere adds.
 
 References: E. Heitz, "Sampling the GGX distribution of visible normals", JCGT 7(4) (2018);
@@ -44,24 +44,17 @@ from envfit.predict.renderer._microfacet_kernels import (compiled_conductor,
                                                         compiled_sampling, conductor_eval_pdf,
                                                         conductor_sample, mitsuba_eval_pdf,
                                                         PARTS, accumulate_parts, scaled_texels)
+from envfit.predict.renderer._footprint import _unit
 from envfit.predict.renderer._preset_integrand import MapTable, _is_mitsuba, midpoints
 from envfit.predict.renderer._preset_model import (PresetModel, PresetModelOptions,
                                                    systematic_indices)
 
-__all__ = ["MicrofacetModel", "pixel_frames", "pixel_footprints", "band_frames", "BANDS"]
+__all__ = ["MicrofacetModel", "pixel_frames", "band_frames", "BANDS"]
 
 #: the view-angle bands θ_o (degrees) reported beside the whole-sphere value (issue 25)
 BANDS = ((0.0, 30.0), (30.0, 60.0), (60.0, 80.0))
 
 _CHUNK = 1 << 18
-#: the parts of :meth:`MicrofacetModel._part_values` each strategy draws (its streams) and
-#: the part whose mean over u is the pixel's integral
-_STREAMS = {"map": ("map",), "brdf": ("brdf",), "mis": ("mis_e", "mis_b")}
-_TOTAL = {"map": "map", "brdf": "brdf", "mis": "mis_t"}
-
-
-def _unit(v: np.ndarray) -> np.ndarray:
-    return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
 
 def band_frames(count: int, theta_range=(0.0, 90.0), *, seed=0):
@@ -117,59 +110,6 @@ def pixel_frames(geometry, views, count: int, *, seed=0):
     return n[idx], np.ascontiguousarray(v[idx]), theta
 
 
-def _view_basis(views: np.ndarray):
-    """(right, up) per view axis: those of :data:`envfit.measure.renderers.VIEWS` where the
-    axis is one of theirs, else up = the unit part of z (or x) orthogonal to the axis and
-    right = up × axis."""
-    from envfit.measure.renderers import VIEWS
-    axes = np.array([view.axis for view in VIEWS], dtype=np.float64)
-    which = np.argmax(views @ axes.T, axis=1)
-    known = np.all(np.abs(axes[which] - views) < 1e-9, axis=1)
-    ref = np.where(np.abs(views[:, 2:3]) < 0.9, [[0.0, 0.0, 1.0]], [[1.0, 0.0, 0.0]])
-    up = _unit(ref - np.sum(ref * views, axis=1, keepdims=True) * views)
-    right = np.cross(up, views)
-    right = np.where(known[:, None], np.array([v.right for v in VIEWS])[which], right)
-    up = np.where(known[:, None], np.array([v.up for v in VIEWS])[which], up)
-    return right, up
-
-
-def pixel_footprints(normals, views, resolution: int, side: int = 2) -> np.ndarray:
-    r"""The normals (K, side², 3) at side × side stratum midpoints of each frame's pixel: the
-    pixel of an orthographic view of the unit sphere R pixels across (the image plane spans
-    [-1, 1]², pixel side h = 2/R; :mod:`envfit.measure.renderers` renders R × R views) whose
-    centre shows ``normals[k]`` from the view axis ``views[k]`` (the pixel's axes those of
-    :data:`envfit.measure.renderers.VIEWS` for their axes, else :func:`_view_basis`). A
-    sub-position (X + δx, Y + δy) shows the normal X'r + Y'u + √(1 − X'² − Y'²) v; off the disk
-    it is pulled onto the rim.
-
-    >>> from envfit.measure.renderers import VIEWS, sphere_geometry
-    >>> n, v, _ = pixel_frames(sphere_geometry(16), VIEWS, 8, seed=0)
-    >>> f = pixel_footprints(n, v, 16, side=2)
-    >>> f.shape, bool(np.allclose(f.mean(axis=1), n, atol=0.1))
-    ((8, 4, 3), True)
-    """
-    n = _unit(np.asarray(normals, dtype=np.float64).reshape(-1, 3))
-    v = _unit(np.asarray(views, dtype=np.float64).reshape(-1, 3))
-    r, s = int(resolution), int(side)
-    if r != resolution or r < 1 or s != side or s < 1:
-        raise ParameterError(f"pixel_footprints: resolution and side must be integers >= 1, "
-                             f"got {resolution!r}, {side!r}")
-    if len(n) != len(v) or np.any(np.sum(n * v, axis=1) < 0):
-        raise ParameterError("pixel_footprints: one view per normal, the normal facing it")
-    right, up = _view_basis(v)
-    h = 2.0 / r
-    d = ((np.arange(s) + 0.5) / s - 0.5) * h
-    dx, dy = (a.ravel() for a in np.meshgrid(d, d))
-    x = np.sum(n * right, axis=1)[:, None] + dx
-    y = np.sum(n * up, axis=1)[:, None] + dy
-    rad = np.hypot(x, y)
-    scale = np.where(rad > 1.0, 1.0 / np.where(rad > 0, rad, 1.0), 1.0)
-    x, y = x * scale, y * scale
-    z = np.sqrt(np.clip(1.0 - x * x - y * y, 0.0, None))
-    return _unit(x[..., None] * right[:, None] + y[..., None] * up[:, None]
-                 + z[..., None] * v[:, None])
-
-
 class MicrofacetModel(PresetModel):
     r"""The noise model of one map and one rough conductor under one renderer preset, over
     given frames (module docstring).
@@ -197,7 +137,7 @@ class MicrofacetModel(PresetModel):
     footprints : array (K, J, 3), optional
         For rendered pixels (:func:`pixel_footprints`): the normals over each frame's pixel,
         which the renderer's film samples average over. Adds the pixel-footprint term
-        (:meth:`_footprint_parts`, :meth:`_cell`); J times the tables' work. None: each
+        (:mod:`._footprint`); J times the tables' work. None: each
         frame is a point (an object of many pixels).
 
     Examples
@@ -356,37 +296,10 @@ class MicrofacetModel(PresetModel):
         wis = np.broadcast_to(wi, loc.shape)
         return self.conductor.eval(wis, loc), self.conductor.pdf(wis, loc)
 
-    def _cell(self, r, vals: dict, grids: dict, fine: int, levels):
-        """As :meth:`PresetModel._cell`, plus the footprint's interaction term when the frame
-        has one (:meth:`_footprint_parts`)."""
-        res = super()._cell(r, vals, grids, fine, levels)
-        if "_var_c" not in vals:
-            return res
-        c = sum(vals["_var_c"][t] for t in _STREAMS[r.strategy])
-        if r.name == "independent":
-            extra = (c + vals["_var_a"][_TOTAL[r.strategy]]) / r.n
-        else:
-            extra = c / max(r.n - 1, 1)
-        return (res[0] + extra,) + tuple(res[1:])
-
     def _footprint_parts(self, strategies: set, frame, fine: int) -> dict:
-        r"""The parts of a frame with a pixel footprint (normal, view, J normals over the
-        pixel).
-
-        A pixel's estimator draws its film position p from its own dimensions, paired at random
-        with the techniques' (every sampler permutes or draws each dimension pair
-        independently), so one spp of technique t is :math:`g_t(p, u)`: the tables of
-        :meth:`_part_values` at the normal seen at p. With the ANOVA split
-        :math:`g_t = \bar g_t(u) + a_t(p) + c_t(p, u)` (:math:`\bar g_t` the mean over the J
-        normals, a the pixel integral's deviation, c the interaction), the parts returned are
-        the main effects :math:`\bar g` — randomised as any table — and ``_var_c``,
-        ``_var_a`` per part, from which :meth:`_cell` adds :math:`\sum_t \mathrm{Var}\,c_t/N`
-        for independent points (with :math:`\mathrm{Var}\,a/N`: the exact
-        :math:`(E_p\mathrm{Var}_u g + \mathrm{Var}_p E_u g)/N`) and
-        :math:`\sum_t \mathrm{Var}\,c_t/(N-1)` for randomly paired nets (each net sums c to
-        about zero, which makes the pairs' cross terms positive; a, integrated by the film's
-        own net, is left out). Running sums: :math:`\mathrm{Var}\,c = E g^2 - E_u \bar g^2
-        - \mathrm{Var}\,a`."""
+        """The parts of a frame with a pixel footprint (normal, view, J normals over the
+        pixel): the mean tables (:mod:`._footprint`), and ``_var_c``, ``_var_a`` per part from
+        the fused kernel's sums (as :class:`._footprint.FootprintSums` computes them)."""
         normal, view, foot = frame
         acc, sums = self._accumulated(strategies, foot, view, fine)
         j, size = len(foot), acc.shape[1]

@@ -53,6 +53,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from envfit.base import ParameterError
+from envfit.predict.renderer._footprint import (FootprintSums, footprint_term,
+                                                nearest_views, pixel_footprints)
 from envfit.predict.renderer._preset_integrand import (BsdfTable, MapTable, bsdf_values,
                                                        map_values, moment_pyramid)
 from envfit.predict.renderer.randomisation import DyadicGrid, mis_mse, randomised_mse
@@ -95,17 +97,28 @@ class PresetModelOptions:
     max_level : the finest grid level (M = 2^max_level); the integrand is tabulated at level
         max_level + 1.
     pilot_level : level of the map-part table that gives the normals' proxies.
+    sphere_pixels : None (default: each normal a point), or R: the normals are pixels of the
+        sphere renders of :mod:`envfit.measure.renderers`, R pixels across, each in the view
+        nearest it (their ``cube`` layout); each pixel's footprint (``footprint_side`` ²
+        normals) adds its term (:mod:`._footprint`), and the tables cost footprint_side² times
+        as much.
+    footprint_side : side of the footprint's grid of normals (default 2).
     """
 
     normals: int = 48
     pool: int = 1024
     max_level: int = 9
     pilot_level: int = 6
+    sphere_pixels: int | None = None
+    footprint_side: int = 2
 
     def __post_init__(self):
         for name, lo, hi in (("normals", 1, 4096), ("pool", 1, 1 << 16), ("max_level", 1, 11),
-                             ("pilot_level", 1, 10)):
+                             ("pilot_level", 1, 10), ("sphere_pixels", 4, 1 << 16),
+                             ("footprint_side", 1, 8)):
             v = getattr(self, name)
+            if name == "sphere_pixels" and v is None:
+                continue
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not lo <= v <= hi:
                 raise ParameterError(f"{name} must be an integer from {lo} to {hi}, got {v!r}")
         if self.normals > self.pool:
@@ -231,6 +244,10 @@ class PresetModel:
         pilot = MapTable.build(self.technique, self.options.pilot_level)
         self.normals, self.weights = _proposal(pilot, _serpentine_pool(self.options.pool),
                                                self.options.normals)
+        if self.options.sphere_pixels is not None:
+            foot = pixel_footprints(self.normals, nearest_views(self.normals),
+                                    self.options.sphere_pixels, self.options.footprint_side)
+            self.normals = list(zip(self.normals, foot))
         self._tables: dict = {}
         self._cache: dict = {}
         self.seconds = 0.0
@@ -289,7 +306,18 @@ class PresetModel:
 
     def _part_values(self, strategies: set, normal, fine: int) -> dict:
         """The tabulated parts at one normal: ``map`` (h_e alone), ``brdf`` (h_b alone) and
-        ``mis_e``, ``mis_b``, ``mis_t`` (weighted, and their sum)."""
+        ``mis_e``, ``mis_b``, ``mis_t`` (weighted, and their sum); for a (normal, footprint)
+        pair, their means over the footprint with its ``_var_c`` and ``_var_a``
+        (:class:`._footprint.FootprintSums`)."""
+        if isinstance(normal, tuple):
+            sums = FootprintSums()
+            for x in normal[1]:
+                sums.add(self._point_parts(strategies, x, fine))
+            return sums.parts()
+        return self._point_parts(strategies, normal, fine)
+
+    def _point_parts(self, strategies: set, normal, fine: int) -> dict:
+        """:meth:`_part_values` at one normal."""
         out = {}
         need_map = bool(strategies & {"map", "mis"})
         need_bsdf = bool(strategies & {"brdf", "mis"})
@@ -336,7 +364,15 @@ class PresetModel:
             {"map": float(a[0]), "brdf": float(a[1]), "cross": float(a[2])}, len(self.normals))
 
     def _cell(self, r: _Request, vals: dict, grids: dict, fine: int, levels):
-        """(mse, map part, BSDF part, 2·cross) per channel of one request at one normal."""
+        """(mse, map part, BSDF part, 2·cross) per channel of one request at one normal (or
+        frame): the randomised parts, plus the pixel footprint's term when ``vals`` has one
+        (:func:`._footprint.footprint_term`)."""
+        res = self._randomised_cell(r, vals, grids, fine, levels)
+        extra = footprint_term(r.strategy, r.name, r.n, vals)
+        return (res[0] + extra,) + tuple(res[1:])
+
+    def _randomised_cell(self, r: _Request, vals: dict, grids: dict, fine: int, levels):
+        """:meth:`_cell` without the footprint: the tables randomised as the sampler does."""
         def grid(part):
             key = (part, r.level)
             if key not in grids:

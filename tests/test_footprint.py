@@ -1,0 +1,78 @@
+"""The pixel footprint of the diffuse renderer model (envfit.predict.renderer._footprint with
+PresetModel): a sphere R pixels across, each normal in its nearest view."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from envfit.base import ParameterError
+from envfit.maps import EnvMap
+from envfit.predict.renderer import PresetModel, PresetModelOptions, pixel_footprints
+from envfit.sampling.presets import preset
+
+
+def _sun_map(h: int = 16) -> EnvMap:
+    """A dim sky with a small sun: the footprint of a big pixel matters where the sun grazes."""
+    rng = np.random.default_rng(5)
+    data = 0.2 + 0.05 * rng.random((h, 2 * h, 3))
+    data[h // 4, h // 2] = 400.0
+    return EnvMap(data.astype(np.float32), up="y", name="sun")
+
+
+def test_nearest_views_are_the_cube_layouts():
+    """Each normal's view is the VIEWS axis of its largest component (the view that keeps it
+    in the renders' cube layout)."""
+    from envfit.predict.renderer._footprint import nearest_views
+    rng = np.random.default_rng(0)
+    n = rng.standard_normal((500, 3))
+    v = nearest_views(n)
+    k = np.argmax(np.abs(n), axis=1)
+    want = np.zeros_like(n)
+    want[np.arange(len(n)), k] = np.sign(n[np.arange(len(n)), k])
+    np.testing.assert_array_equal(v, want)
+
+
+@pytest.mark.parametrize("name", ["mitsuba3", "pbrt4"])
+def test_diffuse_footprint_independent_is_the_pixels_variance(name):
+    """Independent points, a sphere 6 pixels across: N × MSE per normal is
+    E_p Var_u g + Var_p E_u g over the footprint's tables (summed here directly; the model
+    keeps running sums), and the points-only model (no footprint) differs from it."""
+    p = preset(name)
+    opts = dict(normals=3, pool=32, max_level=4)
+    env = _sun_map()
+    m = PresetModel(env, p, None, PresetModelOptions(**opts, sphere_pixels=6, footprint_side=3))
+    plain = PresetModel(env, p, None, PresetModelOptions(**opts))
+    fine = 5
+    strategies = ("map", "brdf", "mis")
+    for strategy in strategies:
+        streams = {"map": ("map",), "brdf": ("brdf",), "mis": ("mis_e", "mis_b")}[strategy]
+        truth = []
+        for normal, foot in m.normals:
+            vals = [m._point_parts({strategy}, x, fine) for x in foot]
+            g = {t: np.stack([v[t] for v in vals]) for t in streams}
+            total = sum(x.mean(axis=1) for x in g.values())
+            truth.append(sum(np.mean(x.var(axis=1), axis=0) for x in g.values())
+                         + total.var(axis=0))
+        want = m.weights @ np.array(truth)
+        got = m.predict(strategy, "independent", 16).mse * 16
+        np.testing.assert_allclose(got, want, rtol=1e-6, err_msg=strategy)
+        assert not np.allclose(plain.predict(strategy, "independent", 16).mse * 16, want,
+                               rtol=1e-3)
+
+
+def test_diffuse_footprint_options():
+    """sphere_pixels must be an integer >= 4 and footprint_side 1..8; the model's normals
+    carry footprint_side² footprint normals each, about the normal."""
+    with pytest.raises(ParameterError):
+        PresetModelOptions(sphere_pixels=3)
+    with pytest.raises(ParameterError):
+        PresetModelOptions(sphere_pixels=16, footprint_side=0)
+    m = PresetModel(_sun_map(), preset("mitsuba3"), None,
+                    PresetModelOptions(normals=4, pool=32, max_level=3, sphere_pixels=64))
+    for normal, foot in m.normals:
+        assert foot.shape == (4, 3)
+        assert np.allclose(foot.mean(axis=0), normal, atol=0.05)
+    n = np.array([normal for normal, _ in m.normals])
+    from envfit.predict.renderer._footprint import nearest_views
+    np.testing.assert_allclose(pixel_footprints(n, nearest_views(n), 64, 2),
+                               np.stack([f for _, f in m.normals]))
