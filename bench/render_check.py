@@ -20,6 +20,12 @@ Mitsuba 3 strategies: map, brdf, mis, mis-comp (MIS with the envmap's mis_compen
 samplers: independent, stratified, multijitter, ldsampler, orthogonal. Cycles: mis, brdf;
 patterns tabulated_sobol, blue_noise. One renderer per run (bpy and Mitsuba are not loaded
 in one process).
+
+The prediction holds each pixel's footprint (``--footprint 2``, the default: 2 × 2 normals
+over each pixel of the ``--resolution`` sphere, ``PresetModelOptions.sphere_pixels``; 4× the
+model's work); ``--footprint 1`` predicts point normals. ``--repredict`` predicts the saved
+rows of the maps again with this run's options, without rendering (the old prediction kept as
+``predicted_before``).
 """
 from __future__ import annotations
 
@@ -89,10 +95,11 @@ class Predictor:
     """envfit's predictions of one map as a renderer sees it (the models built once)."""
 
     def __init__(self, renderer: str, env: EnvMap, grid: int, axes: int,
-                 max_level: int = 9):
+                 max_level: int = 9, footprint: tuple | None = None):
         self.renderer, self.env, self.grid, self.axes = renderer, map_as_seen(renderer, env), \
             grid, axes
         self.max_level = max_level
+        self.footprint = footprint       # (R pixels across, side) or None: point normals
         self._model = None
         self.file_env = env              # the pixels as the renderer reads the file
         self.cells: list = []            # (sampler, strategy, spp) planned: one model pass
@@ -108,7 +115,9 @@ class Predictor:
             options = {"mis_compensation": compensation} if self.renderer == "mitsuba3" else {}
             self._presets[compensation] = PresetModel(
                 env, preset(self.renderer), options,
-                PresetModelOptions(normals=PRESET_NORMALS, max_level=self.max_level))
+                PresetModelOptions(normals=PRESET_NORMALS, max_level=self.max_level,
+                                   sphere_pixels=self.footprint and self.footprint[0],
+                                   footprint_side=self.footprint[1] if self.footprint else 2))
         return self._presets[compensation]
 
     def model(self):
@@ -196,11 +205,13 @@ def _cells(args):
 
 def run_map(spec: str, args, rows: list, meta: dict, out: Path) -> None:
     name, env = load_map(spec, args.synth_height)
+    if args.repredict:
+        return repredict_map(name, env, args, rows)
     done = {(r["map"], r["sampler"], r["strategy"], r["spp"]) for r in rows}
     todo = [c for c in _cells(args) if (name, *c) not in done]
     if not todo:
         return
-    pred = Predictor(args.renderer, env, args.grid, args.axes, args.max_level)
+    pred = _predictor(env, args)
     pred.cells = todo
     sessions = _session(args.renderer, env, args)
     bar = progress_bar(len(todo) + 1, desc=f"{args.renderer} {name}", unit="cell")
@@ -225,6 +236,28 @@ def run_map(spec: str, args, rows: list, meta: dict, out: Path) -> None:
         bar.close()
         for s in set(sessions.values()):
             s.close()
+
+
+def _predictor(env: EnvMap, args) -> Predictor:
+    foot = (args.resolution, args.footprint) if args.footprint > 1 else None
+    return Predictor(args.renderer, env, args.grid, args.axes, args.max_level, foot)
+
+
+def repredict_map(name: str, env: EnvMap, args, rows: list) -> None:
+    """Predict the saved rows of map ``name`` again with this run's model options (no
+    rendering): each row keeps its measurement, gains the new ``predicted``, ``ratio`` and
+    ``inside``, and keeps the old prediction as ``predicted_before``."""
+    mine = [r for r in rows if r["map"] == name and r["renderer"] == args.renderer]
+    if not mine:
+        return
+    pred = _predictor(env, args)
+    pred.cells = [(r["sampler"], r["strategy"], r["spp_used"]) for r in mine]
+    for r in mine:
+        p = predict_cell(pred, r["sampler"], r["strategy"], r["spp_used"])
+        r.update(predicted_before=r.get("predicted_before", r["predicted"]), predicted=p,
+                 ratio=p / r["measured_rmse"] if r["measured_rmse"] > 0 else math.inf,
+                 inside=bool(0.8 * r["low"] <= p <= 1.25 * r["high"]),
+                 footprint=args.footprint)
 
 
 def _offset(row: dict) -> str:
@@ -275,6 +308,12 @@ def main(argv=None) -> int:
     ap.add_argument("--threads", type=int, default=None, help="Cycles CPU threads")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--cache", default=None, help="reference cache folder (default OUT/cache)")
+    ap.add_argument("--footprint", type=int, default=2,
+                    help="the model's pixel footprint: side x side normals over each pixel of "
+                         "the --resolution sphere (1: each pixel at its centre, no footprint "
+                         "term)")
+    ap.add_argument("--repredict", action="store_true",
+                    help="predict the saved rows of the maps again (no rendering)")
     ap.add_argument("--out", default="render_check_out")
     args = ap.parse_args(argv)
     if args.samplers is None:
@@ -299,6 +338,9 @@ def main(argv=None) -> int:
     t = time.perf_counter()
     for spec in args.maps:
         run_map(spec, args, rows, meta, out)
+    if args.repredict:
+        meta["repredicted_footprint"] = args.footprint
+        _write(out, args.renderer, rows, meta)
     print_table(rows)
     print(f"\nCPU: {meta['cpu']}; wall {time.perf_counter() - t:.0f} s this run; "
           f"references: {meta.get('reference_seconds', {})}")

@@ -67,10 +67,10 @@ def add_preset_arguments(p) -> None:
                         "alpha; pbrt-v4's roughness, alpha = sqrt(R); Cycles' roughness, "
                         "alpha = R^2), alpha from 0.05 to 1")
     g.add_argument("--sphere-pixels", type=positive_int, default=None, metavar="D",
-                   help="with --brdf ggx or beckmann: the sphere's diameter on screen in "
-                        "pixels; adds the error of each pixel's footprint (the normals a pixel "
-                        "spans: large for sharp lobes and grazing views on small objects; "
-                        "4x the model's work). Default: every pixel a point")
+                   help="the sphere's diameter on screen in pixels; adds the error of each "
+                        "pixel's footprint (the normals a pixel spans: large for sharp lobes "
+                        "and grazing views on small objects, and at high spp for QMC "
+                        "samplers; 4x the model's work). Default: every pixel a point")
 
 
 def reject_without_renderer(args: argparse.Namespace) -> None:

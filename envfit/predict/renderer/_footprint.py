@@ -99,7 +99,7 @@ def nearest_views(normals) -> np.ndarray:
 
 
 class FootprintSums:
-    """Running sums of the tabulated parts over a footprint's normals (one dict of parts
+    r"""Running sums of the tabulated parts over a footprint's normals (one dict of parts
     (P, C) per normal, :meth:`add`), and the parts they give (:meth:`parts`): the mean table
     of each part and its ``_var_c``, ``_var_a`` (module docstring). Running sums:
     :math:`\mathrm{Var}\,c = E g^2 - E_u \bar g^2 - \mathrm{Var}\,a`."""
