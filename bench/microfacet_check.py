@@ -155,7 +155,7 @@ def main(argv=None) -> int:
                          "an orthographic camera's view of a sphere) or cube (each normal in "
                          "its nearest view: theta_o <= 55 deg, uniform normals)")
     ap.add_argument("--reference-spp", type=int, default=4096)
-    ap.add_argument("--frames", type=int, default=64, help="frames of the model")
+    ap.add_argument("--frames", type=int, default=256, help="frames of the model")
     ap.add_argument("--pool", type=int, default=2048,
                     help="pixels the frames are importance-sampled from")
     ap.add_argument("--max-level", type=int, default=9)
