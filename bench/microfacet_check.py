@@ -1,6 +1,7 @@
 """Rendering check of envfit's microfacet predictions (issue 25): Mitsuba 3 renders the sphere
 of :mod:`envfit.measure.renderers` (six orthographic views) with a white ``roughconductor``
-(GGX or Beckmann, Fresnel = 1) and measures the RMSE over its kept pixels (the same weights
+(GGX or Beckmann, Fresnel = 1), or Cycles (``--renderer cycles``) with a white Glossy BSDF
+(:func:`envfit.measure.renderers.glossy_bsdf`, GGX or Beckmann, roughness √α), and measures the RMSE over its kept pixels (the same weights
 as the diffuse measurement) against a high-spp reference; envfit predicts the same quantity
 with :class:`envfit.predict.renderer.MicrofacetModel` over frames drawn from those pixels
 (:func:`envfit.predict.renderer.pixel_frames`: each pixel's normal and its view axis; a pool
@@ -16,6 +17,8 @@ the share of cells inside [0.8 × low, 1.25 × high] and the CPU.
 
     python bench/microfacet_check.py /work/shared/envmaps/city.exr --alphas 0.1 0.3 \\
         --distributions ggx beckmann --samplers independent ldsampler --spp 16 64 256 --out /tmp/mf
+    python bench/microfacet_check.py /work/shared/envmaps/forest.exr --renderer cycles \\
+        --distributions ggx --alphas 0.3 --spp 16 64 256 --out /tmp/mf_cycles
 """
 from __future__ import annotations
 
@@ -29,8 +32,9 @@ import numpy as np
 
 from envfit.base._atomic import atomic_write_csv, atomic_write_json  # internal: the atomic writers of the product's outputs
 from envfit.maps import EnvMap
-from envfit.measure.renderers import (VIEWS, Mitsuba3Options, Mitsuba3Sphere,
-                                      roughconductor_bsdf, sphere_error, sphere_geometry)
+from envfit.measure.renderers import (VIEWS, CyclesOptions, CyclesSphere, Mitsuba3Options,
+                                      Mitsuba3Sphere, glossy_bsdf, roughconductor_bsdf,
+                                      sphere_error, sphere_geometry)
 from envfit.predict.renderer import (MicrofacetModel, PresetModelOptions, pixel_footprints,
                                      pixel_frames)
 from envfit.sampling.presets import preset
@@ -49,10 +53,23 @@ def _model(env, dist, alpha, args):
                            seed=args.seed)
     foot = (pixel_footprints(n, v, args.resolution, args.footprint) if args.footprint > 1
             else None)
-    return MicrofacetModel(EnvMap(env.data, up="y", name=env.name), preset("mitsuba3"),
-                           Conductor(dist, alpha), (n, v),
+    return MicrofacetModel(EnvMap(env.data, up="y", name=env.name), preset(args.renderer),
+                           Conductor(dist, alpha, renderer=args.renderer), (n, v),
                            options=PresetModelOptions(max_level=args.max_level),
                            select=args.frames, footprints=foot)
+
+
+def _session(args, dist: str, alpha: float):
+    """The renderer's sphere for one BSDF: Mitsuba 3's ``roughconductor`` (references by
+    ``ldsampler``) or Cycles' Glossy BSDF (references by Tabulated Sobol, MIS)."""
+    if args.renderer == "cycles":
+        opts = CyclesOptions(resolution=args.resolution, reference_spp=args.reference_spp,
+                             cache_dir=args.cache, bsdf=glossy_bsdf(dist, alpha))
+        return lambda env: CyclesSphere(env, opts)
+    opts = Mitsuba3Options(resolution=args.resolution, reference_spp=args.reference_spp,
+                           cache_dir=args.cache, reference_sampler="ldsampler",
+                           bsdf=roughconductor_bsdf(dist, alpha))
+    return lambda env: Mitsuba3Sphere(env, opts)
 
 
 def run(args, rows: list, meta: dict, out: Path) -> None:
@@ -67,10 +84,7 @@ def run(args, rows: list, meta: dict, out: Path) -> None:
                                     for r in rows)]
                 if not cells:
                     continue
-                opts = Mitsuba3Options(resolution=args.resolution,
-                                       reference_spp=args.reference_spp, cache_dir=args.cache,
-                                       reference_sampler="ldsampler",
-                                       bsdf=roughconductor_bsdf(dist, alpha))
+                session = _session(args, dist, alpha)
                 model = _model(env, dist, alpha, args)
                 t = time.perf_counter()
                 model.predict_many([(st, s, n) for s, st, n in cells])
@@ -78,11 +92,12 @@ def run(args, rows: list, meta: dict, out: Path) -> None:
                     time.perf_counter() - t
                 rng = np.random.default_rng([args.seed, len(rows)])
                 geometry = sphere_geometry(args.resolution, args.layout)
-                with Mitsuba3Sphere(env, opts) as sph:
+                with session(env) as sph:
                     ref = sph.reference()
                     for s, st, n in cells:
                         rows.append(_cell(sph, ref, model, (name, dist, alpha, s, st, n), rng,
                                           geometry))
+                        rows[-1]["renderer"] = args.renderer
                         _write(out, rows, meta)
                         print(_line(rows[-1]), flush=True)
 
@@ -144,10 +159,15 @@ def _line(r: dict) -> str:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("maps", nargs="+", help="map files, or sun-gp-1.5 / sun-gp-1.3")
+    ap.add_argument("--renderer", choices=("mitsuba3", "cycles"), default="mitsuba3")
     ap.add_argument("--distributions", nargs="+", default=["ggx", "beckmann"])
     ap.add_argument("--alphas", nargs="+", type=float, default=[0.1, 0.3, 0.6])
-    ap.add_argument("--samplers", nargs="+", default=["independent", "ldsampler"])
-    ap.add_argument("--strategies", nargs="+", default=["map", "brdf", "mis"])
+    ap.add_argument("--samplers", nargs="+", default=None,
+                    help="default: independent ldsampler (Mitsuba 3), tabulated_sobol "
+                         "blue_noise (Cycles)")
+    ap.add_argument("--strategies", nargs="+", default=None,
+                    help="default: map brdf mis (Mitsuba 3), brdf mis (Cycles: emitter "
+                         "sampling alone is a debug-build mode)")
     ap.add_argument("--spp", nargs="+", type=int, default=[16, 64, 256])
     ap.add_argument("--resolution", type=int, default=64)
     ap.add_argument("--layout", choices=("disk", "cube"), default="disk",
@@ -167,6 +187,12 @@ def main(argv=None) -> int:
     ap.add_argument("--cache", default=None)
     ap.add_argument("--out", default="microfacet_check_out")
     args = ap.parse_args(argv)
+    cycles = args.renderer == "cycles"
+    if args.samplers is None:
+        args.samplers = ["tabulated_sobol", "blue_noise"] if cycles else ["independent",
+                                                                          "ldsampler"]
+    if args.strategies is None:
+        args.strategies = ["brdf", "mis"] if cycles else ["map", "brdf", "mis"]
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     args.cache = args.cache or str(out / "cache")

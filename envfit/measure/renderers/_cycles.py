@@ -9,6 +9,7 @@ The scene (built once per :class:`CyclesSphere`, from Blender's empty factory se
   mesh with interpolated normals. Material: the **Diffuse BSDF**, colour 1, roughness 0 —
   Lambertian (``kernel/closure/bsdf_diffuse.h``; Oren–Nayar only for roughness > 0), cosine
   sampling by the concentric map (``kernel/sample/mapping.h``: ``sample_cos_hemisphere``);
+  or, with :attr:`CyclesOptions.bsdf`, the **Glossy BSDF** (:func:`glossy_bsdf`);
 * **the world**: an *Environment Texture* (equirectangular, Linear interpolation) of the map
   written to a temporary EXR, looked up at the vector (d_z, d_x, d_y) of the ray direction d
   (Texture Coordinate *Generated* → Separate/Combine XYZ). Cycles' equirectangular lookup
@@ -53,7 +54,7 @@ from envfit.measure.renderers._sphere import (VIEWS, SphereMeasurement, check_st
                                               view_seeds)
 
 __all__ = ["PATTERNS", "CYCLES_PATTERNS", "WORLD_SAMPLING", "CyclesOptions", "CyclesSphere",
-           "import_bpy", "cycles_normals"]
+           "import_bpy", "cycles_normals", "glossy_bsdf"]
 
 #: envfit's pattern names → Cycles' ``sampling_pattern`` enum
 PATTERNS = {"tabulated_sobol": "TABULATED_SOBOL", "blue_noise": "BLUE_NOISE",
@@ -85,6 +86,8 @@ class CyclesOptions:
     threads : CPU threads (None: all cores).
     cache_dir : folder of the reference cache (None: no cache).
     max_bounces : light-path bounces (1: direct lighting; more only to check that it is).
+    bsdf : None (the white Diffuse BSDF) or :func:`glossy_bsdf` (a white microfacet
+        conductor: the Glossy BSDF node).
     """
 
     resolution: int = 64
@@ -93,12 +96,31 @@ class CyclesOptions:
     threads: int | None = None
     cache_dir: str | None = None
     max_bounces: int = 1
+    bsdf: tuple | None = None
 
     def __post_init__(self):
+        if self.bsdf is not None and dict(self.bsdf).get("type") != "glossy":
+            raise ParameterError("bsdf must be None (white diffuse) or glossy_bsdf(...)")
         for name, lo in (("resolution", 4), ("reference_spp", 1), ("max_bounces", 1)):
             v = getattr(self, name)
             if not isinstance(v, (int, np.integer)) or v < lo:
                 raise ParameterError(f"{name} must be an integer >= {lo}, got {v!r}")
+
+
+def glossy_bsdf(distribution: str = "ggx", alpha: float = 0.1) -> tuple:
+    """The sphere's BSDF for :attr:`CyclesOptions.bsdf`: the *Glossy BSDF* node, colour 1
+    (Fresnel = 1: a white conductor), distribution ``GGX`` or ``Beckmann`` (single scattering,
+    not the Principled BSDF's default *Multiscatter GGX*), roughness √α (Cycles squares its
+    roughness: ``intern/cycles/scene/shader_nodes.cpp``, ``GlossyBsdfNode``; sampled by
+    visible normals, ``kernel/closure/bsdf_microfacet.h``), as sorted (key, value) pairs.
+
+    >>> round(dict(glossy_bsdf("beckmann", 0.25))["roughness"], 12)
+    0.5
+    """
+    if distribution not in ("ggx", "beckmann"):
+        raise ParameterError(f"distribution must be ggx or beckmann, got {distribution!r}")
+    return tuple(sorted({"type": "glossy", "distribution": distribution,
+                         "alpha": float(alpha), "roughness": float(alpha) ** 0.5}.items()))
 
 
 def _use_nodes(datablock) -> None:
@@ -111,16 +133,23 @@ def _use_nodes(datablock) -> None:
             datablock.use_nodes = True
 
 
-def _material(bpy):
-    mat = bpy.data.materials.new("white diffuse")
+def _material(bpy, bsdf=None):
+    mat = bpy.data.materials.new("white diffuse" if bsdf is None else "white glossy")
     _use_nodes(mat)
     nt = mat.node_tree
     for n in list(nt.nodes):
         nt.nodes.remove(n)
-    out, dif = nt.nodes.new("ShaderNodeOutputMaterial"), nt.nodes.new("ShaderNodeBsdfDiffuse")
-    dif.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
-    dif.inputs["Roughness"].default_value = 0.0
-    nt.links.new(dif.outputs["BSDF"], out.inputs["Surface"])
+    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    if bsdf is None:
+        node = nt.nodes.new("ShaderNodeBsdfDiffuse")
+        node.inputs["Roughness"].default_value = 0.0
+    else:
+        b = dict(bsdf)
+        node = nt.nodes.new("ShaderNodeBsdfGlossy")
+        node.distribution = "GGX" if b["distribution"] == "ggx" else "BECKMANN"
+        node.inputs["Roughness"].default_value = b["roughness"]
+    node.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    nt.links.new(node.outputs["BSDF"], out.inputs["Surface"])
     return mat
 
 
@@ -189,7 +218,8 @@ def _settings(scene, options: CyclesOptions) -> None:
     c.pixel_filter_type = "BOX"
     c.filter_width = 1.0
     c.max_bounces = c.diffuse_bounces = options.max_bounces
-    c.glossy_bounces = c.transmission_bounces = c.volume_bounces = 0
+    c.glossy_bounces = options.max_bounces if options.bsdf is not None else 0
+    c.transmission_bounces = c.volume_bounces = 0
     c.transparent_max_bounces = 0
     c.sample_clamp_direct = c.sample_clamp_indirect = 0.0
     c.use_animated_seed = False
@@ -248,7 +278,7 @@ class CyclesSphere:
         path = save_envmap(self._dir / f"map-{self.digest[:16]}.exr", self.envmap)
         bpy.ops.wm.read_factory_settings(use_empty=True)
         self.scene = bpy.context.scene
-        _sphere_object(bpy, self.scene, _material(bpy))
+        _sphere_object(bpy, self.scene, _material(bpy, self.options.bsdf))
         self.world = _world(bpy, self.scene, str(path))
         self.camera = _camera(bpy, self.scene)
         _settings(self.scene, self.options)
@@ -297,12 +327,18 @@ class CyclesSphere:
             secs.append(t)
         return np.stack(images), secs
 
+    def spp_used(self, pattern: str, spp: int) -> int:
+        """The spp Cycles renders for ``spp`` asked: ``spp`` (no rounding, any pattern)."""
+        return int(spp)
+
     def reference(self) -> ReferencePair:
         """Two reference renders (Tabulated Sobol, MIS, ``reference_spp``), cached."""
         o = self.options
         key = {"renderer": self.renderer, "version": self.version, "map": self.digest,
                "spp": o.reference_spp, "resolution": o.resolution, "seed": o.reference_seed,
                "strategy": "mis", "pattern": "tabulated_sobol", "bounces": o.max_bounces}
+        if o.bsdf is not None:                  # the diffuse references' keys unchanged
+            key["bsdf"] = dict(o.bsdf)
 
         def render():
             rng = np.random.default_rng(o.reference_seed)
