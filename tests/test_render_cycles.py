@@ -83,3 +83,34 @@ def test_cycles_measurement_fields(tmp_path):
     assert m.renderer == "cycles" and m.sampler == "tabulated_sobol" and m.spp == 16
     assert m.pixels == len(VIEWS) * g.kept and 0 < m.low <= m.rmse <= m.high
     assert len(m.view_seconds) == len(VIEWS)
+
+
+@pytest.mark.parametrize("kind", ["ggx", "beckmann"])
+def test_glossy_sphere_reflects_the_conductors_albedo(kind):
+    """The Glossy BSDF sphere (glossy_bsdf, α = 0.3) under a constant map L: each pixel is
+    L × the directional albedo of envfit's Cycles conductor at its view angle (the mean
+    weight f·cos/pdf of Conductor(renderer="cycles").sample, 200,000 points), to 1.5 % over
+    the disk and per view-angle band: the roughness √α, the height-correlated G2 and Fresnel
+    1, against Cycles' own BSDF."""
+    from envfit.measure.renderers import glossy_bsdf
+    from envfit.shading.microfacet import Conductor
+    L, alpha = 0.5, 0.3
+    g = sphere_geometry(R, "disk")
+    env = EnvMap(np.full((8, 16, 3), L))
+    with CyclesSphere(env, CyclesOptions(resolution=R, bsdf=glossy_bsdf(kind, alpha))) as r:
+        img, _ = r.render("brdf", "tabulated_sobol", 256, seed=3)
+    c = Conductor(kind, alpha, renderer="cycles")
+    u = np.random.default_rng(0).random((200_000, 2))
+    z = g.z[g.keep]
+    want = []
+    for cz in z:
+        wi = np.broadcast_to([np.sqrt(max(0.0, 1 - cz * cz)), 0.0, cz], (len(u), 3))
+        want.append(L * c.sample(wi, u).weight.mean())
+    want = np.array(want)
+    got = img[:, g.keep].mean(axis=(0, 2))               # the six views' mean per pixel
+    assert abs(got.mean() / want.mean() - 1) < 0.015
+    theta = np.degrees(np.arccos(z))
+    for lo, hi in ((0, 30), (30, 60), (60, 80)):
+        m = (theta >= lo) & (theta < hi)
+        assert abs(got[m].mean() / want[m].mean() - 1) < 0.015, (lo, hi)
+    assert want[theta >= 60].mean() < 0.95 * want[theta < 30].mean()   # G2 darkens grazing
