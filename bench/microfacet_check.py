@@ -72,7 +72,36 @@ def _session(args, dist: str, alpha: float):
     return lambda env: Mitsuba3Sphere(env, opts)
 
 
+def repredict(args, rows: list) -> None:
+    """Predict the saved rows of the maps, distributions and alphas asked again with this run's
+    model options (no rendering); each row keeps its measurement and its old prediction as
+    ``predicted_before``."""
+    for spec in args.maps:
+        name, env = load_map(spec, args.synth_height)
+        for dist in args.distributions:
+            for alpha in args.alphas:
+                mine = [r for r in rows if (r["map"], r["distribution"], r["alpha"]) ==
+                        (name, dist, alpha) and r.get("renderer", "mitsuba3") == args.renderer]
+                if not mine:
+                    continue
+                model = _model(env, dist, alpha, args)
+                model.predict_many([(r["strategy"], r["sampler"], r["spp_used"]) for r in mine])
+                for r in mine:
+                    p = float(model.predict(r["strategy"], r["sampler"], r["spp_used"]).rmse)
+                    r.update(predicted_before=r.get("predicted_before", r["predicted"]),
+                             predicted=p, ratio=p / r["measured_rmse"],
+                             inside=bool(0.8 * r["low"] <= p <= 1.25 * r["high"]))
+                    bands = model.predict_bands(r["strategy"], r["sampler"], r["spp_used"])
+                    for b, v in r["bands"].items():
+                        v.update(predicted=bands[b],
+                                 inside=bool(0.8 * v["low"] <= bands[b] <= 1.25 * v["high"]))
+
+
 def run(args, rows: list, meta: dict, out: Path) -> None:
+    if args.repredict:
+        repredict(args, rows)
+        _write(out, rows, meta)
+        return
     for spec in args.maps:
         name, env = load_map(spec, args.synth_height)
         for dist in args.distributions:
@@ -185,6 +214,8 @@ def main(argv=None) -> int:
     ap.add_argument("--synth-height", type=int, default=256)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--cache", default=None)
+    ap.add_argument("--repredict", action="store_true",
+                    help="predict the saved rows again with this run's options (no rendering)")
     ap.add_argument("--out", default="microfacet_check_out")
     args = ap.parse_args(argv)
     cycles = args.renderer == "cycles"
