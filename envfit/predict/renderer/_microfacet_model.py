@@ -43,7 +43,8 @@ from envfit.base import ParameterError
 from envfit.predict.renderer._microfacet_kernels import (compiled_conductor,
                                                         compiled_sampling, conductor_eval_pdf,
                                                         conductor_sample, mitsuba_eval_pdf,
-                                                        PARTS, accumulate_parts, scaled_texels)
+                                                        PARTS, accumulate_parts, scaled_texels,
+                                                        compiled_cycles, cycles_eval_pdf)
 from envfit.predict.renderer._footprint import _unit
 from envfit.predict.renderer._preset_integrand import MapTable, _is_mitsuba, midpoints
 from envfit.predict.renderer._preset_model import (PresetModel, PresetModelOptions,
@@ -268,6 +269,8 @@ class MicrofacetModel(PresetModel):
             if self._texels is None:
                 self._texels = scaled_texels(self.technique)
             return mitsuba_eval_pdf(self.technique, local, rows, weight, self._texels)
+        if compiled_cycles(self.technique):
+            return cycles_eval_pdf(self.technique, local, rows, weight)
         d = local @ rows
         rad, pdf = [], []
         for i in range(0, len(d), _CHUNK):
