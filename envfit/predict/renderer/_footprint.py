@@ -62,6 +62,7 @@ def pixel_footprints(normals, views, resolution: int, side: int = 2) -> np.ndarr
     it is pulled onto the rim.
 
     >>> from envfit.measure.renderers import VIEWS, sphere_geometry
+    >>> from envfit.predict.renderer import pixel_frames
     >>> n, v, _ = pixel_frames(sphere_geometry(16), VIEWS, 8, seed=0)
     >>> f = pixel_footprints(n, v, 16, side=2)
     >>> f.shape, bool(np.allclose(f.mean(axis=1), n, atol=0.1))
