@@ -24,7 +24,8 @@ import numpy as np
 
 from envfit.base import ParameterError
 
-__all__ = ["pixel_footprints", "nearest_views", "FootprintSums", "footprint_term"]
+__all__ = ["pixel_footprints", "nearest_views", "FootprintSums", "with_variances",
+           "footprint_term"]
 
 #: the parts each strategy draws (its streams) and the part whose mean over u is the pixel's
 #: integral
@@ -118,15 +119,21 @@ class FootprintSums:
 
     def parts(self) -> dict:
         """The mean tables, and ``_var_c`` and ``_var_a`` (dicts of (C,) per part)."""
-        out, var_c, var_a = {}, {}, {}
-        for p, s in self.s1.items():
-            gbar = s / self.count
-            var_a[p] = np.var(np.stack(self.means[p]), axis=0)
-            e_gbar2 = np.einsum("pc,pc->c", gbar, gbar) / len(gbar)
-            var_c[p] = np.clip(self.s2[p] / self.count - e_gbar2 - var_a[p], 0.0, None)
-            out[p] = gbar
-        out["_var_c"], out["_var_a"] = var_c, var_a
-        return out
+        out = {p: s / self.count for p, s in self.s1.items()}
+        return with_variances(out, {p: np.stack(m) for p, m in self.means.items()},
+                              {p: s2 / self.count for p, s2 in self.s2.items()})
+
+
+def with_variances(gbar: dict, means: dict, mean_sq: dict) -> dict:
+    r"""``gbar`` (the footprint's mean table (P, C) per part) with ``_var_c`` and ``_var_a``
+    added, from each footprint normal's table mean ``means`` (J, C) and the mean of g² over
+    the normals and the table ``mean_sq`` (C,): :math:`\mathrm{Var}\,a` = the variance of
+    the normals' means, :math:`\mathrm{Var}\,c = E g^2 - E_u \bar g^2 - \mathrm{Var}\,a`
+    (clipped at 0)."""
+    var_a = {p: np.var(means[p], axis=0) for p in gbar}
+    var_c = {p: np.clip(mean_sq[p] - np.einsum("pc,pc->c", g, g) / len(g) - var_a[p], 0.0,
+                        None) for p, g in gbar.items()}
+    return {**gbar, "_var_c": var_c, "_var_a": var_a}
 
 
 def footprint_term(strategy: str, randomisation: str, n: int, vals: dict):

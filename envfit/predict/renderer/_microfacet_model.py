@@ -45,7 +45,7 @@ from envfit.predict.renderer._microfacet_kernels import (compiled_conductor,
                                                         conductor_sample, mitsuba_eval_pdf,
                                                         PARTS, accumulate_parts, scaled_texels,
                                                         compiled_cycles, cycles_eval_pdf)
-from envfit.predict.renderer._footprint import _unit
+from envfit.predict.renderer._footprint import _unit, with_variances
 from envfit.predict.renderer._preset_integrand import MapTable, _is_mitsuba, midpoints
 from envfit.predict.renderer._preset_model import (PresetModel, PresetModelOptions,
                                                    systematic_indices)
@@ -307,13 +307,10 @@ class MicrofacetModel(PresetModel):
         acc, sums = self._accumulated(strategies, foot, view, fine)
         j, size = len(foot), acc.shape[1]
         acc /= j                                                      # the mean table g-bar
-        var_a = np.var(sums[:, :, 0] / size, axis=0)                  # (5, 3)
-        e_g2 = sums[:, :, 1].sum(axis=0) / (j * size)
-        var_c = np.clip(e_g2 - np.einsum("ipc,ipc->ic", acc, acc) / size - var_a, 0.0, None)
-        out = self._named(acc, strategies)
-        out["_var_c"] = {p: var_c[PARTS.index(p)] for p in list(out)}
-        out["_var_a"] = {p: var_a[PARTS.index(p)] for p in list(out) if p != "_var_c"}
-        return out
+        gbar = self._named(acc, strategies)
+        idx = {p: PARTS.index(p) for p in gbar}
+        return with_variances(gbar, {p: sums[:, i, 0] / size for p, i in idx.items()},
+                              {p: sums[:, i, 1].sum(axis=0) / (j * size) for p, i in idx.items()})
 
     @staticmethod
     def _named(acc: np.ndarray, strategies: set) -> dict:
