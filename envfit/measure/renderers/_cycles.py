@@ -111,8 +111,11 @@ def glossy_bsdf(distribution: str = "ggx", alpha: float = 0.1) -> tuple:
     """The sphere's BSDF for :attr:`CyclesOptions.bsdf`: the *Glossy BSDF* node, colour 1
     (Fresnel = 1: a white conductor), distribution ``GGX`` or ``Beckmann`` (single scattering,
     not the Principled BSDF's default *Multiscatter GGX*), roughness √α (Cycles squares its
-    roughness: ``intern/cycles/scene/shader_nodes.cpp``, ``GlossyBsdfNode``; sampled by
-    visible normals, ``kernel/closure/bsdf_microfacet.h``), as sorted (key, value) pairs.
+    roughness and sets no Fresnel for single-scatter GGX and Beckmann: ``src/kernel/svm/
+    closure.h``, ``svm_node_closure_bsdf``, case ``CLOSURE_BSDF_MICROFACET_GGX_ID``:
+    ``alpha_x = alpha_y = sqr(saturatef(roughness))``, then ``bsdf_microfacet_ggx_setup`` or
+    ``bsdf_microfacet_beckmann_setup``; sampled by visible normals,
+    ``src/kernel/closure/bsdf_microfacet.h``), as sorted (key, value) pairs.
 
     >>> round(dict(glossy_bsdf("beckmann", 0.25))["roughness"], 12)
     0.5
