@@ -59,7 +59,7 @@ def model_version() -> str:
     root = Path(pr.__file__).parent
     files = [root / "_preset_model.py", root / "_preset_integrand.py",
              root / "_microfacet_model.py", root / "_microfacet_kernels.py",
-             root / "_footprint.py",
+             root / "_vndf_kernels.py", root / "_footprint.py",
              *sorted((root / "randomisation").glob("*.py")),
              *sorted(Path(ps.__file__).parent.glob("*.py"))]
     h = hashlib.sha256()

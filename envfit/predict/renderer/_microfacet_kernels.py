@@ -5,12 +5,6 @@ arithmetic as its numpy reference, which the tests compare it with:
   directions for one view (:meth:`envfit.shading.microfacet.Conductor.eval` and ``pdf`` with
   Fresnel 1: D, Smith Λ of GGX or Beckmann's rational fit, separable G and the view's χ⁺
   masking for Mitsuba 3, height-correlated G for pbrt-v4 and Cycles);
-* :func:`conductor_sample` — a white GGX conductor's BSDF sampling for one view at many
-  points of the square (:meth:`envfit.shading.microfacet.Conductor.sample`: the renderer's
-  visible-normal warp, :func:`envfit.shading.microfacet.sample_visible_normals` — Mitsuba 3's
-  ``sample_visible_11`` with the concentric disk, pbrt-v4's ``Sample_wm`` with the polar
-  disk, Cycles' ``microfacet_ggx_sample_vndf`` with the concentric disk — then the
-  reflection, the weight f·cos/pdf and the pdf);
 * :func:`mitsuba_eval_pdf` — Mitsuba 3 ``envmap``'s radiance and emitter pdf at world
   directions (``Mitsuba3Envmap.eval`` and ``pdf``, through the diffuse model's
   ``_mitsuba_eval``);
@@ -18,6 +12,8 @@ arithmetic as its numpy reference, which the tests compare it with:
   ``pdf``, linear interpolation);
 * :func:`accumulate_parts` — the five parts of one normal (map, brdf and MIS's weighted
   parts) added to the frame's sums in one pass.
+
+The conductor's sampling is compiled in ``_vndf_kernels``.
 
 On city.exr (1024 × 512), one frame's tables at level 10 (1 M points per part) took 4.3 s in
 numpy on the loaded 2-core machine; these two loops were most of it.
@@ -31,8 +27,8 @@ import numpy as np
 
 from envfit.predict.renderer._preset_integrand import _mitsuba_eval
 
-__all__ = ["conductor_eval_pdf", "conductor_sample", "mitsuba_eval_pdf", "cycles_eval_pdf",
-           "compiled_conductor", "compiled_sampling", "compiled_cycles"]
+__all__ = ["conductor_eval_pdf", "mitsuba_eval_pdf", "cycles_eval_pdf", "compiled_conductor",
+           "compiled_cycles"]
 
 _KINDS = {"ggx": 0, "beckmann": 1}
 _VARIANTS = {"mitsuba3": 0, "pbrt4": 1, "cycles": 2}
@@ -103,133 +99,6 @@ def _eval_pdf(wi, dirs, rows, alpha, kind, separable, out):  # pragma: no cover 
             if dot_i > 0.0 and dot_o > 0.0:
                 q = d * gview / (4.0 * iz)
                 out[p, 1] = q if math.isfinite(q) else 0.0
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _disk(u0, u1, polar):  # pragma: no cover - numba
-    """The disk point of ``concentric_disk`` (Shirley–Chiu) or ``polar_disk`` (pbrt-v4)."""
-    if polar:
-        r = math.sqrt(u0)
-        t = 2.0 * math.pi * u1
-        return r * math.cos(t), r * math.sin(t)
-    x, y = 2.0 * u0 - 1.0, 2.0 * u1 - 1.0
-    if x == 0.0 and y == 0.0:
-        return 0.0, 0.0
-    if abs(x) < abs(y):
-        phi = 0.5 * math.pi - 0.25 * math.pi * x / y
-        return y * math.cos(phi), y * math.sin(phi)
-    phi = 0.25 * math.pi * y / x
-    return x * math.cos(phi), x * math.sin(phi)
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _ggx_normal(wi, wp, basis, u0, u1, alpha, variant):  # pragma: no cover - numba
-    """One visible normal m from (u0, u1): ``_sample_mitsuba`` (GGX), ``_sample_pbrt`` or
-    ``_sample_cycles_ggx``; ``wp`` the stretched view, ``basis`` the per-view constants."""
-    if variant == 0:
-        cos_i = wp[2]
-        px, py = _disk(u0, u1, False)
-        h = math.sqrt(max(1.0 - px * px, 0.0))
-        y = h + 0.5 * (1.0 + cos_i) * (py - h)
-        z = math.sqrt(max(1.0 - px * px - y * y, 0.0))
-        sin_i = math.sqrt(max(1.0 - cos_i * cos_i, 0.0))
-        norm = 1.0 / (sin_i * y + cos_i * z)
-        s0, s1 = (cos_i * y - sin_i * z) * norm, px * norm
-        cph, sph = basis[0, 0], basis[0, 1]
-        sx = (cph * s0 - sph * s1) * alpha
-        sy = (sph * s0 + cph * s1) * alpha
-        n = math.sqrt(sx * sx + sy * sy + 1.0)
-        return -sx / n, -sy / n, 1.0 / n
-    px, py = _disk(u0, u1, variant == 1)
-    h = math.sqrt(max(1.0 - px * px, 0.0))
-    y = h + 0.5 * (1.0 + wp[2]) * (py - h)
-    z = math.sqrt(max(1.0 - px * px - y * y, 0.0))
-    nx = px * basis[0, 0] + y * basis[1, 0] + z * wp[0]
-    ny = px * basis[0, 1] + y * basis[1, 1] + z * wp[1]
-    nz = px * basis[0, 2] + y * basis[1, 2] + z * wp[2]
-    mz = max(nz, 1e-6) if variant == 1 else max(nz, 0.0)
-    mx, my = alpha * nx, alpha * ny
-    n = math.sqrt(mx * mx + my * my + mz * mz)
-    return mx / n, my / n, mz / n
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _g1(vx, vy, vz, mx, my, mz, alpha):  # pragma: no cover - numba
-    """Mitsuba's ``smith_g1`` (GGX): 0 where v sees the back of m."""
-    if (vx * mx + vy * my + vz * mz) * vz <= 0.0:
-        return 0.0
-    return 1.0 / (1.0 + _lambda(vx, vy, vz, alpha, 0))
-
-
-@numba.njit(cache=True, parallel=True, error_model="numpy")
-def _ggx_sample(wi, wp, basis, u, alpha, variant, wo, out):  # pragma: no cover - numba
-    ix, iy, iz = wi[0], wi[1], wi[2]
-    lam_i = _lambda(ix, iy, iz, alpha, 0)
-    for p in numba.prange(u.shape[0]):
-        mx, my, mz = _ggx_normal(wi, wp, basis, u[p, 0], u[p, 1], alpha, variant)
-        dot = ix * mx + iy * my + iz * mz
-        ox, oy, oz = 2.0 * dot * mx - ix, 2.0 * dot * my - iy, 2.0 * dot * mz - iz
-        d = _d(mx, my, mz, alpha, 0)
-        if variant == 0:
-            w, gview = _g1(ox, oy, oz, mx, my, mz, alpha), _g1(ix, iy, iz, mx, my, mz, alpha)
-        else:
-            w = (1.0 + lam_i) / (1.0 + lam_i + _lambda(ox, oy, oz, alpha, 0))
-            gview = 1.0 / (1.0 + lam_i)
-        if not (oz > 0.0 and iz > 0.0 and d > 0.0 and w > 0.0):
-            wo[p, 0], wo[p, 1], wo[p, 2], out[0, p], out[1, p] = 0.0, 0.0, 1.0, 0.0, 0.0
-            continue
-        q = d * gview / (4.0 * iz)
-        if math.isnan(q):
-            q = 0.0
-        elif math.isinf(q):
-            q = _BIG
-        wo[p, 0], wo[p, 1], wo[p, 2], out[0, p], out[1, p] = ox, oy, oz, w, q
-
-
-def compiled_sampling(conductor) -> bool:
-    """Whether :func:`conductor_sample` repeats ``conductor.sample`` (white GGX)."""
-    return conductor.eta is None and conductor.distribution.kind == "ggx"
-
-
-def _view_constants(wi, alpha, variant):
-    """The stretched view and the per-view basis of each renderer's warp: Mitsuba's
-    (cos φ, sin φ) of the stretched view's azimuth; pbrt-v4's and Cycles' (T1, T2)."""
-    wp = np.array([alpha * wi[0], alpha * wi[1], wi[2]])
-    wp /= np.linalg.norm(wp)
-    basis = np.zeros((2, 3))
-    if variant == 0:
-        sin2 = 1.0 - wp[2] ** 2
-        if abs(sin2) <= 4.0 * _F32_EPS:
-            basis[0, :2] = 1.0, 0.0
-        else:
-            basis[0, :2] = np.clip(wp[:2] / np.sqrt(sin2), -1.0, 1.0)
-        return wp, basis
-    if variant == 1:
-        wp = -wp if wp[2] < 0 else wp
-        ok = wp[2] < 0.99999
-    else:
-        ok = wp[0] ** 2 + wp[1] ** 2 > 1e-7
-    if ok:
-        t1 = np.array([-wp[1], wp[0], 0.0]) / np.hypot(wp[0], wp[1])
-        basis[0], basis[1] = t1, np.cross(wp, t1)
-    else:
-        basis[0] = 1.0, 0.0, 0.0
-        basis[1] = np.cross(wp, basis[0]) if variant == 1 else (0.0, 1.0, 0.0)
-    return wp, basis
-
-
-def conductor_sample(conductor, wi, u) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(ω_o (P, 3), weight f·cos/pdf (P,), pdf (P,)) of a white GGX ``conductor`` sampled for
-    the one view ``wi`` (3,) at the points ``u`` (P, 2), local frame; where the weight is 0,
-    ω_o is the pole and the pdf 0 (``Conductor.sample`` leaves the reflected direction)."""
-    d = conductor.distribution
-    variant = _VARIANTS[conductor.renderer]
-    wi = np.ascontiguousarray(wi, dtype=np.float64)
-    wp, basis = _view_constants(wi, float(d.alpha), variant)
-    wo, out = np.empty((len(u), 3)), np.empty((2, len(u)))
-    _ggx_sample(wi, wp, basis, np.ascontiguousarray(u, dtype=np.float64), float(d.alpha),
-                variant, wo, out)
-    return wo, out[0], out[1]
 
 
 def compiled_conductor(conductor) -> bool:

@@ -41,10 +41,10 @@ import numpy as np
 
 from envfit.base import ParameterError
 from envfit.predict.renderer._microfacet_kernels import (compiled_conductor,
-                                                        compiled_sampling, conductor_eval_pdf,
-                                                        conductor_sample, mitsuba_eval_pdf,
+                                                        conductor_eval_pdf, mitsuba_eval_pdf,
                                                         PARTS, accumulate_parts, scaled_texels,
                                                         compiled_cycles, cycles_eval_pdf)
+from envfit.predict.renderer._vndf_kernels import compiled_sampling, conductor_sample
 from envfit.predict.renderer._footprint import _unit, with_variances
 from envfit.predict.renderer._preset_integrand import MapTable, _is_mitsuba, midpoints
 from envfit.predict.renderer._preset_model import (PresetModel, PresetModelOptions,
@@ -280,7 +280,7 @@ class MicrofacetModel(PresetModel):
 
     def _sample(self, wi, u):
         """(ω_o, weight, pdf) of the conductor's sampling for the view ``wi`` at the table's
-        points ``u``: compiled for a white GGX conductor, numpy otherwise; where the weight is
+        points ``u``: compiled for a white conductor, numpy otherwise; where the weight is
         0, ω_o is the pole and the pdf 0 (the parts are 0 there)."""
         if compiled_sampling(self.conductor):
             return conductor_sample(self.conductor, wi, u)
