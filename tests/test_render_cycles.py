@@ -14,7 +14,7 @@ import pytest
 pytest.importorskip("bpy")
 
 from envfit.base import ParameterError  # noqa: E402
-from envfit.maps import EnvMap, pixel_directions  # noqa: E402
+from envfit.maps import EnvMap, convention, pixel_directions  # noqa: E402
 from envfit.measure.renderers import (VIEWS, CyclesOptions, CyclesSphere,  # noqa: E402
                                       sphere_geometry, view_normals)
 
@@ -51,14 +51,17 @@ def test_constant_map_and_direct_lighting_only():
     assert abs(mis1[:, g.keep].mean() - L) < 0.01 * L
 
 
-def test_world_mapping_is_envfits_convention():
-    """A map with one bright pixel lights the sphere from that pixel's direction in envfit's
-    convention (up="y"): the direction fitted to the lit pixels' radiance ∝ n·s is within a
-    degree of it."""
+def test_world_mapping_is_blenders_convention():
+    """A map with one bright pixel lights the sphere from that pixel's direction in Blender's
+    convention (the texture wired as a user wires it): the direction fitted to the lit
+    pixels' radiance ∝ n·s is within a degree of it, and it is envfit's (up="y") direction
+    of that pixel cyclically permuted, (w_z, w_x, w_y)."""
     h = 32
     data = np.zeros((h, 2 * h, 3), np.float32)
     data[9, 21] = 5000.0
-    s = pixel_directions(h, 2 * h, up="y")[9, 21]
+    s = convention("blender").pixel_directions(h)[9, 21]
+    w = pixel_directions(h, 2 * h, up="y")[9, 21]
+    np.testing.assert_allclose(s, [w[2], w[0], w[1]], atol=1e-12)
     res = 32
     with CyclesSphere(EnvMap(data), CyclesOptions(resolution=res)) as r:
         img, _ = r.render("mis", "tabulated_sobol", 64, seed=3)

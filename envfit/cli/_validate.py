@@ -57,6 +57,8 @@ def register(sub) -> None:
     p.add_argument("--quick", action="store_true",
                    help="a reduced run in under a minute (map at most 256 rows; see below)")
     _add_renderer_arguments(p)
+    from envfit.cli._validate_render import add_arguments
+    add_arguments(p)
     add_common_arguments(p)
     p.set_defaults(func=run)
 
@@ -64,13 +66,18 @@ def register(sub) -> None:
 def _add_renderer_arguments(p) -> None:
     """``--renderer`` and the options of its rules."""
     g = p.add_argument_group("renderer rules (--renderer)")
-    g.add_argument("--renderer", action="store_true",
-                   help="also validate the renderer estimators (BRDF, map, MIS, sources + MIS "
-                        "sampling): predicted vs measured RMSE with a 95 %% interval, after the "
-                        "paper's cells, on --scale (linear is what renderers integrate); "
-                        "writes renderer.png")
+    g.add_argument("--renderer", nargs="?", const="rules", default=None,
+                   metavar="mitsuba3|cycles",
+                   help="alone: also validate the renderer estimators (BRDF, map, MIS, sources + "
+                        "MIS sampling): predicted vs measured RMSE with a 95 %% interval, after "
+                        "the paper's cells, on --scale (linear is what renderers integrate); "
+                        "writes renderer.png. With a renderer's name (mitsuba3, cycles): that "
+                        "renderer renders a sphere with --brdf (diffuse, ggx or beckmann) and "
+                        "its measured RMSE is set beside the renderer preset's prediction; "
+                        "nothing else is run (options under 'rendering')")
     g.add_argument("--strategies", type=str_list, default=None, metavar="brdf,map,mis,split",
-                   help="renderer strategies (default: all four)")
+                   help="renderer strategies (default: all four; rendered: those the renderer "
+                        "renders, of brdf, map, mis)")
     g.add_argument("--renderer-pointsets", type=str_list, default=None, metavar="random,sobol,sf",
                    help="point sets of the renderer rules (default: random,sobol,sf)")
     g.add_argument("--renderer-n", type=int_list, default=None, metavar="N1,N2,…",
@@ -106,7 +113,7 @@ def _renderer_config(args: argparse.Namespace, cfg):
                                   ("--renderer-pointsets", args.renderer_pointsets),
                                   ("--renderer-n", args.renderer_n),
                                   ("--renderer-axes", args.renderer_axes)) if v is not None]
-    if not args.renderer:
+    if args.renderer != "rules":
         if given:
             raise ParameterError(f"{', '.join(given)} need(s) --renderer")
         return None
@@ -155,7 +162,11 @@ QUICK_HEIGHT = 256
 
 def run(args: argparse.Namespace, output: CommandOutput) -> int:
     from envfit.base._atomic import atomic_write_json
+    from envfit.cli._validate_render import dispatch
     from envfit.validate._pipeline import run_validation
+    rendered = dispatch(args, output)        # --renderer mitsuba3|cycles: that check only
+    if rendered is not None:
+        return rendered
     cfg = _config(args)
     rcfg = _renderer_config(args, cfg)
     env = load_map_from_args(args, quick_height=QUICK_HEIGHT)

@@ -11,15 +11,21 @@ The scene (built once per :class:`CyclesSphere`, from Blender's empty factory se
   sampling by the concentric map (``kernel/sample/mapping.h``: ``sample_cos_hemisphere``);
   or, with :attr:`CyclesOptions.bsdf`, the **Glossy BSDF** (:func:`glossy_bsdf`);
 * **the world**: an *Environment Texture* (equirectangular, Linear interpolation) of the map
-  written to a temporary EXR, looked up at the vector (d_z, d_x, d_y) of the ray direction d
-  (Texture Coordinate *Generated* → Separate/Combine XYZ). Cycles' equirectangular lookup
+  written to a temporary EXR, wired straight to the Background as a user wires it (no
+  Vector input: the lookup is at the world ray direction). Cycles' equirectangular lookup
   (``kernel/camera/projection.h``: ``direction_to_equirectangular_range``) puts direction
-  (−sinθ cosφ, sinθ sinφ, cosθ) at the pixel of (θ, φ) (z up, centred grid); envfit's ``up="y"``
-  puts (sinθ sinφ, cosθ, −sinθ cosφ) there (:mod:`envfit.maps`), and the permutation maps the
-  second onto the first, so the map is seen in envfit's convention (checked by rendering a
-  map with one bright pixel). World *Sampling*: ``AUTOMATIC`` for ``mis`` (one light sample +
-  one BSDF sample per spp, power heuristic: ``kernel/integrator/shade_surface.h``), ``NONE``
-  for ``brdf``; emitter sampling alone exists only in debug builds (``map`` is refused);
+  (−sinθ cosφ, sinθ sinφ, cosθ) at the pixel of (θ, φ) (z up, centred grid;
+  :func:`envfit.maps.convention` ``"blender"``); envfit's ``up="y"`` puts
+  (sinθ sinφ, cosθ, −sinθ cosφ) there, so Cycles' world direction of envfit's w is the cyclic
+  permutation (w_z, w_x, w_y). The six views of :data:`._sphere.VIEWS` are the same set under
+  it, so the sphere's mean over them is what envfit predicts in its own frame (checked by
+  rendering a map with one bright pixel). The world's importance map is built in that same
+  world frame (``scene/light.cpp``: ``shade_background_pixels``), aligned with the texture's
+  pixels — as it is in a user's scene: a remapped Vector (a Mapping node, a permutation)
+  would sample one grid and look up another. World *Sampling*: ``AUTOMATIC`` for ``mis`` (one
+  light sample + one BSDF sample per spp, power heuristic: ``kernel/integrator/
+  shade_surface.h``), ``NONE`` for ``brdf``; emitter sampling alone exists only in debug
+  builds (``map`` is refused);
 * **light paths**: max bounces 1 (diffuse 1, others 0): the camera hit and its one bounce;
   with one convex sphere a bounce leaving it can only escape to the world, so this is direct
   lighting exactly (tested: more bounces give the same image); clamping off; denoising and
@@ -178,23 +184,18 @@ def _sphere_object(bpy, scene, mat):
 
 
 def _world(bpy, scene, map_path: str):
-    """The Environment Texture world, looked up at (d_z, d_x, d_y) (module docstring)."""
+    """The Environment Texture world, looked up at the ray direction (module docstring)."""
     world = bpy.data.worlds.new("envmap")
     scene.world = world
     _use_nodes(world)
     wt = world.node_tree
     for n in list(wt.nodes):
         wt.nodes.remove(n)
-    tc, sep = wt.nodes.new("ShaderNodeTexCoord"), wt.nodes.new("ShaderNodeSeparateXYZ")
-    comb, env = wt.nodes.new("ShaderNodeCombineXYZ"), wt.nodes.new("ShaderNodeTexEnvironment")
+    env = wt.nodes.new("ShaderNodeTexEnvironment")
     bg, wo = wt.nodes.new("ShaderNodeBackground"), wt.nodes.new("ShaderNodeOutputWorld")
     env.image = bpy.data.images.load(map_path)
     env.interpolation = "Linear"
     env.projection = "EQUIRECTANGULAR"
-    wt.links.new(tc.outputs["Generated"], sep.inputs[0])
-    for src, dst in (("Z", "X"), ("X", "Y"), ("Y", "Z")):
-        wt.links.new(sep.outputs[src], comb.inputs[dst])
-    wt.links.new(comb.outputs[0], env.inputs["Vector"])
     wt.links.new(env.outputs["Color"], bg.inputs["Color"])
     bg.inputs["Strength"].default_value = 1.0
     wt.links.new(bg.outputs[0], wo.inputs["Surface"])
@@ -339,7 +340,8 @@ class CyclesSphere:
         o = self.options
         key = {"renderer": self.renderer, "version": self.version, "map": self.digest,
                "spp": o.reference_spp, "resolution": o.resolution, "seed": o.reference_seed,
-               "strategy": "mis", "pattern": "tabulated_sobol", "bounces": o.max_bounces}
+               "strategy": "mis", "pattern": "tabulated_sobol", "bounces": o.max_bounces,
+               "world": "native"}          # the texture at the ray direction (not permuted)
         if o.bsdf is not None:                  # the diffuse references' keys unchanged
             key["bsdf"] = dict(o.bsdf)
 

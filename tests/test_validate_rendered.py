@@ -1,0 +1,120 @@
+"""``envfit validate MAP --renderer mitsuba3|cycles`` (envfit.validate._rendered): Mitsuba 3
+renders the sphere and the measured RMSE is set beside the preset's prediction; the printed
+sentences follow the rows both ways; bad flags and a missing renderer are one line, exit 2,
+before the map is read."""
+from __future__ import annotations
+
+import json
+import sys
+
+import pytest
+
+from envfit.data_gen import sun_gp_map
+from envfit.maps import EnvMap, save_envmap
+from envfit.validate._rendered import (RenderValidation, RenderValidationOptions,
+                                       summary_lines)
+
+SMALL = ["--resolution", "16", "--reference-spp", "256", "--frames", "12", "--max-level", "7",
+         "--spp", "16"]
+
+
+@pytest.fixture(scope="module")
+def sun_file(tmp_path_factory):
+    env = EnvMap(sun_gp_map(16, seed=2, sun_radiance=30.0, sun_radius=0.25)[0], name="sun16")
+    path = tmp_path_factory.mktemp("maps") / "sun16.exr"
+    save_envmap(path, env)
+    return path
+
+
+def _run(capsys, argv, tmp_path, monkeypatch):
+    from envfit.cli import main
+    monkeypatch.setenv("ENVFIT_CACHE_DIR", str(tmp_path / "cache"))
+    out = tmp_path / "v.json"
+    rc = main(["validate", *map(str, argv), "--json", str(out)])
+    cap = capsys.readouterr()
+    d = json.loads(out.read_text()) if rc == 0 and out.exists() else None
+    return rc, cap.out.splitlines(), cap.err.strip().splitlines(), d
+
+
+def test_mitsuba_renders_the_conductor_inside_its_prediction(sun_file, tmp_path, capsys,
+                                                             monkeypatch):
+    """A GGX α = 0.3 sphere rendered by Mitsuba 3 (independent and ldsampler × brdf, map, mis
+    at 16 spp, 16 × 16-pixel views): every cell's prediction inside [0.8 low, 1.25 high] of
+    the rendered interval; the JSON rows carry the contract; the files are written."""
+    pytest.importorskip("mitsuba")
+    rc, lines, _, d = _run(capsys, [sun_file, "--renderer", "mitsuba3", "--brdf", "ggx",
+                                    "--roughness", "0.3", *SMALL, "--out", tmp_path / "o"],
+                           tmp_path, monkeypatch)
+    assert rc == 0
+    assert d["cells"] == 6 and d["inside"] == 6, lines
+    assert 0.8 <= d["median_ratio"] <= 1.25
+    assert {(r["sampler"], r["strategy"]) for r in d["rows"]} == {
+        (s, st) for s in ("independent", "ldsampler") for st in ("brdf", "map", "mis")}
+    for r in d["rows"]:
+        assert r["low"] <= r["measured_rmse"] <= r["high"]
+        assert r["ratio"] == pytest.approx(r["predicted"] / r["measured_rmse"])
+        assert set(r["bands"]) == {"0-30", "30-60", "60-80"}
+    assert any(ln.startswith("6 of 6 cells inside") for ln in lines)
+    assert {p.name for p in (tmp_path / "o").iterdir()} >= {"rendered.json", "rendered.csv",
+                                                           "rendered.png", "references"}
+
+
+def _result(inside: list[bool]) -> RenderValidation:
+    o = RenderValidationOptions("mitsuba3", brdf="beckmann", alpha=0.1, spp=(16,),
+                                samplers=("independent",))
+    rows = []
+    for ok, st in zip(inside, o.strategies):
+        pred = 1.0 if ok else 2.0
+        rows.append({"sampler": "independent", "strategy": st, "spp": 16, "spp_used": 16,
+                     "measured_rmse": 1.0, "low": 0.9, "high": 1.1, "predicted": pred,
+                     "ratio": pred, "inside": ok, "mean_offset": 0.0,
+                     "bands": {"0-30": {"measured_rmse": 1.0, "low": 0.9, "high": 1.1,
+                                        "predicted": pred, "inside": ok}}})
+    return RenderValidation("m", o, rows, renderer_version="Mitsuba x")
+
+
+@pytest.mark.parametrize("inside,words", [
+    ([True, True, True], ("3 of 3 cells inside", "median predicted/measured 1.000",
+                          "0-30 deg: 3 of 3 cells inside")),
+    ([True, False, False], ("1 of 3 cells inside", "median predicted/measured 2.000",
+                            "0-30 deg: 1 of 3 cells inside")),
+])
+def test_sentences_follow_the_rows(inside, words):
+    lines = summary_lines(_result(inside))
+    text = "\n".join(lines)
+    for w in words:
+        assert w in text
+    assert lines[0].startswith("Mitsuba x rendered the sphere (white Beckmann conductor, "
+                               "alpha 0.1)")
+    flags = [ln.split()[-1] for ln in lines[3:6]]
+    assert flags == ["yes" if ok else "NO" for ok in inside]
+
+
+@pytest.mark.parametrize("argv,words", [
+    (["--roughness", "0.1"], "--roughness need(s) --renderer mitsuba3 or cycles"),
+    (["--renderer", "pbrt4"], "--renderer takes mitsuba3 or cycles"),
+    (["--renderer", "mitsuba3", "--brdf", "ggx"], "--roughness goes with --brdf ggx"),
+    (["--renderer", "mitsuba3", "--roughness", "0.2"], "--roughness goes with --brdf ggx"),
+    (["--renderer", "mitsuba3", "--brdf", "glossy"], "must be one of diffuse, ggx, beckmann"),
+    (["--renderer", "mitsuba3", "--brdf", "diffuse,ggx"], "takes one BSDF"),
+    (["--renderer", "mitsuba3", "--renderer-n", "16"], "--renderer-n belong(s) to --renderer"),
+    (["--renderer", "cycles", "--strategies", "map"], "cycles renders the strategies brdf, mis"),
+    (["--renderer", "mitsuba3", "--samplers", "zsobol"], "must be one of independent"),
+    (["--renderer", "--spp", "16"], "--spp need(s) --renderer mitsuba3 or cycles"),
+])
+def test_bad_flags_are_one_line_before_the_map_is_read(argv, words, tmp_path, capsys):
+    from envfit.cli import main
+    rc = main(["validate", str(tmp_path / "absent.exr"), *argv])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and err[0].startswith("envfit validate: error:")
+    assert words in err[0] and "absent.exr" not in err[0]
+
+
+def test_a_missing_renderer_is_one_line(tmp_path, capsys, monkeypatch):
+    """Without ``bpy`` (the test extra does not install it): one line naming the package,
+    before the map is read."""
+    from envfit.cli import main
+    monkeypatch.setitem(sys.modules, "bpy", None)
+    rc = main(["validate", str(tmp_path / "absent.exr"), "--renderer", "cycles"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "pip install bpy" in err[0]
