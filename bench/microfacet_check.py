@@ -34,11 +34,12 @@ from envfit.base._atomic import atomic_write_csv, atomic_write_json  # internal:
 from envfit.maps import EnvMap
 from envfit.measure.renderers import (VIEWS, CyclesOptions, CyclesSphere, Mitsuba3Options,
                                       Mitsuba3Sphere, glossy_bsdf, roughconductor_bsdf,
-                                      sphere_error, sphere_geometry)
+                                      sphere_geometry)
 from envfit.predict.renderer import (MicrofacetModel, PresetModelOptions, pixel_footprints,
                                      pixel_frames)
 from envfit.sampling.presets import preset
 from envfit.shading.microfacet import Conductor
+from envfit.validate._rendered import measure_cell
 
 sys.path.insert(0, str(Path(__file__).parent))
 from render_check import _cpu, load_map  # noqa: E402  (bench helpers: CPU name, maps)
@@ -133,27 +134,10 @@ def run(args, rows: list, meta: dict, out: Path) -> None:
 
 def _cell(sph, ref, model, cell, rng, g) -> dict:
     """One rendered cell: the whole set of kept pixels of geometry ``g`` and each view-angle
-    band."""
+    band (:func:`envfit.validate._rendered.measure_cell`, the product's step)."""
     name, dist, alpha, s, st, n = cell
-    t = time.perf_counter()
-    imgs, _ = sph.render(st, s, n, rng)
-    theta = np.degrees(np.arccos(np.clip(g.z, -1.0, 1.0)))
-    m = sphere_error(imgs, ref.a, ref.b, g, seed=rng)
-    p = float(model.predict(st, s, n).rmse)
-    row = {"map": name, "distribution": dist, "alpha": alpha, "sampler": s, "strategy": st,
-           "spp": n, "spp_used": sph.spp_used(s, n), "measured_rmse": m.rmse, "low": m.low,
-           "high": m.high, "predicted": p, "ratio": p / m.rmse if m.rmse > 0 else float("inf"),
-           "inside": bool(0.8 * m.low <= p <= 1.25 * m.high), "mean_offset": m.mean_offset,
-           "seconds": time.perf_counter() - t, "bands": {}}
-    for band, pb in model.predict_bands(st, s, n).items():
-        lo, hi = (float(x) for x in band.split("-"))
-        mask = (theta >= lo) & (theta < hi)
-        if not np.any(mask & g.keep):
-            continue
-        e = sphere_error(imgs, ref.a, ref.b, g, seed=rng, mask=mask)
-        row["bands"][band] = {"measured_rmse": e.rmse, "low": e.low, "high": e.high,
-                              "predicted": pb, "inside": bool(0.8 * e.low <= pb <= 1.25 * e.high)}
-    return row
+    return {"map": name, "distribution": dist, "alpha": alpha,
+            **measure_cell(sph, ref, model, (s, st, n), rng, g)}
 
 
 def _write(out: Path, rows: list, meta: dict) -> None:
