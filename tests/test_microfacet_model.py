@@ -345,3 +345,19 @@ def test_footprint_term_for_nets_matches_a_simulation():
     without = plain.predict("brdf", "ldsampler", n).mse
     np.testing.assert_allclose(got, sim, rtol=0.15)
     assert np.all(np.abs(without / sim - 1) > np.abs(got / sim - 1))
+
+
+@pytest.mark.parametrize("kind,renderer", [("ggx", "mitsuba3"), ("beckmann", "cycles")])
+def test_compiled_proxies_are_the_frame_loop(kind, renderer, monkeypatch):
+    """The frames' importance proxies (v_e, v_b) computed for all frames in one compiled pass
+    equal the per-frame numpy loop (the conductor's eval and pdf at the pilot table) to 1e-9."""
+    import envfit.predict.renderer._microfacet_model as mm
+    n, v = band_frames(40, (0, 89), seed=5)
+    m = MicrofacetModel(_sun_map(), preset(renderer), Conductor(kind, 0.1, renderer=renderer),
+                        (n[:2], v[:2]), options=PresetModelOptions(max_level=6))
+    fast = m._proxies(n, v)
+    monkeypatch.setattr(mm, "compiled_conductor", lambda c: False)
+    slow = m._proxies(n, v)
+    for a, b in zip(fast, slow):
+        assert np.all(b >= 0) and np.any(b > 0)
+        np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12 * b.max())

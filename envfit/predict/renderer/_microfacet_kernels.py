@@ -5,6 +5,9 @@ arithmetic as its numpy reference, which the tests compare it with:
   directions for one view (:meth:`envfit.shading.microfacet.Conductor.eval` and ``pdf`` with
   Fresnel 1: D, Smith Λ of GGX or Beckmann's rational fit, separable G and the view's χ⁺
   masking for Mitsuba 3, height-correlated G for pbrt-v4 and Cycles);
+* :func:`conductor_proxies` — the same at a map table's directions for many frames at once,
+  reduced to each frame's emitter and visible-normal sampling variances (the frames'
+  importance proxies);
 * :func:`mitsuba_eval_pdf` — Mitsuba 3 ``envmap``'s radiance and emitter pdf at world
   directions (``Mitsuba3Envmap.eval`` and ``pdf``, through the diffuse model's
   ``_mitsuba_eval``);
@@ -27,8 +30,8 @@ import numpy as np
 
 from envfit.predict.renderer._preset_integrand import _mitsuba_eval
 
-__all__ = ["conductor_eval_pdf", "mitsuba_eval_pdf", "cycles_eval_pdf", "compiled_conductor",
-           "compiled_cycles"]
+__all__ = ["conductor_eval_pdf", "conductor_proxies", "mitsuba_eval_pdf", "cycles_eval_pdf",
+           "compiled_conductor", "compiled_cycles"]
 
 _KINDS = {"ggx": 0, "beckmann": 1}
 _VARIANTS = {"mitsuba3": 0, "pbrt4": 1, "cycles": 2}
@@ -67,38 +70,91 @@ def _d(mx, my, mz, alpha, kind):  # pragma: no cover - numba
     return math.exp(-(mx * mx + my * my) / (a2 * z2)) / (math.pi * a2 * z2 * z2)
 
 
+@numba.njit(cache=True)
+def _fc_pdf(view, o, alpha, kind, separable):  # pragma: no cover - numba
+    """(f·cos, pdf) at the local light direction ``o`` for ``view`` = (ω_i, Λ(ω_i))."""
+    ix, iy, iz, lam_i = view
+    ox, oy, oz = o
+    hx, hy, hz = ix + ox, iy + oy, iz + oz
+    n = math.sqrt(hx * hx + hy * hy + hz * hz)
+    if n <= 0.0 or iz <= 0.0:
+        return 0.0, 0.0
+    mx, my, mz = hx / n, hy / n, hz / n
+    d = _d(mx, my, mz, alpha, kind)
+    dot_i = ix * mx + iy * my + iz * mz
+    dot_o = ox * mx + oy * my + oz * mz
+    lam_o = _lambda(ox, oy, oz, alpha, kind)
+    if separable:
+        g1i = 0.0 if dot_i * iz <= 0.0 else 1.0 / (1.0 + lam_i)
+        g1o = 0.0 if dot_o * oz <= 0.0 else 1.0 / (1.0 + lam_o)
+        g, gview = g1i * g1o, g1i
+    else:
+        g, gview = 1.0 / (1.0 + lam_i + lam_o), 1.0 / (1.0 + lam_i)
+    fc = pdf = 0.0
+    if oz > 0.0:
+        v = d * g / (4.0 * iz)
+        fc = v if math.isfinite(v) else 0.0
+        if dot_i > 0.0 and dot_o > 0.0:
+            q = d * gview / (4.0 * iz)
+            pdf = q if math.isfinite(q) else 0.0
+    return fc, pdf
+
+
+@numba.njit(cache=True)
+def _local(d, rows):  # pragma: no cover - numba
+    """``rows @ d``: a world direction in the frame whose axes are ``rows``."""
+    return (d[0] * rows[0, 0] + d[1] * rows[0, 1] + d[2] * rows[0, 2],
+            d[0] * rows[1, 0] + d[1] * rows[1, 1] + d[2] * rows[1, 2],
+            d[0] * rows[2, 0] + d[1] * rows[2, 1] + d[2] * rows[2, 2])
+
+
 @numba.njit(cache=True, parallel=True)
 def _eval_pdf(wi, dirs, rows, alpha, kind, separable, out):  # pragma: no cover - numba
-    ix, iy, iz = wi[0], wi[1], wi[2]
-    lam_i = _lambda(ix, iy, iz, alpha, kind)
+    view = (wi[0], wi[1], wi[2], _lambda(wi[0], wi[1], wi[2], alpha, kind))
     for p in numba.prange(dirs.shape[0]):
-        dx, dy, dz = dirs[p, 0], dirs[p, 1], dirs[p, 2]
-        ox = dx * rows[0, 0] + dy * rows[0, 1] + dz * rows[0, 2]
-        oy = dx * rows[1, 0] + dy * rows[1, 1] + dz * rows[1, 2]
-        oz = dx * rows[2, 0] + dy * rows[2, 1] + dz * rows[2, 2]
-        hx, hy, hz = ix + ox, iy + oy, iz + oz
-        n = math.sqrt(hx * hx + hy * hy + hz * hz)
-        out[p, 0] = 0.0
-        out[p, 1] = 0.0
-        if n <= 0.0 or iz <= 0.0:
-            continue
-        mx, my, mz = hx / n, hy / n, hz / n
-        d = _d(mx, my, mz, alpha, kind)
-        dot_i = ix * mx + iy * my + iz * mz
-        dot_o = ox * mx + oy * my + oz * mz
-        lam_o = _lambda(ox, oy, oz, alpha, kind)
-        if separable:
-            g1i = 0.0 if dot_i * iz <= 0.0 else 1.0 / (1.0 + lam_i)
-            g1o = 0.0 if dot_o * oz <= 0.0 else 1.0 / (1.0 + lam_o)
-            g, gview = g1i * g1o, g1i
-        else:
-            g, gview = 1.0 / (1.0 + lam_i + lam_o), 1.0 / (1.0 + lam_i)
-        if oz > 0.0:
-            v = d * g / (4.0 * iz)
-            out[p, 0] = v if math.isfinite(v) else 0.0
-            if dot_i > 0.0 and dot_o > 0.0:
-                q = d * gview / (4.0 * iz)
-                out[p, 1] = q if math.isfinite(q) else 0.0
+        out[p, 0], out[p, 1] = _fc_pdf(view, _local(dirs[p], rows), alpha, kind, separable)
+
+
+@numba.njit(cache=True, parallel=True)
+def _proxies(wis, frames, dirs, table, consts, out):  # pragma: no cover - numba
+    alpha, kind, separable = consts[0], int(consts[1]), consts[2] > 0.0
+    size = dirs.shape[0]
+    for a in numba.prange(wis.shape[0]):
+        wi = wis[a]
+        view = (wi[0], wi[1], wi[2], _lambda(wi[0], wi[1], wi[2], alpha, kind))
+        s0 = s1 = s2 = b2fc2 = second = 0.0
+        for p in range(size):
+            fc, pb = _fc_pdf(view, _local(dirs[p], frames[a]), alpha, kind, separable)
+            if fc == 0.0:
+                continue
+            s0 += table[p, 0] * fc
+            s1 += table[p, 1] * fc
+            s2 += table[p, 2] * fc
+            b2 = table[p, 0] ** 2 + table[p, 1] ** 2 + table[p, 2] ** 2
+            b2fc2 += b2 * fc * fc
+            if pb > 0.0:
+                second += b2 * table[p, 3] * fc * fc / pb
+        mean2 = (s0 / size) ** 2 + (s1 / size) ** 2 + (s2 / size) ** 2
+        out[a, 0] = max(0.0, b2fc2 / size - mean2)
+        out[a, 1] = max(0.0, second / size - mean2)
+
+
+def conductor_proxies(conductor, wis, frames, dirs, base, pdf) -> np.ndarray:
+    r"""Per frame a: (v_e, v_b) (K, 2), the variances of emitter and visible-normal sampling
+    on a map table (``MicrofacetModel._proxies``): with :math:`b = \pi\,` ``base`` (P, 3),
+    :math:`f` the white ``conductor``'s f·cos and :math:`p_b` its pdf at the table's world
+    ``dirs`` (P, 3) in frame a (``frames`` (K, 3, 3), axes as rows; views ``wis`` (K, 3)
+    local), :math:`v_e = \overline{|b|^2 f^2} - |\overline{b f}|^2` and
+    :math:`v_b = \overline{|b|^2 p\, f^2/p_b} - |\overline{b f}|^2` (``pdf`` the map's),
+    clipped at 0."""
+    d = conductor.distribution
+    table = np.ascontiguousarray(np.column_stack([np.pi * base, pdf]), dtype=np.float64)
+    out = np.zeros((len(wis), 2))
+    consts = np.array([d.alpha, _KINDS[d.kind], conductor.renderer == "mitsuba3"], float)
+    _proxies(np.ascontiguousarray(wis, dtype=np.float64),
+             np.ascontiguousarray(frames, dtype=np.float64),
+             np.ascontiguousarray(dirs, dtype=np.float64), table, consts, out)
+    return out
 
 
 def compiled_conductor(conductor) -> bool:

@@ -41,7 +41,8 @@ import numpy as np
 
 from envfit.base import ParameterError
 from envfit.predict.renderer._microfacet_kernels import (compiled_conductor,
-                                                        conductor_eval_pdf, mitsuba_eval_pdf,
+                                                        conductor_eval_pdf, conductor_proxies,
+                                                        mitsuba_eval_pdf,
                                                         PARTS, accumulate_parts, scaled_texels,
                                                         compiled_cycles, cycles_eval_pdf)
 from envfit.predict.renderer._vndf_kernels import compiled_sampling, conductor_sample
@@ -223,6 +224,12 @@ class MicrofacetModel(PresetModel):
     def _proxies(self, normals, views):
         """(v_e, v_b) per frame on the pilot table (:meth:`_select`)."""
         tab = MapTable.build(self.technique, self.options.pilot_level)
+        if compiled_conductor(self.conductor):
+            frames = np.asarray(self.preset.tangent_frame(_unit(normals)))
+            wis = np.einsum("kij,kj->ki", frames, _unit(views))
+            v = conductor_proxies(self.conductor, wis, frames, tab.directions, tab.base,
+                                  tab.pdf)
+            return v[:, 0], v[:, 1]
         b2 = ((np.pi * tab.base) ** 2).sum(axis=1)                        # Σ_c (L/p_e)²
         v_e, v_b = np.zeros(len(normals)), np.zeros(len(normals))
         for a, (n, v) in enumerate(zip(_unit(normals), _unit(views))):
