@@ -24,9 +24,12 @@ NORMALS = 6
 MODEL = ["--renderer-normals", str(NORMALS)]
 
 
-def _options(level: int) -> PresetModelOptions:
-    """The model options the CLI builds for ``--renderer-level level`` and NORMALS."""
-    return PresetModelOptions(normals=NORMALS, pool=PresetModelOptions().pool, max_level=level)
+def _options(level: int, microfacet: bool = False) -> PresetModelOptions:
+    """The model options the CLI builds for ``--renderer-level level`` and NORMALS (a
+    conductor's frames from a pool of MICROFACET_POOL)."""
+    from envfit.advisor._preset_options import MICROFACET_POOL
+    pool = MICROFACET_POOL if microfacet else PresetModelOptions().pool
+    return PresetModelOptions(normals=NORMALS, pool=pool, max_level=level)
 
 
 @pytest.fixture(scope="module")
@@ -253,7 +256,7 @@ def test_microfacet_answer_bands_and_json_equal_the_model(sun_file, tmp_path, ca
     rec, target = r["recommendation"], r["recommendation"]["target_rmse"]
     assert r["bsdf"] == {"type": "ggx", "roughness": 0.3, "alpha": 0.3, "fresnel": 1.0,
                          "sphere_pixels": None}
-    opts = _options(5)
+    opts = _options(5, microfacet=True)
     m = MicrofacetModel(_load(sun_file), preset("mitsuba3"), Conductor("ggx", 0.3),
                         band_frames(opts.pool, (0, 90), seed=MICROFACET_FRAMES_SEED),
                         options=opts, select=NORMALS)
@@ -284,8 +287,10 @@ def test_microfacet_answer_bands_and_json_equal_the_model(sun_file, tmp_path, ca
 
 def test_sphere_pixels_adds_the_footprint_of_the_model(sun_file, tmp_path, capsys):
     """--sphere-pixels 8: the predictions are those of a MicrofacetModel whose frames carry
-    their pixels' footprints (pixel_footprints of the same frames, side FOOTPRINT_SIDE), above
-    the point frames' at every cell; the JSON and the model line say so."""
+    their pixels' footprints (pixel_footprints of the same frames, side FOOTPRINT_SIDE), not
+    the point frames' (the footprint adds the film's interaction but smooths the mean
+    integrand, so it moves a cell either way: ldsampler's map part at 4 spp went down 1.3 %
+    here); the JSON and the model line say so."""
     from envfit.defaults import FOOTPRINT_SIDE, MICROFACET_FRAMES_SEED
     from envfit.predict.renderer import MicrofacetModel, band_frames, pixel_footprints
     from envfit.shading.microfacet import Conductor
@@ -297,7 +302,7 @@ def test_sphere_pixels_adds_the_footprint_of_the_model(sun_file, tmp_path, capsy
     r = d["renderer"]
     assert r["bsdf"]["sphere_pixels"] == 8
     assert any("8 pixels across (each pixel's footprint included)" in ln for ln in lines)
-    opts = _options(6)
+    opts = _options(6, microfacet=True)
     frames = band_frames(opts.pool, (0, 90), seed=MICROFACET_FRAMES_SEED)
     m = MicrofacetModel(_load(sun_file), preset("mitsuba3"), Conductor("ggx", 0.1), frames,
                         options=opts, select=NORMALS,
@@ -307,7 +312,8 @@ def test_sphere_pixels_adds_the_footprint_of_the_model(sun_file, tmp_path, capsy
     for p in r["predictions"]:
         got = m.predict(p["strategy"], "ldsampler", p["spp"]).rmse
         assert p["predicted_rmse"] == pytest.approx(got, rel=1e-12)
-        assert got > point.predict(p["strategy"], "ldsampler", p["spp"]).rmse
+        assert got != pytest.approx(point.predict(p["strategy"], "ldsampler", p["spp"]).rmse,
+                                    rel=1e-6)
 
 
 def test_diffuse_sphere_pixels_is_the_model_with_footprints(sun_file, tmp_path, capsys):
@@ -330,7 +336,8 @@ def test_diffuse_sphere_pixels_is_the_model_with_footprints(sun_file, tmp_path, 
     for p in r["predictions"]:
         got = m.predict(p["strategy"], "ldsampler", p["spp"]).rmse
         assert p["predicted_rmse"] == pytest.approx(got, rel=1e-12)
-        assert got > point.predict(p["strategy"], "ldsampler", p["spp"]).rmse
+        assert got != pytest.approx(point.predict(p["strategy"], "ldsampler", p["spp"]).rmse,
+                                    rel=1e-6)
 
 
 def test_microfacet_snippet_loads_in_mitsuba_with_the_rough_conductor(gp_file, tmp_path, capsys):

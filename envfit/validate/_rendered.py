@@ -9,7 +9,7 @@ The steps (:func:`render_validation`):
    the file — :class:`envfit.predict.renderer.PresetModel` over uniform normals for the white
    diffuse sphere (the ``cube`` layout: each pixel in the view nearest its normal, weighted
    1/(n·v)); :class:`envfit.predict.renderer.MicrofacetModel` over frames (normal, view)
-   drawn from the rendered pixels for a white rough conductor (the ``disk`` layout: every
+   importance-sampled from every rendered pixel for a white rough conductor (the ``disk`` layout: every
    pixel of each view's disk, the view angles an orthographic camera sees), with each pixel's
    footprint (:func:`envfit.predict.renderer.pixel_footprints`).
 2. **The renders** (:func:`_session`): Mitsuba 3 (``scalar_rgb``; ``diffuse`` or
@@ -215,8 +215,8 @@ def _model(envmap, options: RenderValidationOptions):
     if not options.microfacet:
         return PresetModel(env, p, {}, PresetModelOptions(normals=options.frames,
                                                           max_level=level))
-    n, v, _ = pixel_frames(sphere_geometry(options.resolution, "disk"), VIEWS,
-                           max(2048, 8 * options.frames), seed=options.seed)
+    g = sphere_geometry(options.resolution, "disk")
+    n, v, _ = pixel_frames(g, VIEWS, len(VIEWS) * g.kept, seed=options.seed)   # every pixel
     foot = (pixel_footprints(n, v, options.resolution, options.footprint)
             if options.footprint > 1 else None)
     return MicrofacetModel(env, p, Conductor(options.brdf, options.alpha,
