@@ -118,3 +118,20 @@ def test_a_missing_renderer_is_one_line(tmp_path, capsys, monkeypatch):
     rc = main(["validate", str(tmp_path / "absent.exr"), "--renderer", "cycles"])
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1 and "pip install bpy" in err[0]
+
+
+def test_cycles_json_on_stdout_is_only_json(sun_file, tmp_path, capfd, monkeypatch):
+    """``--renderer cycles --json -``: Blender's own prints (its import's, each render's
+    "Saved: …") do not reach stdout, which parses as the JSON (bpy only)."""
+    pytest.importorskip("bpy")
+    capfd.readouterr()                   # what importing bpy here printed (not the CLI's)
+    from envfit.cli import main
+    monkeypatch.setenv("ENVFIT_CACHE_DIR", str(tmp_path / "cache"))
+    rc = main(["validate", str(sun_file), "--renderer", "cycles", "--samplers",
+               "tabulated_sobol", "--strategies", "mis", "--spp", "4", "--resolution", "8",
+               "--reference-spp", "16", "--frames", "6", "--max-level", "5", "--json", "-"])
+    out = capfd.readouterr().out
+    assert rc == 0
+    assert out.lstrip().startswith("{"), out[:300]
+    d = json.loads(out)
+    assert d["cells"] == 1 and d["rows"][0]["sampler"] == "tabulated_sobol"

@@ -43,8 +43,10 @@ the session to the empty factory settings).
 """
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
+import sys
 import tempfile
 import time
 from dataclasses import dataclass
@@ -73,7 +75,8 @@ WORLD_SAMPLING = {"mis": "AUTOMATIC", "brdf": "NONE"}
 def import_bpy():
     """The ``bpy`` module; :class:`ParameterError` (one line) if it is not installed."""
     try:
-        import bpy
+        with _quiet_blender():                  # bpy's import prints to stdout
+            import bpy
     except ImportError:
         raise ParameterError("Blender's Cycles is not available: pip install bpy==5.0.1 "
                              "(or pip install 'envfit[cycles]')") from None
@@ -181,6 +184,24 @@ def _sphere_object(bpy, scene, mat):
     gn.links.new(sm.outputs["Geometry"], go.inputs[0])
     ob.modifiers.new("points", "NODES").node_group = gn
     return ob
+
+
+@contextlib.contextmanager
+def _quiet_blender():
+    """What Blender writes to file descriptor 1 from C (its render log, ``Saved: …``; "Unable
+    to initialise audio" on import) discarded, so that stdout keeps only what envfit prints
+    (``--json -``); a failed render still raises (``bpy.ops`` returns its error as a
+    RuntimeError)."""
+    sys.stdout.flush()
+    saved = os.dup(1)
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, 1)
+        yield
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
+        os.close(devnull)
 
 
 def _world(bpy, scene, map_path: str):
@@ -302,7 +323,8 @@ class CyclesSphere:
         self.camera.matrix_world = _view_matrix(VIEWS[k])
         self.scene.render.filepath = str(out)
         t = time.perf_counter()
-        self.bpy.ops.render.render(write_still=True)
+        with _quiet_blender():
+            self.bpy.ops.render.render(write_still=True)
         secs = time.perf_counter() - t
         img = _read_exr(out, channels)
         out.unlink()

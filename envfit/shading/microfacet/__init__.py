@@ -10,6 +10,7 @@ Modules:
 * :mod:`~envfit.shading.microfacet._vndf` — visible-normal sampling: Mitsuba 3, pbrt-v4, Cycles.
 * :mod:`~envfit.shading.microfacet._fresnel` — conductor Fresnel (Mitsuba's and pbrt-v4's forms).
 * :mod:`~envfit.shading.microfacet._conductor` — :class:`Conductor`, roughness conventions.
+* :mod:`~envfit.shading.microfacet._plastic` — :class:`RoughPlastic` (Mitsuba 3 ``roughplastic``).
 * :mod:`~envfit.shading.microfacet._ground_truth` — the shading integral's ground truth with
   its resolution rule.
 
@@ -27,6 +28,7 @@ _LAZY = {
     "fr_complex": "_fresnel", "fresnel_conductor": "_fresnel",
     "BSDFSample": "_conductor", "Conductor": "_conductor", "RENDERERS": "_conductor",
     "roughness_to_alpha": "_conductor",
+    "PlasticSample": "_plastic", "RoughPlastic": "_plastic",
     "GroundTruthOptions": "_ground_truth", "MicrofacetShading": "_ground_truth",
     "microfacet_shading_integral": "_ground_truth",
 }
