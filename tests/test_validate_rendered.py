@@ -59,6 +59,26 @@ def test_mitsuba_renders_the_conductor_inside_its_prediction(sun_file, tmp_path,
                                                            "rendered.png", "references"}
 
 
+def test_mitsuba_renders_the_rough_plastic_inside_its_prediction(sun_file, tmp_path, capsys,
+                                                                 monkeypatch):
+    """Mitsuba's roughplastic (GGX α = 0.2, η 1.49, diffuse 0.5), the independent sampler ×
+    brdf, map, mis at 16 spp: every cell inside; QMC with the BSDF sampled is refused by the
+    model (its lobe choice is a third dimension), emitter-only QMC is not."""
+    pytest.importorskip("mitsuba")
+    rc, lines, _, d = _run(capsys, [sun_file, "--renderer", "mitsuba3", "--brdf",
+                                    "roughplastic", "--roughness", "0.2", *SMALL],
+                           tmp_path, monkeypatch)
+    assert rc == 0 and d["cells"] == 3 and d["inside"] == 3, lines
+    assert "rough plastic, GGX alpha 0.2" in lines[1]
+    from envfit.base import ParameterError
+    from envfit.validate._rendered import _model
+    m = _model(EnvMap(sun_gp_map(16, seed=2)[0]), RenderValidationOptions(
+        "mitsuba3", brdf="roughplastic", alpha=0.2, resolution=8, frames=6, max_level=5))
+    assert m.predict("map", "ldsampler", 16).rmse > 0
+    with pytest.raises(ParameterError, match="independent sampler only"):
+        m.predict("mis", "ldsampler", 16)
+
+
 def _result(inside: list[bool]) -> RenderValidation:
     o = RenderValidationOptions("mitsuba3", brdf="beckmann", alpha=0.1, spp=(16,),
                                 samplers=("independent",))

@@ -20,7 +20,7 @@ _RULES_FLAGS = {"--renderer-pointsets": "renderer_pointsets", "--renderer-n": "r
 def add_arguments(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("rendering (--renderer mitsuba3|cycles)")
     g.add_argument("--roughness", type=positive_float, default=None, metavar="ALPHA",
-                   help="microfacet alpha of --brdf ggx or beckmann (Mitsuba's alpha; Cycles' "
+                   help="microfacet alpha of --brdf ggx, beckmann or roughplastic (Mitsuba's alpha; Cycles' "
                         "Glossy roughness sqrt(alpha))")
     g.add_argument("--samplers", type=str_list, default=None, metavar="S1,S2",
                    help="the renderer's samplers (default: Mitsuba independent,ldsampler; "

@@ -43,8 +43,9 @@ __all__ = ["RenderValidationOptions", "RenderValidation", "render_validation", "
 #: the renderers ``validate`` renders with, and their samplers rendered by default
 RENDERERS = {"mitsuba3": ("independent", "ldsampler"),
              "cycles": ("tabulated_sobol", "blue_noise")}
-#: the BSDFs of the sphere: white diffuse, or a white rough conductor (Fresnel 1)
-RENDERED_BRDFS = ("diffuse", "ggx", "beckmann")
+#: the BSDFs of the sphere: white diffuse, a white rough conductor (Fresnel 1), or Mitsuba's
+#: rough plastic (GGX coat, its defaults: η = 1.49, diffuse reflectance 0.5)
+RENDERED_BRDFS = ("diffuse", "ggx", "beckmann", "roughplastic")
 #: θ_o bands of a conductor's check (degrees)
 BAND_EDGES = ((0.0, 30.0), (30.0, 60.0), (60.0, 80.0))
 
@@ -72,7 +73,9 @@ class RenderValidationOptions:
     Attributes
     ----------
     renderer : ``"mitsuba3"`` or ``"cycles"`` (:data:`RENDERERS`).
-    brdf : ``"diffuse"``, ``"ggx"`` or ``"beckmann"`` (a white conductor; needs ``alpha``).
+    brdf : ``"diffuse"``, ``"ggx"`` or ``"beckmann"`` (a white conductor; needs ``alpha``), or
+        ``"roughplastic"`` (Mitsuba 3 only: its ``roughplastic`` with a GGX coat of ``alpha``;
+        the BSDF's sampling modelled for the ``independent`` sampler, the default then).
     alpha : the microfacet roughness α (Mitsuba's ``alpha``; Cycles' Glossy roughness √α).
     samplers : the renderer's samplers by their own names (default :data:`RENDERERS`).
     strategies : among ``brdf``, ``map``, ``mis`` that the renderer renders (default: all of
@@ -111,9 +114,14 @@ class RenderValidationOptions:
             raise ParameterError(f"--brdf with --renderer {self.renderer} must be one of "
                                  f"{', '.join(RENDERED_BRDFS)}; got {self.brdf!r}")
         if (self.brdf == "diffuse") != (self.alpha is None):
-            raise ParameterError("--roughness goes with --brdf ggx or beckmann (and they need it)")
+            raise ParameterError("--roughness goes with --brdf ggx, beckmann or roughplastic (and "
+                             "they need it)")
+        if self.brdf == "roughplastic" and self.renderer != "mitsuba3":
+            raise ParameterError("--brdf roughplastic is Mitsuba 3's roughplastic: "
+                                 "--renderer mitsuba3")
         p = preset(self.renderer)
-        samplers = tuple(self.samplers) or RENDERERS[self.renderer]
+        samplers = tuple(self.samplers) or (("independent",) if self.brdf == "roughplastic"
+                                            else RENDERERS[self.renderer])
         for s in samplers:
             p.sampler(s)
         renderable = tuple(s for s in ("brdf", "map", "mis") if p.strategy(s).renderable)
@@ -209,7 +217,7 @@ def _model(envmap, options: RenderValidationOptions):
     from envfit.predict.renderer import (MicrofacetModel, PresetModel, PresetModelOptions,
                                          pixel_footprints, pixel_frames)
     from envfit.sampling.presets import preset
-    from envfit.shading.microfacet import Conductor
+    from envfit.shading.microfacet import Conductor, RoughPlastic
     env = EnvMap(envmap.data, up="y", name=envmap.name)
     p, level = preset(options.renderer), options.max_level
     if not options.microfacet:
@@ -219,8 +227,9 @@ def _model(envmap, options: RenderValidationOptions):
     n, v, _ = pixel_frames(g, VIEWS, len(VIEWS) * g.kept, seed=options.seed)   # every pixel
     foot = (pixel_footprints(n, v, options.resolution, options.footprint)
             if options.footprint > 1 else None)
-    return MicrofacetModel(env, p, Conductor(options.brdf, options.alpha,
-                                             renderer=options.renderer), (n, v),
+    bsdf = (RoughPlastic("ggx", options.alpha) if options.brdf == "roughplastic" else
+            Conductor(options.brdf, options.alpha, renderer=options.renderer))
+    return MicrofacetModel(env, p, bsdf, (n, v),
                            options=PresetModelOptions(max_level=level),
                            select=options.frames, footprints=foot)
 
@@ -233,7 +242,9 @@ def _session(envmap, options: RenderValidationOptions):
     if options.renderer == "cycles":
         bsdf = mr.glossy_bsdf(options.brdf, options.alpha) if options.microfacet else None
         return mr.CyclesSphere(envmap, mr.CyclesOptions(**common, bsdf=bsdf))
-    bsdf = mr.roughconductor_bsdf(options.brdf, options.alpha) if options.microfacet else None
+    bsdf = (None if not options.microfacet else
+            mr.roughplastic_bsdf("ggx", options.alpha) if options.brdf == "roughplastic" else
+            mr.roughconductor_bsdf(options.brdf, options.alpha))
     return mr.Mitsuba3Sphere(envmap, mr.Mitsuba3Options(**common, bsdf=bsdf,
                                                         reference_sampler="ldsampler"))
 
@@ -309,6 +320,8 @@ def summary_lines(result: RenderValidation) -> list[str]:
     ratio, one line per cell, then per view-angle band (a conductor)."""
     o = result.options
     bsdf = ("white diffuse" if not o.microfacet else
+            f"rough plastic, GGX alpha {o.alpha:g}, eta 1.49, diffuse 0.5"
+            if o.brdf == "roughplastic" else
             f"white {'GGX' if o.brdf == 'ggx' else 'Beckmann'} conductor, alpha {o.alpha:g}")
     n = len(result.rows)
     lines = [f"{result.renderer_version or _NAMES[o.renderer]} rendered the sphere ({bsdf}): "

@@ -27,7 +27,8 @@ _LAZY = {
     "ReferencePair": "_reference", "cached_reference": "_reference", "map_digest": "_reference",
     "MITSUBA_SAMPLERS": "_mitsuba3", "Mitsuba3Options": "_mitsuba3",
     "Mitsuba3Sphere": "_mitsuba3", "mitsuba_normals": "_mitsuba3",
-    "roughconductor_bsdf": "_mitsuba3", "glossy_bsdf": "_cycles",
+    "roughconductor_bsdf": "_mitsuba3", "roughplastic_bsdf": "_mitsuba3",
+    "glossy_bsdf": "_cycles",
     "CYCLES_PATTERNS": "_cycles", "CyclesOptions": "_cycles", "CyclesSphere": "_cycles",
     "cycles_normals": "_cycles",
 }

@@ -52,7 +52,7 @@ from envfit.measure.renderers._sphere import (VIEWS, SphereMeasurement, check_st
                                               view_seeds)
 
 __all__ = ["SAMPLERS", "MITSUBA_SAMPLERS", "STRATEGY_SAMPLES", "Mitsuba3Options", "Mitsuba3Sphere",
-           "import_mitsuba", "mitsuba_normals"]
+           "import_mitsuba", "mitsuba_normals", "roughconductor_bsdf", "roughplastic_bsdf"]
 
 #: Mitsuba 3's sampler plugins measured here
 SAMPLERS = ("independent", "stratified", "multijitter", "ldsampler", "orthogonal")
@@ -102,9 +102,10 @@ class Mitsuba3Options:
     bsdf: tuple | None = None
 
     def __post_init__(self):
-        if self.bsdf is not None and (not isinstance(self.bsdf, tuple)
-                                      or dict(self.bsdf).get("type") != "roughconductor"):
-            raise ParameterError("bsdf must be None (white diffuse) or roughconductor_bsdf(...)")
+        if self.bsdf is not None and (not isinstance(self.bsdf, tuple) or dict(self.bsdf).get(
+                "type") not in ("roughconductor", "roughplastic")):
+            raise ParameterError("bsdf must be None (white diffuse), roughconductor_bsdf(...) "
+                                 "or roughplastic_bsdf(...)")
         for name, lo in (("resolution", 4), ("reference_spp", 1)):
             v = getattr(self, name)
             if not isinstance(v, (int, np.integer)) or v < lo:
@@ -124,6 +125,24 @@ def roughconductor_bsdf(distribution: str = "ggx", alpha: float = 0.1) -> tuple:
         raise ParameterError(f"distribution must be ggx or beckmann, got {distribution!r}")
     return tuple(sorted({"type": "roughconductor", "distribution": distribution,
                          "alpha": float(alpha), "material": "none",
+                         "sample_visible": True}.items()))
+
+
+def roughplastic_bsdf(distribution: str = "ggx", alpha: float = 0.1,
+                      diffuse_reflectance: float = 0.5) -> tuple:
+    """The sphere's BSDF for :attr:`Mitsuba3Options.bsdf`: Mitsuba 3's ``roughplastic``
+    (its defaults otherwise: ``int_ior`` 1.49, ``ext_ior`` 1.000277, specular reflectance 1,
+    ``nonlinear`` false, visible-normal sampling), as sorted (key, value) pairs; envfit's
+    :class:`envfit.shading.microfacet.RoughPlastic` is the same BSDF.
+
+    >>> dict(roughplastic_bsdf("ggx", 0.2))["diffuse_reflectance"]
+    0.5
+    """
+    if distribution not in ("ggx", "beckmann"):
+        raise ParameterError(f"distribution must be ggx or beckmann, got {distribution!r}")
+    return tuple(sorted({"type": "roughplastic", "distribution": distribution,
+                         "alpha": float(alpha),
+                         "diffuse_reflectance": float(diffuse_reflectance),
                          "sample_visible": True}.items()))
 
 

@@ -242,6 +242,17 @@ class MicrofacetModel(PresetModel):
             v_b[a] = max(0.0, float(np.mean(second)) - mean2)
         return v_e, v_b
 
+    def request(self, strategy: str, sampler: str, spp: int):
+        """:meth:`PresetModel.request`; a BSDF whose sampling takes a lobe choice (a rough
+        plastic: ``sample_square``) is modelled for i.i.d. samples only when it is sampled."""
+        r = super().request(strategy, sampler, spp)
+        if (hasattr(self.conductor, "sample_square") and strategy != "map"
+                and r.name != "independent"):
+            raise ParameterError(f"the rough plastic's {strategy} is modelled for the "
+                                 f"independent sampler only (its lobe choice is a third "
+                                 f"dimension of {sampler}); got {sampler}")
+        return r
+
     def predict_bands(self, strategy: str, sampler: str, spp: int) -> dict:
         """The predicted RMSE per view-angle band of :data:`BANDS` ({"0-30": rmse, …}; a band
         with no frame is absent): the weighted mean MSE of the frames whose θ_o lies in it."""
@@ -291,7 +302,8 @@ class MicrofacetModel(PresetModel):
         0, ω_o is the pole and the pdf 0 (the parts are 0 there)."""
         if compiled_sampling(self.conductor):
             return conductor_sample(self.conductor, wi, u)
-        s = self.conductor.sample(np.broadcast_to(wi, (len(u), 3)), u)
+        square = getattr(self.conductor, "sample_square", self.conductor.sample)
+        s = square(np.broadcast_to(wi, (len(u), 3)), u)     # a plastic's lobe from u_x
         dead = s.weight <= 0
         return (np.where(dead[:, None], [0.0, 0.0, 1.0], s.wo), s.weight,
                 np.where(dead, 0.0, s.pdf))
