@@ -55,7 +55,7 @@ from functools import lru_cache
 import numpy as np
 
 from envfit.base import ParameterError
-from envfit.shading.microfacet._conductor import BSDFSample
+from envfit.shading.microfacet._conductor import BSDFSample, _dirs
 from envfit.shading.microfacet._distributions import MicrofacetDistribution
 from envfit.shading.microfacet._vndf import concentric_disk, sample_visible_normals
 
@@ -160,13 +160,6 @@ def _lerp_gather(table: np.ndarray, x: np.ndarray) -> np.ndarray:
     x = np.clip(x, 0.0, 1.0) * (len(table) - 1)
     idx = np.minimum(x.astype(np.int64), len(table) - 2)
     return table[idx] + (x - idx) * (table[idx + 1] - table[idx])
-
-
-def _dirs(v, name: str) -> np.ndarray:
-    a = np.asarray(v, dtype=np.float64)
-    if a.ndim < 1 or a.shape[-1] != 3:
-        raise ParameterError(f"{name} must have shape (..., 3), got {a.shape}")
-    return a.reshape(-1, 3)
 
 
 def _half(wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
