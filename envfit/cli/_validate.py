@@ -72,7 +72,8 @@ def _add_renderer_arguments(p) -> None:
                         "MIS sampling): predicted vs measured RMSE with a 95 %% interval, after "
                         "the paper's cells, on --scale (linear is what renderers integrate); "
                         "writes renderer.png. With a renderer's name (mitsuba3, cycles): that "
-                        "renderer renders a sphere with --brdf (diffuse, ggx or beckmann) and "
+                        "renderer renders a sphere with --brdf (diffuse, ggx, beckmann or "
+                        "roughplastic) and "
                         "its measured RMSE is set beside the renderer preset's prediction; "
                         "nothing else is run (options under 'rendering')")
     g.add_argument("--strategies", type=str_list, default=None, metavar="brdf,map,mis,split",

@@ -123,8 +123,10 @@ class MicrofacetModel(PresetModel):
     preset : RendererPreset
         From :func:`envfit.sampling.presets.preset` (its technique, tangent frame, MIS
         heuristic, samplers).
-    conductor : envfit.shading.microfacet.Conductor
-        The BSDF as the same renderer shades and samples it.
+    conductor : envfit.shading.microfacet.Conductor or RoughPlastic
+        The BSDF as the same renderer shades and samples it (a rough plastic's BSDF sampling,
+        whose lobe takes a third random number, for the independent sampler only:
+        :meth:`request`).
     frames : tuple of arrays
         (normals (K, 3), views (K, 3)), world directions; ``weights`` (K,) optional (default
         equal).
