@@ -366,3 +366,37 @@ def test_the_stop_sentence_names_the_next_spp_the_sampler_runs(gp_file, tmp_path
     assert rc == 0 and not d["renderer"]["recommendation"]["reached"]
     assert "the model resolves zsobol to 32 spp at grid level 6; 64 spp needs " \
            "--renderer-level 7 (4x the time and memory)" in lines[0]
+
+
+def test_roughplastic_answer_is_the_models_and_qmc_is_refused(sun_file, tmp_path, capsys):
+    """--brdf roughplastic (Mitsuba's roughplastic, a GGX coat): the answer's spp meets the
+    target and the spp below misses per a fresh MicrofacetModel of RoughPlastic over the same
+    frames; the JSON names the BSDF (no Fresnel-1 claim); the snippet is Mitsuba's
+    roughplastic; a QMC sampler or another renderer is one line (the lobe choice)."""
+    from envfit.defaults import MICROFACET_FRAMES_SEED
+    from envfit.predict.renderer import MicrofacetModel, band_frames
+    from envfit.shading.microfacet import RoughPlastic
+    rc, lines, _, d = _run(capsys, [sun_file, "--renderer", "mitsuba3", "--brdf",
+                                    "roughplastic", "--roughness", "0.2", "--target-relative",
+                                    "0.05", "--renderer-level", "5", "--snippet", *MODEL],
+                           tmp_path)
+    assert rc == 0
+    r = d["renderer"]
+    assert r["bsdf"]["type"] == "roughplastic" and "fresnel" not in r["bsdf"]
+    assert r["bsdf"]["eta"] == pytest.approx(1.49 / 1.000277)
+    opts = _options(5)
+    m = MicrofacetModel(_load(sun_file), preset("mitsuba3"), RoughPlastic("ggx", 0.2),
+                        band_frames(opts.pool, (0, 90), seed=MICROFACET_FRAMES_SEED),
+                        options=opts, select=NORMALS)
+    rec = r["recommendation"]
+    n, target = rec["spp"], rec["target_rmse"]
+    assert m.predict("mis", "independent", n).rmse <= target < \
+        m.predict("mis", "independent", n - 1).rmse
+    assert any('"type": "roughplastic", "distribution": "ggx", "alpha": 0.2' in ln
+               for ln in lines)
+    assert any("rough plastic (Mitsuba's roughplastic: a GGX coat of alpha 0.2" in ln
+               for ln in lines)
+    for extra in (["--sampler", "ldsampler"], ["--renderer", "cycles"]):
+        rc, _, err, _ = _run(capsys, [sun_file, "--renderer", "mitsuba3", "--brdf",
+                                      "roughplastic", "--roughness", "0.2", *extra], tmp_path)
+        assert rc == 2 and len(err) == 1 and "independent sampler" in err[0]

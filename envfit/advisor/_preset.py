@@ -246,10 +246,25 @@ class PresetAdvice:
                 return "the RMSE over uniform normals of a white diffuse surface"
             return (f"the RMSE over uniform normals of a white diffuse sphere{pixels[1:]}, "
                     f"each pixel seen by the axis view nearest its normal")
-        return (f"the RMSE of a white {o.bsdf.upper() if o.bsdf == 'ggx' else o.bsdf.title()} "
-                f"conductor (alpha {o.conductor().alpha:.4g}, Fresnel 1) over the views an "
+        bsdf = (f"rough plastic (Mitsuba's roughplastic: a GGX coat of alpha "
+                f"{o.conductor().alpha:.4g}, eta 1.49, over a diffuse base of reflectance 0.5)"
+                if o.bsdf == "roughplastic" else
+                f"white {o.bsdf.upper() if o.bsdf == 'ggx' else o.bsdf.title()} conductor "
+                f"(alpha {o.conductor().alpha:.4g}, Fresnel 1)")
+        return (f"the RMSE of a {bsdf} over the views an "
                 f"orthographic camera has of a sphere{pixels} (theta_o density cos sin) and "
                 f"uniform map orientations")
+
+    def _bsdf_dict(self) -> dict:
+        """The JSON's ``bsdf`` of a microfacet BSDF."""
+        o = self.options
+        c = o.conductor()
+        d = {"type": o.bsdf, "roughness": o.roughness, "alpha": c.alpha}
+        if o.bsdf == "roughplastic":
+            d.update(distribution="ggx", eta=c.eta, diffuse_reflectance=c.diffuse_reflectance)
+        else:
+            d["fresnel"] = 1.0
+        return {**d, "sphere_pixels": o.sphere_pixels}
 
     def to_dict(self) -> dict:
         """The JSON's ``renderer`` section."""
@@ -257,9 +272,7 @@ class PresetAdvice:
         return {"name": o.renderer, "display": self.display, "renderer": o.preset.renderer,
                 "sampler": o.sampler, "strategies": list(o.strategies),
                 "mis_compensation": o.mis_compensation, "target_rmse": self.target_rmse,
-                "bsdf": ({"type": o.bsdf, "roughness": o.roughness,
-                          "alpha": o.conductor().alpha, "fresnel": 1.0,
-                          "sphere_pixels": o.sphere_pixels} if o.microfacet
+                "bsdf": (self._bsdf_dict() if o.microfacet
                          else {"type": "diffuse", "reflectance": 1.0,
                                "sphere_pixels": o.sphere_pixels}),
                 "target_relative": self.target_relative, "mean_radiance": self.mean_radiance,
@@ -347,7 +360,7 @@ def advise_preset(envmap, opts: PresetAdviseOptions, *, target_rmse: float | Non
         adv.snippet_spp = a.spp if a.reached else a.searched_max
         kw = {"mis_compensation": True} if opts.mis_compensation else {}
         if opts.microfacet:                 # Mitsuba only (_preset_options refuses the rest)
-            kw["microfacet"] = (opts.bsdf, opts.conductor().alpha)
+            kw["microfacet"] = (opts.bsdf, opts.conductor().alpha)      # (roughplastic, α)
         adv.snippet = opts.preset.snippet(a.strategy, opts.sampler, adv.snippet_spp,
                                           filename=filename, **kw)
     adv.model = {"normals": opts.model_options().normals, "level": opts.level,

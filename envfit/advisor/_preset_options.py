@@ -43,7 +43,7 @@ from envfit.defaults import FOOTPRINT_SIDE, MICROFACET_BSDFS, MICROFACET_FRAMES_
 from envfit.maps import EnvMap
 from envfit.predict.renderer._preset_model import PresetModel, PresetModelOptions
 from envfit.sampling.presets import STRATEGY_NAMES, preset
-from envfit.shading.microfacet import RENDERERS, Conductor, roughness_to_alpha
+from envfit.shading.microfacet import RENDERERS, Conductor, RoughPlastic, roughness_to_alpha
 
 __all__ = ["PresetAdviseOptions", "RENDERER_NAMES", "STRATEGY_WORDS", "DEFAULT_MAX_SPP",
            "DEFAULT_LEVEL", "DEFAULT_LEVEL_V", "DEFAULT_NORMALS", "NET_RANDOMISATIONS",
@@ -207,11 +207,19 @@ class PresetAdviseOptions:
                                check_int(self.sphere_pixels, "--sphere-pixels", 4))
         if self.bsdf == "diffuse":
             if self.roughness is not None:
-                raise ParameterError("--roughness is a parameter of --brdf ggx or beckmann")
+                raise ParameterError("--roughness is a parameter of --brdf ggx, beckmann or "
+                                     "roughplastic")
             return
         if self.bsdf not in MICROFACET_BSDFS:
-            raise ParameterError(f"with --renderer, --brdf is diffuse, ggx or beckmann (the "
-                                 f"paper's glossy lobe is no renderer's BSDF); got {self.bsdf!r}")
+            raise ParameterError(f"with --renderer, --brdf is diffuse, ggx, beckmann or "
+                                 f"roughplastic (the paper's glossy lobe is no renderer's "
+                                 f"BSDF); got {self.bsdf!r}")
+        if self.bsdf == "roughplastic" and (p.name != "mitsuba3" or self.sampler not in (
+                None, "independent")):
+            raise ParameterError("--brdf roughplastic is Mitsuba 3's roughplastic, modelled "
+                                 "for its independent sampler (the lobe choice is a third "
+                                 "dimension of a QMC sampler): --renderer mitsuba3 --sampler "
+                                 "independent")
         if p.name not in RENDERERS:
             raise ParameterError(f"{RENDERER_NAMES[p.name]} has no microfacet conductor "
                                  f"preset; use --renderer mitsuba3, pbrt4 or cycles")
@@ -229,17 +237,22 @@ class PresetAdviseOptions:
     def microfacet(self) -> bool:
         return self.bsdf != "diffuse"
 
-    def conductor(self) -> Conductor:
-        """The white conductor (Fresnel 1) as the renderer shades and samples it."""
-        return Conductor(self.bsdf, roughness_to_alpha(self.roughness, self.renderer),
-                         renderer=self.renderer)
+    def conductor(self):
+        """The white conductor (Fresnel 1) as the renderer shades and samples it, or Mitsuba's
+        rough plastic (:class:`RoughPlastic`: a GGX coat, its defaults η 1.49, diffuse 0.5)."""
+        alpha = roughness_to_alpha(self.roughness, self.renderer)
+        if self.bsdf == "roughplastic":
+            return RoughPlastic("ggx", alpha)
+        return Conductor(self.bsdf, alpha, renderer=self.renderer)
 
     def model_options(self) -> PresetModelOptions:
         """The :class:`PresetModelOptions` of ``level`` and ``normals`` (pool: its default,
-        :data:`MICROFACET_POOL` for a conductor, at least ``normals``)."""
+        :data:`MICROFACET_POOL` for a conductor, at least ``normals``; a rough plastic keeps
+        the default: its frames' proxies are numpy, 8192 frames took 33 s)."""
         for name in ("level", "normals"):
             check_int(getattr(self, name), f"--renderer-{name}", 1)
-        base = MICROFACET_POOL if self.microfacet else PresetModelOptions().pool
+        compiled = self.microfacet and self.bsdf != "roughplastic"    # its proxies: numpy
+        base = MICROFACET_POOL if compiled else PresetModelOptions().pool
         pool = max(base, int(self.normals))
         pixels = None if self.microfacet else self.sphere_pixels   # microfacet: per frame
         return PresetModelOptions(normals=int(self.normals), pool=pool,

@@ -35,7 +35,8 @@ def register(sub) -> None:
     add_map_arguments(p)
     p.add_argument("--brdf", choices=BRDFS + MICROFACET_BSDFS, default="diffuse",
                    help="weight function (default: diffuse); ggx and beckmann (white "
-                        "microfacet conductors, with --roughness) with --renderer only")
+                        "microfacet conductors, with --roughness) and roughplastic (Mitsuba "
+                        "3's, a GGX coat of --roughness) with --renderer only")
     p.add_argument("--shininess", type=positive_float, default=DEFAULT_SHININESS,
                    help=f"glossy exponent n (default: {DEFAULT_SHININESS:g})")
     tg = p.add_mutually_exclusive_group()

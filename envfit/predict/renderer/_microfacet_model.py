@@ -224,24 +224,29 @@ class MicrofacetModel(PresetModel):
         return np.concatenate(idx), np.concatenate(wt)
 
     def _proxies(self, normals, views):
-        """(v_e, v_b) per frame on the pilot table (:meth:`_select`)."""
+        """(v_e, v_b) per frame on the pilot table (:meth:`_select`): compiled for a white
+        conductor (:func:`conductor_proxies`), else numpy over blocks of frames."""
         tab = MapTable.build(self.technique, self.options.pilot_level)
+        frames = np.asarray(self.preset.tangent_frame(_unit(normals)))
+        wis = np.einsum("kij,kj->ki", frames, _unit(views))
         if compiled_conductor(self.conductor):
-            frames = np.asarray(self.preset.tangent_frame(_unit(normals)))
-            wis = np.einsum("kij,kj->ki", frames, _unit(views))
             v = conductor_proxies(self.conductor, wis, frames, tab.directions, tab.base,
                                   tab.pdf)
             return v[:, 0], v[:, 1]
         b2 = ((np.pi * tab.base) ** 2).sum(axis=1)                        # Σ_c (L/p_e)²
         v_e, v_b = np.zeros(len(normals)), np.zeros(len(normals))
-        for a, (n, v) in enumerate(zip(_unit(normals), _unit(views))):
-            rows = np.asarray(self.preset.tangent_frame(n.reshape(1, 3))[0])
-            fc, pb = self._eval_pdf(rows @ v, tab.directions, rows)
-            mean2 = (((np.pi * tab.base) * fc[:, None]).mean(axis=0) ** 2).sum()
-            v_e[a] = max(0.0, float(np.mean(b2 * fc * fc)) - mean2)
+        size, block = len(tab.directions), max(1, _CHUNK // len(tab.directions))
+        for a in range(0, len(frames), block):
+            f, w = frames[a:a + block], wis[a:a + block]
+            loc = np.einsum("kij,pj->kpi", f, tab.directions).reshape(-1, 3)
+            wi = np.repeat(w, size, axis=0)
+            fc = self.conductor.eval(wi, loc).reshape(len(f), size)
+            pb = self.conductor.pdf(wi, loc).reshape(len(f), size)
+            mean2 = (np.einsum("pc,kp->kc", np.pi * tab.base, fc) / size) ** 2
+            v_e[a:a + block] = np.maximum(0.0, (b2 * fc * fc).mean(axis=1) - mean2.sum(axis=1))
             with np.errstate(divide="ignore", invalid="ignore"):
                 second = np.where(pb > 0, b2 * tab.pdf * fc * fc / pb, 0.0)
-            v_b[a] = max(0.0, float(np.mean(second)) - mean2)
+            v_b[a:a + block] = np.maximum(0.0, second.mean(axis=1) - mean2.sum(axis=1))
         return v_e, v_b
 
     def request(self, strategy: str, sampler: str, spp: int):

@@ -338,13 +338,19 @@ def _snippet(s: StrategySetting, spec: SamplerSpec, spp: int, *, filename: str =
              microfacet: tuple | None = None) -> str:
     """The scene a user pastes: a sphere lit by the map — white diffuse, or with
     ``microfacet`` = (distribution, α) a white ``roughconductor`` (``material="none"``:
-    Fresnel 1) —, Mitsuba's ``direct`` integrator with the strategy's counts, the sampler at
+    Fresnel 1), or = ("roughplastic", α) a ``roughplastic`` with a GGX coat (its defaults
+    otherwise: η 1.49, diffuse reflectance 0.5) —, Mitsuba's ``direct`` integrator with the strategy's counts, the sampler at
     the spp it runs. ``form`` ``"python"`` (a ``mi.load_dict`` call) or ``"xml"`` (scene XML
     for ``mi.load_string``)."""
     ne, nb = s.settings["emitter_samples"], s.settings["bsdf_samples"]
     comp = bool(mis_compensation)
     if microfacet is None:
         bsdf_xml, bsdf_py = '<bsdf type="diffuse"/>', '{"type": "diffuse"}'
+    elif microfacet[0] == "roughplastic":
+        alpha = float(microfacet[1])
+        bsdf_xml = (f'<bsdf type="roughplastic"><string name="distribution" value="ggx"/>'
+                    f'<float name="alpha" value="{alpha:g}"/></bsdf>')
+        bsdf_py = f'{{"type": "roughplastic", "distribution": "ggx", "alpha": {alpha:g}}}'
     else:
         dist, alpha = microfacet[0], float(microfacet[1])
         bsdf_xml = (f'<bsdf type="roughconductor"><string name="distribution" value="{dist}"/>'
