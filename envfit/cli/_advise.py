@@ -34,9 +34,8 @@ def register(sub) -> None:
                     "on the map.")
     add_map_arguments(p)
     p.add_argument("--brdf", choices=BRDFS + MICROFACET_BSDFS, default="diffuse",
-                   help="weight function (default: diffuse); ggx and beckmann (white "
-                        "microfacet conductors, with --roughness) and roughplastic (Mitsuba "
-                        "3's, a GGX coat of --roughness) with --renderer only")
+                   help="weight function (default: diffuse); with --renderer only: ggx, "
+                        "beckmann (white conductors), roughplastic (Mitsuba's), with --roughness")
     p.add_argument("--shininess", type=positive_float, default=DEFAULT_SHININESS,
                    help=f"glossy exponent n (default: {DEFAULT_SHININESS:g})")
     tg = p.add_mutually_exclusive_group()

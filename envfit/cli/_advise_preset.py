@@ -93,8 +93,9 @@ def _options(args: argparse.Namespace):
             raise ParameterError(f"{flag} is an option of envfit's generic renderer rows, "
                                  f"which --renderer replaces")
     if args.brdf not in ("diffuse", *MICROFACET_BSDFS):
-        raise ParameterError(f"--renderer predicts a renderer's BSDF: --brdf diffuse, ggx or "
-                             f"beckmann (the paper's {args.brdf} lobe is no renderer's BSDF)")
+        raise ParameterError(f"--renderer predicts a renderer's BSDF: --brdf diffuse, ggx, "
+                             f"beckmann or roughplastic (the paper's {args.brdf} lobe is no "
+                             f"renderer's BSDF)")
     if args.brdf in MICROFACET_BSDFS and args.snippet and args.renderer != "mitsuba3":
         raise ParameterError(f"--snippet with --brdf {args.brdf}: the scene text of a rough "
                              f"conductor is written for Mitsuba 3 only so far")
