@@ -39,7 +39,7 @@ from envfit.predict.renderer import (MicrofacetModel, PresetModelOptions, pixel_
                                      pixel_frames)
 from envfit.sampling.presets import preset
 from envfit.shading.microfacet import Conductor
-from envfit.validate._rendered import measure_cell
+from envfit.validate import measure_cell
 
 sys.path.insert(0, str(Path(__file__).parent))
 from render_check import _cpu, load_map  # noqa: E402  (bench helpers: CPU name, maps)

@@ -22,6 +22,9 @@ Modules:
   integrals on a map (Figs. 7–8).
 * :mod:`~envfit.validate._renderer` — ``envfit validate --renderer``: the renderer
   estimators' predicted RMSE against the measured one.
+* :mod:`~envfit.validate._rendered` — ``envfit validate --renderer mitsuba3|cycles``: the
+  renderer renders a sphere and its measured RMSE is set beside the preset's prediction
+  (:func:`render_validation`, :class:`RenderValidationOptions`, :func:`measure_cell`).
 * :mod:`~envfit.validate._renderer_results` — What ``envfit validate --renderer`` returns and
   prints: the cells, their summaries per rule and per lobe, the section and its table.
 * :mod:`~envfit.validate._report` — ``report.md``: a short validation report written from the
@@ -54,6 +57,8 @@ _LAZY = {
     "quick_config": "_config", "ValidateConfig": "_config",
     "run_validation": "_pipeline",
     "ValidationResult": "_results",
+    "RenderValidation": "_rendered", "RenderValidationOptions": "_rendered",
+    "render_validation": "_rendered", "measure_cell": "_rendered",
 }
 
 __all__ = sorted(_LAZY)
