@@ -34,9 +34,6 @@ __all__ = ["conductor_eval_pdf", "conductor_proxies", "mitsuba_eval_pdf", "cycle
            "compiled_conductor", "compiled_cycles"]
 
 _KINDS = {"ggx": 0, "beckmann": 1}
-_VARIANTS = {"mitsuba3": 0, "pbrt4": 1, "cycles": 2}
-_F32_EPS = float(np.finfo(np.float32).eps)
-_BIG = float(np.finfo(np.float64).max)
 
 
 @numba.njit(cache=True)

@@ -32,11 +32,13 @@ import math
 import numba
 import numpy as np
 
-from envfit.predict.renderer._microfacet_kernels import _BIG, _F32_EPS, _KINDS, _d, _lambda
+from envfit.predict.renderer._microfacet_kernels import _KINDS, _d, _lambda
 
 __all__ = ["conductor_sample", "compiled_sampling"]
 
 _VARIANTS = {"mitsuba3": 0, "pbrt4": 1, "cycles": 2}
+_F32_EPS = float(np.finfo(np.float32).eps)
+_BIG = float(np.finfo(np.float64).max)
 _INV_SQRT_PI = 1.0 / math.sqrt(math.pi)
 _TWO_OVER_SQRT_PI = 2.0 / math.sqrt(math.pi)
 
