@@ -116,3 +116,22 @@ def test_prediction_inside_the_rendered_interval():
             meas = sphere.measure(strategy, sampler, spp, seed=spp, reference=ref)
             assert 0.8 * meas.low <= pred.rmse <= 1.25 * meas.high, \
                 (strategy, sampler, spp, pred.rmse, meas.rmse, meas.low, meas.high)
+
+
+def test_orthogonal_prediction_inside_the_rendered_interval():
+    """Mitsuba ``orthogonal`` (Bose array: the emitter's draw at dimensions 2–3, the BSDF's at
+    5–6, or 3–4 alone) × map, brdf, mis × spp 25, 121: inside the widened interval."""
+    from envfit.measure.renderers import Mitsuba3Options, Mitsuba3Sphere
+    env = _sun_map(16)
+    cells = [(st, "orthogonal", n) for st in ("map", "brdf", "mis") for n in (25, 121)]
+    model = PresetModel(env, MITSUBA, options=PresetModelOptions(normals=32, pool=256,
+                                                                 max_level=7))
+    preds = model.predict_many(cells)
+    assert {p.randomisation for p in preds} == {"orthogonal"}
+    opts = Mitsuba3Options(resolution=16, reference_spp=1024, reference_sampler="ldsampler")
+    with Mitsuba3Sphere(env, opts) as sphere:
+        ref = sphere.reference()
+        for (strategy, sampler, spp), pred in zip(cells, preds):
+            meas = sphere.measure(strategy, sampler, spp, seed=spp, reference=ref)
+            assert 0.8 * meas.low <= pred.rmse <= 1.25 * meas.high, \
+                (strategy, sampler, spp, pred.rmse, meas.rmse, meas.low, meas.high)

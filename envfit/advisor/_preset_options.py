@@ -7,8 +7,8 @@ preset's default sampler), the strategies it can render (``map`` = emitter sampl
 ``brdf`` = BSDF sampling only, ``mis`` = both as its integrator combines them; default every
 strategy the renderer can render and the noise model can predict). A combination is refused
 when the renderer lacks the sampler, cannot render the strategy (Cycles' light-only mode exists
-only in debug builds), or has no exact noise model (e.g. Mitsuba's ``orthogonal``, pbrt-v4's
-``halton``; envfit's MIS with one shared shift): the last by asking the model itself
+only in debug builds), or has no exact noise model (e.g. pbrt-v4's ``halton``; envfit's MIS
+with one shared shift): the last by asking the model itself
 (:meth:`envfit.predict.renderer._preset_model.PresetModel.request` on a 4 × 8 map, a few
 milliseconds).
 
@@ -16,7 +16,8 @@ The largest spp searched (:meth:`PresetAdviseOptions.spp_cap`) is ``max_spp`` (d
 65536) or less where the model's grid of level L (M = 2^L cells per side,
 ``PresetModelOptions.max_level``) resolves fewer points of the sampler: the digital nets
 (``ldsampler``, ``zsobol``, Cycles' Sobol patterns) need M ≥ 2N, so N ≤ 2^(L−1); Kensler's
-correlated multi-jittering M ≥ N (and its (N, N) tables: at most 1024); a Cranley–Patterson
+correlated multi-jittering and Mitsuba's orthogonal array M ≥ N (and their (N, N) tables: at
+most 1024); a Cranley–Patterson
 shift N ≤ M/8 (:mod:`envfit.predict.renderer.randomisation._cp_shift`); independent and
 jittered samplers any N (V and the strata are resolved at every N).
 
@@ -87,7 +88,8 @@ def spp_cap(randomisation: str, level: int, max_spp: int) -> int:
     (256, 512, 64)
     """
     top = {"digital_shift": 1 << (level - 1), "owen": 1 << (level - 1),
-           "cmj": min(1 << level, 1024), "cp_shift": max(1, 1 << max(level - 3, 0)),
+           "cmj": min(1 << level, 1024), "orthogonal_array": min(1 << level, 1024),
+           "cp_shift": max(1, 1 << max(level - 3, 0)),
            "jittered": 4 ** level}
     return int(min(max_spp, top.get(randomisation, max_spp)))
 

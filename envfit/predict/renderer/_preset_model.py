@@ -66,8 +66,12 @@ __all__ = ["PresetModelOptions", "PresetModel", "PresetPrediction", "grid_level"
 
 #: a sampler's randomisation tag → the registry's name (of envfit.predict.renderer.randomisation)
 RANDOMISATION_OF = {"independent": "independent", "jittered": "jittered", "cmj": "cmj",
-                    "digital_shift": "digital_shift", "owen": "owen", "cp_shift": "cp_shift"}
-_SHARED = {"independent": False, "same_net_permuted": True}
+                    "digital_shift": "digital_shift", "owen": "owen", "cp_shift": "cp_shift",
+                    "orthogonal_array": "orthogonal"}
+#: pairing → whether the two streams share one point set; the columns of Mitsuba's
+#: orthogonal array have independent permutations per dimension: their cross term is 0
+#: (``randomisation._orthogonal``)
+_SHARED = {"independent": False, "same_net_permuted": True, "joint_array": False}
 
 
 def grid_level(randomisation: str, n: int, max_level: int) -> int:
@@ -77,7 +81,7 @@ def grid_level(randomisation: str, n: int, max_level: int) -> int:
     elif randomisation == "jittered":
         r = math.isqrt(n)
         want = (r - 1).bit_length() + (0 if r & (r - 1) == 0 else 3)
-    elif randomisation == "cmj":
+    elif randomisation in ("cmj", "orthogonal"):
         want = (n - 1).bit_length() + (0 if n & (n - 1) == 0 else 1)
     else:
         want = (n - 1).bit_length() + 1
@@ -210,6 +214,7 @@ class _Request:
     options: tuple
     shared: bool
     level: int
+    options_b: tuple = ()                   # the BSDF stream's options where they differ
 
 
 class PresetModel:
@@ -268,15 +273,20 @@ class PresetModel:
             raise ParameterError(f"no model of the pairing {spec.pairing!r} of {sampler}")
         if max(s.emitter_samples, s.bsdf_samples) > 1:
             raise ParameterError("the model takes at most one sample per technique and spp")
-        opts = ()
+        opts = opts_b = ()
         if name == "jittered":
-            opts = (("r", math.isqrt(n)),)
+            opts = opts_b = (("r", math.isqrt(n)),)
         elif name == "cmj":
-            opts = (("permutations", "mitsuba" if self.preset.name == "mitsuba3"
-                     else "uniform"),)
+            opts = opts_b = (("permutations", "mitsuba" if self.preset.name == "mitsuba3"
+                              else "uniform"),)
+        elif name == "orthogonal":
+            if s.dimensions is None:
+                raise ParameterError(f"{self.preset.name} does not say at which dimensions "
+                                     f"strategy {strategy!r} draws its samples")
+            opts, opts_b = ((("dimension", d),) for d in s.dimensions)
         level = grid_level(name, n, self.options.max_level)
         return _Request(strategy, sampler, int(spp), n, name, opts,
-                        two and _SHARED[spec.pairing], level)
+                        two and _SHARED[spec.pairing], level, opts_b)
 
     def predict(self, strategy: str, sampler: str, spp: int) -> PresetPrediction:
         """The predicted cell (:class:`PresetPrediction`); cached."""
@@ -384,10 +394,12 @@ class PresetModel:
 
         opts = dict(r.options)
         if r.strategy in ("map", "brdf"):
-            res = randomised_mse(r.name, grid(r.strategy), r.n, **opts)
+            res = randomised_mse(r.name, grid(r.strategy), r.n,
+                                 **(opts if r.strategy == "map" else dict(r.options_b)))
             z = np.zeros_like(res.mse)
             parts = (res.mse, z, z) if r.strategy == "map" else (z, res.mse, z)
             return (res.mse,) + parts
         m = mis_mse(r.name, grid("mis_e"), grid("mis_b"), r.n, shared=r.shared,
-                    total=grid("mis_t") if r.shared else None, **opts)
+                    total=grid("mis_t") if r.shared else None,
+                    second_options=dict(r.options_b), **opts)
         return m.mse, m.first.mse, m.second.mse, 2.0 * m.cross

@@ -257,8 +257,10 @@ class SamplerSpec:
 class StrategySetting:
     """How the renderer renders one strategy (``map``, ``brdf`` or ``mis``): whether it can
     (``renderable``), the integrator and its settings, the samples of each technique per
-    spp (``emitter_samples``, ``bsdf_samples``) and which map density it samples
-    (``density``: e.g. ``"compensated"`` for pbrt-v4's path integrator)."""
+    spp (``emitter_samples``, ``bsdf_samples``), which map density it samples
+    (``density``: e.g. ``"compensated"`` for pbrt-v4's path integrator) and, where a sampler's
+    pattern depends on it, the sampler dimension at which the emitter's and the BSDF's first
+    2-D draw start (``dimensions``; None where the order plays no part)."""
 
     strategy: str
     renderable: bool
@@ -268,6 +270,7 @@ class StrategySetting:
     bsdf_samples: int = 0
     density: str = "plain"
     note: str = ""
+    dimensions: tuple[int, int] | None = None
 
 
 _HEURISTICS = {"power": power_heuristic, "balance": balance_heuristic}

@@ -321,15 +321,26 @@ SAMPLERS = {
 # ----------------------------------------------------------------------------- integrator
 
 _D = "src/integrators/direct.cpp DirectIntegrator"
+
+
+def _dimensions(emitter_samples: int, bsdf_samples: int) -> tuple[int, int]:
+    """The sampler dimensions of the first emitter and BSDF 2-D draws of one spp: the film
+    position takes 0–1 (``src/render/integrator.cpp``: ``SamplingIntegrator::render_sample``,
+    ``next_2d``; an orthographic sensor takes no aperture, time or wavelength sample), then
+    ``direct.cpp`` draws ``next_2d`` per emitter sample and ``next_1d`` + ``next_2d`` per
+    BSDF sample, emitter samples first."""
+    return 2, 2 + 2 * emitter_samples + 1
+
+
 STRATEGIES = {
     "map": StrategySetting("map", True, "direct", {"emitter_samples": 1, "bsdf_samples": 0},
                            1, 0, "plain", "emitter sampling only (bsdf fraction 0: weight 1); "
-                           + _D),
+                           + _D, _dimensions(1, 0)),
     "brdf": StrategySetting("brdf", True, "direct", {"emitter_samples": 0, "bsdf_samples": 1},
-                            0, 1, "plain", "BSDF sampling only; " + _D),
+                            0, 1, "plain", "BSDF sampling only; " + _D, _dimensions(0, 1)),
     "mis": StrategySetting("mis", True, "direct", {"emitter_samples": 1, "bsdf_samples": 1},
                            1, 1, "plain", "power heuristic with the fractions n_e/(n_e+n_b), "
-                           "n_b/(n_e+n_b); " + _D),
+                           "n_b/(n_e+n_b); " + _D, _dimensions(1, 1)),
 }
 
 

@@ -13,7 +13,8 @@ Modules (private, one per method; each cites its equation and reference):
 * ``_nets`` — the digital nets' generator matrices and dual nets (:data:`NETS`).
 * ``_kensler`` — Kensler's hashed permutation (Mitsuba's ``permute_kensler``) and the
   distribution of its permutations (pair tables).
-* ``_independent``, ``_jittered``, ``_cmj``, ``_digital_shift``, ``_owen``, ``_cp_shift`` — the
+* ``_independent``, ``_jittered``, ``_cmj``, ``_orthogonal``, ``_digital_shift``, ``_owen``,
+  ``_cp_shift`` — the
   methods.
 * ``_registry`` — :data:`RANDOMISATIONS` and the dispatcher :func:`randomised_mse`.
 * ``_mis`` — :func:`mis_mse`, two streams, independent or sharing one point set.

@@ -56,16 +56,23 @@ class MisMSE:
 
 
 def mis_mse(name: str, first: DyadicGrid, second: DyadicGrid, n: int, *, shared: bool = False,
-            total: DyadicGrid | None = None, **options) -> MisMSE:
+            total: DyadicGrid | None = None, second_options: dict | None = None,
+            **options) -> MisMSE:
     """The MSE of F₁ + F₂ with both streams randomised by ``name`` (N points each):
     independently (``shared=False``) or as one shared point set (``shared=True``, needs
-    ``total``, the grid of h₁ + h₂, for the power above the grid)."""
+    ``total``, the grid of h₁ + h₂, for the power above the grid). ``second_options``: the
+    second stream's options where they differ from the first's (Mitsuba's ``orthogonal``:
+    its dimension); for a shared set they must not."""
     if first.size != second.size or first.channels != second.channels:
         raise ParameterError("the two techniques' grids must have the same size and channels")
+    second_options = options if second_options is None else second_options
     one = randomised_mse(name, first, n, **options)
-    two = randomised_mse(name, second, n, **options)
+    two = randomised_mse(name, second, n, **second_options)
     if not shared:
         return MisMSE(name, n, False, one, two, np.zeros_like(one.mse))
+    if second_options != options:
+        raise ParameterError("a shared point set randomises both streams alike: "
+                             "second_options must equal the options")
     if total is None or total.size != first.size:
         raise ParameterError("a shared point set needs total, the grid of h1 + h2 "
                              "(DyadicGrid.from_callable of their sum), of the same size")

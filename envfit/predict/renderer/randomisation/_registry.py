@@ -13,7 +13,9 @@ taking the same :class:`DyadicGrid` of the warped integrand.
 * ``owen`` — nested uniform scrambling of a digital net, option ``net`` (pbrt ``zsobol``,
   ``paddedsobol``; Cycles' Sobol patterns);
 * ``cp_shift`` — a Cranley–Patterson shift of a point set, options ``points``, ``net``
-  (pbrt ``pmj02bn``; envfit's own rules).
+  (pbrt ``pmj02bn``; envfit's own rules);
+* ``orthogonal`` — a Bose orthogonal array of strength 2 with permuted strata and jitter,
+  option ``dimension`` (Mitsuba ``orthogonal``).
 """
 from __future__ import annotations
 
@@ -30,6 +32,7 @@ from ._digital_shift import digital_shift_mse
 from ._grid import DyadicGrid, RandomisedMSE
 from ._independent import independent_mse
 from ._jittered import jittered_mse
+from ._orthogonal import orthogonal_mse
 from ._owen import owen_mse
 
 __all__ = ["RANDOMISATIONS", "Randomisation", "randomised_mse"]
@@ -54,6 +57,8 @@ RANDOMISATIONS = {r.name: r for r in (
     Randomisation("owen", owen_mse, ("net",), "nested uniform (Owen) scrambling of a net"),
     Randomisation("cp_shift", cp_shift_mse, ("points", "net"),
                   "Cranley-Patterson shift of a point set"),
+    Randomisation("orthogonal", orthogonal_mse, ("dimension",),
+                  "Bose orthogonal array (strength 2), permuted strata, jitter"),
 )}
 
 

@@ -25,15 +25,12 @@ def _aligned(edges: np.ndarray, m: int) -> np.ndarray | None:
     return None
 
 
-def _interp_matrix(edges: np.ndarray, m: int) -> np.ndarray:
-    """Rows of linear interpolation weights on the nodes 0…M at the points ``edges``·M."""
+def _interp_nodes(edges: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray]:
+    """(i0, t): the linear interpolation on the nodes 0…M at the points ``edges``·M — the
+    lower node and the weight of the upper one (1 − t on i0)."""
     x = np.clip(edges * m, 0.0, float(m))
     i0 = np.minimum(np.floor(x).astype(np.int64), m - 1)
-    t = x - i0
-    w = np.zeros((x.size, m + 1))
-    w[np.arange(x.size), i0] = 1.0 - t
-    w[np.arange(x.size), i0 + 1] += t
-    return w
+    return i0, x - i0
 
 
 def _rect_integrals(cells: np.ndarray, e1: np.ndarray, e2: np.ndarray) -> np.ndarray:
@@ -42,8 +39,9 @@ def _rect_integrals(cells: np.ndarray, e1: np.ndarray, e2: np.ndarray) -> np.nda
     m = cells.shape[1]
     q = np.zeros((cells.shape[0], m + 1, m + 1))
     q[:, 1:, 1:] = np.cumsum(np.cumsum(cells, axis=1), axis=2) / float(m * m)
-    w1, w2 = _interp_matrix(e1, m), _interp_matrix(e2, m)
-    qe = w1 @ q @ w2.T                                # (C, edges1, edges2)
+    (i1, t1), (i2, t2) = _interp_nodes(e1, m), _interp_nodes(e2, m)
+    q = (1.0 - t1)[None, :, None] * q[:, i1] + t1[None, :, None] * q[:, i1 + 1]
+    qe = (1.0 - t2)[None, None, :] * q[:, :, i2] + t2[None, None, :] * q[:, :, i2 + 1]
     return np.diff(np.diff(qe, axis=1), axis=2)
 
 
