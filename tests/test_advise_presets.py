@@ -269,10 +269,26 @@ def test_microfacet_answer_bands_and_json_equal_the_model(sun_file, tmp_path, ca
         assert p["bands"] == pytest.approx(m.predict_bands(p["strategy"], "independent",
                                                            p["spp"]), rel=1e-12)
     assert any("GGX conductor (alpha 0.3, Fresnel 1)" in ln for ln in lines)
-    bands = [ln for ln in lines if ln.startswith("  ") and " deg: predicted RMSE " in ln]
+    bands = [ln for ln in lines if ln.startswith("  ") and " deg (" in ln
+             and "): predicted RMSE " in ln]
     assert bands, lines
+    errors = m.predict_band_errors("mis", "independent", n)
+    for p in r["predictions"]:
+        assert p["band_errors"] == m.predict_band_errors(p["strategy"], "independent", p["spp"])
+    whole = next(ln for ln in lines if ln.startswith("  whole sphere ("))
+    def spread(k, se):
+        return (f"({k} frame{'s' if k != 1 else ''}"
+                + (", no second frame to measure its sampling error)" if se is None
+                   else f", ±{100 * se:.2g} %)"))
+
+    assert spread(errors["all"]["frames"], errors["all"]["rel_se"]) in whole
+    assert errors["all"]["frames"] == len(m.weights)
     for ln in bands:
         band = ln.split()[0]
+        lo, hi = (float(x) for x in band.split("-"))
+        k = int(np.sum((m.theta >= lo) & (m.theta < hi)))            # the frames in the band
+        assert (errors[band]["rel_se"] is None) == (k == 1)
+        assert spread(k, errors[band]["rel_se"]) in ln
         rmse = m.predict_bands("mis", "independent", n)[band]
         assert f"predicted RMSE {rmse:.4g}"[:18] in ln
         if "meets the target at" in ln:

@@ -239,6 +239,20 @@ def _bad_bands(v: Any, name: str) -> str | None:
     return None
 
 
+def _bad_band_errors(v: Any, name: str) -> str | None:
+    """Per band of a microfacet cell: {"lo-hi" or "all": {"frames": int >= 1, "rel_se":
+    finite number >= 0 or null}}."""
+    if not isinstance(v, dict):
+        return f"{name} is {_what(v)}, not an object"
+    for k, x in v.items():
+        why = _bad_fields(x, {"frames": lambda y, m: _bad_real(y, m, 1, integer=True),
+                              "rel_se": lambda y, m: None if y is None else _bad_real(y, m, 0.0)},
+                          {})
+        if why is not None:
+            return f"{name}[{k}]: {why}"
+    return None
+
+
 def _bad_preset(v: Any) -> str | None:
     """The renderer advice's predictions ``{"cells": {"strategy:spp": {"rmse", "mse"}}}``:
     a strategy of map, brdf, mis, spp ≥ 1, finite RMSE ≥ 0 and MSE per channel ≥ 0."""
@@ -252,7 +266,7 @@ def _bad_preset(v: Any) -> str | None:
             return f"cell {k!r} is not strategy:spp"
         why = _bad_fields(cell, {"rmse": lambda x, m: _bad_real(x, m, 0.0),
                                  "mse": lambda x, m: _bad_array(x, m, 1, 0.0)},
-                          {"bands": _bad_bands})
+                          {"bands": _bad_bands, "band_errors": _bad_band_errors})
         if why is not None:
             return f"cell {k}: {why}"
     return None

@@ -87,6 +87,7 @@ class PresetAdvice:
     snippet_spp: int | None = None
     notes: list = field(default_factory=list)
     bands: dict = field(default_factory=dict)
+    band_errors: dict = field(default_factory=dict)
 
     @property
     def display(self) -> str:
@@ -112,7 +113,9 @@ class PresetAdvice:
         "predicted_rmse"}``, the strategies in the renderer's order, spp ascending."""
         return [{"strategy": s, "sampler": self.options.sampler, "spp": n,
                  "predicted_rmse": self.cells[(s, n)],
-                 **({"bands": self.bands[(s, n)]} if (s, n) in self.bands else {})}
+                 **({"bands": self.bands[(s, n)]} if (s, n) in self.bands else {}),
+                 **({"band_errors": self.band_errors[(s, n)]}
+                    if (s, n) in self.band_errors else {})}
                 for s in self.options.strategies
                 for n in sorted(n for (t, n) in self.cells if t == s)]
 
@@ -128,7 +131,10 @@ class PresetAdvice:
             return []
         asked = sorted(m for (t, m) in self.bands if t == a.strategy)
         out = [f"per view angle theta_o ({STRATEGY_WORDS[a.strategy]}, {n} spp; target "
-               f"{self._f(self.target_rmse)}):"]
+               f"{self._f(self.target_rmse)}; ± the frames' sampling error):"]
+        if self._spread(a.strategy, n, "all"):
+            out.append(f"  whole sphere{self._spread(a.strategy, n, 'all')}: predicted RMSE "
+                       f"{self._f(self.cells[(a.strategy, n)])}")
         for band, rmse in per.items():
             ok = [m for m in asked if self.bands[(a.strategy, m)].get(band, np.inf)
                   <= self.target_rmse]
@@ -140,8 +146,19 @@ class PresetAdvice:
                         + (f" ({ok[0] / n:.3g}x the recommendation)" if a.reached
                            and ok[0] != n else "")
                         + (f", not at {miss[-1]}" if miss else ""))
-            out.append(f"  {band} deg: predicted RMSE {self._f(rmse)}; {what}")
+            out.append(f"  {band} deg{self._spread(a.strategy, n, band)}: predicted RMSE "
+                       f"{self._f(rmse)}; {what}")
         return out
+
+    def _spread(self, strategy: str, n: int, band: str) -> str:
+        """The suffix ' (K frames, ±x %)' of a band's line: the frames behind its value and its
+        sampling error."""
+        e = self.band_errors.get((strategy, n), {}).get(band)
+        if not e:
+            return ""
+        se = (", no second frame to measure its sampling error" if e["rel_se"] is None
+              else f", ±{100 * e['rel_se']:.2g} %")
+        return f" ({e['frames']} frame{'s' if e['frames'] != 1 else ''}{se})"
 
     def _goal(self) -> str:
         if self.target_relative is not None:
@@ -231,8 +248,15 @@ class PresetAdvice:
             out += self.snippet.rstrip("\n").split("\n")
         out += self.band_lines()
         m = self.model
+        a = self.default
+        frames = self.band_errors.get((a.strategy, a.spp if a.reached else a.searched_max),
+                                      {}).get("all", {}).get("frames")
+        count = (f"{m['normals']} normals" if not o.microfacet else f"{m['normals']} frames"
+                 if frames in (None, m["normals"]) else
+                 f"{frames} frames ({m['normals']} asked, each view-angle band at least "
+                 f"{m['normals'] // 6})")
         out.append(f"renderer model: {self._surface()} (RMS over the channels), "
-                   f"{m['normals']} {'frames' if o.microfacet else 'normals'}, grid level "
+                   f"{count}, grid level "
                    f"{m['level']}; {m['passes']} pass(es), {m['cells_computed']} cell(s) "
                    f"computed, {m['cells_cached']} from the cache")
         return out
@@ -354,7 +378,8 @@ def advise_preset(envmap, opts: PresetAdviseOptions, *, target_rmse: float | Non
                          independent=spec.randomisation == "independent")
     cells = {(s, n): cm.rmse(s, n) for s in opts.strategies for n in cm.asked_spp(s)}
     adv = PresetAdvice(opts, target, rel, mean, answers, listed, cells, cap, notes=store.notes,
-                       bands={k: b for k in cells if (b := cm.bands(*k))})
+                       bands={k: b for k in cells if (b := cm.bands(*k))},
+                       band_errors={k: b for k in cells if (b := cm.band_errors(*k))})
     if snippet:
         a = adv.default
         adv.snippet_spp = a.spp if a.reached else a.searched_max

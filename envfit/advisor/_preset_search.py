@@ -109,6 +109,11 @@ class CachedPresetModel:
         """The stored per-band predictions of a cell ({} for the diffuse model)."""
         return dict(self.cells[self._name(strategy, n)].get("bands", {}))
 
+    def band_errors(self, strategy: str, n: int) -> dict:
+        """The stored frames and relative standard error per band and ``"all"`` of a cell
+        ({} for the diffuse model)."""
+        return dict(self.cells[self._name(strategy, n)].get("band_errors", {}))
+
     @staticmethod
     def _name(strategy: str, n: int) -> str:
         return f"{strategy}:{int(n)}"
@@ -142,6 +147,7 @@ class CachedPresetModel:
             cell = {"rmse": float(r.rmse), "mse": [float(x) for x in np.ravel(r.mse)]}
             if self.opts.microfacet:
                 cell["bands"] = self.model.predict_bands(s, self.opts.sampler, n)
+                cell["band_errors"] = self.model.predict_band_errors(s, self.opts.sampler, n)
             self.cells[self._name(s, n)] = cell
         self.passes += 1
         self.cells_computed += len(todo)

@@ -159,7 +159,9 @@ class RenderValidationOptions:
 class RenderValidation:
     """The rendered check of one map: ``rows`` (one dict per cell: ``sampler``,
     ``strategy``, ``spp``, ``spp_used``, ``measured_rmse``, ``low``, ``high``,
-    ``predicted``, ``ratio`` = predicted/measured, ``inside``, ``mean_offset``, ``bands``),
+    ``predicted``, ``ratio`` = predicted/measured, ``inside``, ``mean_offset``, ``bands``;
+    a conductor's also ``predicted_rel_se``, and per band ``predicted_frames`` and
+    ``predicted_rel_se``: the frames' sampling error of the prediction),
     the options, and the seconds of the model, the reference and the renders."""
 
     map_name: str
@@ -266,6 +268,8 @@ def measure_cell(sphere, reference, model, cell, rng, geometry) -> dict:
            "inside": is_inside(p, m.low, m.high), "mean_offset": m.mean_offset, "bands": {}}
     if hasattr(model, "predict_bands"):
         theta = np.degrees(np.arccos(np.clip(geometry.z, -1.0, 1.0)))
+        spread = model.predict_band_errors(strategy, sampler, used)
+        row["predicted_rel_se"] = spread["all"]["rel_se"]
         for band, pb in model.predict_bands(strategy, sampler, used).items():
             lo, hi = (float(x) for x in band.split("-"))
             mask = (theta >= lo) & (theta < hi)
@@ -274,6 +278,8 @@ def measure_cell(sphere, reference, model, cell, rng, geometry) -> dict:
                                  mask=mask)
                 row["bands"][band] = {"measured_rmse": e.rmse, "low": e.low, "high": e.high,
                                       "predicted": float(pb),
+                                      "predicted_frames": spread[band]["frames"],
+                                      "predicted_rel_se": spread[band]["rel_se"],
                                       "inside": is_inside(pb, e.low, e.high)}
     row["seconds"] = time.perf_counter() - t
     return row

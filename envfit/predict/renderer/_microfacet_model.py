@@ -51,12 +51,37 @@ from envfit.predict.renderer._preset_integrand import MapTable, _is_mitsuba, mid
 from envfit.predict.renderer._preset_model import (PresetModel, PresetModelOptions,
                                                    systematic_indices)
 
-__all__ = ["MicrofacetModel", "pixel_frames", "band_frames", "BANDS"]
+__all__ = ["MicrofacetModel", "pixel_frames", "band_frames", "BANDS", "rmse_sampling_error"]
 
 #: the view-angle bands θ_o (degrees) reported beside the whole-sphere value (issue 25)
 BANDS = ((0.0, 30.0), (30.0, 60.0), (60.0, 80.0))
 
 _CHUNK = 1 << 18
+
+
+def rmse_sampling_error(weights, mse) -> float | None:
+    r"""The relative standard error of :math:`\sqrt{\hat M}`, :math:`\hat M = \sum w_i m_i /
+    \sum w_i` the weighted mean of the frames' MSE :math:`m_i` (importance weights
+    :math:`w_i`), from their spread: the ratio estimator's variance
+    :math:`rac{n}{n-1}\sum w_i^2 (m_i - \hat M)^2 / (\sum w_i)^2` (Cochran, *Sampling
+    Techniques*, 3rd ed. (1977), eq. 6.9, the frames treated as independent draws; the
+    systematic draw is usually tighter) halved for the square root (delta method); 0 where
+    every frame's MSE is 0, None for fewer than two frames (no spread to measure).
+
+    >>> round(rmse_sampling_error([1.0, 1.0, 1.0, 1.0], [1.0, 3.0, 1.0, 3.0]), 4)
+    0.1443
+    """
+    w, m = np.asarray(weights, dtype=np.float64), np.asarray(mse, dtype=np.float64)
+    keep = w > 0
+    w, m = w[keep], m[keep]
+    n, total = len(w), w.sum()
+    if n < 2 or total <= 0:
+        return None
+    mean = float(w @ m / total)
+    if mean <= 0:
+        return 0.0
+    var = n / (n - 1) * float(np.sum(w * w * (m - mean) ** 2)) / total ** 2
+    return float(np.sqrt(var) / (2.0 * mean))
 
 
 def band_frames(count: int, theta_range=(0.0, 90.0), *, seed=0):
@@ -189,6 +214,7 @@ class MicrofacetModel(PresetModel):
         self._tables: dict = {}
         self._cache: dict = {}
         self._bands: dict = {}
+        self._band_errors: dict = {}
         self._texels = None
         self.seconds = 0.0
 
@@ -266,10 +292,19 @@ class MicrofacetModel(PresetModel):
         self.predict(strategy, sampler, spp)
         return dict(self._bands[self.request(strategy, sampler, spp)])
 
+    def predict_band_errors(self, strategy: str, sampler: str, spp: int) -> dict:
+        """Per band of :meth:`predict_bands`, and ``"all"`` for the whole sphere:
+        ``{"frames": frames in it, "rel_se": the relative standard error of its RMSE}`` —
+        the frames' sampling error (:func:`rmse_sampling_error`)."""
+        self.predict(strategy, sampler, spp)
+        return {k: dict(v) for k, v in
+                self._band_errors[self.request(strategy, sampler, spp)].items()}
+
     def _store(self, r, mse_k: np.ndarray, parts_k: np.ndarray) -> None:
         """As :meth:`PresetModel._store`, and each band's RMSE from the frames in it."""
         super()._store(r, mse_k, parts_k)
         self._bands[r] = self._band_rmse(np.clip(mse_k, 0.0, None))
+        self._band_errors[r] = self._band_spread(np.clip(mse_k, 0.0, None))
 
     def _band_rmse(self, mse_k: np.ndarray) -> dict:
         out = {}
@@ -278,6 +313,18 @@ class MicrofacetModel(PresetModel):
             w = self.weights * inside
             if w.sum() > 0:
                 out[f"{lo:g}-{hi:g}"] = float(np.sqrt(np.mean(w @ mse_k / w.sum())))
+        return out
+
+    def _band_spread(self, mse_k: np.ndarray) -> dict:
+        """Per band (and ``"all"``, the whole sphere): the frames in it and the relative
+        standard error of its RMSE from their spread (:func:`rmse_sampling_error`)."""
+        out = {}
+        m = mse_k.mean(axis=1)
+        for key, inside in (("all", np.ones(len(m), bool)), *(
+                (f"{lo:g}-{hi:g}", (self.theta >= lo) & (self.theta < hi)) for lo, hi in BANDS)):
+            if np.any(inside & (self.weights > 0)):
+                out[key] = {"frames": int(inside.sum()),
+                            "rel_se": rmse_sampling_error(self.weights[inside], m[inside])}
         return out
 
     def _table(self, kind: str, level: int):
