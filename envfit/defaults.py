@@ -39,7 +39,7 @@ __all__ = ["BRDFS", "WEIGHTINGS", "ALL_POINTSETS", "DEFAULT_POINTSETS", "DEFAULT
 #: the microfacet BSDFs a renderer preset shades (``envfit advise --renderer R --brdf``): white
 #: conductors (:class:`envfit.shading.microfacet.Conductor`) and Mitsuba 3's rough plastic
 #: (:class:`envfit.shading.microfacet.RoughPlastic`, a GGX coat)
-MICROFACET_BSDFS = ("ggx", "beckmann", "roughplastic")
+MICROFACET_BSDFS = ("ggx", "beckmann", "roughplastic", "multiggx")
 #: the seed of the advice's frames (normal, view) for a microfacet BSDF
 #: (:func:`envfit.predict.renderer.band_frames`): fixed, so that an answer is reproducible
 MICROFACET_FRAMES_SEED = 20251

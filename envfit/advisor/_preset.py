@@ -63,6 +63,10 @@ def integrator_text(preset, strategy: str, mis_compensation: bool = False) -> st
     return f"{s.integrator} ({', '.join(items)})" if items else s.integrator
 
 
+#: how the model line names a microfacet --brdf
+_BSDF_WORDS = {"ggx": "GGX", "multiggx": "Multiscatter GGX (Cycles' default)"}
+
+
 @dataclass
 class PresetAdvice:
     """The renderer section of ``envfit advise --renderer``: the answer per strategy, every
@@ -273,7 +277,7 @@ class PresetAdvice:
         bsdf = (f"rough plastic (Mitsuba's roughplastic: a GGX coat of alpha "
                 f"{o.conductor().alpha:.4g}, eta 1.49, over a diffuse base of reflectance 0.5)"
                 if o.bsdf == "roughplastic" else
-                f"white {o.bsdf.upper() if o.bsdf == 'ggx' else o.bsdf.title()} conductor "
+                f"white {_BSDF_WORDS.get(o.bsdf, o.bsdf.title())} conductor "
                 f"(alpha {o.conductor().alpha:.4g}, Fresnel 1)")
         return (f"the RMSE of a {bsdf} over the views an "
                 f"orthographic camera has of a sphere{pixels} (theta_o density cos sin) and "

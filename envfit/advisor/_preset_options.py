@@ -44,7 +44,8 @@ from envfit.defaults import FOOTPRINT_SIDE, MICROFACET_BSDFS, MICROFACET_FRAMES_
 from envfit.maps import EnvMap
 from envfit.predict.renderer._preset_model import PresetModel, PresetModelOptions
 from envfit.sampling.presets import STRATEGY_NAMES, preset
-from envfit.shading.microfacet import RENDERERS, Conductor, RoughPlastic, roughness_to_alpha
+from envfit.shading.microfacet import (RENDERERS, RoughPlastic, multiscatter_or_conductor,
+                                       roughness_to_alpha)
 
 __all__ = ["PresetAdviseOptions", "RENDERER_NAMES", "STRATEGY_WORDS", "DEFAULT_MAX_SPP",
            "DEFAULT_LEVEL", "DEFAULT_LEVEL_V", "DEFAULT_NORMALS", "NET_RANDOMISATIONS",
@@ -209,13 +210,13 @@ class PresetAdviseOptions:
                                check_int(self.sphere_pixels, "--sphere-pixels", 4))
         if self.bsdf == "diffuse":
             if self.roughness is not None:
-                raise ParameterError("--roughness is a parameter of --brdf ggx, beckmann or "
-                                     "roughplastic")
+                raise ParameterError("--roughness is a parameter of --brdf ggx, beckmann, "
+                                     "roughplastic or multiggx")
             return
         if self.bsdf not in MICROFACET_BSDFS:
-            raise ParameterError(f"with --renderer, --brdf is diffuse, ggx, beckmann or "
-                                 f"roughplastic (the paper's glossy lobe is no renderer's "
-                                 f"BSDF); got {self.bsdf!r}")
+            raise ParameterError(f"with --renderer, --brdf is diffuse, ggx, beckmann, "
+                                 f"roughplastic or multiggx (the paper's glossy lobe is no "
+                                 f"renderer's BSDF); got {self.bsdf!r}")
         if self.bsdf == "roughplastic" and (p.name != "mitsuba3" or self.sampler not in (
                 None, "independent")):
             raise ParameterError("--brdf roughplastic is Mitsuba 3's roughplastic, modelled "
@@ -245,7 +246,7 @@ class PresetAdviseOptions:
         alpha = roughness_to_alpha(self.roughness, self.renderer)
         if self.bsdf == "roughplastic":
             return RoughPlastic("ggx", alpha)
-        return Conductor(self.bsdf, alpha, renderer=self.renderer)
+        return multiscatter_or_conductor(self.bsdf, alpha, self.renderer)
 
     def model_options(self) -> PresetModelOptions:
         """The :class:`PresetModelOptions` of ``level`` and ``normals`` (pool: its default,

@@ -45,7 +45,7 @@ RENDERERS = {"mitsuba3": ("independent", "ldsampler"),
              "cycles": ("tabulated_sobol", "blue_noise")}
 #: the BSDFs of the sphere: white diffuse, a white rough conductor (Fresnel 1), or Mitsuba's
 #: rough plastic (GGX coat, its defaults: η = 1.49, diffuse reflectance 0.5)
-RENDERED_BRDFS = ("diffuse", "ggx", "beckmann", "roughplastic")
+RENDERED_BRDFS = ("diffuse", "ggx", "beckmann", "roughplastic", "multiggx")
 #: θ_o bands of a conductor's check (degrees)
 BAND_EDGES = ((0.0, 30.0), (30.0, 60.0), (60.0, 80.0))
 
@@ -119,6 +119,9 @@ class RenderValidationOptions:
         if self.brdf == "roughplastic" and self.renderer != "mitsuba3":
             raise ParameterError("--brdf roughplastic is Mitsuba 3's roughplastic: "
                                  "--renderer mitsuba3")
+        if self.brdf == "multiggx" and self.renderer != "cycles":
+            raise ParameterError("--brdf multiggx is Cycles' Multiscatter GGX (the Principled "
+                                 "and Glossy BSDF nodes' default): --renderer cycles")
         p = preset(self.renderer)
         samplers = tuple(self.samplers) or (("independent",) if self.brdf == "roughplastic"
                                             else RENDERERS[self.renderer])
@@ -219,7 +222,7 @@ def _model(envmap, options: RenderValidationOptions):
     from envfit.predict.renderer import (MicrofacetModel, PresetModel, PresetModelOptions,
                                          pixel_footprints, pixel_frames)
     from envfit.sampling.presets import preset
-    from envfit.shading.microfacet import Conductor, RoughPlastic
+    from envfit.shading.microfacet import RoughPlastic, multiscatter_or_conductor
     env = EnvMap(envmap.data, up="y", name=envmap.name)
     p, level = preset(options.renderer), options.max_level
     if not options.microfacet:
@@ -230,7 +233,7 @@ def _model(envmap, options: RenderValidationOptions):
     foot = (pixel_footprints(n, v, options.resolution, options.footprint)
             if options.footprint > 1 else None)
     bsdf = (RoughPlastic("ggx", options.alpha) if options.brdf == "roughplastic" else
-            Conductor(options.brdf, options.alpha, renderer=options.renderer))
+            multiscatter_or_conductor(options.brdf, options.alpha, options.renderer))
     return MicrofacetModel(env, p, bsdf, (n, v),
                            options=PresetModelOptions(max_level=level),
                            select=options.frames, footprints=foot)

@@ -118,8 +118,9 @@ class CyclesOptions:
 
 def glossy_bsdf(distribution: str = "ggx", alpha: float = 0.1) -> tuple:
     """The sphere's BSDF for :attr:`CyclesOptions.bsdf`: the *Glossy BSDF* node, colour 1
-    (Fresnel = 1: a white conductor), distribution ``GGX`` or ``Beckmann`` (single scattering,
-    not the Principled BSDF's default *Multiscatter GGX*), roughness √α (Cycles squares its
+    (Fresnel = 1: a white conductor), distribution ``GGX`` or ``Beckmann`` (single scattering),
+    or ``multiggx``: *Multiscatter GGX*, the node's and the Principled BSDF's default (GGX
+    times ``energy_scale``, :mod:`envfit.shading.microfacet._multiscatter`), roughness √α (Cycles squares its
     roughness and sets no Fresnel for single-scatter GGX and Beckmann: ``src/kernel/svm/
     closure.h``, ``svm_node_closure_bsdf``, case ``CLOSURE_BSDF_MICROFACET_GGX_ID``:
     ``alpha_x = alpha_y = sqr(saturatef(roughness))``, then ``bsdf_microfacet_ggx_setup`` or
@@ -129,8 +130,9 @@ def glossy_bsdf(distribution: str = "ggx", alpha: float = 0.1) -> tuple:
     >>> round(dict(glossy_bsdf("beckmann", 0.25))["roughness"], 12)
     0.5
     """
-    if distribution not in ("ggx", "beckmann"):
-        raise ParameterError(f"distribution must be ggx or beckmann, got {distribution!r}")
+    if distribution not in ("ggx", "beckmann", "multiggx"):
+        raise ParameterError(f"distribution must be ggx, beckmann or multiggx, got "
+                             f"{distribution!r}")
     return tuple(sorted({"type": "glossy", "distribution": distribution,
                          "alpha": float(alpha), "roughness": float(alpha) ** 0.5}.items()))
 
@@ -158,7 +160,8 @@ def _material(bpy, bsdf=None):
     else:
         b = dict(bsdf)
         node = nt.nodes.new("ShaderNodeBsdfGlossy")
-        node.distribution = "GGX" if b["distribution"] == "ggx" else "BECKMANN"
+        node.distribution = {"ggx": "GGX", "beckmann": "BECKMANN",
+                             "multiggx": "MULTI_GGX"}[b["distribution"]]
         node.inputs["Roughness"].default_value = b["roughness"]
     node.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
     nt.links.new(node.outputs["BSDF"], out.inputs["Surface"])

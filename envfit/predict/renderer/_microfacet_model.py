@@ -258,7 +258,8 @@ class MicrofacetModel(PresetModel):
         if compiled_conductor(self.conductor):
             v = conductor_proxies(self.conductor, wis, frames, tab.directions, tab.base,
                                   tab.pdf)
-            return v[:, 0], v[:, 1]
+            s2 = np.array([self._scale(w) for w in wis]) ** 2          # energy scale²
+            return v[:, 0] * s2, v[:, 1] * s2
         b2 = ((np.pi * tab.base) ** 2).sum(axis=1)                        # Σ_c (L/p_e)²
         v_e, v_b = np.zeros(len(normals)), np.zeros(len(normals))
         size, block = len(tab.directions), max(1, _CHUNK // len(tab.directions))
@@ -354,20 +355,28 @@ class MicrofacetModel(PresetModel):
         """(ω_o, weight, pdf) of the conductor's sampling for the view ``wi`` at the table's
         points ``u``: compiled for a white conductor, numpy otherwise; where the weight is
         0, ω_o is the pole and the pdf 0 (the parts are 0 there)."""
-        if compiled_sampling(self.conductor):
-            return conductor_sample(self.conductor, wi, u)
+        if compiled_sampling(self.conductor):               # the kernels: single scatter
+            wo, weight, pdf = conductor_sample(self.conductor, wi, u)
+            return wo, weight * self._scale(wi), pdf
         square = getattr(self.conductor, "sample_square", self.conductor.sample)
         s = square(np.broadcast_to(wi, (len(u), 3)), u)     # a plastic's lobe from u_x
         dead = s.weight <= 0
         return (np.where(dead[:, None], [0.0, 0.0, 1.0], s.wo), s.weight,
                 np.where(dead, 0.0, s.pdf))
 
+    def _scale(self, wi) -> float:
+        """The conductor's energy scale at the local view ``wi`` (Cycles' Multiscatter GGX;
+        1 otherwise), which the compiled single-scatter kernels leave out."""
+        scale = getattr(self.conductor, "energy_scale", None)
+        return 1.0 if scale is None else float(scale(min(max(float(wi[2]), 0.0), 1.0)))
+
     def _eval_pdf(self, wi, dirs, rows):
         """(f·cos, pdf) of the conductor at the world light directions ``dirs`` for the view
         ``wi``, in the frame whose axes are ``rows``: compiled for a white conductor, numpy
         otherwise."""
         if compiled_conductor(self.conductor):
-            return conductor_eval_pdf(self.conductor, wi, dirs, rows)
+            fc, pdf = conductor_eval_pdf(self.conductor, wi, dirs, rows)
+            return fc * self._scale(wi), pdf
         loc = dirs @ rows.T
         wis = np.broadcast_to(wi, loc.shape)
         return self.conductor.eval(wis, loc), self.conductor.pdf(wis, loc)

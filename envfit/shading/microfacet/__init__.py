@@ -11,6 +11,7 @@ Modules:
 * :mod:`~envfit.shading.microfacet._fresnel` — conductor Fresnel (Mitsuba's and pbrt-v4's forms).
 * :mod:`~envfit.shading.microfacet._conductor` — :class:`Conductor`, roughness conventions.
 * :mod:`~envfit.shading.microfacet._plastic` — :class:`RoughPlastic` (Mitsuba 3 ``roughplastic``).
+* :mod:`~envfit.shading.microfacet._multiscatter` — Cycles' Multiscatter GGX (its energy scale).
 * :mod:`~envfit.shading.microfacet._ground_truth` — the shading integral's ground truth with
   its resolution rule.
 
@@ -29,6 +30,7 @@ _LAZY = {
     "BSDFSample": "_conductor", "Conductor": "_conductor", "RENDERERS": "_conductor",
     "roughness_to_alpha": "_conductor",
     "PlasticSample": "_plastic", "RoughPlastic": "_plastic",
+    "energy_scale": "_multiscatter", "multiscatter_or_conductor": "_multiscatter",
     "GroundTruthOptions": "_ground_truth", "MicrofacetShading": "_ground_truth",
     "microfacet_shading_integral": "_ground_truth",
 }

@@ -99,6 +99,9 @@ class Conductor:
     alpha : the roughness α in [1e-4, 1] (see :func:`roughness_to_alpha`)
     renderer : "mitsuba3" (separable G), "pbrt4" or "cycles" (height-correlated G)
     eta, k : the complex index of refraction η + ik; both None (default): F = 1 (white)
+    multiscatter : Cycles' Multiscatter GGX (the Principled and Glossy BSDF nodes' default):
+        eval and sample weight times :func:`~._multiscatter.energy_scale` of the view (white
+        GGX in Cycles only)
 
     >>> c = Conductor("ggx", 0.3)
     >>> wi = np.array([[0.0, 0.0, 1.0]])
@@ -107,7 +110,8 @@ class Conductor:
     """
 
     def __init__(self, distribution: str = "ggx", alpha: float = 0.1, renderer: str = "mitsuba3",
-                 eta: float | None = None, k: float | None = None) -> None:
+                 eta: float | None = None, k: float | None = None,
+                 multiscatter: bool = False) -> None:
         if renderer not in RENDERERS:
             raise ParameterError(f"renderer must be one of {RENDERERS}, got {renderer!r}")
         if renderer == "pbrt4" and distribution != "ggx":
@@ -115,6 +119,11 @@ class Conductor:
                                  f"distribution, got {distribution!r}")
         if (eta is None) != (k is None):
             raise ParameterError("give both eta and k (complex IOR) or neither (F = 1)")
+        if multiscatter and (renderer != "cycles" or distribution != "ggx"
+                             or eta is not None):
+            raise ParameterError("multiscatter is Cycles' Multiscatter GGX: renderer cycles, "
+                                 "distribution ggx, white (no eta, k)")
+        self.multiscatter = bool(multiscatter)
         self.distribution = MicrofacetDistribution(distribution, alpha)
         self.renderer = renderer
         self.eta = None if eta is None else float(eta)
@@ -123,7 +132,16 @@ class Conductor:
     def __repr__(self) -> str:
         d = self.distribution
         return (f"Conductor({d.kind!r}, {d.alpha:g}, renderer={self.renderer!r}, "
-                f"eta={self.eta}, k={self.k})")
+                f"eta={self.eta}, k={self.k}"
+                + (", multiscatter=True)" if self.multiscatter else ")"))
+
+    def energy_scale(self, cos_i) -> np.ndarray:
+        """Cycles' Multiscatter GGX factor of eval and weight at view cosines ``cos_i``
+        (1 for every other conductor)."""
+        if not self.multiscatter:
+            return np.ones(np.shape(cos_i))
+        from envfit.shading.microfacet._multiscatter import energy_scale
+        return energy_scale(self.alpha, cos_i)
 
     @property
     def alpha(self) -> float:
@@ -161,7 +179,8 @@ class Conductor:
         with np.errstate(divide="ignore", invalid="ignore"):
             v = (self.fresnel(_dot(wi, m)) * self.distribution.D(m)
                  * self.shadowing(wi, wo, m) / (4.0 * ci))
-        return np.where(ok & (n[:, 0] > 0), np.nan_to_num(v), 0.0)
+        v = np.where(ok & (n[:, 0] > 0), np.nan_to_num(v), 0.0)
+        return v * self.energy_scale(np.clip(ci, 0.0, 1.0)) if self.multiscatter else v
 
     def pdf(self, wi, wo) -> np.ndarray:
         """The solid-angle density (K,) of ``sample`` drawing ``wo`` for the view ``wi``."""
@@ -187,7 +206,9 @@ class Conductor:
             li = d.lambda_(wi)
             w = (1.0 + li) / (1.0 + li + d.lambda_(wo))
         valid = (wo[:, 2] > 0) & (wi[:, 2] > 0) & (d.D(m) > 0)
-        return wo, np.where(valid, self.fresnel(dot) * w, 0.0)
+        w = np.where(valid, self.fresnel(dot) * w, 0.0)
+        return wo, (w * self.energy_scale(np.clip(wi[:, 2], 0.0, 1.0)) if self.multiscatter
+                    else w)
 
     def sample(self, wi, u) -> BSDFSample:
         """Draw ``wo`` for views ``wi`` (K, 3) from points ``u`` (K, 2) of the unit square, by

@@ -87,7 +87,7 @@ def bose_indices(p: int, dimension: int) -> np.ndarray:
     before the permutations (module docstring).
 
     >>> bose_indices(3, 2)[:4].tolist()
-    [[0, 0, 0, 0], [1, 2, 2, 1], [2, 1, 1, 2], [0, 1, 1, 0]]
+    [[0, 0, 0, 0], [1, 2, 2, 1], [2, 1, 1, 2], [1, 1, 1, 1]]
     """
     if isinstance(dimension, bool) or not isinstance(dimension, (int, np.integer)) \
             or dimension < 0:

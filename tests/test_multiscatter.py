@@ -1,0 +1,88 @@
+"""Cycles' Multiscatter GGX (``envfit.shading.microfacet._multiscatter``): the albedo table
+against a direction-space quadrature of the single-scatter BSDF, the lookup's interpolation,
+the conductor's eval and weight scaled, the noise model scaled per frame, and bad
+combinations refused. Rendered by Cycles: tests/test_render_cycles.py (a white sphere under
+a constant map renders the map's value)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from envfit.base import ParameterError
+from envfit.maps import EnvMap
+from envfit.predict.renderer import MicrofacetModel
+from envfit.predict.renderer._preset_model import PresetModelOptions
+from envfit.sampling.presets import preset
+from envfit.shading.microfacet import Conductor, energy_scale, multiscatter_or_conductor
+from envfit.shading.microfacet._multiscatter import TABLE_SIZE, _column
+
+
+def _albedo_by_directions(alpha: float, mu: float, n: int = 1200) -> float:
+    """∫ f cos dω_o of the single-scatter Cycles GGX by a Gauss–Legendre rule in
+    (cos θ_o, φ_o), the φ axis split at the mirror azimuth."""
+    c = Conductor("ggx", alpha, "cycles")
+    x, w = np.polynomial.legendre.leggauss(n)
+    ct = (x + 1) / 2
+    wt = w / 2
+    phi = np.pi * (x + 1) / 2                       # [0, π], symmetric about φ = 0: ×2
+    wp = w * np.pi / 2 * 2
+    C, P = np.meshgrid(ct, phi, indexing="ij")
+    st = np.sqrt(1 - C * C)
+    wo = np.stack([st * np.cos(P), st * np.sin(P), C], axis=-1).reshape(-1, 3)
+    wi = np.broadcast_to([-np.sqrt(1 - mu * mu), 0.0, mu], wo.shape)   # mirror at φ = 0
+    f = c.eval(wi, wo).reshape(n, n)
+    return float(wt @ f @ wp)
+
+
+@pytest.mark.parametrize("x, y", [(10, 31), (10, 16), (17, 3), (31, 8), (7, 20)])
+def test_table_is_the_single_scatter_albedo(x, y):
+    r, mu = x / (TABLE_SIZE - 1), max(y / (TABLE_SIZE - 1), 1e-4)
+    assert _column(x)[y] == pytest.approx(_albedo_by_directions(r * r, mu), abs=1.5e-3)
+
+
+def test_lookup_interpolates_as_cycles():
+    a = (10 / 31) ** 2                              # on a roughness node
+    col = _column(10)
+    assert energy_scale(a, 16 / 31) == pytest.approx(1 / col[16], rel=1e-12)
+    mid = energy_scale(a, 16.5 / 31)
+    assert mid == pytest.approx(1 / (0.5 * col[16] + 0.5 * col[17]), rel=1e-12)
+    r = 10.25 / 31                                  # between nodes: linear in r, then μ
+    e = 0.75 * _column(10)[16] + 0.25 * _column(11)[16]
+    assert energy_scale(r * r, 16 / 31) == pytest.approx(1 / e, rel=1e-12)
+
+
+def test_conductor_scales_eval_and_weight_not_the_pdf():
+    one, multi = Conductor("ggx", 0.4, "cycles"), Conductor("ggx", 0.4, "cycles",
+                                                             multiscatter=True)
+    rng = np.random.default_rng(2)
+    wi = np.broadcast_to([0.6, 0.0, 0.8], (500, 3))
+    u = rng.random((500, 2))
+    s1, s2 = one.sample(wi, u), multi.sample(wi, u)
+    k = float(energy_scale(0.4, 0.8))
+    np.testing.assert_allclose(s2.weight, k * s1.weight, rtol=1e-12)
+    np.testing.assert_allclose(s2.pdf, s1.pdf, rtol=1e-12)
+    np.testing.assert_allclose(multi.eval(wi, s1.wo), k * one.eval(wi, s1.wo), rtol=1e-12)
+
+
+def test_model_mse_scales_by_the_square_per_frame():
+    rng = np.random.default_rng(0)
+    env = EnvMap((rng.random((16, 32, 3)) * 2 + 0.5).astype(np.float32))
+    frame = (np.array([[0.0, 0.0, 1.0]]), np.array([[0.6, 0.0, 0.8]]))
+    opts = PresetModelOptions(max_level=5)
+    one = MicrofacetModel(env, preset("cycles"), Conductor("ggx", 0.3, "cycles"), frame,
+                          options=opts)
+    multi = MicrofacetModel(env, preset("cycles"), multiscatter_or_conductor("multiggx", 0.3,
+                                                                             "cycles"),
+                            frame, options=opts)
+    k = float(energy_scale(0.3, 0.8))
+    for s in ("brdf", "mis"):
+        assert multi.predict(s, "tabulated_sobol", 16).rmse == pytest.approx(
+            k * one.predict(s, "tabulated_sobol", 16).rmse, rel=1e-9)
+
+
+def test_bad_combinations():
+    with pytest.raises(ParameterError, match="Multiscatter"):
+        multiscatter_or_conductor("multiggx", 0.3, "mitsuba3")
+    for args in (("beckmann", 0.3, "cycles"), ("ggx", 0.3, "mitsuba3")):
+        with pytest.raises(ParameterError, match="multiscatter"):
+            Conductor(*args, multiscatter=True)
