@@ -38,7 +38,7 @@ from envfit.measure.renderers import (VIEWS, CyclesOptions, CyclesSphere, Mitsub
 from envfit.predict.renderer import (MicrofacetModel, PresetModelOptions, pixel_footprints,
                                      pixel_frames)
 from envfit.sampling.presets import preset
-from envfit.shading.microfacet import Conductor
+from envfit.shading.microfacet import multiscatter_or_conductor
 from envfit.validate import measure_cell
 
 sys.path.insert(0, str(Path(__file__).parent))
@@ -56,7 +56,7 @@ def _model(env, dist, alpha, args):
     foot = (pixel_footprints(n, v, args.resolution, args.footprint) if args.footprint > 1
             else None)
     return MicrofacetModel(EnvMap(env.data, up="y", name=env.name), preset(args.renderer),
-                           Conductor(dist, alpha, renderer=args.renderer), (n, v),
+                           multiscatter_or_conductor(dist, alpha, args.renderer), (n, v),
                            options=PresetModelOptions(max_level=args.max_level),
                            select=args.frames, footprints=foot)
 
@@ -174,7 +174,8 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("maps", nargs="+", help="map files, or sun-gp-1.5 / sun-gp-1.3")
     ap.add_argument("--renderer", choices=("mitsuba3", "cycles"), default="mitsuba3")
-    ap.add_argument("--distributions", nargs="+", default=["ggx", "beckmann"])
+    ap.add_argument("--distributions", nargs="+", default=["ggx", "beckmann"],
+                    help="ggx, beckmann; multiggx: Cycles' Multiscatter GGX (its nodes' default)")
     ap.add_argument("--alphas", nargs="+", type=float, default=[0.1, 0.3, 0.6])
     ap.add_argument("--samplers", nargs="+", default=None,
                     help="default: independent ldsampler (Mitsuba 3), tabulated_sobol "

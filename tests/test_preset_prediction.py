@@ -120,12 +120,13 @@ def test_prediction_inside_the_rendered_interval():
 
 def test_orthogonal_prediction_inside_the_rendered_interval():
     """Mitsuba ``orthogonal`` (Bose array: the emitter's draw at dimensions 2–3, the BSDF's at
-    5–6, or 3–4 alone) × map, brdf, mis × spp 25, 121: inside the widened interval."""
+    4–5, or 2–3 alone) × map, brdf, mis × spp 25, 121: inside the widened interval. The views
+    are 16 pixels across, so each pixel's footprint is predicted too (``sphere_pixels``)."""
     from envfit.measure.renderers import Mitsuba3Options, Mitsuba3Sphere
     env = _sun_map(16)
     cells = [(st, "orthogonal", n) for st in ("map", "brdf", "mis") for n in (25, 121)]
     model = PresetModel(env, MITSUBA, options=PresetModelOptions(normals=32, pool=256,
-                                                                 max_level=7))
+                                                                 max_level=7, sphere_pixels=16))
     preds = model.predict_many(cells)
     assert {p.randomisation for p in preds} == {"orthogonal"}
     opts = Mitsuba3Options(resolution=16, reference_spp=1024, reference_sampler="ldsampler")

@@ -2,8 +2,11 @@
 prediction of ``randomisation._orthogonal``:
 
 * its strata are the Bose construction's forms, permuted (Mitsuba's own points with
-  ``jitter=False``: the pairs of samples agree on the same axes as the forms' pairs do), at the
-  dimensions Mitsuba's ``direct`` integrator draws (emitter 2–3, BSDF 5–6 after a 1-D draw);
+  ``jitter=False``: the pairs of samples agree on the same axes as the forms' pairs do), for a
+  2-D draw starting at an even dimension (2–3) and at an odd one (5–6);
+* in a render, ``direct`` draws the BSDF's 2-D sample before its 1-D one (the C++ arguments
+  of ``bsdf->sample(ctx, si, next_1d(), next_2d())`` are evaluated right to left in the PyPI
+  build): recorded by a Python BSDF, the BSDF's points form the even (CMJ) pattern;
 * at an even first dimension the pattern is correlated multi-jittering (the prediction equals
   ``cmj`` with uniform permutations);
 * the formula equals brute force over uniform permutations of the same forms;
@@ -28,7 +31,7 @@ from envfit.predict.renderer.randomisation._orthogonal import _pattern_counts, b
 mi = pytest.importorskip("mitsuba")
 
 SEEDS, Z = 3000, 4.0
-DIMS = (2, 5)                      # the emitter's and the BSDF's first 2-D dimension (MIS)
+DIMS = (2, 5)                      # an even and an odd first dimension of a 2-D draw
 
 
 @pytest.fixture(scope="module", autouse=True)
@@ -43,8 +46,8 @@ def grids():
 
 @functools.lru_cache(maxsize=None)
 def orthogonal_points(spp: int, seeds: int, jitter: bool = True) -> np.ndarray:
-    """(seeds, N, 2, 2): per pixel and sample the 2-D draws at dimensions 2–3 and 5–6, drawn
-    as ``direct`` draws them (film 0–1, emitter 2–3, BSDF 1-D 4 then 2-D 5–6)."""
+    """(seeds, N, 2, 2): per pixel and sample the 2-D draws at dimensions 2–3 and 5–6 (a
+    2-D draw, a 1-D draw at 4, a 2-D draw)."""
     s = mi.load_dict({"type": "orthogonal", "sample_count": spp, "jitter": jitter})
     n = s.sample_count()
     out = np.empty((seeds, n, 2, 2))
@@ -134,3 +137,61 @@ def test_bad_point_counts(grids):
             randomised_mse("orthogonal", grids["edge"], n)
     with pytest.raises(ParameterError, match="dimension"):
         randomised_mse("orthogonal", grids["edge"], 25, dimension=-1)
+
+
+def _recorded_bsdf_points(emitter_samples: int) -> np.ndarray:
+    """The 2-D samples Mitsuba's ``direct`` integrator hands a BSDF (a Python plugin that
+    records them and returns no sample), one pixel of a sphere that fills it, ``orthogonal``
+    at 25 spp without jitter."""
+    seen = []
+
+    class Recorder(mi.BSDF):
+        def __init__(self, props):
+            mi.BSDF.__init__(self, props)
+            self.m_flags = mi.BSDFFlags.DiffuseReflection | mi.BSDFFlags.FrontSide
+            self.m_components = [self.m_flags]
+
+        def sample(self, ctx, si, sample1, sample2, active=True):
+            seen.append((float(sample2[0]), float(sample2[1])))
+            return mi.BSDFSample3f(), mi.Color3f(0.0)
+
+        def eval(self, ctx, si, wo, active=True):
+            return mi.Color3f(0.0)
+
+        def pdf(self, ctx, si, wo, active=True):
+            return 0.0
+
+        def eval_pdf(self, ctx, si, wo, active=True):
+            return mi.Color3f(0.0), 0.0
+
+        def to_string(self):
+            return "Recorder"
+
+    mi.register_bsdf("envfit_recorder", lambda props: Recorder(props))
+    look = mi.ScalarTransform4f().look_at(origin=[0, 0, 5], target=[0, 0, 0], up=[0, 1, 0])
+    scene = mi.load_dict({
+        "type": "scene",
+        "integrator": {"type": "direct", "emitter_samples": emitter_samples, "bsdf_samples": 1},
+        "sensor": {"type": "orthographic", "to_world": look,
+                   "film": {"type": "hdrfilm", "width": 1, "height": 1,
+                            "rfilter": {"type": "box"}},
+                   "sampler": {"type": "orthogonal", "sample_count": 25, "jitter": False}},
+        "sphere": {"type": "sphere", "radius": 3.0, "bsdf": {"type": "envfit_recorder"}},
+        "emitter": {"type": "constant"}})
+    mi.render(scene, spp=25)
+    return np.array(seen)
+
+
+@pytest.mark.parametrize("emitter_samples", [0, 1])
+def test_direct_draws_the_bsdfs_2d_sample_first(emitter_samples):
+    """brdf (dimensions 2–3) and mis (4–5 after the emitter's 2–3): the BSDF's points have the
+    even-start pattern, not the odd one a 1-D draw first would give (3–4, 5–6) — as the
+    preset's dimensions say."""
+    from envfit.sampling.presets import preset
+    pts = _recorded_bsdf_points(emitter_samples)
+    assert pts.shape == (25, 2)
+    mine = _strata(pts, 5)
+    dim = preset("mitsuba3").strategy("mis" if emitter_samples else "brdf").dimensions[1]
+    assert dim == 2 + 2 * emitter_samples
+    np.testing.assert_array_equal(_pattern_counts(mine), _pattern_counts(bose_indices(5, dim)))
+    assert not np.array_equal(_pattern_counts(mine), _pattern_counts(bose_indices(5, dim + 1)))

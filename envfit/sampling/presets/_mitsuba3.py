@@ -327,9 +327,12 @@ def _dimensions(emitter_samples: int, bsdf_samples: int) -> tuple[int, int]:
     """The sampler dimensions of the first emitter and BSDF 2-D draws of one spp: the film
     position takes 0–1 (``src/render/integrator.cpp``: ``SamplingIntegrator::render_sample``,
     ``next_2d``; an orthographic sensor takes no aperture, time or wavelength sample), then
-    ``direct.cpp`` draws ``next_2d`` per emitter sample and ``next_1d`` + ``next_2d`` per
-    BSDF sample, emitter samples first."""
-    return 2, 2 + 2 * emitter_samples + 1
+    ``direct.cpp`` draws ``next_2d`` per emitter sample, emitter samples first, and per BSDF
+    sample ``bsdf->sample(ctx, si, sampler->next_1d(), sampler->next_2d())``, whose two
+    arguments C++ may evaluate in either order: in the PyPI build (3.9.1) ``next_2d`` comes
+    first (right to left; ``tests/test_randomisation_orthogonal.py`` records the BSDF's
+    samples in a render), so the BSDF's 2-D draw starts at 2 + 2·emitter_samples."""
+    return 2, 2 + 2 * emitter_samples
 
 
 STRATEGIES = {
