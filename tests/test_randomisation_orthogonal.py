@@ -25,23 +25,15 @@ import pytest
 from oracles.randomisers import INTEGRANDS, mse_estimate
 
 from envfit.base import ParameterError
-from envfit.predict.renderer.randomisation import DyadicGrid, randomised_mse
+from envfit.predict.renderer.randomisation import randomised_mse
 from envfit.predict.renderer.randomisation._orthogonal import _pattern_counts, bose_indices
 
 mi = pytest.importorskip("mitsuba")
 
+from test_randomisation_mitsuba import grids, scalar_variant  # noqa: E402,F401  (shared fixtures)
+
 SEEDS, Z = 3000, 4.0
 DIMS = (2, 5)                      # an even and an odd first dimension of a 2-D draw
-
-
-@pytest.fixture(scope="module", autouse=True)
-def scalar_variant():
-    mi.set_variant("scalar_rgb")
-
-
-@pytest.fixture(scope="module")
-def grids():
-    return {name: DyadicGrid.from_callable(f.h, 9, nodes=3) for name, f in INTEGRANDS.items()}
 
 
 @functools.lru_cache(maxsize=None)
