@@ -63,7 +63,7 @@ def rmse_sampling_error(weights, mse) -> float | None:
     r"""The relative standard error of :math:`\sqrt{\hat M}`, :math:`\hat M = \sum w_i m_i /
     \sum w_i` the weighted mean of the frames' MSE :math:`m_i` (importance weights
     :math:`w_i`), from their spread: the ratio estimator's variance
-    :math:`rac{n}{n-1}\sum w_i^2 (m_i - \hat M)^2 / (\sum w_i)^2` (Cochran, *Sampling
+    :math:`\frac{n}{n-1}\sum w_i^2 (m_i - \hat M)^2 / (\sum w_i)^2` (Cochran, *Sampling
     Techniques*, 3rd ed. (1977), eq. 6.9, the frames treated as independent draws; the
     systematic draw is usually tighter) halved for the square root (delta method); 0 where
     every frame's MSE is 0, None for fewer than two frames (no spread to measure).
