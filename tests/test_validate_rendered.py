@@ -116,6 +116,8 @@ def test_sentences_follow_the_rows(inside, words):
     (["--renderer", "mitsuba3", "--brdf", "ggx"], "--roughness goes with --brdf ggx"),
     (["--renderer", "mitsuba3", "--roughness", "0.2"], "--roughness goes with --brdf ggx"),
     (["--renderer", "mitsuba3", "--brdf", "glossy"], "must be one of diffuse, ggx, beckmann"),
+    (["--renderer", "mitsuba3", "--brdf", "multiggx", "--roughness", "0.3"],
+     "Cycles' Multiscatter GGX"),
     (["--renderer", "mitsuba3", "--brdf", "diffuse,ggx"], "takes one BSDF"),
     (["--renderer", "mitsuba3", "--renderer-n", "16"], "--renderer-n belong(s) to --renderer"),
     (["--renderer", "cycles", "--strategies", "map"], "cycles renders the strategies brdf, mis"),
