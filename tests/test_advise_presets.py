@@ -418,3 +418,32 @@ def test_roughplastic_answer_is_the_models_and_qmc_is_refused(sun_file, tmp_path
         rc, _, err, _ = _run(capsys, [sun_file, "--renderer", "mitsuba3", "--brdf",
                                       "roughplastic", "--roughness", "0.2", *extra], tmp_path)
         assert rc == 2 and len(err) == 1 and "independent sampler" in err[0]
+
+
+def test_cycles_multiscatter_ggx_and_the_note_that_names_it(sun_file, tmp_path, capsys):
+    """--renderer cycles --brdf ggx notes that Cycles' nodes default to Multiscatter GGX;
+    --brdf multiggx does not, and predicts every cell above the single-scatter one (its
+    energy scale 1/E > 1 multiplies each frame's error), equal to the model with a
+    multiscatter conductor."""
+    from envfit.defaults import MICROFACET_FRAMES_SEED
+    from envfit.predict.renderer import MicrofacetModel, band_frames
+    from envfit.shading.microfacet import multiscatter_or_conductor
+    common = [sun_file, "--renderer", "cycles", "--roughness", "0.5", "--target-relative",
+              "0.05", "--renderer-level", "5", *MODEL]
+    runs = {b: _run(capsys, [*common, "--brdf", b], tmp_path / b) for b in ("ggx", "multiggx")}
+    note = "the Principled and Glossy BSDF nodes default to Multiscatter GGX"
+    assert any(note in ln for ln in runs["ggx"][1] if ln.startswith("note: "))
+    assert not any(note in ln for ln in runs["multiggx"][1])
+    single = {(p["strategy"], p["spp"]): p["predicted_rmse"]
+              for p in runs["ggx"][3]["renderer"]["predictions"]}
+    opts = _options(5, microfacet=True)
+    m = MicrofacetModel(_load(sun_file), preset("cycles"),
+                        multiscatter_or_conductor("multiggx", 0.25, "cycles"),
+                        band_frames(opts.pool, (0, 90), seed=MICROFACET_FRAMES_SEED),
+                        options=opts, select=NORMALS)
+    for p in runs["multiggx"][3]["renderer"]["predictions"]:
+        assert p["predicted_rmse"] == pytest.approx(
+            m.predict(p["strategy"], "tabulated_sobol", p["spp"]).rmse, rel=1e-12)
+        if (p["strategy"], p["spp"]) in single:
+            assert p["predicted_rmse"] > single[(p["strategy"], p["spp"])]
+    assert any("Multiscatter GGX (Cycles' default) conductor" in ln for ln in runs["multiggx"][1])

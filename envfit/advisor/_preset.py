@@ -381,7 +381,12 @@ def advise_preset(envmap, opts: PresetAdviseOptions, *, target_rmse: float | Non
     answers = search_spp(cm, opts.strategies, runnable, target, [n for _, n in listed],
                          independent=spec.randomisation == "independent")
     cells = {(s, n): cm.rmse(s, n) for s in opts.strategies for n in cm.asked_spp(s)}
-    adv = PresetAdvice(opts, target, rel, mean, answers, listed, cells, cap, notes=store.notes,
+    notes = list(store.notes)
+    if opts.renderer == "cycles" and opts.bsdf == "ggx":
+        notes.append("--brdf ggx is Cycles' single-scatter GGX (a Glossy BSDF set to GGX); the "
+                     "Principled and Glossy BSDF nodes default to Multiscatter GGX: --brdf "
+                     "multiggx")
+    adv = PresetAdvice(opts, target, rel, mean, answers, listed, cells, cap, notes=notes,
                        bands={k: b for k in cells if (b := cm.bands(*k))},
                        band_errors={k: b for k in cells if (b := cm.band_errors(*k))})
     if snippet:
