@@ -11,7 +11,7 @@ from envfit.cli._output import CommandOutput
 #: the flags of the rendered check → their option names
 _FLAGS = {"--roughness": "roughness", "--samplers": "samplers", "--spp": "spp",
           "--resolution": "resolution", "--reference-spp": "reference_spp",
-          "--frames": "frames", "--max-level": "max_level"}
+          "--frames": "frames", "--max-level": "max_level", "--footprint": "footprint"}
 #: ``validate --renderer``'s rules flags: not used when a renderer renders
 _RULES_FLAGS = {"--renderer-pointsets": "renderer_pointsets", "--renderer-n": "renderer_n",
                 "--renderer-axes": "renderer_axes"}
@@ -33,6 +33,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="spp of each of the two reference renders (default: 1024)")
     g.add_argument("--frames", type=positive_int, default=None, metavar="K",
                    help="the model's frames (a conductor) or normals (diffuse) (default: 64)")
+    g.add_argument("--footprint", type=positive_int, default=None, metavar="J",
+                   help="normals per pixel side in the model: each rendered pixel averages "
+                        "the normals it spans (default 2; 1: pixel centres, a quarter of "
+                        "the model's time)")
     g.add_argument("--max-level", type=positive_int, default=None, metavar="L",
                    help="the model's finest grid level (default 9; 10 resolves nets to 512 "
                         "spp, 11 to 1024)")
@@ -76,7 +80,8 @@ def options(args: argparse.Namespace, cache_dir):
     kw = {k: tuple(getattr(args, k)) for k in ("samplers", "strategies", "spp")
           if getattr(args, k) is not None}
     kw.update({k: getattr(args, k) for k in ("resolution", "reference_spp", "frames",
-                                             "max_level") if getattr(args, k) is not None})
+                                             "max_level", "footprint")
+               if getattr(args, k) is not None})
     return RenderValidationOptions(args.renderer, brdf=brdfs[0], alpha=args.roughness,
                                    seed=args.seed, cache_dir=str(cache_dir), **kw)
 

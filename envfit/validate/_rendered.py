@@ -85,7 +85,8 @@ class RenderValidationOptions:
     reference_spp : spp of each of the two reference renders.
     frames : the model's frames: a conductor's (normal, view) importance-sampled from the
         pixels, the diffuse sphere's normals.
-    footprint : a conductor's normals per pixel side in the model (1: the pixel centre).
+    footprint : normals per pixel side in the model (1: the pixel centre); each rendered
+        pixel averages the normals it spans (:mod:`envfit.predict.renderer._footprint`).
     max_level : the model's finest grid level (10 resolves nets to 512 spp, 11 to 1024).
     seed : the render seeds, the frames and the bootstrap.
     cache_dir : folder of the reference cache (None: none).
@@ -141,6 +142,8 @@ class RenderValidationOptions:
             _positive_ints(name, (getattr(self, name),), lo)
         if self.max_level > 11:
             raise ParameterError(f"max_level must be at most 11, got {self.max_level}")
+        if self.footprint > 8:
+            raise ParameterError(f"footprint must be at most 8, got {self.footprint}")
 
     @property
     def microfacet(self) -> bool:
@@ -226,8 +229,9 @@ def _model(envmap, options: RenderValidationOptions):
     env = EnvMap(envmap.data, up="y", name=envmap.name)
     p, level = preset(options.renderer), options.max_level
     if not options.microfacet:
-        return PresetModel(env, p, {}, PresetModelOptions(normals=options.frames,
-                                                          max_level=level))
+        return PresetModel(env, p, {}, PresetModelOptions(
+            normals=options.frames, max_level=level, footprint_side=options.footprint,
+            sphere_pixels=options.resolution if options.footprint > 1 else None))
     g = sphere_geometry(options.resolution, "disk")
     n, v, _ = pixel_frames(g, VIEWS, len(VIEWS) * g.kept, seed=options.seed)   # every pixel
     foot = (pixel_footprints(n, v, options.resolution, options.footprint)

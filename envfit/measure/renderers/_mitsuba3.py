@@ -233,16 +233,18 @@ class Mitsuba3Sphere:
 
     def spp_used(self, sampler: str, spp: int) -> int:
         """The sample count Mitsuba's ``sampler`` actually takes for ``spp`` (it rounds, e.g.
-        ``ldsampler`` to a power of two, ``orthogonal`` to p² with p prime)."""
-        s = self.mi.load_dict({"type": _check_sampler(sampler), "sample_count": _check_spp(spp)})
-        return int(s.sample_count())
+        ``ldsampler`` to a power of two, ``orthogonal`` to p² with p prime): the preset's
+        rounding, read from Mitsuba's ``set_sample_count`` and tested against it
+        (``tests/test_presets_mitsuba3.py``), so that Mitsuba never warns that it rounds."""
+        from envfit.sampling.presets import preset
+        return preset("mitsuba3").sampler(_check_sampler(sampler)).spp(_check_spp(spp))
 
     def render(self, strategy: str, sampler: str, spp: int, seed, *,
                compensation: bool | None = None) -> tuple[np.ndarray, list[float]]:
         """The six views (6, R, R, 3) and the seconds of each render; ``seed`` (an int or a
         Generator) draws one random seed per view (:func:`._sphere.view_seeds`)."""
         check_strategy(strategy)
-        spp = _check_spp(spp)
+        spp = self.spp_used(sampler, spp)               # as the sampler rounds it: no warning
         comp = self.options.mis_compensation if compensation is None else compensation
         scene = self._scene(_check_sampler(sampler), comp)
         integ = self._integrator(strategy)
