@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from oracles.mitsuba_bsdf import mitsuba_bsdf_queries
 
 from envfit.shading.microfacet import Conductor
 
@@ -24,17 +25,7 @@ def _dirs(rng, n):
 def _mitsuba(kind, alpha, metal, wi, wo, u):
     d = {"type": "roughconductor", "distribution": kind, "alpha": alpha}
     d.update({"eta": 0.2, "k": 3.0} if metal else {"material": "none"})
-    bsdf, ctx = mi.load_dict(d), mi.BSDFContext()
-    ev, pdf, smp = [], [], []
-    for a, b, c in zip(wi, wo, u):
-        si = mi.SurfaceInteraction3f()
-        si.sh_frame = mi.Frame3f(mi.Vector3f(0, 0, 1))
-        si.wi = mi.Vector3f(*a)
-        ev.append(bsdf.eval(ctx, si, mi.Vector3f(*b))[0])
-        pdf.append(bsdf.pdf(ctx, si, mi.Vector3f(*b)))
-        bs, w = bsdf.sample(ctx, si, 0.5, mi.Point2f(*c))
-        smp.append([*bs.wo, bs.pdf, w[0]])
-    return np.array(ev), np.array(pdf), np.array(smp)
+    return mitsuba_bsdf_queries(d, wi, wo, np.full(len(u), 0.5), u)
 
 
 @pytest.mark.parametrize("kind", ["ggx", "beckmann"])

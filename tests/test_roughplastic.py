@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 import pytest
+from oracles.mitsuba_bsdf import mitsuba_bsdf_queries
 
 from envfit.base import ParameterError
 from envfit.shading.microfacet import BSDFSample, RoughPlastic
@@ -41,19 +42,8 @@ def _cases(rng, plastic):
 
 
 def _mitsuba(props, wi, wo, u):
-    mi = pytest.importorskip("mitsuba")
-    mi.set_variant("scalar_rgb")
-    bsdf, ctx = mi.load_dict({"type": "roughplastic", **props}), mi.BSDFContext()
-    ev, pdf, smp = [], [], []
-    for a, b, c in zip(wi, wo, u):
-        si = mi.SurfaceInteraction3f()
-        si.sh_frame = mi.Frame3f(mi.Vector3f(0, 0, 1))
-        si.wi = mi.Vector3f(*a)
-        ev.append(bsdf.eval(ctx, si, mi.Vector3f(*b))[0])
-        pdf.append(bsdf.pdf(ctx, si, mi.Vector3f(*b)))
-        bs, w = bsdf.sample(ctx, si, float(c[0]), mi.Point2f(float(c[1]), float(c[2])))
-        smp.append([*bs.wo, bs.pdf, w[0], bs.sampled_component])
-    return np.array(ev), np.array(pdf), np.array(smp)
+    pytest.importorskip("mitsuba")
+    return mitsuba_bsdf_queries({"type": "roughplastic", **props}, wi, wo, u[:, 0], u[:, 1:])
 
 
 def _check(props, seed):
