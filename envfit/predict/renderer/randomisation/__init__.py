@@ -18,6 +18,8 @@ Modules (private, one per method; each cites its equation and reference):
   methods.
 * ``_registry`` — :data:`RANDOMISATIONS` and the dispatcher :func:`randomised_mse`.
 * ``_mis`` — :func:`mis_mse`, two streams, independent or sharing one point set.
+* ``_lobe_choice`` — :func:`lobe_choice_mse`, :func:`lobe_choice_mis`: a BSDF that picks
+  one of two lobes by a stratified 1-D number of its own (Mitsuba's ``roughplastic``).
 
 The names of ``__all__`` are imported lazily, on first use (PEP 562), so that
 importing the package loads none of its modules.
@@ -35,6 +37,8 @@ _LAZY = {
     "walsh_coefficients": "_walsh",
     "RANDOMISATIONS": "_registry", "Randomisation": "_registry", "randomised_mse": "_registry",
     "MisMSE": "_mis", "mis_mse": "_mis",
+    "STRATIFIED_1D": "_lobe_choice", "lobe_choice_mse": "_lobe_choice",
+    "lobe_choice_mis": "_lobe_choice",
 }
 
 __all__ = sorted(_LAZY)
