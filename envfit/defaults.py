@@ -40,6 +40,10 @@ __all__ = ["BRDFS", "WEIGHTINGS", "ALL_POINTSETS", "DEFAULT_POINTSETS", "DEFAULT
 #: conductors (:class:`envfit.shading.microfacet.Conductor`) and Mitsuba 3's rough plastic
 #: (:class:`envfit.shading.microfacet.RoughPlastic`, a GGX coat)
 MICROFACET_BSDFS = ("ggx", "beckmann", "roughplastic", "multiggx")
+#: Mitsuba 3's samplers under which the rough plastic's BSDF sampling is modelled (its lobe
+#: choice is a 1-D number: i.i.d., or stratified in a random order;
+#: :mod:`envfit.predict.renderer._lobe_parts`): not ``orthogonal``
+PLASTIC_SAMPLERS = ("independent", "stratified", "multijitter", "ldsampler")
 #: the seed of the advice's frames (normal, view) for a microfacet BSDF
 #: (:func:`envfit.predict.renderer.band_frames`): fixed, so that an answer is reproducible
 MICROFACET_FRAMES_SEED = 20251

@@ -386,11 +386,13 @@ def test_the_stop_sentence_names_the_next_spp_the_sampler_runs(gp_file, tmp_path
            "--renderer-level 7 (4x the time and memory)" in lines[0]
 
 
-def test_roughplastic_answer_is_the_models_and_qmc_is_refused(sun_file, tmp_path, capsys):
+def test_roughplastic_answer_is_the_models_and_orthogonal_is_refused(sun_file, tmp_path,
+                                                                     capsys):
     """--brdf roughplastic (Mitsuba's roughplastic, a GGX coat): the answer's spp meets the
     target and the spp below misses per a fresh MicrofacetModel of RoughPlastic over the same
     frames; the JSON names the BSDF (no Fresnel-1 claim); the snippet is Mitsuba's
-    roughplastic; a QMC sampler or another renderer is one line (the lobe choice)."""
+    roughplastic; ``ldsampler`` answers by the lobe-choice model, ``orthogonal`` or another
+    renderer is one line."""
     from envfit.defaults import MICROFACET_FRAMES_SEED
     from envfit.predict.renderer import MicrofacetModel, band_frames
     from envfit.shading.microfacet import RoughPlastic
@@ -414,10 +416,17 @@ def test_roughplastic_answer_is_the_models_and_qmc_is_refused(sun_file, tmp_path
                for ln in lines)
     assert any("rough plastic (Mitsuba's roughplastic: a GGX coat of alpha 0.2" in ln
                for ln in lines)
-    for extra in (["--sampler", "ldsampler"], ["--renderer", "cycles"]):
+    rc, _, _, d = _run(capsys, [sun_file, "--renderer", "mitsuba3", "--brdf", "roughplastic",
+                                "--roughness", "0.2", "--sampler", "ldsampler",
+                                "--target-relative", "0.05", "--renderer-level", "5", *MODEL],
+                       tmp_path)
+    assert rc == 0
+    rec = d["renderer"]["recommendation"]
+    assert m.predict("mis", "ldsampler", rec["spp"]).rmse <= rec["target_rmse"]
+    for extra in (["--sampler", "orthogonal"], ["--renderer", "cycles"]):
         rc, _, err, _ = _run(capsys, [sun_file, "--renderer", "mitsuba3", "--brdf",
                                       "roughplastic", "--roughness", "0.2", *extra], tmp_path)
-        assert rc == 2 and len(err) == 1 and "independent sampler" in err[0]
+        assert rc == 2 and len(err) == 1 and "ldsampler" in err[0]
 
 
 def test_cycles_multiscatter_ggx_and_the_note_that_names_it(sun_file, tmp_path, capsys):

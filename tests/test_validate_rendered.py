@@ -61,22 +61,21 @@ def test_mitsuba_renders_the_conductor_inside_its_prediction(sun_file, tmp_path,
 
 def test_mitsuba_renders_the_rough_plastic_inside_its_prediction(sun_file, tmp_path, capsys,
                                                                  monkeypatch):
-    """Mitsuba's roughplastic (GGX α = 0.2, η 1.49, diffuse 0.5), the independent sampler ×
-    brdf, map, mis at 16 spp: every cell inside; QMC with the BSDF sampled is refused by the
-    model (its lobe choice is a third dimension), emitter-only QMC is not."""
+    """Mitsuba's roughplastic (GGX α = 0.2, η 1.49, diffuse 0.5), the independent and
+    ldsampler samplers × brdf, map, mis at 16 spp: every cell inside (ldsampler's BSDF
+    sampling by the lobe-choice model); ``orthogonal`` is one line, exit 2, before the map
+    is read."""
     pytest.importorskip("mitsuba")
     rc, lines, _, d = _run(capsys, [sun_file, "--renderer", "mitsuba3", "--brdf",
                                     "roughplastic", "--roughness", "0.2", *SMALL],
                            tmp_path, monkeypatch)
-    assert rc == 0 and d["cells"] == 3 and d["inside"] == 3, lines
+    assert rc == 0 and d["cells"] == 6 and d["inside"] == 6, lines
+    assert {r["sampler"] for r in d["rows"]} == {"independent", "ldsampler"}
     assert "rough plastic, GGX alpha 0.2" in lines[1]
-    from envfit.base import ParameterError
-    from envfit.validate._rendered import _model
-    m = _model(EnvMap(sun_gp_map(16, seed=2)[0]), RenderValidationOptions(
-        "mitsuba3", brdf="roughplastic", alpha=0.2, resolution=8, frames=6, max_level=5))
-    assert m.predict("map", "ldsampler", 16).rmse > 0
-    with pytest.raises(ParameterError, match="independent sampler only"):
-        m.predict("mis", "ldsampler", 16)
+    rc, _, err, _ = _run(capsys, [tmp_path / "missing.exr", "--renderer", "mitsuba3",
+                                  "--brdf", "roughplastic", "--roughness", "0.2",
+                                  "--samplers", "orthogonal"], tmp_path, monkeypatch)
+    assert rc == 2 and len(err) == 1 and "orthogonal" in err[0]
 
 
 def _result(inside: list[bool]) -> RenderValidation:

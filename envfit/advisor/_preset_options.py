@@ -40,7 +40,8 @@ import numpy as np
 
 from envfit.base._checks import check_int, check_ints, check_names
 from envfit.base._errors import EnvfitError, ParameterError
-from envfit.defaults import FOOTPRINT_SIDE, MICROFACET_BSDFS, MICROFACET_FRAMES_SEED
+from envfit.defaults import (FOOTPRINT_SIDE, MICROFACET_BSDFS, MICROFACET_FRAMES_SEED,
+                             PLASTIC_SAMPLERS)
 from envfit.maps import EnvMap
 from envfit.predict.renderer._preset_model import PresetModel, PresetModelOptions
 from envfit.sampling.presets import STRATEGY_NAMES, preset
@@ -217,12 +218,13 @@ class PresetAdviseOptions:
             raise ParameterError(f"with --renderer, --brdf is diffuse, ggx, beckmann, "
                                  f"roughplastic or multiggx (the paper's glossy lobe is no "
                                  f"renderer's BSDF); got {self.bsdf!r}")
-        if self.bsdf == "roughplastic" and (p.name != "mitsuba3" or self.sampler not in (
-                None, "independent")):
-            raise ParameterError("--brdf roughplastic is Mitsuba 3's roughplastic, modelled "
-                                 "for its independent sampler (the lobe choice is a third "
-                                 "dimension of a QMC sampler): --renderer mitsuba3 --sampler "
-                                 "independent")
+        if self.bsdf == "roughplastic" and (p.name != "mitsuba3"
+                                            or self.sampler not in PLASTIC_SAMPLERS):
+            raise ParameterError(f"--brdf roughplastic is Mitsuba 3's roughplastic, modelled "
+                                 f"for its {', '.join(PLASTIC_SAMPLERS)} samplers (orthogonal "
+                                 f"pairs the lobe choice with the direction in an array): "
+                                 f"--renderer mitsuba3 --sampler "
+                                 f"{'|'.join(PLASTIC_SAMPLERS)}")
         if p.name not in RENDERERS:
             raise ParameterError(f"{RENDERER_NAMES[p.name]} has no microfacet conductor "
                                  f"preset; use --renderer mitsuba3, pbrt4 or cycles")

@@ -39,7 +39,8 @@ import numpy as np
 from envfit.advisor._cache import AdviseCache
 from envfit.defaults import FOOTPRINT_SIDE, MICROFACET_FRAMES_SEED
 from envfit.predict.renderer._footprint import pixel_footprints
-from envfit.predict.renderer._microfacet_model import MicrofacetModel, band_frames
+from envfit.predict.renderer._frames import band_frames
+from envfit.predict.renderer._microfacet_model import MicrofacetModel
 from envfit.predict.renderer._preset_model import PresetModel
 
 __all__ = ["CachedPresetModel", "StrategyAnswer", "model_version", "runnable_spp",

@@ -36,6 +36,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from envfit.base import ParameterError
+from envfit.defaults import PLASTIC_SAMPLERS
 
 __all__ = ["RenderValidationOptions", "RenderValidation", "render_validation", "measure_cell",
            "is_inside", "summary_lines", "RENDERED_BRDFS", "RENDERERS"]
@@ -75,7 +76,7 @@ class RenderValidationOptions:
     renderer : ``"mitsuba3"`` or ``"cycles"`` (:data:`RENDERERS`).
     brdf : ``"diffuse"``, ``"ggx"`` or ``"beckmann"`` (a white conductor; needs ``alpha``), or
         ``"roughplastic"`` (Mitsuba 3 only: its ``roughplastic`` with a GGX coat of ``alpha``;
-        the BSDF's sampling modelled for the ``independent`` sampler, the default then).
+        modelled under the samplers of :data:`envfit.defaults.PLASTIC_SAMPLERS`).
     alpha : the microfacet roughness α (Mitsuba's ``alpha``; Cycles' Glossy roughness √α).
     samplers : the renderer's samplers by their own names (default :data:`RENDERERS`).
     strategies : among ``brdf``, ``map``, ``mis`` that the renderer renders (default: all of
@@ -124,10 +125,15 @@ class RenderValidationOptions:
             raise ParameterError("--brdf multiggx is Cycles' Multiscatter GGX (the Principled "
                                  "and Glossy BSDF nodes' default): --renderer cycles")
         p = preset(self.renderer)
-        samplers = tuple(self.samplers) or (("independent",) if self.brdf == "roughplastic"
-                                            else RENDERERS[self.renderer])
+        samplers = tuple(self.samplers) or RENDERERS[self.renderer]
         for s in samplers:
             p.sampler(s)
+        odd = [s for s in samplers if s not in PLASTIC_SAMPLERS]
+        if self.brdf == "roughplastic" and odd:
+            raise ParameterError(f"the rough plastic is modelled for Mitsuba's "
+                                 f"{', '.join(PLASTIC_SAMPLERS)} samplers (orthogonal pairs "
+                                 f"its lobe choice with the direction in an array); got "
+                                 f"{odd[0]}")
         renderable = tuple(s for s in ("brdf", "map", "mis") if p.strategy(s).renderable)
         strategies = tuple(self.strategies) or renderable
         bad = [s for s in strategies if s not in renderable]

@@ -17,6 +17,8 @@ Modules:
   surface from its preset (its own estimator, its sampler's exact randomisation).
 * :mod:`~envfit.predict.renderer._microfacet_model` — the same for a rough conductor (GGX,
   Beckmann), per frame (normal, view): view-dependent.
+* :mod:`~envfit.predict.renderer._frames` — the frames it averages over: a render's pixels,
+  or views in a band of polar angles.
 * :mod:`~envfit.predict.renderer._footprint` — a rendered pixel's footprint: the normals it
   spans and the variance its film position adds.
 
@@ -37,8 +39,8 @@ _LAZY = {
     "SpectrumInputs": "_warped_spectrum", "warped_integrand": "_warped_spectrum",
     "PresetModel": "_preset_model", "PresetModelOptions": "_preset_model",
     "PresetPrediction": "_preset_model",
-    "MicrofacetModel": "_microfacet_model", "band_frames": "_microfacet_model",
-    "pixel_frames": "_microfacet_model", "pixel_footprints": "_footprint",
+    "MicrofacetModel": "_microfacet_model", "band_frames": "_frames",
+    "pixel_frames": "_frames", "pixel_footprints": "_footprint",
 }
 
 __all__ = sorted(_LAZY)

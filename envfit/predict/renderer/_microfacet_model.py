@@ -20,10 +20,10 @@ CMJ, digital shift, Owen, and MIS's two streams), so every sampler the diffuse m
 is predicted here too.
 
 The average over frames is a weighted mean of the per-frame MSE: the frames and weights are
-the caller's — the pixels of a render (:func:`pixel_frames`: the kept pixels of
+the caller's — the pixels of a render (:func:`~envfit.predict.renderer.pixel_frames`: the kept pixels of
 :mod:`envfit.measure.renderers`' six views, weighted as its RMSE weights them), or frames
 with the view at a polar angle θ_o in a band and the map's orientation uniform
-(:func:`band_frames`: θ_o with density ∝ cos θ_o sin θ_o, what an orthographic camera sees of
+(:func:`~envfit.predict.renderer.band_frames`: θ_o with density ∝ cos θ_o sin θ_o, what an orthographic camera sees of
 a sphere).
 
 A rendered pixel averages its footprint: the film position is two more dimensions of the
@@ -47,11 +47,13 @@ from envfit.predict.renderer._microfacet_kernels import (compiled_conductor,
                                                         compiled_cycles, cycles_eval_pdf)
 from envfit.predict.renderer._vndf_kernels import compiled_sampling, conductor_sample
 from envfit.predict.renderer._footprint import _unit, with_variances
+from envfit.predict.renderer._lobe_parts import LobeChoice
 from envfit.predict.renderer._preset_integrand import MapTable, _is_mitsuba, midpoints
+from envfit.predict.renderer.randomisation import STRATIFIED_1D
 from envfit.predict.renderer._preset_model import (PresetModel, PresetModelOptions,
                                                    systematic_indices)
 
-__all__ = ["MicrofacetModel", "pixel_frames", "band_frames", "BANDS", "rmse_sampling_error"]
+__all__ = ["MicrofacetModel", "BANDS", "rmse_sampling_error"]
 
 #: the view-angle bands θ_o (degrees) reported beside the whole-sphere value (issue 25)
 BANDS = ((0.0, 30.0), (30.0, 60.0), (60.0, 80.0))
@@ -84,60 +86,7 @@ def rmse_sampling_error(weights, mse) -> float | None:
     return float(np.sqrt(var) / (2.0 * mean))
 
 
-def band_frames(count: int, theta_range=(0.0, 90.0), *, seed=0):
-    r"""``count`` frames (normals (K, 3), views (K, 3)) with the view at a polar angle θ_o
-    from the normal in ``theta_range`` (degrees), density ∝ cos θ_o sin θ_o there (the
-    pixels of an orthographic view of a sphere), the normal uniform on the sphere and the
-    view's azimuth uniform — the frames of uniformly rotated maps. Stratified in
-    (cos² θ_o, azimuth, normal) by one shuffled Latin hypercube from ``seed``.
-
-    >>> n, v = band_frames(64, (30, 60), seed=1)
-    >>> t = np.degrees(np.arccos(np.sum(n * v, axis=1)))
-    >>> bool(t.min() >= 30 and t.max() <= 60)
-    True
-    """
-    lo, hi = (float(x) for x in theta_range)
-    if not (0.0 <= lo < hi <= 90.0):
-        raise ParameterError(f"theta_range must satisfy 0 <= low < high <= 90, got {theta_range}")
-    rng = np.random.default_rng(seed)
-    k = int(count)
-    u = (rng.permuted(np.tile(np.arange(k), (4, 1)), axis=1).T + rng.random((k, 4))) / k
-    c2 = np.cos(np.radians(hi)) ** 2 + u[:, 0] * (np.cos(np.radians(lo)) ** 2
-                                                 - np.cos(np.radians(hi)) ** 2)
-    ct = np.sqrt(c2)                                           # density ∝ cos θ sin θ
-    st = np.sqrt(np.clip(1.0 - c2, 0.0, None))
-    phi = 2.0 * np.pi * u[:, 1]
-    z = 1.0 - 2.0 * u[:, 2]
-    a = 2.0 * np.pi * u[:, 3]
-    n = np.column_stack([np.sqrt(1 - z * z) * np.cos(a), np.sqrt(1 - z * z) * np.sin(a), z])
-    t = _unit(np.cross(n, np.where(np.abs(n[:, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]])))
-    b = np.cross(n, t)
-    v = (st * np.cos(phi))[:, None] * t + (st * np.sin(phi))[:, None] * b + ct[:, None] * n
-    return n, _unit(v)
-
-
-def pixel_frames(geometry, views, count: int, *, seed=0):
-    r"""``count`` frames drawn from the kept pixels of the sphere renders (``geometry`` from
-    :func:`envfit.measure.renderers.sphere_geometry`, ``views`` their :data:`VIEWS`): the
-    pixel's normal and its view axis, drawn with probability ∝ the RMSE's pixel weight 1/z
-    (systematic sampling, a random start from ``seed``), so the plain mean over the frames
-    estimates the measurement's weighted mean. Returns (normals, views, θ_o in degrees)."""
-    from envfit.measure.renderers import view_normals
-    ns, vs, ws = [], [], []
-    for view in views:
-        n = view_normals(view, geometry)[geometry.keep]
-        ns.append(n)
-        vs.append(np.broadcast_to(np.asarray(view.axis, dtype=np.float64), n.shape))
-        ws.append(geometry.weight[geometry.keep])
-    n, v, w = np.concatenate(ns), np.concatenate(vs), np.concatenate(ws)
-    cdf = np.cumsum(w) / w.sum()
-    start = np.random.default_rng(seed).random()
-    idx = np.minimum(np.searchsorted(cdf, (np.arange(count) + start) / count), len(w) - 1)
-    theta = np.degrees(np.arccos(np.clip(np.sum(n[idx] * v[idx], axis=1), -1.0, 1.0)))
-    return n[idx], np.ascontiguousarray(v[idx]), theta
-
-
-class MicrofacetModel(PresetModel):
+class MicrofacetModel(LobeChoice, PresetModel):
     r"""The noise model of one map and one rough conductor under one renderer preset, over
     given frames (module docstring).
 
@@ -150,8 +99,7 @@ class MicrofacetModel(PresetModel):
         heuristic, samplers).
     conductor : envfit.shading.microfacet.Conductor or RoughPlastic
         The BSDF as the same renderer shades and samples it (a rough plastic's BSDF sampling,
-        whose lobe takes a third random number, for the independent sampler only:
-        :meth:`request`).
+        whose lobe takes a third random number: :mod:`._lobe_parts`, :meth:`request`).
     frames : tuple of arrays
         (normals (K, 3), views (K, 3)), world directions; ``weights`` (K,) optional (default
         equal).
@@ -175,6 +123,7 @@ class MicrofacetModel(PresetModel):
     >>> from envfit.maps import EnvMap
     >>> from envfit.sampling.presets import preset
     >>> from envfit.shading.microfacet import Conductor
+    >>> from envfit.predict.renderer import band_frames
     >>> env = EnvMap(np.full((8, 16, 3), 2.0))
     >>> m = MicrofacetModel(env, preset("mitsuba3"), Conductor("ggx", 0.3),
     ...                     band_frames(4, seed=0), options=PresetModelOptions(max_level=4))
@@ -278,14 +227,28 @@ class MicrofacetModel(PresetModel):
 
     def request(self, strategy: str, sampler: str, spp: int):
         """:meth:`PresetModel.request`; a BSDF whose sampling takes a lobe choice (a rough
-        plastic: ``sample_square``) is modelled for i.i.d. samples only when it is sampled."""
+        plastic) is modelled, when it is sampled, for the samplers whose 1-D number is i.i.d.
+        or stratified in a random order (:mod:`._lobe_parts`), not ``orthogonal``."""
         r = super().request(strategy, sampler, spp)
-        if (hasattr(self.conductor, "sample_square") and strategy != "map"
-                and r.name != "independent"):
+        if (self._two_lobes() and strategy != "map"
+                and r.name not in ("independent",) + STRATIFIED_1D):
             raise ParameterError(f"the rough plastic's {strategy} is modelled for the "
-                                 f"independent sampler only (its lobe choice is a third "
-                                 f"dimension of {sampler}); got {sampler}")
+                                 f"independent, stratified, multijitter and ldsampler samplers "
+                                 f"(its lobe choice is a 1-D dimension {sampler} pairs with "
+                                 f"the direction's in an array); got {sampler}")
         return r
+
+    def _run(self, todo: list) -> None:
+        """:meth:`PresetModel._run`, with the lobes' tables when a request needs them."""
+        self._lobes = self._lobe_requests(todo)
+        super()._run(todo)
+
+    def _randomised_cell(self, r, vals: dict, grids: dict, fine: int, levels):
+        """:meth:`PresetModel._randomised_cell`; a two-lobe BSDF's stream under a stratified
+        1-D sampler by :meth:`_lobe_cell`."""
+        if self._two_lobes() and r.strategy != "map" and r.name in STRATIFIED_1D:
+            return self._lobe_cell(r, vals, fine)
+        return super()._randomised_cell(r, vals, grids, fine, levels)
 
     def predict_bands(self, strategy: str, sampler: str, spp: int) -> dict:
         """The predicted RMSE per view-angle band of :data:`BANDS` ({"0-30": rmse, …}; a band
@@ -391,8 +354,9 @@ class MicrofacetModel(PresetModel):
         acc /= j                                                      # the mean table g-bar
         gbar = self._named(acc, strategies)
         idx = {p: PARTS.index(p) for p in gbar}
-        return with_variances(gbar, {p: sums[:, i, 0] / size for p, i in idx.items()},
-                              {p: sums[:, i, 1].sum(axis=0) / (j * size) for p, i in idx.items()})
+        out = with_variances(gbar, {p: sums[:, i, 0] / size for p, i in idx.items()},
+                             {p: sums[:, i, 1].sum(axis=0) / (j * size) for p, i in idx.items()})
+        return {**out, **self._lobe_values(strategies, foot, view, fine)}
 
     @staticmethod
     def _named(acc: np.ndarray, strategies: set) -> dict:
@@ -444,4 +408,5 @@ class MicrofacetModel(PresetModel):
         if len(frame) == 3:
             return self._footprint_parts(strategies, frame, fine)
         normal, view = frame
-        return self._named(self._accumulated(strategies, [normal], view, fine)[0], strategies)
+        return {**self._named(self._accumulated(strategies, [normal], view, fine)[0], strategies),
+                **self._lobe_values(strategies, [normal], view, fine)}

@@ -1,0 +1,100 @@
+r"""A two-lobe BSDF (Mitsuba 3's ``roughplastic``) under a QMC sampler: the tables and the cell
+of :class:`~envfit.predict.renderer.MicrofacetModel` for a BSDF stream whose lobe is picked
+by a 1-D number of its own.
+
+Under the ``independent`` sampler the lobe number and the direction's two are one uniform
+point of the square (``RoughPlastic.sample_square``: the i.i.d. estimator has the same
+variance). Under ``stratified``, ``multijitter`` and ``ldsampler`` the lobe number is a
+stratified 1-D dimension paired at random with the 2-D points, and the error is
+:func:`~envfit.predict.renderer.randomisation.lobe_choice_mse` of the two lobes' tables:
+:math:`a(u)`, the BSDF sample's value (radiance · f·cos / mixture pdf, times its MIS weight
+for ``mis``) when the specular lobe draws ω from u, :math:`b(u)` when the diffuse one does,
+and p the frame's specular probability (``prob_specular`` at the view's cosine). A frame with
+a pixel footprint averages the tables and p over its normals (p varies little across a
+pixel); its footprint term stays that of the one-square parts. Mitsuba's ``orthogonal``
+draws the lobe number from a column of its orthogonal array, not at random: not modelled.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from envfit.predict.renderer._microfacet_kernels import PARTS, accumulate_parts
+from envfit.predict.renderer._preset_integrand import moment_pyramid
+from envfit.predict.renderer.randomisation import (STRATIFIED_1D, DyadicGrid,
+                                                   lobe_choice_mis, lobe_choice_mse)
+
+__all__ = ["LobeChoice"]
+
+_LOBES = (("a", 0.0), ("b", 1.0))             # Mitsuba's sample1: 0 < p (specular), 1 ≥ p
+
+
+class LobeChoice:
+    """The lobe-choice part of :class:`~envfit.predict.renderer.MicrofacetModel` (module
+    docstring): ``_lobes`` says whether the pass in progress needs the lobes' tables."""
+
+    _lobes = False
+
+    def _two_lobes(self) -> bool:
+        return hasattr(self.conductor, "sample_square")
+
+    def _lobe_requests(self, todo) -> bool:
+        """Whether any request of ``todo`` is a two-lobe BSDF's stream under a stratified 1-D
+        sampler."""
+        return self._two_lobes() and any(r.strategy != "map" and r.name in STRATIFIED_1D
+                                         for r in todo)
+
+    def _sample_lobe(self, wi, u, u1: float):
+        """(ω_o, weight, pdf) of the BSDF's sampling in one lobe (``sample1`` = ``u1``)."""
+        s = self.conductor.sample(np.broadcast_to(wi, (len(u), 3)), u, u1=np.full(len(u), u1))
+        dead = s.weight <= 0
+        return (np.where(dead[:, None], [0.0, 0.0, 1.0], s.wo), s.weight,
+                np.where(dead, 0.0, s.pdf))
+
+    def _lobe_values(self, strategies: set, normals, view, fine: int) -> dict:
+        """``brdf_a``, ``brdf_b``, ``mis_ba``, ``mis_bb`` (P, 3): each lobe's BSDF part and
+        MIS-weighted part averaged over ``normals``, and ``_p``, the mean specular
+        probability; {} when no request of the pass needs them."""
+        if not (self._lobes and strategies & {"brdf", "mis"}):
+            return {}
+        u = self._table("bsdf", fine)
+        out, ps = {}, []
+        for name, u1 in _LOBES:
+            acc = np.zeros((len(PARTS), len(u), 3))
+            for normal in normals:
+                rows = np.asarray(self.preset.tangent_frame(normal.reshape(1, 3))[0])
+                wi = rows @ view
+                wo, weight, pdf = self._sample_lobe(wi, u, u1)
+                rad, pe = self._technique_values(wo, rows, weight)
+                accumulate_parts(acc, None, (rad, weight, pdf, pe), self._fractions("mis"),
+                                 self.preset.heuristic)
+                if name == "a":
+                    ps.append(float(self.conductor.prob_specular(np.array([max(wi[2], 0.0)]))[0]
+                                    if wi[2] > 0 else 0.0))
+            acc /= len(normals)
+            out[f"brdf_{name}"], out[f"mis_b{name}"] = acc[PARTS.index("brdf")], \
+                acc[PARTS.index("mis_b")]
+        out["_p"] = float(np.mean(ps))
+        return out
+
+    def _lobe_cell(self, r, vals: dict, fine: int):
+        """(mse, emitter part, BSDF part, 2·cross) per channel of a two-lobe BSDF's request
+        under a stratified 1-D sampler (:func:`lobe_choice_mse`, :func:`lobe_choice_mis`)."""
+        def grid(values):
+            a, b = moment_pyramid(values, fine, {r.level})[r.level]
+            return DyadicGrid.from_arrays(a, np.maximum(b, a * a))
+
+        def grid_of(prefix, base=None):
+            def of(x, y):
+                v = x * vals[f"{prefix}a"] + y * vals[f"{prefix}b"]
+                return grid(v if base is None else v + vals[base])
+            return of
+
+        p, opts, opts_b = vals["_p"], dict(r.options), dict(r.options_b)
+        if r.strategy == "brdf":
+            mse = lobe_choice_mse(r.name, grid_of("brdf_"), r.n, p, **opts_b)
+            z = np.zeros_like(mse)
+            return mse, z, mse, z
+        mse, e, b, cross = lobe_choice_mis(r.name, grid(vals["mis_e"]), grid_of("mis_b"), r.n,
+                                           p, shared=r.shared, options=opts, options_b=opts_b,
+                                           total_of=grid_of("mis_b", "mis_e"))
+        return mse, e, b, 2.0 * cross
