@@ -69,7 +69,7 @@ def polar_disk(u: np.ndarray) -> np.ndarray:
 
 
 def _normalize(v: np.ndarray) -> np.ndarray:
-    return v / np.linalg.norm(v, axis=1, keepdims=True)
+    return v / np.sqrt(np.einsum("ij,ij->i", v, v))[:, None]     # np.linalg.norm, faster
 
 
 def _stretch(wi: np.ndarray, alpha: float) -> np.ndarray:
