@@ -19,6 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from envfit.predict.renderer._microfacet_kernels import PARTS, accumulate_parts
+from envfit.predict.renderer._plastic_kernels import compiled_plastic, plastic_sample
 from envfit.predict.renderer._preset_integrand import moment_pyramid
 from envfit.predict.renderer.randomisation import (STRATIFIED_1D, DyadicGrid,
                                                    lobe_choice_mis, lobe_choice_mse)
@@ -44,7 +45,10 @@ class LobeChoice:
                                          for r in todo)
 
     def _sample_lobe(self, wi, u, u1: float):
-        """(ω_o, weight, pdf) of the BSDF's sampling in one lobe (``sample1`` = ``u1``)."""
+        """(ω_o, weight, pdf) of the BSDF's sampling in one lobe (``sample1`` = ``u1``):
+        compiled for a rough plastic (:func:`plastic_sample`), numpy otherwise."""
+        if compiled_plastic(self.conductor):
+            return plastic_sample(self.conductor, wi, u, u1)
         s = self.conductor.sample(np.broadcast_to(wi, (len(u), 3)), u, u1=np.full(len(u), u1))
         dead = s.weight <= 0
         return (np.where(dead[:, None], [0.0, 0.0, 1.0], s.wo), s.weight,

@@ -346,6 +346,8 @@ class RoughPlastic:
             p = concentric_disk(s2[~spec])
             wo[~spec] = np.column_stack([p, np.sqrt(np.maximum(1.0 - (p * p).sum(axis=1),
                                                                0.0))])
+        bad = ~np.all(np.isfinite(wo), axis=1)          # the warp's NaN on the square's edge
+        wo[bad] = (0.0, 0.0, -1.0)                      # a dead sample: pdf and weight 0
         pdf = self.pdf(wi, wo)
         with np.errstate(divide="ignore", invalid="ignore"):
             weight = np.where(pdf > 0, self.eval(wi, wo) / pdf, 0.0)
