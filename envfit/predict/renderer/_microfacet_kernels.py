@@ -119,21 +119,34 @@ def _proxies(wis, frames, dirs, table, consts, out):  # pragma: no cover - numba
     for a in numba.prange(wis.shape[0]):
         wi = wis[a]
         view = (wi[0], wi[1], wi[2], _lambda(wi[0], wi[1], wi[2], alpha, kind))
-        s0 = s1 = s2 = b2fc2 = second = 0.0
+        acc = np.zeros(5)
         for p in range(size):
             fc, pb = _fc_pdf(view, _local(dirs[p], frames[a]), alpha, kind, separable)
-            if fc == 0.0:
-                continue
-            s0 += table[p, 0] * fc
-            s1 += table[p, 1] * fc
-            s2 += table[p, 2] * fc
-            b2 = table[p, 0] ** 2 + table[p, 1] ** 2 + table[p, 2] ** 2
-            b2fc2 += b2 * fc * fc
-            if pb > 0.0:
-                second += b2 * table[p, 3] * fc * fc / pb
-        mean2 = (s0 / size) ** 2 + (s1 / size) ** 2 + (s2 / size) ** 2
-        out[a, 0] = max(0.0, b2fc2 / size - mean2)
-        out[a, 1] = max(0.0, second / size - mean2)
+            _proxy_add(acc, table[p], fc, pb)
+        _proxy_out(acc, size, out[a])
+
+
+@numba.njit(cache=True)
+def _proxy_add(acc, row, fc, pb):  # pragma: no cover - numba
+    """Add one table point (``row`` = π·base (3), map pdf) with the BSDF's f·cos ``fc`` and
+    pdf ``pb`` to a frame's sums ``acc``: Σ b f per channel, Σ |b|² f², Σ |b|² p f²/p_b."""
+    if fc == 0.0:
+        return
+    acc[0] += row[0] * fc
+    acc[1] += row[1] * fc
+    acc[2] += row[2] * fc
+    b2 = row[0] ** 2 + row[1] ** 2 + row[2] ** 2
+    acc[3] += b2 * fc * fc
+    if pb > 0.0:
+        acc[4] += b2 * row[3] * fc * fc / pb
+
+
+@numba.njit(cache=True)
+def _proxy_out(acc, size, out):  # pragma: no cover - numba
+    """A frame's (v_e, v_b) into ``out`` (2) from its sums over ``size`` points."""
+    mean2 = (acc[0] / size) ** 2 + (acc[1] / size) ** 2 + (acc[2] / size) ** 2
+    out[0] = max(0.0, acc[3] / size - mean2)
+    out[1] = max(0.0, acc[4] / size - mean2)
 
 
 def conductor_proxies(conductor, wis, frames, dirs, base, pdf) -> np.ndarray:

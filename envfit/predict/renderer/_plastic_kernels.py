@@ -35,7 +35,8 @@ import math
 import numba
 import numpy as np
 
-from envfit.predict.renderer._microfacet_kernels import _KINDS, _d, _lambda, _local
+from envfit.predict.renderer._microfacet_kernels import (_KINDS, _d, _lambda, _local,
+                                                        _proxy_add, _proxy_out)
 from envfit.predict.renderer._vndf_kernels import _disk, _normal, _view_constants
 from envfit.shading.microfacet import RoughPlastic
 
@@ -203,21 +204,11 @@ def _proxies(wis, frames, dirs, tab, consts, table, out):  # pragma: no cover - 
     for a in numba.prange(wis.shape[0]):
         wi = wis[a]
         view = _view(wi[0], wi[1], wi[2], consts, table)
-        s0 = s1 = s2 = b2fc2 = second = 0.0
+        acc = np.zeros(5)
         for p in range(size):
             fc, pb = _fc_pdf(wi, view, _local(dirs[p], frames[a]), consts, table)
-            if fc == 0.0:
-                continue
-            s0 += tab[p, 0] * fc
-            s1 += tab[p, 1] * fc
-            s2 += tab[p, 2] * fc
-            b2 = tab[p, 0] ** 2 + tab[p, 1] ** 2 + tab[p, 2] ** 2
-            b2fc2 += b2 * fc * fc
-            if pb > 0.0:
-                second += b2 * tab[p, 3] * fc * fc / pb
-        mean2 = (s0 / size) ** 2 + (s1 / size) ** 2 + (s2 / size) ** 2
-        out[a, 0] = max(0.0, b2fc2 / size - mean2)
-        out[a, 1] = max(0.0, second / size - mean2)
+            _proxy_add(acc, tab[p], fc, pb)
+        _proxy_out(acc, size, out[a])
 
 
 def compiled_plastic(bsdf) -> bool:
