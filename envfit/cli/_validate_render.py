@@ -32,7 +32,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--reference-spp", type=positive_int, default=None, metavar="N",
                    help="spp of each of the two reference renders (default: 1024)")
     g.add_argument("--frames", type=positive_int, default=None, metavar="K",
-                   help="the model's frames (a conductor) or normals (diffuse) (default: 64)")
+                   help="the model's frames (a conductor or plastic; default 256) or normals "
+                        "(diffuse; default 64)")
     g.add_argument("--footprint", type=positive_int, default=None, metavar="J",
                    help="normals per pixel side in the model: each rendered pixel averages "
                         "the normals it spans (default 2; 1: pixel centres, a quarter of "
