@@ -36,7 +36,9 @@ def test_nearest_views_are_the_cube_layouts():
 def test_diffuse_footprint_independent_is_the_pixels_variance(name):
     """Independent points, a sphere 6 pixels across: N × MSE per normal is
     E_p Var_u g + Var_p E_u g over the footprint's tables (summed here directly; the model
-    keeps running sums), and the points-only model (no footprint) differs from it."""
+    keeps running sums), the part over the pixel (all but the footprint mean's Var_u ḡ)
+    scaled by J/(J − 1) from the J midpoints to the pixel; the points-only model (no
+    footprint) differs from it."""
     p = preset(name)
     opts = dict(normals=3, pool=32, max_level=4)
     env = _sun_map()
@@ -51,8 +53,10 @@ def test_diffuse_footprint_independent_is_the_pixels_variance(name):
             vals = [m._point_parts({strategy}, x, fine) for x in foot]
             g = {t: np.stack([v[t] for v in vals]) for t in streams}
             total = sum(x.mean(axis=1) for x in g.values())
-            truth.append(sum(np.mean(x.var(axis=1), axis=0) for x in g.values())
-                         + total.var(axis=0))
+            every = sum(np.mean(x.var(axis=1), axis=0) for x in g.values()) + total.var(axis=0)
+            main = sum(x.mean(axis=0).var(axis=0) for x in g.values())      # Var_u ḡ
+            k = len(foot) / (len(foot) - 1)
+            truth.append(main + k * (every - main))
         want = m.weights @ np.array(truth)
         got = m.predict(strategy, "independent", 16).mse * 16
         np.testing.assert_allclose(got, want, rtol=1e-6, err_msg=strategy)

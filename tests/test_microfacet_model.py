@@ -300,19 +300,21 @@ def test_footprint_term_independent_is_the_pixels_variance():
     """Independent points: N × MSE is the estimator's variance over (film position, light
     sample), E_p Var_u g + Var_p E_u g (MIS: E_p of both streams' variances, the film
     position shared), here summed directly over the footprint's normals'
-    tables (the model: the footprint mean's table and the interaction by running sums). The
-    pixel's centre alone is off by far more than 10 %: its lobe catches the sun that most of
-    the pixel misses."""
+    tables (the model: the footprint mean's table and the interaction by running sums), the
+    part over the pixel (all but the footprint mean's Var_u ḡ) scaled by J/(J − 1) from the
+    J midpoints to the pixel. The pixel's centre alone is off by far more than 10 %: its lobe
+    catches the sun that most of the pixel misses."""
     m, plain, foot, view = _footprint_model()
-    fine = 7
+    fine, k = 7, len(foot) / (len(foot) - 1)
     for strategy, streams in (("map", ("map",)), ("brdf", ("brdf",)),
                               ("mis", ("mis_e", "mis_b"))):
         vals = [m._part_values({strategy}, (x, view), fine) for x in foot]
         g = {t: np.stack([v[t] for v in vals]) for t in streams}        # (J, M, C)
         total = sum(x.mean(axis=1) for x in g.values())                 # I(p) (J, C)
         truth = sum(np.mean(x.var(axis=1), axis=0) for x in g.values()) + total.var(axis=0)
+        main = sum(x.mean(axis=0).var(axis=0) for x in g.values())      # Var_u ḡ
         got = m.predict(strategy, "independent", 16).mse * 16
-        np.testing.assert_allclose(got, truth, rtol=1e-6, err_msg=strategy)
+        np.testing.assert_allclose(got, main + k * (truth - main), rtol=1e-6, err_msg=strategy)
     centre = plain.predict("brdf", "independent", 16).mse * 16
     g = np.stack([m._part_values({"brdf"}, (x, view), fine)["brdf"] for x in foot])
     truth = np.mean(g.var(axis=1), axis=0) + g.mean(axis=1).var(axis=0)
@@ -324,7 +326,8 @@ def test_footprint_term_for_nets_matches_a_simulation():
     (0, 2)-nets of N = 16 points paired by a random permutation (``ldsampler.cpp``). Simulated
     over 100,000 randomisations, with the film point choosing its footprint stratum and the BSDF
     point its fine cell, the MSE agrees with the model's (the footprint mean's randomised
-    error + Var c/(N − 1)) to 15 %, where the pixel's centre alone is off by more."""
+    error + Var c/(N − 1), Var c over the J strata: the model's without its J/(J − 1)) to
+    15 %, where the pixel's centre alone is off by more."""
     from scipy.stats import qmc
     m, plain, foot, view = _footprint_model(side=4)
     fine, n, side = 7, 16, 4
@@ -341,10 +344,31 @@ def test_footprint_term_for_nets_matches_a_simulation():
     cell = (np.minimum((light[..., 0] * mm).astype(int), mm - 1) * mm
             + np.minimum((light[..., 1] * mm).astype(int), mm - 1))
     sim = np.mean((g[j, cell].mean(axis=1) - g.mean(axis=(0, 1))) ** 2, axis=0)
-    got = m.predict("brdf", "ldsampler", n).mse
+    var_c = m._part_values({"brdf"}, m.normals[0], fine)["_var_c"]["brdf"]
+    got = m.predict("brdf", "ldsampler", n).mse - var_c / len(foot) / (n - 1)   # the strata's
     without = plain.predict("brdf", "ldsampler", n).mse
     np.testing.assert_allclose(got, sim, rtol=0.15)
     assert np.all(np.abs(without / sim - 1) > np.abs(got / sim - 1))
+
+
+def test_footprint_variances_scaled_to_the_pixel_converge_with_the_side():
+    """Var c and Var a over a pixel of a 64-pixel view (GGX α = 0.3, the sun map), from the
+    midpoints of 2 × 2 strata scaled by J/(J − 1), agree with those of 8 × 8 strata to 5 %;
+    unscaled, the 2 × 2 values are 20–30 % low (a function linear across the pixel: 3/4 of
+    its variance at 2 × 2 midpoints, 63/64 at 8 × 8)."""
+    from envfit.measure.renderers import VIEWS, sphere_geometry
+    from envfit.predict.renderer import pixel_footprints
+    n, v, theta = pixel_frames(sphere_geometry(64, "disk"), VIEWS, 400, seed=3)
+    k = int(np.argmin(np.abs(theta - 50.0)))
+    got = {}
+    for side in (2, 8):
+        foot = pixel_footprints(n[k:k + 1], v[k:k + 1], 64, side)
+        m = MicrofacetModel(_sun_map(32), MITSUBA, Conductor("ggx", 0.3), (n[k:k + 1], v[k:k + 1]),
+                            options=PresetModelOptions(max_level=6), footprints=foot)
+        vals = m._part_values({"map", "brdf"}, m.normals[0], 7)
+        got[side] = np.array([vals[w][t] for w in ("_var_c", "_var_a") for t in ("map", "brdf")])
+    np.testing.assert_allclose(got[2], got[8], rtol=0.05)
+    assert np.all(got[2] * 3 / 4 < 0.8 * got[8])
 
 
 @pytest.mark.parametrize("kind,renderer", [("ggx", "mitsuba3"), ("beckmann", "cycles")])

@@ -12,7 +12,12 @@ the exact :math:`(E_p\mathrm{Var}_u g + \mathrm{Var}_p E_u g)/N`) and
 :math:`\sum_t \mathrm{Var}\,c_t/(N-1)` for randomly paired nets (each net sums c to about
 zero, which makes the pairs' cross terms positive; a, integrated by the film's own net, is
 left out) — :func:`footprint_term`. The footprint is sampled at side × side stratum midpoints
-of the pixel (:func:`pixel_footprints`).
+of the pixel (:func:`pixel_footprints`); the variances over them, Var a and Var c, are scaled
+by J/(J − 1), J = side²: the midpoints of s × s strata see (1 − 1/s²) of the variance over
+the pixel of a function linear across it (per axis (s² − 1)/(12 s²) against 1/12), so the
+scaled values are exact for linear variation and converge as the side grows (on sun-gp-1.5,
+GGX α = 0.3 at 1024 ``ldsampler`` spp, the unscaled term grew 1.254× from side 2 to 4, the
+linear law's 1.25; scaled, the two agree to 0.3 %).
 
 Used by :class:`~envfit.predict.renderer._preset_model.PresetModel` (a diffuse sphere R pixels
 across, each normal in the view nearest it: :func:`nearest_views`) and
@@ -25,7 +30,7 @@ import numpy as np
 from envfit.base import ParameterError
 
 __all__ = ["pixel_footprints", "nearest_views", "FootprintSums", "with_variances",
-           "footprint_term"]
+           "footprint_term", "pixel_variance_scale"]
 
 #: the parts each strategy draws (its streams) and the part whose mean over u is the pixel's
 #: integral
@@ -129,11 +134,25 @@ def with_variances(gbar: dict, means: dict, mean_sq: dict) -> dict:
     added, from each footprint normal's table mean ``means`` (J, C) and the mean of g² over
     the normals and the table ``mean_sq`` (C,): :math:`\mathrm{Var}\,a` = the variance of
     the normals' means, :math:`\mathrm{Var}\,c = E g^2 - E_u \bar g^2 - \mathrm{Var}\,a`
-    (clipped at 0)."""
+    (clipped at 0), both over the J normals times :func:`pixel_variance_scale` (J) — the
+    variances over the pixel (module docstring)."""
+    k = pixel_variance_scale(len(next(iter(means.values()))))
     var_a = {p: np.var(means[p], axis=0) for p in gbar}
-    var_c = {p: np.clip(mean_sq[p] - np.einsum("pc,pc->c", g, g) / len(g) - var_a[p], 0.0,
-                        None) for p, g in gbar.items()}
-    return {**gbar, "_var_c": var_c, "_var_a": var_a}
+    var_c = {p: k * np.clip(mean_sq[p] - np.einsum("pc,pc->c", g, g) / len(g) - var_a[p], 0.0,
+                            None) for p, g in gbar.items()}
+    return {**gbar, "_var_c": var_c, "_var_a": {p: k * v for p, v in var_a.items()}}
+
+
+def pixel_variance_scale(j: int) -> float:
+    """J/(J − 1) (1 for J = 1): the variance over a pixel of a function linear across it,
+    per unit of its variance over the midpoints of the pixel's J = s × s strata.
+
+    >>> m = (np.arange(2) + 0.5) / 2                      # s = 2: the strata's midpoints
+    >>> v = np.var(np.add.outer(m, m))                     # f = x + y at the 4 midpoints
+    >>> float(v), bool(abs(pixel_variance_scale(4) * v - 2 / 12) < 1e-15)  # over the pixel: 2/12
+    (0.125, True)
+    """
+    return j / (j - 1) if j > 1 else 1.0
 
 
 def footprint_term(strategy: str, randomisation: str, n: int, vals: dict):
