@@ -104,15 +104,17 @@ def test_ldsampler_answer_runs_a_power_of_four_and_the_one_below_misses(gp_file,
     assert rc == 0 and d["renderer"]["recommendation"]["spp"] == 16
     assert ": spp = 16 for an RMSE of at most" in lines[0]
     assert " at 4 spp (misses)" in lines[0]
-    # a target below every runnable spp's prediction: said, not claimed
+    # a target below every runnable spp's prediction: said, not claimed (level 6 searches
+    # ldsampler to 4^7/256 = 64 spp, its power above the grid sampled there)
+    p64 = m.predict("mis", "ldsampler", 64).rmse
     rc, lines, _, d = _run(capsys, [gp_file, "--renderer", "mitsuba3", "--sampler",
-                                    "ldsampler", "--target-rmse", repr(p16 / 2),
+                                    "ldsampler", "--target-rmse", repr(p64 / 2),
                                     "--renderer-level", "6", *MODEL], tmp_path)
     rec = d["renderer"]["recommendation"]
     assert rc == 0 and rec["spp"] is None and not rec["reached"]
-    assert "no spp up to 16 meets an RMSE of at most" in lines[0]
-    assert "64 spp needs --renderer-level 7" in lines[0]
-    assert rec["predicted_rmse"] == pytest.approx(p16, rel=1e-12)
+    assert "no spp up to 64 meets an RMSE of at most" in lines[0]
+    assert "256 spp needs --renderer-level 7" in lines[0]
+    assert rec["predicted_rmse"] == pytest.approx(p64, rel=1e-12)
     assert rec["predicted_rmse"] > rec["target_rmse"]
 
 
@@ -211,7 +213,7 @@ def test_cached_run_prints_the_same_answer_without_the_model(sun_file, tmp_path,
      "Mitsuba 3 only"),
     (["--renderer", "mitsuba3", "--scale", "log"], "--scale must be linear"),
     (["--renderer", "mitsuba3", "--no-renderer"], "--no-renderer is an option"),
-    (["--renderer", "mitsuba3", "--sampler", "ldsampler", "--spp", "1000"], "beyond the 256"),
+    (["--renderer", "mitsuba3", "--sampler", "ldsampler", "--spp", "5000"], "beyond the 4096"),
     (["--sampler", "ldsampler"], "--sampler needs --renderer"),
     (["--renderer", "mitsuba3", "--sphere-pixels", "3"], "--sphere-pixels must be an integer"),
     (["--renderer", "mitsuba3", "--brdf", "ggx", "--roughness", "0.1", "--sphere-pixels", "2"],

@@ -10,7 +10,7 @@ import pytest
 from envfit.maps import EnvMap
 from envfit.predict.renderer import _preset_integrand as pi
 from envfit.predict.renderer._preset_model import (PresetModel, PresetModelOptions,
-                                                   grid_level)
+                                                   grid_level, samples_above)
 from envfit.sampling.presets import preset
 
 MITSUBA = preset("mitsuba3")
@@ -93,7 +93,10 @@ def test_constant_map_brdf_is_exact_and_levels():
     assert m.predict("map", "independent", 16).rmse > 0.0       # the cosine is not sampled
     assert grid_level("digital_shift", 64, 9) == 7
     assert grid_level("cmj", 64, 9) == 6 and grid_level("jittered", 64, 9) == 3
-    assert grid_level("digital_shift", 1024, 9) == 10      # nets need M >= N
+    assert grid_level("digital_shift", 1024, 9) == 9       # above 2^9: sampled
+    assert grid_level("owen", 1024, 9) == 10               # Owen's nets need M >= N
+    assert samples_above("digital_shift", 1024, 9) and samples_above("digital_shift", 512, 9)
+    assert not samples_above("digital_shift", 256, 9) and not samples_above("owen", 1024, 9)
 
 
 mi = pytest.importorskip("mitsuba")

@@ -14,8 +14,11 @@ milliseconds).
 
 The largest spp searched (:meth:`PresetAdviseOptions.spp_cap`) is ``max_spp`` (default
 65536) or less where the model's grid of level L (M = 2^L cells per side,
-``PresetModelOptions.max_level``) resolves fewer points of the sampler: the digital nets
-(``ldsampler``, ``zsobol``, Cycles' Sobol patterns) need M ≥ 2N, so N ≤ 2^(L−1); Kensler's
+``PresetModelOptions.max_level``) resolves fewer points of the sampler: Owen-scrambled nets
+(``zsobol``, Cycles' Sobol patterns) need M ≥ 2N, so N ≤ 2^(L−1); Mitsuba's ``ldsampler``
+(a digital shift) any N, its power above a grid coarser than 2N sampled at Q·N shifted
+points (``PresetModelOptions.shifts`` = Q), searched while they are no more than the fine
+table's 4^(L+1) points, N ≤ 4^(L+1)/Q (4096 at the default level 9); Kensler's
 correlated multi-jittering and Mitsuba's orthogonal array M ≥ N (and their (N, N) tables: at
 most 1024); a Cranley–Patterson
 shift N ≤ M/8 (:mod:`envfit.predict.renderer.randomisation._cp_shift`); independent and
@@ -25,7 +28,7 @@ Example
 -------
 >>> o = PresetAdviseOptions("Mitsuba3", sampler="ldsampler")
 >>> o.renderer, o.sampler, o.strategies, o.default_strategy, o.spp_cap()
-('mitsuba3', 'ldsampler', ('mis', 'map', 'brdf'), 'mis', 256)
+('mitsuba3', 'ldsampler', ('mis', 'map', 'brdf'), 'mis', 4096)
 >>> PresetAdviseOptions("cycles", strategies=["map"])
 Traceback (most recent call last):
 ...
@@ -82,14 +85,18 @@ _NOT_SOBOL = ("lp", "sf", "bnot")
 _ORDER = ("mis", "map", "brdf")
 
 
-def spp_cap(randomisation: str, level: int, max_spp: int) -> int:
+def spp_cap(randomisation: str, level: int, max_spp: int,
+            shifts: int = PresetModelOptions().shifts) -> int:
     """The largest spp the model resolves for ``randomisation`` at grid level ``level``
-    (module docstring), at most ``max_spp``.
+    (module docstring; ``shifts``: Q of a digital shift's sampling), at most ``max_spp``.
 
-    >>> spp_cap("digital_shift", 9, 65536), spp_cap("cmj", 9, 65536), spp_cap("cp_shift", 9, 65536)
-    (256, 512, 64)
+    >>> spp_cap("digital_shift", 9, 65536), spp_cap("owen", 9, 65536), spp_cap("cmj", 9, 65536)
+    (4096, 256, 512)
+    >>> spp_cap("cp_shift", 9, 65536), spp_cap("digital_shift", 11, 65536)
+    (64, 65536)
     """
-    top = {"digital_shift": 1 << (level - 1), "owen": 1 << (level - 1),
+    top = {"digital_shift": max(1 << (level - 1), 4 ** (level + 1) // shifts),
+           "owen": 1 << (level - 1),
            "cmj": min(1 << level, 1024), "orthogonal_array": min(1 << level, 1024),
            "cp_shift": max(1, 1 << max(level - 3, 0)),
            "jittered": 4 ** level}

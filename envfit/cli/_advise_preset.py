@@ -57,8 +57,9 @@ def add_preset_arguments(p) -> None:
     g.add_argument("--renderer-level", type=positive_int, default=None, metavar="L",
                    help="the renderer model's finest grid level, M = 2^L cells per side "
                         "(default 7 for independent and stratified samplers, 9 for the others; "
-                        "the digital nets are resolved to 2^(L-1) spp; each level costs 4x "
-                        "the time and memory)")
+                        "Owen-scrambled nets are resolved to 2^(L-1) spp, Mitsuba's ldsampler "
+                        "searched to 4^(L+1)/256 spp, its power above the grid sampled; each "
+                        "level costs 4x the time and memory)")
     g.add_argument("--renderer-normals", type=positive_int, default=None, metavar="K",
                    help="normals of the renderer model's importance sample (default 48); "
                         "with --brdf ggx/beckmann the frames (normal, view)")

@@ -37,6 +37,8 @@ Mitsuba 3.9.1 ``src/bsdfs/roughconductor.cpp`` and ``src/integrators/direct.cpp`
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from envfit.base import ParameterError
@@ -53,7 +55,7 @@ from envfit.predict.renderer._lobe_parts import LobeChoice
 from envfit.predict.renderer._preset_integrand import MapTable, _is_mitsuba, midpoints
 from envfit.predict.renderer.randomisation import STRATIFIED_1D
 from envfit.predict.renderer._preset_model import (PresetModel, PresetModelOptions,
-                                                   systematic_indices)
+                                                   samples_above, systematic_indices)
 
 __all__ = ["MicrofacetModel", "BANDS", "rmse_sampling_error"]
 
@@ -240,6 +242,8 @@ class MicrofacetModel(LobeChoice, PresetModel):
                                  f"independent, stratified, multijitter and ldsampler samplers "
                                  f"(its lobe choice is a 1-D dimension {sampler} pairs with "
                                  f"the direction's in an array); got {sampler}")
+        if self._two_lobes() and strategy != "map" and samples_above(r.name, r.n, r.level):
+            r = replace(r, level=max(r.level, (r.n - 1).bit_length()))  # lobes: no sampling
         return r
 
     def _run(self, todo: list) -> None:
@@ -295,11 +299,14 @@ class MicrofacetModel(LobeChoice, PresetModel):
                             "rel_se": rmse_sampling_error(self.weights[inside], m[inside])}
         return out
 
-    def _table(self, kind: str, level: int):
-        key = (kind, level)
+    def _table(self, kind: str, where):
+        """The map table, or the BSDF's square points, at the midpoints of level ``where``
+        (an int) or at the shifted points of :meth:`PresetModel._shifts` (``where`` =
+        ("shift", N))."""
+        key = (kind, where)
         if key not in self._tables:
-            self._tables[key] = (MapTable.build(self.technique, level) if kind == "map"
-                                 else midpoints(level))
+            u = midpoints(where) if isinstance(where, int) else self._shifts(where[1]).points
+            self._tables[key] = MapTable.at(self.technique, u) if kind == "map" else u
         return self._tables[key]
 
     def _technique_values(self, local: np.ndarray, rows: np.ndarray, weight: np.ndarray):

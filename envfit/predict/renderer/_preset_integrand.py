@@ -72,7 +72,14 @@ class MapTable:
 
     @classmethod
     def build(cls, technique, level: int) -> "MapTable":
-        u = midpoints(level)
+        """The table at the midpoints of level ``level``."""
+        t = cls.at(technique, midpoints(level))
+        return cls(int(level), t.directions, t.base, t.pdf)
+
+    @classmethod
+    def at(cls, technique, u: np.ndarray) -> "MapTable":
+        """The table at the square points ``u`` (P, 2) (``level`` −1: no grid)."""
+        level = -1
         if _is_mitsuba(technique):
             d, p, rad = _mitsuba_map_table(technique, u)
             with np.errstate(divide="ignore", invalid="ignore"):
@@ -87,7 +94,7 @@ class MapTable:
             dirs.append(s.directions)
             pdf.append(p)
             base.append(b)
-        return cls(int(level), np.concatenate(dirs), np.concatenate(base), np.concatenate(pdf))
+        return cls(level, np.concatenate(dirs), np.concatenate(base), np.concatenate(pdf))
 
 
 @dataclass(frozen=True)
@@ -100,7 +107,13 @@ class BsdfTable:
 
     @classmethod
     def build(cls, preset, level: int) -> "BsdfTable":
-        return cls(int(level), np.asarray(preset.cosine(midpoints(level)).directions))
+        """The table at the midpoints of level ``level``."""
+        return cls(int(level), cls.at(preset, midpoints(level)).local)
+
+    @classmethod
+    def at(cls, preset, u: np.ndarray) -> "BsdfTable":
+        """The table at the square points ``u`` (P, 2) (``level`` −1: no grid)."""
+        return cls(-1, np.asarray(preset.cosine(u).directions))
 
 
 @numba.njit(cache=True, parallel=True)

@@ -16,6 +16,8 @@ Modules (private, one per method; each cites its equation and reference):
 * ``_independent``, ``_jittered``, ``_cmj``, ``_orthogonal``, ``_digital_shift``, ``_owen``,
   ``_cp_shift`` — the
   methods.
+* ``_shift_samples`` — the digital shift's power above the grid sampled over random shifts
+  (:func:`shift_sample`, :func:`sampled_above`): the digital shift for any N.
 * ``_registry`` — :data:`RANDOMISATIONS` and the dispatcher :func:`randomised_mse`.
 * ``_mis`` — :func:`mis_mse`, two streams, independent or sharing one point set.
 * ``_lobe_choice`` — :func:`lobe_choice_mse`, :func:`lobe_choice_mis`: a BSDF that picks
@@ -35,6 +37,8 @@ _LAZY = {
     "pair_table": "_kensler", "permute_kensler": "_kensler",
     "owen_gains": "_owen",
     "walsh_coefficients": "_walsh",
+    "ShiftSample": "_shift_samples", "shift_sample": "_shift_samples",
+    "sampled_above": "_shift_samples",
     "RANDOMISATIONS": "_registry", "Randomisation": "_registry", "randomised_mse": "_registry",
     "MisMSE": "_mis", "mis_mse": "_mis",
     "STRATIFIED_1D": "_lobe_choice", "lobe_choice_mse": "_lobe_choice",

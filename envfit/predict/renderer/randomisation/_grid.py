@@ -29,7 +29,7 @@ needs a finer level or more nodes.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 
 import numpy as np
@@ -76,12 +76,18 @@ class DyadicGrid:
     variance : ndarray, shape (C,)
         :math:`V = \int h^2 - (\int h)^2`.
 
+    shift_above : dict
+        Sampled power above the grid under a digital shift, {(net, N): (estimate (C,),
+        standard error (C,))} (:mod:`._shift_samples`; :meth:`with_shift_above`), read by
+        the digital shift's prediction in place of its estimate from the grid.
+
     Use :meth:`from_callable` or :meth:`from_arrays`; they check and reconcile the inputs.
     """
 
     mean: np.ndarray
     mean_sq: np.ndarray
     variance: np.ndarray = field(repr=False)
+    shift_above: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def size(self) -> int:
@@ -214,6 +220,14 @@ class DyadicGrid:
         b = np.maximum(np.moveaxis(sums_sq, -1, 0), a ** 2)
         return cls.from_arrays(a, b)
 
+    def with_shift_above(self, net: str, n: int, above, se) -> "DyadicGrid":
+        """This grid with the sampled power above it of ``net``'s first ``n`` points under a
+        digital shift (:func:`._shift_samples.sampled_above`)."""
+        d = dict(self.shift_above)
+        d[(str(net), int(n))] = (np.asarray(above, dtype=np.float64),
+                                 np.asarray(se, dtype=np.float64))
+        return replace(self, shift_above=d)
+
     def combined(self, other: "DyadicGrid", cross_mean: np.ndarray) -> "DyadicGrid":
         """The grid of h + h' from this grid (h), ``other`` (h') and the cell means of h·h'."""
         c = _as_channels(cross_mean, "cross_mean")
@@ -254,6 +268,8 @@ class RandomisedMSE:
         Whether ``above`` is exact (False: an approximation, see ``note``).
     note : str
         How ``above`` was obtained, and any rounding of N or of the strata.
+    above_se : ndarray or None
+        The standard error of ``above`` where it is sampled, per channel.
     """
 
     method: str
@@ -263,6 +279,7 @@ class RandomisedMSE:
     above: np.ndarray
     exact: bool = True
     note: str = ""
+    above_se: np.ndarray | None = None
 
     @property
     def rmse(self) -> np.ndarray:
@@ -276,9 +293,12 @@ class RandomisedMSE:
 
 
 def make_result(method: str, n: int, resolved, above, *, exact: bool = True,
-                note: str = "") -> RandomisedMSE:
+                note: str = "", above_se=None) -> RandomisedMSE:
     """A :class:`RandomisedMSE` from its two parts (arrays per channel; tiny negatives of
-    rounding are clipped to 0)."""
+    rounding are clipped to 0). A sampled ``above`` (``above_se`` given) is a correction that
+    may be negative: only the sum is clipped."""
     r = np.clip(np.asarray(resolved, dtype=np.float64), 0.0, None)
-    a = np.clip(np.asarray(above, dtype=np.float64), 0.0, None)
-    return RandomisedMSE(method, int(n), r + a, r, a, exact, note)
+    a = np.asarray(above, dtype=np.float64)
+    a = np.clip(a, 0.0, None) if above_se is None else np.maximum(a, -r)
+    return RandomisedMSE(method, int(n), r + a, r, a, exact, note,
+                         None if above_se is None else np.asarray(above_se, dtype=np.float64))

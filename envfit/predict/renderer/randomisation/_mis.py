@@ -78,7 +78,8 @@ def mis_mse(name: str, first: DyadicGrid, second: DyadicGrid, n: int, *, shared:
                              "(DyadicGrid.from_callable of their sum), of the same size")
     both = randomised_mse(name, total, n, **options)
     if name == "digital_shift":
-        m = net_exponent(n, first.size)
+        sampled = (options.get("net", "sobol"), int(n)) in first.shift_above
+        m = net_exponent(n, None if sampled else first.size)
         mask = get_net(options.get("net", "sobol")).dual_mask(m, first.size)
         below = dual_sum(first.walsh, second.walsh, mask)
         cross = below + (both.above - one.above - two.above) / 2.0

@@ -98,14 +98,15 @@ class DigitalNet:
 NETS = {"sobol": DigitalNet("sobol", (_van_der_corput(), _sobol_second()))}
 
 
-def net_exponent(n: int, grid_size: int) -> int:
+def net_exponent(n: int, grid_size: int | None) -> int:
     """m with N = 2^m, checked against the grid: digital nets need N a power of two and
-    N ≤ M (the grid must resolve the net's elementary intervals)."""
+    N ≤ M (the grid must resolve the net's elementary intervals) unless ``grid_size`` is None
+    (the power above the grid is sampled: :mod:`._shift_samples`)."""
     if n < 1 or n & (n - 1):
         raise ParameterError(f"digital nets take N = 2^m points, got N = {n} (Mitsuba's "
                              f"ldsampler rounds spp up to a power of two squared)")
     m = n.bit_length() - 1
-    if n > grid_size:
+    if grid_size is not None and n > grid_size:
         raise ParameterError(f"N = {n} points need a grid of at least {n} cells per side, "
                              f"got M = {grid_size}")
     return m
