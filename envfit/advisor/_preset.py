@@ -379,7 +379,8 @@ def advise_preset(envmap, opts: PresetAdviseOptions, *, target_rmse: float | Non
     store = AdviseCache(cache_dir, enabled=cache)
     cm = CachedPresetModel(envmap, opts, store, map_key(envmap, "linear"))
     answers = search_spp(cm, opts.strategies, runnable, target, [n for _, n in listed],
-                         independent=spec.randomisation == "independent")
+                         independent=spec.randomisation == "independent",
+                         first_cap=opts.spp_cap(sampled=False))
     cells = {(s, n): cm.rmse(s, n) for s in opts.strategies for n in cm.asked_spp(s)}
     notes = list(store.notes)
     if opts.renderer == "cycles" and opts.bsdf == "ggx":

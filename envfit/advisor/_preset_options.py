@@ -86,16 +86,17 @@ _ORDER = ("mis", "map", "brdf")
 
 
 def spp_cap(randomisation: str, level: int, max_spp: int,
-            shifts: int = PresetModelOptions().shifts) -> int:
+            shifts: int = PresetModelOptions().shifts, *, sampled: bool = True) -> int:
     """The largest spp the model resolves for ``randomisation`` at grid level ``level``
-    (module docstring; ``shifts``: Q of a digital shift's sampling), at most ``max_spp``.
+    (module docstring; ``shifts``: Q of a digital shift's sampling; ``sampled=False``: the
+    spp its grid resolves without sampling), at most ``max_spp``.
 
     >>> spp_cap("digital_shift", 9, 65536), spp_cap("owen", 9, 65536), spp_cap("cmj", 9, 65536)
     (4096, 256, 512)
     >>> spp_cap("cp_shift", 9, 65536), spp_cap("digital_shift", 11, 65536)
     (64, 65536)
     """
-    top = {"digital_shift": max(1 << (level - 1), 4 ** (level + 1) // shifts),
+    top = {"digital_shift": max(1 << (level - 1), 4 ** (level + 1) // shifts * sampled),
            "owen": 1 << (level - 1),
            "cmj": min(1 << level, 1024), "orthogonal_array": min(1 << level, 1024),
            "cp_shift": max(1, 1 << max(level - 3, 0)),
@@ -321,10 +322,11 @@ class PresetAdviseOptions:
         """The strategy of the first line: ``mis`` (the renderer's default) when asked."""
         return self.strategies[0]
 
-    def spp_cap(self) -> int:
-        """The largest spp searched for this sampler (:func:`spp_cap`)."""
+    def spp_cap(self, *, sampled: bool = True) -> int:
+        """The largest spp searched for this sampler (:func:`spp_cap`; ``sampled=False``: the
+        largest its grid resolves without sampling, where the search's first pass stops)."""
         spec = self.preset.sampler(self.sampler)
-        return spp_cap(spec.randomisation, self.level, self.max_spp)
+        return spp_cap(spec.randomisation, self.level, self.max_spp, sampled=sampled)
 
     def key(self) -> dict:
         """What the predictions depend on besides the map (the cache key's part)."""

@@ -18,7 +18,11 @@ Search (:func:`search_spp`), per strategy over the spp the sampler can run
    the largest spp searched and the ``--spp`` list; the answer lies between the last coarse
    spp that misses the target and the first that meets it (the search assumes, as the
    advisor's other searches do, that the prediction falls with spp between coarse points);
-   none meets it: "not reached up to the largest spp searched";
+   none meets it: "not reached up to the largest spp searched". With ``first_cap``, pass 1
+   takes the coarse spp up to it only, and the coarse spp above it follow in one more pass
+   only for the strategies that none of those meets (Mitsuba's ``ldsampler`` above the grid's
+   2^(L−1) spp: its sampled power costs as much as the grid's tables, so a target met on the
+   grid costs no more than before);
 2. later passes: up to :data:`CANDIDATES` runnable spp spread over each open bracket (for
    the ``independent`` sampler also the spp the model's exact 1/N law puts at the target,
    :math:`\lceil N_c\,\mathrm{MSE}(N_c)/t^2\rceil` and the runnable spp around it), until no
@@ -235,11 +239,17 @@ def _candidates(cm, strategy, runnable, target, lo, hi, independent: bool) -> li
 
 
 def search_spp(cm: CachedPresetModel, strategies, runnable: list[int], target: float,
-               listed=(), *, independent: bool = False) -> dict[str, StrategyAnswer]:
+               listed=(), *, independent: bool = False,
+               first_cap: int | None = None) -> dict[str, StrategyAnswer]:
     """The smallest runnable spp per strategy whose prediction meets ``target`` (module
-    docstring); ``listed`` spp are predicted in the first pass too."""
-    first = set(coarse_spp(runnable)) | {n for n in listed}
+    docstring); ``listed`` spp are predicted in the first pass too, and the coarse spp above
+    ``first_cap`` only where needed."""
+    coarse = coarse_spp(runnable)
+    cap = runnable[-1] if first_cap is None else first_cap
+    first = {n for n in coarse if n <= cap} | {n for n in listed}
     cm.predict([(s, n) for s in strategies for n in first])
+    open_ = [s for s in strategies if _bracket(cm, s, runnable, target)[1] is None]
+    cm.predict([(s, n) for s in open_ for n in coarse if n > cap])
     while True:
         todo = []
         for s in strategies:

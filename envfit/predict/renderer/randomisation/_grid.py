@@ -226,7 +226,10 @@ class DyadicGrid:
         d = dict(self.shift_above)
         d[(str(net), int(n))] = (np.asarray(above, dtype=np.float64),
                                  np.asarray(se, dtype=np.float64))
-        return replace(self, shift_above=d)
+        new = replace(self, shift_above=d)
+        if "walsh" in self.__dict__:                   # the same cell means: keep the transform
+            new.__dict__["walsh"] = self.__dict__["walsh"]
+        return new
 
     def combined(self, other: "DyadicGrid", cross_mean: np.ndarray) -> "DyadicGrid":
         """The grid of h + h' from this grid (h), ``other`` (h') and the cell means of h·h'."""

@@ -90,10 +90,16 @@ class DigitalNet:
 
     def dual_mask(self, m: int, size: int) -> np.ndarray:
         """Boolean (size, size): the indices below ``size`` that are in :math:`D^*`."""
-        res = self.dual_residues(m)
+        key = (self.name, int(m))
+        if key not in _RESIDUES:              # the nets are fixed: their residues once
+            _RESIDUES[key] = self.dual_residues(m)
+        res = _RESIDUES[key]
         k = np.arange(size) % (1 << m)
         return res[np.ix_(k, k)]
 
+
+#: dual-net residues per (net, m), computed once (:meth:`DigitalNet.dual_mask`)
+_RESIDUES: dict = {}
 
 NETS = {"sobol": DigitalNet("sobol", (_van_der_corput(), _sobol_second()))}
 

@@ -41,7 +41,7 @@ theory, methods and examples* (2013), §8.9.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -62,6 +62,15 @@ class ShiftSample:
     net: str
     n: int
     digits: np.ndarray
+    _cells: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def cells(self, level: int) -> np.ndarray:
+        """The flat index i·M + j of each point's cell on the grid of ``level``, (Q·N,)
+        (computed once per level)."""
+        if level not in self._cells:
+            c = (self.digits.reshape(-1, 2) >> np.uint64(_BITS - level)).astype(np.int64)
+            self._cells[level] = c[:, 0] * (1 << level) + c[:, 1]
+        return self._cells[level]
 
     @property
     def shifts(self) -> int:
@@ -117,8 +126,9 @@ def sampled_above(sample: ShiftSample, mean: np.ndarray,
     if mean.shape[0] != vals.shape[-1]:
         raise ParameterError(f"{vals.shape[-1]} channels of values, {mean.shape[0]} of the grid")
     level = mean.shape[1].bit_length() - 1
-    cell = (sample.digits >> np.uint64(_BITS - level)).astype(np.int64)     # (Q, N, 2)
-    f_a = mean[:, cell[..., 0], cell[..., 1]].mean(axis=-1).T                # (Q, C)
+    flat = sample.cells(level)
+    f_a = np.take(mean.reshape(mean.shape[0], -1), flat, axis=1)
+    f_a = f_a.reshape(-1, q, n).mean(axis=-1).T                              # (Q, C)
     d = vals.mean(axis=1) - f_a
     d = d - d.mean(axis=0)
     f_a = f_a - f_a.mean(axis=0)

@@ -1,0 +1,56 @@
+"""The renderer advice's spp search (``envfit.advisor._preset_search.search_spp``) on a
+stand-in model with a known law: the crossing it answers, and the passes it spends (the coarse
+spp above ``first_cap`` only for the strategies none below it meets)."""
+from __future__ import annotations
+
+import math
+
+from envfit.advisor._preset_search import search_spp
+
+LAWS = {"mis": 0.5, "map": 2.0, "brdf": 40.0}           # rmse = c / N^0.75
+
+
+class _Law:
+    """The parts of CachedPresetModel the search reads: predictions by a closed form."""
+
+    def __init__(self):
+        self.asked: dict[str, set] = {s: set() for s in LAWS}
+        self.passes: list[list] = []
+
+    def predict(self, cells) -> None:
+        cells = sorted(set(cells))
+        if cells:
+            self.passes.append(cells)
+        for s, n in cells:
+            self.asked[s].add(int(n))
+
+    def asked_spp(self, strategy: str) -> list[int]:
+        return sorted(self.asked[strategy])
+
+    def rmse(self, strategy: str, n: int) -> float:
+        return LAWS[strategy] / n ** 0.75
+
+
+def test_first_cap_defers_the_spp_above_it_to_the_open_strategies():
+    runnable = [4 ** k for k in range(1, 7)]                   # ldsampler: 4 ... 4096
+    target = 0.01
+    cm = _Law()
+    ans = search_spp(cm, list(LAWS), runnable, target, first_cap=256)
+    want = {s: next((n for n in runnable if c / n ** 0.75 <= target), None)
+            for s, c in LAWS.items()}
+    assert want == {"mis": 256, "map": 4096, "brdf": None}
+    assert {s: a.spp for s, a in ans.items()} == want
+    assert max(n for _, n in cm.passes[0]) == 256                 # the first pass stops there
+    assert {s for s, _ in cm.passes[1]} == {"map", "brdf"}       # then only the open ones
+    assert max(cm.asked_spp("mis")) == 256
+    assert ans["map"].below == 1024 and math.isclose(ans["map"].below_rmse,
+                                                       2.0 / 1024 ** 0.75)
+    assert ans["brdf"].searched_max == 4096 and not ans["brdf"].reached
+
+
+def test_without_first_cap_one_pass_takes_every_coarse_spp():
+    runnable = [4 ** k for k in range(1, 7)]
+    cm = _Law()
+    ans = search_spp(cm, list(LAWS), runnable, 0.01)
+    assert len(cm.passes) == 1 and max(cm.asked_spp("mis")) == 4096
+    assert ans["mis"].spp == 256
