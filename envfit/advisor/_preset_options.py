@@ -9,8 +9,8 @@ strategy the renderer can render and the noise model can predict). A combination
 when the renderer lacks the sampler, cannot render the strategy (Cycles' light-only mode exists
 only in debug builds), or has no exact noise model (e.g. pbrt-v4's ``halton``; envfit's MIS
 with one shared shift): the last by asking the model itself
-(:meth:`envfit.predict.renderer._preset_model.PresetModel.request` on a 4 × 8 map, a few
-milliseconds).
+(:func:`envfit.predict.renderer._preset_model.preset_request`, no map; the technique's
+options are checked on a 4 × 8 map).
 
 The largest spp searched (:meth:`PresetAdviseOptions.spp_cap`) is ``max_spp`` (default
 65536) or less where the model's grid of level L (M = 2^L cells per side,
@@ -46,7 +46,7 @@ from envfit.base._errors import EnvfitError, ParameterError
 from envfit.defaults import (FOOTPRINT_SIDE, MICROFACET_BSDFS, MICROFACET_FRAMES_SEED,
                              PLASTIC_SAMPLERS)
 from envfit.maps import EnvMap
-from envfit.predict.renderer._preset_model import PresetModel, PresetModelOptions
+from envfit.predict.renderer._preset_model import PresetModelOptions, preset_request
 from envfit.sampling.presets import STRATEGY_NAMES, preset
 from envfit.shading.microfacet import (RENDERERS, RoughPlastic, multiscatter_or_conductor,
                                        roughness_to_alpha)
@@ -282,8 +282,8 @@ class PresetAdviseOptions:
         names = check_names(list(self.strategies) if asked else list(_ORDER),
                             STRATEGY_NAMES, "strategy (with --renderer: mis, map, brdf)")
         names = sorted(names, key=_ORDER.index)
-        model = PresetModel(_dummy_map(), p, self.technique_options(),
-                            PresetModelOptions(normals=1, pool=1, max_level=1, pilot_level=1))
+        p.technique(_dummy_map(), **self.technique_options())    # its options, checked
+        light = PresetModelOptions(normals=1, pool=1, max_level=1, pilot_level=1)
         spec = p.sampler(self.sampler)
         if spec.randomisation == "cp_shift" and spec.name in _NOT_SOBOL:
             raise ParameterError(f"no noise model of {RENDERER_NAMES[p.name]}'s {spec.name}: "
@@ -299,7 +299,7 @@ class PresetAdviseOptions:
                        f"({STRATEGY_WORDS[s]}): {setting.note.strip()}")
             else:
                 try:
-                    model.request(s, self.sampler, spp)
+                    preset_request(p, light, s, self.sampler, spp)
                 except EnvfitError as exc:
                     why = (f"no noise model of {RENDERER_NAMES[p.name]}'s {self.sampler} with "
                            f"strategy {s!r}: {exc}")

@@ -65,7 +65,7 @@ from envfit.predict.renderer.randomisation import (DyadicGrid, mis_mse, randomis
 from envfit.theory import spherical_fibonacci_sphere
 
 __all__ = ["PresetModelOptions", "PresetModel", "PresetPrediction", "grid_level",
-           "samples_above",
+           "samples_above", "preset_request",
            "systematic_indices",
            "RANDOMISATION_OF"]
 
@@ -237,6 +237,40 @@ class _Request:
     options_b: tuple = ()                   # the BSDF stream's options where they differ
 
 
+def preset_request(preset, options: PresetModelOptions, strategy: str, sampler: str,
+                   spp: int) -> _Request:
+    """The cell of ``preset`` as the renderer runs it: spp rounded, randomisation and its
+    options, the grid level of ``options`` (no map needed: the model's checks)."""
+    s = preset.strategy(strategy)
+    if not s.renderable:
+        raise ParameterError(f"{preset.name} cannot render strategy {strategy!r}")
+    spec = preset.sampler(sampler)
+    n = spec.spp(spp)
+    if spec.randomisation not in RANDOMISATION_OF:
+        raise ParameterError(f"no exact model of {preset.name}'s {sampler} "
+                             f"({spec.randomisation}) yet")
+    name = RANDOMISATION_OF[spec.randomisation]
+    two = s.emitter_samples > 0 and s.bsdf_samples > 0
+    if two and spec.pairing not in _SHARED:
+        raise ParameterError(f"no model of the pairing {spec.pairing!r} of {sampler}")
+    if max(s.emitter_samples, s.bsdf_samples) > 1:
+        raise ParameterError("the model takes at most one sample per technique and spp")
+    opts = opts_b = ()
+    if name == "jittered":
+        opts = opts_b = (("r", math.isqrt(n)),)
+    elif name == "cmj":
+        opts = opts_b = (("permutations", "mitsuba" if preset.name == "mitsuba3"
+                          else "uniform"),)
+    elif name == "orthogonal":
+        if s.dimensions is None:
+            raise ParameterError(f"{preset.name} does not say at which dimensions "
+                                 f"strategy {strategy!r} draws its samples")
+        opts, opts_b = ((("dimension", d),) for d in s.dimensions)
+    level = grid_level(name, n, options.max_level)
+    return _Request(strategy, sampler, int(spp), n, name, opts,
+                    two and _SHARED[spec.pairing], level, opts_b)
+
+
 class PresetModel:
     r"""The noise model of one map under one renderer preset (module docstring).
 
@@ -278,35 +312,9 @@ class PresetModel:
         self.seconds = 0.0
 
     def request(self, strategy: str, sampler: str, spp: int) -> _Request:
-        """The cell as the renderer runs it: spp rounded, randomisation and its options."""
-        s = self.preset.strategy(strategy)
-        if not s.renderable:
-            raise ParameterError(f"{self.preset.name} cannot render strategy {strategy!r}")
-        spec = self.preset.sampler(sampler)
-        n = spec.spp(spp)
-        if spec.randomisation not in RANDOMISATION_OF:
-            raise ParameterError(f"no exact model of {self.preset.name}'s {sampler} "
-                                 f"({spec.randomisation}) yet")
-        name = RANDOMISATION_OF[spec.randomisation]
-        two = s.emitter_samples > 0 and s.bsdf_samples > 0
-        if two and spec.pairing not in _SHARED:
-            raise ParameterError(f"no model of the pairing {spec.pairing!r} of {sampler}")
-        if max(s.emitter_samples, s.bsdf_samples) > 1:
-            raise ParameterError("the model takes at most one sample per technique and spp")
-        opts = opts_b = ()
-        if name == "jittered":
-            opts = opts_b = (("r", math.isqrt(n)),)
-        elif name == "cmj":
-            opts = opts_b = (("permutations", "mitsuba" if self.preset.name == "mitsuba3"
-                              else "uniform"),)
-        elif name == "orthogonal":
-            if s.dimensions is None:
-                raise ParameterError(f"{self.preset.name} does not say at which dimensions "
-                                     f"strategy {strategy!r} draws its samples")
-            opts, opts_b = ((("dimension", d),) for d in s.dimensions)
-        level = grid_level(name, n, self.options.max_level)
-        return _Request(strategy, sampler, int(spp), n, name, opts,
-                        two and _SHARED[spec.pairing], level, opts_b)
+        """The cell as the renderer runs it: spp rounded, randomisation and its options
+        (:func:`preset_request`)."""
+        return preset_request(self.preset, self.options, strategy, sampler, spp)
 
     def predict(self, strategy: str, sampler: str, spp: int) -> PresetPrediction:
         """The predicted cell (:class:`PresetPrediction`); cached."""
