@@ -52,7 +52,7 @@ from envfit.predict.renderer._plastic_kernels import (compiled_plastic, plastic_
                                                       plastic_proxies, plastic_sample)
 from envfit.predict.renderer._footprint import _unit, with_variances
 from envfit.predict.renderer._lobe_parts import LobeChoice
-from envfit.predict.renderer._preset_integrand import MapTable, _is_mitsuba, midpoints
+from envfit.predict.renderer._preset_integrand import MapTable, _is_mitsuba
 from envfit.predict.renderer.randomisation import STRATIFIED_1D
 from envfit.predict.renderer._preset_model import (PresetModel, PresetModelOptions,
                                                    samples_above, systematic_indices)
@@ -305,7 +305,7 @@ class MicrofacetModel(LobeChoice, PresetModel):
         ("shift", N))."""
         key = (kind, where)
         if key not in self._tables:
-            u = midpoints(where) if isinstance(where, int) else self._shifts(where[1]).points
+            u = self._points(where)
             self._tables[key] = MapTable.at(self.technique, u) if kind == "map" else u
         return self._tables[key]
 

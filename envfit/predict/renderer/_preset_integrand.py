@@ -79,12 +79,11 @@ class MapTable:
     @classmethod
     def at(cls, technique, u: np.ndarray) -> "MapTable":
         """The table at the square points ``u`` (P, 2) (``level`` −1: no grid)."""
-        level = -1
         if _is_mitsuba(technique):
             d, p, rad = _mitsuba_map_table(technique, u)
             with np.errstate(divide="ignore", invalid="ignore"):
                 b = np.where(p[:, None] > 0, rad / (np.pi * p[:, None]), 0.0)
-            return cls(int(level), d, b, p)
+            return cls(-1, d, b, p)
         dirs, pdf, base = [], [], []
         for i in range(0, len(u), _CHUNK):
             s, rad = technique.sample_radiance(u[i:i + _CHUNK])
@@ -94,7 +93,7 @@ class MapTable:
             dirs.append(s.directions)
             pdf.append(p)
             base.append(b)
-        return cls(level, np.concatenate(dirs), np.concatenate(base), np.concatenate(pdf))
+        return cls(-1, np.concatenate(dirs), np.concatenate(base), np.concatenate(pdf))
 
 
 @dataclass(frozen=True)

@@ -335,10 +335,15 @@ class PresetModel:
         the shifted points of :meth:`_shifts` (``where`` = its N)."""
         key = (kind, where)
         if key not in self._tables:
-            u = midpoints(where) if isinstance(where, int) else self._shifts(where[1]).points
+            u = self._points(where)
             self._tables[key] = (MapTable.at(self.technique, u) if kind == "map"
                                  else BsdfTable.at(self.preset, u))
         return self._tables[key]
+
+    def _points(self, where) -> np.ndarray:
+        """The square points of a table: the midpoints of level ``where`` (an int) or the
+        shifted net of :meth:`_shifts` (``where`` = ("shift", N))."""
+        return midpoints(where) if isinstance(where, int) else self._shifts(where[1]).points
 
     def _shifts(self, n: int):
         """The first N points of the Sobol' net under ``options.shifts`` random shifts."""
