@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import math
 
+import pytest
+
 from envfit.advisor._preset_search import search_spp
 
 LAWS = {"mis": 0.5, "map": 2.0, "brdf": 40.0}           # rmse = c / N^0.75
@@ -54,3 +56,28 @@ def test_without_first_cap_one_pass_takes_every_coarse_spp():
     ans = search_spp(cm, list(LAWS), runnable, 0.01)
     assert len(cm.passes) == 1 and max(cm.asked_spp("mis")) == 4096
     assert ans["mis"].spp == 256
+
+
+def test_rough_plastic_searches_only_what_its_lobe_grid_resolves():
+    """A rough plastic's lobe choice is not sampled above the grid, so its ``ldsampler`` search
+    stops at the grid's 2^(L−1) spp (a conductor's goes on to the sampled 4^(L+1)/Q), and the
+    model refuses in one line a cell whose lobe grid would pass level 11 (16 M points a part:
+    the first call ran out of 24 GB before)."""
+    import numpy as np
+    from envfit.advisor import PresetAdviseOptions
+    from envfit.base import ParameterError
+    from envfit.maps import EnvMap
+    from envfit.predict.renderer import MicrofacetModel, band_frames
+    from envfit.predict.renderer import PresetModelOptions
+    from envfit.sampling.presets import preset
+    from envfit.shading.microfacet import RoughPlastic
+    kw = dict(renderer="mitsuba3", sampler="ldsampler", roughness=0.2)
+    assert PresetAdviseOptions(bsdf="roughplastic", **kw).spp_cap() == 256
+    assert PresetAdviseOptions(bsdf="ggx", **kw).spp_cap() == 4096
+    m = MicrofacetModel(EnvMap(np.full((8, 16, 3), 2.0)), preset("mitsuba3"),
+                        RoughPlastic("ggx", 0.2), band_frames(2, seed=0),
+                        options=PresetModelOptions(max_level=4))
+    assert m.request("mis", "ldsampler", 1024).level == 10       # ldsampler runs 4^k spp
+    assert m.request("map", "ldsampler", 4096).level == 4       # the emitter alone: sampled
+    with pytest.raises(ParameterError, match="level 12"):
+        m.request("mis", "ldsampler", 4096)

@@ -170,6 +170,26 @@ def test_compiled_sampling_is_the_numpy_conductor(kind, renderer):
             assert np.all(p[~live] == 0)
 
 
+@pytest.mark.parametrize("renderer", ["mitsuba3", "cycles"])
+def test_beckmann_grid_sampling_is_the_pointwise_warp(renderer):
+    """On the midpoints of a grid, Beckmann's warp taken once per row and column (separable:
+    slope x from u0, slope y from u1; Cycles' normal incidence polar) gives the same numbers
+    as the warp point by point: ω_o, weight and pdf equal to the last bit."""
+    from envfit.predict.renderer._preset_integrand import midpoints
+    from envfit.predict.renderer._vndf_kernels import conductor_sample
+    u = midpoints(5)
+    for alpha in (0.05, 0.3):
+        c = Conductor("beckmann", alpha, renderer=renderer)
+        for wi in ([0, 0, 1.0], [0.5, 0.2, np.sqrt(0.71)], [0.999, 0, np.sqrt(1 - 0.999 ** 2)]):
+            grid = conductor_sample(c, np.array(wi), u, 5)
+            point = conductor_sample(c, np.array(wi), u)
+            assert (grid[1] > 0).mean() > 0.3
+            for a, b in zip(grid, point):
+                np.testing.assert_array_equal(a, b)
+    with pytest.raises(ValueError):
+        conductor_sample(c, np.array([0, 0, 1.0]), u, 4)
+
+
 def test_compiled_erfinv_is_scipys():
     """The compiled erf⁻¹ of the Beckmann warps equals scipy.special.erfinv to 1e-14 relative
     on a fine grid of (−1, 1) and in both tails down to 1 ∓ 1e-16; ±inf at ±1, NaN outside."""

@@ -324,9 +324,12 @@ class PresetAdviseOptions:
 
     def spp_cap(self, *, sampled: bool = True) -> int:
         """The largest spp searched for this sampler (:func:`spp_cap`; ``sampled=False``: the
-        largest its grid resolves without sampling, where the search's first pass stops)."""
+        largest its grid resolves without sampling, where the search's first pass stops). A
+        rough plastic's lobe choice is not sampled (``MicrofacetModel.request``): its cap is
+        the grid's."""
         spec = self.preset.sampler(self.sampler)
-        return spp_cap(spec.randomisation, self.level, self.max_spp, sampled=sampled)
+        return spp_cap(spec.randomisation, self.level, self.max_spp,
+                       sampled=sampled and self.bsdf != "roughplastic")
 
     def key(self) -> dict:
         """What the predictions depend on besides the map (the cache key's part)."""

@@ -63,6 +63,9 @@ __all__ = ["MicrofacetModel", "BANDS", "rmse_sampling_error"]
 BANDS = ((0.0, 30.0), (30.0, 60.0), (60.0, 80.0))
 
 _CHUNK = 1 << 18
+#: the finest grid of a rough plastic's lobe path (PresetModelOptions' max_level): its table
+#: at level 12 holds 16 M points per part
+_MAX_LOBE_LEVEL = 11
 
 
 def rmse_sampling_error(weights, mse) -> float | None:
@@ -243,7 +246,13 @@ class MicrofacetModel(LobeChoice, PresetModel):
                                  f"(its lobe choice is a 1-D dimension {sampler} pairs with "
                                  f"the direction's in an array); got {sampler}")
         if self._two_lobes() and strategy != "map" and samples_above(r.name, r.n, r.level):
-            r = replace(r, level=max(r.level, (r.n - 1).bit_length()))  # lobes: no sampling
+            level = (r.n - 1).bit_length()                             # lobes: no sampling
+            if level > _MAX_LOBE_LEVEL:
+                raise ParameterError(
+                    f"the rough plastic's {strategy} under {sampler} at {r.n} spp needs a grid "
+                    f"of level {level} (its lobe choice is not sampled above the grid); the "
+                    f"model goes to level {_MAX_LOBE_LEVEL} ({1 << _MAX_LOBE_LEVEL} spp)")
+            r = replace(r, level=max(r.level, level))
         return r
 
     def _run(self, todo: list) -> None:
@@ -325,13 +334,14 @@ class MicrofacetModel(LobeChoice, PresetModel):
             pdf.append(self.technique.pdf(d[i:i + _CHUNK]))
         return np.concatenate(rad), np.concatenate(pdf)
 
-    def _sample(self, wi, u):
+    def _sample(self, wi, u, level: int | None = None):
         """(ω_o, weight, pdf) of the conductor's sampling for the view ``wi`` at the table's
         points ``u``: compiled for a white conductor and a rough plastic (its lobe from u_x),
         numpy otherwise; where the weight is 0, ω_o is the pole and the pdf 0 (the parts are
-        0 there)."""
+        0 there). ``level``: ``u`` is the midpoint grid of that level (Beckmann's warp by
+        rows and columns, :func:`conductor_sample`)."""
         if compiled_sampling(self.conductor):               # the kernels: single scatter
-            wo, weight, pdf = conductor_sample(self.conductor, wi, u)
+            wo, weight, pdf = conductor_sample(self.conductor, wi, u, level)
             return wo, weight * self._scale(wi), pdf
         if compiled_plastic(self.conductor):
             return plastic_sample(self.conductor, wi, u)
@@ -412,7 +422,8 @@ class MicrofacetModel(LobeChoice, PresetModel):
             fc, pb = self._eval_pdf(wi, tab.directions, rows)
             map_side = (tab.base, fc, pb, tab.pdf)
         if strategies & {"brdf", "mis"}:
-            wo, weight, pdf = self._sample(wi, self._table("bsdf", fine))
+            wo, weight, pdf = self._sample(wi, self._table("bsdf", fine),
+                                           fine if isinstance(fine, int) else None)
             rad, pe = self._technique_values(wo, rows, weight)
             bsdf_side = (rad, weight, pdf, pe)
         return map_side, bsdf_side

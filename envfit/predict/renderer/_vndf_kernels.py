@@ -198,30 +198,68 @@ def _g1(vx, vy, vz, mx, my, mz, alpha, kind):  # pragma: no cover - numba
     return 1.0 / (1.0 + _lambda(vx, vy, vz, alpha, kind))
 
 
+@numba.njit(cache=True, error_model="numpy")
+def _reflect(p, wi, mx, my, mz, lam_i, alpha, variant, kind, wo, out):  # pragma: no cover
+    """Sample ``p`` of :func:`_sample` from its visible normal m: the reflection, the weight
+    (Mitsuba: G1(ω_o, m); pbrt-v4 and Cycles: G2/G1) and the pdf D·G1(ω_i)/(4 cos θ_i)."""
+    ix, iy, iz = wi[0], wi[1], wi[2]
+    dot = ix * mx + iy * my + iz * mz
+    ox, oy, oz = 2.0 * dot * mx - ix, 2.0 * dot * my - iy, 2.0 * dot * mz - iz
+    d = _d(mx, my, mz, alpha, kind)
+    if variant == 0:
+        w = _g1(ox, oy, oz, mx, my, mz, alpha, kind)
+        gview = _g1(ix, iy, iz, mx, my, mz, alpha, kind)
+    else:
+        w = (1.0 + lam_i) / (1.0 + lam_i + _lambda(ox, oy, oz, alpha, kind))
+        gview = 1.0 / (1.0 + lam_i)
+    if not (oz > 0.0 and iz > 0.0 and d > 0.0 and w > 0.0):
+        wo[p, 0], wo[p, 1], wo[p, 2], out[0, p], out[1, p] = 0.0, 0.0, 1.0, 0.0, 0.0
+        return
+    q = d * gview / (4.0 * iz)
+    if math.isnan(q):
+        q = 0.0
+    elif math.isinf(q):
+        q = _BIG
+    wo[p, 0], wo[p, 1], wo[p, 2], out[0, p], out[1, p] = ox, oy, oz, w, q
+
+
 @numba.njit(cache=True, parallel=True, error_model="numpy")
 def _sample(wi, view, u, alpha, variant, kind, wo, out):  # pragma: no cover - numba
-    ix, iy, iz = wi[0], wi[1], wi[2]
-    lam_i = _lambda(ix, iy, iz, alpha, kind)
+    lam_i = _lambda(wi[0], wi[1], wi[2], alpha, kind)
     for p in numba.prange(u.shape[0]):
         mx, my, mz = _normal(wi, view, u[p, 0], u[p, 1], alpha, variant, kind)
-        dot = ix * mx + iy * my + iz * mz
-        ox, oy, oz = 2.0 * dot * mx - ix, 2.0 * dot * my - iy, 2.0 * dot * mz - iz
-        d = _d(mx, my, mz, alpha, kind)
+        _reflect(p, wi, mx, my, mz, lam_i, alpha, variant, kind, wo, out)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _beckmann_factors(consts, c, variant):  # pragma: no cover - numba
+    """Beckmann's α = 1 slopes on the grid ``c`` × ``c`` as products s0 = a0(u0)·b0(u1),
+    s1 = a1(u0)·b1(u1) (2, m) each: the warps of :func:`_normal` are separable (Mitsuba's
+    and Cycles' slope x from u0, slope y from u1; Cycles' normal incidence polar)."""
+    m = c.shape[0]
+    a, b = np.ones((2, m)), np.ones((2, m))
+    for k in range(m):
         if variant == 0:
-            w = _g1(ox, oy, oz, mx, my, mz, alpha, kind)
-            gview = _g1(ix, iy, iz, mx, my, mz, alpha, kind)
+            a[0, k], b[1, k] = _mitsuba_beckmann_11(consts, c[k], c[k])
+        elif consts[0] > 0.0:
+            r, phi = math.sqrt(-math.log(c[k])), 2.0 * math.pi * c[k]
+            a[0, k], a[1, k], b[0, k], b[1, k] = r, r, math.cos(phi), math.sin(phi)
         else:
-            w = (1.0 + lam_i) / (1.0 + lam_i + _lambda(ox, oy, oz, alpha, kind))
-            gview = 1.0 / (1.0 + lam_i)
-        if not (oz > 0.0 and iz > 0.0 and d > 0.0 and w > 0.0):
-            wo[p, 0], wo[p, 1], wo[p, 2], out[0, p], out[1, p] = 0.0, 0.0, 1.0, 0.0, 0.0
-            continue
-        q = d * gview / (4.0 * iz)
-        if math.isnan(q):
-            q = 0.0
-        elif math.isinf(q):
-            q = _BIG
-        wo[p, 0], wo[p, 1], wo[p, 2], out[0, p], out[1, p] = ox, oy, oz, w, q
+            a[0, k], b[1, k] = _cycles_beckmann_x(consts, c[k]), _erfinv(2.0 * c[k] - 1.0)
+    return a, b
+
+
+@numba.njit(cache=True, parallel=True, error_model="numpy")
+def _sample_grid(wi, view, a, b, alpha, variant, wo, out):  # pragma: no cover - numba
+    """:func:`_sample` of Beckmann at the midpoints of a grid (u0 the slow index), its
+    special functions once per row and column (:func:`_beckmann_factors`)."""
+    lam_i = _lambda(wi[0], wi[1], wi[2], alpha, 1)
+    m = a.shape[1]
+    for i in numba.prange(m):
+        for j in range(m):
+            mx, my, mz = _slopes_normal(a[0, i] * b[0, j], a[1, i] * b[1, j], view[1, 0],
+                                        view[1, 1], alpha)
+            _reflect(i * m + j, wi, mx, my, mz, lam_i, alpha, variant, 1, wo, out)
 
 
 def compiled_sampling(conductor) -> bool:
@@ -285,16 +323,27 @@ def _view_constants(wi, alpha, variant, kind):
     return view
 
 
-def conductor_sample(conductor, wi, u) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def conductor_sample(conductor, wi, u, level: int | None = None
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(ω_o (P, 3), weight f·cos/pdf (P,), pdf (P,)) of a white GGX or Beckmann ``conductor``
     sampled for the one view ``wi`` (3,) at the points ``u`` (P, 2), local frame; where the
     weight is 0, ω_o is the pole and the pdf 0 (``Conductor.sample`` leaves the reflected
-    direction)."""
+    direction). ``level``: ``u`` is ``midpoints(level)``, where Beckmann's warp takes its
+    special functions once per row and column (the same numbers, ≈ 2^level times fewer
+    erf⁻¹)."""
     d = conductor.distribution
     variant, kind = _VARIANTS[conductor.renderer], _KINDS[d.kind]
     wi = np.ascontiguousarray(wi, dtype=np.float64)
-    view = _view_constants(wi, float(d.alpha), variant, kind)
+    alpha = float(d.alpha)
+    view = _view_constants(wi, alpha, variant, kind)
     wo, out = np.empty((len(u), 3)), np.empty((2, len(u)))
-    _sample(wi, view, np.ascontiguousarray(u, dtype=np.float64), float(d.alpha), variant,
-            kind, wo, out)
+    if kind == 1 and level is not None:
+        m = 1 << int(level)
+        if len(u) != m * m:
+            raise ValueError("u must be midpoints(level)")
+        a, b = _beckmann_factors(view[3], (np.arange(m) + 0.5) / m, variant)
+        _sample_grid(wi, view, a, b, alpha, variant, wo, out)
+    else:
+        _sample(wi, view, np.ascontiguousarray(u, dtype=np.float64), alpha, variant, kind,
+                wo, out)
     return wo, out[0], out[1]
