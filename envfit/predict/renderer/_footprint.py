@@ -19,18 +19,28 @@ scaled values are exact for linear variation and converge as the side grows (on 
 GGX α = 0.3 at 1024 ``ldsampler`` spp, the unscaled term grew 1.254× from side 2 to 4, the
 linear law's 1.25; scaled, the two agree to 0.3 %).
 
+Mitsuba's ``ldsampler`` does not pair its dimensions at random: each is the pixel's one
+XOR-shifted net in the order ``permute(j, N, scramble_seed + d)``, and two rounds of TEA on
+consecutive seeds order the film's points (dimension 0) and the first technique's alike
+(:mod:`~envfit.predict.renderer.randomisation._ldsampler`). There the film's share is not
+Var c/(N − 1) but E(F − I)² − E(F₀ − I)² over Mitsuba's own points (:class:`PairedFootprint`,
+:func:`paired_extra`): F the pixel estimate with the integrand interpolated across the pixel
+from the footprint's tables (:func:`film_weights`), F₀ the same samples of the mean table.
+
 Used by :class:`~envfit.predict.renderer._preset_model.PresetModel` (a diffuse sphere R pixels
 across, each normal in the view nearest it: :func:`nearest_views`) and
 :class:`~envfit.predict.renderer._microfacet_model.MicrofacetModel` (per frame).
 """
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 from envfit.base import ParameterError
 
 __all__ = ["pixel_footprints", "nearest_views", "FootprintSums", "with_variances",
-           "footprint_term", "pixel_variance_scale"]
+           "footprint_term", "pixel_variance_scale", "film_weights", "paired_extra",
+           "PairedFootprint"]
 
 #: the parts each strategy draws (its streams) and the part whose mean over u is the pixel's
 #: integral
@@ -109,10 +119,13 @@ class FootprintSums:
     r"""Running sums of the tabulated parts over a footprint's normals (one dict of parts
     (P, C) per normal, :meth:`add`), and the parts they give (:meth:`parts`): the mean table
     of each part and its ``_var_c``, ``_var_a`` (module docstring). Running sums:
-    :math:`\mathrm{Var}\,c = E g^2 - E_u \bar g^2 - \mathrm{Var}\,a`."""
+    :math:`\mathrm{Var}\,c = E g^2 - E_u \bar g^2 - \mathrm{Var}\,a`. The parts named in
+    ``keep`` are also kept per normal (``_normals``: (J, P, C) each) for
+    :class:`PairedFootprint`."""
 
-    def __init__(self):
+    def __init__(self, keep=()):
         self.s1, self.s2, self.means, self.count = {}, {}, {}, 0
+        self.keep = {p: [] for p in keep}
 
     def add(self, parts: dict) -> None:
         """Add one footprint normal's parts."""
@@ -120,13 +133,18 @@ class FootprintSums:
             self.s1[p] = self.s1.get(p, 0.0) + g
             self.s2[p] = self.s2.get(p, 0.0) + np.einsum("pc,pc->c", g, g) / len(g)
             self.means.setdefault(p, []).append(g.mean(axis=0))
+            if p in self.keep:
+                self.keep[p].append(g)
         self.count += 1
 
     def parts(self) -> dict:
         """The mean tables, and ``_var_c`` and ``_var_a`` (dicts of (C,) per part)."""
         out = {p: s / self.count for p, s in self.s1.items()}
-        return with_variances(out, {p: np.stack(m) for p, m in self.means.items()},
-                              {p: s2 / self.count for p, s2 in self.s2.items()})
+        out = with_variances(out, {p: np.stack(m) for p, m in self.means.items()},
+                             {p: s2 / self.count for p, s2 in self.s2.items()})
+        if self.keep:
+            out["_normals"] = {p: np.stack(g) for p, g in self.keep.items() if g}
+        return out
 
 
 def with_variances(gbar: dict, means: dict, mean_sq: dict) -> dict:
@@ -165,3 +183,130 @@ def footprint_term(strategy: str, randomisation: str, n: int, vals: dict):
     if randomisation == "independent":
         return (c + vals["_var_a"][_TOTAL[strategy]]) / n
     return c / max(n - 1, 1)
+
+
+def _axis_weights(x: np.ndarray, side: int) -> np.ndarray:
+    """(…, side): per axis the piecewise-linear interpolation between the strata midpoints
+    (i + ½)/side, extended linearly to the pixel's edges, each weight shifted to mean 1/side
+    over [0, 1] (its mean by the midpoint rule on a grid whose cells the kinks bound: exact)."""
+    def raw(t):
+        w = np.zeros(t.shape + (side,))
+        if side == 1:
+            w[..., 0] = 1.0
+            return w
+        u = t * side - 0.5
+        i0 = np.clip(np.floor(u), 0, side - 2).astype(np.int64)
+        f = u - i0
+        np.put_along_axis(w, i0[..., None], (1.0 - f)[..., None], axis=-1)
+        np.put_along_axis(w, i0[..., None] + 1, f[..., None], axis=-1)
+        return w
+    grid = (np.arange(2 * side * 64) + 0.5) / (2 * side * 64)
+    return raw(np.asarray(x, dtype=np.float64)) - raw(grid).mean(axis=0) + 1.0 / side
+
+
+def film_weights(film, side: int) -> np.ndarray:
+    r"""The weights (…, J) of a footprint's J = side² normals (:func:`pixel_footprints`:
+    normal k = i_y·side + i_x, x along the view's right, y along its up) at film positions
+    ``film`` (…, 2) in the pixel as Mitsuba draws them (x right, y down: the normal at
+    (x, 1 − y)): the product of :func:`_axis_weights` — for side 2 the bilinear Lagrange
+    basis on the strata midpoints, which spans the integrand's variation across the pixel
+    exactly where it is linear (the J/(J − 1) of :func:`pixel_variance_scale`); each weight's
+    mean over the pixel 1/J, so their mean table is the footprint's.
+
+    >>> w = film_weights(np.array([[0.25, 0.75], [0.5, 0.5]]), 2)
+    >>> w[0].round(12).tolist(), w[1].tolist()   # a stratum midpoint; the centre
+    ([1.0, 0.0, 0.0, 0.0], [0.25, 0.25, 0.25, 0.25])
+    """
+    film = np.asarray(film, dtype=np.float64)
+    s = int(side)
+    wx, wy = _axis_weights(film[..., 0], s), _axis_weights(1.0 - film[..., 1], s)
+    return (wy[..., :, None] * wx[..., None, :]).reshape(film.shape[:-1] + (s * s,))
+
+
+def paired_extra(streams, weights) -> tuple[np.ndarray, np.ndarray]:
+    r"""The MSE (C,) the film position adds to R simulated pixels of N samples, and its
+    standard error: the mean over pixels of :math:`(F - I)^2 - (F_0 - I)^2 = D^2 + 2D(F_0 -
+    I)`, :math:`D = F - F_0 = \frac1N\sum_j\sum_k (w_k(p_j) - \frac1J)\,g_k(u_j)`, where
+    ``streams`` = [(tables (J, P, C): the part at each footprint normal, cells (R, N): each
+    sample's table entry)] (the techniques' streams, summed), ``weights`` (R, N, J) the
+    film's (:func:`film_weights`), :math:`F_0` the samples of the mean table and I its mean.
+    """
+    r, n, j = weights.shape
+    c = streams[0][0].shape[2]
+    d, f0, total = np.zeros((r, c)), np.zeros((r, c)), 0.0
+    w = np.ascontiguousarray(weights, dtype=np.float64)
+    for tables, cells in streams:
+        _paired_sums(np.ascontiguousarray(tables, dtype=np.float64),
+                     np.ascontiguousarray(cells, dtype=np.int64), w, d, f0)
+        total = total + tables.mean(axis=(0, 1))
+    d, f0 = d / n, f0 / (n * j)
+    x = d * d + 2.0 * d * (f0 - total)                             # (R, C)
+    return x.mean(axis=0), x.std(axis=0, ddof=1) / np.sqrt(r)
+
+
+@numba.njit(cache=True, parallel=True)
+def _paired_sums(tables, cells, weights, d, f0):  # pragma: no cover - numba
+    """Add to each pixel's d (R, C) the sum of (w_k − 1/J) g_k over its samples and to f0
+    the sum of g_k (:func:`paired_extra`)."""
+    j, ch = tables.shape[0], tables.shape[2]
+    for r in numba.prange(cells.shape[0]):
+        for s in range(cells.shape[1]):
+            p = cells[r, s]
+            for k in range(j):
+                wk = weights[r, s, k] - 1.0 / j
+                for c in range(ch):
+                    v = tables[k, p, c]
+                    d[r, c] += wk * v
+                    f0[r, c] += v
+
+
+class PairedFootprint:
+    r"""The film × technique pairing of Mitsuba's ``ldsampler`` at N spp over R pixels
+    (module docstring): their points (dimension 0 the film's, 1 the emitter's, 1 +
+    emitter_samples the BSDF's: ``src/render/integrator.cpp`` ``render_sample`` and
+    ``src/integrators/direct.cpp``, as the preset's ``_dimensions``), each pixel's scramble
+    seed drawn at random (:func:`~envfit.predict.renderer.randomisation._ldsampler.
+    pixel_scramble_seeds`).
+
+    Examples
+    --------
+    An integrand 2x − ½ along the film's x only: the net's x are N strata's points shifted
+    alike, so the error is 2(δ − ½)/N, δ uniform: MSE 1/(3N²).
+
+    >>> pf = PairedFootprint(16, pixels=4096, seed=0)
+    >>> g = np.zeros((4, 16, 1)); g[1] = g[3] = 1.0          # the normals at x = ¾
+    >>> mse, se = pf.extra({"map": g}, "map")
+    >>> bool(abs(mse[0] - 1 / (3 * 16 ** 2)) < 3 * se[0])
+    True
+    """
+
+    def __init__(self, n: int, pixels: int, seed: int = 0):
+        from envfit.predict.renderer.randomisation._ldsampler import (ldsampler_points,
+                                                                      pixel_scramble_seeds)
+        self.n = int(n)
+        self.points = ldsampler_points(pixel_scramble_seeds(pixels, seed), self.n, 3)
+        self._weights, self._cells = {}, {}
+
+    def weights(self, side: int) -> np.ndarray:
+        """:func:`film_weights` of the film's points (R, N, side²)."""
+        if side not in self._weights:
+            self._weights[side] = film_weights(self.points[:, :, 0], side)
+        return self._weights[side]
+
+    def cells(self, dim: int, size: int) -> np.ndarray:
+        """Each sample's entry (R, N) of a table at the midpoints of a 2^L × 2^L grid of
+        ``size`` = 4^L entries (u0 the slow index), in dimension ``dim``."""
+        key = (dim, size)
+        if key not in self._cells:
+            m = 1 << (int(size).bit_length() - 1) // 2
+            i = np.minimum((self.points[:, :, dim] * m).astype(np.int64), m - 1)
+            self._cells[key] = i[..., 0] * m + i[..., 1]
+        return self._cells[key]
+
+    def extra(self, tables: dict, strategy: str, emitter_samples: int = 1):
+        """:func:`paired_extra` of ``strategy``'s streams, ``tables`` {part: (J, P, C)}."""
+        dims = {"map": 1, "brdf": 1, "mis_e": 1, "mis_b": 1 + emitter_samples}
+        side = int(round(np.sqrt(len(next(iter(tables.values()))))))
+        streams = [(tables[p], self.cells(dims[p], tables[p].shape[1]))
+                   for p in _STREAMS[strategy]]
+        return paired_extra(streams, self.weights(side))

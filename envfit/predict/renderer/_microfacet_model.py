@@ -375,14 +375,22 @@ class MicrofacetModel(LobeChoice, PresetModel):
         pixel): the mean tables (:mod:`._footprint`), and ``_var_c``, ``_var_a`` per part from
         the fused kernel's sums (as :class:`._footprint.FootprintSums` computes them)."""
         normal, view, foot = frame
-        acc, sums = self._accumulated(strategies, foot, view, fine)
+        kept = {} if self._keep and isinstance(fine, int) else None     # not the shifted
+        acc, sums = self._accumulated(strategies, foot, view, fine, kept)
         j, size = len(foot), acc.shape[1]
         acc /= j                                                      # the mean table g-bar
         gbar = self._named(acc, strategies)
         idx = {p: PARTS.index(p) for p in gbar}
         out = with_variances(gbar, {p: sums[:, i, 0] / size for p, i in idx.items()},
                              {p: sums[:, i, 1].sum(axis=0) / (j * size) for p, i in idx.items()})
+        if kept:
+            out["_normals"] = {p: np.stack(g) for p, g in kept.items()}
         return {**out, **self._lobe_values(strategies, foot, view, fine)}
+
+    def _paired(self, r) -> bool:
+        """:meth:`PresetModel._paired`, but not for a rough plastic's sampled lobes (their
+        footprint keeps :func:`._footprint.footprint_term`)."""
+        return super()._paired(r) and not (self._two_lobes() and r.strategy != "map")
 
     @staticmethod
     def _named(acc: np.ndarray, strategies: set) -> dict:
@@ -396,17 +404,23 @@ class MicrofacetModel(LobeChoice, PresetModel):
             names.update(("mis_e", "mis_b", "mis_t"))
         return {p: acc[i] for i, p in enumerate(PARTS) if p in names}
 
-    def _accumulated(self, strategies: set, normals, view, fine: int):
+    def _accumulated(self, strategies: set, normals, view, fine: int, kept=None):
         """The parts summed over ``normals`` (5, P, 3) for one ``view``, and each normal's
-        sums of g and g² over the table (J, 5, 2, 3): :func:`accumulate_parts`."""
+        sums of g and g² over the table (J, 5, 2, 3): :func:`accumulate_parts`; with a dict
+        ``kept``, each normal's parts of ``self._keep`` appended to ``kept[part]``."""
         acc, sums = None, []
         for normal in normals:
             map_side, bsdf_side = self._sides(strategies, normal, view, fine)
             if acc is None:
                 size = len((map_side or bsdf_side)[2])
                 acc = np.zeros((len(PARTS), size, 3))
-            sums.append(accumulate_parts(acc, map_side, bsdf_side, self._fractions("mis"),
+            one = acc if kept is None else np.zeros_like(acc)
+            sums.append(accumulate_parts(one, map_side, bsdf_side, self._fractions("mis"),
                                          self.preset.heuristic))
+            if kept is not None:
+                acc += one
+                for p in self._keep:
+                    kept.setdefault(p, []).append(one[PARTS.index(p)])
         return acc, np.stack(sums)
 
     def _sides(self, strategies: set, normal, view, fine: int):

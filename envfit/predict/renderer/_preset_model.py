@@ -56,8 +56,9 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from envfit.base import ParameterError
-from envfit.predict.renderer._footprint import (FootprintSums, footprint_term,
-                                                nearest_views, pixel_footprints)
+from envfit.predict.renderer._footprint import (_STREAMS, FootprintSums, PairedFootprint,
+                                                footprint_term, nearest_views,
+                                                pixel_footprints)
 from envfit.predict.renderer._preset_integrand import (BsdfTable, MapTable, bsdf_values,
                                                        map_values, midpoints, moment_pyramid)
 from envfit.predict.renderer.randomisation import (DyadicGrid, mis_mse, randomised_mse,
@@ -295,6 +296,9 @@ class PresetModel:
     0.0
     """
 
+    #: the parts kept per footprint normal in a pass (:meth:`_paired`), set by :meth:`_run`
+    _keep: frozenset = frozenset()
+
     def __init__(self, envmap, preset, technique_options: dict | None = None,
                  options: PresetModelOptions | None = None):
         self.preset = preset
@@ -363,7 +367,7 @@ class PresetModel:
         pair, their means over the footprint with its ``_var_c`` and ``_var_a``
         (:class:`._footprint.FootprintSums`)."""
         if isinstance(normal, tuple):
-            sums = FootprintSums()
+            sums = FootprintSums(keep=self._keep if isinstance(fine, int) else ())
             for x in normal[1]:
                 sums.add(self._point_parts(strategies, x, fine))
             return sums.parts()
@@ -392,6 +396,7 @@ class PresetModel:
         fine = max(self.options.max_level, *(r.level for r in todo)) + 1   # never coarser
         strategies = {r.strategy for r in todo}
         levels = {r.level for r in todo}
+        self._keep = {p for r in todo if self._paired(r) for p in _STREAMS[r.strategy]}
         k = len(self.normals)
         per = {r: [None] * k for r in todo}                  # mse (C,) per normal
         parts = {r: np.zeros((k, 3)) for r in todo}          # map, brdf, cross per normal
@@ -421,8 +426,28 @@ class PresetModel:
         frame): the randomised parts, plus the pixel footprint's term when ``vals`` has one
         (:func:`._footprint.footprint_term`)."""
         res = self._randomised_cell(r, vals, grids, fine, levels)
-        extra = footprint_term(r.strategy, r.name, r.n, vals)
+        if "_normals" in vals and self._paired(r):
+            extra = self._pairing(r.n).extra(vals["_normals"], r.strategy,
+                                             self.preset.strategy(r.strategy).emitter_samples)[0]
+        else:
+            extra = footprint_term(r.strategy, r.name, r.n, vals)
         return (res[0] + extra,) + tuple(res[1:])
+
+    def _paired(self, r: _Request) -> bool:
+        """Whether the film's pairing with the techniques is simulated over the sampler's own
+        points (Mitsuba's ``ldsampler``: :class:`._footprint.PairedFootprint`) rather than
+        taken as random (:func:`._footprint.footprint_term`)."""
+        return (r.name == "digital_shift"
+                and self.preset.sampler(r.sampler).pairing == "same_net_permuted")
+
+    def _pairing(self, n: int) -> PairedFootprint:
+        """The :class:`._footprint.PairedFootprint` of N spp: max(Q, 2^20/N) pixels (Q =
+        ``options.shifts``), seeded by ``options.seed``."""
+        key = ("paired", n)
+        if key not in self._tables:
+            self._tables[key] = PairedFootprint(n, max(self.options.shifts, (1 << 20) // n),
+                                                self.options.seed)
+        return self._tables[key]
 
     def _randomised_cell(self, r: _Request, vals: dict, grids: dict, fine: int, levels):
         """:meth:`_cell` without the footprint: the tables randomised as the sampler does."""

@@ -1,6 +1,9 @@
-r"""Mitsuba 3's ``ldsampler`` ported to numpy, many pixels at once: the oracle (and the
-groundwork of a model) for how it pairs one dimension's points with another's. Nothing here
-imports envfit.
+r"""Mitsuba 3's ``ldsampler`` ported to numpy, many pixels at once: the points of every 2-D
+dimension of a pixel in the order Mitsuba pairs them. Its digital shift (one XOR scramble per
+pixel, the same for every dimension) is modelled exactly on the grid
+(``_digital_shift``, ``_shift_samples``) whatever the order; the order matters where a
+dimension's points meet another's in one sample: the film position (dimension 0) with the
+techniques' (:func:`envfit.predict.renderer._footprint.paired_footprint_mse`).
 
 * :func:`sample_tea_32` — ``include/mitsuba/core/random.h``: ``sample_tea_32`` (TEA, the pair
   (v0, v1) after ``rounds`` rounds);
@@ -17,11 +20,16 @@ Which of TEA's two words ``permute`` reads is taken from the installed build's o
 ``mi.permute``, and ``ldsampler``'s 2 rounds from its points: with the per-pixel
 ``scramble_seed`` = ``compute_per_sequence_seed(seed)`` = ``sample_tea_32(base_seed = 0,
 seed).first`` (``src/render/sampler.cpp``, scalar variants), the port repeats
-``sampler.seed(seed)``'s points exactly (tests/test_randomisation_mitsuba.py).
+``sampler.seed(seed)``'s points exactly (tests/test_randomisation_mitsuba.py). Two rounds of
+TEA on the seeds ``scramble_seed + d`` order consecutive dimensions alike: the product of the
+first binary digits of x in dimensions 0 and 1 has (N − 1) × the variance of its pixel mean
+1.9, 3.0, 8.6 and ≈ 15 at 16, 64, 256 and 1024 spp, 1 for a uniform pairing.
 """
 from __future__ import annotations
 
 import numpy as np
+
+__all__ = ["sample_tea_32", "permute", "ldsampler_points", "pixel_scramble_seeds"]
 
 M32 = np.uint64(0xFFFFFFFF)
 #: the word of the TEA pair that ``permute`` reads (the installed build's), and the rounds
@@ -90,7 +98,12 @@ def _scaled(bits: np.ndarray) -> np.ndarray:
 
 def ldsampler_points(scramble_seeds, n: int, dims: int) -> np.ndarray:
     """(R, N, dims, 2): ``next_2d`` of ``dims`` consecutive dimensions (from index 0) for
-    every sample of R pixels with the given per-pixel scramble seeds."""
+    every sample of R pixels with the given per-pixel scramble seeds (N a power of two).
+
+    >>> p = ldsampler_points([1, 2], 4, 2)
+    >>> p.shape, sorted((p[0, :, 0, 0] * 4).astype(int).tolist())   # one point per column
+    ((2, 4, 2, 2), [0, 1, 2, 3])
+    """
     seeds = _u(scramble_seeds).reshape(-1, 1)
     j = np.arange(n, dtype=np.uint64)[None, :]
     sx, sy = sample_tea_32(seeds, np.uint64(0x98BC51AB))
@@ -100,3 +113,10 @@ def ldsampler_points(scramble_seeds, n: int, dims: int) -> np.ndarray:
         out[:, :, d, 0] = _float(_reverse32(i) ^ sx)
         out[:, :, d, 1] = _scaled(_sobol2(i) ^ sy)
     return out
+
+
+def pixel_scramble_seeds(count: int, seed: int) -> np.ndarray:
+    """``count`` per-pixel scramble seeds: uniform 32-bit words (``numpy.random.default_rng
+    (seed)``), as ``compute_per_sequence_seed`` (4 rounds of TEA) makes of consecutive pixel
+    seeds."""
+    return np.random.default_rng(seed).integers(0, 1 << 32, size=int(count), dtype=np.uint64)
