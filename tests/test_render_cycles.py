@@ -121,3 +121,24 @@ def test_glossy_sphere_reflects_the_conductors_albedo(kind):
         assert np.all(np.abs(want / L - 1) < 0.01) and abs(got[theta >= 60].mean() / L - 1) < 0.015
     else:
         assert want[theta >= 60].mean() < 0.95 * want[theta < 30].mean()   # G2 darkens grazing
+
+
+@pytest.mark.parametrize("kind", ["ggx", "multiggx"])
+def test_principled_metallic_white_renders_the_glossy_image(kind):
+    """The Principled BSDF with Metallic 1 and white Base Color and Specular Tint (what a
+    user sets for a rough metal) renders the Glossy BSDF node's image, pixel for pixel, on a
+    map with a sun, with BSDF sampling and MIS: its F82-tint Fresnel is 1 and its energy scale
+    the node's (``glossy_bsdf``), so the Glossy node's rendered validation holds for it."""
+    from envfit.measure.renderers import glossy_bsdf
+    rng = np.random.default_rng(4)
+    data = 0.2 + 0.3 * rng.random((16, 32, 3))
+    data[4, 9] = 300.0
+    env = EnvMap(data.astype(np.float32))
+    imgs = {}
+    for node in ("glossy", "principled"):
+        opts = CyclesOptions(resolution=R, bsdf=glossy_bsdf(kind, 0.2, node=node))
+        with CyclesSphere(env, opts) as r:
+            imgs[node] = [r.render(s, "tabulated_sobol", 16, seed=7)[0] for s in ("brdf", "mis")]
+    for a, b in zip(imgs["glossy"], imgs["principled"]):
+        assert a.std() > 0.01
+        np.testing.assert_allclose(b, a, rtol=1e-5, atol=1e-6)

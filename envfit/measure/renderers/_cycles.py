@@ -116,7 +116,7 @@ class CyclesOptions:
                 raise ParameterError(f"{name} must be an integer >= {lo}, got {v!r}")
 
 
-def glossy_bsdf(distribution: str = "ggx", alpha: float = 0.1) -> tuple:
+def glossy_bsdf(distribution: str = "ggx", alpha: float = 0.1, node: str = "glossy") -> tuple:
     """The sphere's BSDF for :attr:`CyclesOptions.bsdf`: the *Glossy BSDF* node, colour 1
     (Fresnel = 1: a white conductor), distribution ``GGX`` or ``Beckmann`` (single scattering),
     or ``multiggx``: *Multiscatter GGX*, the node's and the Principled BSDF's default (GGX
@@ -127,14 +127,29 @@ def glossy_bsdf(distribution: str = "ggx", alpha: float = 0.1) -> tuple:
     ``bsdf_microfacet_beckmann_setup``; sampled by visible normals,
     ``src/kernel/closure/bsdf_microfacet.h``), as sorted (key, value) pairs.
 
+    ``node="principled"``: the *Principled BSDF* node instead, Metallic 1, Base Color and
+    Specular Tint white, its distribution GGX or Multiscatter GGX. Its metallic closure is the
+    same microfacet BSDF with the F82-tint Fresnel (``closure.h``, ``CLOSURE_BSDF_PRINCIPLED_ID``:
+    f0 = base colour, ``bsdf_microfacet_setup_fresnel_f82_tint``): F82 tint 1 sets b = 0, so
+    F = Schlick(f0 = 1) = 1 and the multiscatter energy scale is the Glossy node's (Fss = 1);
+    every other layer has weight 0 (1 − metallic, coat, sheen). So it renders the Glossy
+    node's image (``tests/test_render_cycles.py``).
+
     >>> round(dict(glossy_bsdf("beckmann", 0.25))["roughness"], 12)
     0.5
     """
     if distribution not in ("ggx", "beckmann", "multiggx"):
         raise ParameterError(f"distribution must be ggx, beckmann or multiggx, got "
                              f"{distribution!r}")
-    return tuple(sorted({"type": "glossy", "distribution": distribution,
-                         "alpha": float(alpha), "roughness": float(alpha) ** 0.5}.items()))
+    if node not in ("glossy", "principled") or (node == "principled"
+                                                 and distribution == "beckmann"):
+        raise ParameterError(f"node must be glossy, or principled with ggx or multiggx (the "
+                             f"Principled BSDF has no Beckmann), got {node!r}")
+    b = {"type": "glossy", "distribution": distribution, "alpha": float(alpha),
+         "roughness": float(alpha) ** 0.5}
+    if node == "principled":                # the Glossy node's keys (and caches) unchanged
+        b["node"] = node
+    return tuple(sorted(b.items()))
 
 
 def _use_nodes(datablock) -> None:
@@ -159,11 +174,16 @@ def _material(bpy, bsdf=None):
         node.inputs["Roughness"].default_value = 0.0
     else:
         b = dict(bsdf)
-        node = nt.nodes.new("ShaderNodeBsdfGlossy")
+        principled = b.get("node") == "principled"
+        node = nt.nodes.new("ShaderNodeBsdfPrincipled" if principled else "ShaderNodeBsdfGlossy")
         node.distribution = {"ggx": "GGX", "beckmann": "BECKMANN",
                              "multiggx": "MULTI_GGX"}[b["distribution"]]
         node.inputs["Roughness"].default_value = b["roughness"]
-    node.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+        if principled:
+            node.inputs["Metallic"].default_value = 1.0
+            node.inputs["Specular Tint"].default_value = (1.0, 1.0, 1.0, 1.0)
+    node.inputs["Base Color" if bsdf is not None and dict(bsdf).get("node") == "principled"
+                else "Color"].default_value = (1.0, 1.0, 1.0, 1.0)
     nt.links.new(node.outputs["BSDF"], out.inputs["Surface"])
     return mat
 
