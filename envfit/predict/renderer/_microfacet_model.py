@@ -27,10 +27,12 @@ with the view at a polar angle θ_o in a band and the map's orientation uniform
 a sphere).
 
 A rendered pixel averages its footprint: the film position is two more dimensions of the
-estimator, paired at random with the techniques'. Given each frame's footprint normals
+estimator, paired with the techniques' at random, or, for Mitsuba's ``ldsampler``, in the
+order its ``permute`` gives them. Given each frame's footprint normals
 (:func:`pixel_footprints`), the model randomises the footprint's mean integrand and adds the
-interaction's variance (:mod:`._footprint`) — what a sharp lobe near the
-limb of a small sphere adds.
+interaction's share (:mod:`._footprint`: Var c/(N − 1), or simulated over ``ldsampler``'s
+own points with each footprint normal's table) — what a sharp lobe near the limb of a small
+sphere adds.
 
 References: E. Heitz, "Sampling the GGX distribution of visible normals", JCGT 7(4) (2018);
 Mitsuba 3.9.1 ``src/bsdfs/roughconductor.cpp`` and ``src/integrators/direct.cpp``.
