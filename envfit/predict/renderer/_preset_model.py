@@ -428,7 +428,8 @@ class PresetModel:
         res = self._randomised_cell(r, vals, grids, fine, levels)
         if "_normals" in vals and self._paired(r):
             extra = self._pairing(r.n).extra(vals["_normals"], r.strategy,
-                                             self.preset.strategy(r.strategy).emitter_samples)[0]
+                                             self.preset.strategy(r.strategy).emitter_samples,
+                                             means=vals)[0]
         else:
             extra = footprint_term(r.strategy, r.name, r.n, vals)
         return (res[0] + extra,) + tuple(res[1:])
