@@ -237,7 +237,7 @@ def paired_extra(streams, weights) -> tuple[np.ndarray, np.ndarray]:
     d, f0, total = np.zeros((r, c)), np.zeros((r, c)), 0.0
     w = np.ascontiguousarray(weights, dtype=np.float64)
     for tables, cells, mean in streams:
-        _paired_sums(np.ascontiguousarray(tables, dtype=np.float64),
+        _paired_sums(np.asarray(tables, dtype=np.float64),                  # strided: as is
                      np.ascontiguousarray(cells, dtype=np.int64), w, d, f0)
         total = total + (tables.mean(axis=(0, 1)) if mean is None else mean)
     d, f0 = d / n, f0 / (n * j)

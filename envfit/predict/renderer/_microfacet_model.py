@@ -386,7 +386,7 @@ class MicrofacetModel(LobeChoice, PresetModel):
         out = with_variances(gbar, {p: sums[:, i, 0] / size for p, i in idx.items()},
                              {p: sums[:, i, 1].sum(axis=0) / (j * size) for p, i in idx.items()})
         if kept:
-            out["_normals"] = {p: np.stack(g) for p, g in kept.items()}
+            out["_normals"] = kept
         return {**out, **self._lobe_values(strategies, foot, view, fine)}
 
     def _paired(self, r) -> bool:
@@ -411,19 +411,29 @@ class MicrofacetModel(LobeChoice, PresetModel):
         sums of g and g² over the table (J, 5, 2, 3): :func:`accumulate_parts`; with a dict
         ``kept``, each normal's parts of ``self._keep`` appended to ``kept[part]``."""
         acc, sums = None, []
-        for normal in normals:
+        for k, normal in enumerate(normals):
             map_side, bsdf_side = self._sides(strategies, normal, view, fine)
             if acc is None:
                 size = len((map_side or bsdf_side)[2])
-                acc = np.zeros((len(PARTS), size, 3))
-            one = acc if kept is None else np.zeros_like(acc)
-            sums.append(accumulate_parts(one, map_side, bsdf_side, self._fractions("mis"),
-                                         self.preset.heuristic))
-            if kept is not None:
-                acc += one
-                for p in self._keep:
-                    kept.setdefault(p, []).append(one[PARTS.index(p)])
+                acc = (np.zeros((len(PARTS), size, 3)) if kept is None
+                       else self._per_normal((len(normals), len(PARTS), size, 3)))
+            sums.append(accumulate_parts(acc if kept is None else acc[k], map_side, bsdf_side,
+                                         self._fractions("mis"), self.preset.heuristic))
+        if kept is not None:
+            kept.update({p: acc[:, PARTS.index(p)] for p in self._keep})    # (J, P, C) views
+            acc = acc.sum(axis=0)
         return acc, np.stack(sums)
+
+    def _per_normal(self, shape: tuple) -> np.ndarray:
+        """A zeroed buffer of each footprint normal's parts, reused frame after frame (a
+        frame's kept tables are read before the next frame's are written): fresh 0.5 GB
+        arrays per frame cost more in page faults than the paired term itself."""
+        buf = getattr(self, "_buffer", None)
+        if buf is None or buf.shape != shape:
+            buf = self._buffer = np.zeros(shape)
+        else:
+            buf.fill(0.0)
+        return buf
 
     def _sides(self, strategies: set, normal, view, fine: int):
         """The two techniques' values at one normal for one view: the map side (base, f·cos,
