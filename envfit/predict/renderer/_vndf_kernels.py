@@ -199,10 +199,12 @@ def _g1(vx, vy, vz, mx, my, mz, alpha, kind):  # pragma: no cover - numba
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _reflect(p, wi, mx, my, mz, lam_i, alpha, variant, kind, wo, out):  # pragma: no cover
-    """Sample ``p`` of :func:`_sample` from its visible normal m: the reflection, the weight
-    (Mitsuba: G1(ω_o, m); pbrt-v4 and Cycles: G2/G1) and the pdf D·G1(ω_i)/(4 cos θ_i)."""
+def _reflect(wi, m, lam_i, alpha, variant, kind):  # pragma: no cover - numba
+    """(ω_o, weight, pdf) of one sample of :func:`_sample` from its visible normal m: the
+    reflection, the weight (Mitsuba: G1(ω_o, m); pbrt-v4 and Cycles: G2/G1) and the pdf
+    D·G1(ω_i)/(4 cos θ_i); the pole, 0 and 0 for a dead sample."""
     ix, iy, iz = wi[0], wi[1], wi[2]
+    mx, my, mz = m
     dot = ix * mx + iy * my + iz * mz
     ox, oy, oz = 2.0 * dot * mx - ix, 2.0 * dot * my - iy, 2.0 * dot * mz - iz
     d = _d(mx, my, mz, alpha, kind)
@@ -213,22 +215,22 @@ def _reflect(p, wi, mx, my, mz, lam_i, alpha, variant, kind, wo, out):  # pragma
         w = (1.0 + lam_i) / (1.0 + lam_i + _lambda(ox, oy, oz, alpha, kind))
         gview = 1.0 / (1.0 + lam_i)
     if not (oz > 0.0 and iz > 0.0 and d > 0.0 and w > 0.0):
-        wo[p, 0], wo[p, 1], wo[p, 2], out[0, p], out[1, p] = 0.0, 0.0, 1.0, 0.0, 0.0
-        return
+        return 0.0, 0.0, 1.0, 0.0, 0.0
     q = d * gview / (4.0 * iz)
     if math.isnan(q):
         q = 0.0
     elif math.isinf(q):
         q = _BIG
-    wo[p, 0], wo[p, 1], wo[p, 2], out[0, p], out[1, p] = ox, oy, oz, w, q
+    return ox, oy, oz, w, q
 
 
 @numba.njit(cache=True, parallel=True, error_model="numpy")
 def _sample(wi, view, u, alpha, variant, kind, wo, out):  # pragma: no cover - numba
     lam_i = _lambda(wi[0], wi[1], wi[2], alpha, kind)
     for p in numba.prange(u.shape[0]):
-        mx, my, mz = _normal(wi, view, u[p, 0], u[p, 1], alpha, variant, kind)
-        _reflect(p, wi, mx, my, mz, lam_i, alpha, variant, kind, wo, out)
+        m = _normal(wi, view, u[p, 0], u[p, 1], alpha, variant, kind)
+        wo[p, 0], wo[p, 1], wo[p, 2], out[0, p], out[1, p] = _reflect(wi, m, lam_i, alpha,
+                                                                      variant, kind)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -257,9 +259,11 @@ def _sample_grid(wi, view, a, b, alpha, variant, wo, out):  # pragma: no cover -
     m = a.shape[1]
     for i in numba.prange(m):
         for j in range(m):
-            mx, my, mz = _slopes_normal(a[0, i] * b[0, j], a[1, i] * b[1, j], view[1, 0],
-                                        view[1, 1], alpha)
-            _reflect(i * m + j, wi, mx, my, mz, lam_i, alpha, variant, 1, wo, out)
+            n = _slopes_normal(a[0, i] * b[0, j], a[1, i] * b[1, j], view[1, 0], view[1, 1],
+                               alpha)
+            p = i * m + j
+            wo[p, 0], wo[p, 1], wo[p, 2], out[0, p], out[1, p] = _reflect(wi, n, lam_i, alpha,
+                                                                          variant, 1)
 
 
 def compiled_sampling(conductor) -> bool:
