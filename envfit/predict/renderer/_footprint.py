@@ -266,8 +266,7 @@ class PairedFootprint:
     (module docstring): their points (dimension 0 the film's, 1 the emitter's, 1 +
     emitter_samples the BSDF's: ``src/render/integrator.cpp`` ``render_sample`` and
     ``src/integrators/direct.cpp``, as the preset's ``_dimensions``), each pixel's scramble
-    seed drawn at random (:func:`~envfit.predict.renderer.randomisation._ldsampler.
-    pixel_scramble_seeds`).
+    seed drawn at random (``randomisation._ldsampler.pixel_scramble_seeds``).
 
     Examples
     --------
