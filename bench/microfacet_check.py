@@ -155,9 +155,11 @@ def print_summary(rows: list) -> None:
     bands = sorted({b for r in rows for b in r.get("bands", {})})
     for b in bands:
         cells = [r["bands"][b] for r in rows if b in r.get("bands", {})]
+        ratios = [c["predicted"] / c["measured_rmse"] for c in cells if c["measured_rmse"] > 0]
+        zero = len(cells) - len(ratios)    # the reference's noise corrected away: measured 0
         print(f"band {b} deg: inside {sum(c['inside'] for c in cells)}/{len(cells)}; median "
-              f"predicted/measured "
-              f"{np.median([c['predicted'] / c['measured_rmse'] for c in cells]):.3f}")
+              f"predicted/measured {np.median(ratios) if ratios else float('nan'):.3f}"
+              + (f" ({zero} cell(s) measured 0)" if zero else ""))
     for name in sorted({r["map"] for r in rows}):
         rs = [r for r in rows if r["map"] == name]
         print(f"map {name}: inside {sum(r['inside'] for r in rs)}/{len(rs)}")
