@@ -180,8 +180,8 @@ class PresetAdvice:
             return "raise --nmax or relax the target"
         rand = spec.randomisation
         level = next((lv for lv in range(o.level + 1, 12)
-                      if spp_cap(rand, lv, o.max_spp, sampled=o.bsdf != "roughplastic")
-                      >= nxt), None)
+                      if spp_cap(rand, lv, o.max_spp, sampled=o.samples_above_grid) >= nxt),
+                     None)
         head = (f"the model resolves {o.sampler} to {a.searched_max} spp at grid level "
                 f"{o.level}")
         if level is None:

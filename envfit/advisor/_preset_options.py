@@ -250,6 +250,12 @@ class PresetAdviseOptions:
     def microfacet(self) -> bool:
         return self.bsdf != "diffuse"
 
+    @property
+    def samples_above_grid(self) -> bool:
+        """Whether the model samples a digital shift's power above its grid: not for a rough
+        plastic, whose lobe choice needs the grid (``MicrofacetModel.request``)."""
+        return self.bsdf != "roughplastic"
+
     def conductor(self):
         """The white conductor (Fresnel 1) as the renderer shades and samples it, or Mitsuba's
         rough plastic (:class:`RoughPlastic`: a GGX coat, its defaults η 1.49, diffuse 0.5)."""
@@ -324,12 +330,11 @@ class PresetAdviseOptions:
 
     def spp_cap(self, *, sampled: bool = True) -> int:
         """The largest spp searched for this sampler (:func:`spp_cap`; ``sampled=False``: the
-        largest its grid resolves without sampling, where the search's first pass stops). A
-        rough plastic's lobe choice is not sampled (``MicrofacetModel.request``): its cap is
-        the grid's."""
+        largest its grid resolves without sampling, where the search's first pass stops; so
+        too where :attr:`samples_above_grid` is false)."""
         spec = self.preset.sampler(self.sampler)
         return spp_cap(spec.randomisation, self.level, self.max_spp,
-                       sampled=sampled and self.bsdf != "roughplastic")
+                       sampled=sampled and self.samples_above_grid)
 
     def key(self) -> dict:
         """What the predictions depend on besides the map (the cache key's part)."""

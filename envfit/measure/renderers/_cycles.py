@@ -169,6 +169,7 @@ def _material(bpy, bsdf=None):
     for n in list(nt.nodes):
         nt.nodes.remove(n)
     out = nt.nodes.new("ShaderNodeOutputMaterial")
+    colour = "Color"
     if bsdf is None:
         node = nt.nodes.new("ShaderNodeBsdfDiffuse")
         node.inputs["Roughness"].default_value = 0.0
@@ -182,8 +183,8 @@ def _material(bpy, bsdf=None):
         if principled:
             node.inputs["Metallic"].default_value = 1.0
             node.inputs["Specular Tint"].default_value = (1.0, 1.0, 1.0, 1.0)
-    node.inputs["Base Color" if bsdf is not None and dict(bsdf).get("node") == "principled"
-                else "Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+            colour = "Base Color"
+    node.inputs[colour].default_value = (1.0, 1.0, 1.0, 1.0)
     nt.links.new(node.outputs["BSDF"], out.inputs["Surface"])
     return mat
 
