@@ -13,13 +13,14 @@ from envfit.maps import EnvMap
 from envfit.sampling.presets import (Hierarchical2D, Mitsuba3Envmap, mitsuba_frame, preset)
 from envfit.sampling.presets._base import cosine_hemisphere
 
-mi = pytest.importorskip("mitsuba")
-
-
-@pytest.fixture(scope="module", autouse=True)
-def _variant():
+@pytest.fixture(scope="module")
+def mi():
+    """Mitsuba 3 in its ``scalar_rgb`` variant; a test that asks for it is skipped where it is
+    not installed (the density and histogram checks need numpy only)."""
+    mi = pytest.importorskip("mitsuba")
     mi.set_variant("scalar_rgb")
     mi.set_log_level(mi.LogLevel.Error)
+    return mi
 
 
 def _sun_map(h=10, w=20, seed=3) -> np.ndarray:
@@ -32,7 +33,7 @@ def _sun_map(h=10, w=20, seed=3) -> np.ndarray:
     return a
 
 
-def _mitsuba_samples(emitter, U):
+def _mitsuba_samples(mi, emitter, U):
     it = mi.Interaction3f()
     d, pdf, pdf_dir, le = [], [], [], []
     for u in U:
@@ -47,12 +48,12 @@ def _mitsuba_samples(emitter, U):
 
 
 @pytest.mark.parametrize("comp", [False, True])
-def test_sample_pdf_eval_match_mitsuba(comp):
+def test_sample_pdf_eval_match_mitsuba(mi, comp):
     arr = _sun_map()
     emitter = mi.load_dict({"type": "envmap", "bitmap": mi.Bitmap(arr), "mis_compensation": comp})
     tech = Mitsuba3Envmap(EnvMap(arr.astype(np.float64)), mis_compensation=comp)
     U = np.random.default_rng(7).random((300, 2))
-    md, mp, mpd, mle = _mitsuba_samples(emitter, U)
+    md, mp, mpd, mle = _mitsuba_samples(mi, emitter, U)
     d, p = tech.sample(U)
     assert np.abs(d - md).max() < 2e-4
     np.testing.assert_allclose(p, mp, rtol=2e-4)
@@ -63,7 +64,7 @@ def test_sample_pdf_eval_match_mitsuba(comp):
 
 
 @pytest.mark.parametrize("up", ["z", "x"])
-def test_other_up_axes_are_the_emitters_to_world(up):
+def test_other_up_axes_are_the_emitters_to_world(mi, up):
     """A map with another ``up``: the technique's directions are Mitsuba's with the
     emitter's ``to_world`` = :attr:`native_to_world`, and the radiance follows them."""
     arr = _sun_map()
@@ -73,14 +74,14 @@ def test_other_up_axes_are_the_emitters_to_world(up):
     emitter = mi.load_dict({"type": "envmap", "bitmap": mi.Bitmap(arr),
                             "to_world": mi.ScalarTransform4f(m4.tolist())})
     U = np.random.default_rng(8).random((100, 2))
-    md, mp, _, mle = _mitsuba_samples(emitter, U)
+    md, mp, _, mle = _mitsuba_samples(mi, emitter, U)
     d, p = tech.sample(U)
     assert np.abs(d - md).max() < 2e-4
     np.testing.assert_allclose(p, mp, rtol=2e-4)
     np.testing.assert_allclose(tech.eval(md), mle, rtol=2e-4, atol=2e-5 * mle.max())
 
 
-def test_compensation_disabled_for_a_nearly_constant_map():
+def test_compensation_disabled_for_a_nearly_constant_map(mi):
     """Mitsuba's 1 % rule: mean − min ≤ 1 % of the mean → no offset (same density)."""
     arr = np.full((6, 12, 3), 2.0, dtype=np.float32)
     arr[1, 1] = 2.03
@@ -90,7 +91,7 @@ def test_compensation_disabled_for_a_nearly_constant_map():
     U = np.random.default_rng(0).random((50, 2))
     np.testing.assert_allclose(t1.sample(U).pdf, t0.sample(U).pdf)
     emitter = mi.load_dict({"type": "envmap", "bitmap": mi.Bitmap(arr), "mis_compensation": True})
-    np.testing.assert_allclose(t1.sample(U).pdf, _mitsuba_samples(emitter, U)[1], rtol=2e-4)
+    np.testing.assert_allclose(t1.sample(U).pdf, _mitsuba_samples(mi, emitter, U)[1], rtol=2e-4)
 
 
 def _sphere_grid(n_z=1200, n_phi=2400):
@@ -139,7 +140,7 @@ def test_hierarchical2d_uniform_is_identity():
     np.testing.assert_allclose(pdf, 1.0)
 
 
-def test_cosine_map_matches_mitsuba():
+def test_cosine_map_matches_mitsuba(mi):
     U = np.random.default_rng(2).random((200, 2))
     U[0] = (0.5, 0.5)
     ours = cosine_hemisphere(U)
@@ -150,7 +151,7 @@ def test_cosine_map_matches_mitsuba():
     assert preset("mitsuba3").cosine is cosine_hemisphere
 
 
-def test_frame_matches_mitsuba():
+def test_frame_matches_mitsuba(mi):
     n = np.random.default_rng(4).normal(size=(50, 3))
     n /= np.linalg.norm(n, axis=1)[:, None]
     n[0] = (0.0, 0.0, -1.0)
@@ -163,14 +164,14 @@ def test_frame_matches_mitsuba():
 
 @pytest.mark.parametrize("name", ["independent", "stratified", "multijitter", "ldsampler",
                                   "orthogonal"])
-def test_sampler_rounding_matches_mitsuba(name):
+def test_sampler_rounding_matches_mitsuba(mi, name):
     spec = preset("mitsuba3").sampler(name)
     for spp in (1, 2, 3, 5, 16, 32, 64, 100, 128, 256, 1000, 1024):
         assert spec.spp(spp) == mi.load_dict({"type": name, "sample_count": spp}).sample_count()
 
 
 @pytest.mark.parametrize("strategy", ["map", "brdf", "mis"])
-def test_snippets_load_in_mitsuba(tmp_path, strategy):
+def test_snippets_load_in_mitsuba(mi, tmp_path, strategy):
     path = str(tmp_path / "envmap.exr")
     mi.Bitmap(_sun_map()).write(path)
     p = preset("mitsuba3")

@@ -94,19 +94,19 @@ def test_bad_arguments_are_one_line():
         lobe_choice_mse("jittered", _grid_of, 16, 1.5, r=4)
 
 
-mi = pytest.importorskip("mitsuba")
-
-
-@pytest.fixture(scope="module", autouse=True)
-def scalar_variant():
+def _mitsuba():
+    """Mitsuba 3 in its ``scalar_rgb`` variant; the calling test is skipped where it is not
+    installed (the tests above need numpy only)."""
+    mi = pytest.importorskip("mitsuba")
     mi.set_variant("scalar_rgb")
+    return mi
 
 
 @functools.lru_cache(maxsize=None)
 def bsdf_draws(kind: str, spp: int, seeds: int, emitter: bool = False):
     """(emitter (seeds, N, 2) or None, sample2 (seeds, N, 2), sample1 (seeds, N)) as the
     ``direct`` integrator draws them per sample (film position first)."""
-    s = mi.load_dict({"type": kind, "sample_count": spp})
+    s = _mitsuba().load_dict({"type": kind, "sample_count": spp})
     n = s.sample_count()
     em, x, u1 = np.empty((seeds, n, 2)), np.empty((seeds, n, 2)), np.empty((seeds, n))
     for seed in range(seeds):
