@@ -28,7 +28,8 @@ does for envfit's techniques).
 Grid level per randomisation and N (:func:`grid_level`, measured on city.exr's integrands at
 three normals): V alone for ``independent``; the strata as cells for
 ``jittered`` (M = r: exact) and ``cmj`` (M = N: exact, finer grids give the same MSE to 4
-digits); M = 2N for the digital nets — the digital shift's estimate of the power above the
+digits); M = 8N (at least 4) for the Cranley–Patterson shift (its box is checked to N ≤ M/8,
+``randomisation._cp_shift``); M = 2N for the other digital nets — the digital shift's estimate of the power above the
 grid needs N ≤ M/2 (``randomisation._digital_shift``): at M = N the 1/N fallback erred by up
 to 2× per normal, at M = 2N the MSE agrees with M = 4N and 8N within 1–5 %; all capped at
 ``max_level``, but never below log2 N for Owen's scrambling, the Cranley–Patterson shift and
@@ -63,6 +64,7 @@ from envfit.predict.renderer._preset_integrand import (BsdfTable, MapTable, bsdf
                                                        map_values, midpoints, moment_pyramid)
 from envfit.predict.renderer.randomisation import (DyadicGrid, mis_mse, randomised_mse,
                                                    sampled_above, shift_sample)
+from envfit.predict.renderer.randomisation._jittered import pbrt_strata
 from envfit.theory import spherical_fibonacci_sphere
 
 __all__ = ["PresetModelOptions", "PresetModel", "PresetPrediction", "grid_level",
@@ -78,6 +80,9 @@ RANDOMISATION_OF = {"independent": "independent", "jittered": "jittered", "cmj":
 #: orthogonal array have independent permutations per dimension: their cross term is 0
 #: (``randomisation._orthogonal``)
 _SHARED = {"independent": False, "same_net_permuted": True, "joint_array": False}
+#: a preset's jittered strata (``randomisation._jittered``): pbrt-v4's x × y, envfit's rows
+#: (``envfit.theory.jitter_strata``); Mitsuba's r × r
+_JITTER_LAYOUT = {"pbrt4": "pbrt", "envfit": "rows"}
 
 
 def grid_level(randomisation: str, n: int, max_level: int) -> int:
@@ -85,14 +90,19 @@ def grid_level(randomisation: str, n: int, max_level: int) -> int:
     if randomisation == "independent":
         want = 2
     elif randomisation == "jittered":
-        r = math.isqrt(n)
-        want = (r - 1).bit_length() + (0 if r & (r - 1) == 0 else 3)
+        r = max(pbrt_strata(n)[0], -(-n // max(1, round(math.sqrt(n)))))  # most strata a side
+        square = r * r == n and r & (r - 1) == 0           # r x r, r = 2^k: on the grid
+        want = (r - 1).bit_length() + (0 if square else 3)
     elif randomisation in ("cmj", "orthogonal"):
         want = (n - 1).bit_length() + (0 if n & (n - 1) == 0 else 1)
+    elif randomisation == "cp_shift":
+        want = (n - 1).bit_length() + 3                 # N <= M/8 (randomisation._cp_shift)
     else:
         want = (n - 1).bit_length() + 1
     floor = 0 if randomisation in ("independent", "jittered", "digital_shift") \
         else (n - 1).bit_length()
+    if randomisation == "cp_shift":
+        floor = max(floor, 2)                           # its box needs M >= 4
     return max(1, floor, min(int(max_level), want))     # nets and CMJ need M >= N, but a
     # digital shift's power above a grid coarser than 2N is sampled (shift_samples)
 
@@ -258,7 +268,8 @@ def preset_request(preset, options: PresetModelOptions, strategy: str, sampler: 
         raise ParameterError("the model takes at most one sample per technique and spp")
     opts = opts_b = ()
     if name == "jittered":
-        opts = opts_b = (("r", math.isqrt(n)),)
+        opts = opts_b = ((("r", math.isqrt(n)),) if preset.name == "mitsuba3"
+                         else (("layout", _JITTER_LAYOUT.get(preset.name, "square")),))
     elif name == "cmj":
         opts = opts_b = (("permutations", "mitsuba" if preset.name == "mitsuba3"
                           else "uniform"),)
