@@ -32,6 +32,7 @@ The answer is a *crossing*: prediction(spp) ≤ target < prediction(the runnable
 """
 from __future__ import annotations
 
+import bisect
 import hashlib
 import math
 import time
@@ -160,13 +161,21 @@ class CachedPresetModel:
         self.store.save("preset", self.key, {"cells": self.cells})
 
 
-def runnable_spp(spec, cap: int) -> list[int]:
-    """Every spp the sampler runs (its rounding of 1…cap) that is at most ``cap``.
+def runnable_spp(spec, cap: int):
+    """Every spp the sampler runs (its rounding of 1…cap) that is at most ``cap``, ascending:
+    a ``range`` (lazy, O(1) memory at any cap) where the sampler runs every spp as asked,
+    else a list (the roundings to squares, powers and products grow fast enough that their
+    counts up to the model's caps are small: 2048 squares to 4^11).
 
     >>> from envfit.sampling.presets import preset
     >>> runnable_spp(preset("mitsuba3").sampler("ldsampler"), 300)
     [4, 16, 64, 256]
+    >>> runnable_spp(preset("mitsuba3").sampler("independent"), 10 ** 12)
+    range(1, 1000000000001)
     """
+    cap = int(cap)
+    if spec.rounding is int:
+        return range(1, cap + 1)
     out, n = set(), 1
     while n <= cap:
         r = spec.spp(n)
@@ -176,18 +185,20 @@ def runnable_spp(spec, cap: int) -> list[int]:
     return sorted(out)
 
 
-def coarse_spp(runnable: list[int]) -> list[int]:
-    """The runnable spp nearest above each power of two, and the largest.
+def coarse_spp(runnable) -> list[int]:
+    """The runnable spp nearest above each power of two, and the largest (``runnable``
+    ascending, a list or a range: found by bisection, nothing of its size is built).
 
     >>> coarse_spp([1, 4, 9, 16, 25, 36, 49, 64])
     [1, 4, 9, 16, 36, 64]
+    >>> len(coarse_spp(range(1, 10 ** 12 + 1)))
+    41
     """
     out, p = set(), 1
-    arr = np.asarray(runnable)
     while p <= runnable[-1]:
-        out.add(int(arr[np.searchsorted(arr, p)]))
+        out.add(int(runnable[bisect.bisect_left(runnable, p)]))
         p *= 2
-    out.add(runnable[-1])
+    out.add(int(runnable[-1]))
     return sorted(out)
 
 
@@ -214,8 +225,7 @@ class StrategyAnswer:
 def _bracket(cm: CachedPresetModel, strategy: str, runnable: list[int], target: float):
     """(last evaluated runnable spp that misses below the first that meets, the first that
     meets) — None for the latter when none evaluated meets."""
-    allowed = set(runnable)
-    known = [n for n in cm.asked_spp(strategy) if n in allowed]
+    known = [n for n in cm.asked_spp(strategy) if n in runnable]
     meet = next((n for n in known if cm.rmse(strategy, n) <= target), None)
     if meet is None:
         return None, None
@@ -233,7 +243,7 @@ def _candidates(cm, strategy, runnable, target, lo, hi, independent: bool) -> li
                                                        min(CANDIDATES, len(inner)))}
     if independent:
         guess = math.ceil(hi * cm.rmse(strategy, hi) ** 2 / target ** 2)
-        j = int(np.searchsorted(inner, guess))
+        j = bisect.bisect_left(inner, guess)
         pick.update(inner[max(0, j - 1):j + 2])
     return sorted(pick)
 

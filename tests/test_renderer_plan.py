@@ -1,0 +1,71 @@
+"""The renderer model's ranges and plan (issue 38): ``--nmin``/``--nmax`` with ``--renderer``
+refused in the words used without it, the spp searched generated lazily (no set of every spp
+up to ``--nmax``), and the memory/time plan of the model's stages checked before any work."""
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from envfit.data_gen import gaussian_process_map
+from envfit.maps import EnvMap, load_envmap, save_envmap
+from envfit.predict.renderer._preset_model import PresetModel, PresetModelOptions
+from envfit.sampling.presets import preset
+
+
+@pytest.fixture(scope="module")
+def gp_file(tmp_path_factory):
+    env = EnvMap(gaussian_process_map(1.8, 16, seed=3, channels=3) + 2.0, name="gp16")
+    path = tmp_path_factory.mktemp("maps") / "gp16.exr"
+    save_envmap(path, env)
+    return path
+
+
+def _run(capsys, tmp_path, *args):
+    from envfit.cli import main
+    out = tmp_path / "a.json"
+    rc = main(["advise", *map(str, args), "--cache-dir", str(tmp_path / "cache"),
+               "--json", str(out)])
+    cap = capsys.readouterr()
+    d = json.loads(out.read_text()) if rc == 0 and out.exists() else None
+    return rc, cap.out.splitlines(), cap.err.strip().splitlines(), d
+
+
+# ----------------------------------------------------------------------------- --nmin, --nmax
+
+@pytest.mark.parametrize("renderer", [[], ["--renderer", "mitsuba3"]])
+def test_nmax_below_nmin_is_the_same_line_with_and_without_renderer(renderer, tmp_path,
+                                                                    capsys):
+    rc, _, err, _ = _run(capsys, tmp_path, tmp_path / "absent.exr", "--nmin", "1000",
+                         "--nmax", "10", *renderer)
+    assert rc == 2 and err == ["envfit advise: error: nmax must be an integer >= 1000, got 10"]
+
+
+def test_nmin_with_renderer_is_refused_unless_the_rules_use_it(tmp_path, capsys):
+    rc, _, err, _ = _run(capsys, tmp_path, tmp_path / "absent.exr", "--renderer", "mitsuba3",
+                         "--nmin", "10")
+    assert rc == 2 and len(err) == 1 and "--nmin sizes envfit's rules (--rules)" in err[0]
+
+
+def test_nmax_beyond_a_32_bit_spp_is_refused_fast(tmp_path, capsys):
+    rc, _, err, _ = _run(capsys, tmp_path, tmp_path / "absent.exr", "--renderer", "mitsuba3",
+                         "--nmax", "1e12")
+    assert rc == 2 and len(err) == 1
+    assert "--nmax) must be at most 2147483647 with --renderer" in err[0]
+
+
+def test_spp_searched_are_lazy_and_the_top_of_the_range_is_searched(gp_file, tmp_path, capsys):
+    from envfit.advisor._preset_search import coarse_spp, runnable_spp
+    spec = preset("mitsuba3").sampler("independent")
+    r = runnable_spp(spec, 2 ** 31 - 1)
+    assert isinstance(r, range) and len(r) == 2 ** 31 - 1
+    assert coarse_spp(r)[:3] == [1, 2, 4] and coarse_spp(r)[-2:] == [2 ** 30, 2 ** 31 - 1]
+    # end to end: a target no spp meets, searched to the top of the range in seconds
+    m = PresetModel(load_envmap(gp_file), preset("mitsuba3"),
+                    options=PresetModelOptions(normals=1, max_level=7))
+    top = m.predict("map", "independent", 2 ** 31 - 1).rmse
+    rc, lines, _, d = _run(capsys, tmp_path, gp_file, "--renderer", "mitsuba3", "--strategies",
+                           "map", "--renderer-normals", "1", "--nmax", str(2 ** 31 - 1),
+                           "--target-rmse", repr(top / 2))
+    assert rc == 0 and "no spp up to 2147483647 meets" in lines[0]
+    assert d["renderer"]["recommendation"]["predicted_rmse"] == pytest.approx(top, rel=1e-9)
