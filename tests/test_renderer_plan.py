@@ -69,3 +69,44 @@ def test_spp_searched_are_lazy_and_the_top_of_the_range_is_searched(gp_file, tmp
                            "--target-rmse", repr(top / 2))
     assert rc == 0 and "no spp up to 2147483647 meets" in lines[0]
     assert d["renderer"]["recommendation"]["predicted_rmse"] == pytest.approx(top, rel=1e-9)
+
+
+# ----------------------------------------------------------------------------- limits' words
+
+def test_memory_budget_names_the_variable_only_when_it_is_set(monkeypatch):
+    from envfit.base._errors import MemoryBudgetError
+    from envfit.base._resources import check_memory
+    monkeypatch.setenv("ENVFIT_MEMORY_LIMIT", "1")
+    with pytest.raises(MemoryBudgetError) as e:
+        check_memory(10 ** 6, "a test array")
+    assert "only 0 B can be used (80% of ENVFIT_MEMORY_LIMIT=1)" in str(e.value)
+    assert "available memory" not in str(e.value)
+    monkeypatch.delenv("ENVFIT_MEMORY_LIMIT")
+    with pytest.raises(MemoryBudgetError) as e:
+        check_memory(10 ** 21, "a test array")
+    assert "(80% of available memory)" in str(e.value) and "ENVFIT_" not in str(e.value)
+
+
+def test_time_limit_says_what_was_set_and_refuses_a_limit_nothing_fits(monkeypatch):
+    from envfit.base._errors import ParameterError
+    from envfit.base._resources import time_limit_seconds, time_limit_words
+    monkeypatch.delenv("ENVFIT_TIME_LIMIT", raising=False)
+    assert time_limit_words(time_limit_seconds(900.0)) == "the 900 s limit (ENVFIT_TIME_LIMIT)"
+    monkeypatch.setenv("ENVFIT_TIME_LIMIT", "2.5")
+    assert time_limit_words(time_limit_seconds(900.0)) == \
+        "the 2.5 s limit (ENVFIT_TIME_LIMIT=2.5)"
+    monkeypatch.setenv("ENVFIT_TIME_LIMIT", "1e-9")
+    with pytest.raises(ParameterError) as e:
+        time_limit_seconds(900.0)
+    assert str(e.value).startswith("ENVFIT_TIME_LIMIT=1e-9 is below 1 s")
+
+
+def test_sh_refusal_over_a_set_time_limit_names_its_value(tmp_path, monkeypatch, capsys):
+    from envfit.cli import main
+    env = EnvMap(gaussian_process_map(1.8, 16, seed=3, channels=3) + 2.0, name="gp16")
+    save_envmap(tmp_path / "m.exr", env)
+    monkeypatch.setenv("ENVFIT_TIME_LIMIT", "1e-9")
+    rc = main(["sh", str(tmp_path / "m.exr"), "--lmax", "2"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "ENVFIT_TIME_LIMIT=1e-9 is below 1 s" in err[0]
+    assert "the 0 s limit" not in err[0]
