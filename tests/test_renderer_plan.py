@@ -110,3 +110,85 @@ def test_sh_refusal_over_a_set_time_limit_names_its_value(tmp_path, monkeypatch,
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1 and "ENVFIT_TIME_LIMIT=1e-9 is below 1 s" in err[0]
     assert "the 0 s limit" not in err[0]
+
+
+# ----------------------------------------------------------------------------- the model's plan
+
+def _opts(**kw):
+    from envfit.advisor._preset_options import PresetAdviseOptions
+    return PresetAdviseOptions("mitsuba3", **kw)
+
+
+def test_plan_memory_bounds_the_measured_peak(gp_file):
+    """ldsampler at level 8 with a target nothing meets: every pass to the cap, its power
+    above the grid sampled (the plan's worst case); the peak traced by tracemalloc (numpy's
+    arrays) from the loaded map on, against the plan: at least the peak, at most 2.5x it."""
+    import tracemalloc
+    from envfit.advisor._budget import preset_plan
+    from envfit.advisor._preset import advise_preset
+    env = load_envmap(gp_file)
+    o = _opts(sampler="ldsampler", level=8, normals=2)
+    plan = preset_plan(env.width * env.height, o, resident=env.data.nbytes)
+    tracemalloc.start()
+    try:
+        adv = advise_preset(env, o, target_rmse=1e-9, cache=False)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert not adv.default.reached and adv.default.searched_max == 1024   # sampled to 1024
+    assert peak <= plan.peak() <= 2.5 * peak, (peak, plan.lines())
+
+
+def _refusal(capsys, tmp_path, monkeypatch, limit, *args):
+    monkeypatch.setenv("ENVFIT_MEMORY_LIMIT", limit)
+    rc, _, err, _ = _run(capsys, tmp_path, *args)
+    assert rc == 2 and len(err) == 1, err
+    assert f"(80% of ENVFIT_MEMORY_LIMIT={limit})" in err[0]
+    return err[0]
+
+
+def _fits(pixels, **kw) -> bool:
+    from envfit.advisor._budget import preset_plan
+    return preset_plan(pixels, _opts(**kw), resident=pixels * 12).fits()
+
+
+def test_level_over_budget_names_the_largest_level_that_fits(gp_file, tmp_path, monkeypatch,
+                                                             capsys):
+    import re
+    line = _refusal(capsys, tmp_path, monkeypatch, "1G", gp_file, "--renderer", "mitsuba3",
+                    "--sampler", "ldsampler", "--renderer-level", "11")
+    assert line.startswith("envfit advise: error: the renderer model at --renderer-level 11,")
+    lv = int(re.search(r"--renderer-level (\d+) (fits|or)", line).group(1))
+    px = 32 * 16
+    assert _fits(px, sampler="ldsampler", level=lv)
+    assert not _fits(px, sampler="ldsampler", level=lv + 1)
+
+
+def test_normals_over_budget_names_the_most_normals_that_fit(gp_file, tmp_path, monkeypatch,
+                                                             capsys):
+    import re
+    line = _refusal(capsys, tmp_path, monkeypatch, "300M", gp_file, "--renderer", "mitsuba3",
+                    "--renderer-normals", "4096")
+    k = int(re.search(r"--renderer-normals (\d+) fits", line).group(1))
+    assert "the normals' proposal: 4096 normals x 4096 pilot points" in line
+    assert 1024 <= k < 4096 and _fits(512, normals=k) and not _fits(512, normals=k + 1)
+
+
+def test_nmax_over_budget_names_the_largest_runnable_spp_that_fits(gp_file, tmp_path,
+                                                                  monkeypatch, capsys):
+    import re
+    line = _refusal(capsys, tmp_path, monkeypatch, "1G", gp_file, "--renderer", "mitsuba3",
+                    "--sampler", "ldsampler")
+    n = int(re.search(r"--nmax (\d+) fits", line).group(1))
+    assert "shifted points to 4096 spp" in line
+    assert n in (256, 1024) and _fits(512, sampler="ldsampler", max_spp=n)
+    assert not _fits(512, sampler="ldsampler", max_spp=4 * n)
+
+
+def test_progress_bar_over_the_normals_and_quiet_silences_it(gp_file, tmp_path, capsys):
+    args = (gp_file, "--renderer", "mitsuba3", "--renderer-normals", "2",
+            "--renderer-level", "5")
+    rc, _, err, _ = _run(capsys, tmp_path, *args, "--no-cache")
+    assert rc == 0 and "renderer model, pass 1 (planned ~" in "\n".join(err)
+    rc, _, err, _ = _run(capsys, tmp_path, *args, "--no-cache", "--quiet")
+    assert rc == 0 and err == []

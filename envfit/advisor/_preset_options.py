@@ -162,6 +162,9 @@ class PresetAdviseOptions:
         that many times the model's work). Diffuse: each normal's pixel in the axis view
         nearest it (``PresetModelOptions.sphere_pixels``); microfacet: in the frame's view.
         None: every pixel a point (a large object).
+    quiet : bool
+        No progress bar over the model's normals (frames) in a pass (default; the CLI:
+        ``--quiet``).
 
     Raises
     ------
@@ -180,6 +183,7 @@ class PresetAdviseOptions:
     bsdf: str = "diffuse"
     roughness: float | None = None
     sphere_pixels: int | None = None
+    quiet: bool = True
 
     def __post_init__(self) -> None:
         p = preset(self.renderer)

@@ -41,7 +41,9 @@ from pathlib import Path
 
 import numpy as np
 
+from envfit.advisor._budget import PRESET_PASSES, check_preset_plan
 from envfit.advisor._cache import AdviseCache
+from envfit.base._resources import format_bytes
 from envfit.defaults import FOOTPRINT_SIDE, MICROFACET_FRAMES_SEED
 from envfit.predict.renderer._footprint import pixel_footprints
 from envfit.predict.renderer._frames import band_frames
@@ -92,6 +94,7 @@ class CachedPresetModel:
         self.cells_cached = len(self.cells)
         self.asked: set[str] = set()          # the cells of this run (cached or not)
         self.model: PresetModel | None = None
+        self.plan = None                      # the model's Plan, made before it is built
         self.passes = self.cells_computed = 0
         self.seconds = 0.0
 
@@ -147,7 +150,12 @@ class CachedPresetModel:
             return
         t0 = time.perf_counter()
         if self.model is None:
+            self.plan = check_preset_plan(self.envmap, self.opts)   # one line if over budget
             self.model = self._model()
+            self.model.quiet = self.opts.quiet
+        self.model.progress_label = (
+            f"renderer model, pass {self.passes + 1} (planned ~{_duration(self.plan)} a pass, "
+            f"peak ~{format_bytes(self.plan.peak())})")
         res = self.model.predict_many([(s, self.opts.sampler, n) for s, n in todo])
         for (s, n), r in zip(todo, res):
             cell = {"rmse": float(r.rmse), "mse": [float(x) for x in np.ravel(r.mse)]}
@@ -159,6 +167,12 @@ class CachedPresetModel:
         self.cells_computed += len(todo)
         self.seconds += time.perf_counter() - t0
         self.store.save("preset", self.key, {"cells": self.cells})
+
+
+def _duration(plan) -> str:
+    """A pass's planned seconds in words (:func:`envfit.advisor._budget.preset_plan`)."""
+    secs = plan.seconds() / PRESET_PASSES
+    return f"{secs:.0f} s" if secs < 120 else f"{secs / 60:.0f} min"
 
 
 def runnable_spp(spec, cap: int):

@@ -119,7 +119,7 @@ def _options(args: argparse.Namespace):
         mis_compensation=args.mis_compensation, max_spp=args.nmax or DEFAULT_MAX_SPP,
         level=args.renderer_level,
         normals=args.renderer_normals or DEFAULT_NORMALS, bsdf=args.brdf,
-        roughness=args.roughness, sphere_pixels=args.sphere_pixels)
+        roughness=args.roughness, sphere_pixels=args.sphere_pixels, quiet=args.quiet)
     rules = None
     if args.rules:
         from envfit.cli._advise import options_from_args

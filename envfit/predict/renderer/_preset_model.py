@@ -57,6 +57,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from envfit.base import ParameterError
+from envfit.base._progress import progress
 from envfit.predict.renderer._footprint import (_STREAMS, FootprintSums, PairedFootprint,
                                                 footprint_term, nearest_views,
                                                 pixel_footprints)
@@ -68,9 +69,7 @@ from envfit.predict.renderer.randomisation._jittered import pbrt_strata
 from envfit.theory import spherical_fibonacci_sphere
 
 __all__ = ["PresetModelOptions", "PresetModel", "PresetPrediction", "grid_level",
-           "samples_above", "preset_request",
-           "systematic_indices",
-           "RANDOMISATION_OF"]
+           "samples_above", "preset_request", "systematic_indices", "RANDOMISATION_OF"]
 
 #: a sampler's randomisation tag → the registry's name (of envfit.predict.renderer.randomisation)
 RANDOMISATION_OF = {"independent": "independent", "jittered": "jittered", "cmj": "cmj",
@@ -101,8 +100,7 @@ def grid_level(randomisation: str, n: int, max_level: int) -> int:
         want = (n - 1).bit_length() + 1
     floor = 0 if randomisation in ("independent", "jittered", "digital_shift") \
         else (n - 1).bit_length()
-    if randomisation == "cp_shift":
-        floor = max(floor, 2)                           # its box needs M >= 4
+    floor = max(floor, 2) if randomisation == "cp_shift" else floor   # its box: M >= 4
     return max(1, floor, min(int(max_level), want))     # nets and CMJ need M >= N, but a
     # digital shift's power above a grid coarser than 2N is sampled (shift_samples)
 
@@ -309,6 +307,8 @@ class PresetModel:
 
     #: the parts kept per footprint normal in a pass (:meth:`_paired`), set by :meth:`_run`
     _keep: frozenset = frozenset()
+    #: no progress bar over a pass's normals (frames) when true; its text and unit
+    quiet, progress_label, progress_unit = True, "renderer model", "normal"
 
     def __init__(self, envmap, preset, technique_options: dict | None = None,
                  options: PresetModelOptions | None = None):
@@ -411,7 +411,8 @@ class PresetModel:
         k = len(self.normals)
         per = {r: [None] * k for r in todo}                  # mse (C,) per normal
         parts = {r: np.zeros((k, 3)) for r in todo}          # map, brdf, cross per normal
-        for i, normal in enumerate(self.normals):
+        for i, normal in enumerate(progress(self.normals, total=k, desc=self.progress_label,
+                                            quiet=self.quiet, unit=self.progress_unit)):
             vals = self._part_values(strategies, normal, fine)
             grids: dict = {"normal": normal, "strategies": strategies}
             for r in todo:
