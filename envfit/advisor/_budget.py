@@ -257,6 +257,10 @@ PRESET_BYTES_PER_SHIFTED = 500
 #: bytes per (pool normal, pilot point) pair of the normals' proposal (the P x 4^pilot cosine
 #: matrix and its temporaries): 83.8 MB measured at P = 1024, pilot level 6
 PROPOSAL_BYTES_PER_PAIR = 20
+#: the frames' proposal of a microfacet BSDF: bytes per pool frame and fixed (compiled
+#: proxies per frame, numpy ones in blocks of 2^18 points): 52 MB measured for 8192 frames
+#: (GGX); its time ~0.3 ms a frame (``_preset_options.MICROFACET_POOL``)
+PROPOSAL_MICROFACET_BYTES = (64, 200 * 2 ** 18)
 #: bytes per map pixel of the renderer's emitter technique: kept while the model runs, and at
 #: its construction's peak (measured on a 1024x512 map: Mitsuba 3 43 / 104, pbrt-v4 175 /
 #: 239, Cycles 268 / 548, envfit 32 / 64)
@@ -281,8 +285,9 @@ def _preset_stages(pixels: int, opts, level: int, normals: int, max_spp: int) ->
     from envfit.predict.renderer._preset_model import PresetModelOptions
     m = opts.model_options()
     rand = opts.preset.sampler(opts.sampler).randomisation
-    pool = max(MICROFACET_POOL if opts.microfacet and opts.bsdf != "roughplastic"
-               else PresetModelOptions().pool, normals)      # as opts.model_options()
+    base = (MICROFACET_POOL if opts.microfacet and opts.bsdf != "roughplastic"
+            else PresetModelOptions().pool)
+    pool = max(base, normals)                                 # as opts.model_options()
     pilot = 4 ** m.pilot_level
     foot = m.footprint_side ** 2 if opts.sphere_pixels is not None else 1
     fine = 4 ** (level + 1)
@@ -297,9 +302,12 @@ def _preset_stages(pixels: int, opts, level: int, normals: int, max_spp: int) ->
     return [
         Stage("the emitter technique", TECHNIQUE_BYTES_PER_PIXEL[1] * pixels, 1e-6 * pixels,
               f"{pixels} pixels"),
-        Stage(f"the {what}' proposal", PROPOSAL_BYTES_PER_PAIR * pool * pilot,
-              1e-8 * pool * pilot * (30 if opts.microfacet else 1),
-              f"{pool} {what} x {pilot} pilot points", "--renderer-normals"),
+        Stage(f"the {what}' proposal",
+              PROPOSAL_MICROFACET_BYTES[0] * pool + PROPOSAL_MICROFACET_BYTES[1]
+              if opts.microfacet else PROPOSAL_BYTES_PER_PAIR * pool * pilot,
+              3e-4 * pool if opts.microfacet else 1e-8 * pool * pilot,
+              f"{pool} {what} x {pilot} pilot points",
+              "--renderer-normals" if normals > base else ""),
         Stage("the model's passes", tables + PRESET_BYTES_PER_SHIFTED * shifted,
               PRESET_PASSES * normals * per_point * (fine * foot + shifted),
               f"{normals} {what}, tables of {fine} points"
