@@ -29,8 +29,8 @@ Grid level per randomisation and N (:func:`grid_level`, measured on city.exr's i
 three normals): V alone for ``independent``; the strata as cells for
 ``jittered`` (M = r: exact) and ``cmj`` (M = N: exact, finer grids give the same MSE to 4
 digits); M = 8N (at least 4) for the Cranley–Patterson shift (its box is checked to N ≤ M/8,
-``randomisation._cp_shift``); M = 2N for the other digital nets — the digital shift's estimate of the power above the
-grid needs N ≤ M/2 (``randomisation._digital_shift``): at M = N the 1/N fallback erred by up
+``randomisation._cp_shift``); M = 2N for the other digital nets — the digital shift's
+estimate of the power above the grid needs N ≤ M/2 (``randomisation._digital_shift``): at M = N the 1/N fallback erred by up
 to 2× per normal, at M = 2N the MSE agrees with M = 4N and 8N within 1–5 %; all capped at
 ``max_level``, but never below log2 N for Owen's scrambling, the Cranley–Patterson shift and
 CMJ (they need M ≥ N). Where the digital shift's grid is coarser than 2N (N beyond
