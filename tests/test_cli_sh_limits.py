@@ -89,8 +89,9 @@ def test_memory_refusal_names_the_option_and_what_fits(map64, fixed_rates, monke
     line = _one_line(capsys, cli.main(["sh", str(map64), "--lmax", "2", "--irradiance",
                                        "--check-axes", "10000000"]))
     m = re.fullmatch(r"envfit sh: error: --check-axes 10000000: the measured error at 10000000 "
-                     r"directions needs 1.5 GB but only 167.8 MB can be used \(80% of available "
-                     r"memory\); the largest --check-axes that fits is (\d+)", line)
+                     r"directions needs 1.5 GB but only 167.8 MB can be used \(80% of "
+                     r"ENVFIT_MEMORY_LIMIT=200M\); the largest --check-axes that fits is (\d+)",
+                     line)
     assert m, line
     best = int(m.group(1))                  # 32 MiB + 8 M (6 + 4 C) bytes <= budget, C = 3
     assert best == (int(0.8 * 200 * 2**20) - 32 * 2**20) // (8 * 18)

@@ -33,8 +33,8 @@ from dataclasses import replace
 
 from envfit.advisor._options import AdviseOptions
 from envfit.base._errors import MemoryBudgetError
-from envfit.base._resources import (Plan, Stage, format_bytes, interpolator_nbytes,
-                                    largest_n_within, memory_budget_bytes)
+from envfit.base._resources import (Plan, Stage, budget_words, format_bytes,
+                                    interpolator_nbytes, largest_n_within, memory_budget_bytes)
 from envfit.kernels._bandlimited import max_samples
 from envfit.maps._envmap import EnvMap
 from envfit.shading._ground_truth import default_sh_lmax
@@ -43,7 +43,7 @@ from envfit.shading._spectra import rule_power_cost, sh_analysis_cost
 from envfit.predict.renderer._warped_spectrum import spectrum_nbytes
 
 __all__ = ["PREDICTION_MAX_HEIGHT", "MIN_HEIGHT", "advise_plan", "lobe_rows",
-           "prediction_height"]
+           "prediction_height", "preset_plan", "check_preset_plan"]
 
 #: the most rows the advisor's predictions use (see the module docstring)
 PREDICTION_MAX_HEIGHT = 1024
@@ -239,3 +239,154 @@ def prediction_height(envmap: EnvMap, opts: AdviseOptions) -> tuple[int, Plan]:
     if plan is None:  # pragma: no cover - _heights always ends at or below the cap
         raise MemoryBudgetError("no height to plan")
     raise _refusal(envmap, opts, plan, h)
+
+
+# ----------------------------------------------------------------------------- renderer model
+
+#: bytes per point of the renderer model's finest table (4^(L+1) points, L =
+#: ``--renderer-level``) while a pass runs: the technique's table, the parts per normal and
+#: their moment pyramids, every randomisation's transforms. Measured (peak RSS beyond the
+#: loaded map, the three strategies, a 32x16 map, AMD EPYC): at L = 9 independent 376,
+#: ldsampler on its grid 490, zsobol 470, multijitter 460, orthogonal 460, envfit sobol 357;
+#: GGX (alpha 0.2) independent 465
+PRESET_BYTES_PER_POINT = 500
+#: bytes per shifted point of a digital shift sampled above its grid (Q x N points per N,
+#: ``PresetModelOptions.shifts``): ldsampler at L = 9 to 4096 spp measured +470 (diffuse),
+#: +200 (GGX) per point
+PRESET_BYTES_PER_SHIFTED = 500
+#: bytes per (pool normal, pilot point) pair of the normals' proposal (the P x 4^pilot cosine
+#: matrix and its temporaries): 83.8 MB measured at P = 1024, pilot level 6
+PROPOSAL_BYTES_PER_PAIR = 20
+#: the frames' proposal of a microfacet BSDF: bytes per pool frame and fixed (compiled
+#: proxies per frame, numpy ones in blocks of 2^18 points): 52 MB measured for 8192 frames
+#: (GGX); its time ~0.3 ms a frame (``_preset_options.MICROFACET_POOL``)
+PROPOSAL_MICROFACET_BYTES = (64, 200 * 2 ** 18)
+#: bytes per map pixel of the renderer's emitter technique: kept while the model runs, and at
+#: its construction's peak (measured on a 1024x512 map: Mitsuba 3 43 / 104, pbrt-v4 175 /
+#: 239, Cycles 268 / 548, envfit 32 / 64)
+TECHNIQUE_BYTES_PER_PIXEL = (300, 600)
+#: seconds per table point, normal (frame) and pass, by the sampler's randomisation (the rest:
+#: ``"other"``; a microfacet BSDF: ``"microfacet"``, every sampler) — the per-normal (per-frame)
+#: cost is this times the finest table's 4^(L+1) points (times the footprint's normals with
+#: ``--sphere-pixels``). Measured on 2 loaded cores of an AMD EPYC at L = 9 (1 M points):
+#: independent 0.9 µs, envfit sobol 4.5, zsobol 5, multijitter 6, GGX independent 2.4 µs;
+#: issue 38's GGX run (4096 frames, L = 7, 2 passes, ~50 min) 5.6 µs. A rough figure (within
+#: ~3x: the machine's load moves it)
+PRESET_SECONDS_PER_POINT = {"independent": 1.5e-6, "jittered": 2e-6, "other": 6e-6,
+                            "microfacet": 6e-6}
+#: the passes a search typically takes (1 to 4 measured: the coarse spp, the brackets)
+PRESET_PASSES = 2
+
+
+def _preset_stages(pixels: int, opts, level: int, normals: int, max_spp: int) -> list:
+    """The renderer model's stages (:func:`preset_plan`) at ``level``, ``normals`` and
+    ``max_spp`` (the other options as in ``opts``)."""
+    from envfit.advisor._preset_options import MICROFACET_POOL, spp_cap
+    from envfit.predict.renderer._preset_model import PresetModelOptions
+    m = opts.model_options()
+    rand = opts.preset.sampler(opts.sampler).randomisation
+    base = (MICROFACET_POOL if opts.microfacet and opts.bsdf != "roughplastic"
+            else PresetModelOptions().pool)
+    pool = max(base, normals)                                 # as opts.model_options()
+    pilot = 4 ** m.pilot_level
+    foot = m.footprint_side ** 2 if opts.sphere_pixels is not None else 1
+    fine = 4 ** (level + 1)
+    cap = spp_cap(rand, level, max_spp, m.shifts, sampled=opts.samples_above_grid)
+    shifted = (m.shifts * cap * 4 // 3 if rand == "digital_shift" and 2 * cap > 1 << level
+               else 0)
+    what = "frames" if opts.microfacet else "normals"
+    tables = PRESET_BYTES_PER_POINT * fine * (1 + (foot > 1))
+    per_point = PRESET_SECONDS_PER_POINT["microfacet" if opts.microfacet else rand] \
+        if opts.microfacet or rand in PRESET_SECONDS_PER_POINT else \
+        PRESET_SECONDS_PER_POINT["other"]
+    return [
+        Stage("the emitter technique", TECHNIQUE_BYTES_PER_PIXEL[1] * pixels, 1e-6 * pixels,
+              f"{pixels} pixels"),
+        Stage(f"the {what}' proposal",
+              PROPOSAL_MICROFACET_BYTES[0] * pool + PROPOSAL_MICROFACET_BYTES[1]
+              if opts.microfacet else PROPOSAL_BYTES_PER_PAIR * pool * pilot,
+              3e-4 * pool if opts.microfacet else 1e-8 * pool * pilot,
+              f"{pool} {what} x {pilot} pilot points",
+              "--renderer-normals" if normals > base else ""),
+        Stage("the model's passes", tables + PRESET_BYTES_PER_SHIFTED * shifted,
+              PRESET_PASSES * normals * per_point * (fine * foot + shifted),
+              f"{normals} {what}, tables of {fine} points"
+              + (f", {shifted} shifted points to {cap} spp" if shifted else ""),
+              "--renderer-level"),
+    ]
+
+
+def preset_plan(pixels: int, opts, *, resident: int = 0) -> Plan:
+    """The memory and time plan of the renderer model of ``envfit advise --renderer`` on a map
+    of ``pixels`` pixels with :class:`~envfit.advisor._preset_options.PresetAdviseOptions`
+    ``opts``, before any of it runs: the emitter technique (per map pixel), the normals'
+    (frames') proposal (pool × pilot table) and the passes (the finest table's 4^(L+1)
+    points, a digital shift's Q·N shifted points where it is sampled above its grid; seconds:
+    :data:`PRESET_PASSES` passes of K normals at :data:`PRESET_SECONDS_PER_POINT` per point).
+    ``resident``: bytes held throughout (the map); the technique's kept bytes are added.
+
+    >>> from envfit.advisor._preset_options import PresetAdviseOptions
+    >>> p = preset_plan(512 * 256, PresetAdviseOptions("mitsuba3", sampler="ldsampler"))
+    >>> p.worst().name, p.worst().option, round(p.peak() / 1e9, 1)
+    ("the model's passes", '--renderer-level', 1.3)
+    """
+    stages = _preset_stages(int(pixels), opts, opts.level, opts.normals, opts.max_spp)
+    return Plan("the renderer model", stages,
+                resident=int(resident) + TECHNIQUE_BYTES_PER_PIXEL[0] * int(pixels))
+
+
+def _largest_fitting(pixels: int, opts, option: str, resident: int, budget: int):
+    """The largest value of ``option`` below the asked one whose plan fits, or None."""
+    now = {"--renderer-level": opts.level, "--renderer-normals": opts.normals,
+           "--nmax": opts.max_spp}
+
+    def fits(v: int) -> bool:
+        kw = {**now, option: v}
+        st = _preset_stages(pixels, opts, kw["--renderer-level"], kw["--renderer-normals"],
+                            kw["--nmax"])
+        return Plan("", st, resident=resident).fits(budget)
+
+    if option == "--renderer-level":
+        return next((v for v in range(now[option] - 1, 0, -1) if fits(v)), None)
+    v = largest_n_within(lambda k: 0 if fits(max(1, k)) else 1, 0, now[option] - 1)
+    if v < 1 or not fits(v):
+        return None
+    if option == "--nmax":                    # the largest spp the sampler runs up to it
+        from envfit.advisor._preset_search import runnable_spp
+        v = runnable_spp(opts.preset.sampler(opts.sampler), v)[-1]
+    return v
+
+
+def check_preset_plan(envmap: EnvMap, opts) -> Plan:
+    """:func:`preset_plan` of ``envmap`` checked against the memory budget before the model
+    is built; returns the plan.
+
+    Raises
+    ------
+    envfit.base._errors.MemoryBudgetError
+        One line: the model's size options, what the plan needs and its largest stage, the
+        budget and where it comes from, and the largest value of each option that fits alone
+        (``--renderer-level``, and ``--nmax`` where a digital shift's sampled points count,
+        for the passes; ``--renderer-normals`` for the proposal), e.g. ``the renderer model
+        at --renderer-level 11, 48 normals, spp to 65536 needs ~20 GB (…), the memory budget
+        is 6.1 GB (80% of available memory): --renderer-level 10 fits``.
+    """
+    pixels = envmap.width * envmap.height
+    resident = int(getattr(envmap.data, "nbytes", 0))
+    plan = preset_plan(pixels, opts, resident=resident)
+    budget = memory_budget_bytes()
+    if plan.fits(budget):
+        return plan
+    w = plan.worst()
+    options = {"--renderer-normals": ("--renderer-normals",),
+               "--renderer-level": ("--renderer-level", "--nmax")}.get(w.option, ())
+    fixes = [f"{o} {v}" for o in options
+             if (v := _largest_fitting(pixels, opts, o, plan.resident, budget)) is not None]
+    what = "frames" if opts.microfacet else "normals"
+    raise MemoryBudgetError(
+        f"the renderer model at --renderer-level {opts.level}, {opts.normals} {what}, spp to "
+        f"{opts.spp_cap()} needs ~{format_bytes(plan.peak())} ({w.name}: {w.detail}), the "
+        f"memory budget is {format_bytes(budget)} ({budget_words()}): "
+        + (f"{' or '.join(fixes)} fits" if fixes else
+           "no smaller value of its options fits: free memory, raise ENVFIT_MEMORY_LIMIT or "
+           "use a smaller map"))

@@ -52,7 +52,7 @@ from envfit.shading.microfacet import (RENDERERS, RoughPlastic, multiscatter_or_
                                        roughness_to_alpha)
 
 __all__ = ["PresetAdviseOptions", "RENDERER_NAMES", "STRATEGY_WORDS", "DEFAULT_MAX_SPP",
-           "DEFAULT_LEVEL", "DEFAULT_LEVEL_V", "DEFAULT_NORMALS", "NET_RANDOMISATIONS",
+           "MAX_SPP", "DEFAULT_LEVEL", "DEFAULT_LEVEL_V", "DEFAULT_NORMALS", "NET_RANDOMISATIONS",
            "spp_cap", "default_level"]
 
 #: the renderers' names in sentences
@@ -63,6 +63,11 @@ STRATEGY_WORDS = {"mis": "both techniques (MIS)", "map": "emitter sampling only"
                   "brdf": "BSDF sampling only"}
 #: the largest spp searched by default
 DEFAULT_MAX_SPP = 65536
+#: the largest ``max_spp`` (``--nmax``) taken: spp is a 32-bit int in the renderers (pbrt-v4
+#: ``src/pbrt/samplers.h``: ``int samplesPerPixel``; Cycles ``src/scene/integrator.h``:
+#: ``NODE_SOCKET_API(int, aa_samples)``; Mitsuba 3 ``include/mitsuba/render/sampler.h``:
+#: ``uint32_t m_sample_count``)
+MAX_SPP = 2 ** 31 - 1
 #: the model's finest grid level L (M = 2^L) for the nets and multi-jittering,
 #: PresetModelOptions' default
 DEFAULT_LEVEL = PresetModelOptions().max_level
@@ -157,6 +162,9 @@ class PresetAdviseOptions:
         that many times the model's work). Diffuse: each normal's pixel in the axis view
         nearest it (``PresetModelOptions.sphere_pixels``); microfacet: in the frame's view.
         None: every pixel a point (a large object).
+    quiet : bool
+        No progress bar over the model's normals (frames) in a pass (default; the CLI:
+        ``--quiet``).
 
     Raises
     ------
@@ -175,6 +183,7 @@ class PresetAdviseOptions:
     bsdf: str = "diffuse"
     roughness: float | None = None
     sphere_pixels: int | None = None
+    quiet: bool = True
 
     def __post_init__(self) -> None:
         p = preset(self.renderer)
@@ -187,6 +196,10 @@ class PresetAdviseOptions:
                                  f"of {RENDERER_NAMES[p.name]}")
         set_(self, "mis_compensation", bool(self.mis_compensation))
         set_(self, "max_spp", check_int(self.max_spp, "the largest spp (--nmax)", 1))
+        if self.max_spp > MAX_SPP:
+            raise ParameterError(f"the largest spp (--nmax) must be at most {MAX_SPP} with "
+                                 f"--renderer (a renderer's spp is a 32-bit int), got "
+                                 f"{self.max_spp}")
         spp = check_ints(list(self.spp), "--spp", 1)
         too_big = [n for n in spp if n > self.max_spp]
         if too_big:

@@ -32,6 +32,7 @@ The answer is a *crossing*: prediction(spp) ≤ target < prediction(the runnable
 """
 from __future__ import annotations
 
+import bisect
 import hashlib
 import math
 import time
@@ -40,7 +41,9 @@ from pathlib import Path
 
 import numpy as np
 
+from envfit.advisor._budget import PRESET_PASSES, check_preset_plan
 from envfit.advisor._cache import AdviseCache
+from envfit.base._resources import format_bytes
 from envfit.defaults import FOOTPRINT_SIDE, MICROFACET_FRAMES_SEED
 from envfit.predict.renderer._footprint import pixel_footprints
 from envfit.predict.renderer._frames import band_frames
@@ -91,6 +94,7 @@ class CachedPresetModel:
         self.cells_cached = len(self.cells)
         self.asked: set[str] = set()          # the cells of this run (cached or not)
         self.model: PresetModel | None = None
+        self.plan = None                      # the model's Plan, made before it is built
         self.passes = self.cells_computed = 0
         self.seconds = 0.0
 
@@ -146,7 +150,12 @@ class CachedPresetModel:
             return
         t0 = time.perf_counter()
         if self.model is None:
+            self.plan = check_preset_plan(self.envmap, self.opts)   # one line if over budget
             self.model = self._model()
+            self.model.quiet = self.opts.quiet
+        self.model.progress_label = (
+            f"renderer model, pass {self.passes + 1} (planned ~{_duration(self.plan)} a pass, "
+            f"peak ~{format_bytes(self.plan.peak())})")
         res = self.model.predict_many([(s, self.opts.sampler, n) for s, n in todo])
         for (s, n), r in zip(todo, res):
             cell = {"rmse": float(r.rmse), "mse": [float(x) for x in np.ravel(r.mse)]}
@@ -160,13 +169,27 @@ class CachedPresetModel:
         self.store.save("preset", self.key, {"cells": self.cells})
 
 
-def runnable_spp(spec, cap: int) -> list[int]:
-    """Every spp the sampler runs (its rounding of 1…cap) that is at most ``cap``.
+def _duration(plan) -> str:
+    """A pass's planned seconds in words (:func:`envfit.advisor._budget.preset_plan`)."""
+    secs = plan.seconds() / PRESET_PASSES
+    return f"{secs:.0f} s" if secs < 120 else f"{secs / 60:.0f} min"
+
+
+def runnable_spp(spec, cap: int):
+    """Every spp the sampler runs (its rounding of 1…cap) that is at most ``cap``, ascending:
+    a ``range`` (lazy, O(1) memory at any cap) where the sampler runs every spp as asked,
+    else a list (the roundings to squares, powers and products grow fast enough that their
+    counts up to the model's caps are small: 2048 squares to 4^11).
 
     >>> from envfit.sampling.presets import preset
     >>> runnable_spp(preset("mitsuba3").sampler("ldsampler"), 300)
     [4, 16, 64, 256]
+    >>> runnable_spp(preset("mitsuba3").sampler("independent"), 10 ** 12)
+    range(1, 1000000000001)
     """
+    cap = int(cap)
+    if spec.rounding is int:
+        return range(1, cap + 1)
     out, n = set(), 1
     while n <= cap:
         r = spec.spp(n)
@@ -176,18 +199,20 @@ def runnable_spp(spec, cap: int) -> list[int]:
     return sorted(out)
 
 
-def coarse_spp(runnable: list[int]) -> list[int]:
-    """The runnable spp nearest above each power of two, and the largest.
+def coarse_spp(runnable) -> list[int]:
+    """The runnable spp nearest above each power of two, and the largest (``runnable``
+    ascending, a list or a range: found by bisection, nothing of its size is built).
 
     >>> coarse_spp([1, 4, 9, 16, 25, 36, 49, 64])
     [1, 4, 9, 16, 36, 64]
+    >>> len(coarse_spp(range(1, 10 ** 12 + 1)))
+    41
     """
     out, p = set(), 1
-    arr = np.asarray(runnable)
     while p <= runnable[-1]:
-        out.add(int(arr[np.searchsorted(arr, p)]))
+        out.add(int(runnable[bisect.bisect_left(runnable, p)]))
         p *= 2
-    out.add(runnable[-1])
+    out.add(int(runnable[-1]))
     return sorted(out)
 
 
@@ -214,8 +239,7 @@ class StrategyAnswer:
 def _bracket(cm: CachedPresetModel, strategy: str, runnable: list[int], target: float):
     """(last evaluated runnable spp that misses below the first that meets, the first that
     meets) — None for the latter when none evaluated meets."""
-    allowed = set(runnable)
-    known = [n for n in cm.asked_spp(strategy) if n in allowed]
+    known = [n for n in cm.asked_spp(strategy) if n in runnable]
     meet = next((n for n in known if cm.rmse(strategy, n) <= target), None)
     if meet is None:
         return None, None
@@ -233,7 +257,7 @@ def _candidates(cm, strategy, runnable, target, lo, hi, independent: bool) -> li
                                                        min(CANDIDATES, len(inner)))}
     if independent:
         guess = math.ceil(hi * cm.rmse(strategy, hi) ** 2 / target ** 2)
-        j = int(np.searchsorted(inner, guess))
+        j = bisect.bisect_left(inner, guess)
         pick.update(inner[max(0, j - 1):j + 2])
     return sorted(pick)
 

@@ -9,6 +9,7 @@ from envfit.base._errors import MemoryBudgetError, ParameterError
 from envfit.defaults import SOLVERS
 
 __all__ = ["machine_cores", "interpolator_nbytes", "iterative_nbytes", "iterative_coarse_nodes", "largest_feasible_n", "SOLVERS", "available_memory_bytes", "check_memory", "format_bytes", "memory_budget_bytes",
+           "budget_words", "time_limit_seconds", "time_limit_words", "MIN_TIME_LIMIT",
            "plan_memory", "largest_n_within", "Stage", "Plan", "peak_rss_bytes",
            "rss_bytes"]
 
@@ -111,6 +112,58 @@ def format_bytes(n: float) -> str:
     return f"{n:.1f} ZB"  # pragma: no cover
 
 
+def budget_words() -> str:
+    """Where the memory budget comes from, as the messages say it: ``80% of available
+    memory``, or ``80% of ENVFIT_MEMORY_LIMIT=1G`` when the variable sets it (its text as
+    given: what the user set, not what the machine has).
+
+    >>> budget_words().startswith("80% of ")
+    True
+    """
+    env = os.environ.get("ENVFIT_MEMORY_LIMIT", "").strip()
+    where = f"ENVFIT_MEMORY_LIMIT={env}" if env else "available memory"
+    return f"{int(MEMORY_FRACTION * 100)}% of {where}"
+
+
+#: the smallest ``ENVFIT_TIME_LIMIT`` taken (seconds): planning a run (measuring the machine's
+#: rates, :func:`envfit.export._plan.machine_rates`) takes a good part of a second already
+MIN_TIME_LIMIT = 1.0
+
+
+def time_limit_seconds(default: float) -> float:
+    """The time limit of planned work: ``ENVFIT_TIME_LIMIT`` (seconds, at least
+    :data:`MIN_TIME_LIMIT`; ``0``, ``none`` or ``inf``: no limit) or ``default``.
+
+    Raises :class:`ParameterError` in one line naming the variable and its value for a value
+    that is not a number of seconds or is below :data:`MIN_TIME_LIMIT` (no work fits it).
+    """
+    text = os.environ.get("ENVFIT_TIME_LIMIT", "").strip()
+    if not text:
+        return float(default)
+    if text.lower() in ("none", "inf", "0"):
+        return math.inf
+    try:
+        v = float(text)
+    except ValueError:
+        v = math.nan
+    if not v > 0:
+        raise ParameterError(f"ENVFIT_TIME_LIMIT must be a number of seconds (or 'none'), "
+                             f"got {text!r}")
+    if v < MIN_TIME_LIMIT:
+        raise ParameterError(f"ENVFIT_TIME_LIMIT={text} is below {MIN_TIME_LIMIT:g} s, less "
+                             f"than planning any run takes: give seconds >= "
+                             f"{MIN_TIME_LIMIT:g}, or 'none' for no limit")
+    return v
+
+
+def time_limit_words(limit: float) -> str:
+    """The limit as the messages say it: ``the 900 s limit (ENVFIT_TIME_LIMIT)`` for the
+    default, ``the 1.5 s limit (ENVFIT_TIME_LIMIT=1.5)`` when the variable sets it."""
+    text = os.environ.get("ENVFIT_TIME_LIMIT", "").strip()
+    secs = f"{limit:g} s" if limit < 1e4 else f"{limit:.1e} s"
+    return f"the {secs} limit (ENVFIT_TIME_LIMIT{'=' + text if text else ''})"
+
+
 def memory_budget_bytes() -> int:
     """What one allocation plan may take: :data:`MEMORY_FRACTION` of :func:`available_memory_bytes`."""
     return int(available_memory_bytes() * MEMORY_FRACTION)
@@ -125,7 +178,7 @@ def check_memory(nbytes: int, what: str, *, hint: str = "") -> None:
     budget = memory_budget_bytes()
     if nbytes > budget:
         msg = (f"{what} needs {format_bytes(nbytes)} but only {format_bytes(budget)} "
-               f"can be used ({int(MEMORY_FRACTION * 100)}% of available memory)")
+               f"can be used ({budget_words()})")
         if hint:
             msg += f"; {hint}"
         raise MemoryBudgetError(msg)
@@ -214,8 +267,7 @@ def plan_memory(n: int, what: str, *, channels: int = 1, kernel: bool = True,
         return total
     fits = largest_n_within(nbytes_of, budget, n)
     msg = (f"{what} at {n_name} = {n}: {_what_needs(n, total, kernel, solver)} but only "
-           f"{format_bytes(budget)} can be used ({int(MEMORY_FRACTION * 100)}% of available "
-           f"memory); ")
+           f"{format_bytes(budget)} can be used ({budget_words()}); ")
     if fits >= smallest:
         msg += f"the largest {n_name} that fits is {fits}"
     else:
@@ -361,7 +413,7 @@ class Plan:
         w = self.worst()
         msg = (f"{self.what}: {w.name}" + (f" ({w.detail})" if w.detail else "")
                + f" needs {format_bytes(self.peak())} but only {format_bytes(budget)} can be "
-               f"used ({int(MEMORY_FRACTION * 100)}% of available memory)")
+               f"used ({budget_words()})")
         raise MemoryBudgetError(msg + (f"; {hint}" if hint else ""))
 
     def lines(self) -> list[str]:

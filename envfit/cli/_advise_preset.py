@@ -106,6 +106,11 @@ def _options(args: argparse.Namespace):
     if args.check and not args.rules:
         raise ParameterError("--check measures envfit's own rules: with --renderer give "
                              "--rules too (bench/render_check.py renders the renderer itself)")
+    if args.nmin is not None and args.nmax is not None and args.nmax < args.nmin:
+        raise ParameterError(f"nmax must be an integer >= {args.nmin}, got {args.nmax}")
+    if args.nmin is not None and not args.rules:     # the renderer search starts at 1 spp
+        raise ParameterError("--nmin sizes envfit's rules (--rules); with --renderer the "
+                             "search starts at the sampler's smallest spp")
     if args.target_relative is not None and args.target_relative >= 1.0:
         raise ParameterError(f"the relative target (--target-relative) is a fraction of the "
                              f"mean radiance and must be < 1, got {args.target_relative!r}")
@@ -114,7 +119,7 @@ def _options(args: argparse.Namespace):
         mis_compensation=args.mis_compensation, max_spp=args.nmax or DEFAULT_MAX_SPP,
         level=args.renderer_level,
         normals=args.renderer_normals or DEFAULT_NORMALS, bsdf=args.brdf,
-        roughness=args.roughness, sphere_pixels=args.sphere_pixels)
+        roughness=args.roughness, sphere_pixels=args.sphere_pixels, quiet=args.quiet)
     rules = None
     if args.rules:
         from envfit.cli._advise import options_from_args

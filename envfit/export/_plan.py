@@ -48,7 +48,9 @@ from functools import lru_cache
 import numpy as np
 
 from envfit.base._errors import MemoryBudgetError, ParameterError
-from envfit.base._resources import Stage, format_bytes, memory_budget_bytes
+from envfit.base._resources import (Stage, budget_words, format_bytes, memory_budget_bytes,
+                                    time_limit_words)
+from envfit.base._resources import time_limit_seconds as _time_limit
 from envfit.export._ringing import CHECK_AXES, DENSE_BLOCK_BYTES, DENSE_HEIGHT, DIRECT_LMAX
 
 __all__ = ["DEFAULT_TIME_LIMIT", "Rates", "time_limit_seconds", "machine_rates",
@@ -71,21 +73,9 @@ class Rates:
 
 
 def time_limit_seconds() -> float:
-    """The time limit: ``ENVFIT_TIME_LIMIT`` (seconds; ``0``, ``none`` or ``inf``: none) or
-    :data:`DEFAULT_TIME_LIMIT`."""
-    env = os.environ.get("ENVFIT_TIME_LIMIT", "").strip().lower()
-    if not env:
-        return DEFAULT_TIME_LIMIT
-    if env in ("none", "inf", "0"):
-        return math.inf
-    try:
-        v = float(env)
-    except ValueError:
-        v = math.nan
-    if not v > 0:
-        raise ParameterError(f"ENVFIT_TIME_LIMIT must be a number of seconds (or 'none'), "
-                             f"got {env!r}")
-    return v
+    """The time limit: ``ENVFIT_TIME_LIMIT`` (seconds, at least 1; ``0``, ``none`` or ``inf``:
+    none) or :data:`DEFAULT_TIME_LIMIT` (:func:`envfit.base._resources.time_limit_seconds`)."""
+    return _time_limit(DEFAULT_TIME_LIMIT)
 
 
 def _best(fn, repeats: int = 3) -> float:
@@ -294,9 +284,8 @@ def _refusal(stage: Stage, value: int, stages, limit: float, budget: int, hint: 
     if stage.nbytes > budget:
         return MemoryBudgetError(
             f"{stage.option} {value}: {stage.name} needs {format_bytes(stage.nbytes)} but only "
-            f"{format_bytes(budget)} can be used (80% of available memory); {hint}")
+            f"{format_bytes(budget)} can be used ({budget_words()}); {hint}")
     total = sum(s.seconds for s in stages)
     return ParameterError(
         f"{stage.option} {value}: the work would take about {_seconds(total)} on this machine "
-        f"({stage.name}: {_seconds(stage.seconds)}), over the {_seconds(limit)} limit "
-        f"(ENVFIT_TIME_LIMIT); {hint}")
+        f"({stage.name}: {_seconds(stage.seconds)}), over {time_limit_words(limit)}; {hint}")

@@ -140,6 +140,8 @@ class MicrofacetModel(LobeChoice, PresetModel):
     True
     """
 
+    progress_unit = "frame"
+
     def __init__(self, envmap, preset, conductor, frames, weights=None,
                  technique_options: dict | None = None,
                  options: PresetModelOptions | None = None, select: int | None = None,

@@ -28,8 +28,9 @@ does for envfit's techniques).
 Grid level per randomisation and N (:func:`grid_level`, measured on city.exr's integrands at
 three normals): V alone for ``independent``; the strata as cells for
 ``jittered`` (M = r: exact) and ``cmj`` (M = N: exact, finer grids give the same MSE to 4
-digits); M = 2N for the digital nets — the digital shift's estimate of the power above the
-grid needs N ≤ M/2 (``randomisation._digital_shift``): at M = N the 1/N fallback erred by up
+digits); M = 8N (at least 4) for the Cranley–Patterson shift (its box is checked to N ≤ M/8,
+``randomisation._cp_shift``); M = 2N for the other digital nets — the digital shift's
+estimate of the power above the grid needs N ≤ M/2 (``randomisation._digital_shift``): at M = N the 1/N fallback erred by up
 to 2× per normal, at M = 2N the MSE agrees with M = 4N and 8N within 1–5 %; all capped at
 ``max_level``, but never below log2 N for Owen's scrambling, the Cranley–Patterson shift and
 CMJ (they need M ≥ N). Where the digital shift's grid is coarser than 2N (N beyond
@@ -56,6 +57,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from envfit.base import ParameterError
+from envfit.base._progress import progress
 from envfit.predict.renderer._footprint import (_STREAMS, FootprintSums, PairedFootprint,
                                                 footprint_term, nearest_views,
                                                 pixel_footprints)
@@ -63,12 +65,11 @@ from envfit.predict.renderer._preset_integrand import (BsdfTable, MapTable, bsdf
                                                        map_values, midpoints, moment_pyramid)
 from envfit.predict.renderer.randomisation import (DyadicGrid, mis_mse, randomised_mse,
                                                    sampled_above, shift_sample)
+from envfit.predict.renderer.randomisation._jittered import pbrt_strata
 from envfit.theory import spherical_fibonacci_sphere
 
 __all__ = ["PresetModelOptions", "PresetModel", "PresetPrediction", "grid_level",
-           "samples_above", "preset_request",
-           "systematic_indices",
-           "RANDOMISATION_OF"]
+           "samples_above", "preset_request", "systematic_indices", "RANDOMISATION_OF"]
 
 #: a sampler's randomisation tag → the registry's name (of envfit.predict.renderer.randomisation)
 RANDOMISATION_OF = {"independent": "independent", "jittered": "jittered", "cmj": "cmj",
@@ -78,6 +79,9 @@ RANDOMISATION_OF = {"independent": "independent", "jittered": "jittered", "cmj":
 #: orthogonal array have independent permutations per dimension: their cross term is 0
 #: (``randomisation._orthogonal``)
 _SHARED = {"independent": False, "same_net_permuted": True, "joint_array": False}
+#: a preset's jittered strata (``randomisation._jittered``): pbrt-v4's x × y, envfit's rows
+#: (``envfit.theory.jitter_strata``); Mitsuba's r × r
+_JITTER_LAYOUT = {"pbrt4": "pbrt", "envfit": "rows"}
 
 
 def grid_level(randomisation: str, n: int, max_level: int) -> int:
@@ -85,14 +89,18 @@ def grid_level(randomisation: str, n: int, max_level: int) -> int:
     if randomisation == "independent":
         want = 2
     elif randomisation == "jittered":
-        r = math.isqrt(n)
-        want = (r - 1).bit_length() + (0 if r & (r - 1) == 0 else 3)
+        r = max(pbrt_strata(n)[0], -(-n // max(1, round(math.sqrt(n)))))  # most strata a side
+        square = r * r == n and r & (r - 1) == 0           # r x r, r = 2^k: on the grid
+        want = (r - 1).bit_length() + (0 if square else 3)
     elif randomisation in ("cmj", "orthogonal"):
         want = (n - 1).bit_length() + (0 if n & (n - 1) == 0 else 1)
+    elif randomisation == "cp_shift":
+        want = (n - 1).bit_length() + 3                 # N <= M/8 (randomisation._cp_shift)
     else:
         want = (n - 1).bit_length() + 1
     floor = 0 if randomisation in ("independent", "jittered", "digital_shift") \
         else (n - 1).bit_length()
+    floor = max(floor, 2) if randomisation == "cp_shift" else floor   # its box: M >= 4
     return max(1, floor, min(int(max_level), want))     # nets and CMJ need M >= N, but a
     # digital shift's power above a grid coarser than 2N is sampled (shift_samples)
 
@@ -258,7 +266,8 @@ def preset_request(preset, options: PresetModelOptions, strategy: str, sampler: 
         raise ParameterError("the model takes at most one sample per technique and spp")
     opts = opts_b = ()
     if name == "jittered":
-        opts = opts_b = (("r", math.isqrt(n)),)
+        opts = opts_b = ((("r", math.isqrt(n)),) if preset.name == "mitsuba3"
+                         else (("layout", _JITTER_LAYOUT.get(preset.name, "square")),))
     elif name == "cmj":
         opts = opts_b = (("permutations", "mitsuba" if preset.name == "mitsuba3"
                           else "uniform"),)
@@ -298,6 +307,8 @@ class PresetModel:
 
     #: the parts kept per footprint normal in a pass (:meth:`_paired`), set by :meth:`_run`
     _keep: frozenset = frozenset()
+    #: no progress bar over a pass's normals (frames) when true; its text and unit
+    quiet, progress_label, progress_unit = True, "renderer model", "normal"
 
     def __init__(self, envmap, preset, technique_options: dict | None = None,
                  options: PresetModelOptions | None = None):
@@ -400,7 +411,8 @@ class PresetModel:
         k = len(self.normals)
         per = {r: [None] * k for r in todo}                  # mse (C,) per normal
         parts = {r: np.zeros((k, 3)) for r in todo}          # map, brdf, cross per normal
-        for i, normal in enumerate(self.normals):
+        for i, normal in enumerate(progress(self.normals, total=k, desc=self.progress_label,
+                                            quiet=self.quiet, unit=self.progress_unit)):
             vals = self._part_values(strategies, normal, fine)
             grids: dict = {"normal": normal, "strategies": strategies}
             for r in todo:

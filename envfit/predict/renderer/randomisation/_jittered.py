@@ -1,20 +1,29 @@
-r"""Jittered (stratified) sampling on r × r strata, one uniform point per stratum
-(Mitsuba ``stratified``, pbrt-v4 ``stratified``):
+r"""Jittered (stratified) sampling, one uniform point per stratum of N strata of area 1/N
+(Mitsuba ``stratified``, pbrt-v4 ``stratified``, envfit's ``jitter``):
 
-.. math::  E(F - I)^2 = \frac1{N^2}\sum_{a,b} \sigma^2_{ab}
-           = \frac1N\int h^2 - \sum_{a,b}\Big(\int_{S_{ab}} h\Big)^2, \qquad N = r^2,
+.. math::  E(F - I)^2 = \frac1{N^2}\sum_s \sigma^2_s
+           = \frac1N\int h^2 - \sum_s\Big(\int_{S_s} h\Big)^2,
 
-:math:`\sigma^2_{ab}` the variance of h under a uniform point of stratum
-:math:`S_{ab} = [a/r,(a+1)/r)\times[b/r,(b+1)/r)` (the order in which a renderer visits the
-strata does not change the mean). The power above the grid enters exactly as
-:math:`P_\text{above}/N` when r divides M (each stratum is a union of cells); the rest is the
-within-stratum variance of the cell means. When r does not divide M the strata means are those
-of the cell-constant interpolant on the cut cells (:mod:`._strata`; tests bound the effect:
+:math:`\sigma^2_s` the variance of h under a uniform point of stratum :math:`S_s` (the order
+in which a renderer visits the strata does not change the mean). The strata's layout
+(``layout``):
+
+* ``"square"``: r × r cells, N = r² (Mitsuba 3 ``src/samplers/stratified.cpp``:
+  ``StratifiedSampler::set_sample_count`` rounds spp up to the next square);
+* ``"pbrt"``: x × y cells, y = the largest divisor d ≤ √N, x = N/d along :math:`u_0`
+  (pbrt-v4 ``src/pbrt/samplers.cpp``: ``StratifiedSampler::Create``; ``samplers.h``:
+  ``StratifiedSampler::Get2D``, ``(x + dx)/xPixelSamples``); a square N gives ``"square"``;
+* ``"rows"``: envfit's own :func:`envfit.theory.jitter_strata` — k = round(√N) bands in
+  :math:`u_1`, band b holding :math:`c_b = \lfloor N/k\rfloor` or :math:`\lceil N/k\rceil`
+  cells of width :math:`1/c_b` and height :math:`c_b/N`; a square N gives ``"square"``.
+
+The power above the grid enters exactly as :math:`P_\text{above}/N` when every stratum edge
+is on the grid (each stratum a union of cells); otherwise the strata means are those of the
+cell-constant interpolant on the cut cells (:mod:`._strata`; tests bound the effect:
 r = 3, 5, 6, 7 on M = 256 agree with brute force within its standard error).
 
 Reference: A. B. Owen, *Monte Carlo theory, methods and examples* (2013), ch. 10
-(stratification); Mitsuba 3 ``src/samplers/stratified.cpp``: ``StratifiedSampler::next_2d``
-(spp rounded up to the next square).
+(stratification).
 """
 from __future__ import annotations
 
@@ -27,22 +36,74 @@ from envfit.base import ParameterError
 from ._grid import DyadicGrid, RandomisedMSE, make_result
 from ._strata import rectangle_moments
 
-__all__ = ["jittered_mse"]
+__all__ = ["jittered_mse", "JITTER_LAYOUTS", "pbrt_strata"]
+
+#: the strata layouts of :func:`jittered_mse`
+JITTER_LAYOUTS = ("square", "pbrt", "rows")
 
 
-def jittered_mse(grid: DyadicGrid, n: int, *, r: int | None = None) -> RandomisedMSE:
-    """The exact MSE of r × r jittered sampling, N = r² (``r`` defaults to √n, which must then
-    be an integer)."""
+def pbrt_strata(n: int) -> tuple[int, int]:
+    """pbrt-v4's ``StratifiedSampler::Create`` with spp ``n``: (x, y), y = the largest
+    divisor of n at most √n, x = n/y.
+
+    >>> pbrt_strata(2048), pbrt_strata(7), pbrt_strata(16)
+    ((64, 32), (7, 1), (4, 4))
+    """
+    d = math.isqrt(n)
+    while n % d:
+        d -= 1
+    return n // d, d
+
+
+def _within_sum(grid: DyadicGrid, n: int, layout: str) -> tuple[np.ndarray, bool]:
+    """(Σ over strata of the within-stratum variance (C,), whether every edge is on the
+    grid) for N strata in ``layout``."""
+    m = grid.size
+    on = (lambda e: bool(np.all(np.abs(np.asarray(e) * m - np.rint(np.asarray(e) * m))
+                                < 1e-9)))
+    if layout == "pbrt":
+        x, y = pbrt_strata(n)
+        e1, e2 = np.arange(x + 1) / x, np.arange(y + 1) / y
+        _, within = rectangle_moments(grid, e1, e2)
+        return within.sum(axis=(1, 2)), on(e1) and on(e2)
+    k = max(1, int(round(math.sqrt(n))))                  # envfit's rows (jitter_strata)
+    counts = np.full(k, n // k, dtype=np.int64)
+    counts[: n % k] += 1
+    bands = np.concatenate([[0], np.cumsum(counts)]) / n   # edges in u_1
+    total, aligned = np.zeros(grid.channels), on(bands)
+    for c in np.unique(counts):
+        e1 = np.arange(c + 1) / c
+        _, within = rectangle_moments(grid, e1, bands)     # (C, c, k): every band cut c ways
+        total += within[:, :, counts == c].sum(axis=(1, 2))
+        aligned = aligned and on(e1)
+    return total, aligned
+
+
+def jittered_mse(grid: DyadicGrid, n: int, *, r: int | None = None,
+                 layout: str = "square") -> RandomisedMSE:
+    """The exact MSE of jittered sampling of N strata (module docstring): ``layout``
+    ``"square"`` takes r × r strata, N = r² (``r`` defaults to √n, which must then be an
+    integer); ``"pbrt"`` and ``"rows"`` any N."""
+    if layout not in JITTER_LAYOUTS:
+        raise ParameterError(f"layout must be one of {', '.join(JITTER_LAYOUTS)}, "
+                             f"got {layout!r}")
     if r is None:
         r = math.isqrt(n)
-    if not (isinstance(r, (int, np.integer)) and r >= 1 and r * r == n):
-        raise ParameterError(f"jittered sampling takes N = r² points: N = {n} with r = {r!r} "
-                             f"(Mitsuba's stratified rounds spp up to the next square)")
-    edges = np.arange(r + 1) / r
-    _, within = rectangle_moments(grid, edges, edges)
-    total = within.sum(axis=(1, 2)) / float(n * n)
-    aligned = grid.size % r == 0
+    if layout != "square" and r * r == n:
+        layout = "square"
+    if layout == "square":
+        if not (isinstance(r, (int, np.integer)) and r >= 1 and r * r == n):
+            raise ParameterError(f"jittered sampling takes N = r² points: N = {n} with "
+                                 f"r = {r!r} (Mitsuba's stratified rounds spp up to the next "
+                                 f"square)")
+        edges = np.arange(r + 1) / r
+        _, within = rectangle_moments(grid, edges, edges)
+        total = within.sum(axis=(1, 2))
+        aligned = grid.size % r == 0
+    else:
+        total, aligned = _within_sum(grid, n, layout)
+    total = total / float(n * n)
     above = grid.above / n
-    note = "exact (r divides M)" if aligned else \
+    note = "exact (every stratum a union of cells)" if aligned else \
         "strata cut grid cells: their share by the cell-constant interpolant"
     return make_result("jittered", n, total - above, above, exact=aligned, note=note)

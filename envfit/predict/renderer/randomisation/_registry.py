@@ -50,7 +50,8 @@ class Randomisation:
 
 RANDOMISATIONS = {r.name: r for r in (
     Randomisation("independent", independent_mse, (), "i.i.d. uniform points: V/N"),
-    Randomisation("jittered", jittered_mse, ("r",), "r x r jittered strata"),
+    Randomisation("jittered", jittered_mse, ("r", "layout"),
+                  "jittered strata (r x r, pbrt-v4's x x y, envfit's rows)"),
     Randomisation("cmj", cmj_mse, ("nx", "ny", "permutations"), "Kensler's correlated multi-jittering"),
     Randomisation("digital_shift", digital_shift_mse, ("net",),
                   "random XOR shift of a digital net"),

@@ -1,0 +1,194 @@
+"""The renderer model's ranges and plan (issue 38): ``--nmin``/``--nmax`` with ``--renderer``
+refused in the words used without it, the spp searched generated lazily (no set of every spp
+up to ``--nmax``), and the memory/time plan of the model's stages checked before any work."""
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from envfit.data_gen import gaussian_process_map
+from envfit.maps import EnvMap, load_envmap, save_envmap
+from envfit.predict.renderer._preset_model import PresetModel, PresetModelOptions
+from envfit.sampling.presets import preset
+
+
+@pytest.fixture(scope="module")
+def gp_file(tmp_path_factory):
+    env = EnvMap(gaussian_process_map(1.8, 16, seed=3, channels=3) + 2.0, name="gp16")
+    path = tmp_path_factory.mktemp("maps") / "gp16.exr"
+    save_envmap(path, env)
+    return path
+
+
+def _run(capsys, tmp_path, *args):
+    from envfit.cli import main
+    out = tmp_path / "a.json"
+    rc = main(["advise", *map(str, args), "--cache-dir", str(tmp_path / "cache"),
+               "--json", str(out)])
+    cap = capsys.readouterr()
+    d = json.loads(out.read_text()) if rc == 0 and out.exists() else None
+    return rc, cap.out.splitlines(), cap.err.strip().splitlines(), d
+
+
+# ----------------------------------------------------------------------------- --nmin, --nmax
+
+@pytest.mark.parametrize("renderer", [[], ["--renderer", "mitsuba3"]])
+def test_nmax_below_nmin_is_the_same_line_with_and_without_renderer(renderer, tmp_path,
+                                                                    capsys):
+    rc, _, err, _ = _run(capsys, tmp_path, tmp_path / "absent.exr", "--nmin", "1000",
+                         "--nmax", "10", *renderer)
+    assert rc == 2 and err == ["envfit advise: error: nmax must be an integer >= 1000, got 10"]
+
+
+def test_nmin_with_renderer_is_refused_unless_the_rules_use_it(tmp_path, capsys):
+    rc, _, err, _ = _run(capsys, tmp_path, tmp_path / "absent.exr", "--renderer", "mitsuba3",
+                         "--nmin", "10")
+    assert rc == 2 and len(err) == 1 and "--nmin sizes envfit's rules (--rules)" in err[0]
+
+
+def test_nmax_beyond_a_32_bit_spp_is_refused_fast(tmp_path, capsys):
+    rc, _, err, _ = _run(capsys, tmp_path, tmp_path / "absent.exr", "--renderer", "mitsuba3",
+                         "--nmax", "1e12")
+    assert rc == 2 and len(err) == 1
+    assert "--nmax) must be at most 2147483647 with --renderer" in err[0]
+
+
+def test_spp_searched_are_lazy_and_the_top_of_the_range_is_searched(gp_file, tmp_path, capsys):
+    from envfit.advisor._preset_search import coarse_spp, runnable_spp
+    spec = preset("mitsuba3").sampler("independent")
+    r = runnable_spp(spec, 2 ** 31 - 1)
+    assert isinstance(r, range) and len(r) == 2 ** 31 - 1
+    assert coarse_spp(r)[:3] == [1, 2, 4] and coarse_spp(r)[-2:] == [2 ** 30, 2 ** 31 - 1]
+    # end to end: a target no spp meets, searched to the top of the range in seconds
+    m = PresetModel(load_envmap(gp_file), preset("mitsuba3"),
+                    options=PresetModelOptions(normals=1, max_level=7))
+    top = m.predict("map", "independent", 2 ** 31 - 1).rmse
+    rc, lines, _, d = _run(capsys, tmp_path, gp_file, "--renderer", "mitsuba3", "--strategies",
+                           "map", "--renderer-normals", "1", "--nmax", str(2 ** 31 - 1),
+                           "--target-rmse", repr(top / 2))
+    assert rc == 0 and "no spp up to 2147483647 meets" in lines[0]
+    assert d["renderer"]["recommendation"]["predicted_rmse"] == pytest.approx(top, rel=1e-9)
+
+
+# ----------------------------------------------------------------------------- limits' words
+
+def test_memory_budget_names_the_variable_only_when_it_is_set(monkeypatch):
+    from envfit.base._errors import MemoryBudgetError
+    from envfit.base._resources import check_memory
+    monkeypatch.setenv("ENVFIT_MEMORY_LIMIT", "1")
+    with pytest.raises(MemoryBudgetError) as e:
+        check_memory(10 ** 6, "a test array")
+    assert "only 0 B can be used (80% of ENVFIT_MEMORY_LIMIT=1)" in str(e.value)
+    assert "available memory" not in str(e.value)
+    monkeypatch.delenv("ENVFIT_MEMORY_LIMIT")
+    with pytest.raises(MemoryBudgetError) as e:
+        check_memory(10 ** 21, "a test array")
+    assert "(80% of available memory)" in str(e.value) and "ENVFIT_" not in str(e.value)
+
+
+def test_time_limit_says_what_was_set_and_refuses_a_limit_nothing_fits(monkeypatch):
+    from envfit.base._errors import ParameterError
+    from envfit.base._resources import time_limit_seconds, time_limit_words
+    monkeypatch.delenv("ENVFIT_TIME_LIMIT", raising=False)
+    assert time_limit_words(time_limit_seconds(900.0)) == "the 900 s limit (ENVFIT_TIME_LIMIT)"
+    monkeypatch.setenv("ENVFIT_TIME_LIMIT", "2.5")
+    assert time_limit_words(time_limit_seconds(900.0)) == \
+        "the 2.5 s limit (ENVFIT_TIME_LIMIT=2.5)"
+    monkeypatch.setenv("ENVFIT_TIME_LIMIT", "1e-9")
+    with pytest.raises(ParameterError) as e:
+        time_limit_seconds(900.0)
+    assert str(e.value).startswith("ENVFIT_TIME_LIMIT=1e-9 is below 1 s")
+
+
+def test_sh_refusal_over_a_set_time_limit_names_its_value(tmp_path, monkeypatch, capsys):
+    from envfit.cli import main
+    env = EnvMap(gaussian_process_map(1.8, 16, seed=3, channels=3) + 2.0, name="gp16")
+    save_envmap(tmp_path / "m.exr", env)
+    monkeypatch.setenv("ENVFIT_TIME_LIMIT", "1e-9")
+    rc = main(["sh", str(tmp_path / "m.exr"), "--lmax", "2"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "ENVFIT_TIME_LIMIT=1e-9 is below 1 s" in err[0]
+    assert "the 0 s limit" not in err[0]
+
+
+# ----------------------------------------------------------------------------- the model's plan
+
+def _opts(**kw):
+    from envfit.advisor._preset_options import PresetAdviseOptions
+    return PresetAdviseOptions("mitsuba3", **kw)
+
+
+def test_plan_memory_bounds_the_measured_peak(gp_file):
+    """ldsampler at level 8 with a target nothing meets: every pass to the cap, its power
+    above the grid sampled (the plan's worst case); the peak traced by tracemalloc (numpy's
+    arrays) from the loaded map on, against the plan: at least the peak, at most 2.5x it."""
+    import tracemalloc
+    from envfit.advisor._budget import preset_plan
+    from envfit.advisor._preset import advise_preset
+    env = load_envmap(gp_file)
+    o = _opts(sampler="ldsampler", level=8, normals=2)
+    plan = preset_plan(env.width * env.height, o, resident=env.data.nbytes)
+    tracemalloc.start()
+    try:
+        adv = advise_preset(env, o, target_rmse=1e-9, cache=False)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert not adv.default.reached and adv.default.searched_max == 1024   # sampled to 1024
+    assert peak <= plan.peak() <= 2.5 * peak, (peak, plan.lines())
+
+
+def _refusal(capsys, tmp_path, monkeypatch, limit, *args):
+    monkeypatch.setenv("ENVFIT_MEMORY_LIMIT", limit)
+    rc, _, err, _ = _run(capsys, tmp_path, *args)
+    assert rc == 2 and len(err) == 1, err
+    assert f"(80% of ENVFIT_MEMORY_LIMIT={limit})" in err[0]
+    return err[0]
+
+
+def _fits(pixels, **kw) -> bool:
+    from envfit.advisor._budget import preset_plan
+    return preset_plan(pixels, _opts(**kw), resident=pixels * 12).fits()
+
+
+def test_level_over_budget_names_the_largest_level_that_fits(gp_file, tmp_path, monkeypatch,
+                                                             capsys):
+    import re
+    line = _refusal(capsys, tmp_path, monkeypatch, "1G", gp_file, "--renderer", "mitsuba3",
+                    "--sampler", "ldsampler", "--renderer-level", "11")
+    assert line.startswith("envfit advise: error: the renderer model at --renderer-level 11,")
+    lv = int(re.search(r"--renderer-level (\d+) (fits|or)", line).group(1))
+    px = 32 * 16
+    assert _fits(px, sampler="ldsampler", level=lv)
+    assert not _fits(px, sampler="ldsampler", level=lv + 1)
+
+
+def test_normals_over_budget_names_the_most_normals_that_fit(gp_file, tmp_path, monkeypatch,
+                                                             capsys):
+    import re
+    line = _refusal(capsys, tmp_path, monkeypatch, "300M", gp_file, "--renderer", "mitsuba3",
+                    "--renderer-normals", "4096")
+    k = int(re.search(r"--renderer-normals (\d+) fits", line).group(1))
+    assert "the normals' proposal: 4096 normals x 4096 pilot points" in line
+    assert 1024 <= k < 4096 and _fits(512, normals=k) and not _fits(512, normals=k + 1)
+
+
+def test_nmax_over_budget_names_the_largest_runnable_spp_that_fits(gp_file, tmp_path,
+                                                                  monkeypatch, capsys):
+    import re
+    line = _refusal(capsys, tmp_path, monkeypatch, "1G", gp_file, "--renderer", "mitsuba3",
+                    "--sampler", "ldsampler")
+    n = int(re.search(r"--nmax (\d+) fits", line).group(1))
+    assert "shifted points to 4096 spp" in line
+    assert n in (256, 1024) and _fits(512, sampler="ldsampler", max_spp=n)
+    assert not _fits(512, sampler="ldsampler", max_spp=4 * n)
+
+
+def test_progress_bar_over_the_normals_and_quiet_silences_it(gp_file, tmp_path, capsys):
+    args = (gp_file, "--renderer", "mitsuba3", "--renderer-normals", "2",
+            "--renderer-level", "5")
+    rc, _, err, _ = _run(capsys, tmp_path, *args, "--no-cache")
+    assert rc == 0 and "renderer model, pass 1 (planned ~" in "\n".join(err)
+    rc, _, err, _ = _run(capsys, tmp_path, *args, "--no-cache", "--quiet")
+    assert rc == 0 and err == []
