@@ -11,6 +11,8 @@ one-line :mod:`envfit.base._errors` exception:
 problem                                        result
 =============================================  ===========================================
 missing file / a folder                        :class:`EnvMapFileError` ("no such file")
+not a regular file (FIFO, device, socket,      :class:`EnvMapFileError` saying which,
+symbolic link loop, dangling link)             never opened (a FIFO would block)
 unreadable, corrupt, truncated                 :class:`EnvMapFileError` (OIIO's message)
 empty, or display width != 2 x height          :class:`EnvMapFormatError` (with the size)
 data window != display window (EXR)            placed in the display window: the
@@ -56,12 +58,12 @@ Example
 """
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
 
 from envfit.base._atomic import replace_via_temporary
+from envfit.base._files import regular_file_problem
 from envfit.base._errors import EnvMapFileError, NonFiniteError, ParameterError
 from envfit.maps import _latlong as latlong
 from envfit.maps._conventions import lat_long_convention
@@ -176,14 +178,15 @@ def _up_mismatch(spec, up: str) -> list[str]:
 
 
 def _readable_file(path) -> Path:
-    """``path`` as a Path if it is an existing, readable file; else :class:`EnvMapFileError`."""
+    """``path`` as a Path if it is an existing, readable regular file; else
+    :class:`EnvMapFileError` saying what it is (no such file, a folder, a named pipe, a
+    device, a socket, a symbolic link loop or a dangling one, permission denied). Only
+    ``stat`` looks at it: a FIFO or a device is never opened (an ``open()`` of a FIFO blocks
+    in the kernel, where no signal handler runs)."""
     p = Path(path)
-    if not p.exists():
-        raise EnvMapFileError(f"{p}: no such file")
-    if p.is_dir():
-        raise EnvMapFileError(f"{p}: is a folder, not an image file")
-    if not os.access(p, os.R_OK):
-        raise EnvMapFileError(f"{p}: permission denied")
+    why = regular_file_problem(p, "an image file")
+    if why is not None:
+        raise EnvMapFileError(f"{p}: {why}")
     return p
 
 
