@@ -155,10 +155,8 @@ def load_envmap(path, *, up: str | None = None, convention=None, allow_negative:
         or a convention object; the map's ``up`` is the convention's.
     allow_negative : keep negative values (default: clamp them to 0 and note how many).
     fix_nonfinite : replace NaN/Inf values by the mean of the finite values among their 8
-        neighbours in the same channel and note how many (a value with no finite neighbour —
-        all of the map, a channel, a region 3 pixels across — raises
-        :class:`NonFiniteError`: there is nothing to replace it by); by default they raise
-        :class:`NonFiniteError`.
+        neighbours in the same channel, noted (:class:`NonFiniteError` if one has none);
+        by default they raise :class:`NonFiniteError`.
     max_height : downscale to this height (:meth:`~envfit.maps._envmap.EnvMap.resized`).
     dtype : float32 (default) or float64.
 
