@@ -14,13 +14,16 @@ is the number written: a cached answer equals a fresh one.
   and key — and a checksum: ``sha256`` of the canonical JSON (sorted keys, no spaces) of
   ``{"version", "format", "kind", "key", "value"}`` (:func:`envfit.base._store.canonical_sha256`).
   A file that cannot be read or parsed (random bytes, truncated, a folder in its place —
-  moved aside), whose checksum does not match (edited or corrupt), whose stored key or kind
-  differs (a copied file, a hash collision), that was written before checksums (format 1)
-  or whose value does not fit its kind's schema (:data:`SCHEMAS`: types and ranges, e.g. a
-  fit's s in (1, 2) and finite σ̂ ≥ 0 — a file forged with a valid checksum) is ignored and
-  rewritten, with one note naming it in ``notes`` (the advisor passes them on as
-  ``advice.notes``) — never an error, and an edited number is never used. A bad entry is
-  dropped alone: the rest of the cache stays on.
+  moved aside; a named pipe, a device, a socket, a symbolic link loop — never opened,
+  :mod:`envfit.base._files`; larger than :data:`~envfit.base._files.MAX_JSON_BYTES`), whose
+  checksum does not match (edited or corrupt), whose stored key or kind differs (a copied
+  file, a hash collision), that was written before checksums (format 1) or whose value does
+  not fit its kind's schema (:data:`SCHEMAS`: types and ranges, e.g. a fit's s in (1, 2) and
+  finite σ̂ ≥ 0; a renderer-advice cell's rmse² equal to the mean of its MSE and, given the
+  map (:data:`MAP_CHECKS`), > 0 unless the map is constant — a file forged with a valid
+  checksum) is ignored and rewritten, with one note naming it in ``notes`` (the advisor
+  passes them on as ``advice.notes``) — never an error, and an edited number is never
+  used. A bad entry is dropped alone: the rest of the cache stays on.
 * a wce curve is a dict ``N → terms``; new points are merged into what the file holds at
   the time of writing, so two processes extending the same curve lose nothing but the
   points written between each other's read and write. The terms are map-independent (the

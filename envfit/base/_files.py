@@ -34,9 +34,10 @@ __all__ = ["NO_SUCH_FILE", "MAX_JSON_BYTES", "file_kind", "regular_file_problem"
 
 #: what :func:`regular_file_problem` says when nothing is there at all
 NO_SUCH_FILE = "no such file"
-#: the largest JSON file envfit reads back (a cache entry, a cell, a config): its largest
-#: entries, a warped spectrum of a 2048-row map, are a few MB
-MAX_JSON_BYTES = 256 * 2**20
+#: the largest JSON file envfit reads back (a cache entry, a cell, a config): the largest
+#: entries, the advisor's warped spectra, hold ~G²/8 numbers per channel for a grid of G
+#: (``--renderer-grid``): 2.2 MB at the default 512, ~560 MiB at 8192
+MAX_JSON_BYTES = 2**30
 
 _KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a named pipe (FIFO)"),
           (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
