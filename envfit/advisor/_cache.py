@@ -14,13 +14,16 @@ is the number written: a cached answer equals a fresh one.
   and key — and a checksum: ``sha256`` of the canonical JSON (sorted keys, no spaces) of
   ``{"version", "format", "kind", "key", "value"}`` (:func:`envfit.base._store.canonical_sha256`).
   A file that cannot be read or parsed (random bytes, truncated, a folder in its place —
-  moved aside), whose checksum does not match (edited or corrupt), whose stored key or kind
-  differs (a copied file, a hash collision), that was written before checksums (format 1)
-  or whose value does not fit its kind's schema (:data:`SCHEMAS`: types and ranges, e.g. a
-  fit's s in (1, 2) and finite σ̂ ≥ 0 — a file forged with a valid checksum) is ignored and
-  rewritten, with one note naming it in ``notes`` (the advisor passes them on as
-  ``advice.notes``) — never an error, and an edited number is never used. A bad entry is
-  dropped alone: the rest of the cache stays on.
+  moved aside; a named pipe, a device, a socket, a symbolic link loop — never opened,
+  :mod:`envfit.base._files`; larger than :data:`~envfit.base._files.MAX_JSON_BYTES`), whose
+  checksum does not match (edited or corrupt), whose stored key or kind differs (a copied
+  file, a hash collision), that was written before checksums (format 1) or whose value does
+  not fit its kind's schema (:data:`SCHEMAS`: types and ranges, e.g. a fit's s in (1, 2) and
+  finite σ̂ ≥ 0; a renderer-advice cell's rmse² equal to the mean of its MSE and, given the
+  map (:data:`MAP_CHECKS`), > 0 unless the map is constant — a file forged with a valid
+  checksum) is ignored and rewritten, with one note naming it in ``notes`` (the advisor
+  passes them on as ``advice.notes``) — never an error, and an edited number is never
+  used. A bad entry is dropped alone: the rest of the cache stays on.
 * a wce curve is a dict ``N → terms``; new points are merged into what the file holds at
   the time of writing, so two processes extending the same curve lose nothing but the
   points written between each other's read and write. The terms are map-independent (the
@@ -62,7 +65,7 @@ from envfit.base._store import (canonical_sha256, json_type as _what, move_aside
                                 number_problem as _bad_real, read_json_file)
 
 __all__ = ["AdviseCache", "default_cache_dir", "cache_write_problem", "CACHE_VERSION",
-           "CACHE_FORMAT", "SCHEMAS", "entry_problem"]
+           "CACHE_FORMAT", "SCHEMAS", "MAP_CHECKS", "entry_problem"]
 
 #: bumped when the meaning of a cached number changes (old files are then ignored);
 #: 2: band-limited fits, wce curves hold the error power per degree (not E² of one s)
@@ -269,7 +272,32 @@ def _bad_preset(v: Any) -> str | None:
                           {"bands": _bad_bands, "band_errors": _bad_band_errors})
         if why is not None:
             return f"cell {k}: {why}"
+        why = _bad_rmse(cell["rmse"], cell["mse"])
+        if why is not None:
+            return f"cell {k}: {why}"
     return None
+
+
+def _bad_rmse(rmse: float, mse: list) -> str | None:
+    """A cell's RMSE is √(mean over channels of its MSE)
+    (:class:`envfit.predict.renderer._preset_model.PresetPrediction`): rmse² equals the
+    mean to rounding (1e-9 relative; both 0 only together)."""
+    if not mse:
+        return "mse is empty"
+    mean = math.fsum(mse) / len(mse)
+    if math.isclose(rmse * rmse, mean, rel_tol=1e-9, abs_tol=0.0):
+        return None
+    return f"rmse = {rmse!r} is not the root of the mean of its mse ({mean!r})"
+
+
+def _preset_for_map(v: dict, envmap) -> str | None:
+    """Against the map the entry is for: a map that is not constant in some channel has
+    noise under every strategy and spp, so each cell's RMSE is > 0."""
+    data = np.asarray(envmap.data)
+    if data.size == 0 or bool(np.all(data == data.reshape(-1, data.shape[-1])[0])):
+        return None
+    k = next((k for k, cell in v["cells"].items() if not cell["rmse"] > 0), None)
+    return None if k is None else f"cell {k}: rmse = 0 for a map that is not constant"
 
 
 #: the schema of each kind's value: why an entry is not one (types and ranges), or None;
@@ -279,8 +307,13 @@ SCHEMAS: dict[str, Callable[[Any], str | None]] = {
     "renderer": _bad_spectrum, "preset": _bad_preset}
 
 
-def entry_problem(kind: str, value: Any) -> str | None:
-    """Why ``value`` is not a valid entry of ``kind`` (:data:`SCHEMAS`), or None.
+#: checks of a kind's value against the map it was computed for (after its schema)
+MAP_CHECKS: dict[str, Callable[[Any, Any], str | None]] = {"preset": _preset_for_map}
+
+
+def entry_problem(kind: str, value: Any, envmap=None) -> str | None:
+    """Why ``value`` is not a valid entry of ``kind`` (:data:`SCHEMAS`; with ``envmap``,
+    the map it is for, also :data:`MAP_CHECKS`), or None.
 
     >>> entry_problem("fit", {"s": 5, "sigma_channels": [0.1], "source": "fit"})
     'invalid fit entry: s = 5 is outside (1, 2)'
@@ -289,6 +322,8 @@ def entry_problem(kind: str, value: Any) -> str | None:
     """
     check = SCHEMAS.get(kind)
     why = None if check is None else check(value)
+    if why is None and envmap is not None and kind in MAP_CHECKS:
+        why = MAP_CHECKS[kind](value, envmap)
     return None if why is None else f"invalid {kind} entry: {why}"
 
 
@@ -333,14 +368,14 @@ class AdviseCache:
             self._noted.add(str(p))
             self.notes.append(f"cache: recomputed {p}: {why}")
 
-    def _read(self, kind: str, key: dict) -> Any:
+    def _read(self, kind: str, key: dict, envmap=None) -> Any:
         mem_key = f"{kind}/{_digest(kind, key)}"
         if not self.enabled or mem_key in self._memory:
             return self._memory.get(mem_key)
         p = self.path(kind, key)
         doc, why = read_json_file(p)
         if why is None and doc is not None:
-            why = self._check(doc, kind, key) or entry_problem(kind, doc["value"])
+            why = self._check(doc, kind, key) or entry_problem(kind, doc["value"], envmap)
         if why is not None:
             if p.is_dir() and not p.is_symlink():
                 why += move_aside(p)            # so that the recomputed entry can be written
@@ -390,9 +425,10 @@ class AdviseCache:
         self._memory[mem_key] = to_jsonable(value)
 
     # -- plain entries ---------------------------------------------------------------
-    def load(self, kind: str, key: dict) -> dict | None:
-        """The stored dict for ``key``, or None (absent, corrupt, other key)."""
-        v = self._read(kind, key)
+    def load(self, kind: str, key: dict, *, envmap=None) -> dict | None:
+        """The stored dict for ``key``, or None (absent, corrupt, other key, not valid; with
+        ``envmap``, the map the entry is for, also checked against it: :data:`MAP_CHECKS`)."""
+        v = self._read(kind, key, envmap)
         ok = isinstance(v, dict)
         if ok:
             self.hits += 1

@@ -89,7 +89,7 @@ class CachedPresetModel:
         self.envmap, self.opts, self.store = envmap, opts, store
         self.key = {**map_key, **opts.key(), "model_version": model_version(),
                     "format": PRESET_CACHE_FORMAT}
-        doc = store.load("preset", self.key)
+        doc = store.load("preset", self.key, envmap=envmap)     # checked against the map
         self.cells: dict[str, dict] = dict(doc["cells"]) if doc else {}
         self.cells_cached = len(self.cells)
         self.asked: set[str] = set()          # the cells of this run (cached or not)

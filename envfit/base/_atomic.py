@@ -43,6 +43,7 @@ from typing import Any, Callable, Iterable, Mapping, Sequence
 import numpy as np
 
 from envfit.base._errors import OutputError
+from envfit.base._files import file_kind
 
 __all__ = ["replace_via_temporary", "probe_writable", "atomic_write_bytes", "atomic_write_text", "atomic_write_json", "atomic_write_csv",
            "to_jsonable", "check_writable_dir", "check_writable_file", "os_reason"]
@@ -162,6 +163,15 @@ def _existing_ancestor(folder: Path, what: str, shown: Path) -> Path:
     return folder
 
 
+def _probe_reason(exc: OSError, folder: Path) -> str:
+    """Why no file could be created in ``folder``: the OS's reason, and where the folder
+    exists but the file system says "No such file or directory" (``/proc``, ``/sys``: they
+    create no files), that no file can be created there — what is true, not "no such file"."""
+    if isinstance(exc, FileNotFoundError) and os.path.isdir(folder):
+        return f"no file can be created in {folder} (its file system answers \"{os_reason(exc)}\")"
+    return os_reason(exc)
+
+
 def check_writable_dir(path: str | os.PathLike, what: str = "--out") -> Path:
     """Make sure ``path`` is a folder this process can write in: create it (with its parents)
     if missing, then create and remove a temporary file inside. Returns ``path``.
@@ -179,7 +189,8 @@ def check_writable_dir(path: str | os.PathLike, what: str = "--out") -> Path:
             path.mkdir(parents=True, exist_ok=True)
         probe_writable(path)
     except OSError as exc:
-        raise OutputError(f"cannot write {_label(what, path)}: {os_reason(exc)}") from None
+        raise OutputError(f"cannot write {_label(what, path)}: {_probe_reason(exc, path)}") \
+            from None
     return path
 
 
@@ -199,13 +210,15 @@ def check_writable_file(path: str | os.PathLike, what: str = "--json") -> Path |
         if stat.S_ISDIR(st.st_mode):
             raise OutputError(f"cannot write {_label(what, path)}: it is a folder, not a file")
         if not stat.S_ISREG(st.st_mode):
-            raise OutputError(f"cannot write {_label(what, path)}: not a regular file (an atomic write "
-                              "would replace it; use '-' for stdout)")
+            raise OutputError(f"cannot write {_label(what, path)}: it is {file_kind(st.st_mode)}, "
+                              "not a regular file (an atomic write would replace it; use '-' "
+                              "for stdout)")
     folder = _existing_ancestor(path.parent, what, path)
     try:
         probe_writable(folder)
     except OSError as exc:
-        raise OutputError(f"cannot write {_label(what, path)}: {os_reason(exc)}") from None
+        raise OutputError(f"cannot write {_label(what, path)}: {_probe_reason(exc, folder)}") \
+            from None
     return path
 
 

@@ -17,10 +17,11 @@ set, seed, …), ``key`` names the cell's own fields (s, N, …), and ``sha256``
 of the canonical JSON (sorted keys, no spaces) of the other four entries. JSON keeps a
 float's shortest round-trip repr, so the checksum of what is read equals that of what was
 written. On read, a cell that cannot be decoded (random bytes, a truncated file, a folder in
-its place), whose checksum does not match (edited by hand or corrupt), whose key or config
-is not the one asked for (a file copied from another cell or run), or that was written in an
-older format (no checksum) is treated as **missing**: the caller recomputes it, and the
-store emits one note naming the file and why, e.g. ``recomputed out/cells/s1.5000_n1000.json:
+its place; a named pipe, a device, a symbolic link loop, never opened:
+:mod:`envfit.base._files`), whose checksum does not match (edited by hand or corrupt), whose
+key or config is not the one asked for (a file copied from another cell or run), or that was
+written in an older format (no checksum) is treated as **missing**: the caller recomputes it,
+and the store emits one note naming the file and why, e.g. ``recomputed out/cells/s1.5000_n1000.json:
 checksum mismatch (edited or corrupt)``. It is never a traceback, and an edited value is
 never used. The folder's ``<kind>_config.json`` is checked the same way: one that is not a
 config at all (empty, unparseable, ``{}``, no ``kind``, a folder) is rewritten with one

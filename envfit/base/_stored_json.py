@@ -11,21 +11,20 @@ import os
 from pathlib import Path
 from typing import Any, Callable
 
+from envfit.base._files import MAX_JSON_BYTES, read_bounded
+
 __all__ = ["read_json_file", "move_aside", "config_problem", "json_type", "number_problem",
            "number", "one_of"]
 
 
-def read_json_file(path: Path) -> tuple[Any, str | None]:
-    """``(document, None)``, or ``(None, why)`` for a file that cannot be decoded;
-    ``(None, None)`` when there is no file at all."""
-    try:
-        raw = path.read_bytes()
-    except (FileNotFoundError, NotADirectoryError):     # nothing there (or cannot be)
-        return None, None
-    except IsADirectoryError:
-        return None, "a folder, not a file"
-    except OSError as exc:
-        return None, f"unreadable ({exc.strerror or exc})"
+def read_json_file(path: Path, max_bytes: int = MAX_JSON_BYTES) -> tuple[Any, str | None]:
+    """``(document, None)``, or ``(None, why)`` for a file that cannot be decoded or is no
+    regular file of at most ``max_bytes`` (a FIFO, a device, a socket, a symbolic link loop or
+    a dangling one: :func:`envfit.base._files.read_bounded`, which never blocks on one and
+    never reads more than the cap); ``(None, None)`` when there is no file at all."""
+    raw, why = read_bounded(path, max_bytes, "a file")
+    if raw is None:     # "is a named pipe (FIFO), not a file" -> a noun phrase, as below
+        return None, why if why is None or not why.startswith("is ") else why[3:]
     if not raw.strip():
         return None, "an empty file"
     try:

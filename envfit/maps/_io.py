@@ -11,6 +11,8 @@ one-line :mod:`envfit.base._errors` exception:
 problem                                        result
 =============================================  ===========================================
 missing file / a folder                        :class:`EnvMapFileError` ("no such file")
+not a regular file (FIFO, device, socket,      :class:`EnvMapFileError` saying which,
+symbolic link loop, dangling link)             never opened (a FIFO would block)
 unreadable, corrupt, truncated                 :class:`EnvMapFileError` (OIIO's message)
 empty, or display width != 2 x height          :class:`EnvMapFormatError` (with the size)
 data window != display window (EXR)            placed in the display window: the
@@ -20,6 +22,8 @@ data window outside the display window         :class:`EnvMapFormatError` (both 
 too large for the memory budget                :class:`MemoryBudgetError`
 NaN / Inf values                               :class:`NonFiniteError` (count; suggests
                                                ``fix_nonfinite=True`` / ``--fix-nonfinite``)
+NaN / Inf with no finite neighbour, fixing     :class:`NonFiniteError` (nothing to
+                                               replace them by)
 negative values                                clamped to 0 and noted (``allow_negative``
                                                keeps them)
 =============================================  ===========================================
@@ -56,12 +60,12 @@ Example
 """
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
 
 from envfit.base._atomic import replace_via_temporary
+from envfit.base._files import regular_file_problem
 from envfit.base._errors import EnvMapFileError, NonFiniteError, ParameterError
 from envfit.maps import _latlong as latlong
 from envfit.maps._conventions import lat_long_convention
@@ -78,9 +82,9 @@ FLOAT_EXTENSIONS = (".exr", ".hdr", ".tif", ".tiff")
 PREVIEW_EXTENSIONS = (".png", ".jpg", ".jpeg", ".bmp", ".tga", ".ppm")
 
 
-def _fix_nonfinite(data: np.ndarray, bad: np.ndarray) -> np.ndarray:
-    """Replace non-finite values by the mean of the finite values among their 8 neighbours
-    (same channel; longitude wraps, rows stop at the map edge), or by 0 if there are none."""
+def _neighbour_means(data: np.ndarray, bad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(mean, count)`` of the finite values among each value's 8 neighbours (same channel;
+    longitude wraps, rows stop at the map edge); the mean is 0 where the count is 0."""
     good = ~bad
     vals = np.where(good, data, 0.0).astype(np.float64)
     cnt = good.astype(np.float64)
@@ -96,7 +100,29 @@ def _fix_nonfinite(data: np.ndarray, bad: np.ndarray) -> np.ndarray:
                 continue
             s += vp[di:di + h, dj:dj + w]
             n += cp[di:di + h, dj:dj + w]
-    repl = np.divide(s, n, out=np.zeros_like(s), where=n > 0)
+    return np.divide(s, n, out=np.zeros_like(s), where=n > 0), n
+
+
+def _fix_nonfinite(data: np.ndarray, bad: np.ndarray, p: Path) -> np.ndarray:
+    """Replace non-finite values by the mean of the finite values among their 8 neighbours
+    (same channel; longitude wraps, rows stop at the map edge). A value with no finite
+    neighbour (a non-finite region 3 or more pixels across, or a whole channel) has nothing
+    to be replaced by: :class:`NonFiniteError`, one line saying so (no invented 0)."""
+    repl, n = _neighbour_means(data, bad)
+    alone = bad & (n == 0)
+    if alone.any():
+        k, nbad = int(alone.sum()), int(bad.sum())
+        if not np.isfinite(data).any():
+            raise NonFiniteError(f"{p}: all {nbad} values are non-finite: --fix-nonfinite has "
+                                 "no finite neighbour to replace them by; repair the file")
+        i, j, c = (int(x) for x in np.argwhere(alone)[0])
+        whole = [ch for ch in range(data.shape[2]) if bad[:, :, ch].all()]
+        where = (f"channel {whole[0]} is non-finite throughout" if whole else
+                 f"e.g. row {i}, col {j}, channel {c}, inside a non-finite region")
+        raise NonFiniteError(
+            f"{p}: {k} of the {nbad} non-finite values have no finite neighbour ({where}): "
+            "--fix-nonfinite replaces a value only by the mean of its finite neighbours; "
+            "repair the file")
     out = data.copy()
     out[bad] = repl[bad].astype(data.dtype)
     return out
@@ -129,8 +155,8 @@ def load_envmap(path, *, up: str | None = None, convention=None, allow_negative:
         or a convention object; the map's ``up`` is the convention's.
     allow_negative : keep negative values (default: clamp them to 0 and note how many).
     fix_nonfinite : replace NaN/Inf values by the mean of the finite values among their 8
-        neighbours in the same channel (0 if none) and note how many; by default they
-        raise :class:`NonFiniteError`.
+        neighbours in the same channel, noted (:class:`NonFiniteError` if one has none);
+        by default they raise :class:`NonFiniteError`.
     max_height : downscale to this height (:meth:`~envfit.maps._envmap.EnvMap.resized`).
     dtype : float32 (default) or float64.
 
@@ -176,14 +202,15 @@ def _up_mismatch(spec, up: str) -> list[str]:
 
 
 def _readable_file(path) -> Path:
-    """``path`` as a Path if it is an existing, readable file; else :class:`EnvMapFileError`."""
+    """``path`` as a Path if it is an existing, readable regular file; else
+    :class:`EnvMapFileError` saying what it is (no such file, a folder, a named pipe, a
+    device, a socket, a symbolic link loop or a dangling one, permission denied). Only
+    ``stat`` looks at it: a FIFO or a device is never opened (an ``open()`` of a FIFO blocks
+    in the kernel, where no signal handler runs)."""
     p = Path(path)
-    if not p.exists():
-        raise EnvMapFileError(f"{p}: no such file")
-    if p.is_dir():
-        raise EnvMapFileError(f"{p}: is a folder, not an image file")
-    if not os.access(p, os.R_OK):
-        raise EnvMapFileError(f"{p}: permission denied")
+    why = regular_file_problem(p, "an image file")
+    if why is not None:
+        raise EnvMapFileError(f"{p}: {why}")
     return p
 
 
@@ -200,7 +227,7 @@ def _clean_values(pixels: np.ndarray, p: Path, notes: list[str], *, fix_nonfinit
         if not fix_nonfinite:
             raise NonFiniteError(f"{p}: {what}; pass fix_nonfinite=True (CLI: --fix-nonfinite) "
                                  f"to replace them by the mean of their finite neighbours")
-        pixels = _fix_nonfinite(pixels, bad)
+        pixels = _fix_nonfinite(pixels, bad, p)
         notes.append(f"replaced {what} by the mean of their finite neighbours")
     if not allow_negative:
         neg = pixels < 0

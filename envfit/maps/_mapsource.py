@@ -5,8 +5,10 @@ A library of 2k–8k maps does not fit in memory, so a sweep carries :class:`Map
 objects (a path and the loading options, a few hundred bytes each) and every task loads,
 uses and drops its one map. :func:`resolve_map_sources` expands what a user typed — files,
 folders (the map files directly inside), glob patterns — and refuses, with one line, a
-missing file, a folder without maps, a pattern matching nothing, or maps whose ``up`` axes
-differ (a library shares one set of sample directions, and those depend on ``up``).
+missing file, a path that is no regular file (a FIFO, a device, a socket, a symbolic link
+loop: named, never opened), a folder without maps, a pattern matching nothing, or maps
+whose ``up`` axes differ (a library shares one set of sample directions, and those depend
+on ``up``).
 
 Each source gets a ``slug``, a file-name-safe label unique within the library (the file's
 stem; a short hash of the full path is appended when two stems collide), which names its
@@ -33,6 +35,7 @@ from typing import Any, Iterable
 from envfit.maps._envmap import EnvMap
 from envfit.maps._io import load_envmap
 from envfit.base._errors import EnvMapFileError, ParameterError
+from envfit.base._files import NO_SUCH_FILE, regular_file_problem
 from envfit.base._store import array_fingerprint
 
 __all__ = ["MAP_EXTENSIONS", "LoadOptions", "MapSource", "resolve_map_sources"]
@@ -95,7 +98,8 @@ class MapSource:
         try:
             st = os.stat(self.path)
         except OSError as exc:
-            raise EnvMapFileError(f"{self.path}: {exc.strerror or exc}") from None
+            why = regular_file_problem(self.path, "an image file") or exc.strerror or exc
+            raise EnvMapFileError(f"{self.path}: {why}") from None
         return {"file": os.path.basename(self.path), "bytes": st.st_size,
                 "mtime_ns": st.st_mtime_ns, **asdict(self.options)}
 
@@ -105,22 +109,43 @@ def _slug(text: str) -> str:
     return s[:80]
 
 
+def _regular_files(paths: list[str], where: str) -> list[str]:
+    """``paths`` less the folders; :class:`EnvMapFileError` naming the first that is no
+    regular file (a FIFO, a device, a socket, a symbolic link loop or a dangling one: it
+    would block or fail when read, so the library is refused before any work)."""
+    found = []
+    for f in paths:
+        if os.path.isdir(f):
+            continue
+        why = regular_file_problem(f, "an image file")
+        if why is not None:
+            raise EnvMapFileError(f"{f} (in {where}): {why}")
+        found.append(f)
+    return found
+
+
 def _expand(item: str) -> list[str]:
-    p = Path(item)
-    if p.is_dir():
-        found = sorted(str(f) for f in p.iterdir()
-                       if f.is_file() and f.suffix.lower() in MAP_EXTENSIONS)
+    """The map files ``item`` names: itself (a regular file), the files with a map
+    extension directly inside it (a folder), or those a glob pattern matches."""
+    why = regular_file_problem(item, "an image file")
+    if why is None:
+        return [item]
+    if os.path.isdir(item):
+        try:
+            names = sorted(os.listdir(item))
+        except OSError as exc:
+            raise EnvMapFileError(f"folder {item}: {exc.strerror or exc}") from None
+        found = _regular_files([os.path.join(item, n) for n in names
+                                if Path(n).suffix.lower() in MAP_EXTENSIONS], f"folder {item}")
         if not found:
             raise EnvMapFileError(f"folder {item} holds no maps ({', '.join(MAP_EXTENSIONS)})")
         return found
-    if p.is_file():
-        return [str(p)]
-    if _GLOB_CHARS.search(item):
-        found = sorted(f for f in glob.glob(item) if Path(f).is_file())
+    if why == NO_SUCH_FILE and _GLOB_CHARS.search(item):
+        found = _regular_files(sorted(glob.glob(item)), f"the files {item} matches")
         if not found:
             raise EnvMapFileError(f"no file matches {item}")
         return found
-    raise EnvMapFileError(f"no such file: {item}")
+    raise EnvMapFileError(f"{item}: {why}")
 
 
 def resolve_map_sources(items: Iterable, options: LoadOptions | None = None) -> list[MapSource]:
@@ -129,8 +154,10 @@ def resolve_map_sources(items: Iterable, options: LoadOptions | None = None) -> 
 
     Duplicates (the same file twice) are kept once; order is as given (folders and
     patterns sorted by name). Raises :class:`~envfit.base._errors.EnvMapFileError` for a missing
-    file, an empty folder or an unmatched pattern, :class:`~envfit.base._errors.ParameterError`
-    for an empty list or maps with different ``up`` axes.
+    file or one that is no regular file (also among a folder's maps or a pattern's
+    matches), an empty folder or an unmatched pattern,
+    :class:`~envfit.base._errors.ParameterError` for an empty list or maps with different
+    ``up`` axes.
     """
     options = options or LoadOptions()
     sources: list[MapSource] = []

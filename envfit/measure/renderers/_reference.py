@@ -4,9 +4,11 @@ A reference is two renders of the six views (:mod:`._sphere`) at high spp with d
 seeds; it is the same for every strategy and sampler of one map, so it is rendered once per
 (renderer, map, spp, resolution, settings) and stored as one ``.npz`` file named by the hash
 of that key. The file holds the key (JSON) and the SHA-256 of the two arrays; a file whose key
-or digest does not match (another key hashed alike, a torn or corrupt file) is rendered again
-and replaced. Files are written atomically (a temporary name in the same folder, then
-``os.replace``), so concurrent runs never read half a file.
+or digest does not match (another key hashed alike, a torn or corrupt file), or that is no
+regular file (a FIFO, a device, a symbolic link loop: never opened) or larger than
+:data:`MAX_REFERENCE_BYTES`, is rendered again and replaced. Files are written atomically (a
+temporary name in the same folder, then ``os.replace``), so concurrent runs never read half a
+file.
 
 Example
 -------
@@ -36,8 +38,12 @@ import numpy as np
 
 from envfit.base._atomic import atomic_write_bytes
 from envfit.base._errors import OutputError
+from envfit.base._files import open_regular
 
 __all__ = ["ReferencePair", "map_digest", "cached_reference"]
+
+#: the largest reference file read back (six views of 1024² RGB pixels, twice, are 144 MiB)
+MAX_REFERENCE_BYTES = 2 * 2**30
 
 
 @dataclass(frozen=True)
@@ -72,8 +78,11 @@ def _arrays_digest(a: np.ndarray, b: np.ndarray) -> str:
 
 def _load(path: Path, key_json: str) -> ReferencePair | None:
     """The pair stored at ``path`` if its key and digest match, else None."""
+    fh, _ = open_regular(path, MAX_REFERENCE_BYTES)     # not a FIFO, a device, a loop
+    if fh is None:
+        return None
     try:
-        with np.load(path, allow_pickle=False) as z:
+        with fh, np.load(fh, allow_pickle=False) as z:
             if str(z["key"]) != key_json:
                 return None
             a, b = z["a"], z["b"]
@@ -108,7 +117,7 @@ def cached_reference(key: dict, render: Callable[[], tuple], cache_dir=None) -> 
     if cache_dir is not None:
         name = hashlib.sha256(key_json.encode()).hexdigest()[:24]
         path = Path(cache_dir) / f"{key.get('renderer', 'render')}-ref-{name}.npz"
-        hit = _load(path, key_json) if path.exists() else None
+        hit = _load(path, key_json)
         if hit is not None:
             return hit
     a, b, seconds = render()
