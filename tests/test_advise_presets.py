@@ -64,6 +64,16 @@ def _run(capsys, args, tmp_path):
     return rc, cap.out.splitlines(), cap.err.strip().splitlines(), d
 
 
+def _answer(lines: list[str]) -> str:
+    """The answer's first line (the map's and the run's notes come before it)."""
+    return next(ln for ln in lines if not ln.startswith("note: "))
+
+
+def _body(lines: list[str]) -> list[str]:
+    """The lines printed but the notes."""
+    return [ln for ln in lines if not ln.startswith("note: ")]
+
+
 # ----------------------------------------------------------------------------- the answer
 
 def test_independent_answer_is_the_smallest_spp_meeting_the_target(sun_file, tmp_path, capsys):
@@ -73,10 +83,10 @@ def test_independent_answer_is_the_smallest_spp_meeting_the_target(sun_file, tmp
     assert rc == 0
     rec = d["renderer"]["recommendation"]
     n, target = rec["spp"], rec["target_rmse"]
-    assert lines[0].startswith(f"Mitsuba 3, sampler independent, integrator direct "
+    assert _answer(lines).startswith(f"Mitsuba 3, sampler independent, integrator direct "
                                f"(emitter_samples=1, bsdf_samples=1): spp = {n} for an RMSE of "
                                f"at most ")
-    assert "(5 % of the map's mean radiance" in lines[0]
+    assert "(5 % of the map's mean radiance" in _answer(lines)
     assert rec["strategy"] == "mis" and rec["reached"] and n > 4
     # independently: every spp below the answer misses, the answer meets
     m = PresetModel(_load(sun_file), preset("mitsuba3"), options=_options(5))
@@ -102,8 +112,8 @@ def test_ldsampler_answer_runs_a_power_of_four_and_the_one_below_misses(gp_file,
                                     "ldsampler", "--target-rmse", repr(target),
                                     "--renderer-level", "6", *MODEL], tmp_path)
     assert rc == 0 and d["renderer"]["recommendation"]["spp"] == 16
-    assert ": spp = 16 for an RMSE of at most" in lines[0]
-    assert " at 4 spp (misses)" in lines[0]
+    assert ": spp = 16 for an RMSE of at most" in _answer(lines)
+    assert " at 4 spp (misses)" in _answer(lines)
     # a target below every runnable spp's prediction: said, not claimed (level 6 searches
     # ldsampler to 4^7/256 = 64 spp, its power above the grid sampled there)
     p64 = m.predict("mis", "ldsampler", 64).rmse
@@ -112,8 +122,8 @@ def test_ldsampler_answer_runs_a_power_of_four_and_the_one_below_misses(gp_file,
                                     "--renderer-level", "6", *MODEL], tmp_path)
     rec = d["renderer"]["recommendation"]
     assert rc == 0 and rec["spp"] is None and not rec["reached"]
-    assert "no spp up to 64 meets an RMSE of at most" in lines[0]
-    assert "256 spp needs --renderer-level 7" in lines[0]
+    assert "no spp up to 64 meets an RMSE of at most" in _answer(lines)
+    assert "256 spp needs --renderer-level 7" in _answer(lines)
     assert rec["predicted_rmse"] == pytest.approx(p64, rel=1e-12)
     assert rec["predicted_rmse"] > rec["target_rmse"]
 
@@ -153,14 +163,18 @@ def test_snippet_loads_in_mitsuba(gp_file, tmp_path, capsys):
     mi = pytest.importorskip("mitsuba")
     rc, lines, _, d = _run(capsys, [gp_file, "--renderer", "mitsuba3", "--sampler",
                                     "independent", "--target-relative", "0.1", "--snippet",
-                                    "--renderer-level", "4", *MODEL], tmp_path)
+                                    "--renderer-level", "4", "--out", tmp_path / "out",
+                                    *MODEL], tmp_path)
     assert rc == 0
     start = next(i for i, ln in enumerate(lines) if ln.startswith("scene (Mitsuba 3"))
     stop = next(i for i, ln in enumerate(lines) if ln.startswith("renderer model:"))
     code = "\n".join(lines[start + 1:stop])
     assert code == d["renderer"]["snippet"].rstrip("\n")
     spp = d["renderer"]["recommendation"]["spp"]
-    assert f'"sample_count": {spp}' in code and str(gp_file) in code
+    # gp16 has negative values, clamped: the snippet reads the clamped map, written to --out
+    written = str(tmp_path / "out" / "gp16-as-modelled.exr")
+    assert f'"sample_count": {spp}' in code and repr(written) in code
+    assert d["renderer"]["snippet_map"] == written
     scope: dict = {}
     exec(code, scope)                                          # mi.load_dict
     scene = scope["scene"]
@@ -175,7 +189,7 @@ def test_cached_run_prints_the_same_answer_without_the_model(sun_file, tmp_path,
     rc1, first, _, d1 = _run(capsys, args, tmp_path)
     rc2, second, _, d2 = _run(capsys, args, tmp_path)
     assert rc1 == rc2 == 0
-    assert first[:3] == second[:3]
+    assert _body(first)[:3] == _body(second)[:3]
     assert d1["renderer"]["predictions"] == d2["renderer"]["predictions"]
     assert d2["renderer"]["model"]["passes"] == 0 and d1["renderer"]["model"]["passes"] >= 1
     assert "0 pass(es), 0 cell(s) computed" in "\n".join(second)
@@ -186,7 +200,7 @@ def test_cached_run_prints_the_same_answer_without_the_model(sun_file, tmp_path,
     doc["value"]["cells"][key]["rmse"] = 123.0
     entry.write_text(json.dumps(doc))
     rc3, third, _, d3 = _run(capsys, args, tmp_path)
-    assert rc3 == 0 and third[:3] == first[:3] and d3["renderer"]["model"]["passes"] >= 1
+    assert rc3 == 0 and _body(third)[:3] == _body(first)[:3] and d3["renderer"]["model"]["passes"] >= 1
     assert any(ln.startswith("note: cache: recomputed") for ln in third)
 
 
@@ -366,7 +380,7 @@ def test_microfacet_snippet_loads_in_mitsuba_with_the_rough_conductor(gp_file, t
     rc, lines, _, d = _run(capsys, [gp_file, "--renderer", "mitsuba3", "--brdf", "beckmann",
                                     "--roughness", "0.2", "--sampler", "independent",
                                     "--target-relative", "0.2", "--renderer-level", "4",
-                                    "--snippet", *MODEL], tmp_path)
+                                    "--snippet", "--out", tmp_path / "out", *MODEL], tmp_path)
     assert rc == 0
     mi = pytest.importorskip("mitsuba")
     start = next(i for i, ln in enumerate(lines) if ln.startswith("import mitsuba"))
@@ -385,7 +399,7 @@ def test_the_stop_sentence_names_the_next_spp_the_sampler_runs(gp_file, tmp_path
                                     "--renderer-level", "6", *MODEL], tmp_path)
     assert rc == 0 and not d["renderer"]["recommendation"]["reached"]
     assert "the model resolves zsobol to 32 spp at grid level 6; 64 spp needs " \
-           "--renderer-level 7 (4x the time and memory)" in lines[0]
+           "--renderer-level 7 (4x the time and memory)" in _answer(lines)
 
 
 def test_roughplastic_answer_is_the_models_and_orthogonal_is_refused(sun_file, tmp_path,

@@ -63,6 +63,10 @@ def integrator_text(preset, strategy: str, mis_compensation: bool = False) -> st
     return f"{s.integrator} ({', '.join(items)})" if items else s.integrator
 
 
+#: a strategy other than the renderer's default is recommended when the default needs at least
+#: this many times as many samples traced per pixel to meet the target
+SWITCH_FACTOR = 10
+
 #: how the model line names a microfacet --brdf
 _BSDF_WORDS = {"ggx": "GGX", "multiggx": "Multiscatter GGX (Cycles' default)"}
 
@@ -97,9 +101,51 @@ class PresetAdvice:
     def display(self) -> str:
         return RENDERER_NAMES[self.options.renderer]
 
+    constant_map: bool = False
+
     @property
     def default(self) -> StrategyAnswer:
-        return self.answers[self.options.default_strategy]
+        """The recommended answer: the renderer's default strategy's, or a cheaper strategy's
+        (:meth:`switched`)."""
+        return self.answers[self.switched() or self.options.default_strategy]
+
+    def _cost(self, a: StrategyAnswer) -> int:
+        """Samples traced per pixel: spp × (emitter + BSDF samples per spp)."""
+        s = self.options.preset.strategy(a.strategy)
+        return a.spp * (s.emitter_samples + s.bsdf_samples)
+
+    def switched(self) -> str | None:
+        """The strategy recommended instead of the renderer's default, or None: the one that
+        meets the target with the fewest samples traced per pixel, when the default meets it
+        only with at least :data:`SWITCH_FACTOR` times as many, or not at all."""
+        d = self.answers[self.options.default_strategy]
+        met = [a for a in self.answers.values() if a.reached]
+        if not met:
+            return None
+        best = min(met, key=self._cost)
+        if best.strategy == d.strategy or (d.reached and self._cost(d)
+                                            < SWITCH_FACTOR * self._cost(best)):
+            return None
+        return best.strategy
+
+    def switch_line(self) -> str | None:
+        """Why a strategy other than the renderer's default is recommended (None if not)."""
+        name = self.switched()
+        if name is None:
+            return None
+        a, d = self.answers[name], self.answers[self.options.default_strategy]
+        words = STRATEGY_WORDS[d.strategy]
+        need = (f"needs {d.spp} spp ({self._cost(d)} samples per pixel against "
+                f"{self._cost(a)})" if d.reached else
+                f"meets the target at no spp up to {d.searched_max}")
+        dflt = ", the renderer's default," if d.strategy == "mis" else ""
+        out = f"recommended instead of {words}{dflt} which {need}"
+        if a.predicted_rmse == 0.0:
+            out += (f": {STRATEGY_WORDS[name]} is exact here (predicted RMSE 0"
+                    + ("; the map is constant, so the cosine-weighted BSDF sample has no "
+                       "variance at any spp)" if self.constant_map and name == "brdf"
+                       and not self.options.microfacet else ")"))
+        return out
 
     @property
     def recommendation(self) -> dict:
@@ -110,7 +156,9 @@ class PresetAdvice:
                 "reached": a.reached, "integrator": s.integrator, "settings": dict(s.settings),
                 "mis_compensation": self.options.mis_compensation,
                 "predicted_rmse": a.predicted_rmse, "target_rmse": self.target_rmse,
-                "searched_max": a.searched_max}
+                "searched_max": a.searched_max,
+                "default_strategy": self.options.default_strategy,
+                "why": self.switch_line()}
 
     def predictions(self) -> list[dict]:
         """Every predicted (strategy, spp): ``{"strategy", "sampler", "spp",
@@ -168,6 +216,8 @@ class PresetAdvice:
         if self.target_relative is not None:
             return (f"{self.target_relative * 100:g} % of the map's mean radiance "
                     f"{self.mean_radiance:.4g}")
+        if not self.mean_radiance > 0:      # never a negative or infinite percentage
+            return f"the map's mean radiance is {self.mean_radiance:.4g}"
         return f"{self.target_rmse / self.mean_radiance:.2%} of the map's mean radiance"
 
     def _why_max(self, a: StrategyAnswer) -> str:
@@ -242,7 +292,9 @@ class PresetAdvice:
         """Everything printed, the answer first."""
         o = self.options
         out = [self.answer_line(self.default, head=True)]
-        out += [self.answer_line(self.answers[s], head=False) for s in o.strategies[1:]]
+        out += [f"  ({why})" for why in [self.switch_line()] if why]
+        out += [self.answer_line(self.answers[s], head=False) for s in o.strategies
+                if s != self.default.strategy]
         out += self.table_lines()
         if self.snippet is not None:
             a = self.default
@@ -348,6 +400,24 @@ def _target(mean: float, target_rmse, target_relative) -> tuple[float, float | N
     return rel * mean, rel
 
 
+def _add_snippet(adv: PresetAdvice, envmap, filename: str) -> None:
+    """The scene text of the recommendation (or of the largest spp searched) reading
+    ``filename``: the BSDF, the film the model assumed (``sphere_pixels``), pbrt-v4's light
+    frame of the map's ``up``."""
+    opts = adv.options
+    a = adv.default
+    adv.snippet_spp = a.spp if a.reached else a.searched_max
+    kw = {"mis_compensation": True} if opts.mis_compensation else {}
+    if opts.microfacet:                 # Mitsuba only (_preset_options refuses the rest)
+        kw["microfacet"] = (opts.bsdf, opts.conductor().alpha)      # (roughplastic, α)
+    if opts.renderer != "envfit":
+        kw["sphere_pixels"] = opts.sphere_pixels
+    if opts.renderer == "pbrt4":
+        kw["up"] = getattr(envmap, "up", "y")
+    adv.snippet = opts.preset.snippet(a.strategy, opts.sampler, adv.snippet_spp,
+                                      filename=filename, **kw)
+
+
 def advise_preset(envmap, opts: PresetAdviseOptions, *, target_rmse: float | None = None,
                   target_relative: float | None = None, snippet: bool = False,
                   filename: str = "envmap.exr", cache: bool = True,
@@ -388,17 +458,13 @@ def advise_preset(envmap, opts: PresetAdviseOptions, *, target_rmse: float | Non
         notes.append("--brdf ggx is Cycles' single-scatter GGX (a Glossy BSDF set to GGX); the "
                      "Principled and Glossy BSDF nodes default to Multiscatter GGX: --brdf "
                      "multiggx")
+    px = np.asarray(envmap.data).reshape(envmap.height * envmap.width, -1)
     adv = PresetAdvice(opts, target, rel, mean, answers, listed, cells, cap, notes=notes,
+                       constant_map=bool(np.all(px == px[0])),
                        bands={k: b for k in cells if (b := cm.bands(*k))},
                        band_errors={k: b for k in cells if (b := cm.band_errors(*k))})
     if snippet:
-        a = adv.default
-        adv.snippet_spp = a.spp if a.reached else a.searched_max
-        kw = {"mis_compensation": True} if opts.mis_compensation else {}
-        if opts.microfacet:                 # Mitsuba only (_preset_options refuses the rest)
-            kw["microfacet"] = (opts.bsdf, opts.conductor().alpha)      # (roughplastic, α)
-        adv.snippet = opts.preset.snippet(a.strategy, opts.sampler, adv.snippet_spp,
-                                          filename=filename, **kw)
+        _add_snippet(adv, envmap, filename)
     adv.model = {"normals": opts.model_options().normals, "level": opts.level,
                  "passes": cm.passes, "cells_computed": cm.cells_computed,
                  "cells_cached": cm.cells_cached, "seconds_model": cm.seconds,

@@ -216,10 +216,11 @@ def run(args: argparse.Namespace, output: CommandOutput) -> int:
     opts = options_from_args(args)          # bad names and values: one line, before the map
     env = load_map_from_args(args)
     out = out_dir(args)
+    output.say(*(f"note: {n}" for n in env.notes))      # the map's notes, before the work
     adv = advise_with(env, opts)
     said_before = output.has_note(NoteKind.CACHE_OFF)    # on stderr, before the work
     for note in adv.notes:
-        if said_before and note_kind(note) is NoteKind.CACHE_OFF:
+        if (said_before and note_kind(note) is NoteKind.CACHE_OFF) or note in env.notes:
             continue
         output.say(f"note: {note}")
     output.say(*_header(adv), *adv.table_lines(), *_renderer_lines(adv),

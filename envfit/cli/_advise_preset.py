@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import time
+from pathlib import Path
 
 from envfit.base._errors import ParameterError
 from envfit.cli._common import int_list, positive_int
@@ -138,22 +139,119 @@ def _rules_lines(rules_adv) -> list[str]:
     return out
 
 
+#: why each renderer's model refuses a signed map (--allow-negative), read from its source
+_NEGATIVE = {
+    "mitsuba3": "Mitsuba 3's envmap looks up the signed radiance but never samples a texel of "
+                "negative luminance (src/emitters/envmap.cpp: rebuild_distribution, "
+                "max(lum - offset, 0)), so its emitter samples miss the negative light",
+    "pbrt4": "pbrt-v4 clamps negative radiance to 0 (src/pbrt/lights.h: "
+             "ImageInfiniteLight::ImageLe, ClampZero) but samples the signed map's |mean RGB| "
+             "(src/pbrt/util/sampling.h: PiecewiseConstant1D takes abs)",
+    "cycles": "Cycles samples the world by |radiance| (src/scene/light.cpp: background_cdf, "
+              "average(fabs(rgb))), and no measurement checks the model of a signed map",
+    "envfit": "envfit's MapSampler samples by luminance with a 1 % floor, and no measurement "
+              "checks the model of a signed map",
+}
+
+
+def _reject_negative(args: argparse.Namespace) -> None:
+    """--allow-negative with --renderer: one line naming what that renderer does with negative
+    radiance (the renderer models are for non-negative maps)."""
+    if getattr(args, "allow_negative", False):
+        why = _NEGATIVE.get(args.renderer, "the renderer models are for non-negative maps")
+        raise ParameterError(f"--allow-negative with --renderer {args.renderer}: {why}; drop "
+                             f"--allow-negative (negative values are then clamped to 0, "
+                             f"as noted)")
+
+
+def _file_rows(path) -> int | None:
+    """The rows of the image file ``path`` from its header (None if it cannot be read: loading
+    it then says why)."""
+    try:
+        import OpenImageIO as oiio
+        inp = oiio.ImageInput.open(str(path))
+        if not inp:
+            return None
+        rows = int(inp.spec().height)
+        inp.close()
+        return rows
+    except Exception:       # noqa: BLE001 - any reader failure: load_envmap reports it
+        return None
+
+
+def _changes(args: argparse.Namespace, env=None) -> list[str]:
+    """What makes the map the model sees differ from MAP's file as the renderer reads it (the
+    built-in map, --convention, --max-height, cleaned values; before the map is read, ``env``
+    None, the first three); [] when the model sees the file's own pixels."""
+    if args.map is None:
+        return ["the built-in map (no MAP given)"]
+    out = []
+    if args.convention is not None:
+        out.append(f"converted from the {args.convention} layout (--convention)")
+    rows = _file_rows(args.map)
+    if args.max_height is not None and rows is not None and rows > args.max_height:
+        size = (f"{rows} rows to {args.max_height}" if env is None else
+                f"to {env.width} x {env.height}")
+        out.append(f"downscaled {size} (--max-height)")
+    if env is not None:
+        out += [n for n in env.notes if n.startswith(("clamped ", "replaced "))]
+    return out
+
+
+def _snippet_file(args: argparse.Namespace, env, out) -> tuple[str, str | None]:
+    """(the file the snippet names, a note or None): MAP itself, or — where the model sees
+    other pixels (:func:`_changes`) — the map it sees, written to --out; without --out, one
+    line (a snippet names the file whose pixels were predicted). ``env`` None: only that
+    check, before the map is read."""
+    changes = _changes(args, env) if args.snippet else []
+    if not changes:
+        return (str(args.map) if args.map is not None else "envmap.exr"), None
+    if out is None:
+        raise ParameterError(f"--snippet: the model sees another map than MAP's file "
+                             f"({'; '.join(changes)}); give --out DIR to have that map "
+                             f"written there for the snippet")
+    if env is None:
+        return "", None
+    from envfit.maps import save_envmap
+    stem = "envfit-default" if args.map is None else Path(args.map).stem
+    path = save_envmap(Path(out) / f"{stem}-as-modelled.exr", env)
+    return str(path), (f"the snippet reads {path}, the map the model saw "
+                       f"({'; '.join(changes)}), written there")
+
+
+def _result(env, adv, rules, notes: list) -> dict:
+    """The JSON: the rules' (with --rules) or the map's summary, with the renderer section."""
+    if rules is not None:
+        d = rules.to_dict()
+    else:
+        d = {"map": env.name, "map_size": [env.width, env.height], "channels": env.channels,
+             "target_rmse": adv.target_rmse, "target_relative": adv.target_relative,
+             "mean_shading": adv.mean_radiance, "notes": notes}
+    d["renderer"] = adv.to_dict()
+    return d
+
+
 def run_preset(args: argparse.Namespace, output: CommandOutput) -> int:
-    """``envfit advise MAP --renderer NAME``: options → map → advice → print → JSON."""
+    """``envfit advise MAP --renderer NAME``: options → map (its notes said) → advice → print
+    → JSON."""
     from envfit.advisor._advise import advise_with
     from envfit.advisor._preset import advise_preset
     from envfit.base._atomic import atomic_write_json
     from envfit.cli._common import load_map_from_args, out_dir
     t0 = time.perf_counter()
+    _reject_negative(args)
     popts, ropts = _options(args)         # bad names and combinations: one line, first
+    _snippet_file(args, None, args.out)   # --snippet of another map without --out: one line
     env = load_map_from_args(args)
     out = out_dir(args)
+    filename, snip_note = _snippet_file(args, env, out)
+    output.say(*(f"note: {n}" for n in [*env.notes, *([snip_note] if snip_note else [])]))
     adv = advise_preset(env, popts, target_rmse=args.target_rmse,
                         target_relative=args.target_relative, snippet=args.snippet,
-                        filename=str(args.map), cache=not args.no_cache,
+                        filename=filename, cache=not args.no_cache,
                         cache_dir=args.cache_dir)
+    output.say(*(f"note: {n}" for n in adv.notes))      # the run's notes, before the answer
     output.say(*adv.lines())
-    output.say(*(f"note: {n}" for n in [*env.notes, *adv.notes]))
     rules = advise_with(env, ropts) if ropts is not None else None
     if rules is not None:
         output.say(*_rules_lines(rules))
@@ -161,13 +259,9 @@ def run_preset(args: argparse.Namespace, output: CommandOutput) -> int:
     output.say(f"({time.perf_counter() - t0:.1f} s: renderer model {m['seconds_model']:.1f}"
                + (f", rules {rules.timings['total']:.1f}" if rules is not None else "")
                + f"; cache {m['cache_hits']} hit(s), {m['cache_writes']} write(s))")
-    if rules is not None:
-        d = rules.to_dict()
-    else:
-        d = {"map": env.name, "map_size": [env.width, env.height], "channels": env.channels,
-             "target_rmse": adv.target_rmse, "target_relative": adv.target_relative,
-             "mean_shading": adv.mean_radiance, "notes": [*env.notes, *adv.notes]}
-    d["renderer"] = adv.to_dict()
+    d = _result(env, adv, rules, [*env.notes, *([snip_note] if snip_note else []), *adv.notes])
+    if args.snippet:
+        d["renderer"]["snippet_map"] = filename
     d["timings"] = {**d.get("timings", {}), "renderer_model": m["seconds_model"],
                     "total": time.perf_counter() - t0}
     if out is not None:

@@ -30,7 +30,8 @@ from envfit.base._checks import as_square_points, as_unit_vectors
 __all__ = ["RANDOMISATIONS", "PAIRINGS", "STRATEGY_NAMES", "DirectionSample",
            "EnvmapTechnique", "SamplerSpec", "StrategySetting", "RendererPreset",
            "square_points", "unit_directions", "concentric_disk", "cosine_hemisphere",
-           "power_heuristic", "balance_heuristic", "map_rgb"]
+           "power_heuristic", "balance_heuristic", "map_rgb", "SPHERE_VIEWS",
+           "SNIPPET_PIXELS", "snippet_pixels", "scene_comment"]
 
 #: randomisation tags of the samplers (the exact predictor of each is built elsewhere):
 #: i.i.d. points; r×r (or x×y) jittered strata with fresh jitter; Kensler's correlated
@@ -50,6 +51,44 @@ PAIRINGS = ("independent", "same_net_permuted", "joint_array", "shared_shift")
 STRATEGY_NAMES = ("map", "brdf", "mis")
 
 _TWO_PI = 2.0 * np.pi
+
+#: the six orthographic views of the unit sphere that envfit's renderer measurements render
+#: (:data:`envfit.measure.renderers._sphere.VIEWS`, the same tuples: ``tests/
+#: test_snippet_render.py``): (axis v, up u); the camera sits at 3v, looks at the origin
+#: with image up u, and its image plane covers [-1, 1]² (the sphere fills the film)
+SPHERE_VIEWS = (((1, 0, 0), (0, 0, 1)), ((-1, 0, 0), (0, 0, 1)), ((0, 1, 0), (1, 0, 0)),
+                ((0, -1, 0), (1, 0, 0)), ((0, 0, 1), (0, 1, 0)), ((0, 0, -1), (0, 1, 0)))
+#: the film's pixels across in a snippet when the model took every pixel as a point (no
+#: ``--sphere-pixels``): the measurements' default resolution
+SNIPPET_PIXELS = 64
+
+
+def snippet_pixels(sphere_pixels=None) -> int:
+    """The film's pixels across in a snippet: ``sphere_pixels`` (the sphere's diameter the
+    model assumed) or :data:`SNIPPET_PIXELS`."""
+    return SNIPPET_PIXELS if sphere_pixels is None else int(sphere_pixels)
+
+
+def scene_comment(what: str, sphere_pixels=None, *, view_dependent: bool = False,
+                  mark: str = "#") -> list[str]:
+    """The comment lines on top of a snippet: the scene envfit predicted (``what``: the
+    sphere's BSDF), its six views, the film, and what the prediction averages over (uniform
+    normals; ``view_dependent``, a microfacet BSDF: every pixel of a view, over uniform
+    rotations of the map)."""
+    n = snippet_pixels(sphere_pixels)
+    film = ([f"{n} x {n} pixels: the sphere {n} pixels across (--sphere-pixels), each pixel's",
+             "footprint in the prediction"] if sphere_pixels is not None else
+            [f"{n} x {n} pixels; the model took every pixel as a point (a sphere far larger",
+             "than its pixels; --sphere-pixels D models a D-pixel sphere)"])
+    avg = (["prediction: the RMSE over the sphere's pixels of a view, averaged over uniform",
+            "rotations of the map (the envmap's to_world)"] if view_dependent else
+           ["prediction: the RMSE over uniform normals, each pixel weighted 1/(n.v) in the",
+            "view whose axis is nearest its normal (envfit.measure.renderers)"])
+    lines = ["the scene envfit predicted: a unit sphere at the origin,", f"{what},",
+             "lit by the map alone (direct light only); six orthographic views on +-x, +-y,",
+             "+-z (camera at 3 v looking at the origin, image [-1, 1]^2), box pixel filter,",
+             *film, *avg]
+    return [f"{mark} {ln}" for ln in lines]
 
 
 @dataclass(frozen=True)
@@ -354,7 +393,8 @@ class RendererPreset:
         """The scene text a user pastes for ``strategy`` with ``sampler`` at ``spp``
         (rounded as the renderer rounds it); ParameterError for a strategy the renderer
         cannot render. ``options`` go to the renderer's snippet (all take ``filename``;
-        Mitsuba also ``form="python"|"xml"`` and ``mis_compensation``, pbrt-v4 ``up``)."""
+        Mitsuba 3, pbrt-v4 and Cycles ``sphere_pixels``; Mitsuba also ``form="python"|"xml"``,
+        ``mis_compensation`` and ``microfacet``, pbrt-v4 ``up``)."""
         s = self.strategy(strategy)
         if not s.renderable:
             raise ParameterError(f"{self.name} cannot render strategy {strategy!r}: {s.note}")

@@ -25,8 +25,9 @@ import numpy as np
 
 from envfit.base import ParameterError
 from envfit.maps._latlong import local_to_world
-from envfit.sampling.presets._base import (EnvmapTechnique, RendererPreset, SamplerSpec,
-                                           StrategySetting, cosine_hemisphere, map_rgb)
+from envfit.sampling.presets._base import (SPHERE_VIEWS, EnvmapTechnique, RendererPreset,
+                                           SamplerSpec, StrategySetting, cosine_hemisphere,
+                                           map_rgb, scene_comment, snippet_pixels)
 
 __all__ = ["Hierarchical2D", "Mitsuba3Envmap", "mitsuba_frame", "MITSUBA3", "LUMINANCE_RGB"]
 
@@ -347,60 +348,98 @@ STRATEGIES = {
 }
 
 
+def _bsdf(microfacet) -> tuple[str, str, str]:
+    """(XML, Python dict text, words) of the sphere's BSDF: white diffuse (reflectance 1: the
+    plugin's default is 0.5), a white ``roughconductor`` (``material="none"``: Fresnel 1) or
+    a ``roughplastic`` with a GGX coat (its defaults otherwise: η 1.49, diffuse 0.5)."""
+    if microfacet is None:
+        return ('<bsdf type="diffuse"><rgb name="reflectance" value="1, 1, 1"/></bsdf>',
+                '{"type": "diffuse", "reflectance": {"type": "rgb", "value": [1.0, 1.0, 1.0]}}',
+                "white diffuse (reflectance 1)")
+    alpha = float(microfacet[1])
+    if microfacet[0] == "roughplastic":
+        return (f'<bsdf type="roughplastic"><string name="distribution" value="ggx"/>'
+                f'<float name="alpha" value="{alpha:g}"/></bsdf>',
+                f'{{"type": "roughplastic", "distribution": "ggx", "alpha": {alpha:g}}}',
+                f"roughplastic (GGX alpha {alpha:g}, eta 1.49, diffuse reflectance 0.5)")
+    dist = microfacet[0]
+    return (f'<bsdf type="roughconductor"><string name="distribution" value="{dist}"/>'
+            f'<float name="alpha" value="{alpha:g}"/>'
+            f'<string name="material" value="none"/></bsdf>',
+            f'{{"type": "roughconductor", "distribution": "{dist}", '
+            f'"alpha": {alpha:g}, "material": "none"}}',
+            f"white roughconductor ({dist} alpha {alpha:g}, Fresnel 1)")
+
+
+def _xml(ne: int, nb: int, sampler: str, spp: int, filename: str, comp: bool, bsdf: str,
+         n: int) -> str:
+    sensors = "".join(
+        f'  <sensor type="orthographic">\n'
+        f'    <transform name="to_world"><lookat origin="{3 * v[0]}, {3 * v[1]}, {3 * v[2]}" '
+        f'target="0, 0, 0" up="{u[0]}, {u[1]}, {u[2]}"/></transform>\n'
+        f'    <film type="hdrfilm"><integer name="width" value="{n}"/>'
+        f'<integer name="height" value="{n}"/><rfilter type="box"/>'
+        f'<string name="pixel_format" value="rgb"/></film>\n'
+        f'    <sampler type="{sampler}">\n'
+        f'      <integer name="sample_count" value="{spp}"/>\n'
+        f'    </sampler>\n'
+        f'  </sensor>\n' for v, u in SPHERE_VIEWS)
+    return (f'<scene version="3.0.0">\n'
+            f'  <integrator type="direct">\n'
+            f'    <integer name="emitter_samples" value="{ne}"/>\n'
+            f'    <integer name="bsdf_samples" value="{nb}"/>\n'
+            f'  </integrator>\n{sensors}'
+            f'  <emitter type="envmap">\n'
+            f'    <string name="filename" value="{filename}"/>\n'
+            f'    <boolean name="mis_compensation" value="{str(comp).lower()}"/>\n'
+            f'  </emitter>\n'
+            f'  <shape type="sphere">\n'
+            f'    {bsdf}\n'
+            f'  </shape>\n'
+            f'</scene>\n')
+
+
 def _snippet(s: StrategySetting, spec: SamplerSpec, spp: int, *, filename: str = "envmap.exr",
              mis_compensation: bool = False, form: str = "python",
-             microfacet: tuple | None = None) -> str:
-    """The scene a user pastes: a sphere lit by the map — white diffuse, or with
-    ``microfacet`` = (distribution, α) a white ``roughconductor`` (``material="none"``:
-    Fresnel 1), or = ("roughplastic", α) a ``roughplastic`` with a GGX coat (its defaults
-    otherwise: η 1.49, diffuse reflectance 0.5) —, Mitsuba's ``direct`` integrator with the strategy's counts, the sampler at
-    the spp it runs. ``form`` ``"python"`` (a ``mi.load_dict`` call) or ``"xml"`` (scene XML
-    for ``mi.load_string``)."""
+             microfacet: tuple | None = None, sphere_pixels: int | None = None) -> str:
+    """The scene envfit predicted, as the measurements render it
+    (:mod:`envfit.measure.renderers._mitsuba3`): a unit sphere at the origin with the BSDF
+    (:func:`_bsdf`), the ``envmap`` of ``filename``, six ``orthographic`` sensors
+    (:data:`SPHERE_VIEWS`: ``look_at`` from 3v, the image plane [-1, 1]², ``hdrfilm`` of
+    :func:`snippet_pixels` pixels with the ``box`` filter), the sampler at the spp it runs in
+    each, Mitsuba's ``direct`` integrator with the strategy's counts. ``form`` ``"python"``
+    (a ``mi.load_dict`` call, commented; ``mi.render(scene, sensor=k)`` renders view k) or
+    ``"xml"`` (scene XML for ``mi.load_string``)."""
     ne, nb = s.settings["emitter_samples"], s.settings["bsdf_samples"]
     comp = bool(mis_compensation)
-    if microfacet is None:
-        bsdf_xml, bsdf_py = '<bsdf type="diffuse"/>', '{"type": "diffuse"}'
-    elif microfacet[0] == "roughplastic":
-        alpha = float(microfacet[1])
-        bsdf_xml = (f'<bsdf type="roughplastic"><string name="distribution" value="ggx"/>'
-                    f'<float name="alpha" value="{alpha:g}"/></bsdf>')
-        bsdf_py = f'{{"type": "roughplastic", "distribution": "ggx", "alpha": {alpha:g}}}'
-    else:
-        dist, alpha = microfacet[0], float(microfacet[1])
-        bsdf_xml = (f'<bsdf type="roughconductor"><string name="distribution" value="{dist}"/>'
-                    f'<float name="alpha" value="{alpha:g}"/>'
-                    f'<string name="material" value="none"/></bsdf>')
-        bsdf_py = (f'{{"type": "roughconductor", "distribution": "{dist}", '
-                   f'"alpha": {alpha:g}, "material": "none"}}')
+    bsdf_xml, bsdf_py, words = _bsdf(microfacet)
+    n = snippet_pixels(sphere_pixels)
     if form == "xml":
-        return (f'<scene version="3.0.0">\n'
-                f'  <integrator type="direct">\n'
-                f'    <integer name="emitter_samples" value="{ne}"/>\n'
-                f'    <integer name="bsdf_samples" value="{nb}"/>\n'
-                f'  </integrator>\n'
-                f'  <sensor type="perspective">\n'
-                f'    <sampler type="{spec.name}">\n'
-                f'      <integer name="sample_count" value="{spp}"/>\n'
-                f'    </sampler>\n'
-                f'  </sensor>\n'
-                f'  <emitter type="envmap">\n'
-                f'    <string name="filename" value="{filename}"/>\n'
-                f'    <boolean name="mis_compensation" value="{str(comp).lower()}"/>\n'
-                f'  </emitter>\n'
-                f'  <shape type="sphere">\n'
-                f'    {bsdf_xml}\n'
-                f'  </shape>\n'
-                f'</scene>\n')
+        return _xml(ne, nb, spec.name, spp, filename, comp, bsdf_xml, n)
     if form != "python":
         raise ParameterError(f"form must be 'python' or 'xml', got {form!r}")
+    head = "\n".join(scene_comment(words, sphere_pixels,
+                                   view_dependent=microfacet is not None))
+    views = ",\n         ".join(f"({v}, {u})" for v, u in SPHERE_VIEWS)
     return (f'import mitsuba as mi\n'
             f'mi.set_variant("scalar_rgb")\n'
+            f'{head}\n'
+            f'# render view k (0..5, in the order of VIEWS: axis, image up): '
+            f'mi.render(scene, sensor=k)\n'
+            f'VIEWS = [{views}]\n'
             f'scene = mi.load_dict({{\n'
             f'    "type": "scene",\n'
             f'    "integrator": {{"type": "direct", "emitter_samples": {ne}, '
             f'"bsdf_samples": {nb}}},\n'
-            f'    "sensor": {{"type": "perspective",\n'
-            f'               "sampler": {{"type": "{spec.name}", "sample_count": {spp}}}}},\n'
+            f'    **{{f"sensor{{k}}": {{\n'
+            f'        "type": "orthographic",\n'
+            f'        "to_world": mi.ScalarTransform4f().look_at(\n'
+            f'            origin=[3 * c for c in v], target=[0, 0, 0], up=list(u)),\n'
+            f'        "film": {{"type": "hdrfilm", "width": {n}, "height": {n}, '
+            f'"rfilter": {{"type": "box"}},\n'
+            f'                 "pixel_format": "rgb"}},\n'
+            f'        "sampler": {{"type": "{spec.name}", "sample_count": {spp}}}}}\n'
+            f'        for k, (v, u) in enumerate(VIEWS)}},\n'
             f'    "emitter": {{"type": "envmap", "filename": {filename!r}, '
             f'"mis_compensation": {comp}}},\n'
             f'    "sphere": {{"type": "sphere", "bsdf": {bsdf_py}}},\n'

@@ -34,8 +34,9 @@ import numpy as np
 
 from envfit.base import ParameterError
 from envfit.maps._latlong import local_to_world
-from envfit.sampling.presets._base import (DirectionSample, EnvmapTechnique, RendererPreset,
-                                           SamplerSpec, StrategySetting, cosine_hemisphere,
+from envfit.sampling.presets._base import (SPHERE_VIEWS, DirectionSample, EnvmapTechnique,
+                                           RendererPreset, SamplerSpec, StrategySetting,
+                                           cosine_hemisphere, scene_comment, snippet_pixels,
                                            square_points)
 from envfit.sampling.presets._pbrt4_image import (PiecewiseConstant2D, equal_area_sphere_to_square,
                                                   equal_area_square_to_sphere, make_equal_area)
@@ -233,10 +234,23 @@ def _transform_line(up: str) -> str:
     return f"    ConcatTransform [ {flat} ]\n"
 
 
+def _lookat(v, u) -> str:
+    """``LookAt`` of one view of :data:`SPHERE_VIEWS`: eye 3v, the origin, up u."""
+    return "LookAt " + "  ".join(" ".join(f"{c:g}" for c in w)
+                                 for w in ([3 * c for c in v], (0, 0, 0), u))
+
+
 def _snippet(s: StrategySetting, spec: SamplerSpec, spp: int, *,
-             filename: str = "envmap.exr", up: str = "y") -> str:
-    """pbrt-v4 scene lines: the conversion command, the integrator for the strategy, the
-    sampler at the spp it runs, a diffuse sphere lit by the equal-area map."""
+             filename: str = "envmap.exr", up: str = "y", sphere_pixels: int | None = None) -> str:
+    """pbrt-v4 scene lines of the scene envfit predicted, as the measurements' sphere
+    (:data:`SPHERE_VIEWS`): the conversion command, ``LookAt`` from 3v at the origin (the
+    view +z; the comment names the other five) and an ``orthographic`` camera whose screen
+    window [-1, 1]² the unit sphere fills (``src/pbrt/cameras.cpp``:
+    ``OrthographicCamera::Create``), an ``rgb`` film of :func:`snippet_pixels` pixels with
+    the ``box`` filter (radius 0.5: one pixel, ``src/pbrt/filters.cpp``), the integrator
+    for the strategy, the sampler at the spp it runs, the equal-area map as the infinite
+    light, a sphere of radius 1 with the ``diffuse`` material of reflectance 1 (its default
+    is 0.5: ``src/pbrt/materials.cpp``: ``DiffuseMaterial::Create``)."""
     eq = filename.rsplit(".", 1)[0] + "-equiarea.exr"
     opts = " ".join(f'"{"integer" if isinstance(v, int) and not isinstance(v, bool) else "bool"} '
                     f'{k}" [ {str(v).lower()} ]' for k, v in s.settings.items())
@@ -245,17 +259,25 @@ def _snippet(s: StrategySetting, spec: SamplerSpec, spp: int, *,
         samp = f'Sampler "stratified" "integer xsamples" [ {x} ] "integer ysamples" [ {y} ]'
     else:
         samp = f'Sampler "{spec.name}" "integer pixelsamples" [ {spp} ]'
+    n = snippet_pixels(sphere_pixels)
+    head = "\n".join(scene_comment("white diffuse (reflectance 1)", sphere_pixels))
+    others = "\n".join(f"#   {_lookat(v, u)}" for v, u in SPHERE_VIEWS[:4] + SPHERE_VIEWS[5:])
     return (f"# imgtool makeequiarea {filename} --outfile {eq}\n"
+            f"{head}\n"
+            f"# the view +z below; the other five views: the same file with\n{others}\n"
+            f"{_lookat(*SPHERE_VIEWS[4])}\n"
+            f'Camera "orthographic" "float screenwindow" [ -1 1 -1 1 ]\n'
             f'Integrator "{s.integrator}" {opts}\n'
             f"{samp}\n"
-            f'Film "rgb" "string filename" [ "sphere.exr" ]\n'
-            f'Camera "perspective"\n'
+            f'Film "rgb" "integer xresolution" [ {n} ] "integer yresolution" [ {n} ]\n'
+            f'    "string filename" [ "sphere.exr" ]\n'
+            f'PixelFilter "box" "float xradius" [ 0.5 ] "float yradius" [ 0.5 ]\n'
             f"WorldBegin\n"
             f"AttributeBegin\n{_transform_line(up)}"
             f'    LightSource "infinite" "string filename" [ "{eq}" ]\n'
             f"AttributeEnd\n"
-            f'Material "diffuse"\n'
-            f'Shape "sphere"\n')
+            f'Material "diffuse" "rgb reflectance" [ 1 1 1 ]\n'
+            f'Shape "sphere" "float radius" [ 1 ]\n')
 
 
 def _technique(envmap=None, **options) -> Pbrt4ImageInfiniteLight:
