@@ -322,7 +322,7 @@ WCE = ["theory", "wce", "--brdf", "glossy", "--pointset", "sf"]
     (["table2", "--s", "1.5,nan"], "argument --s: nan is not a finite number"),
     (["table2", "--s", "inf"], "argument --s: inf is not a finite number"),
     (["table2", "--s", "x"], "argument --s: x is not a number"),
-    (["table2", "--workers", "0"], "argument --workers: 0 is not positive"),
+    (["table2", "--workers", "0"], "argument --workers: 0 is outside 1 <= K <= "),
     (["fit", "--n", "100.5"], "argument --n: 100.5 is not a whole number"),
     (["fit", "--n", "1e-3"], "argument --n: 1e-3 is not a whole number"),
     (["fit", "--n", "nan"], "argument --n: nan is not a whole number"),
