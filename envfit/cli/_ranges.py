@@ -19,7 +19,7 @@ from envfit.cli._common import _finite, _items, _unique, _whole
 
 
 def _fmt(v) -> str:
-    return str(v) if isinstance(v, int) else f"{v:g}"
+    return str(v) if isinstance(v, int) else f"{v:g}".replace("e+0", "e").replace("e+", "e")
 
 
 class Ranged:
@@ -64,6 +64,8 @@ class Ranged:
     # ---------------------------------------------------------------- parsing
     def inside(self, v) -> bool:
         """Whether ``v`` is within the fixed range."""
+        if not math.isfinite(v):          # "too large" (beyond 10^18) is never inside
+            return False
         above_lo = v > self.lo if self.lo_open else v >= self.lo
         if self.hi is None:
             return above_lo
