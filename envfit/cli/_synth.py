@@ -86,6 +86,14 @@ def register(sub) -> None:
                         "negative)")
     g.add_argument("--amplitude", type=AMPLITUDE, default=None,
                    help=f"scale sigma of the process, {AMPLITUDE}")
+    _add_analytic_arguments(p)
+    # the kinds' options default to None: the kind's own default applies (SYNTH_KINDS)
+    add_common_arguments(p)
+    p.set_defaults(func=run, output_metavar="")  # "cannot write m.exr: …"
+
+
+def _add_analytic_arguments(p: argparse.ArgumentParser) -> None:
+    """The options of the analytic kinds (constant, sky, sun, step)."""
     g = p.add_argument_group("analytic maps (colours are comma-separated: one value or R,G,B, "
                              f"each {COLOUR})")
     g.add_argument("--value", type=COLOUR, default=None, help=f"constant: the value, each {COLOUR}")
@@ -104,9 +112,6 @@ def register(sub) -> None:
                    help=f"step: edge polar angle (radians), {THETA_EDGE} (pi)")
     g.add_argument("--low", type=COLOUR, default=None, help=f"step: value below the edge, each {COLOUR}")
     g.add_argument("--high", type=COLOUR, default=None, help=f"step: value above the edge, each {COLOUR}")
-    # the kinds' options default to None: the kind's own default applies (SYNTH_KINDS)
-    add_common_arguments(p)
-    p.set_defaults(func=run, output_metavar="")  # "cannot write m.exr: …"
 
 
 def _kind_params(args: argparse.Namespace) -> dict:

@@ -202,6 +202,17 @@ def _summary(res: dict) -> list[str]:
 QUICK_HEIGHT = 256
 
 
+def _checked_inputs(args: argparse.Namespace):
+    """The configurations and the map, every option checked before the work."""
+    _check_names(args)
+    cfg = _config(args)
+    rcfg = _renderer_config(args, cfg)
+    env = load_map_from_args(args, quick_height=QUICK_HEIGHT)
+    if args.s == "auto":
+        check_pixels(FIT_N, "--fit-n", cfg.fit_n, env)    # the fit's N, before the work
+    return cfg, rcfg, env
+
+
 def run(args: argparse.Namespace, output: CommandOutput) -> int:
     from envfit.base._atomic import atomic_write_json
     from envfit.cli._validate_render import dispatch
@@ -209,12 +220,7 @@ def run(args: argparse.Namespace, output: CommandOutput) -> int:
     rendered = dispatch(args, output)        # --renderer mitsuba3|cycles: that check only
     if rendered is not None:
         return rendered
-    _check_names(args)
-    cfg = _config(args)
-    rcfg = _renderer_config(args, cfg)
-    env = load_map_from_args(args, quick_height=QUICK_HEIGHT)
-    if args.s == "auto":
-        check_pixels(FIT_N, "--fit-n", cfg.fit_n, env)    # the fit's N, before the work
+    cfg, rcfg, env = _checked_inputs(args)
     out = out_dir(args)
     for note in getattr(env, "notes", []):
         output.say(f"note: {note}")
