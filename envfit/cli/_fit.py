@@ -83,12 +83,18 @@ def _run_single(args: argparse.Namespace, output: CommandOutput) -> int:
     return 0
 
 
+
+def _tail(label: str, width: int = 28) -> str:
+    """``label`` within ``width`` characters, its end kept (where maps differ)."""
+    return label if len(label) <= width else "…" + label[-(width - 1):]
+
+
 def format_library_fit(lib) -> str:
     """One line per map: s, its 95 % interval, σ̂ per channel."""
     lines = [f"s per map ({lib.method}, N = {lib.n}, {lib.scale} scale), {len(lib.fits)} maps",
              f"  {'map':<28} {'s':>6}  {'95% interval':<15}  sigma"]
     for label, f in zip(lib.labels, lib.fits):
-        lines.append(f"  {label[:28]:<28} {f.s:6.3f}  {f.s_interval[0]:.3f} … {f.s_interval[1]:.3f}  "
+        lines.append(f"  {_tail(label):<28} {f.s:6.3f}  {f.s_interval[0]:.3f} … {f.s_interval[1]:.3f}  "
                      + ", ".join(f"{x:.4g}" for x in f.sigma))
     return "\n".join(lines)
 

@@ -144,6 +144,12 @@ def _known_s(env, res, quiet: bool = False) -> dict | None:
             "expected_s_best": curve.s_best, "measured_s_best": measured}
 
 
+
+def _tail(label: str, width: int = 28) -> str:
+    """``label`` within ``width`` characters, its end kept (where maps differ)."""
+    return label if len(label) <= width else "…" + label[-(width - 1):]
+
+
 def format_library_table2(lib) -> str:
     """One line per map: best s at the largest N and the RMSE there for every s."""
     n_max = lib.n_values[-1]
@@ -152,7 +158,7 @@ def format_library_table2(lib) -> str:
              "  " + "-" * (len(head) - 2)]
     for r in lib.maps:
         col = r.rmse_table()[:, -1]
-        lines.append(f"  {r.map[:28]:<28} {r.height:>5} {r.s_best:>7g} | "
+        lines.append(f"  {_tail(r.map):<28} {r.height:>5} {r.s_best:>7g} | "
                      + " ".join(f"{v:9.4f}" for v in col))
     counts = {s: int(sum(abs(r.s_best - s) < 1e-9 for r in lib.maps)) for s in lib.s_values}
     lines.append("  best s across maps: " + ", ".join(f"s={s:g}: {c}" for s, c in counts.items()))
