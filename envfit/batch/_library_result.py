@@ -39,6 +39,7 @@ def distinct_labels(sources) -> list:
         groups.setdefault(src.label, []).append(src)
     for same in (g for g in groups.values() if len(g) > 1):
         parts = [os.path.normpath(src.path or src.label).split(os.sep) for src in same]
+        tails = [src.label for src in same]         # in memory, one name: the slugs differ
         for k in range(2, max(len(p) for p in parts) + 1):
             tails = ["/".join(p[-k:]) for p in parts]
             if len(set(tails)) == len(tails):
