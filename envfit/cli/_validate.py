@@ -116,17 +116,19 @@ def _check_names(args: argparse.Namespace) -> None:
     from envfit.sampling import STRATEGIES
     from envfit.theory._pointsets import POINTSETS
     rendered = args.renderer not in (None, "rules")      # its --brdf: _validate_render's check
-    for flag, values, allowed in (
-            ("--brdf", None if rendered else args.brdf, BRDFS),
-            ("--pointsets", args.pointsets, tuple(POINTSETS)),
-            ("--weights", args.weights, WEIGHTINGS),
-            ("--strategies", None if rendered else args.strategies, tuple(STRATEGIES)),
-            ("--renderer-pointsets", args.renderer_pointsets, tuple(POINTSETS)),
-            ("--renderer-axes", None if args.renderer_axes is None else [args.renderer_axes],
+    for flag, what, values, allowed in (
+            ("--brdf", "BRDF", None if rendered else args.brdf, BRDFS),
+            ("--pointsets", "point set", args.pointsets, tuple(POINTSETS)),
+            ("--weights", "weighting", args.weights, WEIGHTINGS),
+            ("--strategies", "strategy", None if rendered else args.strategies,
+             tuple(STRATEGIES)),
+            ("--renderer-pointsets", "point set", args.renderer_pointsets, tuple(POINTSETS)),
+            ("--renderer-axes", "axis sampling",
+             None if args.renderer_axes is None else [args.renderer_axes],
              tuple(AXIS_SAMPLING))):
         bad = [v for v in (values or ()) if str(v).strip().lower() not in allowed]
         if bad:
-            raise ParameterError(f"{flag}: unknown name {bad[0]!r}; choose from "
+            raise ParameterError(f"{flag}: unknown {what} {bad[0]!r}; choose from "
                                  f"{', '.join(allowed)}")
 
 
