@@ -56,26 +56,27 @@ def test_table_lmax_above_the_band_limit_is_refused_at_once(map64, fixed_rates, 
     t0 = time.perf_counter()
     line = _one_line(capsys, cli.main(["sh", str(map64), "--lmax", "2", "--table-lmax", "500"]))
     assert time.perf_counter() - t0 < 5.0                  # was > 300 s
-    assert line == ("envfit sh: error: --table-lmax 500 is above the map's band limit H - 1 = "
-                    "63 (a 128x64 map): use 1 <= --table-lmax <= 63")
+    assert line == ("envfit sh: error: --table-lmax 500 is outside 1 <= L <= H-1 (the map's "
+                    "band limit): H-1 = 63 for this 128x64 map")
     line = _one_line(capsys, cli.main(["sh", str(map64), "--lmax", "64"]))
-    assert line.startswith("envfit sh: error: --lmax 64 is above the map's band limit H - 1 = 63")
+    assert line.startswith("envfit sh: error: --lmax 64 is outside 0 <= L <= H-1 (the map's "
+                           "band limit): H-1 = 63")
 
 
-def test_check_height_100000_is_refused_with_the_largest_that_fits(map64, fixed_rates, capsys):
+def test_check_height_over_the_time_limit_is_refused_with_the_largest_that_fits(map64, fixed_rates, capsys):
     t0 = time.perf_counter()
     line = _one_line(capsys, cli.main(["sh", str(map64), "--lmax", "2", "--check-height",
-                                       "100000"]))
+                                       "16384"]))
     assert time.perf_counter() - t0 < 5.0                  # was a MemoryError traceback
-    m = re.fullmatch(r"envfit sh: error: --check-height 100000: the work would take about "
+    m = re.fullmatch(r"envfit sh: error: --check-height 16384: the work would take about "
                      r"(\S+) s on this machine \(the dense check \(99 signals on a "
-                     r"200000x100000 grid\): \S+ s\), over the 900 s limit \(ENVFIT_TIME_LIMIT\); "
+                     r"32768x16384 grid\): \S+ s\), over the 900 s limit \(ENVFIT_TIME_LIMIT\); "
                      r"the largest --check-height that fits is (\d+)", line)
     assert m, line
     best = int(m.group(2))
     # independently: the dense check is 2h^2 (t+1)^2 (basis + K flop) with t = 8, K = 33 x 3
     per_pixel = 81 * (RATES.basis + 99 * RATES.flop)
-    assert float(m.group(1)) == pytest.approx(2 * 1e10 * per_pixel, rel=0.01)
+    assert float(m.group(1)) == pytest.approx(2 * 16384 ** 2 * per_pixel, rel=0.01)
     rest = sum(s.seconds for s in sh_stages(64, 3, 2, 8, dense_height=1, rates=RATES))
     closed = math.floor(math.sqrt((900 - rest) / (2 * per_pixel)))
     assert abs(best - closed) <= 1
@@ -87,9 +88,9 @@ def test_check_height_100000_is_refused_with_the_largest_that_fits(map64, fixed_
 def test_memory_refusal_names_the_option_and_what_fits(map64, fixed_rates, monkeypatch, capsys):
     monkeypatch.setenv("ENVFIT_MEMORY_LIMIT", "200M")        # budget: 80 % of 200 MiB
     line = _one_line(capsys, cli.main(["sh", str(map64), "--lmax", "2", "--irradiance",
-                                       "--check-axes", "10000000"]))
-    m = re.fullmatch(r"envfit sh: error: --check-axes 10000000: the measured error at 10000000 "
-                     r"directions needs 1.5 GB but only 167.8 MB can be used \(80% of "
+                                       "--check-axes", "1048576"]))
+    m = re.fullmatch(r"envfit sh: error: --check-axes 1048576: the measured error at 1048576 "
+                     r"directions needs 184.5 MB but only 167.8 MB can be used \(80% of "
                      r"ENVFIT_MEMORY_LIMIT=200M\); the largest --check-axes that fits is (\d+)",
                      line)
     assert m, line
@@ -125,7 +126,7 @@ def test_default_table_on_a_small_map_and_bad_values(tmp_path, capsys):
     rows = json.loads((tmp_path / "r.json").read_text())["ringing"]
     assert sorted({r["L"] for r in rows}) == [1, 2, 3]         # min(8, H - 1) = 3
     line = _one_line(capsys, cli.main(["sh", str(small), "--lmax", "1", "--check-height", "0"]))
-    assert line == ("envfit sh: error: argument --check-height: 0 is not positive "
+    assert line == ("envfit sh: error: argument --check-height: 0 is outside 1 <= H <= 16384 "
                     "(see 'envfit sh --help')")
 
 

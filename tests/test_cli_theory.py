@@ -69,8 +69,8 @@ def test_wce_without_lmax_and_no_morph(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("argv, word", [
-    (["--s", "2.5"], "smoothness"),
-    (["--s", "1.0"], "smoothness"),
+    (["--s", "2.5"], "--s: 2.5 is outside 1 < s < 2"),
+    (["--s", "1.0"], "--s: 1.0 is outside 1 < s < 2"),
     (["--n", "0"], "--n"),
     (["--shininess", "-3"], "shininess"),
 ])
@@ -112,8 +112,8 @@ def test_table1_json(tmp_path, capsys):
 def test_table1_bad_target(capsys):
     assert cli.main(["theory", "table1", "--target", "0"]) == 2
     err = capsys.readouterr().err.strip().splitlines()   # argparse: one error line, no usage
-    assert err == ["envfit theory table1: error: argument --target: 0 is not positive "
-                   "(see 'envfit theory table1 --help')"]
+    assert err == ["envfit theory table1: error: argument --target: 0 is outside 0.0001 <= E "
+                   "<= 1 (see 'envfit theory table1 --help')"]
 
 
 def test_figures_tiny_writes_pngs_and_csvs(tmp_path, capsys):

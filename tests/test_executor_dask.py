@@ -95,7 +95,7 @@ def test_cli_runs_on_a_scheduler(maps, client, tmp_path, capsys):
     d = json.loads(js.read_text())
     assert d["factorizations"] == 2 and set(d["maps"]) == {"gp0", "gp1"}
     assert cli.main(["table2", *paths, "--executor", "dask", "--scheduler", client.scheduler.address,
-                     "--workers", "3"]) == 2
+                     "--workers", "1"]) == 2
     assert "--workers sizes a local cluster" in capsys.readouterr().err
 
 

@@ -115,7 +115,7 @@ def test_sentences_follow_the_rows(inside, words):
     (["--renderer", "mitsuba3", "--brdf", "ggx"], "--roughness goes with --brdf ggx"),
     (["--renderer", "mitsuba3", "--roughness", "0.2"], "--roughness goes with --brdf ggx"),
     (["--renderer", "mitsuba3", "--brdf", "glossy"], "must be one of diffuse, ggx, beckmann"),
-    (["--renderer", "mitsuba3", "--footprint", "9"], "footprint must be at most 8"),
+    (["--renderer", "mitsuba3", "--footprint", "9"], "--footprint: 9 is outside 1 <= J <= 8"),
     (["--renderer", "mitsuba3", "--brdf", "multiggx", "--roughness", "0.3"],
      "Cycles' Multiscatter GGX"),
     (["--renderer", "mitsuba3", "--brdf", "diffuse,ggx"], "takes one BSDF"),

@@ -99,8 +99,10 @@ def plan_workers(requested: int | None, *, cores: int, max_useful: int,
                  bytes_per_task: int = 0) -> tuple[int, list[str]]:
     """Worker count for a local run and notes on what limited it.
 
-    ``requested`` (None: as many as useful, at most ``cores``) is capped by ``max_useful``
-    (no more workers than tasks that can run side by side) and by memory: W tasks of
+    ``requested`` (None: as many as useful — at most ``cores`` and ``max_useful``, the tasks
+    that can run side by side) must be within 1 <= K <= ``cores`` (``--workers``' range: more
+    processes would only share the cores; ParameterError, one line), and is lowered by
+    memory, said in a note: W tasks of
     ``bytes_per_task`` each must fit in the budget (:data:`envfit.base._resources.MEMORY_FRACTION`
     of the available memory).
 
@@ -110,15 +112,17 @@ def plan_workers(requested: int | None, *, cores: int, max_useful: int,
     notes = []
     if requested is not None:
         requested = int(requested)
-        if requested < 1:
-            raise ParameterError(f"--workers must be at least 1, got {requested}")
+        if not 1 <= requested <= cores:     # the words of ``--workers`` in --help
+            raise ParameterError(f"--workers {requested} is outside 1 <= K <= {cores} (this "
+                                 "machine's cores: more would only share them)")
     w = min(cores, max(1, max_useful)) if requested is None else requested
     if bytes_per_task > 0:
         budget = available_memory_bytes() * MEMORY_FRACTION
         fit = max(1, int(budget // bytes_per_task))
         if w > fit:
             notes.append(f"{w} workers would need {format_bytes(w * bytes_per_task)} at once; "
-                         f"using {fit} (memory budget {format_bytes(budget)})")
+                         f"using {fit}, the most whose tasks ({format_bytes(bytes_per_task)} "
+                         f"each) fit the memory budget {format_bytes(budget)}")
             w = fit
     return w, notes
 

@@ -52,7 +52,7 @@ import numpy as np
 from envfit.maps._envmap import check_sample_count
 from envfit.base._errors import ParameterError
 from envfit.defaults import SOLVERS
-from envfit.batch._library_result import LibraryOptions, LibraryResult
+from envfit.batch._library_result import LibraryOptions, LibraryResult, distinct_labels
 from envfit.batch._tasks import SweepSpec, evaluate_task, sample_task, solve_task
 from envfit.maps._mapsource import MapSource, resolve_map_sources
 from envfit.base._resources import interpolator_nbytes, memory_budget_bytes, plan_memory
@@ -152,7 +152,7 @@ def run_table2_library(maps: Sequence, s_values: Sequence[float] = PAPER_S,
     s_values, n_values = check_grid(s_values, n_values)
     if scale not in SCALES:
         raise ParameterError(f"unknown scale {scale!r}; choose one of {', '.join(SCALES)}")
-    sources = resolve_map_sources(maps, options.load_options)
+    sources = distinct_labels(resolve_map_sources(maps, options.load_options))
     _plan_library_memory(len(sources), n_values[-1], solver, rhs_budget_bytes)
     spec = SweepSpec(pointset=pointset, seed=int(seed), scale=scale, up=sources[0].up,
                      solver=solver)

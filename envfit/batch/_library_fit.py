@@ -47,7 +47,7 @@ import numpy as np
 from envfit.base._checks import check_int
 from envfit.maps._envmap import check_sample_count
 from envfit.base._errors import ParameterError
-from envfit.batch._library_result import LibraryOptions, LibraryResult
+from envfit.batch._library_result import LibraryOptions, LibraryResult, distinct_labels
 from envfit.fit._search import (DEFAULT_REFINE, SmoothnessSearch, lattice, run_searches,
                                 search_lattice)
 from envfit.fit._smoothness import (DEFAULT_METHOD, DEFAULT_N, METHODS, S_GRID, SCORE_NAMES,
@@ -121,7 +121,7 @@ def fit_smoothness_library(maps: Sequence, *, method: str = DEFAULT_METHOD, n: i
         raise ParameterError(f"unknown scale {scale!r}; choose one of {', '.join(SCALES)}")
     n = check_int(n, "the number of samples n", 10)
     grid = search_lattice(s_grid, refine)[0]
-    sources = resolve_map_sources(maps, options.load_options)
+    sources = distinct_labels(resolve_map_sources(maps, options.load_options))
     # the memory guard (one criterion task: the interpolator with every map's samples as
     # right-hand sides, as the executor is sized below), before any sample is made
     plan_memory(n, "the library fit", channels=2 * 3 * len(sources),

@@ -17,7 +17,36 @@ from envfit.base._errors import ParameterError
 from envfit.base._html import html_result
 from envfit.maps._mapsource import LoadOptions
 
-__all__ = ["LibraryResult", "LibraryOptions"]
+__all__ = ["LibraryResult", "LibraryOptions", "distinct_labels"]
+
+
+def distinct_labels(sources) -> list:
+    """Give maps that share a label (``a/forest.exr`` and ``b/forest.exr`` are both
+    ``forest.exr``) the shortest trailing part of their path that tells them apart
+    (``a/forest.exr``, ``b/forest.exr``), so the printed table, the summary CSV/JSON and the
+    plots name each map once; returns ``sources`` (their ``label`` set in place).
+
+    >>> from envfit.maps._mapsource import MapSource
+    >>> s = [MapSource(label="f.exr", slug="f-1", path="/x/a/f.exr"),
+    ...      MapSource(label="f.exr", slug="f-2", path="/x/b/f.exr"),
+    ...      MapSource(label="g.exr", slug="g", path="/x/a/g.exr")]
+    >>> [m.label for m in distinct_labels(s)]
+    ['a/f.exr', 'b/f.exr', 'g.exr']
+    """
+    import os
+    groups: dict = {}
+    for src in sources:
+        groups.setdefault(src.label, []).append(src)
+    for same in (g for g in groups.values() if len(g) > 1):
+        parts = [os.path.normpath(src.path or src.label).split(os.sep) for src in same]
+        tails = [src.label for src in same]         # in memory, one name: the slugs differ
+        for k in range(2, max(len(p) for p in parts) + 1):
+            tails = ["/".join(p[-k:]) for p in parts]
+            if len(set(tails)) == len(tails):
+                break
+        for src, tail in zip(same, tails):
+            src.label = tail if len(set(tails)) == len(tails) else f"{tail} ({src.slug})"
+    return sources
 
 
 @dataclass(frozen=True)

@@ -344,9 +344,13 @@ def add_executor_arguments(p: argparse.ArgumentParser) -> None:
                    help="address of a running dask scheduler (default with --executor dask: "
                         "a LocalCluster on this machine); each handshake with it waits at "
                         "most ENVFIT_DASK_TIMEOUT seconds (default 10)")
-    g.add_argument("--workers", type=positive_int, default=None, metavar="K",
-                   help="worker processes for local/LocalCluster (default: as many as useful, "
-                        "at most the cores, within the memory budget)")
+    from envfit.cli._ranges import workers_range
+    workers = workers_range()
+    g.add_argument("--workers", type=workers, default=None, metavar="K",
+                   help=f"worker processes for local/LocalCluster, {workers} (this machine's "
+                        "cores: more would only share them); default: as many as useful, at "
+                        "most the cores; fewer where the tasks' memory does not fit the budget "
+                        "(said in a note)")
 
 
 def library_mode(args: argparse.Namespace) -> bool:

@@ -6,8 +6,12 @@ import argparse
 
 from envfit.cli._common import (add_common_arguments, add_executor_arguments, add_map_arguments,
                                 executor_kwargs, library_maps, library_mode, load_map_from_args,
-                                load_options_from_args, out_dir, positive_int)
+                                load_options_from_args, out_dir)
 from envfit.cli._output import CommandOutput
+from envfit.cli._ranges import PIXELS, Ranged, check_pixels
+
+#: the range of --n (``--help`` and the errors say these words)
+N_RANGE = Ranged(10, None, "N", hi_text=PIXELS)
 
 
 def register(sub) -> None:
@@ -21,7 +25,9 @@ def register(sub) -> None:
     add_map_arguments(p, many=True)
     p.add_argument("--method", choices=METHODS, default=DEFAULT_METHOD,
                    help=f"criterion (default: {DEFAULT_METHOD}; see docs/guides/fit.md for why)")
-    p.add_argument("--n", type=positive_int, default=DEFAULT_N, help=f"number of samples (default: {DEFAULT_N})")
+    p.add_argument("--n", type=N_RANGE, default=DEFAULT_N, metavar="N",
+                   help=f"number of samples, {N_RANGE}; and within the memory budget "
+                        f"(default: {DEFAULT_N})")
     p.add_argument("--pointset", choices=("sf", "random"), default="sf")
     p.add_argument("--scale", choices=("display", "linear", "log"), default="display",
                    help="value scale the map is fitted on (default: display)")
@@ -48,6 +54,7 @@ def run(args: argparse.Namespace, output: CommandOutput) -> int:
 def _run_single(args: argparse.Namespace, output: CommandOutput) -> int:
     from envfit.fit._smoothness import fit_smoothness
     env = load_map_from_args(args)
+    check_pixels(N_RANGE, "--n", args.n, env)           # before the memory guard's N
     for note in getattr(env, "notes", []):
         output.say(f"note: {note}")
     res = fit_smoothness(env, method=args.method, n=args.n, scale=args.scale,
@@ -76,12 +83,18 @@ def _run_single(args: argparse.Namespace, output: CommandOutput) -> int:
     return 0
 
 
+
+def _tail(label: str, width: int = 28) -> str:
+    """``label`` within ``width`` characters, its end kept (where maps differ)."""
+    return label if len(label) <= width else "…" + label[-(width - 1):]
+
+
 def format_library_fit(lib) -> str:
     """One line per map: s, its 95 % interval, σ̂ per channel."""
     lines = [f"s per map ({lib.method}, N = {lib.n}, {lib.scale} scale), {len(lib.fits)} maps",
              f"  {'map':<28} {'s':>6}  {'95% interval':<15}  sigma"]
     for label, f in zip(lib.labels, lib.fits):
-        lines.append(f"  {label[:28]:<28} {f.s:6.3f}  {f.s_interval[0]:.3f} … {f.s_interval[1]:.3f}  "
+        lines.append(f"  {_tail(label):<28} {f.s:6.3f}  {f.s_interval[0]:.3f} … {f.s_interval[1]:.3f}  "
                      + ", ".join(f"{x:.4g}" for x in f.sigma))
     return "\n".join(lines)
 

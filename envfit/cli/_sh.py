@@ -24,8 +24,17 @@ import argparse
 import sys
 
 from envfit.cli._common import (add_common_arguments, add_map_arguments, load_map_from_args,
-                                map_convention, nonneg_int, out_dir, positive_float, positive_int)
+                                map_convention, out_dir)
 from envfit.cli._output import CommandOutput
+from envfit.cli._ranges import Ranged
+from envfit.export._plan import BAND_LIMIT, MAX_CHECK_AXES, MAX_CHECK_HEIGHT
+
+#: the ranges of the options (``--help`` and the errors say these words)
+LMAX = Ranged(0, None, "L", hi_text=BAND_LIMIT)
+TABLE_LMAX_RANGE = Ranged(1, None, "L", hi_text=BAND_LIMIT)
+TARGET = Ranged(0, 1, "F", integer=False, lo_open=True)
+AXES = Ranged(1, MAX_CHECK_AXES, "N")
+HEIGHT = Ranged(1, MAX_CHECK_HEIGHT, "H")
 
 
 def register(sub) -> None:
@@ -49,8 +58,8 @@ def register(sub) -> None:
                     "limit (ENVFIT_TIME_LIMIT seconds, default 900); a value beyond is "
                     "refused in one line naming the largest that fits.")
     add_map_arguments(p)
-    p.add_argument("--lmax", type=nonneg_int, required=True, metavar="L",
-                   help="SH degree of the exported coefficients, 0 <= L <= H-1")
+    p.add_argument("--lmax", type=LMAX, required=True, metavar="L",
+                   help=f"SH degree of the exported coefficients, {LMAX}")
     p.add_argument("--irradiance", action="store_true",
                    help="export the irradiance coefficients A_l L_lm (clamped cosine)")
     p.add_argument("--scale", choices=("linear", "display"), default="linear",
@@ -62,18 +71,19 @@ def register(sub) -> None:
     p.add_argument("--condon-shortley", action="store_true",
                    help="json/csv coefficients for the basis with the Condon-Shortley phase "
                         "(Sloan's Stupid SH Tricks, D3DX: odd m negated); glsl keeps its own")
-    p.add_argument("--target-relative", type=positive_float, default=0.01, metavar="F",
-                   help="relative RMSE the choice must meet (default: 0.01)")
-    p.add_argument("--table-lmax", type=positive_int, default=None, metavar="L",
-                   help=f"ringing table for L = 1..this and --lmax, 1 <= L <= H-1 (default: "
-                        f"min({TABLE_LMAX}, H-1))")
+    p.add_argument("--target-relative", type=TARGET, default=0.01, metavar="F",
+                   help=f"relative RMSE the choice must meet, {TARGET} (default: 0.01)")
+    p.add_argument("--table-lmax", type=TABLE_LMAX_RANGE, default=None, metavar="L",
+                   help=f"ringing table for L = 1..this and --lmax, {TABLE_LMAX_RANGE} "
+                        f"(default: min({TABLE_LMAX}, H-1))")
     p.add_argument("--no-check", action="store_true",
                    help="skip the measured error and the dense negative-fraction check")
-    p.add_argument("--check-axes", type=positive_int, default=CHECK_AXES, metavar="N",
-                   help=f"directions of the measured irradiance error, >= 1 (default: "
-                        f"{CHECK_AXES}; radiance is measured on a 2H-row grid)")
-    p.add_argument("--check-height", type=positive_int, default=DENSE_HEIGHT, metavar="H",
-                   help=f"rows of the dense check's lat-long grid, >= 1 (default: "
+    p.add_argument("--check-axes", type=AXES, default=None, metavar="N",
+                   help=f"spherical Fibonacci directions of the measured irradiance error "
+                        f"(--irradiance), {AXES} (default: {CHECK_AXES}); radiance is measured "
+                        f"on the pixel centres of a 2H-row grid instead, and this is unused")
+    p.add_argument("--check-height", type=HEIGHT, default=DENSE_HEIGHT, metavar="H",
+                   help=f"rows of the dense check's lat-long grid, {HEIGHT} (default: "
                         f"{DENSE_HEIGHT})")
     add_common_arguments(p, seed=False)
     p.set_defaults(func=run)
@@ -94,16 +104,23 @@ def _plan_note(args: argparse.Namespace, stages) -> None:
 
 
 def run(args: argparse.Namespace, output: CommandOutput) -> int:
-    from envfit.export._report import SHReportOptions, document, plan, sh_outputs, sh_report
+    from envfit.export._report import (SHReportOptions, document, measured_where, plan,
+                                       sh_outputs, sh_report)
+    from envfit.export._ringing import CHECK_AXES
     env = load_map_from_args(args)
     conv = map_convention(args)
     opts = SHReportOptions(irradiance=args.irradiance, window=args.window,
                            target_relative=args.target_relative, scale=args.scale,
                            table_lmax=args.table_lmax, check=not args.no_check,
-                           check_axes=args.check_axes, dense_height=args.check_height,
+                           check_axes=CHECK_AXES if args.check_axes is None else args.check_axes,
+                           dense_height=args.check_height,
                            convention=None if conv is None else f"{conv.name} ({conv.renderer})",
                            condon_shortley=args.condon_shortley)
     _plan_note(args, plan(env, args.lmax, opts))        # refused here, before the work
+    if args.check_axes is not None and not (args.irradiance or args.no_check or args.quiet):
+        print(f"envfit sh: note: --check-axes {args.check_axes} is unused: it counts the "
+              f"directions of the measured irradiance error (--irradiance); the radiance "
+              f"error is measured on {measured_where(env.height, False, 0)}", file=sys.stderr)
     r = sh_report(env, args.lmax, opts, quiet=args.quiet)
     out = out_dir(args)
     json_on_stdout = str(args.json) == "-"

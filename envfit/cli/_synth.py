@@ -19,13 +19,29 @@ from envfit.base._errors import EnvfitError, OutputError, ParameterError
 from envfit.data_gen import synth_kind_names
 from envfit.defaults import UPS
 from envfit.maps._envmap import EnvMap
-from envfit.cli._common import (CONVENTION_HELP, add_common_arguments, colour_list,
-                                finite_float, map_convention, map_up, out_dir, positive_float,
-                                positive_int)
+from envfit.cli._common import CONVENTION_HELP, add_common_arguments, map_convention, map_up, out_dir
 from envfit.cli._output import CommandOutput
+from envfit.cli._ranges import Ranged
 
 #: the kinds, as :data:`envfit.data_gen.SYNTH_KINDS` names them
 KINDS = synth_kind_names()
+
+_PI = 3.141592653589793
+#: the ranges of the options (``--help`` and the errors say these words): --height by the SH
+#: sampler's largest degree H-1 = 8191 (envfit.data_gen._gp.SHT_MAX_LMAX), the angles by the
+#: generators' (data_gen._analytic, _marker), values and colours by a fixed cap
+HEIGHT = Ranged(2, 8192, "H")
+EXACT_HEIGHT = 48          # --method exact: 2 H^2 <= envfit.data_gen.EXACT_MAX_POINTS = 4608
+MARKER_RADIUS = Ranged(0, _PI / 4, "RAD", integer=False, lo_open=True)
+S0 = Ranged(1, 2, "s", integer=False, lo_open=True, hi_open=True)
+CHANNELS = Ranged(1, 4, "C")
+OFFSET = Ranged(-1e9, 1e9, "offset", integer=False, words=("auto",))
+AMPLITUDE = Ranged(0, 1e9, "sigma", integer=False, lo_open=True)
+COLOUR = Ranged(0, 1e9, "v", integer=False, many=True, repeats=True)
+THETA = Ranged(0, _PI, "theta", integer=False)
+THETA_EDGE = Ranged(0, _PI, "theta", integer=False, lo_open=True, hi_open=True)
+PHI = Ranged(-2 * _PI, 2 * _PI, "phi", integer=False)
+SUN_RADIUS = Ranged(0, _PI / 2, "r", integer=False, lo_open=True)
 
 
 def register(sub) -> None:
@@ -41,7 +57,9 @@ def register(sub) -> None:
                     "renderer's --convention.")
     p.add_argument("output", metavar="OUT.exr", type=Path)
     p.add_argument("--kind", choices=KINDS, default="gp")
-    p.add_argument("--height", type=positive_int, default=256, help="rows (width = 2 x height)")
+    p.add_argument("--height", type=HEIGHT, default=256, metavar="H",
+                   help=f"rows (width = 2 x height), {HEIGHT} (the SH sampler's largest degree "
+                        f"H-1 is 8191; --method exact: H <= {EXACT_HEIGHT}); default 256")
     p.add_argument("--up", choices=UPS, default=None,
                    help="world up axis stored with the map, on envfit's grid (default: y); "
                         "not with --convention")
@@ -50,39 +68,50 @@ def register(sub) -> None:
         "The map is converted to envfit's grid (exactly where only pixels move, else "
         "bilinear). Not with --up; one map at a time", "Not with --up"))
     g = p.add_argument_group("marker")
-    g.add_argument("--marker-radius", type=positive_float, default=None, metavar="RAD",
-                   help="angular radius of each marker in radians (default: 3 rows, 3 pi/H)")
+    g.add_argument("--marker-radius", type=MARKER_RADIUS, default=None, metavar="RAD",
+                   help=f"angular radius of each marker in radians, {MARKER_RADIUS} (pi/4) "
+                        "(default: 3 rows, 3 pi/H)")
     p.add_argument("--half", action="store_true", help="write half floats instead of float32")
     g = p.add_argument_group("gp")
-    g.add_argument("--s0", type=finite_float, default=None, help="Sobolev smoothness of the process, in (1, 2)")
-    g.add_argument("--channels", type=positive_int, default=None, help="channels (default: 3)")
+    g.add_argument("--s0", type=S0, default=None,
+                   help=f"Sobolev smoothness of the process, {S0}")
+    g.add_argument("--channels", type=CHANNELS, default=None, metavar="C",
+                   help=f"channels, {CHANNELS} (default: 3)")
     g.add_argument("--method", choices=("sht", "exact"), default=None,
-                   help="band-limited SH synthesis (fast) or exact Cholesky at pixel centres (small maps)")
-    g.add_argument("--offset", type=_auto_or_number, default=None,
-                   help="constant added to the zero-mean sample; 'auto' makes every pixel "
-                        "positive (sun-gp: 4 x amplitude, raised if a pixel would be negative)")
-    g.add_argument("--amplitude", type=positive_float, default=None, help="scale sigma of the process")
-    g = p.add_argument_group("analytic maps (colours are comma-separated: one value or R,G,B)")
-    g.add_argument("--value", type=colour_list, default=None, help="constant: the value")
-    g.add_argument("--horizon", type=colour_list, default=None, help="sky: horizon colour")
-    g.add_argument("--zenith", type=colour_list, default=None, help="sky: zenith colour")
-    g.add_argument("--sun-theta", type=finite_float, default=None, help="sun: polar angle from up (radians)")
-    g.add_argument("--sun-phi", type=finite_float, default=None, help="sun: azimuth (radians)")
-    g.add_argument("--sun-radius", type=positive_float, default=None, help="sun: angular radius (radians)")
-    g.add_argument("--sun-radiance", type=colour_list, default=None,
-                   help="sun, sun-gp: disk radiance (added to the background for sun-gp)")
-    g.add_argument("--sky", type=colour_list, default=None, help="sun: sky colour")
-    g.add_argument("--theta-edge", type=finite_float, default=None, help="step: edge polar angle")
-    g.add_argument("--low", type=colour_list, default=None, help="step: value below the edge")
-    g.add_argument("--high", type=colour_list, default=None, help="step: value above the edge")
+                   help="band-limited SH synthesis (fast) or exact Cholesky at pixel centres "
+                        f"(small maps: --height H <= {EXACT_HEIGHT})")
+    g.add_argument("--offset", type=OFFSET, default=None,
+                   help=f"constant added to the zero-mean sample, {OFFSET}; 'auto' makes every "
+                        "pixel positive (sun-gp: 4 x amplitude, raised if a pixel would be "
+                        "negative)")
+    g.add_argument("--amplitude", type=AMPLITUDE, default=None,
+                   help=f"scale sigma of the process, {AMPLITUDE}")
+    _add_analytic_arguments(p)
     # the kinds' options default to None: the kind's own default applies (SYNTH_KINDS)
     add_common_arguments(p)
     p.set_defaults(func=run, output_metavar="")  # "cannot write m.exr: …"
 
 
-def _auto_or_number(text: str):
-    """``--offset``: 'auto' or a finite number (argparse ``type=``)."""
-    return "auto" if str(text).strip().lower() == "auto" else finite_float(text)
+def _add_analytic_arguments(p: argparse.ArgumentParser) -> None:
+    """The options of the analytic kinds (constant, sky, sun, step)."""
+    g = p.add_argument_group("analytic maps (colours are comma-separated: one value or R,G,B, "
+                             f"each {COLOUR})")
+    g.add_argument("--value", type=COLOUR, default=None, help=f"constant: the value, each {COLOUR}")
+    g.add_argument("--horizon", type=COLOUR, default=None, help=f"sky: horizon colour, each {COLOUR}")
+    g.add_argument("--zenith", type=COLOUR, default=None, help=f"sky: zenith colour, each {COLOUR}")
+    g.add_argument("--sun-theta", type=THETA, default=None,
+                   help=f"sun: polar angle from up (radians), {THETA} (pi)")
+    g.add_argument("--sun-phi", type=PHI, default=None, help=f"sun: azimuth (radians), {PHI} (2 pi)")
+    g.add_argument("--sun-radius", type=SUN_RADIUS, default=None,
+                   help=f"sun: angular radius (radians), {SUN_RADIUS} (pi/2)")
+    g.add_argument("--sun-radiance", type=COLOUR, default=None,
+                   help=f"sun, sun-gp: disk radiance (added to the background for sun-gp), each "
+                        f"{COLOUR}")
+    g.add_argument("--sky", type=COLOUR, default=None, help=f"sun: sky colour, each {COLOUR}")
+    g.add_argument("--theta-edge", type=THETA_EDGE, default=None,
+                   help=f"step: edge polar angle (radians), {THETA_EDGE} (pi)")
+    g.add_argument("--low", type=COLOUR, default=None, help=f"step: value below the edge, each {COLOUR}")
+    g.add_argument("--high", type=COLOUR, default=None, help=f"step: value above the edge, each {COLOUR}")
 
 
 def _kind_params(args: argparse.Namespace) -> dict:
@@ -98,7 +127,11 @@ def run(args: argparse.Namespace, output: CommandOutput) -> int:
     from envfit.maps._io import save_envmap
     from envfit.maps._synth import synthesize_envmap
     if args.height < 2:
-        raise ParameterError(f"--height must be at least 2, got {args.height}")
+        raise ParameterError(f"--height {args.height} is outside {HEIGHT}")
+    if args.method == "exact" and args.height > EXACT_HEIGHT:
+        raise ParameterError(f"--height {args.height} with --method exact is outside "
+                             f"H <= {EXACT_HEIGHT}: the exact sampler factorises 2H^2 pixel "
+                             "centres (at most 4608); use --method sht")
     made = synthesize_envmap(args.kind, args.height, seed=args.seed,
                              up=None if map_convention(args) is not None else map_up(args),
                              convention=map_convention(args), **_kind_params(args))

@@ -7,9 +7,14 @@ import numpy as np
 
 from envfit.defaults import SOLVERS
 from envfit.cli._common import (add_common_arguments, add_executor_arguments, add_map_arguments,
-                                executor_kwargs, float_list, int_list, library_maps, library_mode,
+                                executor_kwargs, library_maps, library_mode,
                                 load_map_from_args, load_options_from_args, out_dir)
 from envfit.cli._output import CommandOutput
+from envfit.cli._ranges import PIXELS, Ranged, check_pixels
+
+#: the ranges of the options (``--help`` and the errors say these words)
+S_VALUES = Ranged(1, 2, "s", integer=False, lo_open=True, hi_open=True, many=True)
+N_VALUES = Ranged(2, None, "N", many=True, hi_text=PIXELS)
 
 
 def register(sub) -> None:
@@ -22,11 +27,11 @@ def register(sub) -> None:
                     "factorised once and solved for all maps; per-map results and a summary "
                     "across maps go to --out.")
     add_map_arguments(p, many=True)
-    p.add_argument("--s", type=float_list, default=None, metavar="S1,S2,…",
-                   help="smoothness values in (1, 2) (default: 1.1,1.5,1.9)")
-    p.add_argument("--n", type=int_list, default=None, metavar="N1,N2,…",
-                   help="sample counts (default: 100,500,1000,2500,5000,10000,20000; "
-                        "--quick: 100,250,500,1000,2000)")
+    p.add_argument("--s", type=S_VALUES, default=None, metavar="S1,S2,…",
+                   help=f"smoothness values, each {S_VALUES} (default: 1.1,1.5,1.9)")
+    p.add_argument("--n", type=N_VALUES, default=None, metavar="N1,N2,…",
+                   help=f"sample counts, each {N_VALUES}; and within the memory budget (default: "
+                        "100,500,1000,2500,5000,10000,20000; --quick: 100,250,500,1000,2000)")
     p.add_argument("--pointset", choices=("sf", "random"), default="sf",
                    help="sample directions: spherical Fibonacci (default) or random")
     p.add_argument("--scale", choices=("display", "linear", "log"), default="display",
@@ -64,6 +69,7 @@ def run(args: argparse.Namespace, output: CommandOutput) -> int:
 def _run_single(args, output: CommandOutput, s_values, n_values) -> int:
     from envfit.fit._table2 import format_table2, run_table2
     env = load_map_from_args(args, quick_height=QUICK_HEIGHT)
+    check_pixels(N_VALUES, "--n", n_values, env)        # before the memory guard's N
     out = out_dir(args)
     for note in getattr(env, "notes", []):
         output.say(f"note: {note}")
@@ -138,6 +144,12 @@ def _known_s(env, res, quiet: bool = False) -> dict | None:
             "expected_s_best": curve.s_best, "measured_s_best": measured}
 
 
+
+def _tail(label: str, width: int = 28) -> str:
+    """``label`` within ``width`` characters, its end kept (where maps differ)."""
+    return label if len(label) <= width else "…" + label[-(width - 1):]
+
+
 def format_library_table2(lib) -> str:
     """One line per map: best s at the largest N and the RMSE there for every s."""
     n_max = lib.n_values[-1]
@@ -146,7 +158,7 @@ def format_library_table2(lib) -> str:
              "  " + "-" * (len(head) - 2)]
     for r in lib.maps:
         col = r.rmse_table()[:, -1]
-        lines.append(f"  {r.map[:28]:<28} {r.height:>5} {r.s_best:>7g} | "
+        lines.append(f"  {_tail(r.map):<28} {r.height:>5} {r.s_best:>7g} | "
                      + " ".join(f"{v:9.4f}" for v in col))
     counts = {s: int(sum(abs(r.s_best - s) < 1e-9 for r in lib.maps)) for s in lib.s_values}
     lines.append("  best s across maps: " + ", ".join(f"s={s:g}: {c}" for s, c in counts.items()))

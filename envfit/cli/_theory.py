@@ -18,15 +18,20 @@ import numpy as np
 
 from envfit.base._errors import ParameterError
 from envfit.defaults import ALL_POINTSETS, BRDFS, DEFAULT_SHININESS, WEIGHTINGS
-from envfit.cli._common import (add_common_arguments, finite_float, nonneg_int, out_dir,
-                                positive_float, positive_int)
+from envfit.cli._common import add_common_arguments, out_dir
 from envfit.cli._output import CommandOutput
-from envfit.cli._theory_common import (DEFAULT_SPLIT_LMAX, MORPH_HELP, SHININESS_HELP,
+from envfit.cli._ranges import Ranged
+from envfit.cli._theory_common import (DEFAULT_SPLIT_LMAX, LMAX_CAP, MORPH_HELP, N_CAP,
+                                       S_RANGE, SHININESS_HELP, SHININESS_RANGE,
                                        check_positive_int, check_s, check_shininess)
 from envfit.cli._theory_figures import register_figures
 
 #: cap of the automatic degree of ``wce`` (ducc0 adjoint synthesis ≈ 1-2 s at 2048)
 AUTO_LMAX_CAP = 2048
+#: the ranges of wce's and table1's own options (``--help`` and the errors say these words)
+WCE_N = Ranged(1, N_CAP, "N")
+WCE_LMAX = Ranged(0, LMAX_CAP, "LMAX")
+TARGET = Ranged(1e-4, 1, "E", integer=False)
 
 
 def auto_split_lmax(n: int) -> int:
@@ -60,16 +65,21 @@ def _register_wce(tsub) -> None:
                     "its zonal and anisotropic parts (Eqs. 46-47) summed to --lmax, and the tail "
                     "E^2 - sum_{l<=lmax} e_l^2. " + MORPH_HELP)
     w.add_argument("--brdf", choices=BRDFS, required=True)
-    w.add_argument("--shininess", type=positive_float, default=DEFAULT_SHININESS,
+    w.add_argument("--shininess", type=SHININESS_RANGE, default=DEFAULT_SHININESS,
                    help=SHININESS_HELP)
     w.add_argument("--pointset", choices=ALL_POINTSETS,
                    required=True, help="point set of Sec. 7.1 (bnot is slow beyond a few thousand)")
     w.add_argument("--weights", choices=WEIGHTINGS, default="equal",
                    help="equal 1/N or the optimal sample weights K^-1 z (default: equal)")
-    w.add_argument("--n", type=positive_int, required=True, help="number of points N")
-    w.add_argument("--s", type=finite_float, default=1.5, help="Sobolev smoothness in (1, 2) (default 1.5)")
-    w.add_argument("--lmax", type=nonneg_int, default=None,
-                   help="also report the spectrum d_l^2, C_l^2, e_l^2 for l = 0..LMAX; without it "
+    w.add_argument("--n", type=WCE_N, required=True,
+                   help=f"number of points, {WCE_N} (a cap: the closed form Eq. 41 is an O(N^2) "
+                        "pair sum, about a minute at the top; --weights osw also needs the N x N "
+                        "matrix in memory)")
+    w.add_argument("--s", type=S_RANGE, default=1.5,
+                   help=f"Sobolev smoothness, {S_RANGE} (default 1.5)")
+    w.add_argument("--lmax", type=WCE_LMAX, default=None,
+                   help=f"also report the spectrum d_l^2, C_l^2, e_l^2 for l = 0..LMAX, {WCE_LMAX} "
+                        "(a cap: about 5 s of SH synthesis at the top); without it "
                         f"E_Z and E_A are summed to l = min({AUTO_LMAX_CAP}, max({DEFAULT_SPLIT_LMAX}, "
                         "16 sqrt(N))) and no spectrum is listed; the tail beyond lmax is reported")
     w.add_argument("--no-morph", action="store_true",
@@ -88,9 +98,11 @@ def _register_table1(tsub) -> None:
                     "plot), and the number of QMC points (spherical Fibonacci, equal weights, "
                     "morphed for the BRDF) with the same worst-case error. Printed beside the "
                     "paper's values (Table 1, Sec. 8.2, Fig. 5(a) caption).")
-    t.add_argument("--target", type=positive_float, default=2.5e-3, help="worst-case error (default 2.5e-3)")
-    t.add_argument("--s", type=finite_float, default=1.5, help="Sobolev smoothness in (1, 2) (default 1.5)")
-    t.add_argument("--shininess", type=positive_float, default=DEFAULT_SHININESS,
+    t.add_argument("--target", type=TARGET, default=2.5e-3,
+                   help=f"worst-case error, {TARGET} (default 2.5e-3; about 40 s at 1e-4)")
+    t.add_argument("--s", type=S_RANGE, default=1.5,
+                   help=f"Sobolev smoothness, {S_RANGE} (default 1.5)")
+    t.add_argument("--shininess", type=SHININESS_RANGE, default=DEFAULT_SHININESS,
                    help=SHININESS_HELP)
     add_common_arguments(t)
     t.set_defaults(func=run_table1)

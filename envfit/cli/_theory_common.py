@@ -7,13 +7,23 @@ from __future__ import annotations
 import math
 
 from envfit.base._errors import ParameterError
+from envfit.cli._ranges import Ranged
 from envfit.defaults import DEFAULT_SHININESS
+
+#: the ranges of theory's options (``--help`` and the errors say these words)
+S_RANGE = Ranged(1, 2, "s", integer=False, lo_open=True, hi_open=True)
+SHININESS_RANGE = Ranged(0, 10000, "n", integer=False, lo_open=True)
+#: degrees of the spectra (ducc0's adjoint synthesis: about 5 s and 0.3 GB at 4096)
+LMAX_CAP = 4096
+#: points of one rule: the closed form Eq. 41 is an O(N^2) pair sum (about a minute at 65536)
+N_CAP = 65536
 
 #: the paper's highest spectral degree (default --lmax of ``figures``)
 DEFAULT_SPLIT_LMAX = 170
 
 #: help of --shininess (wce, table1, figures)
-SHININESS_HELP = (f"glossy exponent n (default {DEFAULT_SHININESS:g}, the paper's); n of about 10 "
+SHININESS_HELP = (f"glossy exponent n, {SHININESS_RANGE} (default {DEFAULT_SHININESS:g}, the "
+                  "paper's); n of about 10 "
                   "or less is slow on first use (minutes: the lobe's jump at the horizon, "
                   "e^-n, makes the engine sum the kernel embedding to SH degree 32768)")
 #: the note on morphed points closing the descriptions of wce and figures

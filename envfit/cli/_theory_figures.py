@@ -13,16 +13,24 @@ import time
 
 from envfit.base._errors import ParameterError
 from envfit.defaults import DEFAULT_SHININESS
-from envfit.cli._common import (add_common_arguments, finite_float, out_dir, positive_float,
-                                positive_int, str_list)
+from envfit.cli._common import add_common_arguments, out_dir, str_list
 from envfit.cli._output import CommandOutput
-from envfit.cli._theory_common import (DEFAULT_SPLIT_LMAX, MORPH_HELP, SHININESS_HELP,
+from envfit.cli._ranges import Ranged
+from envfit.cli._theory_common import (DEFAULT_SPLIT_LMAX, LMAX_CAP, MORPH_HELP, N_CAP,
+                                       S_RANGE, SHININESS_HELP, SHININESS_RANGE,
                                        check_positive_int, check_s, check_shininess,
                                        progress_callback)
 
 #: default folder of ``figures`` when --out is not given
 DEFAULT_FIGURES_DIR = "theory_figures"
 FIGURE_NAMES = ("1", "2", "3", "4", "5", "bnot")
+#: the ranges of figures' options (``--help`` and the errors say these words); --n is also
+#: the BNOT check's N (about 15 s at 4096, minutes at 8192)
+FIG_N = Ranged(2, 8192, "N")
+FIG_NMAX = Ranged(16, N_CAP, "N")
+FIG_LMAX = Ranged(10, LMAX_CAP, "L")
+CUTOFF_MAX = Ranged(1, 200, "L")
+QMC_NMAX = Ranged(2, N_CAP, "N")
 
 
 def register_figures(tsub) -> None:
@@ -33,18 +41,24 @@ def register_figures(tsub) -> None:
                     "spectra e_l^2 = a_l (d_l^2 + C_l^2); Fig. 4 worst-case error vs N with "
                     "fitted slopes; Fig. 5 truncation error vs L with the QMC-equivalent N; and "
                     "the radial power spectrum and capacity check of BNOT. " + MORPH_HELP)
-    f.add_argument("--n", type=positive_int, default=256, help="N of Figs. 1-3 and the BNOT check (default 256)")
-    f.add_argument("--s", type=finite_float, default=1.5, help="Sobolev smoothness in (1, 2) (default 1.5)")
-    f.add_argument("--shininess", type=positive_float, default=DEFAULT_SHININESS,
+    f.add_argument("--n", type=FIG_N, default=256, metavar="N",
+                   help=f"N of Figs. 1-3 and the BNOT check, {FIG_N} (default 256; BNOT takes "
+                        "about 15 s at 4096, minutes at the top)")
+    f.add_argument("--s", type=S_RANGE, default=1.5,
+                   help=f"Sobolev smoothness, {S_RANGE} (default 1.5)")
+    f.add_argument("--shininess", type=SHININESS_RANGE, default=DEFAULT_SHININESS,
                    help=SHININESS_HELP)
-    f.add_argument("--nmax", type=positive_int, default=2048,
-                   help="largest N of Fig. 4 (powers of two from 16; default 2048)")
-    f.add_argument("--lmax", type=positive_int, default=DEFAULT_SPLIT_LMAX,
-                   help=f"highest degree l of the spectra of Figs. 1 and 3 (default {DEFAULT_SPLIT_LMAX})")
-    f.add_argument("--cutoff-max", type=positive_int, default=20, metavar="L",
-                   help="largest cut-off degree L of Fig. 5 (default 20)")
-    f.add_argument("--qmc-nmax", type=positive_int, default=16384, metavar="N",
-                   help="top of the tabulated QMC curve E(N) inverted for Fig. 5 (default 16384; "
+    f.add_argument("--nmax", type=FIG_NMAX, default=2048, metavar="N",
+                   help=f"largest N of Fig. 4 (powers of two from 16), {FIG_NMAX} (default 2048; "
+                        "a cap: each rule's closed form is an O(N^2) pair sum)")
+    f.add_argument("--lmax", type=FIG_LMAX, default=DEFAULT_SPLIT_LMAX, metavar="L",
+                   help=f"highest degree l of the spectra of Figs. 1 and 3, {FIG_LMAX} "
+                        f"(default {DEFAULT_SPLIT_LMAX})")
+    f.add_argument("--cutoff-max", type=CUTOFF_MAX, default=20, metavar="L",
+                   help=f"largest cut-off degree L of Fig. 5, {CUTOFF_MAX} (default 20)")
+    f.add_argument("--qmc-nmax", type=QMC_NMAX, default=16384, metavar="N",
+                   help=f"top of the tabulated QMC curve E(N) inverted for Fig. 5, {QMC_NMAX} "
+                        "(default 16384; "
                         "beyond it the N are extrapolated and marked so)")
     f.add_argument("--only", type=str_list, default=None, metavar="F1,F2,...",
                    help=f"draw only these figures, from {','.join(FIGURE_NAMES)} (default: all)")

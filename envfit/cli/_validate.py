@@ -4,10 +4,24 @@ from __future__ import annotations
 import argparse
 
 from envfit.defaults import DEFAULT_SHININESS, FIT_METHODS
-from envfit.cli._common import (add_common_arguments, add_map_arguments, int_list,
-                                load_map_from_args, nonneg_int_list, out_dir, positive_float,
-                                positive_int, str_list)
+from envfit.cli._common import (add_common_arguments, add_map_arguments, load_map_from_args,
+                                out_dir, str_list)
 from envfit.cli._output import CommandOutput
+from envfit.cli._ranges import PIXELS, Ranged, check_pixels
+
+#: the ranges of the options (``--help`` and the errors say these words): the lower bounds
+#: are envfit.validate._config.ValidateConfig's, the upper ones fixed caps (the optimal
+#: weights solve an N x N system; the cells' work grows with the axes and degrees)
+S_RANGE = Ranged(1, 2, "s", integer=False, lo_open=True, hi_open=True, words=("auto",))
+SHININESS = Ranged(0, 10000, "n", integer=False, lo_open=True)
+N_VALUES = Ranged(2, 16384, "N", many=True)
+AXES = Ranged(2, 100000, "M")
+FIT_N = Ranged(10, None, "N", hi_text=PIXELS)
+SH_L = Ranged(0, 64, "L", many=True)
+HSH_L = Ranged(0, 32, "L", many=True)
+HSH_AXES = Ranged(2, 100000, "M")
+HSH_HEIGHT = Ranged(2, 1024, "H")
+RENDERER_N = Ranged(1, 65536, "N", many=True)
 
 
 def register(sub) -> None:
@@ -24,36 +38,40 @@ def register(sub) -> None:
                     "report.md to --out; resumable there.",
         epilog=QUICK_DESCRIPTION.replace("%", "%%"))
     add_map_arguments(p)
-    p.add_argument("--s", default="auto", metavar="auto|VALUE",
-                   help="smoothness of the prediction: 'auto' (fit it, default) or a value in (1, 2)")
+    p.add_argument("--s", type=S_RANGE, default="auto", metavar="auto|VALUE",
+                   help=f"smoothness of the prediction: 'auto' (fit it, default) or a value, "
+                        f"{S_RANGE}")
     p.add_argument("--brdf", type=str_list, default=None, metavar="diffuse,glossy",
                    help="BRDFs (default: diffuse,glossy)")
-    p.add_argument("--shininess", type=positive_float, default=DEFAULT_SHININESS,
-                   help=f"glossy exponent n (default: {DEFAULT_SHININESS:g})")
+    p.add_argument("--shininess", type=SHININESS, default=DEFAULT_SHININESS,
+                   help=f"glossy exponent n, {SHININESS} (default: {DEFAULT_SHININESS:g})")
     p.add_argument("--pointsets", type=str_list, default=None, metavar="sf,sobol,…",
                    help="point sets among sf, sobol, lp, bnot, random, jitter (default: all six; "
                         "--quick: without bnot)")
     p.add_argument("--weights", type=str_list, default=None, metavar="equal,osw",
                    help="weightings (default: equal,osw)")
-    p.add_argument("--n", type=int_list, default=None, metavar="N1,N2,…",
-                   help="numbers of samples (default: 16,32,…,4096; --quick: 16…1024)")
-    p.add_argument("--axes", type=positive_int, default=None, metavar="M",
-                   help="number of random axes (default: 2000; --quick: 500)")
+    p.add_argument("--n", type=N_VALUES, default=None, metavar="N1,N2,…",
+                   help=f"numbers of samples, each {N_VALUES} (default: 16,32,…,4096; --quick: "
+                        "16…1024)")
+    p.add_argument("--axes", type=AXES, default=None, metavar="M",
+                   help=f"number of random axes, {AXES} (default: 2000; --quick: 500)")
     p.add_argument("--scale", choices=("display", "linear", "log"), default="display",
                    help="value scale of the integrand and of the fit (default: display)")
     p.add_argument("--fit-method", choices=FIT_METHODS, default="likelihood",
                    help="criterion of the s fit for --s auto (default: likelihood)")
-    p.add_argument("--fit-n", type=positive_int, default=None,
-                   help="samples of the s / sigma fit (default: 1500; --quick: 600)")
+    p.add_argument("--fit-n", type=FIT_N, default=None, metavar="N",
+                   help=f"samples of the s / sigma fit, {FIT_N} (default: 1500; --quick: 600)")
     p.add_argument("--no-truncation", action="store_true", help="skip the SH/HSH truncation part")
-    p.add_argument("--sh-L", type=nonneg_int_list, default=None, metavar="L1,L2,…",
-                   help="SH cut-off degrees (default: 0…20; --quick: 0…12)")
-    p.add_argument("--hsh-L", type=nonneg_int_list, default=None, metavar="L1,L2,…",
-                   help="glossy HSH cut-off degrees (default: 0…16; --quick: 0…10)")
-    p.add_argument("--hsh-axes", type=positive_int, default=None,
-                   help="axes of the HSH measurement (default: 250; --quick: 100)")
-    p.add_argument("--hsh-max-height", type=positive_int, default=None,
-                   help="map rows for the HSH measurement (default: 128; --quick: 64)")
+    p.add_argument("--sh-L", type=SH_L, default=None, metavar="L1,L2,…",
+                   help=f"SH cut-off degrees, each {SH_L} (default: 0…20; --quick: 0…12)")
+    p.add_argument("--hsh-L", type=HSH_L, default=None, metavar="L1,L2,…",
+                   help=f"glossy HSH cut-off degrees, each {HSH_L} (default: 0…16; --quick: "
+                        "0…10)")
+    p.add_argument("--hsh-axes", type=HSH_AXES, default=None, metavar="M",
+                   help=f"axes of the HSH measurement, {HSH_AXES} (default: 250; --quick: 100)")
+    p.add_argument("--hsh-max-height", type=HSH_HEIGHT, default=None, metavar="H",
+                   help=f"map rows for the HSH measurement, {HSH_HEIGHT} (default: 128; "
+                        "--quick: 64)")
     p.add_argument("--quick", action="store_true",
                    help="a reduced run in under a minute (map at most 256 rows; see below)")
     _add_renderer_arguments(p)
@@ -81,12 +99,37 @@ def _add_renderer_arguments(p) -> None:
                         "renders, of brdf, map, mis)")
     g.add_argument("--renderer-pointsets", type=str_list, default=None, metavar="random,sobol,sf",
                    help="point sets of the renderer rules (default: random,sobol,sf)")
-    g.add_argument("--renderer-n", type=int_list, default=None, metavar="N1,N2,…",
-                   help="sample counts of the renderer rules (default: 16,64,256,1024; "
-                        "--quick: 16,256)")
+    g.add_argument("--renderer-n", type=RENDERER_N, default=None, metavar="N1,N2,…",
+                   help=f"sample counts of the renderer rules, each {RENDERER_N} (default: "
+                        "16,64,256,1024; --quick: 16,256)")
     g.add_argument("--renderer-axes", default=None, metavar="importance|uniform",
                    help="how the renderer measurement draws its axes: importance-sampled "
                         "from the map's axis proposal and weighted (default), or uniform")
+
+
+def _check_names(args: argparse.Namespace) -> None:
+    """The names of ``--brdf``, ``--pointsets``, ``--weights`` and the renderer rules' flags,
+    each one of its choices (one line naming the flag given), before any work."""
+    from envfit.base._errors import ParameterError
+    from envfit.defaults import BRDFS, WEIGHTINGS
+    from envfit.measure._rules import AXIS_SAMPLING
+    from envfit.sampling import STRATEGIES
+    from envfit.theory._pointsets import POINTSETS
+    rendered = args.renderer not in (None, "rules")      # its --brdf: _validate_render's check
+    for flag, what, values, allowed in (
+            ("--brdf", "BRDF", None if rendered else args.brdf, BRDFS),
+            ("--pointsets", "point set", args.pointsets, tuple(POINTSETS)),
+            ("--weights", "weighting", args.weights, WEIGHTINGS),
+            ("--strategies", "strategy", None if rendered else args.strategies,
+             tuple(STRATEGIES)),
+            ("--renderer-pointsets", "point set", args.renderer_pointsets, tuple(POINTSETS)),
+            ("--renderer-axes", "axis sampling",
+             None if args.renderer_axes is None else [args.renderer_axes],
+             tuple(AXIS_SAMPLING))):
+        bad = [v for v in (values or ()) if str(v).strip().lower() not in allowed]
+        if bad:
+            raise ParameterError(f"{flag}: unknown {what} {bad[0]!r}; choose from "
+                                 f"{', '.join(allowed)}")
 
 
 def _config(args: argparse.Namespace):
@@ -161,6 +204,17 @@ def _summary(res: dict) -> list[str]:
 QUICK_HEIGHT = 256
 
 
+def _checked_inputs(args: argparse.Namespace):
+    """The configurations and the map, every option checked before the work."""
+    _check_names(args)
+    cfg = _config(args)
+    rcfg = _renderer_config(args, cfg)
+    env = load_map_from_args(args, quick_height=QUICK_HEIGHT)
+    if args.s == "auto":
+        check_pixels(FIT_N, "--fit-n", cfg.fit_n, env)    # the fit's N, before the work
+    return cfg, rcfg, env
+
+
 def run(args: argparse.Namespace, output: CommandOutput) -> int:
     from envfit.base._atomic import atomic_write_json
     from envfit.cli._validate_render import dispatch
@@ -168,9 +222,7 @@ def run(args: argparse.Namespace, output: CommandOutput) -> int:
     rendered = dispatch(args, output)        # --renderer mitsuba3|cycles: that check only
     if rendered is not None:
         return rendered
-    cfg = _config(args)
-    rcfg = _renderer_config(args, cfg)
-    env = load_map_from_args(args, quick_height=QUICK_HEIGHT)
+    cfg, rcfg, env = _checked_inputs(args)
     out = out_dir(args)
     for note in getattr(env, "notes", []):
         output.say(f"note: {note}")

@@ -5,11 +5,25 @@ from __future__ import annotations
 
 import argparse
 
-from envfit.cli._common import int_list, positive_float, positive_int, str_list
+from envfit.cli._common import str_list
 from envfit.cli._output import CommandOutput
+from envfit.cli._ranges import Ranged
+
+#: the ranges of the rendering options (``--help`` and the errors say these words); the
+#: lower bounds and the caps of --footprint and --max-level are the model's
+#: (envfit.validate._rendered.RenderValidationOptions), the others fixed caps
+ALPHA = Ranged(0.05, 1, "alpha", integer=False)
+ROUGHNESS = Ranged(0, 1, "R", integer=False, lo_open=True)
+SPP = Ranged(1, 65536, "N", many=True)
+RESOLUTION = Ranged(8, 1024, "R")
+REFERENCE_SPP = Ranged(4, 2 ** 20, "N")
+FRAMES = Ranged(6, 4096, "K")
+FOOTPRINT = Ranged(1, 8, "J")
+MAX_LEVEL = Ranged(4, 11, "L")
 
 #: the flags of the rendered check → their option names
-_FLAGS = {"--roughness": "roughness", "--samplers": "samplers", "--spp": "spp",
+_FLAGS = {"--alpha": "alpha", "--roughness": "roughness", "--samplers": "samplers",
+          "--spp": "spp",
           "--resolution": "resolution", "--reference-spp": "reference_spp",
           "--frames": "frames", "--max-level": "max_level", "--footprint": "footprint"}
 #: ``validate --renderer``'s rules flags: not used when a renderer renders
@@ -19,28 +33,36 @@ _RULES_FLAGS = {"--renderer-pointsets": "renderer_pointsets", "--renderer-n": "r
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("rendering (--renderer mitsuba3|cycles)")
-    g.add_argument("--roughness", type=positive_float, default=None, metavar="ALPHA",
-                   help="microfacet alpha of --brdf ggx, beckmann or roughplastic (Mitsuba's alpha; Cycles' "
-                        "Glossy roughness sqrt(alpha))")
+    a = g.add_mutually_exclusive_group()
+    a.add_argument("--alpha", type=ALPHA, default=None, metavar="A",
+                   help=f"microfacet alpha of --brdf ggx, beckmann or roughplastic, {ALPHA}, "
+                        "the same for every renderer (Mitsuba's alpha; Cycles is given the "
+                        "roughness sqrt(alpha))")
+    a.add_argument("--roughness", type=ROUGHNESS, default=None, metavar="R",
+                   help=f"instead of --alpha: the renderer's own roughness, {ROUGHNESS}, as "
+                        "advise --roughness reads it: mitsuba3 alpha = R, cycles alpha = R^2 "
+                        "(Principled BSDF; src/kernel/svm/closure.h), within "
+                        f"{ALPHA}")
     g.add_argument("--samplers", type=str_list, default=None, metavar="S1,S2",
                    help="the renderer's samplers (default: Mitsuba independent,ldsampler; "
                         "Cycles tabulated_sobol,blue_noise)")
-    g.add_argument("--spp", type=int_list, default=None, metavar="N1,N2",
-                   help="samples per pixel of the cells (default: 16,64)")
-    g.add_argument("--resolution", type=positive_int, default=None, metavar="R",
-                   help="pixels per side of each of the six views (default: 32)")
-    g.add_argument("--reference-spp", type=positive_int, default=None, metavar="N",
-                   help="spp of each of the two reference renders (default: 1024)")
-    g.add_argument("--frames", type=positive_int, default=None, metavar="K",
-                   help="the model's frames (a conductor or plastic; default 256) or normals "
-                        "(diffuse; default 64)")
-    g.add_argument("--footprint", type=positive_int, default=None, metavar="J",
-                   help="normals per pixel side in the model: each rendered pixel averages "
-                        "the normals it spans (default 2; 1: pixel centres, a quarter of "
-                        "the model's time)")
-    g.add_argument("--max-level", type=positive_int, default=None, metavar="L",
-                   help="the model's finest grid level (default 9; 10 resolves nets to 512 "
-                        "spp, 11 to 1024)")
+    g.add_argument("--spp", type=SPP, default=None, metavar="N1,N2",
+                   help=f"samples per pixel of the cells, each {SPP} (default: 16,64)")
+    g.add_argument("--resolution", type=RESOLUTION, default=None, metavar="R",
+                   help=f"pixels per side of each of the six views, {RESOLUTION} (default: 32)")
+    g.add_argument("--reference-spp", type=REFERENCE_SPP, default=None, metavar="N",
+                   help=f"spp of each of the two reference renders, {REFERENCE_SPP} "
+                        "(default: 1024)")
+    g.add_argument("--frames", type=FRAMES, default=None, metavar="K",
+                   help=f"the model's frames (a conductor or plastic; default 256) or normals "
+                        f"(diffuse; default 64), {FRAMES}")
+    g.add_argument("--footprint", type=FOOTPRINT, default=None, metavar="J",
+                   help=f"normals per pixel side in the model, {FOOTPRINT}: each rendered "
+                        "pixel averages the normals it spans (default 2; 1: pixel centres, a "
+                        "quarter of the model's time)")
+    g.add_argument("--max-level", type=MAX_LEVEL, default=None, metavar="L",
+                   help=f"the model's finest grid level, {MAX_LEVEL} (default 9; 10 resolves "
+                        "nets to 512 spp, 11 to 1024)")
 
 
 def dispatch(args: argparse.Namespace, output: CommandOutput) -> int | None:
@@ -83,8 +105,36 @@ def options(args: argparse.Namespace, cache_dir):
     kw.update({k: getattr(args, k) for k in ("resolution", "reference_spp", "frames",
                                              "max_level", "footprint")
                if getattr(args, k) is not None})
-    return RenderValidationOptions(args.renderer, brdf=brdfs[0], alpha=args.roughness,
+    _check_samplers(args)
+    return RenderValidationOptions(args.renderer, brdf=brdfs[0], alpha=alpha_of(args),
                                    seed=args.seed, cache_dir=str(cache_dir), **kw)
+
+
+def alpha_of(args: argparse.Namespace) -> float | None:
+    """The microfacet alpha of ``--alpha`` or of ``--roughness`` read as the renderer's own
+    value (:func:`envfit.shading.microfacet.roughness_to_alpha`, as ``advise``), within
+    ``--alpha``'s range (one line naming the flag given)."""
+    from envfit.base._errors import ParameterError
+    if args.roughness is None:
+        return args.alpha
+    from envfit.shading.microfacet import roughness_to_alpha
+    alpha = roughness_to_alpha(args.roughness, args.renderer)
+    if not ALPHA.inside(alpha):
+        rule = "alpha = R^2" if args.renderer == "cycles" else "alpha = R"
+        raise ParameterError(f"--roughness {args.roughness:g} gives alpha = {alpha:g} for "
+                             f"{args.renderer} ({rule}), outside {ALPHA}")
+    return alpha
+
+
+def _check_samplers(args: argparse.Namespace) -> None:
+    """``--samplers``: names of the renderer's samplers (one line naming the flag)."""
+    from envfit.base._errors import ParameterError
+    from envfit.sampling.presets import preset
+    p = preset(args.renderer)
+    bad = [s for s in (args.samplers or ()) if s not in p.samplers]
+    if bad:
+        raise ParameterError(f"--samplers for {args.renderer} must be one of "
+                             f"{', '.join(p.samplers)}; got {bad[0]!r}")
 
 
 def run(args: argparse.Namespace, output: CommandOutput) -> int:

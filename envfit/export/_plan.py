@@ -140,15 +140,29 @@ def _sloan_syntheses(l: int) -> float:
     return 4 + 24 + 4 * math.log2(l + 1)
 
 
+#: fixed caps of ``--check-axes`` and ``--check-height`` (the planned time and memory may
+#: refuse less: the message names the largest that fits)
+MAX_CHECK_AXES = 2 ** 20
+MAX_CHECK_HEIGHT = 16384
+
+#: the words of a degree's input-dependent bound (``envfit sh --help`` states the same)
+BAND_LIMIT = "H-1 (the map's band limit)"
+
+
 def check_degree(value, height: int, option: str, lo: int) -> int:
     """``value`` as a whole number in [lo, H − 1] (the map's band limit), else ParameterError
-    naming ``option`` and the range."""
+    naming ``option`` and the range in ``envfit sh --help``'s words.
+
+    >>> check_degree(64, 64, "--lmax", 0)
+    Traceback (most recent call last):
+    ...
+    envfit.base._errors.ParameterError: --lmax 64 is outside 0 <= L <= H-1 (the map's band limit): H-1 = 63 for this 128x64 map
+    """
     from envfit.base._checks import check_int
     v = check_int(value, option, lo)
     if v > height - 1:
-        raise ParameterError(f"{option} {v} is above the map's band limit H - 1 = {height - 1} "
-                             f"(a {2 * height}x{height} map): use {lo} <= {option} <= "
-                             f"{height - 1}")
+        raise ParameterError(f"{option} {v} is outside {lo} <= L <= {BAND_LIMIT}: H-1 = "
+                             f"{height - 1} for this {2 * height}x{height} map")
     return v
 
 

@@ -77,6 +77,7 @@ class SHReport:
     dense_negative_fraction: float | None = None
     check_axes: int | None = None
     dense_height: int | None = None
+    measured_on: str | None = None
     notes: tuple = ()
     scaled: EnvMap | None = field(default=None, repr=False, compare=False)
 
@@ -103,6 +104,7 @@ class SHReport:
             "mean": self.mean, "power_lmax": self.power_lmax,
             "predicted_relative_rmse": self.predicted_relative_rmse,
             "measured_relative_rmse": self.measured_relative_rmse, "check_axes": self.check_axes,
+            "measured_on": self.measured_on,
             "negative_fraction": self.negative_fraction,
             "dense_negative_fraction": self.dense_negative_fraction,
             "dense_height": self.dense_height,
@@ -115,7 +117,7 @@ class SHReport:
         """What the command prints: the export, its errors, the table, the choice."""
         e = self.export
         meas = "" if self.measured_relative_rmse is None else \
-            f", measured {self.measured_relative_rmse:.3%} ({self.check_axes} directions)"
+            f", measured {self.measured_relative_rmse:.3%} ({self.measured_on})"
         dense = "" if self.dense_negative_fraction is None else \
             f" (dense check {self.dense_negative_fraction:.3%})"
         lam = f" (lambda {e.window_lambda:.4g})" if e.window_lambda else ""
@@ -143,6 +145,22 @@ class SHReport:
             lines.append(f"{r.L:>3} {r.window:8} {lam:>9} {r.predicted_relative_rmse:>10.3%} "
                          f"{meas:>10} {r.negative_fraction:>9.2%} {dense:>9}")
         return lines
+
+
+def measured_where(height: int, irradiance: bool, check_axes: int) -> str:
+    """What the measured error was computed over (:func:`envfit.export._ringing.measured_rmse`):
+    irradiance at ``check_axes`` spherical Fibonacci directions; radiance on the pixel
+    centres of a 2H-row lat-long grid, weighted by solid angle (``check_axes`` unused).
+
+    >>> measured_where(32, False, 7)
+    'the 8192 pixel centres of a 128x64 grid, solid-angle weighted'
+    >>> measured_where(32, True, 7)
+    '7 directions'
+    """
+    if irradiance:
+        return f"{int(check_axes)} directions"
+    h2 = 2 * int(height)
+    return f"the {2 * h2 * h2} pixel centres of a {2 * h2}x{h2} grid, solid-angle weighted"
 
 
 def default_table_lmax(height: int) -> int:
@@ -198,6 +216,10 @@ def plan(envmap: EnvMap, lmax, options: SHReportOptions | None = None) -> list:
     o = _options(options)
     if not isinstance(envmap, EnvMap):
         raise ParameterError("sh_report needs an EnvMap")
+    if envmap.height < 2:         # no degree 1 <= L <= H-1: no ringing table
+        raise ParameterError(f"map {envmap.name or ''} ({envmap.width}x{envmap.height}) has "
+                             f"{envmap.height} row: envfit sh needs a map of H >= 2 rows (its "
+                             "ringing table's degrees are 1 <= L <= H-1)")
     check_lmax(lmax, envmap.height)
     if o.window not in WINDOWS:
         raise ParameterError(f"unknown --window {o.window!r}; use one of {', '.join(WINDOWS)}")
@@ -267,7 +289,9 @@ def sh_report(envmap: EnvMap, lmax: int, options: SHReportOptions | None = None,
     if o.check:
         rows, kw["dense_negative_fraction"], kw["measured_relative_rmse"] = _checked_rows(
             scaled, truncate_alm(alm, top), rows, export, mean, o, quiet)
-        kw.update(check_axes=int(o.check_axes), dense_height=int(o.dense_height))
+        kw.update(check_axes=int(o.check_axes) if o.irradiance else None,
+                  dense_height=int(o.dense_height),
+                  measured_on=measured_where(envmap.height, o.irradiance, int(o.check_axes)))
     choice, sentence = choose(rows, float(o.target_relative))
     return SHReport(
         export=export, map_name=envmap.name or "map", width=envmap.width,

@@ -106,11 +106,8 @@ class RingingRow:
 
 def check_lmax(lmax, height: int) -> int:
     """lmax as a whole number in [0, H − 1] (the map's band limit), else ParameterError."""
-    L = check_int(lmax, "--lmax", 0)
-    if L > height - 1:
-        raise ParameterError(f"--lmax {L} is above the map's band limit H - 1 = {height - 1} "
-                             f"(a {2 * height}x{height} map)")
-    return L
+    from envfit.export._plan import check_degree
+    return check_degree(lmax, height, "--lmax", 0)
 
 
 # ---------------------------------------------------------------- predictions

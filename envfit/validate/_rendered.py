@@ -121,8 +121,8 @@ class RenderValidationOptions:
             raise ParameterError(f"--brdf with --renderer {self.renderer} must be one of "
                                  f"{', '.join(RENDERED_BRDFS)}; got {self.brdf!r}")
         if (self.brdf == "diffuse") != (self.alpha is None):
-            raise ParameterError("--roughness goes with --brdf ggx, beckmann or roughplastic (and "
-                             "they need it)")
+            raise ParameterError("--roughness goes with --brdf ggx, beckmann or roughplastic, as "
+                                 "--alpha does (and they need one of the two)")
         if self.brdf == "roughplastic" and self.renderer != "mitsuba3":
             raise ParameterError("--brdf roughplastic is Mitsuba 3's roughplastic: "
                                  "--renderer mitsuba3")
@@ -143,7 +143,7 @@ class RenderValidationOptions:
         strategies = tuple(self.strategies) or renderable
         bad = [s for s in strategies if s not in renderable]
         if bad:
-            raise ParameterError(f"{self.renderer} renders the strategies "
+            raise ParameterError(f"--strategies: {self.renderer} renders the strategies "
                                  f"{', '.join(renderable)}; got {', '.join(bad)}")
         if self.frames is None:
             object.__setattr__(self, "frames", MICROFACET_FRAMES if self.microfacet

@@ -1,0 +1,127 @@
+"""Numeric options with a stated range: one object gives argparse its ``type=``, ``--help``
+its words and the error the same words.
+
+``N = Ranged(1, 65536, "N")`` parses ``"1e3"`` to 1000 and refuses ``"1e12"`` as
+``argument --n: 1e12 is outside 1 <= N <= 65536`` (one line, exit 2, :class:`OneLineParser`);
+``--help`` states the range with ``str(N)`` (``"1 <= N <= 65536"``), so the help and the error
+say the same. A bound that depends on the input (the map's band limit ``H-1``, its pixels
+``W x H``) is stated in words (``hi_text``) and checked after the map is read, before any
+work, by the command with :meth:`Ranged.check_dynamic` (the same words again).
+
+:func:`ranged_actions` lists a parser's ranged options (the tests walk them).
+"""
+from __future__ import annotations
+
+import argparse
+import math
+
+from envfit.cli._common import _finite, _items, _unique, _whole
+
+
+def _fmt(v) -> str:
+    return str(v) if isinstance(v, int) else f"{v:g}".replace("e+0", "e").replace("e+", "e")
+
+
+class Ranged:
+    """An argparse ``type=`` for a number (or a comma list of them, ``many=True``) in a
+    stated range.
+
+    Parameters
+    ----------
+    lo, hi : the bounds (``hi=None``: only ``hi_text``, a bound checked after the input is
+        read).
+    name : the symbol in the range's words (``N``, ``L``, ``s``).
+    integer : whole numbers (``1e3`` is 1000; ``100.5`` is refused) or finite floats.
+    lo_open, hi_open : strict bounds (``1 < s < 2``).
+    hi_text : words of an input-dependent upper bound (``"H-1 (the map's band limit)"``),
+        stated after the fixed range.
+    many : a comma list of distinct values (``colour=True``: repeats allowed).
+    words : literal words accepted as themselves (``auto``).
+    """
+
+    def __init__(self, lo, hi, name: str, *, integer: bool = True, lo_open: bool = False,
+                 hi_open: bool = False, hi_text: str = "", many: bool = False,
+                 words: tuple = (), repeats: bool = False):
+        self.lo, self.hi, self.name, self.integer = lo, hi, name, integer
+        self.lo_open, self.hi_open, self.hi_text = lo_open, hi_open, hi_text
+        self.many, self.words, self.repeats = many, tuple(words), repeats
+        self.__name__ = "ranged"          # argparse names a type by it in some messages
+
+    # ---------------------------------------------------------------- words
+    def __str__(self) -> str:
+        lo = f"{_fmt(self.lo)} {'<' if self.lo_open else '<='} "
+        if self.hi is None:
+            hi = f" <= {self.hi_text}"
+        else:
+            hi = f" {'<' if self.hi_open else '<='} {_fmt(self.hi)}"
+            if self.hi_text:
+                hi += f" and <= {self.hi_text}"
+        return lo + self.name + hi
+
+    def __repr__(self) -> str:
+        return f"Ranged({self})"
+
+    # ---------------------------------------------------------------- parsing
+    def inside(self, v) -> bool:
+        """Whether ``v`` is within the fixed range."""
+        if not math.isfinite(v):          # "too large" (beyond 10^18) is never inside
+            return False
+        above_lo = v > self.lo if self.lo_open else v >= self.lo
+        if self.hi is None:
+            return above_lo
+        return above_lo and (v < self.hi if self.hi_open else v <= self.hi)
+
+    def _one(self, text: str):
+        t = str(text).strip()
+        if t.lower() in self.words:
+            return t.lower()
+        try:
+            v = _whole(t) if self.integer else _finite(t)
+        except argparse.ArgumentTypeError as exc:
+            if "too large" not in str(exc):
+                raise
+            v = math.inf
+        if not self.inside(v):
+            raise argparse.ArgumentTypeError(f"{t} is outside {self}")
+        return v
+
+    def __call__(self, text: str):
+        if not self.many:
+            return self._one(text)
+        items = _items(text)
+        values = [self._one(x) for x in items]
+        return values if self.repeats else _unique(values, items, str(text))
+
+    # ---------------------------------------------------------------- input-dependent bound
+    def check_dynamic(self, flag: str, values, bound: int, where: str) -> None:
+        """:class:`ParameterError` (one line) when a value of ``flag`` is above ``bound``,
+        the value of ``hi_text`` for this input (``where``: "this 128x64 map")."""
+        from envfit.base._errors import ParameterError
+        vals = values if isinstance(values, (list, tuple)) else [values]
+        over = [v for v in vals if v is not None and not isinstance(v, str) and v > bound]
+        if over:
+            raise ParameterError(f"{flag} {_fmt(over[0])} is outside {self}: "
+                                 f"{self.hi_text.split(' (')[0]} = {bound} for {where}")
+
+
+#: the words of the sample count's input-dependent bound (table2, fit)
+PIXELS = "W x H (the map's pixels: more samples add no information)"
+
+
+def check_pixels(rng: Ranged, flag: str, values, env) -> None:
+    """``flag``'s values within ``rng``'s bound :data:`PIXELS` for the map ``env``, before
+    any work (one line, the words of ``--help``)."""
+    rng.check_dynamic(flag, values, int(env.width) * int(env.height),
+                      f"map {env.name or ''} ({env.width}x{env.height})")
+
+
+def workers_range() -> Ranged:
+    """``--workers K``: 1 <= K <= this machine's cores
+    (:func:`envfit.base._resources.machine_cores`)."""
+    from envfit.base._resources import machine_cores
+    return Ranged(1, machine_cores(), "K")
+
+
+def ranged_actions(parser: argparse.ArgumentParser) -> list:
+    """The optional arguments of ``parser`` whose ``type`` is a :class:`Ranged`."""
+    return [a for a in parser._actions if isinstance(a.type, Ranged) and a.option_strings]
