@@ -45,6 +45,7 @@ from envfit.advisor._preset_options import (NET_RANDOMISATIONS, RENDERER_NAMES, 
 from envfit.advisor._preset_search import (CachedPresetModel, StrategyAnswer, runnable_spp,
                                            search_spp)
 from envfit.base._errors import ParameterError
+from envfit.defaults import BAND_MIN_FRAMES
 
 __all__ = ["PresetAdvice", "advise_preset", "integrator_text"]
 
@@ -172,45 +173,68 @@ class PresetAdvice:
                 for n in sorted(n for (t, n) in self.cells if t == s)]
 
     def band_lines(self) -> list[str]:
-        """A microfacet BSDF: the default strategy's RMSE per view-angle band at the
-        recommended spp (or the largest searched), and where each band meets the target among
-        the spp this run predicted (the smallest that meets it, the largest below it that
-        misses: the band's crossing lies between)."""
+        """A microfacet BSDF: the default strategy's RMSE per view-angle stratum at the
+        recommended spp (or the largest searched), each with its share of the sphere's weight
+        (the whole sphere's MSE is the bands' mean with these weights), its frames and their
+        95 % bootstrap interval (:mod:`envfit.predict.renderer._bands`), and where the band
+        meets the target among the spp this run predicted (the smallest that meets it, the
+        largest below it that misses: the band's crossing lies between). A band of fewer than
+        :data:`~envfit.defaults.BAND_MIN_FRAMES` frames has no interval: its value is
+        withheld."""
         a = self.default
         n = a.spp if a.reached else a.searched_max
-        per = self.bands.get((a.strategy, n))
-        if not per:
+        spread = self.band_errors.get((a.strategy, n))
+        if not spread or "all" not in spread:
             return []
-        asked = sorted(m for (t, m) in self.bands if t == a.strategy)
         out = [f"per view angle theta_o ({STRATEGY_WORDS[a.strategy]}, {n} spp; target "
-               f"{self._f(self.target_rmse)}; ± the frames' sampling error):"]
-        if self._spread(a.strategy, n, "all"):
-            out.append(f"  whole sphere{self._spread(a.strategy, n, 'all')}: predicted RMSE "
-                       f"{self._f(self.cells[(a.strategy, n)])}")
-        for band, rmse in per.items():
-            ok = [m for m in asked if self.bands[(a.strategy, m)].get(band, np.inf)
-                  <= self.target_rmse]
-            if not ok:
-                what = f"no spp up to {asked[-1]} meets the target"
-            else:
-                miss = [m for m in asked if m < ok[0]]
-                what = (f"meets the target at {ok[0]} spp"
-                        + (f" ({ok[0] / n:.3g}x the recommendation)" if a.reached
-                           and ok[0] != n else "")
-                        + (f", not at {miss[-1]}" if miss else ""))
-            out.append(f"  {band} deg{self._spread(a.strategy, n, band)}: predicted RMSE "
-                       f"{self._f(rmse)}; {what}")
+               f"{self._f(self.target_rmse)}; the whole sphere's MSE is the bands' mean "
+               f"weighted by their share of the sphere; 95 % bootstrap interval over the "
+               f"frames, none below {BAND_MIN_FRAMES} frames):",
+               f"  whole sphere ({self._spread(spread['all'], spread)}): predicted RMSE "
+               f"{self._f(self.cells[(a.strategy, n)])}"]
+        for band, e in spread.items():
+            if band == "all":
+                continue
+            if e.get("interval") is None:
+                out.append(f"  {band} deg ({self._spread(e)}): withheld, too few frames for an "
+                           f"interval (at least {BAND_MIN_FRAMES}; --renderer-normals "
+                           f"{6 * BAND_MIN_FRAMES} gives every band that many)")
+                continue
+            out.append(f"  {band} deg ({self._spread(e)}): predicted RMSE "
+                       f"{self._f(e['rmse'])}; {self._band_crossing(a, n, band)}")
         return out
 
-    def _spread(self, strategy: str, n: int, band: str) -> str:
-        """The suffix ' (K frames, ±x %)' of a band's line: the frames behind its value and its
-        sampling error."""
-        e = self.band_errors.get((strategy, n), {}).get(band)
-        if not e:
-            return ""
-        se = (", no second frame to measure its sampling error" if e["rel_se"] is None
-              else f", ±{100 * e['rel_se']:.2g} %")
-        return f" ({e['frames']} frame{'s' if e['frames'] != 1 else ''}{se})"
+    def _band_value(self, strategy: str, n: int, band: str) -> float:
+        """A band's predicted RMSE at ``n`` spp (inf where not predicted)."""
+        e = self.band_errors.get((strategy, n), {}).get(band, {})
+        return float(e.get("rmse", self.bands.get((strategy, n), {}).get(band, np.inf)))
+
+    def _band_crossing(self, a: StrategyAnswer, n: int, band: str) -> str:
+        """Where ``band`` meets the target among the spp this run predicted."""
+        asked = sorted(m for (t, m) in self.band_errors if t == a.strategy)
+        ok = [m for m in asked if self._band_value(a.strategy, m, band) <= self.target_rmse]
+        if not ok:
+            return f"no spp up to {asked[-1]} meets the target"
+        miss = [m for m in asked if m < ok[0]]
+        return (f"meets the target at {ok[0]} spp"
+                + (f" ({ok[0] / n:.3g}x the recommendation)" if a.reached and ok[0] != n
+                   else "") + (f", not at {miss[-1]}" if miss else ""))
+
+    @staticmethod
+    def _spread(e: dict, strata: dict | None = None) -> str:
+        """The bracket of a band's line: its share of the sphere, its frames and their
+        interval (the whole sphere, ``strata`` given: the frames, and why there is no interval
+        when a band has too few)."""
+        k = e["frames"]
+        head = (f"{k} frame{'s' if k != 1 else ''}" if strata is not None else
+                f"{100 * e['weight']:.3g} % of the sphere, {k} frame{'s' if k != 1 else ''}")
+        if e.get("interval") is not None:
+            return f"{head}, 95 % {e['interval'][0]:.4g}…{e['interval'][1]:.4g}"
+        if strata is None:
+            return head
+        few = [f"{b} deg ({x['frames']})" for b, x in strata.items()
+               if b != "all" and x["frames"] < BAND_MIN_FRAMES]
+        return f"{head}; no interval: fewer than {BAND_MIN_FRAMES} frames in {', '.join(few) or 'a band'}"
 
     def _goal(self) -> str:
         if self.target_relative is not None:

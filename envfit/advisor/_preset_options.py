@@ -36,6 +36,7 @@ envfit.base._errors.ParameterError: Cycles cannot render strategy 'map' (emitter
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -48,8 +49,9 @@ from envfit.defaults import (FOOTPRINT_SIDE, MICROFACET_BSDFS, MICROFACET_FRAMES
 from envfit.maps import EnvMap
 from envfit.predict.renderer._preset_model import PresetModelOptions, preset_request
 from envfit.sampling.presets import STRATEGY_NAMES, preset
-from envfit.shading.microfacet import (RENDERERS, RoughPlastic, multiscatter_or_conductor,
-                                       roughness_to_alpha)
+from envfit.shading.microfacet import (RENDERERS, ROUGHNESS_RTOL, RoughPlastic,
+                                       multiscatter_or_conductor, roughness_range,
+                                       roughness_to_alpha, roughness_words)
 
 __all__ = ["PresetAdviseOptions", "RENDERER_NAMES", "STRATEGY_WORDS", "DEFAULT_MAX_SPP",
            "MAX_SPP", "DEFAULT_LEVEL", "DEFAULT_LEVEL_V", "DEFAULT_NORMALS", "NET_RANDOMISATIONS",
@@ -119,6 +121,33 @@ def default_level(randomisation: str) -> int:
     return DEFAULT_LEVEL_V if randomisation in ("independent", "jittered") else DEFAULT_LEVEL
 
 
+def _or(names) -> str:
+    """``a, b or c``."""
+    names = list(names)
+    return names[0] if len(names) == 1 else f"{', '.join(names[:-1])} or {names[-1]}"
+
+
+def checked_roughness(roughness, renderer: str) -> float:
+    """``--roughness`` in :func:`roughness_words`' range (a value within
+    :data:`~envfit.shading.microfacet.ROUGHNESS_RTOL` of an end is that end); else one line.
+
+    >>> checked_roughness(0.2236068, "cycles"), checked_roughness(0.0025, "pbrt4")
+    (0.223607, 0.0025)
+    """
+    try:
+        r = float(roughness)
+    except (TypeError, ValueError):
+        raise ParameterError(f"--roughness must be a number, got {roughness!r}") from None
+    lo, hi = roughness_range(renderer)
+    if lo * (1.0 - ROUGHNESS_RTOL) <= r < lo:
+        return lo
+    if hi < r <= hi * (1.0 + ROUGHNESS_RTOL):
+        return hi
+    if not (math.isfinite(r) and lo <= r <= hi):
+        raise ParameterError(f"--roughness {r:g} is outside {roughness_words(renderer)}")
+    return r
+
+
 def _dummy_map() -> EnvMap:
     """A small non-constant map on which the model's own checks run (no real work)."""
     v = np.linspace(0.2, 1.0, 4 * 8 * 3).reshape(4, 8, 3)
@@ -154,7 +183,9 @@ class PresetAdviseOptions:
         ``beckmann`` as the renderer shades and samples it (not with ``envfit``; pbrt-v4: ggx).
     roughness : float or None
         With a microfacet ``bsdf``: the renderer's own roughness (Mitsuba's α, pbrt-v4's
-        roughness = α², Cycles' roughness = √α), α from 0.05 to 1.
+        roughness = α², Cycles' roughness = √α), α in :data:`~envfit.defaults.ADVISE_ALPHA`
+        (:func:`roughness_words`; within :data:`~envfit.shading.microfacet.ROUGHNESS_RTOL`
+        of an end, that end).
     sphere_pixels : int or None
         The sphere's diameter on screen in pixels; the prediction then holds the error of
         each pixel's footprint (the normals a pixel spans,
@@ -226,19 +257,19 @@ class PresetAdviseOptions:
 
     def _check_bsdf(self, p) -> None:
         """``bsdf`` diffuse (``roughness`` None) or a microfacet conductor the renderer shades
-        (``roughness`` its own parameter, α from 0.05 to 1)."""
+        (``roughness`` its own parameter: :func:`checked_roughness`)."""
         if self.sphere_pixels is not None:
             object.__setattr__(self, "sphere_pixels",
                                check_int(self.sphere_pixels, "--sphere-pixels", 4))
         if self.bsdf == "diffuse":
             if self.roughness is not None:
-                raise ParameterError("--roughness is a parameter of --brdf ggx, beckmann, "
-                                     "roughplastic or multiggx")
+                raise ParameterError(f"--roughness is a parameter of --brdf "
+                                     f"{_or(MICROFACET_BSDFS)}")
             return
         if self.bsdf not in MICROFACET_BSDFS:
-            raise ParameterError(f"with --renderer, --brdf is diffuse, ggx, beckmann, "
-                                 f"roughplastic or multiggx (the paper's glossy lobe is no "
-                                 f"renderer's BSDF); got {self.bsdf!r}")
+            raise ParameterError(f"with --renderer, --brdf is "
+                                 f"{_or(('diffuse',) + MICROFACET_BSDFS)} (the paper's glossy "
+                                 f"lobe is no renderer's BSDF); got {self.bsdf!r}")
         if self.bsdf == "roughplastic" and (p.name != "mitsuba3"
                                             or self.sampler not in PLASTIC_SAMPLERS):
             raise ParameterError(f"--brdf roughplastic is Mitsuba 3's roughplastic, modelled "
@@ -252,11 +283,7 @@ class PresetAdviseOptions:
         if self.roughness is None:
             raise ParameterError(f"--brdf {self.bsdf} needs --roughness (the renderer's own: "
                                  f"Mitsuba's alpha, pbrt-v4's roughness, Cycles' roughness)")
-        alpha = roughness_to_alpha(self.roughness, p.name)
-        if not 0.05 <= alpha <= 1.0:
-            raise ParameterError(f"--roughness {self.roughness:g} is alpha = {alpha:.4g} in "
-                                 f"{RENDERER_NAMES[p.name]}; the model takes alpha from 0.05 "
-                                 f"to 1")
+        object.__setattr__(self, "roughness", checked_roughness(self.roughness, p.name))
         self.conductor()                      # the renderer lacks this distribution: one line
 
     @property

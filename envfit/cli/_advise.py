@@ -4,12 +4,20 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from envfit.base._errors import ParameterError
 from envfit.base._notes import NoteKind, note_kind
-from envfit.defaults import BRDFS, DEFAULT_SHININESS, MICROFACET_BSDFS, PREDICTOR_CHOICES
+from envfit.defaults import (ADVISE_RENDERER_POINTSETS, ALL_POINTSETS, BRDFS,
+                             DEFAULT_POINTSETS, DEFAULT_SHININESS, MICROFACET_BSDF_WORDS,
+                             MICROFACET_BSDFS, PREDICTOR_CHOICES, WEIGHTINGS)
 from envfit.cli._common import (add_common_arguments, add_map_arguments, load_map_from_args,
-                                out_dir, positive_float, positive_int, str_list)
+                                out_dir)
 from envfit.cli._advise_preset import add_preset_arguments, reject_without_renderer, run_preset
 from envfit.cli._output import CommandOutput
+from envfit.cli._ranges import Range, distinct_names, state_common_ranges
+
+_POSITIVE = Range(float, 0, lo_open=True)
+_FRACTION = Range(float, 0, 1, lo_open=True, hi_open=True)
+_AT_LEAST_1 = Range(int, 1)
 
 
 def register(sub) -> None:
@@ -18,7 +26,7 @@ def register(sub) -> None:
         help="smallest N per point set / weighting and smallest SH/HSH degree for a target error",
         description="Predict the RMS shading error of each rule two ways and find the "
                     "smallest N (bisection) or L whose prediction is at most the target "
-                    "(default: 1%% of the map's mean shading value, on the linear scale). "
+                    "(default: 1% of the map's mean shading value, on the linear scale). "
                     "(b'): fit the map's smoothness s' and scale sigma' under the model of an "
                     "H-row map (kernel band-limited at degree H-1, samples at pixel centres; "
                     "cached); sigma' times the rule's worst-case error summed to degree H-1 "
@@ -33,53 +41,78 @@ def register(sub) -> None:
                     "and a recommendation; --check measures the actual RMSE at the chosen N/L "
                     "on the map.")
     add_map_arguments(p)
+    _add_target_arguments(p)
+    _add_search_arguments(p)
+    _add_check_and_cache_arguments(p)
+    add_preset_arguments(p)
+    add_common_arguments(p)
+    state_common_ranges(p)
+    p.set_defaults(func=run)
+
+
+def _add_target_arguments(p) -> None:
+    """The lobe, the target, the scale and the predictor."""
+    from envfit.maps._scales import SCALES
+    micro = ", ".join(f"{b} ({MICROFACET_BSDF_WORDS[b]})" for b in MICROFACET_BSDFS)
     p.add_argument("--brdf", choices=BRDFS + MICROFACET_BSDFS, default="diffuse",
-                   help="weight function (default: diffuse); with --renderer only: ggx, "
-                        "beckmann (white conductors), roughplastic (Mitsuba's), with --roughness")
-    p.add_argument("--shininess", type=positive_float, default=DEFAULT_SHININESS,
-                   help=f"glossy exponent n (default: {DEFAULT_SHININESS:g})")
+                   help=f"weight function: {', '.join(BRDFS)} (default: diffuse); with "
+                        f"--renderer: diffuse or a microfacet BSDF with --roughness: {micro}")
+    p.add_argument("--shininess", type=_POSITIVE, default=DEFAULT_SHININESS,
+                   help=f"glossy exponent n, {_POSITIVE.words} (default: "
+                        f"{DEFAULT_SHININESS:g})")
     tg = p.add_mutually_exclusive_group()
-    tg.add_argument("--target-rmse", type=positive_float, metavar="E",
-                    help="target RMS shading error, on the --scale values")
-    tg.add_argument("--target-relative", type=positive_float, metavar="F",
-                    help="target as a fraction (0 < F < 1) of the map's mean shading value "
-                         "(default, when neither is given: 0.01)")
-    p.add_argument("--scale", choices=("linear", "display", "log"), default="linear",
+    tg.add_argument("--target-rmse", type=_POSITIVE, metavar="E",
+                    help=f"target RMS shading error, on the --scale values; {_POSITIVE.words}")
+    tg.add_argument("--target-relative", type=_FRACTION, metavar="F",
+                    help=f"target as a fraction of the map's mean shading value, "
+                         f"{_FRACTION.words} (default, when neither is given: 0.01)")
+    p.add_argument("--scale", choices=SCALES, default="linear",
                    help="value scale of the integrand and the fit (default: linear, the raw "
                         "radiance a renderer integrates)")
     p.add_argument("--predictor", choices=PREDICTOR_CHOICES, default="auto",
                    help="prediction that sizes N/L: auto (default: (c) on the linear scale and "
                         "where (b') and (c) disagree by > 1.25x, else (b')), bandlimited (b'), "
                         "spectral (c)")
-    p.add_argument("--pointsets", type=str_list, default=None, metavar="sf,sobol,…",
-                   help="point sets among sf, sobol, lp, bnot, random, jitter (default: "
-                        "sf,sobol,lp,random,jitter; bnot costs ~15 s per realisation at N = 4096)")
-    p.add_argument("--weights", type=str_list, default=None, metavar="equal,osw",
-                   help="weightings (default: equal,osw)")
-    p.add_argument("--bases", type=str_list, default=None, metavar="sh,hsh",
-                   help="truncations to size (default: sh,hsh; 'none' for none)")
-    p.add_argument("--s", default="auto", metavar="auto|VALUE",
-                   help="smoothness: 'auto' (band-limited likelihood fit, default) or a value "
-                        "in (1, 2) (sigma then by the band-limited likelihood at that s)")
-    p.add_argument("--fit-n", type=positive_int, default=None, help="samples of the fit (default: 3000)")
-    p.add_argument("--nmin", type=positive_int, default=None, help="smallest N searched (default: 4)")
-    p.add_argument("--nmax", type=positive_int, default=None, help="largest N searched (default: 65536)")
-    p.add_argument("--osw-nmax", type=positive_int, default=None,
-                   help="largest N searched with optimal weights (an NxN solve; default: 4096)")
-    p.add_argument("--realisations", type=positive_int, default=None, metavar="K",
-                   help="realisations averaged per N for random/jitter/bnot (default: 4)")
-    _add_check_and_cache_arguments(p)
-    add_preset_arguments(p)
-    add_common_arguments(p)
-    p.set_defaults(func=run)
+
+
+def _add_search_arguments(p) -> None:
+    """The rules searched and the search's numbers."""
+    from envfit.advisor._options import BASES, MAX_SEEDS
+    sets = ", ".join(ALL_POINTSETS)
+    p.add_argument("--pointsets", type=distinct_names, default=None, metavar="sf,sobol,…",
+                   help=f"point sets among {sets} (default: {','.join(DEFAULT_POINTSETS)}; "
+                        f"bnot costs ~15 s per realisation at N = 4096)")
+    p.add_argument("--weights", type=distinct_names, default=None, metavar="equal,osw",
+                   help=f"weightings among {', '.join(WEIGHTINGS)} (default: all)")
+    p.add_argument("--bases", type=distinct_names, default=None, metavar="sh,hsh",
+                   help=f"truncations to size among {', '.join(BASES)} (default: all; 'none' "
+                        f"for none)")
+    s = Range(float, 1, 2, lo_open=True, hi_open=True, also=("auto",))
+    p.add_argument("--s", type=s, default="auto", metavar="auto|VALUE",
+                   help=f"smoothness, {s.words}: 'auto' (band-limited likelihood fit, default) "
+                        f"or a value (sigma then by the band-limited likelihood at that s)")
+    ranges = {"--fit-n": (Range(int, 10), "samples of the fit (default: 3000)"),
+              "--nmin": (_AT_LEAST_1, "smallest N searched (default: 4)"),
+              "--nmax": (_AT_LEAST_1, "largest N searched, at least --nmin (default: 65536; "
+                                      "with --renderer the largest spp)"),
+              "--osw-nmax": (_AT_LEAST_1, "largest N searched with optimal weights (an NxN "
+                                          "solve; default: 4096)"),
+              "--realisations": (Range(int, 1, MAX_SEEDS), "realisations averaged per N for "
+                                                           "random/jitter/bnot (default: 4)")}
+    for flag, (rng, text) in ranges.items():
+        p.add_argument(flag, type=rng, default=None, help=f"{text}; {rng.words}",
+                       **({"metavar": "K"} if flag == "--realisations" else {}))
 
 
 def _add_check_and_cache_arguments(p) -> None:
     """--check and its axes, the renderer rows' options, the cache's options."""
+    from envfit.advisor._options import MAX_AXES
     p.add_argument("--check", action="store_true",
                    help="measure the RMSE at the chosen N/L on the map, beside the prediction")
-    p.add_argument("--axes", type=positive_int, default=1000, metavar="M",
-                   help="random axes of --check (default: 1000, seeded by --seed)")
+    axes = Range(int, 2, MAX_AXES)
+    p.add_argument("--axes", type=axes, default=1000, metavar="M",
+                   help=f"random axes of --check, {axes.words} (default: 1000, seeded by "
+                        f"--seed)")
     _add_renderer_arguments(p)
     p.add_argument("--no-cache", action="store_true",
                    help="neither read nor write the cache of fits and wce curves")
@@ -89,28 +122,36 @@ def _add_check_and_cache_arguments(p) -> None:
 
 def _add_renderer_arguments(p) -> None:
     """The renderer rows' options (strategies, point sets, spectra, check axes)."""
+    from envfit.advisor._options import MAX_AXES, MAX_SPECTRUM_AXES
+    from envfit.sampling._rules import STRATEGIES
+    from envfit.sampling.presets import STRATEGY_NAMES
     rg = p.add_argument_group("renderer rows")
-    rg.add_argument("--strategies", type=str_list, default=None, metavar="brdf,map,mis,split",
-                    help="renderer strategies to size: brdf (BRDF sampling), map (map importance "
-                         "sampling), mis (multi-sample MIS, N/2 each), split (bright sources "
-                         "integrated exactly + MIS on the rest) (default: all four)")
-    rg.add_argument("--renderer-pointsets", type=str_list, default=None,
+    rg.add_argument("--strategies", type=distinct_names, default=None, metavar="brdf,map,mis,split",
+                    help=f"renderer strategies to size, among {', '.join(STRATEGIES)}: brdf "
+                         f"(BRDF sampling), map (map importance sampling), mis (multi-sample "
+                         f"MIS, N/2 each), split (bright sources integrated exactly + MIS on "
+                         f"the rest) (default: all); with --renderer among "
+                         f"{', '.join(STRATEGY_NAMES)} (default: every one it can render)")
+    rg.add_argument("--renderer-pointsets", type=distinct_names, default=None,
                     metavar="sobol,sf,random",
-                    help="point sets of the renderer rules (default: sobol,sf,random; also "
-                         "jitter, lp, bnot)")
+                    help=f"point sets of the renderer rules among {', '.join(ALL_POINTSETS)} "
+                         f"(default: {','.join(ADVISE_RENDERER_POINTSETS)})")
     rg.add_argument("--no-renderer", action="store_true",
                     help="no renderer rows: the quadrature and SH/HSH table only")
-    rg.add_argument("--renderer-grid", type=positive_int, default=None, metavar="G",
-                    help="grid of the warped spectra (a multiple of 4; QMC predictions exact to "
-                         "N ~ (G/8)^2; default: 512)")
-    rg.add_argument("--renderer-spectrum-axes", type=positive_int, default=None, metavar="K",
-                    help="axes of the warped spectra's sample over the sphere (default: 32)")
-    rg.add_argument("--renderer-axes-start", type=positive_int, default=None, metavar="M",
-                    help="--check of the renderer rows: axes of the first round of the adaptive "
-                         "measurement (default: 250)")
-    rg.add_argument("--renderer-max-axes", type=positive_int, default=None, metavar="M",
-                    help="--check of the renderer rows: at most this many axes (the measurement "
-                         "doubles them until its 95%% interval is within +-10%%; default: 4000)")
+    numbers = {
+        "--renderer-grid": (Range(int, 8, multiple=4), "G", "grid of the warped spectra (QMC "
+                            "predictions exact to N ~ (G/8)^2; default: 512)"),
+        "--renderer-spectrum-axes": (Range(int, 1, MAX_SPECTRUM_AXES), "K", "axes of the warped "
+                                     "spectra's sample over the sphere (default: 32)"),
+        "--renderer-axes-start": (Range(int, 2, MAX_AXES), "M", "--check of the renderer rows: "
+                                  "axes of the first round of the adaptive measurement "
+                                  "(default: 250)"),
+        "--renderer-max-axes": (Range(int, 2, MAX_AXES), "M", "--check of the renderer rows: at "
+                                "most this many axes, at least --renderer-axes-start (the "
+                                "measurement doubles them until its 95%% interval is within "
+                                "+-10%%; default: 4000)")}
+    for flag, (rng, meta, text) in numbers.items():
+        rg.add_argument(flag, type=rng, default=None, metavar=meta, help=f"{text}; {rng.words}")
 
 
 def _header(adv) -> list[str]:
@@ -188,6 +229,7 @@ def options_from_args(args: argparse.Namespace):
     """The :class:`envfit.advisor._options.AdviseOptions` of the command line (an option not
     given keeps the dataclass's default; ``--bases none`` is no basis)."""
     from envfit.advisor._options import AdviseOptions
+    _check_pairs(args, AdviseOptions())
     given = {"pointsets": args.pointsets, "weights": args.weights, "fit_n": args.fit_n,
              "nmin": args.nmin, "nmax": args.nmax, "osw_nmax": args.osw_nmax,
              "seeds": args.realisations, "strategies": args.strategies,
@@ -205,6 +247,20 @@ def options_from_args(args: argparse.Namespace):
         axes=args.axes, cache=not args.no_cache, cache_dir=args.cache_dir, quiet=args.quiet,
         renderer=not args.no_renderer, renderer_curves=args.out is not None,
         **{k: v for k, v in given.items() if v is not None})
+
+
+def _check_pairs(args: argparse.Namespace, defaults) -> None:
+    """The options whose range is another's (``--nmax`` ≥ ``--nmin``, ``--renderer-max-axes``
+    ≥ ``--renderer-axes-start``): one line naming the flags given."""
+    for hi, lo, hi_dest, lo_dest in (("--nmax", "--nmin", "nmax", "nmin"),
+                                     ("--renderer-max-axes", "--renderer-axes-start",
+                                      "renderer_max_axes", "renderer_axes_start")):
+        top, bottom = getattr(args, hi_dest), getattr(args, lo_dest)
+        if top is None or top >= (getattr(defaults, lo_dest) if bottom is None else bottom):
+            continue
+        raise ParameterError(f"{hi} {top} is below " + (
+            f"{lo} {bottom}" if bottom is not None else
+            f"the default {lo} {getattr(defaults, lo_dest)}"))
 
 
 def run(args: argparse.Namespace, output: CommandOutput) -> int:

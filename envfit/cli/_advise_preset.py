@@ -11,9 +11,17 @@ import time
 from pathlib import Path
 
 from envfit.base._errors import ParameterError
-from envfit.cli._common import int_list, positive_int
+from envfit.cli._common import finite_float
 from envfit.cli._output import CommandOutput
+from envfit.cli._ranges import Range, RangeList, name_words
 from envfit.defaults import MICROFACET_BSDFS
+
+#: the renderers' names in --help (as envfit.advisor._preset_options.RENDERER_NAMES, which
+#: the parser does not import: it loads the noise model)
+_DISPLAY = {"mitsuba3": "Mitsuba 3", "pbrt4": "pbrt-v4", "cycles": "Cycles", "envfit": "envfit"}
+#: the renderer model's ranges of --renderer-level, --renderer-normals and --sphere-pixels
+#: (PresetModelOptions.__post_init__'s; tests/test_advise_options_sweep.py checks both ends)
+_MODEL_RANGES = {"max_level": (1, 11), "normals": (1, 4096), "sphere_pixels": (4, 1 << 16)}
 
 __all__ = ["add_preset_arguments", "reject_without_renderer", "run_preset"]
 
@@ -31,21 +39,20 @@ _GENERIC_ROWS = {"no_renderer": "--no-renderer", "renderer_pointsets": "--render
 
 
 def add_preset_arguments(p) -> None:
-    """The ``--renderer`` group of ``envfit advise``."""
+    """The ``--renderer`` group of ``envfit advise`` (its name lists read from the preset
+    registry and :data:`envfit.defaults.MICROFACET_BSDFS`, so that they cannot drift)."""
+    from envfit.sampling.presets import PRESETS
     g = p.add_argument_group("advice in a renderer's terms (--renderer)")
-    g.add_argument("--renderer", default=None, metavar="mitsuba3|pbrt4|cycles|envfit",
+    g.add_argument("--renderer", default=None, metavar="|".join(PRESETS),
                    help="answer in this renderer's terms: the spp its sampler must run for the "
                         "target, with its integrator's settings, predicted for its own "
                         "estimator (emitter density and warp, BSDF sampling, MIS, sampler); "
                         "the first lines printed; envfit's generic tables only with --rules")
-    g.add_argument("--sampler", default=None, metavar="NAME",
-                   help="the renderer's sampler by its own name (Mitsuba 3: independent, "
-                        "stratified, multijitter, ldsampler; pbrt-v4: zsobol, paddedsobol, "
-                        "sobol, pmj02bn, stratified, independent; Cycles: tabulated_sobol, "
-                        "blue_noise, sobol_burley; default: the renderer's default)")
-    g.add_argument("--spp", type=int_list, default=None, metavar="16,64,256",
-                   help="also list the predicted RMSE of every strategy at these spp (as the "
-                        "sampler rounds them)")
+    g.add_argument("--sampler", default=None, metavar="NAME", help=sampler_help())
+    spp = RangeList(Range(int, 1))
+    g.add_argument("--spp", type=spp, default=None, metavar="16,64,256",
+                   help=f"also list the predicted RMSE of every strategy at these spp (as the "
+                        f"sampler rounds them); {spp.words}, at most --nmax")
     g.add_argument("--snippet", action="store_true",
                    help="print the scene text of the recommendation (Mitsuba dict, pbrt-v4 "
                         "scene lines, Cycles bpy settings)")
@@ -55,33 +62,57 @@ def add_preset_arguments(p) -> None:
     g.add_argument("--rules", action="store_true",
                    help="with --renderer: also envfit's table of quadrature rules and SH/HSH "
                         "truncations (the fit and its search: slower)")
-    g.add_argument("--renderer-level", type=positive_int, default=None, metavar="L",
-                   help="the renderer model's finest grid level, M = 2^L cells per side "
-                        "(default 7 for independent and stratified samplers, 9 for the others; "
-                        "Owen-scrambled nets are resolved to 2^(L-1) spp, Mitsuba's ldsampler "
-                        "searched to 4^(L+1)/256 spp, its power above the grid sampled; each "
-                        "level costs 4x the time and memory)")
-    g.add_argument("--renderer-normals", type=positive_int, default=None, metavar="K",
-                   help="normals of the renderer model's importance sample (default 48); "
-                        "with --brdf ggx/beckmann the frames (normal, view)")
-    g.add_argument("--roughness", type=float, default=None, metavar="R",
-                   help="with --brdf ggx or beckmann: the renderer's own roughness (Mitsuba's "
-                        "alpha; pbrt-v4's roughness, alpha = sqrt(R); Cycles' roughness, "
-                        "alpha = R^2), alpha from 0.05 to 1")
-    g.add_argument("--sphere-pixels", type=positive_int, default=None, metavar="D",
-                   help="the sphere's diameter on screen in pixels; adds the error of each "
-                        "pixel's footprint (the normals a pixel spans: large for sharp lobes "
-                        "and grazing views on small objects, and at high spp for QMC "
-                        "samplers; 4x the model's work). Default: every pixel a point")
+    _add_model_arguments(g)
+
+
+def sampler_help() -> str:
+    """``--sampler``'s help: each renderer's samplers from the preset registry."""
+    from envfit.sampling.presets import PRESETS
+    lists = "; ".join(f"{_DISPLAY.get(n, n)}: {name_words(p.samplers, p.default_sampler)}"
+                      for n, p in PRESETS.items())
+    return (f"the renderer's sampler by its own name ({lists}); default: the renderer's "
+            f"default; one the noise model cannot predict is refused with the reason")
+
+
+def roughness_help() -> str:
+    """``--roughness``'s help: each renderer's unit and range
+    (:func:`envfit.shading.microfacet.roughness_words`)."""
+    from envfit.shading.microfacet import RENDERERS, roughness_words
+    return (f"with a microfacet --brdf: the renderer's own roughness, in its range ("
+            f"{'; '.join(roughness_words(r) for r in RENDERERS)}; checked with --renderer)")
+
+
+def _add_model_arguments(g) -> None:
+    """The renderer model's grid level, normals, roughness and pixels."""
+    level, normals, pixels = (Range(int, *_MODEL_RANGES[k]) for k in
+                              ("max_level", "normals", "sphere_pixels"))
+    g.add_argument("--renderer-level", type=level, default=None, metavar="L",
+                   help=f"the renderer model's finest grid level, M = 2^L cells per side, "
+                        f"{level.words} (default 7 for independent and stratified samplers, 9 "
+                        f"for the others; Owen-scrambled nets are resolved to 2^(L-1) spp, "
+                        f"Mitsuba's ldsampler searched to 4^(L+1)/256 spp, its power above the "
+                        f"grid sampled; each level costs 4x the time and memory)")
+    g.add_argument("--renderer-normals", type=normals, default=None, metavar="K",
+                   help=f"normals of the renderer model's importance sample, {normals.words} "
+                        f"(default 48); with a microfacet --brdf the frames (normal, view)")
+    g.add_argument("--roughness", type=finite_float, default=None, metavar="R",
+                   help=roughness_help())
+    g.add_argument("--sphere-pixels", type=pixels, default=None, metavar="D",
+                   help=f"the sphere's diameter on screen in pixels, {pixels.words}; adds the "
+                        f"error of each pixel's footprint (the normals a pixel spans: large for "
+                        f"sharp lobes and grazing views on small objects, and at high spp for "
+                        f"QMC samplers; 4x the model's work). Default: every pixel a point")
 
 
 def reject_without_renderer(args: argparse.Namespace) -> None:
     """A --renderer option given without --renderer: one line."""
+    from envfit.sampling.presets import PRESETS
+    from envfit.shading.microfacet import RENDERERS
     for dest, flag in _PRESET_ONLY.items():
         if getattr(args, dest, None) not in (None, False):
-            raise ParameterError(f"{flag} needs --renderer (mitsuba3, pbrt4, cycles, envfit)")
+            raise ParameterError(f"{flag} needs --renderer ({', '.join(PRESETS)})")
     if getattr(args, "brdf", "diffuse") in MICROFACET_BSDFS:
-        raise ParameterError(f"--brdf {args.brdf} needs --renderer (mitsuba3, pbrt4, cycles): "
+        raise ParameterError(f"--brdf {args.brdf} needs --renderer ({', '.join(RENDERERS)}): "
                              f"the microfacet model predicts a renderer's own estimator")
 
 
@@ -95,9 +126,9 @@ def _options(args: argparse.Namespace):
             raise ParameterError(f"{flag} is an option of envfit's generic renderer rows, "
                                  f"which --renderer replaces")
     if args.brdf not in ("diffuse", *MICROFACET_BSDFS):
-        raise ParameterError(f"--renderer predicts a renderer's BSDF: --brdf diffuse, ggx, "
-                             f"beckmann or roughplastic (the paper's {args.brdf} lobe is no "
-                             f"renderer's BSDF)")
+        raise ParameterError(f"--renderer predicts a renderer's BSDF: --brdf diffuse, "
+                             f"{', '.join(MICROFACET_BSDFS)} (the paper's {args.brdf} lobe is "
+                             f"no renderer's BSDF)")
     if args.brdf in MICROFACET_BSDFS and args.snippet and args.renderer != "mitsuba3":
         raise ParameterError(f"--snippet with --brdf {args.brdf}: the scene text of a rough "
                              f"conductor is written for Mitsuba 3 only so far")

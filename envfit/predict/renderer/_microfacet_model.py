@@ -52,6 +52,7 @@ from envfit.predict.renderer._microfacet_kernels import (compiled_conductor,
 from envfit.predict.renderer._vndf_kernels import compiled_sampling, conductor_sample
 from envfit.predict.renderer._plastic_kernels import (compiled_plastic, plastic_eval_pdf,
                                                       plastic_proxies, plastic_sample)
+from envfit.predict.renderer._bands import BANDS, STRATA, band_key, band_spread, in_stratum
 from envfit.predict.renderer._footprint import _unit, with_variances
 from envfit.predict.renderer._lobe_parts import LobeChoice
 from envfit.predict.renderer._preset_integrand import MapTable, _is_mitsuba
@@ -60,9 +61,6 @@ from envfit.predict.renderer._preset_model import (PresetModel, PresetModelOptio
                                                    samples_above, systematic_indices)
 
 __all__ = ["MicrofacetModel", "BANDS", "rmse_sampling_error"]
-
-#: the view-angle bands θ_o (degrees) reported beside the whole-sphere value (issue 25)
-BANDS = ((0.0, 30.0), (30.0, 60.0), (60.0, 80.0))
 
 _CHUNK = 1 << 18
 #: the finest grid of a rough plastic's lobe path (PresetModelOptions' max_level): its table
@@ -179,21 +177,24 @@ class MicrofacetModel(LobeChoice, PresetModel):
         self.seconds = 0.0
 
     def _select(self, normals, views, w, count: int):
-        r"""``count`` frames of the pool, stratified by the view-angle bands (:data:`BANDS`
-        and the rest up to 90°: each band at least ``count // 6`` frames, the rest by the
-        pool's weight in it) and importance-sampled within each stratum by systematic
-        sampling with probability :math:`\pi_a \propto w_a(\frac13 + \frac{v_e(a)}{3\sum
-        w v_e} + \frac{v_b(a)}{3\sum w v_b})` (sums over the stratum), :math:`v_e, v_b` the
-        variances of emitter and visible-normal sampling at the frame on the map part's pilot
-        table (:attr:`PresetModelOptions.pilot_level`); weights :math:`w_a/(\pi_a k_s)`:
-        unbiased for the pool's weighted mean and for each band's, and a frame whose lobe
+        r"""``count`` frames of the pool, stratified by the view-angle strata
+        (:data:`~envfit.predict.renderer._bands.STRATA`: each at least ``count // 6`` frames,
+        the rest by the pool's weight in it) and importance-sampled within each stratum by
+        systematic sampling with probability :math:`\pi_a \propto w_a(\frac13 +
+        \frac{v_e(a)}{3\sum w v_e} + \frac{v_b(a)}{3\sum w v_b})` (sums over the stratum),
+        :math:`v_e, v_b` the variances of emitter and visible-normal sampling at the frame on
+        the map part's pilot table (:attr:`PresetModelOptions.pilot_level`); weights
+        :math:`w_a/\pi_a`, scaled to sum to the pool's weight in the stratum (the ratio
+        estimator of each stratum's mean, Cochran, *Sampling Techniques*, 3rd ed. (1977),
+        Sec. 6.10, the "separate" estimator): each band's value is its frames' weighted mean
+        and the whole sphere's is the bands' combination with the pool's band weights (not
+        weights that a few frames of a sharp lobe put far from them), and a frame whose lobe
         catches a sun is not missed (as the diffuse model's normals)."""
         v_e, v_b = self._proxies(normals, views)
         pw = w / w.sum()
         theta = np.degrees(np.arccos(np.clip(np.sum(_unit(normals) * _unit(views), axis=1),
                                              -1.0, 1.0)))
-        edges = [lo for lo, _ in BANDS] + [BANDS[-1][1], 90.0 + 1e-9]
-        strata = [np.flatnonzero((theta >= a) & (theta < b)) for a, b in zip(edges, edges[1:])]
+        strata = [np.flatnonzero(in_stratum(theta, a, b)) for a, b in STRATA]
         strata = [s for s in strata if len(s) and pw[s].sum() > 0]
         floor = max(1, count // 6)
         alloc = [max(floor, int(round(count * pw[s].sum()))) for s in strata]
@@ -206,7 +207,8 @@ class MicrofacetModel(LobeChoice, PresetModel):
             p = p / p.sum()
             j = systematic_indices(p, k)
             idx.append(s[j])
-            wt.append(pw[s][j] / (p[j] * k))
+            raw = pw[s][j] / p[j]
+            wt.append(raw * (pw[s].sum() / raw.sum()))
         return np.concatenate(idx), np.concatenate(wt)
 
     def _proxies(self, normals, views):
@@ -278,39 +280,25 @@ class MicrofacetModel(LobeChoice, PresetModel):
         return dict(self._bands[self.request(strategy, sampler, spp)])
 
     def predict_band_errors(self, strategy: str, sampler: str, spp: int) -> dict:
-        """Per band of :meth:`predict_bands`, and ``"all"`` for the whole sphere:
-        ``{"frames": frames in it, "rel_se": the relative standard error of its RMSE}`` —
-        the frames' sampling error (:func:`rmse_sampling_error`)."""
+        """Per view-angle stratum (the bands of :meth:`predict_bands` and ``"80-90"``), and
+        ``"all"`` for the whole sphere: ``{"frames", "weight", "rmse", "interval",
+        "rel_se"}`` (:func:`~envfit.predict.renderer._bands.band_spread`: the frames in it,
+        its share of the weight, its RMSE, the frames' bootstrap interval of it and relative
+        standard deviation, None below :data:`~envfit.defaults.BAND_MIN_FRAMES` frames)."""
         self.predict(strategy, sampler, spp)
         return {k: dict(v) for k, v in
                 self._band_errors[self.request(strategy, sampler, spp)].items()}
 
     def _store(self, r, mse_k: np.ndarray, parts_k: np.ndarray) -> None:
-        """As :meth:`PresetModel._store`, and each band's RMSE from the frames in it."""
+        """As :meth:`PresetModel._store`, and per view-angle stratum and ``"all"`` its RMSE,
+        weight, frames and bootstrap interval
+        (:func:`~envfit.predict.renderer._bands.band_spread`: the whole sphere is the bands'
+        weighted combination)."""
         super()._store(r, mse_k, parts_k)
-        self._bands[r] = self._band_rmse(np.clip(mse_k, 0.0, None))
-        self._band_errors[r] = self._band_spread(np.clip(mse_k, 0.0, None))
-
-    def _band_rmse(self, mse_k: np.ndarray) -> dict:
-        out = {}
-        for lo, hi in BANDS:
-            inside = (self.theta >= lo) & (self.theta < hi)
-            w = self.weights * inside
-            if w.sum() > 0:
-                out[f"{lo:g}-{hi:g}"] = float(np.sqrt(np.mean(w @ mse_k / w.sum())))
-        return out
-
-    def _band_spread(self, mse_k: np.ndarray) -> dict:
-        """Per band (and ``"all"``, the whole sphere): the frames in it and the relative
-        standard error of its RMSE from their spread (:func:`rmse_sampling_error`)."""
-        out = {}
-        m = mse_k.mean(axis=1)
-        for key, inside in (("all", np.ones(len(m), bool)), *(
-                (f"{lo:g}-{hi:g}", (self.theta >= lo) & (self.theta < hi)) for lo, hi in BANDS)):
-            if np.any(inside & (self.weights > 0)):
-                out[key] = {"frames": int(inside.sum()),
-                            "rel_se": rmse_sampling_error(self.weights[inside], m[inside])}
-        return out
+        spread = band_spread(self.theta, self.weights, mse_k)
+        self._bands[r] = {band_key(lo, hi): spread[band_key(lo, hi)]["rmse"]
+                          for lo, hi in BANDS if band_key(lo, hi) in spread}
+        self._band_errors[r] = spread
 
     def _table(self, kind: str, where):
         """The map table, or the BSDF's square points, at the midpoints of level ``where``

@@ -34,11 +34,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from envfit.base import ParameterError
+from envfit.defaults import ADVISE_ALPHA
 from envfit.shading.microfacet._distributions import MicrofacetDistribution
 from envfit.shading.microfacet._fresnel import fr_complex, fresnel_conductor
 from envfit.shading.microfacet._vndf import VNDF_RENDERERS, sample_visible_normals
 
-__all__ = ["BSDFSample", "Conductor", "RENDERERS", "roughness_to_alpha"]
+__all__ = ["BSDFSample", "Conductor", "RENDERERS", "roughness_to_alpha", "alpha_to_roughness",
+           "roughness_range", "roughness_words", "ROUGHNESS_UNITS", "ROUGHNESS_RTOL"]
 
 RENDERERS = VNDF_RENDERERS
 
@@ -65,6 +67,66 @@ def roughness_to_alpha(roughness: float, renderer: str) -> float:
     if renderer == "cycles":
         return r * r
     raise ParameterError(f"renderer must be one of {RENDERERS}, got {renderer!r}")
+
+
+#: each renderer's roughness R in words (:func:`roughness_to_alpha`)
+ROUGHNESS_UNITS = {"mitsuba3": "Mitsuba 3's alpha",
+                   "pbrt4": "pbrt-v4's roughness R, alpha = sqrt(R)",
+                   "cycles": "Cycles' roughness R, alpha = R^2"}
+#: the relative tolerance of a roughness at the end of its range (a bound typed rounded,
+#: e.g. Cycles' sqrt(0.05) = 0.2236068, or pbrt-v4's 0.0025, whose alpha = sqrt(0.0025) is a
+#: hair from 0.05 in floating point): within it the value is taken as the bound
+ROUGHNESS_RTOL = 1e-6
+
+
+def alpha_to_roughness(alpha: float, renderer: str) -> float:
+    """The renderer's roughness for the microfacet α (:func:`roughness_to_alpha` inverted).
+
+    >>> alpha_to_roughness(0.05, "pbrt4"), round(alpha_to_roughness(0.25, "cycles"), 12)
+    (0.0025000000000000005, 0.5)
+    """
+    a = float(alpha)
+    if renderer == "mitsuba3":
+        return a
+    if renderer == "pbrt4":
+        return a * a
+    if renderer == "cycles":
+        return math.sqrt(a)
+    raise ParameterError(f"renderer must be one of {RENDERERS}, got {renderer!r}")
+
+
+def roughness_range(renderer: str, alpha_range=ADVISE_ALPHA) -> tuple[float, float]:
+    """The renderer's roughness range for ``alpha_range`` (default: the advice's,
+    :data:`envfit.defaults.ADVISE_ALPHA`), the lower bound rounded up and the
+    upper down to 6 significant digits (typed as printed, it is inside).
+
+    >>> roughness_range("mitsuba3"), roughness_range("pbrt4"), roughness_range("cycles")
+    ((0.05, 1.0), (0.0025, 1.0), (0.223607, 1.0))
+    """
+    lo, hi = (alpha_to_roughness(a, renderer) for a in alpha_range)
+    return _round6(lo, math.ceil), _round6(hi, math.floor)
+
+
+def roughness_words(renderer: str) -> str:
+    """The renderer's roughness and its range (:func:`roughness_range`), as ``envfit advise
+    --help`` and its error say it.
+
+    >>> print(roughness_words("cycles"))
+    Cycles' roughness R, alpha = R^2: 0.223607 to 1 (alpha 0.05 to 1)
+    """
+    lo, hi = roughness_range(renderer)
+    return (f"{ROUGHNESS_UNITS[renderer]}: {lo:g} to {hi:g} (alpha {ADVISE_ALPHA[0]:g} to "
+            f"{ADVISE_ALPHA[1]:g})")
+
+
+def _round6(x: float, how) -> float:
+    """``x`` to 6 significant digits, rounded by ``how`` (math.ceil or math.floor) unless it
+    is within :data:`ROUGHNESS_RTOL` of the nearest 6-digit value."""
+    if x <= 0:
+        return x
+    scale = 10.0 ** (5 - math.floor(math.log10(x)))
+    near = round(x * scale) / scale
+    return near if abs(near - x) <= ROUGHNESS_RTOL * x else how(x * scale) / scale
 
 
 @dataclass(frozen=True)
