@@ -7,6 +7,7 @@ The public API (imported lazily, so ``import envfit`` stays fast)::
     from envfit import fit_smoothness, run_table2                # s of a map; the paper's Table 2
     from envfit import shading_integral                          # ground-truth shading integrals
     from envfit import run_validation                            # measured vs predicted errors
+    from envfit import advise, advise_renderer                   # N of a rule; spp of a renderer
 
 Conventions (lat-long geometry, value scales) are documented in docs/conventions.md and implemented
 in :mod:`envfit.maps._latlong` and :mod:`envfit.maps._scales`.
@@ -34,6 +35,8 @@ _LAZY = {
     "ValidationResult": "validate._results",
     "default_envmap": "maps._default_map",
     "advise": "advisor._advise", "Advice": "advisor._result", "AdviseOptions": "advisor._options",
+    "advise_renderer": "batch._advise_renderer", "PresetAdvice": "advisor._preset",
+    "LibraryAdvice": "batch._library_advise",
 }
 
 __all__ = ["__version__", "EnvfitError", "EnvMapFileError", "EnvMapFormatError",

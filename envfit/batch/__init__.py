@@ -3,12 +3,17 @@ executors, the driver loop and the library report.
 
 Modules:
 
+* :mod:`~envfit.batch._advise_renderer` — The Python entry point of the renderer answer,
+  ``envfit.advise_renderer``: one map (:func:`envfit.advisor.advise_preset`) or a library.
 * :mod:`~envfit.batch._executor` — Where a sweep's tasks run: in this process, a local
   process pool, or a dask cluster.
 * :mod:`~envfit.batch._fit_tasks` — Worker-side tasks of a library fit: sample a map;
   evaluate the fit criterion at one s for many maps with one factorisation.
 * :mod:`~envfit.batch._library` — The paper's Table 2 (Sec. 9.1) over a whole library of
   maps, one factorisation per (s, N).
+* :mod:`~envfit.batch._library_advise` — A library of maps advised in a renderer's terms: one
+  row per map, the spp that meets the target on 50/90/100 % of the maps, resumable, on a
+  local pool or dask (:func:`advise_library`, :class:`LibraryAdvice`).
 * :mod:`~envfit.batch._library_fit` — Fit the Sobolev smoothness s of every map of a library,
   one factorisation per s.
 * :mod:`~envfit.batch._library_result` — What every library run reports, whatever it computes
@@ -35,6 +40,8 @@ _LAZY = {
     "LibraryTable2Result": "_library", "run_table2_library": "_library",
     "fit_smoothness_library": "_library_fit", "LibraryFitResult": "_library_fit",
     "LibraryOptions": "_library_result",
+    "advise_library": "_library_advise", "LibraryAdvice": "_library_advise",
+    "MapRow": "_library_advise", "advise_renderer": "_advise_renderer",
 }
 
 __all__ = sorted(_LAZY)
