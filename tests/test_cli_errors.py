@@ -32,14 +32,15 @@ def _one_line(capsys, rc: int) -> str:
      "argument --kind: invalid choice: 'nope' (choose from 'gp', 'sun-gp', 'constant', 'sky', "
      "'sun', 'step', 'marker')"),
     (["info"], "envfit info", "the following arguments are required: MAP"),
-    (["fit", "--n", "0"], "envfit fit", "argument --n: 0 is not positive"),
+    (["fit", "--n", "0"], "envfit fit", "argument --n: 0 is outside 10 <= N <= W x H (the "
+     "map's pixels: more samples add no information)"),
     (["table2", "--s", ""], "envfit table2", "argument --s: empty list; give comma-separated values"),
     ([*WCE[:2]], "envfit theory wce",
      "the following arguments are required: --brdf, --pointset, --n"),
     (["theory", "table1", "--s", "x"], "envfit theory table1", "argument --s: x is not a number"),
     (["theory", "figures", "--only"], "envfit theory figures",
      "argument --only: expected one argument"),
-    (["validate", "--axes", "-2"], "envfit validate", "argument --axes: -2 is not positive"),
+    (["validate", "--axes", "-2"], "envfit validate", "argument --axes: -2 is outside 2 <= M <= 100000"),
     (["advise", "--target-rmse", "1", "--target-relative", "0.1"], "envfit advise",
      "argument --target-relative: not allowed with argument --target-rmse"),
     (["sh", "--lmax", "2", "--window", "x"], "envfit sh",

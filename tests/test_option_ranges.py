@@ -168,7 +168,8 @@ def test_n_within_the_pixels_but_over_memory_names_memory(tmp_path, capsys, monk
     assert cli.main(["table2", str(big), "--n", "8000", "--solver", "cholesky"]) == 2
     line = capsys.readouterr().err.strip()
     fits = int(line.rsplit(" ", 1)[1])
-    assert "memory" in line and fits < 8000 <= 64 * 128
+    assert "can be used" in line and "ENVFIT_MEMORY_LIMIT=300M" in line
+    assert fits < 8000 <= 64 * 128
 
 
 # ------------------------------------------------------------------ item 8: --workers

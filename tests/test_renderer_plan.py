@@ -38,7 +38,7 @@ def test_nmax_below_nmin_is_the_same_line_with_and_without_renderer(renderer, tm
                                                                     capsys):
     rc, _, err, _ = _run(capsys, tmp_path, tmp_path / "absent.exr", "--nmin", "1000",
                          "--nmax", "10", *renderer)
-    assert rc == 2 and err == ["envfit advise: error: nmax must be an integer >= 1000, got 10"]
+    assert rc == 2 and err == ["envfit advise: error: --nmax 10 is below --nmin 1000"]
 
 
 def test_nmin_with_renderer_is_refused_unless_the_rules_use_it(tmp_path, capsys):
@@ -67,7 +67,7 @@ def test_spp_searched_are_lazy_and_the_top_of_the_range_is_searched(gp_file, tmp
     rc, lines, _, d = _run(capsys, tmp_path, gp_file, "--renderer", "mitsuba3", "--strategies",
                            "map", "--renderer-normals", "1", "--nmax", str(2 ** 31 - 1),
                            "--target-rmse", repr(top / 2))
-    assert rc == 0 and "no spp up to 2147483647 meets" in lines[0]
+    assert rc == 0 and any("no spp up to 2147483647 meets" in x for x in lines)
     assert d["renderer"]["recommendation"]["predicted_rmse"] == pytest.approx(top, rel=1e-9)
 
 

@@ -139,7 +139,7 @@ def _options(args: argparse.Namespace):
         raise ParameterError("--check measures envfit's own rules: with --renderer give "
                              "--rules too (bench/render_check.py renders the renderer itself)")
     if args.nmin is not None and args.nmax is not None and args.nmax < args.nmin:
-        raise ParameterError(f"nmax must be an integer >= {args.nmin}, got {args.nmax}")
+        raise ParameterError(f"--nmax {args.nmax} is below --nmin {args.nmin}")
     if args.nmin is not None and not args.rules:     # the renderer search starts at 1 spp
         raise ParameterError("--nmin sizes envfit's rules (--rules); with --renderer the "
                              "search starts at the sampler's smallest spp")
