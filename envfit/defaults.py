@@ -49,6 +49,11 @@ MICROFACET_BSDF_WORDS = {"ggx": "white GGX conductor; Mitsuba 3, pbrt-v4, Cycles
 #: the microfacet alpha the advice's model takes (``advise --renderer R --roughness``, in
 #: each renderer's own units: :func:`envfit.shading.microfacet.roughness_range`)
 ADVISE_ALPHA = (0.05, 1.0)
+#: the renderer answer's target when none is given: 1 % of the map's mean radiance
+DEFAULT_TARGET_RELATIVE = 0.01
+#: a strategy other than the renderer's default is recommended when the default needs at least
+#: this many times as many samples traced per pixel to meet the target
+SWITCH_FACTOR = 10
 #: Mitsuba 3's samplers under which the rough plastic's BSDF sampling is modelled (its lobe
 #: choice is a 1-D number: i.i.d., or stratified in a random order;
 #: :mod:`envfit.predict.renderer._lobe_parts`): not ``orthogonal``

@@ -108,3 +108,43 @@ def test_a_local_pool_gives_the_inline_rows():
     assert "2 processes" in pool.executor
     assert [(r.spp, r.predicted_rmse) for r in pool.rows] == \
         [(r.spp, r.predicted_rmse) for r in inline.rows]
+
+
+def _files(tmp_path, k=3):
+    folder = tmp_path / "lib"
+    folder.mkdir()
+    for env in _maps(k):
+        save_envmap(folder / env.name, env)
+    return folder
+
+
+def test_cli_advises_a_folder_and_resumes(tmp_path, capsys):
+    folder = _files(tmp_path)
+    argv = ["advise", str(folder), "--renderer", "mitsuba3", "--renderer-normals", "4",
+            "--renderer-level", "3", "--target-relative", "0.05", "--out", str(tmp_path / "o"),
+            "--cache-dir", str(tmp_path / "c"), "--workers", "1"]
+    assert cli.main(argv) == 0
+    out = capsys.readouterr().out
+    d = json.loads((tmp_path / "o" / "advise_library.json").read_text())
+    assert [m["label"] for m in d["maps"]] == ["m0.exr", "m1.exr", "m2.exr"]
+    one = advise_preset(_maps()[1], PresetAdviseOptions("mitsuba3", **OPTS),
+                        target_relative=0.05, cache=False)
+    assert d["maps"][1]["spp"] == one.recommendation["spp"]
+    assert "  m1.exr " in out and "3 map(s) computed, 0 resumed" in out
+    for name in ("advise_library.csv", "advise_library.png"):
+        assert (tmp_path / "o" / name).stat().st_size > 0
+    assert cli.main(argv) == 0                         # a rerun computes nothing
+    assert "0 map(s) computed, 3 resumed" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("extra, words", [
+    ([], "give --renderer"),
+    (["--renderer", "cycles", "--snippet"], "--snippet is not taken with several maps"),
+    (["--renderer", "mitsuba3", "--rules"], "--rules is not taken with several maps"),
+])
+def test_cli_library_refusals_are_one_line_before_any_map_is_read(extra, words, tmp_path,
+                                                                  capsys):
+    folder = _files(tmp_path, 2)
+    assert cli.main(["advise", str(folder / "*.exr"), *extra]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and words in err[0], err

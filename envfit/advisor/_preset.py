@@ -7,16 +7,16 @@ The prediction is the noise of the renderer's *own* estimator as its preset desc
 MIS heuristic and the samples per spp of its integrator, the sampler's randomisation) on a
 white diffuse surface: the RMSE over uniform normals, RMS over the colour channels, in the
 map's radiance units (:class:`envfit.predict.renderer._preset_model.PresetModel`). The target
-is ``target_rmse``, or ``target_relative`` (default 1 %) of the map's mean radiance — for the
-diffuse lobe the mean shading value over all normals
-(:func:`envfit.advisor._prediction.mean_shading_value`).
+is ``target_rmse``, or ``target_relative`` (default 1 %) of the map's mean radiance (for the
+diffuse lobe, :func:`envfit.advisor._prediction.mean_shading_value`).
 
 For each strategy the renderer can render (``mis`` = both techniques as its integrator
 combines them, the renderer's default; ``map`` = emitter sampling only; ``brdf`` = BSDF
 sampling only) the answer is the smallest spp the sampler can run whose prediction meets the
 target (:func:`envfit.advisor._preset_search.search_spp`), up to the largest spp the model
 resolves for that sampler (:meth:`~envfit.advisor._preset_options.PresetAdviseOptions.spp_cap`).
-The recommendation is the renderer's default strategy (the first of ``strategies``).
+The recommendation is the renderer's default strategy (the first of ``strategies``), or one at
+least 10× cheaper where there is one (:attr:`PresetAdvice.default`).
 
 Example
 -------
@@ -45,7 +45,7 @@ from envfit.advisor._preset_options import (NET_RANDOMISATIONS, RENDERER_NAMES, 
 from envfit.advisor._preset_search import (CachedPresetModel, StrategyAnswer, runnable_spp,
                                            search_spp)
 from envfit.base._errors import ParameterError
-from envfit.defaults import BAND_MIN_FRAMES
+from envfit.defaults import BAND_MIN_FRAMES, DEFAULT_TARGET_RELATIVE, SWITCH_FACTOR
 
 __all__ = ["PresetAdvice", "advise_preset", "integrator_text"]
 
@@ -63,10 +63,6 @@ def integrator_text(preset, strategy: str, mis_compensation: bool = False) -> st
         items.append("envmap mis_compensation=true")
     return f"{s.integrator} ({', '.join(items)})" if items else s.integrator
 
-
-#: a strategy other than the renderer's default is recommended when the default needs at least
-#: this many times as many samples traced per pixel to meet the target
-SWITCH_FACTOR = 10
 
 #: how the model line names a microfacet --brdf
 _BSDF_WORDS = {"ggx": "GGX", "multiggx": "Multiscatter GGX (Cycles' default)"}
@@ -118,7 +114,7 @@ class PresetAdvice:
     def switched(self) -> str | None:
         """The strategy recommended instead of the renderer's default, or None: the one that
         meets the target with the fewest samples traced per pixel, when the default meets it
-        only with at least :data:`SWITCH_FACTOR` times as many, or not at all."""
+        only with at least :data:`~envfit.defaults.SWITCH_FACTOR` times as many, or not at all."""
         d = self.answers[self.options.default_strategy]
         met = [a for a in self.answers.values() if a.reached]
         if not met:
@@ -387,6 +383,10 @@ class PresetAdvice:
                 "spp_cap": self.spp_cap, "max_spp": o.max_spp, "model": dict(self.model),
                 "snippet": self.snippet, "snippet_spp": self.snippet_spp, "notes": self.notes}
 
+    def _repr_html_(self) -> str:       # Jupyter: the printed answer, escaped
+        from envfit.base._html import html_result
+        return html_result(f"PresetAdvice: {self.display}", [("", x) for x in self.lines()])
+
     def _answer_dict(self, a: StrategyAnswer) -> dict:
         s = self.options.preset.strategy(a.strategy)
         return {"strategy": a.strategy, "spp": a.spp, "reached": a.reached,
@@ -417,7 +417,7 @@ def _target(mean: float, target_rmse, target_relative) -> tuple[float, float | N
     0.01) × the mean radiance."""
     if target_rmse is not None:
         return float(target_rmse), None
-    rel = 0.01 if target_relative is None else float(target_relative)
+    rel = DEFAULT_TARGET_RELATIVE if target_relative is None else float(target_relative)
     if not mean > 0:
         raise ParameterError(f"the map's mean radiance is {mean:.3g}, not positive: give "
                              f"--target-rmse instead")

@@ -186,9 +186,11 @@ def coverage(rows: Sequence[MapRow],
 def _advise_map(source, opts, target_rmse, target_relative, cache: bool, cache_dir) -> dict:
     """The task of one map (runs on a worker): load it, advise it, return its row (a dict)."""
     from envfit.advisor._preset import advise_preset
+    from dataclasses import replace
     t0 = time.perf_counter()
     env = source.load()
-    adv = advise_preset(env, opts, target_rmse=target_rmse, target_relative=target_relative,
+    adv = advise_preset(env, replace(opts, quiet=True),      # the driver's bar is over maps
+                        target_rmse=target_rmse, target_relative=target_relative,
                         filename=source.path or source.label, cache=cache, cache_dir=cache_dir)
     rec = adv.recommendation
     answers = {a["strategy"]: {k: a[k] for k in ("spp", "reached", "predicted_rmse",
@@ -252,6 +254,9 @@ def advise_library(maps: Sequence, opts, *, target_rmse: float | None = None,
     t0 = time.perf_counter()
     if target_rmse is not None and target_relative is not None:
         raise ParameterError("give the target once: target_rmse or target_relative")
+    if target_rmse is None and target_relative is None:
+        from envfit.defaults import DEFAULT_TARGET_RELATIVE
+        target_relative = DEFAULT_TARGET_RELATIVE     # said as given, in the table and JSON
     library = LibraryOptions.of(library)
     sources = resolve_map_sources(maps, library.load_options)
     config = _run_config(opts, target_rmse, target_relative)
@@ -319,5 +324,30 @@ def _compute(missing: list, args: tuple, library, done: Callable, lib: LibraryAd
         library.close(ex)
 
 
-def _task_bytes(opts, missing) -> int:   # TEMPORARY: replaced by the renderer model's plan
-    return 1 << 30
+def _source_pixels(src) -> int:
+    """The pixels the model of ``src`` sees (its header's W x H, after ``--max-height``),
+    read without loading the pixels; 0 where the header cannot be read (the task reports it)."""
+    if src.envmap is not None:
+        return int(src.envmap.width * src.envmap.height)
+    try:
+        import OpenImageIO as oiio
+        inp = oiio.ImageInput.open(str(src.path))
+        if not inp:
+            return 0
+        w, h = int(inp.spec().width), int(inp.spec().height)
+        inp.close()
+    except Exception:       # noqa: BLE001 - any reader failure: the task's load reports it
+        return 0
+    cap = src.options.max_height
+    if cap and h > cap:
+        w, h = max(2, round(w * cap / h)), cap
+    return w * h
+
+
+def _task_bytes(opts, missing) -> int:
+    """The peak of one map's task: the renderer model's plan
+    (:func:`envfit.advisor._budget.preset_plan`) on the largest missing map, with the map
+    itself resident (float32, 4 channels at most)."""
+    from envfit.advisor._budget import preset_plan
+    pixels = max((_source_pixels(s) for s in missing), default=0)
+    return preset_plan(pixels, opts, resident=16 * pixels).peak()

@@ -9,8 +9,8 @@ from envfit.base._notes import NoteKind, note_kind
 from envfit.defaults import (ADVISE_RENDERER_POINTSETS, ALL_POINTSETS, BRDFS,
                              DEFAULT_POINTSETS, DEFAULT_SHININESS, MICROFACET_BSDF_WORDS,
                              MICROFACET_BSDFS, PREDICTOR_CHOICES, WEIGHTINGS)
-from envfit.cli._common import (add_common_arguments, add_map_arguments, load_map_from_args,
-                                out_dir)
+from envfit.cli._common import (add_common_arguments, add_executor_arguments, add_map_arguments,
+                                library_mode, load_map_from_args, out_dir)
 from envfit.cli._advise_preset import add_preset_arguments, reject_without_renderer, run_preset
 from envfit.cli._output import CommandOutput
 from envfit.cli._ranges import Range, distinct_names, state_common_ranges
@@ -40,11 +40,12 @@ def register(sub) -> None:
                     "(b'). Prints a table sorted by cost (N samples, or (L+1)^2 coefficients) "
                     "and a recommendation; --check measures the actual RMSE at the chosen N/L "
                     "on the map.")
-    add_map_arguments(p)
+    add_map_arguments(p, many=True)
     _add_target_arguments(p)
     _add_search_arguments(p)
     _add_check_and_cache_arguments(p)
     add_preset_arguments(p)
+    add_executor_arguments(p)
     add_common_arguments(p)
     state_common_ranges(p)
     p.set_defaults(func=run)
@@ -266,8 +267,14 @@ def _check_pairs(args: argparse.Namespace, defaults) -> None:
 def run(args: argparse.Namespace, output: CommandOutput) -> int:
     from envfit.advisor._advise import advise_with
     from envfit.base._atomic import atomic_write_csv, atomic_write_json
+    args.library = library_mode(args)       # several maps, a folder, a pattern, --workers
+    if not args.library:
+        args.map = args.map[0] if args.map else None
     if args.renderer is not None:
         return run_preset(args, output)
+    if args.library:
+        from envfit.cli._advise_library import run_library
+        return run_library(args, output, None)         # refuses: a library needs --renderer
     reject_without_renderer(args)
     opts = options_from_args(args)          # bad names and values: one line, before the map
     env = load_map_from_args(args)

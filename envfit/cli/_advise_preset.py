@@ -272,6 +272,9 @@ def run_preset(args: argparse.Namespace, output: CommandOutput) -> int:
     t0 = time.perf_counter()
     _reject_negative(args)
     popts, ropts = _options(args)         # bad names and combinations: one line, first
+    if getattr(args, "library", False):
+        from envfit.cli._advise_library import run_library
+        return run_library(args, output, popts)
     _snippet_file(args, None, args.out)   # --snippet of another map without --out: one line
     env = load_map_from_args(args)
     out = out_dir(args)
