@@ -192,3 +192,25 @@ def test_progress_bar_over_the_normals_and_quiet_silences_it(gp_file, tmp_path, 
     assert rc == 0 and "renderer model, pass 1 (planned ~" in "\n".join(err)
     rc, _, err, _ = _run(capsys, tmp_path, *args, "--no-cache", "--quiet")
     assert rc == 0 and err == []
+
+
+def test_independent_sampler_answers_beyond_the_default_nmax_from_its_exact_rate(
+        gp_file, tmp_path, capsys):
+    """An independent sampler's RMSE is exactly sigma/sqrt(spp) (issue 40): without --nmax its
+    answer is searched to the renderer's 32-bit spp, said as such, and equals the closed form
+    ceil(sigma^2 / target^2) from the model's 1-spp prediction; with --nmax 65536 it is not."""
+    m = PresetModel(load_envmap(gp_file), preset("mitsuba3"),
+                    options=PresetModelOptions(normals=4, max_level=7))
+    sigma = m.predict("brdf", "independent", 1).rmse
+    target = sigma / 1000.0                               # needs ~10^6 spp
+    base = ["--renderer", "mitsuba3", "--strategies", "brdf", "--renderer-normals", "4",
+            "--target-rmse", repr(target)]
+    rc, lines, _, d = _run(capsys, tmp_path, gp_file, *base)
+    rec = d["renderer"]["recommendation"]
+    expect = int(-(-(sigma / target) ** 2 // 1))          # ceil, in exact arithmetic +- 1
+    assert rc == 0 and rec["reached"] and abs(rec["spp"] - expect) <= 1
+    assert d["renderer"]["max_spp"] == 2 ** 31 - 1
+    assert "beyond 65536 spp from the independent sampler's exact rate" in "\n".join(lines)
+    rc, lines, _, d = _run(capsys, tmp_path, gp_file, *base, "--nmax", "65536")
+    assert rc == 0 and not d["renderer"]["recommendation"]["reached"]
+    assert any("no spp up to 65536 meets" in x for x in lines)

@@ -40,8 +40,8 @@ import numpy as np
 from envfit.advisor._cache import AdviseCache
 from envfit.advisor._model import map_key
 from envfit.advisor._prediction import mean_shading_value
-from envfit.advisor._preset_options import (NET_RANDOMISATIONS, RENDERER_NAMES, STRATEGY_WORDS,
-                                            PresetAdviseOptions, spp_cap)
+from envfit.advisor._preset_options import (DEFAULT_MAX_SPP, NET_RANDOMISATIONS, RENDERER_NAMES,
+                                            STRATEGY_WORDS, PresetAdviseOptions, spp_cap)
 from envfit.advisor._preset_search import (CachedPresetModel, StrategyAnswer, runnable_spp,
                                            search_spp)
 from envfit.base._errors import ParameterError
@@ -286,9 +286,12 @@ class PresetAdvice:
                     f"{f(a.predicted_rmse)} at {a.searched_max} spp ({self._why_max(a)})")
         below = ("" if a.below is None else
                  f", {f(a.below_rmse)} at {a.below} spp (misses)")
+        spec = p.sampler(o.sampler)
+        if spec.randomisation == "independent" and a.spp > DEFAULT_MAX_SPP:
+            below += (f"; beyond {DEFAULT_MAX_SPP} spp from the independent sampler's exact "
+                      f"rate, RMSE = sigma/sqrt(spp)")
         if not head:
             return f"{who}: spp = {a.spp} (predicted RMSE {f(a.predicted_rmse)}{below})"
-        spec = p.sampler(o.sampler)
         pow2 = ("; spp searched at powers of two (the model predicts this sampler's nets "
                 "there)" if spec.randomisation in NET_RANDOMISATIONS and spec.spp(3) == 3 else "")
         return (f"{who}: spp = {a.spp} for {goal}; predicted RMSE {f(a.predicted_rmse)} at "

@@ -171,8 +171,9 @@ class PresetAdviseOptions:
         spp listed beside the answer (``--spp``), each ≥ 1 and ≤ ``max_spp``.
     mis_compensation : bool
         Mitsuba 3 only: the envmap's ``mis_compensation`` (Karlík et al. 2019).
-    max_spp : int
-        The largest spp searched (≥ 1).
+    max_spp : int or None
+        The largest spp searched (≥ 1); None: :data:`DEFAULT_MAX_SPP`, or :data:`MAX_SPP`
+        for an independent sampler, whose RMSE is exactly σ/√spp at every spp.
     level : int or None
         The model's grid level L (1…11; None: :func:`default_level` of the sampler).
     normals : int
@@ -208,7 +209,7 @@ class PresetAdviseOptions:
     strategies: Sequence[str] | None = None
     spp: Sequence[int] = ()
     mis_compensation: bool = False
-    max_spp: int = DEFAULT_MAX_SPP
+    max_spp: int | None = None
     level: int | None = None
     normals: int = DEFAULT_NORMALS
     bsdf: str = "diffuse"
@@ -226,6 +227,9 @@ class PresetAdviseOptions:
             raise ParameterError(f"--mis-compensation is a setting of Mitsuba 3's envmap, not "
                                  f"of {RENDERER_NAMES[p.name]}")
         set_(self, "mis_compensation", bool(self.mis_compensation))
+        if self.max_spp is None:
+            exact = p.sampler(self.sampler).randomisation == "independent"
+            set_(self, "max_spp", MAX_SPP if exact else DEFAULT_MAX_SPP)
         set_(self, "max_spp", check_int(self.max_spp, "the largest spp (--nmax)", 1))
         if self.max_spp > MAX_SPP:
             raise ParameterError(f"the largest spp (--nmax) must be at most {MAX_SPP} with "

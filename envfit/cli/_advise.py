@@ -94,8 +94,11 @@ def _add_search_arguments(p) -> None:
                         f"or a value (sigma then by the band-limited likelihood at that s)")
     ranges = {"--fit-n": (Range(int, 10), "samples of the fit (default: 3000)"),
               "--nmin": (_AT_LEAST_1, "smallest N searched (default: 4)"),
-              "--nmax": (_AT_LEAST_1, "largest N searched, at least --nmin (default: 65536; "
-                                      "with --renderer the largest spp)"),
+              "--nmax": (_AT_LEAST_1, "largest N searched, at least --nmin (default: 65536); "
+                                      "with --renderer the largest spp, at most 2147483647 "
+                                      "(a renderer's spp is a 32-bit int; default 65536, or "
+                                      "2147483647 for an independent sampler, whose RMSE is "
+                                      "exactly sigma/sqrt(spp))"),
               "--osw-nmax": (_AT_LEAST_1, "largest N searched with optimal weights (an NxN "
                                           "solve; default: 4096)"),
               "--realisations": (Range(int, 1, MAX_SEEDS), "realisations averaged per N for "

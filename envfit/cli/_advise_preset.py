@@ -119,8 +119,7 @@ def reject_without_renderer(args: argparse.Namespace) -> None:
 def _options(args: argparse.Namespace):
     """The checked :class:`PresetAdviseOptions` and, with --rules, :class:`AdviseOptions`
     (every conflict a one-line error, before the map is read)."""
-    from envfit.advisor._preset_options import (DEFAULT_MAX_SPP, DEFAULT_NORMALS,
-                                                PresetAdviseOptions)
+    from envfit.advisor._preset_options import DEFAULT_NORMALS, PresetAdviseOptions
     for dest, flag in _GENERIC_ROWS.items():
         if getattr(args, dest, None) not in (None, False):
             raise ParameterError(f"{flag} is an option of envfit's generic renderer rows, "
@@ -148,7 +147,7 @@ def _options(args: argparse.Namespace):
                              f"mean radiance and must be < 1, got {args.target_relative!r}")
     popts = PresetAdviseOptions(
         args.renderer, sampler=args.sampler, strategies=args.strategies, spp=args.spp or (),
-        mis_compensation=args.mis_compensation, max_spp=args.nmax or DEFAULT_MAX_SPP,
+        mis_compensation=args.mis_compensation, max_spp=args.nmax,
         level=args.renderer_level,
         normals=args.renderer_normals or DEFAULT_NORMALS, bsdf=args.brdf,
         roughness=args.roughness, sphere_pixels=args.sphere_pixels, quiet=args.quiet)
