@@ -214,3 +214,13 @@ def test_independent_sampler_answers_beyond_the_default_nmax_from_its_exact_rate
     rc, lines, _, d = _run(capsys, tmp_path, gp_file, *base, "--nmax", "65536")
     assert rc == 0 and not d["renderer"]["recommendation"]["reached"]
     assert any("no spp up to 65536 meets" in x for x in lines)
+
+
+def test_quiet_prints_the_answer_line_alone(gp_file, tmp_path, capsys):
+    """--quiet hides the bars, tables and notes, not the answer (issue 38's hostile rerun)."""
+    base = ["--renderer", "mitsuba3", "--renderer-normals", "4"]
+    rc, loud, _, _ = _run(capsys, tmp_path, gp_file, *base)
+    rc_q, quiet, _, d = _run(capsys, tmp_path, gp_file, *base, "--quiet")
+    answer = [x for x in loud if not x.startswith("note: ")][0]
+    assert rc == rc_q == 0 and quiet == [answer]
+    assert f"spp = {d['renderer']['recommendation']['spp']} " in answer

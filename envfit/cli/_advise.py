@@ -291,6 +291,7 @@ def run(args: argparse.Namespace, output: CommandOutput) -> int:
         output.say(f"note: {note}")
     output.say(*_header(adv), *adv.table_lines(), *_renderer_lines(adv),
                *(f"warning: {w}" for w in adv.warnings), adv.recommendation)
+    output.answer(adv.recommendation)                   # --quiet: the answer alone
     if adv.renderer is not None:
         output.say(adv.renderer.recommendation)
     if adv.check is not None:

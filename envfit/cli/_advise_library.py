@@ -56,6 +56,7 @@ def run_library(args: argparse.Namespace, output: CommandOutput, popts) -> int:
     output.say(*(f"note: {n}" for n in lib.notes), *lib.table_lines(),
                f"({lib.seconds:.1f} s: {lib.computed} map(s) computed, {lib.resumed} resumed"
                + (f", on {lib.executor})" if lib.executor else ")"))
+    output.answer(*lib.table_lines()[-len(lib.coverage):])     # --quiet: the coverage lines
     d = lib.to_dict()
     if out is not None:
         from envfit.plots._advise_library import plot_advise_library

@@ -285,6 +285,7 @@ def run_preset(args: argparse.Namespace, output: CommandOutput) -> int:
                         cache_dir=args.cache_dir)
     output.say(*(f"note: {n}" for n in adv.notes))      # the run's notes, before the answer
     output.say(*adv.lines())
+    output.answer(adv.lines()[0])                        # --quiet: the answer alone
     rules = advise_with(env, ropts) if ropts is not None else None
     if rules is not None:
         output.say(*_rules_lines(rules))

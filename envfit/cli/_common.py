@@ -187,7 +187,9 @@ def add_common_arguments(p: argparse.ArgumentParser, *, seed: bool = True) -> No
                    help="folder for plots, CSV and images")
     if seed:
         g.add_argument("--seed", type=nonneg_int, default=0, help="random seed (default: 0)")
-    g.add_argument("--quiet", "-q", action="store_true", help="no progress bars or tables")
+    g.add_argument("--quiet", "-q", action="store_true",
+                   help="no progress bars, tables or notes: only advise's answer line, nothing "
+                        "from the other commands (their results: --json, --out)")
 
 
 # ------------------------------------------------------------------ preflight of outputs

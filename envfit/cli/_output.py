@@ -89,6 +89,13 @@ class CommandOutput:
         for line in lines:
             print(line)
 
+    def answer(self, *lines: str) -> None:
+        """The command's answer, the lines ``--quiet`` still prints (already printed by
+        :meth:`say` without it; never with ``--json -``)."""
+        if self.quiet and not self.json_to_stdout:
+            for line in lines:
+                print(line)
+
     def note(self, kind: NoteKind, text: str) -> None:
         """Say ``text`` on stderr now ("envfit CMD: note: …") and record it with ``kind``."""
         self.notes.append(Note(text, kind))
