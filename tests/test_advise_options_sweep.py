@@ -207,5 +207,5 @@ def test_roughness_is_stated_and_checked_in_the_renderers_units(renderer, tmp_pa
     for r in (lo * (1 - 1e-4), hi * (1 + 1e-4)):
         line = _one_line(capsys, ["--renderer", renderer, "--brdf", "ggx", "--roughness",
                                   repr(r)], tmp_path)
-        assert f"--roughness {r:g} is outside {words}" in line
+        assert f"--roughness {r:.12g} is outside {words}" in line
         assert "is alpha =" not in line

@@ -161,6 +161,19 @@ def test_n_beyond_the_pixels_names_the_pixels_not_a_memory_limit(cmd, tiny, caps
     assert "memory" not in line and "fits is" not in line
 
 
+@pytest.mark.parametrize("cmd", ["table2", "fit"])
+def test_library_n_beyond_the_smallest_maps_pixels_names_the_pixels(cmd, tiny, tmp_path,
+                                                                     capsys):
+    """Several maps: --n is checked against the map of fewest pixels, read from the headers
+    before any work (not a memory limit's N, which may exceed every map's pixels)."""
+    from envfit.maps._io import save_envmap
+    big = save_envmap(tmp_path / "big.exr", np.full((2 * H, 4 * H, 1), 0.5, np.float32))
+    assert cli.main([cmd, tiny, str(big), "--n", "1e9"]) == 2
+    line = capsys.readouterr().err.strip()
+    assert f"W x H = {2 * H * H} for map tiny.exr, the library's smallest" in line
+    assert "memory" not in line and "fits is" not in line
+
+
 def test_n_within_the_pixels_but_over_memory_names_memory(tmp_path, capsys, monkeypatch):
     from envfit.maps._io import save_envmap
     big = save_envmap(tmp_path / "b.exr", np.full((64, 128, 1), 0.5, dtype=np.float32))

@@ -144,7 +144,7 @@ def checked_roughness(roughness, renderer: str) -> float:
     if hi < r <= hi * (1.0 + ROUGHNESS_RTOL):
         return hi
     if not (math.isfinite(r) and lo <= r <= hi):
-        raise ParameterError(f"--roughness {r:g} is outside {roughness_words(renderer)}")
+        raise ParameterError(f"--roughness {r:.12g} is outside {roughness_words(renderer)}")
     return r
 
 

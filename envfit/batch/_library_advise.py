@@ -324,30 +324,10 @@ def _compute(missing: list, args: tuple, library, done: Callable, lib: LibraryAd
         library.close(ex)
 
 
-def _source_pixels(src) -> int:
-    """The pixels the model of ``src`` sees (its header's W x H, after ``--max-height``),
-    read without loading the pixels; 0 where the header cannot be read (the task reports it)."""
-    if src.envmap is not None:
-        return int(src.envmap.width * src.envmap.height)
-    try:
-        import OpenImageIO as oiio
-        inp = oiio.ImageInput.open(str(src.path))
-        if not inp:
-            return 0
-        w, h = int(inp.spec().width), int(inp.spec().height)
-        inp.close()
-    except Exception:       # noqa: BLE001 - any reader failure: the task's load reports it
-        return 0
-    cap = src.options.max_height
-    if cap and h > cap:
-        w, h = max(2, round(w * cap / h)), cap
-    return w * h
-
-
 def _task_bytes(opts, missing) -> int:
     """The peak of one map's task: the renderer model's plan
     (:func:`envfit.advisor._budget.preset_plan`) on the largest missing map, with the map
     itself resident (float32, 4 channels at most)."""
     from envfit.advisor._budget import preset_plan
-    pixels = max((_source_pixels(s) for s in missing), default=0)
+    pixels = max((s.pixels() for s in missing), default=0)
     return preset_plan(pixels, opts, resident=16 * pixels).peak()

@@ -8,7 +8,7 @@ from envfit.cli._common import (add_common_arguments, add_executor_arguments, ad
                                 executor_kwargs, library_maps, library_mode, load_map_from_args,
                                 load_options_from_args, out_dir)
 from envfit.cli._output import CommandOutput
-from envfit.cli._ranges import PIXELS, Ranged, check_pixels
+from envfit.cli._ranges import PIXELS, Ranged, check_library_pixels, check_pixels
 
 #: the range of --n (``--help`` and the errors say these words)
 N_RANGE = Ranged(10, None, "N", hi_text=PIXELS)
@@ -104,7 +104,9 @@ def _run_library(args: argparse.Namespace, output: CommandOutput) -> int:
     out = out_dir(args)
     options = LibraryOptions(load_options=load_options_from_args(args), quiet=args.quiet,
                              **executor_kwargs(args))
-    lib = fit_smoothness_library(library_maps(args), method=args.method, n=args.n,
+    maps = library_maps(args)
+    check_library_pixels(N_RANGE, "--n", args.n, maps, options.load_options)
+    lib = fit_smoothness_library(maps, method=args.method, n=args.n,
                                  scale=args.scale, pointset=args.pointset, seed=args.seed,
                                  out=out, options=options)
     output.record_unwritten(lib.unwritten)

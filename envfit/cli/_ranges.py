@@ -115,6 +115,17 @@ def check_pixels(rng: Ranged, flag: str, values, env) -> None:
                       f"map {env.name or ''} ({env.width}x{env.height})")
 
 
+def check_library_pixels(rng: Ranged, flag: str, values, maps, load_options) -> None:
+    """:func:`check_pixels` for a library (``maps``: the MAP arguments): against the map of
+    fewest pixels, read from the headers before any work."""
+    from envfit.maps._mapsource import resolve_map_sources
+    sources = [s for s in resolve_map_sources(maps, load_options) if s.pixels() > 0]
+    if sources:
+        least = min(sources, key=lambda s: s.pixels())
+        rng.check_dynamic(flag, values, least.pixels(), f"map {least.label}, the library's "
+                          "smallest")
+
+
 def workers_range() -> Ranged:
     """``--workers K``: 1 <= K <= this machine's cores
     (:func:`envfit.base._resources.machine_cores`)."""

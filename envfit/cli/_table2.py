@@ -10,7 +10,7 @@ from envfit.cli._common import (add_common_arguments, add_executor_arguments, ad
                                 executor_kwargs, library_maps, library_mode,
                                 load_map_from_args, load_options_from_args, out_dir)
 from envfit.cli._output import CommandOutput
-from envfit.cli._ranges import PIXELS, Ranged, check_pixels
+from envfit.cli._ranges import PIXELS, Ranged, check_library_pixels, check_pixels
 
 #: the ranges of the options (``--help`` and the errors say these words)
 S_VALUES = Ranged(1, 2, "s", integer=False, lo_open=True, hi_open=True, many=True)
@@ -179,6 +179,7 @@ def _run_library(args, output: CommandOutput, s_values, n_values) -> int:
     options = LibraryOptions(load_options=load_options_from_args(args, quick_height=QUICK_HEIGHT),
                              quiet=args.quiet,
                              **executor_kwargs(args))
+    check_library_pixels(N_VALUES, "--n", n_values, maps, options.load_options)
     lib = run_table2_library(maps, s_values, n_values, pointset=args.pointset, scale=args.scale,
                              seed=args.seed, out=out, save_reconstructions=args.reconstructions,
                              on_cell=on_cell, solver=args.solver, options=options)

@@ -83,6 +83,25 @@ class MapSource:
         return load_envmap(self.path, up=o.up, allow_negative=o.allow_negative,
                            fix_nonfinite=o.fix_nonfinite, max_height=o.max_height)
 
+    def pixels(self) -> int:
+        """W x H of the map as loaded (after ``max_height``), from the file's header, no
+        pixel read; 0 where the header cannot be read (loading it says why)."""
+        if self.envmap is not None:
+            return int(self.envmap.width * self.envmap.height)
+        try:
+            import OpenImageIO as oiio
+            inp = oiio.ImageInput.open(str(self.path))
+            if not inp:
+                return 0
+            w, h = int(inp.spec().width), int(inp.spec().height)
+            inp.close()
+        except Exception:       # noqa: BLE001 - any reader failure: load() reports it
+            return 0
+        cap = self.options.max_height
+        if cap and h > cap:
+            w, h = max(2, round(w * cap / h)), cap
+        return w * h
+
     def identity(self) -> dict[str, Any]:
         """What ties stored results to this input: for a file its name, size and
         modification time (no read: a library is planned without loading it) and the
