@@ -266,14 +266,16 @@ PROPOSAL_MICROFACET_BYTES = (64, 200 * 2 ** 18)
 #: 239, Cycles 268 / 548, envfit 32 / 64)
 TECHNIQUE_BYTES_PER_PIXEL = (300, 600)
 #: seconds per table point, normal (frame) and pass, by the sampler's randomisation (the rest:
-#: ``"other"``; a microfacet BSDF: ``"microfacet"``, every sampler) — the per-normal (per-frame)
-#: cost is this times the finest table's 4^(L+1) points (times the footprint's normals with
-#: ``--sphere-pixels``). Measured on 2 loaded cores of an AMD EPYC at L = 9 (1 M points):
-#: independent 0.9 µs, envfit sobol 4.5, zsobol 5, multijitter 6, GGX independent 2.4 µs;
-#: issue 38's GGX run (4096 frames, L = 7, 2 passes, ~50 min) 5.6 µs. A rough figure (within
-#: ~3x: the machine's load moves it)
-PRESET_SECONDS_PER_POINT = {"independent": 1.5e-6, "jittered": 2e-6, "other": 6e-6,
-                            "microfacet": 6e-6}
+#: ``"other"``; a microfacet BSDF: ``"microfacet"``, every sampler; a digital shift's shifted
+#: points too) — the per-normal (per-frame) cost is this times the finest table's 4^(L+1)
+#: points (times the footprint's normals with ``--sphere-pixels``). Calibrated with
+#: ``bench/preset_plan_check.py`` on forest.exr (1024x512, 16 normals, each sampler's default
+#: level, the cache off; AMD EPYC, 2 cores, load ~1): measured per point 0.35-0.45 µs
+#: (independent, L = 7; pbrt-v4's 1.5), 0.84-1.1 (jittered), 0.54-1.5 (nets, multi-jittering,
+#: orthogonal arrays, L = 9), ldsampler 0.18 over its 2.4 M fine and shifted points, GGX
+#: 0.45-0.94; each constant at about the largest measured: a pass took 0.3-0.8x its plan
+PRESET_SECONDS_PER_POINT = {"independent": 1.0e-6, "jittered": 1.2e-6, "digital_shift": 0.25e-6,
+                            "other": 1.5e-6, "microfacet": 1.5e-6}
 #: the passes a search typically takes (1 to 4 measured: the coarse spp, the brackets)
 PRESET_PASSES = 2
 

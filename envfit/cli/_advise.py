@@ -267,17 +267,24 @@ def _check_pairs(args: argparse.Namespace, defaults) -> None:
             f"the default {lo} {getattr(defaults, lo_dest)}"))
 
 
+def _prepare_maps(args: argparse.Namespace) -> None:
+    """``args.library``: several maps, a folder, a pattern or an executor option (a library,
+    which needs ``--renderer``: else one line, :func:`envfit.cli._advise_library.check_library`);
+    otherwise ``args.map`` becomes the one path (or None: the built-in map)."""
+    args.library = library_mode(args)
+    if args.library:
+        from envfit.cli._advise_library import check_library
+        check_library(args)
+    else:
+        args.map = args.map[0] if args.map else None
+
+
 def run(args: argparse.Namespace, output: CommandOutput) -> int:
     from envfit.advisor._advise import advise_with
     from envfit.base._atomic import atomic_write_csv, atomic_write_json
-    args.library = library_mode(args)       # several maps, a folder, a pattern, --workers
-    if not args.library:
-        args.map = args.map[0] if args.map else None
+    _prepare_maps(args)
     if args.renderer is not None:
         return run_preset(args, output)
-    if args.library:
-        from envfit.cli._advise_library import run_library
-        return run_library(args, output, None)         # refuses: a library needs --renderer
     reject_without_renderer(args)
     opts = options_from_args(args)          # bad names and values: one line, before the map
     env = load_map_from_args(args)

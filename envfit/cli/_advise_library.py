@@ -17,7 +17,7 @@ from envfit.base._errors import ParameterError
 from envfit.cli._common import executor_kwargs, load_options_from_args, out_dir
 from envfit.cli._output import CommandOutput
 
-__all__ = ["run_library", "LIBRARY_REFUSED"]
+__all__ = ["run_library", "check_library", "LIBRARY_REFUSED"]
 
 #: one map's options (dest → flag) that a library run refuses, and why
 LIBRARY_REFUSED = {"snippet": ("--snippet", "a scene names one map file: run advise on that "
@@ -26,7 +26,9 @@ LIBRARY_REFUSED = {"snippet": ("--snippet", "a scene names one map file: run adv
                    "check": ("--check", "envfit's rule tables are for one map")}
 
 
-def _check(args: argparse.Namespace) -> None:
+def check_library(args: argparse.Namespace) -> None:
+    """One line (:class:`ParameterError`) for a library run's refused options, before any map
+    is read."""
     if args.renderer is None:
         raise ParameterError("several maps (a folder, a pattern, --executor/--workers) are "
                              "advised in a renderer's terms: give --renderer (mitsuba3, "
@@ -41,7 +43,7 @@ def run_library(args: argparse.Namespace, output: CommandOutput, popts) -> int:
     from envfit.batch._library_advise import advise_library
     from envfit.base._atomic import atomic_write_csv, atomic_write_json
     from envfit.batch import LibraryOptions
-    _check(args)
+    check_library(args)
     out = out_dir(args)
     library = LibraryOptions(load_options=load_options_from_args(args), quiet=args.quiet,
                              **executor_kwargs(args))
