@@ -21,9 +21,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from render_check import _cpu  # noqa: E402
 
-from envfit.advisor._budget import PRESET_PASSES, preset_plan  # noqa: E402
-from envfit.advisor._preset import advise_preset  # noqa: E402
-from envfit.advisor._preset_options import PresetAdviseOptions  # noqa: E402
+from envfit.advisor._budget import PRESET_PASSES, preset_plan  # noqa: E402  # internal: the plan under test
+from envfit.advisor._preset import advise_preset  # noqa: E402  # internal: the model's own timings (passes, seconds)
+from envfit.advisor._preset_options import PresetAdviseOptions  # noqa: E402  # internal: the plan takes the checked options
 from envfit.maps import load_envmap  # noqa: E402
 from envfit.sampling.presets import preset  # noqa: E402
 

@@ -465,6 +465,18 @@ class DaskExecutor:
         self.close()
 
 
+def check_executor_choice(kind: str, workers: int | None, scheduler: str | None) -> None:
+    """One line (:class:`ParameterError`) for an unknown executor, ``--scheduler`` without
+    dask, or ``--workers`` with a remote scheduler — before any work."""
+    if kind not in EXECUTORS:
+        raise ParameterError(f"unknown executor {kind!r}; choose one of {', '.join(EXECUTORS)}")
+    if scheduler and kind != "dask":
+        raise ParameterError("--scheduler needs --executor dask")
+    if kind == "dask" and scheduler and workers is not None:
+        raise ParameterError("--workers sizes a local cluster; with --scheduler the "
+                             "cluster's own workers are used")
+
+
 def make_executor(kind: str | Any = "local", *, workers: int | None = None,
                   scheduler: str | None = None, max_useful: int | None = None,
                   bytes_per_task: int = 0,
@@ -475,14 +487,8 @@ def make_executor(kind: str | Any = "local", *, workers: int | None = None,
     seconds per handshake with a remote scheduler (None: :func:`dask_timeout`)."""
     if not isinstance(kind, str):
         return kind, []
-    if kind not in EXECUTORS:
-        raise ParameterError(f"unknown executor {kind!r}; choose one of {', '.join(EXECUTORS)}")
-    if scheduler and kind != "dask":
-        raise ParameterError("--scheduler needs --executor dask")
+    check_executor_choice(kind, workers, scheduler)
     if kind == "dask" and scheduler:
-        if workers is not None:
-            raise ParameterError("--workers sizes a local cluster; with --scheduler the "
-                                 "cluster's own workers are used")
         return DaskExecutor(scheduler, timeout=timeout), []
     w, notes = plan_workers(workers, cores=machine_cores(),
                             max_useful=max_useful or machine_cores(),

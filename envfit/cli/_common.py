@@ -390,5 +390,7 @@ def load_options_from_args(args: argparse.Namespace, *, quick_height: int | None
 
 def executor_kwargs(args: argparse.Namespace) -> dict:
     """``executor``, ``workers``, ``scheduler`` for the library functions."""
+    from envfit.batch._executor import check_executor_choice
     kind = args.executor or ("dask" if args.scheduler else "local")
+    check_executor_choice(kind, args.workers, args.scheduler)       # before any map is read
     return {"executor": kind, "workers": args.workers, "scheduler": args.scheduler}
