@@ -224,3 +224,17 @@ def test_quiet_prints_the_answer_line_alone(gp_file, tmp_path, capsys):
     answer = [x for x in loud if not x.startswith("note: ")][0]
     assert rc == rc_q == 0 and quiet == [answer]
     assert f"spp = {d['renderer']['recommendation']['spp']} " in answer
+
+
+def test_a_strategy_the_model_cannot_predict_is_said_left_out(gp_file, tmp_path, capsys):
+    """envfit's jitter has no model of MIS's shared shift: the default answer leaves mis out
+    and says so before the answer; with every strategy modelled, no such note."""
+    from envfit.advisor._preset_options import PresetAdviseOptions
+    o = PresetAdviseOptions("envfit", sampler="jitter", normals=4)
+    assert "mis" not in o.strategies and len(o.notes) == 1
+    assert o.notes[0].startswith("strategy mis (both techniques (MIS)) is left out")
+    assert PresetAdviseOptions("mitsuba3", normals=4).notes == []
+    rc, lines, _, d = _run(capsys, tmp_path, gp_file, "--renderer", "envfit", "--sampler",
+                           "jitter", "--renderer-normals", "4")
+    assert rc == 0 and f"note: {o.notes[0]}" in lines and o.notes[0] in d["renderer"]["notes"]
+    assert lines.index(f"note: {o.notes[0]}") < min(i for i, x in enumerate(lines) if "spp" in x)

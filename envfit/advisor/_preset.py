@@ -480,7 +480,7 @@ def advise_preset(envmap, opts: PresetAdviseOptions, *, target_rmse: float | Non
                          independent=spec.randomisation == "independent",
                          first_cap=opts.spp_cap(sampled=False))
     cells = {(s, n): cm.rmse(s, n) for s in opts.strategies for n in cm.asked_spp(s)}
-    notes = list(store.notes)
+    notes = [*opts.notes, *store.notes]
     if opts.renderer == "cycles" and opts.bsdf == "ggx":
         notes.append("--brdf ggx is Cycles' single-scatter GGX (a Glossy BSDF set to GGX); the "
                      "Principled and Glossy BSDF nodes default to Multiscatter GGX: --brdf "

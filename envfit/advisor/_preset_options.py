@@ -220,6 +220,7 @@ class PresetAdviseOptions:
     def __post_init__(self) -> None:
         p = preset(self.renderer)
         set_ = object.__setattr__
+        set_(self, "_notes", [])
         set_(self, "renderer", p.name)
         set_(self, "sampler", p.sampler(self.sampler).name)
         self._check_bsdf(p)
@@ -358,9 +359,18 @@ class PresetAdviseOptions:
             elif asked:
                 raise ParameterError(why)
             first = first or why
+            if why is not None and setting.renderable:         # the model's gap: said
+                self._notes.append(f"strategy {s} ({STRATEGY_WORDS[s]}) is left out of the "
+                                   f"answer: {why}")
         if not ok:
             raise ParameterError(first)
         return tuple(ok)
+
+    @property
+    def notes(self) -> list[str]:
+        """What the options left out of the answer: each strategy the renderer renders but
+        the model does not predict with this sampler, and why (not asked: left out)."""
+        return list(self._notes)
 
     @property
     def preset(self):
