@@ -1,6 +1,8 @@
 """A sweep over ``envfit advise``'s options (issue 38), walking the parser's actions, with and
-without ``--renderer``: every numeric option's ``--help`` states its range, and a value just
-outside it is one line naming that flag, exit 2, before the map is read (the map given does
+without ``--renderer``: every numeric option is a :class:`~envfit.cli._ranges.Ranged` (the one
+range type of every command, ``--workers`` and _common's ``--seed``/``--max-height`` too), its
+``--help`` states its range in the words ``str(range)``, and a value just outside it is one line
+naming that flag in the same words, exit 2, before the map is read (the map given does
 not exist, so a check after loading it would name the map instead); every list option refuses
 a repeat; every list of names in ``--help`` is its registry's; ``--help`` has no ``%%``; the
 roughness range is stated and checked in each renderer's own units.
@@ -17,7 +19,7 @@ import pytest
 
 from envfit.cli import build_parser, main
 from envfit.cli._common import finite_float, str_list
-from envfit.cli._ranges import Range, RangeList, Ranged, common_range, distinct_names
+from envfit.cli._ranges import Ranged, distinct_names, ranged_actions
 
 
 def _parser():
@@ -32,14 +34,15 @@ def _flag(a) -> str:
     return next(o for o in a.option_strings if o.startswith("--"))
 
 
-def _range(a):
-    return a.type if isinstance(a.type, (Range, RangeList)) else common_range(a.type)
+def _range(a) -> Ranged:
+    return a.type
 
 
-_ACTIONS = [a for a in _parser()._actions if a.option_strings]
-_NUMERIC = [a for a in _ACTIONS if _range(a) is not None]
+_PARSER = _parser()
+_ACTIONS = [a for a in _PARSER._actions if a.option_strings]
+_NUMERIC = ranged_actions(_PARSER)
 _LISTS = [a for a in _ACTIONS if a.type in (distinct_names, str_list)
-          or isinstance(a.type, RangeList)]
+          or (isinstance(a.type, Ranged) and a.type.many)]
 
 
 def _one_line(capsys, argv, tmp_path):
@@ -53,23 +56,23 @@ def _one_line(capsys, argv, tmp_path):
 
 
 def test_every_typed_option_has_a_range_or_is_a_name_list():
-    """No numeric option escapes the sweep: each typed option is a Range, a RangeList, a
-    number type of _common (with its range), a list of names, a path, or --roughness."""
+    """No numeric option escapes the sweep: each typed option is a Ranged (_common's number
+    types included: state_common_ranges gives them theirs), a list of names, a path, or
+    --roughness."""
     from pathlib import Path
     for a in _ACTIONS:
         if a.type is None or a.type is Path or a in _NUMERIC or a in _LISTS:
             continue
-        if isinstance(a.type, Ranged):          # --workers: swept by tests/test_option_ranges
-            continue
         assert _flag(a) == "--roughness" and a.type is finite_float, _flag(a)
-    assert len(_NUMERIC) >= 15
+    assert len(_NUMERIC) >= 18
+    assert {"--workers", "--seed", "--max-height"} <= {_flag(a) for a in _NUMERIC}
 
 
 @pytest.mark.parametrize("flag", [_flag(a) for a in _NUMERIC])
 def test_numeric_help_states_the_range(flag):
     a = next(x for x in _NUMERIC if _flag(x) == flag)
     help_text = " ".join((a.help % {}).split())
-    assert _range(a).words in help_text, (flag, help_text)
+    assert str(_range(a)) in help_text, (flag, help_text)
 
 
 _OUTSIDE = [(_flag(a), v) for a in _NUMERIC for v in _range(a).outside()]
@@ -81,17 +84,21 @@ def test_outside_the_range_is_one_line_naming_the_flag(flag, value, renderer, tm
                                                        capsys):
     extra = ["--renderer", renderer] if renderer else []
     line = _one_line(capsys, [*extra, flag, value], tmp_path)
-    assert f"argument {flag}: {value} is not " in line
+    assert f"argument {flag}: {value} is outside {_range_of(flag)} (see " in line, line
+
+
+def _range_of(flag: str) -> Ranged:
+    return _range(next(a for a in _NUMERIC if _flag(a) == flag))
 
 
 @pytest.mark.parametrize("flag", [_flag(a) for a in _NUMERIC])
 def test_the_ends_of_each_range_are_accepted(flag):
     a = next(x for x in _NUMERIC if _flag(x) == flag)
     rng = _range(a)
-    item = rng.item if isinstance(rng, RangeList) else rng
-    for end, open_ in ((item.lo, item.lo_open), (item.hi, item.hi_open)):
+    for end, open_ in ((rng.lo, rng.lo_open), (rng.hi, rng.hi_open)):
         if end is not None and not open_:
-            assert item(f"{end:g}" if isinstance(end, float) else str(end)) == end
+            v = rng(repr(end) if isinstance(end, float) else str(end))
+            assert (v[0] if rng.many else v) == end
 
 
 def test_the_parser_ranges_are_the_models():

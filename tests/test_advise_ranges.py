@@ -25,14 +25,24 @@ def test_upper_bounds_both_ways(name, top, msg):
     assert msg in str(e.value) and "\n" not in str(e.value)
 
 
-@pytest.mark.parametrize("argv", [["--axes", "1000000000", "--check"],
-                                  ["--renderer-spectrum-axes", "100000000"],
-                                  ["--renderer-max-axes", "200000"],
-                                  ["--realisations", "100000"]])
-def test_cli_out_of_range_is_one_line_exit_2(argv, tmp_path, monkeypatch, capsys):
+@pytest.mark.parametrize("argv, words", [(["--axes", "1000000000", "--check"], "2 <= M <= 100000"),
+                                         (["--renderer-spectrum-axes", "100000000"],
+                                          "1 <= K <= 1024"),
+                                         (["--renderer-max-axes", "200000"], "2 <= M <= 100000"),
+                                         (["--realisations", "100000"], "1 <= K <= 256")])
+def test_cli_out_of_range_is_one_line_exit_2(argv, words, tmp_path, monkeypatch, capsys):
     from envfit.cli import main
     monkeypatch.setenv("ENVFIT_CACHE_DIR", str(tmp_path))
     rc = main(["advise", "--max-height", "16", "--target-rmse", "0.01", "--quiet", *argv])
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1 and err[0].startswith("envfit advise: error:")
-    assert f"argument {argv[0]}: " in err[0] and " is not an integer from " in err[0]
+    assert f"argument {argv[0]}: {argv[1]} is outside {words} (see " in err[0], err[0]
+    assert _in_help(argv[0], words)
+
+
+def _in_help(flag: str, words: str) -> bool:
+    """The error's words are the words of ``flag``'s --help."""
+    from envfit.cli import build_parser
+    p = build_parser("advise")._subparsers._group_actions[0].choices["advise"]
+    a = next(a for a in p._actions if flag in a.option_strings)
+    return words in " ".join(a.help.split())

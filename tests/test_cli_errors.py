@@ -41,6 +41,7 @@ def _one_line(capsys, rc: int) -> str:
     (["theory", "figures", "--only"], "envfit theory figures",
      "argument --only: expected one argument"),
     (["validate", "--axes", "-2"], "envfit validate", "argument --axes: -2 is outside 2 <= M <= 100000"),
+    (["advise", "--axes", "1"], "envfit advise", "argument --axes: 1 is outside 2 <= M <= 100000"),
     (["advise", "--target-rmse", "1", "--target-relative", "0.1"], "envfit advise",
      "argument --target-relative: not allowed with argument --target-rmse"),
     (["sh", "--lmax", "2", "--window", "x"], "envfit sh",

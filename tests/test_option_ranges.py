@@ -60,17 +60,12 @@ def _base(words, tiny, tmp_path):
 def _outside(r: Ranged) -> list[str]:
     """Values just outside the stated range (both ends; the tiny map's bound where the upper
     one depends on the map) and an absurd one."""
-    step = 1 if r.integer else 1e-6 * max(1.0, abs(r.lo))
-    vals = [r.lo if r.lo_open else r.lo - step]
-    if r.hi is not None:
-        vals.append(r.hi if r.hi_open else (r.hi + 1 if r.integer else r.hi * (1 + 1e-6) + 1e-9))
-    elif r.hi_text == PIXELS:
-        vals.append(2 * H * H + 1)
-    elif r.hi_text == BAND_LIMIT:
-        vals.append(H)                      # H - 1 is the largest degree
-    else:                                   # pragma: no cover - a new kind of bound
-        raise AssertionError(f"unknown bound {r.hi_text!r}")
-    return [repr(v) if isinstance(v, float) else str(v) for v in vals] + ["1e12"]
+    vals = r.outside()                      # the fixed range's ends (Ranged's own helper)
+    dynamic = {PIXELS: 2 * H * H + 1, BAND_LIMIT: H}    # H - 1 is the largest degree
+    if r.hi is None:
+        assert r.hi_text in dynamic, f"unknown bound {r.hi_text!r}"
+        vals.append(str(dynamic[r.hi_text]))
+    return vals + ["1e12"]
 
 
 def test_every_numeric_option_has_a_stated_range_and_is_refused_in_its_words(tiny, tmp_path,

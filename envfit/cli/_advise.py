@@ -13,11 +13,13 @@ from envfit.cli._common import (add_common_arguments, add_executor_arguments, ad
                                 library_mode, load_map_from_args, out_dir)
 from envfit.cli._advise_preset import add_preset_arguments, reject_without_renderer, run_preset
 from envfit.cli._output import CommandOutput
-from envfit.cli._ranges import Range, distinct_names, state_common_ranges
+from envfit.cli._ranges import Ranged, distinct_names, state_common_ranges
 
-_POSITIVE = Range(float, 0, lo_open=True)
-_FRACTION = Range(float, 0, 1, lo_open=True, hi_open=True)
-_AT_LEAST_1 = Range(int, 1)
+SHININESS = Ranged(0, None, "n", integer=False, lo_open=True)
+TARGET_RMSE = Ranged(0, None, "E", integer=False, lo_open=True)
+TARGET_RELATIVE = Ranged(0, 1, "F", integer=False, lo_open=True, hi_open=True)
+S_VALUE = Ranged(1, 2, "s", integer=False, lo_open=True, hi_open=True, literals=("auto",))
+AT_LEAST_1 = Ranged(1, None, "N")
 
 
 def register(sub) -> None:
@@ -58,15 +60,14 @@ def _add_target_arguments(p) -> None:
     p.add_argument("--brdf", choices=BRDFS + MICROFACET_BSDFS, default="diffuse",
                    help=f"weight function: {', '.join(BRDFS)} (default: diffuse); with "
                         f"--renderer: diffuse or a microfacet BSDF with --roughness: {micro}")
-    p.add_argument("--shininess", type=_POSITIVE, default=DEFAULT_SHININESS,
-                   help=f"glossy exponent n, {_POSITIVE.words} (default: "
-                        f"{DEFAULT_SHININESS:g})")
+    p.add_argument("--shininess", type=SHININESS, default=DEFAULT_SHININESS,
+                   help=f"glossy exponent {SHININESS} (default: {DEFAULT_SHININESS:g})")
     tg = p.add_mutually_exclusive_group()
-    tg.add_argument("--target-rmse", type=_POSITIVE, metavar="E",
-                    help=f"target RMS shading error, on the --scale values; {_POSITIVE.words}")
-    tg.add_argument("--target-relative", type=_FRACTION, metavar="F",
+    tg.add_argument("--target-rmse", type=TARGET_RMSE, metavar="E",
+                    help=f"target RMS shading error, on the --scale values; {TARGET_RMSE}")
+    tg.add_argument("--target-relative", type=TARGET_RELATIVE, metavar="F",
                     help=f"target as a fraction of the map's mean shading value, "
-                         f"{_FRACTION.words} (default, when neither is given: 0.01)")
+                         f"{TARGET_RELATIVE} (default, when neither is given: 0.01)")
     p.add_argument("--scale", choices=SCALES, default="linear",
                    help="value scale of the integrand and the fit (default: linear, the raw "
                         "radiance a renderer integrates)")
@@ -88,24 +89,22 @@ def _add_search_arguments(p) -> None:
     p.add_argument("--bases", type=distinct_names, default=None, metavar="sh,hsh",
                    help=f"truncations to size among {', '.join(BASES)} (default: all; 'none' "
                         f"for none)")
-    s = Range(float, 1, 2, lo_open=True, hi_open=True, also=("auto",))
-    p.add_argument("--s", type=s, default="auto", metavar="auto|VALUE",
-                   help=f"smoothness, {s.words}: 'auto' (band-limited likelihood fit, default) "
-                        f"or a value (sigma then by the band-limited likelihood at that s)")
-    ranges = {"--fit-n": (Range(int, 10), "samples of the fit (default: 3000)"),
-              "--nmin": (_AT_LEAST_1, "smallest N searched (default: 4)"),
-              "--nmax": (_AT_LEAST_1, "largest N searched, at least --nmin (default: 65536); "
+    p.add_argument("--s", type=S_VALUE, default="auto", metavar="auto|VALUE",
+                   help=f"smoothness: 'auto' (band-limited likelihood fit, default) or a value "
+                        f"{S_VALUE} (sigma then by the band-limited likelihood at that s)")
+    ranges = {"--fit-n": (Ranged(10, None, "N"), "samples of the fit (default: 3000)"),
+              "--nmin": (AT_LEAST_1, "smallest N searched (default: 4)"),
+              "--nmax": (AT_LEAST_1, "largest N searched, at least --nmin (default: 65536); "
                                       "with --renderer the largest spp, at most 2147483647 "
                                       "(a renderer's spp is a 32-bit int; default 65536, or "
                                       "2147483647 for an independent sampler, whose RMSE is "
                                       "exactly sigma/sqrt(spp))"),
-              "--osw-nmax": (_AT_LEAST_1, "largest N searched with optimal weights (an NxN "
+              "--osw-nmax": (AT_LEAST_1, "largest N searched with optimal weights (an NxN "
                                           "solve; default: 4096)"),
-              "--realisations": (Range(int, 1, MAX_SEEDS), "realisations averaged per N for "
-                                                           "random/jitter/bnot (default: 4)")}
+              "--realisations": (Ranged(1, MAX_SEEDS, "K"), "realisations averaged per N for "
+                                                             "random/jitter/bnot (default: 4)")}
     for flag, (rng, text) in ranges.items():
-        p.add_argument(flag, type=rng, default=None, help=f"{text}; {rng.words}",
-                       **({"metavar": "K"} if flag == "--realisations" else {}))
+        p.add_argument(flag, type=rng, default=None, help=f"{text}; {rng}", metavar=rng.name)
 
 
 def _add_check_and_cache_arguments(p) -> None:
@@ -113,10 +112,9 @@ def _add_check_and_cache_arguments(p) -> None:
     from envfit.advisor._options import MAX_AXES
     p.add_argument("--check", action="store_true",
                    help="measure the RMSE at the chosen N/L on the map, beside the prediction")
-    axes = Range(int, 2, MAX_AXES)
+    axes = Ranged(2, MAX_AXES, "M")
     p.add_argument("--axes", type=axes, default=1000, metavar="M",
-                   help=f"random axes of --check, {axes.words} (default: 1000, seeded by "
-                        f"--seed)")
+                   help=f"random axes of --check, {axes} (default: 1000, seeded by --seed)")
     _add_renderer_arguments(p)
     p.add_argument("--no-cache", action="store_true",
                    help="neither read nor write the cache of fits and wce curves")
@@ -143,19 +141,19 @@ def _add_renderer_arguments(p) -> None:
     rg.add_argument("--no-renderer", action="store_true",
                     help="no renderer rows: the quadrature and SH/HSH table only")
     numbers = {
-        "--renderer-grid": (Range(int, 8, multiple=4), "G", "grid of the warped spectra (QMC "
+        "--renderer-grid": (Ranged(8, None, "G", multiple=4), "G", "grid of the warped spectra (QMC "
                             "predictions exact to N ~ (G/8)^2; default: 512)"),
-        "--renderer-spectrum-axes": (Range(int, 1, MAX_SPECTRUM_AXES), "K", "axes of the warped "
+        "--renderer-spectrum-axes": (Ranged(1, MAX_SPECTRUM_AXES, "K"), "K", "axes of the warped "
                                      "spectra's sample over the sphere (default: 32)"),
-        "--renderer-axes-start": (Range(int, 2, MAX_AXES), "M", "--check of the renderer rows: "
+        "--renderer-axes-start": (Ranged(2, MAX_AXES, "M"), "M", "--check of the renderer rows: "
                                   "axes of the first round of the adaptive measurement "
                                   "(default: 250)"),
-        "--renderer-max-axes": (Range(int, 2, MAX_AXES), "M", "--check of the renderer rows: at "
+        "--renderer-max-axes": (Ranged(2, MAX_AXES, "M"), "M", "--check of the renderer rows: at "
                                 "most this many axes, at least --renderer-axes-start (the "
                                 "measurement doubles them until its 95%% interval is within "
                                 "+-10%%; default: 4000)")}
     for flag, (rng, meta, text) in numbers.items():
-        rg.add_argument(flag, type=rng, default=None, metavar=meta, help=f"{text}; {rng.words}")
+        rg.add_argument(flag, type=rng, default=None, metavar=meta, help=f"{text}; {rng}")
 
 
 def _header(adv) -> list[str]:

@@ -13,7 +13,7 @@ from pathlib import Path
 from envfit.base._errors import ParameterError
 from envfit.cli._common import finite_float
 from envfit.cli._output import CommandOutput
-from envfit.cli._ranges import Range, RangeList, name_words
+from envfit.cli._ranges import Ranged, name_words
 from envfit.defaults import MICROFACET_BSDFS
 
 #: the renderers' names in --help (as envfit.advisor._preset_options.RENDERER_NAMES, which
@@ -49,10 +49,10 @@ def add_preset_arguments(p) -> None:
                         "estimator (emitter density and warp, BSDF sampling, MIS, sampler); "
                         "the first lines printed; envfit's generic tables only with --rules")
     g.add_argument("--sampler", default=None, metavar="NAME", help=sampler_help())
-    spp = RangeList(Range(int, 1))
+    spp = Ranged(1, None, "N", many=True)
     g.add_argument("--spp", type=spp, default=None, metavar="16,64,256",
                    help=f"also list the predicted RMSE of every strategy at these spp (as the "
-                        f"sampler rounds them); {spp.words}, at most --nmax")
+                        f"sampler rounds them); distinct, each {spp}, at most --nmax")
     g.add_argument("--snippet", action="store_true",
                    help="print the scene text of the recommendation (Mitsuba dict, pbrt-v4 "
                         "scene lines, Cycles bpy settings)")
@@ -84,21 +84,21 @@ def roughness_help() -> str:
 
 def _add_model_arguments(g) -> None:
     """The renderer model's grid level, normals, roughness and pixels."""
-    level, normals, pixels = (Range(int, *_MODEL_RANGES[k]) for k in
-                              ("max_level", "normals", "sphere_pixels"))
+    level, normals, pixels = (Ranged(*_MODEL_RANGES[k], name) for k, name in
+                              (("max_level", "L"), ("normals", "K"), ("sphere_pixels", "D")))
     g.add_argument("--renderer-level", type=level, default=None, metavar="L",
                    help=f"the renderer model's finest grid level, M = 2^L cells per side, "
-                        f"{level.words} (default 7 for independent and stratified samplers, 9 "
+                        f"{level} (default 7 for independent and stratified samplers, 9 "
                         f"for the others; Owen-scrambled nets are resolved to 2^(L-1) spp, "
                         f"Mitsuba's ldsampler searched to 4^(L+1)/256 spp, its power above the "
                         f"grid sampled; each level costs 4x the time and memory)")
     g.add_argument("--renderer-normals", type=normals, default=None, metavar="K",
-                   help=f"normals of the renderer model's importance sample, {normals.words} "
+                   help=f"normals of the renderer model's importance sample, {normals} "
                         f"(default 48); with a microfacet --brdf the frames (normal, view)")
     g.add_argument("--roughness", type=finite_float, default=None, metavar="R",
                    help=roughness_help())
     g.add_argument("--sphere-pixels", type=pixels, default=None, metavar="D",
-                   help=f"the sphere's diameter on screen in pixels, {pixels.words}; adds the "
+                   help=f"the sphere's diameter on screen in pixels, {pixels}; adds the "
                         f"error of each pixel's footprint (the normals a pixel spans: large for "
                         f"sharp lobes and grazing views on small objects, and at high spp for "
                         f"QMC samplers; 4x the model's work). Default: every pixel a point")

@@ -4,11 +4,14 @@ its words and the error the same words.
 ``N = Ranged(1, 65536, "N")`` parses ``"1e3"`` to 1000 and refuses ``"1e12"`` as
 ``argument --n: 1e12 is outside 1 <= N <= 65536`` (one line, exit 2, :class:`OneLineParser`);
 ``--help`` states the range with ``str(N)`` (``"1 <= N <= 65536"``), so the help and the error
-say the same. A bound that depends on the input (the map's band limit ``H-1``, its pixels
-``W x H``) is stated in words (``hi_text``) and checked after the map is read, before any
-work, by the command with :meth:`Ranged.check_dynamic` (the same words again).
+say the same. Every command's numeric options use it (sh, theory, table2, fit, synth,
+validate, advise, ``--workers``): one range type, one way of saying a range. A bound that
+depends on the input (the map's band limit ``H-1``, its pixels ``W x H``) is stated in words
+(``hi_text``) and checked after the map is read, before any work, by the command with
+:meth:`Ranged.check_dynamic` (the same words again).
 
-:func:`ranged_actions` lists a parser's ranged options (the tests walk them).
+:func:`ranged_actions` lists a parser's ranged options (the tests walk them);
+:meth:`Ranged.outside` gives values just outside a range (the tests type them).
 """
 from __future__ import annotations
 
@@ -28,27 +31,32 @@ class Ranged:
 
     Parameters
     ----------
-    lo, hi : the bounds (``hi=None``: only ``hi_text``, a bound checked after the input is
-        read).
+    lo, hi : the bounds (``hi=None``: no upper bound, ``N >= 10``, or only ``hi_text``, a
+        bound checked after the input is read).
     name : the symbol in the range's words (``N``, ``L``, ``s``).
     integer : whole numbers (``1e3`` is 1000; ``100.5`` is refused) or finite floats.
     lo_open, hi_open : strict bounds (``1 < s < 2``).
     hi_text : words of an input-dependent upper bound (``"H-1 (the map's band limit)"``),
         stated after the fixed range.
-    many : a comma list of distinct values (``colour=True``: repeats allowed).
-    words : literal words accepted as themselves (``auto``).
+    many : a comma list of distinct values (``repeats=True``: repeats allowed).
+    literals : words accepted as themselves, lower case (``auto``); ``--help`` names them.
+    multiple : whole numbers that are a multiple of it (``G >= 8, a multiple of 4``).
     """
 
     def __init__(self, lo, hi, name: str, *, integer: bool = True, lo_open: bool = False,
                  hi_open: bool = False, hi_text: str = "", many: bool = False,
-                 words: tuple = (), repeats: bool = False):
+                 literals: tuple = (), repeats: bool = False, multiple: int | None = None):
         self.lo, self.hi, self.name, self.integer = lo, hi, name, integer
         self.lo_open, self.hi_open, self.hi_text = lo_open, hi_open, hi_text
-        self.many, self.words, self.repeats = many, tuple(words), repeats
+        self.many, self.literals, self.repeats = many, tuple(literals), repeats
+        self.multiple = multiple
         self.__name__ = "ranged"          # argparse names a type by it in some messages
 
     # ---------------------------------------------------------------- words
     def __str__(self) -> str:
+        mult = f", a multiple of {self.multiple}" if self.multiple else ""
+        if self.hi is None and not self.hi_text:        # no upper bound: "N >= 10"
+            return f"{self.name} {'>' if self.lo_open else '>='} {_fmt(self.lo)}{mult}"
         lo = f"{_fmt(self.lo)} {'<' if self.lo_open else '<='} "
         if self.hi is None:
             hi = f" <= {self.hi_text}"
@@ -56,7 +64,7 @@ class Ranged:
             hi = f" {'<' if self.hi_open else '<='} {_fmt(self.hi)}"
             if self.hi_text:
                 hi += f" and <= {self.hi_text}"
-        return lo + self.name + hi
+        return lo + self.name + hi + mult
 
     def __repr__(self) -> str:
         return f"Ranged({self})"
@@ -67,13 +75,34 @@ class Ranged:
         if not math.isfinite(v):          # "too large" (beyond 10^18) is never inside
             return False
         above_lo = v > self.lo if self.lo_open else v >= self.lo
+        if self.multiple and v % self.multiple:
+            return False
         if self.hi is None:
             return above_lo
         return above_lo and (v < self.hi if self.hi_open else v <= self.hi)
 
+    def outside(self) -> list[str]:
+        """Values just outside the fixed range, as typed (for tests): below ``lo``, above
+        ``hi`` (none above an input-dependent bound) and, with ``multiple``, the first
+        value above ``lo`` that is not a multiple of it.
+
+        >>> Ranged(8, None, "G", multiple=4).outside(), Ranged(0, 1, "F", integer=False,
+        ...                                                    lo_open=True).outside()
+        (['7', '9'], ['0', '1.000001'])
+        """
+        def step(end):
+            return 1 if self.integer else 1e-6 * max(1.0, abs(end))
+        out = [self.lo if self.lo_open else self.lo - step(self.lo)]
+        if self.hi is not None:
+            out.append(self.hi if self.hi_open else self.hi + step(self.hi))
+        if self.multiple:
+            out.append(next(v for v in range(self.lo + 1, self.lo + self.multiple + 1)
+                            if v % self.multiple))
+        return [repr(v) if isinstance(v, float) else str(v) for v in out]
+
     def _one(self, text: str):
         t = str(text).strip()
-        if t.lower() in self.words:
+        if t.lower() in self.literals:
             return t.lower()
         try:
             v = _whole(t) if self.integer else _finite(t)
@@ -138,89 +167,9 @@ def ranged_actions(parser: argparse.ArgumentParser) -> list:
     return [a for a in parser._actions if isinstance(a.type, Ranged) and a.option_strings]
 
 
-# --------------------------------------------------------------------------- advise's options
-# ``envfit advise`` states its ranges with :class:`Range` (words such as "an integer from 1 to
-# 11", the same in ``--help`` and the error); a list of names (:func:`distinct_names`) refuses
-# a repeat as a list of numbers does.  (issue 38.)
-class Range:
-    """An argparse ``type=``: an integer (``kind`` int: a whole number, ``1e3`` is 1000) or a
-    finite number (float) from ``lo`` to ``hi`` (None: unbounded; ``lo_open``/``hi_open``:
-    the end excluded), a multiple of ``multiple`` if given; ``also``: words taken as
-    themselves (lower case), e.g. ``auto``. :attr:`words` says the range; :meth:`outside`
-    gives values just outside it (for tests)."""
-
-    def __init__(self, kind=int, lo=None, hi=None, *, lo_open: bool = False,
-                 hi_open: bool = False, multiple: int | None = None, also: tuple = ()):
-        self.kind, self.lo, self.hi = kind, lo, hi
-        self.lo_open, self.hi_open, self.multiple, self.also = lo_open, hi_open, multiple, also
-        self.__name__ = "integer" if kind is int else "number"
-
-    @property
-    def words(self) -> str:
-        """The range in words, e.g. ``an integer from 1 to 11``, ``a number > 0``."""
-        what = "an integer" if self.kind is int else "a number"
-        lo, hi = (None if x is None else f"{x:g}" for x in (self.lo, self.hi))
-        if lo is not None and hi is not None:
-            if self.lo_open or self.hi_open:
-                span = (f"in {'(' if self.lo_open else '['}{lo}, {hi}"
-                        f"{')' if self.hi_open else ']'}")
-            else:
-                span = f"from {lo} to {hi}"
-        elif lo is not None:
-            span = f"{'>' if self.lo_open else '>='} {lo}"
-        else:
-            span = f"{'<' if self.hi_open else '<='} {hi}"
-        mult = f", a multiple of {self.multiple}" if self.multiple else ""
-        pre = "".join(f"'{a}' or " for a in self.also)
-        return f"{pre}{what} {span}{mult}"
-
-    def inside(self, v) -> bool:
-        """Whether the number ``v`` is in the range."""
-        ok_lo = self.lo is None or (v > self.lo if self.lo_open else v >= self.lo)
-        ok_hi = self.hi is None or (v < self.hi if self.hi_open else v <= self.hi)
-        return ok_lo and ok_hi and not (self.multiple and v % self.multiple)
-
-    def __call__(self, text):
-        t = str(text).strip()
-        if t.lower() in self.also:
-            return t.lower()
-        v = _whole(t) if self.kind is int else _finite(t)
-        if not self.inside(v):
-            raise argparse.ArgumentTypeError(f"{t} is not {self.words}")
-        return v
-
-    def outside(self) -> list[str]:
-        """Values just outside the range, as typed."""
-        step = 1 if self.kind is int else 1e-3 * max(1.0, abs(self.lo or 0), abs(self.hi or 0))
-        out = []
-        if self.lo is not None:
-            out.append(self.lo if self.lo_open and self.kind is not int else self.lo - step)
-        if self.hi is not None:
-            out.append(self.hi if self.hi_open and self.kind is not int else self.hi + step)
-        if self.multiple:
-            out.append((self.lo or 0) + self.multiple + 1)
-        return [f"{x:g}" if isinstance(x, float) else str(x) for x in out]
-
-
-class RangeList:
-    """An argparse ``type=``: comma-separated distinct numbers, each in ``item``'s range."""
-
-    def __init__(self, item: Range):
-        self.item = item
-        self.__name__ = "list"
-
-    @property
-    def words(self) -> str:
-        return f"distinct values, each {self.item.words}"
-
-    def __call__(self, text):
-        items = _items(text)
-        return _unique([self.item(x) for x in items], items, str(text))
-
-    def outside(self) -> list[str]:
-        return self.item.outside()
-
-
+# --------------------------------------------------------------------------- lists of names
+# ``envfit advise``'s lists of names (:func:`distinct_names`) refuse a repeat as a list of
+# numbers does; :func:`state_common_ranges` gives _common's number types their range.
 def distinct_names(text: str) -> list[str]:
     """Comma-separated names, lower case, each once (argparse ``type=``): an empty list, an
     empty entry or a repeat (in any case) is an error.
@@ -237,18 +186,26 @@ def name_words(names, default=None) -> str:
     return ", ".join(f"{n} (default)" if n == default else n for n in names)
 
 
-def common_range(type_) -> Range | None:
-    """The :class:`Range` of one of :mod:`envfit.cli._common`'s number types (positive_int,
-    nonneg_int, positive_float), or None."""
+def common_range(type_, name: str) -> Ranged | None:
+    """The :class:`Ranged` of one of :mod:`envfit.cli._common`'s number types (positive_int,
+    nonneg_int, positive_float), its symbol ``name``; None for another type."""
     from envfit.cli import _common as c
-    return {c.positive_int: Range(int, 1), c.nonneg_int: Range(int, 0),
-            c.positive_float: Range(float, 0, lo_open=True)}.get(type_)
+    lo = {c.positive_int: 1, c.nonneg_int: 0, c.positive_float: 0}.get(type_)
+    if lo is None:
+        return None
+    return Ranged(lo, None, name, integer=type_ is not c.positive_float,
+                  lo_open=type_ is c.positive_float)
 
 
 def state_common_ranges(parser) -> None:
-    """Append its range to the help of each option of ``parser`` typed by a number type of
-    :mod:`envfit.cli._common` (``--seed``, ``--max-height``), whose help does not say it."""
+    """Give each option of ``parser`` typed by a number type of :mod:`envfit.cli._common`
+    (``--seed``, ``--max-height``) its :class:`Ranged` (the symbol its metavar, else its
+    name: ``H >= 1``, ``SEED >= 0``), stated in its help, so that the help and the error say
+    the same words."""
     for action in parser._actions:
-        rng = common_range(action.type)
-        if rng is not None and action.help and rng.words not in action.help:
-            action.help = f"{action.help}; {rng.words}"
+        rng = common_range(action.type, action.metavar or action.dest.upper())
+        if rng is None or not action.option_strings:
+            continue
+        action.type = rng
+        if action.help and str(rng) not in action.help:
+            action.help = f"{action.help}; {rng}"

@@ -35,7 +35,7 @@ EXACT_HEIGHT = 48          # --method exact: 2 H^2 <= envfit.data_gen.EXACT_MAX_
 MARKER_RADIUS = Ranged(0, _PI / 4, "RAD", integer=False, lo_open=True)
 S0 = Ranged(1, 2, "s", integer=False, lo_open=True, hi_open=True)
 CHANNELS = Ranged(1, 4, "C")
-OFFSET = Ranged(-1e9, 1e9, "offset", integer=False, words=("auto",))
+OFFSET = Ranged(-1e9, 1e9, "offset", integer=False, literals=("auto",))
 AMPLITUDE = Ranged(0, 1e9, "sigma", integer=False, lo_open=True)
 COLOUR = Ranged(0, 1e9, "v", integer=False, many=True, repeats=True)
 THETA = Ranged(0, _PI, "theta", integer=False)

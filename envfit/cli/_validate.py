@@ -12,7 +12,7 @@ from envfit.cli._ranges import PIXELS, Ranged, check_pixels
 #: the ranges of the options (``--help`` and the errors say these words): the lower bounds
 #: are envfit.validate._config.ValidateConfig's, the upper ones fixed caps (the optimal
 #: weights solve an N x N system; the cells' work grows with the axes and degrees)
-S_RANGE = Ranged(1, 2, "s", integer=False, lo_open=True, hi_open=True, words=("auto",))
+S_RANGE = Ranged(1, 2, "s", integer=False, lo_open=True, hi_open=True, literals=("auto",))
 SHININESS = Ranged(0, 10000, "n", integer=False, lo_open=True)
 N_VALUES = Ranged(2, 16384, "N", many=True)
 AXES = Ranged(2, 100000, "M")
