@@ -380,13 +380,14 @@ def test_microfacet_snippet_loads_in_mitsuba_with_the_rough_conductor(gp_file, t
 
 
 def test_the_stop_sentence_names_the_next_spp_the_sampler_runs(gp_file, tmp_path, capsys):
-    """pbrt-v4's zsobol rounds a request down to a power of two (33 -> 32): when the search
-    stops at 32 spp, the sentence names 64 spp and the level that resolves it (it once named
-    32, the spp already searched)."""
+    """pbrt-v4's zsobol rounds a request down to a power of two (65 -> 64): when the search
+    stops at 64 spp (level 6: 32 on the grid, 4^7/256 = 64 with the power above it sampled),
+    the sentence names 128 spp and the level that resolves it (it once named the spp already
+    searched)."""
     rc, lines, _, d = _run(capsys, [gp_file, "--renderer", "pbrt4", "--target-rmse", "1e-9",
                                     "--renderer-level", "6", *MODEL], tmp_path)
     assert rc == 0 and not d["renderer"]["recommendation"]["reached"]
-    assert "the model resolves zsobol to 32 spp at grid level 6; 64 spp needs " \
+    assert "the model resolves zsobol to 64 spp at grid level 6; 128 spp needs " \
            "--renderer-level 7 (4x the time and memory)" in _answer(lines)
 
 

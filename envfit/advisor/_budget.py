@@ -294,8 +294,9 @@ def _preset_stages(pixels: int, opts, level: int, normals: int, max_spp: int) ->
     foot = m.footprint_side ** 2 if opts.sphere_pixels is not None else 1
     fine = 4 ** (level + 1)
     cap = spp_cap(rand, level, max_spp, m.shifts, sampled=opts.samples_above_grid)
-    shifted = (m.shifts * cap * 4 // 3 if rand == "digital_shift" and 2 * cap > 1 << level
-               else 0)
+    # Q·N points at every sampled N: ldsampler's N = 4^k (4/3 cap), a net's 2^k (2 cap)
+    shifted = (int(m.shifts * cap * (2 if rand == "owen" else 4 / 3))
+               if rand in ("digital_shift", "owen") and 2 * cap > 1 << level else 0)
     what = "frames" if opts.microfacet else "normals"
     tables = PRESET_BYTES_PER_POINT * fine * (1 + (foot > 1))
     per_point = PRESET_SECONDS_PER_POINT["microfacet" if opts.microfacet else rand] \
@@ -313,7 +314,8 @@ def _preset_stages(pixels: int, opts, level: int, normals: int, max_spp: int) ->
         Stage("the model's passes", tables + PRESET_BYTES_PER_SHIFTED * shifted,
               PRESET_PASSES * normals * per_point * (fine * foot + shifted),
               f"{normals} {what}, tables of {fine} points"
-              + (f", {shifted} shifted points to {cap} spp" if shifted else ""),
+              + (f", {shifted} {'scrambled' if rand == 'owen' else 'shifted'} points to {cap} spp"
+                 if shifted else ""),
               "--renderer-level"),
     ]
 
@@ -323,7 +325,8 @@ def preset_plan(pixels: int, opts, *, resident: int = 0) -> Plan:
     of ``pixels`` pixels with :class:`~envfit.advisor._preset_options.PresetAdviseOptions`
     ``opts``, before any of it runs: the emitter technique (per map pixel), the normals'
     (frames') proposal (pool × pilot table) and the passes (the finest table's 4^(L+1)
-    points, a digital shift's Q·N shifted points where it is sampled above its grid; seconds:
+    points, a digital shift's or Owen scrambling's Q·N shifted (scrambled) points where it is
+    sampled above its grid; seconds:
     :data:`PRESET_PASSES` passes of K normals at :data:`PRESET_SECONDS_PER_POINT` per point).
     ``resident``: bytes held throughout (the map); the technique's kept bytes are added.
 
@@ -368,7 +371,7 @@ def check_preset_plan(envmap: EnvMap, opts) -> Plan:
     envfit.base._errors.MemoryBudgetError
         One line: the model's size options, what the plan needs and its largest stage, the
         budget and where it comes from, and the largest value of each option that fits alone
-        (``--renderer-level``, and ``--nmax`` where a digital shift's sampled points count,
+        (``--renderer-level``, and ``--nmax`` where a digital net's sampled points count,
         for the passes; ``--renderer-normals`` for the proposal), e.g. ``the renderer model
         at --renderer-level 11, 48 normals, spp to 65536 needs ~20 GB (…), the memory budget
         is 6.1 GB (80% of available memory): --renderer-level 10 fits``.

@@ -15,10 +15,11 @@ options are checked on a 4 × 8 map).
 The largest spp searched (:meth:`PresetAdviseOptions.spp_cap`) is ``max_spp`` (default
 65536) or less where the model's grid of level L (M = 2^L cells per side,
 ``PresetModelOptions.max_level``) resolves fewer points of the sampler: Owen-scrambled nets
-(``zsobol``, Cycles' Sobol patterns) need M ≥ 2N, so N ≤ 2^(L−1); Mitsuba's ``ldsampler``
-(a digital shift) any N, its power above a grid coarser than 2N sampled at Q·N shifted
-points (``PresetModelOptions.shifts`` = Q), searched while they are no more than the fine
-table's 4^(L+1) points, N ≤ 4^(L+1)/Q (4096 at the default level 9); Kensler's
+(``zsobol``, Cycles' Sobol patterns) and Mitsuba's ``ldsampler`` (a digital shift) are exact
+on the grid to N = 2^(L−1) (M ≥ 2N) and predicted for any N above, their power above the grid
+sampled at Q·N scrambled (shifted) points (``PresetModelOptions.shifts`` = Q), searched while
+they are no more than the fine table's 4^(L+1) points, N ≤ 4^(L+1)/Q (4096 at the default
+level 9, Cycles' default render samples; ``sampled=False``: 2^(L−1)); Kensler's
 correlated multi-jittering and Mitsuba's orthogonal array M ≥ N (and their (N, N) tables: at
 most 1024); a Cranley–Patterson
 shift N ≤ M/8 (:mod:`envfit.predict.renderer.randomisation._cp_shift`); independent and
@@ -99,12 +100,14 @@ def spp_cap(randomisation: str, level: int, max_spp: int,
     spp its grid resolves without sampling), at most ``max_spp``.
 
     >>> spp_cap("digital_shift", 9, 65536), spp_cap("owen", 9, 65536), spp_cap("cmj", 9, 65536)
-    (4096, 256, 512)
+    (4096, 4096, 512)
+    >>> spp_cap("owen", 9, 65536, sampled=False), spp_cap("owen", 10, 65536)
+    (256, 16384)
     >>> spp_cap("cp_shift", 9, 65536), spp_cap("digital_shift", 11, 65536)
     (64, 65536)
     """
-    top = {"digital_shift": max(1 << (level - 1), 4 ** (level + 1) // shifts * sampled),
-           "owen": 1 << (level - 1),
+    net = max(1 << (level - 1), 4 ** (level + 1) // shifts * sampled)   # sampled above M/2
+    top = {"digital_shift": net, "owen": net,
            "cmj": min(1 << level, 1024), "orthogonal_array": min(1 << level, 1024),
            "cp_shift": max(1, 1 << max(level - 3, 0)),
            "jittered": 4 ** level}
@@ -297,8 +300,9 @@ class PresetAdviseOptions:
 
     @property
     def samples_above_grid(self) -> bool:
-        """Whether the model samples a digital shift's power above its grid: not for a rough
-        plastic, whose lobe choice needs the grid (``MicrofacetModel.request``)."""
+        """Whether the model samples a digital net's power above its grid (a digital shift,
+        Owen scrambling): not for a rough plastic, whose lobe choice needs the grid
+        (``MicrofacetModel.request``)."""
         return self.bsdf != "roughplastic"
 
     def conductor(self):

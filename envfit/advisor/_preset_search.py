@@ -20,8 +20,8 @@ Search (:func:`search_spp`), per strategy over the spp the sampler can run
    advisor's other searches do, that the prediction falls with spp between coarse points);
    none meets it: "not reached up to the largest spp searched". With ``first_cap``, pass 1
    takes the coarse spp up to it only, and the coarse spp above it follow in one more pass
-   only for the strategies that none of those meets (Mitsuba's ``ldsampler`` above the grid's
-   2^(L−1) spp: its sampled power costs as much as the grid's tables, so a target met on the
+   only for the strategies that none of those meets (Mitsuba's ``ldsampler`` and the
+   Owen-scrambled nets above the grid's 2^(L−1) spp: their sampled power costs as much as the grid's tables, so a target met on the
    grid costs no more than before);
 2. later passes: up to :data:`CANDIDATES` runnable spp spread over each open bracket (for
    the ``independent`` sampler also the spp the model's exact 1/N law puts at the target,

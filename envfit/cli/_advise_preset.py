@@ -89,9 +89,10 @@ def _add_model_arguments(g) -> None:
     g.add_argument("--renderer-level", type=level, default=None, metavar="L",
                    help=f"the renderer model's finest grid level, M = 2^L cells per side, "
                         f"{level} (default 7 for independent and stratified samplers, 9 "
-                        f"for the others; Owen-scrambled nets are resolved to 2^(L-1) spp, "
-                        f"Mitsuba's ldsampler searched to 4^(L+1)/256 spp, its power above the "
-                        f"grid sampled; each level costs 4x the time and memory)")
+                        f"for the others; the digital nets - Owen-scrambled (Cycles, pbrt-v4's Sobol' "
+                        f"samplers) and Mitsuba's ldsampler - are searched to 4^(L+1)/256 spp, "
+                        f"their power above the grid sampled beyond 2^(L-1) spp; each level "
+                        f"costs 4x the time and memory)")
     g.add_argument("--renderer-normals", type=normals, default=None, metavar="K",
                    help=f"normals of the renderer model's importance sample, {normals} "
                         f"(default 48); with a microfacet --brdf the frames (normal, view)")

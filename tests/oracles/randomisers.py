@@ -16,7 +16,9 @@ formulas):
 * :func:`owen_scrambled_points` — nested uniform scrambling bit by bit: digit s of a coordinate
   is flipped by a random bit drawn for each distinct prefix (digits 1…s−1) in that replicate,
   and the digits below the net's resolution, all 0 with distinct prefixes, become a uniform
-  random tail;
+  random tail; :func:`owen_tabled_points` the same scramble with each digit's flips drawn as
+  one table of 2^(s−1) bits per replicate, looked up by prefix (O(N) per digit: for N in the
+  thousands);
 * :func:`pbrt_scrambled_points` — pbrt-v4's own hashed scramblers, ported from
   ``src/pbrt/util/lowdiscrepancy.h`` (``FastOwenScrambler``: Laine–Karras-style
   multiply-xor on the reversed bits; ``OwenScrambler``: bit by bit, the flip of bit b a bit of
@@ -200,6 +202,24 @@ def pbrt_scrambled_points(rng: np.random.Generator, reps: int, digits: np.ndarra
     seeds = rng.integers(0, 1 << 32, size=(reps, 1, 2), dtype=np.uint64).astype(np.uint32)
     v = np.broadcast_to(digits.astype(np.uint32)[None], (reps,) + digits.shape)
     return f(v, np.broadcast_to(seeds, v.shape)).astype(np.float64) / 2.0 ** 32
+
+
+def owen_tabled_points(rng: np.random.Generator, reps: int, digits: np.ndarray,
+                       m: int) -> np.ndarray:
+    """:func:`owen_scrambled_points` with the flips of digit s + 1 a (reps, 2^s) table of
+    random bits indexed by the prefix (digits 1..s): the same nested uniform scramble."""
+    n = digits.shape[0]
+    out = np.empty((reps, n, 2))
+    rows = np.arange(reps)[:, None]
+    for d in range(2):
+        top = (digits[:, d] >> np.uint64(32 - m)).astype(np.int64)
+        scr = np.zeros((reps, n), dtype=np.int64)
+        for s in range(m):
+            table = rng.integers(0, 2, size=(reps, 1 << s))
+            flip = table[rows, (top >> (m - s))[None, :]]
+            scr |= (((top >> (m - 1 - s)) & 1)[None, :] ^ flip) << (m - 1 - s)
+        out[:, :, d] = (scr + rng.random((reps, n))) / float(1 << m)
+    return out
 
 
 def mse_estimate(integrand: Integrand, points: np.ndarray) -> tuple[float, float]:

@@ -302,8 +302,8 @@ class MicrofacetModel(LobeChoice, PresetModel):
 
     def _table(self, kind: str, where):
         """The map table, or the BSDF's square points, at the midpoints of level ``where``
-        (an int) or at the shifted points of :meth:`PresetModel._shifts` (``where`` =
-        ("shift", N))."""
+        (an int) or at the randomised points of :meth:`PresetModel._shifts` (``where`` =
+        ("shift", N) or ("owen", N))."""
         key = (kind, where)
         if key not in self._tables:
             u = self._points(where)

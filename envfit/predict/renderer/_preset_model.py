@@ -15,35 +15,34 @@ integrands of :mod:`._preset_integrand`, and
 :math:`\mathrm{MSE}_c(n_a)` the exact MSE of the randomisation (``randomised_mse`` for one
 technique, ``mis_mse`` for two streams: independent dimensions, or one shared net for
 Mitsuba's ``ldsampler``) from the :class:`~envfit.predict.renderer.randomisation.DyadicGrid`
-of each part. The normals :math:`n_a` are drawn systematically from a spherical Fibonacci
-pool of P normals with probability
+of each part. The normals :math:`n_a` are drawn systematically from a spherical Fibonacci pool
+of P normals with probability
 :math:`\pi_a = \frac13(\frac1P + \frac{v_e(a)}{\sum v_e} + \frac{v_b(a)}{\sum v_b})`,
 :math:`v_e(a) = E_u[h_e^2] - I^2` and :math:`v_b(a) = \int L^2\cos^+/\pi - I^2` the
 variances of map and BSDF sampling (summed over channels; both by the map part's own table at
-a coarse level, which finds a sun), and weighted
-:math:`\varpi_a \propto 1/(P\pi_a)` — unbiased for the pool mean; a sun that makes a few
-normals dominate is not missed (as :func:`envfit.predict.renderer._axis_proposal.proposal_axes`
-does for envfit's techniques).
+a coarse level, which finds a sun), and weighted :math:`\varpi_a \propto 1/(P\pi_a)` —
+unbiased for the pool mean; a sun that makes a few normals dominate is not missed (as
+:func:`envfit.predict.renderer._axis_proposal.proposal_axes` does for envfit's techniques).
 
 Grid level per randomisation and N (:func:`grid_level`, measured on city.exr's integrands at
-three normals): V alone for ``independent``; the strata as cells for
-``jittered`` (M = r: exact) and ``cmj`` (M = N: exact, finer grids give the same MSE to 4
-digits); M = 8N (at least 4) for the Cranley–Patterson shift (its box is checked to N ≤ M/8,
-``randomisation._cp_shift``); M = 2N for the other digital nets — the digital shift's
-estimate of the power above the grid needs N ≤ M/2 (``randomisation._digital_shift``): at M = N the 1/N fallback erred by up
-to 2× per normal, at M = 2N the MSE agrees with M = 4N and 8N within 1–5 %; all capped at
-``max_level``, but never below log2 N for Owen's scrambling, the Cranley–Patterson shift and
-CMJ (they need M ≥ N). Where the digital shift's grid is coarser than 2N (N beyond
-2^(max_level − 1)), the power above the grid is sampled instead, unbiased at any N
-(``randomisation._shift_samples``: ``shifts`` uniform shifts of the net, the integrand at the
-shifted points, the grid's cell means as a control variate). The cell means come from the
-integrand at the midpoints of level ``max level + 1`` (2 × 2 per cell of the finest grid).
+three normals): V alone for ``independent``; the strata as cells for ``jittered`` (M = r:
+exact) and ``cmj`` (M = N: exact, finer grids give the same MSE to 4 digits); M = 8N (at least
+4) for the Cranley–Patterson shift (its box is checked to N ≤ M/8, ``randomisation._cp_shift``);
+M = 2N for the other digital nets — the digital shift's estimate of the power above the grid
+needs N ≤ M/2 (``randomisation._digital_shift``): at M = N the 1/N fallback erred by up to 2×
+per normal, at M = 2N the MSE agrees with M = 4N and 8N within 1–5 %; all capped at
+``max_level``, never below log2 N for the Cranley–Patterson shift and CMJ (M ≥ N). Where the
+grid of a digital shift or of Owen's scrambling is coarser than 2N, the power above it is
+sampled, unbiased at any N (``randomisation._shift_samples``, ``._owen_samples``: ``shifts``
+uniform shifts, resp. nested uniform scrambles, of the net, the integrand at those points, the
+grid's cell means as a control variate). The cell means come from the integrand at the
+midpoints of level ``max level + 1`` (2 × 2 per cell of the finest grid).
 
 Cost (measured, AMD EPYC, 2 cores, idle): a 1024 × 512 map (city.exr), Mitsuba's four samplers
 × map/brdf/mis × spp 16, 64, 256 in one :meth:`PresetModel.predict_many`: 21 s with 8 normals,
 ≈ 2.5 s per normal (tables at level 10: 1 M integrand points per part; the L = 9 Walsh
-transforms of ``ldsampler`` at 256 spp dominate); with spp 1024 too (tables at level 11,
-4 M points) ≈ 10 s per normal. On the shared machine under load ≈ 20 the same work took 4×.
+transforms of ``ldsampler`` at 256 spp dominate); with spp 1024 too (tables at level 11, 4 M
+points) ≈ 10 s per normal. On the shared machine under load ≈ 20 the same work took 4×.
 
 Reference: Marques, Bouville, Bouatouch (the spectral view of a shading integral's error);
 Mitsuba 3.9.1 ``src/integrators/direct.cpp`` and ``src/samplers/*.cpp``.
@@ -63,8 +62,8 @@ from envfit.predict.renderer._footprint import (_STREAMS, FootprintSums, PairedF
                                                 pixel_footprints)
 from envfit.predict.renderer._preset_integrand import (BsdfTable, MapTable, bsdf_values,
                                                        map_values, midpoints, moment_pyramid)
-from envfit.predict.renderer.randomisation import (DyadicGrid, mis_mse, randomised_mse,
-                                                   sampled_above, shift_sample)
+from envfit.predict.renderer.randomisation import (DyadicGrid, mis_mse, owen_sample,
+                                                   randomised_mse, sampled_above, shift_sample)
 from envfit.predict.renderer.randomisation._jittered import pbrt_strata
 from envfit.theory import spherical_fibonacci_sphere
 
@@ -79,6 +78,8 @@ RANDOMISATION_OF = {"independent": "independent", "jittered": "jittered", "cmj":
 #: orthogonal array have independent permutations per dimension: their cross term is 0
 #: (``randomisation._orthogonal``)
 _SHARED = {"independent": False, "same_net_permuted": True, "joint_array": False}
+#: the randomisations sampled above a grid coarser than 2N → the tag of their points
+_SAMPLE_TAG = {"digital_shift": "shift", "owen": "owen"}
 #: a preset's jittered strata (``randomisation._jittered``): pbrt-v4's x × y, envfit's rows
 #: (``envfit.theory.jitter_strata``); Mitsuba's r × r
 _JITTER_LAYOUT = {"pbrt4": "pbrt", "envfit": "rows"}
@@ -98,17 +99,16 @@ def grid_level(randomisation: str, n: int, max_level: int) -> int:
         want = (n - 1).bit_length() + 3                 # N <= M/8 (randomisation._cp_shift)
     else:
         want = (n - 1).bit_length() + 1
-    floor = 0 if randomisation in ("independent", "jittered", "digital_shift") \
-        else (n - 1).bit_length()
-    floor = max(floor, 2) if randomisation == "cp_shift" else floor   # its box: M >= 4
-    return max(1, floor, min(int(max_level), want))     # nets and CMJ need M >= N, but a
-    # digital shift's power above a grid coarser than 2N is sampled (shift_samples)
+    # M >= N (the CP shift's box: M >= 4) unless the power above the grid is sampled
+    sampled = randomisation in ("independent", "jittered") + tuple(_SAMPLE_TAG)
+    floor = max(0 if sampled else (n - 1).bit_length(), 2 * (randomisation == "cp_shift"))
+    return max(1, floor, min(int(max_level), want))
 
 
 def samples_above(randomisation: str, n: int, level: int) -> bool:
     """Whether the power above the grid of ``level`` is sampled (module docstring): a
-    digital shift of N > M/2 points."""
-    return randomisation == "digital_shift" and 2 * n > (1 << level)
+    digital shift or an Owen-scrambled net of N > M/2 points."""
+    return randomisation in _SAMPLE_TAG and 2 * n > (1 << level)
 
 
 @dataclass(frozen=True)
@@ -129,9 +129,9 @@ class PresetModelOptions:
         normals) adds its term (:mod:`._footprint`), and the tables cost footprint_side² times
         as much.
     footprint_side : side of the footprint's grid of normals (default 2).
-    shifts : Q, the random shifts over which a digital shift's power above the grid is sampled
-        where the grid is coarser than 2N (relative standard error ≈ √(2/Q) of that part per
-        normal).
+    shifts : Q, the random shifts (Owen scrambles) over which a digital shift's (an
+        Owen-scrambled net's) power above a grid coarser than 2N is sampled (relative
+        standard error ≈ √(2/Q) of that part per normal).
     seed : of those shifts (``numpy.random.default_rng``).
     """
 
@@ -356,16 +356,16 @@ class PresetModel:
         return self._tables[key]
 
     def _points(self, where) -> np.ndarray:
-        """The square points of a table: the midpoints of level ``where`` (an int) or the
-        shifted net of :meth:`_shifts` (``where`` = ("shift", N))."""
-        return midpoints(where) if isinstance(where, int) else self._shifts(where[1]).points
+        """A table's square points: level ``where``'s midpoints or :meth:`_shifts` (*where)."""
+        return midpoints(where) if isinstance(where, int) else self._shifts(*where).points
 
-    def _shifts(self, n: int):
-        """The first N points of the Sobol' net under ``options.shifts`` random shifts."""
-        key = ("shifts", n)
-        if key not in self._tables:
-            self._tables[key] = shift_sample(n, self.options.shifts, self.options.seed)
-        return self._tables[key]
+    def _shifts(self, tag: str, n: int):
+        """The first N points of the Sobol' net under ``options.shifts`` random shifts (``tag``
+        ``"shift"``) or nested uniform scrambles (``"owen"``), seeded by ``options.seed``."""
+        if (tag, n) not in self._tables:
+            draw = owen_sample if tag == "owen" else shift_sample
+            self._tables[tag, n] = draw(n, self.options.shifts, self.options.seed)
+        return self._tables[tag, n]
 
     def _fractions(self, strategy: str) -> tuple[float, float]:
         s = self.preset.strategy(strategy)
@@ -471,8 +471,8 @@ class PresetModel:
                     grids[part] = moment_pyramid(vals[part], fine, levels)
                 a, b = grids[part][r.level]
                 grids[key] = DyadicGrid.from_arrays(a, np.maximum(b, a * a))
-            if samples_above(r.name, r.n, r.level) and ("sobol", r.n) not in \
-                    grids[key].shift_above:
+            if samples_above(r.name, r.n, r.level) and (r.name, "sobol", r.n) not in \
+                    grids[key].sampled:
                 grids[key] = self._with_sampled(grids, key, part, r)
             return grids[key]
 
@@ -489,12 +489,12 @@ class PresetModel:
         return m.mse, m.first.mse, m.second.mse, 2.0 * m.cross
 
     def _with_sampled(self, grids: dict, key, part: str, r: _Request) -> DyadicGrid:
-        """The grid ``grids[key]`` with its power above sampled at the shifted points of
-        r.n (the parts there computed once per normal, kept in ``grids``)."""
-        skey = ("shifted", r.n)
+        """The grid ``grids[key]`` with its power above sampled at the shifted (scrambled)
+        points of r.n (the parts there computed once per normal, kept in ``grids``)."""
+        where = (_SAMPLE_TAG[r.name], r.n)
+        skey = ("sampled",) + where
         if skey not in grids:
             grids[skey] = self._part_values({r.strategy} | grids.get("strategies", set()),
-                                            grids["normal"], ("shift", r.n))
-        sample = self._shifts(r.n)
-        above, se = sampled_above(sample, grids[key].mean, grids[skey][part])
-        return grids[key].with_shift_above("sobol", r.n, above, se)
+                                            grids["normal"], where)
+        above, se = sampled_above(self._shifts(*where), grids[key].mean, grids[skey][part])
+        return grids[key].with_sampled_above(r.name, "sobol", r.n, above, se)

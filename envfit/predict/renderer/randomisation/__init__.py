@@ -20,6 +20,8 @@ Modules (private, one per method; each cites its equation and reference):
   methods.
 * ``_shift_samples`` — the digital shift's power above the grid sampled over random shifts
   (:func:`shift_sample`, :func:`sampled_above`): the digital shift for any N.
+* ``_owen_samples`` — nested uniform scrambles of a net (:func:`owen_sample`), whose power
+  above the grid :func:`sampled_above` estimates likewise: Owen scrambling for any N.
 * ``_registry`` — :data:`RANDOMISATIONS` and the dispatcher :func:`randomised_mse`.
 * ``_mis`` — :func:`mis_mse`, two streams, independent or sharing one point set.
 * ``_lobe_choice`` — :func:`lobe_choice_mse`, :func:`lobe_choice_mis`: a BSDF that picks
@@ -41,6 +43,7 @@ _LAZY = {
     "walsh_coefficients": "_walsh",
     "ShiftSample": "_shift_samples", "shift_sample": "_shift_samples",
     "sampled_above": "_shift_samples",
+    "owen_sample": "_owen_samples", "owen_scramble": "_owen_samples",
     "RANDOMISATIONS": "_registry", "Randomisation": "_registry", "randomised_mse": "_registry",
     "MisMSE": "_mis", "mis_mse": "_mis",
     "STRATIFIED_1D": "_lobe_choice", "lobe_choice_mse": "_lobe_choice",

@@ -76,10 +76,11 @@ class DyadicGrid:
     variance : ndarray, shape (C,)
         :math:`V = \int h^2 - (\int h)^2`.
 
-    shift_above : dict
-        Sampled power above the grid under a digital shift, {(net, N): (estimate (C,),
-        standard error (C,))} (:mod:`._shift_samples`; :meth:`with_shift_above`), read by
-        the digital shift's prediction in place of its estimate from the grid.
+    sampled : dict
+        Sampled power above the grid, {(randomisation, net, N): (estimate (C,), standard
+        error (C,))} (:mod:`._shift_samples`; :meth:`with_sampled_above`), read by the
+        digital shift's and Owen scrambling's predictions in place of their values from the
+        grid (:attr:`shift_above`: the digital shift's, by (net, N)).
 
     Use :meth:`from_callable` or :meth:`from_arrays`; they check and reconcile the inputs.
     """
@@ -87,7 +88,12 @@ class DyadicGrid:
     mean: np.ndarray
     mean_sq: np.ndarray
     variance: np.ndarray = field(repr=False)
-    shift_above: dict = field(default_factory=dict, repr=False, compare=False)
+    sampled: dict = field(default_factory=dict, repr=False, compare=False)
+
+    @property
+    def shift_above(self) -> dict:
+        """The digital shift's sampled power above the grid, {(net, N): (estimate, se)}."""
+        return {k[1:]: v for k, v in self.sampled.items() if k[0] == "digital_shift"}
 
     @property
     def size(self) -> int:
@@ -223,10 +229,18 @@ class DyadicGrid:
     def with_shift_above(self, net: str, n: int, above, se) -> "DyadicGrid":
         """This grid with the sampled power above it of ``net``'s first ``n`` points under a
         digital shift (:func:`._shift_samples.sampled_above`)."""
-        d = dict(self.shift_above)
-        d[(str(net), int(n))] = (np.asarray(above, dtype=np.float64),
-                                 np.asarray(se, dtype=np.float64))
-        new = replace(self, shift_above=d)
+        return self.with_sampled_above("digital_shift", net, n, above, se)
+
+    def with_sampled_above(self, randomisation: str, net: str, n: int, above,
+                           se) -> "DyadicGrid":
+        """This grid with the sampled power above it of ``net``'s first ``n`` points under
+        ``randomisation`` (``digital_shift`` or ``owen``; :func:`._shift_samples.sampled_above`
+        at :func:`._shift_samples.shift_sample`'s or :func:`._owen_samples.owen_sample`'s
+        points)."""
+        d = dict(self.sampled)
+        d[(str(randomisation), str(net), int(n))] = (np.asarray(above, dtype=np.float64),
+                                                     np.asarray(se, dtype=np.float64))
+        new = replace(self, sampled=d)
         if "walsh" in self.__dict__:                   # the same cell means: keep the transform
             new.__dict__["walsh"] = self.__dict__["walsh"]
         return new

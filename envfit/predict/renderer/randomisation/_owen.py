@@ -18,6 +18,11 @@ digit pattern of :math:`k_1` one of :math:`k_2` completes a dual index), so the 
 grid enters exactly as :math:`P_\text{above}/N`; for nets without that property the gains above
 the grid are checked and the largest used (``exact=False``).
 
+Beyond the grid (N > M/2), where the grid holds a sampled value of the power above it for
+(net, N) (:meth:`DyadicGrid.with_sampled_above`, :mod:`._owen_samples`), the blocks below the
+grid keep their exact gains (the net's dual read modulo N) and the rest is that sampled value:
+an unbiased estimate with its standard error, for any N.
+
 References: A. B. Owen, "Scrambled net variance for integrals of smooth functions", Ann. Stat.
 25 (1997) and "Monte Carlo variance of scrambled net quadrature", SIAM J. Numer. Anal. 34
 (1997); J. Dick, F. Pillichshammer, *Digital Nets and Sequences* (2010), ch. 13; Z. Pan,
@@ -56,12 +61,20 @@ def _above_gain(net: str, m: int) -> tuple[float, bool]:
 
 
 def owen_mse(grid: DyadicGrid, n: int, *, net: str = "sobol") -> RandomisedMSE:
-    """The variance of the first ``n`` points of ``net`` under nested uniform scrambling."""
-    m = net_exponent(n, grid.size)
+    """The variance of the first ``n`` points of ``net`` under nested uniform scrambling:
+    exact from the grid (N ≤ M), or with the power above the grid sampled where the grid
+    holds it for (net, n) (:mod:`._owen_samples`; any N)."""
+    sampled = grid.sampled.get(("owen", net, int(n)))
+    m = net_exponent(n, None if sampled is not None else grid.size)
     coeffs = grid.walsh
     sigma2 = block_sums(coeffs ** 2)
     gains = owen_gains(net, m, grid.size)
     resolved = np.einsum("ij,cij->c", gains, sigma2)
+    if sampled is not None:
+        return make_result("owen", n, resolved, sampled[0], exact=False, above_se=sampled[1],
+                           note="blocks below the grid exact; the power above it sampled "
+                                "over random nested uniform scrambles with a control variate "
+                                "(an estimate, with its standard error)")
     top, exact = _above_gain(net, m)
     gain = 1.0 / n if exact else top
     note = "exact: every block above the grid has gain 1/N" if exact else \

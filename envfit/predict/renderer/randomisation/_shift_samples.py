@@ -56,12 +56,16 @@ _BITS = 32
 
 @dataclass(frozen=True)
 class ShiftSample:
-    """The first ``n`` points of ``net`` under ``shifts`` uniform digital shifts: ``digits``
-    (Q, N, 2) as 32-bit integers (x = value / 2^32)."""
+    """The first ``n`` points of ``net`` under ``shifts`` independent randomisations:
+    ``digits`` (Q, N, 2) as 32-bit integers (x = value / 2^32); ``randomisation`` how they were
+    drawn: ``digital_shift`` (uniform XOR shifts, :func:`shift_sample`) or ``owen`` (nested
+    uniform scrambles, :func:`._owen_samples.owen_sample`). :func:`sampled_above` takes
+    either: its estimate needs only that each randomised point is uniform."""
 
     net: str
     n: int
     digits: np.ndarray
+    randomisation: str = "digital_shift"
     _cells: dict = field(default_factory=dict, repr=False, compare=False)
 
     def cells(self, level: int) -> np.ndarray:
@@ -74,7 +78,7 @@ class ShiftSample:
 
     @property
     def shifts(self) -> int:
-        """Q, the number of shifts."""
+        """Q, the number of shifts (scrambles)."""
         return int(self.digits.shape[0])
 
     @property
