@@ -34,6 +34,9 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from render_check import _cpu  # noqa: E402
 
 
 def load() -> float:
@@ -125,15 +128,6 @@ def main() -> None:
     if a.json:
         a.json.write_text(json.dumps(res, indent=1))
     shutil.rmtree(work, ignore_errors=True)
-
-
-def _cpu() -> str:
-    try:
-        out = subprocess.run(["lscpu"], capture_output=True, text=True).stdout
-        return next(x.split(":", 1)[1].strip() for x in out.splitlines()
-                    if x.startswith("Model name"))
-    except Exception:  # noqa: BLE001 - informational only
-        return "unknown"
 
 
 if __name__ == "__main__":
