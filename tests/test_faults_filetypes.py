@@ -15,6 +15,7 @@ import os
 import socket
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -35,6 +36,7 @@ def _envfit(*argv, env=None) -> tuple[int, list[str], str]:
     stdout). A run that hangs raises subprocess.TimeoutExpired: the test fails."""
     r = subprocess.run([sys.executable, "-m", "envfit.cli", *map(str, argv)],
                        capture_output=True, text=True, timeout=LIMIT,
+                       cwd=tempfile.gettempdir(),   # outside the checkout: the installed envfit
                        env={**os.environ, "TQDM_DISABLE": "1", **(env or {})})
     assert "Traceback" not in r.stderr, r.stderr
     return r.returncode, [ln for ln in r.stderr.splitlines() if ln.strip()], r.stdout
