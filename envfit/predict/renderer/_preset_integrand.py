@@ -289,12 +289,15 @@ def bsdf_values(technique, preset, table: BsdfTable, normal,
                         technique.rgb * float(technique.scale), technique.warp.data,
                         np.array([fe, fb]), out)
         return out[:, :3], out[:, 3]
+    lookup = getattr(technique, "bsdf_lookup", None)
+    if lookup is not None and preset.heuristic == "power":
+        return lookup(table.local, frame, fe, fb)
     rad, wts = [], []
     for i in range(0, p, _CHUNK):
         loc = table.local[i:i + _CHUNK]
         d = loc @ frame
-        rad.append(technique.eval(d))
-        w = preset.mis_weights(technique.pdf(d), loc[:, 2] / np.pi, "mis")[1] \
+        rad.append(technique.eval_unit(d))
+        w = preset.mis_weights(technique.pdf_unit(d), loc[:, 2] / np.pi, "mis")[1] \
             if fe > 0 else np.ones(len(loc))
         wts.append(w)
     return np.concatenate(rad), np.concatenate(wts)

@@ -150,6 +150,15 @@ class EnvmapTechnique:
         d = unit_directions(dirs) @ self.native_to_world     # rows: M.T @ d
         return self._eval_native(d)
 
+    def eval_unit(self, dirs: np.ndarray) -> np.ndarray:
+        """:meth:`eval` at float64 (K, 3) directions already unit to rounding (the model's
+        own), without :meth:`eval`'s checks: the hot path of the renderer model."""
+        return self._eval_native(dirs @ self.native_to_world)
+
+    def pdf_unit(self, dirs: np.ndarray) -> np.ndarray:
+        """:meth:`pdf` at float64 (K, 3) unit directions, unchecked (:meth:`eval_unit`)."""
+        return self._pdf_native(dirs @ self.native_to_world)
+
     def sample(self, u) -> DirectionSample:
         """World directions (K, 3) and their solid-angle pdf (K,) from square points u (K, 2)
         (``u[:, 0]``, ``u[:, 1]`` are the renderer's first and second sample coordinate)."""
