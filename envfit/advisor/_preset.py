@@ -245,7 +245,7 @@ class PresetAdvice:
         level that reaches the next runnable spp) or ``--nmax``."""
         o = self.options
         spec = o.preset.sampler(o.sampler)
-        nxt = _next_runnable(spec, a.searched_max)
+        nxt = _next_runnable(spec, a.searched_max, o.every_spp)
         if nxt > o.max_spp:
             return "raise --nmax or relax the target"
         rand = spec.randomisation
@@ -293,7 +293,9 @@ class PresetAdvice:
         if not head:
             return f"{who}: spp = {a.spp} (predicted RMSE {f(a.predicted_rmse)}{below})"
         pow2 = ("; spp searched at powers of two (the model predicts this sampler's nets "
-                "there)" if spec.randomisation in NET_RANDOMISATIONS and spec.spp(3) == 3 else "")
+                "there)" if not o.every_spp and spec.spp(3) == 3 else
+                "; between powers of two from the scrambled sequence's sampled prefixes, "
+                "calibrated at the exact powers of two" if spec.prefix and o.every_spp else "")
         return (f"{who}: spp = {a.spp} for {goal}; predicted RMSE {f(a.predicted_rmse)} at "
                 f"{a.spp} spp{below}{pow2}")
 
@@ -398,17 +400,16 @@ class PresetAdvice:
                 "integrator": s.integrator, "settings": dict(s.settings)}
 
 
-def _next_runnable(spec, spp: int) -> int:
+def _next_runnable(spec, spp: int, every: bool = False) -> int:
     """The smallest spp above ``spp`` the sampler runs (a power of two for the model's nets;
     a sampler may round a request down, as pbrt-v4's ``zsobol`` does).
 
     >>> from envfit.sampling.presets import preset
-    >>> _next_runnable(preset("pbrt4").sampler("zsobol"), 32)
-    64
-    >>> _next_runnable(preset("mitsuba3").sampler("ldsampler"), 256)
-    1024
+    >>> _next_runnable(preset("pbrt4").sampler("zsobol"), 32), _next_runnable(
+    ...     preset("mitsuba3").sampler("ldsampler"), 256)
+    (64, 1024)
     """
-    net = spec.randomisation in NET_RANDOMISATIONS
+    net = spec.randomisation in NET_RANDOMISATIONS and not every
     n = 1 << int(spp).bit_length() if net else int(spp) + 1
     while spec.spp(n) <= spp:
         n *= 2
@@ -471,14 +472,13 @@ def advise_preset(envmap, opts: PresetAdviseOptions, *, target_rmse: float | Non
     spec = opts.preset.sampler(opts.sampler)
     cap = opts.spp_cap()
     runnable = runnable_spp(spec, cap)
-    if spec.randomisation in NET_RANDOMISATIONS:       # the model's nets: N = 2^m
+    if not opts.every_spp:                             # the model's nets: N = 2^m
         runnable = [n for n in runnable if n & (n - 1) == 0]
     listed = [(n, spec.spp(n)) for n in opts.spp]
     store = AdviseCache(cache_dir, enabled=cache)
     cm = CachedPresetModel(envmap, opts, store, map_key(envmap, "linear"))
     answers = search_spp(cm, opts.strategies, runnable, target, [n for _, n in listed],
-                         independent=spec.randomisation == "independent",
-                         first_cap=opts.spp_cap(sampled=False))
+                         independent=spec.randomisation == "independent")
     cells = {(s, n): cm.rmse(s, n) for s in opts.strategies for n in cm.asked_spp(s)}
     notes = [*opts.notes, *store.notes]
     if opts.renderer == "cycles" and opts.bsdf == "ggx":

@@ -9,7 +9,7 @@ strategy the renderer can render and the noise model can predict). A combination
 when the renderer lacks the sampler, cannot render the strategy (Cycles' light-only mode exists
 only in debug builds), or has no exact noise model (e.g. pbrt-v4's ``halton``; envfit's MIS
 with one shared shift): the last by asking the model itself
-(:func:`envfit.predict.renderer._preset_model.preset_request`, no map; the technique's
+(:func:`envfit.predict.renderer._preset_request.preset_request`, no map; the technique's
 options are checked on a 4 × 8 map).
 
 The largest spp searched (:meth:`PresetAdviseOptions.spp_cap`) is ``max_spp`` (default
@@ -304,6 +304,16 @@ class PresetAdviseOptions:
         Owen scrambling): not for a rough plastic, whose lobe choice needs the grid
         (``MicrofacetModel.request``)."""
         return self.bsdf != "roughplastic"
+
+    @property
+    def every_spp(self) -> bool:
+        """Whether every spp the sampler runs is searched — for a net, also those between
+        the powers of two: an Owen-scrambled prefix sampler on the diffuse surface without
+        pixel footprints (``envfit.predict.renderer._sampled_nets``); else a net's spp are
+        its powers of two."""
+        spec = self.preset.sampler(self.sampler)
+        return (spec.randomisation not in NET_RANDOMISATIONS or spec.prefix
+                and not self.microfacet and self.sphere_pixels is None)
 
     def conductor(self):
         """The white conductor (Fresnel 1) as the renderer shades and samples it, or Mitsuba's

@@ -18,11 +18,14 @@ Search (:func:`search_spp`), per strategy over the spp the sampler can run
    the largest spp searched and the ``--spp`` list; the answer lies between the last coarse
    spp that misses the target and the first that meets it (the search assumes, as the
    advisor's other searches do, that the prediction falls with spp between coarse points);
-   none meets it: "not reached up to the largest spp searched". With ``first_cap``, pass 1
-   takes the coarse spp up to it only, and the coarse spp above it follow in one more pass
-   only for the strategies that none of those meets (Mitsuba's ``ldsampler`` and the
-   Owen-scrambled nets above the grid's 2^(L−1) spp: their sampled power costs as much as the grid's tables, so a target met on the
-   grid costs no more than before);
+   none meets it: "not reached up to the largest spp searched". The advice asks for every
+   coarse spp in this one pass: the nets sampled above the grid (Mitsuba's ``ldsampler``,
+   the Owen-scrambled nets above the grid's 2^(L−1) spp) read every N from one table at the
+   largest (:meth:`~envfit.predict.renderer._preset_model.PresetModel._shifts`), which costs
+   about as much as the grid's own tables, while a second pass would recompute those.
+   With ``first_cap``, pass 1 takes the coarse spp up to it only, and the coarse spp above
+   it follow in one more pass only for the strategies that none of those meets (cheaper
+   when most targets are met on the grid);
 2. later passes: up to :data:`CANDIDATES` runnable spp spread over each open bracket (for
    the ``independent`` sampler also the spp the model's exact 1/N law puts at the target,
    :math:`\lceil N_c\,\mathrm{MSE}(N_c)/t^2\rceil` and the runnable spp around it), until no
@@ -163,7 +166,7 @@ class CachedPresetModel:
                 cell["bands"] = self.model.predict_bands(s, self.opts.sampler, n)
                 cell["band_errors"] = self.model.predict_band_errors(s, self.opts.sampler, n)
             self.cells[self._name(s, n)] = cell
-        self.passes += 1
+        self.passes = self.model.runs      # a prefix sampler's N between powers: no pass
         self.cells_computed += len(todo)
         self.seconds += time.perf_counter() - t0
         self.store.save("preset", self.key, {"cells": self.cells})

@@ -218,60 +218,11 @@ def mitsuba_eval_pdf(technique, dirs, rows=None, skip=None,
     return rad, pdf
 
 
-@numba.njit(cache=True)
-def _periodic(coord, n):  # pragma: no cover - numba
-    """``_axis_linear`` of the Cycles preset: (i0, i1, t) of ``interp_linear`` on a periodic
-    axis of n texels."""
-    x = coord * n - 0.5
-    i = math.floor(x)
-    return int(i) % n, (int(i) + 1) % n, x - i
-
-
-@numba.njit(cache=True, parallel=True, error_model="numpy")
-def _cycles_dirs(dirs, m, tex, func, row_total, consts, skip, out):  # pragma: no cover - numba
-    strength, total = consts[0], consts[1]
-    h, w = tex.shape[0], tex.shape[1]
-    ry, rx = func.shape[0], func.shape[1]
-    for p in numba.prange(dirs.shape[0]):
-        if skip.shape[0] > 0 and skip[p] <= 0.0:
-            out[p, 0], out[p, 1], out[p, 2], out[p, 3] = 0.0, 0.0, 0.0, 0.0
-            continue
-        x = dirs[p, 0] * m[0, 0] + dirs[p, 1] * m[1, 0] + dirs[p, 2] * m[2, 0]
-        y = dirs[p, 0] * m[0, 1] + dirs[p, 1] * m[1, 1] + dirs[p, 2] * m[2, 1]
-        z = dirs[p, 0] * m[0, 2] + dirs[p, 1] * m[1, 2] + dirs[p, 2] * m[2, 2]
-        nrm = math.sqrt(x * x + y * y + z * z)
-        x, y, z = x / nrm, y / nrm, z / nrm
-        u = (math.atan2(y, x) - math.pi) / (-2.0 * math.pi)
-        v = (math.acos(min(1.0, max(-1.0, z))) - math.pi) / (-math.pi)
-        x0, x1, tx = _periodic(u, w)
-        y0, y1, ty = _periodic(v, h)
-        for c in range(3):
-            top = tex[y0, x0, c] * (1 - tx) + tex[y0, x1, c] * tx
-            bot = tex[y1, x0, c] * (1 - tx) + tex[y1, x1, c] * tx
-            out[p, c] = (top * (1 - ty) + bot * ty) * strength
-        iu = min(max(int(u * rx), 0), rx - 1)
-        iv = min(max(int(v * ry), 0), ry - 1)
-        st = math.sin(v * math.pi)
-        denom = 2.0 * math.pi ** 2 * st * row_total[iv] * total
-        out[p, 3] = 0.0 if (st == 0.0 or denom == 0.0) else func[iv, iu] * row_total[iv] / denom
-
-
 def cycles_eval_pdf(technique, dirs, rows=None, skip=None) -> tuple[np.ndarray, np.ndarray]:
-    """(radiance (P, 3), world-light pdf (P,)) of a ``CyclesBackground`` (linear
-    interpolation) at directions ``dirs`` (world, or local with the frame's ``rows``), 0 and 0
-    where ``skip`` ≤ 0: ``_eval_native`` (bilinear, both axes periodic) and ``_pdf_native``
-    (the importance cell's value over 2π² sin θ), compiled."""
-    out = np.empty((len(dirs), 4))
-    rows = np.eye(3) if rows is None else np.asarray(rows, dtype=np.float64)
-    skip = np.zeros(0) if skip is None else np.ascontiguousarray(skip, dtype=np.float64)
-    t = technique
-    m = np.ascontiguousarray(rows @ np.asarray(t.native_to_world, dtype=np.float64))
-    _cycles_dirs(np.ascontiguousarray(dirs, dtype=np.float64), m,
-                 np.ascontiguousarray(t.texture, dtype=np.float32),
-                 np.ascontiguousarray(t.func, dtype=np.float64),
-                 np.ascontiguousarray(t.row_total, dtype=np.float64),
-                 np.array([t.strength, t.total]), skip, out)
-    return out[:, :3], out[:, 3]
+    """(radiance (P, 3), world-light pdf (P,)) of a ``CyclesBackground`` at directions
+    ``dirs`` (world, or local with the frame's ``rows``), 0 and 0 where ``skip`` ≤ 0: the
+    technique's compiled :meth:`~envfit.sampling.presets.CyclesBackground.eval_pdf`."""
+    return technique.eval_pdf(dirs, rows, skip)
 
 
 def compiled_cycles(technique) -> bool:

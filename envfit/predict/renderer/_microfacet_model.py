@@ -261,10 +261,13 @@ class MicrofacetModel(LobeChoice, PresetModel):
             r = replace(r, level=max(r.level, level))
         return r
 
-    def _run(self, todo: list) -> None:
+    #: a lobe's N between powers of two is not calibrated (:mod:`._sampled_nets`)
+    between_powers = False
+
+    def _run(self, todo: list, **kw) -> None:
         """:meth:`PresetModel._run`, with the lobes' tables when a request needs them."""
         self._lobes = self._lobe_requests(todo)
-        super()._run(todo)
+        super()._run(todo, **kw)
 
     def _randomised_cell(self, r, vals: dict, grids: dict, fine: int, levels):
         """:meth:`PresetModel._randomised_cell`; a two-lobe BSDF's stream under a stratified
@@ -322,8 +325,8 @@ class MicrofacetModel(LobeChoice, PresetModel):
         d = local @ rows
         rad, pdf = [], []
         for i in range(0, len(d), _CHUNK):
-            rad.append(self.technique.eval(d[i:i + _CHUNK]))
-            pdf.append(self.technique.pdf(d[i:i + _CHUNK]))
+            rad.append(self.technique.eval_unit(d[i:i + _CHUNK]))
+            pdf.append(self.technique.pdf_unit(d[i:i + _CHUNK]))
         return np.concatenate(rad), np.concatenate(pdf)
 
     def _sample(self, wi, u, level: int | None = None):

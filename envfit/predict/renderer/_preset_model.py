@@ -24,19 +24,8 @@ a coarse level, which finds a sun), and weighted :math:`\varpi_a \propto 1/(P\pi
 unbiased for the pool mean; a sun that makes a few normals dominate is not missed (as
 :func:`envfit.predict.renderer._axis_proposal.proposal_axes` does for envfit's techniques).
 
-Grid level per randomisation and N (:func:`grid_level`, measured on city.exr's integrands at
-three normals): V alone for ``independent``; the strata as cells for ``jittered`` (M = r:
-exact) and ``cmj`` (M = N: exact, finer grids give the same MSE to 4 digits); M = 8N (at least
-4) for the Cranley–Patterson shift (its box is checked to N ≤ M/8, ``randomisation._cp_shift``);
-M = 2N for the other digital nets — the digital shift's estimate of the power above the grid
-needs N ≤ M/2 (``randomisation._digital_shift``): at M = N the 1/N fallback erred by up to 2×
-per normal, at M = 2N the MSE agrees with M = 4N and 8N within 1–5 %; all capped at
-``max_level``, never below log2 N for the Cranley–Patterson shift and CMJ (M ≥ N). Where the
-grid of a digital shift or of Owen's scrambling is coarser than 2N, the power above it is
-sampled, unbiased at any N (``randomisation._shift_samples``, ``._owen_samples``: ``shifts``
-uniform shifts, resp. nested uniform scrambles, of the net, the integrand at those points, the
-grid's cell means as a control variate). The cell means come from the integrand at the
-midpoints of level ``max level + 1`` (2 × 2 per cell of the finest grid).
+The cell a renderer runs — its spp rounded, its randomisation and the grid level — is
+:func:`._preset_request.preset_request`.
 
 Cost (measured, AMD EPYC, 2 cores, idle): a 1024 × 512 map (city.exr), Mitsuba's four samplers
 × map/brdf/mis × spp 16, 64, 256 in one :meth:`PresetModel.predict_many`: 21 s with 8 normals,
@@ -62,54 +51,15 @@ from envfit.predict.renderer._footprint import (_STREAMS, FootprintSums, PairedF
                                                 pixel_footprints)
 from envfit.predict.renderer._preset_integrand import (BsdfTable, MapTable, bsdf_values,
                                                        map_values, midpoints, moment_pyramid)
-from envfit.predict.renderer.randomisation import (DyadicGrid, mis_mse, owen_sample,
-                                                   randomised_mse, sampled_above, shift_sample)
-from envfit.predict.renderer.randomisation._jittered import pbrt_strata
+from envfit.predict.renderer._preset_request import (RANDOMISATION_OF, CellRequest,
+                                                     grid_level, preset_request,
+                                                     samples_above)
+from envfit.predict.renderer._sampled_nets import SAMPLE_TAG, SampledNets
+from envfit.predict.renderer.randomisation import DyadicGrid, mis_mse, randomised_mse
 from envfit.theory import spherical_fibonacci_sphere
 
 __all__ = ["PresetModelOptions", "PresetModel", "PresetPrediction", "grid_level",
            "samples_above", "preset_request", "systematic_indices", "RANDOMISATION_OF"]
-
-#: a sampler's randomisation tag → the registry's name (of envfit.predict.renderer.randomisation)
-RANDOMISATION_OF = {"independent": "independent", "jittered": "jittered", "cmj": "cmj",
-                    "digital_shift": "digital_shift", "owen": "owen", "cp_shift": "cp_shift",
-                    "orthogonal_array": "orthogonal"}
-#: pairing → whether the two streams share one point set; the columns of Mitsuba's
-#: orthogonal array have independent permutations per dimension: their cross term is 0
-#: (``randomisation._orthogonal``)
-_SHARED = {"independent": False, "same_net_permuted": True, "joint_array": False}
-#: the randomisations sampled above a grid coarser than 2N → the tag of their points
-_SAMPLE_TAG = {"digital_shift": "shift", "owen": "owen"}
-#: a preset's jittered strata (``randomisation._jittered``): pbrt-v4's x × y, envfit's rows
-#: (``envfit.theory.jitter_strata``); Mitsuba's r × r
-_JITTER_LAYOUT = {"pbrt4": "pbrt", "envfit": "rows"}
-
-
-def grid_level(randomisation: str, n: int, max_level: int) -> int:
-    """The grid level for ``randomisation`` of N points (module docstring), ≤ max_level."""
-    if randomisation == "independent":
-        want = 2
-    elif randomisation == "jittered":
-        r = max(pbrt_strata(n)[0], -(-n // max(1, round(math.sqrt(n)))))  # most strata a side
-        square = r * r == n and r & (r - 1) == 0           # r x r, r = 2^k: on the grid
-        want = (r - 1).bit_length() + (0 if square else 3)
-    elif randomisation in ("cmj", "orthogonal"):
-        want = (n - 1).bit_length() + (0 if n & (n - 1) == 0 else 1)
-    elif randomisation == "cp_shift":
-        want = (n - 1).bit_length() + 3                 # N <= M/8 (randomisation._cp_shift)
-    else:
-        want = (n - 1).bit_length() + 1
-    # M >= N (the CP shift's box: M >= 4) unless the power above the grid is sampled
-    sampled = randomisation in ("independent", "jittered") + tuple(_SAMPLE_TAG)
-    floor = max(0 if sampled else (n - 1).bit_length(), 2 * (randomisation == "cp_shift"))
-    return max(1, floor, min(int(max_level), want))
-
-
-def samples_above(randomisation: str, n: int, level: int) -> bool:
-    """Whether the power above the grid of ``level`` is sampled (module docstring): a
-    digital shift or an Owen-scrambled net of N > M/2 points."""
-    return randomisation in _SAMPLE_TAG and 2 * n > (1 << level)
-
 
 @dataclass(frozen=True)
 class PresetModelOptions:
@@ -233,54 +183,6 @@ def _proposal(table: MapTable, pool: np.ndarray, count: int):
     return pool[idx], w / w.sum()
 
 
-@dataclass(frozen=True)
-class _Request:
-    strategy: str
-    sampler: str
-    spp: int = field(compare=False)         # cells asked at spp rounding to one n are one
-    n: int
-    name: str
-    options: tuple
-    shared: bool
-    level: int
-    options_b: tuple = ()                   # the BSDF stream's options where they differ
-
-
-def preset_request(preset, options: PresetModelOptions, strategy: str, sampler: str,
-                   spp: int) -> _Request:
-    """The cell of ``preset`` as the renderer runs it: spp rounded, randomisation and its
-    options, the grid level of ``options`` (no map needed: the model's checks)."""
-    s = preset.strategy(strategy)
-    if not s.renderable:
-        raise ParameterError(f"{preset.name} cannot render strategy {strategy!r}")
-    spec = preset.sampler(sampler)
-    n = spec.spp(spp)
-    if spec.randomisation not in RANDOMISATION_OF:
-        raise ParameterError(f"no exact model of {preset.name}'s {sampler} "
-                             f"({spec.randomisation}) yet")
-    name = RANDOMISATION_OF[spec.randomisation]
-    two = s.emitter_samples > 0 and s.bsdf_samples > 0
-    if two and spec.pairing not in _SHARED:
-        raise ParameterError(f"no model of the pairing {spec.pairing!r} of {sampler}")
-    if max(s.emitter_samples, s.bsdf_samples) > 1:
-        raise ParameterError("the model takes at most one sample per technique and spp")
-    opts = opts_b = ()
-    if name == "jittered":
-        opts = opts_b = ((("r", math.isqrt(n)),) if preset.name == "mitsuba3"
-                         else (("layout", _JITTER_LAYOUT.get(preset.name, "square")),))
-    elif name == "cmj":
-        opts = opts_b = (("permutations", "mitsuba" if preset.name == "mitsuba3"
-                          else "uniform"),)
-    elif name == "orthogonal":
-        if s.dimensions is None:
-            raise ParameterError(f"{preset.name} does not say at which dimensions "
-                                 f"strategy {strategy!r} draws its samples")
-        opts, opts_b = ((("dimension", d),) for d in s.dimensions)
-    level = grid_level(name, n, options.max_level)
-    return _Request(strategy, sampler, int(spp), n, name, opts,
-                    two and _SHARED[spec.pairing], level, opts_b)
-
-
 class PresetModel:
     r"""The noise model of one map under one renderer preset (module docstring).
 
@@ -326,7 +228,7 @@ class PresetModel:
         self._cache: dict = {}
         self.seconds = 0.0
 
-    def request(self, strategy: str, sampler: str, spp: int) -> _Request:
+    def request(self, strategy: str, sampler: str, spp: int) -> CellRequest:
         """The cell as the renderer runs it: spp rounded, randomisation and its options
         (:func:`preset_request`)."""
         return preset_request(self.preset, self.options, strategy, sampler, spp)
@@ -336,14 +238,61 @@ class PresetModel:
         return self.predict_many([(strategy, sampler, spp)])[0]
 
     def predict_many(self, cells) -> list[PresetPrediction]:
-        """Predictions of many (strategy, sampler, spp) cells in one pass over the normals."""
+        """Predictions of many (strategy, sampler, spp) cells in one pass over the normals
+        (none where every cell is cached, or lies between powers of two whose predictions
+        and prefix variances an earlier pass made: :mod:`._sampled_nets`)."""
         reqs = [self.request(*c) for c in cells]
-        todo = list({r for r in reqs if r not in self._cache})
-        if todo:
+        between = {r for r in reqs if r not in self._cache and self._is_between(r)}
+        anchors = {a for r in between for a in self._anchors(r)}
+        todo = list({r for r in reqs if r not in self._cache and r not in between}
+                    | {a for a in anchors if a not in self._cache})
+        want = {r.strategy: r.shared for r in between}
+        top = max((a.n for a in anchors), default=0)
+        curves = bool(between) and not self.nets.has_curves(want, top)
+        pre = [r for r in todo if self._prefix_net(r)]      # a prefix sampler's pass: its
+        if pre:                                             # variances for later N, too
+            want.update({r.strategy: r.shared for r in pre})
+            top, curves = max([top] + [r.n for r in pre]), True
+        if todo or curves:
             t = time.perf_counter()
-            self._run(todo)
+            self._run(todo, curve_top=top if curves else 0, curve_strategies=want)
             self.seconds += time.perf_counter() - t
+        for r in between:
+            lo, hi = (self._cache[a] for a in self._anchors(r))
+            mse = self.nets.between(r.strategy, r.shared, r.n, lo.mse, hi.mse)
+            f = float(np.mean(mse)) / float(np.mean(lo.mse)) if np.mean(lo.mse) > 0 else 0.0
+            self._cache[r] = replace(lo, rmse=float(np.sqrt(np.mean(mse))), mse=mse,
+                                     spp=r.spp, spp_rendered=r.n,
+                                     parts={k: v * f for k, v in lo.parts.items()})
         return [replace(self._cache[r], spp=r.spp) for r in reqs]
+
+    #: the model answers N between powers of two of a prefix sampler (:mod:`._sampled_nets`)
+    between_powers = True
+    #: the passes over the normals run so far
+    runs = 0
+
+    def _prefix_net(self, r: CellRequest) -> bool:
+        """Whether ``r`` is an Owen-scrambled prefix sampler's, whose N between powers of two
+        the model answers from prefix variances (no footprint: its term is not calibrated)."""
+        return (r.prefix and r.name == "owen" and self.between_powers
+                and self.options.sphere_pixels is None)
+
+    def _is_between(self, r: CellRequest) -> bool:
+        """Whether ``r`` is a prefix sampler's (:meth:`_prefix_net`) N between powers of two."""
+        return self._prefix_net(r) and r.n & (r.n - 1) != 0
+
+    def _anchors(self, r: CellRequest) -> tuple[CellRequest, CellRequest]:
+        """The requests of the powers of two around ``r.n``."""
+        lo = 1 << (r.n.bit_length() - 1)
+        return tuple(replace(r, spp=m, n=m, level=grid_level(r.name, m, self.options.max_level))
+                     for m in (lo, 2 * lo))
+
+    @property
+    def nets(self) -> SampledNets:
+        """The passes' sampled nets (:class:`._sampled_nets.SampledNets`)."""
+        if "_nets" not in self.__dict__:
+            self._nets = SampledNets(self.options.shifts, self.options.seed)
+        return self._nets
 
     def _table(self, kind: str, where):
         """The ``map`` or ``bsdf`` table at the midpoints of level ``where`` (an int), or at
@@ -357,15 +306,7 @@ class PresetModel:
 
     def _points(self, where) -> np.ndarray:
         """A table's square points: level ``where``'s midpoints or :meth:`_shifts` (*where)."""
-        return midpoints(where) if isinstance(where, int) else self._shifts(*where).points
-
-    def _shifts(self, tag: str, n: int):
-        """The first N points of the Sobol' net under ``options.shifts`` random shifts (``tag``
-        ``"shift"``) or nested uniform scrambles (``"owen"``), seeded by ``options.seed``."""
-        if (tag, n) not in self._tables:
-            draw = owen_sample if tag == "owen" else shift_sample
-            self._tables[tag, n] = draw(n, self.options.shifts, self.options.seed)
-        return self._tables[tag, n]
+        return midpoints(where) if isinstance(where, int) else self.nets.sample(*where).points
 
     def _fractions(self, strategy: str) -> tuple[float, float]:
         s = self.preset.strategy(strategy)
@@ -401,28 +342,45 @@ class PresetModel:
             out["mis_t"] = out["mis_e"] + out["mis_b"]
         return out
 
-    def _run(self, todo: list) -> None:
+    def _run(self, todo: list, curve_top: int = 0, curve_strategies=None) -> None:
         """One pass over the normals (frames) for the requests ``todo``: each one's MSE and
-        parts per normal, then :meth:`_store`."""
-        fine = max(self.options.max_level, *(r.level for r in todo)) + 1   # never coarser
-        strategies = {r.strategy for r in todo}
-        levels = {r.level for r in todo}
+        parts per normal, then :meth:`_store`; with ``curve_top``, the prefix variances of
+        ``curve_strategies`` (strategy → shared) to it (:class:`._sampled_nets.SampledNets`)."""
+        fine = max([self.options.max_level] + [r.level for r in todo]) + 1  # never coarser
+        strategies = {r.strategy for r in todo} | set(curve_strategies or ())
+        levels = {r.level for r in todo} or {self.options.max_level}
         self._keep = {p for r in todo if self._paired(r) for p in _STREAMS[r.strategy]}
+        self.nets.plan([r for r in todo if samples_above(r.name, r.n, r.level)], curve_top,
+                       curve_strategies)
+        self.runs += 1
         k = len(self.normals)
         per = {r: [None] * k for r in todo}                  # mse (C,) per normal
         parts = {r: np.zeros((k, 3)) for r in todo}          # map, brdf, cross per normal
         for i, normal in enumerate(progress(self.normals, total=k, desc=self.progress_label,
                                             quiet=self.quiet, unit=self.progress_unit)):
-            vals = self._part_values(strategies, normal, fine)
+            vals = self._part_values(strategies, normal, fine) if todo else {}
             grids: dict = {"normal": normal, "strategies": strategies}
             for r in todo:
                 res = self._cell(r, vals, grids, fine, levels)
                 per[r][i] = np.asarray(res[0], dtype=np.float64)
                 parts[r][i] = [float(np.mean(x)) for x in res[1:]]
+            if curve_top:
+                self.nets.add_curves(float(self.weights[i]),
+                                     self._sampled_values(grids, "owen", strategies))
+        self.nets.finish_curves()
         for r in todo:
             self._store(r, np.stack(per[r]), parts[r])
 
-    def _store(self, r: _Request, mse_k: np.ndarray, parts_k: np.ndarray) -> None:
+    def _sampled_values(self, grids: dict, tag: str, strategies, n: int = 0) -> dict:
+        """The parts at one normal at the pass's table of ``tag`` (at least N points;
+        computed once per normal, kept in ``grids``)."""
+        top = max(int(n), self.nets.top)
+        if ("sampled", tag, top) not in grids:
+            grids["sampled", tag, top] = self._part_values(set(strategies), grids["normal"],
+                                                           (tag, top))
+        return grids["sampled", tag, top]
+
+    def _store(self, r: CellRequest, mse_k: np.ndarray, parts_k: np.ndarray) -> None:
         """The prediction of ``r`` from its MSE (K, C) and parts (K, 3) per normal: the
         weighted means."""
         mse = np.clip(self.weights @ mse_k, 0.0, None)
@@ -433,7 +391,7 @@ class PresetModel:
             s.emitter_samples, s.bsdf_samples, r.name, r.shared, r.level,
             {"map": float(a[0]), "brdf": float(a[1]), "cross": float(a[2])}, len(self.normals))
 
-    def _cell(self, r: _Request, vals: dict, grids: dict, fine: int, levels):
+    def _cell(self, r: CellRequest, vals: dict, grids: dict, fine: int, levels):
         """(mse, map part, BSDF part, 2·cross) per channel of one request at one normal (or
         frame): the randomised parts, plus the pixel footprint's term when ``vals`` has one
         (:func:`._footprint.footprint_term`)."""
@@ -446,7 +404,7 @@ class PresetModel:
             extra = footprint_term(r.strategy, r.name, r.n, vals)
         return (res[0] + extra,) + tuple(res[1:])
 
-    def _paired(self, r: _Request) -> bool:
+    def _paired(self, r: CellRequest) -> bool:
         """Whether the film's pairing with the techniques is simulated over the sampler's own
         points (Mitsuba's ``ldsampler``: :class:`._footprint.PairedFootprint`) rather than
         taken as random (:func:`._footprint.footprint_term`)."""
@@ -462,7 +420,7 @@ class PresetModel:
                                                 self.options.seed)
         return self._tables[key]
 
-    def _randomised_cell(self, r: _Request, vals: dict, grids: dict, fine: int, levels):
+    def _randomised_cell(self, r: CellRequest, vals: dict, grids: dict, fine: int, levels):
         """:meth:`_cell` without the footprint: the tables randomised as the sampler does."""
         def grid(part):
             key = (part, r.level)
@@ -488,13 +446,12 @@ class PresetModel:
                     second_options=dict(r.options_b), **opts)
         return m.mse, m.first.mse, m.second.mse, 2.0 * m.cross
 
-    def _with_sampled(self, grids: dict, key, part: str, r: _Request) -> DyadicGrid:
-        """The grid ``grids[key]`` with its power above sampled at the shifted (scrambled)
-        points of r.n (the parts there computed once per normal, kept in ``grids``)."""
-        where = (_SAMPLE_TAG[r.name], r.n)
-        skey = ("sampled",) + where
-        if skey not in grids:
-            grids[skey] = self._part_values({r.strategy} | grids.get("strategies", set()),
-                                            grids["normal"], where)
-        above, se = sampled_above(self._shifts(*where), grids[key].mean, grids[skey][part])
+    def _with_sampled(self, grids: dict, key, part: str, r: CellRequest) -> DyadicGrid:
+        """The grid ``grids[key]`` with its power above sampled at the randomised points of
+        r.n: the prefix of the pass's table (:meth:`._sampled_nets.SampledNets.above`)."""
+        tag = SAMPLE_TAG[r.name]
+        vals = self._sampled_values(grids, tag, {r.strategy} | grids.get("strategies", set()),
+                                    r.n)
+        above, se = self.nets.above(tag, r.level, r.n, grids[key].mean, vals[part], grids,
+                                    part)
         return grids[key].with_sampled_above(r.name, "sobol", r.n, above, se)

@@ -275,6 +275,9 @@ class SamplerSpec:
     rounding : spp requested → spp the renderer runs (its own rule, read from its source)
     description : what it does per pixel, with file:function
     default : the renderer's default sampler
+    prefix : an Owen-scrambled sequence whose N points, for any N, are (up to a digital
+        shift the scramble absorbs) the first N of the sequence: predicted between the powers
+        of two (``envfit.predict.renderer._sampled_nets``)
     """
 
     name: str
@@ -283,6 +286,7 @@ class SamplerSpec:
     rounding: Callable[[int], int]
     description: str
     default: bool = False
+    prefix: bool = False
 
     def __post_init__(self):
         if self.randomisation not in RANDOMISATIONS:

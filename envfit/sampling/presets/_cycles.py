@@ -33,14 +33,17 @@ at :math:`v = 1 - (i+\frac12)/H`; :mod:`envfit.maps._conventions`, ``blender``):
 """
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
 from envfit.base import ParameterError
 from envfit.maps._latlong import local_to_world
-from envfit.sampling.presets._base import (SPHERE_VIEWS, EnvmapTechnique, RendererPreset,
-                                           SamplerSpec, StrategySetting, cosine_hemisphere,
-                                           map_rgb, scene_comment, snippet_pixels)
+from envfit.sampling.presets._base import (EnvmapTechnique, RendererPreset, SamplerSpec,
+                                           StrategySetting, cosine_hemisphere, map_rgb,
+                                           power_heuristic)
+from envfit.sampling.presets._cycles_scene import cycles_snippet
 
 __all__ = ["cycles_map_resolution", "CyclesBackground", "cycles_frame", "INTERPOLATIONS",
            "CYCLES"]
@@ -233,65 +236,79 @@ class CyclesBackground(EnvmapTechnique):
         iv = np.clip((uv[:, 1] * self.res_y).astype(np.int64), 0, self.res_y - 1)
         return self._pdf_cells(iu, iv, np.sin(uv[:, 1] * np.pi))
 
+    def eval_pdf(self, dirs: np.ndarray, rows=None, skip=None) -> tuple[np.ndarray, np.ndarray]:
+        """(radiance (P, 3), world-light pdf (P,)) at float64 unit directions ``dirs`` (world,
+        or local with the frame's ``rows``: world = local @ rows), 0 and 0 where ``skip`` ≤ 0:
+        :meth:`_eval_native` and :meth:`_pdf_native` in one compiled pass for the ``linear``
+        texture (the renderer model's hot path; checked against them in the tests), the numpy
+        methods for ``closest``."""
+        rows = np.eye(3) if rows is None else np.asarray(rows, dtype=np.float64)
+        if self.interpolation != "linear":
+            d = np.asarray(dirs, dtype=np.float64) @ rows
+            rad, pdf = self.eval_unit(d), self.pdf_unit(d)
+            if skip is not None:
+                off = np.asarray(skip) <= 0
+                rad[off], pdf[off] = 0.0, 0.0
+            return rad, pdf
+        out = np.empty((len(dirs), 4))
+        skip = np.zeros(0) if skip is None else np.ascontiguousarray(skip, dtype=np.float64)
+        m = np.ascontiguousarray(rows @ self.native_to_world)
+        _eval_pdf_kernel(np.ascontiguousarray(dirs, dtype=np.float64), m, self.texture,
+                         self.func, self.row_total, np.array([self.strength, self.total]),
+                         skip, out)
+        return out[:, :3], out[:, 3]
+
     def bsdf_lookup(self, local: np.ndarray, frame: np.ndarray, fe: float,
                     fb: float) -> tuple[np.ndarray, np.ndarray]:
         r"""The radiance (P, 3) at the world directions ``local @ frame`` and the BSDF
-        sample's power-heuristic weight (P,) with the sample fractions ``fe``, ``fb``
-        (1 where ``fe`` is 0): :meth:`eval` and ``power_heuristic(cos/π, pdf, fb, fe)`` in
-        one compiled pass (the renderer model's hot path; checked against them in the
-        tests)."""
-        out = np.empty((local.shape[0], 4))
-        _cycles_lookup(np.ascontiguousarray(local, dtype=np.float64),
-                       np.ascontiguousarray(frame, dtype=np.float64),
-                       np.ascontiguousarray(self.native_to_world), self.texture,
-                       self.strength, self.interpolation == "linear", self.func,
-                       self.row_total, self.total, fe, fb, out)
-        return out[:, :3], out[:, 3]
+        sample's power-heuristic weight (P,) with the sample fractions ``fe``, ``fb`` (1
+        where ``fe`` is 0): :meth:`eval_pdf` and ``power_heuristic(cos/π, pdf, fb, fe)``."""
+        rad, pe = self.eval_pdf(local, frame)
+        if fe == 0.0:
+            return rad, np.ones(len(local))
+        return rad, power_heuristic(local[:, 2] / np.pi, pe, fb, fe)
+
+
+@numba.njit(cache=True)
+def _periodic(coord, n):  # pragma: no cover - numba
+    """:func:`_axis_linear` at one coordinate: (i0, i1, t) of ``interp_linear`` on a periodic
+    axis of n texels."""
+    x = coord * n - 0.5
+    i = math.floor(x)
+    return int(i) % n, (int(i) + 1) % n, x - i
 
 
 @numba.njit(cache=True, parallel=True, error_model="numpy")
-def _cycles_lookup(local, frame, to_native, tex, strength, linear, func, row_total, total,
-                   fe, fb, out):  # pragma: no cover - numba
-    """:meth:`CyclesBackground.bsdf_lookup`: ``_uv``, ``_texture`` and ``_pdf_native`` per
-    point, in the same arithmetic."""
+def _eval_pdf_kernel(dirs, m, tex, func, row_total, consts, skip,
+                     out):  # pragma: no cover - numba
+    """:meth:`CyclesBackground.eval_pdf` (linear): ``_uv``, ``_texture`` and ``_pdf_native``
+    per direction (``m`` = rows @ native_to_world), radiance to ``out[:, :3]``, pdf to
+    ``out[:, 3]``."""
+    strength, total = consts[0], consts[1]
     h, w = tex.shape[0], tex.shape[1]
     ry, rx = func.shape[0], func.shape[1]
-    for p in numba.prange(local.shape[0]):
-        wx = local[p, 0] * frame[0, 0] + local[p, 1] * frame[1, 0] + local[p, 2] * frame[2, 0]
-        wy = local[p, 0] * frame[0, 1] + local[p, 1] * frame[1, 1] + local[p, 2] * frame[2, 1]
-        wz = local[p, 0] * frame[0, 2] + local[p, 1] * frame[1, 2] + local[p, 2] * frame[2, 2]
-        x = wx * to_native[0, 0] + wy * to_native[1, 0] + wz * to_native[2, 0]
-        y = wx * to_native[0, 1] + wy * to_native[1, 1] + wz * to_native[2, 1]
-        z = wx * to_native[0, 2] + wy * to_native[1, 2] + wz * to_native[2, 2]
-        u = (np.arctan2(y, x) - np.pi) / (-2.0 * np.pi)
-        v = (np.arccos(min(max(z, -1.0), 1.0)) - np.pi) / (-np.pi)
-        if linear:
-            fx = u * w - 0.5
-            fy = v * h - 0.5
-            ix, iy = np.floor(fx), np.floor(fy)
-            tx, ty = fx - ix, fy - iy
-            x0, y0 = int(ix) % w, int(iy) % h
-            x1, y1 = (x0 + 1) % w, (y0 + 1) % h
-            for c in range(3):
-                top = np.float64(tex[y0, x0, c]) * (1 - tx) + np.float64(tex[y0, x1, c]) * tx
-                bot = np.float64(tex[y1, x0, c]) * (1 - tx) + np.float64(tex[y1, x1, c]) * tx
-                out[p, c] = (top * (1 - ty) + bot * ty) * strength
-        else:
-            x0, y0 = int(np.floor(u * w)) % w, int(np.floor(v * h)) % h
-            for c in range(3):
-                out[p, c] = np.float64(tex[y0, x0, c]) * strength
-        if fe == 0.0:
-            out[p, 3] = 1.0
+    for p in numba.prange(dirs.shape[0]):
+        if skip.shape[0] > 0 and skip[p] <= 0.0:
+            out[p, 0], out[p, 1], out[p, 2], out[p, 3] = 0.0, 0.0, 0.0, 0.0
             continue
+        x = dirs[p, 0] * m[0, 0] + dirs[p, 1] * m[1, 0] + dirs[p, 2] * m[2, 0]
+        y = dirs[p, 0] * m[0, 1] + dirs[p, 1] * m[1, 1] + dirs[p, 2] * m[2, 1]
+        z = dirs[p, 0] * m[0, 2] + dirs[p, 1] * m[1, 2] + dirs[p, 2] * m[2, 2]
+        nrm = math.sqrt(x * x + y * y + z * z)
+        x, y, z = x / nrm, y / nrm, z / nrm
+        u = (math.atan2(y, x) - math.pi) / (-2.0 * math.pi)
+        v = (math.acos(min(1.0, max(-1.0, z))) - math.pi) / (-math.pi)
+        x0, x1, tx = _periodic(u, w)
+        y0, y1, ty = _periodic(v, h)
+        for c in range(3):
+            top = tex[y0, x0, c] * (1 - tx) + tex[y0, x1, c] * tx
+            bot = tex[y1, x0, c] * (1 - tx) + tex[y1, x1, c] * tx
+            out[p, c] = (top * (1 - ty) + bot * ty) * strength
         iu = min(max(int(u * rx), 0), rx - 1)
         iv = min(max(int(v * ry), 0), ry - 1)
-        st = np.sin(v * np.pi)
-        denom = 2.0 * np.pi ** 2 * st * row_total[iv] * total
-        pe = 0.0 if st == 0.0 or denom == 0.0 else func[iv, iu] * row_total[iv] / denom
-        a = (fb * local[p, 2] / np.pi) ** 2
-        b = (fe * pe) ** 2
-        wgt = a / (a + b)
-        out[p, 3] = wgt if np.isfinite(wgt) else 0.0
+        st = math.sin(v * math.pi)
+        denom = 2.0 * math.pi ** 2 * st * row_total[iv] * total
+        out[p, 3] = 0.0 if (st == 0.0 or denom == 0.0) else func[iv, iu] * row_total[iv] / denom
 
 
 def cycles_frame(normals) -> np.ndarray:
@@ -323,7 +340,8 @@ SAMPLERS = {
         "Cycles' generator: bench/cycles_tabulated_sobol_nets.py) - from a finite set of "
         "scrambled nets; the pixel seed is hash_iqnt2d(x, y) ^ scene seed; scrambling "
         "distance 1 (default) adds no shift; spp unchanged. Blender 'TABULATED_SOBOL' "
-        "('Classic'); the factory scene's pattern. " + _C + "tabulated_sobol.h", default=True),
+        "('Classic'); the factory scene's pattern. " + _C + "tabulated_sobol.h", default=True,
+        prefix=True),
     "blue_noise": SamplerSpec(
         "blue_noise", "owen", "independent", int,
         "one Sobol-Burley (Owen-scrambled) sequence shared by all pixels, pixel p using "
@@ -334,7 +352,7 @@ SAMPLERS = {
         "sobol_burley", "owen", "independent", int,
         "per pixel Owen-scrambled Sobol' (index shuffled, coordinates scrambled with seeds "
         "from the pixel hash and the dimension); debug UI only; spp unchanged. "
-        + _C + "sobol_burley.h"),
+        + _C + "sobol_burley.h", prefix=True),
 }
 
 
@@ -357,130 +375,6 @@ STRATEGIES = {
 }
 
 
-#: the bpy lines that build the measurements' exact sphere (:mod:`envfit.measure.renderers.
-#: _cycles`: one vertex → Mesh to Points of radius 1, which Cycles intersects as an analytic
-#: sphere) with the white Diffuse BSDF (colour 1, roughness 0: Lambertian)
-_SPHERE = """mat = bpy.data.materials.new("white diffuse")
-if mat.node_tree is None:
-    mat.use_nodes = True
-nt = mat.node_tree
-nt.nodes.clear()
-bsdf = nt.nodes.new("ShaderNodeBsdfDiffuse")
-bsdf.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
-bsdf.inputs["Roughness"].default_value = 0.0
-nt.links.new(bsdf.outputs["BSDF"], nt.nodes.new("ShaderNodeOutputMaterial").inputs["Surface"])
-mesh = bpy.data.meshes.new("vertex")
-mesh.from_pydata([(0.0, 0.0, 0.0)], [], [])
-sphere = bpy.data.objects.new("sphere", mesh)
-scene.collection.objects.link(sphere)
-gn = bpy.data.node_groups.new("sphere points", "GeometryNodeTree")
-gn.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
-gn.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
-gi, go = gn.nodes.new("NodeGroupInput"), gn.nodes.new("NodeGroupOutput")
-m2p = gn.nodes.new("GeometryNodeMeshToPoints")
-m2p.inputs["Radius"].default_value = 1.0
-sm = gn.nodes.new("GeometryNodeSetMaterial")
-sm.inputs["Material"].default_value = mat
-gn.links.new(gi.outputs[0], m2p.inputs["Mesh"])
-gn.links.new(m2p.outputs["Points"], sm.inputs["Geometry"])
-gn.links.new(sm.outputs["Geometry"], go.inputs[0])
-sphere.modifiers.new("points", "NODES").node_group = gn
-"""
-
-#: the orthographic camera of the measurements: ``ortho_scale`` 2 (the image covers
-#: [-1, 1]²), at 3v looking along −v with image up u (world matrix columns u × v, u, v, 3v)
-_CAMERA = """cam = bpy.data.objects.new("camera", bpy.data.cameras.new("ortho"))
-cam.data.type = "ORTHO"
-cam.data.ortho_scale = 2.0
-cam.data.clip_start, cam.data.clip_end = 0.01, 100.0
-scene.collection.objects.link(cam)
-scene.camera = cam
-
-
-def view(k):
-    \"\"\"Point the camera along VIEWS[k] (camera at 3 v, image up u).\"\"\"
-    v, u = VIEWS[k]
-    r = (u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0])
-    cam.matrix_world = Matrix([[r[i], u[i], v[i], 3 * v[i]] for i in range(3)] + [[0, 0, 0, 1]])
-
-
-view(0)
-"""
-
-
-def _settings(n: int, spp: int, pattern: str) -> str:
-    """The render settings of the measurements (:func:`envfit.measure.renderers._cycles.
-    _settings`): an n × n film, box filter of width 1, direct light only, no clamping,
-    denoising or adaptive sampling, the light tree on, the pattern at ``spp``."""
-    return (f"r, c = scene.render, scene.cycles\n"
-            f'r.engine = "CYCLES"\n'
-            f"r.resolution_x = r.resolution_y = {n}\n"
-            f"r.resolution_percentage = 100\n"
-            f"r.film_transparent = False\n"
-            f'r.image_settings.file_format = "OPEN_EXR"\n'
-            f'r.image_settings.color_depth = "32"\n'
-            f'scene.view_settings.view_transform = "Standard"\n'
-            f'c.device = "CPU"\n'
-            f"c.samples = {spp}\n"
-            f'c.sampling_pattern = "{pattern.upper()}"\n'
-            f"c.use_adaptive_sampling = False\n"
-            f"c.use_denoising = False\n"
-            f'c.pixel_filter_type = "BOX"\n'
-            f"c.filter_width = 1.0\n"
-            f"c.max_bounces = c.diffuse_bounces = 1\n"
-            f"c.glossy_bounces = c.transmission_bounces = c.volume_bounces = 0\n"
-            f"c.transparent_max_bounces = 0\n"
-            f"c.sample_clamp_direct = c.sample_clamp_indirect = 0.0\n"
-            f"c.use_light_tree = True\n")
-
-
-def _snippet(s: StrategySetting, spec: SamplerSpec, spp: int, *,
-             filename: str = "envmap.exr", sphere_pixels: int | None = None) -> str:
-    """A bpy script of the scene envfit predicted, as the measurements build it
-    (:mod:`envfit.measure.renderers._cycles`): Blender's empty factory scene, the exact
-    sphere with the white Diffuse BSDF, the world's Environment Texture (Linear) straight into
-    the Background and its sampling for the strategy, an orthographic camera on each of the
-    six :data:`SPHERE_VIEWS` (``view(k)``), a film of :func:`snippet_pixels` pixels with the
-    box filter of width 1, direct light only (max bounces 1, diffuse 1, the rest 0: the one
-    bounce off a convex sphere escapes to the world), no clamping, denoising or adaptive
-    sampling, the light tree on, the pattern and spp (Sobol-Burley only in Cycles' debug UI:
-    ``cycles/properties.py``: ``enum_sampling_pattern``)."""
-    method = s.settings["world.cycles.sampling_method"]
-    n = snippet_pixels(sphere_pixels)
-    head = "\n".join(scene_comment("white Diffuse BSDF (colour 1, roughness 0)", sphere_pixels))
-    views = ",\n         ".join(f"({v}, {u})" for v, u in SPHERE_VIEWS)
-    debug = ("bpy.context.preferences.view.show_developer_ui = True\n"
-             "bpy.context.preferences.experimental.use_cycles_debug = True\n"
-             if spec.name == "sobol_burley" else "")
-    return (f"import bpy\n"
-            f"from mathutils import Matrix\n"
-            f"{head}\n"
-            f"# render view k (0..5, VIEWS: axis, image up): view(k); "
-            f"bpy.ops.render.render(write_still=True)\n"
-            f"VIEWS = [{views}]\n"
-            f"bpy.ops.wm.read_factory_settings(use_empty=True)\n"
-            f"{debug}"
-            f"scene = bpy.context.scene\n"
-            f"{_SPHERE}"
-            f'world = bpy.data.worlds.new("envmap")\n'
-            f"scene.world = world\n"
-            f"if world.node_tree is None:\n"
-            f"    world.use_nodes = True\n"
-            f"wt = world.node_tree\n"
-            f"wt.nodes.clear()\n"
-            f'env = wt.nodes.new("ShaderNodeTexEnvironment")\n'
-            f"env.image = bpy.data.images.load({filename!r})\n"
-            f'env.interpolation = "Linear"\n'
-            f'env.projection = "EQUIRECTANGULAR"\n'
-            f'bg = wt.nodes.new("ShaderNodeBackground")\n'
-            f'bg.inputs["Strength"].default_value = 1.0\n'
-            f'wt.links.new(env.outputs["Color"], bg.inputs["Color"])\n'
-            f'wt.links.new(bg.outputs[0], wt.nodes.new("ShaderNodeOutputWorld").inputs["Surface"])\n'
-            f'world.cycles.sampling_method = "{method}"\n'
-            f"{_CAMERA}"
-            f"{_settings(n, spp, spec.name)}")
-
-
 def _technique(envmap, **options) -> CyclesBackground:
     return CyclesBackground(envmap, **options)
 
@@ -494,7 +388,7 @@ CYCLES = RendererPreset(
     heuristic="power",
     strategies=STRATEGIES,
     samplers=SAMPLERS,
-    snippet_fn=_snippet,
+    snippet_fn=cycles_snippet,
     source=("src/scene/light.cpp; src/kernel/light/background.h; src/kernel/sample/mapping.h "
             "sample_cos_hemisphere; src/kernel/sample/mis.h power_heuristic; "
             "src/kernel/sample/tabulated_sobol.h"),

@@ -149,29 +149,27 @@ class Pbrt4ImageInfiniteLight(EnvmapTechnique):
         tests)."""
         out = np.empty((local.shape[0], 4))
         dist = self.distribution
-        _pbrt4_lookup(np.ascontiguousarray(local, dtype=np.float64),
-                      np.ascontiguousarray(frame, dtype=np.float64),
-                      np.ascontiguousarray(self.native_to_world),
-                      np.ascontiguousarray(self.image, dtype=np.float64), self.scale,
-                      np.array(_ATAN_POLY[::-1]), dist.func, dist.integral, fe, fb, out)
+        m = np.ascontiguousarray(np.asarray(frame, dtype=np.float64) @ self.native_to_world)
+        _pbrt4_lookup(np.ascontiguousarray(local, dtype=np.float64), m,
+                      np.ascontiguousarray(self.image, dtype=np.float64),
+                      np.array(_ATAN_POLY[::-1]), dist.func,
+                      np.array([self.scale, dist.integral, fe, fb]), out)
         return out[:, :3], out[:, 3]
 
 
 @numba.njit(cache=True, parallel=True, error_model="numpy")
-def _pbrt4_lookup(local, frame, to_native, img, scale, poly, func, integral, fe, fb,
-                  out):  # pragma: no cover - numba
-    """:meth:`Pbrt4ImageInfiniteLight.bsdf_lookup`: ``equal_area_sphere_to_square``,
-    ``_octahedral_nearest`` and ``PiecewiseConstant2D.pdf`` per point, in the same
-    arithmetic (``poly``: the arctangent polynomial, highest degree first)."""
+def _pbrt4_lookup(local, m, img, poly, func, consts, out):  # pragma: no cover - numba
+    """:meth:`Pbrt4ImageInfiniteLight.bsdf_lookup` at the native directions ``local @ m``:
+    ``equal_area_sphere_to_square``, ``_octahedral_nearest`` and ``PiecewiseConstant2D.pdf``
+    per point, in the same arithmetic (``poly``: the arctangent polynomial, highest degree
+    first; ``consts``: scale, the distribution's integral, the fractions fe, fb)."""
+    scale, integral, fe, fb = consts[0], consts[1], consts[2], consts[3]
     ny, nx = img.shape[0], img.shape[1]
     fy, fx = func.shape[0], func.shape[1]
     for p in numba.prange(local.shape[0]):
-        wx = local[p, 0] * frame[0, 0] + local[p, 1] * frame[1, 0] + local[p, 2] * frame[2, 0]
-        wy = local[p, 0] * frame[0, 1] + local[p, 1] * frame[1, 1] + local[p, 2] * frame[2, 1]
-        wz = local[p, 0] * frame[0, 2] + local[p, 1] * frame[1, 2] + local[p, 2] * frame[2, 2]
-        dx = wx * to_native[0, 0] + wy * to_native[1, 0] + wz * to_native[2, 0]
-        dy = wx * to_native[0, 1] + wy * to_native[1, 1] + wz * to_native[2, 1]
-        dz = wx * to_native[0, 2] + wy * to_native[1, 2] + wz * to_native[2, 2]
+        dx = local[p, 0] * m[0, 0] + local[p, 1] * m[1, 0] + local[p, 2] * m[2, 0]
+        dy = local[p, 0] * m[0, 1] + local[p, 1] * m[1, 1] + local[p, 2] * m[2, 1]
+        dz = local[p, 0] * m[0, 2] + local[p, 1] * m[1, 2] + local[p, 2] * m[2, 2]
         ax, ay, az = abs(dx), abs(dy), abs(dz)
         r = np.sqrt(max(1.0 - az, 0.0))
         a, b = max(ax, ay), min(ax, ay)
@@ -250,7 +248,8 @@ SAMPLERS = {
         "paddedsobol", "owen", "independent", int,
         "per pixel and dimension an independently FastOwen-scrambled first-spp Sobol' net "
         "in a hashed order; spp unchanged (warns if not a power of two). "
-        + _P + "PaddedSobolSampler"),
+        + _P + "PaddedSobolSampler::Get2D (PermutationElement(sampleIndex, samplesPerPixel): "
+        "any spp is the net's first spp points)", prefix=True),
     "sobol": SamplerSpec(
         "sobol", "owen", "independent", int,
         "one global Sobol' sequence over the image, dimension-seeded FastOwen scramble "

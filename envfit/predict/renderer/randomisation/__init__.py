@@ -42,6 +42,7 @@ _LAZY = {
     "owen_gains": "_owen",
     "walsh_coefficients": "_walsh",
     "ShiftSample": "_shift_samples", "shift_sample": "_shift_samples",
+    "sampled_above_prefixes": "_shift_samples",
     "sampled_above": "_shift_samples",
     "owen_sample": "_owen_samples", "owen_scramble": "_owen_samples",
     "RANDOMISATIONS": "_registry", "Randomisation": "_registry", "randomised_mse": "_registry",
