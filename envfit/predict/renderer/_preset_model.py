@@ -291,7 +291,8 @@ class PresetModel:
     def nets(self) -> SampledNets:
         """The passes' sampled nets (:class:`._sampled_nets.SampledNets`)."""
         if "_nets" not in self.__dict__:
-            self._nets = SampledNets(self.options.shifts, self.options.seed)
+            o = self.options                        # one draw to the sampled spp cap
+            self._nets = SampledNets(o.shifts, o.seed, 4 ** (o.max_level + 1) // o.shifts)
         return self._nets
 
     def _table(self, kind: str, where):

@@ -5,9 +5,10 @@ largest N, read as prefixes for every smaller N, and the variance of every prefi
 under one random digital shift or one nested uniform scramble are the randomised N-point net
 with the law the model assumes for N = 2^m (the first 2^m points of the sequence are a
 (0, m, 2)-net, and a scramble of the sequence restricted to them is a scramble of that net).
-So a pass draws :math:`Q` randomisations of the first ``top`` points once
-(:meth:`SampledNets.sample`), evaluates the integrand there once per normal, and every N of
-the pass reads its prefix: the power above the grid of :mod:`.randomisation._shift_samples`
+So the model draws :math:`Q` randomisations of the first ``base`` points once (the spp the
+model resolves, :meth:`SampledNets.sample`: a cell's points never depend on the other cells
+asked with it), a pass evaluates the integrand at the prefix of its largest N once per
+normal, and every N of the pass reads its own prefix: the power above the grid of :mod:`.randomisation._shift_samples`
 for all of them from cumulative sums (:func:`.randomisation.sampled_above_prefixes`).
 
 **Any N** (:meth:`SampledNets.between`). Cycles' samplers and pbrt-v4's ``paddedsobol`` run
@@ -96,8 +97,9 @@ class SampledNets:
     """The sampled nets of a model's passes (module docstring): ``shifts`` randomisations
     (Q) seeded by ``seed``; :meth:`plan` sets a pass's largest N and its curves."""
 
-    def __init__(self, shifts: int, seed: int):
+    def __init__(self, shifts: int, seed: int, base: int = 1):
         self.shifts, self.seed = int(shifts), int(seed)
+        self.base = 1 << max(0, int(base) - 1).bit_length()     # a power of two ≥ base
         self._draws: dict = {}
         self.top = 0                    # the pass's largest sampled N
         self.ns: dict = {}              # (tag, level) → the pass's sampled N
@@ -121,18 +123,20 @@ class SampledNets:
 
     def sample(self, tag: str, n: int) -> ShiftSample:
         """The first N points of the Sobol' net under Q random shifts (``"shift"``) or nested
-        uniform scrambles (``"owen"``): the prefix of the pass's largest (drawn once)."""
-        top = max(int(n), self.top)
-        if (tag, top) not in self._draws:
+        uniform scrambles (``"owen"``): the prefix of one draw of :attr:`base` points (more
+        only for an N above it), so that a cell's points never depend on the other cells of
+        its pass."""
+        size = max(int(n), self.base)
+        if (tag, size) not in self._draws:
             draw = owen_sample if tag == "owen" else shift_sample
-            self._draws[tag, top] = draw(top, self.shifts, self.seed)
-        full = self._draws[tag, top]
-        if n == top:
+            self._draws[tag, size] = draw(size, self.shifts, self.seed)
+        full = self._draws[tag, size]
+        if n == size:
             return full
-        if (tag, top, n) not in self._draws:
-            self._draws[tag, top, n] = ShiftSample(full.net, int(n), full.digits[:, :n],
-                                                   full.randomisation)
-        return self._draws[tag, top, n]
+        if (tag, size, n) not in self._draws:
+            self._draws[tag, size, n] = ShiftSample(full.net, int(n), full.digits[:, :n],
+                                                    full.randomisation)
+        return self._draws[tag, size, n]
 
     def above(self, tag: str, level: int, n: int, mean: np.ndarray, values: np.ndarray,
               memo: dict, part: str):
