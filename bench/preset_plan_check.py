@@ -21,7 +21,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from render_check import _cpu  # noqa: E402
 
-from envfit.advisor._budget import PRESET_PASSES, preset_plan  # noqa: E402  # internal: the plan under test
+from envfit.advisor._budget import preset_passes, preset_plan  # noqa: E402  # internal: the plan under test
 from envfit.advisor._preset import advise_preset  # noqa: E402  # internal: the model's own timings (passes, seconds)
 from envfit.advisor._preset_options import PresetAdviseOptions  # noqa: E402  # internal: the plan takes the checked options
 from envfit.maps import load_envmap  # noqa: E402
@@ -54,7 +54,8 @@ def time_one(env, renderer: str, sampler: str, bsdf: str, normals: int, level: i
                                    bsdf=bsdf, **kw)
     except Exception as exc:  # noqa: BLE001 - a combination the model does not have
         return None, str(exc).split(":")[0]
-    plan = preset_plan(env.width * env.height, opts).seconds() / PRESET_PASSES
+    plan = (preset_plan(env.width * env.height, opts).seconds()
+            / preset_passes(opts.preset.sampler(opts.sampler).randomisation))
     t0 = time.perf_counter()
     adv = advise_preset(env, opts, cache=False)
     wall = time.perf_counter() - t0

@@ -273,11 +273,21 @@ TECHNIQUE_BYTES_PER_PIXEL = (300, 600)
 #: level, the cache off; AMD EPYC, 2 cores, load ~1): measured per point 0.35-0.45 µs
 #: (independent, L = 7; pbrt-v4's 1.5), 0.84-1.1 (jittered), 0.54-1.5 (nets, multi-jittering,
 #: orthogonal arrays, L = 9), ldsampler 0.18 over its 2.4 M fine and shifted points, GGX
-#: 0.45-0.94; each constant at about the largest measured: a pass took 0.3-0.8x its plan
+#: 0.45-0.94; each constant at about the largest measured: a pass took 0.3-0.8x its plan.
+#: Owen-scrambled nets after the compiled lookups and the one sampled table (48 normals, 2 M
+#: fine and scrambled points each, load 0.75): 0.20 (zsobol), 0.28 (tabulated_sobol), 0.30
+#: (paddedsobol); ldsampler 0.25
 PRESET_SECONDS_PER_POINT = {"independent": 1.0e-6, "jittered": 1.2e-6, "digital_shift": 0.25e-6,
-                            "other": 1.5e-6, "microfacet": 1.5e-6}
-#: the passes a search typically takes (1 to 4 measured: the coarse spp, the brackets)
-PRESET_PASSES = 2
+                            "owen": 0.4e-6, "other": 1.5e-6, "microfacet": 1.5e-6}
+#: the passes a search typically takes: one for the nets sampled above the grid (every coarse
+#: spp in one pass, the spp between them from the same tables), else 2 (1 to 4 measured:
+#: the coarse spp, the brackets)
+PRESET_PASSES = {"digital_shift": 1, "owen": 1, "other": 2}
+
+
+def preset_passes(randomisation: str) -> int:
+    """The passes the plan counts for a sampler's randomisation (:data:`PRESET_PASSES`)."""
+    return PRESET_PASSES.get(randomisation, PRESET_PASSES["other"])
 
 
 def _preset_stages(pixels: int, opts, level: int, normals: int, max_spp: int) -> list:
@@ -294,8 +304,8 @@ def _preset_stages(pixels: int, opts, level: int, normals: int, max_spp: int) ->
     foot = m.footprint_side ** 2 if opts.sphere_pixels is not None else 1
     fine = 4 ** (level + 1)
     cap = spp_cap(rand, level, max_spp, m.shifts, sampled=opts.samples_above_grid)
-    # Q·N points at every sampled N: ldsampler's N = 4^k (4/3 cap), a net's 2^k (2 cap)
-    shifted = (int(m.shifts * cap * (2 if rand == "owen" else 4 / 3))
+    # Q·cap points: every sampled N reads its prefix of one table (_sampled_nets)
+    shifted = (int(m.shifts * cap)
                if rand in ("digital_shift", "owen") and 2 * cap > 1 << level else 0)
     what = "frames" if opts.microfacet else "normals"
     tables = PRESET_BYTES_PER_POINT * fine * (1 + (foot > 1))
@@ -312,7 +322,7 @@ def _preset_stages(pixels: int, opts, level: int, normals: int, max_spp: int) ->
               f"{pool} {what} x {pilot} pilot points",
               "--renderer-normals" if normals > base else ""),
         Stage("the model's passes", tables + PRESET_BYTES_PER_SHIFTED * shifted,
-              PRESET_PASSES * normals * per_point * (fine * foot + shifted),
+              preset_passes(rand) * normals * per_point * (fine * foot + shifted),
               f"{normals} {what}, tables of {fine} points"
               + (f", {shifted} {'scrambled' if rand == 'owen' else 'shifted'} points to {cap} spp"
                  if shifted else ""),
@@ -327,13 +337,13 @@ def preset_plan(pixels: int, opts, *, resident: int = 0) -> Plan:
     (frames') proposal (pool × pilot table) and the passes (the finest table's 4^(L+1)
     points, a digital shift's or Owen scrambling's Q·N shifted (scrambled) points where it is
     sampled above its grid; seconds:
-    :data:`PRESET_PASSES` passes of K normals at :data:`PRESET_SECONDS_PER_POINT` per point).
+    :func:`preset_passes` passes of K normals at :data:`PRESET_SECONDS_PER_POINT` per point).
     ``resident``: bytes held throughout (the map); the technique's kept bytes are added.
 
     >>> from envfit.advisor._preset_options import PresetAdviseOptions
     >>> p = preset_plan(512 * 256, PresetAdviseOptions("mitsuba3", sampler="ldsampler"))
     >>> p.worst().name, p.worst().option, round(p.peak() / 1e9, 1)
-    ("the model's passes", '--renderer-level', 1.3)
+    ("the model's passes", '--renderer-level', 1.1)
     """
     stages = _preset_stages(int(pixels), opts, opts.level, opts.normals, opts.max_spp)
     return Plan("the renderer model", stages,

@@ -44,7 +44,7 @@ from pathlib import Path
 
 import numpy as np
 
-from envfit.advisor._budget import PRESET_PASSES, check_preset_plan
+from envfit.advisor._budget import check_preset_plan, preset_passes
 from envfit.advisor._cache import AdviseCache
 from envfit.base._resources import format_bytes
 from envfit.defaults import FOOTPRINT_SIDE, MICROFACET_FRAMES_SEED
@@ -156,8 +156,10 @@ class CachedPresetModel:
             self.plan = check_preset_plan(self.envmap, self.opts)   # one line if over budget
             self.model = self._model()
             self.model.quiet = self.opts.quiet
+        rand = self.opts.preset.sampler(self.opts.sampler).randomisation
         self.model.progress_label = (
-            f"renderer model, pass {self.passes + 1} (planned ~{_duration(self.plan)} a pass, "
+            f"renderer model, pass {self.passes + 1} (planned ~"
+            f"{_duration(self.plan, preset_passes(rand))} a pass, "
             f"peak ~{format_bytes(self.plan.peak())})")
         res = self.model.predict_many([(s, self.opts.sampler, n) for s, n in todo])
         for (s, n), r in zip(todo, res):
@@ -172,9 +174,10 @@ class CachedPresetModel:
         self.store.save("preset", self.key, {"cells": self.cells})
 
 
-def _duration(plan) -> str:
-    """A pass's planned seconds in words (:func:`envfit.advisor._budget.preset_plan`)."""
-    secs = plan.seconds() / PRESET_PASSES
+def _duration(plan, passes: int) -> str:
+    """A pass's planned seconds in words (:func:`envfit.advisor._budget.preset_plan`, of
+    ``passes`` passes)."""
+    secs = plan.seconds() / passes
     return f"{secs:.0f} s" if secs < 120 else f"{secs / 60:.0f} min"
 
 
