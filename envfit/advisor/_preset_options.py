@@ -347,7 +347,8 @@ class PresetAdviseOptions:
         names = check_names(list(self.strategies) if asked else list(_ORDER),
                             STRATEGY_NAMES, "strategy (with --renderer: mis, map, brdf)")
         names = sorted(names, key=_ORDER.index)
-        p.technique(_dummy_map(), **self.technique_options())    # its options, checked
+        if self.technique_options():                # its options, checked (none: nothing to
+            p.technique(_dummy_map(), **self.technique_options())   # build, Cycles' 8 M cells)
         light = PresetModelOptions(normals=1, pool=1, max_level=1, pilot_level=1)
         spec = p.sampler(self.sampler)
         if spec.randomisation == "cp_shift" and spec.name in _NOT_SOBOL:
