@@ -9,7 +9,8 @@ import numpy as np
 from envfit.maps import _latlong as latlong
 from envfit.sampling._map_sampler import MapSampler
 
-__all__ = ["bilinear_lookup_numpy", "sample_numpy", "pixel_of_numpy"]
+__all__ = ["bilinear_lookup_numpy", "sample_numpy", "pixel_of_numpy", "bsdf_lookup_numpy",
+           "hemisphere_directions"]
 
 
 def bilinear_lookup_numpy(flat: np.ndarray, d: np.ndarray, m: np.ndarray, h: int,
@@ -52,3 +53,23 @@ def pixel_of_numpy(sampler: MapSampler, d: np.ndarray) -> tuple[np.ndarray, np.n
     i = np.clip(np.floor(theta * (sampler.height / np.pi)).astype(np.int64), 0, sampler.height - 1)
     j = np.floor(phi * (sampler.width / (2.0 * np.pi))).astype(np.int64) % sampler.width
     return i, j
+
+
+def bsdf_lookup_numpy(technique, local: np.ndarray, frame: np.ndarray, fe: float, fb: float):
+    """A preset technique's ``bsdf_lookup`` by its numpy methods: the radiance ``eval`` at
+    ``local @ frame`` and the BSDF sample's ``power_heuristic(cos/π, pdf, fb, fe)`` (1 where
+    ``fe`` is 0)."""
+    from envfit.sampling.presets._base import power_heuristic
+    d = local @ frame
+    w = (power_heuristic(local[:, 2] / np.pi, technique.pdf(d), fb, fe) if fe > 0
+         else np.ones(len(local)))
+    return technique.eval(d), w
+
+
+def hemisphere_directions(rng: np.random.Generator, count: int) -> np.ndarray:
+    """``count`` unit directions of the upper hemisphere (local frame, +z up), the first six
+    the pole, the horizon's axes and two 37° tilts (a lookup's seams and edges)."""
+    loc = rng.normal(size=(count, 3))
+    loc[:, 2] = np.abs(loc[:, 2])
+    loc[:6] = [[0, 0, 1], [1, 0, 0], [0, 1, 0], [-1, 0, 0], [0.6, 0, 0.8], [0, -0.6, 0.8]]
+    return loc / np.linalg.norm(loc, axis=1)[:, None]
