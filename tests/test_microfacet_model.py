@@ -432,7 +432,7 @@ def test_rmse_sampling_error_is_the_spread_of_the_weighted_estimate():
     """The relative standard error printed beside advise's band values: frames drawn i.i.d.
     with probability π from a pool, weighted 1/π; over 20 000 draws of 12 frames the RMSE
     estimate's relative spread equals the formula's value (its mean over the draws) to 8 %."""
-    from envfit.predict.renderer._microfacet_model import rmse_sampling_error
+    from envfit.predict.renderer._model_error import rmse_sampling_error
     rng = np.random.default_rng(4)
     pool = rng.gamma(2.0, 1.0, 400)                         # per-frame MSE
     prob = (0.3 + pool / pool.mean()) / np.sum(0.3 + pool / pool.mean())

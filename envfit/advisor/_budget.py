@@ -303,7 +303,8 @@ def _preset_stages(pixels: int, opts, level: int, normals: int, max_spp: int) ->
     pilot = 4 ** m.pilot_level
     foot = m.footprint_side ** 2 if opts.sphere_pixels is not None else 1
     fine = 4 ** (level + 1)
-    cap = spp_cap(rand, level, max_spp, m.shifts, sampled=opts.samples_above_grid)
+    cap = spp_cap(rand, level, max_spp, m.shifts, sampled=opts.samples_above_grid,
+                  reach=m.reach if level == m.max_level else None)
     # Q·cap points: every sampled N reads its prefix of one table (_sampled_nets)
     shifted = (int(m.shifts * cap)
                if rand in ("digital_shift", "owen") and 2 * cap > 1 << level else 0)

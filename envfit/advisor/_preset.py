@@ -33,17 +33,19 @@ Example
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from envfit.advisor._cache import AdviseCache
 from envfit.advisor._model import map_key
 from envfit.advisor._prediction import mean_shading_value
-from envfit.advisor._preset_options import (DEFAULT_MAX_SPP, NET_RANDOMISATIONS, RENDERER_NAMES,
+from envfit.advisor._preset_options import (DEFAULT_LEVEL, DEFAULT_MAX_SPP, DEFAULT_NORMALS,
+                                            NET_RANDOMISATIONS, RENDERER_NAMES,
                                             STRATEGY_WORDS, PresetAdviseOptions, spp_cap)
 from envfit.advisor._preset_search import (CachedPresetModel, StrategyAnswer, runnable_spp,
                                            search_spp)
+from envfit.advisor._preset_sizing import BUDGET, predicted_error, sized_options
 from envfit.base._errors import ParameterError
 from envfit.defaults import BAND_MIN_FRAMES, DEFAULT_TARGET_RELATIVE, SWITCH_FACTOR
 
@@ -256,6 +258,11 @@ class PresetAdvice:
                 f"{o.level}")
         if level is None:
             return f"{head}; {nxt} spp is beyond its finest level 11"
+        if self.model.get("sized"):         # its cost is not the level's: say the unsized one
+            return (f"{head}; {nxt} spp needs --renderer-level {level} (its "
+                    f"{DEFAULT_NORMALS} normals at level {level} take "
+                    f"{4 ** (level - DEFAULT_LEVEL)}x the time and memory of level "
+                    f"{DEFAULT_LEVEL})")
         return (f"{head}; {nxt} spp needs --renderer-level {level} "
                 f"({4 ** (level - o.level)}x the time and memory)")
 
@@ -296,7 +303,9 @@ class PresetAdvice:
                 "there)" if not o.every_spp and spec.spp(3) == 3 else
                 "; between powers of two from the scrambled sequence's sampled prefixes, "
                 "calibrated at the exact powers of two" if spec.prefix and o.every_spp else "")
-        return (f"{who}: spp = {a.spp} for {goal}; predicted RMSE {f(a.predicted_rmse)} at "
+        e = self.model.get("model_se", {}).get(a.strategy)
+        pm = f" (+-{100 * e[0]:.1f} %)" if e else ""
+        return (f"{who}: spp = {a.spp} for {goal}; predicted RMSE {f(a.predicted_rmse)}{pm} at "
                 f"{a.spp} spp{below}{pow2}")
 
     def table_lines(self) -> list[str]:
@@ -337,11 +346,40 @@ class PresetAdvice:
                  if frames in (None, m["normals"]) else
                  f"{frames} frames ({m['normals']} asked, each view-angle band at least "
                  f"{m['normals'] // 6})")
+        scrambles = (f", {m['shifts']} scrambles" if m.get("sized") else "")
         out.append(f"renderer model: {self._surface()} (RMS over the channels), "
                    f"{count}, grid level "
-                   f"{m['level']}; {m['passes']} pass(es), {m['cells_computed']} cell(s) "
-                   f"computed, {m['cells_cached']} from the cache")
+                   f"{m['level']}{scrambles}; {m['passes']} pass(es), {m['cells_computed']} "
+                   f"cell(s) computed, {m['cells_cached']} from the cache")
+        out += self._model_error_lines()
         return out
+
+    def _model_error_lines(self) -> list[str]:
+        """The model's own error at the answer, and how the sized model got there."""
+        m, a = self.model, self.default
+        e = m.get("model_se", {}).get(a.strategy)
+        if not e:
+            return []
+        where = f"{a.spp} spp" if a.reached else f"{a.searched_max} spp"
+        line = (f"model error at {where}: +-{100 * e[0]:.1f} % of the predicted RMSE (one "
+                f"standard error: +-{100 * e[1]:.1f} % from the normals, +-{100 * e[2]:.1f} % "
+                f"from the scrambles)")
+        p = m.get("pilot")
+        if m.get("sized"):
+            target = m["model_error_target"]
+            if p is None:
+                line += f"; sized to +-{100 * target:g} %: the pilot meets it"
+            else:
+                line += (f"; sized to +-{100 * target:g} % after a pilot of {p['normals']} "
+                         f"normals and {p['shifts']} scrambles (+-{100 * p['model_se'][0]:.1f} "
+                         f"%)")
+                if e[0] > target:
+                    line += (f"; the pilot's estimate for this model was "
+                             f"+-{100 * p['predicted_model_se']:.1f} %")
+                if p["predicted_model_se"] > target:
+                    line += (f" (the model of least error within the unsized model's cost "
+                             f"{BUDGET // 10 ** 6} M points a pass)")
+        return [line]
 
     def _surface(self) -> str:
         o = self.options
@@ -470,16 +508,12 @@ def advise_preset(envmap, opts: PresetAdviseOptions, *, target_rmse: float | Non
     mean = mean_shading_value(envmap)
     target, rel = _target(mean, target_rmse, target_relative)
     spec = opts.preset.sampler(opts.sampler)
-    cap = opts.spp_cap()
-    runnable = runnable_spp(spec, cap)
-    if not opts.every_spp:                             # the model's nets: N = 2^m
-        runnable = [n for n in runnable if n & (n - 1) == 0]
     listed = [(n, spec.spp(n)) for n in opts.spp]
     store = AdviseCache(cache_dir, enabled=cache)
-    cm = CachedPresetModel(envmap, opts, store, map_key(envmap, "linear"))
-    answers = search_spp(cm, opts.strategies, runnable, target, [n for _, n in listed],
-                         independent=spec.randomisation == "independent")
-    cells = {(s, n): cm.rmse(s, n) for s in opts.strategies for n in cm.asked_spp(s)}
+    opts, by, answers, pilot, cms = _sized_search(envmap, opts, store, target,
+                                                  [n for _, n in listed])
+    cap = max(a.searched_max for a in answers.values())
+    cells = {(s, n): by[s].rmse(s, n) for s in opts.strategies for n in by[s].asked_spp(s)}
     notes = [*opts.notes, *store.notes]
     if opts.renderer == "cycles" and opts.bsdf == "ggx":
         notes.append("--brdf ggx is Cycles' single-scatter GGX (a Glossy BSDF set to GGX); the "
@@ -488,13 +522,82 @@ def advise_preset(envmap, opts: PresetAdviseOptions, *, target_rmse: float | Non
     px = np.asarray(envmap.data).reshape(envmap.height * envmap.width, -1)
     adv = PresetAdvice(opts, target, rel, mean, answers, listed, cells, cap, notes=notes,
                        constant_map=bool(np.all(px == px[0])),
-                       bands={k: b for k in cells if (b := cm.bands(*k))},
-                       band_errors={k: b for k in cells if (b := cm.band_errors(*k))})
+                       bands={k: b for k in cells if (b := by[k[0]].bands(*k))},
+                       band_errors={k: b for k in cells if (b := by[k[0]].band_errors(*k))})
     if snippet:
         _add_snippet(adv, envmap, filename)
-    adv.model = {"normals": opts.model_options().normals, "level": opts.level,
-                 "passes": cm.passes, "cells_computed": cm.cells_computed,
-                 "cells_cached": cm.cells_cached, "seconds_model": cm.seconds,
-                 "seconds": time.perf_counter() - t0, "cache_hits": store.hits,
-                 "cache_writes": store.writes}
+    adv.model = _model_dict(opts, by, answers, pilot, cms)
+    adv.model.update(seconds=time.perf_counter() - t0, cache_hits=store.hits,
+                     cache_writes=store.writes)
     return adv
+
+
+def _model_dict(opts: PresetAdviseOptions, by: dict, answers: dict, pilot, cms) -> dict:
+    """What the model was and what the searches ``cms`` cost (:attr:`PresetAdvice.model`)."""
+    m = opts.model_options()
+    out = {"normals": m.normals, "level": opts.level, "shifts": m.shifts, "reach": m.reach,
+           "model_error_target": opts.model_error,
+           "model_se": {s: _answer_error(by[s], a) for s, a in answers.items()},
+           "pilot": pilot, "sized": opts.auto or pilot is not None,
+           "passes": sum(c.passes for c in cms),
+           "cells_computed": sum(c.cells_computed for c in cms),
+           "cells_cached": sum(c.cells_cached for c in cms),
+           "seconds_model": sum(c.seconds for c in cms)}
+    return out
+
+
+def _sized_search(envmap, opts: PresetAdviseOptions, store: AdviseCache, target: float,
+                  listed):
+    """The search (:func:`_search`); for a sized model (``opts.auto``) the pilot's, then,
+    where its error at the default strategy's answer exceeds the target, a larger model's for
+    that strategy (:mod:`._preset_sizing`; to twice the pilot's answer, the other strategies
+    keep the pilot's answers). Returns (the final model's options, the cached model per
+    strategy, the answers, the pilot's figures or None, every cached model searched)."""
+    cm, answers = _search(envmap, opts, store, target, listed)
+    by = {s: cm for s in opts.strategies}
+    first = opts.strategies[0]
+    parts = _answer_error(cm, answers[first]) if opts.auto else None
+    final = sized_options(opts, parts[1:] if parts else (),
+                          reach=_final_reach(opts, answers[first], listed))
+    if final is None:
+        return opts, by, answers, None, [cm]
+    pilot = {"normals": opts.normals, "shifts": opts.shifts, "level": opts.level,
+             "reach": opts.reach, "model_se": parts, "answer": answers[first].spp,
+             "predicted_model_se": predicted_error(opts, parts[1:], final)}
+    cms = [cm]
+    fcm, fans = _search(envmap, final, store, target, listed, cm.technique, (first,))
+    if not fans[first].reached and final.reach < opts.reach:     # moved past its reach
+        cms.append(fcm)
+        final = replace(final, reach=opts.reach)
+        fcm, fans = _search(envmap, final, store, target, listed, cm.technique, (first,))
+    by[first] = fcm
+    return final, by, {**answers, first: fans[first]}, pilot, cms + [fcm]
+
+
+def _final_reach(opts: PresetAdviseOptions, a: StrategyAnswer, listed) -> int | None:
+    """The sampled nets' reach of the sized model's final search: twice the power of two at
+    or above the pilot's answer (and every listed spp), at most the pilot's."""
+    if opts.reach is None or not a.reached:
+        return opts.reach
+    top = max([a.spp, *listed])
+    return min(opts.reach, 2 * (1 << (top - 1).bit_length()))
+
+
+def _search(envmap, opts: PresetAdviseOptions, store: AdviseCache, target: float, listed,
+            technique=None, strategies=None):
+    """(the cached model, the answers per strategy) of one search over the runnable spp
+    (``technique``: the map's, built by an earlier model; ``strategies``: these only)."""
+    spec = opts.preset.sampler(opts.sampler)
+    runnable = runnable_spp(spec, opts.spp_cap())
+    if not opts.every_spp:                             # the model's nets: N = 2^m
+        runnable = [n for n in runnable if n & (n - 1) == 0]
+    cm = CachedPresetModel(envmap, opts, store, map_key(envmap, "linear"), technique)
+    answers = search_spp(cm, strategies or opts.strategies, runnable, target, listed,
+                         independent=spec.randomisation == "independent")
+    return cm, answers
+
+
+def _answer_error(cm: CachedPresetModel, a: StrategyAnswer) -> list | None:
+    """The model error [total, normals', scrambles'] at a strategy's answer (or at the
+    largest spp searched)."""
+    return cm.model_error(a.strategy, a.spp if a.reached else a.searched_max)

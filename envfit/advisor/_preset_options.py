@@ -56,7 +56,8 @@ from envfit.shading.microfacet import (RENDERERS, ROUGHNESS_RTOL, RoughPlastic,
 
 __all__ = ["PresetAdviseOptions", "RENDERER_NAMES", "STRATEGY_WORDS", "DEFAULT_MAX_SPP",
            "MAX_SPP", "DEFAULT_LEVEL", "DEFAULT_LEVEL_V", "DEFAULT_NORMALS", "NET_RANDOMISATIONS",
-           "spp_cap", "default_level"]
+           "spp_cap", "default_level", "SIZED_RANDOMISATIONS", "AUTO_LEVEL", "AUTO_SHIFTS",
+           "DEFAULT_MODEL_ERROR"]
 
 #: the renderers' names in sentences
 RENDERER_NAMES = {"mitsuba3": "Mitsuba 3", "pbrt4": "pbrt-v4", "cycles": "Cycles",
@@ -87,6 +88,15 @@ DEFAULT_NORMALS = PresetModelOptions().normals
 #: in few frames (rendered, sun-gp-1.5 GGX α = 0.05: a pool of 2048 pixels put 16 of 18 cells
 #: inside, every pixel 18 of 18); the proxies cost ~0.3 ms a frame (compiled)
 MICROFACET_POOL = 8192
+#: the randomisations whose model is sized to its error (:attr:`PresetAdviseOptions.auto`):
+#: the nets whose power above the grid is sampled, each estimate with its standard error
+SIZED_RANDOMISATIONS = ("digital_shift", "owen")
+#: the sized model's pilot: grid level and scrambles (Q) — at level 7 a pass costs ~1/14 of
+#: level 9's with Q = 256, and the model's error is dominated by its normals (measured,
+#: forest.exr, Cycles, 48 normals: ±5.8 % from the normals, ±2–4 % from Q = 16 scrambles)
+AUTO_LEVEL, AUTO_SHIFTS = 7, 16
+#: the relative standard error of the predicted RMSE the sized model aims at
+DEFAULT_MODEL_ERROR = 0.05
 #: envfit's own point sets that the model's Cranley-Patterson shift (Sobol' points) is not
 _NOT_SOBOL = ("lp", "sf", "bnot")
 #: the order of the strategies: the renderer's default (both techniques) first
@@ -94,10 +104,12 @@ _ORDER = ("mis", "map", "brdf")
 
 
 def spp_cap(randomisation: str, level: int, max_spp: int,
-            shifts: int = PresetModelOptions().shifts, *, sampled: bool = True) -> int:
+            shifts: int = PresetModelOptions().shifts, *, sampled: bool = True,
+            reach: int | None = None) -> int:
     """The largest spp the model resolves for ``randomisation`` at grid level ``level``
     (module docstring; ``shifts``: Q of a digital shift's sampling; ``sampled=False``: the
-    spp its grid resolves without sampling), at most ``max_spp``.
+    spp its grid resolves without sampling; ``reach``: the sampled nets' largest N where it
+    is not the fine table's 4^(L+1)/Q, ``PresetModelOptions.reach``), at most ``max_spp``.
 
     >>> spp_cap("digital_shift", 9, 65536), spp_cap("owen", 9, 65536), spp_cap("cmj", 9, 65536)
     (4096, 4096, 512)
@@ -106,7 +118,7 @@ def spp_cap(randomisation: str, level: int, max_spp: int,
     >>> spp_cap("cp_shift", 9, 65536), spp_cap("digital_shift", 11, 65536)
     (64, 65536)
     """
-    net = max(1 << (level - 1), 4 ** (level + 1) // shifts * sampled)   # sampled above M/2
+    net = max(1 << (level - 1), (reach or 4 ** (level + 1) // shifts) * sampled)  # above M/2
     top = {"digital_shift": net, "owen": net,
            "cmj": min(1 << level, 1024), "orthogonal_array": min(1 << level, 1024),
            "cp_shift": max(1, 1 << max(level - 3, 0)),
@@ -178,10 +190,18 @@ class PresetAdviseOptions:
         The largest spp searched (≥ 1); None: :data:`DEFAULT_MAX_SPP`, or :data:`MAX_SPP`
         for an independent sampler, whose RMSE is exactly σ/√spp at every spp.
     level : int or None
-        The model's grid level L (1…11; None: :func:`default_level` of the sampler).
-    normals : int
-        The model's normals K (``PresetModelOptions``); for a microfacet BSDF the frames
-        (normal, view) of :func:`envfit.predict.renderer.band_frames`.
+        The model's grid level L (1…11; None: :func:`default_level` of the sampler, or the
+        sized model's, :attr:`auto`).
+    normals : int or None
+        The model's normals K (``PresetModelOptions``; None: :data:`DEFAULT_NORMALS`); for a
+        microfacet BSDF the frames (normal, view) of
+        :func:`envfit.predict.renderer.band_frames`.
+    shifts, reach : int or None
+        The sampled nets' Q and largest N (``PresetModelOptions``; None: its defaults, or the
+        sized model's).
+    model_error : float or None
+        The relative standard error of the predicted RMSE the sized model aims at (0 < e <
+        1; None: :data:`DEFAULT_MODEL_ERROR`).
     bsdf : str
         ``diffuse`` (white, the default) or a white microfacet conductor ``ggx`` /
         ``beckmann`` as the renderer shades and samples it (not with ``envfit``; pbrt-v4: ggx).
@@ -214,11 +234,14 @@ class PresetAdviseOptions:
     mis_compensation: bool = False
     max_spp: int | None = None
     level: int | None = None
-    normals: int = DEFAULT_NORMALS
+    normals: int | None = None
     bsdf: str = "diffuse"
     roughness: float | None = None
     sphere_pixels: int | None = None
     quiet: bool = True
+    shifts: int | None = None
+    reach: int | None = None
+    model_error: float | None = None
 
     def __post_init__(self) -> None:
         p = preset(self.renderer)
@@ -246,8 +269,7 @@ class PresetAdviseOptions:
                                  f"({self.max_spp}; --nmax)")
         set_(self, "spp", tuple(dict.fromkeys(spp)))
         spec = p.sampler(self.sampler)
-        if self.level is None:
-            set_(self, "level", default_level(spec.randomisation))
+        self._size_model(spec.randomisation)
         model = self.model_options()          # checks level and normals
         set_(self, "level", model.max_level)
         set_(self, "strategies", self._checked_strategies(p))
@@ -262,6 +284,35 @@ class PresetAdviseOptions:
             raise ParameterError(f"--spp {over[0]}: {self.sampler} runs {spec.spp(over[0])} "
                                  f"spp, beyond the {cap} spp the model resolves for it at "
                                  f"--renderer-level {self.level}")
+
+    def _size_model(self, randomisation: str) -> None:
+        """The model's level, normals and sampled nets: as given, else the sized model's
+        pilot (:attr:`auto`) or the defaults; ``model_error`` checked."""
+        set_ = object.__setattr__
+        auto = (self.level is None and self.normals is None and self.shifts is None
+                and self.reach is None and randomisation in SIZED_RANDOMISATIONS
+                and not self.microfacet and self.sphere_pixels is None)
+        set_(self, "_auto", auto)
+        if auto:
+            set_(self, "level", AUTO_LEVEL)
+            set_(self, "shifts", AUTO_SHIFTS)
+            set_(self, "reach", spp_cap(randomisation, DEFAULT_LEVEL, MAX_SPP))
+        if self.level is None:
+            set_(self, "level", default_level(randomisation))
+        if self.normals is None:
+            set_(self, "normals", DEFAULT_NORMALS)
+        e = DEFAULT_MODEL_ERROR if self.model_error is None else self.model_error
+        if isinstance(e, bool) or not isinstance(e, (int, float)) or not 0.0 < e < 1.0:
+            raise ParameterError(f"--renderer-model-error must be a fraction 0 < e < 1, "
+                                 f"got {e!r}")
+        set_(self, "model_error", float(e))
+
+    @property
+    def auto(self) -> bool:
+        """Whether the model is sized to :attr:`model_error` (:mod:`._preset_sizing`):
+        Owen-scrambled and digitally shifted nets on the diffuse surface without pixel
+        footprints, with none of ``level``, ``normals``, ``shifts``, ``reach`` given."""
+        return self._auto
 
     def _check_bsdf(self, p) -> None:
         """``bsdf`` diffuse (``roughness`` None) or a microfacet conductor the renderer shades
@@ -333,9 +384,11 @@ class PresetAdviseOptions:
         base = MICROFACET_POOL if compiled else PresetModelOptions().pool
         pool = max(base, int(self.normals))
         pixels = None if self.microfacet else self.sphere_pixels   # microfacet: per frame
+        shifts = PresetModelOptions().shifts if self.shifts is None else self.shifts
         return PresetModelOptions(normals=int(self.normals), pool=pool,
                                   max_level=int(self.level), sphere_pixels=pixels,
-                                  footprint_side=FOOTPRINT_SIDE)
+                                  footprint_side=FOOTPRINT_SIDE,
+                                  shifts=check_int(shifts, "shifts", 4), reach=self.reach)
 
     def technique_options(self) -> dict:
         """The preset technique's options (Mitsuba: ``mis_compensation``)."""
@@ -402,15 +455,17 @@ class PresetAdviseOptions:
         largest its grid resolves without sampling, where the search's first pass stops; so
         too where :attr:`samples_above_grid` is false)."""
         spec = self.preset.sampler(self.sampler)
-        return spp_cap(spec.randomisation, self.level, self.max_spp,
-                       sampled=sampled and self.samples_above_grid)
+        m = self.model_options()
+        return spp_cap(spec.randomisation, self.level, self.max_spp, m.shifts,
+                       sampled=sampled and self.samples_above_grid, reach=m.reach)
 
     def key(self) -> dict:
         """What the predictions depend on besides the map (the cache key's part)."""
         m = self.model_options()
         key = {"renderer": self.renderer, "sampler": self.sampler,
                "technique_options": self.technique_options(), "normals": m.normals,
-               "pool": m.pool, "max_level": m.max_level, "pilot_level": m.pilot_level}
+               "pool": m.pool, "max_level": m.max_level, "pilot_level": m.pilot_level,
+               "shifts": m.shifts, "reach": m.reach}
         if self.microfacet:                   # the diffuse keys (and caches) unchanged
             key.update(bsdf=self.bsdf, alpha=self.conductor().alpha,
                        frames_seed=MICROFACET_FRAMES_SEED)

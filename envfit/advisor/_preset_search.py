@@ -88,8 +88,9 @@ class CachedPresetModel:
     ``seconds`` (in the model) say what the run cost.
     """
 
-    def __init__(self, envmap, opts, store: AdviseCache, map_key: dict):
+    def __init__(self, envmap, opts, store: AdviseCache, map_key: dict, technique=None):
         self.envmap, self.opts, self.store = envmap, opts, store
+        self.technique = technique            # built once for a map (PresetModel's)
         self.key = {**map_key, **opts.key(), "model_version": model_version(),
                     "format": PRESET_CACHE_FORMAT}
         doc = store.load("preset", self.key, envmap=envmap)     # checked against the map
@@ -108,7 +109,8 @@ class CachedPresetModel:
         frame's pixel footprint)."""
         o = self.opts
         if not o.microfacet:
-            return PresetModel(self.envmap, o.preset, o.technique_options(), o.model_options())
+            return PresetModel(self.envmap, o.preset, o.technique_options(), o.model_options(),
+                               technique=self.technique)
         m = o.model_options()
         frames = band_frames(max(m.pool, o.normals), (0.0, 90.0), seed=MICROFACET_FRAMES_SEED)
         foot = (None if o.sphere_pixels is None
@@ -134,6 +136,11 @@ class CachedPresetModel:
         """The stored prediction of a cell (KeyError if not predicted yet)."""
         return float(self.cells[self._name(strategy, n)]["rmse"])
 
+    def model_error(self, strategy: str, n: int) -> list | None:
+        """The stored model error of a cell: [relative standard error of the RMSE, its
+        normals' part, its sampled randomisations' part], or None (one normal)."""
+        return self.cells[self._name(strategy, n)].get("model_se")
+
     def has(self, strategy: str, n: int) -> bool:
         """Whether this run asked for the cell (so that a cached run takes the same path)."""
         return self._name(strategy, n) in self.asked
@@ -156,6 +163,7 @@ class CachedPresetModel:
             self.plan = check_preset_plan(self.envmap, self.opts)   # one line if over budget
             self.model = self._model()
             self.model.quiet = self.opts.quiet
+            self.technique = self.model.technique
         rand = self.opts.preset.sampler(self.opts.sampler).randomisation
         self.model.progress_label = (
             f"renderer model, pass {self.passes + 1} (planned ~"
@@ -163,7 +171,9 @@ class CachedPresetModel:
             f"peak ~{format_bytes(self.plan.peak())})")
         res = self.model.predict_many([(s, self.opts.sampler, n) for s, n in todo])
         for (s, n), r in zip(todo, res):
-            cell = {"rmse": float(r.rmse), "mse": [float(x) for x in np.ravel(r.mse)]}
+            cell = {"rmse": float(r.rmse), "mse": [float(x) for x in np.ravel(r.mse)],
+                    "model_se": (None if r.model_se is None else
+                                 [float(r.model_se), *map(float, r.model_se_parts)])}
             if self.opts.microfacet:
                 cell["bands"] = self.model.predict_bands(s, self.opts.sampler, n)
                 cell["band_errors"] = self.model.predict_band_errors(s, self.opts.sampler, n)

@@ -29,6 +29,7 @@ __all__ = ["add_preset_arguments", "reject_without_renderer", "run_preset"]
 _PRESET_ONLY = {"sampler": "--sampler", "spp": "--spp", "snippet": "--snippet",
                 "mis_compensation": "--mis-compensation", "rules": "--rules",
                 "renderer_level": "--renderer-level", "renderer_normals": "--renderer-normals",
+                "renderer_model_error": "--renderer-model-error",
                 "roughness": "--roughness", "sphere_pixels": "--sphere-pixels"}
 #: options of envfit's generic renderer rows, which --renderer replaces
 _GENERIC_ROWS = {"no_renderer": "--no-renderer", "renderer_pointsets": "--renderer-pointsets",
@@ -89,13 +90,23 @@ def _add_model_arguments(g) -> None:
     g.add_argument("--renderer-level", type=level, default=None, metavar="L",
                    help=f"the renderer model's finest grid level, M = 2^L cells per side, "
                         f"{level} (default 7 for independent and stratified samplers, 9 "
-                        f"for the others; the digital nets - Owen-scrambled (Cycles, pbrt-v4's Sobol' "
-                        f"samplers) and Mitsuba's ldsampler - are searched to 4^(L+1)/256 spp, "
-                        f"their power above the grid sampled beyond 2^(L-1) spp; each level "
-                        f"costs 4x the time and memory)")
+                        f"for the others; the digital nets - Owen-scrambled (Cycles, pbrt-v4's "
+                        f"Sobol' samplers) and Mitsuba's ldsampler - are searched to "
+                        f"4^(L+1)/256 spp, their power above the grid sampled beyond 2^(L-1) "
+                        f"spp; each level costs 4x the time and memory). Without it and "
+                        f"--renderer-normals, the digital nets on the diffuse surface are "
+                        f"modelled at level 7, sized to --renderer-model-error")
     g.add_argument("--renderer-normals", type=normals, default=None, metavar="K",
                    help=f"normals of the renderer model's importance sample, {normals} "
-                        f"(default 48); with a microfacet --brdf the frames (normal, view)")
+                        f"(default 48, or sized); with a microfacet --brdf the frames "
+                        f"(normal, view)")
+    g.add_argument("--renderer-model-error", type=Ranged(0, 1, "E", integer=False,
+                                                          lo_open=True, hi_open=True),
+                   default=None, metavar="E",
+                   help="the sized renderer model's own error, the relative standard error "
+                        "of its predicted RMSE from its normals and scrambles (default 0.05): "
+                        "a pilot (48 normals, 16 scrambles) and, where its error at the answer "
+                        "is larger, more of either")
     g.add_argument("--roughness", type=finite_float, default=None, metavar="R",
                    help=roughness_help())
     g.add_argument("--sphere-pixels", type=pixels, default=None, metavar="D",
@@ -120,7 +131,7 @@ def reject_without_renderer(args: argparse.Namespace) -> None:
 def _options(args: argparse.Namespace):
     """The checked :class:`PresetAdviseOptions` and, with --rules, :class:`AdviseOptions`
     (every conflict a one-line error, before the map is read)."""
-    from envfit.advisor._preset_options import DEFAULT_NORMALS, PresetAdviseOptions
+    from envfit.advisor._preset_options import PresetAdviseOptions
     for dest, flag in _GENERIC_ROWS.items():
         if getattr(args, dest, None) not in (None, False):
             raise ParameterError(f"{flag} is an option of envfit's generic renderer rows, "
@@ -150,8 +161,9 @@ def _options(args: argparse.Namespace):
         args.renderer, sampler=args.sampler, strategies=args.strategies, spp=args.spp or (),
         mis_compensation=args.mis_compensation, max_spp=args.nmax,
         level=args.renderer_level,
-        normals=args.renderer_normals or DEFAULT_NORMALS, bsdf=args.brdf,
-        roughness=args.roughness, sphere_pixels=args.sphere_pixels, quiet=args.quiet)
+        normals=args.renderer_normals, bsdf=args.brdf, roughness=args.roughness,
+        sphere_pixels=args.sphere_pixels, quiet=args.quiet,
+        model_error=args.renderer_model_error)
     rules = None
     if args.rules:
         from envfit.cli._advise import options_from_args

@@ -60,37 +60,12 @@ from envfit.predict.renderer.randomisation import STRATIFIED_1D
 from envfit.predict.renderer._preset_model import (PresetModel, PresetModelOptions,
                                                    samples_above, systematic_indices)
 
-__all__ = ["MicrofacetModel", "BANDS", "rmse_sampling_error"]
+__all__ = ["MicrofacetModel", "BANDS"]
 
 _CHUNK = 1 << 18
 #: the finest grid of a rough plastic's lobe path (PresetModelOptions' max_level): its table
 #: at level 12 holds 16 M points per part
 _MAX_LOBE_LEVEL = 11
-
-
-def rmse_sampling_error(weights, mse) -> float | None:
-    r"""The relative standard error of :math:`\sqrt{\hat M}`, :math:`\hat M = \sum w_i m_i /
-    \sum w_i` the weighted mean of the frames' MSE :math:`m_i` (importance weights
-    :math:`w_i`), from their spread: the ratio estimator's variance
-    :math:`\frac{n}{n-1}\sum w_i^2 (m_i - \hat M)^2 / (\sum w_i)^2` (Cochran, *Sampling
-    Techniques*, 3rd ed. (1977), eq. 6.9, the frames treated as independent draws; the
-    systematic draw is usually tighter) halved for the square root (delta method); 0 where
-    every frame's MSE is 0, None for fewer than two frames (no spread to measure).
-
-    >>> round(rmse_sampling_error([1.0, 1.0, 1.0, 1.0], [1.0, 3.0, 1.0, 3.0]), 4)
-    0.1443
-    """
-    w, m = np.asarray(weights, dtype=np.float64), np.asarray(mse, dtype=np.float64)
-    keep = w > 0
-    w, m = w[keep], m[keep]
-    n, total = len(w), w.sum()
-    if n < 2 or total <= 0:
-        return None
-    mean = float(w @ m / total)
-    if mean <= 0:
-        return 0.0
-    var = n / (n - 1) * float(np.sum(w * w * (m - mean) ** 2)) / total ** 2
-    return float(np.sqrt(var) / (2.0 * mean))
 
 
 class MicrofacetModel(LobeChoice, PresetModel):
@@ -292,12 +267,12 @@ class MicrofacetModel(LobeChoice, PresetModel):
         return {k: dict(v) for k, v in
                 self._band_errors[self.request(strategy, sampler, spp)].items()}
 
-    def _store(self, r, mse_k: np.ndarray, parts_k: np.ndarray) -> None:
+    def _store(self, r, mse_k: np.ndarray, parts_k: np.ndarray, shift_se: float = 0.0) -> None:
         """As :meth:`PresetModel._store`, and per view-angle stratum and ``"all"`` its RMSE,
         weight, frames and bootstrap interval
         (:func:`~envfit.predict.renderer._bands.band_spread`: the whole sphere is the bands'
         weighted combination)."""
-        super()._store(r, mse_k, parts_k)
+        super()._store(r, mse_k, parts_k, shift_se)
         spread = band_spread(self.theta, self.weights, mse_k)
         self._bands[r] = {band_key(lo, hi): spread[band_key(lo, hi)]["rmse"]
                           for lo, hi in BANDS if band_key(lo, hi) in spread}

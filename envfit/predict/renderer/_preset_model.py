@@ -49,12 +49,13 @@ from envfit.base._progress import progress
 from envfit.predict.renderer._footprint import (_STREAMS, FootprintSums, PairedFootprint,
                                                 footprint_term, nearest_views,
                                                 pixel_footprints)
+from envfit.predict.renderer._model_error import draws_error, model_error
 from envfit.predict.renderer._preset_integrand import (BsdfTable, MapTable, bsdf_values,
                                                        map_values, midpoints, moment_pyramid)
 from envfit.predict.renderer._preset_request import (RANDOMISATION_OF, CellRequest,
                                                      grid_level, preset_request,
                                                      samples_above)
-from envfit.predict.renderer._sampled_nets import SAMPLE_TAG, SampledNets
+from envfit.predict.renderer._sampled_nets import SAMPLE_TAG, SampledNets, curve_parts
 from envfit.predict.renderer.randomisation import DyadicGrid, mis_mse, randomised_mse
 from envfit.theory import spherical_fibonacci_sphere
 
@@ -83,6 +84,8 @@ class PresetModelOptions:
         Owen-scrambled net's) power above a grid coarser than 2N is sampled (relative
         standard error ≈ √(2/Q) of that part per normal).
     seed : of those shifts (``numpy.random.default_rng``).
+    reach : the largest N of the sampled nets (their table holds Q·reach points per normal);
+        None: 4^(max_level+1)/Q, the fine table's size.
     """
 
     normals: int = 48
@@ -93,14 +96,15 @@ class PresetModelOptions:
     footprint_side: int = 2
     shifts: int = 256
     seed: int = 0
+    reach: int | None = None
 
     def __post_init__(self):
         for name, lo, hi in (("normals", 1, 4096), ("pool", 1, 1 << 16), ("max_level", 1, 11),
                              ("pilot_level", 1, 10), ("sphere_pixels", 4, 1 << 16),
                              ("footprint_side", 1, 8), ("shifts", 4, 1 << 16),
-                             ("seed", 0, 2 ** 63 - 1)):
+                             ("seed", 0, 2 ** 63 - 1), ("reach", 1, 1 << 20)):
             v = getattr(self, name)
-            if name == "sphere_pixels" and v is None:
+            if name in ("sphere_pixels", "reach") and v is None:
                 continue
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not lo <= v <= hi:
                 raise ParameterError(f"{name} must be an integer from {lo} to {hi}, got {v!r}")
@@ -125,6 +129,9 @@ class PresetPrediction:
     parts : mean over normals and channels of the map part's MSE, the BSDF part's and the
         cross term 2·C₁₂ (keys ``map``, ``brdf``, ``cross``).
     normals : K.
+    model_se : the relative standard error of ``rmse`` from what the model samples — its
+        normals and the randomisations above the grid (:func:`._model_error.model_error`);
+        None for one normal. ``model_se_parts``: (normals', randomisations') relative errors.
     """
 
     rmse: float
@@ -140,6 +147,8 @@ class PresetPrediction:
     level: int
     parts: dict = field(default_factory=dict)
     normals: int = 0
+    model_se: float | None = None
+    model_se_parts: tuple = ()
 
 
 def _serpentine_pool(m: int) -> np.ndarray:
@@ -151,6 +160,18 @@ def _serpentine_pool(m: int) -> np.ndarray:
     bands = max(1, round(math.sqrt(m / 2.0)))
     band = np.minimum((0.5 * (1.0 - pts[:, 2]) * bands).astype(int), bands - 1)
     return pts[np.lexsort((np.where(band % 2 == 0, phi, -phi), band))]
+
+
+def _larger(a: float | None, b: float | None) -> float | None:
+    """The larger of two model errors (None if either is unknown)."""
+    return None if a is None or b is None else max(a, b)
+
+
+def _larger_parts(lo, hi) -> tuple:
+    """The larger of two predictions' model error parts, part by part."""
+    if not lo.model_se_parts or not hi.model_se_parts:
+        return ()
+    return tuple(max(a, b) for a, b in zip(lo.model_se_parts, hi.model_se_parts))
 
 
 def systematic_indices(p: np.ndarray, count: int) -> np.ndarray:
@@ -195,6 +216,9 @@ class PresetModel:
     technique_options : dict, optional
         For the preset's technique factory (Mitsuba: ``mis_compensation``).
     options : PresetModelOptions, optional
+    technique : optional
+        The technique already built from this map, preset and options (another model's
+        :attr:`technique`): not built again.
 
     Examples
     --------
@@ -213,10 +237,11 @@ class PresetModel:
     quiet, progress_label, progress_unit = True, "renderer model", "normal"
 
     def __init__(self, envmap, preset, technique_options: dict | None = None,
-                 options: PresetModelOptions | None = None):
+                 options: PresetModelOptions | None = None, *, technique=None):
         self.preset = preset
         self.options = options or PresetModelOptions()
-        self.technique = preset.technique(envmap, **(technique_options or {}))
+        self.technique = (technique if technique is not None else
+                          preset.technique(envmap, **(technique_options or {})))
         pilot = MapTable.build(self.technique, self.options.pilot_level)
         self.normals, self.weights = _proposal(pilot, _serpentine_pool(self.options.pool),
                                                self.options.normals)
@@ -263,7 +288,9 @@ class PresetModel:
             f = float(np.mean(mse)) / float(np.mean(lo.mse)) if np.mean(lo.mse) > 0 else 0.0
             self._cache[r] = replace(lo, rmse=float(np.sqrt(np.mean(mse))), mse=mse,
                                      spp=r.spp, spp_rendered=r.n,
-                                     parts={k: v * f for k, v in lo.parts.items()})
+                                     parts={k: v * f for k, v in lo.parts.items()},
+                                     model_se=_larger(lo.model_se, hi.model_se),
+                                     model_se_parts=_larger_parts(lo, hi))
         return [replace(self._cache[r], spp=r.spp) for r in reqs]
 
     #: the model answers N between powers of two of a prefix sampler (:mod:`._sampled_nets`)
@@ -292,7 +319,8 @@ class PresetModel:
         """The passes' sampled nets (:class:`._sampled_nets.SampledNets`)."""
         if "_nets" not in self.__dict__:
             o = self.options                        # one draw to the sampled spp cap
-            self._nets = SampledNets(o.shifts, o.seed, 4 ** (o.max_level + 1) // o.shifts)
+            self._nets = SampledNets(o.shifts, o.seed,
+                                     o.reach or 4 ** (o.max_level + 1) // o.shifts)
         return self._nets
 
     def _table(self, kind: str, where):
@@ -356,6 +384,7 @@ class PresetModel:
         self.runs += 1
         k = len(self.normals)
         per = {r: [None] * k for r in todo}                  # mse (C,) per normal
+        draws = {r: 0.0 for r in todo}                       # Σ_a w_a (sampled, per draw)
         parts = {r: np.zeros((k, 3)) for r in todo}          # map, brdf, cross per normal
         for i, normal in enumerate(progress(self.normals, total=k, desc=self.progress_label,
                                             quiet=self.quiet, unit=self.progress_unit)):
@@ -365,12 +394,13 @@ class PresetModel:
                 res = self._cell(r, vals, grids, fine, levels)
                 per[r][i] = np.asarray(res[0], dtype=np.float64)
                 parts[r][i] = [float(np.mean(x)) for x in res[1:]]
+                draws[r] = draws[r] + float(self.weights[i]) * self._draws(r, grids)
             if curve_top:
                 self.nets.add_curves(float(self.weights[i]),
                                      self._sampled_values(grids, "owen", strategies))
         self.nets.finish_curves()
         for r in todo:
-            self._store(r, np.stack(per[r]), parts[r])
+            self._store(r, np.stack(per[r]), parts[r], draws_error(np.atleast_1d(draws[r])))
 
     def _sampled_values(self, grids: dict, tag: str, strategies, n: int = 0) -> dict:
         """The parts at one normal at the pass's table of ``tag`` (at least N points;
@@ -381,16 +411,19 @@ class PresetModel:
                                                            (tag, top))
         return grids["sampled", tag, top]
 
-    def _store(self, r: CellRequest, mse_k: np.ndarray, parts_k: np.ndarray) -> None:
+    def _store(self, r: CellRequest, mse_k: np.ndarray, parts_k: np.ndarray,
+               shift_se: float = 0.0) -> None:
         """The prediction of ``r`` from its MSE (K, C) and parts (K, 3) per normal: the
-        weighted means."""
+        weighted means, and the model's error with the sampled randomisations' standard error
+        ``shift_se`` (:mod:`._model_error`)."""
         mse = np.clip(self.weights @ mse_k, 0.0, None)
         a = self.weights @ parts_k
         s = self.preset.strategy(r.strategy)
         self._cache[r] = PresetPrediction(
             float(np.sqrt(np.mean(mse))), mse, r.strategy, r.sampler, r.spp, r.n,
             s.emitter_samples, s.bsdf_samples, r.name, r.shared, r.level,
-            {"map": float(a[0]), "brdf": float(a[1]), "cross": float(a[2])}, len(self.normals))
+            {"map": float(a[0]), "brdf": float(a[1]), "cross": float(a[2])}, len(self.normals),
+            *model_error(self.weights, mse_k.mean(axis=1), shift_se, parts=True))
 
     def _cell(self, r: CellRequest, vals: dict, grids: dict, fine: int, levels):
         """(mse, map part, BSDF part, 2·cross) per channel of one request at one normal (or
@@ -446,6 +479,17 @@ class PresetModel:
                     total=grid("mis_t") if r.shared else None,
                     second_options=dict(r.options_b), **opts)
         return m.mse, m.first.mse, m.second.mse, 2.0 * m.cross
+
+    def _draws(self, r: CellRequest, grids: dict):
+        """The sampled power above the grids of ``r`` at this normal per draw, the channels'
+        mean (Q,), or 0 where nothing is sampled (a two-lobe BSDF's stratified stream)."""
+        if not samples_above(r.name, r.n, r.level):
+            return 0.0
+        tag, out = SAMPLE_TAG[r.name], 0.0
+        for part in curve_parts(r.strategy, r.shared):
+            if ("above", part, r.level, tag, max(r.n, self.nets.top)) in grids:
+                out = out + self.nets.draws(tag, r.level, r.n, grids, part).mean(axis=1)
+        return out
 
     def _with_sampled(self, grids: dict, key, part: str, r: CellRequest) -> DyadicGrid:
         """The grid ``grids[key]`` with its power above sampled at the randomised points of

@@ -63,13 +63,19 @@ def curve_parts(strategy: str, shared: bool) -> tuple[str, ...]:
 @numba.njit(cache=True, parallel=True)
 def _prefix_moments(vals, out):  # pragma: no cover - numba
     """Per channel c (parallel) and prefix length n: the sum over the Q rows of the prefix
-    mean and of its square, ``out[0, n-1, c]`` and ``out[1, n-1, c]``."""
+    mean and of its square, ``out[0, n-1, c]`` and ``out[1, n-1, c]``, the channel's mean
+    over all values taken out first."""
     q, top, chans = vals.shape
     for c in numba.prange(chans):
+        mu = 0.0
+        for i in range(q):
+            for n in range(top):
+                mu += vals[i, n, c]
+        mu /= q * top
         for i in range(q):
             s = 0.0
             for n in range(top):
-                s += vals[i, n, c]
+                s += vals[i, n, c] - mu
                 m = s / (n + 1)
                 out[0, n, c] += m
                 out[1, n, c] += m * m
@@ -85,7 +91,6 @@ def prefix_variance(values: np.ndarray) -> np.ndarray:
     [8.0, 8.0, 8.0, 8.0]
     """
     v = np.asarray(values, dtype=np.float64)
-    v = np.ascontiguousarray(v - v.mean(axis=(0, 1)))
     q = v.shape[0]
     mom = np.zeros((2,) + v.shape[1:])
     _prefix_moments(v, mom)
@@ -147,8 +152,12 @@ class SampledNets:
         if key not in memo or n not in memo[key]:
             ns = self.ns.get((tag, level), set()) | {n}
             memo[key] = sampled_above_prefixes(self.sample(tag, max(n, self.top)), mean,
-                                               values, ns)
-        return memo[key][n]
+                                               values, ns, draws=True)
+        return memo[key][n][:2]
+
+    def draws(self, tag: str, level: int, n: int, memo: dict, part: str) -> np.ndarray:
+        """Each draw's term (Q, C) of the estimate :meth:`above` made for ``part``."""
+        return memo["above", part, level, tag, max(n, self.top)][n][2]
 
     def add_curves(self, weight: float, values: dict) -> None:
         """Accumulate one normal's prefix variances (weight ``weight``) of the parts of

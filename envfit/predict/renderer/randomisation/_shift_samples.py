@@ -141,7 +141,7 @@ def sampled_above(sample: ShiftSample, mean: np.ndarray,
 
 
 def sampled_above_prefixes(sample: ShiftSample, mean: np.ndarray, values: np.ndarray,
-                           ns) -> dict:
+                           ns, *, draws: bool = False) -> dict:
     r""":func:`sampled_above` of every prefix ``n`` in ``ns`` of ``sample`` — the first n
     points of each randomisation, a randomised n-point net of the same sequence — from one
     table of h at all of ``sample``'s points: sums of the segments between the prefixes give
@@ -151,7 +151,8 @@ def sampled_above_prefixes(sample: ShiftSample, mean: np.ndarray, values: np.nda
     Returns
     -------
     dict
-        n → (estimate, standard error), shape (C,) each.
+        n → (estimate, standard error), shape (C,) each; with ``draws``, also each draw's
+        term (Q, C), whose mean is the estimate.
 
     Examples
     --------
@@ -183,5 +184,5 @@ def sampled_above_prefixes(sample: ShiftSample, mean: np.ndarray, values: np.nda
         d = d - d.mean(axis=0)
         fa = fa - fa.mean(axis=0)
         z = (d * d + 2.0 * fa * d) * (q / (q - 1.0))
-        out[n] = (z.mean(axis=0), z.std(axis=0, ddof=1) / np.sqrt(q))
+        out[n] = (z.mean(axis=0), z.std(axis=0, ddof=1) / np.sqrt(q)) + ((z,) if draws else ())
     return out

@@ -1,0 +1,122 @@
+"""The renderer model's own error (``predict.renderer._model_error``) and the model sized to it
+(``advisor._preset_sizing``): the scrambles' reported error is the spread of the prediction
+over independent scrambles; the sizing picks the cheapest model its estimate says meets the
+target; the printed sentences say what the numbers are."""
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+import tempfile
+
+import numpy as np
+import pytest
+
+from envfit.advisor._preset import advise_preset
+from envfit.advisor._preset_options import (AUTO_LEVEL, AUTO_SHIFTS, DEFAULT_LEVEL,
+                                            DEFAULT_NORMALS, PresetAdviseOptions)
+from envfit.advisor._preset_sizing import (BUDGET, NORMALS, SHIFTS, pass_points,
+                                           predicted_error, sized_options)
+from envfit.maps import EnvMap
+from envfit.predict.renderer._model_error import draws_error, model_error
+from envfit.predict.renderer._preset_model import PresetModel, PresetModelOptions
+from envfit.sampling.presets import preset
+
+
+def _sunny(h: int = 16, seed: int = 3) -> EnvMap:
+    """A small map: smooth noise and a bright 2 × 2 'sun'."""
+    rng = np.random.default_rng(seed)
+    data = 0.5 + 0.2 * rng.random((h, 2 * h, 3))
+    data[h // 4:h // 4 + 2, h // 2:h // 2 + 2] = 40.0
+    return EnvMap(data, name="sunny")
+
+
+def test_the_scrambles_error_is_the_spread_over_independent_scrambles():
+    """Predictions with 40 independent scramble seeds (same normals): the standard deviation
+    of the predicted RMSE against the mean reported scrambles' part (a relative error of the
+    RMSE, one standard error)."""
+    env, p = _sunny(), preset("cycles")
+    rmse, reported = [], []
+    for seed in range(40):
+        m = PresetModel(env, p, options=PresetModelOptions(normals=6, pool=64, max_level=4,
+                                                           shifts=16, seed=seed, reach=256))
+        r = m.predict("mis", "tabulated_sobol", 128)           # 2N > 2^4: sampled above
+        rmse.append(r.rmse)
+        reported.append(r.model_se_parts[1])
+    spread = np.std(rmse, ddof=1) / np.mean(rmse)
+    assert 0.7 < spread / np.mean(reported) < 1.4, (spread, np.mean(reported))
+
+
+def test_model_error_parts_and_the_draws_error():
+    w, m = np.array([0.25, 0.75]), np.array([1.0, 2.0])
+    total, (normals, shifts) = model_error(w, m, 0.35, parts=True)
+    mean = 0.25 + 1.5
+    assert shifts == pytest.approx(0.35 / (2 * mean))
+    assert total == pytest.approx(math.hypot(normals, shifts))
+    x = np.random.default_rng(0).normal(size=64)
+    assert draws_error(x) == pytest.approx(x.std(ddof=1) / 8.0)
+    assert model_error([1.0], [2.0], parts=True) == (None, ())
+
+
+def test_the_default_renderer_model_is_sized_and_explicit_options_are_not():
+    o = PresetAdviseOptions("cycles")
+    assert o.auto and (o.level, o.shifts, o.normals) == (AUTO_LEVEL, AUTO_SHIFTS,
+                                                         DEFAULT_NORMALS)
+    assert o.spp_cap() == 4096 == PresetAdviseOptions("cycles", level=DEFAULT_LEVEL).spp_cap()
+    for kw in ({"level": 9}, {"normals": 48}, {"bsdf": "ggx", "roughness": 0.3},
+               {"sphere_pixels": 64}):
+        assert not PresetAdviseOptions("cycles", **kw).auto, kw
+    assert not PresetAdviseOptions("mitsuba3").auto                 # independent: exact in V
+    assert PresetAdviseOptions("mitsuba3", sampler="ldsampler").auto
+    with pytest.raises(Exception, match="renderer-model-error"):
+        PresetAdviseOptions("cycles", model_error=1.5)
+
+
+def test_sizing_picks_the_cheapest_model_its_estimate_says_meets_the_target():
+    o = PresetAdviseOptions("pbrt4")
+    assert sized_options(o, (0.03, 0.02)) is None                   # the pilot meets 5 %
+    for parts in ((0.08, 0.02), (0.04, 0.06), (0.09, 0.09)):
+        f = sized_options(o, parts)
+        got = pass_points(f.normals, f.level, f.shifts, f.reach)
+        assert predicted_error(o, parts, f) <= o.model_error
+        cheaper = [(k, q) for k in NORMALS for q in SHIFTS
+                   if k >= o.normals and q >= o.shifts
+                   and pass_points(k, o.level, q, o.reach) < got
+                   and math.hypot(parts[0] * math.sqrt(o.normals / k),
+                                  parts[1] * math.sqrt(o.shifts / q)) <= o.model_error]
+        assert not cheaper, (parts, cheaper)
+        assert (f.level, f.reach, f.sampler) == (o.level, o.reach, o.sampler)
+        assert not f.auto
+    far = sized_options(o, (0.5, 0.5))                              # out of reach: the least
+    assert predicted_error(o, (0.5, 0.5), far) > o.model_error      # error within the budget
+    assert pass_points(far.normals, far.level, far.shifts, far.reach) <= BUDGET
+
+
+@pytest.mark.parametrize("model_error", [0.5, 0.01])
+def test_the_sized_answer_says_what_its_model_error_is(model_error):
+    """A pilot that meets the target is the model; one that does not is followed by a larger
+    model, and the line gives that model's error and the pilot's estimate of it."""
+    opts = PresetAdviseOptions("cycles", normals=None, model_error=model_error)
+    adv = advise_preset(_sunny(32), opts, cache_dir=tempfile.mkdtemp())
+    m, text = adv.model, "\n".join(adv.lines())
+    e = m["model_se"]["mis"]
+    assert m["sized"] and f"+-{100 * e[0]:.1f} % of the predicted RMSE" in text
+    if model_error == 0.5:
+        assert m["pilot"] is None and "the pilot meets it" in text and e[0] <= 0.5
+        assert (m["normals"], m["shifts"]) == (DEFAULT_NORMALS, AUTO_SHIFTS)
+    else:
+        assert m["pilot"] is not None and "after a pilot of 48 normals" in text
+        assert (m["normals"], m["shifts"]) != (DEFAULT_NORMALS, AUTO_SHIFTS)
+        assert ("the pilot's estimate for this model" in text) == (e[0] > model_error)
+    unsized = advise_preset(_sunny(32), PresetAdviseOptions("cycles", level=7, normals=48),
+                            cache_dir=tempfile.mkdtemp())
+    assert not unsized.model["sized"]
+    assert "sized to" not in "\n".join(unsized.lines())
+
+
+def test_cli_refuses_a_model_error_out_of_range_in_one_line():
+    r = subprocess.run([sys.executable, "-m", "envfit.cli", "advise", "--renderer", "cycles",
+                        "--renderer-model-error", "0"], capture_output=True, text=True,
+                       cwd=tempfile.gettempdir())
+    assert r.returncode == 2 and "--renderer-model-error" in r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1 and "Traceback" not in r.stderr
