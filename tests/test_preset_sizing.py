@@ -75,7 +75,7 @@ def test_the_default_renderer_model_is_sized_and_explicit_options_are_not():
 def test_sizing_picks_the_cheapest_model_its_estimate_says_meets_the_target():
     o = PresetAdviseOptions("pbrt4")
     assert sized_options(o, (0.03, 0.02)) is None                   # the pilot meets 5 %
-    for parts in ((0.08, 0.02), (0.04, 0.06), (0.09, 0.09)):
+    for parts in ((0.08, 0.02), (0.04, 0.06), (0.09, 0.05)):
         f = sized_options(o, parts)
         got = pass_points(f.normals, f.level, f.shifts, f.reach)
         assert predicted_error(o, parts, f) <= o.model_error
@@ -100,7 +100,7 @@ def test_the_sized_answer_says_what_its_model_error_is(model_error):
     adv = advise_preset(_sunny(32), opts, cache_dir=tempfile.mkdtemp())
     m, text = adv.model, "\n".join(adv.lines())
     e = m["model_se"]["mis"]
-    assert m["sized"] and f"+-{100 * e[0]:.1f} % of the predicted RMSE" in text
+    assert m["sized"] and f"±{100 * e[0]:.1f} % of the predicted RMSE" in text
     if model_error == 0.5:
         assert m["pilot"] is None and "the pilot meets it" in text and e[0] <= 0.5
         assert (m["normals"], m["shifts"]) == (DEFAULT_NORMALS, AUTO_SHIFTS)

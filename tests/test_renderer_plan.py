@@ -147,6 +147,13 @@ def _refusal(capsys, tmp_path, monkeypatch, limit, *args):
     return err[0]
 
 
+def _plan_fits(opts, limit, monkeypatch) -> bool:
+    from envfit.advisor._budget import preset_plan
+    from envfit.base._resources import memory_budget_bytes
+    monkeypatch.setenv("ENVFIT_MEMORY_LIMIT", limit)
+    return preset_plan(32 * 16, opts, resident=32 * 16 * 12).fits(memory_budget_bytes())
+
+
 def _fits(pixels, **kw) -> bool:
     from envfit.advisor._budget import preset_plan
     return preset_plan(pixels, _opts(**kw), resident=pixels * 12).fits()
@@ -178,11 +185,26 @@ def test_nmax_over_budget_names_the_largest_runnable_spp_that_fits(gp_file, tmp_
                                                                   monkeypatch, capsys):
     import re
     line = _refusal(capsys, tmp_path, monkeypatch, "1G", gp_file, "--renderer", "mitsuba3",
-                    "--sampler", "ldsampler")
+                    "--sampler", "ldsampler", "--renderer-level", "9")
     n = int(re.search(r"--nmax (\d+) fits", line).group(1))
     assert "shifted points to 4096 spp" in line
-    assert n in (256, 1024) and _fits(512, sampler="ldsampler", max_spp=n)
-    assert not _fits(512, sampler="ldsampler", max_spp=4 * n)
+    assert n in (256, 1024) and _fits(512, sampler="ldsampler", level=9, max_spp=n)
+    assert not _fits(512, sampler="ldsampler", level=9, max_spp=4 * n)
+
+
+def test_the_sized_default_fits_where_level_9_does_not_and_sizes_within_the_budget(
+        gp_file, tmp_path, monkeypatch, capsys):
+    """The sized default (level 7 pilot) runs under the 1 GB budget that refuses level 9, and
+    its final model is one whose plan fits that budget (never refused after its pilot)."""
+    monkeypatch.setenv("ENVFIT_MEMORY_LIMIT", "1G")
+    rc, _, err, d = _run(capsys, tmp_path, gp_file, "--renderer", "mitsuba3", "--sampler",
+                         "ldsampler", "--renderer-model-error", "0.01", "--quiet")
+    assert rc == 0 and err == []
+    m = d["renderer"]["model"]
+    assert m["sized"] and m["level"] == 7
+    o = _opts(sampler="ldsampler", level=7, normals=m["normals"])
+    from dataclasses import replace
+    assert _plan_fits(replace(o, shifts=m["shifts"], reach=m["reach"]), "1G", monkeypatch)
 
 
 def test_progress_bar_over_the_normals_and_quiet_silences_it(gp_file, tmp_path, capsys):

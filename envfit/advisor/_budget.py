@@ -342,7 +342,8 @@ def preset_plan(pixels: int, opts, *, resident: int = 0) -> Plan:
     ``resident``: bytes held throughout (the map); the technique's kept bytes are added.
 
     >>> from envfit.advisor._preset_options import PresetAdviseOptions
-    >>> p = preset_plan(512 * 256, PresetAdviseOptions("mitsuba3", sampler="ldsampler"))
+    >>> p = preset_plan(512 * 256, PresetAdviseOptions("mitsuba3", sampler="ldsampler",
+    ...                                                 level=9))
     >>> p.worst().name, p.worst().option, round(p.peak() / 1e9, 1)
     ("the model's passes", '--renderer-level', 1.1)
     """

@@ -33,19 +33,17 @@ Example
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from envfit.advisor._cache import AdviseCache
-from envfit.advisor._model import map_key
 from envfit.advisor._prediction import mean_shading_value
 from envfit.advisor._preset_options import (DEFAULT_LEVEL, DEFAULT_MAX_SPP, DEFAULT_NORMALS,
-                                            NET_RANDOMISATIONS, RENDERER_NAMES,
-                                            STRATEGY_WORDS, PresetAdviseOptions, spp_cap)
-from envfit.advisor._preset_search import (CachedPresetModel, StrategyAnswer, runnable_spp,
-                                           search_spp)
-from envfit.advisor._preset_sizing import BUDGET, predicted_error, sized_options
+                                            RENDERER_NAMES, STRATEGY_WORDS,
+                                            PresetAdviseOptions, spp_cap)
+from envfit.advisor._preset_search import StrategyAnswer, next_runnable
+from envfit.advisor._preset_sizing import model_dict, model_error_lines, sized_search
 from envfit.base._errors import ParameterError
 from envfit.defaults import BAND_MIN_FRAMES, DEFAULT_TARGET_RELATIVE, SWITCH_FACTOR
 
@@ -247,7 +245,7 @@ class PresetAdvice:
         level that reaches the next runnable spp) or ``--nmax``."""
         o = self.options
         spec = o.preset.sampler(o.sampler)
-        nxt = _next_runnable(spec, a.searched_max, o.every_spp)
+        nxt = next_runnable(spec, a.searched_max, o.every_spp)
         if nxt > o.max_spp:
             return "raise --nmax or relax the target"
         rand = spec.randomisation
@@ -304,7 +302,7 @@ class PresetAdvice:
                 "; between powers of two from the scrambled sequence's sampled prefixes, "
                 "calibrated at the exact powers of two" if spec.prefix and o.every_spp else "")
         e = self.model.get("model_se", {}).get(a.strategy)
-        pm = f" (+-{100 * e[0]:.1f} %)" if e else ""
+        pm = f" (±{100 * e[0]:.1f} %)" if e else ""
         return (f"{who}: spp = {a.spp} for {goal}; predicted RMSE {f(a.predicted_rmse)}{pm} at "
                 f"{a.spp} spp{below}{pow2}")
 
@@ -351,35 +349,8 @@ class PresetAdvice:
                    f"{count}, grid level "
                    f"{m['level']}{scrambles}; {m['passes']} pass(es), {m['cells_computed']} "
                    f"cell(s) computed, {m['cells_cached']} from the cache")
-        out += self._model_error_lines()
+        out += model_error_lines(self.model, self.default)
         return out
-
-    def _model_error_lines(self) -> list[str]:
-        """The model's own error at the answer, and how the sized model got there."""
-        m, a = self.model, self.default
-        e = m.get("model_se", {}).get(a.strategy)
-        if not e:
-            return []
-        where = f"{a.spp} spp" if a.reached else f"{a.searched_max} spp"
-        line = (f"model error at {where}: +-{100 * e[0]:.1f} % of the predicted RMSE (one "
-                f"standard error: +-{100 * e[1]:.1f} % from the normals, +-{100 * e[2]:.1f} % "
-                f"from the scrambles)")
-        p = m.get("pilot")
-        if m.get("sized"):
-            target = m["model_error_target"]
-            if p is None:
-                line += f"; sized to +-{100 * target:g} %: the pilot meets it"
-            else:
-                line += (f"; sized to +-{100 * target:g} % after a pilot of {p['normals']} "
-                         f"normals and {p['shifts']} scrambles (+-{100 * p['model_se'][0]:.1f} "
-                         f"%)")
-                if e[0] > target:
-                    line += (f"; the pilot's estimate for this model was "
-                             f"+-{100 * p['predicted_model_se']:.1f} %")
-                if p["predicted_model_se"] > target:
-                    line += (f" (the model of least error within the unsized model's cost "
-                             f"{BUDGET // 10 ** 6} M points a pass)")
-        return [line]
 
     def _surface(self) -> str:
         o = self.options
@@ -438,22 +409,6 @@ class PresetAdvice:
                 "integrator": s.integrator, "settings": dict(s.settings)}
 
 
-def _next_runnable(spec, spp: int, every: bool = False) -> int:
-    """The smallest spp above ``spp`` the sampler runs (a power of two for the model's nets;
-    a sampler may round a request down, as pbrt-v4's ``zsobol`` does).
-
-    >>> from envfit.sampling.presets import preset
-    >>> _next_runnable(preset("pbrt4").sampler("zsobol"), 32), _next_runnable(
-    ...     preset("mitsuba3").sampler("ldsampler"), 256)
-    (64, 1024)
-    """
-    net = spec.randomisation in NET_RANDOMISATIONS and not every
-    n = 1 << int(spp).bit_length() if net else int(spp) + 1
-    while spec.spp(n) <= spp:
-        n *= 2
-    return spec.spp(n)
-
-
 def _target(mean: float, target_rmse, target_relative) -> tuple[float, float | None]:
     """(absolute target, relative or None): ``target_rmse`` or ``target_relative`` (default
     0.01) × the mean radiance."""
@@ -510,7 +465,7 @@ def advise_preset(envmap, opts: PresetAdviseOptions, *, target_rmse: float | Non
     spec = opts.preset.sampler(opts.sampler)
     listed = [(n, spec.spp(n)) for n in opts.spp]
     store = AdviseCache(cache_dir, enabled=cache)
-    opts, by, answers, pilot, cms = _sized_search(envmap, opts, store, target,
+    opts, by, answers, pilot, cms = sized_search(envmap, opts, store, target,
                                                   [n for _, n in listed])
     cap = max(a.searched_max for a in answers.values())
     cells = {(s, n): by[s].rmse(s, n) for s in opts.strategies for n in by[s].asked_spp(s)}
@@ -526,78 +481,7 @@ def advise_preset(envmap, opts: PresetAdviseOptions, *, target_rmse: float | Non
                        band_errors={k: b for k in cells if (b := by[k[0]].band_errors(*k))})
     if snippet:
         _add_snippet(adv, envmap, filename)
-    adv.model = _model_dict(opts, by, answers, pilot, cms)
+    adv.model = model_dict(opts, by, answers, pilot, cms)
     adv.model.update(seconds=time.perf_counter() - t0, cache_hits=store.hits,
                      cache_writes=store.writes)
     return adv
-
-
-def _model_dict(opts: PresetAdviseOptions, by: dict, answers: dict, pilot, cms) -> dict:
-    """What the model was and what the searches ``cms`` cost (:attr:`PresetAdvice.model`)."""
-    m = opts.model_options()
-    out = {"normals": m.normals, "level": opts.level, "shifts": m.shifts, "reach": m.reach,
-           "model_error_target": opts.model_error,
-           "model_se": {s: _answer_error(by[s], a) for s, a in answers.items()},
-           "pilot": pilot, "sized": opts.auto or pilot is not None,
-           "passes": sum(c.passes for c in cms),
-           "cells_computed": sum(c.cells_computed for c in cms),
-           "cells_cached": sum(c.cells_cached for c in cms),
-           "seconds_model": sum(c.seconds for c in cms)}
-    return out
-
-
-def _sized_search(envmap, opts: PresetAdviseOptions, store: AdviseCache, target: float,
-                  listed):
-    """The search (:func:`_search`); for a sized model (``opts.auto``) the pilot's, then,
-    where its error at the default strategy's answer exceeds the target, a larger model's for
-    that strategy (:mod:`._preset_sizing`; to twice the pilot's answer, the other strategies
-    keep the pilot's answers). Returns (the final model's options, the cached model per
-    strategy, the answers, the pilot's figures or None, every cached model searched)."""
-    cm, answers = _search(envmap, opts, store, target, listed)
-    by = {s: cm for s in opts.strategies}
-    first = opts.strategies[0]
-    parts = _answer_error(cm, answers[first]) if opts.auto else None
-    final = sized_options(opts, parts[1:] if parts else (),
-                          reach=_final_reach(opts, answers[first], listed))
-    if final is None:
-        return opts, by, answers, None, [cm]
-    pilot = {"normals": opts.normals, "shifts": opts.shifts, "level": opts.level,
-             "reach": opts.reach, "model_se": parts, "answer": answers[first].spp,
-             "predicted_model_se": predicted_error(opts, parts[1:], final)}
-    cms = [cm]
-    fcm, fans = _search(envmap, final, store, target, listed, cm.technique, (first,))
-    if not fans[first].reached and final.reach < opts.reach:     # moved past its reach
-        cms.append(fcm)
-        final = replace(final, reach=opts.reach)
-        fcm, fans = _search(envmap, final, store, target, listed, cm.technique, (first,))
-    by[first] = fcm
-    return final, by, {**answers, first: fans[first]}, pilot, cms + [fcm]
-
-
-def _final_reach(opts: PresetAdviseOptions, a: StrategyAnswer, listed) -> int | None:
-    """The sampled nets' reach of the sized model's final search: twice the power of two at
-    or above the pilot's answer (and every listed spp), at most the pilot's."""
-    if opts.reach is None or not a.reached:
-        return opts.reach
-    top = max([a.spp, *listed])
-    return min(opts.reach, 2 * (1 << (top - 1).bit_length()))
-
-
-def _search(envmap, opts: PresetAdviseOptions, store: AdviseCache, target: float, listed,
-            technique=None, strategies=None):
-    """(the cached model, the answers per strategy) of one search over the runnable spp
-    (``technique``: the map's, built by an earlier model; ``strategies``: these only)."""
-    spec = opts.preset.sampler(opts.sampler)
-    runnable = runnable_spp(spec, opts.spp_cap())
-    if not opts.every_spp:                             # the model's nets: N = 2^m
-        runnable = [n for n in runnable if n & (n - 1) == 0]
-    cm = CachedPresetModel(envmap, opts, store, map_key(envmap, "linear"), technique)
-    answers = search_spp(cm, strategies or opts.strategies, runnable, target, listed,
-                         independent=spec.randomisation == "independent")
-    return cm, answers
-
-
-def _answer_error(cm: CachedPresetModel, a: StrategyAnswer) -> list | None:
-    """The model error [total, normals', scrambles'] at a strategy's answer (or at the
-    largest spp searched)."""
-    return cm.model_error(a.strategy, a.spp if a.reached else a.searched_max)

@@ -46,6 +46,8 @@ import numpy as np
 
 from envfit.advisor._budget import check_preset_plan, preset_passes
 from envfit.advisor._cache import AdviseCache
+from envfit.advisor._model import map_key
+from envfit.advisor._preset_options import NET_RANDOMISATIONS
 from envfit.base._resources import format_bytes
 from envfit.defaults import FOOTPRINT_SIDE, MICROFACET_FRAMES_SEED
 from envfit.predict.renderer._footprint import pixel_footprints
@@ -53,7 +55,7 @@ from envfit.predict.renderer._frames import band_frames
 from envfit.predict.renderer._microfacet_model import MicrofacetModel
 from envfit.predict.renderer._preset_model import PresetModel
 
-__all__ = ["CachedPresetModel", "StrategyAnswer", "model_version", "runnable_spp",
+__all__ = ["CachedPresetModel", "StrategyAnswer", "answer_error", "next_runnable", "search_model", "model_version", "runnable_spp",
            "coarse_spp", "search_spp", "CANDIDATES", "PRESET_CACHE_FORMAT"]
 
 #: runnable spp evaluated per open bracket and pass
@@ -101,6 +103,7 @@ class CachedPresetModel:
         self.plan = None                      # the model's Plan, made before it is built
         self.passes = self.cells_computed = 0
         self.seconds = 0.0
+        self.stage = None                     # the progress bar's word for a pass
 
     def _model(self):
         """The diffuse model over importance-sampled normals, or the microfacet model over
@@ -166,7 +169,7 @@ class CachedPresetModel:
             self.technique = self.model.technique
         rand = self.opts.preset.sampler(self.opts.sampler).randomisation
         self.model.progress_label = (
-            f"renderer model, pass {self.passes + 1} (planned ~"
+            f"renderer model, {self.stage or 'pass'} {self.passes + 1} (planned ~"
             f"{_duration(self.plan, preset_passes(rand))} a pass, "
             f"peak ~{format_bytes(self.plan.peak())})")
         res = self.model.predict_many([(s, self.opts.sampler, n) for s, n in todo])
@@ -213,6 +216,22 @@ def runnable_spp(spec, cap: int):
             out.add(r)
         n = max(n + 1, r) if r > n else n + 1
     return sorted(out)
+
+
+def next_runnable(spec, spp: int, every: bool = False) -> int:
+    """The smallest spp above ``spp`` the sampler runs (a power of two for the model's nets;
+    a sampler may round a request down, as pbrt-v4's ``zsobol`` does).
+
+    >>> from envfit.sampling.presets import preset
+    >>> next_runnable(preset("pbrt4").sampler("zsobol"), 32), next_runnable(
+    ...     preset("mitsuba3").sampler("ldsampler"), 256)
+    (64, 1024)
+    """
+    net = spec.randomisation in NET_RANDOMISATIONS and not every
+    n = 1 << int(spp).bit_length() if net else int(spp) + 1
+    while spec.spp(n) <= spp:
+        n *= 2
+    return spec.spp(n)
 
 
 def coarse_spp(runnable) -> list[int]:
@@ -311,3 +330,25 @@ def search_spp(cm: CachedPresetModel, strategies, runnable: list[int], target: f
             out[s] = StrategyAnswer(s, hi, cm.rmse(s, hi), runnable[-1], lo,
                                     None if lo is None else cm.rmse(s, lo), ev)
     return out
+
+
+def search_model(envmap, opts, store: AdviseCache, target: float, listed,
+                 technique=None, strategies=None, stage: str | None = None):
+    """(the cached model, the answers per strategy) of one search over the runnable spp
+    (``technique``: the map's, built by an earlier model; ``strategies``: these only;
+    ``stage``: the progress bar's word for its passes, e.g. ``"pilot pass"``)."""
+    spec = opts.preset.sampler(opts.sampler)
+    runnable = runnable_spp(spec, opts.spp_cap())
+    if not opts.every_spp:                             # the model's nets: N = 2^m
+        runnable = [n for n in runnable if n & (n - 1) == 0]
+    cm = CachedPresetModel(envmap, opts, store, map_key(envmap, "linear"), technique)
+    cm.stage = stage
+    answers = search_spp(cm, strategies or opts.strategies, runnable, target, listed,
+                         independent=spec.randomisation == "independent")
+    return cm, answers
+
+
+def answer_error(cm: CachedPresetModel, a: StrategyAnswer) -> list | None:
+    """The model error [total, normals', scrambles'] at a strategy's answer (or at the
+    largest spp searched)."""
+    return cm.model_error(a.strategy, a.spp if a.reached else a.searched_max)

@@ -27,7 +27,13 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 
-__all__ = ["NORMALS", "SHIFTS", "BUDGET", "pass_points", "sized_options", "predicted_error"]
+from envfit.advisor._budget import preset_plan
+from envfit.advisor._cache import AdviseCache
+from envfit.advisor._preset_search import StrategyAnswer, answer_error, search_model
+from envfit.base._resources import memory_budget_bytes
+
+__all__ = ["NORMALS", "SHIFTS", "BUDGET", "pass_points", "sized_options", "predicted_error",
+           "sized_search", "model_dict", "model_error_lines"]
 
 #: the normals the sized model may take (the pool holds 1024)
 NORMALS = (48, 96, 144, 192, 288, 384, 576)
@@ -48,11 +54,13 @@ def pass_points(normals: int, level: int, shifts: int, reach: int) -> int:
     return int(normals) * (4 ** (int(level) + 1) + int(shifts) * int(reach))
 
 
-def sized_options(opts, parts, reach: int | None = None):
+def sized_options(opts, parts, reach: int | None = None, fits=None):
     """The options of the final model after a pilot whose answer's model error parts are
     ``parts`` = (normals', scrambles') relative standard errors (module docstring), its
     sampled nets to ``reach`` (None: the pilot's), or None when the pilot meets
-    ``opts.model_error`` (or its error is unknown)."""
+    ``opts.model_error`` (or its error is unknown). ``fits(options) -> bool``: whether a
+    model's plan fits the memory budget (None: all do); only those are taken, so that no
+    final model is refused after its pilot."""
     if not parts:
         return None
     reach = opts.reach if reach is None else int(reach)
@@ -66,7 +74,10 @@ def sized_options(opts, parts, reach: int | None = None):
         return math.hypot(e_n * math.sqrt(k0 / k), e_s * math.sqrt(q0 / q))
 
     sizes = [(k, q) for k in NORMALS for q in SHIFTS if k >= k0 and q >= q0
-             and pass_points(k, opts.level, q, reach) <= BUDGET]
+             and pass_points(k, opts.level, q, reach) <= BUDGET
+             and (fits is None or fits(replace(opts, normals=k, shifts=q, reach=reach)))]
+    if not sizes:
+        return None
     meets = [c for c in sizes if error(*c) <= tol]
     if meets:
         k, q = min(meets, key=lambda c: (pass_points(c[0], opts.level, c[1], reach),
@@ -89,3 +100,98 @@ def predicted_error(opts, parts, final) -> float:
     e_n, e_s = parts
     return math.hypot(e_n * math.sqrt(opts.normals / final.normals),
                       e_s * math.sqrt(opts.shifts / final.shifts))
+
+
+def sized_search(envmap, opts, store: AdviseCache, target: float,
+                 listed):
+    """The search (:func:`~envfit.advisor._preset_search.search_model`); for a sized model (``opts.auto``) the pilot's, then,
+    where its error at the default strategy's answer exceeds the target, a larger model's for
+    that strategy (:mod:`._preset_sizing`; to twice the pilot's answer, the other strategies
+    keep the pilot's answers). Returns (the final model's options, the cached model per
+    strategy, the answers, the pilot's figures or None, every cached model searched)."""
+    cm, answers = search_model(envmap, opts, store, target, listed,
+                               stage="pilot pass" if opts.auto else None)
+    by = {s: cm for s in opts.strategies}
+    first = opts.strategies[0]
+    parts = answer_error(cm, answers[first]) if opts.auto else None
+    final = sized_options(opts, parts[1:] if parts else (),
+                          reach=_final_reach(opts, answers[first], listed),
+                          fits=_fits_memory(envmap))
+    if final is None:
+        return opts, by, answers, None, [cm]
+    pilot = {"normals": opts.normals, "shifts": opts.shifts, "level": opts.level,
+             "reach": opts.reach, "model_se": parts, "answer": answers[first].spp,
+             "predicted_model_se": predicted_error(opts, parts[1:], final)}
+    cms, stage = [cm], f"sized ({final.normals} normals, {final.shifts} scrambles) pass"
+    fcm, fans = search_model(envmap, final, store, target, listed, cm.technique, (first,),
+                             stage)
+    if not fans[first].reached and final.reach < opts.reach:     # moved past its reach
+        cms.append(fcm)
+        final = replace(final, reach=opts.reach)
+        fcm, fans = search_model(envmap, final, store, target, listed, cm.technique, (first,),
+                                 stage)
+    by[first] = fcm
+    return final, by, {**answers, first: fans[first]}, pilot, cms + [fcm]
+
+
+def _fits_memory(envmap):
+    """Whether a model's plan on ``envmap`` fits the memory budget
+    (:func:`~envfit.advisor._budget.check_preset_plan`'s test)."""
+    pixels = envmap.width * envmap.height
+    resident, budget = int(getattr(envmap.data, "nbytes", 0)), memory_budget_bytes()
+    return lambda o: preset_plan(pixels, o, resident=resident).fits(budget)
+
+
+def _final_reach(opts, a: StrategyAnswer, listed) -> int | None:
+    """The sampled nets' reach of the sized model's final search: twice the power of two at
+    or above the pilot's answer (and every listed spp), at most the pilot's."""
+    if opts.reach is None or not a.reached:
+        return opts.reach
+    top = max([a.spp, *listed])
+    return min(opts.reach, 2 * (1 << (top - 1).bit_length()))
+
+
+def model_dict(opts, by: dict, answers: dict, pilot, cms) -> dict:
+    """What the model was and what the searches ``cms`` cost (:attr:`PresetAdvice.model`)."""
+    m = opts.model_options()
+    out = {"normals": m.normals, "level": opts.level, "shifts": m.shifts, "reach": m.reach,
+           "model_error_target": opts.model_error,
+           "model_se": {s: answer_error(by[s], a) for s, a in answers.items()},
+           "pilot": pilot, "sized": opts.auto or pilot is not None,
+           "passes": sum(c.passes for c in cms),
+           "cells_computed": sum(c.cells_computed for c in cms),
+           "cells_cached": sum(c.cells_cached for c in cms),
+           "seconds_model": sum(c.seconds for c in cms)}
+    return out
+
+
+def model_error_lines(m: dict, a) -> list[str]:
+    """The model's own error at the answer ``a`` (a
+    :class:`~envfit.advisor._preset_search.StrategyAnswer`) from the model dict ``m``
+    (:func:`model_dict`), and how the sized model got there."""
+    e = m.get("model_se", {}).get(a.strategy)
+    if not e:
+        return []
+    where = f"{a.spp} spp" if a.reached else f"{a.searched_max} spp"
+    parts = f"±{100 * e[1]:.1f} % from the normals" + (
+        f", ±{100 * e[2]:.1f} % from the scrambles" if e[2] > 0 else "")
+    line = (f"model error at {where}: ±{100 * e[0]:.1f} % of the predicted RMSE (one "
+            f"standard error: {parts})")
+    p = m.get("pilot")
+    if m.get("sized"):
+        target = m["model_error_target"]
+        if p is None:
+            line += f"; sized to ±{100 * target:g} %: " + (
+                "the pilot meets it" if e[0] <= target else
+                "no larger model fits the memory budget")
+        else:
+            line += (f"; sized to ±{100 * target:g} % after a pilot of {p['normals']} "
+                     f"normals and {p['shifts']} scrambles (±{100 * p['model_se'][0]:.1f} "
+                     f"%)")
+            if e[0] > target:
+                line += (f"; the pilot's estimate for this model was "
+                         f"±{100 * p['predicted_model_se']:.1f} %")
+            if p["predicted_model_se"] > target:
+                line += (f" (the model of least error within the unsized model's cost "
+                         f"{BUDGET // 10 ** 6} M points a pass)")
+    return [line]

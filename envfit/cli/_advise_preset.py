@@ -100,13 +100,13 @@ def _add_model_arguments(g) -> None:
                    help=f"normals of the renderer model's importance sample, {normals} "
                         f"(default 48, or sized); with a microfacet --brdf the frames "
                         f"(normal, view)")
-    g.add_argument("--renderer-model-error", type=Ranged(0, 1, "E", integer=False,
-                                                          lo_open=True, hi_open=True),
-                   default=None, metavar="E",
-                   help="the sized renderer model's own error, the relative standard error "
-                        "of its predicted RMSE from its normals and scrambles (default 0.05): "
-                        "a pilot (48 normals, 16 scrambles) and, where its error at the answer "
-                        "is larger, more of either")
+    error = Ranged(0, 1, "E", integer=False, lo_open=True, hi_open=True)
+    g.add_argument("--renderer-model-error", type=error, default=None, metavar="E",
+                   help=f"the sized renderer model's own error, the relative standard error "
+                        f"of its predicted RMSE from its normals and scrambles, {error} "
+                        f"(default 0.05): "
+                        f"a pilot (48 normals, 16 scrambles) and, where its error at the "
+                        f"answer is larger, more of either")
     g.add_argument("--roughness", type=finite_float, default=None, metavar="R",
                    help=roughness_help())
     g.add_argument("--sphere-pixels", type=pixels, default=None, metavar="D",

@@ -22,7 +22,8 @@ import math
 
 import numpy as np
 
-__all__ = ["rmse_sampling_error", "draws_error", "model_error"]
+__all__ = ["rmse_sampling_error", "draws_error", "model_error", "larger_error",
+           "larger_error_parts"]
 
 
 def rmse_sampling_error(weights, mse) -> float | None:
@@ -83,3 +84,21 @@ def model_error(weights, mse, shift_se: float = 0.0, *, parts: bool = False):
     if not parts:
         return total
     return total, (() if normals is None else (normals, shifts))
+
+
+def larger_error(a: float | None, b: float | None) -> float | None:
+    """The larger of two model errors (None if either is unknown): a prediction between two
+    anchors (a net's N between powers of two) is given the worse of theirs."""
+    return None if a is None or b is None else max(a, b)
+
+
+def larger_error_parts(lo, hi) -> tuple:
+    """The larger of two predictions' model error parts, part by part (() if either is
+    unknown).
+
+    >>> larger_error_parts((0.02, 0.05), (0.03, 0.01))
+    (0.03, 0.05)
+    """
+    if not lo or not hi:
+        return ()
+    return tuple(max(a, b) for a, b in zip(lo, hi))

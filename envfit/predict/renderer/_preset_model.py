@@ -49,7 +49,8 @@ from envfit.base._progress import progress
 from envfit.predict.renderer._footprint import (_STREAMS, FootprintSums, PairedFootprint,
                                                 footprint_term, nearest_views,
                                                 pixel_footprints)
-from envfit.predict.renderer._model_error import draws_error, model_error
+from envfit.predict.renderer._model_error import (draws_error, larger_error, larger_error_parts,
+                                                 model_error)
 from envfit.predict.renderer._preset_integrand import (BsdfTable, MapTable, bsdf_values,
                                                        map_values, midpoints, moment_pyramid)
 from envfit.predict.renderer._preset_request import (RANDOMISATION_OF, CellRequest,
@@ -160,18 +161,6 @@ def _serpentine_pool(m: int) -> np.ndarray:
     bands = max(1, round(math.sqrt(m / 2.0)))
     band = np.minimum((0.5 * (1.0 - pts[:, 2]) * bands).astype(int), bands - 1)
     return pts[np.lexsort((np.where(band % 2 == 0, phi, -phi), band))]
-
-
-def _larger(a: float | None, b: float | None) -> float | None:
-    """The larger of two model errors (None if either is unknown)."""
-    return None if a is None or b is None else max(a, b)
-
-
-def _larger_parts(lo, hi) -> tuple:
-    """The larger of two predictions' model error parts, part by part."""
-    if not lo.model_se_parts or not hi.model_se_parts:
-        return ()
-    return tuple(max(a, b) for a, b in zip(lo.model_se_parts, hi.model_se_parts))
 
 
 def systematic_indices(p: np.ndarray, count: int) -> np.ndarray:
@@ -289,8 +278,9 @@ class PresetModel:
             self._cache[r] = replace(lo, rmse=float(np.sqrt(np.mean(mse))), mse=mse,
                                      spp=r.spp, spp_rendered=r.n,
                                      parts={k: v * f for k, v in lo.parts.items()},
-                                     model_se=_larger(lo.model_se, hi.model_se),
-                                     model_se_parts=_larger_parts(lo, hi))
+                                     model_se=larger_error(lo.model_se, hi.model_se),
+                                     model_se_parts=larger_error_parts(lo.model_se_parts,
+                                                                       hi.model_se_parts))
         return [replace(self._cache[r], spp=r.spp) for r in reqs]
 
     #: the model answers N between powers of two of a prefix sampler (:mod:`._sampled_nets`)
