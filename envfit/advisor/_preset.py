@@ -43,7 +43,8 @@ from envfit.advisor._preset_options import (DEFAULT_LEVEL, DEFAULT_MAX_SPP, DEFA
                                             RENDERER_NAMES, STRATEGY_WORDS,
                                             PresetAdviseOptions, spp_cap)
 from envfit.advisor._preset_search import StrategyAnswer, next_runnable
-from envfit.advisor._preset_sizing import model_dict, model_error_lines, sized_search
+from envfit.advisor._preset_sizing import (miss_words, model_dict, model_error_lines,
+                                           sized_search)
 from envfit.base._errors import ParameterError
 from envfit.defaults import BAND_MIN_FRAMES, DEFAULT_TARGET_RELATIVE, SWITCH_FACTOR
 
@@ -289,8 +290,8 @@ class PresetAdvice:
                         f"{self._why_max(a)})")
             return (f"{who}: no spp up to {a.searched_max} meets {goal}; predicted RMSE "
                     f"{f(a.predicted_rmse)} at {a.searched_max} spp ({self._why_max(a)})")
-        below = ("" if a.below is None else
-                 f", {f(a.below_rmse)} at {a.below} spp (misses)")
+        below = ("" if a.below is None else f", {f(a.below_rmse)} at {a.below} spp ("
+                 + miss_words(a, self.target_rmse, self.model.get("below_se", {})) + ")")
         spec = p.sampler(o.sampler)
         if spec.randomisation == "independent" and a.spp > DEFAULT_MAX_SPP:
             below += (f"; beyond {DEFAULT_MAX_SPP} spp from the independent sampler's exact "
@@ -406,6 +407,8 @@ class PresetAdvice:
         return {"strategy": a.strategy, "spp": a.spp, "reached": a.reached,
                 "predicted_rmse": a.predicted_rmse, "below_spp": a.below,
                 "below_rmse": a.below_rmse, "searched_max": a.searched_max,
+                "model_se": self.model.get("model_se", {}).get(a.strategy),
+                "below_model_se": self.model.get("below_se", {}).get(a.strategy),
                 "integrator": s.integrator, "settings": dict(s.settings)}
 
 

@@ -33,7 +33,7 @@ from envfit.advisor._preset_search import StrategyAnswer, answer_error, search_m
 from envfit.base._resources import memory_budget_bytes
 
 __all__ = ["NORMALS", "SHIFTS", "BUDGET", "pass_points", "sized_options", "predicted_error",
-           "sized_search", "model_dict", "model_error_lines"]
+           "sized_search", "model_dict", "model_error_lines", "miss_words"]
 
 #: the normals the sized model may take (the pool holds 1024)
 NORMALS = (48, 96, 144, 192, 288, 384, 576)
@@ -157,6 +157,8 @@ def model_dict(opts, by: dict, answers: dict, pilot, cms) -> dict:
     out = {"normals": m.normals, "level": opts.level, "shifts": m.shifts, "reach": m.reach,
            "model_error_target": opts.model_error,
            "model_se": {s: answer_error(by[s], a) for s, a in answers.items()},
+           "below_se": {s: e[0] for s, a in answers.items() if a.reached and a.below
+                        and (e := by[s].model_error(s, a.below))},
            "pilot": pilot, "sized": opts.auto or pilot is not None,
            "passes": sum(c.passes for c in cms),
            "cells_computed": sum(c.cells_computed for c in cms),
@@ -195,3 +197,26 @@ def model_error_lines(m: dict, a) -> list[str]:
                 line += (f" (the model of least error within the unsized model's cost "
                          f"{BUDGET // 10 ** 6} M points a pass)")
     return [line]
+
+
+def miss_words(a, target: float, below_se: dict) -> str:
+    r"""How the runnable spp below the answer ``a`` misses ``target``, stated against the
+    model's own error there (``below_se``: strategy → relative standard error of the RMSE
+    predicted at ``a.below``). The true RMSE is the prediction × (1 ± e), so the spp below
+    meets the target only if the model overestimates it by
+    :math:`z = (1 - t/\hat\sigma)/e` standard errors; under 2 that is not unlikely.
+
+    >>> from types import SimpleNamespace as S
+    >>> a = S(strategy="mis", below=256, below_rmse=1.006)
+    >>> miss_words(a, 1.0, {"mis": 0.04})
+    'misses by 0.6 %, 0.1 times the model error there (±4.0 %): 256 spp may meet it too'
+    >>> miss_words(S(strategy="mis", below=256, below_rmse=1.2), 1.0, {"mis": 0.04})
+    'misses by 20.0 %, 4.2 times the model error there (±4.0 %)'
+    """
+    x = a.below_rmse / target - 1.0
+    e = below_se.get(a.strategy)
+    if not e:
+        return "misses"
+    z = (1.0 - target / a.below_rmse) / e
+    text = f"misses by {100 * x:.1f} %, {z:.1f} times the model error there (±{100 * e:.1f} %)"
+    return text + (f": {a.below} spp may meet it too" if z < 2 else "")
