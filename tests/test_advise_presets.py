@@ -113,7 +113,7 @@ def test_ldsampler_answer_runs_a_power_of_four_and_the_one_below_misses(gp_file,
                                     "--renderer-level", "6", *MODEL], tmp_path)
     assert rc == 0 and d["renderer"]["recommendation"]["spp"] == 16
     assert ": spp = 16 for an RMSE of at most" in _answer(lines)
-    assert " at 4 spp (misses)" in _answer(lines)
+    assert " at 4 spp (misses by " in _answer(lines)
     # a target below every runnable spp's prediction: said, not claimed (level 6 searches
     # ldsampler to 4^7/256 = 64 spp, its power above the grid sampled there)
     p64 = m.predict("mis", "ldsampler", 64).rmse
