@@ -53,6 +53,24 @@ def test_rows_are_the_single_map_advice(tmp_path):
     assert [c["spp"] for c in lib.coverage] == [spp[1], spp[2], spp[2]]
 
 
+def test_a_sized_model_stays_sized_in_a_library():
+    """The library's task copies the options (``dataclasses.replace``): a sized default
+    stays sized, so each row is the single-map answer of the sized model (pilot and final)
+    and carries its model error."""
+    maps = _maps(2, h=16)
+    opts = PresetAdviseOptions("pbrt4", model_error=0.03)
+    assert opts.auto
+    lib = advise_library(maps, opts, target_relative=0.05, cache=False,
+                         library=LibraryOptions(workers=1))
+    for env, row in zip(maps, lib.rows):
+        one = advise_preset(env, opts, target_relative=0.05, cache=False)
+        assert one.model["sized"] and (row.spp, row.predicted_rmse) == (
+            one.recommendation["spp"], one.recommendation["predicted_rmse"])
+        assert row.model_se == one.model["model_se"][row.strategy]
+    assert any(f"±{100 * r.model_se[0]:.1f} %" in line for r in lib.rows
+               for line in lib.table_lines())
+
+
 def test_coverage_counts_maps_that_reach_nothing():
     def row(spp, ok=True):
         return MapRow("m", "m", 8, 4, 1.0, 0.01, "mis", spp, ok, 0.01, 4096, {})

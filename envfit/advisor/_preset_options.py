@@ -202,6 +202,9 @@ class PresetAdviseOptions:
     model_error : float or None
         The relative standard error of the predicted RMSE the sized model aims at (0 < e <
         1; None: :data:`DEFAULT_MODEL_ERROR`).
+    sized : bool or None
+        Whether the model is sized (:attr:`auto`; None: decided from the fields above). The
+        decision is stored here, so that ``dataclasses.replace`` of sized options stays sized.
     bsdf : str
         ``diffuse`` (white, the default) or a white microfacet conductor ``ggx`` /
         ``beckmann`` as the renderer shades and samples it (not with ``envfit``; pbrt-v4: ggx).
@@ -242,6 +245,7 @@ class PresetAdviseOptions:
     shifts: int | None = None
     reach: int | None = None
     model_error: float | None = None
+    sized: bool | None = None
 
     def __post_init__(self) -> None:
         p = preset(self.renderer)
@@ -289,14 +293,16 @@ class PresetAdviseOptions:
         """The model's level, normals and sampled nets: as given, else the sized model's
         pilot (:attr:`auto`) or the defaults; ``model_error`` checked."""
         set_ = object.__setattr__
-        auto = (self.level is None and self.normals is None and self.shifts is None
-                and self.reach is None and randomisation in SIZED_RANDOMISATIONS
-                and not self.microfacet and self.sphere_pixels is None)
-        set_(self, "_auto", auto)
-        if auto:
-            set_(self, "level", AUTO_LEVEL)
-            set_(self, "shifts", AUTO_SHIFTS)
-            set_(self, "reach", spp_cap(randomisation, DEFAULT_LEVEL, MAX_SPP))
+        eligible = (randomisation in SIZED_RANDOMISATIONS and not self.microfacet
+                    and self.sphere_pixels is None)
+        auto = eligible and (self.level is None and self.normals is None and self.shifts is None
+                             and self.reach is None if self.sized is None else bool(self.sized))
+        set_(self, "sized", auto)       # kept, so dataclasses.replace keeps the sizing
+        if auto:                        # the pilot, unless replace() carried its values
+            for name, value in (("level", AUTO_LEVEL), ("shifts", AUTO_SHIFTS),
+                                ("reach", spp_cap(randomisation, DEFAULT_LEVEL, MAX_SPP))):
+                if getattr(self, name) is None:
+                    set_(self, name, value)
         if self.level is None:
             set_(self, "level", default_level(randomisation))
         if self.normals is None:
@@ -311,8 +317,9 @@ class PresetAdviseOptions:
     def auto(self) -> bool:
         """Whether the model is sized to :attr:`model_error` (:mod:`._preset_sizing`):
         Owen-scrambled and digitally shifted nets on the diffuse surface without pixel
-        footprints, with none of ``level``, ``normals``, ``shifts``, ``reach`` given."""
-        return self._auto
+        footprints, with none of ``level``, ``normals``, ``shifts``, ``reach`` given (or
+        ``sized`` given); ``dataclasses.replace`` keeps it."""
+        return self.sized
 
     def _check_bsdf(self, p) -> None:
         """``bsdf`` diffuse (``roughness`` None) or a microfacet conductor the renderer shades

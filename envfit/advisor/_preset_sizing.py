@@ -75,7 +75,7 @@ def sized_options(opts, parts, reach: int | None = None, fits=None):
 
     sizes = [(k, q) for k in NORMALS for q in SHIFTS if k >= k0 and q >= q0
              and pass_points(k, opts.level, q, reach) <= BUDGET
-             and (fits is None or fits(replace(opts, normals=k, shifts=q, reach=reach)))]
+             and (fits is None or fits(replace(opts, normals=k, shifts=q, reach=reach, sized=False)))]
     if not sizes:
         return None
     meets = [c for c in sizes if error(*c) <= tol]
@@ -86,7 +86,7 @@ def sized_options(opts, parts, reach: int | None = None, fits=None):
         k, q = min(sizes, key=lambda c: error(*c))
     if (k, q) == (k0, q0):
         return None
-    return replace(opts, level=opts.level, normals=k, shifts=q, reach=reach)
+    return replace(opts, normals=k, shifts=q, reach=reach, sized=False)
 
 
 def predicted_error(opts, parts, final) -> float:

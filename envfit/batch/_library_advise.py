@@ -84,6 +84,7 @@ class MapRow:
     answers: dict
     seconds: float = 0.0
     resumed: bool = False
+    model_se: list | None = None       # [total, normals', scrambles'] relative SE, or None
 
     def needs(self) -> float:
         """The spp this map needs: its recommended spp, or infinity if none searched meets."""
@@ -114,11 +115,12 @@ class LibraryAdvice:
         head = f"  {'map':<28s} {'target':>10s}" + "".join(f" {s:>9s}" for s in strategies)
         out = [f"{len(self.rows)} maps, {self.renderer} sampler {self.sampler}: the spp that "
                f"meets each map's target (the recommended strategy first; '>N': none up to N)",
-               head + f" {'predicted':>10s}"]
+               head + f" {'predicted':>10s} {'model error':>11s}"]
         for r in self.rows:
             cells = "".join(f" {_spp_text(r.answers[s]):>9s}" for s in strategies)
+            err = f"±{100 * r.model_se[0]:.1f} %" if r.model_se else "-"
             out.append(f"  {r.label[:28]:<28s} {r.target_rmse:>10.4g}{cells} "
-                       f"{r.predicted_rmse:>10.4g}")
+                       f"{r.predicted_rmse:>10.4g} {err:>11s}")
         for c in self.coverage:
             what = (f"{c['spp']} spp" if c["spp"] is not None
                     else f"more than {c['more_than']} spp (not reached)")
@@ -138,9 +140,9 @@ class LibraryAdvice:
     def csv_rows(self) -> tuple[list[str], list[list[Any]]]:
         """The library table as CSV columns and rows (one per map)."""
         cols = ["map", "width", "height", "mean_radiance", "target_rmse", "strategy", "spp",
-                "reached", "predicted_rmse"] + [f"spp_{s}" for s in self.strategies]
+                "reached", "predicted_rmse", "model_se"] + [f"spp_{s}" for s in self.strategies]
         rows = [[r.label, r.width, r.height, r.mean_radiance, r.target_rmse, r.strategy,
-                 r.spp, r.reached, r.predicted_rmse]
+                 r.spp, r.reached, r.predicted_rmse, r.model_se[0] if r.model_se else ""]
                 + [_spp_text(r.answers[s]) for s in self.strategies] for r in self.rows]
         return cols, rows
 
@@ -201,13 +203,15 @@ def _advise_map(source, opts, target_rmse, target_relative, cache: bool, cache_d
             "target_rmse": adv.target_rmse, "strategy": rec["strategy"], "spp": rec["spp"],
             "reached": rec["reached"], "predicted_rmse": rec["predicted_rmse"],
             "searched_max": rec["searched_max"], "answers": answers,
+            "model_se": (adv.model.get("model_se") or {}).get(rec["strategy"]),
             "seconds": time.perf_counter() - t0, "notes": [*env.notes, *adv.notes]}
 
 
 def _run_config(opts, target_rmse, target_relative) -> dict:
     """What a stored row depends on besides its map: the store's config."""
     return {"options": opts.key(), "strategies": list(opts.strategies), "max_spp": opts.max_spp,
-            "mis_compensation": opts.mis_compensation, "target_rmse": target_rmse,
+            "mis_compensation": opts.mis_compensation, "sized": opts.auto,
+            "model_error": opts.model_error, "target_rmse": target_rmse,
             "target_relative": target_relative}
 
 
