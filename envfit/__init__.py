@@ -18,6 +18,8 @@ import importlib
 
 __version__ = "0.1.0"
 
+import envfit.base._code  # noqa: E402,F401  (records when this process imported envfit)
+
 from envfit.base._errors import (DuplicatePointsError, EnvfitError, EnvMapFileError,
                                  EnvMapFormatError, MemoryBudgetError, NonFiniteError,
                                  ParameterError)

@@ -108,3 +108,32 @@ def test_a_worker_is_not_a_scheduler(client):
 def test_unreachable_scheduler_is_one_line():
     with pytest.raises(ExecutorError, match="cannot reach the dask scheduler at tcp://127.0.0.1:9"):
         DaskExecutor("tcp://127.0.0.1:9", timeout=1)
+
+
+def _stale_here():
+    import envfit.base._code as code
+    code.IMPORTED_AT = 0.0              # as if envfit had been imported before its files changed
+    return True
+
+
+def _fresh_here(t):
+    import envfit.base._code as code
+    code.IMPORTED_AT = t
+    return True
+
+
+def test_a_worker_running_stale_envfit_is_refused_before_any_task(client):
+    """A long-lived worker that imported envfit before the checkout changed would compute
+    with old modules: the executor refuses it in one line as it connects; the same workers
+    with current code are taken."""
+    import envfit.base._code as code
+    assert DaskExecutor(client=client).slots == 2             # same code: taken
+    saved = client.run(lambda: __import__("envfit.base._code").base._code.IMPORTED_AT)
+    client.run(_stale_here)
+    try:
+        with pytest.raises(ExecutorError, match="imported before its files changed: restart"):
+            DaskExecutor(client=client)
+    finally:
+        for addr, t in saved.items():
+            client.run(_fresh_here, t, workers=[addr])
+    assert not any(s["stale"] for s in client.run(code.code_state).values())

@@ -395,6 +395,8 @@ class DaskExecutor:
                 n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
                 dashboard_address=None, memory_limit=0)
             self.client = distributed.Client(self._cluster)
+        from envfit.base._code import check_same_code, code_state
+        check_same_code(self.client.run(code_state), code_state())   # before any task
         self.blas_threads = self._threads_per_task()
 
     def _threads_per_task(self) -> int:
