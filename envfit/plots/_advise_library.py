@@ -28,7 +28,7 @@ def plot_advise_library(d: dict, path: str | Path) -> Path:
     """Write the library figure of ``d`` (module docstring) to ``path``; returns the path."""
     import matplotlib.pyplot as plt
     maps = sorted(d["maps"], key=_needs)
-    fig, ax = plt.subplots(figsize=(max(6.0, min(16.0, 2.5 + 0.12 * len(maps))), 4.8))
+    fig, ax = plt.subplots(figsize=(max(8.5, min(18.5, 5.0 + 0.12 * len(maps))), 4.8))
     x = range(len(maps))
     for k, s in enumerate(d["strategies"]):
         colour = STRATEGY_COLOURS.get(s, f"C{k}")
@@ -50,7 +50,8 @@ def plot_advise_library(d: dict, path: str | Path) -> Path:
                        fontsize=7 if len(maps) <= 40 else 4)
     ax.set_ylabel("spp that meets the map's target")
     ax.set_title(f"{len(maps)} maps: {d['renderer']}, sampler {d['sampler']}")
-    ax.legend(fontsize=7, loc="upper left")
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0),  # beside the
+              borderaxespad=0.0)                                    # points, not on them
     ax.grid(True, axis="y", which="both", alpha=0.25)
     fig.tight_layout()
     return save_figure(fig, path)
