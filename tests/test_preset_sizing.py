@@ -68,8 +68,10 @@ def test_the_default_renderer_model_is_sized_and_explicit_options_are_not():
     for kw in ({"level": 9}, {"normals": 48}, {"bsdf": "ggx", "roughness": 0.3},
                {"sphere_pixels": 64}):
         assert not PresetAdviseOptions("cycles", **kw).auto, kw
-    assert not PresetAdviseOptions("mitsuba3").auto                 # independent: exact in V
     assert PresetAdviseOptions("mitsuba3", sampler="ldsampler").auto
+    o = PresetAdviseOptions("mitsuba3")                  # independent: sized in its normals
+    assert o.auto and (o.shifts, o.reach, o.level) == (None, None, 7)
+    assert not PresetAdviseOptions("mitsuba3", sampler="multijitter").auto
     with pytest.raises(Exception, match="renderer-model-error"):
         PresetAdviseOptions("cycles", model_error=1.5)
 
@@ -118,6 +120,20 @@ def test_the_sized_answer_says_what_its_model_error_is(renderer, model_error):
             words = miss_words(a, adv.target_rmse, m["below_se"])
             assert words in text and ("may meet it too" in words) == (z < 2)
             assert a.below_rmse > adv.target_rmse >= a.predicted_rmse
+
+
+def test_without_sampled_nets_the_normals_alone_are_sized():
+    """Mitsuba's independent sampler: the fewest normals whose predicted error meets the
+    target (e_n·√(48/K)), the answer line says the pilot in normals only."""
+    o = PresetAdviseOptions("mitsuba3")
+    f = sized_options(o, (0.061, 0.0))
+    assert f.normals == 96 and 0.061 * math.sqrt(48 / 96) <= 0.05 < 0.061 * math.sqrt(48 / 48)
+    assert f.shifts is None and not f.auto
+    adv = advise_preset(_sunny(32), PresetAdviseOptions("mitsuba3", model_error=0.03),
+                        cache_dir=tempfile.mkdtemp())
+    text, m = "\n".join(adv.lines()), adv.model
+    assert m["pilot"] is not None and m["normals"] > 48
+    assert "after a pilot of 48 normals (" in text and "scrambles" not in text
 
 
 def test_an_explicit_model_is_not_sized():

@@ -40,7 +40,8 @@ import numpy as np
 from envfit.advisor._cache import AdviseCache
 from envfit.advisor._prediction import mean_shading_value
 from envfit.advisor._preset_options import (DEFAULT_LEVEL, DEFAULT_MAX_SPP, DEFAULT_NORMALS,
-                                            RENDERER_NAMES, STRATEGY_WORDS,
+                                            RENDERER_NAMES, SIZED_RANDOMISATIONS,
+                                            STRATEGY_WORDS,
                                             PresetAdviseOptions, spp_cap)
 from envfit.advisor._preset_search import StrategyAnswer, next_runnable
 from envfit.advisor._preset_sizing import (miss_words, model_dict, model_error_lines,
@@ -345,7 +346,9 @@ class PresetAdvice:
                  if frames in (None, m["normals"]) else
                  f"{frames} frames ({m['normals']} asked, each view-angle band at least "
                  f"{m['normals'] // 6})")
-        scrambles = (f", {m['shifts']} scrambles" if m.get("sized") else "")
+        scrambles = (f", {m['shifts']} scrambles" if m.get("sized") and self.options.preset
+                     .sampler(self.options.sampler).randomisation in SIZED_RANDOMISATIONS
+                     else "")
         out.append(f"renderer model: {self._surface()} (RMS over the channels), "
                    f"{count}, grid level "
                    f"{m['level']}{scrambles}; {m['passes']} pass(es), {m['cells_computed']} "

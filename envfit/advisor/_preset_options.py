@@ -56,7 +56,8 @@ from envfit.shading.microfacet import (RENDERERS, ROUGHNESS_RTOL, RoughPlastic,
 
 __all__ = ["PresetAdviseOptions", "RENDERER_NAMES", "STRATEGY_WORDS", "DEFAULT_MAX_SPP",
            "MAX_SPP", "DEFAULT_LEVEL", "DEFAULT_LEVEL_V", "DEFAULT_NORMALS", "NET_RANDOMISATIONS",
-           "spp_cap", "default_level", "SIZED_RANDOMISATIONS", "AUTO_LEVEL", "AUTO_SHIFTS",
+           "spp_cap", "default_level", "SIZED_RANDOMISATIONS",
+           "NORMALS_SIZED_RANDOMISATIONS", "AUTO_LEVEL", "AUTO_SHIFTS",
            "DEFAULT_MODEL_ERROR"]
 
 #: the renderers' names in sentences
@@ -91,6 +92,9 @@ MICROFACET_POOL = 8192
 #: the randomisations whose model is sized to its error (:attr:`PresetAdviseOptions.auto`):
 #: the nets whose power above the grid is sampled, each estimate with its standard error
 SIZED_RANDOMISATIONS = ("digital_shift", "owen")
+#: the randomisations whose model is sized in its normals only: no net is sampled above a
+#: grid (independent points: the variance; stratified: the strata), the normals are the error
+NORMALS_SIZED_RANDOMISATIONS = ("independent", "jittered")
 #: the sized model's pilot: grid level and scrambles (Q) — at level 7 a pass costs ~1/14 of
 #: level 9's with Q = 256, and the model's error is dominated by its normals (measured,
 #: forest.exr, Cycles, 48 normals: ±5.8 % from the normals, ±2–4 % from Q = 16 scrambles)
@@ -293,12 +297,13 @@ class PresetAdviseOptions:
         """The model's level, normals and sampled nets: as given, else the sized model's
         pilot (:attr:`auto`) or the defaults; ``model_error`` checked."""
         set_ = object.__setattr__
-        eligible = (randomisation in SIZED_RANDOMISATIONS and not self.microfacet
-                    and self.sphere_pixels is None)
+        nets = randomisation in SIZED_RANDOMISATIONS
+        eligible = ((nets or randomisation in NORMALS_SIZED_RANDOMISATIONS)
+                    and not self.microfacet and self.sphere_pixels is None)
         auto = eligible and (self.level is None and self.normals is None and self.shifts is None
                              and self.reach is None if self.sized is None else bool(self.sized))
         set_(self, "sized", auto)       # kept, so dataclasses.replace keeps the sizing
-        if auto:                        # the pilot, unless replace() carried its values
+        if auto and nets:               # the pilot, unless replace() carried its values
             for name, value in (("level", AUTO_LEVEL), ("shifts", AUTO_SHIFTS),
                                 ("reach", spp_cap(randomisation, DEFAULT_LEVEL, MAX_SPP))):
                 if getattr(self, name) is None:

@@ -69,6 +69,8 @@ def sized_options(opts, parts, reach: int | None = None, fits=None):
     if math.hypot(e_n, e_s) <= tol:
         return None
     k0, q0 = opts.normals, opts.shifts
+    if q0 is None or reach is None:          # no sampled nets: the normals only
+        return _sized_normals(opts, e_n, fits)
 
     def error(k, q):
         return math.hypot(e_n * math.sqrt(k0 / k), e_s * math.sqrt(q0 / q))
@@ -89,6 +91,18 @@ def sized_options(opts, parts, reach: int | None = None, fits=None):
     return replace(opts, normals=k, shifts=q, reach=reach, sized=False)
 
 
+def _sized_normals(opts, e_n: float, fits):
+    """:func:`sized_options` of a model without sampled nets: the fewest :data:`NORMALS`
+    whose predicted error e_n·√(K₀/K) meets the target, else the most within the budget."""
+    k0, tol = opts.normals, opts.model_error
+    sizes = [k for k in NORMALS if k > k0 and pass_points(k, opts.level, 0, 0) <= BUDGET
+             and (fits is None or fits(replace(opts, normals=k, sized=False)))]
+    if not sizes:
+        return None
+    k = next((k for k in sizes if e_n * math.sqrt(k0 / k) <= tol), sizes[-1])
+    return replace(opts, normals=k, sized=False)
+
+
 def predicted_error(opts, parts, final) -> float:
     """The error :func:`sized_options` expects of ``final`` from the pilot's ``parts``.
 
@@ -98,8 +112,8 @@ def predicted_error(opts, parts, final) -> float:
     0.0361
     """
     e_n, e_s = parts
-    return math.hypot(e_n * math.sqrt(opts.normals / final.normals),
-                      e_s * math.sqrt(opts.shifts / final.shifts))
+    shifts = 1.0 if opts.shifts is None else opts.shifts / final.shifts
+    return math.hypot(e_n * math.sqrt(opts.normals / final.normals), e_s * math.sqrt(shifts))
 
 
 def sized_search(envmap, opts, store: AdviseCache, target: float,
@@ -122,16 +136,26 @@ def sized_search(envmap, opts, store: AdviseCache, target: float,
     pilot = {"normals": opts.normals, "shifts": opts.shifts, "level": opts.level,
              "reach": opts.reach, "model_se": parts, "answer": answers[first].spp,
              "predicted_model_se": predicted_error(opts, parts[1:], final)}
-    cms, stage = [cm], f"sized ({final.normals} normals, {final.shifts} scrambles) pass"
+    cms, stage = [cm], f"sized ({_size_words(final)}) pass"
     fcm, fans = search_model(envmap, final, store, target, listed, cm.technique, (first,),
                              stage)
-    if not fans[first].reached and final.reach < opts.reach:     # moved past its reach
+    if (not fans[first].reached and final.reach is not None
+            and final.reach < opts.reach):                          # moved past its reach
         cms.append(fcm)
         final = replace(final, reach=opts.reach)
         fcm, fans = search_model(envmap, final, store, target, listed, cm.technique, (first,),
                                  stage)
     by[first] = fcm
     return final, by, {**answers, first: fans[first]}, pilot, cms + [fcm]
+
+
+def _size_words(m) -> str:
+    """``48 normals and 16 scrambles`` (``48 normals`` without sampled nets) of options or a
+    pilot's dict."""
+    get = m.get if isinstance(m, dict) else lambda k: getattr(m, k)
+    shifts = get("shifts")
+    return f"{get('normals')} normals" + ("" if shifts is None else
+                                          f" and {shifts} scrambles")
 
 
 def _fits_memory(envmap):
@@ -187,9 +211,8 @@ def model_error_lines(m: dict, a) -> list[str]:
                 "the pilot meets it" if e[0] <= target else
                 "no larger model fits the memory budget")
         else:
-            line += (f"; sized to ±{100 * target:g} % after a pilot of {p['normals']} "
-                     f"normals and {p['shifts']} scrambles (±{100 * p['model_se'][0]:.1f} "
-                     f"%)")
+            line += (f"; sized to ±{100 * target:g} % after a pilot of {_size_words(p)} "
+                     f"(±{100 * p['model_se'][0]:.1f} %)")
             if e[0] > target:
                 line += (f"; the pilot's estimate for this model was "
                          f"±{100 * p['predicted_model_se']:.1f} %")
