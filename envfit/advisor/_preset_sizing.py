@@ -19,6 +19,11 @@ power above the grid is sampled — the grid is a control variate — so the siz
    points a pass, the unsized model's; if none meets it within that, the one of smallest
    predicted error — and the search runs again with those (:func:`sized_options`).
 
+Samplers without sampled nets (independent points, stratified:
+:data:`~envfit.advisor._preset_options.NORMALS_SIZED_RANDOMISATIONS`) are sized in their
+normals alone: the pilot's 48, then the fewest of :data:`NORMALS` whose predicted error
+:math:`e_n\sqrt{K_0/K}` meets the target.
+
 The answer reports the final model's error; it is an estimate (of the normals' spread and the
 scrambles' spread), not a bound.
 """

@@ -95,7 +95,8 @@ def _add_model_arguments(g) -> None:
                         f"4^(L+1)/256 spp, their power above the grid sampled beyond 2^(L-1) "
                         f"spp; each level costs 4x the time and memory). Without it and "
                         f"--renderer-normals, the digital nets on the diffuse surface are "
-                        f"modelled at level 7, sized to --renderer-model-error")
+                        f"modelled at level 7, sized to --renderer-model-error (independent "
+                        f"and stratified samplers: their normals sized)")
     g.add_argument("--renderer-normals", type=normals, default=None, metavar="K",
                    help=f"normals of the renderer model's importance sample, {normals} "
                         f"(default 48, or sized); with a microfacet --brdf the frames "
