@@ -21,7 +21,6 @@ Example
 from __future__ import annotations
 
 import numpy as np
-from scipy import integrate
 
 from envfit.data_gen._errors import SyntheticMapError
 
@@ -154,6 +153,8 @@ def glossy_cap_integral(axes, centre, radius: float, shininess: float) -> np.nda
     tangencies t = cos(γ ± ρ) and near t = 1 − 1/n). One ``quad`` per axis (~ms).
     ``axes`` (3,) or (N, 3), ``centre`` a unit vector, all in the same frame.
     """
+    from scipy import integrate  # local: scipy.integrate imports scipy.optimize, ~0.1 s
+
     a, single = _axes(axes)
     c, _ = _axes(centre)
     c = c[0]

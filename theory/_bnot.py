@@ -71,8 +71,6 @@ import functools
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.sparse.linalg import spsolve
-from scipy.spatial import cKDTree
 
 from envfit.theory._errors import TheoryParameterError
 from envfit.theory._power_cells import (PowerDiagram, _check_sites, _check_weights,
@@ -147,6 +145,8 @@ def _damped_newton_step(x: np.ndarray, w: np.ndarray, pd: PowerDiagram, r: np.nd
     from 1 until every cell keeps at least ``eps0`` and :math:`\|r\|` drops by
     :math:`(1 - \tau/2)` (Kitagawa–Mérigot–Thibert 2019).
     """
+    from scipy.sparse.linalg import spsolve  # local: scipy.sparse.linalg is slow to import
+
     n = x.shape[0]
     J = pd.area_jacobian().tocsc()
     delta = np.zeros(n)
@@ -345,6 +345,8 @@ def min_toroidal_distance(points) -> float:
     x = _check_sites(points)
     if x.shape[0] < 2:
         return float("inf")
+    from scipy.spatial import cKDTree  # local: scipy.spatial is slow to import
+
     tree = cKDTree(x, boxsize=1.0)
     d, _ = tree.query(x, k=2)
     return float(round(d[:, 1].min(), 15))

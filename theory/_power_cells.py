@@ -23,7 +23,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.spatial import ConvexHull
 
 from envfit.theory._errors import TheoryParameterError
 
@@ -198,6 +197,8 @@ def _lower_hull(x, w, margin):
     wp = w[orig]
     centre = pts - 0.5  # better conditioning of the lifted heights
     lifted = np.column_stack([centre, np.einsum("ij,ij->i", centre, centre) - wp])
+    from scipy.spatial import ConvexHull  # local: scipy.spatial is slow to import
+
     hull = ConvexHull(lifted)
     eq = hull.equations
     fidx = np.nonzero(eq[:, 2] < -1e-12)[0]

@@ -40,11 +40,12 @@ Example
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable, Sequence
+from typing import TYPE_CHECKING, Callable, Sequence
 
 import numpy as np
-from scipy import optimize
-from scipy.interpolate import CubicSpline
+
+if TYPE_CHECKING:
+    from scipy.interpolate import CubicSpline
 
 from envfit.base._errors import ParameterError
 
@@ -195,6 +196,8 @@ class SmoothnessSearch:
         return [float(s) for s in self.lat if lo <= s <= hi and EDGE_LO < s < EDGE_HI]
 
     def _spline(self, run: Sequence[float]) -> CubicSpline:
+        from scipy.interpolate import CubicSpline  # local: ~0.1 s to import
+
         return CubicSpline(np.asarray(run), np.array([self._score(s) for s in run]))
 
     def _minimum(self, run, lo: float, hi: float) -> tuple[float, float]:
@@ -229,6 +232,8 @@ class SmoothnessSearch:
         run = [float(s) for s in self.lat
                if min(left, inner[0]) <= s <= max(right, inner[-1])]
         s_hat = self._minimum(run, inner[0], inner[-1])[0]
+        from scipy import optimize  # local: ~0.1 s to import
+
         cs = self._spline(run)
         f = lambda x: float(cs(x)) - target  # noqa: E731
         lo_s = left if f(left) <= 0 else optimize.brentq(f, left, s_hat, xtol=1e-6)
@@ -240,6 +245,8 @@ class SmoothnessSearch:
         grows as (2 − s)^(−1/2) towards s = 2, where the kernel's coefficients a_l, l ≥ 1,
         vanish with 1/Γ(1 − s), Eq. 16; without the term the spline is off by 1e-2 at
         s = 1.91), or of σ̂ itself (≥ 0) for a channel with σ̂ = 0 somewhere (constant)."""
+        from scipy.interpolate import CubicSpline  # local: ~0.1 s to import
+
         x = np.asarray(run, dtype=float)
         sig = np.array([self.ev[r]["sigma"] for r in run], dtype=float).reshape(len(run), -1)
         out = []

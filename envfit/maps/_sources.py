@@ -26,9 +26,6 @@ from dataclasses import dataclass
 from typing import Callable, NamedTuple
 
 import numpy as np
-from scipy import ndimage
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 
 from envfit.base._checks import check_int
 from envfit.base._errors import ParameterError
@@ -84,6 +81,10 @@ def sphere_label(mask) -> tuple[np.ndarray, int]:
     >>> n, bool(lab[2, 0] == lab[2, 7]), bool(lab[0, 1] == lab[0, 5])
     (2, True, True)
     """
+    from scipy import ndimage  # local: ndimage and sparse are slow to import
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
     m = np.asarray(mask, dtype=bool)
     h, w = m.shape
     lab, n = ndimage.label(m, structure=_EIGHT)
