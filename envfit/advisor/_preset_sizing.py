@@ -134,7 +134,8 @@ def sized_search(envmap, opts, store: AdviseCache, target: float,
     first = opts.strategies[0]
     parts = answer_error(cm, answers[first]) if opts.auto else None
     final = sized_options(opts, parts[1:] if parts else (),
-                          reach=_final_reach(opts, answers[first], listed),
+                          reach=_final_reach(opts, answers[first], listed,
+                                             parts[0] if parts else 0.0),
                           fits=_fits_memory(envmap))
     if final is None:
         return opts, by, answers, None, [cm]
@@ -171,13 +172,23 @@ def _fits_memory(envmap):
     return lambda o: preset_plan(pixels, o, resident=resident).fits(budget)
 
 
-def _final_reach(opts, a: StrategyAnswer, listed) -> int | None:
-    """The sampled nets' reach of the sized model's final search: twice the power of two at
-    or above the pilot's answer (and every listed spp), at most the pilot's."""
+def _final_reach(opts, a: StrategyAnswer, listed, error: float = 0.0) -> int | None:
+    """The sampled nets' reach of the sized model's final search: the power of two at or
+    above the pilot's answer moved up by two of the pilot's relative standard errors
+    ``error`` on the RMSE, :math:`N(1 + 2e)^2` (the spp for an RMSE ``1 + 2e`` times larger
+    at the slowest rate the samplers have, RMSE ∝ N^(-1/2)), and above every listed spp; at
+    most the pilot's. A final answer beyond it is searched again at the pilot's reach
+    (:func:`sized_search`).
+
+    >>> from types import SimpleNamespace as S
+    >>> a = S(reached=True, spp=1229)
+    >>> _final_reach(S(reach=4096), a, [], 0.084), _final_reach(S(reach=4096), a, [], 0.2)
+    (2048, 4096)
+    """
     if opts.reach is None or not a.reached:
         return opts.reach
-    top = max([a.spp, *listed])
-    return min(opts.reach, 2 * (1 << (top - 1).bit_length()))
+    top = max([math.ceil(a.spp * (1.0 + 2.0 * float(error)) ** 2), *listed])
+    return min(opts.reach, 1 << (top - 1).bit_length())
 
 
 def model_dict(opts, by: dict, answers: dict, pilot, cms) -> dict:

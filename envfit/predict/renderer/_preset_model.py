@@ -52,7 +52,8 @@ from envfit.predict.renderer._footprint import (_STREAMS, FootprintSums, PairedF
 from envfit.predict.renderer._model_error import (draws_error, larger_error, larger_error_parts,
                                                  model_error)
 from envfit.predict.renderer._preset_integrand import (BsdfTable, MapTable, bsdf_values,
-                                                       map_values, midpoints, moment_pyramid)
+                                                       map_values, midpoints, mis_parts,
+                                                       moment_pyramid)
 from envfit.predict.renderer._preset_request import (RANDOMISATION_OF, CellRequest,
                                                      grid_level, preset_request,
                                                      samples_above)
@@ -351,14 +352,18 @@ class PresetModel:
         need_bsdf = bool(strategies & {"brdf", "mis"})
         fr = self._fractions("mis")
         if need_map:
-            h, w = map_values(self._table("map", fine), normal, fr)
-            out["map"], out["mis_e"] = h, h * w[:, None]
+            out["map"], we = map_values(self._table("map", fine), normal, fr)
         if need_bsdf:
-            rad, w = bsdf_values(self.technique, self.preset, self._table("bsdf", fine),
-                                 normal, fr)
-            out["brdf"], out["mis_b"] = rad, rad * w[:, None]
+            out["brdf"], wb = bsdf_values(self.technique, self.preset,
+                                          self._table("bsdf", fine), normal, fr)
         if "mis" in strategies:
-            out["mis_t"] = out["mis_e"] + out["mis_b"]
+            out["mis_e"], out["mis_b"], out["mis_t"] = mis_parts(out["map"], we, out["brdf"],
+                                                                 wb)
+        else:
+            if need_map:
+                out["mis_e"] = out["map"] * we[:, None]
+            if need_bsdf:
+                out["mis_b"] = out["brdf"] * wb[:, None]
         return out
 
     def _run(self, todo: list, curve_top: int = 0, curve_strategies=None) -> None:

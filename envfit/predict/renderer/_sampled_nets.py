@@ -62,23 +62,30 @@ def curve_parts(strategy: str, shared: bool) -> tuple[str, ...]:
 
 @numba.njit(cache=True, parallel=True)
 def _prefix_moments(vals, out):  # pragma: no cover - numba
-    """Per channel c (parallel) and prefix length n: the sum over the Q rows of the prefix
-    mean and of its square, ``out[0, n-1, c]`` and ``out[1, n-1, c]``, the channel's mean
-    over all values taken out first."""
+    """Per block b of rows (parallel: rows b, b + B, …) and prefix length n: the sum over
+    the block's rows of the prefix mean and of its square, ``out[b, 0, n-1, c]`` and
+    ``out[b, 1, n-1, c]``, each channel's mean over all values taken out first."""
     q, top, chans = vals.shape
-    for c in numba.prange(chans):
-        mu = 0.0
-        for i in range(q):
+    blocks = out.shape[0]
+    part = np.zeros((blocks, chans))
+    for b in numba.prange(blocks):
+        for i in range(b, q, blocks):
             for n in range(top):
-                mu += vals[i, n, c]
-        mu /= q * top
-        for i in range(q):
-            s = 0.0
-            for n in range(top):
-                s += vals[i, n, c] - mu
-                m = s / (n + 1)
-                out[0, n, c] += m
-                out[1, n, c] += m * m
+                for c in range(chans):
+                    part[b, c] += vals[i, n, c]
+    mu = np.zeros(chans)
+    for b in range(blocks):
+        for c in range(chans):
+            mu[c] += part[b, c] / (q * top)
+    for b in numba.prange(blocks):
+        for c in range(chans):
+            for i in range(b, q, blocks):
+                s = 0.0
+                for n in range(top):
+                    s += vals[i, n, c] - mu[c]
+                    m = s / (n + 1)
+                    out[b, 0, n, c] += m
+                    out[b, 1, n, c] += m * m
 
 
 def prefix_variance(values: np.ndarray) -> np.ndarray:
@@ -92,8 +99,10 @@ def prefix_variance(values: np.ndarray) -> np.ndarray:
     """
     v = np.asarray(values, dtype=np.float64)
     q = v.shape[0]
-    mom = np.zeros((2,) + v.shape[1:])
+    blocks = min(q, 2 * numba.get_num_threads())
+    mom = np.zeros((blocks, 2) + v.shape[1:])
     _prefix_moments(v, mom)
+    mom = mom.sum(axis=0)
     mean = mom[0] / q
     return np.clip((mom[1] - q * mean * mean) / (q - 1), 0.0, None)
 

@@ -31,6 +31,8 @@ J. Complexity 75 (2023).
 """
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from ._grid import DyadicGrid, RandomisedMSE, make_result
@@ -40,13 +42,16 @@ from ._walsh import block_edges, block_sums
 __all__ = ["owen_gains", "owen_mse"]
 
 
+@functools.lru_cache(maxsize=256)
 def owen_gains(net: str, m: int, size: int) -> np.ndarray:
     r""":math:`\Gamma_\kappa` for the blocks below ``size``, shape (L + 1, L + 1) (position
-    κ + 1; the block (0, 0) of the mean gets 0)."""
+    κ + 1; the block (0, 0) of the mean gets 0); a property of the net alone, computed once
+    per (net, m, size) and read-only (the model asks it for every normal and cell)."""
     mask = get_net(net).dual_mask(m, size).astype(np.float64)
     count = np.diff(np.append(block_edges(size), size))
     gains = block_sums(mask) / (count[:, None] * count[None, :])
     gains[0, 0] = 0.0
+    gains.flags.writeable = False
     return gains
 
 
