@@ -44,7 +44,7 @@ from envfit.advisor._preset_options import (DEFAULT_LEVEL, DEFAULT_MAX_SPP, DEFA
                                             STRATEGY_WORDS,
                                             PresetAdviseOptions, spp_cap)
 from envfit.advisor._preset_search import StrategyAnswer, next_runnable
-from envfit.advisor._preset_sizing import (miss_words, model_dict, model_error_lines,
+from envfit.advisor._preset_sizing import (below_words, model_dict, model_error_lines,
                                            sized_search)
 from envfit.base._errors import ParameterError
 from envfit.defaults import BAND_MIN_FRAMES, DEFAULT_TARGET_RELATIVE, SWITCH_FACTOR
@@ -291,9 +291,9 @@ class PresetAdvice:
                         f"{self._why_max(a)})")
             return (f"{who}: no spp up to {a.searched_max} meets {goal}; predicted RMSE "
                     f"{f(a.predicted_rmse)} at {a.searched_max} spp ({self._why_max(a)})")
-        below = ("" if a.below is None else f", {f(a.below_rmse)} at {a.below} spp ("
-                 + miss_words(a, self.target_rmse, self.model.get("below_se", {})) + ")")
         spec = p.sampler(o.sampler)
+        below = ("" if a.below is None else f", {f(a.below_rmse)} at {a.below} spp"
+                 + below_words(a, self.target_rmse, self.model, o.every_spp and spec.spp(3) == 3))
         if spec.randomisation == "independent" and a.spp > DEFAULT_MAX_SPP:
             below += (f"; beyond {DEFAULT_MAX_SPP} spp from the independent sampler's exact "
                       f"rate, RMSE = sigma/sqrt(spp)")
@@ -415,6 +415,7 @@ class PresetAdvice:
                 "below_rmse": a.below_rmse, "searched_max": a.searched_max,
                 "model_se": self.model.get("model_se", {}).get(a.strategy),
                 "below_model_se": self.model.get("below_se", {}).get(a.strategy),
+                "spp_span": self.model.get("spp_span", {}).get(a.strategy),
                 "integrator": s.integrator, "settings": dict(s.settings)}
 
 

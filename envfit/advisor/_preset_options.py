@@ -298,8 +298,10 @@ class PresetAdviseOptions:
         pilot (:attr:`auto`) or the defaults; ``model_error`` checked."""
         set_ = object.__setattr__
         nets = randomisation in SIZED_RANDOMISATIONS
-        eligible = ((nets or randomisation in NORMALS_SIZED_RANDOMISATIONS)
-                    and not self.microfacet and self.sphere_pixels is None)
+        # a rough plastic's lobe choice has no sampled nets: its nets only to the grid's reach
+        eligible = ((nets and self.bsdf != "roughplastic"
+                     or randomisation in NORMALS_SIZED_RANDOMISATIONS)
+                    and self.sphere_pixels is None)
         auto = eligible and (self.level is None and self.normals is None and self.shifts is None
                              and self.reach is None if self.sized is None else bool(self.sized))
         set_(self, "sized", auto)       # kept, so dataclasses.replace keeps the sizing
@@ -321,9 +323,11 @@ class PresetAdviseOptions:
     @property
     def auto(self) -> bool:
         """Whether the model is sized to :attr:`model_error` (:mod:`._preset_sizing`):
-        Owen-scrambled and digitally shifted nets on the diffuse surface without pixel
-        footprints, with none of ``level``, ``normals``, ``shifts``, ``reach`` given (or
-        ``sized`` given); ``dataclasses.replace`` keeps it."""
+        Owen-scrambled and digitally shifted nets (on the diffuse surface or a microfacet
+        conductor; a rough plastic's lobe choice has none above the grid), independent and
+        stratified samplers (any BSDF), without pixel footprints, with none of ``level``,
+        ``normals``, ``shifts``, ``reach`` given (or ``sized`` given);
+        ``dataclasses.replace`` keeps it."""
         return self.sized
 
     def _check_bsdf(self, p) -> None:

@@ -38,7 +38,8 @@ from envfit.advisor._preset_search import StrategyAnswer, answer_error, search_m
 from envfit.base._resources import memory_budget_bytes
 
 __all__ = ["NORMALS", "SHIFTS", "BUDGET", "pass_points", "sized_options", "predicted_error",
-           "sized_search", "model_dict", "model_error_lines", "miss_words"]
+           "sized_search", "model_dict", "model_error_lines", "miss_words", "spp_span",
+           "below_words"]
 
 #: the normals the sized model may take (the pool holds 1024)
 NORMALS = (48, 96, 144, 192, 288, 384, 576)
@@ -125,7 +126,7 @@ def sized_search(envmap, opts, store: AdviseCache, target: float,
                  listed):
     """The search (:func:`~envfit.advisor._preset_search.search_model`); for a sized model (``opts.auto``) the pilot's, then,
     where its error at the default strategy's answer exceeds the target, a larger model's for
-    that strategy (:mod:`._preset_sizing`; to twice the pilot's answer, the other strategies
+    that strategy (:mod:`._preset_sizing`; to :func:`_final_reach`, the other strategies
     keep the pilot's answers). Returns (the final model's options, the cached model per
     strategy, the answers, the pilot's figures or None, every cached model searched)."""
     cm, answers = search_model(envmap, opts, store, target, listed,
@@ -199,6 +200,8 @@ def model_dict(opts, by: dict, answers: dict, pilot, cms) -> dict:
            "model_se": {s: answer_error(by[s], a) for s, a in answers.items()},
            "below_se": {s: e[0] for s, a in answers.items() if a.reached and a.below
                         and (e := by[s].model_error(s, a.below))},
+           "spp_span": {s: span for s, a in answers.items()
+                        if (span := spp_span(by[s], a, answer_error(by[s], a)))},
            "pilot": pilot, "sized": opts.auto or pilot is not None,
            "passes": sum(c.passes for c in cms),
            "cells_computed": sum(c.cells_computed for c in cms),
@@ -259,3 +262,52 @@ def miss_words(a, target: float, below_se: dict) -> str:
     z = (1.0 - target / a.below_rmse) / e
     text = f"misses by {100 * x:.1f} %, {z:.1f} times the model error there (±{100 * e:.1f} %)"
     return text + (f": {a.below} spp may meet it too" if z < 2 else "")
+
+
+def spp_span(cm, a, error) -> dict | None:
+    r"""The spp the answer ``a`` would take were the true RMSE the prediction × (1 ∓ e)
+    (``error``: the model error [e, …] at the answer), at the local rate
+    :math:`\hat\sigma \propto N^{-\alpha}` between the two exact powers of two around the
+    answer: :math:`N(1 \mp e)^{1/\alpha}` — the answer's one-standard-error span in spp.
+    None when unreached, without an error, or without two such predictions.
+
+    >>> from types import SimpleNamespace as S
+    >>> cm = S(asked_spp=lambda s: [512, 1024, 2048],
+    ...        rmse=lambda s, n: {512: 2.0, 1024: 2 ** 0.5, 2048: 1.0}[n])
+    >>> span = spp_span(cm, S(strategy="mis", spp=1229, reached=True), [0.05])
+    >>> round(span["rate"], 12), span["spp"]             # 1229 · 0.95², 1229 · 1.05²
+    (0.5, [1109, 1355])
+    """
+    if not a.reached or not error or not error[0] > 0:
+        return None
+    asked, p = cm.asked_spp(a.strategy), 1 << (a.spp.bit_length() - 1)
+    for lo, hi in ((p, 2 * p), (p // 2, p)):
+        if lo >= 1 and lo in asked and hi in asked:
+            r_lo, r_hi = cm.rmse(a.strategy, lo), cm.rmse(a.strategy, hi)
+            if r_lo > r_hi > 0:
+                rate = math.log(r_lo / r_hi) / math.log(hi / lo)
+                e = min(float(error[0]), 0.99)
+                return {"rate": rate, "spp": [max(1, math.floor(a.spp * (1 - e) ** (1 / rate))),
+                                              math.ceil(a.spp * (1 + e) ** (1 / rate))]}
+    return None
+
+
+def below_words(a, target: float, model: dict, every: bool) -> str:
+    """What follows the runnable spp below the answer on the answer line: how it misses
+    (:func:`miss_words`) where the sampler runs powers of two or squares; where it runs every
+    integer (``every``), where one spp less is no step worth stating, the answer's span in
+    spp (:func:`spp_span`) instead.
+
+    >>> from types import SimpleNamespace as S
+    >>> m = {"spp_span": {"mis": {"rate": 0.5, "spp": [1109, 1355]}},
+    ...      "model_se": {"mis": [0.05, 0.03, 0.04]}}
+    >>> below_words(S(strategy="mis"), 1.0, m, True)
+    '; the model error (±5.0 %) spans 1109–1355 spp at the local rate RMSE ∝ spp^-0.50'
+    """
+    span = model.get("spp_span", {}).get(a.strategy)
+    if every and span:
+        e = model["model_se"][a.strategy][0]
+        lo, hi = span["spp"]
+        return (f"; the model error (±{100 * e:.1f} %) spans {lo}–{hi} spp at the local rate "
+                f"RMSE ∝ spp^-{span['rate']:.2f}")
+    return " (" + miss_words(a, target, model.get("below_se", {})) + ")"
