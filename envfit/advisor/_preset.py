@@ -354,7 +354,7 @@ class PresetAdvice:
                    f"{m['level']}{scrambles}; {m['passes']} pass(es), {m['cells_computed']} "
                    f"cell(s) computed, {m['cells_cached']} from the cache"
                    + (f"; strategies other than {o.strategies[0]}: the pilot's "
-                      f"{m['pilot']['normals']} normals"
+                      f"{m['pilot']['normals']} {m.get('unit', 'normals')}"
                       if m.get("pilot") and len(self.answers) > 1 else ""))
         out += model_error_lines(self.model, self.default)
         return out

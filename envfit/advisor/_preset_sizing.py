@@ -143,7 +143,7 @@ def sized_search(envmap, opts, store: AdviseCache, target: float,
     pilot = {"normals": opts.normals, "shifts": opts.shifts, "level": opts.level,
              "reach": opts.reach, "model_se": parts, "answer": answers[first].spp,
              "predicted_model_se": predicted_error(opts, parts[1:], final)}
-    cms, stage = [cm], f"sized ({_size_words(final)}) pass"
+    cms, stage = [cm], f"sized ({_size_words(final, _unit(opts))}) pass"
     fcm, fans = search_model(envmap, final, store, target, listed, cm.technique, (first,),
                              stage)
     if (not fans[first].reached and final.reach is not None
@@ -156,12 +156,17 @@ def sized_search(envmap, opts, store: AdviseCache, target: float,
     return final, by, {**answers, first: fans[first]}, pilot, cms + [fcm]
 
 
-def _size_words(m) -> str:
-    """``48 normals and 16 scrambles`` (``48 normals`` without sampled nets) of options or a
-    pilot's dict."""
+def _unit(opts) -> str:
+    """What the model's normals are: ``frames`` (normal, view) for a microfacet BSDF."""
+    return "frames" if opts.microfacet else "normals"
+
+
+def _size_words(m, unit: str = "normals") -> str:
+    """``48 normals and 16 scrambles`` (``48 normals`` without sampled nets; ``frames`` for a
+    microfacet BSDF's (normal, view) frames) of options or a pilot's dict."""
     get = m.get if isinstance(m, dict) else lambda k: getattr(m, k)
     shifts = get("shifts")
-    return f"{get('normals')} normals" + ("" if shifts is None else
+    return f"{get('normals')} {unit}" + ("" if shifts is None else
                                           f" and {shifts} scrambles")
 
 
@@ -195,7 +200,8 @@ def _final_reach(opts, a: StrategyAnswer, listed, error: float = 0.0) -> int | N
 def model_dict(opts, by: dict, answers: dict, pilot, cms) -> dict:
     """What the model was and what the searches ``cms`` cost (:attr:`PresetAdvice.model`)."""
     m = opts.model_options()
-    out = {"normals": m.normals, "level": opts.level, "shifts": m.shifts, "reach": m.reach,
+    out = {"normals": m.normals, "unit": _unit(opts), "level": opts.level, "shifts": m.shifts,
+           "reach": m.reach,
            "model_error_target": opts.model_error,
            "model_se": {s: answer_error(by[s], a) for s, a in answers.items()},
            "below_se": {s: e[0] for s, a in answers.items() if a.reached and a.below
@@ -218,7 +224,8 @@ def model_error_lines(m: dict, a) -> list[str]:
     if not e:
         return []
     where = f"{a.spp} spp" if a.reached else f"{a.searched_max} spp"
-    parts = f"±{100 * e[1]:.1f} % from the normals" + (
+    unit = m.get("unit", "normals")
+    parts = f"±{100 * e[1]:.1f} % from the {unit}" + (
         f", ±{100 * e[2]:.1f} % from the scrambles" if e[2] > 0 else "")
     line = (f"model error at {where}: ±{100 * e[0]:.1f} % of the predicted RMSE (one "
             f"standard error: {parts})")
@@ -230,7 +237,7 @@ def model_error_lines(m: dict, a) -> list[str]:
                 "the pilot meets it" if e[0] <= target else
                 "no larger model fits the memory budget")
         else:
-            line += (f"; sized to ±{100 * target:g} % after a pilot of {_size_words(p)} "
+            line += (f"; sized to ±{100 * target:g} % after a pilot of {_size_words(p, unit)} "
                      f"(±{100 * p['model_se'][0]:.1f} %)")
             if e[0] > target:
                 line += (f"; the pilot's estimate for this model was "
