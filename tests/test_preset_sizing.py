@@ -65,8 +65,8 @@ def test_the_default_renderer_model_is_sized_and_explicit_options_are_not():
     assert o.auto and (o.level, o.shifts, o.normals) == (AUTO_LEVEL, AUTO_SHIFTS,
                                                          DEFAULT_NORMALS)
     assert o.spp_cap() == 4096 == PresetAdviseOptions("cycles", level=DEFAULT_LEVEL).spp_cap()
-    for kw in ({"level": 9}, {"normals": 48}, {"bsdf": "ggx", "roughness": 0.3},
-               {"sphere_pixels": 64}):
+    for kw in ({"level": 9}, {"normals": 48}, {"sphere_pixels": 64},
+               {"bsdf": "ggx", "roughness": 0.3, "level": 9}):
         assert not PresetAdviseOptions("cycles", **kw).auto, kw
     assert PresetAdviseOptions("mitsuba3", sampler="ldsampler").auto
     o = PresetAdviseOptions("mitsuba3")                  # independent: sized in its normals
