@@ -489,3 +489,28 @@ def test_rough_plastic_lobe_choice_matches_a_simulation_of_the_estimator(sampler
 def _unit(v):
     v = np.asarray(v, dtype=np.float64)
     return v / np.linalg.norm(v)
+
+
+def test_a_conductor_between_powers_of_two_is_calibrated_and_its_strata_add_up():
+    """Cycles' Owen-scrambled prefixes on a GGX conductor: N between the powers of two is
+    predicted (the prefix variances calibrated at both powers, as on the diffuse surface)
+    and lies between its neighbours' predictions; its view-angle strata's shares are
+    interpolated so that their weighted MSEs still add up to the whole sphere's; a rough
+    plastic's lobe choice stays at powers of two."""
+    env = _sun_map()
+    n, v = band_frames(48, (0, 90), seed=1)
+    m = MicrofacetModel(env, preset("cycles"), Conductor("ggx", 0.3), (n, v),
+                        options=PresetModelOptions(max_level=5, shifts=32))
+    assert m.between_powers
+    r64, r96, r128 = (m.predict("mis", "tabulated_sobol", k).rmse for k in (64, 96, 128))
+    assert r64 > r96 > r128 > 0
+    for k in (64, 96):
+        e = m.predict_band_errors("mis", "tabulated_sobol", k)
+        total = sum(s["weight"] * s["rmse"] ** 2 for key, s in e.items() if key != "all")
+        assert total / sum(s["weight"] for key, s in e.items() if key != "all") == \
+            pytest.approx(e["all"]["rmse"] ** 2, rel=1e-9)
+        assert e["all"]["rmse"] == pytest.approx(m.predict("mis", "tabulated_sobol", k).rmse,
+                                                 rel=1e-9)
+    from envfit.shading.microfacet import RoughPlastic
+    assert not MicrofacetModel(env, MITSUBA, RoughPlastic("ggx", 0.3), (n, v),
+                               options=PresetModelOptions(max_level=5)).between_powers

@@ -375,12 +375,13 @@ class PresetAdviseOptions:
     @property
     def every_spp(self) -> bool:
         """Whether every spp the sampler runs is searched — for a net, also those between
-        the powers of two: an Owen-scrambled prefix sampler on the diffuse surface without
-        pixel footprints (``envfit.predict.renderer._sampled_nets``); else a net's spp are
-        its powers of two."""
+        the powers of two: an Owen-scrambled prefix sampler on the diffuse surface or a
+        microfacet conductor without pixel footprints
+        (``envfit.predict.renderer._sampled_nets``); else a net's spp are its powers of
+        two."""
         spec = self.preset.sampler(self.sampler)
         return (spec.randomisation not in NET_RANDOMISATIONS or spec.prefix
-                and not self.microfacet and self.sphere_pixels is None)
+                and self.bsdf != "roughplastic" and self.sphere_pixels is None)
 
     def conductor(self):
         """The white conductor (Fresnel 1) as the renderer shades and samples it, or Mitsuba's

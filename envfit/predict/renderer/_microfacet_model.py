@@ -236,8 +236,12 @@ class MicrofacetModel(LobeChoice, PresetModel):
             r = replace(r, level=max(r.level, level))
         return r
 
-    #: a lobe's N between powers of two is not calibrated (:mod:`._sampled_nets`)
-    between_powers = False
+    @property
+    def between_powers(self) -> bool:
+        """A conductor's N between powers of two is calibrated like the diffuse surface's
+        (:mod:`._sampled_nets`: the prefix variance is the integrand's, whatever the lobe); a
+        rough plastic's lobe choice is not sampled, so not its."""
+        return not self._two_lobes()
 
     def _run(self, todo: list, **kw) -> None:
         """:meth:`PresetModel._run`, with the lobes' tables when a request needs them."""
@@ -255,7 +259,7 @@ class MicrofacetModel(LobeChoice, PresetModel):
         """The predicted RMSE per view-angle band of :data:`BANDS` ({"0-30": rmse, …}; a band
         with no frame is absent): the weighted mean MSE of the frames whose θ_o lies in it."""
         self.predict(strategy, sampler, spp)
-        return dict(self._bands[self.request(strategy, sampler, spp)])
+        return dict(self._bands[self._banded(self.request(strategy, sampler, spp))])
 
     def predict_band_errors(self, strategy: str, sampler: str, spp: int) -> dict:
         """Per view-angle stratum (the bands of :meth:`predict_bands` and ``"80-90"``), and
@@ -265,7 +269,37 @@ class MicrofacetModel(LobeChoice, PresetModel):
         standard deviation, None below :data:`~envfit.defaults.BAND_MIN_FRAMES` frames)."""
         self.predict(strategy, sampler, spp)
         return {k: dict(v) for k, v in
-                self._band_errors[self.request(strategy, sampler, spp)].items()}
+                self._band_errors[self._banded(self.request(strategy, sampler, spp))].items()}
+
+    def _banded(self, r):
+        """``r``, its strata made first if it lies between powers of two (no pass makes
+        them): each stratum's share of the whole MSE interpolated between the two exact
+        powers of two 2^m < N < 2^(m+1), :math:`(1-t)s(2^m) + t\,s(2^{m+1})` with
+        :math:`t = \log_2 N - m`, times the whole's calibrated MSE (:mod:`._sampled_nets`);
+        exact at both powers. Its interval is the lower power's scaled, its ``rel_se`` the
+        larger of the two."""
+        if r in self._band_errors or not self._is_between(r):
+            return r
+        lo, hi = self._anchors(r)
+        t = float(np.log2(r.n / lo.n))
+        whole = self._cache[r].rmse ** 2
+        out = {}
+        for k, a in self._band_errors[lo].items():
+            b = self._band_errors[hi].get(k)
+            if b is None or not self._cache[lo].rmse > 0 or not self._cache[hi].rmse > 0:
+                continue
+            share = ((1 - t) * a["rmse"] ** 2 / self._cache[lo].rmse ** 2
+                     + t * b["rmse"] ** 2 / self._cache[hi].rmse ** 2)
+            rmse = float(np.sqrt(whole * share))
+            f = rmse / a["rmse"] if a["rmse"] > 0 else 0.0
+            out[k] = {**a, "rmse": rmse,
+                      "interval": None if a["interval"] is None else [x * f for x in a["interval"]],
+                      "rel_se": (None if a["rel_se"] is None or b["rel_se"] is None
+                                 else max(a["rel_se"], b["rel_se"]))}
+        self._band_errors[r] = out
+        self._bands[r] = {band_key(x, y): out[band_key(x, y)]["rmse"]
+                          for x, y in BANDS if band_key(x, y) in out}
+        return r
 
     def _store(self, r, mse_k: np.ndarray, parts_k: np.ndarray, shift_se: float = 0.0) -> None:
         """As :meth:`PresetModel._store`, and per view-angle stratum and ``"all"`` its RMSE,
