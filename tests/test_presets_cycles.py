@@ -58,7 +58,7 @@ def test_compiled_cells_equal_the_separable_numpy_form_bit_for_bit():
     """The compiled importance grid (one cell at a time, read beside the lookup's texels)
     equals the separable numpy form — bilinear along the rows, then across them, float32,
     |·| summed over RGB — bit for bit, on a signed random map with a sun, at the automatic
-    4× resolution and a manual one."""
+    4× resolution and a manual one; and so do its rows' compiled CDFs."""
     rng = np.random.default_rng(3)
     rgb = rng.standard_normal((24, 48, 3)) * 0.3 + 0.5
     rgb[5, 40] = 3e4
@@ -82,6 +82,11 @@ def test_compiled_cells_equal_the_separable_numpy_form_bit_for_bit():
         want = (acc / 3.0 * t.strength).astype(np.float64) * np.sin(
             np.pi * (np.arange(ry) + 0.5) / ry)[:, None]
         assert np.array_equal(t.func, want)
+        cdf = np.concatenate([np.zeros((ry, 1)), np.cumsum(want, axis=1) / rx], axis=1)
+        total = want.sum(axis=1) / rx                      # the rows' CDFs, numpy's form
+        cdf = np.where(total[:, None] > 0, cdf / np.where(total > 0, total, 1.0)[:, None], cdf)
+        cdf[:, -1] = 1.0
+        assert np.array_equal(t._flat, (cdf + 2.0 * np.arange(ry)[:, None]).ravel())
 
 
 def _sun_map(h=16, seed=8):

@@ -162,18 +162,15 @@ class CyclesBackground(EnvmapTechnique):
         rx, ry = self.res_x, self.res_y
         self.func = f
         self.row_total = f.sum(axis=1) / rx                                  # cdf_last_u.x
-        cdf = np.concatenate([np.zeros((ry, 1)), np.cumsum(f, axis=1) / rx], axis=1)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            cdf = np.where(self.row_total[:, None] > 0, cdf / self.row_total[:, None], cdf)
-        cdf[:, -1] = 1.0
+        flat = np.empty((ry, rx + 1))
+        _row_cdfs(f, self.row_total, flat)
         self.total = float(self.row_total.sum() / ry)                        # cdf_last_v.x
         marg = np.concatenate([[0.0], np.cumsum(self.row_total) / ry])
         if self.total > 0:
             marg = marg / self.total
         marg[-1] = 1.0
         self.marg_cdf = marg
-        cdf += 2.0 * np.arange(ry)[:, None]          # rows 2 apart: one monotone table
-        self._flat = cdf.ravel()
+        self._flat = flat.ravel()                    # rows 2 apart: one monotone table
         if not self.total > 0:
             raise ParameterError("the world has no light to sample (all cells are 0)")
 
@@ -305,6 +302,24 @@ def _cell_value(tex, iu, iv, rx, ry, strength, sin_rows):  # pragma: no cover - 
         r1 = tex[y0, x1, c] * (one - ty32) + tex[y1, x1, c] * ty32
         acc += abs(r0 * (one - tx32) + r1 * tx32)
     return np.float64(acc / np.float32(3.0) * np.float32(strength)) * sin_rows[iv]
+
+
+@numba.njit(cache=True, parallel=True)
+def _row_cdfs(f, row_total, out):  # pragma: no cover - numba
+    """``background_cdf`` per row (parallel): the running sum of the row's cells / rx (in
+    order, as ``np.cumsum``), normalised by the row's total where it is > 0, the last entry
+    1, plus 2·row so that the rows make one monotone table."""
+    ry, rx = f.shape
+    for iv in numba.prange(ry):
+        s = 0.0
+        out[iv, 0] = 0.0 + 2.0 * iv
+        for iu in range(rx):
+            s += f[iv, iu]
+            c = s / rx
+            if row_total[iv] > 0:
+                c = c / row_total[iv]
+            out[iv, iu + 1] = c + 2.0 * iv
+        out[iv, rx] = 1.0 + 2.0 * iv
 
 
 @numba.njit(cache=True, parallel=True)

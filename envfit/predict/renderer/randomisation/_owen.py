@@ -55,6 +55,7 @@ def owen_gains(net: str, m: int, size: int) -> np.ndarray:
     return gains
 
 
+@functools.lru_cache(maxsize=64)
 def _above_gain(net: str, m: int) -> tuple[float, bool]:
     """The largest gain of the blocks beyond 2^m (they repeat the residues), and whether all
     blocks with an index ≥ 2^m have gain 1/N."""
