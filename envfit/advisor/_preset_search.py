@@ -120,7 +120,7 @@ class CachedPresetModel:
                 else pixel_footprints(*frames, o.sphere_pixels, FOOTPRINT_SIDE))
         return MicrofacetModel(self.envmap, o.preset, o.conductor(), frames,
                                technique_options=o.technique_options(), options=m,
-                               select=o.normals, footprints=foot)
+                               select=o.normals, footprints=foot, technique=self.technique)
 
     def bands(self, strategy: str, n: int) -> dict:
         """The stored per-band predictions of a cell ({} for the diffuse model)."""

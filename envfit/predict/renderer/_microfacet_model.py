@@ -98,6 +98,9 @@ class MicrofacetModel(LobeChoice, PresetModel):
         which the renderer's film samples average over. Adds the pixel-footprint term
         (:mod:`._footprint`); J times the tables' work. None: each
         frame is a point (an object of many pixels).
+    technique : optional
+        The technique already built from this map, preset and options (another model's
+        :attr:`technique`): not built again.
 
     Examples
     --------
@@ -118,7 +121,7 @@ class MicrofacetModel(LobeChoice, PresetModel):
     def __init__(self, envmap, preset, conductor, frames, weights=None,
                  technique_options: dict | None = None,
                  options: PresetModelOptions | None = None, select: int | None = None,
-                 footprints=None):
+                 footprints=None, technique=None):
         normals, views = (np.asarray(f, dtype=np.float64).reshape(-1, 3) for f in frames)
         if len(normals) != len(views) or len(normals) == 0:
             raise ParameterError("frames must be (normals, views) of the same length >= 1")
@@ -127,7 +130,8 @@ class MicrofacetModel(LobeChoice, PresetModel):
             raise ParameterError("weights must be one non-negative number per frame")
         self.preset, self.conductor = preset, conductor
         self.options = options or PresetModelOptions()
-        self.technique = preset.technique(envmap, **(technique_options or {}))
+        self.technique = (technique if technique is not None      # another model's: reused
+                          else preset.technique(envmap, **(technique_options or {})))
         foot = None
         if footprints is not None:
             foot = np.asarray(footprints, dtype=np.float64)
