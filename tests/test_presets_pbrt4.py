@@ -209,3 +209,24 @@ def test_compiled_bsdf_lookup_is_eval_and_the_power_heuristic(compensated, fract
         want_rad, want_w = bsdf_lookup_numpy(t, loc, frame, *fractions)
         np.testing.assert_allclose(rad, want_rad, rtol=1e-12, atol=1e-12)
         np.testing.assert_allclose(w, want_w, rtol=1e-9, atol=1e-12)
+
+
+@pytest.mark.parametrize("compensated", [True, False])
+def test_compiled_eval_pdf_is_eval_and_pdf(compensated):
+    """The microfacet model's compiled lookup (radiance and the light's pdf at world
+    directions, or at local ones with a frame's rows; 0 and 0 where skipped) equals the
+    light's numpy eval and pdf over the whole sphere, the poles and axes included."""
+    rng = np.random.default_rng(6)
+    t = Pbrt4ImageInfiniteLight(EnvMap(rng.random((16, 32, 3)) * 4 - 0.5),
+                                compensated=compensated)
+    d = rng.standard_normal((5000, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    d[:4] = [[0, 0, 1], [0, 0, -1], [1, 0, 0], [0, -1, 0]]
+    rad, pdf = t.eval_pdf(d)
+    np.testing.assert_allclose(rad, t.eval(d), rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(pdf, t.pdf(d), rtol=1e-9, atol=1e-12)
+    rows = np.linalg.qr(rng.standard_normal((3, 3)))[0].T
+    rad, pdf = t.eval_pdf(d, rows, skip=np.r_[0.0, np.ones(len(d) - 1)])
+    np.testing.assert_allclose(rad[1:], t.eval(d @ rows)[1:], rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(pdf[1:], t.pdf(d @ rows)[1:], rtol=1e-9, atol=1e-12)
+    assert np.all(rad[0] == 0) and pdf[0] == 0

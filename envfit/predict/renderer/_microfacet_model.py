@@ -48,7 +48,7 @@ from envfit.predict.renderer._microfacet_kernels import (compiled_conductor,
                                                         conductor_eval_pdf, conductor_proxies,
                                                         mitsuba_eval_pdf,
                                                         PARTS, accumulate_parts, scaled_texels,
-                                                        compiled_cycles, cycles_eval_pdf)
+                                                        compiled_cycles)
 from envfit.predict.renderer._vndf_kernels import compiled_sampling, conductor_sample
 from envfit.predict.renderer._plastic_kernels import (compiled_plastic, plastic_eval_pdf,
                                                       plastic_proxies, plastic_sample)
@@ -56,6 +56,7 @@ from envfit.predict.renderer._bands import BANDS, STRATA, band_key, band_spread,
 from envfit.predict.renderer._footprint import _unit, with_variances
 from envfit.predict.renderer._lobe_parts import LobeChoice
 from envfit.predict.renderer._preset_integrand import MapTable, _is_mitsuba
+from envfit.sampling.presets import Pbrt4ImageInfiniteLight
 from envfit.predict.renderer.randomisation import STRATIFIED_1D
 from envfit.predict.renderer._preset_model import (PresetModel, PresetModelOptions,
                                                    samples_above, systematic_indices)
@@ -296,8 +297,8 @@ class MicrofacetModel(LobeChoice, PresetModel):
                      + t * b["rmse"] ** 2 / self._cache[hi].rmse ** 2)
             rmse = float(np.sqrt(whole * share))
             f = rmse / a["rmse"] if a["rmse"] > 0 else 0.0
-            out[k] = {**a, "rmse": rmse,
-                      "interval": None if a["interval"] is None else [x * f for x in a["interval"]],
+            iv = a["interval"]
+            out[k] = {**a, "rmse": rmse, "interval": None if iv is None else [x * f for x in iv],
                       "rel_se": (None if a["rel_se"] is None or b["rel_se"] is None
                                  else max(a["rel_se"], b["rel_se"]))}
         self._band_errors[r] = out
@@ -327,14 +328,15 @@ class MicrofacetModel(LobeChoice, PresetModel):
         return self._tables[key]
 
     def _technique_values(self, local: np.ndarray, rows: np.ndarray, weight: np.ndarray):
-        """(radiance, map pdf) at the BSDF samples ``local`` (the frame's ``rows``); Mitsuba's
-        compiled, skipping the samples of weight 0."""
+        """(radiance, map pdf) at the BSDF samples ``local`` (the frame's ``rows``); Mitsuba's,
+        Cycles' (linear) and pbrt-v4's compiled, skipping the samples of weight 0."""
         if _is_mitsuba(self.technique):
             if self._texels is None:
                 self._texels = scaled_texels(self.technique)
             return mitsuba_eval_pdf(self.technique, local, rows, weight, self._texels)
-        if compiled_cycles(self.technique):
-            return cycles_eval_pdf(self.technique, local, rows, weight)
+        if compiled_cycles(self.technique) or isinstance(self.technique,
+                                                         Pbrt4ImageInfiniteLight):
+            return self.technique.eval_pdf(local, rows, weight)
         d = local @ rows
         rad, pdf = [], []
         for i in range(0, len(d), _CHUNK):

@@ -147,26 +147,44 @@ class Pbrt4ImageInfiniteLight(EnvmapTechnique):
         (1 where ``fe`` is 0): :meth:`eval` and ``power_heuristic(cos/π, pdf, fb, fe)`` in
         one compiled pass (the renderer model's hot path; checked against them in the
         tests)."""
+        return self._lookup(local, frame, None, fe, fb)
+
+    def eval_pdf(self, dirs: np.ndarray, rows=None, skip=None) -> tuple[np.ndarray, np.ndarray]:
+        """(radiance (P, 3), light pdf (P,)) at unit directions ``dirs`` (world, or local with
+        the frame's ``rows``: world = local @ rows), 0 and 0 where ``skip`` ≤ 0:
+        :meth:`eval` and :meth:`pdf` in one compiled pass (the microfacet model's hot path;
+        checked against them in the tests)."""
+        return self._lookup(dirs, np.eye(3) if rows is None else rows, skip, -1.0, 0.0)
+
+    def _lookup(self, local, frame, skip, fe: float, fb: float):
+        """:func:`_pbrt4_lookup`: the radiance and, with ``fe`` ≥ 0, the BSDF sample's weight,
+        with ``fe`` < 0 the light's pdf."""
         out = np.empty((local.shape[0], 4))
         dist = self.distribution
         m = np.ascontiguousarray(np.asarray(frame, dtype=np.float64) @ self.native_to_world)
+        skip = np.zeros(0) if skip is None else np.ascontiguousarray(skip, dtype=np.float64)
         _pbrt4_lookup(np.ascontiguousarray(local, dtype=np.float64), m,
                       np.ascontiguousarray(self.image, dtype=np.float64),
                       np.array(_ATAN_POLY[::-1]), dist.func,
-                      np.array([self.scale, dist.integral, fe, fb]), out)
+                      np.array([self.scale, dist.integral, fe, fb]), skip, out)
         return out[:, :3], out[:, 3]
 
 
 @numba.njit(cache=True, parallel=True, error_model="numpy")
-def _pbrt4_lookup(local, m, img, poly, func, consts, out):  # pragma: no cover - numba
+def _pbrt4_lookup(local, m, img, poly, func, consts, skip, out):  # pragma: no cover - numba
     """:meth:`Pbrt4ImageInfiniteLight.bsdf_lookup` at the native directions ``local @ m``:
     ``equal_area_sphere_to_square``, ``_octahedral_nearest`` and ``PiecewiseConstant2D.pdf``
     per point, in the same arithmetic (``poly``: the arctangent polynomial, highest degree
-    first; ``consts``: scale, the distribution's integral, the fractions fe, fb)."""
+    first; ``consts``: scale, the distribution's integral, the fractions fe, fb; fe < 0:
+    the pdf to ``out[:, 3]`` instead of the weight (:meth:`eval_pdf`), 0 and 0 where
+    ``skip`` ≤ 0)."""
     scale, integral, fe, fb = consts[0], consts[1], consts[2], consts[3]
     ny, nx = img.shape[0], img.shape[1]
     fy, fx = func.shape[0], func.shape[1]
     for p in numba.prange(local.shape[0]):
+        if skip.shape[0] > 0 and skip[p] <= 0.0:
+            out[p, 0], out[p, 1], out[p, 2], out[p, 3] = 0.0, 0.0, 0.0, 0.0
+            continue
         dx = local[p, 0] * m[0, 0] + local[p, 1] * m[1, 0] + local[p, 2] * m[2, 0]
         dy = local[p, 0] * m[0, 1] + local[p, 1] * m[1, 1] + local[p, 2] * m[2, 1]
         dz = local[p, 0] * m[0, 2] + local[p, 1] * m[1, 2] + local[p, 2] * m[2, 2]
@@ -202,6 +220,9 @@ def _pbrt4_lookup(local, m, img, poly, func, consts, out):  # pragma: no cover -
         iu = min(max(int(u * fx), 0), fx - 1)
         iv = min(max(int(v * fy), 0), fy - 1)
         pe = func[iv, iu] / integral / (4.0 * np.pi) if integral > 0 else 0.0
+        if fe < 0.0:
+            out[p, 3] = pe
+            continue
         aa = (fb * local[p, 2] / np.pi) ** 2
         bb = (fe * pe) ** 2
         wgt = aa / (aa + bb)
