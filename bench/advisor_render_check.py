@@ -1,8 +1,8 @@
 """The sized advisor's predictions set against rendered rows of ``bench/render_check.py``.
 
-``envfit advise MAP --renderer R --sampler S --spp 64,256`` runs the default model — sized
-to ``--renderer-model-error`` — while ``render_check.py`` predicts with the bench's own
-model; this compares the advisor's predictions at the rendered spp with the measured RMSE
+``envfit.advise_renderer`` (``envfit advise MAP --renderer R --spp 64,256``) runs the
+default model — sized to ``--renderer-model-error`` — while ``render_check.py`` predicts
+with the bench's own model; this compares the advisor's predictions at the rendered spp with the measured RMSE
 and its 95 % interval, by the same rule ([0.8 × low, 1.25 × high]).
 
     python bench/render_check.py --renderer mitsuba3 forest64.exr sun-gp-1.5 \\
@@ -21,8 +21,8 @@ import json
 import sys
 from pathlib import Path
 
-from envfit.advisor._preset import advise_preset                # internal: the advisor itself
-from envfit.advisor._preset_options import SIZED_RANDOMISATIONS, PresetAdviseOptions
+from envfit import advise_renderer
+from envfit.advisor._preset_options import SIZED_RANDOMISATIONS  # internal: which samplers have scrambles
 
 sys.path.insert(0, str(Path(__file__).parent))
 from render_check import _cpu, load_map  # noqa: E402  (bench helpers: CPU name, maps)
@@ -49,9 +49,9 @@ def main() -> int:
         key = (r["map"], r["sampler"], r["strategy"])
         if key not in advice:                  # one advisor run per map, sampler, strategy
             _, env = load_map(files.get(r["map"], r["map"]), args.synth_height)
-            opts = PresetAdviseOptions(args.renderer, sampler=r["sampler"],
-                                       spp=tuple(sorted(spps[key])), strategies=(r["strategy"],))
-            advice[key] = advise_preset(env, opts, cache_dir=args.cache)
+            advice[key] = advise_renderer(env, args.renderer, sampler=r["sampler"],
+                                          spp=tuple(sorted(spps[key])),
+                                          strategies=(r["strategy"],), cache_dir=args.cache)
         adv = advice[key]
         p = adv.cells[(r["strategy"], r.get("spp_used", r["spp"]))]
         ok = 0.8 * r["low"] <= p <= 1.25 * r["high"]
