@@ -215,3 +215,21 @@ def test_microfacet_conductors_are_sized_a_rough_plastics_nets_are_not():
     e = m["model_se"]["mis"][0]
     assert m["sized"] and m["pilot"] is None and (m["level"], m["shifts"]) == (7, 16)
     assert e <= 0.5 and "the pilot meets it" in text and f"±{100 * e:.1f} %" in text
+
+
+def test_the_strategy_sized_is_the_one_recommended():
+    """``switched_strategy`` (what the answer recommends, and so what the sized model sizes):
+    a strategy meeting the target with 10× fewer samples traced per pixel than the default
+    (spp × emitter and BSDF samples per spp), or the default meeting it at no spp."""
+    from envfit.advisor._preset_search import StrategyAnswer, switched_strategy
+    p = preset("pbrt4")                     # mis: 1 + 1 samples per spp; map, brdf: 1
+
+    def answers(mis, emitter):
+        return {"mis": StrategyAnswer("mis", mis, 0.1, 4096),
+                "map": StrategyAnswer("map", emitter, 0.1, 4096),
+                "brdf": StrategyAnswer("brdf", None, 1.0, 4096)}
+    assert switched_strategy(answers(32, 8), p, "mis") is None          # 64 < 10 × 8
+    assert switched_strategy(answers(32, 6), p, "mis") == "map"         # 64 ≥ 10 × 6
+    assert switched_strategy(answers(None, 4096), p, "mis") == "map"
+    assert switched_strategy(answers(None, None), p, "mis") is None
+    assert switched_strategy(answers(2, 1), p, "mis") is None

@@ -43,11 +43,11 @@ from envfit.advisor._preset_options import (DEFAULT_LEVEL, DEFAULT_MAX_SPP, DEFA
                                             RENDERER_NAMES, SIZED_RANDOMISATIONS,
                                             STRATEGY_WORDS,
                                             PresetAdviseOptions, spp_cap)
-from envfit.advisor._preset_search import StrategyAnswer, next_runnable
+from envfit.advisor._preset_search import StrategyAnswer, next_runnable, switched_strategy
 from envfit.advisor._preset_sizing import (below_words, model_dict, model_error_lines,
                                            sized_search)
 from envfit.base._errors import ParameterError
-from envfit.defaults import BAND_MIN_FRAMES, DEFAULT_TARGET_RELATIVE, SWITCH_FACTOR
+from envfit.defaults import BAND_MIN_FRAMES, DEFAULT_TARGET_RELATIVE
 
 __all__ = ["PresetAdvice", "advise_preset", "integrator_text"]
 
@@ -117,15 +117,8 @@ class PresetAdvice:
         """The strategy recommended instead of the renderer's default, or None: the one that
         meets the target with the fewest samples traced per pixel, when the default meets it
         only with at least :data:`~envfit.defaults.SWITCH_FACTOR` times as many, or not at all."""
-        d = self.answers[self.options.default_strategy]
-        met = [a for a in self.answers.values() if a.reached]
-        if not met:
-            return None
-        best = min(met, key=self._cost)
-        if best.strategy == d.strategy or (d.reached and self._cost(d)
-                                            < SWITCH_FACTOR * self._cost(best)):
-            return None
-        return best.strategy
+        return switched_strategy(self.answers, self.options.preset,
+                                 self.options.default_strategy)
 
     def switch_line(self) -> str | None:
         """Why a strategy other than the renderer's default is recommended (None if not)."""
@@ -353,7 +346,8 @@ class PresetAdvice:
                    f"{count}, grid level "
                    f"{m['level']}{scrambles}; {m['passes']} pass(es), {m['cells_computed']} "
                    f"cell(s) computed, {m['cells_cached']} from the cache"
-                   + (f"; strategies other than {o.strategies[0]}: the pilot's "
+                   + (f"; strategies other than {m.get('sized_strategy', o.strategies[0])}: "
+                      f"the pilot's "
                       f"{m['pilot']['normals']} {m.get('unit', 'normals')}"
                       if m.get("pilot") and len(self.answers) > 1 else ""))
         out += model_error_lines(self.model, self.default)

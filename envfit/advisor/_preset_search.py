@@ -49,13 +49,13 @@ from envfit.advisor._cache import AdviseCache
 from envfit.advisor._model import map_key
 from envfit.advisor._preset_options import NET_RANDOMISATIONS
 from envfit.base._resources import format_bytes
-from envfit.defaults import FOOTPRINT_SIDE, MICROFACET_FRAMES_SEED
+from envfit.defaults import FOOTPRINT_SIDE, MICROFACET_FRAMES_SEED, SWITCH_FACTOR
 from envfit.predict.renderer._footprint import pixel_footprints
 from envfit.predict.renderer._frames import band_frames
 from envfit.predict.renderer._microfacet_model import MicrofacetModel
 from envfit.predict.renderer._preset_model import PresetModel
 
-__all__ = ["CachedPresetModel", "StrategyAnswer", "answer_error", "next_runnable", "search_model", "model_version", "runnable_spp",
+__all__ = ["CachedPresetModel", "StrategyAnswer", "answer_error", "next_runnable", "search_model", "model_version", "runnable_spp", "switched_strategy",
            "coarse_spp", "search_spp", "CANDIDATES", "PRESET_CACHE_FORMAT"]
 
 #: runnable spp evaluated per open bracket and pass
@@ -352,3 +352,22 @@ def answer_error(cm: CachedPresetModel, a: StrategyAnswer) -> list | None:
     """The model error [total, normals', scrambles'] at a strategy's answer (or at the
     largest spp searched)."""
     return cm.model_error(a.strategy, a.spp if a.reached else a.searched_max)
+
+
+def switched_strategy(answers: dict, preset, default: str) -> str | None:
+    """The strategy recommended instead of the renderer's ``default``, or None: the one that
+    meets the target with the fewest samples traced per pixel (spp × the emitter and BSDF
+    samples per spp), when the default meets it only with at least
+    :data:`~envfit.defaults.SWITCH_FACTOR` times as many, or not at all."""
+    def cost(a: StrategyAnswer) -> int:
+        st = preset.strategy(a.strategy)
+        return a.spp * (st.emitter_samples + st.bsdf_samples)
+
+    d = answers[default]
+    met = [a for a in answers.values() if a.reached]
+    if not met:
+        return None
+    best = min(met, key=cost)
+    if best.strategy == d.strategy or (d.reached and cost(d) < SWITCH_FACTOR * cost(best)):
+        return None
+    return best.strategy

@@ -34,7 +34,8 @@ from dataclasses import replace
 
 from envfit.advisor._budget import preset_plan
 from envfit.advisor._cache import AdviseCache
-from envfit.advisor._preset_search import StrategyAnswer, answer_error, search_model
+from envfit.advisor._preset_search import (StrategyAnswer, answer_error, search_model,
+                                           switched_strategy)
 from envfit.base._resources import memory_budget_bytes
 
 __all__ = ["NORMALS", "SHIFTS", "BUDGET", "pass_points", "sized_options", "predicted_error",
@@ -124,15 +125,18 @@ def predicted_error(opts, parts, final) -> float:
 
 def sized_search(envmap, opts, store: AdviseCache, target: float,
                  listed):
-    """The search (:func:`~envfit.advisor._preset_search.search_model`); for a sized model (``opts.auto``) the pilot's, then,
-    where its error at the default strategy's answer exceeds the target, a larger model's for
-    that strategy (:mod:`._preset_sizing`; to :func:`_final_reach`, the other strategies
-    keep the pilot's answers). Returns (the final model's options, the cached model per
+    """The search (:func:`~envfit.advisor._preset_search.search_model`); for a sized model
+    (``opts.auto``) the pilot's, then, where its error at the recommended strategy's answer
+    (the renderer's default, or the cheaper one the pilot's answers recommend:
+    :func:`~envfit.advisor._preset_search.switched_strategy`) exceeds the target, a larger
+    model's for that strategy (to :func:`_final_reach`; the other strategies keep the
+    pilot's answers). Returns (the final model's options, the cached model per
     strategy, the answers, the pilot's figures or None, every cached model searched)."""
     cm, answers = search_model(envmap, opts, store, target, listed,
                                stage="pilot pass" if opts.auto else None)
     by = {s: cm for s in opts.strategies}
-    first = opts.strategies[0]
+    first = ((switched_strategy(answers, opts.preset, opts.default_strategy)
+              or opts.default_strategy) if opts.auto else opts.strategies[0])
     parts = answer_error(cm, answers[first]) if opts.auto else None
     final = sized_options(opts, parts[1:] if parts else (),
                           reach=_final_reach(opts, answers[first], listed,
@@ -141,6 +145,7 @@ def sized_search(envmap, opts, store: AdviseCache, target: float,
     if final is None:
         return opts, by, answers, None, [cm]
     pilot = {"normals": opts.normals, "shifts": opts.shifts, "level": opts.level,
+             "strategy": first,
              "reach": opts.reach, "model_se": parts, "answer": answers[first].spp,
              "predicted_model_se": predicted_error(opts, parts[1:], final)}
     cms, stage = [cm], f"sized ({_size_words(final, _unit(opts))}) pass"
@@ -209,6 +214,9 @@ def model_dict(opts, by: dict, answers: dict, pilot, cms) -> dict:
            "spp_span": {s: span for s, a in answers.items()
                         if (span := spp_span(by[s], a, answer_error(by[s], a)))},
            "pilot": pilot, "sized": opts.auto or pilot is not None,
+           "sized_strategy": (pilot["strategy"] if pilot else
+                              (switched_strategy(answers, opts.preset, opts.default_strategy)
+                               or opts.default_strategy) if opts.auto else opts.strategies[0]),
            "passes": sum(c.passes for c in cms),
            "cells_computed": sum(c.cells_computed for c in cms),
            "cells_cached": sum(c.cells_cached for c in cms),
