@@ -135,8 +135,7 @@ def sized_search(envmap, opts, store: AdviseCache, target: float,
     cm, answers = search_model(envmap, opts, store, target, listed,
                                stage="pilot pass" if opts.auto else None)
     by = {s: cm for s in opts.strategies}
-    first = ((switched_strategy(answers, opts.preset, opts.default_strategy)
-              or opts.default_strategy) if opts.auto else opts.strategies[0])
+    first = _sized_strategy(opts, answers)
     parts = answer_error(cm, answers[first]) if opts.auto else None
     final = sized_options(opts, parts[1:] if parts else (),
                           reach=_final_reach(opts, answers[first], listed,
@@ -159,6 +158,15 @@ def sized_search(envmap, opts, store: AdviseCache, target: float,
                                  stage)
     by[first] = fcm
     return final, by, {**answers, first: fans[first]}, pilot, cms + [fcm]
+
+
+def _sized_strategy(opts, answers: dict) -> str:
+    """The strategy a sized model sizes: the one its answers recommend (the renderer's
+    default or :func:`~envfit.advisor._preset_search.switched_strategy`); unsized, the
+    first asked."""
+    if not opts.auto:
+        return opts.strategies[0]
+    return switched_strategy(answers, opts.preset, opts.default_strategy) or opts.default_strategy
 
 
 def _unit(opts) -> str:
@@ -214,9 +222,7 @@ def model_dict(opts, by: dict, answers: dict, pilot, cms) -> dict:
            "spp_span": {s: span for s, a in answers.items()
                         if (span := spp_span(by[s], a, answer_error(by[s], a)))},
            "pilot": pilot, "sized": opts.auto or pilot is not None,
-           "sized_strategy": (pilot["strategy"] if pilot else
-                              (switched_strategy(answers, opts.preset, opts.default_strategy)
-                               or opts.default_strategy) if opts.auto else opts.strategies[0]),
+           "sized_strategy": pilot["strategy"] if pilot else _sized_strategy(opts, answers),
            "passes": sum(c.passes for c in cms),
            "cells_computed": sum(c.cells_computed for c in cms),
            "cells_cached": sum(c.cells_cached for c in cms),

@@ -11,8 +11,6 @@ arithmetic as its numpy reference, which the tests compare it with:
 * :func:`mitsuba_eval_pdf` — Mitsuba 3 ``envmap``'s radiance and emitter pdf at world
   directions (``Mitsuba3Envmap.eval`` and ``pdf``, through the diffuse model's
   ``_mitsuba_eval``);
-* :func:`cycles_eval_pdf` — Cycles' world light the same way (``CyclesBackground.eval`` and
-  ``pdf``, linear interpolation);
 * :func:`accumulate_parts` — the five parts of one normal (map, brdf and MIS's weighted
   parts) added to the frame's sums in one pass.
 
@@ -30,8 +28,7 @@ import numpy as np
 
 from envfit.predict.renderer._preset_integrand import _mitsuba_eval
 
-__all__ = ["conductor_eval_pdf", "conductor_proxies", "mitsuba_eval_pdf", "cycles_eval_pdf",
-           "compiled_conductor", "compiled_cycles"]
+__all__ = ["conductor_eval_pdf", "conductor_proxies", "mitsuba_eval_pdf", "compiled_conductor"]
 
 _KINDS = {"ggx": 0, "beckmann": 1}
 
@@ -216,18 +213,6 @@ def mitsuba_eval_pdf(technique, dirs, rows=None, skip=None,
                   scaled_texels(technique) if rgb is None else rgb, technique.warp.data, skip,
                   rad, pdf)
     return rad, pdf
-
-
-def cycles_eval_pdf(technique, dirs, rows=None, skip=None) -> tuple[np.ndarray, np.ndarray]:
-    """(radiance (P, 3), world-light pdf (P,)) of a ``CyclesBackground`` at directions
-    ``dirs`` (world, or local with the frame's ``rows``), 0 and 0 where ``skip`` ≤ 0: the
-    technique's compiled :meth:`~envfit.sampling.presets.CyclesBackground.eval_pdf`."""
-    return technique.eval_pdf(dirs, rows, skip)
-
-
-def compiled_cycles(technique) -> bool:
-    """Whether :func:`cycles_eval_pdf` repeats ``technique`` (Cycles' world, linear)."""
-    return type(technique).__name__ == "CyclesBackground" and technique.interpolation == "linear"
 
 
 def scaled_texels(technique) -> np.ndarray:

@@ -47,8 +47,7 @@ from envfit.base import ParameterError
 from envfit.predict.renderer._microfacet_kernels import (compiled_conductor,
                                                         conductor_eval_pdf, conductor_proxies,
                                                         mitsuba_eval_pdf,
-                                                        PARTS, accumulate_parts, scaled_texels,
-                                                        compiled_cycles)
+                                                        PARTS, accumulate_parts, scaled_texels)
 from envfit.predict.renderer._vndf_kernels import compiled_sampling, conductor_sample
 from envfit.predict.renderer._plastic_kernels import (compiled_plastic, plastic_eval_pdf,
                                                       plastic_proxies, plastic_sample)
@@ -56,7 +55,6 @@ from envfit.predict.renderer._bands import BANDS, STRATA, band_key, band_spread,
 from envfit.predict.renderer._footprint import _unit, with_variances
 from envfit.predict.renderer._lobe_parts import LobeChoice
 from envfit.predict.renderer._preset_integrand import MapTable, _is_mitsuba
-from envfit.sampling.presets import Pbrt4ImageInfiniteLight
 from envfit.predict.renderer.randomisation import STRATIFIED_1D
 from envfit.predict.renderer._preset_model import (PresetModel, PresetModelOptions,
                                                    samples_above, systematic_indices)
@@ -328,15 +326,16 @@ class MicrofacetModel(LobeChoice, PresetModel):
         return self._tables[key]
 
     def _technique_values(self, local: np.ndarray, rows: np.ndarray, weight: np.ndarray):
-        """(radiance, map pdf) at the BSDF samples ``local`` (the frame's ``rows``); Mitsuba's,
-        Cycles' (linear) and pbrt-v4's compiled, skipping the samples of weight 0."""
+        """(radiance, map pdf) at the BSDF samples ``local`` (the frame's ``rows``): Mitsuba's
+        compiled, or the technique's own ``eval_pdf`` (Cycles', pbrt-v4's: compiled), skipping
+        the samples of weight 0; else its numpy eval and pdf."""
         if _is_mitsuba(self.technique):
             if self._texels is None:
                 self._texels = scaled_texels(self.technique)
             return mitsuba_eval_pdf(self.technique, local, rows, weight, self._texels)
-        if compiled_cycles(self.technique) or isinstance(self.technique,
-                                                         Pbrt4ImageInfiniteLight):
-            return self.technique.eval_pdf(local, rows, weight)
+        lookup = getattr(self.technique, "eval_pdf", None)      # Cycles', pbrt-v4's
+        if lookup is not None:
+            return lookup(local, rows, weight)
         d = local @ rows
         rad, pdf = [], []
         for i in range(0, len(d), _CHUNK):
