@@ -191,7 +191,12 @@ def test_cli_library_table2_and_fit(maps, tmp_path, monkeypatch, capsys):
                      "--workers", "1", "--quiet"]) == 0
     d = json.loads(js2.read_text())
     assert [r["map"] for r in d["summary"]] == ["gp0.exr", "gp1.exr"]
-    assert all(r["s_low"] <= r["s"] <= r["s_high"] for r in d["summary"])
+    # each row is that map's own fit (the interval contains ŝ by construction, so
+    # s_low <= s <= s_high could not fail)
+    for r, m in zip(d["summary"], maps[:2]):
+        ref = fit_smoothness(m, n=150, scale="linear")
+        assert (r["s"], r["s_low"], r["s_high"]) == pytest.approx((ref.s, *ref.s_interval),
+                                                                  abs=1e-9), r["map"]
     for f in ("library_fit.csv", "library_fit.json", "library_fit_s.png"):
         assert (tmp_path / "fo" / f).exists(), f
     # bad input: a missing file among several, dask not installed

@@ -25,22 +25,31 @@ import pytest
 from oracles.randomisers import INTEGRANDS, mse_estimate
 
 from envfit.base import ParameterError
-from envfit.predict.renderer.randomisation import randomised_mse
+from envfit.predict.renderer.randomisation import DyadicGrid, randomised_mse
 from envfit.predict.renderer.randomisation._orthogonal import _pattern_counts, bose_indices
-
-mi = pytest.importorskip("mitsuba")
-
-from test_randomisation_mitsuba import grids, scalar_variant  # noqa: E402,F401  (shared fixtures)
 
 SEEDS, Z = 3000, 4.0
 DIMS = (2, 5)                      # an even and an odd first dimension of a 2-D draw
+
+
+def _mitsuba():
+    """Mitsuba 3 in its ``scalar_rgb`` variant; the calling test is skipped where it is not
+    installed (the formula's checks against cmj, brute force and bad counts need numpy only)."""
+    mi = pytest.importorskip("mitsuba")
+    mi.set_variant("scalar_rgb")
+    return mi
+
+
+@pytest.fixture(scope="module")
+def grids():
+    return {name: DyadicGrid.from_callable(f.h, 9, nodes=3) for name, f in INTEGRANDS.items()}
 
 
 @functools.lru_cache(maxsize=None)
 def orthogonal_points(spp: int, seeds: int, jitter: bool = True) -> np.ndarray:
     """(seeds, N, 2, 2): per pixel and sample the 2-D draws at dimensions 2–3 and 5–6 (a
     2-D draw, a 1-D draw at 4, a 2-D draw)."""
-    s = mi.load_dict({"type": "orthogonal", "sample_count": spp, "jitter": jitter})
+    s = _mitsuba().load_dict({"type": "orthogonal", "sample_count": spp, "jitter": jitter})
     n = s.sample_count()
     out = np.empty((seeds, n, 2, 2))
     for seed in range(seeds):
@@ -135,6 +144,7 @@ def _recorded_bsdf_points(emitter_samples: int) -> np.ndarray:
     """The 2-D samples Mitsuba's ``direct`` integrator hands a BSDF (a Python plugin that
     records them and returns no sample), one pixel of a sphere that fills it, ``orthogonal``
     at 25 spp without jitter."""
+    mi = _mitsuba()
     seen = []
 
     class Recorder(mi.BSDF):
@@ -179,11 +189,11 @@ def test_direct_draws_the_bsdfs_2d_sample_first(emitter_samples):
     """brdf (dimensions 2–3) and mis (4–5 after the emitter's 2–3): the BSDF's points have the
     even-start pattern, not the odd one a 1-D draw first would give (3–4, 5–6) — as the
     preset's dimensions say."""
-    from envfit.sampling.presets import preset
+    from envfit.renderers import get_renderer
     pts = _recorded_bsdf_points(emitter_samples)
     assert pts.shape == (25, 2)
     mine = _strata(pts, 5)
-    dim = preset("mitsuba3").strategy("mis" if emitter_samples else "brdf").dimensions[1]
+    dim = get_renderer("mitsuba3").strategy("mis" if emitter_samples else "brdf").dimensions[1]
     assert dim == 2 + 2 * emitter_samples
     np.testing.assert_array_equal(_pattern_counts(mine), _pattern_counts(bose_indices(5, dim)))
     assert not np.array_equal(_pattern_counts(mine), _pattern_counts(bose_indices(5, dim + 1)))
