@@ -4,7 +4,7 @@ For each map × sampler × target (a fraction of the map's mean radiance): ask
 :func:`envfit.advisor.advise_preset` (the same call as ``envfit advise MAP --renderer mitsuba3
 --sampler S --target-relative T``) for the spp of the renderer's default strategy (MIS,
 ``direct`` with emitter_samples = bsdf_samples = 1), render the sphere set-up of
-:mod:`envfit.measure.renderers` with Mitsuba 3 at that spp and at half of it — the largest spp
+:mod:`envfit.renderers` with Mitsuba 3 at that spp and at half of it — the largest spp
 the sampler runs at or below spp / 2 (its own rounding: ``ldsampler`` runs 4^k, so "half" of
 256 is 64; ``independent`` runs any spp, so half is spp // 2) — and report the measured RMSE over uniform normals with its
 bootstrap 95 % interval against the target:
@@ -83,7 +83,7 @@ def _write(out: Path, rows: list, meta: dict) -> None:
 
 
 def run_map(spec: str, args, rows: list, meta: dict, out: Path) -> None:
-    from envfit.measure.renderers import Mitsuba3Options, Mitsuba3Sphere
+    from envfit.renderers import Mitsuba3Options, Mitsuba3Sphere
     name, env = load_map(spec, args.synth_height)
     todo = [(s, t) for s in args.samplers for t in args.targets
             if not any(r["map"] == name and r["sampler"] == s and r["target_relative"] == t

@@ -1,7 +1,7 @@
 """Rendering check of envfit's microfacet predictions (issue 25): Mitsuba 3 renders the sphere
-of :mod:`envfit.measure.renderers` (six orthographic views) with a white ``roughconductor``
+of :mod:`envfit.renderers` (six orthographic views) with a white ``roughconductor``
 (GGX or Beckmann, Fresnel = 1), or Cycles (``--renderer cycles``) with a white Glossy BSDF
-(:func:`envfit.measure.renderers.glossy_bsdf`, GGX or Beckmann, roughness √α), and measures the RMSE over its kept pixels (the same weights
+(:func:`envfit.renderers.glossy_bsdf`, GGX or Beckmann, roughness √α), and measures the RMSE over its kept pixels (the same weights
 as the diffuse measurement) against a high-spp reference; envfit predicts the same quantity
 with :class:`envfit.predict.renderer.MicrofacetModel` over frames drawn from those pixels
 (:func:`envfit.predict.renderer.pixel_frames`: each pixel's normal and its view axis; a pool
@@ -32,12 +32,12 @@ import numpy as np
 
 from envfit.base._atomic import atomic_write_csv, atomic_write_json  # internal: the atomic writers of the product's outputs
 from envfit.maps import EnvMap
-from envfit.measure.renderers import (VIEWS, CyclesOptions, CyclesSphere, Mitsuba3Options,
+from envfit.renderers import (VIEWS, CyclesOptions, CyclesSphere, Mitsuba3Options,
                                       Mitsuba3Sphere, glossy_bsdf, roughconductor_bsdf,
                                       sphere_geometry)
 from envfit.predict.renderer import (MicrofacetModel, PresetModelOptions, pixel_footprints,
                                      pixel_frames)
-from envfit.sampling.presets import preset
+from envfit.renderers import get_renderer
 from envfit.shading.microfacet import multiscatter_or_conductor
 from envfit.validate import measure_cell
 
@@ -55,7 +55,7 @@ def _model(env, dist, alpha, args):
                            seed=args.seed)
     foot = (pixel_footprints(n, v, args.resolution, args.footprint) if args.footprint > 1
             else None)
-    return MicrofacetModel(EnvMap(env.data, up="y", name=env.name), preset(args.renderer),
+    return MicrofacetModel(EnvMap(env.data, up="y", name=env.name), get_renderer(args.renderer),
                            multiscatter_or_conductor(dist, alpha, args.renderer), (n, v),
                            options=PresetModelOptions(max_level=args.max_level),
                            select=args.frames, footprints=foot)

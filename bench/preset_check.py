@@ -42,9 +42,9 @@ def inside(pred: float, r: dict) -> bool:
 def models(renderer: str, env, opts):
     """The preset models of one map (plain and, for Mitsuba 3, with mis_compensation)."""
     from envfit.predict.renderer import PresetModel
-    from envfit.sampling.presets import preset
+    from envfit.renderers import get_renderer
     from envfit.maps import EnvMap
-    p = preset(renderer)
+    p = get_renderer(renderer)
     # Mitsuba's technique takes the pixels as the file holds them (its own lat-long
     # convention inside the preset); the other renderers' worlds as render_check sees them
     seen = EnvMap(env.data, up="y", name=env.name) if renderer == "mitsuba3" \

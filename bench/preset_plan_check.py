@@ -25,7 +25,7 @@ from envfit.advisor._budget import preset_passes, preset_plan  # noqa: E402  # i
 from envfit.advisor._preset import advise_preset  # noqa: E402  # internal: the model's own timings (passes, seconds)
 from envfit.advisor._preset_options import PresetAdviseOptions  # noqa: E402  # internal: the plan takes the checked options
 from envfit.maps import load_envmap  # noqa: E402
-from envfit.sampling.presets import preset  # noqa: E402
+from envfit.renderers import get_renderer  # noqa: E402
 
 RENDERERS = ("mitsuba3", "pbrt4", "cycles", "envfit")
 
@@ -35,7 +35,7 @@ def cases(only: list[str], bsdfs: list[str]) -> list[tuple[str, str, str]]:
     ``bsdfs`` with each renderer's default sampler."""
     out = []
     for r in RENDERERS:
-        p = preset(r)
+        p = get_renderer(r)
         for s in p.samplers:
             if not only or f"{r}:{s}" in only:
                 out.append((r, s, "diffuse"))

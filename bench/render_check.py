@@ -1,5 +1,5 @@
 """Rendering check of envfit's renderer predictions (issue 24): measure a real renderer's noise
-on a white diffuse sphere seen from six orthographic views (envfit.measure.renderers) and set
+on a white diffuse sphere seen from six orthographic views (envfit.renderers) and set
 it against envfit's prediction.
 
 For each map (files given by path, and ``sun-gp-1.5`` / ``sun-gp-1.3``: the synthesized sun +
@@ -85,7 +85,7 @@ def load_map(spec: str, synth_height: int) -> tuple[str, EnvMap]:
 def map_as_seen(renderer: str, env: EnvMap) -> EnvMap:
     """The map as the renderer renders it, in envfit's convention: Mitsuba 3 reads the file in
     its own lat-long grid (rows on the poles; :func:`envfit.maps.convention` "mitsuba3"); the
-    Cycles world of envfit.measure.renderers looks it up in envfit's own convention. The
+    Cycles world of envfit.renderers looks it up in envfit's own convention. The
     pixels are written as they are, whatever ``env.up`` says (the mean over uniform normals
     does not depend on the map's orientation)."""
     plain = EnvMap(env.data, up="y", name=env.name)
@@ -111,11 +111,11 @@ class Predictor:
         plain or with Mitsuba's mis_compensation, built once."""
         if compensation not in self._presets:
             from envfit.predict.renderer import PresetModel, PresetModelOptions
-            from envfit.sampling.presets import preset
+            from envfit.renderers import get_renderer
             env = EnvMap(self.file_env.data, up="y", name=self.file_env.name)
             options = {"mis_compensation": compensation} if self.renderer == "mitsuba3" else {}
             self._presets[compensation] = PresetModel(
-                env, preset(self.renderer), options,
+                env, get_renderer(self.renderer), options,
                 PresetModelOptions(normals=PRESET_NORMALS, max_level=self.max_level,
                                    sphere_pixels=self.footprint and self.footprint[0],
                                    footprint_side=self.footprint[1] if self.footprint else 2))
@@ -170,13 +170,13 @@ def generic_cell(predictor: Predictor, sampler: str, strategy: str, spp: int) ->
 
 def _session(renderer: str, env: EnvMap, args):
     if renderer == "mitsuba3":
-        from envfit.measure.renderers import Mitsuba3Options, Mitsuba3Sphere
+        from envfit.renderers import Mitsuba3Options, Mitsuba3Sphere
         opts = dict(resolution=args.resolution, reference_spp=args.reference_spp,
                     cache_dir=args.cache, reference_sampler=args.reference_sampler)
         plain = Mitsuba3Sphere(env, Mitsuba3Options(**opts))
         comp = Mitsuba3Sphere(env, Mitsuba3Options(**opts, mis_compensation=True))
         return {"plain": plain, "comp": comp}
-    from envfit.measure.renderers import CyclesOptions, CyclesSphere
+    from envfit.renderers import CyclesOptions, CyclesSphere
     s = CyclesSphere(env, CyclesOptions(resolution=args.resolution,
                                         reference_spp=args.reference_spp, cache_dir=args.cache,
                                         threads=args.threads))

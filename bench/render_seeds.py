@@ -20,7 +20,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from render_check import _cpu, _session, load_map  # noqa: E402  (bench helpers)
 
-from envfit.measure.renderers import sphere_error  # noqa: E402
+from envfit.renderers import sphere_error  # noqa: E402
 
 
 def top_shares(d: np.ndarray, w: np.ndarray, counts=(1, 10, 100)) -> list[float]:

@@ -17,7 +17,7 @@ from envfit.defaults import BAND_MIN_FRAMES
 from envfit.maps import EnvMap, save_envmap
 from envfit.predict.renderer import MicrofacetModel, PresetModelOptions, band_frames
 from envfit.predict.renderer._bands import STRATA, band_key, bootstrap_interval, in_stratum
-from envfit.sampling.presets import preset
+from envfit.renderers import get_renderer
 from envfit.shading.microfacet import Conductor
 
 _DRAWS = {"normal": lambda rng, k: rng.normal(1.0, 0.3, k),
@@ -83,12 +83,12 @@ def test_whole_sphere_is_the_weighted_combination_of_the_bands(sun_map):
     opts = PresetModelOptions(max_level=3, pilot_level=2)
     pool = band_frames(1024, (0, 90), seed=7)
     c = Conductor("ggx", 0.1)
-    m = MicrofacetModel(sun_map, preset("mitsuba3"), c, pool, options=opts, select=24)
+    m = MicrofacetModel(sun_map, get_renderer("mitsuba3"), c, pool, options=opts, select=24)
     whole = m.predict("mis", "independent", 4).rmse
     spread = m.predict_band_errors("mis", "independent", 4)
     per = []
     for normal, view in m.normals:                           # each frame's MSE on its own
-        one = MicrofacetModel(sun_map, preset("mitsuba3"), c, ([normal], [view]), options=opts)
+        one = MicrofacetModel(sun_map, get_renderer("mitsuba3"), c, ([normal], [view]), options=opts)
         per.append(one.predict("mis", "independent", 4).rmse ** 2)
     per = np.array(per)
     pool_theta = np.degrees(np.arccos(np.clip(np.sum(pool[0] * pool[1], axis=1), -1, 1)))

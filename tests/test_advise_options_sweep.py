@@ -159,15 +159,14 @@ def _segment(text: str, head: str) -> list[str]:
 
 def test_help_lists_are_the_registries():
     from envfit.advisor._options import BASES
-    from envfit.advisor._preset_options import RENDERER_NAMES
-    from envfit.cli._advise_preset import _DISPLAY
     from envfit.defaults import ALL_POINTSETS, BRDFS, MICROFACET_BSDFS, WEIGHTINGS
     from envfit.sampling._rules import STRATEGIES
-    from envfit.sampling.presets import PRESETS, STRATEGY_NAMES
+    from envfit.renderers import RENDERERS, STRATEGY_NAMES
     text = _help()
-    assert _DISPLAY == RENDERER_NAMES
-    for name, p in PRESETS.items():
-        assert _segment(text, f"{RENDERER_NAMES[name]}: ") == list(p.samplers), name
+    assert [p.display for p in RENDERERS.values()] == ["Mitsuba 3", "pbrt-v4", "Cycles",
+                                                        "envfit"]
+    for name, p in RENDERERS.items():
+        assert _segment(text, f"{p.display}: ") == list(p.samplers), name
         assert f"{p.default_sampler} (default)" in text
     assert "orthogonal" in _segment(text, "Mitsuba 3: ")
     assert _segment(text, "weight function: ") == list(BRDFS)
@@ -181,7 +180,7 @@ def test_help_lists_are_the_registries():
     assert _segment(text, "point sets of the renderer rules among ") == list(ALL_POINTSETS)
     assert _segment(text, "weightings among ") == list(WEIGHTINGS)
     assert _segment(text, "truncations to size among ") == list(BASES)
-    assert "--renderer " + "|".join(PRESETS) in text
+    assert "--renderer " + "|".join(RENDERERS) in text
 
 
 def test_brdf_error_with_a_renderer_lists_every_microfacet_bsdf(tmp_path, capsys):

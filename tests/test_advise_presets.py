@@ -18,7 +18,7 @@ import pytest
 from envfit.data_gen import gaussian_process_map, sun_gp_map
 from envfit.maps import EnvMap, save_envmap
 from envfit.predict.renderer._preset_model import PresetModel, PresetModelOptions
-from envfit.sampling.presets import preset
+from envfit.renderers import get_renderer
 
 NORMALS = 6
 MODEL = ["--renderer-normals", str(NORMALS)]
@@ -89,7 +89,7 @@ def test_independent_answer_is_the_smallest_spp_meeting_the_target(sun_file, tmp
     assert "(5 % of the map's mean radiance" in _answer(lines)
     assert rec["strategy"] == "mis" and rec["reached"] and n > 4
     # independently: every spp below the answer misses, the answer meets
-    m = PresetModel(_load(sun_file), preset("mitsuba3"), options=_options(5))
+    m = PresetModel(_load(sun_file), get_renderer("mitsuba3"), options=_options(5))
     preds = m.predict_many([("mis", "independent", k) for k in range(1, n + 1)])
     assert preds[-1].rmse <= target
     assert all(p.rmse > target for p in preds[:-1])
@@ -104,7 +104,7 @@ def test_independent_answer_is_the_smallest_spp_meeting_the_target(sun_file, tmp
 
 def test_ldsampler_answer_runs_a_power_of_four_and_the_one_below_misses(gp_file, tmp_path,
                                                                         capsys):
-    m = PresetModel(_load(gp_file), preset("mitsuba3"), options=_options(6))
+    m = PresetModel(_load(gp_file), get_renderer("mitsuba3"), options=_options(6))
     p4, p16 = (m.predict("mis", "ldsampler", k).rmse for k in (4, 16))
     assert p16 < p4
     target = float(np.sqrt(p4 * p16))                         # between the two
@@ -135,7 +135,7 @@ def test_spp_table_json_and_mis_compensation_equal_the_model(sun_file, tmp_path,
     assert rc == 0
     r = d["renderer"]
     assert r["name"] == "mitsuba3" and r["sampler"] == "ldsampler" and r["mis_compensation"]
-    m = PresetModel(_load(sun_file), preset("mitsuba3"), {"mis_compensation": True},
+    m = PresetModel(_load(sun_file), get_renderer("mitsuba3"), {"mis_compensation": True},
                     _options(5))
     for p in r["predictions"]:
         assert set(p) == {"strategy", "sampler", "spp", "predicted_rmse"}
@@ -277,7 +277,7 @@ def test_microfacet_answer_bands_and_json_equal_the_model(sun_file, tmp_path, ca
     assert r["bsdf"] == {"type": "ggx", "roughness": 0.3, "alpha": 0.3, "fresnel": 1.0,
                          "sphere_pixels": None}
     opts = _options(5, microfacet=True)
-    m = MicrofacetModel(_load(sun_file), preset("mitsuba3"), Conductor("ggx", 0.3),
+    m = MicrofacetModel(_load(sun_file), get_renderer("mitsuba3"), Conductor("ggx", 0.3),
                         band_frames(opts.pool, (0, 90), seed=MICROFACET_FRAMES_SEED),
                         options=opts, select=NORMALS)
     n = rec["spp"]
@@ -326,10 +326,10 @@ def test_sphere_pixels_adds_the_footprint_of_the_model(sun_file, tmp_path, capsy
     assert any("8 pixels across (each pixel's footprint included)" in ln for ln in lines)
     opts = _options(6, microfacet=True)
     frames = band_frames(opts.pool, (0, 90), seed=MICROFACET_FRAMES_SEED)
-    m = MicrofacetModel(_load(sun_file), preset("mitsuba3"), Conductor("ggx", 0.1), frames,
+    m = MicrofacetModel(_load(sun_file), get_renderer("mitsuba3"), Conductor("ggx", 0.1), frames,
                         options=opts, select=NORMALS,
                         footprints=pixel_footprints(*frames, 8, FOOTPRINT_SIDE))
-    point = MicrofacetModel(_load(sun_file), preset("mitsuba3"), Conductor("ggx", 0.1),
+    point = MicrofacetModel(_load(sun_file), get_renderer("mitsuba3"), Conductor("ggx", 0.1),
                             frames, options=opts, select=NORMALS)
     for p in r["predictions"]:
         got = m.predict(p["strategy"], "ldsampler", p["spp"]).rmse
@@ -353,8 +353,8 @@ def test_diffuse_sphere_pixels_is_the_model_with_footprints(sun_file, tmp_path, 
     assert any("white diffuse sphere 8 pixels across (each pixel's footprint included), "
                "each pixel seen by the axis view nearest its normal" in ln for ln in lines)
     opts = replace(_options(6), sphere_pixels=8, footprint_side=FOOTPRINT_SIDE)
-    m = PresetModel(_load(sun_file), preset("mitsuba3"), options=opts)
-    point = PresetModel(_load(sun_file), preset("mitsuba3"), options=_options(6))
+    m = PresetModel(_load(sun_file), get_renderer("mitsuba3"), options=opts)
+    point = PresetModel(_load(sun_file), get_renderer("mitsuba3"), options=_options(6))
     for p in r["predictions"]:
         got = m.predict(p["strategy"], "ldsampler", p["spp"]).rmse
         assert p["predicted_rmse"] == pytest.approx(got, rel=1e-12)
@@ -410,7 +410,7 @@ def test_roughplastic_answer_is_the_models_and_orthogonal_is_refused(sun_file, t
     assert r["bsdf"]["type"] == "roughplastic" and "fresnel" not in r["bsdf"]
     assert r["bsdf"]["eta"] == pytest.approx(1.49 / 1.000277)
     opts = _options(5)
-    m = MicrofacetModel(_load(sun_file), preset("mitsuba3"), RoughPlastic("ggx", 0.2),
+    m = MicrofacetModel(_load(sun_file), get_renderer("mitsuba3"), RoughPlastic("ggx", 0.2),
                         band_frames(opts.pool, (0, 90), seed=MICROFACET_FRAMES_SEED),
                         options=opts, select=NORMALS)
     rec = r["recommendation"]
@@ -451,7 +451,7 @@ def test_cycles_multiscatter_ggx_and_the_note_that_names_it(sun_file, tmp_path, 
     single = {(p["strategy"], p["spp"]): p["predicted_rmse"]
               for p in runs["ggx"][3]["renderer"]["predictions"]}
     opts = _options(5, microfacet=True)
-    m = MicrofacetModel(_load(sun_file), preset("cycles"),
+    m = MicrofacetModel(_load(sun_file), get_renderer("cycles"),
                         multiscatter_or_conductor("multiggx", 0.25, "cycles"),
                         band_frames(opts.pool, (0, 90), seed=MICROFACET_FRAMES_SEED),
                         options=opts, select=NORMALS)

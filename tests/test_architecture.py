@@ -11,6 +11,7 @@ higher one nor another sub-package of its own layer (one pipeline leaning on ano
     maps, plots                   (maps: also bright-source detection and the preview)
     kernels, shading              (shading: ground truth, the paper's estimators, spectra)
     sampling                      (how a renderer draws: map sampler, MIS, sources, rules)
+    renderers                     (one folder per renderer: its technique, samplers, harness)
     measure                       (adaptive RMSE, axis proposal, renderer rules' measurement)
     fit
     predict                       (named predictors: use fitted s and σ̂; renderer/ sub-package)
@@ -37,7 +38,7 @@ import envfit
 
 LAYERS = [("theory",), ("defaults",), ("data_gen",), ("base",), ("maps", "plots"),
           ("kernels", "shading"),
-          ("sampling",), ("measure",), ("fit",), ("predict",), ("export", "validate", "advisor"),
+          ("sampling",), ("renderers",), ("measure",), ("fit",), ("predict",), ("export", "validate", "advisor"),
           ("batch",), ("cli",)]
 RANK = {pkg: i for i, group in enumerate(LAYERS) for pkg in group}
 
@@ -137,24 +138,30 @@ def test_pyproject_lists_every_sub_package():
     assert listed == found
 
 
-# ---- size rules (issue 23): a module fits a file, a function a screen, a signature a line ----
-#: at most this many lines per module, per function; parameters of a private / public function
-#: (``self``/``cls`` not counted; beyond them an options dataclass)
-MAX_MODULE_LINES, MAX_FUNCTION_LINES, MAX_PRIVATE_PARAMS, MAX_PUBLIC_PARAMS = 500, 60, 8, 12
+# ---- size rules (issues 23, 39): a concept stays whole; what grows past a screen is reported ----
+#: hard limits: lines per module (one whole technique, as Mitsuba's envmap.cpp's 611 lines),
+#: per function; parameters of a private / public function (``self``/``cls`` not counted;
+#: beyond them an options dataclass)
+MAX_MODULE_LINES, MAX_FUNCTION_LINES, MAX_PRIVATE_PARAMS, MAX_PUBLIC_PARAMS = 1000, 100, 8, 12
+#: the lines past which a module or a function is *reported* (test_size_report: a note of
+#: what grew, not a wall to cut at: split by concept, never to meet a number)
+REPORT_MODULE_LINES, REPORT_FUNCTION_LINES = 500, 60
 
 
-def size_violations(path: Path, text: str | None = None) -> list[str]:
-    """The size rules ``path`` breaks, one line each."""
+def size_violations(path: Path, text: str | None = None, module_lines: int = MAX_MODULE_LINES,
+                    function_lines: int = MAX_FUNCTION_LINES) -> list[str]:
+    """The size rules ``path`` breaks, one line each (with the report's lines: what it
+    reports)."""
     text = path.read_text() if text is None else text
     out = []
     lines = text.count("\n")
-    if lines > MAX_MODULE_LINES:
-        out.append(f"{path.name}: {lines} lines > {MAX_MODULE_LINES}")
+    if lines > module_lines:
+        out.append(f"{path.name}: {lines} lines > {module_lines}")
     for node in ast.walk(ast.parse(text)):
         if not isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
             continue
         length = node.end_lineno - node.lineno + 1
-        if length > MAX_FUNCTION_LINES:
+        if length > function_lines:
             out.append(f"{path.name}:{node.lineno} {node.name}: {length} lines")
         a = node.args
         n = len(a.posonlyargs) + len(a.args) + len(a.kwonlyargs)
@@ -176,12 +183,28 @@ def test_size_rules():
     assert bad == [], "\n".join(bad)
 
 
+def test_size_report():
+    """What grew past a screen (a module over 500 lines, a function over 60), reported as a
+    warning in the suite's summary: read it, and split a module only where it holds two
+    concepts."""
+    import warnings
+    root = Path(__file__).resolve().parents[1]
+    grown = [str(p.relative_to(root)) + v[len(p.name):] for p in _product_sources()
+             for v in size_violations(p, None, REPORT_MODULE_LINES, REPORT_FUNCTION_LINES)
+             if "parameters" not in v]
+    if grown:
+        warnings.warn("past a screen (a report, not a rule):\n" + "\n".join(grown),
+                      stacklevel=1)
+
+
 def test_the_size_checker_sees_each_rule(tmp_path):
-    long_fn = "def f():\n" + "    x = 1\n" * 61
+    long_fn = "def f():\n" + "    x = 1\n" * 101
     many = "def _g(a, b, c, d, e, f, g, h, i):\n    pass\n"
     public = "def g(" + ", ".join(f"a{i}" for i in range(13)) + "):\n    pass\n"
     ok = "class C:\n    def m(self, a, b, c, d, e, f, g, h):\n        pass\n"
     f = tmp_path / "m.py"
-    got = size_violations(f, long_fn + many + public + ok + "\n" * 433)
-    assert [g.split(": ")[-1] for g in got] == ["502 lines > 500", "62 lines",
+    got = size_violations(f, long_fn + many + public + ok + "\n" * 893)
+    assert [g.split(": ")[-1] for g in got] == ["1002 lines > 1000", "102 lines",
                                                 "9 parameters > 8", "13 parameters > 12"]
+    got = size_violations(f, long_fn + "\n" * 400, REPORT_MODULE_LINES, REPORT_FUNCTION_LINES)
+    assert [g.split(": ")[-1] for g in got] == ["502 lines > 500", "102 lines"]

@@ -8,7 +8,7 @@ import pytest
 from envfit.base import ParameterError
 from envfit.maps import EnvMap
 from envfit.predict.renderer import PresetModel, PresetModelOptions, pixel_footprints
-from envfit.sampling.presets import preset
+from envfit.renderers import get_renderer
 
 
 def _sun_map(h: int = 16) -> EnvMap:
@@ -39,7 +39,7 @@ def test_diffuse_footprint_independent_is_the_pixels_variance(name):
     keeps running sums), the part over the pixel (all but the footprint mean's Var_u ḡ)
     scaled by J/(J − 1) from the J midpoints to the pixel; the points-only model (no
     footprint) differs from it."""
-    p = preset(name)
+    p = get_renderer(name)
     opts = dict(normals=3, pool=32, max_level=4)
     env = _sun_map()
     m = PresetModel(env, p, None, PresetModelOptions(**opts, sphere_pixels=6, footprint_side=3))
@@ -71,7 +71,7 @@ def test_diffuse_footprint_options():
         PresetModelOptions(sphere_pixels=3)
     with pytest.raises(ParameterError):
         PresetModelOptions(sphere_pixels=16, footprint_side=0)
-    m = PresetModel(_sun_map(), preset("mitsuba3"), None,
+    m = PresetModel(_sun_map(), get_renderer("mitsuba3"), None,
                     PresetModelOptions(normals=4, pool=32, max_level=3, sphere_pixels=64))
     for normal, foot in m.normals:
         assert foot.shape == (4, 3)
@@ -88,7 +88,7 @@ def test_diffuse_footprint_ldsampler_is_the_pairing_simulated():
     (``PairedFootprint``: the film's dimension 0 with the emitter's 1 and the BSDF's 2) on the
     footprint normals' own tables, not Var c/(N − 1)."""
     from envfit.predict.renderer._footprint import footprint_term
-    m = PresetModel(_sun_map(), preset("mitsuba3"), None,
+    m = PresetModel(_sun_map(), get_renderer("mitsuba3"), None,
                     PresetModelOptions(normals=3, pool=32, max_level=4, sphere_pixels=6))
     fine, n = 5, 16
     got = m.predict("mis", "ldsampler", n).mse

@@ -11,10 +11,10 @@ from envfit.base import ParameterError
 from envfit.maps import EnvMap
 from envfit.predict.renderer import (MicrofacetModel, PresetModelOptions, band_frames,
                                      pixel_frames)
-from envfit.sampling.presets import preset
+from envfit.renderers import get_renderer
 from envfit.shading.microfacet import Conductor, microfacet_shading_integral
 
-MITSUBA = preset("mitsuba3")
+MITSUBA = get_renderer("mitsuba3")
 
 
 def _sun_map(h: int = 16) -> EnvMap:
@@ -56,7 +56,7 @@ def test_band_frames_follow_the_orthographic_density():
 def test_pixel_frames_are_the_kept_pixels():
     """Frames drawn from the sphere renders: each a kept pixel's normal with its view axis,
     the views' polar angles within the six-view layout's 55°."""
-    from envfit.measure.renderers import VIEWS, sphere_geometry
+    from envfit.renderers import VIEWS, sphere_geometry
     n, v, theta = pixel_frames(sphere_geometry(32), VIEWS, 200, seed=1)
     assert n.shape == v.shape == (200, 3) and theta.max() < 55.0
     axes = {tuple(view.axis) for view in VIEWS}
@@ -79,7 +79,7 @@ def test_prediction_inside_the_rendered_interval():
     brdf, mis at spp 16: the prediction over frames drawn from the rendered pixels lies in
     the measured RMSE's bootstrap 95 % interval widened to [0.8 low, 1.25 high]."""
     pytest.importorskip("mitsuba")          # the only test of this module that renders
-    from envfit.measure.renderers import (VIEWS, Mitsuba3Options, Mitsuba3Sphere,
+    from envfit.renderers import (VIEWS, Mitsuba3Options, Mitsuba3Sphere,
                                           roughconductor_bsdf, sphere_geometry)
     env = _sun_map(16)
     n, v, _ = pixel_frames(sphere_geometry(16), VIEWS, 48, seed=0)
@@ -208,7 +208,7 @@ def test_fused_parts_are_the_heuristics_parts(heuristic):
     them (numpy: power_heuristic, balance_heuristic; zero and infinite pdfs included), and
     returns their sums and sums of squares."""
     from envfit.predict.renderer._microfacet_kernels import PARTS, accumulate_parts
-    from envfit.sampling.presets._base import balance_heuristic, power_heuristic
+    from envfit.renderers._base import balance_heuristic, power_heuristic
     h = {"power": power_heuristic, "balance": balance_heuristic}[heuristic]
     rng = np.random.default_rng(4)
     n = 5000
@@ -237,12 +237,11 @@ def test_fused_parts_are_the_heuristics_parts(heuristic):
 def test_compiled_mitsuba_lookup_is_the_technique(comp):
     """Mitsuba's envmap radiance and emitter pdf at world directions, compiled, equal the
     technique's numpy eval and pdf."""
-    from envfit.predict.renderer._microfacet_kernels import mitsuba_eval_pdf
     t = MITSUBA.technique(_sun_map(), mis_compensation=comp)
     rng = np.random.default_rng(1)
     d = rng.standard_normal((5000, 3))
     d /= np.linalg.norm(d, axis=1, keepdims=True)
-    rad, pdf = mitsuba_eval_pdf(t, d)
+    rad, pdf = t.eval_pdf(d)
     np.testing.assert_allclose(rad, t.eval(d), rtol=1e-10)
     np.testing.assert_allclose(pdf, t.pdf(d), rtol=1e-10)
 
@@ -250,7 +249,7 @@ def test_compiled_mitsuba_lookup_is_the_technique(comp):
 def test_compiled_cycles_lookup_is_the_technique():
     """Cycles' world radiance and pdf, compiled (world directions, and local ones with a
     frame's rows), equal CyclesBackground's numpy eval and pdf, the poles included."""
-    t = preset("cycles").technique(_sun_map())
+    t = get_renderer("cycles").technique(_sun_map())
     assert t.interpolation == "linear"
     rng = np.random.default_rng(2)
     d = rng.standard_normal((5000, 3))
@@ -271,7 +270,7 @@ def test_compiled_cycles_lookup_is_the_technique():
 def _footprint_model(side=4, resolution=6, level=6):
     """A sharp GGX lobe seen near grazing through a big pixel (R = 6) of the sun map: the
     footprint's normals sweep the lobe across the sun."""
-    from envfit.measure.renderers import VIEWS, sphere_geometry
+    from envfit.renderers import VIEWS, sphere_geometry
     from envfit.predict.renderer import pixel_footprints
     n, v, theta = pixel_frames(sphere_geometry(resolution, "disk"), VIEWS, 400, seed=3)
     k = int(np.argmax(theta))                                  # the most grazing pixel
@@ -288,7 +287,7 @@ def _footprint_model(side=4, resolution=6, level=6):
 def test_pixel_footprints_are_the_pixels_strata():
     """Each footprint normal is on the sphere and projects onto the view's image plane at a
     stratum midpoint of the pixel: the centre's (X, Y) + ((i + ½)/side − ½)·2/R."""
-    from envfit.measure.renderers import VIEWS, sphere_geometry
+    from envfit.renderers import VIEWS, sphere_geometry
     from envfit.predict.renderer import pixel_footprints
     r, side = 16, 3
     n, v, _ = pixel_frames(sphere_geometry(r, "disk"), VIEWS, 50, seed=2)
@@ -396,7 +395,7 @@ def test_footprint_variances_scaled_to_the_pixel_converge_with_the_side():
     midpoints of 2 × 2 strata scaled by J/(J − 1), agree with those of 8 × 8 strata to 5 %;
     unscaled, the 2 × 2 values are 20–30 % low (a function linear across the pixel: 3/4 of
     its variance at 2 × 2 midpoints, 63/64 at 8 × 8)."""
-    from envfit.measure.renderers import VIEWS, sphere_geometry
+    from envfit.renderers import VIEWS, sphere_geometry
     from envfit.predict.renderer import pixel_footprints
     n, v, theta = pixel_frames(sphere_geometry(64, "disk"), VIEWS, 400, seed=3)
     k = int(np.argmin(np.abs(theta - 50.0)))
@@ -417,7 +416,7 @@ def test_compiled_proxies_are_the_frame_loop(kind, renderer, monkeypatch):
     equal the per-frame numpy loop (the conductor's eval and pdf at the pilot table) to 1e-9."""
     import envfit.predict.renderer._microfacet_model as mm
     n, v = band_frames(40, (0, 89), seed=5)
-    m = MicrofacetModel(_sun_map(), preset(renderer), Conductor(kind, 0.1, renderer=renderer),
+    m = MicrofacetModel(_sun_map(), get_renderer(renderer), Conductor(kind, 0.1, renderer=renderer),
                         (n[:2], v[:2]), options=PresetModelOptions(max_level=6))
     fast = m._proxies(n, v)
     monkeypatch.setattr(mm, "compiled_conductor", lambda c: False)
@@ -498,7 +497,7 @@ def test_a_conductor_between_powers_of_two_is_calibrated_and_its_strata_add_up()
     plastic's lobe choice stays at powers of two."""
     env = _sun_map()
     n, v = band_frames(48, (0, 90), seed=1)
-    m = MicrofacetModel(env, preset("cycles"), Conductor("ggx", 0.3), (n, v),
+    m = MicrofacetModel(env, get_renderer("cycles"), Conductor("ggx", 0.3), (n, v),
                         options=PresetModelOptions(max_level=5, shifts=32))
     assert m.between_powers
     r64, r96, r128 = (m.predict("mis", "tabulated_sobol", k).rmse for k in (64, 96, 128))

@@ -12,7 +12,7 @@ from envfit.base import ParameterError
 from envfit.maps import EnvMap
 from envfit.predict.renderer import MicrofacetModel
 from envfit.predict.renderer._preset_model import PresetModelOptions
-from envfit.sampling.presets import preset
+from envfit.renderers import get_renderer
 from envfit.shading.microfacet import Conductor, energy_scale, multiscatter_or_conductor
 from envfit.shading.microfacet._multiscatter import TABLE_SIZE, _column
 
@@ -69,9 +69,9 @@ def test_model_mse_scales_by_the_square_per_frame():
     env = EnvMap((rng.random((16, 32, 3)) * 2 + 0.5).astype(np.float32))
     frame = (np.array([[0.0, 0.0, 1.0]]), np.array([[0.6, 0.0, 0.8]]))
     opts = PresetModelOptions(max_level=5)
-    one = MicrofacetModel(env, preset("cycles"), Conductor("ggx", 0.3, "cycles"), frame,
+    one = MicrofacetModel(env, get_renderer("cycles"), Conductor("ggx", 0.3, "cycles"), frame,
                           options=opts)
-    multi = MicrofacetModel(env, preset("cycles"), multiscatter_or_conductor("multiggx", 0.3,
+    multi = MicrofacetModel(env, get_renderer("cycles"), multiscatter_or_conductor("multiggx", 0.3,
                                                                              "cycles"),
                             frame, options=opts)
     k = float(energy_scale(0.3, 0.8))

@@ -13,7 +13,7 @@ from envfit.maps import EnvMap
 from envfit.predict.renderer import MicrofacetModel, PresetModelOptions, band_frames
 from envfit.predict.renderer._plastic_kernels import (compiled_plastic, plastic_eval_pdf,
                                                       plastic_proxies, plastic_sample)
-from envfit.sampling.presets import preset
+from envfit.renderers import get_renderer
 from envfit.shading.microfacet import Conductor, RoughPlastic
 
 ALPHAS = (0.05, 0.2, 0.6)
@@ -121,7 +121,7 @@ def test_compiled_plastic_covers_roughplastic_only():
 
 def _model(plastic, level=6, frames=6):
     env = EnvMap(np.random.default_rng(0).random((8, 16, 3)) + 0.1)
-    return MicrofacetModel(env, preset("mitsuba3"), plastic, band_frames(frames, seed=1),
+    return MicrofacetModel(env, get_renderer("mitsuba3"), plastic, band_frames(frames, seed=1),
                            options=PresetModelOptions(max_level=level))
 
 

@@ -13,9 +13,9 @@ from envfit.maps import EnvMap
 from envfit.predict.renderer import _preset_integrand as pi
 from envfit.predict.renderer._preset_model import (PresetModel, PresetModelOptions,
                                                    grid_level, samples_above)
-from envfit.sampling.presets import preset
+from envfit.renderers import get_renderer
 
-MITSUBA = preset("mitsuba3")
+MITSUBA = get_renderer("mitsuba3")
 
 
 def _sun_map(h: int = 32, seed: int = 3) -> EnvMap:
@@ -38,7 +38,7 @@ def _normals():
 def test_kernels_repeat_the_techniques_numpy(comp):
     tech = MITSUBA.technique(_sun_map(), mis_compensation=comp)
     u = pi.midpoints(5)
-    d, pdf, rad = pi._mitsuba_map_table(tech, u)
+    d, pdf, rad = tech.sample_table(u)
     s, r2 = tech.sample_radiance(u)
     np.testing.assert_allclose(d, s.directions, atol=1e-12)
     np.testing.assert_allclose(pdf, s.pdf, rtol=1e-12)
@@ -112,7 +112,7 @@ renders = pytest.mark.skipif(importlib.util.find_spec("mitsuba") is None,
 def _inside_rendered(env, cells, preds) -> None:
     """Render each cell with Mitsuba on ``env`` (16-pixel views, references 1024 ldsampler
     spp) and assert its prediction inside [0.8 low, 1.25 high] of the measured interval."""
-    from envfit.measure.renderers import Mitsuba3Options, Mitsuba3Sphere
+    from envfit.renderers import Mitsuba3Options, Mitsuba3Sphere
     opts = Mitsuba3Options(resolution=16, reference_spp=1024, reference_sampler="ldsampler")
     with Mitsuba3Sphere(env, opts) as sphere:
         ref = sphere.reference()

@@ -20,7 +20,7 @@ from envfit.advisor._preset_sizing import (BUDGET, NORMALS, SHIFTS, miss_words, 
 from envfit.maps import EnvMap
 from envfit.predict.renderer._model_error import draws_error, model_error
 from envfit.predict.renderer._preset_model import PresetModel, PresetModelOptions
-from envfit.sampling.presets import preset
+from envfit.renderers import get_renderer
 
 
 def _sunny(h: int = 16, seed: int = 3) -> EnvMap:
@@ -35,7 +35,7 @@ def test_the_scrambles_error_is_the_spread_over_independent_scrambles():
     """Predictions with 40 independent scramble seeds (same normals): the standard deviation
     of the predicted RMSE against the mean reported scrambles' part (a relative error of the
     RMSE, one standard error)."""
-    env, p = _sunny(), preset("cycles")
+    env, p = _sunny(), get_renderer("cycles")
     rmse, reported, technique = [], [], None
     for seed in range(40):
         m = PresetModel(env, p, options=PresetModelOptions(normals=6, pool=64, max_level=4,
@@ -183,7 +183,7 @@ def test_the_normals_error_is_of_the_size_of_the_error_against_the_whole_pool():
         data[i:i + 2, j:j + 2] = 40.0 * rng.random(3)
         got = {}
         for k in (8, 128):
-            m = PresetModel(EnvMap(data, name="sun"), preset("mitsuba3"),
+            m = PresetModel(EnvMap(data, name="sun"), get_renderer("mitsuba3"),
                             options=PresetModelOptions(normals=k, pool=128, max_level=4,
                                                        shifts=16, seed=seed, reach=64))
             got[k] = m.predict("mis", "ldsampler", 16)
@@ -222,7 +222,7 @@ def test_the_strategy_sized_is_the_one_recommended():
     a strategy meeting the target with 10× fewer samples traced per pixel than the default
     (spp × emitter and BSDF samples per spp), or the default meeting it at no spp."""
     from envfit.advisor._preset_search import StrategyAnswer, switched_strategy
-    p = preset("pbrt4")                     # mis: 1 + 1 samples per spp; map, brdf: 1
+    p = get_renderer("pbrt4")                     # mis: 1 + 1 samples per spp; map, brdf: 1
 
     def answers(mis, emitter):
         return {"mis": StrategyAnswer("mis", mis, 0.1, 4096),

@@ -10,9 +10,9 @@ import pytest
 
 from envfit.base import ParameterError
 from envfit.maps import EnvMap
-from envfit.sampling.presets import (PAIRINGS, PRESETS, RANDOMISATIONS, STRATEGY_NAMES,
+from envfit.renderers import (PAIRINGS, RENDERERS, RANDOMISATIONS, STRATEGY_NAMES,
                                      CyclesBackground, cycles_frame, cycles_map_resolution,
-                                     preset)
+                                     get_renderer)
 
 
 def test_resolution_rule():
@@ -153,8 +153,8 @@ S = np.sqrt(0.5)
 
 @pytest.mark.parametrize("name", ["mitsuba3", "pbrt4", "cycles", "envfit"])
 def test_every_preset_is_complete(name):
-    p = preset(name)
-    assert p is PRESETS[name] and p.name == name and p.renderer and p.source
+    p = get_renderer(name)
+    assert p is RENDERERS[name] and p.name == name and p.renderer and p.source
     assert set(p.strategies) == set(STRATEGY_NAMES) and p.heuristic in ("power", "balance")
     for spec in p.samplers.values():
         assert spec.randomisation in RANDOMISATIONS and spec.pairing in PAIRINGS
@@ -183,15 +183,15 @@ def test_every_preset_is_complete(name):
 
 def test_registry_refuses_unknown_names():
     with pytest.raises(ParameterError):
-        preset("maya")
+        get_renderer("maya")
     with pytest.raises(ParameterError):
-        preset("mitsuba3").sampler("halton")
+        get_renderer("mitsuba3").sampler("halton")
     with pytest.raises(ParameterError):
-        preset("cycles").snippet("map")                 # light-only: debug builds only
+        get_renderer("cycles").snippet("map")                 # light-only: debug builds only
     with pytest.raises(ParameterError):
-        preset("mitsuba3").sampler().spp(0)
-    assert preset("cycles").default_sampler == "tabulated_sobol"
-    assert preset("mitsuba3").default_sampler == "independent"
+        get_renderer("mitsuba3").sampler().spp(0)
+    assert get_renderer("cycles").default_sampler == "tabulated_sobol"
+    assert get_renderer("mitsuba3").default_sampler == "independent"
 
 
 @pytest.mark.parametrize("interpolation", ["linear", "closest"])

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from envfit.maps import EnvMap
-from envfit.sampling.presets import (Hierarchical2D, Mitsuba3Envmap, mitsuba_frame, preset)
-from envfit.sampling.presets._base import cosine_hemisphere
+from envfit.renderers import (Hierarchical2D, Mitsuba3Envmap, mitsuba_frame, get_renderer)
+from envfit.renderers._base import cosine_hemisphere
 
 @pytest.fixture(scope="module")
 def mi():
@@ -148,7 +148,7 @@ def test_cosine_map_matches_mitsuba(mi):
     ref_pdf = np.array([mi.warp.square_to_cosine_hemisphere_pdf(mi.Vector3f(*v)) for v in ref])
     np.testing.assert_allclose(ours.directions, ref, atol=2e-6)
     np.testing.assert_allclose(ours.pdf, ref_pdf, rtol=1e-5, atol=2e-6)   # float32 1 − r²
-    assert preset("mitsuba3").cosine is cosine_hemisphere
+    assert get_renderer("mitsuba3").cosine is cosine_hemisphere
 
 
 def test_frame_matches_mitsuba(mi):
@@ -165,7 +165,7 @@ def test_frame_matches_mitsuba(mi):
 @pytest.mark.parametrize("name", ["independent", "stratified", "multijitter", "ldsampler",
                                   "orthogonal"])
 def test_sampler_rounding_matches_mitsuba(mi, name):
-    spec = preset("mitsuba3").sampler(name)
+    spec = get_renderer("mitsuba3").sampler(name)
     for spp in (1, 2, 3, 5, 16, 32, 64, 100, 128, 256, 1000, 1024):
         assert spec.spp(spp) == mi.load_dict({"type": name, "sample_count": spp}).sample_count()
 
@@ -174,7 +174,7 @@ def test_sampler_rounding_matches_mitsuba(mi, name):
 def test_snippets_load_in_mitsuba(mi, tmp_path, strategy):
     path = str(tmp_path / "envmap.exr")
     mi.Bitmap(_sun_map()).write(path)
-    p = preset("mitsuba3")
+    p = get_renderer("mitsuba3")
     setting = p.strategy(strategy)
     for sampler in p.samplers:
         ns: dict = {}

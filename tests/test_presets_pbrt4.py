@@ -11,10 +11,10 @@ import pytest
 
 from envfit.base import ParameterError
 from envfit.maps import EnvMap
-from envfit.sampling.presets import (Pbrt4ImageInfiniteLight, PiecewiseConstant2D,
+from envfit.renderers import (Pbrt4ImageInfiniteLight, PiecewiseConstant2D,
                                      equal_area_sphere_to_square, equal_area_square_to_sphere,
-                                     make_equal_area, pbrt_sphere_frame, preset)
-from envfit.sampling.presets._pbrt4_image import gaussian_filter_offsets
+                                     make_equal_area, pbrt_sphere_frame, get_renderer)
+from envfit.renderers.pbrt4._equal_area import gaussian_filter_offsets
 from oracles.pbrt_equiarea import make_equal_area_numpy
 
 S = np.sqrt(0.5)
@@ -181,7 +181,7 @@ def test_orientation_is_envfit_local_frame():
 
 
 def test_preset_facts():
-    p = preset("pbrt4")
+    p = get_renderer("pbrt4")
     assert p.default_sampler == "zsobol" and p.heuristic == "power"
     assert [p.sampler("zsobol").spp(n) for n in (16, 100, 128, 1000)] == [16, 64, 128, 512]
     assert "xsamples\" [ 8 ] \"integer ysamples\" [ 4 ]" in p.snippet("map", "stratified", 32)

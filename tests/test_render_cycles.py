@@ -1,4 +1,4 @@
-"""The sphere measurement with Blender's Cycles (envfit.measure.renderers._cycles), on tiny
+"""The sphere measurement with Blender's Cycles (envfit.renderers.cycles._render), on tiny
 scenes: 16×16-pixel views, small maps, low spp. Only where ``bpy`` is installed (the
 ``cycles`` extra, not in CI's test extra); slow (each render with world sampling builds
 Cycles' 4096×2048 importance map, ≈ 1 s).
@@ -15,7 +15,7 @@ pytest.importorskip("bpy")
 
 from envfit.base import ParameterError  # noqa: E402
 from envfit.maps import EnvMap, convention, pixel_directions  # noqa: E402
-from envfit.measure.renderers import (VIEWS, CyclesOptions, CyclesSphere,  # noqa: E402
+from envfit.renderers import (VIEWS, CyclesOptions, CyclesSphere,  # noqa: E402
                                       sphere_geometry, view_normals)
 
 pytestmark = pytest.mark.slow
@@ -96,7 +96,7 @@ def test_glossy_sphere_reflects_the_conductors_albedo(kind):
     the disk and per view-angle band: the roughness √α, the height-correlated G2 and Fresnel
     1, against Cycles' own BSDF. Multiscatter GGX (the node's default) conserves energy: its
     pixels are L (envfit's energy scale times the albedo, to 1.5 %), grazing views too."""
-    from envfit.measure.renderers import glossy_bsdf
+    from envfit.renderers import glossy_bsdf
     from envfit.shading.microfacet import multiscatter_or_conductor
     L, alpha = 0.5, 0.3
     g = sphere_geometry(R, "disk")
@@ -129,7 +129,7 @@ def test_principled_metallic_white_renders_the_glossy_image(kind):
     user sets for a rough metal) renders the Glossy BSDF node's image, pixel for pixel, on a
     map with a sun, with BSDF sampling and MIS: its F82-tint Fresnel is 1 and its energy scale
     the node's (``glossy_bsdf``), so the Glossy node's rendered validation holds for it."""
-    from envfit.measure.renderers import glossy_bsdf
+    from envfit.renderers import glossy_bsdf
     rng = np.random.default_rng(4)
     data = 0.2 + 0.3 * rng.random((16, 32, 3))
     data[4, 9] = 300.0

@@ -1,4 +1,4 @@
-"""The sphere measurement of a real renderer's noise (envfit.measure.renderers), checked with
+"""The sphere measurement of a real renderer's noise (envfit.renderers), checked with
 Mitsuba 3 (scalar_rgb) on tiny scenes: 16×16-pixel views, 8×16 and 16×32 maps, low spp.
 
 Independent values: closed-form sphere means; Mitsuba's own AOV normals; Mitsuba's own
@@ -14,7 +14,7 @@ import pytest
 
 from envfit.base import ParameterError
 from envfit.maps import EnvMap
-from envfit.measure.renderers import (VIEWS, Mitsuba3Options, Mitsuba3Sphere, cached_reference,
+from envfit.renderers import (VIEWS, Mitsuba3Options, Mitsuba3Sphere, cached_reference,
                                       sphere_error, sphere_geometry, sphere_mean, view_normals)
 
 R = 16
@@ -46,7 +46,7 @@ def test_weights_integrate_uniform_normals():
 
 def test_normals_match_mitsuba_aov():
     """The normals from the orthographic geometry are Mitsuba's (aov nn:sh_normal)."""
-    from envfit.measure.renderers import mitsuba_normals
+    from envfit.renderers import mitsuba_normals
     g = sphere_geometry(R)
     aov = mitsuba_normals(R, spp=64)
     for k, view in enumerate(VIEWS):
@@ -90,7 +90,7 @@ def _exact_brdf_variance(f) -> float:
 
 def test_mitsuba_function_replica_is_mitsubas():
     """The numpy replica of Mitsuba's lookup used by the exact variance is Mitsuba's own."""
-    from envfit.measure.renderers._mitsuba3 import import_mitsuba
+    from envfit.renderers.mitsuba3._render import import_mitsuba
     mi = import_mitsuba()
     data = np.random.default_rng(3).random((8, 16, 3)).astype(np.float32)
     with Mitsuba3Sphere(EnvMap(data), Mitsuba3Options(resolution=8, reference_spp=4)) as r:
@@ -225,10 +225,10 @@ def test_errors_are_parameter_errors(monkeypatch):
                      sphere_geometry(8))
     import sys
     monkeypatch.setitem(sys.modules, "mitsuba", None)
-    from envfit.measure.renderers._mitsuba3 import import_mitsuba
+    from envfit.renderers.mitsuba3._render import import_mitsuba
     with pytest.raises(ParameterError, match="Mitsuba 3 is not installed"):
         import_mitsuba()
     monkeypatch.setitem(sys.modules, "bpy", None)
-    from envfit.measure.renderers._cycles import import_bpy
+    from envfit.renderers.cycles._render import import_bpy
     with pytest.raises(ParameterError, match="Cycles is not available"):
         import_bpy()

@@ -23,12 +23,12 @@ from envfit.advisor._preset_options import default_level
 from envfit.data_gen import gaussian_process_map
 from envfit.maps import EnvMap, load_envmap, save_envmap
 from envfit.predict.renderer._preset_model import PresetModel, PresetModelOptions
-from envfit.sampling.presets import preset
+from envfit.renderers import get_renderer
 
 RENDERERS = ("envfit", "mitsuba3", "pbrt4", "cycles")
 #: samplers the noise model lacks (refused in one line before the map is read)
 NO_MODEL = {("envfit", "lp"), ("envfit", "sf"), ("envfit", "bnot"), ("pbrt4", "halton")}
-CASES = [(r, s) for r in RENDERERS for s in preset(r).samplers]
+CASES = [(r, s) for r in RENDERERS for s in get_renderer(r).samplers]
 
 
 @pytest.fixture(scope="module")
@@ -60,9 +60,9 @@ def test_sampler_answers_at_its_defaults(renderer, sampler, gp_file, tmp_path, c
     assert rc == 0, err
     lines = [x for x in lines if not x.startswith("note: ")]      # the map's notes first
     rec = d["renderer"]["recommendation"]
-    spec = preset(renderer).sampler(sampler)
+    spec = get_renderer(renderer).sampler(sampler)
     opts = PresetModelOptions(normals=1, max_level=default_level(spec.randomisation))
-    m = PresetModel(load_envmap(gp_file), preset(renderer), options=opts)
+    m = PresetModel(load_envmap(gp_file), get_renderer(renderer), options=opts)
     target, s = rec["target_rmse"], rec["strategy"]
     if rec["reached"]:
         n = rec["spp"]

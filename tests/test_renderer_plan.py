@@ -10,7 +10,7 @@ import pytest
 from envfit.data_gen import gaussian_process_map
 from envfit.maps import EnvMap, load_envmap, save_envmap
 from envfit.predict.renderer._preset_model import PresetModel, PresetModelOptions
-from envfit.sampling.presets import preset
+from envfit.renderers import get_renderer
 
 
 @pytest.fixture(scope="module")
@@ -56,12 +56,12 @@ def test_nmax_beyond_a_32_bit_spp_is_refused_fast(tmp_path, capsys):
 
 def test_spp_searched_are_lazy_and_the_top_of_the_range_is_searched(gp_file, tmp_path, capsys):
     from envfit.advisor._preset_search import coarse_spp, runnable_spp
-    spec = preset("mitsuba3").sampler("independent")
+    spec = get_renderer("mitsuba3").sampler("independent")
     r = runnable_spp(spec, 2 ** 31 - 1)
     assert isinstance(r, range) and len(r) == 2 ** 31 - 1
     assert coarse_spp(r)[:3] == [1, 2, 4] and coarse_spp(r)[-2:] == [2 ** 30, 2 ** 31 - 1]
     # end to end: a target no spp meets, searched to the top of the range in seconds
-    m = PresetModel(load_envmap(gp_file), preset("mitsuba3"),
+    m = PresetModel(load_envmap(gp_file), get_renderer("mitsuba3"),
                     options=PresetModelOptions(normals=1, max_level=7))
     top = m.predict("map", "independent", 2 ** 31 - 1).rmse
     rc, lines, _, d = _run(capsys, tmp_path, gp_file, "--renderer", "mitsuba3", "--strategies",
@@ -221,7 +221,7 @@ def test_independent_sampler_answers_beyond_the_default_nmax_from_its_exact_rate
     """An independent sampler's RMSE is exactly sigma/sqrt(spp) (issue 40): without --nmax its
     answer is searched to the renderer's 32-bit spp, said as such, and equals the closed form
     ceil(sigma^2 / target^2) from the model's 1-spp prediction; with --nmax 65536 it is not."""
-    m = PresetModel(load_envmap(gp_file), preset("mitsuba3"),
+    m = PresetModel(load_envmap(gp_file), get_renderer("mitsuba3"),
                     options=PresetModelOptions(normals=4, max_level=7))
     sigma = m.predict("brdf", "independent", 1).rmse
     target = sigma / 1000.0                               # needs ~10^6 spp

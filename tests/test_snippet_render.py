@@ -18,9 +18,9 @@ import numpy as np
 import pytest
 
 from envfit.maps import EnvMap, save_envmap
-from envfit.measure.renderers._sphere import VIEWS
-from envfit.sampling.presets import preset
-from envfit.sampling.presets._base import SNIPPET_PIXELS, SPHERE_VIEWS
+from envfit.renderers._sphere import VIEWS
+from envfit.renderers import get_renderer
+from envfit.renderers._base import SNIPPET_PIXELS, SPHERE_VIEWS
 
 A = np.array([1.0, 0.8, 0.6])           # the map's mean radiance per channel
 B = 0.5                                 # its gradient along +y
@@ -130,11 +130,11 @@ def test_printed_mitsuba_snippet_renders_the_predicted_shading(linear_file, tmp_
 
 def test_six_views_weighted_give_the_maps_mean_radiance(linear_file):
     """The prediction's average over uniform normals: the six views' kept pixels weighted
-    1/(n.v) (:mod:`envfit.measure.renderers._sphere`) average the shading to a_c; the
+    1/(n.v) (:mod:`envfit.renderers._sphere`) average the shading to a_c; the
     snippet's default film (no --sphere-pixels) is the measurements' 64."""
     mi = pytest.importorskip("mitsuba")
-    from envfit.measure.renderers._sphere import sphere_geometry
-    text = preset("mitsuba3").snippet("brdf", "independent", 16, filename=str(linear_file))
+    from envfit.renderers._sphere import sphere_geometry
+    text = get_renderer("mitsuba3").snippet("brdf", "independent", 16, filename=str(linear_file))
     assert f'"width": {SNIPPET_PIXELS}, "height": {SNIPPET_PIXELS}' in text
     small = text.replace(f'"width": {SNIPPET_PIXELS}, "height": {SNIPPET_PIXELS}',
                          '"width": 32, "height": 32')
@@ -151,7 +151,7 @@ def test_six_views_weighted_give_the_maps_mean_radiance(linear_file):
 def test_xml_snippet_is_the_same_scene(linear_file):
     """The XML form: the same six sensors, film, sampler and white BSDF."""
     mi = pytest.importorskip("mitsuba")
-    text = preset("mitsuba3").snippet("mis", "stratified", 16, filename=str(linear_file),
+    text = get_renderer("mitsuba3").snippet("mis", "stratified", 16, filename=str(linear_file),
                                       form="xml", sphere_pixels=8)
     scene = mi.load_string(text)
     assert len(scene.sensors()) == 6 and list(scene.sensors()[0].film().size()) == [8, 8]
@@ -161,10 +161,10 @@ def test_xml_snippet_is_the_same_scene(linear_file):
 
 
 def test_microfacet_snippet_names_the_view_dependent_average():
-    text = preset("mitsuba3").snippet("mis", "independent", 4, microfacet=("ggx", 0.2))
+    text = get_renderer("mitsuba3").snippet("mis", "independent", 4, microfacet=("ggx", 0.2))
     assert "averaged over uniform" in text and "uniform normals" not in text
     assert '"material": "none"' in text
-    diffuse = preset("mitsuba3").snippet("mis", "independent", 4)
+    diffuse = get_renderer("mitsuba3").snippet("mis", "independent", 4)
     assert '"reflectance": {"type": "rgb", "value": [1.0, 1.0, 1.0]}' in diffuse
     assert "uniform normals" in diffuse
 
@@ -176,7 +176,7 @@ def test_pbrt4_snippet_has_the_camera_film_and_white_material(pixels):
     """pbrt-v4 cannot run here: the text names the orthographic camera of the views (LookAt
     from 3v, screen window [-1, 1]^2), the film the model assumed, the box filter of one
     pixel, the white diffuse material (its default is 0.5), the sphere of radius 1."""
-    text = preset("pbrt4").snippet("mis", "zsobol", 64, filename="m.exr", sphere_pixels=pixels)
+    text = get_renderer("pbrt4").snippet("mis", "zsobol", 64, filename="m.exr", sphere_pixels=pixels)
     n = SNIPPET_PIXELS if pixels is None else pixels
     lines = text.splitlines()
     look = [ln for ln in lines if ln.startswith("LookAt")]

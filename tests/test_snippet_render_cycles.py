@@ -16,8 +16,8 @@ import pytest
 pytest.importorskip("bpy")
 
 from envfit.maps import EnvMap, save_envmap  # noqa: E402
-from envfit.measure.renderers._cycles import _quiet_blender, _read_exr, import_bpy  # noqa: E402
-from envfit.sampling.presets import preset  # noqa: E402
+from envfit.renderers.cycles._render import _quiet_blender, _read_exr, import_bpy  # noqa: E402
+from envfit.renderers import get_renderer  # noqa: E402
 
 from test_snippet_render import (A, expected_views, linear_map,  # noqa: E402
                                  printed_snippet, run_advise)
@@ -68,7 +68,7 @@ def test_brdf_only_snippet_on_a_constant_map_is_exact(tmp_path):
     is the map's value (white, Lambertian: the sample's weight is 1), at 1 spp."""
     bpy = import_bpy()
     path = save_envmap(tmp_path / "c.exr", EnvMap(np.full((8, 16, 3), 0.7, np.float32)))
-    text = preset("cycles").snippet("brdf", "tabulated_sobol", 1, filename=str(path),
+    text = get_renderer("cycles").snippet("brdf", "tabulated_sobol", 1, filename=str(path),
                                     sphere_pixels=8)
     scope: dict = {}
     exec(text, scope)                                           # noqa: S102
@@ -83,5 +83,5 @@ def test_sobol_burley_snippet_sets_it(tmp_path):
     bpy = import_bpy()
     path = save_envmap(tmp_path / "c.exr", EnvMap(np.full((8, 16, 3), 0.7, np.float32)))
     scope: dict = {}
-    exec(preset("cycles").snippet("mis", "sobol_burley", 4, filename=str(path)), scope)  # noqa: S102
+    exec(get_renderer("cycles").snippet("mis", "sobol_burley", 4, filename=str(path)), scope)  # noqa: S102
     assert bpy.context.scene.cycles.sampling_pattern == "SOBOL_BURLEY"

@@ -3,7 +3,7 @@ ldsampler`` — the spp that renderer's sampler must run, with its integrator's 
 an RMSE target, and the scene text to paste.
 
 The prediction is the noise of the renderer's *own* estimator as its preset describes it
-(:mod:`envfit.sampling.presets`: the emitter's density and warp, the cosine BSDF sampling, the
+(:mod:`envfit.renderers`: the emitter's density and warp, the cosine BSDF sampling, the
 MIS heuristic and the samples per spp of its integrator, the sampler's randomisation) on a
 white diffuse surface: the RMSE over uniform normals, RMS over the colour channels, in the
 map's radiance units (:class:`envfit.predict.renderer._preset_model.PresetModel`). The target
@@ -40,8 +40,7 @@ import numpy as np
 from envfit.advisor._cache import AdviseCache
 from envfit.advisor._prediction import mean_shading_value
 from envfit.advisor._preset_options import (DEFAULT_LEVEL, DEFAULT_MAX_SPP, DEFAULT_NORMALS,
-                                            RENDERER_NAMES, SIZED_RANDOMISATIONS,
-                                            STRATEGY_WORDS,
+                                            SIZED_RANDOMISATIONS, STRATEGY_WORDS,
                                             PresetAdviseOptions, spp_cap)
 from envfit.advisor._preset_search import StrategyAnswer, next_runnable, switched_strategy
 from envfit.advisor._preset_sizing import (below_words, model_dict, model_error_lines,
@@ -55,8 +54,8 @@ __all__ = ["PresetAdvice", "advise_preset", "integrator_text"]
 def integrator_text(preset, strategy: str, mis_compensation: bool = False) -> str:
     """``direct (emitter_samples=1, bsdf_samples=1)``: the integrator and its settings.
 
-    >>> from envfit.sampling.presets import preset
-    >>> integrator_text(preset("mitsuba3"), "map")
+    >>> from envfit.renderers import get_renderer
+    >>> integrator_text(get_renderer("mitsuba3"), "map")
     'direct (emitter_samples=1, bsdf_samples=0)'
     """
     s = preset.strategy(strategy)
@@ -98,7 +97,7 @@ class PresetAdvice:
 
     @property
     def display(self) -> str:
-        return RENDERER_NAMES[self.options.renderer]
+        return self.options.preset.display
 
     constant_map: bool = False
 
@@ -432,15 +431,15 @@ def _add_snippet(adv: PresetAdvice, envmap, filename: str) -> None:
     opts = adv.options
     a = adv.default
     adv.snippet_spp = a.spp if a.reached else a.searched_max
-    kw = {"mis_compensation": True} if opts.mis_compensation else {}
-    if opts.microfacet:                 # Mitsuba only (_preset_options refuses the rest)
+    kw = {"sphere_pixels": opts.sphere_pixels, "up": getattr(envmap, "up", "y")}
+    if opts.mis_compensation:
+        kw["mis_compensation"] = True
+    if opts.microfacet:     # a renderer whose snippet writes one (_advise_preset refuses the rest)
         kw["microfacet"] = (opts.bsdf, opts.conductor().alpha)      # (roughplastic, α)
-    if opts.renderer != "envfit":
-        kw["sphere_pixels"] = opts.sphere_pixels
-    if opts.renderer == "pbrt4":
-        kw["up"] = getattr(envmap, "up", "y")
+    takes = opts.preset.snippet_options()
     adv.snippet = opts.preset.snippet(a.strategy, opts.sampler, adv.snippet_spp,
-                                      filename=filename, **kw)
+                                      filename=filename,
+                                      **{k: v for k, v in kw.items() if k in takes})
 
 
 def advise_preset(envmap, opts: PresetAdviseOptions, *, target_rmse: float | None = None,
@@ -458,7 +457,7 @@ def advise_preset(envmap, opts: PresetAdviseOptions, *, target_rmse: float | Non
     target_rmse, target_relative : float, optional
         The target (at most one; default 1 % of the mean radiance).
     snippet : bool
-        Also the scene text for the recommendation (:meth:`RendererPreset.snippet`),
+        Also the scene text for the recommendation (:meth:`Renderer.snippet`),
         reading ``filename``.
     cache, cache_dir
         The advisor's on-disk cache (:class:`~envfit.advisor._cache.AdviseCache`).
@@ -474,10 +473,8 @@ def advise_preset(envmap, opts: PresetAdviseOptions, *, target_rmse: float | Non
     cap = max(a.searched_max for a in answers.values())
     cells = {(s, n): by[s].rmse(s, n) for s in opts.strategies for n in by[s].asked_spp(s)}
     notes = [*opts.notes, *store.notes]
-    if opts.renderer == "cycles" and opts.bsdf == "ggx":
-        notes.append("--brdf ggx is Cycles' single-scatter GGX (a Glossy BSDF set to GGX); the "
-                     "Principled and Glossy BSDF nodes default to Multiscatter GGX: --brdf "
-                     "multiggx")
+    if opts.bsdf in opts.preset.bsdf_notes:
+        notes.append(opts.preset.bsdf_notes[opts.bsdf])
     px = np.asarray(envmap.data).reshape(envmap.height * envmap.width, -1)
     adv = PresetAdvice(opts, target, rel, mean, answers, listed, cells, cap, notes=notes,
                        constant_map=bool(np.all(px == px[0])),

@@ -1,7 +1,7 @@
 r"""What ``envfit advise --renderer NAME`` is asked: :class:`PresetAdviseOptions`, checked in
 one place before any work (one-line :class:`~envfit.base.ParameterError`, the CLI's exit 2).
 
-The renderer's own names throughout: the preset (:func:`envfit.sampling.presets.preset`:
+The renderer's own names throughout: the preset (:func:`envfit.renderers.preset`:
 ``mitsuba3``, ``pbrt4``, ``cycles``, ``envfit``), its sampler (``--sampler``; default the
 preset's default sampler), the strategies it can render (``map`` = emitter sampling only,
 ``brdf`` = BSDF sampling only, ``mis`` = both as its integrator combines them; default every
@@ -45,24 +45,20 @@ import numpy as np
 
 from envfit.base._checks import check_int, check_ints, check_names
 from envfit.base._errors import EnvfitError, ParameterError
-from envfit.defaults import (FOOTPRINT_SIDE, MICROFACET_BSDFS, MICROFACET_FRAMES_SEED,
-                             PLASTIC_SAMPLERS)
+from envfit.defaults import FOOTPRINT_SIDE, MICROFACET_BSDFS, MICROFACET_FRAMES_SEED
 from envfit.maps import EnvMap
 from envfit.predict.renderer._preset_model import PresetModelOptions, preset_request
-from envfit.sampling.presets import STRATEGY_NAMES, preset
-from envfit.shading.microfacet import (RENDERERS, ROUGHNESS_RTOL, RoughPlastic,
+from envfit.renderers import STRATEGY_NAMES, get_renderer
+from envfit.shading.microfacet import (ROUGHNESS_RTOL, RoughPlastic,
                                        multiscatter_or_conductor, roughness_range,
                                        roughness_to_alpha, roughness_words)
 
-__all__ = ["PresetAdviseOptions", "RENDERER_NAMES", "STRATEGY_WORDS", "DEFAULT_MAX_SPP",
+__all__ = ["PresetAdviseOptions", "STRATEGY_WORDS", "DEFAULT_MAX_SPP",
            "MAX_SPP", "DEFAULT_LEVEL", "DEFAULT_LEVEL_V", "DEFAULT_NORMALS", "NET_RANDOMISATIONS",
            "spp_cap", "default_level", "SIZED_RANDOMISATIONS",
            "NORMALS_SIZED_RANDOMISATIONS", "AUTO_LEVEL", "AUTO_SHIFTS",
            "DEFAULT_MODEL_ERROR"]
 
-#: the renderers' names in sentences
-RENDERER_NAMES = {"mitsuba3": "Mitsuba 3", "pbrt4": "pbrt-v4", "cycles": "Cycles",
-                  "envfit": "envfit"}
 #: a strategy in words
 STRATEGY_WORDS = {"mis": "both techniques (MIS)", "map": "emitter sampling only",
                   "brdf": "BSDF sampling only"}
@@ -144,6 +140,27 @@ def _or(names) -> str:
     """``a, b or c``."""
     names = list(names)
     return names[0] if len(names) == 1 else f"{', '.join(names[:-1])} or {names[-1]}"
+
+
+def _check_microfacet(p, bsdf: str, sampler: str) -> None:
+    """One line where renderer ``p`` has no model of the microfacet ``bsdf`` with ``sampler``
+    (:attr:`Renderer.microfacet`): the one renderer and its samplers that have one, or the
+    renderers with any microfacet BSDF."""
+    from envfit.renderers import RENDERERS
+    samplers = p.microfacet.get(bsdf, ())
+    if samplers is None or sampler in samplers:
+        return
+    owners = [r for r in RENDERERS.values() if bsdf in r.microfacet]
+    only = owners[0] if len(owners) == 1 else None
+    if only is not None and only.microfacet[bsdf] is not None:
+        names = only.microfacet[bsdf]
+        raise ParameterError(f"--brdf {bsdf} is {only.possessive} {bsdf}, modelled for its "
+                             f"{', '.join(names)} samplers{only.microfacet_why.get(bsdf, '')}: "
+                             f"--renderer {only.name} --sampler {'|'.join(names)}")
+    if not p.microfacet:
+        raise ParameterError(f"{p.display} has no microfacet conductor preset; use --renderer "
+                             f"{_or(r.name for r in RENDERERS.values() if r.microfacet)}")
+    # else the renderer's BSDF refuses the distribution itself (Conductor, one line)
 
 
 def checked_roughness(roughness, renderer: str) -> float:
@@ -252,15 +269,15 @@ class PresetAdviseOptions:
     sized: bool | None = None
 
     def __post_init__(self) -> None:
-        p = preset(self.renderer)
+        p = get_renderer(self.renderer)
         set_ = object.__setattr__
         set_(self, "_notes", [])
         set_(self, "renderer", p.name)
         set_(self, "sampler", p.sampler(self.sampler).name)
         self._check_bsdf(p)
-        if self.mis_compensation and p.name != "mitsuba3":
+        if self.mis_compensation and not p.mis_compensation:
             raise ParameterError(f"--mis-compensation is a setting of Mitsuba 3's envmap, not "
-                                 f"of {RENDERER_NAMES[p.name]}")
+                                 f"of {p.display}")
         set_(self, "mis_compensation", bool(self.mis_compensation))
         if self.max_spp is None:
             exact = p.sampler(self.sampler).randomisation == "independent"
@@ -345,16 +362,7 @@ class PresetAdviseOptions:
             raise ParameterError(f"with --renderer, --brdf is "
                                  f"{_or(('diffuse',) + MICROFACET_BSDFS)} (the paper's glossy "
                                  f"lobe is no renderer's BSDF); got {self.bsdf!r}")
-        if self.bsdf == "roughplastic" and (p.name != "mitsuba3"
-                                            or self.sampler not in PLASTIC_SAMPLERS):
-            raise ParameterError(f"--brdf roughplastic is Mitsuba 3's roughplastic, modelled "
-                                 f"for its {', '.join(PLASTIC_SAMPLERS)} samplers (orthogonal "
-                                 f"pairs the lobe choice with the direction in an array): "
-                                 f"--renderer mitsuba3 --sampler "
-                                 f"{'|'.join(PLASTIC_SAMPLERS)}")
-        if p.name not in RENDERERS:
-            raise ParameterError(f"{RENDERER_NAMES[p.name]} has no microfacet conductor "
-                                 f"preset; use --renderer mitsuba3, pbrt4 or cycles")
+        _check_microfacet(p, self.bsdf, self.sampler)
         if self.roughness is None:
             raise ParameterError(f"--brdf {self.bsdf} needs --roughness (the renderer's own: "
                                  f"Mitsuba's alpha, pbrt-v4's roughness, Cycles' roughness)")
@@ -422,7 +430,7 @@ class PresetAdviseOptions:
         light = PresetModelOptions(normals=1, pool=1, max_level=1, pilot_level=1)
         spec = p.sampler(self.sampler)
         if spec.randomisation == "cp_shift" and spec.name in _NOT_SOBOL:
-            raise ParameterError(f"no noise model of {RENDERER_NAMES[p.name]}'s {spec.name}: "
+            raise ParameterError(f"no noise model of {p.possessive} {spec.name}: "
                                  f"the model's Cranley-Patterson shift takes Sobol' points; "
                                  f"choose --sampler sobol, random or jitter")
         spp = spec.spp(1)
@@ -431,13 +439,13 @@ class PresetAdviseOptions:
             setting = p.strategy(s)
             why = None
             if not setting.renderable:
-                why = (f"{RENDERER_NAMES[p.name]} cannot render strategy {s!r} "
+                why = (f"{p.display} cannot render strategy {s!r} "
                        f"({STRATEGY_WORDS[s]}): {setting.note.strip()}")
             else:
                 try:
                     preset_request(p, light, s, self.sampler, spp)
                 except EnvfitError as exc:
-                    why = (f"no noise model of {RENDERER_NAMES[p.name]}'s {self.sampler} with "
+                    why = (f"no noise model of {p.possessive} {self.sampler} with "
                            f"strategy {s!r}: {exc}")
             if why is None:
                 ok.append(s)
@@ -459,8 +467,8 @@ class PresetAdviseOptions:
 
     @property
     def preset(self):
-        """The :class:`~envfit.sampling.presets.RendererPreset`."""
-        return preset(self.renderer)
+        """The :class:`~envfit.renderers.Renderer`."""
+        return get_renderer(self.renderer)
 
     @property
     def default_strategy(self) -> str:

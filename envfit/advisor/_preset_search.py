@@ -68,7 +68,7 @@ def model_version() -> str:
     """A digest of the noise model's source (the preset model, its integrands, the
     randomisations, the presets): any change to them makes cached predictions stale."""
     import envfit.predict.renderer as pr
-    import envfit.sampling.presets as ps
+    import envfit.renderers as ps
     root = Path(pr.__file__).parent
     files = [root / "_preset_model.py", root / "_preset_integrand.py",
              root / "_microfacet_model.py", root / "_microfacet_kernels.py",
@@ -200,10 +200,10 @@ def runnable_spp(spec, cap: int):
     else a list (the roundings to squares, powers and products grow fast enough that their
     counts up to the model's caps are small: 2048 squares to 4^11).
 
-    >>> from envfit.sampling.presets import preset
-    >>> runnable_spp(preset("mitsuba3").sampler("ldsampler"), 300)
+    >>> from envfit.renderers import get_renderer
+    >>> runnable_spp(get_renderer("mitsuba3").sampler("ldsampler"), 300)
     [4, 16, 64, 256]
-    >>> runnable_spp(preset("mitsuba3").sampler("independent"), 10 ** 12)
+    >>> runnable_spp(get_renderer("mitsuba3").sampler("independent"), 10 ** 12)
     range(1, 1000000000001)
     """
     cap = int(cap)
@@ -222,9 +222,9 @@ def next_runnable(spec, spp: int, every: bool = False) -> int:
     """The smallest spp above ``spp`` the sampler runs (a power of two for the model's nets;
     a sampler may round a request down, as pbrt-v4's ``zsobol`` does).
 
-    >>> from envfit.sampling.presets import preset
-    >>> next_runnable(preset("pbrt4").sampler("zsobol"), 32), next_runnable(
-    ...     preset("mitsuba3").sampler("ldsampler"), 256)
+    >>> from envfit.renderers import get_renderer
+    >>> next_runnable(get_renderer("pbrt4").sampler("zsobol"), 32), next_runnable(
+    ...     get_renderer("mitsuba3").sampler("ldsampler"), 256)
     (64, 1024)
     """
     net = spec.randomisation in NET_RANDOMISATIONS and not every

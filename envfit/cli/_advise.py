@@ -126,7 +126,7 @@ def _add_renderer_arguments(p) -> None:
     """The renderer rows' options (strategies, point sets, spectra, check axes)."""
     from envfit.advisor._options import MAX_AXES, MAX_SPECTRUM_AXES
     from envfit.sampling._rules import STRATEGIES
-    from envfit.sampling.presets import STRATEGY_NAMES
+    from envfit.renderers import STRATEGY_NAMES
     rg = p.add_argument_group("renderer rows")
     rg.add_argument("--strategies", type=distinct_names, default=None, metavar="brdf,map,mis,split",
                     help=f"renderer strategies to size, among {', '.join(STRATEGIES)}: brdf "

@@ -16,9 +16,6 @@ from envfit.cli._output import CommandOutput
 from envfit.cli._ranges import Ranged, name_words
 from envfit.defaults import MICROFACET_BSDFS
 
-#: the renderers' names in --help (as envfit.advisor._preset_options.RENDERER_NAMES, which
-#: the parser does not import: it loads the noise model)
-_DISPLAY = {"mitsuba3": "Mitsuba 3", "pbrt4": "pbrt-v4", "cycles": "Cycles", "envfit": "envfit"}
 #: the renderer model's ranges of --renderer-level, --renderer-normals and --sphere-pixels
 #: (PresetModelOptions.__post_init__'s; tests/test_advise_options_sweep.py checks both ends)
 _MODEL_RANGES = {"max_level": (1, 11), "normals": (1, 4096), "sphere_pixels": (4, 1 << 16)}
@@ -42,9 +39,9 @@ _GENERIC_ROWS = {"no_renderer": "--no-renderer", "renderer_pointsets": "--render
 def add_preset_arguments(p) -> None:
     """The ``--renderer`` group of ``envfit advise`` (its name lists read from the preset
     registry and :data:`envfit.defaults.MICROFACET_BSDFS`, so that they cannot drift)."""
-    from envfit.sampling.presets import PRESETS
+    from envfit.renderers import RENDERERS
     g = p.add_argument_group("advice in a renderer's terms (--renderer)")
-    g.add_argument("--renderer", default=None, metavar="|".join(PRESETS),
+    g.add_argument("--renderer", default=None, metavar="|".join(RENDERERS),
                    help="answer in this renderer's terms: the spp its sampler must run for the "
                         "target, with its integrator's settings, predicted for its own "
                         "estimator (emitter density and warp, BSDF sampling, MIS, sampler); "
@@ -68,9 +65,9 @@ def add_preset_arguments(p) -> None:
 
 def sampler_help() -> str:
     """``--sampler``'s help: each renderer's samplers from the preset registry."""
-    from envfit.sampling.presets import PRESETS
-    lists = "; ".join(f"{_DISPLAY.get(n, n)}: {name_words(p.samplers, p.default_sampler)}"
-                      for n, p in PRESETS.items())
+    from envfit.renderers import RENDERERS
+    lists = "; ".join(f"{p.display}: {name_words(p.samplers, p.default_sampler)}"
+                      for p in RENDERERS.values())
     return (f"the renderer's sampler by its own name ({lists}); default: the renderer's "
             f"default; one the noise model cannot predict is refused with the reason")
 
@@ -78,9 +75,9 @@ def sampler_help() -> str:
 def roughness_help() -> str:
     """``--roughness``'s help: each renderer's unit and range
     (:func:`envfit.shading.microfacet.roughness_words`)."""
-    from envfit.shading.microfacet import RENDERERS, roughness_words
+    from envfit.shading.microfacet import MICROFACET_RENDERERS, roughness_words
     return (f"with a microfacet --brdf: the renderer's own roughness, in its range ("
-            f"{'; '.join(roughness_words(r) for r in RENDERERS)}; checked with --renderer)")
+            f"{'; '.join(roughness_words(r) for r in MICROFACET_RENDERERS)}; checked with --renderer)")
 
 
 def _add_model_arguments(g) -> None:
@@ -119,13 +116,13 @@ def _add_model_arguments(g) -> None:
 
 def reject_without_renderer(args: argparse.Namespace) -> None:
     """A --renderer option given without --renderer: one line."""
-    from envfit.sampling.presets import PRESETS
-    from envfit.shading.microfacet import RENDERERS
+    from envfit.renderers import RENDERERS
+    from envfit.shading.microfacet import MICROFACET_RENDERERS
     for dest, flag in _PRESET_ONLY.items():
         if getattr(args, dest, None) not in (None, False):
-            raise ParameterError(f"{flag} needs --renderer ({', '.join(PRESETS)})")
+            raise ParameterError(f"{flag} needs --renderer ({', '.join(RENDERERS)})")
     if getattr(args, "brdf", "diffuse") in MICROFACET_BSDFS:
-        raise ParameterError(f"--brdf {args.brdf} needs --renderer ({', '.join(RENDERERS)}): "
+        raise ParameterError(f"--brdf {args.brdf} needs --renderer ({', '.join(MICROFACET_RENDERERS)}): "
                              f"the microfacet model predicts a renderer's own estimator")
 
 
@@ -141,9 +138,9 @@ def _options(args: argparse.Namespace):
         raise ParameterError(f"--renderer predicts a renderer's BSDF: --brdf diffuse, "
                              f"{', '.join(MICROFACET_BSDFS)} (the paper's {args.brdf} lobe is "
                              f"no renderer's BSDF)")
-    if args.brdf in MICROFACET_BSDFS and args.snippet and args.renderer != "mitsuba3":
+    if args.brdf in MICROFACET_BSDFS and args.snippet and not _writes_microfacet(args.renderer):
         raise ParameterError(f"--snippet with --brdf {args.brdf}: the scene text of a rough "
-                             f"conductor is written for Mitsuba 3 only so far")
+                             f"conductor is written for {_or(_microfacet_snippets())} only so far")
     if args.scale != "linear":
         raise ParameterError("--renderer predicts the renderer's noise in radiance: --scale "
                              "must be linear")
@@ -183,26 +180,34 @@ def _rules_lines(rules_adv) -> list[str]:
     return out
 
 
-#: why each renderer's model refuses a signed map (--allow-negative), read from its source
-_NEGATIVE = {
-    "mitsuba3": "Mitsuba 3's envmap looks up the signed radiance but never samples a texel of "
-                "negative luminance (src/emitters/envmap.cpp: rebuild_distribution, "
-                "max(lum - offset, 0)), so its emitter samples miss the negative light",
-    "pbrt4": "pbrt-v4 clamps negative radiance to 0 (src/pbrt/lights.h: "
-             "ImageInfiniteLight::ImageLe, ClampZero) but samples the signed map's |mean RGB| "
-             "(src/pbrt/util/sampling.h: PiecewiseConstant1D takes abs)",
-    "cycles": "Cycles samples the world by |radiance| (src/scene/light.cpp: background_cdf, "
-              "average(fabs(rgb))), and no measurement checks the model of a signed map",
-    "envfit": "envfit's MapSampler samples by luminance with a 1 % floor, and no measurement "
-              "checks the model of a signed map",
-}
+def _microfacet_snippets() -> list[str]:
+    """The renderers whose snippet writes a microfacet BSDF, by their display names."""
+    from envfit.renderers import RENDERERS
+    return [r.display for r in RENDERERS.values() if "microfacet" in r.snippet_options()]
+
+
+def _writes_microfacet(name) -> bool:
+    """Whether renderer ``name``'s snippet writes a microfacet BSDF (unknown: True, the name
+    is refused with the registry's own line)."""
+    from envfit.renderers import RENDERERS
+    rec = RENDERERS.get(str(name).lower())
+    return rec is None or "microfacet" in rec.snippet_options()
+
+
+def _or(names) -> str:
+    """``a, b or c``."""
+    names = list(names)
+    return names[0] if len(names) == 1 else f"{', '.join(names[:-1])} or {names[-1]}"
 
 
 def _reject_negative(args: argparse.Namespace) -> None:
     """--allow-negative with --renderer: one line naming what that renderer does with negative
     radiance (the renderer models are for non-negative maps)."""
     if getattr(args, "allow_negative", False):
-        why = _NEGATIVE.get(args.renderer, "the renderer models are for non-negative maps")
+        from envfit.renderers import RENDERERS
+        rec = RENDERERS.get(str(args.renderer).lower())
+        why = (rec.negative_radiance if rec is not None else
+               "the renderer models are for non-negative maps")
         raise ParameterError(f"--allow-negative with --renderer {args.renderer}: {why}; drop "
                              f"--allow-negative (negative values are then clamped to 0, "
                              f"as noted)")

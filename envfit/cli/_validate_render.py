@@ -69,9 +69,10 @@ def dispatch(args: argparse.Namespace, output: CommandOutput) -> int | None:
     """Check the flags of both parts (one line, exit 2, before any work); with a renderer's
     name run the rendered check and return its exit code, else None (``validate`` goes on)."""
     from envfit.base._errors import ParameterError
-    from envfit.validate._rendered import RENDERERS
-    if args.renderer not in (None, "rules", *RENDERERS):
-        raise ParameterError(f"--renderer takes {' or '.join(RENDERERS)} (or nothing: "
+    from envfit.validate._rendered import rendered_renderers
+    rendered = rendered_renderers()
+    if args.renderer not in (None, "rules", *rendered):
+        raise ParameterError(f"--renderer takes {' or '.join(rendered)} (or nothing: "
                              f"envfit's rules), got {args.renderer!r}")
     check_flags(args)
     return None if args.renderer in (None, "rules") else run(args, output)
@@ -117,10 +118,10 @@ def alpha_of(args: argparse.Namespace) -> float | None:
     from envfit.base._errors import ParameterError
     if args.roughness is None:
         return args.alpha
-    from envfit.shading.microfacet import roughness_to_alpha
+    from envfit.shading.microfacet import ROUGHNESS_RULES, roughness_to_alpha
     alpha = roughness_to_alpha(args.roughness, args.renderer)
     if not ALPHA.inside(alpha):
-        rule = "alpha = R^2" if args.renderer == "cycles" else "alpha = R"
+        rule = ROUGHNESS_RULES[args.renderer]
         raise ParameterError(f"--roughness {args.roughness:g} gives alpha = {alpha:g} for "
                              f"{args.renderer} ({rule}), outside {ALPHA}")
     return alpha
@@ -129,8 +130,8 @@ def alpha_of(args: argparse.Namespace) -> float | None:
 def _check_samplers(args: argparse.Namespace) -> None:
     """``--samplers``: names of the renderer's samplers (one line naming the flag)."""
     from envfit.base._errors import ParameterError
-    from envfit.sampling.presets import preset
-    p = preset(args.renderer)
+    from envfit.renderers import get_renderer
+    p = get_renderer(args.renderer)
     bad = [s for s in (args.samplers or ()) if s not in p.samplers]
     if bad:
         raise ParameterError(f"--samplers for {args.renderer} must be one of "

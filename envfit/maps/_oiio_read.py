@@ -95,10 +95,22 @@ def _display_decoding(spec) -> tuple[str | None, str | None]:
         return None, (f"{bits}-bit file in colour space {cs!r}, which OpenImageIO's colour "
                       "configuration does not know: its values are used as they are (not "
                       "decoded to linear radiance)")
-    if cc.isData(cs) or cc.isColorSpaceLinear(cc.resolve(cs)):
+    if _data_or_linear(cc, cs):
         return None, None
     name = "sRGB" if cc.equivalent(cs, "sRGB") else cs
     return cs, f"decoded {bits}-bit {name} to linear radiance {tail}"
+
+
+def _data_or_linear(cc, cs: str) -> bool:
+    """Whether colour space ``cs`` holds data or linear values (kept as they are):
+    ``ColorConfig.isData`` / ``isColorSpaceLinear`` where OpenImageIO has them (3.1+); on
+    3.0, which lacks both, ``cs`` equivalent to the configuration's data, linear or
+    scene-linear space."""
+    is_data = getattr(cc, "isData", None)
+    is_linear = getattr(cc, "isColorSpaceLinear", None)
+    if is_data is not None and is_linear is not None:
+        return bool(is_data(cs) or is_linear(cc.resolve(cs)))
+    return any(cc.equivalent(cs, ref) for ref in ("data", "linear", "scene_linear"))
 
 
 def _decode_to_linear(pixels: np.ndarray, spec, space: str, p: Path) -> np.ndarray:

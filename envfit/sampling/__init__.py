@@ -1,7 +1,7 @@
 r"""How a renderer draws: the map sampler (pdf ∝ luminance × solid angle) and its compiled warp,
 BRDF sampling and MIS, the bright-source split, the sampling techniques' second-moment
-proxies, and renderer rules (strategy, point set, N). The renderer presets (Mitsuba 3, pbrt-v4,
-Cycles, envfit) are the sub-package :mod:`envfit.sampling.presets`.
+proxies, and renderer rules (strategy, point set, N). The renderers (Mitsuba 3, pbrt-v4,
+Cycles, envfit) are the package :mod:`envfit.renderers`, one folder each.
 
 Modules:
 

@@ -1,5 +1,5 @@
 r"""``envfit validate MAP --renderer mitsuba3|cycles``: the renderer itself renders the sphere of
-:mod:`envfit.measure.renderers`, and its measured error is set beside the renderer preset's
+:mod:`envfit.renderers`, and its measured error is set beside the renderer preset's
 prediction, cell by cell (sampler × strategy × spp) — the check a renderer engineer runs
 before trusting an ``advise`` answer for their renderer.
 
@@ -18,7 +18,7 @@ The steps (:func:`render_validation`):
    ``reference_spp`` (cached with ``cache_dir``).
 3. **Each cell** (:func:`measure_cell`): the RMSE over the kept pixels against the
    reference, its own variance subtracted, with a bootstrap 95 % interval over pixels
-   (:func:`envfit.measure.renderers.sphere_error`); for a conductor also per view-angle band
+   (:func:`envfit.renderers.sphere_error`); for a conductor also per view-angle band
    (θ_o in 0–30°, 30–60°, 60–80°). A cell is **inside** when the prediction lies in
    [0.8 × low, 1.25 × high] (the acceptance of the real-renderer issues).
 
@@ -36,21 +36,28 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from envfit.base import ParameterError
-from envfit.defaults import PLASTIC_SAMPLERS
 
 __all__ = ["RenderValidationOptions", "RenderValidation", "render_validation", "measure_cell",
-           "is_inside", "summary_lines", "RENDERED_BRDFS", "RENDERERS"]
+           "is_inside", "summary_lines", "RENDERED_BRDFS", "rendered_renderers"]
 
-#: the renderers ``validate`` renders with, and their samplers rendered by default
-RENDERERS = {"mitsuba3": ("independent", "ldsampler"),
-             "cycles": ("tabulated_sobol", "blue_noise")}
 #: the BSDFs of the sphere: white diffuse, a white rough conductor (Fresnel 1), or Mitsuba's
 #: rough plastic (GGX coat, its defaults: η = 1.49, diffuse reflectance 0.5)
 RENDERED_BRDFS = ("diffuse", "ggx", "beckmann", "roughplastic", "multiggx")
+#: a BSDF in the refusals' words
+_BSDF_WORDS = {"multiggx": "Multiscatter GGX (the Principled and Glossy BSDF nodes' default)"}
+_BSDF_NOUNS = {"roughplastic": "rough plastic", "ggx": "GGX conductor",
+               "beckmann": "Beckmann conductor", "multiggx": "Multiscatter GGX conductor"}
 #: θ_o bands of a conductor's check (degrees)
 BAND_EDGES = ((0.0, 30.0), (30.0, 60.0), (60.0, 80.0))
 #: the model's frames by default: a microfacet BSDF's (normal, view), the diffuse normals
 MICROFACET_FRAMES, DIFFUSE_FRAMES = 256, 64
+
+
+def rendered_renderers() -> dict:
+    """The renderers ``validate`` renders with (those with a harness), each → its samplers
+    rendered by default (:attr:`~envfit.renderers.Renderer.render_samplers`)."""
+    from envfit.renderers import RENDERERS
+    return {n: r.render_samplers for n, r in RENDERERS.items() if r.render_samplers}
 
 
 def is_inside(predicted: float, low: float, high: float) -> bool:
@@ -75,7 +82,7 @@ class RenderValidationOptions:
 
     Attributes
     ----------
-    renderer : ``"mitsuba3"`` or ``"cycles"`` (:data:`RENDERERS`).
+    renderer : a renderer with a harness (:func:`rendered_renderers`: ``"mitsuba3"``, ``"cycles"``).
     brdf : ``"diffuse"``, ``"ggx"`` or ``"beckmann"`` (a white conductor; needs ``alpha``), or
         ``"roughplastic"`` (Mitsuba 3 only: its ``roughplastic`` with a GGX coat of ``alpha``;
         modelled under the samplers of :data:`envfit.defaults.PLASTIC_SAMPLERS`).
@@ -113,9 +120,10 @@ class RenderValidationOptions:
     cache_dir: str | None = None
 
     def __post_init__(self):
-        from envfit.sampling.presets import preset
-        if self.renderer not in RENDERERS:
-            raise ParameterError(f"validate renders with {' or '.join(RENDERERS)}; got "
+        from envfit.renderers import RENDERERS, get_renderer
+        rendered = rendered_renderers()
+        if self.renderer not in rendered:
+            raise ParameterError(f"validate renders with {' or '.join(rendered)}; got "
                                  f"{self.renderer!r}")
         if self.brdf not in RENDERED_BRDFS:
             raise ParameterError(f"--brdf with --renderer {self.renderer} must be one of "
@@ -123,22 +131,21 @@ class RenderValidationOptions:
         if (self.brdf == "diffuse") != (self.alpha is None):
             raise ParameterError("--roughness goes with --brdf ggx, beckmann or roughplastic, as "
                                  "--alpha does (and they need one of the two)")
-        if self.brdf == "roughplastic" and self.renderer != "mitsuba3":
-            raise ParameterError("--brdf roughplastic is Mitsuba 3's roughplastic: "
-                                 "--renderer mitsuba3")
-        if self.brdf == "multiggx" and self.renderer != "cycles":
-            raise ParameterError("--brdf multiggx is Cycles' Multiscatter GGX (the Principled "
-                                 "and Glossy BSDF nodes' default): --renderer cycles")
-        p = preset(self.renderer)
-        samplers = tuple(self.samplers) or RENDERERS[self.renderer]
+        p = get_renderer(self.renderer)
+        owners = [r for r in RENDERERS.values() if self.brdf in r.microfacet]
+        if self.microfacet and self.brdf not in p.microfacet and len(owners) == 1:
+            raise ParameterError(f"--brdf {self.brdf} is {owners[0].possessive} "
+                                 f"{_BSDF_WORDS.get(self.brdf, self.brdf)}: --renderer "
+                                 f"{owners[0].name}")
+        samplers = tuple(self.samplers) or rendered[self.renderer]
         for s in samplers:
             p.sampler(s)
-        odd = [s for s in samplers if s not in PLASTIC_SAMPLERS]
-        if self.brdf == "roughplastic" and odd:
-            raise ParameterError(f"the rough plastic is modelled for Mitsuba's "
-                                 f"{', '.join(PLASTIC_SAMPLERS)} samplers (orthogonal pairs "
-                                 f"its lobe choice with the direction in an array); got "
-                                 f"{odd[0]}")
+        modelled = p.microfacet.get(self.brdf) if self.microfacet else None
+        odd = [s for s in samplers if modelled is not None and s not in modelled]
+        if odd:
+            raise ParameterError(f"the {_BSDF_NOUNS.get(self.brdf, self.brdf)} is modelled "
+                                 f"for {p.possessive} {', '.join(modelled)} samplers"
+                                 f"{p.microfacet_why.get(self.brdf, '')}; got {odd[0]}")
         renderable = tuple(s for s in ("brdf", "map", "mis") if p.strategy(s).renderable)
         strategies = tuple(self.strategies) or renderable
         bad = [s for s in strategies if s not in renderable]
@@ -170,8 +177,8 @@ class RenderValidationOptions:
 
     def planned(self) -> list:
         """(strategy, sampler, spp the renderer takes) of every cell: the model's plan."""
-        from envfit.sampling.presets import preset
-        p = preset(self.renderer)
+        from envfit.renderers import get_renderer
+        p = get_renderer(self.renderer)
         return [(st, s, int(p.sampler(s).rounding(n))) for s, st, n in self.cells]
 
 
@@ -224,24 +231,22 @@ class RenderValidation:
 
 
 def check_renderer(renderer: str) -> str:
-    """The renderer's version; one-line :class:`ParameterError` when it is not installed."""
-    if renderer == "mitsuba3":
-        from envfit.measure.renderers._mitsuba3 import VARIANT, import_mitsuba
-        return f"Mitsuba {import_mitsuba().__version__} ({VARIANT})"
-    from envfit.measure.renderers._cycles import import_bpy
-    return f"Blender {'.'.join(str(v) for v in import_bpy().app.version)} (Cycles, CPU)"
+    """The renderer's version (its harness's ``version()``); one-line
+    :class:`ParameterError` when it is not installed."""
+    from envfit.renderers import get_renderer
+    return get_renderer(renderer).harness_module().version()
 
 
 def _model(envmap, options: RenderValidationOptions):
     """The preset's noise model of the map as the renderer reads its file (step 1)."""
     from envfit.maps import EnvMap
-    from envfit.measure.renderers import VIEWS, sphere_geometry
+    from envfit.renderers import VIEWS, sphere_geometry
     from envfit.predict.renderer import (MicrofacetModel, PresetModel, PresetModelOptions,
                                          pixel_footprints, pixel_frames)
-    from envfit.sampling.presets import preset
+    from envfit.renderers import get_renderer
     from envfit.shading.microfacet import RoughPlastic, multiscatter_or_conductor
     env = EnvMap(envmap.data, up="y", name=envmap.name)
-    p, level = preset(options.renderer), options.max_level
+    p, level = get_renderer(options.renderer), options.max_level
     if not options.microfacet:
         return PresetModel(env, p, {}, PresetModelOptions(
             normals=options.frames, max_level=level, footprint_side=options.footprint,
@@ -258,25 +263,21 @@ def _model(envmap, options: RenderValidationOptions):
 
 
 def _session(envmap, options: RenderValidationOptions):
-    """The renderer's sphere with the options' BSDF (step 2)."""
-    from envfit.measure import renderers as mr
-    common = dict(resolution=options.resolution, reference_spp=options.reference_spp,
-                  cache_dir=options.cache_dir)
-    if options.renderer == "cycles":
-        bsdf = mr.glossy_bsdf(options.brdf, options.alpha) if options.microfacet else None
-        return mr.CyclesSphere(envmap, mr.CyclesOptions(**common, bsdf=bsdf))
-    bsdf = (None if not options.microfacet else
-            mr.roughplastic_bsdf("ggx", options.alpha) if options.brdf == "roughplastic" else
-            mr.roughconductor_bsdf(options.brdf, options.alpha))
-    return mr.Mitsuba3Sphere(envmap, mr.Mitsuba3Options(**common, bsdf=bsdf,
-                                                        reference_sampler="ldsampler"))
+    """The renderer's sphere with the options' BSDF (step 2): its harness's
+    ``open_sphere``."""
+    from envfit.renderers import get_renderer
+    harness = get_renderer(options.renderer).harness_module()
+    return harness.open_sphere(envmap, options.brdf if options.microfacet else None,
+                               options.alpha, resolution=options.resolution,
+                               reference_spp=options.reference_spp,
+                               cache_dir=options.cache_dir)
 
 
 def measure_cell(sphere, reference, model, cell, rng, geometry) -> dict:
     """One rendered cell (step 3): render ``cell`` = (sampler, strategy, spp) with
     ``sphere``, measure it over ``geometry``'s kept pixels against ``reference`` and, where
     ``model`` predicts bands (a conductor), per view-angle band."""
-    from envfit.measure.renderers import sphere_error
+    from envfit.renderers import sphere_error
     sampler, strategy, spp = cell
     t = time.perf_counter()
     images, _ = sphere.render(strategy, sampler, spp, rng)
@@ -314,7 +315,7 @@ def render_validation(envmap, options: RenderValidationOptions, *, progress=None
     finished cell's row (e.g. to write it). The renderer is imported first: a missing one
     is a one-line :class:`ParameterError` before any work.
     """
-    from envfit.measure.renderers import sphere_geometry
+    from envfit.renderers import sphere_geometry
     result = RenderValidation(envmap.name or "map", options,
                               renderer_version=check_renderer(options.renderer))
     step = progress or (lambda name: None)
@@ -339,9 +340,6 @@ def render_validation(envmap, options: RenderValidationOptions, *, progress=None
     return result
 
 
-_NAMES = {"mitsuba3": "Mitsuba 3", "cycles": "Cycles"}
-
-
 def summary_lines(result: RenderValidation) -> list[str]:
     """The printed answer: what was rendered, the share of cells inside and the median
     ratio, one line per cell, then per view-angle band (a conductor)."""
@@ -351,7 +349,8 @@ def summary_lines(result: RenderValidation) -> list[str]:
             if o.brdf == "roughplastic" else
             f"white {'GGX' if o.brdf == 'ggx' else 'Beckmann'} conductor, alpha {o.alpha:g}")
     n = len(result.rows)
-    lines = [f"{result.renderer_version or _NAMES[o.renderer]} rendered the sphere ({bsdf}): "
+    from envfit.renderers import get_renderer
+    lines = [f"{result.renderer_version or get_renderer(o.renderer).display} rendered the sphere ({bsdf}): "
              f"6 views of {o.resolution}x{o.resolution} pixels, reference 2 x "
              f"{o.reference_spp} spp",
              f"{result.inside} of {n} cells inside [0.8 x low, 1.25 x high] of the measured "

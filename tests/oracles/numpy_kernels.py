@@ -59,7 +59,7 @@ def bsdf_lookup_numpy(technique, local: np.ndarray, frame: np.ndarray, fe: float
     """A preset technique's ``bsdf_lookup`` by its numpy methods: the radiance ``eval`` at
     ``local @ frame`` and the BSDF sample's ``power_heuristic(cos/π, pdf, fb, fe)`` (1 where
     ``fe`` is 0)."""
-    from envfit.sampling.presets._base import power_heuristic
+    from envfit.renderers._base import power_heuristic
     d = local @ frame
     w = (power_heuristic(local[:, 2] / np.pi, technique.pdf(d), fb, fe) if fe > 0
          else np.ones(len(local)))

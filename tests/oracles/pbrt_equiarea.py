@@ -1,13 +1,13 @@
 """A numpy reference of pbrt-v4's ``imgtool makeequiarea`` (the array form of
-:func:`envfit.sampling.presets._pbrt4_image.make_equal_area`'s compiled loop): the same
+:func:`envfit.renderers.pbrt4._equal_area.make_equal_area`'s compiled loop): the same
 arithmetic in vectorised blocks. tests/test_presets_pbrt4.py checks the kernel against it."""
 from __future__ import annotations
 
 import numpy as np
 
-from envfit.sampling.presets import equal_area_square_to_sphere, wrap_equal_area_square
-from envfit.sampling.presets._base import map_rgb
-from envfit.sampling.presets._pbrt4_image import gaussian_filter_offsets
+from envfit.renderers import equal_area_square_to_sphere, wrap_equal_area_square
+from envfit.renderers._base import map_rgb
+from envfit.renderers.pbrt4._equal_area import gaussian_filter_offsets
 
 __all__ = ["make_equal_area_numpy"]
 

@@ -53,10 +53,10 @@ def _unit(v: np.ndarray) -> np.ndarray:
 
 
 def _view_basis(views: np.ndarray):
-    """(right, up) per view axis: those of :data:`envfit.measure.renderers.VIEWS` where the
+    """(right, up) per view axis: those of :data:`envfit.renderers.VIEWS` where the
     axis is one of theirs, else up = the unit part of z (or x) orthogonal to the axis and
     right = up × axis."""
-    from envfit.measure.renderers import VIEWS
+    from envfit.renderers import VIEWS
     axes = np.array([view.axis for view in VIEWS], dtype=np.float64)
     which = np.argmax(views @ axes.T, axis=1)
     known = np.all(np.abs(axes[which] - views) < 1e-9, axis=1)
@@ -71,13 +71,13 @@ def _view_basis(views: np.ndarray):
 def pixel_footprints(normals, views, resolution: int, side: int = 2) -> np.ndarray:
     r"""The normals (K, side², 3) at side × side stratum midpoints of each frame's pixel: the
     pixel of an orthographic view of the unit sphere R pixels across (the image plane spans
-    [-1, 1]², pixel side h = 2/R; :mod:`envfit.measure.renderers` renders R × R views) whose
+    [-1, 1]², pixel side h = 2/R; :mod:`envfit.renderers` renders R × R views) whose
     centre shows ``normals[k]`` from the view axis ``views[k]`` (the pixel's axes those of
-    :data:`envfit.measure.renderers.VIEWS` for their axes, else :func:`_view_basis`). A
+    :data:`envfit.renderers.VIEWS` for their axes, else :func:`_view_basis`). A
     sub-position (X + δx, Y + δy) shows the normal X'r + Y'u + √(1 − X'² − Y'²) v; off the disk
     it is pulled onto the rim.
 
-    >>> from envfit.measure.renderers import VIEWS, sphere_geometry
+    >>> from envfit.renderers import VIEWS, sphere_geometry
     >>> from envfit.predict.renderer import pixel_frames
     >>> n, v, _ = pixel_frames(sphere_geometry(16), VIEWS, 8, seed=0)
     >>> f = pixel_footprints(n, v, 16, side=2)
@@ -107,9 +107,9 @@ def pixel_footprints(normals, views, resolution: int, side: int = 2) -> np.ndarr
 
 
 def nearest_views(normals) -> np.ndarray:
-    """The axis of the :data:`envfit.measure.renderers.VIEWS` view nearest each normal (K, 3):
+    """The axis of the :data:`envfit.renderers.VIEWS` view nearest each normal (K, 3):
     the view that keeps it in the sphere renders' ``cube`` layout."""
-    from envfit.measure.renderers import VIEWS
+    from envfit.renderers import VIEWS
     axes = np.array([view.axis for view in VIEWS], dtype=np.float64)
     n = _unit(np.asarray(normals, dtype=np.float64).reshape(-1, 3))
     return axes[np.argmax(n @ axes.T, axis=1)]

@@ -45,11 +45,11 @@ def band_frames(count: int, theta_range=(0.0, 90.0), *, seed=0):
 
 def pixel_frames(geometry, views, count: int, *, seed=0):
     r"""``count`` frames drawn from the kept pixels of the sphere renders (``geometry`` from
-    :func:`envfit.measure.renderers.sphere_geometry`, ``views`` their :data:`VIEWS`): the
+    :func:`envfit.renderers.sphere_geometry`, ``views`` their :data:`VIEWS`): the
     pixel's normal and its view axis, drawn with probability ∝ the RMSE's pixel weight 1/z
     (systematic sampling, a random start from ``seed``), so the plain mean over the frames
     estimates the measurement's weighted mean. Returns (normals, views, θ_o in degrees)."""
-    from envfit.measure.renderers import view_normals
+    from envfit.renderers import view_normals
     ns, vs, ws = [], [], []
     for view in views:
         n = view_normals(view, geometry)[geometry.keep]

@@ -8,9 +8,6 @@ arithmetic as its numpy reference, which the tests compare it with:
 * :func:`conductor_proxies` — the same at a map table's directions for many frames at once,
   reduced to each frame's emitter and visible-normal sampling variances (the frames'
   importance proxies);
-* :func:`mitsuba_eval_pdf` — Mitsuba 3 ``envmap``'s radiance and emitter pdf at world
-  directions (``Mitsuba3Envmap.eval`` and ``pdf``, through the diffuse model's
-  ``_mitsuba_eval``);
 * :func:`accumulate_parts` — the five parts of one normal (map, brdf and MIS's weighted
   parts) added to the frame's sums in one pass.
 
@@ -26,9 +23,7 @@ import math
 import numba
 import numpy as np
 
-from envfit.predict.renderer._preset_integrand import _mitsuba_eval
-
-__all__ = ["conductor_eval_pdf", "conductor_proxies", "mitsuba_eval_pdf", "compiled_conductor"]
+__all__ = ["conductor_eval_pdf", "conductor_proxies", "compiled_conductor"]
 
 _KINDS = {"ggx": 0, "beckmann": 1}
 
@@ -157,7 +152,7 @@ def conductor_proxies(conductor, wis, frames, dirs, base, pdf) -> np.ndarray:
     d = conductor.distribution
     table = np.ascontiguousarray(np.column_stack([np.pi * base, pdf]), dtype=np.float64)
     out = np.zeros((len(wis), 2))
-    consts = np.array([d.alpha, _KINDS[d.kind], conductor.renderer == "mitsuba3"], float)
+    consts = np.array([d.alpha, _KINDS[d.kind], conductor.separable_g], float)
     _proxies(np.ascontiguousarray(wis, dtype=np.float64),
              np.ascontiguousarray(frames, dtype=np.float64),
              np.ascontiguousarray(dirs, dtype=np.float64), table, consts, out)
@@ -178,46 +173,8 @@ def conductor_eval_pdf(conductor, wi, dirs, rows=None) -> tuple[np.ndarray, np.n
     rows = np.eye(3) if rows is None else np.ascontiguousarray(rows, dtype=np.float64)
     _eval_pdf(np.ascontiguousarray(wi, dtype=np.float64),
               np.ascontiguousarray(dirs, dtype=np.float64), rows, float(d.alpha),
-              _KINDS[d.kind], conductor.renderer == "mitsuba3", out.T)
+              _KINDS[d.kind], conductor.separable_g, out.T)
     return out[0], out[1]
-
-
-@numba.njit(cache=True, parallel=True)
-def _mitsuba_dirs(dirs, frame, to_native, rgb, warp, skip, rad, pdf):  # pragma: no cover - numba
-    m = np.empty((3, 3))                    # local -> native: frame (rows t, b, n) @ to_native
-    for i in range(3):
-        for k in range(3):
-            m[i, k] = frame[i, 0] * to_native[0, k] + frame[i, 1] * to_native[1, k] + frame[i, 2] * to_native[2, k]
-    for p in numba.prange(dirs.shape[0]):
-        if skip.shape[0] > 0 and skip[p] <= 0.0:
-            rad[p, 0], rad[p, 1], rad[p, 2], pdf[p] = 0.0, 0.0, 0.0, 0.0
-            continue
-        x = dirs[p, 0] * m[0, 0] + dirs[p, 1] * m[1, 0] + dirs[p, 2] * m[2, 0]
-        y = dirs[p, 0] * m[0, 1] + dirs[p, 1] * m[1, 1] + dirs[p, 2] * m[2, 1]
-        z = dirs[p, 0] * m[0, 2] + dirs[p, 1] * m[1, 2] + dirs[p, 2] * m[2, 2]
-        nrm = math.sqrt(x * x + y * y + z * z)
-        pdf[p] = _mitsuba_eval(x / nrm, y / nrm, z / nrm, rgb, 1.0, warp, rad, p)
-
-
-def mitsuba_eval_pdf(technique, dirs, rows=None, skip=None,
-                     rgb=None) -> tuple[np.ndarray, np.ndarray]:
-    """(radiance (P, 3), emitter pdf (P,)) of a ``Mitsuba3Envmap`` at directions ``dirs``:
-    world, or local with ``rows`` the local frame's axes as rows (world = ``dirs @ rows``);
-    0 and 0 where ``skip`` (P,) is ≤ 0 (a BSDF sample of weight 0). ``rgb``: the technique's
-    texels times its scale, when the caller keeps them (:func:`scaled_texels`)."""
-    rad, pdf = np.empty((len(dirs), 3)), np.empty(len(dirs))
-    rows = np.eye(3) if rows is None else np.ascontiguousarray(rows, dtype=np.float64)
-    skip = np.zeros(0) if skip is None else np.ascontiguousarray(skip, dtype=np.float64)
-    _mitsuba_dirs(np.ascontiguousarray(dirs, dtype=np.float64), rows,
-                  np.ascontiguousarray(technique.native_to_world),
-                  scaled_texels(technique) if rgb is None else rgb, technique.warp.data, skip,
-                  rad, pdf)
-    return rad, pdf
-
-
-def scaled_texels(technique) -> np.ndarray:
-    """A ``Mitsuba3Envmap``'s texels times its scale (what :func:`mitsuba_eval_pdf` reads)."""
-    return np.ascontiguousarray(technique.rgb * float(technique.scale))
 
 
 # Parts, in the order of the accumulator's first axis (the diffuse model's names).
@@ -266,7 +223,7 @@ def accumulate_parts(acc, map_side, bsdf_side, fractions, heuristic) -> np.ndarr
     table's directions: map part :math:`h_e = \pi\,f\cos\cdot` base; ``bsdf_side`` =
     (radiance (P, 3), weight (P,), conductor pdf (P,), map pdf (P,)) at the BSDF table's
     samples: :math:`h_b` = radiance · weight; either None. The MIS parts weight each by the
-    preset's ``heuristic`` with the sample ``fractions`` (``RendererPreset.mis_weights``),
+    preset's ``heuristic`` with the sample ``fractions`` (``Renderer.mis_weights``),
     and ``mis_t`` is their sum — the diffuse model's ``_part_values``, fused.
     """
     def packed(side):

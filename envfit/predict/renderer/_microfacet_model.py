@@ -21,7 +21,7 @@ is predicted here too.
 
 The average over frames is a weighted mean of the per-frame MSE: the frames and weights are
 the caller's — the pixels of a render (:func:`~envfit.predict.renderer.pixel_frames`: the kept pixels of
-:mod:`envfit.measure.renderers`' six views, weighted as its RMSE weights them), or frames
+:mod:`envfit.renderers`' six views, weighted as its RMSE weights them), or frames
 with the view at a polar angle θ_o in a band and the map's orientation uniform
 (:func:`~envfit.predict.renderer.band_frames`: θ_o with density ∝ cos θ_o sin θ_o, what an orthographic camera sees of
 a sphere).
@@ -46,15 +46,14 @@ import numpy as np
 from envfit.base import ParameterError
 from envfit.predict.renderer._microfacet_kernels import (compiled_conductor,
                                                         conductor_eval_pdf, conductor_proxies,
-                                                        mitsuba_eval_pdf,
-                                                        PARTS, accumulate_parts, scaled_texels)
+                                                        PARTS, accumulate_parts)
 from envfit.predict.renderer._vndf_kernels import compiled_sampling, conductor_sample
 from envfit.predict.renderer._plastic_kernels import (compiled_plastic, plastic_eval_pdf,
                                                       plastic_proxies, plastic_sample)
 from envfit.predict.renderer._bands import BANDS, STRATA, band_key, band_spread, in_stratum
 from envfit.predict.renderer._footprint import _unit, with_variances
 from envfit.predict.renderer._lobe_parts import LobeChoice
-from envfit.predict.renderer._preset_integrand import MapTable, _is_mitsuba
+from envfit.predict.renderer._preset_integrand import MapTable
 from envfit.predict.renderer.randomisation import STRATIFIED_1D
 from envfit.predict.renderer._preset_model import (PresetModel, PresetModelOptions,
                                                    samples_above, systematic_indices)
@@ -75,8 +74,8 @@ class MicrofacetModel(LobeChoice, PresetModel):
     ----------
     envmap : EnvMap
         The map, its pixels as the renderer reads the file.
-    preset : RendererPreset
-        From :func:`envfit.sampling.presets.preset` (its technique, tangent frame, MIS
+    preset : Renderer
+        From :func:`envfit.renderers.preset` (its technique, tangent frame, MIS
         heuristic, samplers).
     conductor : envfit.shading.microfacet.Conductor or RoughPlastic
         The BSDF as the same renderer shades and samples it (a rough plastic's BSDF sampling,
@@ -105,11 +104,11 @@ class MicrofacetModel(LobeChoice, PresetModel):
     --------
     >>> import numpy as np
     >>> from envfit.maps import EnvMap
-    >>> from envfit.sampling.presets import preset
+    >>> from envfit.renderers import get_renderer
     >>> from envfit.shading.microfacet import Conductor
     >>> from envfit.predict.renderer import band_frames
     >>> env = EnvMap(np.full((8, 16, 3), 2.0))
-    >>> m = MicrofacetModel(env, preset("mitsuba3"), Conductor("ggx", 0.3),
+    >>> m = MicrofacetModel(env, get_renderer("mitsuba3"), Conductor("ggx", 0.3),
     ...                     band_frames(4, seed=0), options=PresetModelOptions(max_level=4))
     >>> round(m.predict("brdf", "independent", 16).rmse, 6) > 0    # G1 varies with m
     True
@@ -151,7 +150,6 @@ class MicrofacetModel(LobeChoice, PresetModel):
         self._cache: dict = {}
         self._bands: dict = {}
         self._band_errors: dict = {}
-        self._texels = None
         self.seconds = 0.0
 
     def _select(self, normals, views, w, count: int):
@@ -275,7 +273,7 @@ class MicrofacetModel(LobeChoice, PresetModel):
                 self._band_errors[self._banded(self.request(strategy, sampler, spp))].items()}
 
     def _banded(self, r):
-        """``r``, its strata made first if it lies between powers of two (no pass makes
+        r"""``r``, its strata made first if it lies between powers of two (no pass makes
         them): each stratum's share of the whole MSE interpolated between the two exact
         powers of two 2^m < N < 2^(m+1), :math:`(1-t)s(2^m) + t\,s(2^{m+1})` with
         :math:`t = \log_2 N - m`, times the whole's calibrated MSE (:mod:`._sampled_nets`);
@@ -326,14 +324,10 @@ class MicrofacetModel(LobeChoice, PresetModel):
         return self._tables[key]
 
     def _technique_values(self, local: np.ndarray, rows: np.ndarray, weight: np.ndarray):
-        """(radiance, map pdf) at the BSDF samples ``local`` (the frame's ``rows``): Mitsuba's
-        compiled, or the technique's own ``eval_pdf`` (Cycles', pbrt-v4's: compiled), skipping
-        the samples of weight 0; else its numpy eval and pdf."""
-        if _is_mitsuba(self.technique):
-            if self._texels is None:
-                self._texels = scaled_texels(self.technique)
-            return mitsuba_eval_pdf(self.technique, local, rows, weight, self._texels)
-        lookup = getattr(self.technique, "eval_pdf", None)      # Cycles', pbrt-v4's
+        """(radiance, map pdf) at the BSDF samples ``local`` (the frame's ``rows``): the
+        technique's own compiled ``eval_pdf`` (Mitsuba 3's, Cycles', pbrt-v4's), skipping the
+        samples of weight 0; else its numpy eval and pdf."""
+        lookup = getattr(self.technique, "eval_pdf", None)
         if lookup is not None:
             return lookup(local, rows, weight)
         d = local @ rows

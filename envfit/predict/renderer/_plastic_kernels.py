@@ -215,7 +215,6 @@ def compiled_plastic(bsdf) -> bool:
     """Whether the kernels repeat ``bsdf``: a :class:`RoughPlastic` (exactly that class; GGX or
     Beckmann, any α, η, scalar reflectances, ``nonlinear``, ``sample_visible``)."""
     return (type(bsdf) is RoughPlastic and bsdf.distribution.kind in _KINDS
-            and bsdf.renderer == "mitsuba3"
             and all(isinstance(v, float) for v in (bsdf.diffuse_reflectance,
                                                    bsdf.specular_reflectance, bsdf.eta)))
 

@@ -1,7 +1,7 @@
 r"""The warped integrands of a renderer preset's direct-light estimator on a white diffuse
 surface, tabulated at the midpoints of a dyadic grid of the sample square.
 
-For a normal n, albedo 1 and one 2-D sample u per technique (:mod:`envfit.sampling.presets`):
+For a normal n, albedo 1 and one 2-D sample u per technique (:mod:`envfit.renderers`):
 
 * the **map part** :math:`h_e(u) = w_e(\omega)\,L(\omega)\,\max(0, n\cdot\omega)/(\pi\,p_e(\omega))`
   at :math:`\omega = \mathrm{technique.sample}(u)`;
@@ -11,17 +11,17 @@ For a normal n, albedo 1 and one 2-D sample u per technique (:mod:`envfit.sampli
 
 with L the renderer's radiance lookup (``technique.eval``), :math:`p_e` its density
 (``technique.pdf``), :math:`p_b = \cos/\pi` and w the preset's MIS weights with its sample
-fractions (:meth:`~envfit.sampling.presets.RendererPreset.mis_weights`; 1 for a strategy with
+fractions (:meth:`~envfit.renderers.Renderer.mis_weights`; 1 for a strategy with
 one technique). Per channel (RGB).
 
 The map part's :math:`\omega(u)`, :math:`L(\omega)/(\pi p_e)` and :math:`p_e` do not depend on
 n: :class:`MapTable` computes them once per grid and every normal only takes a dot product
 and a weight (:func:`map_values`). The BSDF part's local directions are fixed
 (:class:`BsdfTable`); per normal they are turned into the world frame and looked up
-(:func:`bsdf_values`) — for Mitsuba 3's ``envmap`` by a numba kernel that repeats
-``eval_spectrum`` and ``pdf_direction`` (:func:`_mitsuba_lookup`, checked against the
-technique's own numpy methods in the tests), for any other technique through its ``eval``
-and ``pdf``.
+(:func:`bsdf_values`) — by the technique's own compiled ``bsdf_lookup`` where it has one
+(Mitsuba 3's, Cycles', pbrt-v4's, each checked against the technique's numpy methods in the
+tests), for any other technique through its ``eval`` and ``pdf``; the map part likewise by
+its ``sample_table`` where it has one.
 
 The tables hold the integrand at the midpoints of the :math:`2^F \times 2^F` cells, axis 1 of
 each array along ``u[:, 0]`` (the :class:`~envfit.predict.renderer.randomisation.DyadicGrid`
@@ -45,7 +45,6 @@ __all__ = ["MapTable", "BsdfTable", "map_values", "bsdf_values", "mis_parts", "c
 
 #: points per call of a technique's numpy methods (generic path)
 _CHUNK = 1 << 18
-_EPS32 = 2.0 ** -24
 
 
 def midpoints(level: int) -> np.ndarray:
@@ -79,8 +78,9 @@ class MapTable:
     @classmethod
     def at(cls, technique, u: np.ndarray) -> "MapTable":
         """The table at the square points ``u`` (P, 2) (``level`` −1: no grid)."""
-        if _is_mitsuba(technique):
-            d, p, rad = _mitsuba_map_table(technique, u)
+        table = getattr(technique, "sample_table", None)     # a compiled sample_direction
+        if table is not None:
+            d, p, rad = table(u)
             with np.errstate(divide="ignore", invalid="ignore"):
                 b = np.where(p[:, None] > 0, rad / (np.pi * p[:, None]), 0.0)
             return cls(-1, d, b, p)
@@ -143,137 +143,6 @@ def map_values(table: MapTable, normal, fractions) -> tuple[np.ndarray, np.ndarr
     return h, w
 
 
-@numba.njit(cache=True)
-def _mitsuba_eval(x0, y0, z0, rgb, scale, warp, out, p):  # pragma: no cover - numba
-    """Mitsuba 3 ``envmap`` at the native unit direction (x0, y0, z0): ``eval_spectrum``
-    (bilinear, periodic texel-centred u, clamped align-corners v) written to ``out[p]``, and
-    ``pdf_direction`` (``Hierarchical2D::eval`` of the half-texel shifted uv over
-    :math:`2\\pi^2\\sin\\theta`) returned."""
-    h, w = rgb.shape[0], rgb.shape[1]
-    ny, nx = warp.shape[0] - 1, warp.shape[1] - 1
-    uu = np.arctan2(x0, -z0) / (2.0 * np.pi)
-    vv = np.arccos(min(1.0, max(-1.0, y0))) / np.pi
-    u = uu - np.floor(uu)
-    xs = u * w + 0.5
-    ys = min(1.0, max(0.0, vv)) * (h - 1)
-    ix, iy = int(np.floor(xs)), int(np.floor(ys))
-    fx, fy = xs - ix, ys - iy
-    c0, c1 = (ix - 1) % w, ix % w
-    iy = min(iy, h - 1)
-    iy1 = min(iy + 1, h - 1)
-    for k in range(3):
-        top = rgb[iy, c0, k] * (1 - fx) + rgb[iy, c1, k] * fx
-        bot = rgb[iy1, c0, k] * (1 - fx) + rgb[iy1, c1, k] * fx
-        out[p, k] = (top * (1 - fy) + bot * fy) * scale
-    pu = uu - 0.5 / w
-    pu -= np.floor(pu)
-    pv = vv - np.floor(vv)
-    inv_sin = 1.0 / np.sqrt(max(x0 * x0 + z0 * z0, _EPS32 * _EPS32))
-    gx = min(1.0, max(0.0, pu)) * nx
-    gy = min(1.0, max(0.0, pv)) * ny
-    ox, oy = min(int(gx), nx - 1), min(int(gy), ny - 1)
-    tx, ty = gx - ox, gy - oy
-    t0 = warp[oy, ox] + (warp[oy, ox + 1] - warp[oy, ox]) * tx
-    t1 = warp[oy + 1, ox] + (warp[oy + 1, ox + 1] - warp[oy + 1, ox]) * tx
-    return (t0 + (t1 - t0) * ty) * inv_sin / (2.0 * np.pi ** 2)
-
-
-@numba.njit(cache=True, parallel=True)
-def _mitsuba_lookup(local, frame, to_native, rgb, warp, fractions,
-                    out):  # pragma: no cover - numba
-    """:func:`_mitsuba_eval` at ``local @ frame`` (radiance to ``out[:, :3]``, ``rgb``
-    already scaled) and the BSDF's power-heuristic weight with ``fractions`` (emitter,
-    BSDF) to ``out[:, 3]``."""
-    fe, fb = fractions[0], fractions[1]
-    for p in numba.prange(local.shape[0]):
-        wd = np.empty(3)
-        for k in range(3):
-            wd[k] = local[p, 0] * frame[0, k] + local[p, 1] * frame[1, k] + local[p, 2] * frame[2, k]
-        x0 = wd[0] * to_native[0, 0] + wd[1] * to_native[1, 0] + wd[2] * to_native[2, 0]
-        y0 = wd[0] * to_native[0, 1] + wd[1] * to_native[1, 1] + wd[2] * to_native[2, 1]
-        z0 = wd[0] * to_native[0, 2] + wd[1] * to_native[1, 2] + wd[2] * to_native[2, 2]
-        nrm = np.sqrt(x0 * x0 + y0 * y0 + z0 * z0)
-        pe = _mitsuba_eval(x0 / nrm, y0 / nrm, z0 / nrm, rgb, 1.0, warp, out, p)
-        a = (fb * local[p, 2] / np.pi) ** 2
-        b = (fe * pe) ** 2
-        out[p, 3] = a / (a + b) if a + b > 0.0 else 0.0
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _itl(v0, v1, s):  # pragma: no cover - numba
-    """``warp::interval_to_linear`` (as ``_mitsuba3._interval_to_linear``)."""
-    if abs(v0 - v1) > 1e-4 * (v0 + v1):
-        return (v0 - np.sqrt(max(v0 * v0 + (v1 * v1 - v0 * v0) * s, 0.0))) / (v0 - v1)
-    return s
-
-
-@numba.njit(cache=True, parallel=True, error_model="numpy")
-def _mitsuba_sample(u, flat, layout, data, to_world, rgb, out):  # pragma: no cover - numba
-    """Mitsuba 3 ``envmap`` ``sample_direction``: ``Hierarchical2D::sample`` (levels packed
-    in ``flat``, finest first, ``layout`` = their offsets and widths), ``square_to_bilinear``
-    in the leaf patch, the half texel; ``out[:, :3]`` the direction, ``out[:, 3]`` its
-    solid-angle pdf, ``out[:, 4:]`` the radiance there (``rgb`` already scaled)."""
-    offsets, widths = layout[0], layout[1]
-    ny, nx = data.shape[0] - 1, data.shape[1] - 1
-    w = rgb.shape[1]
-    for p in numba.prange(u.shape[0]):
-        s0, s1 = min(1.0, max(0.0, u[p, 0])), min(1.0, max(0.0, u[p, 1]))
-        ox, oy = 0, 0
-        for li in range(offsets.shape[0] - 1, -1, -1):
-            ox, oy = 2 * ox, 2 * oy
-            o, cw = offsets[li], widths[li]
-            v00, v10 = flat[o + oy * cw + ox], flat[o + oy * cw + ox + 1]
-            v01, v11 = flat[o + (oy + 1) * cw + ox], flat[o + (oy + 1) * cw + ox + 1]
-            s0, s1 = min(1.0, max(0.0, s0)), min(1.0, max(0.0, s1))
-            r0, r1 = v00 + v10, v01 + v11
-            sy = s1 * (r0 + r1)
-            dy, c0, c1 = r0, v00, v10
-            if sy > r0:
-                oy += 1
-                sy -= r0
-                dy, c0, c1 = r1, v01, v11
-            sx = s0 * dy
-            dx = c0
-            if sx > c0:
-                sx -= c0
-                ox += 1
-                dx = c1
-            s0, s1 = sx / dx, sy / dy
-        v00, v10, v01, v11 = data[oy, ox], data[oy, ox + 1], data[oy + 1, ox], data[oy + 1, ox + 1]
-        y = _itl(v00 + v10, v01 + v11, s1)
-        c0, c1 = v00 + (v01 - v00) * y, v10 + (v11 - v10) * y
-        x = _itl(c0, c1, s0)
-        pdf = c0 + (c1 - c0) * x
-        uu = (ox + x) / nx + 0.5 / w
-        theta, phi = np.pi * ((oy + y) / ny), 2.0 * np.pi * uu
-        st = np.sin(theta)
-        dn = (np.sin(phi) * st, np.cos(theta), -np.cos(phi) * st)
-        out[p, 3] = pdf / max(st, _EPS32) / (2.0 * np.pi ** 2) if pdf > 0 else 0.0
-        for k in range(3):
-            out[p, k] = to_world[k, 0] * dn[0] + to_world[k, 1] * dn[1] + to_world[k, 2] * dn[2]
-        nrm = np.sqrt(dn[0] ** 2 + dn[1] ** 2 + dn[2] ** 2)
-        _mitsuba_eval(dn[0] / nrm, dn[1] / nrm, dn[2] / nrm, rgb, 1.0, data, out[:, 4:], p)
-
-
-def _mitsuba_map_table(technique, u):
-    """(directions, pdf, radiance) of Mitsuba's ``sample_direction`` at square points u."""
-    levels = technique.warp.levels
-    flat = np.concatenate([lv.ravel() for lv in levels]) if levels else np.zeros(1)
-    sizes = [lv.size for lv in levels]
-    offsets = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64) if levels \
-        else np.zeros(0, np.int64)
-    widths = np.array([lv.shape[1] for lv in levels], dtype=np.int64)
-    out = np.empty((u.shape[0], 7))
-    _mitsuba_sample(u, flat, np.stack([offsets, widths]), technique.warp.data,
-                    np.ascontiguousarray(technique.native_to_world),
-                    technique.rgb * float(technique.scale), out)
-    return out[:, :3], out[:, 3], out[:, 4:]
-
-
-def _is_mitsuba(technique) -> bool:
-    return type(technique).__name__ == "Mitsuba3Envmap" and hasattr(technique, "warp")
-
-
 def bsdf_values(technique, preset, table: BsdfTable, normal,
                 fractions) -> tuple[np.ndarray, np.ndarray]:
     r"""The BSDF part at one normal: the radiance :math:`L(\omega)` (P, 3) at
@@ -283,12 +152,6 @@ def bsdf_values(technique, preset, table: BsdfTable, normal,
     frame = np.ascontiguousarray(preset.tangent_frame(n)[0])
     fe, fb = float(fractions[0]), float(fractions[1])
     p = table.local.shape[0]
-    if _is_mitsuba(technique) and preset.heuristic == "power":
-        out = np.empty((p, 4))
-        _mitsuba_lookup(table.local, frame, np.ascontiguousarray(technique.native_to_world),
-                        technique.rgb * float(technique.scale), technique.warp.data,
-                        np.array([fe, fb]), out)
-        return out[:, :3], out[:, 3]
     lookup = getattr(technique, "bsdf_lookup", None)
     if lookup is not None and preset.heuristic == "power":
         return lookup(table.local, frame, fe, fb)

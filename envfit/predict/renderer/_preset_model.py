@@ -1,11 +1,11 @@
 r"""A real renderer's noise on a white diffuse surface, predicted from its preset: the
 renderer's own estimator (technique, cosine map and frame, MIS weights and sample counts,
-:mod:`envfit.sampling.presets`), its sampler's randomisation of the square samples
+:mod:`envfit.renderers`), its sampler's randomisation of the square samples
 (:mod:`envfit.predict.renderer.randomisation`), averaged over uniform normals as the sphere
-measurement of :mod:`envfit.measure.renderers` averages them.
+measurement of :mod:`envfit.renderers` averages them.
 
 For a strategy with one emitter and/or one BSDF sample per spp and N = the spp the sampler
-runs (its own rounding, :meth:`~envfit.sampling.presets.SamplerSpec.spp`), the pixel value at
+runs (its own rounding, :meth:`~envfit.renderers.SamplerSpec.spp`), the pixel value at
 normal n is :math:`F = \frac1N\sum_j h_e(u_j) + \frac1N\sum_j h_b(u'_j)` with the warped
 integrands of :mod:`._preset_integrand`, and
 
@@ -77,7 +77,7 @@ class PresetModelOptions:
         max_level + 1.
     pilot_level : level of the map-part table that gives the normals' proxies.
     sphere_pixels : None (default: each normal a point), or R: the normals are pixels of the
-        sphere renders of :mod:`envfit.measure.renderers`, R pixels across, each in the view
+        sphere renders of :mod:`envfit.renderers`, R pixels across, each in the view
         nearest it (their ``cube`` layout); each pixel's footprint (``footprint_side`` ²
         normals) adds its term (:mod:`._footprint`), and the tables cost footprint_side² times
         as much.
@@ -201,8 +201,8 @@ class PresetModel:
     ----------
     envmap : EnvMap
         The map, its pixels as the renderer reads the file.
-    preset : RendererPreset
-        From :func:`envfit.sampling.presets.preset`.
+    preset : Renderer
+        From :func:`envfit.renderers.preset`.
     technique_options : dict, optional
         For the preset's technique factory (Mitsuba: ``mis_compensation``).
     options : PresetModelOptions, optional
@@ -214,8 +214,8 @@ class PresetModel:
     --------
     >>> import numpy as np
     >>> from envfit.maps import EnvMap
-    >>> from envfit.sampling.presets import preset
-    >>> m = PresetModel(EnvMap(np.full((8, 16, 3), 2.0)), preset("mitsuba3"),
+    >>> from envfit.renderers import get_renderer
+    >>> m = PresetModel(EnvMap(np.full((8, 16, 3), 2.0)), get_renderer("mitsuba3"),
     ...                 options=PresetModelOptions(normals=4, pool=16, max_level=3))
     >>> m.predict("brdf", "independent", 16).rmse        # cosine sampling of a constant map
     0.0

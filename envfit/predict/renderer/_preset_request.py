@@ -35,9 +35,9 @@ RANDOMISATION_OF = {"independent": "independent", "jittered": "jittered", "cmj":
 #: orthogonal array have independent permutations per dimension: their cross term is 0
 #: (``randomisation._orthogonal``)
 _SHARED = {"independent": False, "same_net_permuted": True, "joint_array": False}
-#: a preset's jittered strata (``randomisation._jittered``): pbrt-v4's x × y, envfit's rows
-#: (``envfit.theory.jitter_strata``); Mitsuba's r × r
-_JITTER_LAYOUT = {"pbrt4": "pbrt", "envfit": "rows"}
+#: the randomisations' options where the sampler names none: square strata, uniform
+#: permutations
+_PLAIN = {"jittered": (("layout", "square"),), "cmj": (("permutations", "uniform"),)}
 
 
 def grid_level(randomisation: str, n: int, max_level: int) -> int:
@@ -105,12 +105,8 @@ def preset_request(preset, options, strategy: str, sampler: str,
     if max(s.emitter_samples, s.bsdf_samples) > 1:
         raise ParameterError("the model takes at most one sample per technique and spp")
     opts = opts_b = ()
-    if name == "jittered":
-        opts = opts_b = ((("r", math.isqrt(n)),) if preset.name == "mitsuba3"
-                         else (("layout", _JITTER_LAYOUT.get(preset.name, "square")),))
-    elif name == "cmj":
-        opts = opts_b = (("permutations", "mitsuba" if preset.name == "mitsuba3"
-                          else "uniform"),)
+    if name in _PLAIN:
+        opts = opts_b = spec.model_options(n) or _PLAIN[name]
     elif name == "orthogonal":
         if s.dimensions is None:
             raise ParameterError(f"{preset.name} does not say at which dimensions "

@@ -36,7 +36,6 @@ from envfit.predict.renderer._microfacet_kernels import _KINDS, _d, _lambda
 
 __all__ = ["conductor_sample", "compiled_sampling"]
 
-_VARIANTS = {"mitsuba3": 0, "pbrt4": 1, "cycles": 2}
 _F32_EPS = float(np.finfo(np.float32).eps)
 _BIG = float(np.finfo(np.float64).max)
 _INV_SQRT_PI = 1.0 / math.sqrt(math.pi)
@@ -336,7 +335,7 @@ def conductor_sample(conductor, wi, u, level: int | None = None
     special functions once per row and column (the same numbers, ≈ 2^level times fewer
     erf⁻¹)."""
     d = conductor.distribution
-    variant, kind = _VARIANTS[conductor.renderer], _KINDS[d.kind]
+    variant, kind = conductor.vndf_variant, _KINDS[d.kind]
     wi = np.ascontiguousarray(wi, dtype=np.float64)
     alpha = float(d.alpha)
     view = _view_constants(wi, alpha, variant, kind)

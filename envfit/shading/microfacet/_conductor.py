@@ -39,10 +39,11 @@ from envfit.shading.microfacet._distributions import MicrofacetDistribution
 from envfit.shading.microfacet._fresnel import fr_complex, fresnel_conductor
 from envfit.shading.microfacet._vndf import VNDF_RENDERERS, sample_visible_normals
 
-__all__ = ["BSDFSample", "Conductor", "RENDERERS", "roughness_to_alpha", "alpha_to_roughness",
-           "roughness_range", "roughness_words", "ROUGHNESS_UNITS", "ROUGHNESS_RTOL"]
+__all__ = ["BSDFSample", "Conductor", "MICROFACET_RENDERERS", "roughness_to_alpha",
+           "alpha_to_roughness", "roughness_range", "roughness_words", "ROUGHNESS_UNITS",
+           "ROUGHNESS_RULES", "ROUGHNESS_RTOL"]
 
-RENDERERS = VNDF_RENDERERS
+MICROFACET_RENDERERS = VNDF_RENDERERS
 
 
 def roughness_to_alpha(roughness: float, renderer: str) -> float:
@@ -66,13 +67,15 @@ def roughness_to_alpha(roughness: float, renderer: str) -> float:
         return math.sqrt(r)
     if renderer == "cycles":
         return r * r
-    raise ParameterError(f"renderer must be one of {RENDERERS}, got {renderer!r}")
+    raise ParameterError(f"renderer must be one of {MICROFACET_RENDERERS}, got {renderer!r}")
 
 
 #: each renderer's roughness R in words (:func:`roughness_to_alpha`)
 ROUGHNESS_UNITS = {"mitsuba3": "Mitsuba 3's alpha",
                    "pbrt4": "pbrt-v4's roughness R, alpha = sqrt(R)",
                    "cycles": "Cycles' roughness R, alpha = R^2"}
+#: each renderer's roughness R → alpha, as a rule in words
+ROUGHNESS_RULES = {"mitsuba3": "alpha = R", "pbrt4": "alpha = sqrt(R)", "cycles": "alpha = R^2"}
 #: the relative tolerance of a roughness at the end of its range (a bound typed rounded,
 #: e.g. Cycles' sqrt(0.05) = 0.2236068, or pbrt-v4's 0.0025, whose alpha = sqrt(0.0025) is a
 #: hair from 0.05 in floating point): within it the value is taken as the bound
@@ -92,7 +95,7 @@ def alpha_to_roughness(alpha: float, renderer: str) -> float:
         return a * a
     if renderer == "cycles":
         return math.sqrt(a)
-    raise ParameterError(f"renderer must be one of {RENDERERS}, got {renderer!r}")
+    raise ParameterError(f"renderer must be one of {MICROFACET_RENDERERS}, got {renderer!r}")
 
 
 def roughness_range(renderer: str, alpha_range=ADVISE_ALPHA) -> tuple[float, float]:
@@ -174,8 +177,9 @@ class Conductor:
     def __init__(self, distribution: str = "ggx", alpha: float = 0.1, renderer: str = "mitsuba3",
                  eta: float | None = None, k: float | None = None,
                  multiscatter: bool = False) -> None:
-        if renderer not in RENDERERS:
-            raise ParameterError(f"renderer must be one of {RENDERERS}, got {renderer!r}")
+        if renderer not in MICROFACET_RENDERERS:
+            raise ParameterError(f"renderer must be one of {MICROFACET_RENDERERS}, "
+                                 f"got {renderer!r}")
         if renderer == "pbrt4" and distribution != "ggx":
             raise ParameterError("pbrt-v4's conductor has only the GGX (Trowbridge-Reitz) "
                                  f"distribution, got {distribution!r}")
@@ -209,6 +213,19 @@ class Conductor:
     def alpha(self) -> float:
         return self.distribution.alpha
 
+    @property
+    def separable_g(self) -> bool:
+        """Whether G2 is separable and the pdf's view masking Mitsuba's ``smith_g1`` (Mitsuba
+        3), not height-correlated with 1/(1 + Λ_i) (pbrt-v4, Cycles)."""
+        return self.renderer == "mitsuba3"
+
+    @property
+    def vndf_variant(self) -> int:
+        """The renderer's visible-normal sampling routine: its index in
+        :data:`~envfit.shading.microfacet._vndf.VNDF_RENDERERS` (that of
+        :func:`~envfit.shading.microfacet._vndf.sample_visible_normals`)."""
+        return VNDF_RENDERERS.index(self.renderer)
+
     def fresnel(self, cos_theta) -> np.ndarray:
         """F at cos θ = ω_i·m: 1, or the renderer's conductor Fresnel (pbrt: ``FrComplex``)."""
         c = np.asarray(cos_theta, dtype=np.float64)
@@ -220,13 +237,13 @@ class Conductor:
 
     def shadowing(self, wi, wo, m) -> np.ndarray:
         """G2: separable (Mitsuba) or height-correlated (pbrt-v4, Cycles)."""
-        if self.renderer == "mitsuba3":
+        if self.separable_g:
             return self.distribution.g_separable(wi, wo, m)
         return self.distribution.g_correlated(wi, wo)
 
     def _g1_view(self, wi, m) -> np.ndarray:
         """The view's masking in the pdf: Mitsuba's ``smith_g1`` (with χ⁺), else 1/(1 + Λ_i)."""
-        if self.renderer == "mitsuba3":
+        if self.separable_g:
             return self.distribution.g1(wi, m)
         return 1.0 / (1.0 + self.distribution.lambda_(wi))
 

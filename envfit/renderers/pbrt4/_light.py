@@ -35,11 +35,11 @@ import numpy as np
 
 from envfit.base import ParameterError
 from envfit.maps._latlong import local_to_world
-from envfit.sampling.presets._base import (SPHERE_VIEWS, DirectionSample, EnvmapTechnique,
-                                           RendererPreset, SamplerSpec, StrategySetting,
+from envfit.renderers._base import (SPHERE_VIEWS, DirectionSample, EnvmapTechnique,
+                                           Renderer, SamplerSpec, StrategySetting,
                                            cosine_hemisphere, scene_comment, snippet_pixels,
                                            square_points)
-from envfit.sampling.presets._pbrt4_image import (_ATAN_POLY, PiecewiseConstant2D,
+from envfit.renderers.pbrt4._equal_area import (_ATAN_POLY, PiecewiseConstant2D,
                                                   equal_area_sphere_to_square,
                                                   equal_area_square_to_sphere, make_equal_area)
 
@@ -258,6 +258,11 @@ def _grid(n: int) -> tuple[int, int]:
     return n // d, d
 
 
+
+def _xy_strata(n: int) -> tuple:
+    """``stratified``'s x × y strata (x = N/d, d the largest divisor ≤ √N)."""
+    return (("layout", "pbrt"),)
+
 _P = "pbrt-v4 @ 5f7a6068 src/pbrt/samplers.h/.cpp "
 SAMPLERS = {
     "zsobol": SamplerSpec(
@@ -287,7 +292,7 @@ SAMPLERS = {
         "stratified", "jittered", "independent", int,
         "x*y jittered strata (x = spp/d, y = d, d the largest divisor <= sqrt spp), the "
         "stratum of each sample index PermutationElement(index, spp, Hash(pixel, dimension, "
-        "seed)); spp unchanged. " + _P + "StratifiedSampler"),
+        "seed)); spp unchanged. " + _P + "StratifiedSampler", options=_xy_strata),
     "independent": SamplerSpec(
         "independent", "independent", "independent", int,
         "RNG Hash(pixel, seed) advanced to index*65536 + dimension; spp unchanged. "
@@ -375,7 +380,7 @@ def _technique(envmap=None, **options) -> Pbrt4ImageInfiniteLight:
     return Pbrt4ImageInfiniteLight(envmap, **options)
 
 
-PBRT4 = RendererPreset(
+PBRT4 = Renderer(
     name="pbrt4",
     renderer="pbrt-v4 (mmp/pbrt-v4 @ 5f7a606806a4), infinite light + path/simplepath",
     technique=_technique,
@@ -388,4 +393,9 @@ PBRT4 = RendererPreset(
     source=("src/pbrt/lights.cpp/.h ImageInfiniteLight; src/pbrt/util/sampling.h "
             "SampleCosineHemisphere, PowerHeuristic; src/pbrt/bxdfs.h DiffuseBxDF::Sample_f; "
             "src/pbrt/cpu/integrators.cpp; src/pbrt/samplers.h/.cpp"),
+    display="pbrt-v4",
+    negative_radiance=("pbrt-v4 clamps negative radiance to 0 (src/pbrt/lights.h: "
+                       "ImageInfiniteLight::ImageLe, ClampZero) but samples the signed map's "
+                       "|mean RGB| (src/pbrt/util/sampling.h: PiecewiseConstant1D takes abs)"),
+    microfacet={"ggx": None},
 )

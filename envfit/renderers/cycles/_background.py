@@ -40,10 +40,10 @@ import numpy as np
 
 from envfit.base import ParameterError
 from envfit.maps._latlong import local_to_world
-from envfit.sampling.presets._base import (EnvmapTechnique, RendererPreset, SamplerSpec,
+from envfit.renderers._base import (EnvmapTechnique, Renderer, SamplerSpec,
                                            StrategySetting, cosine_hemisphere, map_rgb,
                                            power_heuristic)
-from envfit.sampling.presets._cycles_scene import cycles_snippet
+from envfit.renderers.cycles._scene import cycles_snippet
 
 __all__ = ["cycles_map_resolution", "CyclesBackground", "cycles_frame", "INTERPOLATIONS",
            "CYCLES"]
@@ -446,7 +446,7 @@ def _technique(envmap, **options) -> CyclesBackground:
     return CyclesBackground(envmap, **options)
 
 
-CYCLES = RendererPreset(
+CYCLES = Renderer(
     name="cycles",
     renderer="Cycles 5.0 (blender/cycles @ 2eba41024174, v5.0.0), world light + path",
     technique=_technique,
@@ -459,4 +459,14 @@ CYCLES = RendererPreset(
     source=("src/scene/light.cpp; src/kernel/light/background.h; src/kernel/sample/mapping.h "
             "sample_cos_hemisphere; src/kernel/sample/mis.h power_heuristic; "
             "src/kernel/sample/tabulated_sobol.h"),
+    display="Cycles",
+    negative_radiance=("Cycles samples the world by |radiance| (src/scene/light.cpp: "
+                       "background_cdf, average(fabs(rgb))), and no measurement checks the "
+                       "model of a signed map"),
+    microfacet={"ggx": None, "beckmann": None, "multiggx": None},
+    bsdf_notes={"ggx": ("--brdf ggx is Cycles' single-scatter GGX (a Glossy BSDF set to GGX); "
+                        "the Principled and Glossy BSDF nodes default to Multiscatter GGX: "
+                        "--brdf multiggx")},
+    render_samplers=("tabulated_sobol", "blue_noise"),
+    harness="envfit.renderers.cycles._render",
 )

@@ -1,6 +1,6 @@
 r"""pbrt-v4's equal-area sphere ↔ square maps, ``PiecewiseConstant2D`` and ``imgtool
 makeequiarea`` (the lat-long → equal-area conversion), in numpy: the image side of
-:mod:`envfit.sampling.presets._pbrt4` (read from mmp/pbrt-v4 at ``5f7a606806a4``:
+:mod:`envfit.renderers.pbrt4._light` (read from mmp/pbrt-v4 at ``5f7a606806a4``:
 ``src/pbrt/util/math.cpp``, ``src/pbrt/util/sampling.h``, ``src/pbrt/util/image.h``,
 ``src/pbrt/cmd/imgtool.cpp``, ``src/pbrt/filters.h``/``.cpp``).
 """
@@ -12,7 +12,7 @@ import numba
 import numpy as np
 
 from envfit.base import ParameterError
-from envfit.sampling.presets._base import map_rgb
+from envfit.renderers._base import map_rgb
 
 __all__ = ["equal_area_square_to_sphere", "equal_area_sphere_to_square",
            "wrap_equal_area_square", "PiecewiseConstant2D", "make_equal_area",

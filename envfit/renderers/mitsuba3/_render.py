@@ -46,13 +46,14 @@ import numpy as np
 
 from envfit.base import ParameterError
 from envfit.maps import EnvMap, save_envmap
-from envfit.measure.renderers._reference import ReferencePair, cached_reference, map_digest
-from envfit.measure.renderers._sphere import (VIEWS, SphereMeasurement, check_strategy,
+from envfit.renderers._reference import ReferencePair, cached_reference, map_digest
+from envfit.renderers._sphere import (VIEWS, SphereMeasurement, check_strategy,
                                               measurement, sphere_error, sphere_geometry,
                                               view_seeds)
 
 __all__ = ["SAMPLERS", "MITSUBA_SAMPLERS", "STRATEGY_SAMPLES", "Mitsuba3Options", "Mitsuba3Sphere",
-           "import_mitsuba", "mitsuba_normals", "roughconductor_bsdf", "roughplastic_bsdf"]
+           "import_mitsuba", "mitsuba_normals", "roughconductor_bsdf", "roughplastic_bsdf",
+           "version", "open_sphere"]
 
 #: Mitsuba 3's sampler plugins measured here
 SAMPLERS = ("independent", "stratified", "multijitter", "ldsampler", "orthogonal")
@@ -236,8 +237,8 @@ class Mitsuba3Sphere:
         ``ldsampler`` to a power of two, ``orthogonal`` to p² with p prime): the preset's
         rounding, read from Mitsuba's ``set_sample_count`` and tested against it
         (``tests/test_presets_mitsuba3.py``), so that Mitsuba never warns that it rounds."""
-        from envfit.sampling.presets import preset
-        return preset("mitsuba3").sampler(_check_sampler(sampler)).spp(_check_spp(spp))
+        from envfit.renderers import get_renderer
+        return get_renderer("mitsuba3").sampler(_check_sampler(sampler)).spp(_check_spp(spp))
 
     def render(self, strategy: str, sampler: str, spp: int, seed, *,
                compensation: bool | None = None) -> tuple[np.ndarray, list[float]]:
@@ -310,3 +311,22 @@ def mitsuba_normals(resolution: int, spp: int = 16) -> np.ndarray:
 def options_dict(options: Mitsuba3Options) -> dict:
     """The options as a plain dict (for JSON)."""
     return asdict(options)
+
+
+# The harness protocol (``Renderer.harness``): what ``validate --renderer`` calls.
+
+def version() -> str:
+    """Mitsuba's version and variant; one-line ParameterError where it is not installed."""
+    return f"Mitsuba {import_mitsuba().__version__} ({VARIANT})"
+
+
+def open_sphere(envmap, brdf: str | None, alpha: float | None, **common) -> "Mitsuba3Sphere":
+    """The sphere of envfit's measurement with ``brdf`` (None: white diffuse; ``ggx``,
+    ``beckmann``: a white rough conductor; ``roughplastic``: a GGX rough plastic) of
+    roughness ``alpha``; ``common``: :class:`Mitsuba3Options`' resolution, reference_spp,
+    cache_dir. The reference renders with ``ldsampler``."""
+    bsdf = (None if brdf is None else
+            roughplastic_bsdf("ggx", alpha) if brdf == "roughplastic" else
+            roughconductor_bsdf(brdf, alpha))
+    return Mitsuba3Sphere(envmap, Mitsuba3Options(**common, bsdf=bsdf,
+                                                  reference_sampler="ldsampler"))

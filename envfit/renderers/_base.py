@@ -11,11 +11,11 @@ which :meth:`envfit.maps.EnvMap.lookup` sees file pixel (i, j) at
 the renderer's own (native) frame for the same file and the fixed orthogonal matrix
 :attr:`EnvmapTechnique.native_to_world` that maps it to envfit's.
 
-A *preset* (:class:`RendererPreset`) adds the rest of the renderer's direct-light
+A *preset* (:class:`Renderer`) adds the rest of the renderer's direct-light
 estimator: the cosine BSDF sampling map and the renderer's tangent frame, the MIS
 heuristic, the integrator settings per strategy, the samplers by their own names (with the
 spp each one actually runs and its randomisation tag, :data:`RANDOMISATIONS`), and the scene
-text a user pastes (:meth:`RendererPreset.snippet`).
+text a user pastes (:meth:`Renderer.snippet`).
 """
 from __future__ import annotations
 
@@ -28,7 +28,7 @@ from envfit.base import ParameterError
 from envfit.base._checks import as_square_points, as_unit_vectors
 
 __all__ = ["RANDOMISATIONS", "PAIRINGS", "STRATEGY_NAMES", "DirectionSample",
-           "EnvmapTechnique", "SamplerSpec", "StrategySetting", "RendererPreset",
+           "EnvmapTechnique", "SamplerSpec", "StrategySetting", "Renderer",
            "square_points", "unit_directions", "concentric_disk", "cosine_hemisphere",
            "power_heuristic", "balance_heuristic", "map_rgb", "SPHERE_VIEWS",
            "SNIPPET_PIXELS", "snippet_pixels", "scene_comment"]
@@ -53,7 +53,7 @@ STRATEGY_NAMES = ("map", "brdf", "mis")
 _TWO_PI = 2.0 * np.pi
 
 #: the six orthographic views of the unit sphere that envfit's renderer measurements render
-#: (:data:`envfit.measure.renderers._sphere.VIEWS`, the same tuples: ``tests/
+#: (:data:`envfit.renderers._sphere.VIEWS`, the same tuples: ``tests/
 #: test_snippet_render.py``): (axis v, up u); the camera sits at 3v, looks at the origin
 #: with image up u, and its image plane covers [-1, 1]² (the sphere fills the film)
 SPHERE_VIEWS = (((1, 0, 0), (0, 0, 1)), ((-1, 0, 0), (0, 0, 1)), ((0, 1, 0), (1, 0, 0)),
@@ -83,7 +83,7 @@ def scene_comment(what: str, sphere_pixels=None, *, view_dependent: bool = False
     avg = (["prediction: the RMSE over the sphere's pixels of a view, averaged over uniform",
             "rotations of the map (the envmap's to_world)"] if view_dependent else
            ["prediction: the RMSE over uniform normals, each pixel weighted 1/(n.v) in the",
-            "view whose axis is nearest its normal (envfit.measure.renderers)"])
+            "view whose axis is nearest its normal (envfit.renderers)"])
     lines = ["the scene envfit predicted: a unit sphere at the origin,", f"{what},",
              "lit by the map alone (direct light only); six orthographic views on +-x, +-y,",
              "+-z (camera at 3 v looking at the origin, image [-1, 1]^2), box pixel filter,",
@@ -278,6 +278,10 @@ class SamplerSpec:
     prefix : an Owen-scrambled sequence whose N points, for any N, are (up to a digital
         shift the scramble absorbs) the first N of the sequence: predicted between the powers
         of two (``envfit.predict.renderer._sampled_nets``)
+    options : N → the randomisation's options for N points, as (name, value) pairs of the
+        randomisation registry (``envfit.predict.renderer.randomisation``): the renderer's
+        own strata layout or permutations; None: the registry's plain form (square strata,
+        uniform permutations)
     """
 
     name: str
@@ -287,6 +291,11 @@ class SamplerSpec:
     description: str
     default: bool = False
     prefix: bool = False
+    options: Callable[[int], tuple] | None = None
+
+    def model_options(self, n: int) -> tuple:
+        """The randomisation's options for ``n`` points (:attr:`options`; () without)."""
+        return () if self.options is None else tuple(self.options(int(n)))
 
     def __post_init__(self):
         if self.randomisation not in RANDOMISATIONS:
@@ -329,7 +338,7 @@ _HEURISTICS = {"power": power_heuristic, "balance": balance_heuristic}
 
 
 @dataclass(frozen=True)
-class RendererPreset:
+class Renderer:
     """One renderer's direct-light estimator, read from its source.
 
     Attributes
@@ -345,8 +354,22 @@ class RendererPreset:
     heuristic : ``"power"`` or ``"balance"``
     strategies : strategy → :class:`StrategySetting`
     samplers : name → :class:`SamplerSpec`
-    snippet_fn : ``(StrategySetting, SamplerSpec, spp) -> str``
+    snippet_fn : ``(StrategySetting, SamplerSpec, spp, **options) -> str``; its keyword
+        options are :meth:`snippet_options`
     source : where each part was read (file:function @ commit)
+    display : the renderer's name in sentences ("Mitsuba 3", "pbrt-v4", …)
+    negative_radiance : what the renderer does with negative radiance, read from its source
+        (why its model refuses a signed map)
+    mis_compensation : whether its emitter has Mitsuba's ``mis_compensation`` option
+    microfacet : the microfacet BSDFs modelled (``envfit.defaults.MICROFACET_BSDFS`` names)
+        → the samplers each is modelled for (None: every sampler)
+    microfacet_why : BSDF → why its samplers are limited (a parenthesis in the refusal)
+    bsdf_notes : BSDF → a note the advice carries (what the name means in this renderer)
+    render_samplers : the samplers ``validate --renderer`` renders by default (empty: the
+        renderer does not install here, nothing is rendered)
+    harness : the module that renders envfit's measurement with it (``version()``,
+        ``open_sphere(envmap, brdf, alpha, **common)``); the renderer's own package is
+        imported only when the harness is used
     """
 
     name: str
@@ -357,8 +380,16 @@ class RendererPreset:
     heuristic: str
     strategies: Mapping[str, StrategySetting]
     samplers: Mapping[str, SamplerSpec]
-    snippet_fn: Callable[[StrategySetting, SamplerSpec, int], str]
+    snippet_fn: Callable[..., str]
     source: str = ""
+    display: str = ""
+    negative_radiance: str = "the renderer models are for non-negative maps"
+    mis_compensation: bool = False
+    microfacet: Mapping[str, tuple[str, ...] | None] = field(default_factory=dict)
+    microfacet_why: Mapping[str, str] = field(default_factory=dict)
+    bsdf_notes: Mapping[str, str] = field(default_factory=dict)
+    render_samplers: tuple[str, ...] = ()
+    harness: str = ""
 
     def __post_init__(self):
         if self.heuristic not in _HEURISTICS:
@@ -401,6 +432,25 @@ class RendererPreset:
         fa, fb = s.emitter_samples / total, s.bsdf_samples / total
         h = _HEURISTICS[self.heuristic]
         return h(pdf_map, pdf_brdf, fa, fb), h(pdf_brdf, pdf_map, fb, fa)
+
+    @property
+    def possessive(self) -> str:
+        """The display name's possessive ("Mitsuba 3's", "Cycles'")."""
+        d = self.display or self.name
+        return d + ("'" if d.endswith("s") else "'s")
+
+    def snippet_options(self) -> tuple[str, ...]:
+        """The keyword options the renderer's snippet takes (``filename`` always)."""
+        import inspect
+        return tuple(n for n, a in inspect.signature(self.snippet_fn).parameters.items()
+                     if a.kind is a.KEYWORD_ONLY)
+
+    def harness_module(self):
+        """The module of :attr:`harness` (ParameterError where the renderer has none)."""
+        if not self.harness:
+            raise ParameterError(f"envfit renders nothing with {self.display or self.name}")
+        import importlib
+        return importlib.import_module(self.harness)
 
     def snippet(self, strategy: str, sampler=None, spp: int = 64, **options) -> str:
         """The scene text a user pastes for ``strategy`` with ``sampler`` at ``spp``

@@ -21,11 +21,14 @@ map with another ``up`` the technique's :attr:`native_to_world` is the emitter's
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from envfit.base import ParameterError
+from envfit.defaults import PLASTIC_SAMPLERS
 from envfit.maps._latlong import local_to_world
-from envfit.sampling.presets._base import (SPHERE_VIEWS, EnvmapTechnique, RendererPreset,
+from envfit.renderers._base import (SPHERE_VIEWS, EnvmapTechnique, Renderer,
                                            SamplerSpec, StrategySetting, cosine_hemisphere,
                                            map_rgb, scene_comment, snippet_pixels)
 
@@ -238,6 +241,35 @@ class Mitsuba3Envmap(EnvmapTechnique):
         inv_sin = 1.0 / np.sqrt(np.maximum(d[:, 0] ** 2 + d[:, 2] ** 2, _EPS32 ** 2))
         return self.warp.eval(uv) * inv_sin / (2.0 * np.pi ** 2)
 
+    # The compiled fast path (``_compiled``: the same arithmetic, compared in the tests).
+
+    def _texels(self) -> np.ndarray:
+        """The texels times ``scale``, kept for the compiled lookups."""
+        if getattr(self, "_scaled", None) is None:
+            from envfit.renderers.mitsuba3._compiled import scaled_texels
+            self._scaled = scaled_texels(self)
+        return self._scaled
+
+    def sample_table(self, u: np.ndarray):
+        """(directions (P, 3), pdf (P,), radiance (P, 3)) of ``sample_direction`` at the
+        square points ``u`` (P, 2), compiled."""
+        from envfit.renderers.mitsuba3._compiled import sample_table
+        return sample_table(self, np.ascontiguousarray(u, dtype=np.float64))
+
+    def bsdf_lookup(self, local: np.ndarray, frame: np.ndarray, fe: float,
+                    fb: float) -> tuple[np.ndarray, np.ndarray]:
+        r"""The radiance (P, 3) at the world directions ``local @ frame`` and the BSDF
+        sample's power-heuristic weight (P,) with the sample fractions ``fe``, ``fb``
+        (``direct``'s ``mis_weight``), compiled."""
+        from envfit.renderers.mitsuba3._compiled import bsdf_lookup
+        return bsdf_lookup(self, local, frame, fe, fb, self._texels())
+
+    def eval_pdf(self, dirs: np.ndarray, rows=None, skip=None) -> tuple[np.ndarray, np.ndarray]:
+        """(radiance (P, 3), ``pdf_direction`` (P,)) at ``dirs``: world, or local with
+        ``rows`` the local frame's axes as rows; 0 and 0 where ``skip`` (P,) is ≤ 0, compiled."""
+        from envfit.renderers.mitsuba3._compiled import eval_pdf
+        return eval_pdf(self, dirs, rows, skip, self._texels())
+
 
 def mitsuba_frame(normals) -> np.ndarray:
     r"""Mitsuba's shading frame ``Frame3f(n)`` (K, 3, 3), rows (s, t, n):
@@ -290,6 +322,16 @@ def _orthogonal(n: int) -> int:
     return p * p
 
 
+def _square_strata(n: int) -> tuple:
+    """``stratified``'s r × r strata, r = √N (N already rounded to a square)."""
+    return (("r", math.isqrt(n)),)
+
+
+def _hashed_permutations(n: int) -> tuple:
+    """``multijitter``'s permutations: Kensler's ``permute`` with Mitsuba's hashed seeds."""
+    return (("permutations", "mitsuba"),)
+
+
 _M = "mitsuba3 @ 478e193a (v3.9.1) src/samplers/"
 SAMPLERS = {
     "independent": SamplerSpec(
@@ -300,12 +342,12 @@ SAMPLERS = {
         "stratified", "jittered", "independent", _next_square,
         "r x r jittered cells, the cell of each sample index permute_kensler(index, N, "
         "per-pixel seed + dimension), fresh PCG32 jitter; spp -> next square. "
-        + _M + "stratified.cpp set_sample_count, next_2d"),
+        + _M + "stratified.cpp set_sample_count, next_2d", options=_square_strata),
     "multijitter": SamplerSpec(
         "multijitter", "cmj", "independent", _multijitter,
         "Kensler correlated multi-jittering nx x ny (ny = floor(sqrt spp)), permutation "
         "seeds per pixel and dimension, fresh jitter; spp -> nx*ny. "
-        + _M + "multijitter.cpp set_sample_count, next_2d"),
+        + _M + "multijitter.cpp set_sample_count, next_2d", options=_hashed_permutations),
     "ldsampler": SamplerSpec(
         "ldsampler", "digital_shift", "same_net_permuted", _ld,
         "(van der Corput, Sobol' 2) (0,2)-net XOR-scrambled by ONE per-pixel shift "
@@ -403,7 +445,7 @@ def _snippet(s: StrategySetting, spec: SamplerSpec, spp: int, *, filename: str =
              mis_compensation: bool = False, form: str = "python",
              microfacet: tuple | None = None, sphere_pixels: int | None = None) -> str:
     """The scene envfit predicted, as the measurements render it
-    (:mod:`envfit.measure.renderers._mitsuba3`): a unit sphere at the origin with the BSDF
+    (:mod:`envfit.renderers.mitsuba3._render`): a unit sphere at the origin with the BSDF
     (:func:`_bsdf`), the ``envmap`` of ``filename``, six ``orthographic`` sensors
     (:data:`SPHERE_VIEWS`: ``look_at`` from 3v, the image plane [-1, 1]², ``hdrfilm`` of
     :func:`snippet_pixels` pixels with the ``box`` filter), the sampler at the spp it runs in
@@ -450,7 +492,7 @@ def _technique(envmap, **options) -> Mitsuba3Envmap:
     return Mitsuba3Envmap(envmap, **options)
 
 
-MITSUBA3 = RendererPreset(
+MITSUBA3 = Renderer(
     name="mitsuba3",
     renderer="Mitsuba 3.9.1 (mitsuba-renderer/mitsuba3 @ 478e193a183c), envmap + direct",
     technique=_technique,
@@ -463,4 +505,15 @@ MITSUBA3 = RendererPreset(
     source=("src/emitters/envmap.cpp; include/mitsuba/core/distr_2d.h Hierarchical2D; "
             "include/mitsuba/core/warp.h square_to_cosine_hemisphere; src/bsdfs/diffuse.cpp "
             "SmoothDiffuse::sample; src/integrators/direct.cpp; src/samplers/*.cpp"),
+    display="Mitsuba 3",
+    negative_radiance=("Mitsuba 3's envmap looks up the signed radiance but never samples a "
+                       "texel of negative luminance (src/emitters/envmap.cpp: "
+                       "rebuild_distribution, max(lum - offset, 0)), so its emitter samples "
+                       "miss the negative light"),
+    mis_compensation=True,
+    microfacet={"ggx": None, "beckmann": None, "roughplastic": PLASTIC_SAMPLERS},
+    microfacet_why={"roughplastic": " (orthogonal pairs the lobe choice with the direction in "
+                                    "an array)"},
+    render_samplers=("independent", "ldsampler"),
+    harness="envfit.renderers.mitsuba3._render",
 )

@@ -1,14 +1,14 @@
 """The bpy script of the scene envfit predicts for Cycles (:func:`cycles_snippet`): the
 measurements' exact sphere, world, orthographic views and render settings
-(:mod:`envfit.measure.renderers._cycles`), as text a user pastes into Blender."""
+(:mod:`envfit.renderers.cycles._render`), as text a user pastes into Blender."""
 from __future__ import annotations
 
-from envfit.sampling.presets._base import (SPHERE_VIEWS, SamplerSpec, StrategySetting,
+from envfit.renderers._base import (SPHERE_VIEWS, SamplerSpec, StrategySetting,
                                            scene_comment, snippet_pixels)
 
 __all__ = ["cycles_snippet"]
 
-#: the bpy lines that build the measurements' exact sphere (:mod:`envfit.measure.renderers.
+#: the bpy lines that build the measurements' exact sphere (:mod:`envfit.renderers.
 #: _cycles`: one vertex → Mesh to Points of radius 1, which Cycles intersects as an analytic
 #: sphere) with the white Diffuse BSDF (colour 1, roughness 0: Lambertian)
 _SPHERE = """mat = bpy.data.materials.new("white diffuse")
@@ -60,7 +60,7 @@ view(0)
 
 
 def _settings(n: int, spp: int, pattern: str) -> str:
-    """The render settings of the measurements (:func:`envfit.measure.renderers._cycles.
+    """The render settings of the measurements (:func:`envfit.renderers.cycles._render.
     _settings`): an n × n film, box filter of width 1, direct light only, no clamping,
     denoising or adaptive sampling, the light tree on, the pattern at ``spp``."""
     return (f"r, c = scene.render, scene.cycles\n"
@@ -88,7 +88,7 @@ def _settings(n: int, spp: int, pattern: str) -> str:
 def cycles_snippet(s: StrategySetting, spec: SamplerSpec, spp: int, *,
              filename: str = "envmap.exr", sphere_pixels: int | None = None) -> str:
     """A bpy script of the scene envfit predicted, as the measurements build it
-    (:mod:`envfit.measure.renderers._cycles`): Blender's empty factory scene, the exact
+    (:mod:`envfit.renderers.cycles._render`): Blender's empty factory scene, the exact
     sphere with the white Diffuse BSDF, the world's Environment Texture (Linear) straight into
     the Background and its sampling for the strategy, an orthographic camera on each of the
     six :data:`SPHERE_VIEWS` (``view(k)``), a film of :func:`snippet_pixels` pixels with the

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from envfit.sampling import MapSampler
-from envfit.sampling.presets._base import (DirectionSample, EnvmapTechnique, RendererPreset,
+from envfit.renderers._base import (DirectionSample, EnvmapTechnique, Renderer,
                                            SamplerSpec, StrategySetting, square_points)
 from envfit.shading import twisted_frames
 
@@ -74,12 +74,17 @@ def envfit_frame(normals) -> np.ndarray:
                         (0, 2, 1))
 
 
+
+def _row_strata(n: int) -> tuple:
+    """The jitter rule's strata by rows (:func:`envfit.theory.jitter_strata`)."""
+    return (("layout", "rows"),)
+
 _R = "envfit.theory._pointsets.square_points; one CP shift per axis (envfit.sampling._importance)"
 SAMPLERS = {
     "random": SamplerSpec("random", "independent", "independent", int,
                           "i.i.d. uniform points, a fresh set per estimate. " + _R),
     "jitter": SamplerSpec("jitter", "jittered", "shared_shift", int,
-                          "stratified jitter. " + _R),
+                          "stratified jitter. " + _R, options=_row_strata),
     "sobol": SamplerSpec("sobol", "cp_shift", "shared_shift", int,
                          "Sobol' (0,2) points, Cranley-Patterson shifted. " + _R, default=True),
     "lp": SamplerSpec("lp", "cp_shift", "shared_shift", int,
@@ -110,7 +115,7 @@ def _snippet(s: StrategySetting, spec: SamplerSpec, spp: int, *,
             f"points = rule_points(rule)\n")
 
 
-ENVFIT = RendererPreset(
+ENVFIT = Renderer(
     name="envfit",
     renderer="envfit's own estimators (MapSampler, lobe sampling, balance MIS)",
     technique=EnvfitMapTechnique,
@@ -121,4 +126,7 @@ ENVFIT = RendererPreset(
     samplers=SAMPLERS,
     snippet_fn=_snippet,
     source="envfit.sampling._map_sampler, _importance, _rules",
+    display="envfit",
+    negative_radiance=("envfit's MapSampler samples by luminance with a 1 % floor, and no "
+                       "measurement checks the model of a signed map"),
 )

@@ -56,13 +56,13 @@ import numpy as np
 
 from envfit.base import ParameterError
 from envfit.maps import EnvMap, save_envmap
-from envfit.measure.renderers._reference import ReferencePair, cached_reference, map_digest
-from envfit.measure.renderers._sphere import (VIEWS, SphereMeasurement, check_strategy,
+from envfit.renderers._reference import ReferencePair, cached_reference, map_digest
+from envfit.renderers._sphere import (VIEWS, SphereMeasurement, check_strategy,
                                               measurement, sphere_error, sphere_geometry,
                                               view_seeds)
 
 __all__ = ["PATTERNS", "CYCLES_PATTERNS", "WORLD_SAMPLING", "CyclesOptions", "CyclesSphere",
-           "import_bpy", "cycles_normals", "glossy_bsdf"]
+           "import_bpy", "cycles_normals", "glossy_bsdf", "version", "open_sphere"]
 
 #: envfit's pattern names → Cycles' ``sampling_pattern`` enum
 PATTERNS = {"tabulated_sobol": "TABULATED_SOBOL", "blue_noise": "BLUE_NOISE",
@@ -452,3 +452,19 @@ def cycles_normals(resolution: int, spp: int = 16) -> np.ndarray:
     env = EnvMap(np.ones((4, 8, 3), np.float32))
     with CyclesSphere(env, CyclesOptions(resolution=int(resolution), reference_spp=1)) as r:
         return r.normals(spp)
+
+
+# The harness protocol (``Renderer.harness``): what ``validate --renderer`` calls.
+
+def version() -> str:
+    """Blender's version (Cycles on the CPU); one-line ParameterError where bpy is not
+    installed."""
+    return f"Blender {'.'.join(str(v) for v in import_bpy().app.version)} (Cycles, CPU)"
+
+
+def open_sphere(envmap, brdf: str | None, alpha: float | None, **common) -> "CyclesSphere":
+    """The sphere of envfit's measurement with ``brdf`` (None: white diffuse; else a Glossy
+    BSDF, :func:`glossy_bsdf`) of roughness ``alpha``; ``common``: :class:`CyclesOptions`'
+    resolution, reference_spp, cache_dir."""
+    bsdf = None if brdf is None else glossy_bsdf(brdf, alpha)
+    return CyclesSphere(envmap, CyclesOptions(**common, bsdf=bsdf))

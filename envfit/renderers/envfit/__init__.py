@@ -1,0 +1,15 @@
+"""envfit's own rules: the MapSampler, lobe sampling and balance MIS (``_technique``).
+
+The folder's record is :data:`ENVFIT` (a :class:`~envfit.renderers.Renderer`).
+
+The names of ``__all__`` are imported lazily, on first use (PEP 562).
+"""
+from __future__ import annotations
+
+from envfit.base._lazy import lazy_exports
+
+_LAZY = {"ENVFIT": "_technique"}
+
+__all__ = sorted(_LAZY)
+
+__getattr__, __dir__ = lazy_exports(__name__, _LAZY)
