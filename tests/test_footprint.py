@@ -100,7 +100,7 @@ def test_diffuse_footprint_ldsampler_is_the_pairing_simulated():
                                   {r.level})[0]
         tables = {t: np.stack([m._point_parts({"mis"}, x, fine)[t] for x in normal[1]])
                   for t in ("mis_e", "mis_b")}
-        want.append(base + m._pairing(n).extra(tables, "mis")[0])
+        want.append(base + m._pairing(r).extra(tables, "mis")[0])
         before.append(base + footprint_term("mis", "digital_shift", n, vals))
     np.testing.assert_allclose(got, m.weights @ np.array(want), rtol=1e-10)
     assert not np.allclose(got, m.weights @ np.array(before), rtol=1e-3)

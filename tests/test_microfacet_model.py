@@ -15,6 +15,7 @@ from envfit.renderers import get_renderer
 from envfit.shading.microfacet import Conductor, microfacet_shading_integral
 
 MITSUBA = get_renderer("mitsuba3")
+_LD_POINTS = MITSUBA.sampler("ldsampler").film_points
 
 
 def _sun_map(h: int = 16) -> EnvMap:
@@ -346,7 +347,7 @@ def test_footprint_term_for_randomly_paired_nets_matches_a_simulation():
     Var c/(N − 1) (``footprint_term``, Var c scaled by J/(J − 1)) within 4 standard errors
     (+3 %) at N = 16 and 64; Mitsuba's own pairing is the next test."""
     from envfit.predict.renderer._footprint import film_weights, footprint_term
-    from envfit.predict.renderer.randomisation._ldsampler import (ldsampler_points,
+    from envfit.renderers.mitsuba3._ldsampler import (ldsampler_points,
                                                                   pixel_scramble_seeds)
     m, _, foot, view = _footprint_model(side=2)
     fine, mm = 7, 1 << 7
@@ -384,8 +385,8 @@ def test_ldsampler_footprint_is_the_pairing_simulated():
     r = m.request("brdf", "ldsampler", n)
     grids = {"normal": m.normals[0], "strategies": {"brdf"}}
     base = m._randomised_cell(r, vals, grids, fine, {r.level})[0]
-    mine, mine_se = m._pairing(n).extra(g, "brdf")
-    other, other_se = PairedFootprint(n, (1 << 20) // n, seed=5).extra(g, "brdf")
+    mine, mine_se = m._pairing(r).extra(g, "brdf")
+    other, other_se = PairedFootprint(n, (1 << 20) // n, 5, _LD_POINTS).extra(g, "brdf")
     np.testing.assert_allclose(m.predict("brdf", "ldsampler", n).mse, base + mine, rtol=1e-12)
     assert np.all(np.abs(mine - other) <= 4 * np.hypot(mine_se, other_se))
 

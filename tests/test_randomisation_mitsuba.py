@@ -23,6 +23,9 @@ from oracles.randomisers import INTEGRANDS, mse_estimate, sobol_digits
 
 from envfit.predict.renderer.randomisation import (DyadicGrid, mis_mse, mitsuba_cmj_shape,
                                                    permute_kensler, randomised_mse)
+from envfit.renderers import get_renderer
+
+_LD_POINTS = get_renderer("mitsuba3").sampler("ldsampler").film_points
 
 mi = pytest.importorskip("mitsuba")
 
@@ -197,7 +200,7 @@ def test_ldsampler_port_repeats_mitsubas_points():
     network at 2 rounds, the per-sequence seed) gives Mitsuba's points exactly, so the
     pairing of the test above can be computed without Mitsuba (and reproduces it: (N − 1) ×
     the variance 2.8–3.0 at 64 spp, 8.2 at 256)."""
-    from envfit.predict.renderer.randomisation._ldsampler import (ldsampler_points, permute,
+    from envfit.renderers.mitsuba3._ldsampler import (ldsampler_points, permute,
                                                                   sample_tea_32)
     pts = mitsuba_points("ldsampler", 64, SEEDS, dims=2)
     port = ldsampler_points(sample_tea_32(0, np.arange(SEEDS), 4)[0], 64, 2)
@@ -222,6 +225,6 @@ def test_paired_footprint_is_mitsubas_film_by_direction_interaction():
     m = 1 << level
     u0 = np.repeat((np.arange(m) + 0.5) / m, m) - 0.5                # u0 the slow index
     tables = np.stack([(x - 0.5) * u0 for _ in (0, 1) for x in (0.25, 0.75)])[..., None]
-    model, model_se = PairedFootprint(n, (1 << 20) // n, seed=0).extra({"map": tables}, "map")
+    model, model_se = PairedFootprint(n, (1 << 20) // n, 0, _LD_POINTS).extra({"map": tables}, "map")
     assert abs(model[0] - direct) <= Z * math.hypot(se, model_se[0]), (model, direct, se)
     assert 4.0 < direct * 144 * (n - 1) < 6.5

@@ -282,6 +282,10 @@ class SamplerSpec:
         randomisation registry (``envfit.predict.renderer.randomisation``): the renderer's
         own strata layout or permutations; None: the registry's plain form (square strata,
         uniform permutations)
+    film_points : ``(pixels, n, dims, seed) -> (pixels, n, dims, 2)`` the sampler's own points
+        of each pixel in the order it pairs them across dimensions (dimension 0 the film's),
+        for pixels of random seeds; None where that order does not matter (the model takes
+        the film's pairing with the techniques as random)
     """
 
     name: str
@@ -292,6 +296,7 @@ class SamplerSpec:
     default: bool = False
     prefix: bool = False
     options: Callable[[int], tuple] | None = None
+    film_points: Callable[..., np.ndarray] | None = None
 
     def model_options(self, n: int) -> tuple:
         """The randomisation's options for ``n`` points (:attr:`options`; () without)."""

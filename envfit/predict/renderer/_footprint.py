@@ -22,7 +22,7 @@ linear law's 1.25; scaled, the two agree to 0.3 %).
 Mitsuba's ``ldsampler`` does not pair its dimensions at random: each is the pixel's one
 XOR-shifted net in the order ``permute(j, N, scramble_seed + d)``, and two rounds of TEA on
 consecutive seeds order the film's points (dimension 0) and the first technique's alike
-(:mod:`~envfit.predict.renderer.randomisation._ldsampler`). There the film's share is not
+(the sampler's ``film_points``: Mitsuba's in :mod:`envfit.renderers.mitsuba3._ldsampler`). There the film's share is not
 Var c/(N − 1) but E(F − I)² − E(F₀ − I)² over Mitsuba's own points (:class:`PairedFootprint`,
 :func:`paired_extra`): F the pixel estimate with the integrand interpolated across the pixel
 from the footprint's tables (:func:`film_weights`), F₀ the same samples of the mean table.
@@ -262,29 +262,29 @@ def _paired_sums(tables, cells, weights, d, f0):  # pragma: no cover - numba
 
 
 class PairedFootprint:
-    r"""The film × technique pairing of Mitsuba's ``ldsampler`` at N spp over R pixels
-    (module docstring): their points (dimension 0 the film's, 1 the emitter's, 1 +
-    emitter_samples the BSDF's: ``src/render/integrator.cpp`` ``render_sample`` and
-    ``src/integrators/direct.cpp``, as the preset's ``_dimensions``), each pixel's scramble
-    seed drawn at random (``randomisation._ldsampler.pixel_scramble_seeds``).
+    r"""The film × technique pairing of a sampler at N spp over R pixels (module
+    docstring), over the sampler's own points in its order (``film_points(pixels, n, dims,
+    seed)``, :attr:`envfit.renderers.SamplerSpec.film_points`: Mitsuba's ``ldsampler``;
+    dimension 0 the film's, 1 the emitter's, 1 + emitter_samples the BSDF's, as the
+    renderer's integrator draws them), each pixel's scramble seed drawn at random.
 
     Examples
     --------
     An integrand 2x − ½ along the film's x only: the net's x are N strata's points shifted
     alike, so the error is 2(δ − ½)/N, δ uniform: MSE 1/(3N²).
 
-    >>> pf = PairedFootprint(16, pixels=4096, seed=0)
+    >>> from envfit.renderers import get_renderer
+    >>> points = get_renderer("mitsuba3").sampler("ldsampler").film_points
+    >>> pf = PairedFootprint(16, 4096, 0, points)
     >>> g = np.zeros((4, 16, 1)); g[1] = g[3] = 1.0          # the normals at x = ¾
     >>> mse, se = pf.extra({"map": g}, "map")
     >>> bool(abs(mse[0] - 1 / (3 * 16 ** 2)) < 3 * se[0])
     True
     """
 
-    def __init__(self, n: int, pixels: int, seed: int = 0):
-        from envfit.predict.renderer.randomisation._ldsampler import (ldsampler_points,
-                                                                      pixel_scramble_seeds)
+    def __init__(self, n: int, pixels: int, seed: int, film_points):
         self.n = int(n)
-        self.points = ldsampler_points(pixel_scramble_seeds(pixels, seed), self.n, 3)
+        self.points = film_points(pixels, self.n, 3, seed)
         self._weights, self._cells = {}, {}
 
     def weights(self, side: int) -> np.ndarray:

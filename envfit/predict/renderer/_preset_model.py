@@ -426,7 +426,7 @@ class PresetModel:
         (:func:`._footprint.footprint_term`)."""
         res = self._randomised_cell(r, vals, grids, fine, levels)
         if "_normals" in vals and self._paired(r):
-            extra = self._pairing(r.n).extra(vals["_normals"], r.strategy,
+            extra = self._pairing(r).extra(vals["_normals"], r.strategy,
                                              self.preset.strategy(r.strategy).emitter_samples,
                                              means=vals)[0]
         else:
@@ -437,16 +437,20 @@ class PresetModel:
         """Whether the film's pairing with the techniques is simulated over the sampler's own
         points (Mitsuba's ``ldsampler``: :class:`._footprint.PairedFootprint`) rather than
         taken as random (:func:`._footprint.footprint_term`)."""
-        return (r.name == "digital_shift"
-                and self.preset.sampler(r.sampler).pairing == "same_net_permuted")
+        spec = self.preset.sampler(r.sampler)
+        return (r.name == "digital_shift" and spec.pairing == "same_net_permuted"
+                and spec.film_points is not None)
 
-    def _pairing(self, n: int) -> PairedFootprint:
-        """The :class:`._footprint.PairedFootprint` of N spp: max(Q, 2^20/N) pixels (Q =
-        ``options.shifts``), seeded by ``options.seed``."""
-        key = ("paired", n)
+    def _pairing(self, r: CellRequest) -> PairedFootprint:
+        """The :class:`._footprint.PairedFootprint` of cell ``r``'s sampler at N spp: its own
+        film points for max(Q, 2^20/N) pixels (Q = ``options.shifts``), seeded by
+        ``options.seed``."""
+        n = r.n
+        key = ("paired", r.sampler, n)
         if key not in self._tables:
             self._tables[key] = PairedFootprint(n, max(self.options.shifts, (1 << 20) // n),
-                                                self.options.seed)
+                                                self.options.seed,
+                                                self.preset.sampler(r.sampler).film_points)
         return self._tables[key]
 
     def _randomised_cell(self, r: CellRequest, vals: dict, grids: dict, fine: int, levels):

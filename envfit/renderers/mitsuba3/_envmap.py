@@ -332,6 +332,13 @@ def _hashed_permutations(n: int) -> tuple:
     return (("permutations", "mitsuba"),)
 
 
+def _ldsampler_points(pixels: int, n: int, dims: int, seed: int) -> np.ndarray:
+    """``ldsampler``'s points of ``pixels`` pixels of random scramble seeds, in its order
+    (:mod:`._ldsampler`)."""
+    from envfit.renderers.mitsuba3._ldsampler import ldsampler_points, pixel_scramble_seeds
+    return ldsampler_points(pixel_scramble_seeds(pixels, seed), n, dims)
+
+
 _M = "mitsuba3 @ 478e193a (v3.9.1) src/samplers/"
 SAMPLERS = {
     "independent": SamplerSpec(
@@ -353,7 +360,8 @@ SAMPLERS = {
         "(van der Corput, Sobol' 2) (0,2)-net XOR-scrambled by ONE per-pixel shift "
         "sample_tea_32(seed, 0x98bc51ab) for every 2-D dimension; each dimension only "
         "permutes the order (permute(index, N, seed + dimension)); spp -> square of a power "
-        "of two (min 4). " + _M + "ldsampler.cpp set_sample_count, next_2d"),
+        "of two (min 4). " + _M + "ldsampler.cpp set_sample_count, next_2d",
+        film_points=_ldsampler_points),
     "orthogonal": SamplerSpec(
         "orthogonal", "orthogonal_array", "joint_array", _orthogonal,
         "Bose orthogonal array (strength 2), CMJ-style permutations per pixel, fresh "

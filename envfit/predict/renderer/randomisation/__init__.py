@@ -13,8 +13,6 @@ Modules (private, one per method; each cites its equation and reference):
 * ``_nets`` — the digital nets' generator matrices and dual nets (:data:`NETS`).
 * ``_kensler`` — Kensler's hashed permutation (Mitsuba's ``permute_kensler``) and the
   distribution of its permutations (pair tables).
-* ``_ldsampler`` — Mitsuba's ``ldsampler`` points in its own order (TEA, ``permute``), whose
-  pairing of the film's dimension with the techniques' the pixel footprint's model reads.
 * ``_independent``, ``_jittered``, ``_cmj``, ``_orthogonal``, ``_digital_shift``, ``_owen``,
   ``_cp_shift`` — the
   methods.
