@@ -155,12 +155,12 @@ def predict_cell(predictor: Predictor, sampler: str, strategy: str, spp: int) ->
 def generic_cell(predictor: Predictor, sampler: str, strategy: str, spp: int) -> float:
     """envfit's generic prediction of one cell (the second column, ``generic``).
 
-    envfit's generic rules (:func:`envfit.predict.renderer.predict_rule`): the
+    envfit's generic rules (:func:`envfit.predict.predict_rule`): the
     renderer's sampler as envfit's point set of :data:`GENERIC_POINTSET` (random, jitter,
     sobol), envfit's map sampler (piecewise constant per pixel) and, for MIS, the balance
     heuristic at 2N (the renderer takes one emitter + one BSDF sample per spp; envfit's rule
     splits N into N/2 + N/2). ``mis-comp`` is predicted as ``mis``."""
-    from envfit.predict.renderer import predict_rule
+    from envfit.predict import predict_rule
     from envfit.sampling import RendererRule
     pointset = GENERIC_POINTSET[sampler]
     strat = "mis" if strategy.startswith("mis") else strategy

@@ -18,7 +18,8 @@ import time
 import pytest
 
 from envfit.cli import build_parser, main
-from envfit.cli._common import finite_float, str_list
+from envfit.cli._common import str_list
+from envfit.cli._parse import finite_float
 from envfit.cli._ranges import Ranged, distinct_names, ranged_actions
 
 

@@ -3,7 +3,7 @@ renderer table, --strategies, --renderer-pointsets, --no-renderer, advise.png) a
 early stop of the paper rows' N search (envfit.advisor._search.smallest_n).
 
 Reference values come from a second path: every N of the renderer grid predicted directly
-with :func:`envfit.predict.renderer._predictor.predict_rule` against the search; rows constructed by hand
+with :func:`envfit.predict.predict_rule` against the search; rows constructed by hand
 against the recommendation; a fresh model against the cached one; :func:`measure_rule` called
 directly against the check; the doubling-and-bisection search written out again against the
 early-stopping one. Maps are 16 rows (a sun on a GP background, a GP map), the spectra on a
@@ -31,7 +31,8 @@ from envfit.data_gen._gp import gaussian_process_map
 from envfit.data_gen._sun_gp import sun_gp_map
 from envfit.maps._envmap import EnvMap
 from envfit.maps._io import save_envmap
-from envfit.predict.renderer._predictor import predict_rule, renderer_model
+from envfit.predict import predict_rule
+from envfit.predict.renderer._predictor import renderer_model
 from envfit.predict.renderer._warped_spectrum import WarpedSpectrum
 from envfit.sampling import STRATEGIES, RendererRule
 from envfit.measure import RendererSetup, measure_rule

@@ -28,6 +28,7 @@ import envfit.base._atomic as atomic
 import envfit.cli as cli
 import envfit.plots._save as plot_save
 from envfit.cli import _common as common
+from envfit.cli import _parse as parse
 from envfit.base._errors import EnvfitError, OutputError
 
 TINY = ["--max-height", "16"]
@@ -357,9 +358,9 @@ def test_bad_values_are_one_line_usage_errors(argv, message, capsys):
 
 def test_whole_numbers_and_lists_accepted():
     assert common.int_list("100,1e3, 2500") == [100, 1000, 2500]
-    assert common.positive_int("1e3") == 1000 and common.positive_int("100.0") == 100
-    assert common.positive_int("12345678901234567") == 12345678901234567     # exact, no float
-    assert common.nonneg_int("0") == 0 and common.nonneg_int_list("0,1,2") == [0, 1, 2]
+    assert parse.positive_int("1e3") == 1000 and parse.positive_int("100.0") == 100
+    assert parse.positive_int("12345678901234567") == 12345678901234567     # exact, no float
+    assert parse.nonneg_int("0") == 0 and common.nonneg_int_list("0,1,2") == [0, 1, 2]
     assert common.float_list("1.1,1.5,1.9") == [1.1, 1.5, 1.9]
     assert common.colour_list("0.5,0.5,0.5") == [0.5, 0.5, 0.5]             # repeats: a colour
     for bad in ("", " ", "1.5,", "1,x"):

@@ -1,4 +1,4 @@
-"""Cycles' Multiscatter GGX (``envfit.shading.microfacet._multiscatter``): the albedo table
+"""Cycles' Multiscatter GGX (``envfit.shading.microfacet._conductor``): the albedo table
 against a direction-space quadrature of the single-scatter BSDF, the lookup's interpolation,
 the conductor's eval and weight scaled, the noise model scaled per frame, and bad
 combinations refused. Rendered by Cycles: tests/test_render_cycles.py (a white sphere under
@@ -14,7 +14,7 @@ from envfit.predict.renderer import MicrofacetModel
 from envfit.predict.renderer._preset_model import PresetModelOptions
 from envfit.renderers import get_renderer
 from envfit.shading.microfacet import Conductor, energy_scale, multiscatter_or_conductor
-from envfit.shading.microfacet._multiscatter import TABLE_SIZE, _column
+from envfit.shading.microfacet._conductor import TABLE_SIZE, _column
 
 
 def _albedo_by_directions(alpha: float, mu: float, n: int = 1200) -> float:

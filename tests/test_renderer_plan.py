@@ -55,9 +55,9 @@ def test_nmax_beyond_a_32_bit_spp_is_refused_fast(tmp_path, capsys):
 
 
 def test_spp_searched_are_lazy_and_the_top_of_the_range_is_searched(gp_file, tmp_path, capsys):
-    from envfit.advisor._preset_search import coarse_spp, runnable_spp
+    from envfit.advisor._preset_search import coarse_spp
     spec = get_renderer("mitsuba3").sampler("independent")
-    r = runnable_spp(spec, 2 ** 31 - 1)
+    r = spec.runnable(2 ** 31 - 1)
     assert isinstance(r, range) and len(r) == 2 ** 31 - 1
     assert coarse_spp(r)[:3] == [1, 2, 4] and coarse_spp(r)[-2:] == [2 ** 30, 2 ** 31 - 1]
     # end to end: a target no spp meets, searched to the top of the range in seconds

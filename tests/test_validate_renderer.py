@@ -2,7 +2,7 @@
 (envfit.validate._report_verdicts' renderer verdicts and the ``renderer_*`` conditions), envfit.plots._renderer and
 the CLI flags.
 
-Independent references: :func:`envfit.predict.renderer._predictor.predict_rule` and
+Independent references: :func:`envfit.predict.predict_rule` and
 :func:`envfit.measure._rules.measure_rule` called directly on a fresh setup (a second
 path, same seeds), ``statistics.median`` and hand-written loops for the summaries,
 ``json`` for the round trip, matplotlib's PNG reader, and results constructed by hand where a
@@ -25,7 +25,8 @@ from envfit.base._errors import ParameterError
 from envfit.data_gen._sun_gp import sun_gp_map
 from envfit.maps._envmap import EnvMap
 from envfit.maps._io import load_envmap, save_envmap
-from envfit.predict.renderer._predictor import predict_rule, renderer_model
+from envfit.predict import predict_rule
+from envfit.predict.renderer._predictor import renderer_model
 from envfit.measure._adaptive_rmse import agreement_with_interval
 from envfit.sampling._rules import RendererRule
 from envfit.measure._rules import RendererSetup, measure_rule

@@ -369,8 +369,7 @@ def _largest_fitting(pixels: int, opts, option: str, resident: int, budget: int)
     if v < 1 or not fits(v):
         return None
     if option == "--nmax":                    # the largest spp the sampler runs up to it
-        from envfit.advisor._preset_search import runnable_spp
-        v = runnable_spp(opts.preset.sampler(opts.sampler), v)[-1]
+        v = opts.preset.sampler(opts.sampler).runnable(v)[-1]
     return v
 
 

@@ -12,7 +12,7 @@ sampler, technique options, model options and :func:`model_version`), so a secon
 same map and sampler builds no model at all.
 
 Search (:func:`search_spp`), per strategy over the spp the sampler can run
-(:func:`runnable_spp`, the sampler's own rounding, e.g. ``ldsampler`` 4, 16, 64, …):
+(:meth:`~envfit.renderers.SamplerSpec.runnable`, the sampler's own rounding, e.g. ``ldsampler`` 4, 16, 64, …):
 
 1. pass 1: the *coarse* spp — the runnable spp at every power of two (:func:`coarse_spp`),
    the largest spp searched and the ``--spp`` list; the answer lies between the last coarse
@@ -55,7 +55,7 @@ from envfit.predict.renderer._frames import band_frames
 from envfit.predict.renderer._microfacet_model import MicrofacetModel
 from envfit.predict.renderer._preset_model import PresetModel
 
-__all__ = ["CachedPresetModel", "StrategyAnswer", "answer_error", "next_runnable", "search_model", "model_version", "runnable_spp", "switched_strategy",
+__all__ = ["CachedPresetModel", "StrategyAnswer", "answer_error", "next_runnable", "search_model", "model_version", "switched_strategy",
            "coarse_spp", "search_spp", "CANDIDATES", "PRESET_CACHE_FORMAT"]
 
 #: runnable spp evaluated per open bracket and pass
@@ -194,30 +194,6 @@ def _duration(plan, passes: int) -> str:
     return f"{secs:.0f} s" if secs < 120 else f"{secs / 60:.0f} min"
 
 
-def runnable_spp(spec, cap: int):
-    """Every spp the sampler runs (its rounding of 1…cap) that is at most ``cap``, ascending:
-    a ``range`` (lazy, O(1) memory at any cap) where the sampler runs every spp as asked,
-    else a list (the roundings to squares, powers and products grow fast enough that their
-    counts up to the model's caps are small: 2048 squares to 4^11).
-
-    >>> from envfit.renderers import get_renderer
-    >>> runnable_spp(get_renderer("mitsuba3").sampler("ldsampler"), 300)
-    [4, 16, 64, 256]
-    >>> runnable_spp(get_renderer("mitsuba3").sampler("independent"), 10 ** 12)
-    range(1, 1000000000001)
-    """
-    cap = int(cap)
-    if spec.rounding is int:
-        return range(1, cap + 1)
-    out, n = set(), 1
-    while n <= cap:
-        r = spec.spp(n)
-        if r <= cap:
-            out.add(r)
-        n = max(n + 1, r) if r > n else n + 1
-    return sorted(out)
-
-
 def next_runnable(spec, spp: int, every: bool = False) -> int:
     """The smallest spp above ``spp`` the sampler runs (a power of two for the model's nets;
     a sampler may round a request down, as pbrt-v4's ``zsobol`` does).
@@ -338,7 +314,7 @@ def search_model(envmap, opts, store: AdviseCache, target: float, listed,
     (``technique``: the map's, built by an earlier model; ``strategies``: these only;
     ``stage``: the progress bar's word for its passes, e.g. ``"pilot pass"``)."""
     spec = opts.preset.sampler(opts.sampler)
-    runnable = runnable_spp(spec, opts.spp_cap())
+    runnable = spec.runnable(opts.spp_cap())
     if not opts.every_spp:                             # the model's nets: N = 2^m
         runnable = [n for n in runnable if n & (n - 1) == 0]
     cm = CachedPresetModel(envmap, opts, store, map_key(envmap, "linear"), technique)

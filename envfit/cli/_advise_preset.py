@@ -11,7 +11,7 @@ import time
 from pathlib import Path
 
 from envfit.base._errors import ParameterError
-from envfit.cli._common import finite_float
+from envfit.cli._parse import finite_float
 from envfit.cli._output import CommandOutput
 from envfit.cli._ranges import Ranged, name_words
 from envfit.defaults import MICROFACET_BSDFS
@@ -164,19 +164,19 @@ def _options(args: argparse.Namespace):
         model_error=args.renderer_model_error)
     rules = None
     if args.rules:
-        from envfit.cli._advise import options_from_args
+        from envfit.cli._advise_rules import options_from_args
         args.strategies, args.no_renderer = None, True
         rules = options_from_args(args)
     return popts, rules
 
 
 def _rules_lines(rules_adv) -> list[str]:
-    from envfit.cli._advise import _check_lines, _header
+    from envfit.cli._advise_rules import check_lines, header_lines
     out = ["envfit's rules (quadrature and SH/HSH truncation on this map, as without "
-           "--renderer):", *_header(rules_adv), *rules_adv.table_lines(),
+           "--renderer):", *header_lines(rules_adv), *rules_adv.table_lines(),
            *(f"warning: {w}" for w in rules_adv.warnings), rules_adv.recommendation]
     if rules_adv.check is not None:
-        out += _check_lines(rules_adv)
+        out += check_lines(rules_adv)
     return out
 
 

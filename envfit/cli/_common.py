@@ -17,8 +17,6 @@ written and exits 2.
 from __future__ import annotations
 
 import argparse
-import math
-from decimal import Decimal, InvalidOperation
 from pathlib import Path
 
 from envfit.base._atomic import check_writable_dir, check_writable_file
@@ -26,9 +24,7 @@ from envfit.base._notes import NoteKind
 from envfit.defaults import EXECUTORS, UPS
 from envfit.cli._output import CommandOutput
 from envfit.cli._overlap import check_no_overlap
-
-#: the largest integer an option accepts (exponent notation beyond it is surely a typo)
-_INT_LIMIT = 10 ** 18
+from envfit.cli._parse import check_unique, nonneg_int, parse_finite, positive_int, split_items
 
 #: ``--help`` of ``--convention`` (the names are those of envfit.maps._conventions.CONVENTIONS)
 CONVENTION_HELP = (
@@ -42,99 +38,6 @@ CONVENTION_HELP = (
 
 
 # ------------------------------------------------------------------ strict argument types
-def _whole(text: str) -> int:
-    """``text`` as an exact whole number (``"100"``, ``"1e3"``, ``"100.0"``) or
-    ArgumentTypeError ("100.5 is not a whole number")."""
-    t = str(text).strip()
-    if not t:
-        raise argparse.ArgumentTypeError("expected a whole number, got an empty value")
-    try:
-        return int(t)
-    except ValueError:
-        pass
-    try:
-        d = Decimal(t)
-    except InvalidOperation:
-        raise argparse.ArgumentTypeError(f"{t} is not a number") from None
-    if not d.is_finite():
-        raise argparse.ArgumentTypeError(f"{t} is not a whole number")
-    if d.adjusted() > 18:
-        raise argparse.ArgumentTypeError(f"{t} is too large")
-    if d != d.to_integral_value():
-        raise argparse.ArgumentTypeError(f"{t} is not a whole number")
-    return int(d)
-
-
-def _int_in_range(text: str, lo: int) -> int:
-    k = _whole(text)
-    if k < lo:
-        raise argparse.ArgumentTypeError(
-            f"{str(text).strip()} is not {'positive' if lo == 1 else f'>= {lo}'}")
-    if k > _INT_LIMIT:
-        raise argparse.ArgumentTypeError(f"{str(text).strip()} is too large")
-    return k
-
-
-def positive_int(text: str) -> int:
-    """A whole number >= 1 (argparse ``type=``): ``"100"``, ``"1e3"``; not ``"100.5"``, ``"0"``.
-
-    >>> positive_int("1e3"), positive_int("64")
-    (1000, 64)
-    """
-    return _int_in_range(text, 1)
-
-
-def nonneg_int(text: str) -> int:
-    """A whole number >= 0 (argparse ``type=``), e.g. ``--seed``, ``--lmax``."""
-    return _int_in_range(text, 0)
-
-
-def _finite(text: str) -> float:
-    t = str(text).strip()
-    try:
-        v = float(t)
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"{t} is not a number" if t else "expected a number, got an empty value") from None
-    if not math.isfinite(v):
-        raise argparse.ArgumentTypeError(f"{t} is not a finite number")
-    return v
-
-
-def finite_float(text: str) -> float:
-    """A finite number (argparse ``type=``): not NaN, not inf."""
-    return _finite(text)
-
-
-def positive_float(text: str) -> float:
-    """A finite number > 0 (argparse ``type=``), e.g. ``--shininess``, ``--target``."""
-    v = _finite(text)
-    if not v > 0:
-        raise argparse.ArgumentTypeError(f"{str(text).strip()} is not positive")
-    return v
-
-
-def _items(text: str) -> list[str]:
-    raw = str(text)
-    items = [x.strip() for x in raw.split(",")]
-    if not raw.strip():
-        raise argparse.ArgumentTypeError("empty list; give comma-separated values")
-    if any(not x for x in items):
-        raise argparse.ArgumentTypeError(f"empty entry in {raw!r}")
-    return items
-
-
-def _unique(values: list, items: list[str], raw: str) -> list:
-    seen: dict = {}
-    for v, x in zip(values, items):
-        if v in seen:
-            raise argparse.ArgumentTypeError(
-                f"{x} is given twice in {raw!r}" if seen[v] == x
-                else f"{seen[v]} and {x} are the same value in {raw!r}")
-        seen[v] = x
-    return values
-
-
 def float_list(text: str) -> list[float]:
     """Parse ``"1.1,1.5,1.9"`` into distinct finite floats (argparse ``type=``); an empty
     list, an empty entry, NaN/inf or a repeated value is an error.
@@ -142,13 +45,13 @@ def float_list(text: str) -> list[float]:
     >>> float_list("1.1, 1.5")
     [1.1, 1.5]
     """
-    items = _items(text)
-    return _unique([_finite(x) for x in items], items, str(text))
+    items = split_items(text)
+    return check_unique([parse_finite(x) for x in items], items, str(text))
 
 
 def colour_list(text: str) -> list[float]:
     """Parse a colour ``"1"`` or ``"0.2,0.2,0.9"`` into finite floats (repeats allowed)."""
-    return [_finite(x) for x in _items(text)]
+    return [parse_finite(x) for x in split_items(text)]
 
 
 def int_list(text: str) -> list[int]:
@@ -158,14 +61,14 @@ def int_list(text: str) -> list[int]:
     >>> int_list("100,1e3")
     [100, 1000]
     """
-    items = _items(text)
-    return _unique([positive_int(x) for x in items], items, str(text))
+    items = split_items(text)
+    return check_unique([positive_int(x) for x in items], items, str(text))
 
 
 def nonneg_int_list(text: str) -> list[int]:
     """As :func:`int_list`, with 0 allowed (cut-off degrees ``--sh-L 0,1,2``)."""
-    items = _items(text)
-    return _unique([nonneg_int(x) for x in items], items, str(text))
+    items = split_items(text)
+    return check_unique([nonneg_int(x) for x in items], items, str(text))
 
 
 def str_list(text: str) -> list[str]:

@@ -18,7 +18,7 @@ from __future__ import annotations
 import argparse
 import math
 
-from envfit.cli._common import _finite, _items, _unique, _whole
+from envfit.cli._parse import check_unique, parse_finite, parse_whole, split_items
 
 
 def _fmt(v) -> str:
@@ -105,7 +105,7 @@ class Ranged:
         if t.lower() in self.literals:
             return t.lower()
         try:
-            v = _whole(t) if self.integer else _finite(t)
+            v = parse_whole(t) if self.integer else parse_finite(t)
         except argparse.ArgumentTypeError as exc:
             if "too large" not in str(exc):
                 raise
@@ -117,9 +117,9 @@ class Ranged:
     def __call__(self, text: str):
         if not self.many:
             return self._one(text)
-        items = _items(text)
+        items = split_items(text)
         values = [self._one(x) for x in items]
-        return values if self.repeats else _unique(values, items, str(text))
+        return values if self.repeats else check_unique(values, items, str(text))
 
     # ---------------------------------------------------------------- input-dependent bound
     def check_dynamic(self, flag: str, values, bound: int, where: str) -> None:
@@ -177,8 +177,8 @@ def distinct_names(text: str) -> list[str]:
     >>> distinct_names("sf,sobol")
     ['sf', 'sobol']
     """
-    items = _items(text)
-    return _unique([x.lower() for x in items], items, str(text))
+    items = split_items(text)
+    return check_unique([x.lower() for x in items], items, str(text))
 
 
 def name_words(names, default=None) -> str:
@@ -187,9 +187,9 @@ def name_words(names, default=None) -> str:
 
 
 def common_range(type_, name: str) -> Ranged | None:
-    """The :class:`Ranged` of one of :mod:`envfit.cli._common`'s number types (positive_int,
+    """The :class:`Ranged` of one of :mod:`envfit.cli._parse`'s number types (positive_int,
     nonneg_int, positive_float), its symbol ``name``; None for another type."""
-    from envfit.cli import _common as c
+    from envfit.cli import _parse as c
     lo = {c.positive_int: 1, c.nonneg_int: 0, c.positive_float: 0}.get(type_)
     if lo is None:
         return None
@@ -198,7 +198,7 @@ def common_range(type_, name: str) -> Ranged | None:
 
 
 def state_common_ranges(parser) -> None:
-    """Give each option of ``parser`` typed by a number type of :mod:`envfit.cli._common`
+    """Give each option of ``parser`` typed by a number type of :mod:`envfit.cli._parse`
     (``--seed``, ``--max-height``) its :class:`Ranged` (the symbol its metavar, else its
     name: ``H >= 1``, ``SEED >= 0``), stated in its help, so that the help and the error say
     the same words."""

@@ -27,7 +27,8 @@ from envfit.cli._common import (add_common_arguments, add_map_arguments, load_ma
                                 map_convention, out_dir)
 from envfit.cli._output import CommandOutput
 from envfit.cli._ranges import Ranged
-from envfit.export._plan import BAND_LIMIT, MAX_CHECK_AXES, MAX_CHECK_HEIGHT
+from envfit.export._plan import MAX_CHECK_AXES, MAX_CHECK_HEIGHT
+from envfit.export._ringing import BAND_LIMIT
 
 #: the ranges of the options (``--help`` and the errors say these words)
 LMAX = Ranged(0, None, "L", hi_text=BAND_LIMIT)

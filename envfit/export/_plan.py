@@ -51,10 +51,11 @@ from envfit.base._errors import MemoryBudgetError, ParameterError
 from envfit.base._resources import (Stage, budget_words, format_bytes, memory_budget_bytes,
                                     time_limit_words)
 from envfit.base._resources import time_limit_seconds as _time_limit
-from envfit.export._ringing import CHECK_AXES, DENSE_BLOCK_BYTES, DENSE_HEIGHT, DIRECT_LMAX
+from envfit.export._ringing import (CHECK_AXES, DENSE_BLOCK_BYTES, DENSE_HEIGHT,
+                                    DIRECT_LMAX, check_degree)
 
 __all__ = ["DEFAULT_TIME_LIMIT", "Rates", "time_limit_seconds", "machine_rates",
-           "sh_stages", "check_sh_plan", "check_degree"]
+           "sh_stages", "check_sh_plan"]
 
 #: seconds the planned work of one ``envfit sh`` may take (``ENVFIT_TIME_LIMIT`` overrides)
 DEFAULT_TIME_LIMIT = 900.0
@@ -145,25 +146,6 @@ def _sloan_syntheses(l: int) -> float:
 MAX_CHECK_AXES = 2 ** 20
 MAX_CHECK_HEIGHT = 16384
 
-#: the words of a degree's input-dependent bound (``envfit sh --help`` states the same)
-BAND_LIMIT = "H-1 (the map's band limit)"
-
-
-def check_degree(value, height: int, option: str, lo: int) -> int:
-    """``value`` as a whole number in [lo, H − 1] (the map's band limit), else ParameterError
-    naming ``option`` and the range in ``envfit sh --help``'s words.
-
-    >>> check_degree(64, 64, "--lmax", 0)
-    Traceback (most recent call last):
-    ...
-    envfit.base._errors.ParameterError: --lmax 64 is outside 0 <= L <= H-1 (the map's band limit): H-1 = 63 for this 128x64 map
-    """
-    from envfit.base._checks import check_int
-    v = check_int(value, option, lo)
-    if v > height - 1:
-        raise ParameterError(f"{option} {v} is outside {lo} <= L <= {BAND_LIMIT}: H-1 = "
-                             f"{height - 1} for this {2 * height}x{height} map")
-    return v
 
 
 def _table(h: int, c: int, Ls, check: bool, irradiance: bool, r: Rates) -> Stage:

@@ -63,8 +63,11 @@ from envfit.theory._sphere_points import spherical_fibonacci_sphere
 
 __all__ = ["CHECK_AXES", "DENSE_HEIGHT", "TABLE_LMAX", "DIRECT_LMAX", "RingingRow",
            "signal_mean", "truncation_rmse", "negative_fraction", "dense_negative_fractions",
-           "measured_rmse", "ringing_rows", "choose", "check_lmax"]
+           "measured_rmse", "ringing_rows", "choose", "check_lmax", "check_degree",
+           "BAND_LIMIT"]
 
+#: the words of a degree's input-dependent bound (``envfit sh --help`` states the same)
+BAND_LIMIT = "H-1 (the map's band limit)"
 #: spherical Fibonacci directions of the measured RMSE
 CHECK_AXES = 4096
 #: rows of the lat-long grid of the dense negative-fraction check
@@ -106,8 +109,24 @@ class RingingRow:
 
 def check_lmax(lmax, height: int) -> int:
     """lmax as a whole number in [0, H − 1] (the map's band limit), else ParameterError."""
-    from envfit.export._plan import check_degree
     return check_degree(lmax, height, "--lmax", 0)
+
+
+def check_degree(value, height: int, option: str, lo: int) -> int:
+    """``value`` as a whole number in [lo, H − 1] (the map's band limit), else ParameterError
+    naming ``option`` and the range in ``envfit sh --help``'s words.
+
+    >>> check_degree(64, 64, "--lmax", 0)
+    Traceback (most recent call last):
+    ...
+    envfit.base._errors.ParameterError: --lmax 64 is outside 0 <= L <= H-1 (the map's band limit): H-1 = 63 for this 128x64 map
+    """
+    from envfit.base._checks import check_int
+    v = check_int(value, option, lo)
+    if v > height - 1:
+        raise ParameterError(f"{option} {v} is outside {lo} <= L <= {BAND_LIMIT}: H-1 = "
+                             f"{height - 1} for this {2 * height}x{height} map")
+    return v
 
 
 # ---------------------------------------------------------------- predictions

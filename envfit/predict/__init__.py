@@ -36,7 +36,7 @@ _LAZY = {
     "predict_plain": "_plain",
     "predict": "_registry", "Predictor": "_registry", "PREDICTORS": "_registry",
     "predictors_for": "_registry",
-    "predict_rule": "renderer", "renderer_model": "renderer", "RENDERER_PREDICTORS": "renderer",
+    "predict_rule": "_registry", "renderer_model": "renderer", "RENDERER_PREDICTORS": "renderer",
     "RendererModel": "renderer", "WarpedSpectrum": "renderer", "renderer_predictor": "renderer",
     "predict_random_variance": "renderer", "predict_warped_spectrum": "renderer",
     "predict_spectral": "_spectral",

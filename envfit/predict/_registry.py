@@ -37,9 +37,10 @@ from envfit.predict._bandlimited import predict_bandlimited
 from envfit.predict._context import Prediction, PredictionContext, Rule
 from envfit.predict._plain import predict_plain
 from envfit.predict._spectral import predict_spectral
-from envfit.predict.renderer._predictor import predict_random_variance, predict_warped_spectrum
+from envfit.predict.renderer._predictor import (predict_random_variance,
+                                                predict_warped_spectrum, renderer_predictor)
 
-__all__ = ["PREDICTORS", "Predictor", "predict", "predictors_for"]
+__all__ = ["PREDICTORS", "Predictor", "predict", "predictors_for", "predict_rule"]
 
 #: the signature every predictor has
 Predictor = Callable[[PredictionContext, Rule], Prediction]
@@ -101,3 +102,12 @@ def predict(name: str, ctx: PredictionContext, rule: Rule) -> Prediction:
         raise ParameterError(f"predictor {name!r} reads a {_reads(f).__name__}, not a "
                              f"{type(rule).__name__}")
     return f(ctx, rule)
+
+
+def predict_rule(model, rule, *, seed: int = 0) -> Prediction:
+    """Shorthand: :func:`predict` of :func:`~envfit.predict.renderer.renderer_predictor`
+    (``rule``, a :class:`~envfit.sampling.RendererRule`) on a context holding ``model`` (a
+    :class:`~envfit.predict.renderer.RendererModel`; ``seed``: the point seed, as
+    :func:`envfit.sampling._rules.rule_points`)."""
+    ctx = PredictionContext(renderer=model, point_seed=int(seed))
+    return predict(renderer_predictor(rule), ctx, rule)

@@ -308,6 +308,29 @@ class SamplerSpec:
         if self.pairing not in PAIRINGS:
             raise ParameterError(f"unknown pairing {self.pairing!r}")
 
+    def runnable(self, cap: int):
+        """Every spp the sampler runs (its rounding of 1…cap) that is at most ``cap``,
+        ascending: a ``range`` (lazy, O(1) memory at any cap) where the sampler runs every
+        spp as asked, else a list (the roundings to squares, powers and products grow fast
+        enough that their counts up to the model's caps are small: 2048 squares to 4^11).
+
+        >>> from envfit.renderers import get_renderer
+        >>> get_renderer("mitsuba3").sampler("ldsampler").runnable(300)
+        [4, 16, 64, 256]
+        >>> get_renderer("mitsuba3").sampler("independent").runnable(10 ** 12)
+        range(1, 1000000000001)
+        """
+        cap = int(cap)
+        if self.rounding is int:
+            return range(1, cap + 1)
+        out, n = set(), 1
+        while n <= cap:
+            r = self.spp(n)
+            if r <= cap:
+                out.add(r)
+            n = max(n + 1, r) if r > n else n + 1
+        return sorted(out)
+
     def spp(self, requested) -> int:
         """The spp the renderer runs when ``requested`` (an int ≥ 1) is asked for."""
         try:

@@ -30,7 +30,7 @@ from __future__ import annotations
 from envfit.base._lazy import lazy_exports
 
 _LAZY = {
-    "predict_rule": "_predictor", "renderer_model": "_predictor",
+    "renderer_model": "_predictor",
     "RENDERER_PREDICTORS": "_predictor", "RendererModel": "_predictor",
     "predict_random_variance": "_predictor", "predict_warped_spectrum": "_predictor",
     "renderer_predictor": "_predictor",

@@ -45,7 +45,7 @@ from envfit.predict.renderer._warped_spectrum import (SpectrumInputs, WarpedSpec
 from envfit.predict._context import Prediction, PredictionContext, reads
 
 __all__ = ["RendererModel", "renderer_model", "predict_random_variance",
-           "predict_warped_spectrum", "renderer_predictor", "predict_rule",
+           "predict_warped_spectrum", "renderer_predictor",
            "RENDERER_PREDICTORS"]
 
 #: predictor names by kind of point set
@@ -151,11 +151,3 @@ def renderer_predictor(rule: RendererRule) -> str:
     ('random-variance', 'warped-spectrum')
     """
     return RENDERER_PREDICTORS["random" if rule.pointset == "random" else "quasi-random"]
-
-
-def predict_rule(model: RendererModel, rule: RendererRule, *, seed: int = 0) -> Prediction:
-    """Shorthand: :func:`envfit.predict.predict` of :func:`renderer_predictor` (``rule``) on a
-    context holding ``model`` (``seed``: the point seed, as :func:`rule_points`)."""
-    from envfit.predict._registry import predict
-    ctx = PredictionContext(renderer=model, point_seed=int(seed))
-    return predict(renderer_predictor(rule), ctx, rule)

@@ -9,9 +9,9 @@ Modules:
   G, the density of visible normals.
 * :mod:`~envfit.shading.microfacet._vndf` — visible-normal sampling: Mitsuba 3, pbrt-v4, Cycles.
 * :mod:`~envfit.shading.microfacet._fresnel` — conductor Fresnel (Mitsuba's and pbrt-v4's forms).
-* :mod:`~envfit.shading.microfacet._conductor` — :class:`Conductor`, roughness conventions.
+* :mod:`~envfit.shading.microfacet._conductor` — :class:`Conductor`, roughness conventions,
+  Cycles' Multiscatter GGX (its energy scale).
 * :mod:`~envfit.shading.microfacet._plastic` — :class:`RoughPlastic` (Mitsuba 3 ``roughplastic``).
-* :mod:`~envfit.shading.microfacet._multiscatter` — Cycles' Multiscatter GGX (its energy scale).
 * :mod:`~envfit.shading.microfacet._ground_truth` — the shading integral's ground truth with
   its resolution rule.
 
@@ -32,7 +32,7 @@ _LAZY = {
     "roughness_range": "_conductor", "roughness_words": "_conductor", "ROUGHNESS_UNITS": "_conductor",
     "ROUGHNESS_RTOL": "_conductor", "ROUGHNESS_RULES": "_conductor",
     "PlasticSample": "_plastic", "RoughPlastic": "_plastic",
-    "energy_scale": "_multiscatter", "multiscatter_or_conductor": "_multiscatter",
+    "energy_scale": "_conductor", "multiscatter_or_conductor": "_conductor",
     "GroundTruthOptions": "_ground_truth", "MicrofacetShading": "_ground_truth",
     "microfacet_shading_integral": "_ground_truth",
 }
