@@ -97,7 +97,7 @@ def main() -> int:
         return 0
     if args.quick:
         args.n, args.count, args.height = 2000, 5, 128
-    from envfit.maps._mapsource import resolve_map_sources  # internal: the library run's own file resolver
+    from envfit.maps._lazy_maps import resolve_map_sources  # internal: the library run's own file resolver
     with tempfile.TemporaryDirectory(prefix="bench_library_") as tmp:
         if args.maps:
             maps = [s.path for s in resolve_map_sources(args.maps)]

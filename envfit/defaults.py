@@ -106,12 +106,12 @@ DEFAULT_SHININESS = PAPER_SHININESS
 
 #: the warped spectra's grid G of the renderer prediction (``advise`` and ``validate
 #: --renderer``): the box B = G/4, exact for QMC to N ≈ (G/8)² = 4096; measured on city.exr
-#: (table in :mod:`envfit.advisor._renderer`): a coarser grid under-predicts MIS with QMC
+#: (table in :mod:`envfit.advisor._rule_rows`): a coarser grid under-predicts MIS with QMC
 #: points by 10–40 % at N ≈ 256–4096
 RENDERER_GRID = 512
 #: axes of the spectra's importance sample over the sphere for ``advise``: on city.exr 32
 #: axes gave 0.96–1.08 of the 512/64 reference at every N for less than half its CPU time
-#: (:mod:`envfit.advisor._renderer`)
+#: (:mod:`envfit.advisor._rule_rows`)
 ADVISE_SPECTRUM_AXES = 32
 #: the same for ``validate --renderer``: on the s0 = 1.3 sun + GP map, glossy BRDF sampling
 #: with sf at N = 1024 was predicted 0.219 from 64 axes, 0.153 from 256 and 0.161 from 1024

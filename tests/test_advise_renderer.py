@@ -1,4 +1,4 @@
-"""Tests of the advisor's renderer rows (envfit.advisor._renderer; ``envfit advise`` with its
+"""Tests of the advisor's renderer rows (envfit.advisor._rule_rows; ``envfit advise`` with its
 renderer table, --strategies, --renderer-pointsets, --no-renderer, advise.png) and of the
 early stop of the paper rows' N search (envfit.advisor._search.smallest_n).
 
@@ -22,10 +22,10 @@ import pytest
 
 from envfit.advisor._advise import advise
 from envfit.advisor._cache import AdviseCache
-from envfit.advisor._renderer import (RendererRow, best_renderer_row, check_renderer_rows,
+from envfit.advisor._rule_rows import (RendererRow, best_renderer_row, check_renderer_rows,
                                       renderer_n_grid, renderer_recommendation,
                                       search_renderer_row)
-from envfit.advisor._renderer_cache import cached_renderer_model
+from envfit.advisor._rule_rows_cache import cached_renderer_model
 from envfit.advisor._search import smallest_n
 from envfit.data_gen._gp import gaussian_process_map
 from envfit.data_gen._sun_gp import sun_gp_map
@@ -326,7 +326,7 @@ def test_cli_renderer_table_json_and_png(exr16, tmp_path):
     (0.0090, 0.0110, "cannot tell whether it is conservative"),   # straddles the prediction
 ])
 def test_box_note_is_what_the_measurement_says(low, high, says):
-    from envfit.advisor._renderer import extrapolation_note
+    from envfit.advisor._rule_rows import extrapolation_note
     r = RendererRow("brdf", "sf", n=24576, predicted_rmse=0.01, box=4096)
     before = extrapolation_note(r)
     assert before.endswith("; not checked") and "conservative" not in before

@@ -19,7 +19,7 @@ from envfit import cli
 from envfit.maps import EnvMap
 from envfit.maps import save_envmap
 from envfit.base._errors import EnvMapFileError
-from envfit.maps._mapsource import resolve_map_sources
+from envfit.maps._lazy_maps import resolve_map_sources
 
 GRID = ["--max-height", "32", "--s", "1.2,1.4,1.6,1.8", "--n", "100,200,400,800,1200,1600"]
 

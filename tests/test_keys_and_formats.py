@@ -61,7 +61,7 @@ def test_table2_cells_keep_their_file_names(tmp_path):
 # ----------------------------------------------------------------------------- spectrum
 
 def test_a_spectrum_cached_by_the_old_code_loads_and_writes_back_the_same_bytes():
-    # written by envfit.advisor._renderer.spectrum_to_json before it moved onto the class
+    # written by envfit.advisor._rule_rows.spectrum_to_json before it moved onto the class
     # (MIS, glossy 20, grid 8, 4 axes on a random 16x8 map; SPECTRUM_FORMAT 2)
     text = (DATA / "warped_spectrum_format2.json").read_text().strip()
     assert SPECTRUM_FORMAT == 2

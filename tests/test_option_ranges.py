@@ -230,7 +230,7 @@ def test_two_maps_of_one_basename_are_told_apart(tmp_path, capsys):
 
 def test_distinct_labels_only_where_needed():
     from envfit.batch._library_result import distinct_labels
-    from envfit.maps._mapsource import MapSource
+    from envfit.maps._lazy_maps import MapSource
     s = [MapSource(label="f.exr", slug="1", path="/x/a/y/f.exr"),
          MapSource(label="f.exr", slug="2", path="/x/b/y/f.exr"),
          MapSource(label="g.exr", slug="3", path="/x/b/y/g.exr")]

@@ -1,4 +1,4 @@
-"""Tests of envfit.sampling._sources (bright-source detection, exact source / rest split) on
+"""Tests of envfit.sampling._source_split (bright-source detection, exact source / rest split) on
 the sun-on-GP maps of envfit.data_gen._sun_gp, whose sun is known exactly.
 
 All maps have H = 32 (pixel ≈ 0.098 rad); ground truth = shading_integral(method="pixels").
@@ -13,8 +13,8 @@ from envfit.maps import _latlong as latlong
 from envfit.maps._envmap import EnvMap
 from envfit.shading._ground_truth import shading_integral
 from envfit.sampling._importance import brdf_sampling_estimates, mis_estimates
-from envfit.maps._sources import BrightSource, find_bright_sources, sphere_dilate, sphere_label
-from envfit.sampling._sources import source_integrals, split_estimates, split_map
+from envfit.maps._bright_sources import BrightSource, find_bright_sources, sphere_dilate, sphere_label
+from envfit.sampling._source_split import source_integrals, split_estimates, split_map
 
 H = 32
 PIXEL = np.pi / H

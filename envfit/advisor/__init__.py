@@ -31,10 +31,10 @@ Modules:
   (:func:`advise_preset`, :class:`PresetAdvice`); its options in
   :mod:`~envfit.advisor._preset_options` (:class:`PresetAdviseOptions`) and its cached
   search in :mod:`~envfit.advisor._preset_search`.
-* :mod:`~envfit.advisor._renderer` — The advisor's renderer rows: how many samples per
+* :mod:`~envfit.advisor._rule_rows` — The advisor's renderer rows: how many samples per
   shading point for BRDF sampling, map importance sampling, MIS and the source split, with a
   given point set, for the target error.
-* :mod:`~envfit.advisor._renderer_cache` — The advisor's cache of the renderer model: each
+* :mod:`~envfit.advisor._rule_rows_cache` — The advisor's cache of the renderer model: each
   warped spectrum stored and read back exactly, the missing ones computed.
 * :mod:`~envfit.advisor._result` — What the advisor answers: :class:`Advice`, its rows
   (:class:`AdviceRow`, one rule each), their order, the recommended row and the

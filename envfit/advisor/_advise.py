@@ -140,7 +140,7 @@ keywords)
    terms of :mod:`envfit.advisor._prediction`);
 4. the rows into an :class:`Advice` with its recommendation (:mod:`envfit.advisor._result`);
 5. with ``renderer`` (default), the renderer rows — strategy × point set × N, sized by the
-   warped spectra (:mod:`envfit.advisor._renderer`), ``Advice.renderer``;
+   warped spectra (:mod:`envfit.advisor._rule_rows`), ``Advice.renderer``;
 6. with ``check``, the measurement (:mod:`envfit.advisor._check`; the renderer rows by
    :func:`envfit.measure._rules.measure_rule`).
 
@@ -180,7 +180,7 @@ from envfit.advisor._check import check_rows
 from envfit.advisor._model import MapModel, map_key, map_model
 from envfit.advisor._options import AdviseOptions
 from envfit.advisor._prediction import check_lobe_resolved
-from envfit.advisor._renderer import advise_renderer, run_renderer_check
+from envfit.advisor._rule_rows import advise_renderer, run_renderer_check
 from envfit.advisor._result import Advice, AdviceRow, recommendation_text
 from envfit.advisor._search import search_rules
 from envfit.base._errors import ParameterError

@@ -27,7 +27,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, fields
 
-from envfit.advisor._renderer import DEFAULT_RENDERER_POINTSETS, DEFAULT_STRATEGIES
+from envfit.advisor._rule_rows import DEFAULT_RENDERER_POINTSETS, DEFAULT_STRATEGIES
 from envfit.base._checks import check_int, check_names, check_positive
 from envfit.base._errors import ParameterError
 from envfit.defaults import (ADVISE_SPECTRUM_AXES as RENDERER_SPECTRUM_AXES, ALL_POINTSETS,
@@ -146,7 +146,7 @@ class AdviseOptions:
     cache_dir : path or None
         Cache: its folder (default ``$ENVFIT_CACHE_DIR`` or ``~/.cache/envfit``).
     renderer : bool
-        Renderer rows: size the renderer rules (:mod:`envfit.advisor._renderer`); off by
+        Renderer rows: size the renderer rules (:mod:`envfit.advisor._rule_rows`); off by
         default in the API (their spectra cost ~10 s on 2 cores whatever the map's size),
         on in ``envfit advise`` unless ``--no-renderer``.
     strategies, renderer_pointsets : sequence of str
@@ -155,7 +155,7 @@ class AdviseOptions:
     renderer_grid, renderer_spectrum_axes : int
         Renderer rows: the warped spectra's grid (a multiple of 4, ≥ 8; its memory checked by
         the advisor's budget) and axes (1 … :data:`MAX_SPECTRUM_AXES`)
-        (:data:`envfit.advisor._renderer.RENDERER_GRID`, ``RENDERER_SPECTRUM_AXES``).
+        (:data:`envfit.advisor._rule_rows.RENDERER_GRID`, ``RENDERER_SPECTRUM_AXES``).
     renderer_axes_start, renderer_max_axes : int
         Renderer check: the adaptive measurement's first and largest number of axes
         (2 ≤ start ≤ max ≤ :data:`MAX_AXES`; :func:`envfit.measure._rules.measure_rule`).

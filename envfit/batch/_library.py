@@ -54,7 +54,7 @@ from envfit.base._errors import ParameterError
 from envfit.defaults import SOLVERS
 from envfit.batch._library_result import LibraryOptions, LibraryResult, distinct_labels
 from envfit.batch._tasks import SweepSpec, evaluate_task, sample_task, solve_task
-from envfit.maps._mapsource import MapSource, resolve_map_sources
+from envfit.maps._lazy_maps import MapSource, resolve_map_sources
 from envfit.base._resources import interpolator_nbytes, memory_budget_bytes, plan_memory
 from envfit.maps._scales import SCALES, check_not_constant
 from envfit.batch._scheduler import Task, drive
@@ -130,7 +130,7 @@ def run_table2_library(maps: Sequence, s_values: Sequence[float] = PAPER_S,
     Parameters
     ----------
     maps : files, folders, glob patterns and/or :class:`~envfit.maps._envmap.EnvMap` objects
-        (:func:`~envfit.maps._mapsource.resolve_map_sources`); files are read lazily with
+        (:func:`~envfit.maps._lazy_maps.resolve_map_sources`); files are read lazily with
         ``options.load_options``.
     s_values, n_values, pointset, scale, seed : as :func:`~envfit.fit._table2.run_table2`.
     solver : "cholesky" (one dense factor per (s, N) for all maps), "iterative" (CG with the

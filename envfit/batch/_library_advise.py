@@ -7,7 +7,7 @@ advise_preset` on it, return its row) run where :class:`~envfit.batch.LibraryOpt
 inline, on a local process pool or on a dask cluster (:mod:`envfit.batch._executor`, the
 driver :func:`envfit.batch._scheduler.drive`). The options are checked once, before any map
 is read (:class:`~envfit.advisor._preset_options.PresetAdviseOptions`); the maps are
-resolved without being read (:func:`envfit.maps._mapsource.resolve_map_sources`), so a
+resolved without being read (:func:`envfit.maps._lazy_maps.resolve_map_sources`), so a
 missing file, an empty folder or a pattern matching nothing is one line before the work.
 
 Resumable: with ``out`` every finished map is written at once, atomically and with a
@@ -238,7 +238,7 @@ def advise_library(maps: Sequence, opts, *, target_rmse: float | None = None,
     ----------
     maps : sequence
         Files, folders, glob patterns or :class:`~envfit.maps.EnvMap` objects
-        (:func:`~envfit.maps._mapsource.resolve_map_sources`).
+        (:func:`~envfit.maps._lazy_maps.resolve_map_sources`).
     opts : PresetAdviseOptions
         The renderer, sampler, strategies and model resolution, one for every map.
     target_rmse, target_relative : float, optional
@@ -254,7 +254,7 @@ def advise_library(maps: Sequence, opts, *, target_rmse: float | None = None,
         Called in this process with each :class:`MapRow` as it is finished or resumed.
     """
     from envfit.batch import LibraryOptions
-    from envfit.maps._mapsource import resolve_map_sources
+    from envfit.maps._lazy_maps import resolve_map_sources
     t0 = time.perf_counter()
     if target_rmse is not None and target_relative is not None:
         raise ParameterError("give the target once: target_rmse or target_relative")

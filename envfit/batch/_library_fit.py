@@ -55,7 +55,7 @@ from envfit.fit._smoothness import (DEFAULT_METHOD, DEFAULT_N, METHODS, S_GRID, 
 from envfit.base._resources import interpolator_nbytes
 from envfit.batch._fit_tasks import criterion_task, fit_sample_task
 from envfit.batch._tasks import SweepSpec
-from envfit.maps._mapsource import resolve_map_sources
+from envfit.maps._lazy_maps import resolve_map_sources
 from envfit.base._resources import plan_memory
 from envfit.maps._scales import SCALES, check_not_constant
 from envfit.batch._scheduler import Task, drive

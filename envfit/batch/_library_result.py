@@ -15,7 +15,7 @@ from typing import Any
 
 from envfit.base._errors import ParameterError
 from envfit.base._html import html_result
-from envfit.maps._mapsource import LoadOptions
+from envfit.maps._lazy_maps import LoadOptions
 
 __all__ = ["LibraryResult", "LibraryOptions", "distinct_labels"]
 
@@ -26,7 +26,7 @@ def distinct_labels(sources) -> list:
     (``a/forest.exr``, ``b/forest.exr``), so the printed table, the summary CSV/JSON and the
     plots name each map once; returns ``sources`` (their ``label`` set in place).
 
-    >>> from envfit.maps._mapsource import MapSource
+    >>> from envfit.maps._lazy_maps import MapSource
     >>> s = [MapSource(label="f.exr", slug="f-1", path="/x/a/f.exr"),
     ...      MapSource(label="f.exr", slug="f-2", path="/x/b/f.exr"),
     ...      MapSource(label="g.exr", slug="g", path="/x/a/g.exr")]
@@ -64,7 +64,7 @@ class LibraryOptions:
     scheduler : the address of a running dask scheduler (``tcp://HOST:PORT``), with
         ``executor="dask"``.
     load_options : how files and folders of the library are read
-        (:class:`envfit.maps._mapsource.LoadOptions`; None: as they are).
+        (:class:`envfit.maps._lazy_maps.LoadOptions`; None: as they are).
     quiet : no progress bars.
 
     >>> LibraryOptions(workers=1)

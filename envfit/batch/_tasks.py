@@ -26,7 +26,7 @@ import numpy as np
 from envfit.base._errors import ParameterError
 from envfit.base._resources import interpolator_nbytes, memory_budget_bytes
 from envfit.kernels._interpolation import SobolevInterpolator
-from envfit.maps._mapsource import MapSource
+from envfit.maps._lazy_maps import MapSource
 from envfit.maps._metrics import rmse, rmse_solid_angle
 from envfit.maps._scales import fit_scale
 from envfit.fit._table2 import sample_directions

@@ -278,10 +278,10 @@ def library_maps(args: argparse.Namespace, *, quick_height: int | None = None) -
 
 
 def load_options_from_args(args: argparse.Namespace, *, quick_height: int | None = None):
-    """The map-loading options of ``args`` as :class:`envfit.maps._mapsource.LoadOptions`
+    """The map-loading options of ``args`` as :class:`envfit.maps._lazy_maps.LoadOptions`
     (``max_height``: :func:`max_height_of`)."""
     from envfit.base._errors import ParameterError
-    from envfit.maps._mapsource import LoadOptions
+    from envfit.maps._lazy_maps import LoadOptions
     conv = map_convention(args)
     if conv is not None and conv.name != "envfit":
         raise ParameterError(f"--convention {conv.name} reads one map at a time; several maps "

@@ -11,7 +11,7 @@ longitude ``atan2(x, z)``) and the continuous pixel ``(col, row)`` at which C lo
 direction up in the file (C's own formula; integers are pixel centres; sizes W×H).
 
 Bright sources (the sun, lamps: connected regions above a robust threshold holding at least
-5 % of the map's luminous power, :func:`envfit.maps._sources.find_bright_sources`) are
+5 % of the map's luminous power, :func:`envfit.maps._bright_sources.find_bright_sources`) are
 listed with their direction, angles and pixel in the layout, equivalent solid angle and share
 of the power (:func:`envfit.maps._preview.list_sources`).
 

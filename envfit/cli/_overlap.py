@@ -2,7 +2,7 @@
 every command before any work (issue 22, item 4).
 
 Inputs are the MAP arguments as the commands read them: a file, the map files directly inside
-a folder (:data:`envfit.maps._mapsource.MAP_EXTENSIONS`), the files a glob pattern matches.
+a folder (:data:`envfit.maps._lazy_maps.MAP_EXTENSIONS`), the files a glob pattern matches.
 Outputs are ``--json FILE``, synth's ``OUT.exr``, the ``--out`` folder (or the command's
 default folder) with the files the command writes there (:data:`OUT_FILES`), and the advisor
 cache folder. Two paths are the same file when their resolved paths (``os.path.realpath``:
@@ -82,7 +82,7 @@ class _Entry:
 def _input_entries(args: argparse.Namespace) -> tuple[list[_Entry], list[_Entry]]:
     """(input files, input folders) of the MAP argument(s); missing ones are left to the
     command (which reports them in one line)."""
-    from envfit.maps._mapsource import MAP_EXTENSIONS
+    from envfit.maps._lazy_maps import MAP_EXTENSIONS
     maps = getattr(args, "map", None)
     items = [] if maps is None else ([maps] if isinstance(maps, (str, os.PathLike)) else maps)
     files, folders = [], []
@@ -207,5 +207,5 @@ def _check_out_folder(args, inputs, files, folders) -> None:
 
 
 def _map_extensions() -> tuple[str, ...]:
-    from envfit.maps._mapsource import MAP_EXTENSIONS
+    from envfit.maps._lazy_maps import MAP_EXTENSIONS
     return MAP_EXTENSIONS

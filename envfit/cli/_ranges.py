@@ -147,7 +147,7 @@ def check_pixels(rng: Ranged, flag: str, values, env) -> None:
 def check_library_pixels(rng: Ranged, flag: str, values, maps, load_options) -> None:
     """:func:`check_pixels` for a library (``maps``: the MAP arguments): against the map of
     fewest pixels, read from the headers before any work."""
-    from envfit.maps._mapsource import resolve_map_sources
+    from envfit.maps._lazy_maps import resolve_map_sources
     sources = [s for s in resolve_map_sources(maps, load_options) if s.pixels() > 0]
     if sources:
         least = min(sources, key=lambda s: s.pixels())

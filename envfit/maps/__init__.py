@@ -23,7 +23,7 @@ Modules:
   :func:`save_envmap`; the pixel reading itself is ``_oiio_read``.
 * :mod:`~envfit.maps._latlong` — The latitude-longitude (equirectangular) convention of
   envfit — the ONE place it is defined.
-* :mod:`~envfit.maps._mapsource` — Maps of a library, named but not loaded: files (loaded
+* :mod:`~envfit.maps._lazy_maps` — Maps of a library, named but not loaded: files (loaded
   lazily, on whichever worker needs them) or in-memory :class:`~envfit.maps._envmap.EnvMap`
   objects.
 * :mod:`~envfit.maps._metrics` — Image error metrics between a reference map and a
@@ -37,7 +37,7 @@ Modules:
 * :mod:`~envfit.maps._synth` — :func:`synthesize_envmap`: a kind of
   :data:`envfit.data_gen.SYNTH_KINDS` laid out on envfit's grid or in a renderer's layout
   (what ``envfit synth`` writes).
-* :mod:`~envfit.maps._sources` — Bright-source detection on a map (the sun, lamps): connected
+* :mod:`~envfit.maps._bright_sources` — Bright-source detection on a map (the sun, lamps): connected
   bright regions on the sphere.
 
 The names of ``__all__`` are imported lazily, on first use (PEP 562), so that
@@ -58,7 +58,7 @@ _LAZY = {
     "describe_envmap": "_preview", "list_sources": "_preview", "map_preview": "_preview",
     "MapPreview": "_preview",
     "fit_scale": "_scales", "Scale": "_scales",
-    "BrightSource": "_sources", "find_bright_sources": "_sources",
+    "BrightSource": "_bright_sources", "find_bright_sources": "_bright_sources",
     "synthesize_envmap": "_synth", "SynthesizedEnvMap": "_synth",
 }
 

@@ -21,7 +21,7 @@ Tone mapping
     clipped to [0, 1], sRGB OETF): the scale every display-referred output of envfit uses.
 
 Sources
-    :func:`envfit.maps._sources.find_bright_sources` (connected regions above a robust
+    :func:`envfit.maps._bright_sources.find_bright_sources` (connected regions above a robust
     threshold holding at least 5 % of the power, brightest first); each is listed by
     :class:`SourceEntry` with the pixel at which the layout looks its direction up.
 
@@ -47,7 +47,7 @@ from envfit.maps import _latlong as latlong
 from envfit.maps._conventions import LatLongConvention, convention
 from envfit.maps._envmap import EnvMap
 from envfit.maps._scales import MIDDLE_GREY, Scale, fit_scale
-from envfit.maps._sources import DEFAULT_SHARE, find_bright_sources
+from envfit.maps._bright_sources import DEFAULT_SHARE, find_bright_sources
 
 __all__ = ["in_convention", "envfit_layout", "SourceEntry", "list_sources", "describe_envmap",
            "MapPreview", "map_preview"]
@@ -97,7 +97,7 @@ class SourceEntry:
     rank : 1 for the most powerful source
     direction : world unit vector (excess-power-weighted mean of its pixel directions)
     solid_angle : equivalent solid angle in sr, :math:`\sum_M (Y - \bar Y)\Omega / (Y_{peak} - \bar Y)`
-        (:class:`envfit.maps._sources.BrightSource`)
+        (:class:`envfit.maps._bright_sources.BrightSource`)
     share : its luminous power :math:`\sum_M Y\Omega` over the map's :math:`\sum Y\Omega`
     excess_share : the share of its excess over the surrounding background
     pixels : pixels in its region
@@ -139,7 +139,7 @@ class SourceEntry:
 def list_sources(envmap: EnvMap, layout: LatLongConvention | None = None, *,
                  share: float = DEFAULT_SHARE, limit: int = 8) -> tuple[SourceEntry, ...]:
     """The at most ``limit`` most powerful bright sources of ``envmap`` (each holding at
-    least ``share`` of the power; :func:`~envfit.maps._sources.find_bright_sources`), with
+    least ``share`` of the power; :func:`~envfit.maps._bright_sources.find_bright_sources`), with
     their positions in ``layout`` (default: envfit's grid with the map's ``up``)."""
     layout = layout if layout is not None else envfit_layout(envmap.up)
     found = find_bright_sources(envmap, share=share)[:max(int(limit), 0)]

@@ -26,7 +26,7 @@ import numpy as np
 from envfit.defaults import DEFAULT_SHININESS
 from envfit.base._errors import ParameterError
 from envfit.maps._envmap import EnvMap
-from envfit.maps._sources import BrightSource, find_bright_sources
+from envfit.maps._bright_sources import BrightSource, find_bright_sources
 from envfit.measure._adaptive_rmse import AdaptiveRMSE, adaptive_rmse
 from envfit.measure._axis_proposal import AxisProposal
 from envfit.sampling import ESTIMATORS, MapSampler, RendererRule, rule_points, split_map

@@ -16,7 +16,7 @@ Modules:
   techniques, per axis.
 * :mod:`~envfit.sampling._rules` — Rules: what a shading estimate integrates with — one
   concept, two kinds (the paper's quadrature rule, the renderer's strategy + point set + N).
-* :mod:`~envfit.sampling._sources` — Bright sources of a map (the sun, lamps) and the source
+* :mod:`~envfit.sampling._source_split` — Bright sources of a map (the sun, lamps) and the source
   / rest split of the shading estimators.
 
 The names of ``__all__`` are imported lazily, on first use (PEP 562), so that
@@ -33,7 +33,7 @@ _LAZY = {
     "proxy_second_moments": "_proxies",
     "QuadratureRule": "_rules", "RendererRule": "_rules", "Rule": "_rules",
     "rule_points": "_rules", "STRATEGIES": "_rules",
-    "split_estimates": "_sources", "split_map": "_sources", "SplitResult": "_sources",
+    "split_estimates": "_source_split", "split_map": "_source_split", "SplitResult": "_source_split",
 }
 
 __all__ = sorted(_LAZY)

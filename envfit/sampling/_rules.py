@@ -25,7 +25,7 @@ The renderer strategies:
 * ``brdf`` — BRDF (lobe) sampling;
 * ``map`` — environment-map importance sampling (pdf ∝ luminance × solid angle);
 * ``mis`` — multi-sample MIS of the two, balance heuristic, N/2 samples each;
-* ``split`` — the bright sources (:func:`envfit.maps._sources.find_bright_sources`)
+* ``split`` — the bright sources (:func:`envfit.maps._bright_sources.find_bright_sources`)
   integrated exactly and the rest of the map by ``mis``;
 
 with a point set of :func:`envfit.theory._pointsets.square_points` (random, jitter, sobol, lp,

@@ -46,7 +46,7 @@ then costs one non-uniform FFT per point set):
   frequencies for every set; :mod:`envfit.predict.renderer._spectral_tail`): so the prediction is
   exact for random points and for QMC sets up to :math:`N \approx (B/2)^2`, and beyond it
   tends to the Monte Carlo rate (an extrapolation, not a bound: a night map with lamps
-  measured 1.48× it; :func:`envfit.advisor._renderer.extrapolation_note`);
+  measured 1.48× it; :func:`envfit.advisor._rule_rows.extrapolation_note`);
 * the mean over axes (uniform on the sphere) by importance: ``axes`` axes drawn systematically
   from 2048 spherical Fibonacci axes with probability ⅓ uniform + ⅓ ∝ a proxy of BRDF
   sampling's and ⅓ of map sampling's second moment (an 8×8-pixel-block quadrature of the

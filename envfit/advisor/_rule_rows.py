@@ -56,7 +56,7 @@ single-precision NUFFT and the 8B lobe grid of :mod:`envfit.predict.renderer._wa
 spectra take 35 s wall on city.exr (2 cores, load 3–4, raised priority;
 docs/guides/advise.md, "Renderer rules in envfit advise").
 
-The spectra are cached (:mod:`envfit.advisor._renderer_cache`, in :mod:`envfit.advisor._cache`,
+The spectra are cached (:mod:`envfit.advisor._rule_rows_cache`, in :mod:`envfit.advisor._cache`,
 kind ``"renderer"``): one checksummed
 JSON file per (technique, on the rest map), keyed by the map's fingerprint
 (:func:`envfit.advisor._model.map_key`), scale, lobe, grid, axes, technique, on_rest and the
@@ -85,7 +85,7 @@ from envfit.base._errors import ParameterError
 from envfit.defaults import (ADVISE_RENDERER_POINTSETS, ADVISE_SPECTRUM_AXES, DEFAULT_SHININESS,
                              RENDERER_GRID)
 from envfit.maps._envmap import EnvMap
-from envfit.advisor._renderer_cache import cached_renderer_model, source_cost
+from envfit.advisor._rule_rows_cache import cached_renderer_model, source_cost
 from envfit.measure import RendererSetup, measure_rule
 from envfit.predict import PredictionContext, RendererModel, predict, renderer_predictor
 from envfit.sampling import STRATEGIES, RendererRule

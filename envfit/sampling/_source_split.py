@@ -33,7 +33,7 @@ BRDF sampling's and 20× / 38× below full-map MIS's; with the rest by BRDF samp
 rest is a smooth GP) it is lower still (0.077 / 0.027 against 0.18 / 0.19), by map IS
 higher (0.51 / 3.6: the nearly constant rest gives a nearly uniform pdf).
 
-Detection: :func:`envfit.maps._sources.find_bright_sources` (connected regions on the sphere
+Detection: :func:`envfit.maps._bright_sources.find_bright_sources` (connected regions on the sphere
 above a robust luminance threshold, holding at least a share of the power).
 
 Example
@@ -59,7 +59,7 @@ from envfit.defaults import DEFAULT_SHININESS
 from envfit.base._checks import as_unit_vectors
 from envfit.base._errors import ParameterError
 from envfit.maps._envmap import EnvMap
-from envfit.maps._sources import BrightSource, find_bright_sources
+from envfit.maps._bright_sources import BrightSource, find_bright_sources
 from envfit.shading._ground_truth import shading_integral
 from envfit.sampling._importance import ESTIMATORS
 from envfit.sampling._map_sampler import MapSampler

@@ -1,7 +1,7 @@
 r"""Bright-source detection on a map (the sun, lamps): connected bright regions on the sphere.
 
 The detection half of the source / rest split of the renderer estimators
-(:mod:`envfit.sampling._sources` splits what this finds; :mod:`envfit.maps._preview` lists it).
+(:mod:`envfit.sampling._source_split` splits what this finds; :mod:`envfit.maps._preview` lists it).
 
 Detection (:func:`find_bright_sources`): pixels whose luminance Y exceeds a threshold
 (:data:`DETECTORS`), grouped into connected regions on the sphere (8-neighbours, the φ
