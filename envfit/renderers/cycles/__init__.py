@@ -1,6 +1,21 @@
-"""Blender's Cycles (5.0), as envfit reads it from its source: the world light and its
-importance map (``_background``), the scene text (``_scene``), and the renders of envfit's
-measurement through ``bpy`` (``_render``).
+"""Blender's Cycles (5.0; blender/cycles @ 2eba41024174, rendered with bpy 5.0.1), as envfit
+reads it from its source: everything envfit assumes Cycles does, and where each assumption is
+held.
+
+* **Emitter** — the world light: :class:`CyclesBackground` in ``_background`` (the
+  importance map at ≥ 4096 × 2048 under Auto, ``background_cdf`` by |radiance|, linear or
+  closest lookup; compiled ``bsdf_lookup`` and ``eval_pdf``, bit for bit the numpy form).
+* **Integrator** ``path`` at 1 bounce — light and BSDF samples combined by the power
+  heuristic; emitter-only sampling is not renderable (the record's strategies).
+* **Samplers** — ``tabulated_sobol`` (the factory default), ``blue_noise``,
+  ``sobol_burley``: Owen-scrambled Sobol' prefixes, any spp (``_background.SAMPLERS``).
+* **BSDFs** — white ``diffuse`` (:func:`cycles_frame`); Glossy GGX / Beckmann with
+  height-correlated G, roughness R and α = R² (:class:`envfit.shading.microfacet.Conductor`
+  ``renderer="cycles"``, ``_vndf``'s ``_sample_cycles_ggx`` / ``_sample_cycles_beckmann``);
+  Multiscatter GGX as an energy scale on it
+  (:func:`envfit.shading.microfacet.multiscatter_or_conductor`).
+* **Scene text and renders** — the bpy snippet (``_scene``), the rendered measurement through
+  ``bpy`` (``_render``: :class:`CyclesSphere`, ``version``, ``open_sphere``).
 
 The folder's record is :data:`CYCLES` (a :class:`~envfit.renderers.Renderer`).
 

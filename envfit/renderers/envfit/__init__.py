@@ -1,4 +1,8 @@
-"""envfit's own rules: the MapSampler, lobe sampling and balance MIS (``_technique``).
+"""envfit's own rules, held as a renderer so that the advice compares them alike: the
+:class:`~envfit.sampling.MapSampler` (luminance × solid angle with a floor), lobe (cosine)
+sampling and balance MIS (``_technique``: :class:`EnvfitMapTechnique`), the point sets
+``random``, ``jitter``, ``sobol`` (default), ``lp``, ``sf``, ``bnot`` with one
+Cranley–Patterson shift per axis.
 
 The folder's record is :data:`ENVFIT` (a :class:`~envfit.renderers.Renderer`).
 
