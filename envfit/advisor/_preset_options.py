@@ -120,7 +120,7 @@ def spp_cap(randomisation: str, level: int, max_spp: int,
     """
     net = max(1 << (level - 1), (reach or 4 ** (level + 1) // shifts) * sampled)  # above M/2
     top = {"digital_shift": net, "owen": net,
-           "cmj": min(1 << level, 1024), "orthogonal_array": min(1 << level, 1024),
+           "cmj": min(1 << level, 1024), "orthogonal": min(1 << level, 1024),
            "cp_shift": max(1, 1 << max(level - 3, 0)),
            "jittered": 4 ** level}
     return int(min(max_spp, top.get(randomisation, max_spp)))

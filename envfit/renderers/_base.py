@@ -33,13 +33,15 @@ __all__ = ["RANDOMISATIONS", "PAIRINGS", "STRATEGY_NAMES", "DirectionSample",
            "power_heuristic", "balance_heuristic", "map_rgb", "SPHERE_VIEWS",
            "SNIPPET_PIXELS", "snippet_pixels", "scene_comment"]
 
-#: randomisation tags of the samplers (the exact predictor of each is built elsewhere):
+#: randomisation tags of the samplers — the names of the randomisation registry
+#: (``envfit.predict.renderer.randomisation.RANDOMISATIONS``, each with its exact predictor;
+#: ``digit_permutation`` has none yet):
 #: i.i.d. points; r×r (or x×y) jittered strata with fresh jitter; Kensler's correlated
 #: multi-jittering; a random XOR (digital) shift of a (0, 2)-net; nested uniform (Owen)
 #: scrambling of a Sobol' net; a Cranley–Patterson rotation of a fixed point set; a
 #: randomised orthogonal array; random digit permutations (Halton: outside the issue's list)
 RANDOMISATIONS = ("independent", "jittered", "cmj", "digital_shift", "owen", "cp_shift",
-                  "orthogonal_array", "digit_permutation")
+                  "orthogonal", "digit_permutation")
 
 #: how the emitter's and the BSDF's 2-D samples of one pixel relate: independently
 #: randomised dimensions; the same randomised net in two orders (Mitsuba ``ldsampler``);

@@ -54,15 +54,14 @@ from envfit.predict.renderer._model_error import (draws_error, larger_error, lar
 from envfit.predict.renderer._preset_integrand import (BsdfTable, MapTable, bsdf_values,
                                                        map_values, midpoints, mis_parts,
                                                        moment_pyramid)
-from envfit.predict.renderer._preset_request import (RANDOMISATION_OF, CellRequest,
-                                                     grid_level, preset_request,
+from envfit.predict.renderer._preset_request import (CellRequest, grid_level, preset_request,
                                                      samples_above)
 from envfit.predict.renderer._sampled_nets import SAMPLE_TAG, SampledNets, curve_parts
 from envfit.predict.renderer.randomisation import DyadicGrid, mis_mse, randomised_mse
 from envfit.theory import spherical_fibonacci_sphere
 
 __all__ = ["PresetModelOptions", "PresetModel", "PresetPrediction", "grid_level",
-           "samples_above", "preset_request", "systematic_indices", "RANDOMISATION_OF"]
+           "samples_above", "preset_request", "systematic_indices"]
 
 @dataclass(frozen=True)
 class PresetModelOptions:

@@ -25,12 +25,8 @@ from envfit.base import ParameterError
 from envfit.predict.renderer._sampled_nets import SAMPLE_TAG
 from envfit.predict.renderer.randomisation._jittered import pbrt_strata
 
-__all__ = ["CellRequest", "preset_request", "grid_level", "samples_above", "RANDOMISATION_OF"]
+__all__ = ["CellRequest", "preset_request", "grid_level", "samples_above"]
 
-#: a sampler's randomisation tag → the registry's name (of envfit.predict.renderer.randomisation)
-RANDOMISATION_OF = {"independent": "independent", "jittered": "jittered", "cmj": "cmj",
-                    "digital_shift": "digital_shift", "owen": "owen", "cp_shift": "cp_shift",
-                    "orthogonal_array": "orthogonal"}
 #: pairing → whether the two streams share one point set; the columns of Mitsuba's
 #: orthogonal array have independent permutations per dimension: their cross term is 0
 #: (``randomisation._orthogonal``)
@@ -95,10 +91,11 @@ def preset_request(preset, options, strategy: str, sampler: str,
         raise ParameterError(f"{preset.name} cannot render strategy {strategy!r}")
     spec = preset.sampler(sampler)
     n = spec.spp(spp)
-    if spec.randomisation not in RANDOMISATION_OF:
+    from envfit.predict.renderer.randomisation import RANDOMISATIONS
+    if spec.randomisation not in RANDOMISATIONS:
         raise ParameterError(f"no exact model of {preset.name}'s {sampler} "
                              f"({spec.randomisation}) yet")
-    name = RANDOMISATION_OF[spec.randomisation]
+    name = spec.randomisation
     two = s.emitter_samples > 0 and s.bsdf_samples > 0
     if two and spec.pairing not in _SHARED:
         raise ParameterError(f"no model of the pairing {spec.pairing!r} of {sampler}")

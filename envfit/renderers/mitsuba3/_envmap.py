@@ -363,7 +363,7 @@ SAMPLERS = {
         "of two (min 4). " + _M + "ldsampler.cpp set_sample_count, next_2d",
         film_points=_ldsampler_points),
     "orthogonal": SamplerSpec(
-        "orthogonal", "orthogonal_array", "joint_array", _orthogonal,
+        "orthogonal", "orthogonal", "joint_array", _orthogonal,
         "Bose orthogonal array (strength 2), CMJ-style permutations per pixel, fresh "
         "jitter; spp -> p^2, p the least prime >= 2 with p^2 >= spp. "
         + _M + "orthogonal.cpp set_sample_count, bose"),
