@@ -208,3 +208,57 @@ def test_the_size_checker_sees_each_rule(tmp_path):
                                                 "9 parameters > 8", "13 parameters > 12"]
     got = size_violations(f, long_fn + "\n" * 400, REPORT_MODULE_LINES, REPORT_FUNCTION_LINES)
     assert [g.split(": ")[-1] for g in got] == ["502 lines > 500", "102 lines"]
+
+
+# ---- renderers are plug-ins (issue 39): one folder each, no names outside them ----
+#: the packages that must not know any renderer by name (they go through the registry)
+RENDERER_FREE = ("predict", "advisor", "validate", "cli", "batch")
+
+
+def renderer_name_uses(path: Path, text: str | None = None, names=None) -> list[str]:
+    """Where the module at ``path`` imports a renderer's folder (``envfit.renderers.<name>``)
+    or compares a value with a renderer's name (``x == "cycles"``, ``x in ("mitsuba3", …)``,
+    a dict keyed by renderer names): one line each. Docstrings and comments citing a
+    renderer's source are not uses."""
+    from envfit.renderers import RENDERERS
+    names = set(RENDERERS) if names is None else set(names)
+    tree = ast.parse(path.read_text() if text is None else text)
+    out = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and node.module:
+            parts = node.module.split(".")
+            if parts[:2] == ["envfit", "renderers"] and len(parts) > 2 and parts[2] in names:
+                out.append(f"{path.name}:{node.lineno} imports {node.module}")
+        elif isinstance(node, ast.Compare):
+            consts = [c for c in [node.left, *node.comparators] if isinstance(c, ast.Constant)]
+            for c in [*node.comparators]:
+                if isinstance(c, (ast.Tuple, ast.List, ast.Set)):
+                    consts += [e for e in c.elts if isinstance(e, ast.Constant)]
+            if any(c.value in names for c in consts):
+                out.append(f"{path.name}:{node.lineno} compares with a renderer's name")
+        elif isinstance(node, ast.Dict):
+            if any(isinstance(k, ast.Constant) and k.value in names for k in node.keys):
+                out.append(f"{path.name}:{node.lineno} a table keyed by renderer names")
+    return out
+
+
+def test_no_renderer_is_named_outside_its_folder():
+    """predict, advisor, validate, cli and batch reach every renderer through the registry
+    (``get_renderer(name)``, the record's fields): none imports a renderer's folder or
+    branches on a renderer's name."""
+    root = Path(envfit.__file__).parent
+    bad = [v for pkg in RENDERER_FREE for p in sorted((root / pkg).rglob("*.py"))
+           for v in renderer_name_uses(p)]
+    assert bad == [], "\n".join(bad)
+
+
+def test_the_renderer_name_checker_sees_each_use(tmp_path):
+    f = tmp_path / "m.py"
+    src = ('from envfit.renderers.cycles._render import version\n'
+           'def f(r):\n    """mitsuba3 cited in a docstring is fine."""\n'
+           '    if r == "cycles" or r in ("pbrt4",):\n        return {"mitsuba3": 1}\n'
+           '    return get_renderer(r).display\n')
+    got = renderer_name_uses(f, src)
+    assert [g.split(" ", 1)[1] for g in got] == [
+        "imports envfit.renderers.cycles._render", "compares with a renderer's name",
+        "compares with a renderer's name", "a table keyed by renderer names"]

@@ -283,7 +283,7 @@ def load_options_from_args(args: argparse.Namespace, *, quick_height: int | None
     from envfit.base._errors import ParameterError
     from envfit.maps._lazy_maps import LoadOptions
     conv = map_convention(args)
-    if conv is not None and conv.name != "envfit":
+    if conv is not None and not conv.is_envfit_grid:
         raise ParameterError(f"--convention {conv.name} reads one map at a time; several maps "
                              "(a folder, a pattern, --executor) are read on envfit's grid: "
                              "convert them first, or run the command once per map")

@@ -83,6 +83,12 @@ class LatLongConvention:
 
     # ---------------------------------------------------------------- geometry
     @property
+    def is_envfit_grid(self) -> bool:
+        """Whether this is envfit's own layout (``--up y``): a map read with it is not
+        converted."""
+        return self.name == "envfit"
+
+    @property
     def up(self) -> str:
         """The world axis of the convention's top row, ``"x"``, ``"y"`` or ``"z"`` (the
         internal map's ``up``)."""
@@ -239,7 +245,7 @@ class LatLongConvention:
             how = f"resampled bilinearly to envfit's pixel centres ({self.rows.label} rows, " \
                   f"{self.cols.label} columns)"
         notes = list(src.notes)
-        if self.name != "envfit":
+        if not self.is_envfit_grid:
             notes.append(f"read as a {self.renderer} lat-long map (+{self.up} up): {how}")
         return EnvMap(data, up=self.up, name=src.name, notes=notes)
 
@@ -275,6 +281,7 @@ class NotLatLong:
     renderer: ClassVar[str] = ""
     reason: ClassVar[str] = ""
     source: ClassVar[str] = ""
+    is_envfit_grid: ClassVar[bool] = False
 
     def _refuse(self, *args, **kwargs):
         raise ParameterError(f"--convention {self.name}: {self.reason}")
