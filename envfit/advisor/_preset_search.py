@@ -12,7 +12,8 @@ sampler, technique options, model options and :func:`model_version`), so a secon
 same map and sampler builds no model at all.
 
 Search (:func:`search_spp`), per strategy over the spp the sampler can run
-(:meth:`~envfit.renderers.SamplerSpec.runnable`, the sampler's own rounding, e.g. ``ldsampler`` 4, 16, 64, …):
+(:meth:`~envfit.renderers.SamplerSpec.runnable`, the sampler's own rounding, e.g.
+``ldsampler`` 4, 16, 64, …):
 
 1. pass 1: the *coarse* spp — the runnable spp at every power of two (:func:`coarse_spp`),
    the largest spp searched and the ``--spp`` list; the answer lies between the last coarse
@@ -55,8 +56,9 @@ from envfit.predict.renderer._frames import band_frames
 from envfit.predict.renderer._microfacet_model import MicrofacetModel
 from envfit.predict.renderer._preset_model import PresetModel
 
-__all__ = ["CachedPresetModel", "StrategyAnswer", "answer_error", "next_runnable", "search_model", "model_version", "switched_strategy",
-           "coarse_spp", "search_spp", "CANDIDATES", "PRESET_CACHE_FORMAT"]
+__all__ = ["CachedPresetModel", "StrategyAnswer", "answer_error", "next_runnable", "search_model",
+           "model_version", "switched_strategy", "coarse_spp", "search_spp", "CANDIDATES",
+           "PRESET_CACHE_FORMAT"]
 
 #: runnable spp evaluated per open bracket and pass
 CANDIDATES = 16

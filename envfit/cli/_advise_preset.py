@@ -77,7 +77,8 @@ def roughness_help() -> str:
     (:func:`envfit.shading.microfacet.roughness_words`)."""
     from envfit.shading.microfacet import MICROFACET_RENDERERS, roughness_words
     return (f"with a microfacet --brdf: the renderer's own roughness, in its range ("
-            f"{'; '.join(roughness_words(r) for r in MICROFACET_RENDERERS)}; checked with --renderer)")
+            f"{'; '.join(roughness_words(r) for r in MICROFACET_RENDERERS)}; checked with "
+            f"--renderer)")
 
 
 def _add_model_arguments(g) -> None:
@@ -122,7 +123,8 @@ def reject_without_renderer(args: argparse.Namespace) -> None:
         if getattr(args, dest, None) not in (None, False):
             raise ParameterError(f"{flag} needs --renderer ({', '.join(RENDERERS)})")
     if getattr(args, "brdf", "diffuse") in MICROFACET_BSDFS:
-        raise ParameterError(f"--brdf {args.brdf} needs --renderer ({', '.join(MICROFACET_RENDERERS)}): "
+        raise ParameterError(f"--brdf {args.brdf} needs --renderer "
+                             f"({', '.join(MICROFACET_RENDERERS)}): "
                              f"the microfacet model predicts a renderer's own estimator")
 
 

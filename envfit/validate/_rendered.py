@@ -350,7 +350,8 @@ def summary_lines(result: RenderValidation) -> list[str]:
             f"white {'GGX' if o.brdf == 'ggx' else 'Beckmann'} conductor, alpha {o.alpha:g}")
     n = len(result.rows)
     from envfit.renderers import get_renderer
-    lines = [f"{result.renderer_version or get_renderer(o.renderer).display} rendered the sphere ({bsdf}): "
+    name = result.renderer_version or get_renderer(o.renderer).display
+    lines = [f"{name} rendered the sphere ({bsdf}): "
              f"6 views of {o.resolution}x{o.resolution} pixels, reference 2 x "
              f"{o.reference_spp} spp",
              f"{result.inside} of {n} cells inside [0.8 x low, 1.25 x high] of the measured "

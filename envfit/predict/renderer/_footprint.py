@@ -22,7 +22,8 @@ linear law's 1.25; scaled, the two agree to 0.3 %).
 Mitsuba's ``ldsampler`` does not pair its dimensions at random: each is the pixel's one
 XOR-shifted net in the order ``permute(j, N, scramble_seed + d)``, and two rounds of TEA on
 consecutive seeds order the film's points (dimension 0) and the first technique's alike
-(the sampler's ``film_points``: Mitsuba's in :mod:`envfit.renderers.mitsuba3._ldsampler`). There the film's share is not
+(the sampler's ``film_points``: Mitsuba's in :mod:`envfit.renderers.mitsuba3._ldsampler`).
+There the film's share is not
 Var c/(N − 1) but E(F − I)² − E(F₀ − I)² over Mitsuba's own points (:class:`PairedFootprint`,
 :func:`paired_extra`): F the pixel estimate with the integrand interpolated across the pixel
 from the footprint's tables (:func:`film_weights`), F₀ the same samples of the mean table.

@@ -3,8 +3,9 @@ reads it from its source: everything envfit assumes Cycles does, and where each 
 held.
 
 * **Emitter** — the world light: :class:`CyclesBackground` in ``_background`` (the
-  importance map at ≥ 4096 × 2048 under Auto, ``background_cdf`` by the absolute radiance, linear or
-  closest lookup; compiled ``bsdf_lookup`` and ``eval_pdf``, bit for bit the numpy form).
+  importance map at ≥ 4096 × 2048 under Auto, ``background_cdf`` by the absolute
+  radiance, linear or closest lookup; compiled ``bsdf_lookup`` and ``eval_pdf``, bit for
+  bit the numpy form).
 * **Integrator** ``path`` at 1 bounce — light and BSDF samples combined by the power
   heuristic; emitter-only sampling is not renderable (the record's strategies).
 * **Samplers** — ``tabulated_sobol`` (the factory default), ``blue_noise``,

@@ -27,7 +27,8 @@ Roughness conventions (:func:`roughness_to_alpha`): Mitsuba takes α itself; pbr
 α = roughness² (``src/kernel/svm/closure.h``, ``alpha_x = sqr(roughness)``).
 
 **Cycles' Multiscatter GGX** (:func:`energy_scale`, :func:`albedo_table`,
-:func:`multiscatter_or_conductor`) — Cycles' *Multiscatter GGX* — the default distribution of Blender's Principled BSDF and
+:func:`multiscatter_or_conductor`) — Cycles' *Multiscatter GGX* — the default distribution of
+Blender's Principled BSDF and
 Glossy BSDF nodes — as an energy scale on its single-scatter GGX.
 
 Cycles 5.0 (``src/kernel/closure/bsdf_microfacet.h``: ``microfacet_ggx_preserve_energy``;
@@ -51,8 +52,9 @@ envfit computes the table itself (:func:`albedo_table`: the sample weight of
 :class:`~envfit.shading.microfacet.Conductor` ``("ggx", r², "cycles")`` integrated over the
 unit square by a 48 × 48 Gauss–Legendre rule on each of 4 × 4 panels; rules of 24–96 nodes
 on 4–16 panels agree to 5 × 10⁻⁴, and so do its values and Cycles' own at the nodes read)
-instead of copying Cycles' numbers; ``tests/test_multiscatter.py`` checks it against a direction-space
-quadrature, and ``tests/test_render_cycles.py`` checks the result by rendering: a white
+instead of copying Cycles' numbers; ``tests/test_multiscatter.py`` checks it against a
+direction-space quadrature, and ``tests/test_render_cycles.py`` checks the result by
+rendering: a white
 Multiscatter GGX sphere under a constant map renders 1 at every view.
 """
 from __future__ import annotations
