@@ -32,8 +32,8 @@ from envfit.data_gen._sun_gp import sun_gp_map
 from envfit.maps._envmap import EnvMap
 from envfit.maps._io import save_envmap
 from envfit.predict import predict_rule
-from envfit.predict.renderer._predictor import renderer_model
-from envfit.predict.renderer._warped_spectrum import WarpedSpectrum
+from envfit.predict.warped._predictor import renderer_model
+from envfit.predict.warped._warped_spectrum import WarpedSpectrum
 from envfit.sampling import STRATEGIES, RendererRule
 from envfit.measure import RendererSetup, measure_rule
 

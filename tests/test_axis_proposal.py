@@ -3,7 +3,7 @@ density (it integrates to 1 over the sphere, its draws fall in the cells as ofte
 says), the weighted mean is unbiased for a closed-form mean over uniform axes and far less
 variable than the uniform mean where the integrand is peaked, and measure_rule's
 importance-sampled interval contains the exact RMSE of random BRDF sampling of a sun map
-(closed form, envfit.predict.renderer._pixel_moments.exact_mean_variances) and is narrower than the
+(closed form, envfit.predict.warped._pixel_moments.exact_mean_variances) and is narrower than the
 uniform one.
 """
 from __future__ import annotations
@@ -97,7 +97,7 @@ def test_adaptive_rmse_with_a_proposal(proposal):
 
 
 def test_measure_rule_importance_contains_the_exact_rmse(sun_map):
-    from envfit.predict.renderer._pixel_moments import _Pixels, exact_mean_variances
+    from envfit.predict.warped._pixel_moments import _Pixels, exact_mean_variances
 
     setup = RendererSetup.of(sun_map, sources=[])
     weight = weight_function("glossy", 30.0)

@@ -11,7 +11,7 @@ import pytest
 from envfit.base._errors import ParameterError
 from envfit.base._keys import s_key, s_value
 from envfit.base._resources import Plan, Stage
-from envfit.predict.renderer._warped_spectrum import SPECTRUM_FORMAT, WarpedSpectrum
+from envfit.predict.warped._warped_spectrum import SPECTRUM_FORMAT, WarpedSpectrum
 from envfit.validate._cells import cell_is_current, rule_from_cell
 
 DATA = Path(__file__).parent / "data"

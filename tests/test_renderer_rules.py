@@ -8,7 +8,7 @@ from envfit.base._errors import ParameterError
 from envfit.data_gen._sun_gp import sun_gp_map
 from envfit.maps._envmap import EnvMap
 from envfit.predict import predict_rule
-from envfit.predict.renderer._predictor import renderer_model
+from envfit.predict.warped._predictor import renderer_model
 from envfit.sampling._rules import RendererRule, rule_points
 from envfit.measure._rules import RendererSetup, measure_rule, replicates, rule_estimates
 

@@ -1,4 +1,4 @@
-"""envfit.predict.renderer._spectral_tail: the power above the box on the strips beside the frequency
+"""envfit.predict.warped._spectral_tail: the power above the box on the strips beside the frequency
 axes, continued with the set's own sums, against the direct sum of |ĥ|²|S|² to 2·10⁶ for
 integrands whose whole spectrum lies on the axes (h = u₀, h = u₁ + u₁², jumps at the square's
 edge), and unchanged (within the strips' small share) for an isotropic spectrum.
@@ -8,8 +8,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from envfit.predict.renderer._spectral_tail import strip_tail
-from envfit.predict.renderer._prediction_sums import _box_sum, _exp_sums
+from envfit.predict.warped._spectral_tail import strip_tail
+from envfit.predict.warped._prediction_sums import _box_sum, _exp_sums
 from envfit.theory._pointsets import square_points
 
 B = 32

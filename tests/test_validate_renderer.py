@@ -26,7 +26,7 @@ from envfit.data_gen._sun_gp import sun_gp_map
 from envfit.maps._envmap import EnvMap
 from envfit.maps._io import load_envmap, save_envmap
 from envfit.predict import predict_rule
-from envfit.predict.renderer._predictor import renderer_model
+from envfit.predict.warped._predictor import renderer_model
 from envfit.measure._adaptive_rmse import agreement_with_interval
 from envfit.sampling._rules import RendererRule
 from envfit.measure._rules import RendererSetup, measure_rule

@@ -1,5 +1,5 @@
 """The warped-integrand spectrum predicts the shifted estimators' error
-(envfit.predict.renderer._warped_spectrum and the modules it is split into).
+(envfit.predict.warped._warped_spectrum and the modules it is split into).
 
 Every reference is independent: brute-force means over thousands of Cranley–Patterson shifts
 and twists of the estimators themselves, the exact variances of oracles.is_variance
@@ -14,11 +14,11 @@ from envfit.theory._pointsets import square_points
 from envfit.base._errors import ParameterError
 from envfit.maps._envmap import EnvMap
 from envfit.maps._latlong import pixel_solid_angles
-from envfit.predict.renderer import _warped_spectrum as ws
-from envfit.predict.renderer._pixel_moments import (_cell_average, _pixel_moments, _Pixels,
+from envfit.predict.warped import _warped_spectrum as ws
+from envfit.predict.warped._pixel_moments import (_cell_average, _pixel_moments, _Pixels,
                                                     _subdivision)
-from envfit.predict.renderer._prediction_sums import _exp_sums
-from envfit.predict.renderer._techniques import Technique
+from envfit.predict.warped._prediction_sums import _exp_sums
+from envfit.predict.warped._techniques import Technique
 from envfit.shading._ground_truth import shading_integral, weight_function
 from envfit.sampling._importance import importance_estimates
 from oracles.is_variance import LobePdf, MapPdf, is_variance, mis_variance
@@ -198,7 +198,7 @@ def test_spectrum_is_the_fft_of_the_warped_integrand(sun_map, brdf):
     """The box power |ĥ_i|² and the variance V_i of one axis (map nodes / lobe grid / pixel
     quadrature) against a second algorithm: h_i = warped_integrand on a 512² midpoint grid,
     its FFT and its variance (the grid's own error on the sun: a few %)."""
-    from envfit.predict.renderer._axis_mean import _accumulate
+    from envfit.predict.warped._axis_mean import _accumulate
 
     m, sampler = sun_map
     a, B, F = AXES[0], 8, 512

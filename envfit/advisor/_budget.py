@@ -40,7 +40,7 @@ from envfit.maps._envmap import EnvMap
 from envfit.shading._ground_truth import default_sh_lmax
 from envfit.sampling._rules import STRATEGIES
 from envfit.shading._spectra import rule_power_cost, sh_analysis_cost
-from envfit.predict.renderer._warped_spectrum import spectrum_nbytes
+from envfit.predict.warped._warped_spectrum import spectrum_nbytes
 
 __all__ = ["PREDICTION_MAX_HEIGHT", "MIN_HEIGHT", "advise_plan", "lobe_rows",
            "prediction_height", "preset_plan", "check_preset_plan"]
@@ -51,7 +51,7 @@ PREDICTION_MAX_HEIGHT = 1024
 MIN_HEIGHT = 64
 #: bytes per pixel of the renderer rows' setup (the scaled, source and rest maps, two
 #: samplers: +296 MB on a 2048x1024 map) and of the map nodes the next spectrum reuses,
-#: beside one spectrum (:func:`envfit.predict.renderer._warped_spectrum.spectrum_nbytes`): the whole
+#: beside one spectrum (:func:`envfit.predict.warped._warped_spectrum.spectrum_nbytes`): the whole
 #: renderer section measured +1.93 GB on a 2048x1024 map (four spectra, G = 512, 32 axes);
 #: bench/big_maps.py on a 2048x1024 GP map with a sun: 2.36 GB resident (predicted 2.61 GB);
 #: envfit advise on an 8192x4096 map (predictions at 2048x1024): 2.81 GB (predicted 2.87 GB)

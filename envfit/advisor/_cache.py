@@ -215,7 +215,7 @@ def _bad_curve(v: Any) -> str | None:
 
 
 def _bad_spectrum(v: Any) -> str | None:
-    """A stored warped spectrum (:meth:`envfit.predict.renderer._warped_spectrum.WarpedSpectrum.to_json`): its
+    """A stored warped spectrum (:meth:`envfit.predict.warped._warped_spectrum.WarpedSpectrum.to_json`): its
     fields typed and its arrays finite (the shapes are checked when it is parsed)."""
     def cross(x, n):
         return _bad_fields(x, {"real": lambda y, m: _bad_array(y, f"{n}.{m}", 1),

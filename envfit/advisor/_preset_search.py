@@ -67,20 +67,19 @@ PRESET_CACHE_FORMAT = 1
 
 
 def model_version() -> str:
-    """A digest of the noise model's source (the preset model, its integrands, the
-    randomisations, the presets): any change to them makes cached predictions stale."""
+    """A digest of the noise model's source — every module of the renderer model
+    (:mod:`envfit.predict.renderer`, its randomisations), of the renderers' folders
+    (:mod:`envfit.renderers`) and of the microfacet BSDFs (:mod:`envfit.shading.microfacet`):
+    any change to them makes cached predictions stale."""
     import envfit.predict.renderer as pr
-    import envfit.renderers as ps
-    root = Path(pr.__file__).parent
-    files = [root / "_preset_model.py", root / "_preset_integrand.py",
-             root / "_microfacet_model.py", root / "_microfacet_kernels.py",
-             root / "_vndf_kernels.py", root / "_footprint.py",
-             *sorted((root / "randomisation").glob("*.py")),
-             *sorted(Path(ps.__file__).parent.glob("*.py"))]
+    import envfit.renderers as rr
+    import envfit.shading.microfacet as sm
     h = hashlib.sha256()
-    for f in files:
-        h.update(f.name.encode())
-        h.update(f.read_bytes())
+    for pkg in (pr, rr, sm):
+        root = Path(pkg.__file__).parent
+        for f in sorted(root.rglob("*.py")):
+            h.update(str(f.relative_to(root.parent)).encode())
+            h.update(f.read_bytes())
     return h.hexdigest()[:20]
 
 

@@ -52,7 +52,7 @@ the rows land for a 1 % target (N ≈ 256–4096), which a check at 1.25× the t
 absorb. So grid 512 (the box exact for QMC to N ≈ (512/8)² = 4096) with 32 axes: the
 validated accuracy at less than half its cost. These comparisons used the map technique's
 spectrum from a uniform grid, before its exact quadrature nodes; with the nodes, the
-single-precision NUFFT and the 8B lobe grid of :mod:`envfit.predict.renderer._warped_spectrum` the four
+single-precision NUFFT and the 8B lobe grid of :mod:`envfit.predict.warped._warped_spectrum` the four
 spectra take 35 s wall on city.exr (2 cores, load 3–4, raised priority;
 docs/guides/advise.md, "Renderer rules in envfit advise").
 
@@ -61,8 +61,8 @@ kind ``"renderer"``): one checksummed
 JSON file per (technique, on the rest map), keyed by the map's fingerprint
 (:func:`envfit.advisor._model.map_key`), scale, lobe, grid, axes, technique, on_rest and the
 sources' pixel count; a spectrum is stored by
-:meth:`~envfit.predict.renderer._warped_spectrum.WarpedSpectrum.to_json` and read back exactly by
-:meth:`~envfit.predict.renderer._warped_spectrum.WarpedSpectrum.from_json` (``cross`` as real
+:meth:`~envfit.predict.warped._warped_spectrum.WarpedSpectrum.to_json` and read back exactly by
+:meth:`~envfit.predict.warped._warped_spectrum.WarpedSpectrum.from_json` (``cross`` as real
 and imaginary lists), so cached predictions are bit-identical to fresh ones.
 
 ``check`` (:func:`check_renderer_rows`): every reached row measured at its N with

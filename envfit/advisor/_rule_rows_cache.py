@@ -12,7 +12,7 @@ from envfit.base._errors import ParameterError
 from envfit.base._progress import progress_bar
 from envfit.measure import RendererSetup
 from envfit.predict import RendererModel, WarpedSpectrum, renderer_model
-from envfit.predict.renderer._warped_spectrum import SPECTRUM_FORMAT
+from envfit.predict.warped._warped_spectrum import SPECTRUM_FORMAT
 from envfit.sampling import STRATEGIES
 
 __all__ = ["spectrum_cache_key", "source_cost", "cached_renderer_model"]
@@ -22,7 +22,7 @@ def spectrum_cache_key(map_key: dict, brdf: str, shininess: float | None, grid: 
                        technique: str, on_rest: bool, source_pixels: int) -> dict:
     """The cache key of one spectrum: the map's key (fingerprint, shape, up, scale), the lobe,
     the grid and axes, the technique, whether on the rest map, the sources' pixel count, and
-    the spectrum algorithm's version (:data:`envfit.predict.renderer._warped_spectrum.SPECTRUM_FORMAT`)."""
+    the spectrum algorithm's version (:data:`envfit.predict.warped._warped_spectrum.SPECTRUM_FORMAT`)."""
     return {**map_key, "spectrum_format": SPECTRUM_FORMAT, "brdf": brdf, "shininess": None if brdf == "diffuse" else shininess,
             "grid": int(grid), "axes": int(axes), "technique": technique,
             "on_rest": bool(on_rest), "source_pixels": int(source_pixels)}

@@ -1,8 +1,8 @@
 r"""Named predictors of a rule's shading error on a map: one module per predictor, each ``f(ctx:
 PredictionContext, rule: Rule) -> Prediction``, registered in PREDICTORS and dispatched by
 predict(); a rule is a :class:`QuadratureRule` (the paper's) or a :class:`RendererRule` (both
-:class:`envfit.sampling.Rule`); the renderer predictors (``random-variance``,
-``warped-spectrum``) are in the sub-package :mod:`envfit.predict.renderer`.
+:class:`envfit.sampling.Rule`); the renderer rules' predictors (``random-variance``,
+``warped-spectrum``) are in the sub-package :mod:`envfit.predict.warped`.
 
 Modules:
 
@@ -18,9 +18,11 @@ Modules:
 * :mod:`~envfit.predict._spectral` — Prediction (c), *spectral*: the map's own power per
   degree times the rule's error power — no model, no s, no σ: the exact mean over Haar-
   random rotations on this map.
-* :mod:`~envfit.predict.renderer` (sub-package) — The renderer error prediction: the warped
-  integrand's spectrum per technique, its tail beyond the box, and the predictor of a
+* :mod:`~envfit.predict.warped` (sub-package) — envfit's own rules (its renderer rows): the
+  warped integrand's spectrum per technique, its tail beyond the box, and the predictors of a
   renderer rule's RMSE.
+* :mod:`~envfit.predict.renderer` (sub-package) — a real renderer's noise from its own
+  estimator (its record in :mod:`envfit.renderers`) and its sampler's exact randomisation.
 
 The names of ``__all__`` are imported lazily, on first use (PEP 562), so that
 importing the package loads none of its modules.
@@ -36,9 +38,9 @@ _LAZY = {
     "predict_plain": "_plain",
     "predict": "_registry", "Predictor": "_registry", "PREDICTORS": "_registry",
     "predictors_for": "_registry",
-    "predict_rule": "_registry", "renderer_model": "renderer", "RENDERER_PREDICTORS": "renderer",
-    "RendererModel": "renderer", "WarpedSpectrum": "renderer", "renderer_predictor": "renderer",
-    "predict_random_variance": "renderer", "predict_warped_spectrum": "renderer",
+    "predict_rule": "_registry", "renderer_model": "warped", "RENDERER_PREDICTORS": "warped",
+    "RendererModel": "warped", "WarpedSpectrum": "warped", "renderer_predictor": "warped",
+    "predict_random_variance": "warped", "predict_warped_spectrum": "warped",
     "predict_spectral": "_spectral",
 }
 

@@ -37,7 +37,7 @@ from envfit.predict._bandlimited import predict_bandlimited
 from envfit.predict._context import Prediction, PredictionContext, Rule
 from envfit.predict._plain import predict_plain
 from envfit.predict._spectral import predict_spectral
-from envfit.predict.renderer._predictor import (predict_random_variance,
+from envfit.predict.warped._predictor import (predict_random_variance,
                                                 predict_warped_spectrum, renderer_predictor)
 
 __all__ = ["PREDICTORS", "Predictor", "predict", "predictors_for", "predict_rule"]

@@ -4,7 +4,7 @@ r"""Proxies of the second moments of the renderer's sampling techniques, per axi
 error of BRDF sampling (:math:`\int\rho_a Y^2\,d\omega`) and of map importance sampling
 (:math:`\int\rho_a^2 Y^2/p\,d\omega`, p the :class:`~envfit.sampling._map_sampler.MapSampler`
 pdf); :func:`normalised_moments` turns them into probabilities over the axes. Both the axis
-sample of the warped spectra (:func:`envfit.predict.renderer._warped_spectrum.proposal_axes`)
+sample of the warped spectra (:func:`envfit.predict.warped._warped_spectrum.proposal_axes`)
 and the measurement's axis proposal (:class:`envfit.measure._axis_proposal.AxisProposal`) draw
 their axes from them.
 

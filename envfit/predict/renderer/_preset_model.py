@@ -22,7 +22,7 @@ of P normals with probability
 variances of map and BSDF sampling (summed over channels; both by the map part's own table at
 a coarse level, which finds a sun), and weighted :math:`\varpi_a \propto 1/(P\pi_a)` —
 unbiased for the pool mean; a sun that makes a few normals dominate is not missed (as
-:func:`envfit.predict.renderer._axis_proposal.proposal_axes` does for envfit's techniques).
+:func:`envfit.predict.warped._axis_proposal.proposal_axes` does for envfit's techniques).
 
 The cell a renderer runs — its spp rounded, its randomisation and the grid level — is
 :func:`._preset_request.preset_request`.

@@ -33,7 +33,7 @@ import numpy as np
 
 from envfit.base import ParameterError
 
-from envfit.predict.renderer import strip_tail
+from envfit.predict.warped import strip_tail
 
 from ._grid import DyadicGrid, RandomisedMSE, make_result
 from ._nets import get_net

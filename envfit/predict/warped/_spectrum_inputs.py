@@ -25,9 +25,9 @@ from dataclasses import dataclass, field
 from envfit.base import ParameterError
 from envfit.maps import EnvMap
 from envfit.sampling import MapSampler
-from envfit.predict.renderer._axis_proposal import _pool_moments, _systematic
-from envfit.predict.renderer._box_spectra import _Grid, _MapNodes
-from envfit.predict.renderer._pixel_moments import _Pixels, _subdivision, exact_mean_variances
+from envfit.predict.warped._axis_proposal import _pool_moments, _systematic
+from envfit.predict.warped._box_spectra import _Grid, _MapNodes
+from envfit.predict.warped._pixel_moments import _Pixels, _subdivision, exact_mean_variances
 
 __all__ = ["SpectrumInputs"]
 

@@ -1,7 +1,7 @@
 r"""The error of a shifted point set from the warped integrand's power *above the box*, with
 the strips along the axes of frequency space resolved.
 
-:mod:`envfit.predict.renderer._warped_spectrum` knows :math:`|\hat h(k)|^2` on the box
+:mod:`envfit.predict.warped._warped_spectrum` knows :math:`|\hat h(k)|^2` on the box
 :math:`|k_0|, |k_1| \le B` and the total variance V, so the power above the box is
 :math:`R = V - \sum_{box}|\hat h|^2`. Its contribution to a shifted estimator's error is
 :math:`\sum_{k\notin box}|\hat h(k)|^2|S(k)|^2`, with :math:`|S|^2 = 1/n` on average over

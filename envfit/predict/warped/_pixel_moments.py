@@ -35,7 +35,7 @@ from envfit.maps import _latlong as latlong
 from envfit.sampling import MapSampler
 from envfit.sampling._importance import brdf_pdf
 from envfit.sampling._map_sampler import _bilinear_cell_average
-from envfit.predict.renderer._axis_proposal import AXIS_POOL, _fibonacci_axes
+from envfit.predict.warped._axis_proposal import AXIS_POOL, _fibonacci_axes
 
 __all__ = ["cell_square_average", "exact_mean_variances"]
 

@@ -43,7 +43,7 @@ then costs one non-uniform FFT per point set):
   (where the square's edges and the sampler's row boundaries put it, and where QMC sets'
   stratified projections have tiny sums) continued as a power law with the set's own sums,
   the rest at the Monte Carlo weight :math:`1/n_i` (the mean of :math:`|S_i|^2` over high
-  frequencies for every set; :mod:`envfit.predict.renderer._spectral_tail`): so the prediction is
+  frequencies for every set; :mod:`envfit.predict.warped._spectral_tail`): so the prediction is
   exact for random points and for QMC sets up to :math:`N \approx (B/2)^2`, and beyond it
   tends to the Monte Carlo rate (an extrapolation, not a bound: a night map with lamps
   measured 1.48× it; :func:`envfit.advisor._rule_rows.extrapolation_note`);
@@ -99,15 +99,15 @@ from envfit.base._resources import check_memory
 from envfit.maps import EnvMap
 from envfit.sampling import MapSampler
 from envfit.shading import weight_function
-from envfit.predict.renderer._axis_mean import AxisSums, _accumulate
-from envfit.predict.renderer._axis_proposal import proposal_axes
-from envfit.predict.renderer._pixel_moments import cell_square_average
-from envfit.predict.renderer._prediction_sums import (_box_sum, random_mse, shifted_mse_terms,
+from envfit.predict.warped._axis_mean import AxisSums, _accumulate
+from envfit.predict.warped._axis_proposal import proposal_axes
+from envfit.predict.warped._pixel_moments import cell_square_average
+from envfit.predict.warped._prediction_sums import (_box_sum, random_mse, shifted_mse_terms,
                                                       shifted_rmse)
-from envfit.predict.renderer._spectral_tail import strip_fits
-from envfit.predict.renderer._spectrum_inputs import SpectrumInputs
-from envfit.predict.renderer._techniques import TECHNIQUES, Technique, check_options
-from envfit.predict.renderer._warped_integrand import warped_integrand
+from envfit.predict.warped._spectral_tail import strip_fits
+from envfit.predict.warped._spectrum_inputs import SpectrumInputs
+from envfit.predict.warped._techniques import TECHNIQUES, Technique, check_options
+from envfit.predict.warped._warped_integrand import warped_integrand
 
 __all__ = [
     "SPECTRUM_FORMAT",
@@ -165,7 +165,7 @@ class WarpedSpectrum:
     @cached_property
     def strip_fits(self) -> list:
         """Per part, the power laws of the strips above the box
-        (:func:`envfit.predict.renderer._spectral_tail.strip_fits`), fitted once per spectrum."""
+        (:func:`envfit.predict.warped._spectral_tail.strip_fits`), fitted once per spectrum."""
         return [strip_fits(p) for p in self.power]
 
     def to_json(self) -> dict:

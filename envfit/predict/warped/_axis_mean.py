@@ -21,8 +21,8 @@ import numpy as np
 
 from envfit.base._resources import machine_cores
 from envfit.shading import twisted_frames
-from envfit.predict.renderer._box_spectra import LOBE_OVERSAMPLING, BoxInputs, _axis_spectra
-from envfit.predict.renderer._pixel_moments import _pixel_lobe, _pixel_moments, _Pixels
+from envfit.predict.warped._box_spectra import LOBE_OVERSAMPLING, BoxInputs, _axis_spectra
+from envfit.predict.warped._pixel_moments import _pixel_lobe, _pixel_moments, _Pixels
 
 __all__ = ["AxisTerms", "AxisSums"]
 

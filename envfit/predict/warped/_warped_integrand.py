@@ -30,7 +30,7 @@ from envfit.sampling._importance import brdf_pdf
 from envfit.sampling._map_sampler import _square
 from envfit.shading import twisted_frames, weight_function
 from envfit.theory import lambert_to_hemisphere
-from envfit.predict.renderer._techniques import Technique, check_options
+from envfit.predict.warped._techniques import Technique, check_options
 
 __all__ = ["warped_integrand"]
 

@@ -1,7 +1,7 @@
 r"""Prediction of the renderer rules' RMSE (:mod:`envfit.sampling._rules`) from the map.
 
 One predictor, exact for every strategy and point set: the *warped integrand's spectrum*
-(:mod:`envfit.predict.renderer._warped_spectrum`). A rule's estimator is a Cranley–Patterson-shifted,
+(:mod:`envfit.predict.warped._warped_spectrum`). A rule's estimator is a Cranley–Patterson-shifted,
 twisted mean of its technique's warped integrand :math:`h_i` over its square points, so
 
 .. math:: \mathrm{MSE} = \sum_{k\ne0}\Big|\sum_i\hat h_i(k)S_i(k)\Big|^2
@@ -38,7 +38,7 @@ from envfit.defaults import DEFAULT_SHININESS, REFERENCE_SPECTRUM_AXES, RENDERER
 from envfit.base._errors import ParameterError
 from envfit.sampling import STRATEGIES, RendererRule, rule_points
 from envfit.measure import RendererSetup
-from envfit.predict.renderer._warped_spectrum import (SpectrumInputs, WarpedSpectrum,
+from envfit.predict.warped._warped_spectrum import (SpectrumInputs, WarpedSpectrum,
                                                       random_mse, shifted_mse_terms,
                                                       warped_spectrum)
 
@@ -118,7 +118,7 @@ def predict_random_variance(ctx: PredictionContext, rule: RendererRule) -> Predi
     r"""The Monte Carlo RMSE of ``rule``'s strategy with N i.i.d. uniform points (a fresh set
     per axis): :math:`(\sum_i V_i/n_i)^{1/2}`, :math:`V_i` the variance of technique i's
     warped integrand over the square, averaged over axes and channels
-    (:func:`envfit.predict.renderer._prediction_sums.random_mse`); the exact mean over random
+    (:func:`envfit.predict.warped._prediction_sums.random_mse`); the exact mean over random
     sets. ``ctx.renderer`` holds the spectra (:func:`renderer_model`).
 
     Returns :class:`envfit.predict.Prediction` named ``"random-variance"``.
@@ -132,7 +132,7 @@ def predict_warped_spectrum(ctx: PredictionContext, rule: RendererRule) -> Predi
     r"""The RMSE of ``rule`` with its point set (the realisation of ``ctx.point_seed``),
     Cranley–Patterson shifted and twisted per axis: :math:`\sum_{k\ne0}|\sum_i\hat
     h_i(k)S_i(k)|^2` inside the spectrum's box plus the strips' tail beyond it
-    (:func:`envfit.predict.renderer._prediction_sums.shifted_mse_terms`). ``ctx.renderer``
+    (:func:`envfit.predict.warped._prediction_sums.shifted_mse_terms`). ``ctx.renderer``
     holds the spectra (:func:`renderer_model`).
 
     Returns :class:`envfit.predict.Prediction` named ``"warped-spectrum"``.

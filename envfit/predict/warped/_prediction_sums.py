@@ -15,7 +15,7 @@ randomly shifted lattice rule, Sloan & Joe 1994, Lemma 2.3), split into
   column :math:`k_1 = 0` (the twist of the lobe's frame removes the others);
 * ``tail`` — the power above the box, :math:`\max(V_i - \sum_{box}|\hat h_i|^2, 0)`: on the
   strips beside the frequency axes continued with the set's own sums, the rest at the Monte
-  Carlo weight :math:`1/n_i` (:func:`envfit.predict.renderer._spectral_tail.strip_tail`);
+  Carlo weight :math:`1/n_i` (:func:`envfit.predict.warped._spectral_tail.strip_tail`);
 * ``random`` — :math:`\sum_i V_i/n_i`, what i.i.d. points would give.
 
 References: R. Cranley, T. N. L. Patterson, SIAM J. Numer. Anal. 13 (1976); I. H. Sloan,
@@ -29,8 +29,8 @@ import numpy as np
 
 from envfit.base import ParameterError
 from envfit.sampling._map_sampler import _square
-from envfit.predict.renderer._spectral_tail import strip_tail
-from envfit.predict.renderer._techniques import TECHNIQUES
+from envfit.predict.warped._spectral_tail import strip_tail
+from envfit.predict.warped._techniques import TECHNIQUES
 
 __all__ = ["STRIPS_NEGLIGIBLE", "random_mse", "shifted_mse_terms", "shifted_rmse"]
 
@@ -79,7 +79,7 @@ def shifted_mse_terms(spec, u) -> dict:
     :math:`\sum_i\sum_{box}|\hat h_i|^2|S_i|^2` (+ the MIS cross term), ``tail`` the power
     above the box, :math:`\max(V_i - \sum_{box}|\hat h_i|^2, 0)`, with the strips along the
     axes continued with the set's sums and the rest at 1/n_i
-    (:func:`envfit.predict.renderer._spectral_tail.strip_tail`), ``random``
+    (:func:`envfit.predict.warped._spectral_tail.strip_tail`), ``random``
     :math:`\sum_i V_i/n_i` (what i.i.d. points would give)."""
     pts = _split_points(spec, u)
     box = tail = rnd = 0.0
@@ -112,7 +112,7 @@ def shifted_rmse(spec, u) -> float:
 
     >>> import numpy as np
     >>> from envfit.maps import EnvMap
-    >>> from envfit.predict.renderer._warped_spectrum import warped_spectrum
+    >>> from envfit.predict.warped._warped_spectrum import warped_spectrum
     >>> m = EnvMap(np.full((8, 16, 1), 2.0))
     >>> shifted_rmse(warped_spectrum(m, "brdf", grid=16, axes=4), np.full((4, 2), 0.3))
     0.0
