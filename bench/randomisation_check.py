@@ -125,7 +125,7 @@ def _axis_near_sun(m, sampler) -> np.ndarray:
 def _mis_rows(path: str, args) -> None:
     """MIS: two streams, the grids of h1, h2 and h1 + h2 from one pass of the integrand."""
     from envfit.maps import load_envmap
-    from envfit.predict.renderer import warped_integrand
+    from envfit.predict.warped import warped_integrand
     from envfit.sampling import MapSampler
     m = load_envmap(path, max_height=args.height)
     sampler = MapSampler(m)

@@ -124,7 +124,7 @@ class Predictor:
     def model(self):
         if self._model is None:
             from envfit.measure import RendererSetup
-            from envfit.predict.renderer import renderer_model
+            from envfit.predict.warped import renderer_model
             setup = RendererSetup.of(self.env, sources=[])
             self._model = renderer_model(setup, "diffuse", strategies=["brdf", "map", "mis"],
                                          grid=self.grid, axes=self.axes)
