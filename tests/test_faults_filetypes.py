@@ -1,5 +1,5 @@
 """Every file envfit reads is a regular file of bounded size, and a cache entry is consistent
-in itself (issue 38): envfit.base._files, envfit.maps._io / _mapsource, envfit.base._stored_json,
+in itself (issue 38): envfit.base._files, envfit.maps._io / _lazy_maps, envfit.base._stored_json,
 envfit.advisor._cache, envfit.base._atomic.
 
 A FIFO, a device, a socket, a symbolic link loop or a dangling link given as a map is named

@@ -71,7 +71,7 @@ def test_map_changed_through_the_cli_is_one_line(tmp_path, capsys, monkeypatch):
     a, b = tmp_path / "lib" / "a.exr", tmp_path / "lib" / "b.exr"
     for p in (a, b):
         save_envmap(p, EnvMap(np.random.default_rng(len(p.name)).random((8, 16, 3)).astype(np.float32)))
-    from envfit.maps import _mapsource as mapsource
+    from envfit.maps import _lazy_maps as mapsource
     real_load = mapsource.MapSource.load
 
     touched = []
