@@ -3,7 +3,7 @@
 For each map × sampler × target (a fraction of the map's mean radiance): ask
 :func:`envfit.advisor.advise_preset` (the same call as ``envfit advise MAP --renderer mitsuba3
 --sampler S --target-relative T``) for the spp of the renderer's default strategy (MIS,
-``direct`` with emitter_samples = bsdf_samples = 1), render the sphere set-up of
+Mitsuba's ``path`` at its defaults), render the sphere set-up of
 :mod:`envfit.renderers` with Mitsuba 3 at that spp and at half of it — the largest spp
 the sampler runs at or below spp / 2 (its own rounding: ``ldsampler`` runs 4^k, so "half" of
 256 is 64; ``independent`` runs any spp, so half is spp // 2) — and report the measured RMSE over uniform normals with its

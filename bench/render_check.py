@@ -336,6 +336,11 @@ def main(argv=None) -> int:
                 reference_spp=args.reference_spp, argv=sys.argv[1:],
                 reference_sampler=args.reference_sampler if args.renderer == "mitsuba3"
                 else "tabulated_sobol")
+    from envfit.renderers import get_renderer
+    rec = get_renderer(args.renderer)           # what each strategy renders with (mis: path)
+    meta["integrators"] = {s: {"type": rec.strategy(s.split("-")[0]).integrator,
+                               **rec.strategy(s.split("-")[0]).settings}
+                           for s in args.strategies}
     t = time.perf_counter()
     for spec in args.maps:
         run_map(spec, args, rows, meta, out)

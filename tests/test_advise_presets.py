@@ -83,9 +83,8 @@ def test_independent_answer_is_the_smallest_spp_meeting_the_target(sun_file, tmp
     assert rc == 0
     rec = d["renderer"]["recommendation"]
     n, target = rec["spp"], rec["target_rmse"]
-    assert _answer(lines).startswith(f"Mitsuba 3, sampler independent, integrator direct "
-                               f"(emitter_samples=1, bsdf_samples=1): spp = {n} for an RMSE of "
-                               f"at most ")
+    assert _answer(lines).startswith(f"Mitsuba 3, sampler independent, integrator path: "
+                                     f"spp = {n} for an RMSE of at most ")
     assert "(5 % of the map's mean radiance" in _answer(lines)
     assert rec["strategy"] == "mis" and rec["reached"] and n > 4
     # independently: every spp below the answer misses, the answer meets
@@ -148,8 +147,7 @@ def test_spp_table_json_and_mis_compensation_equal_the_model(sun_file, tmp_path,
     rec = r["recommendation"]
     assert {"strategy", "sampler", "spp", "integrator", "settings", "predicted_rmse",
             "target_rmse"} <= set(rec)
-    assert rec["integrator"] == "direct" and rec["settings"] == {"emitter_samples": 1,
-                                                                "bsdf_samples": 1}
+    assert rec["integrator"] == "path" and rec["settings"] == {}        # at its defaults
     head = lines.index(next(ln for ln in lines if ln.startswith("predicted RMSE at the")))
     rows = lines[head + 2:head + 5]
     assert [row.split()[0] for row in rows] == ["4", "8->16", "16"]

@@ -85,8 +85,8 @@ def test_diffuse_footprint_options():
 def test_diffuse_footprint_ldsampler_is_the_pairing_simulated():
     """Mitsuba's ``ldsampler`` on a diffuse sphere 6 pixels across: per normal, the
     footprint mean's randomised MSE plus the pairing's share over Mitsuba's own order
-    (``PairedFootprint``: the film's dimension 0 with the emitter's 1 and the BSDF's 2) on the
-    footprint normals' own tables, not Var c/(N − 1)."""
+    (``PairedFootprint``: the film's dimension 0 with the emitter's 1 and the BSDF's 3, as
+    ``path`` draws them) on the footprint normals' own tables, not Var c/(N − 1)."""
     from envfit.predict.renderer._footprint import footprint_term
     m = PresetModel(_sun_map(), get_renderer("mitsuba3"), None,
                     PresetModelOptions(normals=3, pool=32, max_level=4, sphere_pixels=6))
@@ -100,7 +100,7 @@ def test_diffuse_footprint_ldsampler_is_the_pairing_simulated():
                                   {r.level})[0]
         tables = {t: np.stack([m._point_parts({"mis"}, x, fine)[t] for x in normal[1]])
                   for t in ("mis_e", "mis_b")}
-        want.append(base + m._pairing(r).extra(tables, "mis")[0])
+        want.append(base + m._pairing(r).extra(tables, "mis", (1, 3))[0])
         before.append(base + footprint_term("mis", "digital_shift", n, vals))
     np.testing.assert_allclose(got, m.weights @ np.array(want), rtol=1e-10)
     assert not np.allclose(got, m.weights @ np.array(before), rtol=1e-3)

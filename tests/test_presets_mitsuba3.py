@@ -185,7 +185,12 @@ def test_snippets_load_in_mitsuba(mi, tmp_path, strategy):
         xml = mi.load_string(p.snippet(strategy, sampler, 32, filename=path, form="xml",
                                        mis_compensation=True))
         assert xml.sensors()[0].sampler().sample_count() == p.sampler(sampler).spp(32)
-    text = str(ns["scene"].integrator())              # the strategy's counts, as Mitsuba read them
-    assert text.startswith("DirectIntegrator") and setting.integrator == "direct"
-    assert f"emitter_samples = {setting.emitter_samples}," in text
-    assert f"bsdf_samples = {setting.bsdf_samples}" in text
+    text = str(ns["scene"].integrator())   # the strategy's integrator, as Mitsuba read it
+    if strategy == "mis":                  # path at its defaults: no depth limit, RR from 5
+        assert setting.integrator == "path" and not setting.settings
+        assert text.startswith("PathIntegrator") and "max_depth = 4294967295" in text
+        assert "rr_depth = 5" in text
+    else:
+        assert text.startswith("DirectIntegrator") and setting.integrator == "direct"
+        assert f"emitter_samples = {setting.emitter_samples}," in text
+        assert f"bsdf_samples = {setting.bsdf_samples}" in text

@@ -6,7 +6,9 @@ prediction of ``randomisation._orthogonal``:
   2-D draw starting at an even dimension (2–3) and at an odd one (5–6);
 * in a render, ``direct`` draws the BSDF's 2-D sample before its 1-D one (the C++ arguments
   of ``bsdf->sample(ctx, si, next_1d(), next_2d())`` are evaluated right to left in the PyPI
-  build): recorded by a Python BSDF, the BSDF's points form the even (CMJ) pattern;
+  build): recorded by a Python BSDF, the BSDF's points form the even (CMJ) pattern; ``path``
+  draws the 1-D one first (two statements), so after the emitter's 2–3 its BSDF's points
+  form the odd pattern of dimensions 5–6;
 * at an even first dimension the pattern is correlated multi-jittering (the prediction equals
   ``cmj`` with uniform permutations);
 * the formula equals brute force over uniform permutations of the same forms;
@@ -140,10 +142,10 @@ def test_bad_point_counts(grids):
         randomised_mse("orthogonal", grids["edge"], 25, dimension=-1)
 
 
-def _recorded_bsdf_points(emitter_samples: int) -> np.ndarray:
-    """The 2-D samples Mitsuba's ``direct`` integrator hands a BSDF (a Python plugin that
-    records them and returns no sample), one pixel of a sphere that fills it, ``orthogonal``
-    at 25 spp without jitter."""
+def _recorded_bsdf_points(emitter_samples: int, integrator: str = "direct") -> np.ndarray:
+    """The 2-D samples Mitsuba's ``direct`` integrator (or ``path`` at its defaults) hands a
+    BSDF (a Python plugin that records them and returns no sample), one pixel of a sphere
+    that fills it, ``orthogonal`` at 25 spp without jitter."""
     mi = _mitsuba()
     seen = []
 
@@ -173,7 +175,9 @@ def _recorded_bsdf_points(emitter_samples: int) -> np.ndarray:
     look = mi.ScalarTransform4f().look_at(origin=[0, 0, 5], target=[0, 0, 0], up=[0, 1, 0])
     scene = mi.load_dict({
         "type": "scene",
-        "integrator": {"type": "direct", "emitter_samples": emitter_samples, "bsdf_samples": 1},
+        "integrator": ({"type": "path"} if integrator == "path" else
+                       {"type": "direct", "emitter_samples": emitter_samples,
+                        "bsdf_samples": 1}),
         "sensor": {"type": "orthographic", "to_world": look,
                    "film": {"type": "hdrfilm", "width": 1, "height": 1,
                             "rfilter": {"type": "box"}},
@@ -193,7 +197,21 @@ def test_direct_draws_the_bsdfs_2d_sample_first(emitter_samples):
     pts = _recorded_bsdf_points(emitter_samples)
     assert pts.shape == (25, 2)
     mine = _strata(pts, 5)
-    dim = get_renderer("mitsuba3").strategy("mis" if emitter_samples else "brdf").dimensions[1]
-    assert dim == 2 + 2 * emitter_samples
+    dim = 2 + 2 * emitter_samples
+    if not emitter_samples:
+        assert get_renderer("mitsuba3").strategy("brdf").dimensions == (2, dim)
     np.testing.assert_array_equal(_pattern_counts(mine), _pattern_counts(bose_indices(5, dim)))
     assert not np.array_equal(_pattern_counts(mine), _pattern_counts(bose_indices(5, dim + 1)))
+
+
+def test_path_draws_the_bsdfs_1d_sample_first():
+    """``path`` (the record's ``mis``): its first bounce draws the emitter's 2–3, then the
+    BSDF's ``next_1d`` (4) and ``next_2d`` (5–6): the BSDF's points have the odd-start pattern
+    of dimension 5, not direct's even one at 4 — as the record's ``dimensions`` (and the
+    ``calls`` 1 and 3 that ``ldsampler`` counts, from the same order) say."""
+    from envfit.renderers import get_renderer
+    s = get_renderer("mitsuba3").strategy("mis")
+    assert s.integrator == "path" and s.dimensions == (2, 5) and s.calls == (1, 3)
+    mine = _strata(_recorded_bsdf_points(1, "path"), 5)
+    np.testing.assert_array_equal(_pattern_counts(mine), _pattern_counts(bose_indices(5, 5)))
+    assert not np.array_equal(_pattern_counts(mine), _pattern_counts(bose_indices(5, 4)))

@@ -52,7 +52,8 @@ __all__ = ["PresetAdvice", "advise_preset", "integrator_text"]
 
 
 def integrator_text(preset, strategy: str, mis_compensation: bool = False) -> str:
-    """``direct (emitter_samples=1, bsdf_samples=1)``: the integrator and its settings.
+    """``direct (emitter_samples=1, bsdf_samples=0)``: the integrator and its settings (its
+    name alone where it runs at its defaults: Mitsuba's ``path``).
 
     >>> from envfit.renderers import get_renderer
     >>> integrator_text(get_renderer("mitsuba3"), "map")

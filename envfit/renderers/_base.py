@@ -350,8 +350,13 @@ class StrategySetting:
     (``renderable``), the integrator and its settings, the samples of each technique per
     spp (``emitter_samples``, ``bsdf_samples``), which map density it samples
     (``density``: e.g. ``"compensated"`` for pbrt-v4's path integrator) and, where a sampler's
-    pattern depends on it, the sampler dimension at which the emitter's and the BSDF's first
-    2-D draw start (``dimensions``; None where the order plays no part)."""
+    pattern depends on it, where the emitter's and the BSDF's first 2-D draws of a sample
+    stand among the sampler's draws, counted from the film position's 2-D draw: as the
+    dimension at which each starts, each 1-D draw counting one and each 2-D draw two
+    (``dimensions``: Mitsuba's ``orthogonal``, whose ``next_2d`` is two ``next_1d``), and as
+    the number of the call that makes it (``calls``: Mitsuba's ``ldsampler``, whose
+    ``next_1d`` and ``next_2d`` each take one dimension index); None where the order plays
+    no part."""
 
     strategy: str
     renderable: bool
@@ -362,6 +367,7 @@ class StrategySetting:
     density: str = "plain"
     note: str = ""
     dimensions: tuple[int, int] | None = None
+    calls: tuple[int, int] | None = None
 
 
 _HEURISTICS = {"power": power_heuristic, "balance": balance_heuristic}

@@ -266,8 +266,9 @@ class PairedFootprint:
     r"""The film × technique pairing of a sampler at N spp over R pixels (module
     docstring), over the sampler's own points in its order (``film_points(pixels, n, dims,
     seed)``, :attr:`envfit.renderers.SamplerSpec.film_points`: Mitsuba's ``ldsampler``;
-    dimension 0 the film's, 1 the emitter's, 1 + emitter_samples the BSDF's, as the
-    renderer's integrator draws them), each pixel's scramble seed drawn at random.
+    dimension 0 the film's, then the emitter's and the BSDF's where the renderer's integrator
+    draws them, :attr:`envfit.renderers.StrategySetting.calls`: 1 and 3 for Mitsuba's
+    ``path``), ``dims`` dimensions of them, each pixel's scramble seed drawn at random.
 
     Examples
     --------
@@ -283,9 +284,9 @@ class PairedFootprint:
     True
     """
 
-    def __init__(self, n: int, pixels: int, seed: int, film_points):
+    def __init__(self, n: int, pixels: int, seed: int, film_points, dims: int = 3):
         self.n = int(n)
-        self.points = film_points(pixels, self.n, 3, seed)
+        self.points = film_points(pixels, self.n, int(dims), seed)
         self._weights, self._cells = {}, {}
 
     def weights(self, side: int) -> np.ndarray:
@@ -304,12 +305,16 @@ class PairedFootprint:
             self._cells[key] = i[..., 0] * m + i[..., 1]
         return self._cells[key]
 
-    def extra(self, tables: dict, strategy: str, emitter_samples: int = 1,
+    def extra(self, tables: dict, strategy: str, calls: tuple[int, int] | None = None,
               means: dict | None = None):
-        """:func:`paired_extra` of ``strategy``'s streams, ``tables`` {part: (J, P, C)};
-        ``means`` {part: the mean table (P, C)}, where the caller has them (the same mean,
-        4× less to read)."""
-        dims = {"map": 1, "brdf": 1, "mis_e": 1, "mis_b": 1 + emitter_samples}
+        """:func:`paired_extra` of ``strategy``'s streams, ``tables`` {part: (J, P, C)}, the
+        emitter's and the BSDF's samples in the dimensions ``calls`` (None: ``direct``'s with
+        one sample of each technique, the only one's in dimension 1); ``means`` {part: the
+        mean table (P, C)}, where the caller has them (the same mean, 4× less to read)."""
+        if calls is None:
+            dims = {"map": 1, "brdf": 1, "mis_e": 1, "mis_b": 2}
+        else:
+            dims = {"map": calls[0], "brdf": calls[1], "mis_e": calls[0], "mis_b": calls[1]}
         side = int(round(np.sqrt(len(next(iter(tables.values()))))))
         streams = [(tables[p], self.cells(dims[p], tables[p].shape[1]),
                     None if means is None else means[p].mean(axis=0))

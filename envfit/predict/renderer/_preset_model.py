@@ -425,8 +425,7 @@ class PresetModel:
         (:func:`._footprint.footprint_term`)."""
         res = self._randomised_cell(r, vals, grids, fine, levels)
         if "_normals" in vals and self._paired(r):
-            extra = self._pairing(r).extra(vals["_normals"], r.strategy,
-                                             self.preset.strategy(r.strategy).emitter_samples,
+            extra = self._pairing(r).extra(vals["_normals"], r.strategy, self._calls(r),
                                              means=vals)[0]
         else:
             extra = footprint_term(r.strategy, r.name, r.n, vals)
@@ -440,16 +439,24 @@ class PresetModel:
         return (r.name == "digital_shift" and spec.pairing == "same_net_permuted"
                 and spec.film_points is not None)
 
+    def _calls(self, r: CellRequest) -> tuple[int, int]:
+        """The sampler calls of the emitter's and the BSDF's draws of ``r``'s strategy
+        (:attr:`envfit.renderers.StrategySetting.calls`; where the record has none, the
+        emitter's first and the BSDF's after every emitter sample)."""
+        s = self.preset.strategy(r.strategy)
+        return s.calls if s.calls is not None else (1, 1 + s.emitter_samples)
+
     def _pairing(self, r: CellRequest) -> PairedFootprint:
         """The :class:`._footprint.PairedFootprint` of cell ``r``'s sampler at N spp: its own
-        film points for max(Q, 2^20/N) pixels (Q = ``options.shifts``), seeded by
-        ``options.seed``."""
-        n = r.n
-        key = ("paired", r.sampler, n)
+        film points, in every dimension to the strategy's last draw (:meth:`_calls`), for
+        max(Q, 2^20/N) pixels (Q = ``options.shifts``), seeded by ``options.seed``."""
+        n, dims = r.n, max(3, max(self._calls(r)) + 1)
+        key = ("paired", r.sampler, n, dims)
         if key not in self._tables:
             self._tables[key] = PairedFootprint(n, max(self.options.shifts, (1 << 20) // n),
                                                 self.options.seed,
-                                                self.preset.sampler(r.sampler).film_points)
+                                                self.preset.sampler(r.sampler).film_points,
+                                                dims)
         return self._tables[key]
 
     def _randomised_cell(self, r: CellRequest, vals: dict, grids: dict, fine: int, levels):

@@ -6,9 +6,11 @@ held.
   the ``Hierarchical2D`` warp of the luminance × sin θ vertex grid (``mis_compensation``
   optional), ``sample_direction`` / ``pdf_direction``; its compiled form (same arithmetic)
   in ``_compiled`` (``sample_table``, ``bsdf_lookup``, ``eval_pdf``).
-* **Integrator** ``direct`` — one emitter and one BSDF sample per spp, power heuristic with
-  the sample fractions (the record's strategies, ``_envmap.STRATEGIES``); the sample
-  dimensions the techniques get (``_envmap._dimensions``).
+* **Integrators** — ``path`` at its defaults for MIS (Mitsuba's default integrator: one
+  emitter and one BSDF sample per bounce, power heuristic; on the lone sphere only the first
+  bounce plays) and ``direct`` with one technique's sample for emitter-only and BSDF-only
+  sampling (the record's strategies, ``_envmap.STRATEGIES``); where each draws its samples
+  among the sampler's dimensions (``_envmap._path_draws``, ``_envmap._direct_draws``).
 * **Samplers** — ``independent`` (default), ``stratified``, ``multijitter``, ``ldsampler``,
   ``orthogonal`` with the spp each runs (``_envmap.SAMPLERS``); ``ldsampler``'s points in
   its own order (``_ldsampler``: TEA, ``permute``), which the film footprint's model reads.

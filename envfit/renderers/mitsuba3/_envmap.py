@@ -372,29 +372,51 @@ SAMPLERS = {
 # ----------------------------------------------------------------------------- integrator
 
 _D = "src/integrators/direct.cpp DirectIntegrator"
+_P = "src/integrators/path.cpp PathIntegrator"
 
 
-def _dimensions(emitter_samples: int, bsdf_samples: int) -> tuple[int, int]:
-    """The sampler dimensions of the first emitter and BSDF 2-D draws of one spp: the film
-    position takes 0–1 (``src/render/integrator.cpp``: ``SamplingIntegrator::render_sample``,
-    ``next_2d``; an orthographic sensor takes no aperture, time or wavelength sample), then
-    ``direct.cpp`` draws ``next_2d`` per emitter sample, emitter samples first, and per BSDF
-    sample ``bsdf->sample(ctx, si, sampler->next_1d(), sampler->next_2d())``, whose two
-    arguments C++ may evaluate in either order: in the PyPI build (3.9.1) ``next_2d`` comes
-    first (right to left; ``tests/test_randomisation_orthogonal.py`` records the BSDF's
-    samples in a render), so the BSDF's 2-D draw starts at 2 + 2·emitter_samples."""
-    return 2, 2 + 2 * emitter_samples
+def _direct_draws(emitter_samples: int) -> dict:
+    """Where ``direct``'s first emitter and BSDF 2-D draws of one spp stand
+    (:class:`~envfit.renderers.StrategySetting` ``dimensions``, ``calls``): the film position
+    takes dimensions 0–1, call 0 (``src/render/integrator.cpp``:
+    ``SamplingIntegrator::render_sample``, ``next_2d``; an orthographic sensor takes no
+    aperture, time or wavelength sample), then ``direct.cpp`` draws ``next_2d`` per emitter
+    sample, emitter samples first, and per BSDF sample ``bsdf->sample(ctx, si,
+    sampler->next_1d(), sampler->next_2d())``, whose two arguments C++ may evaluate in either
+    order: in the PyPI build (3.9.1) ``next_2d`` comes first (right to left;
+    ``tests/test_randomisation_orthogonal.py`` records the BSDF's samples in a render), so the
+    BSDF's 2-D draw starts at dimension 2 + 2·emitter_samples, call 1 + emitter_samples."""
+    return {"dimensions": (2, 2 + 2 * emitter_samples), "calls": (1, 1 + emitter_samples)}
 
 
+def _path_draws() -> dict:
+    """Where ``path``'s emitter and BSDF 2-D draws of its first bounce stand: after the film's
+    (dimensions 0–1, call 0), ``PathIntegrator::sample`` draws the emitter sample
+    (``sample_emitter_direction(si, sampler->next_2d())``: dimensions 2–3, call 1), then, in
+    two statements, ``sample_1 = next_1d()`` (dimension 4, call 2) and ``sample_2 =
+    next_2d()`` (dimensions 5–6, call 3) for ``bsdf->eval_pdf_sample`` — the BSDF's 2-D draw
+    one later than ``direct``'s (:func:`_direct_draws`), at an odd dimension."""
+    return {"dimensions": (2, 5), "calls": (1, 3)}
+
+
+#: Mitsuba's ``path`` at its defaults (``max_depth`` −1, ``rr_depth`` 5, ``hide_emitters``
+#: false): on envfit's sphere, alone and convex, every path ends at its first bounce — the
+#: BSDF-sampled ray leaves the sphere and meets the map, weighted by the power heuristic
+#: ``mis_weight(bsdf_pdf, em_pdf)``, as the emitter sample by ``mis_weight(ds.pdf,
+#: bsdf_pdf)`` — so its estimate is ``direct``'s with one sample of each technique (whose
+#: sample fractions ½, ½ cancel in the heuristic), but for where the BSDF's draw stands
+#: (:func:`_path_draws`); Russian roulette starts at depth 5 and never plays.
 STRATEGIES = {
     "map": StrategySetting("map", True, "direct", {"emitter_samples": 1, "bsdf_samples": 0},
                            1, 0, "plain", "emitter sampling only (bsdf fraction 0: weight 1); "
-                           + _D, _dimensions(1, 0)),
+                           + _D, **_direct_draws(1)),
     "brdf": StrategySetting("brdf", True, "direct", {"emitter_samples": 0, "bsdf_samples": 1},
-                            0, 1, "plain", "BSDF sampling only; " + _D, _dimensions(0, 1)),
-    "mis": StrategySetting("mis", True, "direct", {"emitter_samples": 1, "bsdf_samples": 1},
-                           1, 1, "plain", "power heuristic with the fractions n_e/(n_e+n_b), "
-                           "n_b/(n_e+n_b); " + _D, _dimensions(1, 1)),
+                            0, 1, "plain", "BSDF sampling only; " + _D, **_direct_draws(0)),
+    "mis": StrategySetting("mis", True, "path", {}, 1, 1, "plain",
+                           "Mitsuba's default integrator at its defaults: one emitter and one "
+                           "BSDF sample per bounce, power heuristic; on the lone sphere only "
+                           "the first bounce contributes; " + _P + "::sample",
+                           **_path_draws()),
 }
 
 
@@ -421,7 +443,21 @@ def _bsdf(microfacet) -> tuple[str, str, str]:
             f"white roughconductor ({dist} alpha {alpha:g}, Fresnel 1)")
 
 
-def _xml(ne: int, nb: int, sampler: str, spp: int, filename: str, comp: bool, bsdf: str,
+def _integrator_xml(s: StrategySetting) -> str:
+    """The strategy's ``<integrator>`` element (its type and settings)."""
+    if not s.settings:
+        return f'  <integrator type="{s.integrator}"/>\n'
+    items = "".join(f'    <integer name="{k}" value="{v}"/>\n' for k, v in s.settings.items())
+    return f'  <integrator type="{s.integrator}">\n{items}  </integrator>\n'
+
+
+def _integrator_py(s: StrategySetting) -> str:
+    """The strategy's integrator as ``mi.load_dict`` text."""
+    return "{" + ", ".join([f'"type": "{s.integrator}"']
+                           + [f'"{k}": {v}' for k, v in s.settings.items()]) + "}"
+
+
+def _xml(s: StrategySetting, sampler: str, spp: int, filename: str, comp: bool, bsdf: str,
          n: int) -> str:
     sensors = "".join(
         f'  <sensor type="orthographic">\n'
@@ -435,10 +471,7 @@ def _xml(ne: int, nb: int, sampler: str, spp: int, filename: str, comp: bool, bs
         f'    </sampler>\n'
         f'  </sensor>\n' for v, u in SPHERE_VIEWS)
     return (f'<scene version="3.0.0">\n'
-            f'  <integrator type="direct">\n'
-            f'    <integer name="emitter_samples" value="{ne}"/>\n'
-            f'    <integer name="bsdf_samples" value="{nb}"/>\n'
-            f'  </integrator>\n{sensors}'
+            f'{_integrator_xml(s)}{sensors}'
             f'  <emitter type="envmap">\n'
             f'    <string name="filename" value="{filename}"/>\n'
             f'    <boolean name="mis_compensation" value="{str(comp).lower()}"/>\n'
@@ -457,15 +490,15 @@ def _snippet(s: StrategySetting, spec: SamplerSpec, spp: int, *, filename: str =
     (:func:`_bsdf`), the ``envmap`` of ``filename``, six ``orthographic`` sensors
     (:data:`SPHERE_VIEWS`: ``look_at`` from 3v, the image plane [-1, 1]², ``hdrfilm`` of
     :func:`snippet_pixels` pixels with the ``box`` filter), the sampler at the spp it runs in
-    each, Mitsuba's ``direct`` integrator with the strategy's counts. ``form`` ``"python"``
+    each, the strategy's integrator (``path`` at its defaults for ``mis``, ``direct`` with one
+    technique's sample for ``map`` and ``brdf``: :data:`STRATEGIES`). ``form`` ``"python"``
     (a ``mi.load_dict`` call, commented; ``mi.render(scene, sensor=k)`` renders view k) or
     ``"xml"`` (scene XML for ``mi.load_string``)."""
-    ne, nb = s.settings["emitter_samples"], s.settings["bsdf_samples"]
     comp = bool(mis_compensation)
     bsdf_xml, bsdf_py, words = _bsdf(microfacet)
     n = snippet_pixels(sphere_pixels)
     if form == "xml":
-        return _xml(ne, nb, spec.name, spp, filename, comp, bsdf_xml, n)
+        return _xml(s, spec.name, spp, filename, comp, bsdf_xml, n)
     if form != "python":
         raise ParameterError(f"form must be 'python' or 'xml', got {form!r}")
     head = "\n".join(scene_comment(words, sphere_pixels,
@@ -479,8 +512,7 @@ def _snippet(s: StrategySetting, spec: SamplerSpec, spp: int, *, filename: str =
             f'VIEWS = [{views}]\n'
             f'scene = mi.load_dict({{\n'
             f'    "type": "scene",\n'
-            f'    "integrator": {{"type": "direct", "emitter_samples": {ne}, '
-            f'"bsdf_samples": {nb}}},\n'
+            f'    "integrator": {_integrator_py(s)},\n'
             f'    **{{f"sensor{{k}}": {{\n'
             f'        "type": "orthographic",\n'
             f'        "to_world": mi.ScalarTransform4f().look_at(\n'
@@ -502,7 +534,8 @@ def _technique(envmap, **options) -> Mitsuba3Envmap:
 
 MITSUBA3 = Renderer(
     name="mitsuba3",
-    renderer="Mitsuba 3.9.1 (mitsuba-renderer/mitsuba3 @ 478e193a183c), envmap + direct",
+    renderer="Mitsuba 3.9.1 (mitsuba-renderer/mitsuba3 @ 478e193a183c), envmap + path (MIS) "
+             "or direct (one technique)",
     technique=_technique,
     cosine=cosine_hemisphere,
     tangent_frame=mitsuba_frame,
@@ -512,7 +545,8 @@ MITSUBA3 = Renderer(
     snippet_fn=_snippet,
     source=("src/emitters/envmap.cpp; include/mitsuba/core/distr_2d.h Hierarchical2D; "
             "include/mitsuba/core/warp.h square_to_cosine_hemisphere; src/bsdfs/diffuse.cpp "
-            "SmoothDiffuse::sample; src/integrators/direct.cpp; src/samplers/*.cpp"),
+            "SmoothDiffuse::sample; src/integrators/path.cpp; src/integrators/direct.cpp; "
+            "src/samplers/*.cpp"),
     display="Mitsuba 3",
     negative_radiance=("Mitsuba 3's envmap looks up the signed radiance but never samples a "
                        "texel of negative luminance (src/emitters/envmap.cpp: "

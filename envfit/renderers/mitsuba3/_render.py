@@ -19,9 +19,10 @@ sensors (:data:`._sphere.VIEWS`):
   u × v), an ``hdrfilm`` of R × R RGB pixels with the ``box`` filter, and the sampler by its
   Mitsuba name (:data:`SAMPLERS`) with ``sample_count`` = spp and a seed per render.
 
-The integrator is ``direct`` (``src/integrators/direct.cpp``: ``DirectIntegrator::sample``,
-the power heuristic with the sample counts) with ``emitter_samples``/``bsdf_samples`` per
-strategy (:data:`STRATEGY_SAMPLES`: map = 1/0, brdf = 0/1, mis = 1/1). The reference is two
+The integrator is the strategy's in the record (:func:`strategy_integrator`): ``path`` at
+its defaults for ``mis`` (``src/integrators/path.cpp``: ``PathIntegrator::sample``, the power
+heuristic), ``direct`` (``src/integrators/direct.cpp``: ``DirectIntegrator::sample``) with
+``emitter_samples``/``bsdf_samples`` 1/0 for ``map`` and 0/1 for ``brdf``. The reference is two
 renders with the ``independent`` sampler and MIS at ``reference_spp``, cached on disk
 (:func:`._reference.cached_reference`), shared by every strategy and sampler of the map.
 
@@ -51,17 +52,24 @@ from envfit.renderers._sphere import (VIEWS, SphereMeasurement, check_strategy,
                                               measurement, sphere_error, sphere_geometry,
                                               view_seeds)
 
-__all__ = ["SAMPLERS", "MITSUBA_SAMPLERS", "STRATEGY_SAMPLES", "Mitsuba3Options", "Mitsuba3Sphere",
+__all__ = ["SAMPLERS", "MITSUBA_SAMPLERS", "strategy_integrator", "Mitsuba3Options", "Mitsuba3Sphere",
            "import_mitsuba", "mitsuba_normals", "roughconductor_bsdf", "roughplastic_bsdf",
            "version", "open_sphere"]
 
 #: Mitsuba 3's sampler plugins measured here
 SAMPLERS = ("independent", "stratified", "multijitter", "ldsampler", "orthogonal")
 MITSUBA_SAMPLERS = SAMPLERS
-#: strategy → (emitter_samples, bsdf_samples) of the ``direct`` integrator
-STRATEGY_SAMPLES = {"map": (1, 0), "brdf": (0, 1), "mis": (1, 1)}
 #: the variant used: the LLVM variants abort in this machine's LLVM 14/15 code generator
 VARIANT = "scalar_rgb"
+
+
+def strategy_integrator(strategy: str) -> dict:
+    """The ``mi.load_dict`` dict of ``strategy``'s integrator: its type and settings in the
+    record (:data:`envfit.renderers.mitsuba3.MITSUBA3`), e.g. ``{"type": "path"}`` for
+    ``mis``."""
+    from envfit.renderers import get_renderer
+    s = get_renderer("mitsuba3").strategy(check_strategy(strategy))
+    return {"type": s.integrator, **s.settings}
 
 
 def import_mitsuba():
@@ -227,9 +235,7 @@ class Mitsuba3Sphere:
 
     def _integrator(self, strategy: str):
         if strategy not in self._integrators:
-            es, bs = STRATEGY_SAMPLES[check_strategy(strategy)]
-            self._integrators[strategy] = self.mi.load_dict(
-                {"type": "direct", "emitter_samples": es, "bsdf_samples": bs})
+            self._integrators[strategy] = self.mi.load_dict(strategy_integrator(strategy))
         return self._integrators[strategy]
 
     def spp_used(self, sampler: str, spp: int) -> int:
@@ -287,7 +293,7 @@ class Mitsuba3Sphere:
         imgs, secs = self.render(strategy, sampler, spp, rng)
         err = sphere_error(imgs, ref.a, ref.b, self.geometry, seed=rng)
         opts = {"mis_compensation": bool(self.options.mis_compensation), "variant": VARIANT,
-                "integrator": "direct", "filter": "box"}
+                "integrator": strategy_integrator(strategy)["type"], "filter": "box"}
         return measurement(err, spp=spp, renderer=self.renderer, sampler=sampler,
                            strategy=strategy, reference_spp=self.options.reference_spp,
                            view_seconds=secs, resolution=self.options.resolution,
