@@ -341,6 +341,7 @@ def main(argv=None) -> int:
     meta["integrators"] = {s: {"type": rec.strategy(s.split("-")[0]).integrator,
                                **rec.strategy(s.split("-")[0]).settings}
                            for s in args.strategies}
+    meta["renderer_version"] = rec.harness_module().version()      # e.g. Blender 5.3.0
     t = time.perf_counter()
     for spec in args.maps:
         run_map(spec, args, rows, meta, out)

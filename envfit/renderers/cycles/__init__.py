@@ -1,6 +1,9 @@
-"""Blender's Cycles (5.0; blender/cycles @ 2eba41024174, rendered with bpy 5.0.1), as envfit
-reads it from its source: everything envfit assumes Cycles does, and where each assumption is
-held.
+"""Blender's Cycles (5.0; blender/cycles @ 2eba41024174, rendered with bpy 5.0.1 and 5.3.0),
+as envfit reads it from its source: everything envfit assumes Cycles does, and where each
+assumption is held. The files read are unchanged for this scene in v5.1.0 and on main @
+97dbe6f57 (2026-07-13, the newest source here) but for a texture-cache ``.tx`` map (main
+only), which the model does not cover; bpy 5.3.0 was checked by rendering
+(``docs/renderers.md``, "Newer releases").
 
 * **Emitter** — the world light: :class:`CyclesBackground` in ``_background`` (the
   importance map at ≥ 4096 × 2048 under Auto, ``background_cdf`` by the absolute

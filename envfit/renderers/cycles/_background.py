@@ -448,7 +448,9 @@ def _technique(envmap, **options) -> CyclesBackground:
 
 CYCLES = Renderer(
     name="cycles",
-    renderer="Cycles 5.0 (blender/cycles @ 2eba41024174, v5.0.0), world light + path",
+    renderer=("Cycles 5.0 (blender/cycles @ 2eba41024174, v5.0.0; the files read are unchanged "
+              "for this scene in v5.1.0 and main @ 97dbe6f57, 2026-07-13), world light + path; "
+              "rendered with bpy 5.0.1 and 5.3.0"),
     technique=_technique,
     cosine=cosine_hemisphere,
     tangent_frame=cycles_frame,
