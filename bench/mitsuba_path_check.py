@@ -22,6 +22,7 @@ from pathlib import Path
 
 from envfit.base._atomic import atomic_write_json  # internal: the product's atomic writer
 from envfit.maps import load_envmap
+from envfit.renderers import get_renderer
 
 
 def _cpu() -> str:
@@ -46,14 +47,14 @@ def main() -> None:
     ap.add_argument("--out", required=True)
     args = ap.parse_args()
 
-    from envfit.renderers.mitsuba3._render import Mitsuba3Options, Mitsuba3Sphere
+    harness = get_renderer("mitsuba3").harness_module()      # Mitsuba3Sphere, its options
     env = load_envmap(args.map, max_height=args.max_height)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     rows, t0 = [], time.perf_counter()
-    opts = Mitsuba3Options(resolution=args.resolution, reference_spp=args.reference_spp,
-                           cache_dir=str(out / "cache"))
-    with Mitsuba3Sphere(env, opts) as r:
+    opts = harness.Mitsuba3Options(resolution=args.resolution, reference_spp=args.reference_spp,
+                                   cache_dir=str(out / "cache"))
+    with harness.Mitsuba3Sphere(env, opts) as r:
         ref = r.reference()
         integrators = {"path": r._integrator("mis"),            # the record's mis: path
                        "direct": r.mi.load_dict({"type": "direct", "emitter_samples": 1,
