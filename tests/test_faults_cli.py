@@ -378,7 +378,7 @@ def test_broken_subcommand_module_is_an_error(monkeypatch, capsys):
     assert line.startswith("envfit validate: error: cannot load the 'validate' subcommand: "
                            "envfit.cli._validate failed to import (ModuleNotFoundError")
     assert out == ""
-    rc = cli.main(["--help"])                 # the full parser: not silently without validate
+    rc = cli.main(["--help"])       # the summary looks each module up: not silently without it
     line, out = _one_error(capsys, rc)
     assert line.startswith("envfit: error: cannot load the 'validate' subcommand")
 
