@@ -45,7 +45,7 @@ COMMANDS = ("synth", "info", "fit", "table2", "theory", "validate", "advise", "s
 
 #: each subcommand's one-line help as its module registers it, so that ``envfit --help`` (and
 #: ``envfit``, ``envfit --version``, an unknown command) lists them without importing the
-#: modules and what they import (numpy, scipy, numba: ~1 s); ``tests/test_cli.py`` checks
+#: modules and what they import (numpy, scipy, numba: ~1 s); ``tests/test_cli_help.py`` checks
 #: that the two agree
 SUMMARIES = {
     "synth": "write a synthetic lat-long map (gp, sun-gp, constant, sky, sun, step, marker)",
