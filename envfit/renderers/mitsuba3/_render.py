@@ -52,9 +52,9 @@ from envfit.renderers._sphere import (VIEWS, SphereMeasurement, check_strategy,
                                               measurement, sphere_error, sphere_geometry,
                                               view_seeds)
 
-__all__ = ["SAMPLERS", "MITSUBA_SAMPLERS", "strategy_integrator", "Mitsuba3Options", "Mitsuba3Sphere",
-           "import_mitsuba", "mitsuba_normals", "roughconductor_bsdf", "roughplastic_bsdf",
-           "version", "open_sphere"]
+__all__ = ["SAMPLERS", "MITSUBA_SAMPLERS", "strategy_integrator", "Mitsuba3Options",
+           "Mitsuba3Sphere", "import_mitsuba", "mitsuba_normals", "roughconductor_bsdf",
+           "roughplastic_bsdf", "version", "open_sphere"]
 
 #: Mitsuba 3's sampler plugins measured here
 SAMPLERS = ("independent", "stratified", "multijitter", "ldsampler", "orthogonal")
