@@ -16,7 +16,7 @@ Writes ``OUT/mitsuba_path_check.json`` (rows and the CPU) and prints the table.
 from __future__ import annotations
 
 import argparse
-import platform
+import sys
 import time
 from pathlib import Path
 
@@ -24,15 +24,8 @@ from envfit.base._atomic import atomic_write_json  # internal: the product's ato
 from envfit.maps import load_envmap
 from envfit.renderers import get_renderer
 
-
-def _cpu() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown"
+sys.path.insert(0, str(Path(__file__).parent))
+from render_check import _cpu  # noqa: E402  (bench helper: the CPU's name)
 
 
 def main() -> None:

@@ -338,9 +338,9 @@ def main(argv=None) -> int:
                 else "tabulated_sobol")
     from envfit.renderers import get_renderer
     rec = get_renderer(args.renderer)           # what each strategy renders with (mis: path)
-    meta["integrators"] = {s: {"type": rec.strategy(s.split("-")[0]).integrator,
-                               **rec.strategy(s.split("-")[0]).settings}
-                           for s in args.strategies}
+    settings = {s: rec.strategy(s.split("-")[0]) for s in args.strategies}
+    meta["integrators"] = {s: {"type": st.integrator, **st.settings}
+                           for s, st in settings.items()}
     meta["renderer_version"] = rec.harness_module().version()      # e.g. Blender 5.3.0
     t = time.perf_counter()
     for spec in args.maps:
