@@ -24,11 +24,16 @@ layered top-level module, ``envfit/defaults.py``, counts as a package of its own
 theory only, so every sub-package may import it; theory never imports envfit).
 
 ``envfit/__init__.py`` only re-exports names lazily and is not part of any layer.
+
+Renderers are plug-ins (issue 39): predict, advisor, validate, cli and batch never import a
+renderer's folder nor branch on a renderer's name, and predict and validate do not name one at
+all, docstrings included (but an example's look-up by name, ``get_renderer("mitsuba3")``).
 """
 from __future__ import annotations
 
 import ast
 import importlib.metadata
+import re
 from pathlib import Path
 
 import pytest
@@ -38,7 +43,7 @@ import envfit
 
 LAYERS = [("theory",), ("defaults",), ("data_gen",), ("base",), ("maps", "plots"),
           ("kernels", "shading"),
-          ("sampling",), ("renderers",), ("measure",), ("fit",), ("predict",), ("export", "validate", "advisor"),
+          ("sampling",), ("renderers",), ("measure",), ("fit",), ("predict",), ("export", "validate", "advisor", "frame"),
           ("batch",), ("cli",)]
 RANK = {pkg: i for i, group in enumerate(LAYERS) for pkg in group}
 
@@ -262,3 +267,64 @@ def test_the_renderer_name_checker_sees_each_use(tmp_path):
     assert [g.split(" ", 1)[1] for g in got] == [
         "imports envfit.renderers.cycles._render", "compares with a renderer's name",
         "compares with a renderer's name", "a table keyed by renderer names"]
+
+
+# ---- predict and validate name no renderer at all, docstrings included (issue 39) ----
+#: the packages whose source never names a renderer, in code, comments or docstrings: what
+#: envfit assumes a renderer does (its technique, its samplers' variants, its microfacet
+#: conventions, the file:function citations of its source) is in the renderer's folder alone
+RENDERER_SILENT = ("predict", "validate")
+
+
+def _renderer_words(names=None) -> list[str]:
+    """The stems a renderer is named by (``mitsuba3`` → ``mitsuba``, ``pbrt4`` → ``pbrt``,
+    ``cycles``): every registry key but envfit's own, its trailing digits dropped."""
+    from envfit.renderers import RENDERERS
+    keys = set(RENDERERS) if names is None else set(names)
+    return sorted({k.rstrip("0123456789") for k in keys if k != "envfit"})
+
+
+def renderer_mentions(path: Path, text: str | None = None, names=None) -> list[str]:
+    """Every line of the module at ``path`` that names a renderer (case-insensitive: code,
+    comment or docstring), one line each. The one allowance (each a look-up by name): a
+    registry key quoted as a call's argument on a doctest line (``>>> get_renderer("mitsuba3")``,
+    ``>>> RenderValidationOptions("mitsuba3", …)``) — an example must pick some renderer."""
+    from envfit.renderers import RENDERERS
+    keys = set(RENDERERS) if names is None else set(names)
+    words = re.compile("|".join(map(re.escape, _renderer_words(keys))), re.I)
+    lookup = re.compile(r"""([(,]\s*)(["'])(%s)\2(?=\s*[,)])"""
+                        % "|".join(map(re.escape, sorted(keys))))
+    out = []
+    src = path.read_text() if text is None else text
+    for i, line in enumerate(src.splitlines(), 1):
+        scan = line
+        if re.match(r"\s*(>>>|\.\.\.) ", line):
+            scan = lookup.sub(r"\1", line)
+        if words.search(scan):
+            out.append(f"{path.name}:{i} names a renderer: {line.strip()}")
+    return out
+
+
+def test_predict_and_validate_name_no_renderer():
+    """``grep -ril "mitsuba\\|cycles\\|pbrt" envfit/{predict,validate}`` finds only examples'
+    look-ups by name: a renderer's variants reach predict through its record (a sampler's
+    options, its microfacet conventions), never by its name."""
+    root = Path(envfit.__file__).parent
+    bad = [v for pkg in RENDERER_SILENT for p in sorted((root / pkg).rglob("*.py"))
+           for v in renderer_mentions(p)]
+    assert bad == [], "\n".join(bad)
+
+
+def test_the_renderer_mention_checker_sees_each_name(tmp_path):
+    f = tmp_path / "m.py"
+    src = ('"""Kensler\'s hash, as Mitsuba 3 draws it (``random.h``)."""\n'
+           "X = 1  # pbrt-v4's strata\n"
+           "def f(r):\n"
+           '    """\n    >>> get_renderer("mitsuba3").sampler("ldsampler").spp(4)\n'
+           '    4\n    >>> Options("cycles", brdf="ggx").brdf\n    \'ggx\'\n'
+           '    >>> r == "cycles"\n    False\n    """\n'
+           '    return {"permutations": "mitsuba"}\n')
+    got = [g.split(" ", 1)[0] for g in renderer_mentions(f, src)]
+    assert got == ["m.py:1", "m.py:2", "m.py:9", "m.py:12"]
+    assert renderer_mentions(f, "def f():\n    return get_renderer(name).display\n") == []
+    assert _renderer_words() == ["cycles", "mitsuba", "pbrt"]

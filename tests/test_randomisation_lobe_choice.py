@@ -21,8 +21,8 @@ from oracles.randomisers import INTEGRANDS, jittered_points
 
 from envfit.base import ParameterError
 from envfit.predict.renderer.randomisation import (DyadicGrid, lobe_choice_mis,
-                                                   lobe_choice_mse, mitsuba_cmj_shape,
-                                                   randomised_mse)
+                                                   lobe_choice_mse, randomised_mse)
+from envfit.renderers.mitsuba3._kensler import KENSLER_PERMUTATIONS, multijitter_shape
 
 A, B, E = INTEGRANDS["edge"], INTEGRANDS["peak"], INTEGRANDS["edge"]
 P = 0.3
@@ -129,8 +129,8 @@ def bsdf_draws(kind: str, spp: int, seeds: int, emitter: bool = False,
 
 CASES = [("ldsampler", 16, "digital_shift", {}), ("ldsampler", 64, "digital_shift", {}),
          ("stratified", 16, "jittered", {"r": 4}), ("stratified", 36, "jittered", {"r": 6}),
-         ("multijitter", 16, "cmj", {"permutations": "mitsuba"}),
-         ("multijitter", 35, "cmj", {"permutations": "mitsuba"})]
+         ("multijitter", 16, "cmj", {"permutations": KENSLER_PERMUTATIONS}),
+         ("multijitter", 35, "cmj", {"permutations": KENSLER_PERMUTATIONS})]
 
 
 @pytest.mark.parametrize("kind, spp, name, options", CASES)
@@ -139,7 +139,7 @@ def test_lobe_choice_against_mitsubas_samplers(kind, spp, name, options, integra
     _, x, u1 = bsdf_draws(kind, spp, SEEDS, integrator=integrator)
     n = x.shape[1]
     if name == "cmj":
-        assert math.prod(mitsuba_cmj_shape(spp)) == n
+        assert math.prod(multijitter_shape(spp)) == n
     pred = lobe_choice_mse(name, _grid_of, n, P, **options)[0]
     bf, se = _agree(pred, _errors(x, u1))
     if name == "digital_shift" and integrator == "direct":   # the one-square model fails it

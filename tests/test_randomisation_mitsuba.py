@@ -21,8 +21,9 @@ import numpy as np
 import pytest
 from oracles.randomisers import INTEGRANDS, mse_estimate, sobol_digits
 
-from envfit.predict.renderer.randomisation import (DyadicGrid, mis_mse, mitsuba_cmj_shape,
-                                                   permute_kensler, randomised_mse)
+from envfit.predict.renderer.randomisation import DyadicGrid, mis_mse, randomised_mse
+from envfit.renderers.mitsuba3._kensler import (KENSLER_PERMUTATIONS, multijitter_shape,
+                                               permute_kensler)
 from envfit.renderers import get_renderer
 
 _LD_POINTS = get_renderer("mitsuba3").sampler("ldsampler").film_points
@@ -133,11 +134,11 @@ def test_permute_kensler_port_is_mitsubas():
 @pytest.mark.parametrize("name", sorted(INTEGRANDS))
 @pytest.mark.parametrize("spp", [16, 32, 64])
 def test_multijitter_is_correlated_multi_jittering(grids, name, spp):
-    """Over Mitsuba's hashed permutations (``permutations="mitsuba"``)."""
+    """Over Mitsuba's hashed permutations (``permutations=KENSLER_PERMUTATIONS``)."""
     pts = mitsuba_points("multijitter", spp, SEEDS)[:, :, 0]
-    nx, ny = mitsuba_cmj_shape(spp)
+    nx, ny = multijitter_shape(spp)
     assert pts.shape[1] == nx * ny                                     # 32 → 35
-    res = randomised_mse("cmj", grids[name], nx * ny, permutations="mitsuba")
+    res = randomised_mse("cmj", grids[name], nx * ny, permutations=KENSLER_PERMUTATIONS)
     _agree(res.mse[0], pts, name)
 
 
@@ -149,7 +150,7 @@ def test_multijitter_permutations_are_not_uniform(grids, name):
     pts = mitsuba_points("multijitter", 16, 15 * SEEDS)[:, :, 0]
     bf, se = mse_estimate(INTEGRANDS[name], pts)
     uniform = randomised_mse("cmj", grids[name], 16).mse[0]
-    hashed = randomised_mse("cmj", grids[name], 16, permutations="mitsuba").mse[0]
+    hashed = randomised_mse("cmj", grids[name], 16, permutations=KENSLER_PERMUTATIONS).mse[0]
     assert abs(uniform - bf) > Z * se
     assert abs(hashed - bf) <= Z * se + 0.01 * hashed
 

@@ -14,8 +14,7 @@ from oracles.randomisers import (INTEGRANDS, jittered_points, kensler_cmj_points
                                  mse_estimate)
 
 from envfit.predict.renderer.randomisation import DyadicGrid, randomised_mse
-from envfit.predict.renderer.randomisation._cmj import table_moments
-from envfit.predict.renderer.randomisation._kensler import uniform_pair_table
+from envfit.predict.renderer.randomisation._cmj import table_moments, uniform_pair_table
 from envfit.predict.renderer.randomisation._strata import rectangle_moments
 
 #: randomisations per brute-force estimate, and the z-score allowed

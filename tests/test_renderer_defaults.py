@@ -94,7 +94,7 @@ def test_jitter_layouts_against_brute_force():
     """envfit's rows and pbrt-v4's x × y strata at non-square N: the model's MSE against
     stratified points drawn here (independently of the model's moments)."""
     from envfit.predict.renderer.randomisation import DyadicGrid, randomised_mse
-    from envfit.predict.renderer.randomisation._jittered import pbrt_strata
+    from envfit.renderers.pbrt4._light import pbrt_strata
     from envfit.theory import stratified_jitter
 
     def f(u):
@@ -111,6 +111,7 @@ def test_jitter_layouts_against_brute_force():
                  "pbrt": [f((cells + rng.random((n, 2))) / [x, y]).mean()
                           for _ in range(4000)]}
         for layout, est in draws.items():
-            mse = float(randomised_mse("jittered", g, n, layout=layout).mse[0])
+            opts = {"layout": "rows"} if layout == "rows" else {"strata": (x, y)}
+            mse = float(randomised_mse("jittered", g, n, **opts).mse[0])
             brute = float(np.mean((np.asarray(est) - exact) ** 2))
             assert brute == pytest.approx(mse, rel=0.12), (n, layout)

@@ -27,7 +27,9 @@ envfit     row (θ) (marginal, :class:`MapSampler`)          column (φ)
 Folders and modules:
 
 * ``_base`` — the renderer record and its technique protocol, the sampler and strategy
-  records, the concentric cosine map, the power and balance heuristics.
+  records (a sampler's variant of a randomisation — its strata, its hashed permutations'
+  :class:`PermutationLaw` — is an option value its record gives the exact model), the
+  concentric cosine map, the power and balance heuristics.
 * ``_registry`` — :data:`RENDERERS`, :func:`get_renderer`: one line per renderer.
 * ``_sphere`` — renderer-independent measurement: a white sphere rendered from six
   orthographic views, each pixel kept in the view nearest its normal and weighted 1/(n·v),
@@ -35,7 +37,8 @@ Folders and modules:
   variance subtracted and its bootstrap interval (:class:`SphereMeasurement`).
 * ``_reference`` — the high-spp reference renders, cached on disk (verified, atomic).
 * ``mitsuba3/`` — Mitsuba 3.9.1: ``_envmap`` (``envmap``: ``Hierarchical2D`` warp of a
-  bilinear density, and ``direct``), ``_render`` (the renders, ``scalar_rgb``).
+  bilinear density, and ``direct``), ``_kensler`` (``multijitter``'s hashed permutations and
+  grid), ``_render`` (the renders, ``scalar_rgb``).
 * ``pbrt4/`` — pbrt-v4: ``_light`` (``ImageInfiniteLight``, equal-area square image,
   compensated ``PiecewiseConstant2D``), ``_equal_area`` (``imgtool makeequiarea``).
 * ``cycles/`` — Cycles 5.0: ``_background`` (the world light, importance map at ≥ 4096 ×
@@ -60,7 +63,8 @@ from envfit.base._lazy import lazy_exports
 
 _LAZY = {
     "RANDOMISATIONS": "_base", "PAIRINGS": "_base", "STRATEGY_NAMES": "_base",
-    "DirectionSample": "_base", "EnvmapTechnique": "_base", "Renderer": "_base",
+    "DirectionSample": "_base", "EnvmapTechnique": "_base", "PermutationLaw": "_base",
+    "Renderer": "_base",
     "SamplerSpec": "_base", "StrategySetting": "_base", "concentric_disk": "_base",
     "cosine_hemisphere": "_base", "power_heuristic": "_base", "balance_heuristic": "_base",
     "Hierarchical2D": "mitsuba3._envmap", "Mitsuba3Envmap": "mitsuba3._envmap",

@@ -28,7 +28,7 @@ from envfit.base import ParameterError
 from envfit.base._checks import as_square_points, as_unit_vectors
 
 __all__ = ["RANDOMISATIONS", "PAIRINGS", "STRATEGY_NAMES", "DirectionSample",
-           "EnvmapTechnique", "SamplerSpec", "StrategySetting", "Renderer",
+           "EnvmapTechnique", "PermutationLaw", "SamplerSpec", "StrategySetting", "Renderer",
            "square_points", "unit_directions", "concentric_disk", "cosine_hemisphere",
            "power_heuristic", "balance_heuristic", "map_rgb", "SPHERE_VIEWS",
            "SNIPPET_PIXELS", "snippet_pixels", "scene_comment"]
@@ -266,6 +266,25 @@ def balance_heuristic(pdf_a, pdf_b, frac_a: float = 1.0, frac_b: float = 1.0) ->
 
 
 @dataclass(frozen=True)
+class PermutationLaw:
+    r"""The law of a sampler's hashed permutations, where they are not uniformly random: the
+    value of the ``cmj`` randomisation's ``permutations`` option that a sampler's
+    :attr:`SamplerSpec.options` give (``envfit.predict.renderer.randomisation``'s ``cmj``).
+
+    Attributes
+    ----------
+    name : the hash (``"kensler"``)
+    pair_table : ``l -> (l², l²)`` array, :math:`\Pr(\sigma(y) = b, \sigma(y') = b')` over the
+        sampler's seeds, rows (y, b), columns (y', b')
+    note : how the table was made (said in the model's note)
+    """
+
+    name: str
+    pair_table: Callable[[int], np.ndarray]
+    note: str = ""
+
+
+@dataclass(frozen=True)
 class SamplerSpec:
     """A renderer's sampler by its own name.
 
@@ -285,7 +304,8 @@ class SamplerSpec:
         own strata layout or permutations; None: the registry's plain form (square strata,
         uniform permutations)
     film_points : ``(pixels, n, dims, seed) -> (pixels, n, dims, 2)`` the sampler's own points
-        of each pixel in the order it pairs them across dimensions (dimension 0 the film's),
+        of each pixel in the order it pairs them across dimensions (dimension 0 the film's:
+        x right, y down in the pixel),
         for pixels of random seeds; None where that order does not matter (the model takes
         the film's pairing with the techniques as random)
     """

@@ -22,7 +22,7 @@ Modules:
   integrals on a map (Figs. 7–8).
 * :mod:`~envfit.validate._renderer` — ``envfit validate --renderer``: the renderer
   estimators' predicted RMSE against the measured one.
-* :mod:`~envfit.validate._rendered` — ``envfit validate --renderer mitsuba3|cycles``: the
+* :mod:`~envfit.validate._rendered` — ``envfit validate MAP --renderer NAME``: the
   renderer renders a sphere and its measured RMSE is set beside the preset's prediction
   (:func:`render_validation`, :class:`RenderValidationOptions`, :func:`measure_cell`).
 * :mod:`~envfit.validate._renderer_results` — What ``envfit validate --renderer`` returns and

@@ -1,4 +1,5 @@
-r"""``envfit validate MAP --renderer mitsuba3|cycles``: the renderer itself renders the sphere of
+r"""``envfit validate MAP --renderer NAME`` (a renderer with a harness,
+:func:`rendered_renderers`): the renderer itself renders the sphere of
 :mod:`envfit.renderers`, and its measured error is set beside the renderer preset's
 prediction, cell by cell (sampler × strategy × spp) — the check a renderer engineer runs
 before trusting an ``advise`` answer for their renderer.
@@ -12,9 +13,10 @@ The steps (:func:`render_validation`):
    importance-sampled from every rendered pixel for a white rough conductor (the ``disk`` layout: every
    pixel of each view's disk, the view angles an orthographic camera sees), with each pixel's
    footprint (:func:`envfit.predict.renderer.pixel_footprints`).
-2. **The renders** (:func:`_session`): Mitsuba 3 (``scalar_rgb``; ``diffuse`` or
-   ``roughconductor``) or Cycles through ``bpy`` (Diffuse or Glossy BSDF), six orthographic
-   views of ``resolution`` × ``resolution`` pixels; the reference is two renders at
+2. **The renders** (:func:`_session`): the renderer's harness
+   (:attr:`envfit.renderers.Renderer.harness`, the renderer's own diffuse, conductor or
+   plastic BSDF as its folder says), six orthographic views of ``resolution`` ×
+   ``resolution`` pixels; the reference is two renders at
    ``reference_spp`` (cached with ``cache_dir``).
 3. **Each cell** (:func:`measure_cell`): the RMSE over the kept pixels against the
    reference, its own variance subtracted, with a bootstrap 95 % interval over pixels
@@ -40,8 +42,9 @@ from envfit.base import ParameterError
 __all__ = ["RenderValidationOptions", "RenderValidation", "render_validation", "measure_cell",
            "is_inside", "summary_lines", "RENDERED_BRDFS", "rendered_renderers"]
 
-#: the BSDFs of the sphere: white diffuse, a white rough conductor (Fresnel 1), or Mitsuba's
-#: rough plastic (GGX coat, its defaults: η = 1.49, diffuse reflectance 0.5)
+#: the BSDFs of the sphere: white diffuse, a white rough conductor (Fresnel 1), or a rough
+#: plastic (:class:`envfit.shading.microfacet.RoughPlastic`: GGX coat, η = 1.49, diffuse
+#: reflectance 0.5)
 RENDERED_BRDFS = ("diffuse", "ggx", "beckmann", "roughplastic", "multiggx")
 #: a BSDF in the refusals' words
 _BSDF_WORDS = {"multiggx": "Multiscatter GGX (the Principled and Glossy BSDF nodes' default)"}
@@ -82,14 +85,16 @@ class RenderValidationOptions:
 
     Attributes
     ----------
-    renderer : a renderer with a harness (:func:`rendered_renderers`: ``"mitsuba3"``, ``"cycles"``).
+    renderer : a renderer with a harness (a key of :func:`rendered_renderers`).
     brdf : ``"diffuse"``, ``"ggx"`` or ``"beckmann"`` (a white conductor; needs ``alpha``), or
-        ``"roughplastic"`` (Mitsuba 3 only: its ``roughplastic`` with a GGX coat of ``alpha``;
-        modelled under the samplers of :data:`envfit.defaults.PLASTIC_SAMPLERS`).
-    alpha : the microfacet roughness α (Mitsuba's ``alpha``; Cycles' Glossy roughness √α).
+        ``"roughplastic"`` (a renderer whose record's ``microfacet`` lists it: the rough plastic
+        with a GGX coat of ``alpha``; modelled under the samplers of
+        :data:`envfit.defaults.PLASTIC_SAMPLERS`).
+    alpha : the microfacet roughness α (the harness sets the renderer's own roughness
+        parameter for it, as the renderer's folder says).
     samplers : the renderer's samplers by their own names (default :data:`RENDERERS`).
     strategies : among ``brdf``, ``map``, ``mis`` that the renderer renders (default: all of
-        them; Cycles has no emitter-only mode outside debug builds).
+        them that the record's strategies call ``renderable``).
     spp : samples per pixel of the cells.
     resolution : pixels per side of each of the six views.
     reference_spp : spp of each of the two reference renders.

@@ -13,18 +13,18 @@ the exact :math:`(E_p\mathrm{Var}_u g + \mathrm{Var}_p E_u g)/N`) and
 zero, which makes the pairs' cross terms positive; a, integrated by the film's own net, is
 left out) — :func:`footprint_term`. The footprint is sampled at side × side stratum midpoints
 of the pixel (:func:`pixel_footprints`); the variances over them, Var a and Var c, are scaled
-by J/(J − 1), J = side²: the midpoints of s × s strata see (1 − 1/s²) of the variance over
-the pixel of a function linear across it (per axis (s² − 1)/(12 s²) against 1/12), so the
-scaled values are exact for linear variation and converge as the side grows (on sun-gp-1.5,
-GGX α = 0.3 at 1024 ``ldsampler`` spp, the unscaled term grew 1.254× from side 2 to 4, the
+by J/(J − 1), J = side²: the midpoints of s × s strata see (1 − 1/s²) of the variance over the
+pixel of a function linear across it (per axis (s² − 1)/(12 s²) against 1/12), so the scaled
+values are exact for linear variation and converge as the side grows (on sun-gp-1.5, GGX α =
+0.3 at 1024 spp of a digitally shifted net, the unscaled term grew 1.254× from side 2 to 4, the
 linear law's 1.25; scaled, the two agree to 0.3 %).
 
-Mitsuba's ``ldsampler`` does not pair its dimensions at random: each is the pixel's one
-XOR-shifted net in the order ``permute(j, N, scramble_seed + d)``, and two rounds of TEA on
-consecutive seeds order the film's points (dimension 0) and the first technique's alike
-(the sampler's ``film_points``: Mitsuba's in :mod:`envfit.renderers.mitsuba3._ldsampler`).
-There the film's share is not
-Var c/(N − 1) but E(F − I)² − E(F₀ − I)² over Mitsuba's own points (:class:`PairedFootprint`,
+A sampler whose dimensions are the pixel's one randomised net, each in an order of its own
+(pairing ``same_net_permuted``), does not pair its dimensions at random: its orders may order
+the film's points (dimension 0) and the first technique's alike. Its record's
+``film_points`` (:attr:`envfit.renderers.SamplerSpec.film_points`) give its points in its
+order; there the film's share is not
+Var c/(N − 1) but E(F − I)² − E(F₀ − I)² over the sampler's own points (:class:`PairedFootprint`,
 :func:`paired_extra`): F the pixel estimate with the integrand interpolated across the pixel
 from the footprint's tables (:func:`film_weights`), F₀ the same samples of the mean table.
 
@@ -208,7 +208,7 @@ def _axis_weights(x: np.ndarray, side: int) -> np.ndarray:
 def film_weights(film, side: int) -> np.ndarray:
     r"""The weights (…, J) of a footprint's J = side² normals (:func:`pixel_footprints`:
     normal k = i_y·side + i_x, x along the view's right, y along its up) at film positions
-    ``film`` (…, 2) in the pixel as Mitsuba draws them (x right, y down: the normal at
+    ``film`` (…, 2) in the pixel as ``film_points`` give them (x right, y down: the normal at
     (x, 1 − y)): the product of :func:`_axis_weights` — for side 2 the bilinear Lagrange
     basis on the strata midpoints, which spans the integrand's variation across the pixel
     exactly where it is linear (the J/(J − 1) of :func:`pixel_variance_scale`); each weight's
@@ -265,10 +265,10 @@ def _paired_sums(tables, cells, weights, d, f0):  # pragma: no cover - numba
 class PairedFootprint:
     r"""The film × technique pairing of a sampler at N spp over R pixels (module
     docstring), over the sampler's own points in its order (``film_points(pixels, n, dims,
-    seed)``, :attr:`envfit.renderers.SamplerSpec.film_points`: Mitsuba's ``ldsampler``;
-    dimension 0 the film's, then the emitter's and the BSDF's where the renderer's integrator
-    draws them, :attr:`envfit.renderers.StrategySetting.calls`: 1 and 3 for Mitsuba's
-    ``path``), ``dims`` dimensions of them, each pixel's scramble seed drawn at random.
+    seed)``, :attr:`envfit.renderers.SamplerSpec.film_points`; dimension 0 the film's, then
+    the emitter's and the BSDF's where the renderer's integrator draws them,
+    :attr:`envfit.renderers.StrategySetting.calls`), ``dims`` dimensions of them, each
+    pixel's scramble seed drawn at random.
 
     Examples
     --------

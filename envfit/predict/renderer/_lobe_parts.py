@@ -1,18 +1,20 @@
-r"""A two-lobe BSDF (Mitsuba 3's ``roughplastic``) under a QMC sampler: the tables and the cell
+r"""A two-lobe BSDF (a rough plastic, :class:`envfit.shading.microfacet.RoughPlastic`) under a
+QMC sampler: the tables and the cell
 of :class:`~envfit.predict.renderer.MicrofacetModel` for a BSDF stream whose lobe is picked
 by a 1-D number of its own.
 
 Under the ``independent`` sampler the lobe number and the direction's two are one uniform
 point of the square (``RoughPlastic.sample_square``: the i.i.d. estimator has the same
-variance). Under ``stratified``, ``multijitter`` and ``ldsampler`` the lobe number is a
+variance). Under a sampler whose randomisation is one of
+:data:`~envfit.predict.renderer.randomisation.STRATIFIED_1D` the lobe number is a
 stratified 1-D dimension paired at random with the 2-D points, and the error is
 :func:`~envfit.predict.renderer.randomisation.lobe_choice_mse` of the two lobes' tables:
 :math:`a(u)`, the BSDF sample's value (radiance · f·cos / mixture pdf, times its MIS weight
 for ``mis``) when the specular lobe draws ω from u, :math:`b(u)` when the diffuse one does,
 and p the frame's specular probability (``prob_specular`` at the view's cosine). A frame with
 a pixel footprint averages the tables and p over its normals (p varies little across a
-pixel); its footprint term stays that of the one-square parts. Mitsuba's ``orthogonal``
-draws the lobe number from a column of its orthogonal array, not at random: not modelled.
+pixel); its footprint term stays that of the one-square parts. An orthogonal-array sampler
+draws the lobe number from a column of its array, not at random: not modelled.
 """
 from __future__ import annotations
 
@@ -26,7 +28,7 @@ from envfit.predict.renderer.randomisation import (STRATIFIED_1D, DyadicGrid,
 
 __all__ = ["LobeChoice"]
 
-_LOBES = (("a", 0.0), ("b", 1.0))             # Mitsuba's sample1: 0 < p (specular), 1 ≥ p
+_LOBES = (("a", 0.0), ("b", 1.0))             # the plastic's sample1: 0 < p (specular), 1 ≥ p
 
 
 class LobeChoice:

@@ -4,7 +4,7 @@ arithmetic as its numpy reference, which the tests compare it with:
 * :func:`conductor_eval_pdf` — a white conductor's f·cos and its sampling pdf at many light
   directions for one view (:meth:`envfit.shading.microfacet.Conductor.eval` and ``pdf`` with
   Fresnel 1: D, Smith Λ of GGX or Beckmann's rational fit, separable G and the view's χ⁺
-  masking for Mitsuba 3, height-correlated G for pbrt-v4 and Cycles);
+  masking or height-correlated G, as the conductor's ``separable_g`` says);
 * :func:`conductor_proxies` — the same at a map table's directions for many frames at once,
   reduced to each frame's emitter and visible-normal sampling variances (the frames'
   importance proxies);

@@ -10,9 +10,9 @@ integrands on the unit square are
           w_e(\omega(u)), \qquad
           h_b(u) = L(\omega_b(u))\,\frac{f\cos}{p_b}(u)\,w_b(\omega_b(u)),
 
-ω(u) the emitter's warp (the preset's technique: Mitsuba 3's bilinear ``Hierarchical2D``,
-…), :math:`\omega_b(u)` the renderer's visible-normal warp and :math:`f\cos/p_b` its sample
-weight (:class:`envfit.shading.microfacet.Conductor`: F·G1(ω_i, m) in Mitsuba 3), :math:`w_e, w_b`
+ω(u) the emitter's warp (the renderer record's technique), :math:`\omega_b(u)` the
+renderer's visible-normal warp and :math:`f\cos/p_b` its sample weight
+(:class:`envfit.shading.microfacet.Conductor`: F·G1(ω_o, m) with separable G), :math:`w_e, w_b`
 the integrator's MIS weights with :math:`p_b` the BSDF's solid-angle pdf (1 for the only
 technique of ``map`` or ``brdf``). They are tabulated at the midpoints of the finest grid
 level and handed to the same randomisations as the diffuse model (independent, jittered,
@@ -27,15 +27,16 @@ with the view at a polar angle θ_o in a band and the map's orientation uniform
 a sphere).
 
 A rendered pixel averages its footprint: the film position is two more dimensions of the
-estimator, paired with the techniques' at random, or, for Mitsuba's ``ldsampler``, in the
-order its ``permute`` gives them. Given each frame's footprint normals
+estimator, paired with the techniques' at random, or, for a sampler with its own
+``film_points`` (:attr:`envfit.renderers.SamplerSpec.film_points`), in the order the sampler
+gives them. Given each frame's footprint normals
 (:func:`pixel_footprints`), the model randomises the footprint's mean integrand and adds the
-interaction's share (:mod:`._footprint`: Var c/(N − 1), or simulated over ``ldsampler``'s
+interaction's share (:mod:`._footprint`: Var c/(N − 1), or simulated over the sampler's
 own points with each footprint normal's table) — what a sharp lobe near the limb of a small
 sphere adds.
 
 References: E. Heitz, "Sampling the GGX distribution of visible normals", JCGT 7(4) (2018);
-Mitsuba 3.9.1 ``src/bsdfs/roughconductor.cpp`` and ``src/integrators/direct.cpp``.
+the renderer's conductor and integrator as its folder cites them (``envfit/renderers/<name>``).
 """
 from __future__ import annotations
 
@@ -325,7 +326,7 @@ class MicrofacetModel(LobeChoice, PresetModel):
 
     def _technique_values(self, local: np.ndarray, rows: np.ndarray, weight: np.ndarray):
         """(radiance, map pdf) at the BSDF samples ``local`` (the frame's ``rows``): the
-        technique's own compiled ``eval_pdf`` (Mitsuba 3's, Cycles', pbrt-v4's), skipping the
+        technique's own compiled ``eval_pdf`` (where it has one), skipping the
         samples of weight 0; else its numpy eval and pdf."""
         lookup = getattr(self.technique, "eval_pdf", None)
         if lookup is not None:
@@ -355,7 +356,7 @@ class MicrofacetModel(LobeChoice, PresetModel):
                 np.where(dead, 0.0, s.pdf))
 
     def _scale(self, wi) -> float:
-        """The conductor's energy scale at the local view ``wi`` (Cycles' Multiscatter GGX;
+        """The conductor's energy scale at the local view ``wi`` (a multiple-scattering GGX;
         1 otherwise), which the compiled single-scatter kernels leave out."""
         scale = getattr(self.conductor, "energy_scale", None)
         return 1.0 if scale is None else float(scale(min(max(float(wi[2]), 0.0), 1.0)))

@@ -1,6 +1,6 @@
-r"""Compiled (numba) forms of Mitsuba 3's rough plastic for the microfacet model's hot loops,
-each the same arithmetic as :class:`envfit.shading.microfacet.RoughPlastic` (``_plastic``),
-which the tests compare it with:
+r"""Compiled (numba) forms of the rough plastic for the microfacet model's hot loops, each the
+same arithmetic as :class:`envfit.shading.microfacet.RoughPlastic` (``_plastic``, which cites
+the renderer's source it follows), which the tests compare it with:
 
 * :func:`plastic_eval_pdf` — f·cos θ_o and the sampling pdf at many light directions for one
   view (``RoughPlastic.eval`` and ``pdf``): the specular term ρ_s F(ω_i·H) D(H) G_1(ω_i, H)
@@ -12,8 +12,9 @@ which the tests compare it with:
   normals (D G_1(ω_i, H)/(4 cos θ_i)) or, ``sample_visible`` false, by D(m) cos θ_m
   (D cos θ_H/(4 ω_o·H));
 * :func:`plastic_sample` — ``RoughPlastic.sample`` (the lobe from a given ``sample1``) and
-  ``sample_square`` (the lobe from u_x, rescaled within its lobe): a normal by Mitsuba's
-  visible-normal warp (``_vndf_kernels._normal``) or the D(m) cos θ_m warp, reflected; or a
+  ``sample_square`` (the lobe from u_x, rescaled within its lobe): a normal by the plastic's
+  visible-normal warp (``_vndf_kernels._normal``, the slope-space variant 0, as
+  ``RoughPlastic.sample``) or the D(m) cos θ_m warp, reflected; or a
   cosine-distributed direction by the concentric map; then the weight f·cos/pdf and the pdf;
 * :func:`plastic_proxies` — the same at a map table's directions for many frames at once,
   reduced to each frame's emitter and BSDF sampling variances (as :func:`conductor_proxies`).
@@ -22,11 +23,9 @@ The transmittance table T and the internal reflectance R_i are the BSDF's
 (``rough_fresnel_tables``, computed in numpy when it is built); only the per-direction
 arithmetic is compiled.
 
-Source: Mitsuba 3 ``src/bsdfs/roughplastic.cpp`` (``RoughPlastic::eval``, ``pdf``,
-``sample``, ``lerp_gather``); ``include/mitsuba/render/microfacet.h``
-(``MicrofacetDistribution::eval``, ``smith_g1``, ``G``, ``sample``, ``pdf``);
-``include/mitsuba/render/fresnel.h`` (``fresnel``); ``include/mitsuba/core/warp.h``
-(``square_to_cosine_hemisphere``, ``square_to_uniform_disk_concentric``).
+The renderer's source each step follows is cited in :mod:`envfit.shading.microfacet._plastic`
+(eval, pdf, sample, the transmittance lookup, the distribution's eval, G1, G, sample and pdf,
+the dielectric Fresnel, the cosine hemisphere by the concentric disk).
 """
 from __future__ import annotations
 
@@ -75,7 +74,7 @@ def _view(ix, iy, iz, consts, table):  # pragma: no cover - numba
 
 @numba.njit(cache=True, error_model="numpy")
 def _fresnel(c, eta):  # pragma: no cover - numba
-    """``fresnel_dielectric``'s reflectance F(cos θ_i, η) (Mitsuba's ``fresnel``)."""
+    """``fresnel_dielectric``'s reflectance F(cos θ_i, η) (the dielectric Fresnel)."""
     outside = c >= 0.0
     eta_it = eta if outside else 1.0 / eta
     eta_ti = 1.0 / eta if outside else eta

@@ -15,21 +15,20 @@ fractions (:meth:`~envfit.renderers.Renderer.mis_weights`; 1 for a strategy with
 one technique). Per channel (RGB).
 
 The map part's :math:`\omega(u)`, :math:`L(\omega)/(\pi p_e)` and :math:`p_e` do not depend on
-n: :class:`MapTable` computes them once per grid and every normal only takes a dot product
-and a weight (:func:`map_values`). The BSDF part's local directions are fixed
-(:class:`BsdfTable`); per normal they are turned into the world frame and looked up
-(:func:`bsdf_values`) — by the technique's own compiled ``bsdf_lookup`` where it has one
-(Mitsuba 3's, Cycles', pbrt-v4's, each checked against the technique's numpy methods in the
-tests), for any other technique through its ``eval`` and ``pdf``; the map part likewise by
-its ``sample_table`` where it has one.
+n: :class:`MapTable` computes them once per grid and every normal only takes a dot product and
+a weight (:func:`map_values`). The BSDF part's local directions are fixed (:class:`BsdfTable`);
+per normal they are turned into the world frame and looked up (:func:`bsdf_values`) — by the
+technique's own compiled ``bsdf_lookup`` where it has one (each checked against the technique's
+numpy methods in the tests), for any other technique through its ``eval`` and ``pdf``; the map
+part likewise by its ``sample_table`` where it has one.
 
 The tables hold the integrand at the midpoints of the :math:`2^F \times 2^F` cells, axis 1 of
 each array along ``u[:, 0]`` (the :class:`~envfit.predict.renderer.randomisation.DyadicGrid`
 convention); :func:`cell_moments` aggregates them to the cell means of h and h² of a coarser
 level, i.e. the midpoint rule on the fine level inside every coarse cell.
 
-References: Mitsuba 3.9.1 ``src/integrators/direct.cpp`` (``DirectIntegrator::sample``),
-``src/emitters/envmap.cpp``, ``src/bsdfs/diffuse.cpp``; E. Veach, PhD thesis (1997), §9.2.
+References: E. Veach, PhD thesis (1997), §9.2; the renderer's integrator, emitter and diffuse
+BSDF as its folder cites them (``envfit/renderers/<name>``).
 """
 from __future__ import annotations
 

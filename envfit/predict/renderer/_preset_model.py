@@ -13,9 +13,10 @@ integrands of :mod:`._preset_integrand`, and
            \approx \frac13\sum_c\sum_a \varpi_a\, \mathrm{MSE}_c(n_a),
 
 :math:`\mathrm{MSE}_c(n_a)` the exact MSE of the randomisation (``randomised_mse`` for one
-technique, ``mis_mse`` for two streams: independent dimensions, or one shared net for
-Mitsuba's ``ldsampler``) from the :class:`~envfit.predict.renderer.randomisation.DyadicGrid`
-of each part. The normals :math:`n_a` are drawn systematically from a spherical Fibonacci pool
+technique, ``mis_mse`` for two streams: independent dimensions, or one shared net for a sampler
+that gives every dimension the same randomised net) from the
+:class:`~envfit.predict.renderer.randomisation.DyadicGrid` of each part. The normals
+:math:`n_a` are drawn systematically from a spherical Fibonacci pool
 of P normals with probability
 :math:`\pi_a = \frac13(\frac1P + \frac{v_e(a)}{\sum v_e} + \frac{v_b(a)}{\sum v_b})`,
 :math:`v_e(a) = E_u[h_e^2] - I^2` and :math:`v_b(a) = \int L^2\cos^+/\pi - I^2` the
@@ -27,14 +28,15 @@ unbiased for the pool mean; a sun that makes a few normals dominate is not misse
 The cell a renderer runs — its spp rounded, its randomisation and the grid level — is
 :func:`._preset_request.preset_request`.
 
-Cost (measured, AMD EPYC, 2 cores, idle): a 1024 × 512 map (city.exr), Mitsuba's four samplers
-× map/brdf/mis × spp 16, 64, 256 in one :meth:`PresetModel.predict_many`: 21 s with 8 normals,
-≈ 2.5 s per normal (tables at level 10: 1 M integrand points per part; the L = 9 Walsh
-transforms of ``ldsampler`` at 256 spp dominate); with spp 1024 too (tables at level 11, 4 M
-points) ≈ 10 s per normal. On the shared machine under load ≈ 20 the same work took 4×.
+Cost (measured, AMD EPYC, 2 cores, idle): a 1024 × 512 map (city.exr), four samplers
+(independent, jittered, CMJ, a digital shift) × map/brdf/mis × spp 16, 64, 256 in one
+:meth:`PresetModel.predict_many`: 21 s with 8 normals, ≈ 2.5 s per normal (tables at level 10:
+1 M integrand points per part; the L = 9 Walsh transforms of the digital shift at 256 spp
+dominate); with spp 1024 too (tables at level 11, 4 M points) ≈ 10 s per normal. On the shared
+machine under load ≈ 20 the same work took 4×.
 
 Reference: Marques, Bouville, Bouatouch (the spectral view of a shading integral's error);
-Mitsuba 3.9.1 ``src/integrators/direct.cpp`` and ``src/samplers/*.cpp``.
+the renderer's integrator and samplers as its folder cites them (``envfit/renderers/<name>``).
 """
 from __future__ import annotations
 
@@ -203,7 +205,8 @@ class PresetModel:
     preset : Renderer
         From :func:`envfit.renderers.preset`.
     technique_options : dict, optional
-        For the preset's technique factory (Mitsuba: ``mis_compensation``).
+        For the preset's technique factory (e.g. ``mis_compensation`` where the record's
+        :attr:`~envfit.renderers.Renderer.mis_compensation` says the emitter has it).
     options : PresetModelOptions, optional
     technique : optional
         The technique already built from this map, preset and options (another model's
@@ -433,7 +436,7 @@ class PresetModel:
 
     def _paired(self, r: CellRequest) -> bool:
         """Whether the film's pairing with the techniques is simulated over the sampler's own
-        points (Mitsuba's ``ldsampler``: :class:`._footprint.PairedFootprint`) rather than
+        points (its record's ``film_points``: :class:`._footprint.PairedFootprint`) rather than
         taken as random (:func:`._footprint.footprint_term`)."""
         spec = self.preset.sampler(r.sampler)
         return (r.name == "digital_shift" and spec.pairing == "same_net_permuted"

@@ -23,11 +23,10 @@ from dataclasses import dataclass, field
 
 from envfit.base import ParameterError
 from envfit.predict.renderer._sampled_nets import SAMPLE_TAG
-from envfit.predict.renderer.randomisation._jittered import pbrt_strata
 
 __all__ = ["CellRequest", "preset_request", "grid_level", "samples_above"]
 
-#: pairing → whether the two streams share one point set; the columns of Mitsuba's
+#: pairing → whether the two streams share one point set; the columns of a randomised
 #: orthogonal array have independent permutations per dimension: their cross term is 0
 #: (``randomisation._orthogonal``)
 _SHARED = {"independent": False, "same_net_permuted": True, "joint_array": False}
@@ -36,12 +35,22 @@ _SHARED = {"independent": False, "same_net_permuted": True, "joint_array": False
 _PLAIN = {"jittered": (("layout", "square"),), "cmj": (("permutations", "uniform"),)}
 
 
+def _widest_strata(n: int) -> int:
+    """The strata a side of N's most nearly square factorisation x × y (y the largest divisor
+    of N at most √N, x = N/y): with envfit's rows, the widest layout of jittered strata the
+    grid resolves."""
+    d = math.isqrt(n)
+    while n % d:
+        d -= 1
+    return n // d
+
+
 def grid_level(randomisation: str, n: int, max_level: int) -> int:
     """The grid level for ``randomisation`` of N points (module docstring), ≤ max_level."""
     if randomisation == "independent":
         want = 2
     elif randomisation == "jittered":
-        r = max(pbrt_strata(n)[0], -(-n // max(1, round(math.sqrt(n)))))  # most strata a side
+        r = max(_widest_strata(n), -(-n // max(1, round(math.sqrt(n)))))  # most strata a side
         square = r * r == n and r & (r - 1) == 0           # r x r, r = 2^k: on the grid
         want = (r - 1).bit_length() + (0 if square else 3)
     elif randomisation in ("cmj", "orthogonal"):

@@ -11,9 +11,10 @@ asked with it), a pass evaluates the integrand at the prefix of its largest N on
 normal, and every N of the pass reads its own prefix: the power above the grid of :mod:`.randomisation._shift_samples`
 for all of them from cumulative sums (:func:`.randomisation.sampled_above_prefixes`).
 
-**Any N** (:meth:`SampledNets.between`). Cycles' samplers and pbrt-v4's ``paddedsobol`` run
-any spp: their N points are the first N of the pixel's sequence after an index shuffle
-(Cycles ``nested_uniform_scramble`` of the sample index, pbrt-v4 ``PermutationElement``).
+**Any N** (:meth:`SampledNets.between`). A sampler whose record sets
+:attr:`~envfit.renderers.SamplerSpec.prefix` runs any spp: its N points are the first N of the
+pixel's sequence after an index shuffle (a hashed shuffle of the sample index; which
+renderers' samplers, read from which source, their folders say).
 The shuffle keeps aligned blocks of indices together, and an aligned block of Sobol' indices
 is a digital shift of the sequence's first block of that size (the generator matrices are
 linear over GF(2); the first 2^m points are a group under XOR), so the N points are one
@@ -29,13 +30,11 @@ calibrates it at the two exact predictions :math:`E` around it,
 which equals the exact prediction at both powers of two and, since :math:`S(N)` and
 :math:`S(2^m)` share their scrambles and the first :math:`2^m` points, cancels most of the
 sampling error of :math:`S` (relative error :math:`\approx\sqrt{2/Q}` per normal without it).
-The streams of a two-technique strategy are independent (Cycles' and pbrt-v4's light and BSDF
-dimensions are scrambled apart): their variances add.
+The streams of a two-technique strategy are independent (such samplers scramble the light
+and BSDF dimensions apart: pairing ``independent``): their variances add.
 
 Reference: A. B. Owen, "Randomly permuted (t, m, s)-nets and (t, s)-sequences" (1995);
-B. Burley, "Practical hash-based Owen scrambling", JCGT 9(4) (2020); Cycles @ 2eba4102
-``src/kernel/sample/tabulated_sobol.h``, ``sobol_burley.h``; pbrt-v4 @ 5f7a6068
-``src/pbrt/samplers.h`` ``PaddedSobolSampler::Get2D``.
+B. Burley, "Practical hash-based Owen scrambling", JCGT 9(4) (2020).
 """
 from __future__ import annotations
 

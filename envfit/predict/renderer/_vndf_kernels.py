@@ -1,20 +1,26 @@
-r"""Compiled (numba) BSDF sampling of a white rough conductor for one view, each renderer's
-visible-normal warp step for step, then the reflection, the weight f·cos/pdf and the pdf —
-the arithmetic of :meth:`envfit.shading.microfacet.Conductor.sample` and
+r"""Compiled (numba) BSDF sampling of a white rough conductor for one view: the conductor's
+visible-normal warp (its ``vndf_variant``, a code of :data:`VNDF_VARIANTS`) step for step, then
+the reflection, the weight f·cos/pdf and the pdf — the arithmetic of
+:meth:`envfit.shading.microfacet.Conductor.sample` and
 :func:`envfit.shading.microfacet.sample_visible_normals` (``_vndf``), which the tests compare
-it with:
+it with. Which renderer draws by which variant, read from which source, its folder says
+(``envfit/renderers/<name>/__init__.py``, the record's microfacet conventions).
 
-* **GGX** — Mitsuba 3's ``sample_visible_11`` (concentric disk, p_y lerped, slopes rotated by
-  the stretched view's azimuth; ``include/mitsuba/render/microfacet.h``), pbrt-v4's
-  ``TrowbridgeReitzDistribution::Sample_wm`` (polar disk, hemisphere configuration,
-  m_z ≥ 1e-6; ``src/pbrt/util/scattering.h``), Cycles' ``microfacet_ggx_sample_vndf``
-  (concentric disk, m_z ≥ 0; ``src/kernel/closure/bsdf_microfacet.h``);
-* **Beckmann** — Mitsuba 3's ``sample_visible_11`` Beckmann branch (Jakob 2014: initial
-  guess, CDF normalisation, three plain Newton steps in the erf domain, u clamped to
-  [1e-6, 1 − 1e-6]); Cycles' ``microfacet_beckmann_sample_vndf`` (a closed-form start, up to
-  three safeguarded Newton/bisection steps, stop at |residual| ≤ 1e-6; exact erf and erf⁻¹
-  where Cycles uses ``fast_erff``/``fast_ierff``, as the numpy port). pbrt-v4 has no
-  Beckmann distribution.
+The variants (all draw the same density :math:`D_{\omega_i}(m)`; they differ in the map from
+u to m):
+
+* **0, slope space** — GGX: stretch ω_i, the α = 1 visible slopes (Heitz 2018 in slope space)
+  from the *concentric* disk point, p_y lerped, the slopes rotated by the stretched view's
+  azimuth, unstretched; Beckmann: Jakob's inversion (2014: initial guess, CDF normalisation,
+  three plain Newton steps in the erf domain, u clamped to [1e-6, 1 − 1e-6]); separable G, the
+  weight G1(ω_o, m) and the pdf's view masking G1(ω_i, m) (χ⁺);
+* **1, hemisphere, polar disk** — GGX only: Heitz 2018 in the hemisphere configuration, basis
+  T1 = z × ω_h, T2 = ω_h × T1, the *polar* disk point (r = √u₀, φ = 2πu₁), m_z ≥ 1e-6;
+  height-correlated G, the weight G2/G1;
+* **2, hemisphere, concentric disk** — GGX: as 1 with the *concentric* disk point and
+  m_z ≥ 0; Beckmann: the safeguarded reformulation of Jakob's routine (a closed-form start, up
+  to three Newton/bisection steps, stop at |residual| ≤ 1e-6; exact erf and erf⁻¹, as the
+  numpy port), polar slopes at normal incidence; height-correlated G, the weight G2/G1.
 
 erf⁻¹ is not in numba's ``math``: :func:`_erfinv` is Giles' single-precision approximation
 refined by one Halley step on ``math.erf`` (``math.erfc`` where |y| > ½) for |y| < 0.9966 and
@@ -34,7 +40,11 @@ import numpy as np
 
 from envfit.predict.renderer._microfacet_kernels import _KINDS, _d, _lambda
 
-__all__ = ["conductor_sample", "compiled_sampling"]
+__all__ = ["conductor_sample", "compiled_sampling", "VNDF_VARIANTS"]
+
+#: the visible-normal warps by their code (module docstring; the index of a conductor's
+#: ``vndf_variant``)
+VNDF_VARIANTS = ("slope_space", "hemisphere_polar", "hemisphere_concentric")
 
 _F32_EPS = float(np.finfo(np.float32).eps)
 _BIG = float(np.finfo(np.float64).max)
@@ -82,7 +92,7 @@ def _erfinv(y):  # pragma: no cover - numba
 @numba.njit(cache=True, error_model="numpy")
 def _slopes_normal(s0, s1, cph, sph, alpha):  # pragma: no cover - numba
     """α = 1 slopes (s0, s1) rotated by the view's azimuth (cos φ, sin φ), unstretched,
-    turned into the unit normal (−s_x, −s_y, 1)/‖·‖ (Mitsuba's steps 3–4, Cycles' 4–5)."""
+    turned into the unit normal (−s_x, −s_y, 1)/‖·‖ (the slope warps' last two steps)."""
     sx = (cph * s0 - sph * s1) * alpha
     sy = (sph * s0 + cph * s1) * alpha
     n = math.sqrt(sx * sx + sy * sy + 1.0)
@@ -91,7 +101,8 @@ def _slopes_normal(s0, s1, cph, sph, alpha):  # pragma: no cover - numba
 
 @numba.njit(cache=True, error_model="numpy")
 def _disk(u0, u1, polar):  # pragma: no cover - numba
-    """The disk point of ``concentric_disk`` (Shirley–Chiu) or ``polar_disk`` (pbrt-v4)."""
+    """The disk point of ``concentric_disk`` (Shirley–Chiu) or ``polar_disk`` (r = √u0,
+    φ = 2πu1)."""
     if polar:
         r = math.sqrt(u0)
         t = 2.0 * math.pi * u1
@@ -108,8 +119,8 @@ def _disk(u0, u1, polar):  # pragma: no cover - numba
 
 @numba.njit(cache=True, error_model="numpy")
 def _ggx_normal(wi, wp, basis, u0, u1, alpha, variant):  # pragma: no cover - numba
-    """One visible normal m from (u0, u1): ``_sample_mitsuba`` (GGX), ``_sample_pbrt`` or
-    ``_sample_cycles_ggx``; ``wp`` the stretched view, ``basis`` the per-view constants."""
+    """One GGX visible normal m from (u0, u1) by ``variant`` (:data:`VNDF_VARIANTS`); ``wp``
+    the stretched view, ``basis`` the per-view constants."""
     if variant == 0:
         cos_i = wp[2]
         px, py = _disk(u0, u1, False)
@@ -134,8 +145,9 @@ def _ggx_normal(wi, wp, basis, u0, u1, alpha, variant):  # pragma: no cover - nu
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _mitsuba_beckmann_11(consts, u0, u1):  # pragma: no cover - numba
-    """``_mitsuba_beckmann_11``: Jakob's inversion, ``consts`` = (tan θ_i, erf(cot θ_i), tail)."""
+def _beckmann_newton_11(consts, u0, u1):  # pragma: no cover - numba
+    """Variant 0's α = 1 Beckmann slopes: Jakob's inversion, ``consts`` = (tan θ_i,
+    erf(cot θ_i), tail)."""
     tan_i, maxval, tail = consts[0], consts[1], consts[2]
     u0 = min(max(u0, 1e-6), 1.0 - 1e-6)
     u1 = min(max(u1, 1e-6), 1.0 - 1e-6)
@@ -149,8 +161,9 @@ def _mitsuba_beckmann_11(consts, u0, u1):  # pragma: no cover - numba
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _cycles_beckmann_x(consts, u0):  # pragma: no cover - numba
-    """``_cycles_beckmann_slope_x``; ``consts`` = (normal, tan θ_i, erf a, e^{−a²}, k)."""
+def _beckmann_safeguarded_x(consts, u0):  # pragma: no cover - numba
+    """Variant 2's α = 1 Beckmann slope x (safeguarded Newton/bisection); ``consts`` =
+    (normal, tan θ_i, erf a, e^{−a²}, k)."""
     tan_i, erf_a, exp_a2, k = consts[1], consts[2], consts[3], consts[4]
     y_approx = u0 * (1.0 + erf_a + k * (1.0 - erf_a * erf_a))
     y_exact = u0 * (1.0 + erf_a + k * exp_a2)
@@ -174,24 +187,24 @@ def _cycles_beckmann_x(consts, u0):  # pragma: no cover - numba
 
 @numba.njit(cache=True, error_model="numpy")
 def _normal(wi, view, u0, u1, alpha, variant, kind):  # pragma: no cover - numba
-    """One visible normal of GGX (:func:`_ggx_normal`) or Beckmann (Mitsuba's or Cycles');
+    """One visible normal of GGX (:func:`_ggx_normal`) or Beckmann (variant 0 or 2);
     ``view`` the rows of :func:`_view_constants`."""
     wp, basis, consts = view[0], view[1:3], view[3]
     if kind == 0:
         return _ggx_normal(wi, wp, basis, u0, u1, alpha, variant)
     if variant == 0:
-        s0, s1 = _mitsuba_beckmann_11(consts, u0, u1)
-    elif consts[0] > 0.0:                       # Cycles at normal incidence
+        s0, s1 = _beckmann_newton_11(consts, u0, u1)
+    elif consts[0] > 0.0:                       # variant 2 at normal incidence
         r, phi = math.sqrt(-math.log(u0)), 2.0 * math.pi * u1
         s0, s1 = r * math.cos(phi), r * math.sin(phi)
     else:
-        s0, s1 = _cycles_beckmann_x(consts, u0), _erfinv(2.0 * u1 - 1.0)
+        s0, s1 = _beckmann_safeguarded_x(consts, u0), _erfinv(2.0 * u1 - 1.0)
     return _slopes_normal(s0, s1, basis[0, 0], basis[0, 1], alpha)
 
 
 @numba.njit(cache=True, error_model="numpy")
 def _g1(vx, vy, vz, mx, my, mz, alpha, kind):  # pragma: no cover - numba
-    """Mitsuba's ``smith_g1``: 0 where v sees the back of m."""
+    """Smith's G1 with χ⁺ (variant 0's masking): 0 where v sees the back of m."""
     if (vx * mx + vy * my + vz * mz) * vz <= 0.0:
         return 0.0
     return 1.0 / (1.0 + _lambda(vx, vy, vz, alpha, kind))
@@ -200,7 +213,7 @@ def _g1(vx, vy, vz, mx, my, mz, alpha, kind):  # pragma: no cover - numba
 @numba.njit(cache=True, error_model="numpy")
 def _reflect(wi, m, lam_i, alpha, variant, kind):  # pragma: no cover - numba
     """(ω_o, weight, pdf) of one sample of :func:`_sample` from its visible normal m: the
-    reflection, the weight (Mitsuba: G1(ω_o, m); pbrt-v4 and Cycles: G2/G1) and the pdf
+    reflection, the weight (variant 0: G1(ω_o, m); 1 and 2: G2/G1) and the pdf
     D·G1(ω_i)/(4 cos θ_i); the pole, 0 and 0 for a dead sample."""
     ix, iy, iz = wi[0], wi[1], wi[2]
     mx, my, mz = m
@@ -235,18 +248,19 @@ def _sample(wi, view, u, alpha, variant, kind, wo, out):  # pragma: no cover - n
 @numba.njit(cache=True, error_model="numpy")
 def _beckmann_factors(consts, c, variant):  # pragma: no cover - numba
     """Beckmann's α = 1 slopes on the grid ``c`` × ``c`` as products s0 = a0(u0)·b0(u1),
-    s1 = a1(u0)·b1(u1) (2, m) each: the warps of :func:`_normal` are separable (Mitsuba's
-    and Cycles' slope x from u0, slope y from u1; Cycles' normal incidence polar)."""
+    s1 = a1(u0)·b1(u1) (2, m) each: the warps of :func:`_normal` are separable (variants
+    0 and 2: slope x from u0, slope y from u1; variant 2 at normal incidence polar)."""
     m = c.shape[0]
     a, b = np.ones((2, m)), np.ones((2, m))
     for k in range(m):
         if variant == 0:
-            a[0, k], b[1, k] = _mitsuba_beckmann_11(consts, c[k], c[k])
+            a[0, k], b[1, k] = _beckmann_newton_11(consts, c[k], c[k])
         elif consts[0] > 0.0:
             r, phi = math.sqrt(-math.log(c[k])), 2.0 * math.pi * c[k]
             a[0, k], a[1, k], b[0, k], b[1, k] = r, r, math.cos(phi), math.sin(phi)
         else:
-            a[0, k], b[1, k] = _cycles_beckmann_x(consts, c[k]), _erfinv(2.0 * c[k] - 1.0)
+            a[0, k], b[1, k] = (_beckmann_safeguarded_x(consts, c[k]),
+                                _erfinv(2.0 * c[k] - 1.0))
     return a, b
 
 
@@ -271,8 +285,9 @@ def compiled_sampling(conductor) -> bool:
 
 
 def _beckmann_constants(wp, variant):
-    """The per-view constants of the Beckmann warps: Mitsuba's (tan θ_i, erf(cot θ_i), tail);
-    Cycles' (normal incidence, tan θ_i, erf a, e^{−a²}, tan θ_i/√π) with a = cot θ_i, and its
+    """The per-view constants of the Beckmann warps: variant 0's (tan θ_i, erf(cot θ_i),
+    tail); variant 2's (normal incidence, tan θ_i, erf a, e^{−a²}, tan θ_i/√π) with
+    a = cot θ_i, and its
     (cos φ, sin φ) of the stretched view."""
     consts, azimuth = np.zeros(5), None
     with np.errstate(divide="ignore"):
@@ -294,8 +309,8 @@ def _beckmann_constants(wp, variant):
 
 def _view_constants(wi, alpha, variant, kind):
     """The per-view rows of :func:`_sample` (4, 5): the stretched view; the warp's basis —
-    Mitsuba's (cos φ, sin φ) of the stretched view's azimuth, pbrt-v4's and Cycles' GGX
-    (T1, T2), Cycles' Beckmann (cos φ, sin φ); the Beckmann constants."""
+    variant 0's (cos φ, sin φ) of the stretched view's azimuth, the hemisphere variants' GGX
+    (T1, T2), variant 2's Beckmann (cos φ, sin φ); the Beckmann constants."""
     view = np.zeros((4, 5))
     wp = np.array([alpha * wi[0], alpha * wi[1], wi[2]])
     wp /= np.linalg.norm(wp)

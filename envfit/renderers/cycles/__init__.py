@@ -11,11 +11,22 @@ only), which the model does not cover; bpy 5.3.0 was checked by rendering
   bit the numpy form).
 * **Integrator** ``path`` at 1 bounce — light and BSDF samples combined by the power
   heuristic; emitter-only sampling is not renderable (the record's strategies).
-* **Samplers** — ``tabulated_sobol`` (the factory default), ``blue_noise``,
-  ``sobol_burley``: Owen-scrambled Sobol' prefixes, any spp (``_background.SAMPLERS``).
+* **Samplers** — ``tabulated_sobol`` (the factory default), ``blue_noise``, ``sobol_burley``:
+  Owen-scrambled Sobol' prefixes, any spp (``_background.SAMPLERS``): the ``owen`` model, the
+  record's ``prefix`` (the sample index shuffled by ``nested_uniform_scramble``). Cycles
+  scrambles with a hash (``intern/cycles/kernel/sample/util.h``: ``nested_uniform_scramble`` =
+  bit reversal, ``reversed_bit_owen`` — Vegdahl's improved Laine–Karras hash — and reversal
+  back; ``sobol_burley.h`` seeds it per pixel and dimension; ``tabulated_sobol.h`` reads 256
+  tables scrambled so), which the model takes as nested uniform scrambling; the light's and the
+  BSDF's dimensions are scrambled apart (pairing ``independent``).
 * **BSDFs** — white ``diffuse`` (:func:`cycles_frame`); Glossy GGX / Beckmann with
   height-correlated G, roughness R and α = R² (:class:`envfit.shading.microfacet.Conductor`
-  ``renderer="cycles"``, ``_vndf``'s ``_sample_cycles_ggx`` / ``_sample_cycles_beckmann``);
+  ``renderer="cycles"``, ``_vndf``'s ``_sample_cycles_ggx`` / ``_sample_cycles_beckmann``; in
+  the compiled model the visible-normal variant 2 — hemisphere, concentric disk, m_z ≥ 0:
+  ``microfacet_ggx_sample_vndf``; Beckmann by ``microfacet_beckmann_sample_vndf``'s
+  safeguarded Newton/bisection, exact erf and erf⁻¹ where Cycles uses ``fast_erff`` /
+  ``fast_ierff``; ``src/kernel/closure/bsdf_microfacet.h``; the Glossy BSDF's roughness √α
+  in the harness, ``_render.glossy_bsdf``);
   Multiscatter GGX as an energy scale on it
   (:func:`envfit.shading.microfacet.multiscatter_or_conductor`).
 * **Scene text and renders** — the bpy snippet (``_scene``), the rendered measurement through

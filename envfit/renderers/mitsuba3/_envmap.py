@@ -31,6 +31,7 @@ from envfit.maps._latlong import local_to_world
 from envfit.renderers._base import (SPHERE_VIEWS, EnvmapTechnique, Renderer,
                                            SamplerSpec, StrategySetting, cosine_hemisphere,
                                            map_rgb, scene_comment, snippet_pixels)
+from envfit.renderers.mitsuba3._kensler import KENSLER_PERMUTATIONS, multijitter_shape
 
 __all__ = ["Hierarchical2D", "Mitsuba3Envmap", "mitsuba_frame", "MITSUBA3", "LUMINANCE_RGB"]
 
@@ -328,8 +329,10 @@ def _square_strata(n: int) -> tuple:
 
 
 def _hashed_permutations(n: int) -> tuple:
-    """``multijitter``'s permutations: Kensler's ``permute`` with Mitsuba's hashed seeds."""
-    return (("permutations", "mitsuba"),)
+    """``multijitter``'s nx × ny grid (N already rounded to nx·ny) and its permutations:
+    Kensler's ``permute`` with Mitsuba's hashed seeds (:mod:`._kensler`)."""
+    nx, ny = multijitter_shape(n)
+    return (("nx", nx), ("ny", ny), ("permutations", KENSLER_PERMUTATIONS))
 
 
 def _ldsampler_points(pixels: int, n: int, dims: int, seed: int) -> np.ndarray:

@@ -8,11 +8,30 @@ built here).
 * **Integrators** — ``simplepath`` for one technique, ``path`` for MIS, power heuristic
   (the record's strategies).
 * **Samplers** — ``zsobol`` (default), ``paddedsobol``, ``sobol``, ``pmj02bn``, ``halton``,
-  ``stratified`` (x × y strata), ``independent`` (``_light.SAMPLERS``).
+  ``stratified`` (x × y strata), ``independent`` (``_light.SAMPLERS``; ``src/pbrt/samplers.h``,
+  ``samplers.cpp``), each with the exact model of its randomisation and the options the
+  record hands it:
+
+  - ``zsobol``, ``paddedsobol``, ``sobol`` — the Sobol' (0, 2)-sequence
+    (``src/pbrt/util/sobolmatrices.cpp``: ``SobolMatrices32``, dimension 0 the identity
+    columns, dimension 1 the Pascal matrix; ``SobolSample`` XORs the columns) under the
+    hashed Owen scramblers (``FastOwenScrambler``, the default, and ``OwenScrambler``): the
+    ``owen`` model; ``paddedsobol`` runs any spp, its points the first spp of a net after
+    ``PermutationElement(sampleIndex, samplesPerPixel)`` (``PaddedSobolSampler::Get2D``:
+    the record's ``prefix``); the light's and the BSDF's dimensions scrambled apart (pairing
+    ``independent``); the ``randomize "permutedigits"`` option (not modelled) would be a
+    digital shift in base 2;
+  - ``stratified`` — x × y strata, x = spp/d, d the largest divisor ≤ √spp
+    (``StratifiedSampler::Create``; ``Get2D``: ``(x + dx)/xPixelSamples``, x along u_0):
+    ``jittered`` with ``strata`` = :func:`_light.pbrt_strata`;
+  - ``pmj02bn`` — ``cp_shift``; ``independent`` — ``independent``.
 * **BSDFs** — white ``diffuse`` (:func:`pbrt_sphere_frame`); the conductor with the
   Trowbridge–Reitz (GGX) distribution only, height-correlated G, roughness R and α = √R
   (:class:`envfit.shading.microfacet.Conductor` ``renderer="pbrt4"``, ``_vndf``'s
-  ``_sample_pbrt``).
+  ``_sample_pbrt``; in the compiled model the visible-normal variant 1 — hemisphere, polar
+  disk: ``TrowbridgeReitzDistribution::Sample_wm`` of ``src/pbrt/util/scattering.h``,
+  ``SampleUniformDiskPolar``, m_z ≥ 1e-6; the weight G2/G1, ``src/pbrt/bxdfs.h``:
+  ``ConductorBxDF::Sample_f``).
 * **Scene text** — the scene lines and the conversion command (``_light._snippet``).
 
 The folder's record is :data:`PBRT4` (a :class:`~envfit.renderers.Renderer`).

@@ -30,6 +30,8 @@ frame (``up="z"``).
 """
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
@@ -259,9 +261,24 @@ def _grid(n: int) -> tuple[int, int]:
 
 
 
+def pbrt_strata(n: int) -> tuple[int, int]:
+    """pbrt-v4's ``StratifiedSampler::Create`` with spp ``n``: (x, y), y = the largest
+    divisor of n at most √n, x = n/y (``src/pbrt/samplers.cpp``; ``samplers.h``:
+    ``StratifiedSampler::Get2D``, ``(x + dx)/xPixelSamples``: x along u_0).
+
+    >>> pbrt_strata(2048), pbrt_strata(7), pbrt_strata(16)
+    ((64, 32), (7, 1), (4, 4))
+    """
+    d = math.isqrt(n)
+    while n % d:
+        d -= 1
+    return n // d, d
+
+
 def _xy_strata(n: int) -> tuple:
-    """``stratified``'s x × y strata (x = N/d, d the largest divisor ≤ √N)."""
-    return (("layout", "pbrt"),)
+    """``stratified``'s x × y strata (:func:`pbrt_strata`: x = N/d, d the largest divisor
+    ≤ √N): the ``jittered`` model's ``strata`` option."""
+    return (("strata", pbrt_strata(n)),)
 
 _P = "pbrt-v4 @ 5f7a6068 src/pbrt/samplers.h/.cpp "
 SAMPLERS = {

@@ -8,9 +8,9 @@ Source: Mitsuba 3 ``src/bsdfs/roughplastic.cpp`` (``RoughPlastic::RoughPlastic``
 ``include/mitsuba/render/microfacet.h`` (``MicrofacetDistribution::eval``, ``smith_g1``, ``G``,
 ``sample``, ``pdf``; ``eval_reflectance``, ``eval_transmittance``);
 ``include/mitsuba/render/fresnel.h`` (``fresnel``, ``refract``); ``include/mitsuba/core/warp.h``
-(``square_to_cosine_hemisphere``). Local frame, z = the normal, ω_i towards the viewer; with
-H = (ω_i + ω_o)/‖ω_i + ω_o‖, F(·) the dielectric Fresnel of η = int_ior/ext_ior, ρ_s, ρ_d the
-specular and diffuse reflectances:
+(``square_to_cosine_hemisphere``, ``square_to_uniform_disk_concentric``). Local frame, z = the
+normal, ω_i towards the viewer; with H = (ω_i + ω_o)/‖ω_i + ω_o‖, F(·) the dielectric Fresnel
+of η = int_ior/ext_ior, ρ_s, ρ_d the specular and diffuse reflectances:
 
 .. math::
    f\cos\theta_o = \rho_s\,\frac{F(\omega_i\cdot H)\,D(H)\,G_1(\omega_i,H)G_1(\omega_o,H)}

@@ -11,8 +11,6 @@ Modules (private, one per method; each cites its equation and reference):
 * ``_strata`` — moments over the rectangles of a product partition.
 * ``_walsh`` — Walsh coefficients by the fast Walsh–Hadamard transform; dyadic block sums.
 * ``_nets`` — the digital nets' generator matrices and dual nets (:data:`NETS`).
-* ``_kensler`` — Kensler's hashed permutation (Mitsuba's ``permute_kensler``) and the
-  distribution of its permutations (pair tables).
 * ``_independent``, ``_jittered``, ``_cmj``, ``_orthogonal``, ``_digital_shift``, ``_owen``,
   ``_cp_shift`` — the
   methods.
@@ -23,7 +21,11 @@ Modules (private, one per method; each cites its equation and reference):
 * ``_registry`` — :data:`RANDOMISATIONS` and the dispatcher :func:`randomised_mse`.
 * ``_mis`` — :func:`mis_mse`, two streams, independent or sharing one point set.
 * ``_lobe_choice`` — :func:`lobe_choice_mse`, :func:`lobe_choice_mis`: a BSDF that picks
-  one of two lobes by a stratified 1-D number of its own (Mitsuba's ``roughplastic``).
+  one of two lobes by a stratified 1-D number of its own (a rough plastic).
+
+A renderer's own variant of a method (its strata's shape, its hashed permutations' law) is
+an option value its sampler's record gives (:attr:`envfit.renderers.SamplerSpec.options`);
+nothing here knows a renderer.
 
 The names of ``__all__`` are imported lazily, on first use (PEP 562), so that
 importing the package loads none of its modules.
@@ -35,8 +37,7 @@ from envfit.base._lazy import lazy_exports
 _LAZY = {
     "DyadicGrid": "_grid", "RandomisedMSE": "_grid",
     "DigitalNet": "_nets", "NETS": "_nets",
-    "mitsuba_cmj_shape": "_cmj",
-    "pair_table": "_kensler", "permute_kensler": "_kensler",
+    "cmj_shape": "_cmj", "uniform_pair_table": "_cmj",
     "owen_gains": "_owen",
     "walsh_coefficients": "_walsh",
     "ShiftSample": "_shift_samples", "shift_sample": "_shift_samples",

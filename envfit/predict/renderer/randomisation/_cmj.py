@@ -1,10 +1,10 @@
-r"""Correlated multi-jittered sampling (Kensler 2013) as Mitsuba 3's ``multijitter`` builds it:
-the exact MSE over uniformly random permutations and jitter.
+r"""Correlated multi-jittered sampling (Kensler 2013): the exact MSE over uniformly random
+permutations and jitter, or over a sampler's hashed permutations given by their pair tables.
 
-Construction (Mitsuba 3.9 ``src/samplers/multijitter.cpp``: ``MultijitterSampler::next_2d``;
-A. Kensler, "Correlated Multi-Jittered Sampling", Pixar Technical Memo 13-01, 2013, §3): a grid
-of :math:`n_x\times n_y` coarse cells, N = :math:`n_x n_y` (Mitsuba: :math:`n_y = \lfloor\sqrt
-{spp}\rfloor`, :math:`n_x = \lceil spp/n_y\rceil`); coarse cell (x, y) holds one point
+Construction (A. Kensler, "Correlated Multi-Jittered Sampling", Pixar Technical Memo 13-01,
+2013, §3): a grid of :math:`n_x\times n_y` coarse cells, N = :math:`n_x n_y` (by default
+:func:`cmj_shape`: :math:`n_y = \lfloor\sqrt N\rfloor`, :math:`n_x = \lceil N/n_y\rceil`);
+coarse cell (x, y) holds one point
 
 .. math::  u = \Big(\frac{x + (\sigma_y(y) + j_x)/n_y}{n_x},\;
                     \frac{y + (\sigma_x(x) + j_y)/n_x}{n_y}\Big)
@@ -29,11 +29,12 @@ squared marginals of G, O(N²) in all. The power above the grid enters exactly a
 :math:`P_\text{above}/N` (inside W) when N divides M; otherwise the fine cells cut grid cells
 (:mod:`._strata`).
 
-Mitsuba's permutations are Kensler's hashes (``permute_kensler``), far from uniform for small
-:math:`n_x, n_y` (:mod:`._kensler`). With ``permutations="mitsuba"`` the expectation is taken
-over their distribution instead, through the pair tables
+A sampler may draw its permutations from a hash rather than uniformly (Kensler's own
+``permute``, far from uniform for small :math:`n_x, n_y`). With ``permutations`` a
+:class:`~envfit.renderers.PermutationLaw` (the sampler's record gives it) the expectation is
+taken over that law instead, through its pair tables
 :math:`P_x[(x,a),(x',a')] = \Pr(\sigma_x(x)=a, \sigma_x(x')=a')` (and :math:`P_y`), σ_x and
-σ_y independent (their seeds are different odd multiples of one per-pixel hash):
+σ_y independent:
 
 .. math::  E\Big(\sum_p g_p\Big)^2 = \sum P_x[(x,a),(x',a')]\,
            \big(\mathbf G P_y \mathbf G^\top\big)[(x,a),(x',a')],\qquad
@@ -53,22 +54,29 @@ import numpy as np
 from envfit.base import ParameterError
 
 from ._grid import DyadicGrid, RandomisedMSE, make_result
-from ._kensler import TABLE_SEEDS, pair_table
 from ._strata import rectangle_moments
 
-__all__ = ["PERMUTATIONS", "cmj_mse", "mitsuba_cmj_shape", "table_moments"]
-
-#: the permutation distributions of :func:`cmj_mse`
-PERMUTATIONS = ("uniform", "mitsuba")
+__all__ = ["cmj_mse", "cmj_shape", "table_moments", "uniform_pair_table"]
 
 _AXES = ("x", "b", "y", "a")            # G's axes: coarse column, sub-column, row, sub-row
 
 
-def mitsuba_cmj_shape(spp: int) -> tuple[int, int]:
-    r"""Mitsuba 3.9's ``multijitter`` grid :math:`(n_x, n_y)` = (⌈spp/⌊√spp⌋⌉, ⌊√spp⌋); the
-    sample count becomes :math:`n_x n_y` (32 → 35)."""
-    ny = max(1, math.isqrt(int(spp)))
-    return -(-int(spp) // ny), ny
+def cmj_shape(n: int) -> tuple[int, int]:
+    r"""The most nearly square grid of at least N cells, :math:`(n_x, n_y)` =
+    (⌈N/⌊√N⌋⌉, ⌊√N⌋): :func:`cmj_mse`'s default (32 → 35 cells)."""
+    ny = max(1, math.isqrt(int(n)))
+    return -(-int(n) // ny), ny
+
+
+def uniform_pair_table(length: int) -> np.ndarray:
+    r"""The pair table of a uniformly random permutation: :math:`\delta_{yy'}\delta_{bb'}/l`
+    on the diagonal, :math:`(1-\delta_{yy'})(1-\delta_{bb'})/(l(l-1))` off it."""
+    eye = np.eye(length)
+    same = np.einsum("yz,bc->ybzc", eye, eye) / length
+    if length == 1:
+        return same.reshape(1, 1)
+    other = np.einsum("yz,bc->ybzc", 1.0 - eye, 1.0 - eye) / (length * (length - 1))
+    return (same + other).reshape(length * length, length * length)
 
 
 def _restricted(g: np.ndarray, equal: tuple[str, ...], different: tuple[str, ...]) -> float:
@@ -109,42 +117,46 @@ def table_moments(g: np.ndarray, within: np.ndarray, px: np.ndarray,
 
 def _shape(n: int, nx, ny) -> tuple[int, int]:
     if nx is None and ny is None:
-        nx, ny = mitsuba_cmj_shape(n)
+        nx, ny = cmj_shape(n)
     elif nx is None or ny is None:
-        raise ParameterError("give both nx and ny, or neither (Mitsuba's shape)")
+        raise ParameterError("give both nx and ny, or neither (the most nearly square grid)")
     if not (isinstance(nx, (int, np.integer)) and isinstance(ny, (int, np.integer))
             and nx >= 1 and ny >= 1 and nx * ny == n):
         raise ParameterError(f"correlated multi-jittering takes N = nx·ny points: N = {n}, "
-                             f"nx = {nx!r}, ny = {ny!r} (Mitsuba's multijitter rounds spp up "
-                             f"to nx·ny: {n} → {math.prod(mitsuba_cmj_shape(n))})")
+                             f"nx = {nx!r}, ny = {ny!r} (the most nearly square grid rounds N "
+                             f"up to nx·ny: {n} → {math.prod(cmj_shape(n))})")
     return int(nx), int(ny)
 
 
 def cmj_mse(grid: DyadicGrid, n: int, *, nx: int | None = None, ny: int | None = None,
-            permutations: str = "uniform") -> RandomisedMSE:
+            permutations="uniform") -> RandomisedMSE:
     """The exact MSE of correlated multi-jittered sampling on an nx × ny grid, N = nx·ny
-    (default: Mitsuba's shape for ``n``, which must then equal nx·ny), over uniformly random
-    permutations or over Mitsuba's hashed ones (``permutations="mitsuba"``)."""
+    (default: :func:`cmj_shape` of ``n``, which must then equal nx·ny), over uniformly random
+    permutations (``"uniform"``) or over a sampler's hashed ones (``permutations`` a
+    :class:`~envfit.renderers.PermutationLaw`: its ``pair_table``)."""
     nx, ny = _shape(n, nx, ny)
-    if permutations not in PERMUTATIONS:
-        raise ParameterError(f"permutations must be one of {PERMUTATIONS}, got {permutations!r}")
+    hashed = permutations != "uniform"
+    if hashed and not callable(getattr(permutations, "pair_table", None)):
+        raise ParameterError(f"permutations must be 'uniform' or a PermutationLaw, "
+                             f"got {permutations!r}")
     edges = np.arange(n + 1) / n
     fine, within = rectangle_moments(grid, edges, edges)       # (C, N, N): X along u1
     g = fine.reshape(grid.channels, nx, ny, ny, nx)            # [c, x, b, y, a]
-    if permutations == "uniform":
+    if not hashed:
         perm = np.array([_pair_sum(g[c], nx, ny) for c in range(grid.channels)])
         jitter = within.mean(axis=(1, 2)) * n
     else:
-        px, py = pair_table(nx), pair_table(ny)
+        px, py = permutations.pair_table(nx), permutations.pair_table(ny)
         w = within.reshape(grid.channels, nx, ny, ny, nx)
         both = np.array([table_moments(g[c], w[c], px, py) for c in range(grid.channels)])
         perm, jitter = both[:, 0], both[:, 1]
     total = (perm + jitter) / float(n * n)
     above = grid.above / n
-    aligned = grid.size % n == 0 and permutations == "uniform"
-    note = f"{permutations} permutations; " + ("exact (N divides M)" if grid.size % n == 0 else
-                                               "fine cells cut grid cells: their share by the "
-                                               "cell-constant interpolant")
-    if permutations == "mitsuba":
-        note += f"; Mitsuba's permutation pairs estimated from {TABLE_SEEDS} seeds"
+    aligned = grid.size % n == 0 and not hashed
+    name = permutations.name if hashed else permutations
+    note = f"{name} permutations; " + ("exact (N divides M)" if grid.size % n == 0 else
+                                       "fine cells cut grid cells: their share by the "
+                                       "cell-constant interpolant")
+    if hashed and permutations.note:
+        note += f"; {permutations.note}"
     return make_result("cmj", n, total - above, above, exact=aligned, note=note)

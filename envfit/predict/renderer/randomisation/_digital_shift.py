@@ -1,7 +1,6 @@
-r"""A random digital (XOR) shift of a digital net — Mitsuba 3's ``ldsampler`` (one XOR scramble
-per pixel of the (0, 2)-sequence's integer digits; ``src/samplers/ldsampler.cpp``:
-``LowDiscrepancySampler::next_2d``) and pbrt-v4's ``permutedigits``-style randomisation of
-a Sobol' block.
+r"""A random digital (XOR) shift of a digital net: one XOR scramble per pixel of the net's
+integer digits (in base 2, random digit permutations are such a shift). Which renderers'
+samplers randomise so, read from which source, their folders say.
 
 With :math:`y_j = x_j \oplus \Delta`, Δ uniform, :math:`\mathrm{wal}_k(x\oplus\Delta) =
 \mathrm{wal}_k(x)\,\mathrm{wal}_k(\Delta)`, so :math:`F - I = \sum_{k\ne0}\hat h(k)\,
@@ -32,7 +31,7 @@ Where the grid holds a sampled value of the power above it (:mod:`._shift_sample
 value is used instead: unbiased, for any N — also N > M, where this estimate has nothing to
 stand on.
 
-The order in which a renderer visits the points does not change the mean, so Mitsuba's
+The order in which a renderer visits the points does not change the mean, so a sampler's
 per-dimension index permutation plays no part.
 """
 from __future__ import annotations

@@ -1,5 +1,5 @@
-r"""Independent uniform points (Mitsuba ``independent``, pbrt-v4 ``independent``): the Monte
-Carlo variance
+r"""Independent uniform points (a renderer's ``independent`` sampler): the Monte Carlo
+variance
 
 .. math::  E(F - I)^2 = \frac{V}{N}, \qquad V = \int h^2 - \Big(\int h\Big)^2 ,
 

@@ -1,19 +1,15 @@
-r"""Jittered (stratified) sampling, one uniform point per stratum of N strata of area 1/N
-(Mitsuba ``stratified``, pbrt-v4 ``stratified``, envfit's ``jitter``):
+r"""Jittered (stratified) sampling, one uniform point per stratum of N strata of area 1/N:
 
 .. math::  E(F - I)^2 = \frac1{N^2}\sum_s \sigma^2_s
            = \frac1N\int h^2 - \sum_s\Big(\int_{S_s} h\Big)^2,
 
 :math:`\sigma^2_s` the variance of h under a uniform point of stratum :math:`S_s` (the order
-in which a renderer visits the strata does not change the mean). The strata's layout
-(``layout``):
+in which a renderer visits the strata does not change the mean). The strata's layout:
 
-* ``"square"``: r × r cells, N = r² (Mitsuba 3 ``src/samplers/stratified.cpp``:
-  ``StratifiedSampler::set_sample_count`` rounds spp up to the next square);
-* ``"pbrt"``: x × y cells, y = the largest divisor d ≤ √N, x = N/d along :math:`u_0`
-  (pbrt-v4 ``src/pbrt/samplers.cpp``: ``StratifiedSampler::Create``; ``samplers.h``:
-  ``StratifiedSampler::Get2D``, ``(x + dx)/xPixelSamples``); a square N gives ``"square"``;
-* ``"rows"``: envfit's own :func:`envfit.theory.jitter_strata` — k = round(√N) bands in
+* ``layout="square"``: r × r cells, N = r² (a sampler that rounds its spp up to a square);
+* ``strata=(x, y)``: x × y cells, x along :math:`u_0`, N = x·y (a sampler's own rectangle,
+  from its record's options); x = y gives ``"square"``;
+* ``layout="rows"``: envfit's own :func:`envfit.theory.jitter_strata` — k = round(√N) bands in
   :math:`u_1`, band b holding :math:`c_b = \lfloor N/k\rfloor` or :math:`\lceil N/k\rceil`
   cells of width :math:`1/c_b` and height :math:`c_b/N`; a square N gives ``"square"``.
 
@@ -36,33 +32,20 @@ from envfit.base import ParameterError
 from ._grid import DyadicGrid, RandomisedMSE, make_result
 from ._strata import rectangle_moments
 
-__all__ = ["jittered_mse", "JITTER_LAYOUTS", "pbrt_strata"]
+__all__ = ["jittered_mse", "JITTER_LAYOUTS"]
 
-#: the strata layouts of :func:`jittered_mse`
-JITTER_LAYOUTS = ("square", "pbrt", "rows")
-
-
-def pbrt_strata(n: int) -> tuple[int, int]:
-    """pbrt-v4's ``StratifiedSampler::Create`` with spp ``n``: (x, y), y = the largest
-    divisor of n at most √n, x = n/y.
-
-    >>> pbrt_strata(2048), pbrt_strata(7), pbrt_strata(16)
-    ((64, 32), (7, 1), (4, 4))
-    """
-    d = math.isqrt(n)
-    while n % d:
-        d -= 1
-    return n // d, d
+#: the strata layouts of :func:`jittered_mse` (besides explicit ``strata=(x, y)``)
+JITTER_LAYOUTS = ("square", "rows")
 
 
-def _within_sum(grid: DyadicGrid, n: int, layout: str) -> tuple[np.ndarray, bool]:
+def _within_sum(grid: DyadicGrid, n: int, strata) -> tuple[np.ndarray, bool]:
     """(Σ over strata of the within-stratum variance (C,), whether every edge is on the
-    grid) for N strata in ``layout``."""
+    grid) for N strata: ``strata`` (x, y), or None for envfit's rows."""
     m = grid.size
     on = (lambda e: bool(np.all(np.abs(np.asarray(e) * m - np.rint(np.asarray(e) * m))
                                 < 1e-9)))
-    if layout == "pbrt":
-        x, y = pbrt_strata(n)
+    if strata is not None:
+        x, y = strata
         e1, e2 = np.arange(x + 1) / x, np.arange(y + 1) / y
         _, within = rectangle_moments(grid, e1, e2)
         return within.sum(axis=(1, 2)), on(e1) and on(e2)
@@ -80,28 +63,36 @@ def _within_sum(grid: DyadicGrid, n: int, layout: str) -> tuple[np.ndarray, bool
 
 
 def jittered_mse(grid: DyadicGrid, n: int, *, r: int | None = None,
-                 layout: str = "square") -> RandomisedMSE:
+                 layout: str = "square", strata: tuple[int, int] | None = None
+                 ) -> RandomisedMSE:
     """The exact MSE of jittered sampling of N strata (module docstring): ``layout``
     ``"square"`` takes r × r strata, N = r² (``r`` defaults to √n, which must then be an
-    integer); ``"pbrt"`` and ``"rows"`` any N."""
+    integer); ``strata=(x, y)`` x × y strata, N = x·y; ``"rows"`` any N."""
     if layout not in JITTER_LAYOUTS:
         raise ParameterError(f"layout must be one of {', '.join(JITTER_LAYOUTS)}, "
                              f"got {layout!r}")
+    if strata is not None:
+        x, y = strata
+        if not (isinstance(x, (int, np.integer)) and isinstance(y, (int, np.integer))
+                and x >= 1 and y >= 1 and x * y == n):
+            raise ParameterError(f"jittered strata (x, y) take N = x·y points: N = {n}, "
+                                 f"strata = {strata!r}")
+        layout, r = ("square", int(x)) if x == y else ("strata", None)
     if r is None:
         r = math.isqrt(n)
-    if layout != "square" and r * r == n:
+    if layout == "rows" and r * r == n:
         layout = "square"
     if layout == "square":
         if not (isinstance(r, (int, np.integer)) and r >= 1 and r * r == n):
             raise ParameterError(f"jittered sampling takes N = r² points: N = {n} with "
-                                 f"r = {r!r} (Mitsuba's stratified rounds spp up to the next "
-                                 f"square)")
+                                 f"r = {r!r} (a sampler whose strata are square rounds its "
+                                 f"spp up to the next square)")
         edges = np.arange(r + 1) / r
         _, within = rectangle_moments(grid, edges, edges)
         total = within.sum(axis=(1, 2))
         aligned = grid.size % r == 0
     else:
-        total, aligned = _within_sum(grid, n, layout)
+        total, aligned = _within_sum(grid, n, (int(x), int(y)) if layout == "strata" else None)
     total = total / float(n * n)
     above = grid.above / n
     note = "exact (every stratum a union of cells)" if aligned else \

@@ -1,19 +1,19 @@
 r"""A BSDF that picks one of two lobes by a number of its own, under a sampler whose 1-D
 dimension is N strata with one point in each, paired at random with the 2-D points.
 
-Mitsuba 3's ``roughplastic`` (``src/bsdfs/roughplastic.cpp``, ``RoughPlastic::sample``) takes
-``sample1`` (a ``next_1d``) and ``sample2`` (a ``next_2d``): the specular lobe when
-``sample1`` < :math:`p` (``prob_specular``), the diffuse one otherwise, then ω from
-``sample2`` in that lobe, weighted by f·cos over the *mixture* pdf. Mitsuba's samplers draw
-the 1-D number as (``src/samplers/*.cpp``, ``next_1d``):
+A rough plastic (:class:`envfit.shading.microfacet.RoughPlastic`, whose module cites the
+renderer's source) takes ``sample1`` (a 1-D number) and ``sample2`` (a 2-D one): the specular
+lobe when ``sample1`` < :math:`p` (``prob_specular``), the diffuse one otherwise, then ω from
+``sample2`` in that lobe, weighted by f·cos over the *mixture* pdf. The randomisations of
+:data:`STRATIFIED_1D` draw the 1-D number as one point in each of the N strata
+[k/N, (k+1)/N):
 
-* ``stratified``, ``multijitter``: ``(permute_kensler(i, N, seed_d) + jitter) / N`` — one
-  point in each of the N strata [k/N, (k+1)/N), jittered;
-* ``ldsampler``: ``radical_inverse_2(permute(i, N, seed_d), scramble)`` — the van der Corput
-  points of N = 2^m XOR one 32-bit shift: again one point in each stratum, all at one offset
-  in it, uniform;
+* ``jittered``, ``cmj``: ``(σ(i) + jitter) / N``, σ a permutation of the N strata, jittered;
+* ``digital_shift``: the van der Corput points of N = 2^m XOR one 32-bit shift, in a permuted
+  order: again one point in each stratum, all at one offset in it, uniform;
 
-the order permuted by each dimension's own seed. Hence the number K of samples that pick lobe
+the order permuted by each dimension's own seed (which renderer's samplers draw so, read
+from which source, its folder says). Hence the number K of samples that pick lobe
 a is :math:`K_0 = \lfloor Np\rfloor` or :math:`K_0 + 1`, the latter with probability
 :math:`\{Np\}` (the one point in the stratum holding p is uniform in it), and given K the
 samples that pick a are a random K-subset of the N 2-D points (two dimensions' permutations,
@@ -40,9 +40,9 @@ gives the mixture's variance :math:`pV(a) + (1-p)V(b) + p(1-p)D^2`; i.i.d. lobe 
 ``independent`` sampler) are not this case (K binomial): there the two numbers are one
 uniform point of the square (``RoughPlastic.sample_square``).
 
-A second stream that shares the 2-D point set (MIS under ``ldsampler``: the emitter's
-``next_2d``, :mod:`._mis`) has an error that is a function of X alone, so its cross term is
-:math:`E_K\,C_N(h_e, c_q) = C_N(h_e, c_p)` (linear in q, E q = p).
+A second stream that shares the 2-D point set (MIS under a sampler that gives every 2-D
+dimension the same randomised net, :mod:`._mis`) has an error that is a function of X alone, so
+its cross term is :math:`E_K\,C_N(h_e, c_q) = C_N(h_e, c_p)` (linear in q, E q = p).
 """
 from __future__ import annotations
 
@@ -59,8 +59,8 @@ from ._registry import randomised_mse
 
 __all__ = ["STRATIFIED_1D", "lobe_choice_mse", "lobe_choice_mis"]
 
-#: the randomisations whose sampler draws a ``next_1d`` as N jittered strata in a random order
-#: (Mitsuba ``stratified``, ``multijitter``, ``ldsampler``): :func:`lobe_choice_mse` holds
+#: the randomisations whose sampler draws a 1-D number as N jittered strata in a random order
+#: (module docstring): :func:`lobe_choice_mse` holds
 STRATIFIED_1D = ("jittered", "cmj", "digital_shift")
 
 GridOf = Callable[[float, float], DyadicGrid]

@@ -5,12 +5,12 @@ r"""Two techniques' streams (emitter and BSDF 2-D samples, each with its own war
 .. math::  E(F - I)^2 = E(F_1 - I_1)^2 + E(F_2 - I_2)^2 + 2\,C_{12},\qquad
            C_{12} = E[(F_1 - I_1)(F_2 - I_2)].
 
-* Independently randomised streams (Mitsuba ``independent``, ``stratified``, ``multijitter``:
-  fresh jitter and other permutations per dimension; pbrt's per-dimension scramble seeds):
-  each error has mean 0 and they are independent, so :math:`C_{12} = 0`.
-* One randomised point set shared by both streams (Mitsuba ``ldsampler``: the same
+* Independently randomised streams (pairing ``independent``: fresh jitter and other
+  permutations per dimension, or per-dimension scramble seeds): each error has mean 0 and they
+  are independent, so :math:`C_{12} = 0`.
+* One randomised point set shared by both streams (pairing ``same_net_permuted``: the same
   XOR-shifted (0, 2)-net per pixel for every 2-D dimension, only the order permuted per
-  dimension; ``src/samplers/ldsampler.cpp``: ``next_2d``): the order does not change a mean, so
+  dimension): the order does not change a mean, so
   :math:`F_1 - I_1 = \sum_{k\in D^*\setminus0}\hat h_1(k)\,\mathrm{wal}_k(\Delta)` and
   likewise for :math:`h_2` with the **same** Δ; orthonormality in Δ gives
 
@@ -61,8 +61,8 @@ def mis_mse(name: str, first: DyadicGrid, second: DyadicGrid, n: int, *, shared:
     """The MSE of F₁ + F₂ with both streams randomised by ``name`` (N points each):
     independently (``shared=False``) or as one shared point set (``shared=True``, needs
     ``total``, the grid of h₁ + h₂, for the power above the grid). ``second_options``: the
-    second stream's options where they differ from the first's (Mitsuba's ``orthogonal``:
-    its dimension); for a shared set they must not."""
+    second stream's options where they differ from the first's (an orthogonal array: its
+    dimension); for a shared set they must not."""
     if first.size != second.size or first.channels != second.channels:
         raise ParameterError("the two techniques' grids must have the same size and channels")
     second_options = options if second_options is None else second_options

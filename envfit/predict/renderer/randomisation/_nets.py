@@ -5,16 +5,13 @@ A digital net in base 2 with 2^m points: point j has coordinate d with binary di
 :math:`C_d` is stored as a 32-bit *direction integer* :math:`v_t` whose top bit is the first
 digit, so :math:`x^{(d)}_j = 2^{-32}\,\mathrm{XOR}_{t:\,j_t = 1} v_t`.
 
-* ``"sobol"`` — the (0, 2)-sequence of Mitsuba 3's ``ldsampler`` and pbrt-v4's Sobol'
-  samplers' first two dimensions: :math:`u_1` van der Corput (:math:`v_t = 2^{31-t}`; Mitsuba
-  ``include/mitsuba/core/qmc.h``: ``radical_inverse_2``; pbrt ``SobolMatrices32`` dimension 0)
-  and :math:`u_2` Sobol's second dimension, the Pascal matrix mod 2 (:math:`v_0 = 2^{31}`,
-  :math:`v_{t+1} = v_t \oplus (v_t \gg 1)`; Mitsuba ``qmc.h``: ``sobol_2``; pbrt
-  ``src/pbrt/util/sobolmatrices.cpp``: ``SobolMatrices32``, dimension 0 the identity
-  columns 0x80000000, 0x40000000, …, dimension 1 0x80000000, 0xc0000000, 0xa0000000,
-  0xf0000000, 0x88000000, … — Joe & Kuo's table, read there; pbrt's ``SobolSample`` XORs
-  these columns as here). Its first 2^m points are a
-  (0, m, 2)-net.
+* ``"sobol"`` — the (0, 2)-sequence of Sobol's first two dimensions: :math:`u_1` van der
+  Corput (:math:`v_t = 2^{31-t}`, the identity columns 0x80000000, 0x40000000, …) and
+  :math:`u_2` Sobol's second dimension, the Pascal matrix mod 2 (:math:`v_0 = 2^{31}`,
+  :math:`v_{t+1} = v_t \oplus (v_t \gg 1)`: 0x80000000, 0xc0000000, 0xa0000000, 0xf0000000,
+  0x88000000, … — Joe & Kuo's table), the columns XORed as here. Its first 2^m points are a
+  (0, m, 2)-net. Which renderers' samplers draw it, and where their sources hold these
+  columns, their folders say.
 
 The dual net (Dick & Pillichshammer 2010, Def. 4.76): with :math:`\mathrm{tr}_m(k)` the digit
 vector of :math:`k \bmod 2^m`,
@@ -109,8 +106,8 @@ def net_exponent(n: int, grid_size: int | None) -> int:
     N ≤ M (the grid must resolve the net's elementary intervals) unless ``grid_size`` is None
     (the power above the grid is sampled: :mod:`._shift_samples`)."""
     if n < 1 or n & (n - 1):
-        raise ParameterError(f"digital nets take N = 2^m points, got N = {n} (Mitsuba's "
-                             f"ldsampler rounds spp up to a power of two squared)")
+        raise ParameterError(f"digital nets take N = 2^m points, got N = {n} (a sampler of "
+                             f"such nets rounds its spp up to a power of two)")
     m = n.bit_length() - 1
     if grid_size is not None and n > grid_size:
         raise ParameterError(f"N = {n} points need a grid of at least {n} cells per side, "

@@ -1,19 +1,19 @@
-r"""Orthogonal-array sampling (Jarosz, Enayet, Kensler, Kilpatrick, Christensen 2019) as
-Mitsuba 3's ``orthogonal`` sampler builds it (Bose construction, strength 2): the exact MSE of
-one 2-D draw over uniformly random permutations and jitter.
+r"""Orthogonal-array sampling (Jarosz, Enayet, Kensler, Kilpatrick, Christensen 2019), the Bose
+construction of strength 2 with permuted strata and jitter: the exact MSE of one 2-D draw over
+uniformly random permutations and jitter (which renderer's sampler builds it so, read from
+which source, its folder says).
 
-Construction (Mitsuba 3.9 ``src/samplers/orthogonal.cpp``: ``OrthogonalSampler::bose``): N =
-p² samples, p prime; sample i (after one shared ``permute_kensler`` of the index, which only
-reorders) is the pair :math:`(a_0, a_1) = (\lfloor i/p\rfloor, i \bmod p)`. Dimension j takes
-the linear forms
+Construction: N = p² samples, p prime; sample i (after one shared permutation of the index,
+which only reorders) is the pair :math:`(a_0, a_1) = (\lfloor i/p\rfloor, i \bmod p)`.
+Dimension j takes the linear forms
 
 .. math::  a_{ij} = a_0 + (j - 1)\,a_1,\qquad a_{ik} = a_0 + (k - 1)\,a_1 \pmod p,\qquad
            k = j - 1 \text{ (j odd)},\; j + 1 \text{ (j even)},
 
 with :math:`(a_{ij}, a_{ik}) = (a_0, a_1)` at j = 0 and :math:`(a_1, a_0)` at j = 1, and returns
 :math:`\big(\pi_j(a_{ij}) + (\pi'_j(a_{ik}) + \xi)/p\big)/p` — stratum and sub-stratum each
-permuted by a per-pixel, per-dimension ``permute_kensler``, ξ fresh uniform jitter.
-``next_2d`` is two consecutive ``next_1d``, so a 2-D draw at dimensions (j, j + 1) puts
+permuted by a per-pixel, per-dimension permutation, ξ fresh uniform jitter. A 2-D draw is
+two consecutive 1-D ones, so a 2-D draw at dimensions (j, j + 1) puts
 sample (a₀, a₁) uniformly in the fine cell (1/N × 1/N)
 
 .. math::  \big(\pi_1(A)\,p + \pi_2(B),\; \pi_3(C)\,p + \pi_4(D)\big),
@@ -36,8 +36,8 @@ variance,
 :math:`R_S` the sum of G·G' over the index pairs equal exactly on S (inclusion–exclusion over
 marginals of G, ``_cmj._restricted``).
 
-Mitsuba's permutations are Kensler's hashes, not uniform; the tests measure the difference on
-Mitsuba's own points (``tests/test_orthogonal_sampler.py``).
+A sampler's hashed permutations need not be uniform; the tests measure the difference on a
+renderer's own points (``tests/test_orthogonal_sampler.py``).
 
 Two streams (the emitter's 2-D draw and the BSDF's) are columns of the same array but their
 dimensions' permutations are drawn independently, so given every permutation and jitter of the
@@ -67,7 +67,7 @@ def _prime_root(n: int) -> int:
     p = int(round(np.sqrt(n)))
     if p < 2 or p * p != n or any(p % q == 0 for q in range(2, int(np.sqrt(p)) + 1)):
         raise ParameterError(f"an orthogonal array of strength 2 takes N = p² points, p prime "
-                             f"(Mitsuba's orthogonal rounds spp up to one); got N = {n}")
+                             f"(a sampler of such arrays rounds its spp up to one); got N = {n}")
     return p
 
 
@@ -143,7 +143,7 @@ def strata_tuples_mse(grid: DyadicGrid, tuples, p: int, method: str = "orthogona
 
 
 def orthogonal_mse(grid: DyadicGrid, n: int, *, dimension: int = 2) -> RandomisedMSE:
-    """The MSE of Mitsuba's ``orthogonal`` sampler (strength 2, N = p²) for the 2-D draw at
+    """The MSE of a Bose orthogonal array (strength 2, N = p²) for the 2-D draw at
     dimensions (``dimension``, ``dimension`` + 1), over uniform permutations and jitter."""
     p = _prime_root(int(n))
     return strata_tuples_mse(grid, bose_indices(p, dimension), p,

@@ -1,6 +1,6 @@
-r"""Nested uniform (Owen) scrambling of a digital net — pbrt-v4 ``zsobol``/``paddedsobol``
-(``FastOwenScrambler``, ``OwenScrambler``), Cycles' Tabulated Sobol and Sobol–Burley
-(``nested_uniform_scramble``).
+r"""Nested uniform (Owen) scrambling of a digital net — what renderers' Owen-scrambled Sobol'
+samplers draw (hashed scramblers whose law the tests check against this one; which samplers,
+read from which source, their folders say).
 
 Owen (1997) showed for a scrambled (0, m, 2)-net, and Dick & Pillichshammer (2010, ch. 13) for
 any digital net, that the variance is a weighted sum of the base-2 Haar variance components:

@@ -25,12 +25,11 @@ a coordinate is XORed with a random bit drawn for each distinct prefix (digits 1
 unscrambled coordinate, independently per scramble and coordinate. A (0, m, 2)-net's first m
 digits of one coordinate are all distinct (one point per interval of length 2^−m), so below
 digit m every prefix is a single point's and the tail digits become independent uniform bits
-— drawn as such (Owen 1995; exactly the law of the full 32-digit scramble). Cycles scrambles
-with a hash (``intern/cycles/kernel/sample/util.h``: ``nested_uniform_scramble`` = bit
-reversal, ``reversed_bit_owen`` — Vegdahl's improved Laine–Karras hash — and reversal back;
-``sobol_burley.h`` seeds it per pixel and dimension; ``tabulated_sobol.h`` reads 256 tables
-scrambled so): a stand-in for nested uniform scrambling whose variance the model takes as
-Owen's (the tests check pbrt-v4's hashed scramblers against the same law, ``_owen``).
+— drawn as such (Owen 1995; exactly the law of the full 32-digit scramble). Renderers
+scramble with a hash (e.g. the Laine–Karras hash and its improvements): a stand-in for nested
+uniform scrambling whose variance the model takes as Owen's (which renderer hashes how, read
+from which source, its folder says; the tests check renderers' hashed scramblers against the
+same law, ``_owen``).
 
 References: A. B. Owen, "Randomly permuted (t, m, s)-nets and (t, s)-sequences" (1995) and
 "Monte Carlo variance of scrambled net quadrature", SIAM J. Numer. Anal. 34 (1997);

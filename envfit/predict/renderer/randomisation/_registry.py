@@ -2,20 +2,22 @@ r"""The registry of randomisations (as colour-science's method registries) and i
 :func:`randomised_mse`: one name per way a renderer randomises the N points of a pixel, each
 taking the same :class:`DyadicGrid` of the warped integrand.
 
-* ``independent`` — i.i.d. uniform points (Mitsuba and pbrt ``independent``);
-* ``jittered`` — r × r strata with fresh uniform jitter, option ``r`` (Mitsuba and pbrt
-  ``stratified``);
+* ``independent`` — i.i.d. uniform points;
+* ``jittered`` — r × r strata with fresh uniform jitter, option ``r``; or a sampler's own
+  x × y strata, option ``strata``; or envfit's rows, ``layout="rows"``;
 * ``cmj`` — correlated multi-jittering, options ``nx``, ``ny`` and ``permutations``
-  (``"uniform"``, Kensler's algorithm; ``"mitsuba"``, its hashed permutations: Mitsuba
-  ``multijitter``);
-* ``digital_shift`` — a random XOR shift of a digital net, option ``net`` (Mitsuba
-  ``ldsampler``);
-* ``owen`` — nested uniform scrambling of a digital net, option ``net`` (pbrt ``zsobol``,
-  ``paddedsobol``; Cycles' Sobol patterns);
+  (``"uniform"``, Kensler's algorithm; or a sampler's hashed permutations, a
+  :class:`~envfit.renderers.PermutationLaw`);
+* ``digital_shift`` — a random XOR shift of a digital net, option ``net``;
+* ``owen`` — nested uniform scrambling of a digital net, option ``net``;
 * ``cp_shift`` — a Cranley–Patterson shift of a point set, options ``points``, ``net``
-  (pbrt ``pmj02bn``; envfit's own rules);
+  (also envfit's own rules);
 * ``orthogonal`` — a Bose orthogonal array of strength 2 with permuted strata and jitter,
-  option ``dimension`` (Mitsuba ``orthogonal``).
+  option ``dimension``.
+
+A renderer's sampler names its randomisation (:attr:`envfit.renderers.SamplerSpec.randomisation`)
+and its options (:attr:`~envfit.renderers.SamplerSpec.options`); which sampler is which is in
+the renderer's folder.
 """
 from __future__ import annotations
 
@@ -50,9 +52,10 @@ class Randomisation:
 
 RANDOMISATIONS = {r.name: r for r in (
     Randomisation("independent", independent_mse, (), "i.i.d. uniform points: V/N"),
-    Randomisation("jittered", jittered_mse, ("r", "layout"),
-                  "jittered strata (r x r, pbrt-v4's x x y, envfit's rows)"),
-    Randomisation("cmj", cmj_mse, ("nx", "ny", "permutations"), "Kensler's correlated multi-jittering"),
+    Randomisation("jittered", jittered_mse, ("r", "layout", "strata"),
+                  "jittered strata (r x r, a sampler's x x y, envfit's rows)"),
+    Randomisation("cmj", cmj_mse, ("nx", "ny", "permutations"),
+                  "Kensler's correlated multi-jittering"),
     Randomisation("digital_shift", digital_shift_mse, ("net",),
                   "random XOR shift of a digital net"),
     Randomisation("owen", owen_mse, ("net",), "nested uniform (Owen) scrambling of a net"),

@@ -24,7 +24,7 @@ kept, so that the sum is :math:`E(F - I)^2` whatever the cell means' accuracy.
 The first sum is exact (the grid's Walsh coefficients; the dual net of :math:`N = 2^m` points
 read modulo :math:`2^m`, any M). The second — the power above the grid that the dual net
 keeps, with the correction — is estimated from Q uniform shifts :math:`\Delta_q` (32-bit
-integers, as Mitsuba's ``ldsampler`` XORs them) by the sample variance of
+integers, as a sampler XORs them into the net's 32-bit digits) by the sample variance of
 :math:`D_q = F(\Delta_q) - F_A(\Delta_q)` plus twice its sample covariance with
 :math:`F_A(\Delta_q)` (the sample means absorb :math:`I - I_A`), with the standard error of
 that mean. It may be negative (a correction); the sum is clipped at 0. :math:`F_A` is a control

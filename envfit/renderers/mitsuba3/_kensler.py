@@ -1,6 +1,7 @@
-r"""Kensler's hashed permutation (``permute_kensler``) and the distribution of the permutations it
-makes over uniformly random seeds — what Mitsuba 3's ``multijitter`` uses in place of uniformly
-random permutations.
+r"""Mitsuba 3's ``multijitter`` permutations: Kensler's hashed permutation
+(``permute_kensler``), the distribution of the permutations it makes over uniformly random
+seeds (:func:`pair_table`, the law :data:`KENSLER_PERMUTATIONS` the sampler's record hands the
+exact ``cmj`` model), and the sampler's grid (:func:`multijitter_shape`).
 
 ``permute_kensler(i, l, p)`` (A. Kensler, "Correlated Multi-Jittered Sampling", Pixar Technical
 Memo 13-01, 2013, §3 ``permute``; Mitsuba 3 ``include/mitsuba/core/random.h``:
@@ -10,20 +11,27 @@ xor-shifts and multiplications seeded by p, cycle-walks until the value is below
 {0, …, l − 1}; over p it is *not* a uniformly random permutation: for l = 4 the pairs
 (σ(y), σ(y')) are not uniform over the distinct pairs, and Mitsuba's ``multijitter`` MSE differs
 from the uniform-permutation value by up to 7 % at spp 16 (bench/randomisation_check.py).
+Mitsuba's ``stratified`` (where the index's permutation only reorders the strata) and
+``orthogonal`` (modelled with uniform permutations; ``tests/test_orthogonal_sampler.py``
+measures the difference on Mitsuba's own points) permute by it too.
 
 :func:`pair_table` estimates :math:`P[(y, b), (y', b')] = \Pr(\sigma(y) = b, \sigma(y') = b')`
 over uniformly random 32-bit seeds (Mitsuba's ``multijitter`` seeds are
 ``perm_seed · 0x68bc21eb`` and ``perm_seed · 0x02e5be93``, odd multiples of a per-pixel hash:
-uniform) from a fixed set of seeds (:data:`TABLE_SEEDS`, a seeded numpy Generator; the
-entries' relative standard error is about :math:`l/\sqrt{S}`).
+uniform; σ_x and σ_y independent) from a fixed set of seeds (:data:`TABLE_SEEDS`, a seeded numpy
+Generator; the entries' relative standard error is about :math:`l/\sqrt{S}`).
 """
 from __future__ import annotations
 
+import math
 from functools import lru_cache
 
 import numpy as np
 
-__all__ = ["TABLE_SEEDS", "pair_table", "permute_kensler", "uniform_pair_table"]
+from envfit.renderers._base import PermutationLaw
+
+__all__ = ["KENSLER_PERMUTATIONS", "TABLE_SEEDS", "multijitter_shape", "pair_table",
+           "permute_kensler"]
 
 #: seeds drawn to estimate a pair table
 TABLE_SEEDS = 1 << 18
@@ -74,17 +82,6 @@ def permute_kensler(index, length: int, seed) -> np.ndarray:
         return ((idx + seeds) % _U(length)).astype(np.int64)
 
 
-def uniform_pair_table(length: int) -> np.ndarray:
-    r"""The pair table of a uniformly random permutation: :math:`\delta_{yy'}\delta_{bb'}/l`
-    on the diagonal, :math:`(1-\delta_{yy'})(1-\delta_{bb'})/(l(l-1))` off it."""
-    eye = np.eye(length)
-    same = np.einsum("yz,bc->ybzc", eye, eye) / length
-    if length == 1:
-        return same.reshape(1, 1)
-    other = np.einsum("yz,bc->ybzc", 1.0 - eye, 1.0 - eye) / (length * (length - 1))
-    return (same + other).reshape(length * length, length * length)
-
-
 @lru_cache(maxsize=32)
 def pair_table(length: int, seeds: int = TABLE_SEEDS) -> np.ndarray:
     r""":math:`\Pr(\sigma(y) = b, \sigma(y') = b')` of ``permute_kensler`` over ``seeds`` random
@@ -102,3 +99,21 @@ def pair_table(length: int, seeds: int = TABLE_SEEDS) -> np.ndarray:
     table = counts.reshape(length * length, length * length) / seeds
     table.flags.writeable = False
     return table
+
+
+#: the law of ``multijitter``'s permutations: the value of the ``cmj`` model's
+#: ``permutations`` option in the sampler's record (``_envmap.SAMPLERS``)
+KENSLER_PERMUTATIONS = PermutationLaw(
+    "kensler", pair_table, f"Mitsuba's permutation pairs estimated from {TABLE_SEEDS} seeds")
+
+
+def multijitter_shape(spp: int) -> tuple[int, int]:
+    r"""Mitsuba 3.9's ``multijitter`` grid :math:`(n_x, n_y)` = (⌈spp/⌊√spp⌋⌉, ⌊√spp⌋)
+    (``src/samplers/multijitter.cpp``: ``MultijitterSampler::set_sample_count``); the sample
+    count becomes :math:`n_x n_y` (32 → 35).
+
+    >>> multijitter_shape(32), multijitter_shape(35)
+    ((7, 5), (7, 5))
+    """
+    ny = max(1, math.isqrt(int(spp)))
+    return -(-int(spp) // ny), ny
