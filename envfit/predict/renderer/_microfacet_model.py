@@ -224,8 +224,11 @@ class MicrofacetModel(LobeChoice, PresetModel):
         r = super().request(strategy, sampler, spp)
         if (self._two_lobes() and strategy != "map"
                 and r.name not in ("independent",) + STRATIFIED_1D):
+            ok = [n for n, s in self.preset.samplers.items()
+                  if s.randomisation in ("independent",) + STRATIFIED_1D]
+            ok = " and ".join([", ".join(ok[:-1]), ok[-1]] if len(ok) > 1 else ok)
             raise ParameterError(f"the rough plastic's {strategy} is modelled for the "
-                                 f"independent, stratified, multijitter and ldsampler samplers "
+                                 f"{ok} samplers "
                                  f"(its lobe choice is a 1-D dimension {sampler} pairs with "
                                  f"the direction's in an array); got {sampler}")
         if self._two_lobes() and strategy != "map" and samples_above(r.name, r.n, r.level):

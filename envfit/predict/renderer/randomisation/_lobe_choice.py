@@ -123,7 +123,7 @@ def lobe_choice_mis(name: str, first: DyadicGrid, grid_of: GridOf, n: int, p: fl
                     shared: bool, options: dict, options_b: dict, total_of=None):
     r"""The MSE of an emitter stream (``first``, the grid of :math:`h_e`) plus a BSDF stream
     with a lobe choice (:func:`lobe_choice_mse`): (mse, emitter part, BSDF part, cross), per
-    channel. ``shared``: both 2-D streams are one point set (``ldsampler``); the cross term is
+    channel. ``shared``: both 2-D streams are one point set (a shared net); the cross term is
     :math:`C_N(h_e, c_p)` (module docstring), which needs ``total_of(x, y)``, the grid of
     :math:`h_e + x\,a + y\,b`."""
     b_mse = lobe_choice_mse(name, grid_of, n, p, **options_b)
