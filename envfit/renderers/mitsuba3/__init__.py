@@ -34,7 +34,7 @@ held.
     of each dimension permuted by a per-pixel, per-dimension ``permute_kensler``; fresh
     jitter; ``next_2d`` two ``next_1d``): ``orthogonal`` with the dimension of each draw
     (the strategies' ``dimensions``), over uniform permutations (``tests/
-    test_orthogonal_sampler.py`` measures the difference Kensler's hashes make);
+    test_randomisation_orthogonal.py`` measures the difference Kensler's hashes make);
   - the 1-D draws (``next_1d``) — ``stratified``, ``multijitter``: ``(permute_kensler(i, N,
     seed_d) + jitter) / N``; ``ldsampler``: ``radical_inverse_2(permute(i, N, seed_d),
     scramble)``: N strata, one point each (the ``roughplastic`` lobe choice's model,

@@ -12,7 +12,7 @@ xor-shifts and multiplications seeded by p, cycle-walks until the value is below
 (σ(y), σ(y')) are not uniform over the distinct pairs, and Mitsuba's ``multijitter`` MSE differs
 from the uniform-permutation value by up to 7 % at spp 16 (bench/randomisation_check.py).
 Mitsuba's ``stratified`` (where the index's permutation only reorders the strata) and
-``orthogonal`` (modelled with uniform permutations; ``tests/test_orthogonal_sampler.py``
+``orthogonal`` (modelled with uniform permutations; ``tests/test_randomisation_orthogonal.py``
 measures the difference on Mitsuba's own points) permute by it too.
 
 :func:`pair_table` estimates :math:`P[(y, b), (y', b')] = \Pr(\sigma(y) = b, \sigma(y') = b')`

@@ -37,7 +37,7 @@ variance,
 marginals of G, ``_cmj._restricted``).
 
 A sampler's hashed permutations need not be uniform; the tests measure the difference on a
-renderer's own points (``tests/test_orthogonal_sampler.py``).
+renderer's own points (``tests/test_randomisation_orthogonal.py``).
 
 Two streams (the emitter's 2-D draw and the BSDF's) are columns of the same array but their
 dimensions' permutations are drawn independently, so given every permutation and jitter of the
