@@ -37,7 +37,8 @@ _LAZY = {
     "ValidationResult": "validate._results",
     "default_envmap": "maps._default_map",
     "advise": "advisor._advise", "Advice": "advisor._result", "AdviseOptions": "advisor._options",
-    "advise_renderer": "batch._advise_renderer", "PresetAdvice": "advisor._preset",
+    "advise_renderer": "batch._advise_renderer", "RendererAdvice": "advisor._renderer_advice",
+    "PresetAdvice": "advisor._renderer_advice",      # the former name of RendererAdvice
     "LibraryAdvice": "batch._library_advise",
 }
 

@@ -13,8 +13,8 @@ import pytest
 
 from envfit import cli
 from envfit.batch._library_advise import MapRow, advise_library, coverage
-from envfit.advisor._preset import advise_preset
-from envfit.advisor._preset_options import PresetAdviseOptions
+from envfit.advisor._renderer_advice import advise_preset
+from envfit.advisor._renderer_options import RendererAdviseOptions
 from envfit.batch import LibraryOptions
 from envfit.maps import EnvMap
 from envfit.maps._io import save_envmap
@@ -35,7 +35,7 @@ def _maps(k=3, h=8):
 
 def test_rows_are_the_single_map_advice(tmp_path):
     maps = _maps()
-    opts = PresetAdviseOptions("mitsuba3", **OPTS)
+    opts = RendererAdviseOptions("mitsuba3", **OPTS)
     lib = advise_library(maps, opts, target_relative=0.05, cache=False,
                          library=LibraryOptions(workers=1))
     assert [r.slug for r in lib.rows] == ["m0", "m1", "m2"] and lib.computed == 3
@@ -58,7 +58,7 @@ def test_a_sized_model_stays_sized_in_a_library():
     stays sized, so each row is the single-map answer of the sized model (pilot and final)
     and carries its model error."""
     maps = _maps(2, h=16)
-    opts = PresetAdviseOptions("pbrt4", model_error=0.03)
+    opts = RendererAdviseOptions("pbrt4", model_error=0.03)
     assert opts.auto
     lib = advise_library(maps, opts, target_relative=0.05, cache=False,
                          library=LibraryOptions(workers=1))
@@ -83,7 +83,7 @@ def test_coverage_counts_maps_that_reach_nothing():
 
 def test_rerun_resumes_and_recomputes_what_changed(tmp_path):
     paths = [save_envmap(tmp_path / "maps" / e.name, e) for e in _maps()]
-    opts = PresetAdviseOptions("mitsuba3", **OPTS)
+    opts = RendererAdviseOptions("mitsuba3", **OPTS)
     out = tmp_path / "out"
     kw = dict(target_relative=0.05, cache=False, library=LibraryOptions(workers=1), out=out)
     first = advise_library([tmp_path / "maps"], opts, **kw)
@@ -108,7 +108,7 @@ def test_rerun_resumes_and_recomputes_what_changed(tmp_path):
 
 
 def test_other_options_are_another_run(tmp_path):
-    opts = PresetAdviseOptions("mitsuba3", **OPTS)
+    opts = RendererAdviseOptions("mitsuba3", **OPTS)
     kw = dict(cache=False, library=LibraryOptions(workers=1), out=tmp_path / "out")
     advise_library(_maps(2), opts, target_relative=0.05, **kw)
     from envfit.base._errors import ParameterError
@@ -118,7 +118,7 @@ def test_other_options_are_another_run(tmp_path):
 
 @pytest.mark.slow
 def test_a_local_pool_gives_the_inline_rows():
-    opts = PresetAdviseOptions("mitsuba3", **OPTS)
+    opts = RendererAdviseOptions("mitsuba3", **OPTS)
     inline = advise_library(_maps(), opts, target_relative=0.05, cache=False,
                             library=LibraryOptions(workers=1))
     pool = advise_library(_maps(), opts, target_relative=0.05, cache=False,
@@ -145,7 +145,7 @@ def test_cli_advises_a_folder_and_resumes(tmp_path, capsys):
     out = capsys.readouterr().out
     d = json.loads((tmp_path / "o" / "advise_library.json").read_text())
     assert [m["label"] for m in d["maps"]] == ["m0.exr", "m1.exr", "m2.exr"]
-    one = advise_preset(_maps()[1], PresetAdviseOptions("mitsuba3", **OPTS),
+    one = advise_preset(_maps()[1], RendererAdviseOptions("mitsuba3", **OPTS),
                         target_relative=0.05, cache=False)
     assert d["maps"][1]["spp"] == one.recommendation["spp"]
     assert "  m1.exr " in out and "3 map(s) computed, 0 resumed" in out

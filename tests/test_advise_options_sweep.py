@@ -107,7 +107,7 @@ def test_the_parser_ranges_are_the_models():
     (a second path: their own checks)."""
     from envfit.advisor._options import AdviseOptions
     from envfit.base._errors import ParameterError
-    from envfit.cli._advise_preset import _MODEL_RANGES
+    from envfit.cli._advise_renderer import _MODEL_RANGES
     from envfit.predict.renderer import PresetModelOptions
     by = {_flag(a): _range(a) for a in _NUMERIC}
     for flag, field in (("--fit-n", "fit_n"), ("--realisations", "seeds"), ("--axes", "axes"),
@@ -204,14 +204,14 @@ def test_roughness_is_stated_and_checked_in_the_renderers_units(renderer, tmp_pa
     rounded from the exact bound (Cycles: sqrt(0.05) = 0.2236068), is accepted, with alpha
     0.05 within rounding; 1e-4 beyond either end is one line with the help's words."""
     import math
-    from envfit.advisor._preset_options import PresetAdviseOptions
+    from envfit.advisor._renderer_options import RendererAdviseOptions
     from envfit.shading.microfacet import roughness_range, roughness_words
     words = roughness_words(renderer)
     assert words in _help()
     lo, hi = roughness_range(renderer)
     exact = {"mitsuba3": 0.05, "pbrt4": 0.05 ** 2, "cycles": math.sqrt(0.05)}[renderer]
     for r in (lo, hi, float(f"{exact:.7g}"), exact):
-        o = PresetAdviseOptions(renderer, bsdf="ggx", roughness=r)
+        o = RendererAdviseOptions(renderer, bsdf="ggx", roughness=r)
         assert 0.05 * (1 - 1e-5) <= o.conductor().alpha <= 1.0
     for r in (lo * (1 - 1e-4), hi * (1 + 1e-4)):
         line = _one_line(capsys, ["--renderer", renderer, "--brdf", "ggx", "--roughness",

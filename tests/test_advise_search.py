@@ -1,4 +1,4 @@
-"""The renderer advice's spp search (``envfit.advisor._preset_search.search_spp``) on a
+"""The renderer advice's spp search (``envfit.advisor._renderer_search.search_spp``) on a
 stand-in model with a known law: the crossing it answers, and the passes it spends (the coarse
 spp above ``first_cap`` only for the strategies none below it meets)."""
 from __future__ import annotations
@@ -7,13 +7,13 @@ import math
 
 import pytest
 
-from envfit.advisor._preset_search import search_spp
+from envfit.advisor._renderer_search import search_spp
 
 LAWS = {"mis": 0.5, "map": 2.0, "brdf": 40.0}           # rmse = c / N^0.75
 
 
 class _Law:
-    """The parts of CachedPresetModel the search reads: predictions by a closed form."""
+    """The parts of CachedRendererModel the search reads: predictions by a closed form."""
 
     def __init__(self):
         self.asked: dict[str, set] = {s: set() for s in LAWS}
@@ -64,7 +64,7 @@ def test_rough_plastic_searches_only_what_its_lobe_grid_resolves():
     model refuses in one line a cell whose lobe grid would pass level 11 (16 M points a part:
     the first call ran out of 24 GB before)."""
     import numpy as np
-    from envfit.advisor import PresetAdviseOptions
+    from envfit.advisor import RendererAdviseOptions
     from envfit.base import ParameterError
     from envfit.maps import EnvMap
     from envfit.predict.renderer import MicrofacetModel, band_frames
@@ -72,8 +72,8 @@ def test_rough_plastic_searches_only_what_its_lobe_grid_resolves():
     from envfit.renderers import get_renderer
     from envfit.shading.microfacet import RoughPlastic
     kw = dict(renderer="mitsuba3", sampler="ldsampler", roughness=0.2)
-    assert PresetAdviseOptions(bsdf="roughplastic", **kw).spp_cap() == 256
-    assert PresetAdviseOptions(bsdf="ggx", **kw).spp_cap() == 4096
+    assert RendererAdviseOptions(bsdf="roughplastic", **kw).spp_cap() == 256
+    assert RendererAdviseOptions(bsdf="ggx", **kw).spp_cap() == 4096
     m = MicrofacetModel(EnvMap(np.full((8, 16, 3), 2.0)), get_renderer("mitsuba3"),
                         RoughPlastic("ggx", 0.2), band_frames(2, seed=0),
                         options=PresetModelOptions(max_level=4))

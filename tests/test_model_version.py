@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from envfit.advisor._preset_search import model_version
+from envfit.advisor._renderer_model import model_version
 
 
 @pytest.mark.parametrize("where", ["renderers/mitsuba3/_envmap.py", "renderers/cycles/_render.py",

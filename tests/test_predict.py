@@ -42,9 +42,9 @@ def _osw_rule(wf, n: int, s: float, lmax: int) -> QuadratureRule:
 
 # ----------------------------------------------------------------------------- registry
 
-def test_registry_holds_five_predictors_of_one_signature():
+def test_registry_holds_six_predictors_of_one_signature():
     assert list(PREDICTORS) == ["plain", "bandlimited", "spectral", "random-variance",
-                                "warped-spectrum"]
+                                "warped-spectrum", "renderer"]
     assert PREDICTORS["plain"] is predict_plain
     assert PREDICTORS["bandlimited"] is predict_bandlimited
     assert PREDICTORS["spectral"] is predict_spectral
@@ -86,7 +86,7 @@ def test_unknown_predictor_is_a_parameter_error_listing_the_names(bad):
     with pytest.raises(ParameterError) as info:
         predict(bad, PredictionContext(s=1.5, sigma=1.0), QuadratureRule(n=4, wce=0.1))
     assert str(info.value).endswith("choose from plain, bandlimited, spectral, random-variance, "
-                                    "warped-spectrum")
+                                    "warped-spectrum, renderer")
 
 
 def test_a_predictor_names_the_context_fields_it_lacks():

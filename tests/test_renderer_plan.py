@@ -55,7 +55,7 @@ def test_nmax_beyond_a_32_bit_spp_is_refused_fast(tmp_path, capsys):
 
 
 def test_spp_searched_are_lazy_and_the_top_of_the_range_is_searched(gp_file, tmp_path, capsys):
-    from envfit.advisor._preset_search import coarse_spp
+    from envfit.advisor._renderer_search import coarse_spp
     spec = get_renderer("mitsuba3").sampler("independent")
     r = spec.runnable(2 ** 31 - 1)
     assert isinstance(r, range) and len(r) == 2 ** 31 - 1
@@ -115,8 +115,8 @@ def test_sh_refusal_over_a_set_time_limit_names_its_value(tmp_path, monkeypatch,
 # ----------------------------------------------------------------------------- the model's plan
 
 def _opts(**kw):
-    from envfit.advisor._preset_options import PresetAdviseOptions
-    return PresetAdviseOptions("mitsuba3", **kw)
+    from envfit.advisor._renderer_options import RendererAdviseOptions
+    return RendererAdviseOptions("mitsuba3", **kw)
 
 
 def test_plan_memory_bounds_the_measured_peak(gp_file):
@@ -124,11 +124,11 @@ def test_plan_memory_bounds_the_measured_peak(gp_file):
     above the grid sampled (the plan's worst case); the peak traced by tracemalloc (numpy's
     arrays) from the loaded map on, against the plan: at least the peak, at most 2.5x it."""
     import tracemalloc
-    from envfit.advisor._budget import preset_plan
-    from envfit.advisor._preset import advise_preset
+    from envfit.advisor._budget import renderer_plan
+    from envfit.advisor._renderer_advice import advise_preset
     env = load_envmap(gp_file)
     o = _opts(sampler="ldsampler", level=8, normals=2)
-    plan = preset_plan(env.width * env.height, o, resident=env.data.nbytes)
+    plan = renderer_plan(env.width * env.height, o, resident=env.data.nbytes)
     tracemalloc.start()
     try:
         adv = advise_preset(env, o, target_rmse=1e-9, cache=False)
@@ -148,15 +148,15 @@ def _refusal(capsys, tmp_path, monkeypatch, limit, *args):
 
 
 def _plan_fits(opts, limit, monkeypatch) -> bool:
-    from envfit.advisor._budget import preset_plan
+    from envfit.advisor._budget import renderer_plan
     from envfit.base._resources import memory_budget_bytes
     monkeypatch.setenv("ENVFIT_MEMORY_LIMIT", limit)
-    return preset_plan(32 * 16, opts, resident=32 * 16 * 12).fits(memory_budget_bytes())
+    return renderer_plan(32 * 16, opts, resident=32 * 16 * 12).fits(memory_budget_bytes())
 
 
 def _fits(pixels, **kw) -> bool:
-    from envfit.advisor._budget import preset_plan
-    return preset_plan(pixels, _opts(**kw), resident=pixels * 12).fits()
+    from envfit.advisor._budget import renderer_plan
+    return renderer_plan(pixels, _opts(**kw), resident=pixels * 12).fits()
 
 
 def test_level_over_budget_names_the_largest_level_that_fits(gp_file, tmp_path, monkeypatch,
@@ -251,11 +251,11 @@ def test_quiet_prints_the_answer_line_alone(gp_file, tmp_path, capsys):
 def test_a_strategy_the_model_cannot_predict_is_said_left_out(gp_file, tmp_path, capsys):
     """envfit's jitter has no model of MIS's shared shift: the default answer leaves mis out
     and says so before the answer; with every strategy modelled, no such note."""
-    from envfit.advisor._preset_options import PresetAdviseOptions
-    o = PresetAdviseOptions("envfit", sampler="jitter", normals=4)
+    from envfit.advisor._renderer_options import RendererAdviseOptions
+    o = RendererAdviseOptions("envfit", sampler="jitter", normals=4)
     assert "mis" not in o.strategies and len(o.notes) == 1
     assert o.notes[0].startswith("strategy mis (both techniques (MIS)) is left out")
-    assert PresetAdviseOptions("mitsuba3", normals=4).notes == []
+    assert RendererAdviseOptions("mitsuba3", normals=4).notes == []
     rc, lines, _, d = _run(capsys, tmp_path, gp_file, "--renderer", "envfit", "--sampler",
                            "jitter", "--renderer-normals", "4")
     assert rc == 0 and f"note: {o.notes[0]}" in lines and o.notes[0] in d["renderer"]["notes"]

@@ -180,7 +180,7 @@ from envfit.advisor._check import check_rows
 from envfit.advisor._model import MapModel, map_key, map_model
 from envfit.advisor._options import AdviseOptions
 from envfit.advisor._prediction import check_lobe_resolved
-from envfit.advisor._rule_rows import advise_renderer, run_renderer_check
+from envfit.advisor._rule_rows import advise_rule_rows, run_renderer_check
 from envfit.advisor._result import Advice, AdviceRow, recommendation_text
 from envfit.advisor._search import search_rules
 from envfit.base._errors import ParameterError
@@ -275,21 +275,30 @@ def _check_envmap(envmap) -> None:
         raise ParameterError(f"the map needs at least 4 rows, got {envmap.height}")
 
 
-def advise_with(envmap: EnvMap, options: AdviseOptions) -> Advice:
-    """The advisor's pipeline on ``envmap`` with checked ``options``: memory guard → the map's
-    model (scale, target, fit, τ) → curves and searches → rows and recommendation → check.
+def advise_with(envmap: EnvMap, options):
+    """The advisor's one entry point: ``options`` say what is asked, and each answer runs the
+    same steps — options checked on construction → the model → the search → a result.
+
+    * :class:`AdviseOptions`: envfit's own rules (:func:`_advise_rules`): memory guard → the
+      map's model (scale, target, fit, τ) → curves and searches → rows and recommendation →
+      check; an :class:`~envfit.advisor._result.Advice`.
+    * :class:`~envfit.advisor._renderer_options.RendererAdviseOptions`: a renderer's own
+      terms (:func:`~envfit.advisor._renderer_advice.advise_renderer_map`): the renderer's
+      model, asked through the predictor registry → the spp search → a
+      :class:`~envfit.advisor._renderer_advice.RendererAdvice`.
 
     Parameters
     ----------
     envmap : EnvMap
         The map on its raw (linear) values.
-    options : AdviseOptions
+    options : AdviseOptions or RendererAdviseOptions
         What to size, for which target, and how.
 
     Returns
     -------
-    Advice
-        The fit, the target and the rows sorted by cost, with timings, cache counts and notes.
+    Advice or RendererAdvice
+        The fit, the target and the rows sorted by cost, with timings, cache counts and notes;
+        or the spp per strategy of the renderer's sampler.
 
     Raises
     ------
@@ -300,11 +309,21 @@ def advise_with(envmap: EnvMap, options: AdviseOptions) -> Advice:
         A search or fit that cannot fit in memory, before any point is made
         (:func:`plan_advise_memory`).
     """
+    from envfit.advisor._renderer_options import RendererAdviseOptions
+    if isinstance(options, RendererAdviseOptions):
+        from envfit.advisor._renderer_advice import advise_renderer_map
+        return advise_renderer_map(envmap, options)
+    if not isinstance(options, AdviseOptions):
+        _check_envmap(envmap)
+        raise ParameterError(f"options must be AdviseOptions or RendererAdviseOptions, got "
+                             f"{type(options).__name__}")
+    return _advise_rules(envmap, options)
+
+
+def _advise_rules(envmap: EnvMap, opts: AdviseOptions) -> Advice:
+    """:func:`advise_with` of envfit's own rules."""
     t_start = time.perf_counter()
     _check_envmap(envmap)
-    if not isinstance(options, AdviseOptions):
-        raise ParameterError(f"options must be AdviseOptions, got {type(options).__name__}")
-    opts = options
     original, rss0 = envmap, rss_bytes()
     envmap, plan, plan_notes = _prediction_map(envmap, opts)
     plan_advise_memory(envmap, pointsets=opts.pointsets, weights=opts.weights, nmin=opts.nmin,
@@ -320,8 +339,9 @@ def advise_with(envmap: EnvMap, options: AdviseOptions) -> Advice:
     adv = _advice(envmap, opts, model, rows)
     setup = None
     if opts.renderer:
-        adv.renderer, setup = advise_renderer(envmap, model.scaled, map_key(envmap, opts.scale),
-                                              opts, model.target, model.mean_shading, store)
+        adv.renderer, setup = advise_rule_rows(envmap, model.scaled,
+                                               map_key(envmap, opts.scale), opts,
+                                               model.target, model.mean_shading, store)
     t_check = 0.0
     if opts.check:
         t2 = time.perf_counter()

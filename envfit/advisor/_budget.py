@@ -43,7 +43,7 @@ from envfit.shading._spectra import rule_power_cost, sh_analysis_cost
 from envfit.predict.warped._warped_spectrum import spectrum_nbytes
 
 __all__ = ["PREDICTION_MAX_HEIGHT", "MIN_HEIGHT", "advise_plan", "lobe_rows",
-           "prediction_height", "preset_plan", "check_preset_plan"]
+           "prediction_height", "renderer_plan", "check_renderer_plan"]
 
 #: the most rows the advisor's predictions use (see the module docstring)
 PREDICTION_MAX_HEIGHT = 1024
@@ -249,21 +249,21 @@ def prediction_height(envmap: EnvMap, opts: AdviseOptions) -> tuple[int, Plan]:
 #: loaded map, the three strategies, a 32x16 map, AMD EPYC): at L = 9 independent 376,
 #: ldsampler on its grid 490, zsobol 470, multijitter 460, orthogonal 460, envfit sobol 357;
 #: GGX (alpha 0.2) independent 465
-PRESET_BYTES_PER_POINT = 500
+RENDERER_BYTES_PER_POINT = 500
 #: bytes per shifted point of a digital shift sampled above its grid (Q x N points per N,
 #: ``PresetModelOptions.shifts``): ldsampler at L = 9 to 4096 spp measured +470 (diffuse),
 #: +200 (GGX) per point
-PRESET_BYTES_PER_SHIFTED = 500
+RENDERER_BYTES_PER_SHIFTED = 500
 #: bytes per (pool normal, pilot point) pair of the normals' proposal (the P x 4^pilot cosine
 #: matrix and its temporaries): 83.8 MB measured at P = 1024, pilot level 6
 PROPOSAL_BYTES_PER_PAIR = 20
 #: the frames' proposal of a microfacet BSDF: bytes per pool frame and fixed (compiled
 #: proxies per frame, numpy ones in blocks of 2^18 points): 52 MB measured for 8192 frames
-#: (GGX); its time ~0.3 ms a frame (``_preset_options.MICROFACET_POOL``)
+#: (GGX); its time ~0.3 ms a frame (``_renderer_options.MICROFACET_POOL``)
 PROPOSAL_MICROFACET_BYTES = (64, 200 * 2 ** 18)
 #: bytes per map pixel of the renderer's emitter technique: kept while the model runs, and at
-#: its construction's peak (measured on a 1024x512 map: Mitsuba 3 43 / 104, pbrt-v4 175 /
-#: 239, Cycles 268 / 548, envfit 32 / 64)
+#: its construction's peak (measured on a 1024x512 map, by renderer: from 32 / 64 to
+#: 268 / 548)
 TECHNIQUE_BYTES_PER_PIXEL = (300, 600)
 #: seconds per table point, normal (frame) and pass, by the sampler's randomisation (the rest:
 #: ``"other"``; a microfacet BSDF: ``"microfacet"``, every sampler; a digital shift's shifted
@@ -271,32 +271,32 @@ TECHNIQUE_BYTES_PER_PIXEL = (300, 600)
 #: points (times the footprint's normals with ``--sphere-pixels``). Calibrated with
 #: ``bench/preset_plan_check.py`` on forest.exr (1024x512, 16 normals, each sampler's default
 #: level, the cache off; AMD EPYC, 2 cores, load ~1): measured per point 0.35-0.45 µs
-#: (independent, L = 7; pbrt-v4's 1.5), 0.84-1.1 (jittered), 0.54-1.5 (nets, multi-jittering,
+#: (independent, L = 7; one renderer's 1.5), 0.84-1.1 (jittered), 0.54-1.5 (nets, multi-jittering,
 #: orthogonal arrays, L = 9), ldsampler 0.18 over its 2.4 M fine and shifted points, GGX
 #: 0.45-0.94; each constant at about the largest measured: a pass took 0.3-0.8x its plan.
 #: Owen-scrambled nets after the compiled lookups and the one sampled table (48 normals, 2 M
 #: fine and scrambled points each, load 0.75): 0.20 (zsobol), 0.28 (tabulated_sobol), 0.30
 #: (paddedsobol); ldsampler 0.25
-PRESET_SECONDS_PER_POINT = {"independent": 1.0e-6, "jittered": 1.2e-6, "digital_shift": 0.25e-6,
+RENDERER_SECONDS_PER_POINT = {"independent": 1.0e-6, "jittered": 1.2e-6, "digital_shift": 0.25e-6,
                             "owen": 0.4e-6, "other": 1.5e-6, "microfacet": 1.5e-6}
 #: the passes a search typically takes: one for the nets sampled above the grid (every coarse
 #: spp in one pass, the spp between them from the same tables), else 2 (1 to 4 measured:
 #: the coarse spp, the brackets)
-PRESET_PASSES = {"digital_shift": 1, "owen": 1, "other": 2}
+RENDERER_PASSES = {"digital_shift": 1, "owen": 1, "other": 2}
 
 
-def preset_passes(randomisation: str) -> int:
-    """The passes the plan counts for a sampler's randomisation (:data:`PRESET_PASSES`)."""
-    return PRESET_PASSES.get(randomisation, PRESET_PASSES["other"])
+def renderer_passes(randomisation: str) -> int:
+    """The passes the plan counts for a sampler's randomisation (:data:`RENDERER_PASSES`)."""
+    return RENDERER_PASSES.get(randomisation, RENDERER_PASSES["other"])
 
 
-def _preset_stages(pixels: int, opts, level: int, normals: int, max_spp: int) -> list:
-    """The renderer model's stages (:func:`preset_plan`) at ``level``, ``normals`` and
+def _renderer_stages(pixels: int, opts, level: int, normals: int, max_spp: int) -> list:
+    """The renderer model's stages (:func:`renderer_plan`) at ``level``, ``normals`` and
     ``max_spp`` (the other options as in ``opts``)."""
-    from envfit.advisor._preset_options import MICROFACET_POOL, spp_cap
+    from envfit.advisor._renderer_options import MICROFACET_POOL, spp_cap
     from envfit.predict.renderer._preset_model import PresetModelOptions
     m = opts.model_options()
-    rand = opts.preset.sampler(opts.sampler).randomisation
+    rand = opts.record.sampler(opts.sampler).randomisation
     base = (MICROFACET_POOL if opts.microfacet and opts.bsdf != "roughplastic"
             else PresetModelOptions().pool)
     pool = max(base, normals)                                 # as opts.model_options()
@@ -309,10 +309,10 @@ def _preset_stages(pixels: int, opts, level: int, normals: int, max_spp: int) ->
     shifted = (int(m.shifts * cap)
                if rand in ("digital_shift", "owen") and 2 * cap > 1 << level else 0)
     what = "frames" if opts.microfacet else "normals"
-    tables = PRESET_BYTES_PER_POINT * fine * (1 + (foot > 1))
-    per_point = PRESET_SECONDS_PER_POINT["microfacet" if opts.microfacet else rand] \
-        if opts.microfacet or rand in PRESET_SECONDS_PER_POINT else \
-        PRESET_SECONDS_PER_POINT["other"]
+    tables = RENDERER_BYTES_PER_POINT * fine * (1 + (foot > 1))
+    per_point = RENDERER_SECONDS_PER_POINT["microfacet" if opts.microfacet else rand] \
+        if opts.microfacet or rand in RENDERER_SECONDS_PER_POINT else \
+        RENDERER_SECONDS_PER_POINT["other"]
     return [
         Stage("the emitter technique", TECHNIQUE_BYTES_PER_PIXEL[1] * pixels, 1e-6 * pixels,
               f"{pixels} pixels"),
@@ -322,8 +322,8 @@ def _preset_stages(pixels: int, opts, level: int, normals: int, max_spp: int) ->
               3e-4 * pool if opts.microfacet else 1e-8 * pool * pilot,
               f"{pool} {what} x {pilot} pilot points",
               "--renderer-normals" if normals > base else ""),
-        Stage("the model's passes", tables + PRESET_BYTES_PER_SHIFTED * shifted,
-              preset_passes(rand) * normals * per_point * (fine * foot + shifted),
+        Stage("the model's passes", tables + RENDERER_BYTES_PER_SHIFTED * shifted,
+              renderer_passes(rand) * normals * per_point * (fine * foot + shifted),
               f"{normals} {what}, tables of {fine} points"
               + (f", {shifted} {'scrambled' if rand == 'owen' else 'shifted'} points to {cap} spp"
                  if shifted else ""),
@@ -331,23 +331,24 @@ def _preset_stages(pixels: int, opts, level: int, normals: int, max_spp: int) ->
     ]
 
 
-def preset_plan(pixels: int, opts, *, resident: int = 0) -> Plan:
+def renderer_plan(pixels: int, opts, *, resident: int = 0) -> Plan:
     """The memory and time plan of the renderer model of ``envfit advise --renderer`` on a map
-    of ``pixels`` pixels with :class:`~envfit.advisor._preset_options.PresetAdviseOptions`
+    of ``pixels`` pixels with :class:`~envfit.advisor._renderer_options.RendererAdviseOptions`
     ``opts``, before any of it runs: the emitter technique (per map pixel), the normals'
     (frames') proposal (pool × pilot table) and the passes (the finest table's 4^(L+1)
     points, a digital shift's or Owen scrambling's Q·N shifted (scrambled) points where it is
     sampled above its grid; seconds:
-    :func:`preset_passes` passes of K normals at :data:`PRESET_SECONDS_PER_POINT` per point).
+    :func:`renderer_passes` passes of K normals at :data:`RENDERER_SECONDS_PER_POINT` per point).
     ``resident``: bytes held throughout (the map); the technique's kept bytes are added.
 
-    >>> from envfit.advisor._preset_options import PresetAdviseOptions
-    >>> p = preset_plan(512 * 256, PresetAdviseOptions("mitsuba3", sampler="ldsampler",
-    ...                                                 level=9))
+    >>> from envfit.advisor._renderer_options import RendererAdviseOptions
+    >>> from envfit.renderers import RENDERERS
+    >>> name = next(n for n, r in RENDERERS.items() if "ldsampler" in r.samplers)
+    >>> p = renderer_plan(512 * 256, RendererAdviseOptions(name, sampler="ldsampler", level=9))
     >>> p.worst().name, p.worst().option, round(p.peak() / 1e9, 1)
     ("the model's passes", '--renderer-level', 1.1)
     """
-    stages = _preset_stages(int(pixels), opts, opts.level, opts.normals, opts.max_spp)
+    stages = _renderer_stages(int(pixels), opts, opts.level, opts.normals, opts.max_spp)
     return Plan("the renderer model", stages,
                 resident=int(resident) + TECHNIQUE_BYTES_PER_PIXEL[0] * int(pixels))
 
@@ -359,7 +360,7 @@ def _largest_fitting(pixels: int, opts, option: str, resident: int, budget: int)
 
     def fits(v: int) -> bool:
         kw = {**now, option: v}
-        st = _preset_stages(pixels, opts, kw["--renderer-level"], kw["--renderer-normals"],
+        st = _renderer_stages(pixels, opts, kw["--renderer-level"], kw["--renderer-normals"],
                             kw["--nmax"])
         return Plan("", st, resident=resident).fits(budget)
 
@@ -369,12 +370,12 @@ def _largest_fitting(pixels: int, opts, option: str, resident: int, budget: int)
     if v < 1 or not fits(v):
         return None
     if option == "--nmax":                    # the largest spp the sampler runs up to it
-        v = opts.preset.sampler(opts.sampler).runnable(v)[-1]
+        v = opts.record.sampler(opts.sampler).runnable(v)[-1]
     return v
 
 
-def check_preset_plan(envmap: EnvMap, opts) -> Plan:
-    """:func:`preset_plan` of ``envmap`` checked against the memory budget before the model
+def check_renderer_plan(envmap: EnvMap, opts) -> Plan:
+    """:func:`renderer_plan` of ``envmap`` checked against the memory budget before the model
     is built; returns the plan.
 
     Raises
@@ -389,7 +390,7 @@ def check_preset_plan(envmap: EnvMap, opts) -> Plan:
     """
     pixels = envmap.width * envmap.height
     resident = int(getattr(envmap.data, "nbytes", 0))
-    plan = preset_plan(pixels, opts, resident=resident)
+    plan = renderer_plan(pixels, opts, resident=resident)
     budget = memory_budget_bytes()
     if plan.fits(budget):
         return plan

@@ -111,7 +111,7 @@ class Advice:
     centres); ``lookup_transfer`` is τ_l, l = 0…H − 1; ``map_power`` the mean over channels
     of the interpolant's realised power per degree :math:`\\hat P_l`, l = 0…``spectral_lmax``
     (prediction (c)); ``warnings`` the rows' disagreement lines; ``renderer`` the renderer
-    rows (:class:`envfit.advisor._rule_rows.RendererAdvice`) or None.
+    rows (:class:`envfit.advisor._rule_rows.RuleRowsAdvice`) or None.
     """
 
     map: str
@@ -166,7 +166,7 @@ class Advice:
     def to_dict(self) -> dict:
         """Every field, the rows with their ``reached``, ``label`` and ``predicted_rmse_used``
         (the prediction of their ``predictor``; what ``--json`` writes), and the renderer
-        section (:meth:`envfit.advisor._rule_rows.RendererAdvice.to_dict`; None without it)."""
+        section (:meth:`envfit.advisor._rule_rows.RuleRowsAdvice.to_dict`; None without it)."""
         ren, self.renderer = self.renderer, None
         try:
             d = asdict(self)

@@ -3,7 +3,7 @@ importance sampling, MIS and the source split, with a given point set, for the t
 
 A renderer rule (:class:`envfit.sampling.RendererRule`) is a strategy of
 :data:`~envfit.sampling.STRATEGIES` — ``brdf`` (BRDF sampling), ``map`` (map
-importance sampling ∝ luminance × solid angle, pbrt/Mitsuba style), ``mis`` (multi-sample
+importance sampling ∝ luminance × solid angle, as physically based renderers do), ``mis`` (multi-sample
 MIS, balance heuristic, N/2 each) or ``split`` (the bright sources integrated exactly, MIS on
 the rest of the map) — a point set and N. Its RMSE over uniform axes is predicted from the
 warped integrand's spectrum (:func:`envfit.predict.renderer_model`, once per map, lobe and
@@ -91,9 +91,9 @@ from envfit.predict import PredictionContext, RendererModel, predict, renderer_p
 from envfit.sampling import STRATEGIES, RendererRule
 
 __all__ = ["RENDERER_GRID", "RENDERER_SPECTRUM_AXES", "DEFAULT_STRATEGIES",
-           "DEFAULT_RENDERER_POINTSETS", "STRATEGY_NAMES", "RendererRow", "RendererAdvice",
+           "DEFAULT_RENDERER_POINTSETS", "STRATEGY_NAMES", "RendererRow", "RuleRowsAdvice",
            "renderer_n_grid", "search_renderer_row", "best_renderer_row",
-           "renderer_recommendation", "check_renderer_rows", "advise_renderer"]
+           "renderer_recommendation", "check_renderer_rows", "advise_rule_rows"]
 
 # RENDERER_GRID (envfit.defaults): the warped spectra's grid G for advise (the box B = G/4;
 # QMC exact to N ≈ (G/8)²)
@@ -342,7 +342,7 @@ def check_renderer_rows(setup: RendererSetup, rows, brdf: str, shininess: float,
 # ----------------------------------------------------------------------------- all rows
 
 @dataclass
-class RendererAdvice:
+class RuleRowsAdvice:
     """The renderer section of :class:`envfit.advisor._result.Advice`: the rows (sorted by
     cost, unreached last), the recommendation, the sources and the model's resolution."""
 
@@ -403,8 +403,8 @@ def _sort(rows) -> list[RendererRow]:
     return sorted(rows, key=lambda r: (r.cost is None, r.cost or 0, r.predicted_rmse, r.label))
 
 
-def advise_renderer(envmap: EnvMap, scaled: EnvMap, map_key: dict, opts, target: float,
-                    mean: float, store: AdviseCache) -> tuple[RendererAdvice, RendererSetup]:
+def advise_rule_rows(envmap: EnvMap, scaled: EnvMap, map_key: dict, opts, target: float,
+                    mean: float, store: AdviseCache) -> tuple[RuleRowsAdvice, RendererSetup]:
     """The renderer rows of ``opts`` (:class:`~envfit.advisor._options.AdviseOptions`:
     ``strategies``, ``renderer_pointsets``, ``nmin``, ``nmax``, ``renderer_grid``,
     ``renderer_spectrum_axes``, ``check``) on ``scaled`` (the map on the options' scale),
@@ -421,7 +421,7 @@ def advise_renderer(envmap: EnvMap, scaled: EnvMap, map_key: dict, opts, target:
                                 full_curve=opts.renderer_curves)
             for s in opts.strategies for ps in opts.renderer_pointsets]
     rows = _sort(rows)
-    sec = RendererAdvice(
+    sec = RuleRowsAdvice(
         rows=rows, recommendation=renderer_recommendation(rows, target, mean,
                                                           opts.target_relative),
         target_rmse=target, strategies=list(opts.strategies),
@@ -433,7 +433,7 @@ def advise_renderer(envmap: EnvMap, scaled: EnvMap, map_key: dict, opts, target:
     return sec, setup
 
 
-def run_renderer_check(sec: RendererAdvice, setup: RendererSetup, opts) -> None:
+def run_renderer_check(sec: RuleRowsAdvice, setup: RendererSetup, opts) -> None:
     """``check``: :func:`check_renderer_rows` on every reached row with the options' seed and
     axes, and the summary in ``sec.check``."""
     t0 = time.perf_counter()

@@ -4,7 +4,8 @@ executors, the driver loop and the library report.
 Modules:
 
 * :mod:`~envfit.batch._advise_renderer` — The Python entry point of the renderer answer,
-  ``envfit.advise_renderer``: one map (:func:`envfit.advisor.advise_preset`) or a library.
+  ``envfit.advise_renderer``: one map (:func:`envfit.advisor.advise_with` of
+  :class:`~envfit.advisor.RendererAdviseOptions`) or a library.
 * :mod:`~envfit.batch._executor` — Where a sweep's tasks run: in this process, a local
   process pool, or a dask cluster.
 * :mod:`~envfit.batch._fit_tasks` — Worker-side tasks of a library fit: sample a map;

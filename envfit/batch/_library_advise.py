@@ -2,11 +2,11 @@ r"""A library of maps advised in a renderer's terms: ``envfit advise DIR|GLOB|FI
 --renderer NAME`` — one row per map (the spp of every strategy, the recommendation and its
 predicted RMSE) and the spp that meets the target on 50, 90 and 100 % of the maps.
 
-Each map is one task (:func:`_advise_map`: load the map, :func:`~envfit.advisor._preset.
-advise_preset` on it, return its row) run where :class:`~envfit.batch.LibraryOptions` says:
+Each map is one task (:func:`_advise_map`: load the map,
+:func:`~envfit.advisor._renderer_advice.advise_renderer_map` on it, return its row) run where :class:`~envfit.batch.LibraryOptions` says:
 inline, on a local process pool or on a dask cluster (:mod:`envfit.batch._executor`, the
 driver :func:`envfit.batch._scheduler.drive`). The options are checked once, before any map
-is read (:class:`~envfit.advisor._preset_options.PresetAdviseOptions`); the maps are
+is read (:class:`~envfit.advisor._renderer_options.RendererAdviseOptions`); the maps are
 resolved without being read (:func:`envfit.maps._lazy_maps.resolve_map_sources`), so a
 missing file, an empty folder or a pattern matching nothing is one line before the work.
 
@@ -32,11 +32,13 @@ Example
 -------
 >>> import numpy as np, tempfile
 >>> from envfit.maps import EnvMap
->>> from envfit.advisor._preset_options import PresetAdviseOptions
+>>> from envfit.advisor._renderer_options import RendererAdviseOptions
 >>> from envfit.batch import LibraryOptions
 >>> rng = np.random.default_rng(0)
 >>> maps = [EnvMap(rng.random((8, 16, 3)) + 0.5, name=f"m{k}.exr") for k in range(3)]
->>> opts = PresetAdviseOptions("mitsuba3", sampler="independent", normals=4, level=3)
+>>> from envfit.renderers import RENDERERS
+>>> name = next(n for n, r in RENDERERS.items() if "independent" in r.samplers)
+>>> opts = RendererAdviseOptions(name, sampler="independent", normals=4, level=3)
 >>> lib = advise_library(maps, opts, target_relative=0.05, cache_dir=tempfile.mkdtemp(),
 ...                      library=LibraryOptions(workers=1))
 >>> [r.slug for r in lib.rows], [c["fraction"] for c in lib.coverage]
@@ -187,13 +189,13 @@ def coverage(rows: Sequence[MapRow],
 
 def _advise_map(source, opts, target_rmse, target_relative, cache: bool, cache_dir) -> dict:
     """The task of one map (runs on a worker): load it, advise it, return its row (a dict)."""
-    from envfit.advisor._preset import advise_preset
+    from envfit.advisor._renderer_advice import advise_renderer_map
     from dataclasses import replace
     t0 = time.perf_counter()
     env = source.load()
-    adv = advise_preset(env, replace(opts, quiet=True),      # the driver's bar is over maps
-                        target_rmse=target_rmse, target_relative=target_relative,
-                        filename=source.path or source.label, cache=cache, cache_dir=cache_dir)
+    adv = advise_renderer_map(env, replace(                     # the driver's bar is over maps
+        opts, quiet=True, target_rmse=target_rmse, target_relative=target_relative,
+        filename=source.path or source.label, cache=cache, cache_dir=cache_dir))
     rec = adv.recommendation
     answers = {a["strategy"]: {k: a[k] for k in ("spp", "reached", "predicted_rmse",
                                                  "searched_max")}
@@ -239,7 +241,7 @@ def advise_library(maps: Sequence, opts, *, target_rmse: float | None = None,
     maps : sequence
         Files, folders, glob patterns or :class:`~envfit.maps.EnvMap` objects
         (:func:`~envfit.maps._lazy_maps.resolve_map_sources`).
-    opts : PresetAdviseOptions
+    opts : RendererAdviseOptions
         The renderer, sampler, strategies and model resolution, one for every map.
     target_rmse, target_relative : float, optional
         The target (at most one; default 1 % of each map's mean radiance).
@@ -330,8 +332,8 @@ def _compute(missing: list, args: tuple, library, done: Callable, lib: LibraryAd
 
 def _task_bytes(opts, missing) -> int:
     """The peak of one map's task: the renderer model's plan
-    (:func:`envfit.advisor._budget.preset_plan`) on the largest missing map, with the map
+    (:func:`envfit.advisor._budget.renderer_plan`) on the largest missing map, with the map
     itself resident (float32, 4 channels at most)."""
-    from envfit.advisor._budget import preset_plan
+    from envfit.advisor._budget import renderer_plan
     pixels = max((s.pixels() for s in missing), default=0)
-    return preset_plan(pixels, opts, resident=16 * pixels).peak()
+    return renderer_plan(pixels, opts, resident=16 * pixels).peak()

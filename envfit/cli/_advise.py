@@ -1,17 +1,25 @@
-"""``envfit advise``: how many samples, or which SH/HSH degree, for this map, BRDF and target error."""
+"""``envfit advise``: how many samples, or which SH/HSH degree, for this map, BRDF and target error.
+
+This module parses the command line and picks the run by what is asked; each run builds its
+checked options, calls :func:`envfit.advisor.advise_with` (or the library's driver) and prints:
+:mod:`~envfit.cli._advise_rules` (envfit's own rules), :mod:`~envfit.cli._advise_renderer`
+(``--renderer``: a renderer's own terms) and :mod:`~envfit.cli._advise_library` (several maps).
+"""
 from __future__ import annotations
 
 import argparse
+import time
 from pathlib import Path
 
-from envfit.base._notes import NoteKind, note_kind
 from envfit.defaults import (ADVISE_RENDERER_POINTSETS, ALL_POINTSETS, BRDFS,
                              DEFAULT_POINTSETS, DEFAULT_SHININESS, MICROFACET_BSDF_WORDS,
                              MICROFACET_BSDFS, PREDICTOR_CHOICES, WEIGHTINGS)
 from envfit.cli._common import (add_common_arguments, add_executor_arguments, add_map_arguments,
-                                library_mode, load_map_from_args, out_dir)
-from envfit.cli._advise_preset import add_preset_arguments, reject_without_renderer, run_preset
-from envfit.cli._advise_rules import check_lines, header_lines, options_from_args, renderer_lines
+                                library_mode)
+from envfit.cli._advise_library import check_library, run_library
+from envfit.cli._advise_renderer import (add_renderer_arguments, reject_without_renderer,
+                                         renderer_options_from_args, run_renderer)
+from envfit.cli._advise_rules import run_rules
 from envfit.cli._output import CommandOutput
 from envfit.cli._ranges import Ranged, distinct_names, state_common_ranges
 
@@ -46,7 +54,7 @@ def register(sub) -> None:
     _add_target_arguments(p)
     _add_search_arguments(p)
     _add_check_and_cache_arguments(p)
-    add_preset_arguments(p)
+    add_renderer_arguments(p)
     add_executor_arguments(p)
     add_common_arguments(p)
     state_common_ranges(p)
@@ -162,65 +170,21 @@ def _prepare_maps(args: argparse.Namespace) -> None:
     otherwise ``args.map`` becomes the one path (or None: the built-in map)."""
     args.library = library_mode(args)
     if args.library:
-        from envfit.cli._advise_library import check_library
         check_library(args)
     else:
         args.map = args.map[0] if args.map else None
 
 
 def run(args: argparse.Namespace, output: CommandOutput) -> int:
-    from envfit.advisor._advise import advise_with
-    from envfit.base._atomic import atomic_write_csv, atomic_write_json
+    """``envfit advise``: what is asked picks the run — a library of maps (in a renderer's
+    terms), one map in a renderer's terms (``--renderer``), or envfit's own rules — each
+    options → :func:`envfit.advisor.advise_with` (or the library's driver) → print."""
     _prepare_maps(args)
     if args.renderer is not None:
-        return run_preset(args, output)
+        t0 = time.perf_counter()
+        ropts, rules = renderer_options_from_args(args)   # one line, before the map
+        if args.library:
+            return run_library(args, output, ropts)
+        return run_renderer(args, output, ropts, rules, t0)
     reject_without_renderer(args)
-    opts = options_from_args(args)          # bad names and values: one line, before the map
-    env = load_map_from_args(args)
-    out = out_dir(args)
-    output.say(*(f"note: {n}" for n in env.notes))      # the map's notes, before the work
-    adv = advise_with(env, opts)
-    said_before = output.has_note(NoteKind.CACHE_OFF)    # on stderr, before the work
-    for note in adv.notes:
-        if (said_before and note_kind(note) is NoteKind.CACHE_OFF) or note in env.notes:
-            continue
-        output.say(f"note: {note}")
-    output.say(*header_lines(adv), *adv.table_lines(), *renderer_lines(adv),
-               *(f"warning: {w}" for w in adv.warnings), adv.recommendation)
-    output.answer(adv.recommendation)                   # --quiet: the answer alone
-    if adv.renderer is not None:
-        output.say(adv.renderer.recommendation)
-    if adv.check is not None:
-        output.say(*check_lines(adv))
-    t = adv.timings
-    output.say(f"({t['total']:.1f} s: fit {t['fit']:.1f}, search {t['search']:.1f}"
-               + (f", renderer model {t['renderer_model']:.1f}, renderer rows "
-                 f"{t['renderer_search']:.1f}" if adv.renderer is not None else "")
-               + (f", check {t['check']:.1f}" if adv.check is not None else "")
-               + (f", renderer check {t['renderer_check']:.1f}" if "renderer_check" in t else "")
-               + f"; cache {adv.cache['hits']} hit(s), {adv.cache['writes']} write(s))")
-    d = adv.to_dict()
-    if out is not None and adv.renderer is not None:
-        from envfit.plots._advise import plot_advise
-        png = output.guarded_write(out / "advise.png", plot_advise, d, out / "advise.png")
-        if png is not None:
-            output.say(f"wrote {png}")
-    if out is not None:
-        from envfit.plots._advise_rules import plot_advise_rules
-        png = output.guarded_write(out / "advise_rules.png", plot_advise_rules, d,
-                                   out / "advise_rules.png")
-        if png is not None:
-            output.say(f"wrote {png}")
-        cols = ["label", "method", "pointset", "weights", "n", "L", "cost", "predictor",
-                "predicted_rmse", "predicted_rmse_spectral", "predicted_rmse_spectral_band",
-                "predicted_rmse_plain", "measured_rmse", "measured_over_predicted", "note"]
-        csv_path = output.guarded_write(out / "advise.csv", atomic_write_csv, out / "advise.csv",
-                                        cols, [[r.get(c) for c in cols] for r in d["rows"]])
-        json_path = output.guarded_write(out / "advise.json", atomic_write_json,
-                                         out / "advise.json", d)
-        d["files"] = {k: str(v) for k, v in (("csv", csv_path), ("json", json_path))
-                      if v is not None}
-        if d["files"]:
-            output.say("wrote " + " and ".join(d["files"].values()))
-    output.emit_json(d)
-    return 0
+    return run_rules(args, output)

@@ -30,9 +30,10 @@ def check_library(args: argparse.Namespace) -> None:
     """One line (:class:`ParameterError`) for a library run's refused options, before any map
     is read."""
     if args.renderer is None:
-        raise ParameterError("several maps (a folder, a pattern, --executor/--workers) are "
-                             "advised in a renderer's terms: give --renderer (mitsuba3, "
-                             "pbrt4, cycles, envfit); envfit's rule tables take one map")
+        from envfit.renderers import RENDERERS
+        raise ParameterError(f"several maps (a folder, a pattern, --executor/--workers) are "
+                             f"advised in a renderer's terms: give --renderer "
+                             f"({', '.join(RENDERERS)}); envfit's rule tables take one map")
     for dest, (flag, why) in LIBRARY_REFUSED.items():
         if getattr(args, dest, False):
             raise ParameterError(f"{flag} is not taken with several maps: {why}")

@@ -1,13 +1,16 @@
-"""envfit's own rules in ``envfit advise``: their options from the command line and their
-printed answer (the head, the renderer rows' section, the check), shared by the plain
-command (``_advise``) and ``--renderer --rules`` (``_advise_preset``)."""
+"""envfit's own rules in ``envfit advise``: their options from the command line, their run
+(:func:`run_rules`) and their printed answer (the head, the renderer rows' section, the check),
+which ``--renderer --rules`` (:mod:`~envfit.cli._advise_renderer`) prints too."""
 from __future__ import annotations
 
 import argparse
 
 from envfit.base._errors import ParameterError
+from envfit.base._notes import NoteKind, note_kind
+from envfit.cli._output import CommandOutput
 
-__all__ = ["header_lines", "check_lines", "renderer_lines", "options_from_args"]
+__all__ = ["header_lines", "check_lines", "renderer_lines", "options_from_args", "run_rules",
+           "rules_lines"]
 
 
 def header_lines(adv) -> list[str]:
@@ -120,3 +123,70 @@ def _check_pairs(args: argparse.Namespace, defaults) -> None:
         raise ParameterError(f"{hi} {top} is below " + (
             f"{lo} {bottom}" if bottom is not None else
             f"the default {lo} {getattr(defaults, lo_dest)}"))
+
+
+def rules_lines(rules_adv) -> list[str]:
+    """``--renderer --rules``: envfit's rules' answer under its heading."""
+    out = ["envfit's rules (quadrature and SH/HSH truncation on this map, as without "
+           "--renderer):", *header_lines(rules_adv), *rules_adv.table_lines(),
+           *(f"warning: {w}" for w in rules_adv.warnings), rules_adv.recommendation]
+    if rules_adv.check is not None:
+        out += check_lines(rules_adv)
+    return out
+
+
+def run_rules(args: argparse.Namespace, output: CommandOutput) -> int:
+    """``envfit advise MAP`` without ``--renderer``: options → map (its notes said) →
+    :func:`envfit.advisor.advise_with` → print → files and JSON."""
+    from envfit.advisor._advise import advise_with
+    from envfit.base._atomic import atomic_write_csv, atomic_write_json
+    from envfit.cli._common import load_map_from_args, out_dir
+    opts = options_from_args(args)          # bad names and values: one line, before the map
+    env = load_map_from_args(args)
+    out = out_dir(args)
+    output.say(*(f"note: {n}" for n in env.notes))      # the map's notes, before the work
+    adv = advise_with(env, opts)
+    said_before = output.has_note(NoteKind.CACHE_OFF)    # on stderr, before the work
+    for note in adv.notes:
+        if (said_before and note_kind(note) is NoteKind.CACHE_OFF) or note in env.notes:
+            continue
+        output.say(f"note: {note}")
+    output.say(*header_lines(adv), *adv.table_lines(), *renderer_lines(adv),
+               *(f"warning: {w}" for w in adv.warnings), adv.recommendation)
+    output.answer(adv.recommendation)                   # --quiet: the answer alone
+    if adv.renderer is not None:
+        output.say(adv.renderer.recommendation)
+    if adv.check is not None:
+        output.say(*check_lines(adv))
+    t = adv.timings
+    output.say(f"({t['total']:.1f} s: fit {t['fit']:.1f}, search {t['search']:.1f}"
+               + (f", renderer model {t['renderer_model']:.1f}, renderer rows "
+                 f"{t['renderer_search']:.1f}" if adv.renderer is not None else "")
+               + (f", check {t['check']:.1f}" if adv.check is not None else "")
+               + (f", renderer check {t['renderer_check']:.1f}" if "renderer_check" in t else "")
+               + f"; cache {adv.cache['hits']} hit(s), {adv.cache['writes']} write(s))")
+    d = adv.to_dict()
+    if out is not None and adv.renderer is not None:
+        from envfit.plots._advise import plot_advise
+        png = output.guarded_write(out / "advise.png", plot_advise, d, out / "advise.png")
+        if png is not None:
+            output.say(f"wrote {png}")
+    if out is not None:
+        from envfit.plots._advise_rules import plot_advise_rules
+        png = output.guarded_write(out / "advise_rules.png", plot_advise_rules, d,
+                                   out / "advise_rules.png")
+        if png is not None:
+            output.say(f"wrote {png}")
+        cols = ["label", "method", "pointset", "weights", "n", "L", "cost", "predictor",
+                "predicted_rmse", "predicted_rmse_spectral", "predicted_rmse_spectral_band",
+                "predicted_rmse_plain", "measured_rmse", "measured_over_predicted", "note"]
+        csv_path = output.guarded_write(out / "advise.csv", atomic_write_csv, out / "advise.csv",
+                                        cols, [[r.get(c) for c in cols] for r in d["rows"]])
+        json_path = output.guarded_write(out / "advise.json", atomic_write_json,
+                                         out / "advise.json", d)
+        d["files"] = {k: str(v) for k, v in (("csv", csv_path), ("json", json_path))
+                      if v is not None}
+        if d["files"]:
+            output.say("wrote " + " and ".join(d["files"].values()))
+    output.emit_json(d)
+    return 0

@@ -178,8 +178,8 @@ def map_convention(args: argparse.Namespace):
     """The :mod:`envfit.maps._conventions` entry ``--convention`` names, or None.
 
     :class:`ParameterError` (one line, exit 2) for an unknown name, for ``--convention``
-    together with ``--up`` (the convention fixes the up axis), and for ``pbrt4`` (not
-    lat-long). ``main`` runs it before any work (:func:`preflight_outputs`).
+    together with ``--up`` (the convention fixes the up axis), and for a layout that is not
+    lat-long (:class:`~envfit.maps._conventions.NotLatLong`). ``main`` runs it before any work (:func:`preflight_outputs`).
     """
     from envfit.base._errors import ParameterError
     from envfit.maps._conventions import NotLatLong, convention

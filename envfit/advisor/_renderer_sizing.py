@@ -2,13 +2,13 @@ r"""The renderer model sized to its own error: a cheap pilot, then the normals a
 the answer needs.
 
 The model of a sampled net (Owen scrambling, a digital shift:
-:data:`~envfit.advisor._preset_options.SIZED_RANDOMISATIONS`) samples two things, and each
+:data:`~envfit.advisor._renderer_options.SIZED_RANDOMISATIONS`) samples two things, and each
 prediction carries the relative standard error of its RMSE from both
 (:mod:`envfit.predict.renderer._model_error`): the normals (K, importance-sampled from a
 spherical Fibonacci pool; error :math:`e_n \propto 1/\sqrt K`) and the random scrambles of the
 net above the grid (Q; :math:`e_s \propto 1/\sqrt Q`). The grid level matters little once the
 power above the grid is sampled — the grid is a control variate — so the sized model runs at
-:data:`~envfit.advisor._preset_options.AUTO_LEVEL` and spends its time where the error is.
+:data:`~envfit.advisor._renderer_options.AUTO_LEVEL` and spends its time where the error is.
 
 1. **Pilot**: K₀ = 48 normals, Q₀ = 16 scrambles at level 7 (a pass costs ~1/14 of the
    unsized model's: level 9, Q = 256); the search runs to the answer.
@@ -20,7 +20,7 @@ power above the grid is sampled — the grid is a control variate — so the siz
    predicted error — and the search runs again with those (:func:`sized_options`).
 
 Samplers without sampled nets (independent points, stratified:
-:data:`~envfit.advisor._preset_options.NORMALS_SIZED_RANDOMISATIONS`) are sized in their
+:data:`~envfit.advisor._renderer_options.NORMALS_SIZED_RANDOMISATIONS`) are sized in their
 normals alone: the pilot's 48, then the fewest of :data:`NORMALS` whose predicted error
 :math:`e_n\sqrt{K_0/K}` meets the target.
 
@@ -32,9 +32,9 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 
-from envfit.advisor._budget import preset_plan
+from envfit.advisor._budget import renderer_plan
 from envfit.advisor._cache import AdviseCache
-from envfit.advisor._preset_search import (StrategyAnswer, answer_error, search_model,
+from envfit.advisor._renderer_search import (StrategyAnswer, answer_error, search_model,
                                            switched_strategy)
 from envfit.base._resources import memory_budget_bytes
 
@@ -125,10 +125,10 @@ def predicted_error(opts, parts, final) -> float:
 
 def sized_search(envmap, opts, store: AdviseCache, target: float,
                  listed):
-    """The search (:func:`~envfit.advisor._preset_search.search_model`); for a sized model
+    """The search (:func:`~envfit.advisor._renderer_search.search_model`); for a sized model
     (``opts.auto``) the pilot's, then, where its error at the recommended strategy's answer
     (the renderer's default, or the cheaper one the pilot's answers recommend:
-    :func:`~envfit.advisor._preset_search.switched_strategy`) exceeds the target, a larger
+    :func:`~envfit.advisor._renderer_search.switched_strategy`) exceeds the target, a larger
     model's for that strategy (to :func:`_final_reach`; the other strategies keep the
     pilot's answers). Returns (the final model's options, the cached model per
     strategy, the answers, the pilot's figures or None, every cached model searched)."""
@@ -162,11 +162,11 @@ def sized_search(envmap, opts, store: AdviseCache, target: float,
 
 def _sized_strategy(opts, answers: dict) -> str:
     """The strategy a sized model sizes: the one its answers recommend (the renderer's
-    default or :func:`~envfit.advisor._preset_search.switched_strategy`); unsized, the
+    default or :func:`~envfit.advisor._renderer_search.switched_strategy`); unsized, the
     first asked."""
     if not opts.auto:
         return opts.strategies[0]
-    return switched_strategy(answers, opts.preset, opts.default_strategy) or opts.default_strategy
+    return switched_strategy(answers, opts.record, opts.default_strategy) or opts.default_strategy
 
 
 def _unit(opts) -> str:
@@ -185,10 +185,10 @@ def _size_words(m, unit: str = "normals") -> str:
 
 def _fits_memory(envmap):
     """Whether a model's plan on ``envmap`` fits the memory budget
-    (:func:`~envfit.advisor._budget.check_preset_plan`'s test)."""
+    (:func:`~envfit.advisor._budget.check_renderer_plan`'s test)."""
     pixels = envmap.width * envmap.height
     resident, budget = int(getattr(envmap.data, "nbytes", 0)), memory_budget_bytes()
-    return lambda o: preset_plan(pixels, o, resident=resident).fits(budget)
+    return lambda o: renderer_plan(pixels, o, resident=resident).fits(budget)
 
 
 def _final_reach(opts, a: StrategyAnswer, listed, error: float = 0.0) -> int | None:
@@ -211,7 +211,7 @@ def _final_reach(opts, a: StrategyAnswer, listed, error: float = 0.0) -> int | N
 
 
 def model_dict(opts, by: dict, answers: dict, pilot, cms) -> dict:
-    """What the model was and what the searches ``cms`` cost (:attr:`PresetAdvice.model`)."""
+    """What the model was and what the searches ``cms`` cost (:attr:`RendererAdvice.model`)."""
     m = opts.model_options()
     out = {"normals": m.normals, "unit": _unit(opts), "level": opts.level, "shifts": m.shifts,
            "reach": m.reach,
@@ -232,7 +232,7 @@ def model_dict(opts, by: dict, answers: dict, pilot, cms) -> dict:
 
 def model_error_lines(m: dict, a) -> list[str]:
     """The model's own error at the answer ``a`` (a
-    :class:`~envfit.advisor._preset_search.StrategyAnswer`) from the model dict ``m``
+    :class:`~envfit.advisor._renderer_search.StrategyAnswer`) from the model dict ``m``
     (:func:`model_dict`), and how the sized model got there."""
     e = m.get("model_se", {}).get(a.strategy)
     if not e:

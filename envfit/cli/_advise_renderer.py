@@ -1,5 +1,7 @@
 """``envfit advise MAP --renderer NAME``: the answer in the renderer's own terms (spp of its
-sampler, its integrator's settings, the scene text), from :mod:`envfit.advisor._preset`.
+sampler, its integrator's settings, the scene text): its arguments, its checked options
+(:class:`~envfit.advisor.RendererAdviseOptions`), its run through
+:func:`envfit.advisor.advise_with` and its print.
 
 Without ``--renderer`` none of this runs and ``envfit advise`` is unchanged; the options of
 this module given without it are one-line errors (:func:`reject_without_renderer`).
@@ -11,6 +13,8 @@ import time
 from pathlib import Path
 
 from envfit.base._errors import ParameterError
+from envfit.cli._advise_rules import options_from_args, rules_lines
+from envfit.cli._common import load_map_from_args, out_dir
 from envfit.cli._parse import finite_float
 from envfit.cli._output import CommandOutput
 from envfit.cli._ranges import Ranged, name_words
@@ -20,10 +24,11 @@ from envfit.defaults import MICROFACET_BSDFS
 #: (PresetModelOptions.__post_init__'s; tests/test_advise_options_sweep.py checks both ends)
 _MODEL_RANGES = {"max_level": (1, 11), "normals": (1, 4096), "sphere_pixels": (4, 1 << 16)}
 
-__all__ = ["add_preset_arguments", "reject_without_renderer", "run_preset"]
+__all__ = ["add_renderer_arguments", "reject_without_renderer", "renderer_options_from_args",
+           "run_renderer"]
 
 #: options that only make sense with --renderer (dest → flag)
-_PRESET_ONLY = {"sampler": "--sampler", "spp": "--spp", "snippet": "--snippet",
+_RENDERER_ONLY = {"sampler": "--sampler", "spp": "--spp", "snippet": "--snippet",
                 "mis_compensation": "--mis-compensation", "rules": "--rules",
                 "renderer_level": "--renderer-level", "renderer_normals": "--renderer-normals",
                 "renderer_model_error": "--renderer-model-error",
@@ -36,8 +41,8 @@ _GENERIC_ROWS = {"no_renderer": "--no-renderer", "renderer_pointsets": "--render
                  "renderer_max_axes": "--renderer-max-axes"}
 
 
-def add_preset_arguments(p) -> None:
-    """The ``--renderer`` group of ``envfit advise`` (its name lists read from the preset
+def add_renderer_arguments(p) -> None:
+    """The ``--renderer`` group of ``envfit advise`` (its name lists read from the renderer
     registry and :data:`envfit.defaults.MICROFACET_BSDFS`, so that they cannot drift)."""
     from envfit.renderers import RENDERERS
     g = p.add_argument_group("advice in a renderer's terms (--renderer)")
@@ -52,11 +57,12 @@ def add_preset_arguments(p) -> None:
                    help=f"also list the predicted RMSE of every strategy at these spp (as the "
                         f"sampler rounds them); distinct, each {spp}, at most --nmax")
     g.add_argument("--snippet", action="store_true",
-                   help="print the scene text of the recommendation (Mitsuba dict, pbrt-v4 "
-                        "scene lines, Cycles bpy settings)")
+                   help="print the scene text of the recommendation, in the renderer's own "
+                        "terms (its scene description or script settings)")
     g.add_argument("--mis-compensation", action="store_true",
-                   help="Mitsuba 3: the envmap's mis_compensation (its sampling density minus "
-                        "the mean luminance)")
+                   help=f"{_or([r.display for r in RENDERERS.values() if r.mis_compensation])}"
+                        f": the envmap's mis_compensation (its sampling density minus the "
+                        f"mean luminance)")
     g.add_argument("--rules", action="store_true",
                    help="with --renderer: also envfit's table of quadrature rules and SH/HSH "
                         "truncations (the fit and its search: slower)")
@@ -88,8 +94,7 @@ def _add_model_arguments(g) -> None:
     g.add_argument("--renderer-level", type=level, default=None, metavar="L",
                    help=f"the renderer model's finest grid level, M = 2^L cells per side, "
                         f"{level} (default 7 for independent and stratified samplers, 9 "
-                        f"for the others; the digital nets - Owen-scrambled (Cycles, pbrt-v4's "
-                        f"Sobol' samplers) and Mitsuba's ldsampler - are searched to "
+                        f"for the others; the digital nets - {_net_words()} - are searched to "
                         f"4^(L+1)/256 spp, their power above the grid sampled beyond 2^(L-1) "
                         f"spp; each level costs 4x the time and memory). Without it and "
                         f"--renderer-normals, the digital nets on the diffuse surface are "
@@ -115,11 +120,26 @@ def _add_model_arguments(g) -> None:
                         f"QMC samplers; 4x the model's work). Default: every pixel a point")
 
 
+def _net_words() -> str:
+    """``--renderer-level``'s help: the samplers of the digital nets whose power above the
+    grid is sampled, by renderer (from the renderer registry)."""
+    from envfit.advisor._renderer_options import SIZED_RANDOMISATIONS
+    from envfit.renderers import RENDERERS
+    words = {"owen": "Owen-scrambled", "digital_shift": "digitally shifted"}
+    out = []
+    for rand in SIZED_RANDOMISATIONS:
+        each = [f"{r.possessive} {', '.join(names)}" for r in RENDERERS.values()
+                if (names := [n for n, s in r.samplers.items() if s.randomisation == rand])]
+        if each:
+            out.append(f"{words.get(rand, rand)} ({'; '.join(each)})")
+    return " and ".join(out)
+
+
 def reject_without_renderer(args: argparse.Namespace) -> None:
     """A --renderer option given without --renderer: one line."""
     from envfit.renderers import RENDERERS
     from envfit.shading.microfacet import MICROFACET_RENDERERS
-    for dest, flag in _PRESET_ONLY.items():
+    for dest, flag in _RENDERER_ONLY.items():
         if getattr(args, dest, None) not in (None, False):
             raise ParameterError(f"{flag} needs --renderer ({', '.join(RENDERERS)})")
     if getattr(args, "brdf", "diffuse") in MICROFACET_BSDFS:
@@ -128,10 +148,11 @@ def reject_without_renderer(args: argparse.Namespace) -> None:
                              f"the microfacet model predicts a renderer's own estimator")
 
 
-def _options(args: argparse.Namespace):
-    """The checked :class:`PresetAdviseOptions` and, with --rules, :class:`AdviseOptions`
+def renderer_options_from_args(args: argparse.Namespace):
+    """The checked :class:`RendererAdviseOptions` and, with --rules, :class:`AdviseOptions`
     (every conflict a one-line error, before the map is read)."""
-    from envfit.advisor._preset_options import PresetAdviseOptions
+    from envfit.advisor._renderer_options import RendererAdviseOptions
+    _reject_negative(args)
     for dest, flag in _GENERIC_ROWS.items():
         if getattr(args, dest, None) not in (None, False):
             raise ParameterError(f"{flag} is an option of envfit's generic renderer rows, "
@@ -154,32 +175,20 @@ def _options(args: argparse.Namespace):
     if args.nmin is not None and not args.rules:     # the renderer search starts at 1 spp
         raise ParameterError("--nmin sizes envfit's rules (--rules); with --renderer the "
                              "search starts at the sampler's smallest spp")
-    if args.target_relative is not None and args.target_relative >= 1.0:
-        raise ParameterError(f"the relative target (--target-relative) is a fraction of the "
-                             f"mean radiance and must be < 1, got {args.target_relative!r}")
-    popts = PresetAdviseOptions(
+    popts = RendererAdviseOptions(
         args.renderer, sampler=args.sampler, strategies=args.strategies, spp=args.spp or (),
         mis_compensation=args.mis_compensation, max_spp=args.nmax,
         level=args.renderer_level,
         normals=args.renderer_normals, bsdf=args.brdf, roughness=args.roughness,
         sphere_pixels=args.sphere_pixels, quiet=args.quiet,
-        model_error=args.renderer_model_error)
+        model_error=args.renderer_model_error, target_rmse=args.target_rmse,
+        target_relative=args.target_relative, snippet=args.snippet,
+        cache=not args.no_cache, cache_dir=args.cache_dir)
     rules = None
     if args.rules:
-        from envfit.cli._advise_rules import options_from_args
         args.strategies, args.no_renderer = None, True
         rules = options_from_args(args)
     return popts, rules
-
-
-def _rules_lines(rules_adv) -> list[str]:
-    from envfit.cli._advise_rules import check_lines, header_lines
-    out = ["envfit's rules (quadrature and SH/HSH truncation on this map, as without "
-           "--renderer):", *header_lines(rules_adv), *rules_adv.table_lines(),
-           *(f"warning: {w}" for w in rules_adv.warnings), rules_adv.recommendation]
-    if rules_adv.check is not None:
-        out += check_lines(rules_adv)
-    return out
 
 
 def _microfacet_snippets() -> list[str]:
@@ -282,34 +291,25 @@ def _result(env, adv, rules, notes: list) -> dict:
     return d
 
 
-def run_preset(args: argparse.Namespace, output: CommandOutput) -> int:
-    """``envfit advise MAP --renderer NAME``: options → map (its notes said) → advice → print
-    → JSON."""
+def run_renderer(args: argparse.Namespace, output: CommandOutput, ropts, rules,
+                 t0: float) -> int:
+    """``envfit advise MAP --renderer NAME`` with its checked options
+    (:func:`renderer_options_from_args`; ``rules``: envfit's rules' with ``--rules``, else
+    None): map (its notes said) → :func:`envfit.advisor.advise_with` → print → JSON."""
     from envfit.advisor._advise import advise_with
-    from envfit.advisor._preset import advise_preset
     from envfit.base._atomic import atomic_write_json
-    from envfit.cli._common import load_map_from_args, out_dir
-    t0 = time.perf_counter()
-    _reject_negative(args)
-    popts, ropts = _options(args)         # bad names and combinations: one line, first
-    if getattr(args, "library", False):
-        from envfit.cli._advise_library import run_library
-        return run_library(args, output, popts)
     _snippet_file(args, None, args.out)   # --snippet of another map without --out: one line
     env = load_map_from_args(args)
     out = out_dir(args)
     filename, snip_note = _snippet_file(args, env, out)
     output.say(*(f"note: {n}" for n in [*env.notes, *([snip_note] if snip_note else [])]))
-    adv = advise_preset(env, popts, target_rmse=args.target_rmse,
-                        target_relative=args.target_relative, snippet=args.snippet,
-                        filename=filename, cache=not args.no_cache,
-                        cache_dir=args.cache_dir)
+    adv = advise_with(env, ropts.asking(filename=filename))
     output.say(*(f"note: {n}" for n in adv.notes))      # the run's notes, before the answer
     output.say(*adv.lines())
     output.answer(adv.lines()[0])                        # --quiet: the answer alone
-    rules = advise_with(env, ropts) if ropts is not None else None
+    rules = advise_with(env, rules) if rules is not None else None
     if rules is not None:
-        output.say(*_rules_lines(rules))
+        output.say(*rules_lines(rules))
     m = adv.model
     output.say(f"({time.perf_counter() - t0:.1f} s: renderer model {m['seconds_model']:.1f}"
                + (f", rules {rules.timings['total']:.1f}" if rules is not None else "")

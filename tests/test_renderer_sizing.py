@@ -1,5 +1,5 @@
 """The renderer model's own error (``predict.renderer._model_error``) and the model sized to it
-(``advisor._preset_sizing``): the scrambles' reported error is the spread of the prediction
+(``advisor._renderer_sizing``): the scrambles' reported error is the spread of the prediction
 over independent scrambles; the sizing picks the cheapest model its estimate says meets the
 target; the printed sentences say what the numbers are."""
 from __future__ import annotations
@@ -12,10 +12,10 @@ import tempfile
 import numpy as np
 import pytest
 
-from envfit.advisor._preset import advise_preset
-from envfit.advisor._preset_options import (AUTO_LEVEL, AUTO_SHIFTS, DEFAULT_LEVEL,
-                                            DEFAULT_NORMALS, PresetAdviseOptions)
-from envfit.advisor._preset_sizing import (BUDGET, NORMALS, SHIFTS, miss_words, pass_points,
+from envfit.advisor._renderer_advice import advise_preset
+from envfit.advisor._renderer_options import (AUTO_LEVEL, AUTO_SHIFTS, DEFAULT_LEVEL,
+                                            DEFAULT_NORMALS, RendererAdviseOptions)
+from envfit.advisor._renderer_sizing import (BUDGET, NORMALS, SHIFTS, miss_words, pass_points,
                                            predicted_error, sized_options)
 from envfit.maps import EnvMap
 from envfit.predict.renderer._model_error import draws_error, model_error
@@ -61,23 +61,23 @@ def test_model_error_parts_and_the_draws_error():
 
 
 def test_the_default_renderer_model_is_sized_and_explicit_options_are_not():
-    o = PresetAdviseOptions("cycles")
+    o = RendererAdviseOptions("cycles")
     assert o.auto and (o.level, o.shifts, o.normals) == (AUTO_LEVEL, AUTO_SHIFTS,
                                                          DEFAULT_NORMALS)
-    assert o.spp_cap() == 4096 == PresetAdviseOptions("cycles", level=DEFAULT_LEVEL).spp_cap()
+    assert o.spp_cap() == 4096 == RendererAdviseOptions("cycles", level=DEFAULT_LEVEL).spp_cap()
     for kw in ({"level": 9}, {"normals": 48}, {"sphere_pixels": 64},
                {"bsdf": "ggx", "roughness": 0.3, "level": 9}):
-        assert not PresetAdviseOptions("cycles", **kw).auto, kw
-    assert PresetAdviseOptions("mitsuba3", sampler="ldsampler").auto
-    o = PresetAdviseOptions("mitsuba3")                  # independent: sized in its normals
+        assert not RendererAdviseOptions("cycles", **kw).auto, kw
+    assert RendererAdviseOptions("mitsuba3", sampler="ldsampler").auto
+    o = RendererAdviseOptions("mitsuba3")                  # independent: sized in its normals
     assert o.auto and (o.shifts, o.reach, o.level) == (None, None, 7)
-    assert not PresetAdviseOptions("mitsuba3", sampler="multijitter").auto
+    assert not RendererAdviseOptions("mitsuba3", sampler="multijitter").auto
     with pytest.raises(Exception, match="renderer-model-error"):
-        PresetAdviseOptions("cycles", model_error=1.5)
+        RendererAdviseOptions("cycles", model_error=1.5)
 
 
 def test_sizing_picks_the_cheapest_model_its_estimate_says_meets_the_target():
-    o = PresetAdviseOptions("pbrt4")
+    o = RendererAdviseOptions("pbrt4")
     assert sized_options(o, (0.03, 0.02)) is None                   # the pilot meets 5 %
     for parts in ((0.08, 0.02), (0.04, 0.06), (0.09, 0.05)):
         f = sized_options(o, parts)
@@ -101,7 +101,7 @@ def test_the_sized_answer_says_what_its_model_error_is(renderer, model_error):
     """A pilot that meets the target is the model; one that does not is followed by a larger
     model, and the line gives that model's error and the pilot's estimate of it; the spp
     below each answer is said to miss by its margin in units of the model error there."""
-    opts = PresetAdviseOptions(renderer, normals=None, model_error=model_error)
+    opts = RendererAdviseOptions(renderer, normals=None, model_error=model_error)
     adv = advise_preset(_sunny(32), opts, cache_dir=tempfile.mkdtemp())
     m, text = adv.model, "\n".join(adv.lines())
     e = m["model_se"]["mis"]
@@ -142,11 +142,11 @@ def test_the_sized_answer_says_what_its_model_error_is(renderer, model_error):
 def test_without_sampled_nets_the_normals_alone_are_sized():
     """Mitsuba's independent sampler: the fewest normals whose predicted error meets the
     target (e_n·√(48/K)), the answer line says the pilot in normals only."""
-    o = PresetAdviseOptions("mitsuba3")
+    o = RendererAdviseOptions("mitsuba3")
     f = sized_options(o, (0.061, 0.0))
     assert f.normals == 96 and 0.061 * math.sqrt(48 / 96) <= 0.05 < 0.061 * math.sqrt(48 / 48)
     assert f.shifts is None and not f.auto
-    adv = advise_preset(_sunny(32), PresetAdviseOptions("mitsuba3", model_error=0.03),
+    adv = advise_preset(_sunny(32), RendererAdviseOptions("mitsuba3", model_error=0.03),
                         cache_dir=tempfile.mkdtemp())
     text, m = "\n".join(adv.lines()), adv.model
     assert m["pilot"] is not None and m["normals"] > 48
@@ -154,7 +154,7 @@ def test_without_sampled_nets_the_normals_alone_are_sized():
 
 
 def test_an_explicit_model_is_not_sized():
-    unsized = advise_preset(_sunny(32), PresetAdviseOptions("pbrt4", level=7, normals=48),
+    unsized = advise_preset(_sunny(32), RendererAdviseOptions("pbrt4", level=7, normals=48),
                             cache_dir=tempfile.mkdtemp())
     assert not unsized.model["sized"] and unsized.model["pilot"] is None
     assert "sized to" not in "\n".join(unsized.lines())
@@ -202,13 +202,13 @@ def test_microfacet_conductors_are_sized_a_rough_plastics_nets_are_not():
     for renderer, sampler, bsdf, r in (("cycles", None, "ggx", 0.5),
                                        ("mitsuba3", "ldsampler", "beckmann", 0.2),
                                        ("pbrt4", None, "ggx", 0.04)):
-        o = PresetAdviseOptions(renderer, sampler=sampler, bsdf=bsdf, roughness=r)
+        o = RendererAdviseOptions(renderer, sampler=sampler, bsdf=bsdf, roughness=r)
         assert o.auto and (o.level, o.shifts) == (AUTO_LEVEL, AUTO_SHIFTS)
-    o = PresetAdviseOptions("mitsuba3", sampler="ldsampler", bsdf="roughplastic", roughness=0.2)
+    o = RendererAdviseOptions("mitsuba3", sampler="ldsampler", bsdf="roughplastic", roughness=0.2)
     assert not o.auto and o.level == DEFAULT_LEVEL
-    o = PresetAdviseOptions("mitsuba3", bsdf="roughplastic", roughness=0.2)
+    o = RendererAdviseOptions("mitsuba3", bsdf="roughplastic", roughness=0.2)
     assert o.auto and o.shifts is None
-    opts = PresetAdviseOptions("mitsuba3", sampler="ldsampler", bsdf="ggx", roughness=0.3,
+    opts = RendererAdviseOptions("mitsuba3", sampler="ldsampler", bsdf="ggx", roughness=0.3,
                                model_error=0.5)
     adv = advise_preset(_sunny(16), opts, cache_dir=tempfile.mkdtemp())
     m, text = adv.model, "\n".join(adv.lines())
@@ -221,7 +221,7 @@ def test_the_strategy_sized_is_the_one_recommended():
     """``switched_strategy`` (what the answer recommends, and so what the sized model sizes):
     a strategy meeting the target with 10× fewer samples traced per pixel than the default
     (spp × emitter and BSDF samples per spp), or the default meeting it at no spp."""
-    from envfit.advisor._preset_search import StrategyAnswer, switched_strategy
+    from envfit.advisor._renderer_search import StrategyAnswer, switched_strategy
     p = get_renderer("pbrt4")                     # mis: 1 + 1 samples per spp; map, brdf: 1
 
     def answers(mis, emitter):

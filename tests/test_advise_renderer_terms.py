@@ -1,5 +1,5 @@
-"""Tests of ``envfit advise MAP --renderer NAME`` (envfit.advisor._preset, _preset_search,
-_preset_options; envfit.cli._advise_preset): the answer in the renderer's terms.
+"""Tests of ``envfit advise MAP --renderer NAME`` (envfit.advisor._renderer_advice, _renderer_search,
+_renderer_options; envfit.cli._advise_renderer): the answer in the renderer's terms.
 
 Reference values come from a second path: a fresh
 :class:`envfit.predict.renderer._preset_model.PresetModel` built here with the same options
@@ -27,7 +27,7 @@ MODEL = ["--renderer-normals", str(NORMALS)]
 def _options(level: int, microfacet: bool = False) -> PresetModelOptions:
     """The model options the CLI builds for ``--renderer-level level`` and NORMALS (a
     conductor's frames from a pool of MICROFACET_POOL)."""
-    from envfit.advisor._preset_options import MICROFACET_POOL
+    from envfit.advisor._renderer_options import MICROFACET_POOL
     pool = MICROFACET_POOL if microfacet else PresetModelOptions().pool
     return PresetModelOptions(normals=NORMALS, pool=pool, max_level=level)
 

@@ -1,45 +1,51 @@
-r"""What ``envfit advise --renderer NAME`` is asked: :class:`PresetAdviseOptions`, checked in
+r"""What ``envfit advise --renderer NAME`` is asked: :class:`RendererAdviseOptions`, checked in
 one place before any work (one-line :class:`~envfit.base.ParameterError`, the CLI's exit 2).
 
-The renderer's own names throughout: the preset (:func:`envfit.renderers.preset`:
-``mitsuba3``, ``pbrt4``, ``cycles``, ``envfit``), its sampler (``--sampler``; default the
-preset's default sampler), the strategies it can render (``map`` = emitter sampling only,
-``brdf`` = BSDF sampling only, ``mis`` = both as its integrator combines them; default every
-strategy the renderer can render and the noise model can predict). A combination is refused
-when the renderer lacks the sampler, cannot render the strategy (Cycles' light-only mode exists
-only in debug builds), or has no exact noise model (e.g. pbrt-v4's ``halton``; envfit's MIS
-with one shared shift): the last by asking the model itself
+The renderer's own names throughout: the renderer (a name of :data:`envfit.renderers.RENDERERS`,
+:func:`envfit.renderers.get_renderer`), its sampler (``--sampler``; default the renderer's
+default sampler), the strategies it can render (``map`` = emitter sampling only, ``brdf`` =
+BSDF sampling only, ``mis`` = both as its integrator combines them; default every strategy the
+renderer can render and the noise model can predict). A combination is refused when the
+renderer lacks the sampler, cannot render the strategy (its record's
+:class:`~envfit.renderers.StrategySetting` says why: e.g. a light-only mode that exists only
+in debug builds), or has no exact noise model (e.g. a Halton sampler; envfit's MIS with one
+shared shift): the last by asking the model itself
 (:func:`envfit.predict.renderer._preset_request.preset_request`, no map; the technique's
-options are checked on a 4 × 8 map).
+options are checked on a 4 × 8 map). The run's target, snippet and cache are options too
+(:meth:`RendererAdviseOptions.asking` sets them on checked options).
 
-The largest spp searched (:meth:`PresetAdviseOptions.spp_cap`) is ``max_spp`` (default
+The largest spp searched (:meth:`RendererAdviseOptions.spp_cap`) is ``max_spp`` (default
 65536) or less where the model's grid of level L (M = 2^L cells per side,
 ``PresetModelOptions.max_level``) resolves fewer points of the sampler: Owen-scrambled nets
-(``zsobol``, Cycles' Sobol patterns) and Mitsuba's ``ldsampler`` (a digital shift) are exact
-on the grid to N = 2^(L−1) (M ≥ 2N) and predicted for any N above, their power above the grid
-sampled at Q·N scrambled (shifted) points (``PresetModelOptions.shifts`` = Q), searched while
-they are no more than the fine table's 4^(L+1) points, N ≤ 4^(L+1)/Q (4096 at the default
-level 9, Cycles' default render samples; ``sampled=False``: 2^(L−1)); Kensler's
-correlated multi-jittering and Mitsuba's orthogonal array M ≥ N (and their (N, N) tables: at
-most 1024); a Cranley–Patterson
-shift N ≤ M/8 (:mod:`envfit.predict.renderer.randomisation._cp_shift`); independent and
-jittered samplers any N (V and the strata are resolved at every N).
+and digitally shifted ones are exact on the grid to N = 2^(L−1) (M ≥ 2N) and predicted for
+any N above, their power above the grid sampled at Q·N scrambled (shifted) points
+(``PresetModelOptions.shifts`` = Q), searched while they are no more than the fine table's
+4^(L+1) points, N ≤ 4^(L+1)/Q (4096 at the default level 9, a common default of render
+samples; ``sampled=False``: 2^(L−1)); Kensler's correlated multi-jittering and orthogonal
+arrays M ≥ N (and their (N, N) tables: at most 1024); a Cranley–Patterson shift N ≤ M/8
+(:mod:`envfit.predict.renderer.randomisation._cp_shift`); independent and jittered samplers
+any N (V and the strata are resolved at every N).
 
 Example
 -------
->>> o = PresetAdviseOptions("Mitsuba3", sampler="ldsampler")
->>> o.renderer, o.sampler, o.strategies, o.default_strategy, o.spp_cap()
-('mitsuba3', 'ldsampler', ('mis', 'map', 'brdf'), 'mis', 4096)
->>> PresetAdviseOptions("cycles", strategies=["map"])
+>>> from envfit.renderers import RENDERERS
+>>> name = next(n for n, r in RENDERERS.items() if "ldsampler" in r.samplers)
+>>> o = RendererAdviseOptions(name.upper(), sampler="ldsampler")      # any case
+>>> o.renderer == name, o.sampler, o.strategies, o.default_strategy, o.spp_cap()
+(True, 'ldsampler', ('mis', 'map', 'brdf'), 'mis', 4096)
+>>> light_only = next(n for n, r in RENDERERS.items() if not r.strategy("map").renderable)
+>>> RendererAdviseOptions(light_only, strategies=["map"])   # doctest: +ELLIPSIS
 Traceback (most recent call last):
 ...
-envfit.base._errors.ParameterError: Cycles cannot render strategy 'map' (emitter sampling only): light-only (direct_light_sampling_type NEXT_EVENT_ESTIMATION) is read only under #ifdef WITH_CYCLES_DEBUG: release builds always combine. src/kernel/integrator/shade_surface.h, src/kernel/light/sample.h
+envfit.base._errors.ParameterError: ... cannot render strategy 'map' (emitter sampling only): ...
 """
 from __future__ import annotations
 
+import copy
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -49,11 +55,11 @@ from envfit.defaults import FOOTPRINT_SIDE, MICROFACET_BSDFS, MICROFACET_FRAMES_
 from envfit.maps import EnvMap
 from envfit.predict.renderer._preset_model import PresetModelOptions, preset_request
 from envfit.renderers import STRATEGY_NAMES, get_renderer
-from envfit.shading.microfacet import (ROUGHNESS_RTOL, RoughPlastic,
+from envfit.shading.microfacet import (ROUGHNESS_RTOL, ROUGHNESS_UNITS, RoughPlastic,
                                        multiscatter_or_conductor, roughness_range,
                                        roughness_to_alpha, roughness_words)
 
-__all__ = ["PresetAdviseOptions", "STRATEGY_WORDS", "DEFAULT_MAX_SPP",
+__all__ = ["RendererAdviseOptions", "PresetAdviseOptions", "STRATEGY_WORDS", "DEFAULT_MAX_SPP",
            "MAX_SPP", "DEFAULT_LEVEL", "DEFAULT_LEVEL_V", "DEFAULT_NORMALS", "NET_RANDOMISATIONS",
            "spp_cap", "default_level", "SIZED_RANDOMISATIONS",
            "NORMALS_SIZED_RANDOMISATIONS", "AUTO_LEVEL", "AUTO_SHIFTS",
@@ -64,16 +70,15 @@ STRATEGY_WORDS = {"mis": "both techniques (MIS)", "map": "emitter sampling only"
                   "brdf": "BSDF sampling only"}
 #: the largest spp searched by default
 DEFAULT_MAX_SPP = 65536
-#: the largest ``max_spp`` (``--nmax``) taken: spp is a 32-bit int in the renderers (pbrt-v4
-#: ``src/pbrt/samplers.h``: ``int samplesPerPixel``; Cycles ``src/scene/integrator.h``:
-#: ``NODE_SOCKET_API(int, aa_samples)``; Mitsuba 3 ``include/mitsuba/render/sampler.h``:
-#: ``uint32_t m_sample_count``)
+#: the largest ``max_spp`` (``--nmax``) taken: spp is a 32-bit int in the renderers (each
+#: renderer's sampler or integrator header: ``int samplesPerPixel``,
+#: ``NODE_SOCKET_API(int, aa_samples)``, ``uint32_t m_sample_count``)
 MAX_SPP = 2 ** 31 - 1
 #: the model's finest grid level L (M = 2^L) for the nets and multi-jittering,
 #: PresetModelOptions' default
 DEFAULT_LEVEL = PresetModelOptions().max_level
 #: the default level of the samplers whose model needs only V or the strata (independent,
-#: jittered): on city.exr (Mitsuba 3, independent, 48 normals) levels 6, 7, 8 and 9 put the
+#: jittered): on city.exr (one renderer, independent, 48 normals) levels 6, 7, 8 and 9 put the
 #: 1 % answer at 5968, 5986, 5985, 5985 spp (MIS) and 11755, 11772, 11770, 11765 (emitter
 #: only), at 1/16 of level 9's time at level 7
 DEFAULT_LEVEL_V = 7
@@ -85,7 +90,7 @@ DEFAULT_NORMALS = PresetModelOptions().normals
 #: in few frames (rendered, sun-gp-1.5 GGX α = 0.05: a pool of 2048 pixels put 16 of 18 cells
 #: inside, every pixel 18 of 18); the proxies cost ~0.3 ms a frame (compiled)
 MICROFACET_POOL = 8192
-#: the randomisations whose model is sized to its error (:attr:`PresetAdviseOptions.auto`):
+#: the randomisations whose model is sized to its error (:attr:`RendererAdviseOptions.auto`):
 #: the nets whose power above the grid is sampled, each estimate with its standard error
 SIZED_RANDOMISATIONS = ("digital_shift", "owen")
 #: the randomisations whose model is sized in its normals only: no net is sampled above a
@@ -93,12 +98,14 @@ SIZED_RANDOMISATIONS = ("digital_shift", "owen")
 NORMALS_SIZED_RANDOMISATIONS = ("independent", "jittered")
 #: the sized model's pilot: grid level and scrambles (Q) — at level 7 a pass costs ~1/14 of
 #: level 9's with Q = 256, and the model's error is dominated by its normals (measured,
-#: forest.exr, Cycles, 48 normals: ±5.8 % from the normals, ±2–4 % from Q = 16 scrambles)
+#: forest.exr, one renderer's Owen-scrambled net, 48 normals: ±5.8 % from the normals, ±2–4 % from Q = 16 scrambles)
 AUTO_LEVEL, AUTO_SHIFTS = 7, 16
 #: the relative standard error of the predicted RMSE the sized model aims at
 DEFAULT_MODEL_ERROR = 0.05
 #: envfit's own point sets that the model's Cranley-Patterson shift (Sobol' points) is not
 _NOT_SOBOL = ("lp", "sf", "bnot")
+#: the fields of what a run asks besides the model (:meth:`RendererAdviseOptions.asking`)
+_RUN_FIELDS = ("target_rmse", "target_relative", "snippet", "filename", "cache", "cache_dir")
 #: the order of the strategies: the renderer's default (both techniques) first
 _ORDER = ("mis", "map", "brdf")
 
@@ -167,8 +174,11 @@ def checked_roughness(roughness, renderer: str) -> float:
     """``--roughness`` in :func:`roughness_words`' range (a value within
     :data:`~envfit.shading.microfacet.ROUGHNESS_RTOL` of an end is that end); else one line.
 
-    >>> checked_roughness(0.2236068, "cycles"), checked_roughness(0.0025, "pbrt4")
-    (0.223607, 0.0025)
+    >>> from envfit.shading.microfacet import roughness_range
+    >>> from envfit.renderers import RENDERERS
+    >>> r = next(n for n in RENDERERS if roughness_range(n)[0] == 0.223607)   # R = sqrt(alpha)
+    >>> checked_roughness(0.2236068, r)                 # within ROUGHNESS_RTOL of the end
+    0.223607
     """
     try:
         r = float(roughness)
@@ -184,6 +194,12 @@ def checked_roughness(roughness, renderer: str) -> float:
     return r
 
 
+def _owners_envmap() -> str:
+    """``X's envmap`` of the renderers whose emitter has ``mis_compensation`` (their records)."""
+    from envfit.renderers import RENDERERS
+    return _or(f"{r.possessive} envmap" for r in RENDERERS.values() if r.mis_compensation)
+
+
 def _dummy_map() -> EnvMap:
     """A small non-constant map on which the model's own checks run (no real work)."""
     v = np.linspace(0.2, 1.0, 4 * 8 * 3).reshape(4, 8, 3)
@@ -191,7 +207,7 @@ def _dummy_map() -> EnvMap:
 
 
 @dataclass(frozen=True)
-class PresetAdviseOptions:
+class RendererAdviseOptions:
     """The renderer advice's parameters, checked and normalised on construction.
 
     Parameters
@@ -206,7 +222,8 @@ class PresetAdviseOptions:
     spp : sequence of int
         spp listed beside the answer (``--spp``), each ≥ 1 and ≤ ``max_spp``.
     mis_compensation : bool
-        Mitsuba 3 only: the envmap's ``mis_compensation`` (Karlík et al. 2019).
+        The emitter's ``mis_compensation`` (Karlík et al. 2019), where the renderer's
+        record has it (:attr:`Renderer.mis_compensation`).
     max_spp : int or None
         The largest spp searched (≥ 1); None: :data:`DEFAULT_MAX_SPP`, or :data:`MAX_SPP`
         for an independent sampler, whose RMSE is exactly σ/√spp at every spp.
@@ -228,10 +245,11 @@ class PresetAdviseOptions:
         decision is stored here, so that ``dataclasses.replace`` of sized options stays sized.
     bsdf : str
         ``diffuse`` (white, the default) or a white microfacet conductor ``ggx`` /
-        ``beckmann`` as the renderer shades and samples it (not with ``envfit``; pbrt-v4: ggx).
+        ``beckmann`` as the renderer shades and samples it (where its record's ``microfacet``
+        has it; not with ``envfit``).
     roughness : float or None
-        With a microfacet ``bsdf``: the renderer's own roughness (Mitsuba's α, pbrt-v4's
-        roughness = α², Cycles' roughness = √α), α in :data:`~envfit.defaults.ADVISE_ALPHA`
+        With a microfacet ``bsdf``: the renderer's own roughness (α, √α or α² by renderer:
+        :data:`~envfit.shading.microfacet.ROUGHNESS_UNITS`), α in :data:`~envfit.defaults.ADVISE_ALPHA`
         (:func:`roughness_words`; within :data:`~envfit.shading.microfacet.ROUGHNESS_RTOL`
         of an end, that end).
     sphere_pixels : int or None
@@ -244,6 +262,15 @@ class PresetAdviseOptions:
     quiet : bool
         No progress bar over the model's normals (frames) in a pass (default; the CLI:
         ``--quiet``).
+    target_rmse, target_relative : float or None
+        The target: an RMSE, or a fraction (< 1) of the map's mean radiance (at most one is
+        read: ``target_rmse`` first; neither: :data:`~envfit.defaults.DEFAULT_TARGET_RELATIVE`).
+    snippet : bool
+        Also the scene text of the recommendation (:meth:`Renderer.snippet`), reading
+        ``filename``.
+    cache, cache_dir
+        The advisor's on-disk cache of predicted cells
+        (:class:`~envfit.advisor._cache.AdviseCache`).
 
     Raises
     ------
@@ -267,17 +294,27 @@ class PresetAdviseOptions:
     reach: int | None = None
     model_error: float | None = None
     sized: bool | None = None
+    target_rmse: float | None = None
+    target_relative: float | None = None
+    snippet: bool = False
+    filename: str = "envmap.exr"
+    cache: bool = True
+    cache_dir: str | Path | None = None
 
     def __post_init__(self) -> None:
         p = get_renderer(self.renderer)
         set_ = object.__setattr__
         set_(self, "_notes", [])
         set_(self, "renderer", p.name)
+        if self.target_relative is not None and self.target_relative >= 1.0:
+            raise ParameterError(f"the relative target (--target-relative) is a fraction of "
+                                 f"the mean radiance and must be < 1, got "
+                                 f"{self.target_relative!r}")
         set_(self, "sampler", p.sampler(self.sampler).name)
         self._check_bsdf(p)
         if self.mis_compensation and not p.mis_compensation:
-            raise ParameterError(f"--mis-compensation is a setting of Mitsuba 3's envmap, not "
-                                 f"of {p.display}")
+            raise ParameterError(f"--mis-compensation is a setting of {_owners_envmap()}, "
+                                 f"not of {p.display}")
         set_(self, "mis_compensation", bool(self.mis_compensation))
         if self.max_spp is None:
             exact = p.sampler(self.sampler).randomisation == "independent"
@@ -339,7 +376,7 @@ class PresetAdviseOptions:
 
     @property
     def auto(self) -> bool:
-        """Whether the model is sized to :attr:`model_error` (:mod:`._preset_sizing`):
+        """Whether the model is sized to :attr:`model_error` (:mod:`._renderer_sizing`):
         Owen-scrambled and digitally shifted nets (on the diffuse surface or a microfacet
         conductor; a rough plastic's lobe choice has none above the grid), independent and
         stratified samplers (any BSDF), without pixel footprints, with none of ``level``,
@@ -365,7 +402,7 @@ class PresetAdviseOptions:
         _check_microfacet(p, self.bsdf, self.sampler)
         if self.roughness is None:
             raise ParameterError(f"--brdf {self.bsdf} needs --roughness (the renderer's own: "
-                                 f"Mitsuba's alpha, pbrt-v4's roughness, Cycles' roughness)")
+                                 f"{ROUGHNESS_UNITS.get(p.name, 'its roughness')})")
         object.__setattr__(self, "roughness", checked_roughness(self.roughness, p.name))
         self.conductor()                      # the renderer lacks this distribution: one line
 
@@ -387,13 +424,13 @@ class PresetAdviseOptions:
         microfacet conductor without pixel footprints
         (``envfit.predict.renderer._sampled_nets``); else a net's spp are its powers of
         two."""
-        spec = self.preset.sampler(self.sampler)
+        spec = self.record.sampler(self.sampler)
         return (spec.randomisation not in NET_RANDOMISATIONS or spec.prefix
                 and self.bsdf != "roughplastic" and self.sphere_pixels is None)
 
     def conductor(self):
-        """The white conductor (Fresnel 1) as the renderer shades and samples it, or Mitsuba's
-        rough plastic (:class:`RoughPlastic`: a GGX coat, its defaults η 1.49, diffuse 0.5)."""
+        """The white conductor (Fresnel 1) as the renderer shades and samples it, or the
+        renderer's rough plastic (:class:`RoughPlastic`: a GGX coat, its defaults η 1.49, diffuse 0.5)."""
         alpha = roughness_to_alpha(self.roughness, self.renderer)
         if self.bsdf == "roughplastic":
             return RoughPlastic("ggx", alpha)
@@ -416,7 +453,7 @@ class PresetAdviseOptions:
                                   shifts=check_int(shifts, "shifts", 4), reach=self.reach)
 
     def technique_options(self) -> dict:
-        """The preset technique's options (Mitsuba: ``mis_compensation``)."""
+        """The renderer technique's options (``mis_compensation`` where it has it)."""
         return {"mis_compensation": True} if self.mis_compensation else {}
 
     def _checked_strategies(self, p) -> tuple[str, ...]:
@@ -426,7 +463,7 @@ class PresetAdviseOptions:
                             STRATEGY_NAMES, "strategy (with --renderer: mis, map, brdf)")
         names = sorted(names, key=_ORDER.index)
         if self.technique_options():                # its options, checked (none: nothing to
-            p.technique(_dummy_map(), **self.technique_options())   # build, Cycles' 8 M cells)
+            p.technique(_dummy_map(), **self.technique_options())   # build, up to 8 M cells)
         light = PresetModelOptions(normals=1, pool=1, max_level=1, pilot_level=1)
         spec = p.sampler(self.sampler)
         if spec.randomisation == "cp_shift" and spec.name in _NOT_SOBOL:
@@ -465,10 +502,28 @@ class PresetAdviseOptions:
         the model does not predict with this sampler, and why (not asked: left out)."""
         return list(self._notes)
 
+    def asking(self, **run) -> "RendererAdviseOptions":
+        """These options with other run fields (``target_rmse``, ``target_relative``,
+        ``snippet``, ``filename``, ``cache``, ``cache_dir``): nothing else is checked again."""
+        bad = sorted(set(run) - set(_RUN_FIELDS))
+        if bad:
+            raise TypeError(f"not a run field: {', '.join(bad)}")
+        new = copy.copy(self)
+        for k, v in run.items():
+            object.__setattr__(new, k, v)
+        if new.target_relative is not None and new.target_relative >= 1.0:
+            raise ParameterError(f"the relative target (--target-relative) is a fraction of "
+                                 f"the mean radiance and must be < 1, got "
+                                 f"{new.target_relative!r}")
+        return new
+
     @property
-    def preset(self):
-        """The :class:`~envfit.renderers.Renderer`."""
+    def record(self):
+        """The renderer's record (:class:`~envfit.renderers.Renderer`)."""
         return get_renderer(self.renderer)
+
+    #: the former name of :attr:`record`
+    preset = record
 
     @property
     def default_strategy(self) -> str:
@@ -479,7 +534,7 @@ class PresetAdviseOptions:
         """The largest spp searched for this sampler (:func:`spp_cap`; ``sampled=False``: the
         largest its grid resolves without sampling, where the search's first pass stops; so
         too where :attr:`samples_above_grid` is false)."""
-        spec = self.preset.sampler(self.sampler)
+        spec = self.record.sampler(self.sampler)
         m = self.model_options()
         return spp_cap(spec.randomisation, self.level, self.max_spp, m.shifts,
                        sampled=sampled and self.samples_above_grid, reach=m.reach)
@@ -497,3 +552,7 @@ class PresetAdviseOptions:
         if self.sphere_pixels is not None:
             key.update(sphere_pixels=self.sphere_pixels, footprint_side=FOOTPRINT_SIDE)
         return key
+
+
+#: the former name of :class:`RendererAdviseOptions`
+PresetAdviseOptions = RendererAdviseOptions

@@ -1,31 +1,37 @@
-r"""Advice in a renderer's own terms: ``envfit advise MAP --renderer mitsuba3 --sampler
-ldsampler`` — the spp that renderer's sampler must run, with its integrator's settings, for
-an RMSE target, and the scene text to paste.
+r"""Advice in a renderer's own terms (``envfit advise MAP --renderer NAME``): the spp that
+renderer's sampler must run, with its integrator's settings, for an RMSE target, and the scene
+text to paste — the result (:class:`RendererAdvice`) and the pipeline that makes it
+(:func:`advise_renderer_map`, reached from :func:`envfit.advisor.advise_with`).
 
-The prediction is the noise of the renderer's *own* estimator as its preset describes it
-(:mod:`envfit.renderers`: the emitter's density and warp, the cosine BSDF sampling, the
-MIS heuristic and the samples per spp of its integrator, the sampler's randomisation) on a
-white diffuse surface: the RMSE over uniform normals, RMS over the colour channels, in the
-map's radiance units (:class:`envfit.predict.renderer._preset_model.PresetModel`). The target
-is ``target_rmse``, or ``target_relative`` (default 1 %) of the map's mean radiance (for the
+The prediction is the noise of the renderer's *own* estimator as its record describes it
+(:mod:`envfit.renderers`: the emitter's density and warp, the BSDF sampling, the MIS
+heuristic and the samples per spp of its integrator, the sampler's randomisation) on a white
+diffuse surface (or a microfacet BSDF): the RMSE over uniform normals, RMS over the colour
+channels, in the map's radiance units, made by the predictor ``renderer`` of
+:data:`envfit.predict.PREDICTORS` (:mod:`envfit.advisor._renderer_model`). The target is
+``target_rmse``, or ``target_relative`` (default 1 %) of the map's mean radiance (for the
 diffuse lobe, :func:`envfit.advisor._prediction.mean_shading_value`).
 
 For each strategy the renderer can render (``mis`` = both techniques as its integrator
 combines them, the renderer's default; ``map`` = emitter sampling only; ``brdf`` = BSDF
 sampling only) the answer is the smallest spp the sampler can run whose prediction meets the
-target (:func:`envfit.advisor._preset_search.search_spp`), up to the largest spp the model
-resolves for that sampler (:meth:`~envfit.advisor._preset_options.PresetAdviseOptions.spp_cap`).
-The recommendation is the renderer's default strategy (the first of ``strategies``), or one at
-least 10× cheaper where there is one (:attr:`PresetAdvice.default`).
+target (:func:`envfit.advisor._renderer_search.search_spp`), up to the largest spp the model
+resolves for that sampler
+(:meth:`~envfit.advisor._renderer_options.RendererAdviseOptions.spp_cap`). The recommendation
+is the renderer's default strategy (the first of ``strategies``), or one at least 10× cheaper
+where there is one (:attr:`RendererAdvice.default`).
 
 Example
 -------
 >>> import tempfile, numpy as np
 >>> from envfit.maps import EnvMap
->>> from envfit.advisor._preset_options import PresetAdviseOptions
+>>> from envfit.renderers import RENDERERS
+>>> from envfit.advisor._renderer_options import RendererAdviseOptions
 >>> env = EnvMap(np.random.default_rng(0).random((8, 16, 3)) + 0.5, name="noise")
->>> opts = PresetAdviseOptions("mitsuba3", sampler="independent", normals=4, level=3)
->>> a = advise_preset(env, opts, target_relative=0.05, cache_dir=tempfile.mkdtemp())
+>>> name = next(n for n, r in RENDERERS.items() if "independent" in r.samplers)
+>>> opts = RendererAdviseOptions(name, sampler="independent", normals=4, level=3,
+...                              target_relative=0.05, cache_dir=tempfile.mkdtemp())
+>>> a = advise_renderer_map(env, opts)
 >>> r = a.recommendation
 >>> r["strategy"], r["sampler"], r["predicted_rmse"] <= r["target_rmse"]
 ('mis', 'independent', True)
@@ -39,49 +45,59 @@ import numpy as np
 
 from envfit.advisor._cache import AdviseCache
 from envfit.advisor._prediction import mean_shading_value
-from envfit.advisor._preset_options import (DEFAULT_LEVEL, DEFAULT_MAX_SPP, DEFAULT_NORMALS,
+from envfit.advisor._renderer_options import (DEFAULT_LEVEL, DEFAULT_MAX_SPP, DEFAULT_NORMALS,
                                             SIZED_RANDOMISATIONS, STRATEGY_WORDS,
-                                            PresetAdviseOptions, spp_cap)
-from envfit.advisor._preset_search import StrategyAnswer, next_runnable, switched_strategy
-from envfit.advisor._preset_sizing import (below_words, model_dict, model_error_lines,
+                                            RendererAdviseOptions, spp_cap)
+from envfit.advisor._renderer_search import StrategyAnswer, next_runnable, switched_strategy
+from envfit.advisor._renderer_sizing import (below_words, model_dict, model_error_lines,
                                            sized_search)
 from envfit.base._errors import ParameterError
 from envfit.defaults import BAND_MIN_FRAMES, DEFAULT_TARGET_RELATIVE
 
-__all__ = ["PresetAdvice", "advise_preset", "integrator_text"]
+__all__ = ["RendererAdvice", "PresetAdvice", "advise_renderer_map", "advise_preset",
+           "integrator_text"]
 
 
-def integrator_text(preset, strategy: str, mis_compensation: bool = False) -> str:
-    """``direct (emitter_samples=1, bsdf_samples=0)``: the integrator and its settings (its
-    name alone where it runs at its defaults: Mitsuba's ``path``).
+def integrator_text(record, strategy: str, mis_compensation: bool = False) -> str:
+    """``direct (emitter_samples=1, bsdf_samples=0)``: the integrator of the renderer's
+    ``record`` for ``strategy`` and its settings (its name alone where it runs at its
+    defaults).
 
-    >>> from envfit.renderers import get_renderer
-    >>> integrator_text(get_renderer("mitsuba3"), "map")
-    'direct (emitter_samples=1, bsdf_samples=0)'
+    >>> from types import SimpleNamespace as S
+    >>> rec = S(strategy=lambda s: S(integrator="direct",
+    ...                              settings={"emitter_samples": 1, "bsdf_samples": 0}))
+    >>> integrator_text(rec, "map"), integrator_text(rec, "map", mis_compensation=True)[-29:]
+    ('direct (emitter_samples=1, bsdf_samples=0)', 'envmap mis_compensation=true)')
     """
-    s = preset.strategy(strategy)
+    s = record.strategy(strategy)
     items = [f"{k}={v}" for k, v in s.settings.items()]
     if mis_compensation:
         items.append("envmap mis_compensation=true")
     return f"{s.integrator} ({', '.join(items)})" if items else s.integrator
 
 
-#: how the model line names a microfacet --brdf
-_BSDF_WORDS = {"ggx": "GGX", "multiggx": "Multiscatter GGX (Cycles' default)"}
+#: how the model line names a microfacet --brdf ({} the renderer's possessive)
+_BSDF_WORDS = {"ggx": "GGX", "multiggx": "Multiscatter GGX ({} default)"}
+
+
+def _maker(record) -> str:
+    """The possessive of the renderer's name without its version (``X 3`` → ``X's``)."""
+    w = record.display.split()[0]
+    return w + ("'" if w.endswith("s") else "'s")
 
 
 @dataclass
-class PresetAdvice:
+class RendererAdvice:
     """The renderer section of ``envfit advise --renderer``: the answer per strategy, every
     prediction made, the recommendation (the default strategy's answer) and the scene text.
 
-    ``answers`` maps a strategy to its :class:`~envfit.advisor._preset_search.StrategyAnswer`;
+    ``answers`` maps a strategy to its :class:`~envfit.advisor._renderer_search.StrategyAnswer`;
     ``listed`` is the ``--spp`` list as (requested, runnable) pairs; ``cells`` the predicted
     RMSE per (strategy, spp); ``spp_cap`` the largest spp searched; ``model`` what the model
     cost (passes, cells computed and cached, seconds, K, L).
     """
 
-    options: PresetAdviseOptions
+    options: RendererAdviseOptions
     target_rmse: float
     target_relative: float | None
     mean_radiance: float
@@ -98,7 +114,7 @@ class PresetAdvice:
 
     @property
     def display(self) -> str:
-        return self.options.preset.display
+        return self.options.record.display
 
     constant_map: bool = False
 
@@ -110,14 +126,14 @@ class PresetAdvice:
 
     def _cost(self, a: StrategyAnswer) -> int:
         """Samples traced per pixel: spp × (emitter + BSDF samples per spp)."""
-        s = self.options.preset.strategy(a.strategy)
+        s = self.options.record.strategy(a.strategy)
         return a.spp * (s.emitter_samples + s.bsdf_samples)
 
     def switched(self) -> str | None:
         """The strategy recommended instead of the renderer's default, or None: the one that
         meets the target with the fewest samples traced per pixel, when the default meets it
         only with at least :data:`~envfit.defaults.SWITCH_FACTOR` times as many, or not at all."""
-        return switched_strategy(self.answers, self.options.preset,
+        return switched_strategy(self.answers, self.options.record,
                                  self.options.default_strategy)
 
     def switch_line(self) -> str | None:
@@ -142,7 +158,7 @@ class PresetAdvice:
     @property
     def recommendation(self) -> dict:
         """The default strategy's answer as the JSON's ``renderer.recommendation``."""
-        a, p = self.default, self.options.preset
+        a, p = self.default, self.options.record
         s = p.strategy(a.strategy)
         return {"strategy": a.strategy, "sampler": self.options.sampler, "spp": a.spp,
                 "reached": a.reached, "integrator": s.integrator, "settings": dict(s.settings),
@@ -239,7 +255,7 @@ class PresetAdvice:
         """Why the search stopped at ``a.searched_max``: the model's resolution (and the
         level that reaches the next runnable spp) or ``--nmax``."""
         o = self.options
-        spec = o.preset.sampler(o.sampler)
+        spec = o.record.sampler(o.sampler)
         nxt = next_runnable(spec, a.searched_max, o.every_spp)
         if nxt > o.max_spp:
             return "raise --nmax or relax the target"
@@ -271,7 +287,7 @@ class PresetAdvice:
     def answer_line(self, a: StrategyAnswer, *, head: bool) -> str:
         """One strategy's sentence: the first line (``head``) with the renderer, sampler,
         target and why the search stopped; the others shorter."""
-        o, p = self.options, self.options.preset
+        o, p = self.options, self.options.record
         who = (f"{self.display}, sampler {o.sampler}, integrator " if head
                else f"  {STRATEGY_WORDS[a.strategy]}, ")
         who += integrator_text(p, a.strategy, o.mis_compensation and a.strategy != "brdf")
@@ -339,7 +355,7 @@ class PresetAdvice:
                  if frames in (None, m["normals"]) else
                  f"{frames} frames ({m['normals']} asked, each view-angle band at least "
                  f"{m['normals'] // 6})")
-        scrambles = (f", {m['shifts']} scrambles" if m.get("sized") and self.options.preset
+        scrambles = (f", {m['shifts']} scrambles" if m.get("sized") and self.options.record
                      .sampler(self.options.sampler).randomisation in SIZED_RANDOMISATIONS
                      else "")
         out.append(f"renderer model: {self._surface()} (RMS over the channels), "
@@ -362,10 +378,11 @@ class PresetAdvice:
                 return "the RMSE over uniform normals of a white diffuse surface"
             return (f"the RMSE over uniform normals of a white diffuse sphere{pixels[1:]}, "
                     f"each pixel seen by the axis view nearest its normal")
-        bsdf = (f"rough plastic (Mitsuba's roughplastic: a GGX coat of alpha "
+        bsdf = (f"rough plastic ({_maker(o.record)} roughplastic: a GGX coat of alpha "
                 f"{o.conductor().alpha:.4g}, eta 1.49, over a diffuse base of reflectance 0.5)"
                 if o.bsdf == "roughplastic" else
-                f"white {_BSDF_WORDS.get(o.bsdf, o.bsdf.title())} conductor "
+                f"white {_BSDF_WORDS.get(o.bsdf, o.bsdf.title()).format(o.record.possessive)} "
+                f"conductor "
                 f"(alpha {o.conductor().alpha:.4g}, Fresnel 1)")
         return (f"the RMSE of a {bsdf} over the views an "
                 f"orthographic camera has of a sphere{pixels} (theta_o density cos sin) and "
@@ -385,7 +402,7 @@ class PresetAdvice:
     def to_dict(self) -> dict:
         """The JSON's ``renderer`` section."""
         o = self.options
-        return {"name": o.renderer, "display": self.display, "renderer": o.preset.renderer,
+        return {"name": o.renderer, "display": self.display, "renderer": o.record.renderer,
                 "sampler": o.sampler, "strategies": list(o.strategies),
                 "mis_compensation": o.mis_compensation, "target_rmse": self.target_rmse,
                 "bsdf": (self._bsdf_dict() if o.microfacet
@@ -400,10 +417,10 @@ class PresetAdvice:
 
     def _repr_html_(self) -> str:       # Jupyter: the printed answer, escaped
         from envfit.base._html import html_result
-        return html_result(f"PresetAdvice: {self.display}", [("", x) for x in self.lines()])
+        return html_result(f"RendererAdvice: {self.display}", [("", x) for x in self.lines()])
 
     def _answer_dict(self, a: StrategyAnswer) -> dict:
-        s = self.options.preset.strategy(a.strategy)
+        s = self.options.record.strategy(a.strategy)
         return {"strategy": a.strategy, "spp": a.spp, "reached": a.reached,
                 "predicted_rmse": a.predicted_rmse, "below_spp": a.below,
                 "below_rmse": a.below_rmse, "searched_max": a.searched_max,
@@ -425,65 +442,77 @@ def _target(mean: float, target_rmse, target_relative) -> tuple[float, float | N
     return rel * mean, rel
 
 
-def _add_snippet(adv: PresetAdvice, envmap, filename: str) -> None:
+def _add_snippet(adv: RendererAdvice, envmap, filename: str) -> None:
     """The scene text of the recommendation (or of the largest spp searched) reading
-    ``filename``: the BSDF, the film the model assumed (``sphere_pixels``), pbrt-v4's light
-    frame of the map's ``up``."""
+    ``filename``: the BSDF, the film the model assumed (``sphere_pixels``), the light frame of
+    the map's ``up`` (each where the renderer's snippet takes it)."""
     opts = adv.options
     a = adv.default
     adv.snippet_spp = a.spp if a.reached else a.searched_max
     kw = {"sphere_pixels": opts.sphere_pixels, "up": getattr(envmap, "up", "y")}
     if opts.mis_compensation:
         kw["mis_compensation"] = True
-    if opts.microfacet:     # a renderer whose snippet writes one (_advise_preset refuses the rest)
+    if opts.microfacet:     # a renderer whose snippet writes one (the CLI refuses the rest)
         kw["microfacet"] = (opts.bsdf, opts.conductor().alpha)      # (roughplastic, α)
-    takes = opts.preset.snippet_options()
-    adv.snippet = opts.preset.snippet(a.strategy, opts.sampler, adv.snippet_spp,
+    takes = opts.record.snippet_options()
+    adv.snippet = opts.record.snippet(a.strategy, opts.sampler, adv.snippet_spp,
                                       filename=filename,
                                       **{k: v for k, v in kw.items() if k in takes})
 
 
-def advise_preset(envmap, opts: PresetAdviseOptions, *, target_rmse: float | None = None,
-                  target_relative: float | None = None, snippet: bool = False,
-                  filename: str = "envmap.exr", cache: bool = True,
-                  cache_dir=None) -> PresetAdvice:
-    """The renderer advice on ``envmap`` (module docstring).
+def advise_renderer_map(envmap, opts: RendererAdviseOptions) -> RendererAdvice:
+    """The renderer advice on ``envmap`` (module docstring): the checked options → the cached
+    model, asked through the predictor registry (:mod:`~envfit.advisor._renderer_model`) →
+    the spp search, sized to the model's own error (:mod:`~envfit.advisor._renderer_sizing`)
+    → the :class:`RendererAdvice`.
 
     Parameters
     ----------
     envmap : EnvMap
         The map as the renderer reads its file (linear radiance).
-    opts : PresetAdviseOptions
-        Renderer, sampler, strategies, listed spp, model resolution.
-    target_rmse, target_relative : float, optional
-        The target (at most one; default 1 % of the mean radiance).
-    snippet : bool
-        Also the scene text for the recommendation (:meth:`Renderer.snippet`),
-        reading ``filename``.
-    cache, cache_dir
-        The advisor's on-disk cache (:class:`~envfit.advisor._cache.AdviseCache`).
+    opts : RendererAdviseOptions
+        Renderer, sampler, strategies, listed spp, model resolution, the target, the snippet
+        and the cache.
     """
     t0 = time.perf_counter()
     mean = mean_shading_value(envmap)
-    target, rel = _target(mean, target_rmse, target_relative)
-    spec = opts.preset.sampler(opts.sampler)
+    target, rel = _target(mean, opts.target_rmse, opts.target_relative)
+    spec = opts.record.sampler(opts.sampler)
     listed = [(n, spec.spp(n)) for n in opts.spp]
-    store = AdviseCache(cache_dir, enabled=cache)
+    store = AdviseCache(opts.cache_dir, enabled=opts.cache)
+    snippet, filename = opts.snippet, opts.filename
     opts, by, answers, pilot, cms = sized_search(envmap, opts, store, target,
                                                   [n for _, n in listed])
     cap = max(a.searched_max for a in answers.values())
     cells = {(s, n): by[s].rmse(s, n) for s in opts.strategies for n in by[s].asked_spp(s)}
     notes = [*opts.notes, *store.notes]
-    if opts.bsdf in opts.preset.bsdf_notes:
-        notes.append(opts.preset.bsdf_notes[opts.bsdf])
+    if opts.bsdf in opts.record.bsdf_notes:
+        notes.append(opts.record.bsdf_notes[opts.bsdf])
     px = np.asarray(envmap.data).reshape(envmap.height * envmap.width, -1)
-    adv = PresetAdvice(opts, target, rel, mean, answers, listed, cells, cap, notes=notes,
-                       constant_map=bool(np.all(px == px[0])),
-                       bands={k: b for k in cells if (b := by[k[0]].bands(*k))},
-                       band_errors={k: b for k in cells if (b := by[k[0]].band_errors(*k))})
+    adv = RendererAdvice(opts, target, rel, mean, answers, listed, cells, cap, notes=notes,
+                         constant_map=bool(np.all(px == px[0])),
+                         bands={k: b for k in cells if (b := by[k[0]].bands(*k))},
+                         band_errors={k: b for k in cells if (b := by[k[0]].band_errors(*k))})
     if snippet:
         _add_snippet(adv, envmap, filename)
     adv.model = model_dict(opts, by, answers, pilot, cms)
     adv.model.update(seconds=time.perf_counter() - t0, cache_hits=store.hits,
                      cache_writes=store.writes)
     return adv
+
+
+def advise_preset(envmap, opts: RendererAdviseOptions, *, target_rmse: float | None = None,
+                  target_relative: float | None = None, snippet: bool | None = None,
+                  filename: str | None = None, cache: bool | None = None,
+                  cache_dir=None) -> RendererAdvice:
+    """The former entry point, kept for its callers: :func:`advise_renderer_map` with the
+    target, the snippet and the cache given as keywords (each one given replaces the
+    options' own)."""
+    asked = {"target_rmse": target_rmse, "target_relative": target_relative,
+             "snippet": snippet, "filename": filename, "cache": cache, "cache_dir": cache_dir}
+    return advise_renderer_map(envmap, opts.asking(**{k: v for k, v in asked.items()
+                                                      if v is not None}))
+
+
+#: the former name of :class:`RendererAdvice`
+PresetAdvice = RendererAdvice
