@@ -19,7 +19,7 @@ import re
 import numpy as np
 import pytest
 
-from envfit.advisor._preset_options import default_level
+from envfit.advisor._renderer_options import default_level
 from envfit.data_gen import gaussian_process_map
 from envfit.maps import EnvMap, load_envmap, save_envmap
 from envfit.predict.renderer._preset_model import PresetModel, PresetModelOptions
