@@ -41,7 +41,7 @@ from envfit.base._atomic import os_reason
 from envfit.base._errors import EnvfitError
 
 #: subcommands, in the order ``envfit --help`` lists them
-COMMANDS = ("synth", "info", "fit", "table2", "theory", "validate", "advise", "sh")
+COMMANDS = ("synth", "info", "fit", "table2", "theory", "validate", "advise", "sh", "frame")
 
 #: each subcommand's one-line help as its module registers it, so that ``envfit --help`` (and
 #: ``envfit``, ``envfit --version``, an unknown command) lists them without importing the
@@ -57,6 +57,7 @@ SUMMARIES = {
     "advise": "smallest N per point set / weighting and smallest SH/HSH degree for a target "
               "error",
     "sh": "real SH coefficients for engines (irradiance, windows, ringing predictor)",
+    "frame": "predict the noise of a frame from the renderer's scene file",
 }
 
 

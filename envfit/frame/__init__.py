@@ -1,0 +1,34 @@
+r"""The frame, not the sphere: the predicted noise of a user's scene before rendering it.
+
+``predict_frame(SCENE)`` reads the renderer's own scene file with the renderer (camera, film
+and filter, sampler, integrator, the environment map, shapes and materials), casts each film
+point's shadow rays against the scene, and predicts every pixel's error under the renderer's
+estimator: the image RMSE and pixel percentiles per spp, the spp that meets a target, and the
+noise image.
+
+Modules:
+
+* :mod:`~envfit.frame._api` — :func:`predict_frame`, :class:`FrameOptions`,
+  :class:`FramePrediction`: the steps and the result.
+* :mod:`~envfit.frame._model` — each film point's mean and variance under the renderer's
+  techniques with visibility, and each pixel's MSE under the film's filter.
+* :mod:`~envfit.frame._visibility` — shadow rays (Embree).
+
+The scene is read by the renderer's folder (:mod:`envfit.renderers._frame`); today Mitsuba 3
+XML scenes with the ``diffuse`` BSDF, one ``envmap`` emitter, ``direct`` or ``path``, and the
+``independent`` sampler.
+
+The names of ``__all__`` are imported lazily, on first use (PEP 562).
+"""
+from __future__ import annotations
+
+from envfit.base._lazy import lazy_exports
+
+_LAZY = {
+    "predict_frame": "_api", "FrameOptions": "_api", "FramePrediction": "_api",
+    "FrameRow": "_api",
+}
+
+__all__ = sorted(_LAZY)
+
+__getattr__, __dir__ = lazy_exports(__name__, _LAZY)

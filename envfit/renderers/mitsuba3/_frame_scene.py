@@ -1,0 +1,259 @@
+r"""A Mitsuba 3 scene file read by Mitsuba itself (``scalar_rgb``) into a
+:class:`envfit.renderers._frame.FrameScene`: the first hit of each film point, the shapes as
+triangles for shadow rays, the environment map, and the sensor's sampler, film and filter.
+
+What is read, and from where (Mitsuba 3.9.1):
+
+* camera rays: ``Sensor::sample_ray`` with the film position (x + ½…)/W, (y + ½…)/H (no
+  aperture, time 0), as ``SamplingIntegrator::render_sample`` draws them
+  (``src/render/integrator.cpp``);
+* the first hit: ``Scene::ray_intersect``; its shading frame ``si.sh_frame`` (the BSDF's
+  frame), geometric normal ``si.n``, and the BSDF's diffuse reflectance
+  ``BSDF::eval_diffuse_reflectance`` (textures evaluated by Mitsuba at ``si.uv``);
+* an escaping camera ray: the environment emitter's ``eval`` of the escaped interaction, as
+  ``DirectIntegrator::sample`` adds it (``src/integrators/direct.cpp``);
+* shadow geometry: meshes' ``vertex_positions`` and ``faces`` (world space, as Mitsuba
+  holds them after ``to_world``), a sphere tessellated from its ``to_world`` (an icosphere
+  within 10⁻⁴ of its radius);
+* the map: the emitter's own ``data`` tensor (``src/emitters/envmap.cpp`` keeps the bitmap
+  with a one-texel halo column on each side; the halo is dropped), its ``to_world`` and
+  ``scale``;
+* the filter: ``ReconstructionFilter::eval`` and ``radius`` (``src/rfilters/*.cpp``).
+
+Only the ``diffuse`` BSDF and one ``envmap`` emitter are read; anything else is refused in one
+line (:class:`envfit.base.ParameterError`) before any work.
+"""
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+
+from envfit.base import ParameterError
+from envfit.renderers._frame import HIT_NONE, HIT_SURFACE, FrameScene, Occluder
+
+__all__ = ["read_scene", "SAMPLER_CLASSES"]
+
+#: Mitsuba's sampler classes → their plugin names
+SAMPLER_CLASSES = {"IndependentSampler": "independent", "StratifiedSampler": "stratified",
+                   "MultijitterSampler": "multijitter", "LowDiscrepancySampler": "ldsampler",
+                   "OrthogonalSampler": "orthogonal"}
+#: shapes whose own surface never shadows its points' outer side
+_CONVEX = ("Sphere", "Rectangle", "Disk", "Cube")
+
+
+def _class(obj) -> str:
+    """The Mitsuba object's class name (its ``to_string`` up to the bracket)."""
+    return str(obj).split("[", 1)[0].strip()
+
+
+def _field(text: str, name: str, default=None):
+    """The value of ``name = …`` in a Mitsuba ``to_string``."""
+    m = re.search(rf"\b{name}\s*=\s*(-?[0-9]+)", text)
+    return int(m.group(1)) if m else default
+
+
+def _load(mi, path: Path):
+    try:
+        return mi.load_file(str(path))
+    except Exception as exc:                      # Mitsuba's own parse/plugin errors
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise ParameterError(f"{path}: Mitsuba cannot load the scene: {first}") from None
+
+
+def _integrator(scene) -> tuple[str, int, int, int]:
+    text = str(scene.integrator())
+    cls = _class(scene.integrator())
+    if cls == "DirectIntegrator":
+        return "direct", _field(text, "emitter_samples", 1), _field(text, "bsdf_samples", 1), 2
+    if cls == "PathIntegrator":
+        return "path", 1, 1, _field(text, "max_depth", -1)
+    raise ParameterError(f"the scene's integrator {cls} is not modelled: use direct or path "
+                         f"(the frame model predicts direct lighting from the map)")
+
+
+def _emitter(mi, scene):
+    ems = list(scene.emitters())
+    kinds = [_class(e) for e in ems]
+    if kinds.count("EnvironmentMapEmitter") != 1 or len(ems) != 1:
+        raise ParameterError(f"the frame model needs exactly one emitter, an envmap; the scene "
+                             f"has {', '.join(kinds) or 'none'}")
+    params = mi.traverse(scene)
+    prefix = next(k[:-len(".data")] for k in params.keys()
+                  if k.endswith(".data") and f"{k[:-len('.data')]}.scale" in params.keys())
+    data = np.array(params[prefix + ".data"], dtype=np.float64)[:, 1:-1, :3]
+    m = np.array(params[prefix + ".to_world"].matrix, dtype=np.float64)[:3, :3]
+    return ems[0], data, m, float(params[prefix + ".scale"])
+
+
+def _icosphere(level: int) -> tuple[np.ndarray, np.ndarray]:
+    """A unit icosphere: ``level`` subdivisions of the icosahedron."""
+    t = (1.0 + math.sqrt(5.0)) / 2.0
+    v = [(-1, t, 0), (1, t, 0), (-1, -t, 0), (1, -t, 0), (0, -1, t), (0, 1, t), (0, -1, -t),
+         (0, 1, -t), (t, 0, -1), (t, 0, 1), (-t, 0, -1), (-t, 0, 1)]
+    f = [(0, 11, 5), (0, 5, 1), (0, 1, 7), (0, 7, 10), (0, 10, 11), (1, 5, 9), (5, 11, 4),
+         (11, 10, 2), (10, 7, 6), (7, 1, 8), (3, 9, 4), (3, 4, 2), (3, 2, 6), (3, 6, 8),
+         (3, 8, 9), (4, 9, 5), (2, 4, 11), (6, 2, 10), (8, 6, 7), (9, 8, 1)]
+    verts = [np.array(p, dtype=np.float64) / np.linalg.norm(p) for p in v]
+    faces = f
+    for _ in range(level):
+        cache, new = {}, []
+
+        def mid(a, b):
+            key = (min(a, b), max(a, b))
+            if key not in cache:
+                p = verts[a] + verts[b]
+                verts.append(p / np.linalg.norm(p))
+                cache[key] = len(verts) - 1
+            return cache[key]
+        for a, b, c in faces:
+            ab, bc, ca = mid(a, b), mid(b, c), mid(c, a)
+            new += [(a, ab, ca), (b, bc, ab), (c, ca, bc), (ab, bc, ca)]
+        faces = new
+    return np.array(verts), np.array(faces, dtype=np.int64)
+
+
+def _occluder(mi, params, shape, index: int) -> Occluder:
+    cls = _class(shape)
+    if shape.is_mesh():
+        v = np.array(shape.vertex_positions_buffer(), dtype=np.float64).reshape(-1, 3)
+        f = np.array(shape.faces_buffer(), dtype=np.int64).reshape(-1, 3)
+        return Occluder(cls, v, f, cls in _CONVEX)
+    if cls == "Sphere":
+        key = next(k for k in params.keys() if k.endswith(".to_world")
+                   and params[k] is not None and _sphere_match(params, k, shape))
+        m = np.array(params[key].matrix, dtype=np.float64)
+        v, f = _icosphere(6)
+        # inflate so that the chords lie outside the true sphere: a shadow is never missed
+        # through a facet (the largest chord sag of level 6 is < 1e-4 of the radius)
+        v = v * (1.0 + 1e-4)
+        return Occluder(cls, v @ m[:3, :3].T + m[:3, 3], f, True)
+    raise ParameterError(f"shape {index} ({cls}) cannot be made into triangles for shadow "
+                         f"rays: use a mesh, sphere, rectangle, disk or cube")
+
+
+def _sphere_match(params, key, shape) -> bool:
+    """Whether the ``to_world`` at ``key`` is this sphere's (its bounding box agrees)."""
+    m = np.array(params[key].matrix, dtype=np.float64)
+    bb = shape.bbox()
+    c = (np.array(bb.min) + np.array(bb.max)) / 2
+    r = (np.array(bb.max) - np.array(bb.min)) / 2
+    return bool(np.allclose(m[:3, 3], c, atol=1e-5 * (1 + abs(r).max()))
+                and np.allclose(np.linalg.norm(m[:3, :3], axis=0), r, rtol=1e-4))
+
+
+def _bsdf_checks(shapes) -> None:
+    for i, sh in enumerate(shapes):
+        b = sh.bsdf()
+        cls = _class(b)
+        if cls != "SmoothDiffuse":
+            raise ParameterError(f"shape {i} ({_class(sh)}) has the BSDF {cls}: the frame model "
+                                 f"reads the diffuse BSDF only so far")
+        if sh.emitter() is not None:
+            raise ParameterError(f"shape {i} ({_class(sh)}) is an area emitter: the frame model "
+                                 f"predicts lighting from the environment map only")
+
+
+def _first_hits(mi, scene, sensor, emitter, side: int, shape_index: dict) -> dict:
+    w, h = (int(x) for x in sensor.film().size())
+    shp = (h, w, side, side)
+    out = {"kind": np.zeros(shp, np.int8), "position": np.zeros(shp + (3,)),
+           "normal": np.zeros(shp + (3,)), "geo_normal": np.zeros(shp + (3,)),
+           "tangent": np.zeros(shp + (3, 3)), "albedo": np.zeros(shp + (3,)),
+           "facing": np.zeros(shp, bool), "shape": np.full(shp, -1, np.int64),
+           "background": np.zeros(shp + (3,))}
+    offs = (np.arange(side) + 0.5) / side
+    ctx = mi.BSDFContext()
+    for y in range(h):
+        for x in range(w):
+            for i, oy in enumerate(offs):
+                for j, ox in enumerate(offs):
+                    pos = mi.Point2f((x + ox) / w, (y + oy) / h)
+                    ray, _ = sensor.sample_ray(0.0, 0.5, pos, mi.Point2f(0.5, 0.5))
+                    si = scene.ray_intersect(ray)
+                    k = (y, x, i, j)
+                    if not si.is_valid():
+                        out["background"][k] = np.array(emitter.eval(si))[:3]
+                        continue
+                    fr = si.sh_frame
+                    n, ng = np.array(fr.n), np.array(si.n)
+                    if np.dot(ng, np.array(ray.d)) > 0:
+                        ng = -ng
+                    out["kind"][k] = HIT_SURFACE
+                    out["position"][k] = np.array(si.p)
+                    out["normal"][k] = n
+                    out["geo_normal"][k] = ng
+                    out["tangent"][k] = np.stack([np.array(fr.s), np.array(fr.t), n])
+                    out["facing"][k] = float(si.wi[2]) > 0.0
+                    out["albedo"][k] = np.array(
+                        si.bsdf().eval_diffuse_reflectance(si, True))[:3]
+                    out["shape"][k] = shape_index[id(si.shape)] if id(si.shape) in shape_index \
+                        else _find(scene, si.shape)
+    del ctx
+    axis = np.array(sensor.world_transform().matrix, dtype=np.float64)[:3, 2]
+    corners = np.zeros((h + 1, w + 1, 3))
+    for y in range(h + 1):
+        for x in range(w + 1):
+            ray, _ = sensor.sample_ray(0.0, 0.5, mi.Point2f(x / w, y / h), mi.Point2f(0.5, 0.5))
+            d = np.array(ray.d, dtype=np.float64)
+            corners[y, x] = d / np.dot(d, axis / np.linalg.norm(axis))
+    out["corners"] = corners
+    return out
+
+
+def _find(scene, shape) -> int:
+    for i, s in enumerate(scene.shapes()):
+        if s == shape:
+            return i
+    return -1
+
+
+def read_scene(path, *, side: int = 2) -> FrameScene:
+    """The :class:`~envfit.renderers._frame.FrameScene` of the Mitsuba 3 scene file ``path``
+    with ``side`` × ``side`` film points per pixel.
+
+    Raises :class:`envfit.base.ParameterError` (one line) for a file Mitsuba cannot load, a
+    scene without exactly one ``envmap`` emitter, a BSDF other than ``diffuse``, an area
+    emitter, or an integrator other than ``direct``/``path``."""
+    from envfit.renderers.mitsuba3._render import import_mitsuba
+    path = Path(path)
+    if not path.is_file():
+        raise ParameterError(f"{path}: no such scene file")
+    if not 1 <= int(side) <= 16:
+        raise ParameterError(f"film points per pixel side must be 1..16, got {side}")
+    mi = import_mitsuba()
+    scene = _load(mi, path)
+    sensors = list(scene.sensors())
+    if len(sensors) != 1:
+        raise ParameterError(f"the scene has {len(sensors)} sensors: the frame model reads one")
+    sensor = sensors[0]
+    integ, ne, nb, depth = _integrator(scene)
+    emitter, data, to_world, scale = _emitter(mi, scene)
+    shapes = list(scene.shapes())
+    _bsdf_checks(shapes)
+    params = mi.traverse(scene)
+    occ = tuple(_occluder(mi, params, s, i) for i, s in enumerate(shapes))
+    sampler = sensor.sampler()
+    cls = _class(sampler)
+    if cls not in SAMPLER_CLASSES:
+        raise ParameterError(f"the sampler {cls} is not one of Mitsuba's "
+                             f"{', '.join(SAMPLER_CLASSES.values())}")
+    rf = sensor.film().rfilter()
+    fname = _class(rf).replace("Filter", "").lower()
+    radius = float(rf.radius())
+    notes = []
+    if integ == "path" and depth not in (2,):
+        notes.append(f"path with max_depth {depth}: its direct lighting from the map is "
+                     f"predicted, not the longer paths")
+    hits = _first_hits(mi, scene, sensor, emitter, int(side),
+                       {id(s): i for i, s in enumerate(shapes)})
+    return FrameScene(
+        path=str(path), renderer="mitsuba3", size=tuple(int(x) for x in sensor.film().size()),
+        side=int(side), **hits, occluders=occ, envmap_data=data, envmap_to_world=to_world,
+        envmap_scale=scale, sampler=SAMPLER_CLASSES[cls], spp=int(sampler.sample_count()),
+        integrator=integ, emitter_samples=ne, bsdf_samples=nb, max_depth=depth,
+        filter_name=fname, filter_radius=radius,
+        filter_weights=np.vectorize(lambda t: float(rf.eval(float(t))), otypes=[float]),
+        notes=tuple(notes))

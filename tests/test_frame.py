@@ -1,0 +1,214 @@
+"""The frame model (issue 42) against Mitsuba 3 renders of small scenes: the image RMSE and
+each pixel's, with shadows, a texture-free albedo per shape, the box and Gaussian filters;
+its shadow rays against Mitsuba's own ``ray_test``; its refusals."""
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from envfit.base import ParameterError
+
+SCENE = """<scene version="3.0.0">
+  <integrator type="{integrator}"/>
+  <sensor type="perspective">
+    <float name="fov" value="40"/>
+    <transform name="to_world"><lookat origin="0, 1.5, 5" target="0, 0.4, 0" up="0, 1, 0"/>
+    </transform>
+    <sampler type="{sampler}"><integer name="sample_count" value="4"/></sampler>
+    <film type="hdrfilm"><integer name="width" value="{w}"/><integer name="height" value="{h}"/>
+      <rfilter type="{rfilter}"/></film>
+  </sensor>
+  <emitter type="envmap"><string name="filename" value="{map}"/>
+    <transform name="to_world"><rotate y="1" angle="30"/></transform></emitter>
+  <shape type="sphere"><point name="center" x="0" y="0.5" z="0"/><float name="radius" value="0.5"/>
+    {bsdf}</shape>
+  <shape type="cube"><transform name="to_world"><scale value="0.3"/>
+    <translate x="1" y="0.3" z="0.3"/></transform><bsdf type="diffuse"/></shape>
+  <shape type="rectangle"><transform name="to_world"><scale value="4"/>
+    <rotate x="1" angle="-90"/></transform>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf></shape>
+</scene>
+"""
+
+
+def _map(path):
+    """A 64 × 32 map: a sky gradient and a small bright sun (shadows with a direction)."""
+    from envfit.maps import save_envmap
+    h, w = 32, 64
+    y = (np.arange(h) + 0.5) / h
+    img = np.zeros((h, w, 3))
+    img[...] = (1.5 - y)[:, None, None] * np.array([0.6, 0.8, 1.0])
+    img[6:8, 40:42] = 200.0
+    return save_envmap(path, img)
+
+
+@pytest.fixture(scope="module")
+def scene_dir(tmp_path_factory):
+    d = tmp_path_factory.mktemp("frame")
+    _map(d / "map.exr")
+    return d
+
+
+def _scene(d, name="s.xml", *, w=24, h=18, rfilter="box", sampler="independent",
+           integrator="direct",
+           bsdf='<bsdf type="diffuse"><rgb name="reflectance" value="0.8, 0.5, 0.3"/></bsdf>'):
+    p = d / name
+    p.write_text(SCENE.format(w=w, h=h, rfilter=rfilter, sampler=sampler, map=d / "map.exr",
+                              integrator=integrator, bsdf=bsdf))
+    return p
+
+
+def _renders(path, spp: int, k: int) -> np.ndarray:
+    from envfit.renderers.mitsuba3._render import import_mitsuba
+    mi = import_mitsuba()
+    sc = mi.load_file(str(path))
+    return np.stack([np.array(mi.render(sc, seed=s, spp=spp))[..., :3] for s in range(k)])
+
+
+@pytest.mark.parametrize("rfilter", ["box", "gaussian"])
+def test_the_image_and_pixel_rmse_are_mitsubas(scene_dir, rfilter):
+    """Predicted against 40 renders at 4 spp (the estimator is unbiased: each pixel's MSE is
+    its variance over renders): the image RMSE inside [0.8 × low, 1.25 × high] of its 95 %
+    interval, and the pixels' ranks agree (Spearman ≥ 0.8)."""
+    pytest.importorskip("mitsuba")
+    pytest.importorskip("embreex")
+    from scipy.stats import chi2, spearmanr
+
+    from envfit.frame import predict_frame
+    path = _scene(scene_dir, f"{rfilter}.xml", rfilter=rfilter)
+    p = predict_frame(path, spp=(4,), level=4)
+    imgs = _renders(path, 4, 40)
+    meas = imgs.var(axis=0, ddof=1).mean(axis=2)          # (H, W)
+    k, m = imgs.shape[0] - 1, float(meas.mean())
+    # the image MSE's interval: a sum of many pixels' variances, each with k degrees of
+    # freedom; its effective degrees of freedom by Satterthwaite
+    dof = k * meas.sum() ** 2 / (meas ** 2).sum()
+    lo, hi = m * dof / chi2.ppf(0.975, dof), m * dof / chi2.ppf(0.025, dof)
+    pred = p.rows[0].rmse ** 2
+    assert 0.8 ** 2 * lo <= pred <= 1.25 ** 2 * hi, (pred, lo, hi)
+    assert spearmanr(p.pixel_rmse(4).ravel(), meas.ravel()).correlation >= 0.8
+    # the converged image the model implies is the renders' mean
+    mean = imgs.mean(axis=0)
+    assert abs(float(p.preview.mean()) / float(mean.mean()) - 1) < 0.03
+
+
+def test_the_gaussian_filter_lowers_the_noise_as_mitsuba_splats(scene_dir):
+    """Mitsuba's default Gaussian (σ = 0.5 px, radius 2) averages ~3 pixels' samples: the
+    model's image RMSE under it is well below the box filter's, by the ratio the renders show."""
+    pytest.importorskip("mitsuba")
+    pytest.importorskip("embreex")
+    from envfit.frame import predict_frame
+    box = predict_frame(_scene(scene_dir, "b2.xml"), spp=(4,), level=4).rows[0].rmse
+    gau = predict_frame(_scene(scene_dir, "g2.xml", rfilter="gaussian"), spp=(4,),
+                        level=4).rows[0].rmse
+    rb = np.sqrt(_renders(scene_dir / "b2.xml", 4, 24).var(axis=0, ddof=1).mean())
+    rg = np.sqrt(_renders(scene_dir / "g2.xml", 4, 24).var(axis=0, ddof=1).mean())
+    assert gau < 0.8 * box
+    assert abs((gau / box) / (rg / rb) - 1) < 0.15
+
+
+def test_shadow_rays_agree_with_mitsubas_ray_test(scene_dir):
+    """Random rays from points on the ground: Embree on the scene's triangles (an icosphere
+    for the sphere) against Mitsuba's ``Scene::ray_test`` on its own shapes."""
+    pytest.importorskip("mitsuba")
+    pytest.importorskip("embreex")
+    from envfit.frame._visibility import Visibility
+    from envfit.renderers.mitsuba3._frame_scene import read_scene
+    from envfit.renderers.mitsuba3._render import import_mitsuba
+    mi = import_mitsuba()
+    path = _scene(scene_dir, "v.xml", w=4, h=3)
+    fs = read_scene(path, side=1)
+    sc = mi.load_file(str(path))
+    rng = np.random.default_rng(3)
+    n = 4000
+    o = np.column_stack([rng.uniform(-2, 2, n), np.full(n, 1e-3), rng.uniform(-2, 2, n)])
+    d = rng.normal(size=(n, 3))
+    d[:, 1] = np.abs(d[:, 1])
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    ground = [i for i, oc in enumerate(fs.occluders) if oc.name == "Rectangle"][0]
+    ours = Visibility(fs.occluders).visible(o, d, ground)
+    theirs = np.array([not sc.ray_test(mi.Ray3f(mi.Point3f(*o[i]), mi.Vector3f(*d[i])))
+                       for i in range(n)])
+    assert (~theirs).sum() > 100                        # the sphere and cube shadow some
+    assert np.mean(ours == theirs) > 0.998
+
+
+def test_the_background_is_the_emitters_own(scene_dir):
+    """Where the camera sees the map, the model's stratum means equal Mitsuba's emitter
+    ``eval`` at the film points (the rotated map included) to the map's bilinear accuracy."""
+    pytest.importorskip("mitsuba")
+    pytest.importorskip("embreex")
+    from envfit.frame._model import PointMoments, _background, _Techniques
+    from envfit.renderers._frame import HIT_NONE
+    from envfit.renderers.mitsuba3._frame_scene import read_scene
+    fs = read_scene(_scene(scene_dir, "bg.xml", w=12, h=9), side=1)
+    idx = np.argwhere(fs.kind == HIT_NONE)
+    assert len(idx) > 10
+    mean, var = _background(fs, _Techniques(fs, 2), idx)
+    mid = fs.background[tuple(idx.T)]
+    assert np.allclose(mean, mid, rtol=0.05, atol=1e-3)
+    assert PointMoments is not None and np.all(var >= 0)
+
+
+def test_the_box_filter_is_the_pixels_mean_variance():
+    """With the box filter each pixel's MSE at one spp is the mean of v over its film points
+    plus the variance of I over them (the model's formula, computed here by hand)."""
+    from envfit.frame._model import PointMoments, pixel_mse
+
+    class FS:
+        side, width, height, filter_name, filter_radius = 2, 3, 2, "box", 0.5
+    rng = np.random.default_rng(0)
+    mean, var = rng.random((2, 3, 2, 2, 3)), rng.random((2, 3, 2, 2, 3))
+    ip, mse = pixel_mse(FS, PointMoments(mean, var, np.zeros_like(var), 0))
+    want = var.mean(axis=(2, 3)) + mean.var(axis=(2, 3))
+    assert np.allclose(ip, mean.mean(axis=(2, 3)))
+    assert np.allclose(mse, want)
+
+
+@pytest.mark.parametrize("change,words", [
+    ({"bsdf": '<bsdf type="conductor"/>'}, "reads the diffuse BSDF only"),
+    ({"sampler": "ldsampler"}, "predicts the independent sampler"),
+    ({"integrator": "volpath"}, "is not modelled"),
+])
+def test_what_is_not_modelled_is_refused_in_one_line(scene_dir, change, words):
+    pytest.importorskip("mitsuba")
+    pytest.importorskip("embreex")
+    from envfit.frame import predict_frame
+    path = _scene(scene_dir, f"bad_{'_'.join(change)}.xml", w=4, h=3, **change)
+    with pytest.raises(ParameterError, match=words):
+        predict_frame(path, spp=(4,), level=2)
+    r = subprocess.run([sys.executable, "-m", "envfit.cli", "frame", str(path)],
+                       capture_output=True, text=True)
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert "Traceback" not in r.stderr
+
+
+def test_the_answer_meets_the_target_and_one_less_does_not(scene_dir, tmp_path):
+    """The CLI's answer N: the image RMSE at N (MSE₁/N) is ≤ the target, at N − 1 it is not;
+    --json has the contract's predictions and --out the noise image."""
+    pytest.importorskip("mitsuba")
+    pytest.importorskip("embreex")
+    import json
+
+    from envfit.frame._images import write_exr  # noqa: F401  (the writer --out uses)
+    path = _scene(scene_dir, "a.xml", w=8, h=6)
+    out, js = tmp_path / "out", tmp_path / "f.json"
+    r = subprocess.run([sys.executable, "-m", "envfit.cli", "frame", str(path), "--spp", "4,16",
+                        "--level", "3", "--target-relative", "0.05", "--json", str(js),
+                        "--out", str(out), "-q"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    d = json.loads(js.read_text())
+    assert [x["spp"] for x in d["predictions"]] == [4, 16]
+    r4, r16 = (x["predicted_rmse"] for x in d["predictions"])
+    assert abs(r4 / r16 - 2.0) < 1e-9                    # independent: exactly N^-1/2
+    n, t = d["answer_spp"], d["target"]
+    mse1 = r4 ** 2 * 4
+    assert mse1 / n <= t * t < mse1 / (n - 1)
+    assert abs(t - 0.05 * d["mean_value"]) < 1e-12
+    import OpenImageIO as oiio
+    img = oiio.ImageBuf(str(out / "noise.exr"))
+    assert (img.spec().width, img.spec().height) == (8, 6)
+    assert (out / "frame.png").stat().st_size > 0
