@@ -199,7 +199,9 @@ def predict_frame(scene, options: FrameOptions | None = None, **kw) -> FramePred
     answer = _answer(mse1, target, opts.percentile) if target > 0 else None
     notes = list(fs.notes)
     notes.append(f"direct lighting from the map ({fs.integrator}); diffuse surfaces; "
-                 f"{fs.side}×{fs.side} film points per pixel")
+                 f"{fs.side}×{fs.side} film points per pixel, "
+                 f"{max(2, -(-8 // fs.side)) * fs.side} per side in the {pm.edges} pixels a "
+                 f"silhouette crosses")
     return FramePrediction(
         str(path), fs.renderer, fs.size, fs.sampler, fs.spp, fs.integrator, fs.filter_name,
         fs.side, opts.level, preview, mse1, rows, target, kind, answer, tuple(notes),

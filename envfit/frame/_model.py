@@ -19,6 +19,14 @@ visibility V of :mod:`._visibility`. Its mean and variance over the samples,
 are the midpoint quadratures of the technique's own tables at level ``level`` (4^level
 points each). A camera ray that escapes sees the map: :math:`I(x) = L`, :math:`v(x) = 0`.
 
+**Film points.** Each pixel has S × S strata, each represented by its midpoint; where the
+camera sees the map, a stratum's mean and the variance of I within it come from
+⌈8/S⌉² directions (:func:`_background`). A pixel that a silhouette crosses
+(:func:`edge_pixels`: camera rays at 8 × 8 positions meet more than one shape, or a shape and
+the map) has each stratum from ⌈8/S⌉² sub-points (the renderer's own first hits, the
+techniques one level coarser): their mean I, mean v, and the variance of I within the
+stratum.
+
 **One pixel.** With the ``independent`` sampler each of the N samples of pixel q lies uniformly
 in q and every sample splats to pixel p with the filter's weight :math:`w(x - c_p)` (box: 1 in
 its own pixel); the pixel is :math:`\hat I_p = \sum_j w_j F_j / \sum_j w_j` (Mitsuba's
@@ -50,7 +58,7 @@ from envfit.predict.renderer._preset_integrand import (BsdfTable, MapTable, bsdf
 from envfit.renderers import get_renderer
 from envfit.renderers._frame import HIT_SURFACE, FrameScene
 
-__all__ = ["PointMoments", "point_moments", "pixel_mse", "MODELLED_SAMPLERS"]
+__all__ = ["PointMoments", "point_moments", "pixel_mse", "edge_pixels", "MODELLED_SAMPLERS"]
 
 #: the samplers whose frame error is modelled
 MODELLED_SAMPLERS = ("independent",)
@@ -70,6 +78,7 @@ class PointMoments:
     var: np.ndarray
     within: np.ndarray
     rays: int
+    edges: int = 0
 
 
 def _offset(p: np.ndarray) -> np.ndarray:
@@ -147,44 +156,118 @@ def _background(fs: FrameScene, tq: "_Techniques", idx: np.ndarray):
     return rad.mean(axis=1), rad.var(axis=1)
 
 
-def point_moments(fs: FrameScene, level: int = 5, quiet: bool = True) -> PointMoments:
+def _surface_moments(h: dict, tq: _Techniques, vis: Visibility, ne: int, nb: int, bar):
+    """I and v (P, 3) of flat film points ``h`` (the arrays of :attr:`FrameScene.hits_at`)
+    that hit a surface facing the camera, 0 elsewhere; and the shadow rays cast."""
+    p_all = len(h["kind"])
+    mean, var = np.zeros((p_all, 3)), np.zeros((p_all, 3))
+    idx = np.flatnonzero((h["kind"] == HIT_SURFACE) & h["facing"])
+    idx = idx[np.argsort(h["shape"][idx], kind="stable")]           # one shape per batch
+    batches = [b for s in np.unique(h["shape"][idx]) for sel in [idx[h["shape"][idx] == s]]
+               for b in np.array_split(sel, max(1, -(-len(sel) // _BATCH)))]
+    rays = 0
+    for b in batches:
+        shape = int(h["shape"][b[0]])
+        o = h["position"][b] + _offset(h["position"][b])[:, None] * h["geo_normal"][b]
+        he, hb, de, db = tq.parts(h["normal"][b])
+        p = de.shape[0]
+        ve = vis.visible(np.repeat(o, p, axis=0), np.tile(de, (len(b), 1)), shape)
+        vb = vis.visible(np.repeat(o, p, axis=0), db.reshape(-1, 3), shape)
+        rays += ve.size + vb.size
+        a = h["albedo"][b][:, None, :]
+        e = he * ve.reshape(len(b), p)[..., None] * a
+        g = hb * vb.reshape(len(b), p)[..., None] * a
+        mean[b] = e.mean(axis=1) + g.mean(axis=1)
+        var[b] = (e.var(axis=1) / ne if ne else 0.0) + (g.var(axis=1) / nb if nb else 0.0)
+        bar.update(len(b))
+    return mean, var, rays
+
+
+def _flat(fs: FrameScene) -> dict:
+    """The film points' arrays of ``fs`` flattened to (P, …)."""
+    keys = ("kind", "position", "normal", "geo_normal", "albedo", "facing", "shape",
+            "background")
+    return {k: getattr(fs, k).reshape((-1,) + getattr(fs, k).shape[4:]) for k in keys}
+
+
+def edge_pixels(fs: FrameScene, vis: Visibility, fine: int = _SUB) -> np.ndarray:
+    """The pixels (E, 2) (row, column) whose camera rays at ``fine`` × ``fine`` positions meet
+    more than one shape, or a shape and the map: a silhouette passes through them, which the
+    S × S film points can miss. The rays are interpolated from the pixel's corner rays and
+    cast by Embree against the occluders."""
+    t = (np.arange(fine) + 0.5) / fine
+    h, w = fs.height, fs.width
+    u, v = t[None, :], t[:, None]
+    out = np.zeros((h, w), bool)
+    for y in range(h):
+        cs = [fs.corners[y, :-1], fs.corners[y, 1:], fs.corners[y + 1, :-1],
+              fs.corners[y + 1, 1:]]
+        os_ = [fs.corner_origins[y, :-1], fs.corner_origins[y, 1:],
+               fs.corner_origins[y + 1, :-1], fs.corner_origins[y + 1, 1:]]
+
+        def lerp(c):
+            return (((1 - u) * (1 - v))[None, ..., None] * c[0][:, None, None]
+                    + (u * (1 - v))[None, ..., None] * c[1][:, None, None]
+                    + ((1 - u) * v)[None, ..., None] * c[2][:, None, None]
+                    + (u * v)[None, ..., None] * c[3][:, None, None])
+        d = lerp(cs).reshape(-1, 3)
+        d /= np.linalg.norm(d, axis=1)[:, None]
+        ids = vis.first_shape(lerp(os_).reshape(-1, 3), d).reshape(w, fine * fine)
+        out[y] = ids.min(axis=1) != ids.max(axis=1)
+    return np.argwhere(out)
+
+
+def _refine(fs: FrameScene, tq: _Techniques, vis: Visibility, pixels: np.ndarray,
+            level_tq: _Techniques, bar):
+    """The strata of the edge ``pixels`` from r × r sub-points each (r = ⌈:data:`_SUB`/S⌉,
+    the renderer's first hits, the techniques at ``level_tq``): the strata's mean I, mean v
+    and the variance of I within them, (E, S, S, 3) each."""
+    s = fs.side
+    r = max(2, -(-_SUB // s))
+    t = (np.arange(r) + 0.5) / r
+    y, x = pixels[:, 0], pixels[:, 1]
+    i, j, a, b = np.meshgrid(np.arange(s), np.arange(s), t, t, indexing="ij")
+    fx = x[:, None] + ((j + b) / s).ravel()[None, :]
+    fy = y[:, None] + ((i + a) / s).ravel()[None, :]
+    h = fs.hits_at(np.column_stack([fx.ravel(), fy.ravel()]))
+    m, v, rays = _surface_moments(h, level_tq, vis, fs.emitter_samples, fs.bsdf_samples, bar)
+    esc = h["kind"] != HIT_SURFACE
+    m[esc] = h["background"][esc]
+    m = m.reshape(len(pixels), s, s, r * r, 3)
+    v = v.reshape(len(pixels), s, s, r * r, 3)
+    return m.mean(axis=3), v.mean(axis=3), m.var(axis=3), rays
+
+
+def point_moments(fs: FrameScene, level: int = 5, quiet: bool = True,
+                  refine: bool = True) -> PointMoments:
     """I(x) and v(x) at every film point of ``fs`` (module docstring), the techniques
-    tabulated at level ``level``."""
+    tabulated at level ``level``; with ``refine``, the strata of the pixels a silhouette
+    crosses (:func:`edge_pixels`) from :data:`_SUB` / S sub-points per side each, at level
+    ``level`` − 1."""
     if not 2 <= int(level) <= 9:
         raise ParameterError(f"the frame model's level must be 2..9, got {level}")
     tq = _Techniques(fs, int(level))
     vis = Visibility(fs.occluders)
     shp = fs.kind.shape
-    mean = np.zeros(shp + (3,))
-    var = np.zeros(shp + (3,))
+    flat = _flat(fs)
+    edges = edge_pixels(fs, vis) if refine else np.zeros((0, 2), int)
+    r = max(2, -(-_SUB // fs.side))
+    todo = int(np.sum((flat["kind"] == HIT_SURFACE) & flat["facing"]))
+    bar = progress_bar(todo + len(edges) * fs.side ** 2 * r * r, desc="frame model",
+                       quiet=quiet, unit="point")
+    m, v, rays = _surface_moments(flat, tq, vis, fs.emitter_samples, fs.bsdf_samples, bar)
+    mean, var = m.reshape(shp + (3,)), v.reshape(shp + (3,))
     within = np.zeros(shp + (3,))
     esc = fs.kind != HIT_SURFACE
     mean[esc], within[esc] = _background(fs, tq, np.argwhere(esc))
-    idx = np.argwhere((fs.kind == HIT_SURFACE) & fs.facing)
-    idx = idx[np.argsort(fs.shape[tuple(idx.T)], kind="stable")]   # one shape per batch
-    batches = [b for s in np.unique(fs.shape[tuple(idx.T)])
-               for sel in [idx[fs.shape[tuple(idx.T)] == s]]
-               for b in np.array_split(sel, max(1, -(-len(sel) // _BATCH)))]
-    rays = 0
-    bar = progress_bar(len(idx), desc="frame model", quiet=quiet, unit="point")
-    for b in batches:
-        k = tuple(b.T)
-        shape = int(fs.shape[k][0])
-        o = fs.position[k] + _offset(fs.position[k])[:, None] * fs.geo_normal[k]
-        he, hb, de, db = tq.parts(fs.normal[k])
-        p = de.shape[0]
-        ve = vis.visible(np.repeat(o, p, axis=0), np.tile(de, (len(b), 1)), shape)
-        vb = vis.visible(np.repeat(o, p, axis=0), db.reshape(-1, 3), shape)
-        rays += ve.size + vb.size
-        a = fs.albedo[k][:, None, :]
-        e = he * ve.reshape(len(b), p)[..., None] * a
-        h = hb * vb.reshape(len(b), p)[..., None] * a
-        mean[k] = e.mean(axis=1) + h.mean(axis=1)
-        var[k] = (e.var(axis=1) / fs.emitter_samples if fs.emitter_samples else 0.0) + \
-                 (h.var(axis=1) / fs.bsdf_samples if fs.bsdf_samples else 0.0)
-        bar.update(len(b))
+    if len(edges):
+        coarse = _Techniques(fs, max(2, int(level) - 1))
+        em, ev, ew, more = _refine(fs, tq, vis, edges, coarse, bar)
+        k = tuple(edges.T)
+        mean[k], var[k], within[k] = em, ev, ew
+        rays += more
     bar.close()
-    return PointMoments(mean, var, within, rays)
+    return PointMoments(mean, var, within, rays, len(edges))
 
 
 def _weights(fs: FrameScene, reach: int):

@@ -75,6 +75,15 @@ class Visibility:
         return shape if 0 <= shape < len(self.occluders) and self.occluders[shape].convex \
             else -1
 
+    def first_shape(self, origins, directions) -> np.ndarray:
+        """The index of the first occluder each ray meets (−1: none) (R,) int."""
+        sc = self._scene(-1)
+        d = np.ascontiguousarray(directions, dtype=np.float32)
+        if sc is None or len(d) == 0:
+            return np.full(len(d), -1)
+        o = np.ascontiguousarray(np.broadcast_to(origins, d.shape), dtype=np.float32)
+        return np.asarray(sc.run(o, d, output=1)["geomID"]).astype(np.int64)
+
     def visible(self, origins, directions, shape: int) -> np.ndarray:
         """Whether each ray (origins (R, 3), unit directions (R, 3)) from a point on ``shape``
         (its index; −1: none) meets no occluder (R,) bool."""

@@ -60,6 +60,7 @@ class FrameScene:
     facing : (…,) bool, the camera sees the BSDF's upper side (cos θ_o > 0).
     shape : (…,) int, the hit shape's index in ``occluders`` (−1 where none).
     background : (…, 3) the map's radiance seen by an escaping camera ray.
+    corner_origins : (H + 1, W + 1, 3) the camera rays' origins at the pixel corners.
     corners : (H + 1, W + 1, 3) the camera ray directions at the pixel corners, each divided
         by its component along the camera's axis, so that a direction inside a pixel is the
         bilinear interpolation of its corners' (a pinhole's directions are linear in the film
@@ -77,6 +78,8 @@ class FrameScene:
     filter_radius : its radius in pixels.
     filter_weights : the filter's 1-D weight at each film point's offset from each pixel
         centre, as a callable of offsets (pixels) — the renderer's own ``eval``.
+    hits_at : the first hits at film positions (P, 2) in pixels, by the renderer: a dict of
+        the arrays above with shape (P, …) (``kind`` … ``background``).
     notes : what the reader assumed, as sentences.
     """
 
@@ -93,6 +96,7 @@ class FrameScene:
     facing: np.ndarray
     shape: np.ndarray
     background: np.ndarray
+    corner_origins: np.ndarray
     corners: np.ndarray
     occluders: tuple
     envmap_data: np.ndarray = field(repr=False)
@@ -107,6 +111,7 @@ class FrameScene:
     filter_name: str
     filter_radius: float
     filter_weights: object = field(repr=False)
+    hits_at: object = field(repr=False)
     notes: tuple = ()
 
     @property

@@ -156,58 +156,78 @@ def _bsdf_checks(shapes) -> None:
                                  f"predicts lighting from the environment map only")
 
 
-def _first_hits(mi, scene, sensor, emitter, side: int, shape_index: dict) -> dict:
-    w, h = (int(x) for x in sensor.film().size())
-    shp = (h, w, side, side)
-    out = {"kind": np.zeros(shp, np.int8), "position": np.zeros(shp + (3,)),
-           "normal": np.zeros(shp + (3,)), "geo_normal": np.zeros(shp + (3,)),
-           "tangent": np.zeros(shp + (3, 3)), "albedo": np.zeros(shp + (3,)),
-           "facing": np.zeros(shp, bool), "shape": np.full(shp, -1, np.int64),
-           "background": np.zeros(shp + (3,))}
+class _Camera:
+    """First hits of camera rays at film positions, by Mitsuba (``Sensor::sample_ray``,
+    ``Scene::ray_intersect``)."""
+
+    def __init__(self, mi, scene, sensor, emitter):
+        self.mi, self.scene, self.sensor, self.emitter = mi, scene, sensor, emitter
+        self.shapes = list(scene.shapes())
+        self.w, self.h = (int(x) for x in sensor.film().size())
+
+    def _ray(self, x: float, y: float):
+        mi = self.mi
+        ray, _ = self.sensor.sample_ray(0.0, 0.5, mi.Point2f(x / self.w, y / self.h),
+                                        mi.Point2f(0.5, 0.5))
+        return ray
+
+    def _index(self, shape) -> int:
+        return next((i for i, s in enumerate(self.shapes) if s is shape), -1)
+
+    def hits(self, xy: np.ndarray) -> dict:
+        """The first hit of the camera ray at each film position ``xy`` (P, 2) in pixels
+        (x right, y down): the arrays of :class:`~envfit.renderers._frame.FrameScene`,
+        shape (P, …)."""
+        p = len(xy)
+        out = {"kind": np.zeros(p, np.int8), "position": np.zeros((p, 3)),
+               "normal": np.zeros((p, 3)), "geo_normal": np.zeros((p, 3)),
+               "tangent": np.zeros((p, 3, 3)), "albedo": np.zeros((p, 3)),
+               "facing": np.zeros(p, bool), "shape": np.full(p, -1, np.int64),
+               "background": np.zeros((p, 3))}
+        for k, (x, y) in enumerate(np.asarray(xy, dtype=np.float64)):
+            ray = self._ray(float(x), float(y))
+            si = self.scene.ray_intersect(ray)
+            if not si.is_valid():
+                out["background"][k] = np.array(self.emitter.eval(si))[:3]
+                continue
+            fr = si.sh_frame
+            n, ng = np.array(fr.n), np.array(si.n)
+            if np.dot(ng, np.array(ray.d)) > 0:
+                ng = -ng
+            out["kind"][k] = HIT_SURFACE
+            out["position"][k] = np.array(si.p)
+            out["normal"][k] = n
+            out["geo_normal"][k] = ng
+            out["tangent"][k] = np.stack([np.array(fr.s), np.array(fr.t), n])
+            out["facing"][k] = float(si.wi[2]) > 0.0
+            out["albedo"][k] = np.array(si.bsdf().eval_diffuse_reflectance(si, True))[:3]
+            out["shape"][k] = self._index(si.shape)
+        return out
+
+    def corners(self) -> tuple[np.ndarray, np.ndarray]:
+        """The camera rays at the pixel corners: origins and directions (H + 1, W + 1, 3),
+        each direction divided by its component along the camera's axis."""
+        axis = np.array(self.sensor.world_transform().matrix, dtype=np.float64)[:3, 2]
+        axis /= np.linalg.norm(axis)
+        org, dirs = np.zeros((self.h + 1, self.w + 1, 3)), np.zeros((self.h + 1, self.w + 1, 3))
+        for y in range(self.h + 1):
+            for x in range(self.w + 1):
+                ray = self._ray(float(x), float(y))
+                d = np.array(ray.d, dtype=np.float64)
+                org[y, x], dirs[y, x] = np.array(ray.o, dtype=np.float64), d / np.dot(d, axis)
+        return org, dirs
+
+
+def _first_hits(cam: _Camera, side: int) -> dict:
+    """The first hits at the S × S film points of every pixel, arrays (H, W, S, S, …)."""
     offs = (np.arange(side) + 0.5) / side
-    ctx = mi.BSDFContext()
-    for y in range(h):
-        for x in range(w):
-            for i, oy in enumerate(offs):
-                for j, ox in enumerate(offs):
-                    pos = mi.Point2f((x + ox) / w, (y + oy) / h)
-                    ray, _ = sensor.sample_ray(0.0, 0.5, pos, mi.Point2f(0.5, 0.5))
-                    si = scene.ray_intersect(ray)
-                    k = (y, x, i, j)
-                    if not si.is_valid():
-                        out["background"][k] = np.array(emitter.eval(si))[:3]
-                        continue
-                    fr = si.sh_frame
-                    n, ng = np.array(fr.n), np.array(si.n)
-                    if np.dot(ng, np.array(ray.d)) > 0:
-                        ng = -ng
-                    out["kind"][k] = HIT_SURFACE
-                    out["position"][k] = np.array(si.p)
-                    out["normal"][k] = n
-                    out["geo_normal"][k] = ng
-                    out["tangent"][k] = np.stack([np.array(fr.s), np.array(fr.t), n])
-                    out["facing"][k] = float(si.wi[2]) > 0.0
-                    out["albedo"][k] = np.array(
-                        si.bsdf().eval_diffuse_reflectance(si, True))[:3]
-                    out["shape"][k] = shape_index[id(si.shape)] if id(si.shape) in shape_index \
-                        else _find(scene, si.shape)
-    del ctx
-    axis = np.array(sensor.world_transform().matrix, dtype=np.float64)[:3, 2]
-    corners = np.zeros((h + 1, w + 1, 3))
-    for y in range(h + 1):
-        for x in range(w + 1):
-            ray, _ = sensor.sample_ray(0.0, 0.5, mi.Point2f(x / w, y / h), mi.Point2f(0.5, 0.5))
-            d = np.array(ray.d, dtype=np.float64)
-            corners[y, x] = d / np.dot(d, axis / np.linalg.norm(axis))
-    out["corners"] = corners
+    yy, xx, ii, jj = np.meshgrid(np.arange(cam.h), np.arange(cam.w), offs, offs, indexing="ij")
+    xy = np.column_stack([(xx + jj).ravel(), (yy + ii).ravel()])
+    flat = cam.hits(xy)
+    shp = (cam.h, cam.w, side, side)
+    out = {k: v.reshape(shp + v.shape[1:]) for k, v in flat.items()}
+    out["corner_origins"], out["corners"] = cam.corners()
     return out
-
-
-def _find(scene, shape) -> int:
-    for i, s in enumerate(scene.shapes()):
-        if s == shape:
-            return i
-    return -1
 
 
 def read_scene(path, *, side: int = 2) -> FrameScene:
@@ -247,8 +267,8 @@ def read_scene(path, *, side: int = 2) -> FrameScene:
     if integ == "path" and depth not in (2,):
         notes.append(f"path with max_depth {depth}: its direct lighting from the map is "
                      f"predicted, not the longer paths")
-    hits = _first_hits(mi, scene, sensor, emitter, int(side),
-                       {id(s): i for i, s in enumerate(shapes)})
+    cam = _Camera(mi, scene, sensor, emitter)
+    hits = _first_hits(cam, int(side))
     return FrameScene(
         path=str(path), renderer="mitsuba3", size=tuple(int(x) for x in sensor.film().size()),
         side=int(side), **hits, occluders=occ, envmap_data=data, envmap_to_world=to_world,
@@ -256,4 +276,5 @@ def read_scene(path, *, side: int = 2) -> FrameScene:
         integrator=integ, emitter_samples=ne, bsdf_samples=nb, max_depth=depth,
         filter_name=fname, filter_radius=radius,
         filter_weights=np.vectorize(lambda t: float(rf.eval(float(t))), otypes=[float]),
+        hits_at=cam.hits,
         notes=tuple(notes))
