@@ -41,8 +41,8 @@ def register(subparsers) -> None:
                    help="meet the target at this percentile of the pixels' RMSE (0 < Q <= 100)")
     p.add_argument("--film-points", type=positive_int, default=2,
                    help="film points per pixel side (default 2)")
-    p.add_argument("--level", type=positive_int, default=5,
-                   help="the techniques' tables hold 4^LEVEL points each (2..9, default 5)")
+    p.add_argument("--level", type=positive_int, default=4,
+                   help="the techniques' tables hold 4^LEVEL points each (2..9, default 4)")
     add_common_arguments(p, seed=False)
     p.set_defaults(func=run)
 

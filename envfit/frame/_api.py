@@ -53,7 +53,7 @@ class FrameOptions:
     target_relative: float | None = None
     percentile: float | None = None
     side: int = 2
-    level: int = 5
+    level: int = 4
     quiet: bool = True
 
     def __post_init__(self):

@@ -238,7 +238,7 @@ def _refine(fs: FrameScene, tq: _Techniques, vis: Visibility, pixels: np.ndarray
     return m.mean(axis=3), v.mean(axis=3), m.var(axis=3), rays
 
 
-def point_moments(fs: FrameScene, level: int = 5, quiet: bool = True,
+def point_moments(fs: FrameScene, level: int = 4, quiet: bool = True,
                   refine: bool = True) -> PointMoments:
     """I(x) and v(x) at every film point of ``fs`` (module docstring), the techniques
     tabulated at level ``level``; with ``refine``, the strata of the pixels a silhouette

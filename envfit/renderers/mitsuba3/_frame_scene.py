@@ -89,30 +89,29 @@ def _emitter(mi, scene):
 
 
 def _icosphere(level: int) -> tuple[np.ndarray, np.ndarray]:
-    """A unit icosphere: ``level`` subdivisions of the icosahedron."""
+    """A unit icosphere: ``level`` subdivisions of the icosahedron (vertices on the sphere)."""
     t = (1.0 + math.sqrt(5.0)) / 2.0
-    v = [(-1, t, 0), (1, t, 0), (-1, -t, 0), (1, -t, 0), (0, -1, t), (0, 1, t), (0, -1, -t),
-         (0, 1, -t), (t, 0, -1), (t, 0, 1), (-t, 0, -1), (-t, 0, 1)]
-    f = [(0, 11, 5), (0, 5, 1), (0, 1, 7), (0, 7, 10), (0, 10, 11), (1, 5, 9), (5, 11, 4),
-         (11, 10, 2), (10, 7, 6), (7, 1, 8), (3, 9, 4), (3, 4, 2), (3, 2, 6), (3, 6, 8),
-         (3, 8, 9), (4, 9, 5), (2, 4, 11), (6, 2, 10), (8, 6, 7), (9, 8, 1)]
-    verts = [np.array(p, dtype=np.float64) / np.linalg.norm(p) for p in v]
-    faces = f
+    v = np.array([(-1, t, 0), (1, t, 0), (-1, -t, 0), (1, -t, 0), (0, -1, t), (0, 1, t),
+                  (0, -1, -t), (0, 1, -t), (t, 0, -1), (t, 0, 1), (-t, 0, -1), (-t, 0, 1)],
+                 dtype=np.float64)
+    f = np.array([(0, 11, 5), (0, 5, 1), (0, 1, 7), (0, 7, 10), (0, 10, 11), (1, 5, 9),
+                  (5, 11, 4), (11, 10, 2), (10, 7, 6), (7, 1, 8), (3, 9, 4), (3, 4, 2),
+                  (3, 2, 6), (3, 6, 8), (3, 8, 9), (4, 9, 5), (2, 4, 11), (6, 2, 10),
+                  (8, 6, 7), (9, 8, 1)], dtype=np.int64)
+    v /= np.linalg.norm(v, axis=1)[:, None]
     for _ in range(level):
-        cache, new = {}, []
-
-        def mid(a, b):
-            key = (min(a, b), max(a, b))
-            if key not in cache:
-                p = verts[a] + verts[b]
-                verts.append(p / np.linalg.norm(p))
-                cache[key] = len(verts) - 1
-            return cache[key]
-        for a, b, c in faces:
-            ab, bc, ca = mid(a, b), mid(b, c), mid(c, a)
-            new += [(a, ab, ca), (b, bc, ab), (c, ca, bc), (ab, bc, ca)]
-        faces = new
-    return np.array(verts), np.array(faces, dtype=np.int64)
+        edges = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
+        key = np.sort(edges, axis=1)
+        uniq, inv = np.unique(key, axis=0, return_inverse=True)
+        mid = v[uniq[:, 0]] + v[uniq[:, 1]]
+        mid /= np.linalg.norm(mid, axis=1)[:, None]
+        m = len(v) + inv.reshape(3, -1)                 # the midpoints of edges 01, 12, 20
+        v = np.concatenate([v, mid])
+        a, b, c = f[:, 0], f[:, 1], f[:, 2]
+        ab, bc, ca = m[0], m[1], m[2]
+        f = np.concatenate([np.column_stack(x) for x in
+                            ((a, ab, ca), (b, bc, ab), (c, ca, bc), (ab, bc, ca))])
+    return v, f
 
 
 def _occluder(mi, params, shape, index: int) -> Occluder:
@@ -184,23 +183,23 @@ class _Camera:
                "tangent": np.zeros((p, 3, 3)), "albedo": np.zeros((p, 3)),
                "facing": np.zeros(p, bool), "shape": np.full(p, -1, np.int64),
                "background": np.zeros((p, 3))}
-        for k, (x, y) in enumerate(np.asarray(xy, dtype=np.float64)):
-            ray = self._ray(float(x), float(y))
+        for k, (x, y) in enumerate(np.asarray(xy, dtype=np.float64).tolist()):
+            ray = self._ray(x, y)
             si = self.scene.ray_intersect(ray)
             if not si.is_valid():
-                out["background"][k] = np.array(self.emitter.eval(si))[:3]
+                out["background"][k] = tuple(self.emitter.eval(si))[:3]
                 continue
             fr = si.sh_frame
-            n, ng = np.array(fr.n), np.array(si.n)
-            if np.dot(ng, np.array(ray.d)) > 0:
-                ng = -ng
+            n, ng, d = tuple(fr.n), tuple(si.n), tuple(ray.d)
+            if ng[0] * d[0] + ng[1] * d[1] + ng[2] * d[2] > 0:
+                ng = (-ng[0], -ng[1], -ng[2])
             out["kind"][k] = HIT_SURFACE
-            out["position"][k] = np.array(si.p)
+            out["position"][k] = tuple(si.p)
             out["normal"][k] = n
             out["geo_normal"][k] = ng
-            out["tangent"][k] = np.stack([np.array(fr.s), np.array(fr.t), n])
-            out["facing"][k] = float(si.wi[2]) > 0.0
-            out["albedo"][k] = np.array(si.bsdf().eval_diffuse_reflectance(si, True))[:3]
+            out["tangent"][k] = (tuple(fr.s), tuple(fr.t), n)
+            out["facing"][k] = si.wi[2] > 0.0
+            out["albedo"][k] = tuple(si.bsdf().eval_diffuse_reflectance(si, True))[:3]
             out["shape"][k] = self._index(si.shape)
         return out
 
