@@ -199,7 +199,7 @@ def main(argv=None) -> int:
     for m in a.maps:
         if m == "sun-gp":
             env = synthesize_envmap("sun-gp", height=512, seed=2)
-            maps.append(("sun-gp", save_envmap(a.out / "sun-gp.exr", env)))
+            maps.append(("sun-gp", save_envmap(a.out / "sun-gp.exr", env.envmap)))
         else:
             maps.append((Path(m).stem, Path(m).resolve()))
     sc = scenes(a.out, tuple(a.size))

@@ -39,7 +39,8 @@ from oracles.randomisers import (INTEGRANDS, Integrand, jittered_points,  # noqa
                                  xor_shifted_points)
 
 from envfit.predict.renderer.randomisation import (NETS, DyadicGrid,  # noqa: E402
-                                                   mis_mse, mitsuba_cmj_shape, randomised_mse)
+                                                   mis_mse, randomised_mse)
+from envfit.renderers import KENSLER_PERMUTATIONS, multijitter_shape  # noqa: E402
 
 #: points per chunk of the brute force (memory)
 CHUNK = 1 << 21
@@ -92,7 +93,8 @@ def _mitsuba_sets(kind: str, spp: int):
         return out
     options = {}
     if kind == "multijitter":       # Mitsuba's shape, over its hashed permutations
-        options = dict(zip(("nx", "ny"), mitsuba_cmj_shape(spp)), permutations="mitsuba")
+        options = dict(zip(("nx", "ny"), multijitter_shape(spp)),
+                       permutations=KENSLER_PERMUTATIONS)
     return make, n, options
 
 
@@ -149,7 +151,7 @@ def _mis_rows(path: str, args) -> None:
             mi.set_variant("scalar_rgb")
             s = mi.load_dict({"type": kind, "sample_count": spp})
             n = s.sample_count()
-            opts = {"permutations": "mitsuba"} if kind == "multijitter" else {}
+            opts = {"permutations": KENSLER_PERMUTATIONS} if kind == "multijitter" else {}
             res = mis_mse(method, grids[0], grids[1], n, shared=shared, total=grids[2], **opts)
             pred, cross = float(np.mean(res.mse)), float(np.mean(2 * res.cross))
             reps = args.reps if n <= 256 else max(500, args.reps // 4)
