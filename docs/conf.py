@@ -50,7 +50,7 @@ API = HERE / "api"
 GENERATED = HERE / "_generated"
 #: the commands whose ``--help`` the guides include (``_generated/help_<name>.txt``)
 HELP_COMMANDS = ("synth", "info", "fit", "table2", "theory", "theory wce", "theory table1",
-                 "theory figures", "validate", "advise", "sh")
+                 "theory figures", "validate", "advise", "sh", "frame")
 
 
 def public_packages() -> list[str]:

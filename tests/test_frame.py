@@ -208,6 +208,12 @@ def test_the_answer_meets_the_target_and_one_less_does_not(scene_dir, tmp_path):
     mse1 = r4 ** 2 * 4
     assert mse1 / n <= t * t < mse1 / (n - 1)
     assert abs(t - 0.05 * d["mean_value"]) < 1e-12
+    r = subprocess.run([sys.executable, "-m", "envfit.cli", "frame", str(path), "--spp", "4",
+                        "--level", "3", "--target", "0.01", "--percentile", "90", "--json",
+                        str(js), "-q"], capture_output=True, text=True)
+    d = json.loads(js.read_text())
+    p90, n = d["predictions"][0]["pixel_rmse_percentiles"]["90"], d["answer_spp"]
+    assert p90 * np.sqrt(4 / n) <= 0.01 < p90 * np.sqrt(4 / (n - 1))
     import OpenImageIO as oiio
     img = oiio.ImageBuf(str(out / "noise.exr"))
     assert (img.spec().width, img.spec().height) == (8, 6)

@@ -84,10 +84,11 @@ def run(args: argparse.Namespace, output: CommandOutput) -> int:
                         target_relative=args.target_relative, percentile=args.percentile,
                         side=args.film_points, level=args.level, quiet=args.quiet)
     r = predict_frame(args.scene, opts)
-    output.say(*_lines(r), *(f"  note: {x}" for x in r.notes),
+    answer = _answer(r, args.percentile)
+    output.say(*_lines(r), answer, *(f"  note: {x}" for x in r.notes),
                f"  ({r.seconds['read']:.1f} s reading the scene, {r.seconds['model']:.1f} s "
                f"model, {r.rays} shadow rays)")
-    output.answer(_answer(r, args.percentile))
+    output.answer(answer)
     out = out_dir(args)
     if out is not None:
         _write(output, r, out)

@@ -158,7 +158,7 @@ def _answer(mse1: np.ndarray, target: float, percentile) -> int:
     """The smallest N whose image RMSE (or the pixel percentile's) is ≤ target: exact, as
     the MSE is MSE₁/N."""
     m = float(mse1.mean()) if percentile is None else \
-        float(np.percentile(mse1.mean(axis=2), percentile))
+        float(np.percentile(np.sqrt(mse1.mean(axis=2)), percentile)) ** 2
     return max(1, math.ceil(m / (target * target) * (1 - 1e-12)))
 
 
