@@ -193,7 +193,6 @@ def test_the_answer_meets_the_target_and_one_less_does_not(scene_dir, tmp_path):
     pytest.importorskip("embreex")
     import json
 
-    from envfit.frame._images import write_exr  # noqa: F401  (the writer --out uses)
     path = _scene(scene_dir, "a.xml", w=8, h=6)
     out, js = tmp_path / "out", tmp_path / "f.json"
     r = subprocess.run([sys.executable, "-m", "envfit.cli", "frame", str(path), "--spp", "4,16",

@@ -10,7 +10,8 @@ with shading normal n, one spp of the renderer's direct estimator is (``direct``
 :math:`h_e = \rho\,\frac{L(\omega)\cos^+\theta}{\pi p_e(\omega)}\,w_e(\omega)\,V(p, \omega)` at
 the map sample :math:`\omega(u)` and :math:`h_b = \rho\,L(\omega)\,w_b(\omega)\,V(p, \omega)`
 at the cosine sample, with the renderer's own technique, pdfs and power-heuristic weights
-(:mod:`envfit.predict.renderer._preset_integrand`: ``map_values``, ``bsdf_values``) and the
+(as ``map_values`` and ``bsdf_values`` of :mod:`envfit.predict.renderer._preset_integrand`
+tabulate them for the sphere) and the
 visibility V of :mod:`._visibility`. Its mean and variance over the samples,
 
 .. math::  I(x) = E_u h_e + E_{u'} h_b,\qquad
@@ -53,8 +54,7 @@ from envfit.base import ParameterError
 from envfit.base._progress import progress_bar
 from envfit.frame._visibility import Visibility
 from envfit.maps import EnvMap
-from envfit.predict.renderer._preset_integrand import (BsdfTable, MapTable, bsdf_values,
-                                                       map_values)
+from envfit.predict.renderer._preset_integrand import BsdfTable, MapTable
 from envfit.renderers import get_renderer
 from envfit.renderers._frame import HIT_SURFACE, FrameScene
 
