@@ -256,7 +256,7 @@ def _bad_band_errors(v: Any, name: str) -> str | None:
     return None
 
 
-def _bad_preset(v: Any) -> str | None:
+def _bad_renderer_cells(v: Any) -> str | None:
     """The renderer advice's predictions ``{"cells": {"strategy:spp": {"rmse", "mse"}}}``:
     a strategy of map, brdf, mis, spp ≥ 1, finite RMSE ≥ 0 and MSE per channel ≥ 0."""
     why = _bad_fields(v, {"cells": lambda x, n: None if isinstance(x, dict)
@@ -290,7 +290,7 @@ def _bad_rmse(rmse: float, mse: list) -> str | None:
     return f"rmse = {rmse!r} is not the root of the mean of its mse ({mean!r})"
 
 
-def _preset_for_map(v: dict, envmap) -> str | None:
+def _renderer_cells_for_map(v: dict, envmap) -> str | None:
     """Against the map the entry is for: a map that is not constant in some channel has
     noise under every strategy and spp, so each cell's RMSE is > 0."""
     data = np.asarray(envmap.data)
@@ -304,11 +304,11 @@ def _preset_for_map(v: dict, envmap) -> str | None:
 #: a kind without one is returned as stored
 SCHEMAS: dict[str, Callable[[Any], str | None]] = {
     "fit": _bad_fit, "power": _bad_power, "transfer": _bad_transfer, "wce": _bad_curve,
-    "renderer": _bad_spectrum, "preset": _bad_preset}
+    "renderer": _bad_spectrum, "preset": _bad_renderer_cells}
 
 
 #: checks of a kind's value against the map it was computed for (after its schema)
-MAP_CHECKS: dict[str, Callable[[Any, Any], str | None]] = {"preset": _preset_for_map}
+MAP_CHECKS: dict[str, Callable[[Any, Any], str | None]] = {"preset": _renderer_cells_for_map}
 
 
 def entry_problem(kind: str, value: Any, envmap=None) -> str | None:

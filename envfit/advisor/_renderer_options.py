@@ -213,9 +213,9 @@ class RendererAdviseOptions:
     Parameters
     ----------
     renderer : str
-        A preset name (case-insensitive).
+        A name of :data:`envfit.renderers.RENDERERS` (case-insensitive).
     sampler : str or None
-        The renderer's sampler (its own name); None: the preset's default.
+        The renderer's sampler (its own name); None: the renderer's default.
     strategies : sequence of str or None
         Among ``mis``, ``map``, ``brdf``; None: every one the renderer renders and the model
         predicts with this sampler (``mis`` first when it can).

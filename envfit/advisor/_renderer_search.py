@@ -189,13 +189,13 @@ def answer_error(cm: CachedRendererModel, a: StrategyAnswer) -> list | None:
     return cm.model_error(a.strategy, a.spp if a.reached else a.searched_max)
 
 
-def switched_strategy(answers: dict, preset, default: str) -> str | None:
+def switched_strategy(answers: dict, record, default: str) -> str | None:
     """The strategy recommended instead of the renderer's ``default``, or None: the one that
     meets the target with the fewest samples traced per pixel (spp × the emitter and BSDF
     samples per spp), when the default meets it only with at least
     :data:`~envfit.defaults.SWITCH_FACTOR` times as many, or not at all."""
     def cost(a: StrategyAnswer) -> int:
-        st = preset.strategy(a.strategy)
+        st = record.strategy(a.strategy)
         return a.spp * (st.emitter_samples + st.bsdf_samples)
 
     d = answers[default]

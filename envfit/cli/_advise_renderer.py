@@ -70,7 +70,7 @@ def add_renderer_arguments(p) -> None:
 
 
 def sampler_help() -> str:
-    """``--sampler``'s help: each renderer's samplers from the preset registry."""
+    """``--sampler``'s help: each renderer's samplers from the renderer registry."""
     from envfit.renderers import RENDERERS
     lists = "; ".join(f"{p.display}: {name_words(p.samplers, p.default_sampler)}"
                       for p in RENDERERS.values())
