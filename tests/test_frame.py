@@ -120,7 +120,7 @@ def test_shadow_rays_agree_with_mitsubas_ray_test(scene_dir):
     from envfit.renderers.mitsuba3._render import import_mitsuba
     mi = import_mitsuba()
     path = _scene(scene_dir, "v.xml", w=4, h=3)
-    fs = read_scene(path, side=1)
+    fs = read_scene(path)
     sc = mi.load_file(str(path))
     rng = np.random.default_rng(3)
     n = 4000
@@ -141,31 +141,55 @@ def test_the_background_is_the_emitters_own(scene_dir):
     ``eval`` at the film points (the rotated map included) to the map's bilinear accuracy."""
     pytest.importorskip("mitsuba")
     pytest.importorskip("embreex")
-    from envfit.frame._model import PointMoments, _background, _Techniques
+    from envfit.frame._model import _background, _Techniques, film_block
     from envfit.renderers._frame import HIT_NONE
     from envfit.renderers.mitsuba3._frame_scene import read_scene
-    fs = read_scene(_scene(scene_dir, "bg.xml", w=12, h=9), side=1)
-    idx = np.argwhere(fs.kind == HIT_NONE)
+    fs = read_scene(_scene(scene_dir, "bg.xml", w=12, h=9))
+    yy, xx = np.mgrid[0:9, 0:12]
+    block = film_block(fs, np.column_stack([yy.ravel(), xx.ravel()]), 1)
+    idx = np.argwhere(block.hits["kind"] == HIT_NONE)
     assert len(idx) > 10
-    mean, var = _background(fs, _Techniques(fs, 2), idx)
-    mid = fs.background[tuple(idx.T)]
+    mean, var = _background(block, _Techniques(fs, 2), idx)
+    mid = block.hits["background"][tuple(idx.T)]
     assert np.allclose(mean, mid, rtol=0.05, atol=1e-3)
-    assert PointMoments is not None and np.all(var >= 0)
+    assert np.all(var >= 0)
 
 
 def test_the_box_filter_is_the_pixels_mean_variance():
     """With the box filter each pixel's MSE at one spp is the mean of v over its film points
-    plus the variance of I over them (the model's formula, computed here by hand)."""
-    from envfit.frame._model import PointMoments, pixel_mse
+    plus the variance of I over them (the model's formula, computed here by hand); any subset
+    of target pixels gets the same values."""
+    from envfit.frame._model import FilmBlock, PointMoments, pixel_mse
 
     class FS:
-        side, width, height, filter_name, filter_radius = 2, 3, 2, "box", 0.5
+        width, height, filter_name, filter_radius = 3, 2, "box", 0.5
     rng = np.random.default_rng(0)
-    mean, var = rng.random((2, 3, 2, 2, 3)), rng.random((2, 3, 2, 2, 3))
-    ip, mse = pixel_mse(FS, PointMoments(mean, var, np.zeros_like(var), 0))
-    want = var.mean(axis=(2, 3)) + mean.var(axis=(2, 3))
-    assert np.allclose(ip, mean.mean(axis=(2, 3)))
-    assert np.allclose(mse, want)
+    mean, var = rng.random((2, 6, 2, 2, 3))
+    yy, xx = np.mgrid[0:2, 0:3]
+    px = np.column_stack([yy.ravel(), xx.ravel()])
+    block = FilmBlock(px, 2, {}, None, None)
+    pm = PointMoments(mean, var, np.zeros_like(var), 0)
+    ip, mse = pixel_mse(FS, block, pm, px)
+    assert np.allclose(ip, mean.mean(axis=(1, 2)))
+    assert np.allclose(mse, var.mean(axis=(1, 2)) + mean.var(axis=(1, 2)))
+    ip2, mse2 = pixel_mse(FS, block, pm, px[[4, 1]])
+    assert np.allclose(mse2, mse[[4, 1]]) and np.allclose(ip2, ip[[4, 1]])
+
+
+def test_a_sample_of_pixels_estimates_the_image_within_its_error(scene_dir):
+    """Predicting one pixel per cell of a coarse grid gives the all-pixel image RMSE within
+    three of its reported standard errors, and the standard error is not zero."""
+    pytest.importorskip("mitsuba")
+    pytest.importorskip("embreex")
+    from envfit.frame import predict_frame
+    path = _scene(scene_dir, "plan.xml", w=24, h=18, rfilter="gaussian")
+    full = predict_frame(path, spp=(4,), level=3)
+    part = predict_frame(path, spp=(4,), level=3, max_pixels=60, seed=5)
+    assert full.exact and not part.exact and part.pixels <= 60
+    se = part.rows[0].rmse_se
+    assert 0 < se < 0.5
+    assert abs(part.rows[0].rmse / full.rows[0].rmse - 1) <= 3 * se
+    assert part.mse1.shape[:2] != full.mse1.shape[:2]
 
 
 @pytest.mark.parametrize("change,words", [

@@ -43,14 +43,19 @@ def register(subparsers) -> None:
                    help="film points per pixel side (default 2)")
     p.add_argument("--level", type=positive_int, default=4,
                    help="the techniques' tables hold 4^LEVEL points each (2..9, default 4)")
-    add_common_arguments(p, seed=False)
+    p.add_argument("--max-pixels", type=positive_int, default=16384,
+                   help="predict every pixel up to this many, else one drawn in each cell of a "
+                        "grid of about this many (default 16384)")
+    add_common_arguments(p)
     p.set_defaults(func=run)
 
 
 def _lines(r) -> list[str]:
     head = (f"{r.scene}: {r.renderer}, {r.size[0]}x{r.size[1]} pixels, {r.sampler} sampler "
             f"({r.scene_spp} spp in the scene), {r.integrator}, {r.filter_name} filter")
-    rows = [f"  {x.spp:>7} spp  image RMSE {x.rmse:.5g} ({100 * x.relative:.3g} % of the mean "
+    rows = [f"  {x.spp:>7} spp  image RMSE {x.rmse:.5g}"
+            + (f" +- {100 * x.rmse_se:.2g} %" if not r.exact else "")
+            + f" ({100 * x.relative:.3g} % of the mean "
             f"{r.mean_value:.4g}); pixels: median {x.percentiles[50]:.4g}, "
             f"90 % {x.percentiles[90]:.4g}, 99 % {x.percentiles[99]:.4g}" for x in r.rows]
     return [head, "  predicted RMSE against the converged image:", *rows]
@@ -82,7 +87,8 @@ def run(args: argparse.Namespace, output: CommandOutput) -> int:
     from envfit.frame import FrameOptions, predict_frame
     opts = FrameOptions(spp=tuple(args.spp or ()), target=args.target,
                         target_relative=args.target_relative, percentile=args.percentile,
-                        side=args.film_points, level=args.level, quiet=args.quiet)
+                        side=args.film_points, level=args.level, max_pixels=args.max_pixels,
+                        seed=args.seed, quiet=args.quiet)
     r = predict_frame(args.scene, opts)
     answer = _answer(r, args.percentile)
     output.say(*_lines(r), answer, *(f"  note: {x}" for x in r.notes),

@@ -21,7 +21,9 @@ from pathlib import Path
 import numpy as np
 
 from envfit.base import ParameterError
-from envfit.frame._model import MODELLED_SAMPLERS, pixel_mse, point_moments
+from envfit.frame._model import (MODELLED_SAMPLERS, film_block, filter_reach, pixel_mse,
+                                 point_moments)
+from envfit.frame._plan import PixelPlan, film_pixels, plan_pixels
 from envfit.renderers import get_renderer
 
 __all__ = ["FrameOptions", "FrameRow", "FramePrediction", "predict_frame", "READERS"]
@@ -45,6 +47,9 @@ class FrameOptions:
         RMSE (0 < q ≤ 100).
     side : film points per pixel side (S).
     level : the techniques' tables, 4^level points each.
+    max_pixels : predict every pixel up to this many, else one per cell of a grid of about
+        this many cells (:mod:`._plan`).
+    seed : the cells' draws.
     quiet : no progress bar.
     """
 
@@ -54,6 +59,8 @@ class FrameOptions:
     percentile: float | None = None
     side: int = 2
     level: int = 4
+    max_pixels: int = 16384
+    seed: int = 0
     quiet: bool = True
 
     def __post_init__(self):
@@ -72,25 +79,31 @@ class FrameOptions:
             raise ParameterError(f"side must be 1..16, got {self.side}")
         if not 2 <= self.level <= 9:
             raise ParameterError(f"level must be 2..9, got {self.level}")
+        if self.max_pixels < 1:
+            raise ParameterError(f"max_pixels must be positive, got {self.max_pixels}")
 
 
 @dataclass(frozen=True)
 class FrameRow:
-    """One spp: the image RMSE, it relative to the image's mean, and pixel percentiles."""
+    """One spp: the image RMSE, it relative to the image's mean, the pixels' RMSE
+    percentiles, and the relative standard error of the image RMSE where only some pixels
+    were predicted (0 when all were)."""
 
     spp: int
     rmse: float
     relative: float
     percentiles: dict
+    rmse_se: float = 0.0
 
 
 @dataclass(frozen=True)
 class FramePrediction:
     """What :func:`predict_frame` answers (see the module docstring for the definitions).
 
-    ``preview`` is the converged image the model implies (H, W, 3); ``mse1`` the per-pixel
-    MSE at one spp (H, W, 3); ``answer`` the smallest spp meeting the target (None without
-    one); ``notes`` what the model assumed, as sentences."""
+    ``preview`` is the converged image the model implies (H, W, 3), ``mse1`` the per-pixel
+    MSE at one spp (H, W, 3) — on the plan's grid of cells where not every pixel was
+    predicted (``exact`` false; ``pixels`` were); ``answer`` the smallest spp meeting the
+    target (None without one); ``notes`` what the model assumed, as sentences."""
 
     scene: str
     renderer: str
@@ -110,6 +123,8 @@ class FramePrediction:
     notes: tuple
     seconds: dict
     rays: int = 0
+    exact: bool = True
+    pixels: int = 0
 
     @property
     def mean_value(self) -> float:
@@ -127,8 +142,10 @@ class FramePrediction:
                 "integrator": self.integrator, "filter": self.filter_name,
                 "film_points_per_side": self.side, "level": self.level,
                 "mean_value": self.mean_value,
+                "pixels_predicted": self.pixels, "every_pixel": self.exact,
                 "predictions": [{"spp": r.spp, "predicted_rmse": r.rmse,
                                  "relative_rmse": r.relative,
+                                 "predicted_rmse_relative_se": r.rmse_se,
                                  "pixel_rmse_percentiles": {str(k): v for k, v in
                                                             r.percentiles.items()}}
                                 for r in self.rows],
@@ -147,18 +164,23 @@ def _reader(path: Path):
     return module.read_scene
 
 
-def _row(mse1: np.ndarray, n: int, mean: float) -> FrameRow:
-    img = float(np.sqrt(mse1.mean() / n))
-    pix = np.sqrt(mse1.mean(axis=2) / n)
+def _row(plan: PixelPlan, mse1: np.ndarray, n: int, mean: float) -> FrameRow:
+    v = mse1.mean(axis=1) / n                                  # each target's MSE
+    img = float(np.sqrt(plan.mean(v)))
+    se = plan.standard_error(v) / (2 * plan.mean(v)) if plan.mean(v) > 0 else 0.0
+    pix = np.sqrt(v)
     return FrameRow(int(n), img, img / mean if mean > 0 else math.inf,
-                    {q: float(np.percentile(pix, q)) for q in PERCENTILES})
+                    {q: float(np.percentile(pix, q, weights=plan.weights,
+                                            method="inverted_cdf")) for q in PERCENTILES},
+                    float(se))
 
 
-def _answer(mse1: np.ndarray, target: float, percentile) -> int:
+def _answer(plan: PixelPlan, mse1: np.ndarray, target: float, percentile) -> int:
     """The smallest N whose image RMSE (or the pixel percentile's) is ≤ target: exact, as
     the MSE is MSE₁/N."""
-    m = float(mse1.mean()) if percentile is None else \
-        float(np.percentile(np.sqrt(mse1.mean(axis=2)), percentile)) ** 2
+    v = mse1.mean(axis=1)
+    m = float(plan.mean(v)) if percentile is None else float(np.percentile(
+        np.sqrt(v), percentile, weights=plan.weights, method="inverted_cdf")) ** 2
     return max(1, math.ceil(m / (target * target) * (1 - 1e-12)))
 
 
@@ -174,35 +196,43 @@ def predict_frame(scene, options: FrameOptions | None = None, **kw) -> FramePred
     --------
     >>> p = predict_frame("scene.xml", spp=(16, 64))          # doctest: +SKIP
     >>> [(r.spp, round(r.rmse, 4)) for r in p.rows]            # doctest: +SKIP
-    [(16, 0.0610), (64, 0.0305)]
+    [(16, 0.0616), (64, 0.0308)]
     """
     opts = options or FrameOptions(**{k: (tuple(v) if k == "spp" else v) for k, v in kw.items()})
     path = Path(scene)
     read = _reader(path)
     t0 = time.perf_counter()
-    fs = read(path, side=opts.side)
+    fs = read(path)
     if fs.sampler not in MODELLED_SAMPLERS:
         raise ParameterError(f"the scene's sampler is {fs.sampler}: the frame model predicts "
                              f"the {', '.join(MODELLED_SAMPLERS)} sampler so far")
+    plan = plan_pixels(fs.size, opts.max_pixels, opts.seed)
+    block = film_block(fs, film_pixels(plan.targets, filter_reach(fs), fs.size), opts.side)
     t1 = time.perf_counter()
-    pm = point_moments(fs, opts.level, quiet=opts.quiet)
-    preview, mse1 = pixel_mse(fs, pm)
+    pm = point_moments(fs, block, opts.level, quiet=opts.quiet)
+    value, mse1 = pixel_mse(fs, block, pm, plan.targets)
     t2 = time.perf_counter()
-    mean = float(preview.mean())
+    mean = float(plan.mean(value).mean())
     spps = tuple(int(n) for n in opts.spp) or (fs.spp,)
-    rows = tuple(_row(mse1, n, mean) for n in spps)
+    rows = tuple(_row(plan, mse1, n, mean) for n in spps)
     if opts.target is not None:
         target, kind = float(opts.target), "absolute"
     else:
         rel = 0.01 if opts.target_relative is None else float(opts.target_relative)
         target, kind = rel * mean, f"relative {rel:g}"
-    answer = _answer(mse1, target, opts.percentile) if target > 0 else None
+    answer = _answer(plan, mse1, target, opts.percentile) if target > 0 else None
     notes = list(fs.notes)
+    r = max(2, -(-8 // opts.side)) * opts.side
     notes.append(f"direct lighting from the map ({fs.integrator}); diffuse surfaces; "
-                 f"{fs.side}×{fs.side} film points per pixel, "
-                 f"{max(2, -(-8 // fs.side)) * fs.side} per side in the {pm.edges} pixels a "
-                 f"silhouette crosses")
+                 f"{opts.side}×{opts.side} film points per pixel, {r}×{r} in the {pm.edges} "
+                 f"pixels a silhouette crosses")
+    if not plan.exact:
+        notes.append(f"{len(plan.targets)} of {fs.width * fs.height} pixels predicted, one "
+                     f"drawn in each cell of a {plan.grid[1]}x{plan.grid[0]} grid (seed "
+                     f"{opts.seed}): the image RMSE is their estimate, +- its standard error; "
+                     f"the noise image has one value per cell")
     return FramePrediction(
         str(path), fs.renderer, fs.size, fs.sampler, fs.spp, fs.integrator, fs.filter_name,
-        fs.side, opts.level, preview, mse1, rows, target, kind, answer, tuple(notes),
-        {"read": round(t1 - t0, 3), "model": round(t2 - t1, 3)}, pm.rays)
+        opts.side, opts.level, plan.image(value), plan.image(mse1), rows, target, kind,
+        answer, tuple(notes), {"read": round(t1 - t0, 3), "model": round(t2 - t1, 3)},
+        pm.rays, plan.exact, len(plan.targets))

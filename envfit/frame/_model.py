@@ -58,7 +58,8 @@ from envfit.predict.renderer._preset_integrand import BsdfTable, MapTable
 from envfit.renderers import get_renderer
 from envfit.renderers._frame import HIT_SURFACE, FrameScene
 
-__all__ = ["PointMoments", "point_moments", "pixel_mse", "edge_pixels", "MODELLED_SAMPLERS"]
+__all__ = ["FilmBlock", "film_block", "PointMoments", "point_moments", "pixel_mse", "edge_pixels",
+           "filter_weights", "filter_reach", "MODELLED_SAMPLERS"]
 
 #: the samplers whose frame error is modelled
 MODELLED_SAMPLERS = ("independent",)
@@ -132,28 +133,75 @@ class _Techniques:
         return he, hb, self.map_world, d @ self.rot.T
 
 
-def _background(fs: FrameScene, tq: "_Techniques", idx: np.ndarray):
+def _lerp(c: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Bilinear interpolation of corner values ``c`` (…, 2, 2, 3) [corner row, corner column]
+    at (u across, v down) (broadcast), shape (…, <u/v shape>, 3)."""
+    ex = (Ellipsis,) + (None,) * u.ndim + (slice(None),)
+    c00, c01, c10, c11 = c[..., 0, 0, :], c[..., 0, 1, :], c[..., 1, 0, :], c[..., 1, 1, :]
+    uu, vv = u[..., None], v[..., None]
+    return ((1 - uu) * (1 - vv) * c00[ex] + uu * (1 - vv) * c01[ex]
+            + (1 - uu) * vv * c10[ex] + uu * vv * c11[ex])
+
+
+def _background(block: "FilmBlock", tq: "_Techniques", idx: np.ndarray):
     """The map seen by the camera over each escaped film point's stratum: its mean and
     variance (E, 3) from f × f directions per stratum (f = ⌈:data:`_SUB`/S⌉), interpolated
-    from the pixel's corner directions (:attr:`FrameScene.corners`) and evaluated by the
-    renderer's own technique."""
+    from the pixel's corner directions (:attr:`FilmBlock.corners`) and evaluated by the
+    renderer's own technique; ``idx`` (E, 3): (block pixel, stratum row, stratum column)."""
     if len(idx) == 0:
         return np.zeros((0, 3)), np.zeros((0, 3))
-    s = fs.side
+    s = block.side
     f = max(1, -(-_SUB // s))
     t = (np.arange(f) + 0.5) / f
-    y, x, i, j = idx.T
+    k, i, j = idx.T
     u = (j[:, None, None] + t[None, None, :]) / s            # (E, 1, f) across the pixel
     v = (i[:, None, None] + t[None, :, None]) / s            # (E, f, 1) down the pixel
-    c = fs.corners
-    d = ((1 - u) * (1 - v))[..., None] * c[y, x][:, None, None] \
-        + (u * (1 - v))[..., None] * c[y, x + 1][:, None, None] \
-        + ((1 - u) * v)[..., None] * c[y + 1, x][:, None, None] \
-        + (u * v)[..., None] * c[y + 1, x + 1][:, None, None]
+    u, v = np.broadcast_arrays(u, v)
+    c = block.corners[k]                                      # (E, 2, 2, 3)
+    d = ((1 - u) * (1 - v))[..., None] * c[:, None, None, 0, 0] \
+        + (u * (1 - v))[..., None] * c[:, None, None, 0, 1] \
+        + ((1 - u) * v)[..., None] * c[:, None, None, 1, 0] \
+        + (u * v)[..., None] * c[:, None, None, 1, 1]
     d = d.reshape(-1, 3)
     d /= np.linalg.norm(d, axis=1)[:, None]
     rad = np.asarray(tq.tech.eval_unit(d @ tq.rot)).reshape(len(idx), f * f, 3)
     return rad.mean(axis=1), rad.var(axis=1)
+
+
+@dataclass(frozen=True)
+class FilmBlock:
+    """The film points of a set of pixels, S × S strata each, read by the renderer.
+
+    ``pixels`` (F, 2) (row, column); ``hits`` the arrays of
+    :attr:`~envfit.renderers._frame.FrameScene.hits_at` at the strata's midpoints, shape
+    (F, S, S, …); ``origins`` and ``corners`` the camera rays at each pixel's corners,
+    (F, 2, 2, 3) [corner row, corner column]."""
+
+    pixels: np.ndarray
+    side: int
+    hits: dict
+    origins: np.ndarray
+    corners: np.ndarray
+
+
+def film_block(fs: FrameScene, pixels, side: int) -> FilmBlock:
+    """The :class:`FilmBlock` of ``pixels`` (F, 2) with ``side`` × ``side`` film points."""
+    px = np.asarray(pixels, dtype=np.int64).reshape(-1, 2)
+    s = int(side)
+    offs = (np.arange(s) + 0.5) / s
+    fx = px[:, 1, None, None] + offs[None, None, :] + 0.0 * offs[None, :, None]
+    fy = px[:, 0, None, None] + offs[None, :, None] + 0.0 * offs[None, None, :]
+    flat = fs.hits_at(np.column_stack([fx.ravel(), fy.ravel()]))
+    hits = {k: v.reshape((len(px), s, s) + v.shape[1:]) for k, v in flat.items()}
+    cy = px[:, 0, None, None] + np.array([0, 1])[None, :, None]
+    cx = px[:, 1, None, None] + np.array([0, 1])[None, None, :]
+    cy, cx = np.broadcast_arrays(cy, cx)
+    keys = np.column_stack([cx.ravel(), cy.ravel()])
+    uniq, inv = np.unique(keys, axis=0, return_inverse=True)
+    org, dirs = fs.rays_at(uniq.astype(np.float64))
+    inv = inv.reshape(-1)
+    return FilmBlock(px, s, hits, org[inv].reshape(len(px), 2, 2, 3),
+                     dirs[inv].reshape(len(px), 2, 2, 3))
 
 
 def _surface_moments(h: dict, tq: _Techniques, vis: Visibility, ne: int, nb: int, bar):
@@ -183,142 +231,131 @@ def _surface_moments(h: dict, tq: _Techniques, vis: Visibility, ne: int, nb: int
     return mean, var, rays
 
 
-def _flat(fs: FrameScene) -> dict:
-    """The film points' arrays of ``fs`` flattened to (P, …)."""
-    keys = ("kind", "position", "normal", "geo_normal", "albedo", "facing", "shape",
-            "background")
-    return {k: getattr(fs, k).reshape((-1,) + getattr(fs, k).shape[4:]) for k in keys}
-
-
-def edge_pixels(fs: FrameScene, vis: Visibility, fine: int = _SUB) -> np.ndarray:
-    """The pixels (E, 2) (row, column) whose camera rays at ``fine`` × ``fine`` positions meet
-    more than one shape, or a shape and the map: a silhouette passes through them, which the
-    S × S film points can miss. The rays are interpolated from the pixel's corner rays and
-    cast by Embree against the occluders."""
+def edge_pixels(block: FilmBlock, vis: Visibility, fine: int = _SUB) -> np.ndarray:
+    """Whether each pixel of ``block`` (F,) is crossed by a silhouette: its camera rays at
+    ``fine`` × ``fine`` positions (interpolated from its corner rays, cast by Embree against
+    the occluders) meet more than one shape, or a shape and the map. The S × S film points
+    can miss such an edge."""
     t = (np.arange(fine) + 0.5) / fine
-    h, w = fs.height, fs.width
-    u, v = t[None, :], t[:, None]
-    out = np.zeros((h, w), bool)
-    for y in range(h):
-        cs = [fs.corners[y, :-1], fs.corners[y, 1:], fs.corners[y + 1, :-1],
-              fs.corners[y + 1, 1:]]
-        os_ = [fs.corner_origins[y, :-1], fs.corner_origins[y, 1:],
-               fs.corner_origins[y + 1, :-1], fs.corner_origins[y + 1, 1:]]
-
-        def lerp(c):
-            return (((1 - u) * (1 - v))[None, ..., None] * c[0][:, None, None]
-                    + (u * (1 - v))[None, ..., None] * c[1][:, None, None]
-                    + ((1 - u) * v)[None, ..., None] * c[2][:, None, None]
-                    + (u * v)[None, ..., None] * c[3][:, None, None])
-        d = lerp(cs).reshape(-1, 3)
+    u, v = np.broadcast_arrays(t[None, :], t[:, None])
+    out = np.zeros(len(block.pixels), bool)
+    for lo in range(0, len(out), 256):
+        sl = slice(lo, lo + 256)
+        d = _lerp(block.corners[sl], u, v).reshape(-1, 3)
         d /= np.linalg.norm(d, axis=1)[:, None]
-        ids = vis.first_shape(lerp(os_).reshape(-1, 3), d).reshape(w, fine * fine)
-        out[y] = ids.min(axis=1) != ids.max(axis=1)
-    return np.argwhere(out)
+        o = _lerp(block.origins[sl], u, v).reshape(-1, 3)
+        ids = vis.first_shape(o, d).reshape(-1, fine * fine)
+        out[sl] = ids.min(axis=1) != ids.max(axis=1)
+    return out
 
 
-def _refine(fs: FrameScene, tq: _Techniques, vis: Visibility, pixels: np.ndarray,
-            level_tq: _Techniques, bar):
-    """The strata of the edge ``pixels`` from r × r sub-points each (r = ⌈:data:`_SUB`/S⌉,
-    the renderer's first hits, the techniques at ``level_tq``): the strata's mean I, mean v
-    and the variance of I within them, (E, S, S, 3) each."""
-    s = fs.side
+def _refine(fs: FrameScene, block: FilmBlock, vis: Visibility, sel: np.ndarray,
+            tq: _Techniques, bar):
+    """The strata of the block's pixels ``sel`` from r × r sub-points each (r = ⌈:data:`_SUB`
+    /S⌉, the renderer's first hits, the techniques ``tq``): the strata's mean I, mean v and
+    the variance of I within them, (E, S, S, 3) each; and the shadow rays cast."""
+    s = block.side
     r = max(2, -(-_SUB // s))
     t = (np.arange(r) + 0.5) / r
-    y, x = pixels[:, 0], pixels[:, 1]
+    y, x = block.pixels[sel, 0], block.pixels[sel, 1]
     i, j, a, b = np.meshgrid(np.arange(s), np.arange(s), t, t, indexing="ij")
     fx = x[:, None] + ((j + b) / s).ravel()[None, :]
     fy = y[:, None] + ((i + a) / s).ravel()[None, :]
     h = fs.hits_at(np.column_stack([fx.ravel(), fy.ravel()]))
-    m, v, rays = _surface_moments(h, level_tq, vis, fs.emitter_samples, fs.bsdf_samples, bar)
+    m, v, rays = _surface_moments(h, tq, vis, fs.emitter_samples, fs.bsdf_samples, bar)
     esc = h["kind"] != HIT_SURFACE
     m[esc] = h["background"][esc]
-    m = m.reshape(len(pixels), s, s, r * r, 3)
-    v = v.reshape(len(pixels), s, s, r * r, 3)
+    m = m.reshape(len(sel), s, s, r * r, 3)
+    v = v.reshape(len(sel), s, s, r * r, 3)
     return m.mean(axis=3), v.mean(axis=3), m.var(axis=3), rays
 
 
-def point_moments(fs: FrameScene, level: int = 4, quiet: bool = True,
+def point_moments(fs: FrameScene, block: FilmBlock, level: int = 4, quiet: bool = True,
                   refine: bool = True) -> PointMoments:
-    """I(x) and v(x) at every film point of ``fs`` (module docstring), the techniques
+    """I(x) and v(x) at every film point of ``block`` (module docstring), the techniques
     tabulated at level ``level``; with ``refine``, the strata of the pixels a silhouette
-    crosses (:func:`edge_pixels`) from :data:`_SUB` / S sub-points per side each, at level
-    ``level`` − 1."""
+    crosses (:func:`edge_pixels`) from ⌈:data:`_SUB`/S⌉² sub-points each, at level
+    ``level`` − 1. Arrays (F, S, S, 3)."""
     if not 2 <= int(level) <= 9:
         raise ParameterError(f"the frame model's level must be 2..9, got {level}")
     tq = _Techniques(fs, int(level))
     vis = Visibility(fs.occluders)
-    shp = fs.kind.shape
-    flat = _flat(fs)
-    edges = edge_pixels(fs, vis) if refine else np.zeros((0, 2), int)
-    r = max(2, -(-_SUB // fs.side))
+    shp = block.hits["kind"].shape
+    flat = {k: v.reshape((-1,) + v.shape[3:]) for k, v in block.hits.items()}
+    edges = np.flatnonzero(edge_pixels(block, vis)) if refine else np.zeros(0, int)
+    r = max(2, -(-_SUB // block.side))
     todo = int(np.sum((flat["kind"] == HIT_SURFACE) & flat["facing"]))
-    bar = progress_bar(todo + len(edges) * fs.side ** 2 * r * r, desc="frame model",
+    bar = progress_bar(todo + len(edges) * block.side ** 2 * r * r, desc="frame model",
                        quiet=quiet, unit="point")
     m, v, rays = _surface_moments(flat, tq, vis, fs.emitter_samples, fs.bsdf_samples, bar)
     mean, var = m.reshape(shp + (3,)), v.reshape(shp + (3,))
     within = np.zeros(shp + (3,))
-    esc = fs.kind != HIT_SURFACE
-    mean[esc], within[esc] = _background(fs, tq, np.argwhere(esc))
+    esc = block.hits["kind"] != HIT_SURFACE
+    mean[esc], within[esc] = _background(block, tq, np.argwhere(esc))
     if len(edges):
         coarse = _Techniques(fs, max(2, int(level) - 1))
-        em, ev, ew, more = _refine(fs, tq, vis, edges, coarse, bar)
-        k = tuple(edges.T)
-        mean[k], var[k], within[k] = em, ev, ew
+        em, ev, ew, more = _refine(fs, block, vis, edges, coarse, bar)
+        mean[edges], var[edges], within[edges] = em, ev, ew
         rays += more
     bar.close()
     return PointMoments(mean, var, within, rays, len(edges))
 
 
-def _weights(fs: FrameScene, reach: int):
-    """The filter weight of each film point of the pixel at offset (dy, dx) from the pixel:
-    {(dy, dx): (S, S) weights}, separable as the renderer's ``ImageBlock`` evaluates them."""
-    s = fs.side
+def filter_weights(fs: FrameScene, side: int) -> dict:
+    """The filter's weight at each film point of the pixel at offset (dy, dx) from a pixel:
+    {(dy, dx): (S, S) weights}, separable as the renderer's ``ImageBlock`` evaluates them
+    (box: the pixel's own points, weight 1)."""
+    s = int(side)
+    if fs.filter_name == "box":
+        return {(0, 0): np.ones((s, s))}
+    reach = int(np.ceil(fs.filter_radius - 0.5))
     c = (np.arange(s) + 0.5) / s - 0.5                 # film point offsets from its centre
     out = {}
     for dy in range(-reach, reach + 1):
         wy = fs.filter_weights(dy + c)
         for dx in range(-reach, reach + 1):
-            wx = fs.filter_weights(dx + c)
-            w = np.outer(wy, wx)
+            w = np.outer(wy, fs.filter_weights(dx + c))
             if np.any(w != 0):
                 out[dy, dx] = w
     return out
 
 
-def _shifted(a: np.ndarray, dy: int, dx: int, fill=0.0) -> np.ndarray:
-    """``a`` (H, W, …) moved so that out[y, x] = a[y + dy, x + dx] (``fill`` outside)."""
-    out = np.full_like(a, fill)
-    h, w = a.shape[:2]
-    ys, yd = slice(max(dy, 0), h + min(dy, 0)), slice(max(-dy, 0), h + min(-dy, 0))
-    xs, xd = slice(max(dx, 0), w + min(dx, 0)), slice(max(-dx, 0), w + min(-dx, 0))
-    out[yd, xd] = a[ys, xs]
-    return out
+def pixel_mse(fs: FrameScene, block: FilmBlock, pm: PointMoments,
+              targets) -> tuple[np.ndarray, np.ndarray]:
+    """(converged value (K, 3), MSE at one spp (K, 3)) of the ``targets`` pixels (K, 2)
+    (module docstring), whose filter reach lies in ``block``; the MSE at N spp is this
+    over N."""
+    tg = np.asarray(targets, dtype=np.int64).reshape(-1, 2)
+    index = np.full((fs.height, fs.width), -1, dtype=np.int64)
+    index[block.pixels[:, 0], block.pixels[:, 1]] = np.arange(len(block.pixels))
+    wts = filter_weights(fs, block.side)
+    a2 = block.side ** 2
+    rows = {}
+    for (dy, dx) in wts:
+        qy, qx = tg[:, 0] + dy, tg[:, 1] + dx
+        inside = (qy >= 0) & (qy < fs.height) & (qx >= 0) & (qx < fs.width)
+        row = np.where(inside, index[np.clip(qy, 0, fs.height - 1),
+                                     np.clip(qx, 0, fs.width - 1)], -1)
+        if np.any(inside & (row < 0)):
+            raise ValueError("a target pixel's filter reaches a pixel outside the block")
+        rows[dy, dx] = (inside, np.maximum(row, 0))
+    wsum = np.zeros(len(tg))
+    isum = np.zeros((len(tg), 3))
+    for key, wt in wts.items():
+        inside, row = rows[key]
+        wsum += inside * wt.sum() / a2
+        isum += inside[:, None] * np.einsum("ij,kijc->kc", wt, pm.mean[row]) / a2
+    ip = isum / wsum[:, None]
+    acc = np.zeros((len(tg), 3))
+    for key, wt in wts.items():
+        inside, row = rows[key]
+        dev = pm.mean[row] - ip[:, None, None, :]
+        tot = pm.var[row] + pm.within[row] + dev * dev
+        acc += inside[:, None] * (np.einsum("ij,kijc->kc", wt * wt, tot) / a2
+                                  - (np.einsum("ij,kijc->kc", wt, dev) / a2) ** 2)
+    return ip, np.clip(acc, 0.0, None) / (wsum * wsum)[:, None]
 
 
-def pixel_mse(fs: FrameScene, pm: PointMoments) -> tuple[np.ndarray, np.ndarray]:
-    """(converged image (H, W, 3), MSE at one spp (H, W, 3)) of every pixel (module
-    docstring); the MSE at N spp is this over N."""
-    if fs.filter_name == "box":
-        wts = {(0, 0): np.ones((fs.side, fs.side))}
-    else:
-        wts = _weights(fs, int(np.ceil(fs.filter_radius - 0.5)))
-    a2 = fs.side * fs.side
-    h, w = fs.height, fs.width
-    inside = np.ones((h, w, 1, 1))
-    wsum = np.zeros((h, w))
-    isum = np.zeros((h, w, 3))
-    for (dy, dx), wt in wts.items():
-        m = _shifted(inside, dy, dx)[..., 0, 0]
-        wsum += m * wt.sum() / a2
-        isum += np.einsum("ij,hwijc->hwc", wt, _shifted(pm.mean, dy, dx)) / a2
-    ip = isum / wsum[..., None]
-    acc = np.zeros((h, w, 3))
-    for (dy, dx), wt in wts.items():
-        mq = _shifted(pm.mean, dy, dx)
-        vq = _shifted(pm.var + pm.within, dy, dx)
-        m = _shifted(inside, dy, dx)[..., 0, 0][..., None]
-        dev = mq - ip[:, :, None, None, :]
-        acc += m * np.einsum("ij,hwijc->hwc", wt * wt, vq + dev * dev) / a2
-        acc -= m * (np.einsum("ij,hwijc->hwc", wt, dev) / a2) ** 2
-    return ip, np.clip(acc, 0.0, None) / (wsum * wsum)[..., None]
+def filter_reach(fs: FrameScene) -> int:
+    """How many pixels away a sample still weighs on a pixel (0 for the box filter)."""
+    return 0 if fs.filter_name == "box" else int(np.ceil(fs.filter_radius - 0.5))

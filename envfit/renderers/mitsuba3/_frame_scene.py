@@ -204,35 +204,20 @@ class _Camera:
             out["shape"][k] = self._index(si.shape)
         return out
 
-    def corners(self) -> tuple[np.ndarray, np.ndarray]:
-        """The camera rays at the pixel corners: origins and directions (H + 1, W + 1, 3),
-        each direction divided by its component along the camera's axis."""
+    def rays(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The camera rays at film positions ``xy`` (P, 2): origins (P, 3) and directions
+        (P, 3) divided by their component along the camera's axis."""
         axis = np.array(self.sensor.world_transform().matrix, dtype=np.float64)[:3, 2]
         axis /= np.linalg.norm(axis)
-        org, dirs = np.zeros((self.h + 1, self.w + 1, 3)), np.zeros((self.h + 1, self.w + 1, 3))
-        for y in range(self.h + 1):
-            for x in range(self.w + 1):
-                ray = self._ray(float(x), float(y))
-                d = np.array(ray.d, dtype=np.float64)
-                org[y, x], dirs[y, x] = np.array(ray.o, dtype=np.float64), d / np.dot(d, axis)
-        return org, dirs
+        org, dirs = np.zeros((len(xy), 3)), np.zeros((len(xy), 3))
+        for k, (x, y) in enumerate(np.asarray(xy, dtype=np.float64).tolist()):
+            ray = self._ray(x, y)
+            org[k], dirs[k] = tuple(ray.o), tuple(ray.d)
+        return org, dirs / (dirs @ axis)[:, None]
 
 
-def _first_hits(cam: _Camera, side: int) -> dict:
-    """The first hits at the S × S film points of every pixel, arrays (H, W, S, S, …)."""
-    offs = (np.arange(side) + 0.5) / side
-    yy, xx, ii, jj = np.meshgrid(np.arange(cam.h), np.arange(cam.w), offs, offs, indexing="ij")
-    xy = np.column_stack([(xx + jj).ravel(), (yy + ii).ravel()])
-    flat = cam.hits(xy)
-    shp = (cam.h, cam.w, side, side)
-    out = {k: v.reshape(shp + v.shape[1:]) for k, v in flat.items()}
-    out["corner_origins"], out["corners"] = cam.corners()
-    return out
-
-
-def read_scene(path, *, side: int = 2) -> FrameScene:
-    """The :class:`~envfit.renderers._frame.FrameScene` of the Mitsuba 3 scene file ``path``
-    with ``side`` × ``side`` film points per pixel.
+def read_scene(path) -> FrameScene:
+    """The :class:`~envfit.renderers._frame.FrameScene` of the Mitsuba 3 scene file ``path``.
 
     Raises :class:`envfit.base.ParameterError` (one line) for a file Mitsuba cannot load, a
     scene without exactly one ``envmap`` emitter, a BSDF other than ``diffuse``, an area
@@ -241,8 +226,6 @@ def read_scene(path, *, side: int = 2) -> FrameScene:
     path = Path(path)
     if not path.is_file():
         raise ParameterError(f"{path}: no such scene file")
-    if not 1 <= int(side) <= 16:
-        raise ParameterError(f"film points per pixel side must be 1..16, got {side}")
     mi = import_mitsuba()
     scene = _load(mi, path)
     sensors = list(scene.sensors())
@@ -268,13 +251,12 @@ def read_scene(path, *, side: int = 2) -> FrameScene:
         notes.append(f"path with max_depth {depth}: its direct lighting from the map is "
                      f"predicted, not the longer paths")
     cam = _Camera(mi, scene, sensor, emitter)
-    hits = _first_hits(cam, int(side))
     return FrameScene(
         path=str(path), renderer="mitsuba3", size=tuple(int(x) for x in sensor.film().size()),
-        side=int(side), **hits, occluders=occ, envmap_data=data, envmap_to_world=to_world,
+        occluders=occ, envmap_data=data, envmap_to_world=to_world,
         envmap_scale=scale, sampler=SAMPLER_CLASSES[cls], spp=int(sampler.sample_count()),
         integrator=integ, emitter_samples=ne, bsdf_samples=nb, max_depth=depth,
         filter_name=fname, filter_radius=radius,
         filter_weights=np.vectorize(lambda t: float(rf.eval(float(t))), otypes=[float]),
-        hits_at=cam.hits,
+        hits_at=cam.hits, rays_at=cam.rays,
         notes=tuple(notes))
