@@ -44,7 +44,7 @@ _LAZY = {
 
 __all__ = ["__version__", "EnvfitError", "EnvMapFileError", "EnvMapFormatError",
            "NonFiniteError", "ParameterError", "MemoryBudgetError", "DuplicatePointsError",
-           *sorted(_LAZY)]
+           *sorted(k for k in _LAZY if k != "PresetAdvice")]     # the former name resolves
 
 
 def __getattr__(name: str):

@@ -41,7 +41,7 @@ Modules, by step:
   row's N or L beside the prediction.
 
 The former names ``PresetAdvice``, ``PresetAdviseOptions`` and ``advise_preset`` (the
-keyword form of the renderer pipeline) stay as aliases.
+keyword form of the renderer pipeline) still resolve, as aliases outside ``__all__``.
 
 The names of ``__all__`` are imported lazily, on first use (PEP 562), so that
 importing the package loads none of its modules.
@@ -59,6 +59,9 @@ _LAZY = {
     "PresetAdviseOptions": "_renderer_options",
 }
 
-__all__ = sorted(_LAZY)
+#: the former names: they resolve, but the supported names are the new ones
+_FORMER = ("advise_preset", "PresetAdvice", "PresetAdviseOptions")
+
+__all__ = sorted(k for k in _LAZY if k not in _FORMER)
 
 __getattr__, __dir__ = lazy_exports(__name__, _LAZY)

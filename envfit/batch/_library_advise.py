@@ -2,8 +2,8 @@ r"""A library of maps advised in a renderer's terms: ``envfit advise DIR|GLOB|FI
 --renderer NAME`` — one row per map (the spp of every strategy, the recommendation and its
 predicted RMSE) and the spp that meets the target on 50, 90 and 100 % of the maps.
 
-Each map is one task (:func:`_advise_map`: load the map,
-:func:`~envfit.advisor._renderer_advice.advise_renderer_map` on it, return its row) run where :class:`~envfit.batch.LibraryOptions` says:
+Each map is one task (:func:`_advise_map`: load the map, :func:`envfit.advisor.advise_with`
+of the renderer's options on it, return its row) run where :class:`~envfit.batch.LibraryOptions` says:
 inline, on a local process pool or on a dask cluster (:mod:`envfit.batch._executor`, the
 driver :func:`envfit.batch._scheduler.drive`). The options are checked once, before any map
 is read (:class:`~envfit.advisor._renderer_options.RendererAdviseOptions`); the maps are
@@ -189,11 +189,11 @@ def coverage(rows: Sequence[MapRow],
 
 def _advise_map(source, opts, target_rmse, target_relative, cache: bool, cache_dir) -> dict:
     """The task of one map (runs on a worker): load it, advise it, return its row (a dict)."""
-    from envfit.advisor._renderer_advice import advise_renderer_map
+    from envfit.advisor._advise import advise_with
     from dataclasses import replace
     t0 = time.perf_counter()
     env = source.load()
-    adv = advise_renderer_map(env, replace(                     # the driver's bar is over maps
+    adv = advise_with(env, replace(                             # the driver's bar is over maps
         opts, quiet=True, target_rmse=target_rmse, target_relative=target_relative,
         filename=source.path or source.label, cache=cache, cache_dir=cache_dir))
     rec = adv.recommendation
