@@ -22,7 +22,7 @@ import sys
 from pathlib import Path
 
 from envfit import advise_renderer
-from envfit.advisor._preset_options import SIZED_RANDOMISATIONS  # internal: which samplers have scrambles
+from envfit.advisor._renderer_options import SIZED_RANDOMISATIONS  # internal: which samplers have scrambles
 
 sys.path.insert(0, str(Path(__file__).parent))
 from render_check import _cpu, load_map  # noqa: E402  (bench helpers: CPU name, maps)

@@ -1,9 +1,9 @@
-"""The renderer model's time plan (envfit.advisor._budget.preset_plan) against its measured
+"""The renderer model's time plan (envfit.advisor._budget.renderer_plan) against its measured
 passes: for each renderer × sampler (and a microfacet BSDF), run the model on one map with the
 cache off and print the measured seconds per pass beside the plan's, and their ratio.
 
-The plan's rate constants (``envfit.advisor._budget.PRESET_SECONDS_PER_POINT``,
-``PRESET_SECONDS_PER_SHIFTED``) are calibrated from this table; a ratio far from 1 says a
+The plan's rate constants (``envfit.advisor._budget.RENDERER_SECONDS_PER_POINT``,
+(its per-point rates)) are calibrated from this table; a ratio far from 1 says a
 constant is off on this machine.
 
     python bench/preset_plan_check.py /path/forest.exr --normals 16 --level 8
@@ -21,9 +21,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from render_check import _cpu  # noqa: E402
 
-from envfit.advisor._budget import preset_passes, preset_plan  # noqa: E402  # internal: the plan under test
-from envfit.advisor._preset import advise_preset  # noqa: E402  # internal: the model's own timings (passes, seconds)
-from envfit.advisor._preset_options import PresetAdviseOptions  # noqa: E402  # internal: the plan takes the checked options
+from envfit.advisor._budget import renderer_passes, renderer_plan  # noqa: E402  # internal: the plan under test
+from envfit.advisor._renderer_advice import advise_preset  # noqa: E402  # internal: the model's own timings (passes, seconds)
+from envfit.advisor import RendererAdviseOptions  # noqa: E402
 from envfit.maps import load_envmap  # noqa: E402
 from envfit.renderers import get_renderer  # noqa: E402
 
@@ -50,12 +50,12 @@ def time_one(env, renderer: str, sampler: str, bsdf: str, normals: int, level: i
     kw = {"roughness": {"mitsuba3": 0.3, "pbrt4": 0.09, "cycles": 0.5477}[renderer]} \
         if bsdf != "diffuse" else {}
     try:
-        opts = PresetAdviseOptions(renderer, sampler=sampler, normals=normals, level=level,
-                                   bsdf=bsdf, **kw)
+        opts = RendererAdviseOptions(renderer, sampler=sampler, normals=normals, level=level,
+                                     bsdf=bsdf, **kw)
     except Exception as exc:  # noqa: BLE001 - a combination the model does not have
         return None, str(exc).split(":")[0]
-    plan = (preset_plan(env.width * env.height, opts).seconds()
-            / preset_passes(opts.preset.sampler(opts.sampler).randomisation))
+    plan = (renderer_plan(env.width * env.height, opts).seconds()
+            / renderer_passes(opts.record.sampler(opts.sampler).randomisation))
     t0 = time.perf_counter()
     adv = advise_preset(env, opts, cache=False)
     wall = time.perf_counter() - t0

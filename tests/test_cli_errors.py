@@ -52,7 +52,7 @@ def _one_line(capsys, rc: int) -> str:
     (["theory", "nope"], "envfit theory",
      "argument WHAT: invalid choice: 'nope' (choose from 'wce', 'table1', 'figures')"),
     (["nosuch"], "envfit", "argument COMMAND: invalid choice: 'nosuch' (choose from 'synth', "
-     "'info', 'fit', 'table2', 'theory', 'validate', 'advise', 'sh')"),
+     "'info', 'fit', 'table2', 'theory', 'validate', 'advise', 'sh', 'frame')"),
     (["--bogus"], "envfit", "unrecognized arguments: --bogus"),
 ])
 def test_argparse_errors_are_one_line_with_a_pointer_to_help(argv, prog, what, capsys):
