@@ -2,8 +2,8 @@
 passes: for each renderer × sampler (and a microfacet BSDF), run the model on one map with the
 cache off and print the measured seconds per pass beside the plan's, and their ratio.
 
-The plan's rate constants (``envfit.advisor._budget.RENDERER_SECONDS_PER_POINT``,
-(its per-point rates)) are calibrated from this table; a ratio far from 1 says a
+The plan's rate constants (``envfit.advisor._budget.RENDERER_SECONDS_PER_POINT``, seconds
+per integrand point of each randomisation) are calibrated from this table; a ratio far from 1 says a
 constant is off on this machine.
 
     python bench/preset_plan_check.py /path/forest.exr --normals 16 --level 8
