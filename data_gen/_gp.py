@@ -46,10 +46,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from envfit.theory._cholesky import cholesky
-from envfit.theory._errors import check_smoothness
-from envfit.theory._sobolev import (generalized_distance_kernel, kernel_constant,
-                                    sobolev_coefficients)
+from envfit.theory import cholesky
+from envfit.theory import check_smoothness
+from envfit.theory import generalized_distance_kernel, kernel_constant, sobolev_coefficients
 
 from envfit.data_gen import _sht as sht
 from envfit.data_gen._errors import SyntheticMapError

@@ -20,9 +20,8 @@ __version__ = "0.1.0"
 
 import envfit.base._code  # noqa: E402,F401  (records when this process imported envfit)
 
-from envfit.base._errors import (DuplicatePointsError, EnvfitError, EnvMapFileError,
-                                 EnvMapFormatError, MemoryBudgetError, NonFiniteError,
-                                 ParameterError)
+from envfit.base import (DuplicatePointsError, EnvfitError, EnvMapFileError, EnvMapFormatError,
+                         MemoryBudgetError, NonFiniteError, ParameterError)
 
 _LAZY = {
     "EnvMap": "maps._envmap", "load_envmap": "maps._io", "save_envmap": "maps._io",

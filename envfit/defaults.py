@@ -22,9 +22,9 @@ Vocabularies (registries; a module checking a name imports these):
 """
 from __future__ import annotations
 
-from envfit.theory._brdf import BRDFS, PAPER_SHININESS
-from envfit.theory._pointsets import POINTSETS
-from envfit.theory._weights import WEIGHTINGS
+from envfit.theory import BRDFS, PAPER_SHININESS
+from envfit.theory import POINTSETS
+from envfit.theory import WEIGHTINGS
 
 __all__ = ["BRDFS", "WEIGHTINGS", "ALL_POINTSETS", "DEFAULT_POINTSETS", "DEFAULT_SHININESS",
            "RENDERER_GRID", "ADVISE_SPECTRUM_AXES", "VALIDATE_SPECTRUM_AXES",

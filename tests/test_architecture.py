@@ -15,7 +15,8 @@ higher one nor another sub-package of its own layer (one pipeline leaning on ano
     measure                       (adaptive RMSE, axis proposal, renderer rules' measurement)
     fit
     predict                       (named predictors: use fitted s and σ̂; renderer/ sub-package)
-    export, validate, advisor     (export: SH coefficients, formats, ringing, sh report)
+    export, validate, advisor,    (export: SH coefficients, formats, ringing, sh report)
+    frame                         (a user's frame, read from the renderer's scene file)
     batch
     cli
 
@@ -24,6 +25,11 @@ layered top-level module, ``envfit/defaults.py``, counts as a package of its own
 theory only, so every sub-package may import it; theory never imports envfit).
 
 ``envfit/__init__.py`` only re-exports names lazily and is not part of any layer.
+
+No module imports another package's private module (``from envfit.maps._io import …``): a
+package gives what others use from its ``__init__`` (public names in ``__all__``, names
+shared inside envfit in ``_SHARED``), so a package's modules can be rearranged without
+touching its users.
 
 Renderers are plug-ins (issue 39): predict, advisor, validate, cli and batch never import a
 renderer's folder nor branch on a renderer's name, and predict and validate do not name one at
@@ -328,3 +334,39 @@ def test_the_renderer_mention_checker_sees_each_name(tmp_path):
     assert got == ["m.py:1", "m.py:2", "m.py:9", "m.py:12"]
     assert renderer_mentions(f, "def f():\n    return get_renderer(name).display\n") == []
     assert _renderer_words() == ["cycles", "mitsuba", "pbrt"]
+
+
+def _private_imports(path: Path, package: str) -> list[str]:
+    """``from envfit.X._y import …`` (or ``from envfit.X import _y``) lines of the module at
+    ``path`` (of top-level package ``package``) where X is another package."""
+    bad = []
+    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+        if not isinstance(node, ast.ImportFrom) or node.level or not node.module:
+            continue
+        parts = node.module.split(".")
+        if parts[0] != "envfit" or len(parts) < 2 or parts[1] == package:
+            continue
+        if any(p.startswith("_") for p in parts[2:]) or \
+                any(a.name.startswith("_") for a in node.names):
+            bad.append(f"{path}:{node.lineno}: from {node.module} import "
+                       f"{', '.join(a.name for a in node.names)}")
+    return bad
+
+
+def test_no_private_module_is_imported_across_packages():
+    """Every name another package uses comes from the package's ``__init__`` (issue 39)."""
+    bad = []
+    for pkg, folder in _package_dirs().items():
+        files = [folder] if folder.is_file() else sorted(folder.rglob("*.py"))
+        for f in files:
+            bad += _private_imports(f, pkg)
+    assert not bad, "private modules imported across packages:\n" + "\n".join(bad)
+
+
+def test_the_private_import_checker_sees_each_form(tmp_path):
+    f = tmp_path / "m.py"
+    f.write_text("from envfit.maps._io import load_envmap\n"
+                 "def g():\n    from envfit.theory import _claims\n"
+                 "from envfit.maps import load_envmap\nfrom envfit.fit._search import x\n")
+    bad = _private_imports(f, "fit")
+    assert [b.split(":")[1] for b in bad] == ["1", "3"]

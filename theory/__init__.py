@@ -51,12 +51,34 @@ _LAZY = {name: mod for mod, names in _EXPORTS.items() for name in names}
 #: none may share a name with a lazy export above, or importing it would shadow that function
 _SUBMODULES = ("claims", "figures", "table1", "wce_curves")
 
+#: names other envfit packages import from theory's modules: importable from the
+#: package (lazily) but not its public API (not in ``__all__``, not documented)
+_SHARED = {
+    "BRDFS": "brdf",
+    "GLOSSY_MAX_SHININESS": "brdf",
+    "PAPER_S": "table1",
+    "PAPER_SHININESS": "brdf",
+    "WEIGHTINGS": "weights",
+    "cho_factor": "cholesky",
+    "cho_solve": "cholesky",
+    "cholesky": "cholesky",
+    "cholesky_inplace": "cholesky",
+    "gauss_legendre_01": "brdf",
+    "inverse_diagonal": "cholesky",
+    "make_weight": "figures",
+    "paper_table1_values": "table1",
+    "quadrature_rule": "figures",
+    "split_lmax": "figures",
+    "table1_report": "table1",
+}
+
 __all__ = sorted(_LAZY)
 
 
 def __getattr__(name: str):
-    if name in _LAZY:
-        value = getattr(importlib.import_module(f"._{_LAZY[name]}", __name__), name)
+    if name in _LAZY or name in _SHARED:
+        mod = _LAZY.get(name) or _SHARED[name]
+        value = getattr(importlib.import_module(f"._{mod}", __name__), name)
         globals()[name] = value
         return value
     if name in _SUBMODULES:

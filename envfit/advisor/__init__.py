@@ -48,7 +48,7 @@ importing the package loads none of its modules.
 """
 from __future__ import annotations
 
-from envfit.base._lazy import lazy_exports
+from envfit.base import lazy_exports
 
 _LAZY = {
     "advise_with": "_advise",
@@ -64,4 +64,17 @@ _FORMER = ("advise_preset", "PresetAdvice", "PresetAdviseOptions")
 
 __all__ = sorted(k for k in _LAZY if k not in _FORMER)
 
-__getattr__, __dir__ = lazy_exports(__name__, _LAZY)
+#: names other envfit packages import from this one's modules: importable from the
+#: package (lazily) but not its public API (not in ``__all__``, not documented)
+_SHARED = {
+    "cache_write_problem": "_cache",
+    "BASES": "_options",
+    "MAX_AXES": "_options",
+    "MAX_SEEDS": "_options",
+    "MAX_SPECTRUM_AXES": "_options",
+    "SIZED_RANDOMISATIONS": "_renderer_options",
+    "default_cache_dir": "_cache",
+    "renderer_plan": "_budget",
+}
+
+__getattr__, __dir__ = lazy_exports(__name__, {**_LAZY, **_SHARED})

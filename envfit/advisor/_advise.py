@@ -183,11 +183,10 @@ from envfit.advisor._prediction import check_lobe_resolved
 from envfit.advisor._rule_rows import advise_rule_rows, run_renderer_check
 from envfit.advisor._result import Advice, AdviceRow, recommendation_text
 from envfit.advisor._search import search_rules
-from envfit.base._errors import ParameterError
-from envfit.base._resources import (format_bytes, memory_budget_bytes, peak_rss_bytes, plan_memory,
-                                    rss_bytes)
-from envfit.kernels._bandlimited import max_samples
-from envfit.maps._envmap import EnvMap
+from envfit.base import ParameterError
+from envfit.base import format_bytes, memory_budget_bytes, peak_rss_bytes, plan_memory, rss_bytes
+from envfit.kernels import max_samples
+from envfit.maps import EnvMap
 
 __all__ = ["advise", "advise_with", "plan_advise_memory"]
 
@@ -393,7 +392,7 @@ def _downsample_note(envmap: EnvMap, small: EnvMap, plan, opts: AdviseOptions) -
     """The note of a downsampled map: why, what the predictions keep (band limit, the degree
     a rule of ``nmax`` points resolves, :math:`\\sqrt{\\pi N}/2` for points
     :math:`\\sqrt{4\\pi/N}` apart), the variance kept and the plan's stages."""
-    from envfit.maps._envmap import variance_kept
+    from envfit.maps import variance_kept
     h, need = small.height, lobe_rows(opts)
     top = PREDICTION_MAX_HEIGHT if need <= PREDICTION_MAX_HEIGHT else need
     why = (f"to fit the memory budget of {format_bytes(memory_budget_bytes())}"

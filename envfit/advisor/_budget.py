@@ -32,15 +32,15 @@ import math
 from dataclasses import replace
 
 from envfit.advisor._options import AdviseOptions
-from envfit.base._errors import MemoryBudgetError
-from envfit.base._resources import (Plan, Stage, budget_words, format_bytes,
-                                    interpolator_nbytes, largest_n_within, memory_budget_bytes)
-from envfit.kernels._bandlimited import max_samples
-from envfit.maps._envmap import EnvMap
-from envfit.shading._ground_truth import default_sh_lmax
-from envfit.sampling._rules import STRATEGIES
-from envfit.shading._spectra import rule_power_cost, sh_analysis_cost
-from envfit.predict.warped._warped_spectrum import spectrum_nbytes
+from envfit.base import MemoryBudgetError
+from envfit.base import (Plan, Stage, budget_words, format_bytes, interpolator_nbytes,
+                         largest_n_within, memory_budget_bytes)
+from envfit.kernels import max_samples
+from envfit.maps import EnvMap
+from envfit.shading import default_sh_lmax
+from envfit.sampling import STRATEGIES
+from envfit.shading import rule_power_cost, sh_analysis_cost
+from envfit.predict.warped import spectrum_nbytes
 
 __all__ = ["PREDICTION_MAX_HEIGHT", "MIN_HEIGHT", "advise_plan", "lobe_rows",
            "prediction_height", "renderer_plan", "check_renderer_plan"]
@@ -294,7 +294,7 @@ def _renderer_stages(pixels: int, opts, level: int, normals: int, max_spp: int) 
     """The renderer model's stages (:func:`renderer_plan`) at ``level``, ``normals`` and
     ``max_spp`` (the other options as in ``opts``)."""
     from envfit.advisor._renderer_options import MICROFACET_POOL, spp_cap
-    from envfit.predict.renderer._preset_model import PresetModelOptions
+    from envfit.predict.renderer import PresetModelOptions
     m = opts.model_options()
     rand = opts.record.sampler(opts.sampler).randomisation
     base = (MICROFACET_POOL if opts.microfacet and opts.bsdf != "roughplastic"

@@ -59,10 +59,10 @@ from typing import Any, Callable
 
 import numpy as np
 
-from envfit.base._atomic import atomic_write_json, probe_writable, to_jsonable
-from envfit.base._notes import Note, NoteKind
-from envfit.base._store import (canonical_sha256, json_type as _what, move_aside,
-                                number_problem as _bad_real, read_json_file)
+from envfit.base import atomic_write_json, probe_writable, to_jsonable
+from envfit.base import Note, NoteKind
+from envfit.base import (canonical_sha256, json_type as _what, move_aside,
+                         number_problem as _bad_real, read_json_file)
 
 __all__ = ["AdviseCache", "default_cache_dir", "cache_write_problem", "CACHE_VERSION",
            "CACHE_FORMAT", "SCHEMAS", "MAP_CHECKS", "entry_problem"]

@@ -27,11 +27,11 @@ from envfit.advisor._model import MapModel
 from envfit.advisor._options import DEFAULT_SHININESS, AdviseOptions
 from envfit.advisor._prediction import make_rule, seed_list
 from envfit.advisor._result import Advice, AdviceRow
-from envfit.base._progress import progress_bar
-from envfit.maps._envmap import EnvMap
-from envfit.shading._estimators import hsh_truncation_curve, rmse_over_axes, sh_truncation_curve
-from envfit.shading._ground_truth import shading_integral
-from envfit.shading._quadrature import quadrature_estimates_multi, random_axes
+from envfit.base import progress_bar
+from envfit.maps import EnvMap
+from envfit.shading import hsh_truncation_curve, rmse_over_axes, sh_truncation_curve
+from envfit.shading import shading_integral
+from envfit.shading import quadrature_estimates_multi, random_axes
 
 __all__ = ["check_rows"]
 

@@ -46,16 +46,15 @@ import numpy as np
 from envfit.advisor._cache import AdviseCache
 from envfit.advisor._options import AdviseOptions
 from envfit.advisor._prediction import mean_shading_value
-from envfit.base._errors import ParameterError
-from envfit.base._keys import s_value
-from envfit.base._progress import progress_bar
-from envfit.base._store import array_fingerprint
-from envfit.fit._sigma import bandlimited_profiled_sigma, combine_sigma
-from envfit.maps._envmap import EnvMap
-from envfit.maps._scales import check_not_constant, fit_scale
+from envfit.base import ParameterError
+from envfit.base import s_value
+from envfit.base import progress_bar
+from envfit.base import array_fingerprint
+from envfit.fit import bandlimited_profiled_sigma, combine_sigma
+from envfit.maps import EnvMap
+from envfit.maps import check_not_constant, fit_scale
 from envfit.predict import PredictionContext
-from envfit.shading._spectra import (degree_weights, lookup_transfer, map_degree_power,
-                                     pixel_degree_power)
+from envfit.shading import degree_weights, lookup_transfer, map_degree_power, pixel_degree_power
 
 __all__ = ["MapModel", "map_model", "fit_smoothness", "spectral_lmax", "cached_map_power"]
 
@@ -81,7 +80,7 @@ def spectral_lmax(band_lmax: int) -> int:
 def fit_smoothness(*args, **kwargs):
     """:func:`envfit.fit._smoothness.fit_smoothness`, imported on first use: numba and the
     interpolator load only when a fit is not cached (a cached ``envfit advise`` stays under 2 s)."""
-    from envfit.fit._smoothness import fit_smoothness as _fit_smoothness
+    from envfit.fit import fit_smoothness as _fit_smoothness
     return _fit_smoothness(*args, **kwargs)
 
 

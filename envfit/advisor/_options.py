@@ -28,16 +28,16 @@ from collections.abc import Sequence
 from dataclasses import dataclass, fields
 
 from envfit.advisor._rule_rows import DEFAULT_RENDERER_POINTSETS, DEFAULT_STRATEGIES
-from envfit.base._checks import check_int, check_names, check_positive
-from envfit.base._errors import ParameterError
+from envfit.base import check_int, check_names, check_positive
+from envfit.base import ParameterError
 from envfit.defaults import (ADVISE_SPECTRUM_AXES as RENDERER_SPECTRUM_AXES, ALL_POINTSETS,
                              BRDFS, DEFAULT_POINTSETS, DEFAULT_SHININESS, PREDICTOR_CHOICES,
                              RENDERER_AXES_START, RENDERER_GRID, RENDERER_MAX_AXES, WEIGHTINGS)
-from envfit.fit._sigma import parse_s
-from envfit.maps._scales import SCALES
-from envfit.shading._ground_truth import weight_function
-from envfit.sampling._rules import STRATEGIES
-from envfit.theory._pointsets import POINTSETS as SQUARE_POINTSETS
+from envfit.fit import parse_s
+from envfit.maps import SCALES
+from envfit.shading import weight_function
+from envfit.sampling import STRATEGIES
+from envfit.theory import POINTSETS as SQUARE_POINTSETS
 
 __all__ = ["AdviseOptions", "ALL_POINTSETS", "DEFAULT_POINTSETS", "WEIGHTINGS", "BASES", "BRDFS",
            "DEFAULT_FIT_N", "DEFAULT_NMIN", "DEFAULT_NMAX", "DEFAULT_OSW_NMAX", "DEFAULT_SEEDS",

@@ -41,18 +41,18 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from envfit.base._errors import ParameterError
-from envfit.base._keys import s_value
+from envfit.base import ParameterError
+from envfit.base import s_value
 from envfit.defaults import DEFAULT_SHININESS
-from envfit.maps._envmap import EnvMap
+from envfit.maps import EnvMap
 from envfit.predict import PredictionContext, QuadratureRule, predict
-from envfit.shading._bilinear_sh import bilinear_sh_coefficients
-from envfit.shading._ground_truth import weight_function
-from envfit.shading._spectra import rule_error_power
-from envfit.theory._pointsets import DETERMINISTIC_POINTSETS, generate
-from envfit.theory._quadrature import worst_case_error
-from envfit.theory._brdf import GLOSSY_MAX_SHININESS, Glossy
-from envfit.theory._weights import equal_weights, optimal_weights
+from envfit.shading import bilinear_sh_coefficients
+from envfit.shading import weight_function
+from envfit.shading import rule_error_power
+from envfit.theory import DETERMINISTIC_POINTSETS, generate
+from envfit.theory import worst_case_error
+from envfit.theory import GLOSSY_MAX_SHININESS, Glossy
+from envfit.theory import equal_weights, optimal_weights
 
 __all__ = ["LOBE_TAIL_TRANSFER", "lobe_tail_transfer", "glossy_transfer",
            "max_resolved_shininess", "rows_resolving", "check_lobe_resolved",

@@ -51,7 +51,7 @@ from envfit.advisor._renderer_options import (DEFAULT_LEVEL, DEFAULT_MAX_SPP, DE
 from envfit.advisor._renderer_search import StrategyAnswer, next_runnable, switched_strategy
 from envfit.advisor._renderer_sizing import (below_words, model_dict, model_error_lines,
                                            sized_search)
-from envfit.base._errors import ParameterError
+from envfit.base import ParameterError
 from envfit.defaults import BAND_MIN_FRAMES, DEFAULT_TARGET_RELATIVE
 
 __all__ = ["RendererAdvice", "PresetAdvice", "advise_renderer_map", "advise_preset",
@@ -416,7 +416,7 @@ class RendererAdvice:
                 "snippet": self.snippet, "snippet_spp": self.snippet_spp, "notes": self.notes}
 
     def _repr_html_(self) -> str:       # Jupyter: the printed answer, escaped
-        from envfit.base._html import html_result
+        from envfit.base import html_result
         return html_result(f"RendererAdvice: {self.display}", [("", x) for x in self.lines()])
 
     def _answer_dict(self, a: StrategyAnswer) -> dict:

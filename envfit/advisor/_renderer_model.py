@@ -21,14 +21,14 @@ import numpy as np
 
 from envfit.advisor._budget import check_renderer_plan, renderer_passes
 from envfit.advisor._cache import AdviseCache
-from envfit.base._resources import format_bytes
+from envfit.base import format_bytes
 from envfit.defaults import FOOTPRINT_SIDE, MICROFACET_FRAMES_SEED
-from envfit.predict._context import PredictionContext
-from envfit.predict._registry import SamplerRule, predict_many
-from envfit.predict.renderer._footprint import pixel_footprints
-from envfit.predict.renderer._frames import band_frames
-from envfit.predict.renderer._microfacet_model import MicrofacetModel
-from envfit.predict.renderer._preset_model import PresetModel
+from envfit.predict import PredictionContext
+from envfit.predict import SamplerRule, predict_many
+from envfit.predict.renderer import pixel_footprints
+from envfit.predict.renderer import band_frames
+from envfit.predict.renderer import MicrofacetModel
+from envfit.predict.renderer import PresetModel
 
 __all__ = ["CachedRendererModel", "model_version", "PREDICTOR", "RENDERER_CACHE_FORMAT"]
 

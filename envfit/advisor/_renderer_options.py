@@ -49,11 +49,11 @@ from pathlib import Path
 
 import numpy as np
 
-from envfit.base._checks import check_int, check_ints, check_names
-from envfit.base._errors import EnvfitError, ParameterError
+from envfit.base import check_int, check_ints, check_names
+from envfit.base import EnvfitError, ParameterError
 from envfit.defaults import FOOTPRINT_SIDE, MICROFACET_BSDFS, MICROFACET_FRAMES_SEED
 from envfit.maps import EnvMap
-from envfit.predict.renderer._preset_model import PresetModelOptions, preset_request
+from envfit.predict.renderer import PresetModelOptions, preset_request
 from envfit.renderers import STRATEGY_NAMES, get_renderer
 from envfit.shading.microfacet import (ROUGHNESS_RTOL, ROUGHNESS_UNITS, RoughPlastic,
                                        multiscatter_or_conductor, roughness_range,

@@ -36,7 +36,7 @@ from envfit.advisor._budget import renderer_plan
 from envfit.advisor._cache import AdviseCache
 from envfit.advisor._renderer_search import (StrategyAnswer, answer_error, search_model,
                                            switched_strategy)
-from envfit.base._resources import memory_budget_bytes
+from envfit.base import memory_budget_bytes
 
 __all__ = ["NORMALS", "SHIFTS", "BUDGET", "pass_points", "sized_options", "predicted_error",
            "sized_search", "model_dict", "model_error_lines", "miss_words", "spp_span",

@@ -179,7 +179,7 @@ class Advice:
 
     def _repr_html_(self) -> str:
         """Jupyter: the fit, the target, the rows sorted by cost and the recommendation."""
-        from envfit.base._html import html_result
+        from envfit.base import html_result
         w, h = self.map_size[:2]
         return html_result(f"Advice: {self.map} ({w}x{h}), {self.brdf}", [
             ("target RMSE", self.target_rmse), ("s, sigma", (self.s, self.sigma)),

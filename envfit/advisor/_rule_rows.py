@@ -81,10 +81,10 @@ import time
 from dataclasses import asdict, dataclass, field
 
 from envfit.advisor._cache import AdviseCache
-from envfit.base._errors import ParameterError
+from envfit.base import ParameterError
 from envfit.defaults import (ADVISE_RENDERER_POINTSETS, ADVISE_SPECTRUM_AXES, DEFAULT_SHININESS,
                              RENDERER_GRID)
-from envfit.maps._envmap import EnvMap
+from envfit.maps import EnvMap
 from envfit.advisor._rule_rows_cache import cached_renderer_model, source_cost
 from envfit.measure import RendererSetup, measure_rule
 from envfit.predict import PredictionContext, RendererModel, predict, renderer_predictor

@@ -8,11 +8,11 @@ read from :attr:`envfit.predict.PredictionContext.renderer`.
 from __future__ import annotations
 
 from envfit.advisor._cache import AdviseCache
-from envfit.base._errors import ParameterError
-from envfit.base._progress import progress_bar
+from envfit.base import ParameterError
+from envfit.base import progress_bar
 from envfit.measure import RendererSetup
 from envfit.predict import RendererModel, WarpedSpectrum, renderer_model
-from envfit.predict.warped._warped_spectrum import SPECTRUM_FORMAT
+from envfit.predict.warped import SPECTRUM_FORMAT
 from envfit.sampling import STRATEGIES
 
 __all__ = ["spectrum_cache_key", "source_cost", "cached_renderer_model"]

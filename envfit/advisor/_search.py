@@ -38,13 +38,13 @@ from envfit.advisor._model import MapModel
 from envfit.advisor._options import AdviseOptions
 from envfit.advisor._prediction import rule_plain_wce2, rule_terms, seed_list, terms_rule
 from envfit.advisor._result import AdviceRow, sort_rows
-from envfit.base._errors import ParameterError
-from envfit.base._progress import progress_bar
+from envfit.base import ParameterError
+from envfit.base import progress_bar
 from envfit.predict import QuadratureRule, predict
-from envfit.predict._spectral import spectral_truncation_curve
-from envfit.shading._spectra import sh_truncation_curve_transfer
-from envfit.theory._errors import TheoryParameterError
-from envfit.theory._truncation import truncation_error_curve
+from envfit.predict import spectral_truncation_curve
+from envfit.shading import sh_truncation_curve_transfer
+from envfit.theory import TheoryParameterError
+from envfit.theory import truncation_error_curve
 
 __all__ = ["smallest_n", "search_quadrature", "search_truncation", "search_rules", "LMAX_SEARCH"]
 

@@ -75,7 +75,7 @@ def check_positive(value, what: str) -> float:
 def check_s(s) -> float:
     """The Sobolev smoothness s in (1, 2) of the kernel K_gd (Eq. 14) as a float; else
     :class:`ParameterError` (theory's check, raised as envfit's error type)."""
-    from envfit.theory._errors import TheoryParameterError, check_smoothness
+    from envfit.theory import TheoryParameterError, check_smoothness
     try:
         return check_smoothness(s)
     except TheoryParameterError as exc:

@@ -28,7 +28,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from envfit.base._errors import ParameterError
+from envfit.base import ParameterError
 
 __all__ = ["advise_renderer"]
 
@@ -68,7 +68,7 @@ def advise_renderer(maps, renderer: str, *, target_rmse: float | None = None,
     -------
     RendererAdvice or LibraryAdvice
     """
-    from envfit.advisor._renderer_options import RendererAdviseOptions
+    from envfit.advisor import RendererAdviseOptions
     from envfit.maps import EnvMap
     unknown = sorted(set(options) - set(_OPTION_NAMES))
     if unknown:
@@ -83,7 +83,7 @@ def advise_renderer(maps, renderer: str, *, target_rmse: float | None = None,
         return advise_library(maps if isinstance(maps, (list, tuple)) else [maps], opts,
                               target_rmse=target_rmse, target_relative=target_relative,
                               library=library, out=out, cache=cache, cache_dir=cache_dir)
-    from envfit.advisor._advise import advise_with
+    from envfit.advisor import advise_with
     env = one if isinstance(one, EnvMap) else _load(one)
     return advise_with(env, opts.asking(
         target_rmse=target_rmse, target_relative=target_relative, snippet=snippet,
@@ -100,5 +100,5 @@ def _one_file(maps):
 
 
 def _load(path):
-    from envfit.maps._io import load_envmap
+    from envfit.maps import load_envmap
     return load_envmap(path)

@@ -54,10 +54,9 @@ import os
 import threading
 from typing import Any, Callable, Iterable
 
-from envfit.base._errors import ExecutorError, ParameterError
+from envfit.base import ExecutorError, ParameterError
 from envfit.defaults import EXECUTORS
-from envfit.base._resources import (MEMORY_FRACTION, available_memory_bytes, format_bytes,
-                                    machine_cores)
+from envfit.base import MEMORY_FRACTION, available_memory_bytes, format_bytes, machine_cores
 
 __all__ = ["EXECUTORS", "machine_cores", "run_pinned", "plan_workers", "LocalExecutor",
            "DaskExecutor", "make_executor", "dask_timeout", "identify_scheduler",
@@ -395,7 +394,7 @@ class DaskExecutor:
                 n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
                 dashboard_address=None, memory_limit=0)
             self.client = distributed.Client(self._cluster)
-        from envfit.base._code import check_same_code, code_state
+        from envfit.base import check_same_code, code_state
         check_same_code(self.client.run(code_state), code_state())   # before any task
         self.blas_threads = self._threads_per_task()
 

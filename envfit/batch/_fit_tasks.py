@@ -13,10 +13,10 @@ import time
 
 import numpy as np
 
-from envfit.fit._criterion import N_BOOTSTRAP, evaluate_criterion
-from envfit.fit._smoothness import holdout_pixels
+from envfit.fit import N_BOOTSTRAP, evaluate_criterion
+from envfit.fit import holdout_pixels
 from envfit.batch._tasks import SweepSpec, load_scaled
-from envfit.maps._lazy_maps import MapSource
+from envfit.maps import MapSource
 
 __all__ = ["fit_sample_task", "criterion_task", "N_BOOTSTRAP"]
 

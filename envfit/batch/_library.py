@@ -49,20 +49,19 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from envfit.maps._envmap import check_sample_count
-from envfit.base._errors import ParameterError
+from envfit.maps import check_sample_count
+from envfit.base import ParameterError
 from envfit.defaults import SOLVERS
 from envfit.batch._library_result import LibraryOptions, LibraryResult, distinct_labels
 from envfit.batch._tasks import SweepSpec, evaluate_task, sample_task, solve_task
-from envfit.maps._lazy_maps import MapSource, resolve_map_sources
-from envfit.base._resources import interpolator_nbytes, memory_budget_bytes, plan_memory
-from envfit.maps._scales import SCALES, check_not_constant
+from envfit.maps import MapSource, resolve_map_sources
+from envfit.base import interpolator_nbytes, memory_budget_bytes, plan_memory
+from envfit.maps import SCALES, check_not_constant
 from envfit.batch._scheduler import Task, drive
-from envfit.base._store import FolderLock, ResultStore
-from envfit.fit._table2 import _FIELDS as _TABLE2_FIELDS
-from envfit.fit._table2 import cell_checks
-from envfit.fit._table2 import (PAPER_N, PAPER_S, Table2Cell, Table2Result, _cell_key, _recon_stem,
-                                check_grid)
+from envfit.base import FolderLock, ResultStore
+from envfit.fit import cell_checks
+from envfit.fit import (PAPER_N, PAPER_S, TABLE2_FIELDS, Table2Cell, Table2Result, check_grid,
+                        table2_cell_key, table2_recon_stem)
 
 __all__ = ["LibraryTable2Result", "run_table2_library", "RHS_BUDGET_BYTES"]
 
@@ -71,7 +70,7 @@ __all__ = ["LibraryTable2Result", "run_table2_library", "RHS_BUDGET_BYTES"]
 RHS_BUDGET_BYTES = 1 << 30
 #: channels per map assumed when planning memory (loading keeps at most 3)
 _PLAN_CHANNELS = 3
-_FIELDS = _TABLE2_FIELDS  # required of a stored cell; the solver's fields are optional (older
+_FIELDS = TABLE2_FIELDS  # required of a stored cell; the solver's fields are optional (older
 _SOLVER_FIELDS = ("solver", "iterations", "residual", "rmse_change_bound")  # cells: defaults)
 
 
@@ -209,7 +208,7 @@ def _map_result(src, cells: dict[str, dict], lib: LibraryTable2Result) -> Table2
                      scale_description=some.get("scale_description", ""),
                      pointset=lib.pointset, seed=lib.seed, height=int(some.get("height", 0)),
                      s_values=lib.s_values, n_values=lib.n_values)
-    r.cells = [_cell(cells[_cell_key(s, n)]) for n in lib.n_values for s in lib.s_values]
+    r.cells = [_cell(cells[table2_cell_key(s, n)]) for n in lib.n_values for s in lib.s_values]
     return r
 
 
@@ -222,11 +221,11 @@ def _resume(stores, sources, s_values, n_values, on_cell):
     for i, st in enumerate(stores):
         for n in n_values:
             for s in s_values:
-                d = st.get(_cell_key(s, n), fields=_FIELDS, checks=cell_checks(s, n))
+                d = st.get(table2_cell_key(s, n), fields=_FIELDS, checks=cell_checks(s, n))
                 if d is None:
                     missing.setdefault((s, n), []).append(i)
                     continue
-                cells[i][_cell_key(s, n)] = d
+                cells[i][table2_cell_key(s, n)] = d
                 resumed += 1
                 if on_cell:
                     on_cell(sources[i].label, _cell(d), True)
@@ -257,7 +256,7 @@ def _compute(sweep: _Sweep, missing, options: LibraryOptions, budget: int) -> No
     ex, notes = options.make_executor(max_useful=len(chunks), bytes_per_task=biggest)
     lib.notes.extend(notes)
     lib.executor = ex.describe()
-    from envfit.base._progress import progress_bar
+    from envfit.base import progress_bar
     bar = progress_bar(sum(len(c) for _, _, c in chunks), desc="library table2",
                        quiet=options.quiet, unit="cell")
     run = _Table2Run(sweep, chunks, bar)
@@ -355,7 +354,7 @@ class _Table2Run:
         if recon is not None and self.out is not None:
             _save_pair(self.out / self.sources[i].slug, recon, preview, cell["s"], cell["n"],
                        self.spec.up)
-        key = _cell_key(cell["s"], cell["n"])
+        key = table2_cell_key(cell["s"], cell["n"])
         self.stores[i].put(key, cell)
         self.cells[i][key] = cell
         self.lib.cells_computed += 1
@@ -366,8 +365,8 @@ class _Table2Run:
 
 def _save_pair(folder: Path, recon: np.ndarray, preview: np.ndarray, s: float, n: int, up: str) -> None:
     """EXR of a reconstruction (on the comparison scale) and its display-referred PNG."""
-    from envfit.maps._envmap import EnvMap
-    from envfit.maps._io import save_envmap
-    stem = _recon_stem(s, n)
+    from envfit.maps import EnvMap
+    from envfit.maps import save_envmap
+    stem = table2_recon_stem(s, n)
     save_envmap(folder / f"{stem}.exr", EnvMap(recon, up=up, name=stem))
     save_envmap(folder / f"{stem}.png", EnvMap(preview, up=up, name=stem))

@@ -54,9 +54,9 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
-from envfit.base._errors import ParameterError
-from envfit.base._html import html_result
-from envfit.base._store import ResultStore, number
+from envfit.base import ParameterError
+from envfit.base import html_result
+from envfit.base import ResultStore, number
 
 __all__ = ["MapRow", "LibraryAdvice", "advise_library", "coverage", "COVERAGE_FRACTIONS"]
 
@@ -189,7 +189,7 @@ def coverage(rows: Sequence[MapRow],
 
 def _advise_map(source, opts, target_rmse, target_relative, cache: bool, cache_dir) -> dict:
     """The task of one map (runs on a worker): load it, advise it, return its row (a dict)."""
-    from envfit.advisor._advise import advise_with
+    from envfit.advisor import advise_with
     from dataclasses import replace
     t0 = time.perf_counter()
     env = source.load()
@@ -256,7 +256,7 @@ def advise_library(maps: Sequence, opts, *, target_rmse: float | None = None,
         Called in this process with each :class:`MapRow` as it is finished or resumed.
     """
     from envfit.batch import LibraryOptions
-    from envfit.maps._lazy_maps import resolve_map_sources
+    from envfit.maps import resolve_map_sources
     t0 = time.perf_counter()
     if target_rmse is not None and target_relative is not None:
         raise ParameterError("give the target once: target_rmse or target_relative")
@@ -309,7 +309,7 @@ def _compute(missing: list, args: tuple, library, done: Callable, lib: LibraryAd
     progress bar over the maps (``library.quiet`` hides it)."""
     if not missing:
         return
-    from envfit.base._progress import progress_bar
+    from envfit.base import progress_bar
     from envfit.batch._scheduler import Task, drive
     ex, notes = library.make_executor(max_useful=len(missing),
                                       bytes_per_task=_task_bytes(args[0], missing))
@@ -334,6 +334,6 @@ def _task_bytes(opts, missing) -> int:
     """The peak of one map's task: the renderer model's plan
     (:func:`envfit.advisor._budget.renderer_plan`) on the largest missing map, with the map
     itself resident (float32, 4 channels at most)."""
-    from envfit.advisor._budget import renderer_plan
+    from envfit.advisor import renderer_plan
     pixels = max((s.pixels() for s in missing), default=0)
     return renderer_plan(pixels, opts, resident=16 * pixels).peak()

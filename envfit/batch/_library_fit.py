@@ -44,22 +44,20 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from envfit.base._checks import check_int
-from envfit.maps._envmap import check_sample_count
-from envfit.base._errors import ParameterError
+from envfit.base import check_int
+from envfit.maps import check_sample_count
+from envfit.base import ParameterError
 from envfit.batch._library_result import LibraryOptions, LibraryResult, distinct_labels
-from envfit.fit._search import (DEFAULT_REFINE, SmoothnessSearch, lattice, run_searches,
-                                search_lattice)
-from envfit.fit._smoothness import (DEFAULT_METHOD, DEFAULT_N, METHODS, S_GRID, SCORE_NAMES,
-                                    FitResult, fit_notes)
-from envfit.base._resources import interpolator_nbytes
+from envfit.fit import DEFAULT_REFINE, SmoothnessSearch, lattice, run_searches, search_lattice
+from envfit.fit import DEFAULT_METHOD, DEFAULT_N, METHODS, S_GRID, SCORE_NAMES, FitResult, fit_notes
+from envfit.base import interpolator_nbytes
 from envfit.batch._fit_tasks import criterion_task, fit_sample_task
 from envfit.batch._tasks import SweepSpec
-from envfit.maps._lazy_maps import resolve_map_sources
-from envfit.base._resources import plan_memory
-from envfit.maps._scales import SCALES, check_not_constant
+from envfit.maps import resolve_map_sources
+from envfit.base import plan_memory
+from envfit.maps import SCALES, check_not_constant
 from envfit.batch._scheduler import Task, drive
-from envfit.base._store import FolderLock, ResultStore
+from envfit.base import FolderLock, ResultStore
 
 __all__ = ["LibraryFitResult", "fit_smoothness_library", "DEFAULT_REFINE", "lattice"]
 
@@ -219,7 +217,7 @@ class _LibraryRun:
                       label=f"fit criterion at s={s:.4f}",
                       on_done=functools.partial(self._done, s, tuple(idx)))
                  for s, idx in sorted(by_s.items())]
-        from envfit.base._progress import progress_bar
+        from envfit.base import progress_bar
         bar = progress_bar(len(tasks), desc=f"library fit, round {self.lib.rounds}",
                            quiet=self.quiet, unit="s")
         for t in tasks:

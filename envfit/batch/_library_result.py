@@ -13,9 +13,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from envfit.base._errors import ParameterError
-from envfit.base._html import html_result
-from envfit.maps._lazy_maps import LoadOptions
+from envfit.base import ParameterError
+from envfit.base import html_result
+from envfit.maps import LoadOptions
 
 __all__ = ["LibraryResult", "LibraryOptions", "distinct_labels"]
 

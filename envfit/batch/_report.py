@@ -20,14 +20,14 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from envfit.base._atomic import atomic_write_csv, atomic_write_json
+from envfit.base import atomic_write_csv, atomic_write_json
 
 __all__ = ["write_table2_library", "write_fit_library"]
 
 
 def write_table2_library(lib, out: str | Path) -> dict[str, str]:
     """Write the Table 2 library files (module docstring) and record them in ``lib.files``."""
-    from envfit.plots._library import plot_s_histogram
+    from envfit.plots import plot_s_histogram
     out = Path(out)
     rows = [(slug, r.map, c.s, c.n, c.rmse, c.rmse_solid_angle, c.seconds)
             for slug, r in zip(lib.slugs, lib.maps) for c in r.cells]
@@ -52,7 +52,7 @@ def write_table2_library(lib, out: str | Path) -> dict[str, str]:
 
 def write_fit_library(lib, out: str | Path) -> dict[str, str]:
     """Write the fit library files (module docstring) and record them in ``lib.files``."""
-    from envfit.plots._library import plot_s_histogram
+    from envfit.plots import plot_s_histogram
     out = Path(out)
     nch = max(len(f.sigma) for f in lib.fits)
     header = ("slug", "map", "s", "s_low", "s_high", *[f"sigma_{c}" for c in range(nch)])

@@ -34,7 +34,7 @@ import itertools
 from dataclasses import dataclass, field
 from typing import Any, Callable, Iterable
 
-from envfit.base._errors import EnvfitError, ExecutorError
+from envfit.base import EnvfitError, ExecutorError
 
 __all__ = ["Task", "drive"]
 

@@ -23,13 +23,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from envfit.base._errors import ParameterError
-from envfit.base._resources import interpolator_nbytes, memory_budget_bytes
-from envfit.kernels._interpolation import SobolevInterpolator
-from envfit.maps._lazy_maps import MapSource
-from envfit.maps._metrics import rmse, rmse_solid_angle
-from envfit.maps._scales import fit_scale
-from envfit.fit._table2 import sample_directions
+from envfit.base import ParameterError
+from envfit.base import interpolator_nbytes, memory_budget_bytes
+from envfit.kernels import SobolevInterpolator
+from envfit.maps import MapSource
+from envfit.maps import rmse, rmse_solid_angle
+from envfit.maps import fit_scale
+from envfit.fit import sample_directions
 
 __all__ = ["SweepSpec", "load_scaled", "sample_task", "solve_task", "evaluate_task"]
 

@@ -37,8 +37,8 @@ import sys
 import threading
 
 from envfit import __version__
-from envfit.base._atomic import os_reason
-from envfit.base._errors import EnvfitError
+from envfit.base import os_reason
+from envfit.base import EnvfitError
 
 #: subcommands, in the order ``envfit --help`` lists them
 COMMANDS = ("synth", "info", "fit", "table2", "theory", "validate", "advise", "sh", "frame")
@@ -166,7 +166,7 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
-    from envfit.theory._errors import TheoryParameterError
+    from envfit.theory import TheoryParameterError
 
     from envfit.cli._common import preflight_outputs
     from envfit.cli._output import CommandOutput, command_name

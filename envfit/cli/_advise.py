@@ -63,7 +63,7 @@ def register(sub) -> None:
 
 def _add_target_arguments(p) -> None:
     """The lobe, the target, the scale and the predictor."""
-    from envfit.maps._scales import SCALES
+    from envfit.maps import SCALES
     micro = ", ".join(f"{b} ({MICROFACET_BSDF_WORDS[b]})" for b in MICROFACET_BSDFS)
     p.add_argument("--brdf", choices=BRDFS + MICROFACET_BSDFS, default="diffuse",
                    help=f"weight function: {', '.join(BRDFS)} (default: diffuse); with "
@@ -87,7 +87,7 @@ def _add_target_arguments(p) -> None:
 
 def _add_search_arguments(p) -> None:
     """The rules searched and the search's numbers."""
-    from envfit.advisor._options import BASES, MAX_SEEDS
+    from envfit.advisor import BASES, MAX_SEEDS
     sets = ", ".join(ALL_POINTSETS)
     p.add_argument("--pointsets", type=distinct_names, default=None, metavar="sf,sobol,…",
                    help=f"point sets among {sets} (default: {','.join(DEFAULT_POINTSETS)}; "
@@ -117,7 +117,7 @@ def _add_search_arguments(p) -> None:
 
 def _add_check_and_cache_arguments(p) -> None:
     """--check and its axes, the renderer rows' options, the cache's options."""
-    from envfit.advisor._options import MAX_AXES
+    from envfit.advisor import MAX_AXES
     p.add_argument("--check", action="store_true",
                    help="measure the RMSE at the chosen N/L on the map, beside the prediction")
     axes = Ranged(2, MAX_AXES, "M")
@@ -132,8 +132,8 @@ def _add_check_and_cache_arguments(p) -> None:
 
 def _add_renderer_arguments(p) -> None:
     """The renderer rows' options (strategies, point sets, spectra, check axes)."""
-    from envfit.advisor._options import MAX_AXES, MAX_SPECTRUM_AXES
-    from envfit.sampling._rules import STRATEGIES
+    from envfit.advisor import MAX_AXES, MAX_SPECTRUM_AXES
+    from envfit.sampling import STRATEGIES
     from envfit.renderers import STRATEGY_NAMES
     rg = p.add_argument_group("renderer rows")
     rg.add_argument("--strategies", type=distinct_names, default=None, metavar="brdf,map,mis,split",

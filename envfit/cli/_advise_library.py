@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import argparse
 
-from envfit.base._errors import ParameterError
+from envfit.base import ParameterError
 from envfit.cli._common import executor_kwargs, load_options_from_args, out_dir
 from envfit.cli._output import CommandOutput
 
@@ -41,8 +41,8 @@ def check_library(args: argparse.Namespace) -> None:
 
 def run_library(args: argparse.Namespace, output: CommandOutput, popts) -> int:
     """The library run of ``envfit advise``: checked options → maps → rows → files."""
-    from envfit.batch._library_advise import advise_library
-    from envfit.base._atomic import atomic_write_csv, atomic_write_json
+    from envfit.batch import advise_library
+    from envfit.base import atomic_write_csv, atomic_write_json
     from envfit.batch import LibraryOptions
     check_library(args)
     out = out_dir(args)
@@ -62,7 +62,7 @@ def run_library(args: argparse.Namespace, output: CommandOutput, popts) -> int:
     output.answer(*lib.table_lines()[-len(lib.coverage):])     # --quiet: the coverage lines
     d = lib.to_dict()
     if out is not None:
-        from envfit.plots._advise_library import plot_advise_library
+        from envfit.plots import plot_advise_library
         cols, rows = lib.csv_rows()
         written = [output.guarded_write(out / "advise_library.csv", atomic_write_csv,
                                         out / "advise_library.csv", cols, rows),

@@ -12,7 +12,7 @@ import argparse
 import time
 from pathlib import Path
 
-from envfit.base._errors import ParameterError
+from envfit.base import ParameterError
 from envfit.cli._advise_rules import options_from_args, rules_lines
 from envfit.cli._common import load_map_from_args, out_dir
 from envfit.cli._parse import finite_float
@@ -123,7 +123,7 @@ def _add_model_arguments(g) -> None:
 def _net_words() -> str:
     """``--renderer-level``'s help: the samplers of the digital nets whose power above the
     grid is sampled, by renderer (from the renderer registry)."""
-    from envfit.advisor._renderer_options import SIZED_RANDOMISATIONS
+    from envfit.advisor import SIZED_RANDOMISATIONS
     from envfit.renderers import RENDERERS
     words = {"owen": "Owen-scrambled", "digital_shift": "digitally shifted"}
     out = []
@@ -151,7 +151,7 @@ def reject_without_renderer(args: argparse.Namespace) -> None:
 def renderer_options_from_args(args: argparse.Namespace):
     """The checked :class:`RendererAdviseOptions` and, with --rules, :class:`AdviseOptions`
     (every conflict a one-line error, before the map is read)."""
-    from envfit.advisor._renderer_options import RendererAdviseOptions
+    from envfit.advisor import RendererAdviseOptions
     _reject_negative(args)
     for dest, flag in _GENERIC_ROWS.items():
         if getattr(args, dest, None) not in (None, False):
@@ -296,8 +296,8 @@ def run_renderer(args: argparse.Namespace, output: CommandOutput, ropts, rules,
     """``envfit advise MAP --renderer NAME`` with its checked options
     (:func:`renderer_options_from_args`; ``rules``: envfit's rules' with ``--rules``, else
     None): map (its notes said) → :func:`envfit.advisor.advise_with` → print → JSON."""
-    from envfit.advisor._advise import advise_with
-    from envfit.base._atomic import atomic_write_json
+    from envfit.advisor import advise_with
+    from envfit.base import atomic_write_json
     _snippet_file(args, None, args.out)   # --snippet of another map without --out: one line
     env = load_map_from_args(args)
     out = out_dir(args)

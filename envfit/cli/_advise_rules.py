@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import argparse
 
-from envfit.base._errors import ParameterError
-from envfit.base._notes import NoteKind, note_kind
+from envfit.base import ParameterError
+from envfit.base import NoteKind, note_kind
 from envfit.cli._output import CommandOutput
 
 __all__ = ["header_lines", "check_lines", "renderer_lines", "options_from_args", "run_rules",
@@ -90,7 +90,7 @@ def renderer_lines(adv) -> list[str]:
 def options_from_args(args: argparse.Namespace):
     """The :class:`envfit.advisor._options.AdviseOptions` of the command line (an option not
     given keeps the dataclass's default; ``--bases none`` is no basis)."""
-    from envfit.advisor._options import AdviseOptions
+    from envfit.advisor import AdviseOptions
     _check_pairs(args, AdviseOptions())
     given = {"pointsets": args.pointsets, "weights": args.weights, "fit_n": args.fit_n,
              "nmin": args.nmin, "nmax": args.nmax, "osw_nmax": args.osw_nmax,
@@ -138,8 +138,8 @@ def rules_lines(rules_adv) -> list[str]:
 def run_rules(args: argparse.Namespace, output: CommandOutput) -> int:
     """``envfit advise MAP`` without ``--renderer``: options → map (its notes said) →
     :func:`envfit.advisor.advise_with` → print → files and JSON."""
-    from envfit.advisor._advise import advise_with
-    from envfit.base._atomic import atomic_write_csv, atomic_write_json
+    from envfit.advisor import advise_with
+    from envfit.base import atomic_write_csv, atomic_write_json
     from envfit.cli._common import load_map_from_args, out_dir
     opts = options_from_args(args)          # bad names and values: one line, before the map
     env = load_map_from_args(args)
@@ -167,12 +167,12 @@ def run_rules(args: argparse.Namespace, output: CommandOutput) -> int:
                + f"; cache {adv.cache['hits']} hit(s), {adv.cache['writes']} write(s))")
     d = adv.to_dict()
     if out is not None and adv.renderer is not None:
-        from envfit.plots._advise import plot_advise
+        from envfit.plots import plot_advise
         png = output.guarded_write(out / "advise.png", plot_advise, d, out / "advise.png")
         if png is not None:
             output.say(f"wrote {png}")
     if out is not None:
-        from envfit.plots._advise_rules import plot_advise_rules
+        from envfit.plots import plot_advise_rules
         png = output.guarded_write(out / "advise_rules.png", plot_advise_rules, d,
                                    out / "advise_rules.png")
         if png is not None:

@@ -19,8 +19,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from envfit.base._atomic import check_writable_dir, check_writable_file
-from envfit.base._notes import NoteKind
+from envfit.base import check_writable_dir, check_writable_file
+from envfit.base import NoteKind
 from envfit.defaults import EXECUTORS, UPS
 from envfit.cli._output import CommandOutput
 from envfit.cli._overlap import check_no_overlap
@@ -126,9 +126,8 @@ def preflight_outputs(args: argparse.Namespace, output: CommandOutput) -> None:
     if getattr(args, "output", None) is not None:
         check_writable_file(args.output, getattr(args, "output_metavar", "output"))
     if hasattr(args, "cache_dir") and not getattr(args, "no_cache", False):
-        from envfit.advisor import _cache as advisor_cache
-        probe = getattr(advisor_cache, "cache_write_problem", None)
-        problem = probe(args.cache_dir) if probe is not None else None
+        from envfit.advisor import cache_write_problem
+        problem = cache_write_problem(args.cache_dir)
         if problem:  # "the advisor cache … is not writable (…); advise works without it …"
             output.note(NoteKind.CACHE_OFF, problem)
 
@@ -140,7 +139,7 @@ def advisor_cache_dir(args: argparse.Namespace):
         return None
     if args.cache_dir is not None:
         return args.cache_dir
-    from envfit.advisor._cache import default_cache_dir
+    from envfit.advisor import default_cache_dir
     return default_cache_dir()
 
 
@@ -181,8 +180,8 @@ def map_convention(args: argparse.Namespace):
     together with ``--up`` (the convention fixes the up axis), and for a layout that is not
     lat-long (:class:`~envfit.maps._conventions.NotLatLong`). ``main`` runs it before any work (:func:`preflight_outputs`).
     """
-    from envfit.base._errors import ParameterError
-    from envfit.maps._conventions import NotLatLong, convention
+    from envfit.base import ParameterError
+    from envfit.maps import NotLatLong, convention
     name = getattr(args, "convention", None)
     if name is None:
         return None
@@ -221,8 +220,8 @@ def load_map_from_args(args: argparse.Namespace, path=None, *, quick_height: int
     and converted to envfit's convention (exact where only pixels move, else bilinear),
     *before* ``--max-height``; the built-in map is synthesized with C's up axis.
     """
-    from envfit.maps._default_map import default_envmap
-    from envfit.maps._io import load_envmap
+    from envfit.maps import default_envmap
+    from envfit.maps import load_envmap
     conv = map_convention(args)
     height = max_height_of(args, quick_height)
     path = args.map if path is None else path
@@ -280,8 +279,8 @@ def library_maps(args: argparse.Namespace, *, quick_height: int | None = None) -
 def load_options_from_args(args: argparse.Namespace, *, quick_height: int | None = None):
     """The map-loading options of ``args`` as :class:`envfit.maps._lazy_maps.LoadOptions`
     (``max_height``: :func:`max_height_of`)."""
-    from envfit.base._errors import ParameterError
-    from envfit.maps._lazy_maps import LoadOptions
+    from envfit.base import ParameterError
+    from envfit.maps import LoadOptions
     conv = map_convention(args)
     if conv is not None and not conv.is_envfit_grid:
         raise ParameterError(f"--convention {conv.name} reads one map at a time; several maps "
@@ -293,7 +292,7 @@ def load_options_from_args(args: argparse.Namespace, *, quick_height: int | None
 
 def executor_kwargs(args: argparse.Namespace) -> dict:
     """``executor``, ``workers``, ``scheduler`` for the library functions."""
-    from envfit.batch._executor import check_executor_choice
+    from envfit.batch import check_executor_choice
     kind = args.executor or ("dask" if args.scheduler else "local")
     check_executor_choice(kind, args.workers, args.scheduler)       # before any map is read
     return {"executor": kind, "workers": args.workers, "scheduler": args.scheduler}

@@ -15,7 +15,7 @@ N_RANGE = Ranged(10, None, "N", hi_text=PIXELS)
 
 
 def register(sub) -> None:
-    from envfit.fit._smoothness import DEFAULT_METHOD, DEFAULT_N, KERNELS, METHODS
+    from envfit.fit import DEFAULT_METHOD, DEFAULT_N, KERNELS, METHODS
     p = sub.add_parser(
         "fit", help="estimate the Sobolev smoothness s of a map (with a 95%% interval and sigma)",
         description="Estimate s on the continuous range (1, 2) by the Gaussian-process "
@@ -44,7 +44,7 @@ def register(sub) -> None:
 def run(args: argparse.Namespace, output: CommandOutput) -> int:
     if library_mode(args):
         if args.kernel != "full":
-            from envfit.base._errors import ParameterError
+            from envfit.base import ParameterError
             raise ParameterError("--kernel bandlimited fits one map at a time (each map has its "
                                  "own band limit and pixel centres); give a single map")
         return _run_library(args, output)
@@ -52,7 +52,7 @@ def run(args: argparse.Namespace, output: CommandOutput) -> int:
 
 
 def _run_single(args: argparse.Namespace, output: CommandOutput) -> int:
-    from envfit.fit._smoothness import fit_smoothness
+    from envfit.fit import fit_smoothness
     env = load_map_from_args(args)
     check_pixels(N_RANGE, "--n", args.n, env)           # before the memory guard's N
     for note in getattr(env, "notes", []):
@@ -73,7 +73,7 @@ def _run_single(args: argparse.Namespace, output: CommandOutput) -> int:
     d = res.to_dict()
     d["map"] = env.name
     if out is not None:
-        from envfit.plots._table2 import plot_fit_curve
+        from envfit.plots import plot_fit_curve
         target = out / f"fit_{res.method}.png"
         png = output.guarded_write(target, plot_fit_curve, res, target)
         if png is not None:

@@ -70,8 +70,8 @@ def _answer(r, percentile) -> str:
 
 
 def _write(output: CommandOutput, r, out: Path) -> None:
-    from envfit.frame._images import write_exr
-    from envfit.plots._frame import plot_frame
+    from envfit.frame import write_exr
+    from envfit.plots import plot_frame
     n = r.rows[0].spp
     noise = r.pixel_rmse(n)
     for name, arr in (("noise.exr", noise), ("preview.exr", r.preview)):

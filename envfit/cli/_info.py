@@ -32,8 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
-from envfit.maps._envmap import EnvMap
-from envfit.maps._preview import describe_envmap, list_sources
+from envfit.maps import EnvMap
+from envfit.maps import describe_envmap, list_sources
 from envfit.cli._common import (add_common_arguments, add_map_arguments, load_map_from_args,
                                 map_convention, out_dir)
 from envfit.cli._output import CommandOutput
@@ -77,8 +77,8 @@ def write_preview(output: CommandOutput, env: EnvMap, conv, out: Path, stem: str
     """``out/<stem>_preview.png`` of ``env`` in ``conv``'s layout (None: envfit's grid), the
     sources marked; a failed write is recorded (:meth:`CommandOutput.guarded_write`) and
     gives None."""
-    from envfit.plots._preview import plot_map_preview
-    from envfit.maps._preview import map_preview
+    from envfit.plots import plot_map_preview
+    from envfit.maps import map_preview
     path = out / f"{stem}_preview.png"
     png = output.guarded_write(path, plot_map_preview, map_preview(env, conv, sources=sources), path)
     if png is not None:
@@ -87,7 +87,7 @@ def write_preview(output: CommandOutput, env: EnvMap, conv, out: Path, stem: str
 
 
 def run(args: argparse.Namespace, output: CommandOutput) -> int:
-    from envfit.base._atomic import atomic_write_json
+    from envfit.base import atomic_write_json
     m = load_map_from_args(args)
     conv = map_convention(args)
     out = out_dir(args)

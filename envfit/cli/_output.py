@@ -20,8 +20,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
-from envfit.base._atomic import atomic_write_json, os_reason, to_jsonable
-from envfit.base._notes import Note, NoteKind
+from envfit.base import atomic_write_json, os_reason, to_jsonable
+from envfit.base import Note, NoteKind
 
 __all__ = ["CommandOutput", "WriteFailure", "command_name", "print_json"]
 

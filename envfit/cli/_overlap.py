@@ -27,7 +27,7 @@ import glob
 import os
 from pathlib import Path
 
-from envfit.base._errors import OutputError
+from envfit.base import OutputError
 
 #: files a run of a store-backed command (resumable cells) writes into its folders
 _STORE = (".envfit.lock*", "*/.envfit.lock*", "*_config.json", "cells/*", "*/cells/*")
@@ -82,7 +82,7 @@ class _Entry:
 def _input_entries(args: argparse.Namespace) -> tuple[list[_Entry], list[_Entry]]:
     """(input files, input folders) of the MAP argument(s); missing ones are left to the
     command (which reports them in one line)."""
-    from envfit.maps._lazy_maps import MAP_EXTENSIONS
+    from envfit.maps import MAP_EXTENSIONS
     maps = getattr(args, "map", None)
     items = [] if maps is None else ([maps] if isinstance(maps, (str, os.PathLike)) else maps)
     files, folders = [], []
@@ -207,5 +207,5 @@ def _check_out_folder(args, inputs, files, folders) -> None:
 
 
 def _map_extensions() -> tuple[str, ...]:
-    from envfit.maps._lazy_maps import MAP_EXTENSIONS
+    from envfit.maps import MAP_EXTENSIONS
     return MAP_EXTENSIONS

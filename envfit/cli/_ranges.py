@@ -125,7 +125,7 @@ class Ranged:
     def check_dynamic(self, flag: str, values, bound: int, where: str) -> None:
         """:class:`ParameterError` (one line) when a value of ``flag`` is above ``bound``,
         the value of ``hi_text`` for this input (``where``: "this 128x64 map")."""
-        from envfit.base._errors import ParameterError
+        from envfit.base import ParameterError
         vals = values if isinstance(values, (list, tuple)) else [values]
         over = [v for v in vals if v is not None and not isinstance(v, str) and v > bound]
         if over:
@@ -147,7 +147,7 @@ def check_pixels(rng: Ranged, flag: str, values, env) -> None:
 def check_library_pixels(rng: Ranged, flag: str, values, maps, load_options) -> None:
     """:func:`check_pixels` for a library (``maps``: the MAP arguments): against the map of
     fewest pixels, read from the headers before any work."""
-    from envfit.maps._lazy_maps import resolve_map_sources
+    from envfit.maps import resolve_map_sources
     sources = [s for s in resolve_map_sources(maps, load_options) if s.pixels() > 0]
     if sources:
         least = min(sources, key=lambda s: s.pixels())
@@ -158,7 +158,7 @@ def check_library_pixels(rng: Ranged, flag: str, values, maps, load_options) -> 
 def workers_range() -> Ranged:
     """``--workers K``: 1 <= K <= this machine's cores
     (:func:`envfit.base._resources.machine_cores`)."""
-    from envfit.base._resources import machine_cores
+    from envfit.base import machine_cores
     return Ranged(1, machine_cores(), "K")
 
 

@@ -27,8 +27,8 @@ from envfit.cli._common import (add_common_arguments, add_map_arguments, load_ma
                                 map_convention, out_dir)
 from envfit.cli._output import CommandOutput
 from envfit.cli._ranges import Ranged
-from envfit.export._plan import MAX_CHECK_AXES, MAX_CHECK_HEIGHT
-from envfit.export._ringing import BAND_LIMIT
+from envfit.export import MAX_CHECK_AXES, MAX_CHECK_HEIGHT
+from envfit.export import BAND_LIMIT
 
 #: the ranges of the options (``--help`` and the errors say these words)
 LMAX = Ranged(0, None, "L", hi_text=BAND_LIMIT)
@@ -39,9 +39,9 @@ HEIGHT = Ranged(1, MAX_CHECK_HEIGHT, "H")
 
 
 def register(sub) -> None:
-    from envfit.export._report import FORMATS
-    from envfit.export._ringing import CHECK_AXES, DENSE_HEIGHT, TABLE_LMAX
-    from envfit.export._sh_export import WINDOWS
+    from envfit.export import FORMATS
+    from envfit.export import CHECK_AXES, DENSE_HEIGHT, TABLE_LMAX
+    from envfit.export import WINDOWS
     p = sub.add_parser(
         "sh", help="real SH coefficients for engines (irradiance, windows, ringing predictor)",
         description="Real spherical-harmonic coefficients of the map to degree L in the "
@@ -105,9 +105,8 @@ def _plan_note(args: argparse.Namespace, stages) -> None:
 
 
 def run(args: argparse.Namespace, output: CommandOutput) -> int:
-    from envfit.export._report import (SHReportOptions, document, measured_where, plan,
-                                       sh_outputs, sh_report)
-    from envfit.export._ringing import CHECK_AXES
+    from envfit.export import SHReportOptions, document, measured_where, plan, sh_outputs, sh_report
+    from envfit.export import CHECK_AXES
     env = load_map_from_args(args)
     conv = map_convention(args)
     opts = SHReportOptions(irradiance=args.irradiance, window=args.window,

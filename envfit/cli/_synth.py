@@ -14,11 +14,11 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from envfit.base._atomic import os_reason
-from envfit.base._errors import EnvfitError, OutputError, ParameterError
+from envfit.base import os_reason
+from envfit.base import EnvfitError, OutputError, ParameterError
 from envfit.data_gen import synth_kind_names
 from envfit.defaults import UPS
-from envfit.maps._envmap import EnvMap
+from envfit.maps import EnvMap
 from envfit.cli._common import CONVENTION_HELP, add_common_arguments, map_convention, map_up, out_dir
 from envfit.cli._output import CommandOutput
 from envfit.cli._ranges import Ranged
@@ -124,8 +124,8 @@ def _kind_params(args: argparse.Namespace) -> dict:
 
 
 def run(args: argparse.Namespace, output: CommandOutput) -> int:
-    from envfit.maps._io import save_envmap
-    from envfit.maps._synth import synthesize_envmap
+    from envfit.maps import save_envmap
+    from envfit.maps import synthesize_envmap
     if args.height < 2:
         raise ParameterError(f"--height {args.height} is outside {HEIGHT}")
     if args.method == "exact" and args.height > EXACT_HEIGHT:

@@ -58,7 +58,7 @@ QUICK_HEIGHT = 128
 
 
 def run(args: argparse.Namespace, output: CommandOutput) -> int:
-    from envfit.fit._table2 import PAPER_N, PAPER_S, QUICK_N
+    from envfit.fit import PAPER_N, PAPER_S, QUICK_N
     s_values = args.s or list(PAPER_S)
     n_values = args.n or list(QUICK_N if args.quick else PAPER_N)
     if library_mode(args):
@@ -67,7 +67,7 @@ def run(args: argparse.Namespace, output: CommandOutput) -> int:
 
 
 def _run_single(args, output: CommandOutput, s_values, n_values) -> int:
-    from envfit.fit._table2 import format_table2, run_table2
+    from envfit.fit import format_table2, run_table2
     env = load_map_from_args(args, quick_height=QUICK_HEIGHT)
     check_pixels(N_VALUES, "--n", n_values, env)        # before the memory guard's N
     out = out_dir(args)
@@ -91,8 +91,8 @@ def _run_single(args, output: CommandOutput, s_values, n_values) -> int:
     if known is not None:
         output.say(known["sentence"])
     if out is not None:
-        from envfit.base._atomic import atomic_write_csv
-        from envfit.plots._table2 import plot_table2
+        from envfit.base import atomic_write_csv
+        from envfit.plots import plot_table2
         rows = [(c.s, c.n, c.rmse, c.rmse_solid_angle, c.seconds, c.solver, c.iterations,
                  c.residual, c.rmse_change_bound) for c in res.cells]
         written = []
@@ -124,7 +124,7 @@ def _known_s(env, res, quiet: bool = False) -> dict | None:
     its synthesis, resize and lookup (:mod:`envfit.fit._kriging`) at the largest N of the
     table up to :data:`KNOWN_S_MAX_N`, and one sentence comparing its optimum with the
     measured one. ``None`` for any other map or a single s."""
-    from envfit.fit._kriging import builtin_synthesis, expected_interpolation_mse, known_s_sentence
+    from envfit.fit import builtin_synthesis, expected_interpolation_mse, known_s_sentence
     model = builtin_synthesis(env)
     if model is None or len(res.s_values) < 2:          # one s: no optimum to compare
         return None

@@ -16,7 +16,7 @@ import time
 
 import numpy as np
 
-from envfit.base._errors import ParameterError
+from envfit.base import ParameterError
 from envfit.defaults import ALL_POINTSETS, BRDFS, DEFAULT_SHININESS, WEIGHTINGS
 from envfit.cli._common import add_common_arguments, out_dir
 from envfit.cli._output import CommandOutput
@@ -40,7 +40,7 @@ def auto_split_lmax(n: int) -> int:
     The rule is :func:`envfit.theory._figures.split_lmax`; this fixes its floor and cap to
     the CLI's defaults.
     """
-    from envfit.theory._figures import split_lmax
+    from envfit.theory import split_lmax
     return split_lmax(n, floor=DEFAULT_SPLIT_LMAX, cap=AUTO_LMAX_CAP)
 
 
@@ -115,9 +115,9 @@ def _usage(p: argparse.ArgumentParser) -> int:
 
 # ============================================================================ wce
 def run_wce(args: argparse.Namespace, output: CommandOutput) -> int:
-    from envfit.theory._figures import make_weight, quadrature_rule
-    from envfit.theory._quadrature import error_spectrum
-    from envfit.base._resources import check_memory
+    from envfit.theory import make_weight, quadrature_rule
+    from envfit.theory import error_spectrum
+    from envfit.base import check_memory
 
     s = check_s(args.s)
     n = check_positive_int(args.n, "--n")
@@ -181,7 +181,7 @@ def _print_wce(args, output: CommandOutput, sp, lobe: str, result: dict) -> None
 
 def _write_wce_csv(args, output: CommandOutput, sp, lobe: str, result: dict) -> None:
     n, s, morphed = result["n"], result["s"], result["morphed"]
-    from envfit.base._atomic import atomic_write_text
+    from envfit.base import atomic_write_text
     d = out_dir(args)
     rows = [f"{l},{a:.17g},{dd:.17g},{c:.17g},{e:.17g}"
             for l, a, dd, c, e in zip(sp.l, sp.a, sp.d2, sp.C2, sp.e2)]
@@ -191,7 +191,7 @@ def _write_wce_csv(args, output: CommandOutput, sp, lobe: str, result: dict) -> 
             + f"; E = {sp.wce:.10e}\nl,a,d2,C2,e2\n")
     path = output.guarded_write(d / "wce_spectrum.csv", atomic_write_text,
                                 d / "wce_spectrum.csv", head + "\n".join(rows) + "\n")
-    from envfit.plots._theory import plot_wce_spectrum
+    from envfit.plots import plot_wce_spectrum
     png = output.guarded_write(d / "wce_spectrum.png", plot_wce_spectrum, sp,
                                d / "wce_spectrum.png", head.splitlines()[0][2:])
     written = [str(p) for p in (path, png) if p is not None]
@@ -206,7 +206,7 @@ def _fmt_int(v) -> str:
 
 def format_table1(table, comparison: list[dict]) -> str:
     """Table 1 beside the paper's values, the E(L) curves and the comparison notes."""
-    from envfit.theory._table1 import PAPER_S, paper_table1_values
+    from envfit.theory import PAPER_S, paper_table1_values
     printed = paper_table1_values(table)
     lines = [f"Table 1 — target worst-case error E = {table.target:.3g}, s = {table.s:g}, "
              f"glossy n = {table.shininess:g}",
@@ -245,7 +245,7 @@ def _format_comparison(c: dict) -> str:
 
 
 def run_table1(args: argparse.Namespace, output: CommandOutput) -> int:
-    from envfit.theory._table1 import table1_report
+    from envfit.theory import table1_report
 
     s = check_s(args.s)
     shin = check_shininess(args.shininess)
@@ -259,7 +259,7 @@ def run_table1(args: argparse.Namespace, output: CommandOutput) -> int:
     result["paper_comparison"] = comp
     result["seconds"] = secs
     if args.out is not None:
-        from envfit.base._atomic import atomic_write_csv
+        from envfit.base import atomic_write_csv
         d = out_dir(args)
         p1 = output.guarded_write(d / "table1.csv", atomic_write_csv, d / "table1.csv",
                                   ("case", "L", "wce_at_L", "L_paper_reading", "wce_at_L_paper_reading",
@@ -270,7 +270,7 @@ def run_table1(args: argparse.Namespace, output: CommandOutput) -> int:
                                   d / "table1_wce_by_L.csv", ("case", "L", "wce"),
                                   [(r.case, L, float(e)) for r in tab.rows
                             for L, e in enumerate(r.wce_by_L)])
-        from envfit.plots._theory import plot_table1
+        from envfit.plots import plot_table1
         p3 = output.guarded_write(d / "table1.png", plot_table1, tab, d / "table1.png")
         written = [str(p) for p in (p1, p2, p3) if p is not None]
         if written:

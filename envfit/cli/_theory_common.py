@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 
-from envfit.base._errors import ParameterError
+from envfit.base import ParameterError
 from envfit.cli._ranges import Ranged
 from envfit.defaults import DEFAULT_SHININESS
 
@@ -33,7 +33,7 @@ MORPH_HELP = ("Points are morphed for the BRDF by default: their heights are imp
 
 
 def check_s(s: float) -> float:
-    from envfit.theory._errors import check_smoothness
+    from envfit.theory import check_smoothness
     return check_smoothness(s)
 
 

@@ -11,7 +11,7 @@ import argparse
 import math
 import time
 
-from envfit.base._errors import ParameterError
+from envfit.base import ParameterError
 from envfit.defaults import DEFAULT_SHININESS
 from envfit.cli._common import add_common_arguments, out_dir, str_list
 from envfit.cli._output import CommandOutput
@@ -72,7 +72,7 @@ def _csv(path, comment: str, header, rows):
     """CSV with a leading ``# comment`` line (read with ``comment='#'``)."""
     import csv
     import io
-    from envfit.base._atomic import atomic_write_text, to_jsonable
+    from envfit.base import atomic_write_text, to_jsonable
     buf = io.StringIO()
     buf.write("# " + comment.replace("\n", " ") + "\n")
     wr = csv.writer(buf)
@@ -137,12 +137,12 @@ class _FigureRun:
         self.save(name, _csv, self.out / name, comment, header, rows)
 
     def bar(self, total: int, desc: str):
-        from envfit.base._progress import progress_bar
+        from envfit.base import progress_bar
         return progress_bar(total, desc=desc, quiet=self.args.quiet)
 
 
 def run_figures(args: argparse.Namespace, output: CommandOutput) -> int:
-    from envfit.base._resources import check_memory
+    from envfit.base import check_memory
 
     run = _FigureRun(args, output)
     m = max(run.n, run.nmax)
@@ -169,8 +169,8 @@ def run_figures(args: argparse.Namespace, output: CommandOutput) -> int:
 
 def _figures_spectra(run: _FigureRun) -> dict:
     """Figs. 1-3: files, printed lines and the JSON part."""
-    from envfit.theory import _claims as C, _figures as F
-    from envfit.plots import _theory as P
+    from envfit.theory import claims as C, figures as F
+    import envfit.plots as P
     t0, n, out = time.perf_counter(), run.n, run.out
     with run.bar(len(F.BRDFS) * len(F.POINTSET_ORDER) * len(F.WEIGHTINGS), "spectra (Figs. 1-3)") as bar:
         sd = F.spectra_data(n, run.s, run.shin, run.lmax, seed=run.seed, morph=run.morphed,
@@ -218,8 +218,8 @@ def _figures_spectra(run: _FigureRun) -> dict:
 
 def _figure_convergence(run: _FigureRun) -> dict:
     """Fig. 4: files, printed lines (slopes, claims) and the JSON part."""
-    from envfit.theory import _claims as C, _figures as F
-    from envfit.plots import _theory as P
+    from envfit.theory import claims as C, figures as F
+    import envfit.plots as P
     t0, out = time.perf_counter(), run.out
     with run.bar(len(F.BRDFS) * len(F.POINTSET_ORDER) * len(F.WEIGHTINGS), "wce vs N (Fig. 4)") as bar:
         cd = F.convergence_data(run.nmax, run.s, run.shin, seed=run.seed, morph=run.morphed,
@@ -264,8 +264,8 @@ def _figure_convergence(run: _FigureRun) -> dict:
 
 def _figure_truncation(run: _FigureRun) -> dict:
     """Fig. 5: files, printed lines (the caption claim) and the JSON part."""
-    from envfit.theory import _claims as C, _figures as F, _wce_curves as W
-    from envfit.plots import _theory as P
+    from envfit.theory import claims as C, figures as F, wce_curves as W
+    import envfit.plots as P
     t0, out, s, shin, per_oct = time.perf_counter(), run.out, run.s, run.shin, 8
     with run.bar(2 * W.log_grid(run.qnmax, per_oct).size, "QMC curves (Fig. 5)") as bar:
         td = F.truncation_figure_data(s, shin, run.cutoff, qmc_nmax=run.qnmax, per_octave=per_oct,
@@ -305,8 +305,8 @@ def _figure_truncation(run: _FigureRun) -> dict:
 
 def _figure_bnot(run: _FigureRun) -> dict:
     """BNOT check: files, printed lines (capacity and blue-noise claims) and the JSON part."""
-    from envfit.theory import _claims as C, _figures as F
-    from envfit.plots import _theory as P
+    from envfit.theory import claims as C, figures as F
+    import envfit.plots as P
     t0, n = time.perf_counter(), run.n
     bd = F.bnot_figure_data(n, run.seed)
     run.save("bnot_spectrum.png", P.plot_bnot, bd, run.out / "bnot_spectrum.png")

@@ -25,7 +25,7 @@ RENDERER_N = Ranged(1, 65536, "N", many=True)
 
 
 def register(sub) -> None:
-    from envfit.validate._config import QUICK_DESCRIPTION
+    from envfit.validate import QUICK_DESCRIPTION
     p = sub.add_parser(
         "validate",
         help="check predicted quadrature / truncation errors against measured ones on a map",
@@ -110,11 +110,11 @@ def _add_renderer_arguments(p) -> None:
 def _check_names(args: argparse.Namespace) -> None:
     """The names of ``--brdf``, ``--pointsets``, ``--weights`` and the renderer rules' flags,
     each one of its choices (one line naming the flag given), before any work."""
-    from envfit.base._errors import ParameterError
+    from envfit.base import ParameterError
     from envfit.defaults import BRDFS, WEIGHTINGS
-    from envfit.measure._rules import AXIS_SAMPLING
+    from envfit.measure import AXIS_SAMPLING
     from envfit.sampling import STRATEGIES
-    from envfit.theory._pointsets import POINTSETS
+    from envfit.theory import POINTSETS
     rendered = args.renderer not in (None, "rules")      # its --brdf: _validate_render's check
     for flag, what, values, allowed in (
             ("--brdf", "BRDF", None if rendered else args.brdf, BRDFS),
@@ -133,9 +133,9 @@ def _check_names(args: argparse.Namespace) -> None:
 
 
 def _config(args: argparse.Namespace):
-    from envfit.fit._sigma import parse_s
-    from envfit.validate._config import ValidateConfig
-    from envfit.validate._config import quick_config
+    from envfit.fit import parse_s
+    from envfit.validate import ValidateConfig
+    from envfit.validate import quick_config
     s = parse_s(args.s)                      # a bad --s: ParameterError, one line, exit 2
     over = {"s": s, "shininess": args.shininess, "scale": args.scale, "seed": args.seed,
             "fit_method": args.fit_method, "truncation": not args.no_truncation}
@@ -151,8 +151,8 @@ def _config(args: argparse.Namespace):
 def _renderer_config(args: argparse.Namespace, cfg):
     """The renderer validation's configuration (None without ``--renderer``); the renderer
     options without it are an error. Checked before any work."""
-    from envfit.base._errors import ParameterError
-    from envfit.validate._renderer import renderer_config
+    from envfit.base import ParameterError
+    from envfit.validate import renderer_config
     given = [flag for flag, v in (("--strategies", args.strategies),
                                   ("--renderer-pointsets", args.renderer_pointsets),
                                   ("--renderer-n", args.renderer_n),
@@ -216,9 +216,9 @@ def _checked_inputs(args: argparse.Namespace):
 
 
 def run(args: argparse.Namespace, output: CommandOutput) -> int:
-    from envfit.base._atomic import atomic_write_json
+    from envfit.base import atomic_write_json
     from envfit.cli._validate_render import dispatch
-    from envfit.validate._pipeline import run_validation
+    from envfit.validate import run_validation
     rendered = dispatch(args, output)        # --renderer mitsuba3|cycles: that check only
     if rendered is not None:
         return rendered
@@ -243,15 +243,15 @@ def run(args: argparse.Namespace, output: CommandOutput) -> int:
         output.say(f"resumed {len(resumed)} finished cell(s) from {out}")
     output.say(*_summary(res))
     if res.get("renderer"):
-        from envfit.validate._renderer import summary_lines
+        from envfit.validate import summary_lines
         output.say("", *summary_lines(res["renderer"]))
     if out is not None:
-        from envfit.plots._validate import plot_all
-        from envfit.validate._report import write_report
+        from envfit.plots import plot_all
+        from envfit.validate import write_report
         files = output.guarded_write(f"the figures in {out}", plot_all, res, out)
         files = {} if files is None else files
         if res.get("renderer"):
-            from envfit.plots._renderer import plot_renderer
+            from envfit.plots import plot_renderer
             png = output.guarded_write(out / "renderer.png", plot_renderer, res["renderer"],
                                        out / "renderer.png")
             if png is not None:

@@ -68,8 +68,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def dispatch(args: argparse.Namespace, output: CommandOutput) -> int | None:
     """Check the flags of both parts (one line, exit 2, before any work); with a renderer's
     name run the rendered check and return its exit code, else None (``validate`` goes on)."""
-    from envfit.base._errors import ParameterError
-    from envfit.validate._rendered import rendered_renderers
+    from envfit.base import ParameterError
+    from envfit.validate import rendered_renderers
     rendered = rendered_renderers()
     if args.renderer not in (None, "rules", *rendered):
         raise ParameterError(f"--renderer takes {' or '.join(rendered)} (or nothing: "
@@ -80,7 +80,7 @@ def dispatch(args: argparse.Namespace, output: CommandOutput) -> int | None:
 
 def check_flags(args: argparse.Namespace) -> None:
     """One line for flags given to the wrong part, before any work."""
-    from envfit.base._errors import ParameterError
+    from envfit.base import ParameterError
     rendered = args.renderer not in (None, "rules")
     if not rendered:
         given = [f for f, k in _FLAGS.items() if getattr(args, k) is not None]
@@ -95,8 +95,8 @@ def check_flags(args: argparse.Namespace) -> None:
 
 def options(args: argparse.Namespace, cache_dir):
     """The :class:`RenderValidationOptions` of the flags (checked: one line, exit 2)."""
-    from envfit.base._errors import ParameterError
-    from envfit.validate._rendered import RenderValidationOptions
+    from envfit.base import ParameterError
+    from envfit.validate import RenderValidationOptions
     brdfs = args.brdf or ["diffuse"]
     if len(brdfs) != 1:
         raise ParameterError(f"--brdf with --renderer {args.renderer} takes one BSDF, got "
@@ -115,7 +115,7 @@ def alpha_of(args: argparse.Namespace) -> float | None:
     """The microfacet alpha of ``--alpha`` or of ``--roughness`` read as the renderer's own
     value (:func:`envfit.shading.microfacet.roughness_to_alpha`, as ``advise``), within
     ``--alpha``'s range (one line naming the flag given)."""
-    from envfit.base._errors import ParameterError
+    from envfit.base import ParameterError
     if args.roughness is None:
         return args.alpha
     from envfit.shading.microfacet import ROUGHNESS_RULES, roughness_to_alpha
@@ -129,7 +129,7 @@ def alpha_of(args: argparse.Namespace) -> float | None:
 
 def _check_samplers(args: argparse.Namespace) -> None:
     """``--samplers``: names of the renderer's samplers (one line naming the flag)."""
-    from envfit.base._errors import ParameterError
+    from envfit.base import ParameterError
     from envfit.renderers import get_renderer
     p = get_renderer(args.renderer)
     bad = [s for s in (args.samplers or ()) if s not in p.samplers]
@@ -139,11 +139,11 @@ def _check_samplers(args: argparse.Namespace) -> None:
 
 
 def run(args: argparse.Namespace, output: CommandOutput) -> int:
-    from envfit.advisor._cache import default_cache_dir
-    from envfit.base._atomic import atomic_write_csv, atomic_write_json
-    from envfit.base._progress import progress_bar
+    from envfit.advisor import default_cache_dir
+    from envfit.base import atomic_write_csv, atomic_write_json
+    from envfit.base import progress_bar
     from envfit.cli._common import load_map_from_args, out_dir
-    from envfit.validate._rendered import check_renderer, render_validation, summary_lines
+    from envfit.validate import check_renderer, render_validation, rendered_summary_lines
     out = out_dir(args)
     opts = options(args, (out if out is not None else default_cache_dir()) / "references")
     check_renderer(opts.renderer)
@@ -157,9 +157,9 @@ def run(args: argparse.Namespace, output: CommandOutput) -> int:
     finally:
         bar.close()
     res = result.to_dict()
-    output.say(*summary_lines(result))
+    output.say(*rendered_summary_lines(result))
     if out is not None:
-        from envfit.plots._rendered import plot_rendered
+        from envfit.plots import plot_rendered
         cols = ["sampler", "strategy", "spp", "spp_used", "measured_rmse", "low", "high",
                 "predicted", "ratio", "inside", "mean_offset"]
         written = [output.guarded_write(out / name, fn, out / name, *a) for name, fn, a in (

@@ -23,7 +23,7 @@ importing the package loads none of its modules.
 """
 from __future__ import annotations
 
-from envfit.base._lazy import lazy_exports
+from envfit.base import lazy_exports
 
 _LAZY = {
     "check_sh_plan": "_plan",
@@ -34,4 +34,21 @@ _LAZY = {
 
 __all__ = sorted(_LAZY)
 
-__getattr__, __dir__ = lazy_exports(__name__, _LAZY)
+#: names other envfit packages import from this one's modules: importable from the
+#: package (lazily) but not its public API (not in ``__all__``, not documented)
+_SHARED = {
+    "BAND_LIMIT": "_ringing",
+    "CHECK_AXES": "_ringing",
+    "DENSE_HEIGHT": "_ringing",
+    "FORMATS": "_report",
+    "MAX_CHECK_AXES": "_plan",
+    "MAX_CHECK_HEIGHT": "_plan",
+    "TABLE_LMAX": "_ringing",
+    "WINDOWS": "_sh_export",
+    "document": "_report",
+    "measured_where": "_report",
+    "plan": "_report",
+    "sh_outputs": "_report",
+}
+
+__getattr__, __dir__ = lazy_exports(__name__, {**_LAZY, **_SHARED})

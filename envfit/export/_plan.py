@@ -47,10 +47,9 @@ from functools import lru_cache
 
 import numpy as np
 
-from envfit.base._errors import MemoryBudgetError, ParameterError
-from envfit.base._resources import (Stage, budget_words, format_bytes, memory_budget_bytes,
-                                    time_limit_words)
-from envfit.base._resources import time_limit_seconds as _time_limit
+from envfit.base import MemoryBudgetError, ParameterError
+from envfit.base import Stage, budget_words, format_bytes, memory_budget_bytes, time_limit_words
+from envfit.base import time_limit_seconds as _time_limit
 from envfit.export._ringing import (CHECK_AXES, DENSE_BLOCK_BYTES, DENSE_HEIGHT,
                                     DIRECT_LMAX, check_degree)
 
@@ -113,7 +112,7 @@ def _cpu_rates() -> Rates:
 def load_factor() -> float:
     """How much longer work takes on this machine now than alone on its cores: the 1-minute
     load average over the cores this process may use, at least 1."""
-    from envfit.base._resources import machine_cores
+    from envfit.base import machine_cores
     try:
         return max(1.0, os.getloadavg()[0] / machine_cores())
     except (AttributeError, OSError):  # pragma: no cover - no load average

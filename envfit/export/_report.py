@@ -31,22 +31,22 @@ from typing import Callable
 
 import numpy as np
 
-from envfit.base._atomic import atomic_write_csv, atomic_write_json, atomic_write_text, to_jsonable
-from envfit.base._checks import check_int, check_positive
-from envfit.base._progress import progress
-from envfit.base._errors import ParameterError
-from envfit.maps._envmap import EnvMap
-from envfit.maps._scales import SCALES, fit_scale
+from envfit.base import atomic_write_csv, atomic_write_json, atomic_write_text, to_jsonable
+from envfit.base import check_int, check_positive
+from envfit.base import progress
+from envfit.base import ParameterError
+from envfit.maps import EnvMap
+from envfit.maps import SCALES, fit_scale
 from envfit.export._plan import check_sh_plan
 from envfit.export._ringing import (CHECK_AXES, DENSE_HEIGHT, TABLE_LMAX, RingingRow, check_lmax,
                                     choose, dense_negative_fractions, measured_rmse,
                                     negative_fraction, ringing_rows, signal_mean, truncation_rmse)
-from envfit.shading._bilinear_sh import bilinear_sh_coefficients
+from envfit.shading import bilinear_sh_coefficients
 from envfit.export._sh_export import (NORMALISATION, ORDERING, RH_CONSTANTS, WINDOWS,
                                       SHCoefficients, clamped_cosine_sh, pixel_synthesis,
                                       sh_coefficients, shading_factors, truncate_alm)
 from envfit.export._sh_format import signed_coefficients, to_csv, to_glsl
-from envfit.shading._spectra import _power_by_degree   # the alm are computed here once
+from envfit.shading import power_by_degree   # the alm are computed here once
 
 __all__ = ["FORMATS", "SHReport", "SHReportOptions", "sh_report", "plan", "default_table_lmax", "document",
            "sh_outputs", "preview_images"]
@@ -256,7 +256,7 @@ def _signal_mean(envmap: EnvMap, alm, lp: int, o: SHReportOptions) -> tuple[np.n
     if not mean > 0:
         raise ParameterError(f"map {envmap.name or ''} has mean {mean:.6g} on the {o.scale} "
                              "scale: relative errors and negativity need a positive mean")
-    return _power_by_degree(alm, lp), mean
+    return power_by_degree(alm, lp), mean
 
 
 def sh_report(envmap: EnvMap, lmax: int, options: SHReportOptions | None = None, *,
@@ -331,7 +331,7 @@ def _ringing_csv(r: SHReport, path) -> Path:
 def sh_outputs(r: SHReport) -> dict[str, Callable[[Path], Path]]:
     """``--out`` files → their writers (each atomic): ``sh.png`` (look here first),
     ``sh.json``, ``sh.csv``, ``sh.glsl``, ``ringing.csv``."""
-    from envfit.plots._sh import plot_sh
+    from envfit.plots import plot_sh
     return {"sh.png": lambda p: plot_sh(preview_images(r), _plot_data(r), p),
             "sh.json": lambda p: atomic_write_json(p, r.to_dict()),
             "sh.csv": lambda p: atomic_write_text(p, document(r, "csv")),

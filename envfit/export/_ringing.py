@@ -46,20 +46,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from envfit.base._checks import check_int
-from envfit.base._progress import progress
-from envfit.base._errors import ParameterError
-from envfit.maps._envmap import EnvMap
-from envfit.maps._latlong import (local_to_world, pixel_angles, pixel_directions,
-                                  pixel_solid_angles, row_solid_angles)
-from envfit.predict._spectral import spectral_truncation_curve
-from envfit.shading._ground_truth import shading_integral
-from envfit.shading._patches import axes_to_local
-from envfit.shading._bilinear_sh import bilinear_sh_coefficients, synthesize_convolution
+from envfit.base import check_int
+from envfit.base import progress
+from envfit.base import ParameterError
+from envfit.maps import EnvMap
+from envfit.maps import (local_to_world, pixel_angles, pixel_directions, pixel_solid_angles,
+                         row_solid_angles)
+from envfit.predict import spectral_truncation_curve
+from envfit.shading import shading_integral
+from envfit.shading import axes_to_local
+from envfit.shading import bilinear_sh_coefficients, synthesize_convolution
 from envfit.export._sh_export import (WINDOWS, gl_synthesis, negative_tolerance, pixel_synthesis,
                                       sh_eval, shading_factors, sloan_lambda, truncate_alm,
                                       window_weights)
-from envfit.theory._sphere_points import spherical_fibonacci_sphere
+from envfit.theory import spherical_fibonacci_sphere
 
 __all__ = ["CHECK_AXES", "DENSE_HEIGHT", "TABLE_LMAX", "DIRECT_LMAX", "RingingRow",
            "signal_mean", "truncation_rmse", "negative_fraction", "dense_negative_fractions",
@@ -121,7 +121,7 @@ def check_degree(value, height: int, option: str, lo: int) -> int:
     ...
     envfit.base._errors.ParameterError: --lmax 64 is outside 0 <= L <= H-1 (the map's band limit): H-1 = 63 for this 128x64 map
     """
-    from envfit.base._checks import check_int
+    from envfit.base import check_int
     v = check_int(value, option, lo)
     if v > height - 1:
         raise ParameterError(f"{option} {v} is outside {lo} <= L <= {BAND_LIMIT}: H-1 = "

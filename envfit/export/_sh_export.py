@@ -61,11 +61,11 @@ from dataclasses import dataclass
 import ducc0
 import numpy as np
 
-from envfit.base._checks import check_int
-from envfit.base._errors import ParameterError
-from envfit.maps._envmap import EnvMap
-from envfit.maps._latlong import local_to_world
-from envfit.shading._bilinear_sh import alm_l_index, bilinear_sh_coefficients
+from envfit.base import check_int
+from envfit.base import ParameterError
+from envfit.maps import EnvMap
+from envfit.maps import local_to_world
+from envfit.shading import alm_l_index, bilinear_sh_coefficients
 
 __all__ = ["NORMALISATION", "ORDERING", "WINDOWS", "RH_CONSTANTS", "SHCoefficients",
            "clamped_cosine_sh", "complex_to_real", "world_alm", "real_sh_basis", "sh_eval",

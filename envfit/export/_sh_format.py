@@ -18,7 +18,7 @@ import csv
 
 import numpy as np
 
-from envfit.base._errors import ParameterError
+from envfit.base import ParameterError
 from envfit.export._sh_export import NORMALISATION, ORDERING, RH_CONSTANTS, SHCoefficients
 
 __all__ = ["to_csv", "to_glsl", "signed_coefficients", "GLSL_TYPES"]

@@ -25,7 +25,7 @@ importing the package loads none of its modules.
 """
 from __future__ import annotations
 
-from envfit.base._lazy import lazy_exports
+from envfit.base import lazy_exports
 
 _LAZY = {
     "fit_smoothness": "_smoothness", "FitResult": "_smoothness",
@@ -38,4 +38,40 @@ _LAZY = {
 
 __all__ = sorted(_LAZY)
 
-__getattr__, __dir__ = lazy_exports(__name__, _LAZY)
+#: names other envfit packages import from this one's modules: importable from the
+#: package (lazily) but not its public API (not in ``__all__``, not documented)
+_SHARED = {
+    "TABLE2_FIELDS": "_table2",
+    "Table2Cell": "_table2",
+    "check_grid": "_table2",
+    "table2_cell_key": "_table2",
+    "table2_recon_stem": "_table2",
+    "DEFAULT_METHOD": "_smoothness",
+    "DEFAULT_N": "_smoothness",
+    "DEFAULT_REFINE": "_search",
+    "KERNELS": "_smoothness",
+    "METHODS": "_smoothness",
+    "N_BOOTSTRAP": "_criterion",
+    "PAPER_N": "_table2",
+    "PAPER_S": "_table2",
+    "QUICK_N": "_table2",
+    "SCORE_NAMES": "_smoothness",
+    "S_GRID": "_smoothness",
+    "SmoothnessSearch": "_search",
+    "bandlimited_profiled_sigma": "_sigma",
+    "builtin_synthesis": "_kriging",
+    "cell_checks": "_table2",
+    "combine_sigma": "_sigma",
+    "evaluate_criterion": "_criterion",
+    "fit_notes": "_smoothness",
+    "holdout_pixels": "_smoothness",
+    "known_s_sentence": "_kriging",
+    "lattice": "_search",
+    "parse_s": "_sigma",
+    "plan_fit_memory": "_smoothness",
+    "profiled_sigma": "_sigma",
+    "run_searches": "_search",
+    "search_lattice": "_search",
+}
+
+__getattr__, __dir__ = lazy_exports(__name__, {**_LAZY, **_SHARED})

@@ -24,8 +24,8 @@ from typing import Sequence
 
 import numpy as np
 
-from envfit.kernels._bandlimited import bandlimited_log_likelihood
-from envfit.kernels._interpolation import SobolevInterpolator
+from envfit.kernels import bandlimited_log_likelihood
+from envfit.kernels import SobolevInterpolator
 
 __all__ = ["N_BOOTSTRAP", "evaluate_criterion", "bootstrap_indices", "constant_columns"]
 

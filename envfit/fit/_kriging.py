@@ -40,11 +40,11 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.linalg import cho_factor, cho_solve
 
-from envfit.base._errors import ParameterError
-from envfit.base._progress import progress
-from envfit.maps._latlong import direction_to_pixel, pixel_angles, row_solid_angles
-from envfit.theory._errors import check_smoothness
-from envfit.theory._sobolev import kernel_from_distance2, sobolev_coefficients
+from envfit.base import ParameterError
+from envfit.base import progress
+from envfit.maps import direction_to_pixel, pixel_angles, row_solid_angles
+from envfit.theory import check_smoothness
+from envfit.theory import kernel_from_distance2, sobolev_coefficients
 
 __all__ = ["SynthesisModel", "KrigingCurve", "field_covariance", "bilinear_stencil",
            "expected_interpolation_mse", "expected_profiled_likelihood", "builtin_synthesis",
@@ -274,7 +274,7 @@ class _Setup:
     def __init__(self, model: SynthesisModel, n: int, pointset: str, seed: int,
                  max_pixels: int | None):
         from envfit.fit._table2 import sample_directions
-        from envfit.maps._latlong import pixel_directions
+        from envfit.maps import pixel_directions
         h, w = model.height, 2 * model.height
         self.nodes = sample_directions(n, pointset=pointset, seed=seed, up=model.up)
         self.rows = _evaluation_rows(h, max_pixels)
@@ -313,7 +313,7 @@ class _Setup:
 
 def _expected_mse_at(setup: _Setup, s: float, offset: float) -> tuple[float, float]:
     """(per-pixel, solid-angle) expected MSE of the K_s interpolant (module doc)."""
-    from envfit.theory._sobolev import generalized_distance_kernel
+    from envfit.theory import generalized_distance_kernel
     cf = cho_factor(generalized_distance_kernel(s, setup.nodes, setup.nodes), lower=True)
     acc_p = acc_s = 0.0
     for start in range(0, setup.pix.size, _BLOCK):
@@ -422,7 +422,7 @@ def expected_profiled_likelihood(model: SynthesisModel, s_values, n: int, *,
     the full process seen exactly: the Kullback–Leibler divergence is zero there only).
     """
     from envfit.fit._table2 import check_grid
-    from envfit.theory._sobolev import generalized_distance_kernel
+    from envfit.theory import generalized_distance_kernel
     s_values, _ = check_grid(s_values, [n])
     setup = _Setup(model, int(n), pointset, seed, max_pixels=1)
     one = np.ones(setup.nodes.shape[0])

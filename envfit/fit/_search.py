@@ -47,7 +47,7 @@ import numpy as np
 if TYPE_CHECKING:
     from scipy.interpolate import CubicSpline
 
-from envfit.base._errors import ParameterError
+from envfit.base import ParameterError
 
 __all__ = ["S_GRID", "DEFAULT_REFINE", "CHI2_1_95", "EDGE_LO", "EDGE_HI", "WALK_BATCH",
            "SearchResult", "SmoothnessSearch", "run_searches", "lattice", "search_lattice",

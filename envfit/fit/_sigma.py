@@ -9,22 +9,22 @@ import math
 
 import numpy as np
 
-from envfit.theory._cholesky import cho_factor, cho_solve
-from envfit.theory._sphere_points import sphere_points
-from envfit.theory._weights import kernel_matrix
+from envfit.theory import cho_factor, cho_solve
+from envfit.theory import sphere_points
+from envfit.theory import kernel_matrix
 
-from envfit.kernels._bandlimited import (bandlimited_log_likelihood, map_band_limit, max_samples,
-                                         pixel_centre_samples)
-from envfit.kernels._likelihood import profiled_log_likelihood
-from envfit.base._checks import check_int
-from envfit.maps._envmap import EnvMap
-from envfit.base._errors import ParameterError
-from envfit.maps._latlong import local_to_world
-from envfit.base._resources import plan_memory
-from envfit.shading._spectra import (bandlimited_worst_case_error, bandlimited_worst_case_errors,
-                                     low_degree_power_ratio, lookup_transfer, map_degree_power,
-                                     model_scatter, pixel_degree_power, rule_error_power,
-                                     sh_truncation_curve_transfer, spectral_rmse)
+from envfit.kernels import (bandlimited_log_likelihood, map_band_limit, max_samples,
+                            pixel_centre_samples)
+from envfit.kernels import profiled_log_likelihood
+from envfit.base import check_int
+from envfit.maps import EnvMap
+from envfit.base import ParameterError
+from envfit.maps import local_to_world
+from envfit.base import plan_memory
+from envfit.shading import (bandlimited_worst_case_error, bandlimited_worst_case_errors,
+                            low_degree_power_ratio, lookup_transfer, map_degree_power,
+                            model_scatter, pixel_degree_power, rule_error_power,
+                            sh_truncation_curve_transfer, spectral_rmse)
 
 
 def parse_s(value) -> float | str:

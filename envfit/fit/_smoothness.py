@@ -40,14 +40,14 @@ from typing import Callable
 
 import numpy as np
 
-from envfit.kernels._bandlimited import map_band_limit, max_samples, pixel_centre_samples
-from envfit.base._checks import check_int
-from envfit.base._html import html_result
-from envfit.maps._envmap import EnvMap, check_sample_count
-from envfit.base._errors import ParameterError
+from envfit.kernels import map_band_limit, max_samples, pixel_centre_samples
+from envfit.base import check_int
+from envfit.base import html_result
+from envfit.maps import EnvMap, check_sample_count
+from envfit.base import ParameterError
 from envfit.defaults import FIT_METHODS
-from envfit.base._resources import plan_memory
-from envfit.maps._scales import check_not_constant, fit_scale
+from envfit.base import plan_memory
+from envfit.maps import check_not_constant, fit_scale
 from envfit.fit._criterion import (N_BOOTSTRAP, bootstrap_indices, constant_columns,
                                    evaluate_criterion)
 from envfit.fit._search import (CHI2_1_95, DEFAULT_REFINE, S_GRID, SmoothnessSearch,
@@ -263,7 +263,7 @@ def fit_smoothness(envmap: EnvMap, *, method: str = DEFAULT_METHOD, n: int = DEF
     if method == "holdout":
         hd, hv = holdout_pixels(scaled, n_holdout, seed=seed)
         notes.append(f"holdout: {len(hd)} pixel centres drawn with probability proportional to solid angle")
-    from envfit.base._progress import progress_bar
+    from envfit.base import progress_bar
     bar = progress_bar(len(s_grid) + 12, desc=f"fit ({method})", quiet=quiet, unit="s")
     try:
         res = fit_smoothness_samples(points, values, method=method, holdout_dirs=hd,

@@ -22,19 +22,19 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from envfit.theory._sphere_points import sphere_points
+from envfit.theory import sphere_points
 
-from envfit.base._checks import check_ints
-from envfit.base._html import html_result
-from envfit.base._keys import s_key
-from envfit.maps._envmap import EnvMap, check_sample_count
-from envfit.base._errors import ParameterError
-from envfit.kernels._interpolation import SobolevInterpolator
-from envfit.maps._latlong import local_to_world
-from envfit.maps._metrics import rmse, rmse_solid_angle
-from envfit.base._resources import SOLVERS, plan_memory
-from envfit.maps._scales import check_not_constant, fit_scale
-from envfit.base._store import ResultStore, array_fingerprint, number, one_of
+from envfit.base import check_ints
+from envfit.base import html_result
+from envfit.base import s_key
+from envfit.maps import EnvMap, check_sample_count
+from envfit.base import ParameterError
+from envfit.kernels import SobolevInterpolator
+from envfit.maps import local_to_world
+from envfit.maps import rmse, rmse_solid_angle
+from envfit.base import SOLVERS, plan_memory
+from envfit.maps import check_not_constant, fit_scale
+from envfit.base import ResultStore, array_fingerprint, number, one_of
 
 __all__ = ["PAPER_S", "PAPER_N", "QUICK_N", "RMSE_RTOL", "Table2Cell", "Table2Result", "run_table2",
            "sample_directions", "format_table2", "check_grid", "plan_table2_memory",
@@ -175,11 +175,11 @@ def plan_table2_memory(n_max: int, width: int, height: int, channels: int,
 
 #: what a stored cell must hold to be used (cells stored before the solver fields existed
 #: were all Cholesky: the later fields take their defaults)
-_FIELDS = ("s", "n", "rmse", "rmse_solid_angle", "seconds", "seconds_fit", "seconds_evaluate")
-_OPTIONAL = tuple(f for f in Table2Cell.__dataclass_fields__ if f not in _FIELDS)
+TABLE2_FIELDS = ("s", "n", "rmse", "rmse_solid_angle", "seconds", "seconds_fit", "seconds_evaluate")
+_OPTIONAL = tuple(f for f in Table2Cell.__dataclass_fields__ if f not in TABLE2_FIELDS)
 
 
-def _cell_key(s: float, n: int) -> str:
+def table2_cell_key(s: float, n: int) -> str:
     return f"s{s_key(s)}_n{n}"
 
 
@@ -268,15 +268,15 @@ def _run_cells(store: ResultStore, sweep: "_Sweep", result: Table2Result, quiet:
     """Every (s, N) cell in order (N outer): the stored one where it is sound, else computed
     (:meth:`_Sweep.cell`) and stored at once; appended to ``result.cells``, reported to
     ``on_cell(cell, resumed)``, counted on a progress bar unless ``quiet``."""
-    from envfit.base._progress import progress_bar
+    from envfit.base import progress_bar
     bar = progress_bar(len(result.s_values) * len(result.n_values), desc="table2", quiet=quiet,
                        unit="cell")
     try:
         for n in result.n_values:
             for s in result.s_values:
-                key = _cell_key(s, n)
-                done = store.get(key, fields=_FIELDS, checks=cell_checks(s, n))
-                cell = (Table2Cell(**{k: done[k] for k in _FIELDS + _OPTIONAL if k in done})
+                key = table2_cell_key(s, n)
+                done = store.get(key, fields=TABLE2_FIELDS, checks=cell_checks(s, n))
+                cell = (Table2Cell(**{k: done[k] for k in TABLE2_FIELDS + _OPTIONAL if k in done})
                         if done is not None else None)
                 if cell is None:
                     bar.set_postfix_str(f"s={s:g} N={n}")
@@ -354,7 +354,7 @@ class _Sweep:
                                              if iterative and err > 0 else 0.0))
 
 
-def _recon_stem(s: float, n: int) -> str:
+def table2_recon_stem(s: float, n: int) -> str:
     return f"reconstruction_s{s:.2f}_n{n}"
 
 
@@ -362,9 +362,9 @@ def _existing_files(out: Path, s_values, n_max) -> dict[str, str]:
     files = {}
     for s in s_values:
         for ext in ("exr", "png"):
-            p = out / f"{_recon_stem(s, n_max)}.{ext}"
+            p = out / f"{table2_recon_stem(s, n_max)}.{ext}"
             if p.exists():
-                files[f"{_recon_stem(s, n_max)}.{ext}"] = str(p)
+                files[f"{table2_recon_stem(s, n_max)}.{ext}"] = str(p)
     return files
 
 
@@ -375,8 +375,8 @@ def _save_reconstruction(out: Path, recon: np.ndarray, sc, s: float, n: int, up:
     A write that fails (disk full, …) is recorded in ``result.unwritten`` and the sweep goes
     on: the cell's numbers do not depend on the image files.
     """
-    from envfit.maps._io import save_envmap
-    stem = _recon_stem(s, n)
+    from envfit.maps import save_envmap
+    stem = table2_recon_stem(s, n)
     preview = np.clip(sc.to_display(recon), 0.0, 1.0)
     for path, img in ((out / f"{stem}.exr", recon), (out / f"{stem}.png", preview)):
         try:

@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 
 from envfit.base import ParameterError
-from envfit.base._atomic import replace_via_temporary
+from envfit.base import replace_via_temporary
 
 __all__ = ["write_exr"]
 

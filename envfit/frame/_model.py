@@ -51,12 +51,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from envfit.base import ParameterError
-from envfit.base._progress import progress_bar
+from envfit.base import progress_bar
 from envfit.frame._visibility import Visibility
 from envfit.maps import EnvMap
-from envfit.predict.renderer._preset_integrand import BsdfTable, MapTable
+from envfit.predict.renderer import BsdfTable, MapTable
 from envfit.renderers import get_renderer
-from envfit.renderers._frame import HIT_SURFACE, FrameScene
+from envfit.renderers import HIT_SURFACE, FrameScene
 
 __all__ = ["FilmBlock", "film_block", "PointMoments", "point_moments", "pixel_mse", "edge_pixels",
            "filter_weights", "filter_reach", "MODELLED_SAMPLERS"]

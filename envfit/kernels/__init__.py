@@ -30,7 +30,7 @@ importing the package loads none of its modules.
 """
 from __future__ import annotations
 
-from envfit.base._lazy import lazy_exports
+from envfit.base import lazy_exports
 
 _LAZY = {
     "ProfiledLikelihood": "_interpolation", "SobolevInterpolator": "_interpolation",
@@ -39,4 +39,14 @@ _LAZY = {
 
 __all__ = sorted(_LAZY)
 
-__getattr__, __dir__ = lazy_exports(__name__, _LAZY)
+#: names other envfit packages import from this one's modules: importable from the
+#: package (lazily) but not its public API (not in ``__all__``, not documented)
+_SHARED = {
+    "bandlimited_log_likelihood": "_bandlimited",
+    "map_band_limit": "_bandlimited",
+    "max_samples": "_bandlimited",
+    "pixel_centre_samples": "_bandlimited",
+    "profiled_log_likelihood": "_likelihood",
+}
+
+__getattr__, __dir__ = lazy_exports(__name__, {**_LAZY, **_SHARED})

@@ -40,16 +40,16 @@ import numpy as np
 from scipy import fft as sp_fft
 from scipy.linalg import lapack
 
-from envfit.theory._cholesky import cholesky_inplace
-from envfit.theory._sobolev import kernel_series
+from envfit.theory import cholesky_inplace
+from envfit.theory import kernel_series
 
 from envfit.kernels import _bandlimited_kernels as _bk
-from envfit.maps._envmap import EnvMap
-from envfit.base._errors import ParameterError
-from envfit.base._checks import as_unit_vectors, check_s
+from envfit.maps import EnvMap
+from envfit.base import ParameterError
+from envfit.base import as_unit_vectors, check_s
 from envfit.kernels._likelihood import ProfiledLikelihood, profiled_log_likelihood
-from envfit.maps._latlong import direction_to_pixel
-from envfit.base._resources import plan_memory
+from envfit.maps import direction_to_pixel
+from envfit.base import plan_memory
 
 __all__ = ["BandlimitedKernel", "bandlimited_log_likelihood", "pixel_centre_samples",
            "map_band_limit", "max_samples", "MAX_BAND_LMAX"]

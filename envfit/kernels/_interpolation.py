@@ -61,17 +61,16 @@ import time
 import numpy as np
 from scipy.linalg import lapack
 
-from envfit.theory._cholesky import inverse_diagonal
+from envfit.theory import inverse_diagonal
 
 from envfit.kernels._iterative import IterativeSolver, IterativeSolverError, SolveInfo
 from envfit.kernels._kernel_nodes import (BLOCK_BYTES, DUPLICATE_DISTANCE, EVAL_METHODS, KernelNodes,
                                           closest_pair, nthreads)
 from envfit.kernels._likelihood import ProfiledLikelihood, profiled_log_likelihood
-from envfit.base._checks import as_unit_vectors, check_s
-from envfit.base._errors import DuplicatePointsError, ParameterError
-from envfit.base._resources import (MEMORY_FRACTION, SOLVERS, available_memory_bytes, check_memory,
-                                    format_bytes, interpolator_nbytes, largest_feasible_n,
-                                    memory_budget_bytes)
+from envfit.base import as_unit_vectors, check_s
+from envfit.base import DuplicatePointsError, ParameterError
+from envfit.base import (MEMORY_FRACTION, SOLVERS, available_memory_bytes, check_memory,
+                         format_bytes, interpolator_nbytes, largest_feasible_n, memory_budget_bytes)
 
 __all__ = ["SobolevInterpolator", "ProfiledLikelihood", "as_unit_vectors", "SolveInfo",
            "DUPLICATE_DISTANCE", "EVAL_METHODS", "SOLVERS", "SOLVER_RTOL", "AUTO_ITERATIVE_MIN_N"]

@@ -74,11 +74,11 @@ import scipy.sparse as sp
 from scipy.linalg import cho_factor, cho_solve, eigvalsh_tridiagonal
 from scipy.spatial import cKDTree
 
-from envfit.theory._sobolev import kernel_constant
-from envfit.theory._sphere_points import sphere_points
+from envfit.theory import kernel_constant
+from envfit.theory import sphere_points
 
-from envfit.base._errors import EnvfitError, ParameterError
-from envfit.base._resources import iterative_coarse_nodes
+from envfit.base import EnvfitError, ParameterError
+from envfit.base import iterative_coarse_nodes
 from envfit.kernels import _kernels
 from envfit.kernels._nearfar import (SHT_EPSILON, CellList, _to_theta_phi, far_field_expansion,
                                      near_radius, nearfar_power_sums)

@@ -42,10 +42,10 @@ import numba
 import numpy as np
 from scipy.spatial import cKDTree
 
-from envfit.theory._cholesky import cholesky_inplace
-from envfit.theory._sobolev import kernel_constant
+from envfit.theory import cholesky_inplace
+from envfit.theory import kernel_constant
 
-from envfit.base._errors import DuplicatePointsError
+from envfit.base import DuplicatePointsError
 from envfit.kernels import _kernels
 from envfit.kernels._nearfar import CellList, near_radius, nearfar_power_sums
 

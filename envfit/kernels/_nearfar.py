@@ -13,8 +13,8 @@ import numpy as np
 import scipy.fft
 from scipy import special
 
-from envfit.base._checks import check_s
-from envfit.base._errors import ParameterError
+from envfit.base import check_s
+from envfit.base import ParameterError
 from envfit.kernels import _kernels
 
 __all__ = ["FarFieldExpansion", "far_field_expansion", "near_radius", "CellList",

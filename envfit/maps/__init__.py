@@ -45,7 +45,7 @@ importing the package loads none of its modules.
 """
 from __future__ import annotations
 
-from envfit.base._lazy import lazy_exports
+from envfit.base import lazy_exports
 
 _LAZY = {
     "convention": "_conventions", "CONVENTIONS": "_conventions",
@@ -64,4 +64,26 @@ _LAZY = {
 
 __all__ = sorted(_LAZY)
 
-__getattr__, __dir__ = lazy_exports(__name__, _LAZY)
+#: names other envfit packages import from this one's modules: importable from the
+#: package (lazily) but not its public API (not in ``__all__``, not documented)
+_SHARED = {
+    "rows_dot": "_latlong",
+    "rows_times": "_latlong",
+    "LoadOptions": "_lazy_maps",
+    "MAP_EXTENSIONS": "_lazy_maps",
+    "MapSource": "_lazy_maps",
+    "NotLatLong": "_conventions",
+    "SCALES": "_scales",
+    "check_not_constant": "_scales",
+    "check_sample_count": "_envmap",
+    "direction_to_pixel": "_latlong",
+    "local_to_world": "_latlong",
+    "pixel_angles": "_latlong",
+    "resolve_map_sources": "_lazy_maps",
+    "rmse": "_metrics",
+    "rmse_solid_angle": "_metrics",
+    "row_solid_angles": "_latlong",
+    "variance_kept": "_envmap",
+}
+
+__getattr__, __dir__ = lazy_exports(__name__, {**_LAZY, **_SHARED})

@@ -27,8 +27,8 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
-from envfit.base._checks import check_int
-from envfit.base._errors import ParameterError
+from envfit.base import check_int
+from envfit.base import ParameterError
 from envfit.maps import _latlong as latlong
 from envfit.maps._envmap import REC709_WEIGHTS, EnvMap
 

@@ -52,7 +52,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from envfit.base._errors import ParameterError
+from envfit.base import ParameterError
 from envfit.maps import _latlong as latlong  # noqa: F401 (EnvfitConvention's doctest)
 from envfit.maps._convention_base import (CENTRED, ENDPOINTS, EXACT_TOLERANCE, Grid,
                                           LatLongConvention, NotLatLong)

@@ -19,7 +19,7 @@ DEFAULT_SEED = 0
 
 def default_envmap(*, up: str = "y", height: int = DEFAULT_HEIGHT) -> EnvMap:
     """The built-in synthesized map (deterministic)."""
-    from envfit.data_gen._gp import gaussian_process_map
+    from envfit.data_gen import gaussian_process_map
     f = gaussian_process_map(DEFAULT_S0, height, seed=DEFAULT_SEED, channels=3)
     # offset so that every pixel is positive (a radiance map), with a 10% margin
     f = f - f.min() + 0.1 * (f.max() - f.min())

@@ -20,8 +20,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from envfit.maps import _latlong as latlong
-from envfit.base._errors import EnvMapFormatError, ParameterError
-from envfit.base._resources import check_memory
+from envfit.base import EnvMapFormatError, ParameterError
+from envfit.base import check_memory
 
 __all__ = ["EnvMap", "check_sample_count", "REC709_WEIGHTS", "solid_angle_variance",
            "variance_kept"]
@@ -178,7 +178,7 @@ class EnvMap:
             den = om.reshape(mh, f).sum(axis=1) * f                       # (mh,)
             out = np.empty((mh, 2 * mh, c), dtype=np.float64)
             step = max(1, (1 << 22) // (f * w * c))      # output rows per block (~32 MB)
-            from envfit.base._progress import progress
+            from envfit.base import progress
             for r in progress(range(0, mh, step), desc=f"downsampling {w}x{h}", quiet=quiet,
                               unit="block"):
                 r1 = min(mh, r + step)

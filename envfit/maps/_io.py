@@ -64,9 +64,9 @@ from pathlib import Path
 
 import numpy as np
 
-from envfit.base._atomic import replace_via_temporary
-from envfit.base._files import regular_file_problem
-from envfit.base._errors import EnvMapFileError, NonFiniteError, ParameterError
+from envfit.base import replace_via_temporary
+from envfit.base import regular_file_problem
+from envfit.base import EnvMapFileError, NonFiniteError, ParameterError
 from envfit.maps import _latlong as latlong
 from envfit.maps._conventions import lat_long_convention
 from envfit.maps._envmap import _DTYPES, EnvMap

@@ -60,7 +60,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from envfit.base._errors import ParameterError
+from envfit.base import ParameterError
 from envfit.defaults import UPS
 from envfit.maps._lookup import lookup_rows
 

@@ -34,9 +34,9 @@ from typing import Any, Iterable
 
 from envfit.maps._envmap import EnvMap
 from envfit.maps._io import load_envmap
-from envfit.base._errors import EnvMapFileError, ParameterError
-from envfit.base._files import NO_SUCH_FILE, regular_file_problem
-from envfit.base._store import array_fingerprint
+from envfit.base import EnvMapFileError, ParameterError
+from envfit.base import NO_SUCH_FILE, regular_file_problem
+from envfit.base import array_fingerprint
 
 __all__ = ["MAP_EXTENSIONS", "LoadOptions", "MapSource", "resolve_map_sources"]
 

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from envfit.base._errors import ParameterError
+from envfit.base import ParameterError
 
 __all__ = ["rmse", "rmse_solid_angle", "psnr", "ssim"]
 

@@ -8,8 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from envfit.base._errors import EnvMapFileError, EnvMapFormatError
-from envfit.base._resources import check_memory
+from envfit.base import EnvMapFileError, EnvMapFormatError
+from envfit.base import check_memory
 
 __all__ = ["LINEAR_SPACE", "one_line", "read_pixels"]
 

@@ -42,7 +42,7 @@ from typing import Any
 
 import numpy as np
 
-from envfit.base._errors import ParameterError
+from envfit.base import ParameterError
 from envfit.maps import _latlong as latlong
 from envfit.maps._conventions import LatLongConvention, convention
 from envfit.maps._envmap import EnvMap

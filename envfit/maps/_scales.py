@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from envfit.base._errors import ParameterError
+from envfit.base import ParameterError
 
 __all__ = ["SCALES", "MIDDLE_GREY", "Scale", "fit_scale", "srgb_oetf", "check_not_constant"]
 

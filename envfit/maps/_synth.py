@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from envfit.base._errors import ParameterError
+from envfit.base import ParameterError
 from envfit.data_gen import SYNTH_KINDS, SynthesizedMap, synthesize
 from envfit.maps._conventions import lat_long_convention
 from envfit.maps._convention_base import LatLongConvention

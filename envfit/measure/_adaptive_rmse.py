@@ -79,9 +79,9 @@ from typing import Callable
 
 import numpy as np
 
-from envfit.base._checks import check_int
-from envfit.base._errors import ParameterError
-from envfit.shading._estimators import rmse_over_axes
+from envfit.base import check_int
+from envfit.base import ParameterError
+from envfit.shading import rmse_over_axes
 
 __all__ = ["RMSEInterval", "AdaptiveRMSE", "Agreement", "rmse_interval", "adaptive_rmse",
            "agreement_with_interval", "squared_errors_per_axis", "BATCH_ELEMENTS", "METHODS"]

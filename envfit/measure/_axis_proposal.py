@@ -52,10 +52,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from envfit.base._checks import check_int
-from envfit.base._errors import ParameterError
-from envfit.maps import _latlong as latlong
-from envfit.maps._envmap import EnvMap
+from envfit.base import check_int
+from envfit.base import ParameterError
+from envfit.maps import local_to_world, rows_dot, rows_times
+from envfit.maps import EnvMap
 
 __all__ = ["AxisProposal", "UNIFORM_SHARE", "PROPOSAL_ROWS"]
 
@@ -89,7 +89,7 @@ class AxisProposal:
             raise ParameterError("cell_mass must not be all zero")
         if not 0.0 < float(self.uniform) <= 1.0:
             raise ParameterError(f"uniform must be in (0, 1], got {self.uniform!r}")
-        latlong.local_to_world(self.up)                      # checks up
+        local_to_world(self.up)                      # checks up
         object.__setattr__(self, "cell_mass", mass / mass.sum())
 
     @classmethod
@@ -102,7 +102,7 @@ class AxisProposal:
         r"""The module's mixture for a map, its sampler and a lobe: a third uniform, a third
         :math:`\propto\int\rho_a L^2` (BRDF sampling's second moment), a third
         :math:`\propto\int\rho_a^2 L^2/p` (map sampling's), at the cell centres."""
-        from envfit.sampling._proxies import normalised_moments, proxy_second_moments
+        from envfit.sampling import normalised_moments, proxy_second_moments
 
         r = check_int(rows, "rows", 1)
         moments = proxy_second_moments(envmap, sampler, weight, cell_centres(r, envmap.up))
@@ -115,9 +115,9 @@ class AxisProposal:
     def cell_of(self, axes) -> np.ndarray:
         """The cell index of each axis (..., 3)."""
         a = np.asarray(axes, dtype=np.float64)
-        m = latlong.local_to_world(self.up)
-        z = np.clip(latlong.rows_dot(a, m[:, 2]) / np.linalg.norm(a, axis=-1), -1.0, 1.0)
-        phi = np.mod(np.arctan2(latlong.rows_dot(a, m[:, 1]), latlong.rows_dot(a, m[:, 0])),
+        m = local_to_world(self.up)
+        z = np.clip(rows_dot(a, m[:, 2]) / np.linalg.norm(a, axis=-1), -1.0, 1.0)
+        phi = np.mod(np.arctan2(rows_dot(a, m[:, 1]), rows_dot(a, m[:, 0])),
                      2.0 * np.pi)
         r = self.rows
         row = np.minimum(((1.0 - z) * 0.5 * r).astype(np.int64), r - 1)
@@ -140,7 +140,7 @@ class AxisProposal:
         phi = np.pi * (col + rng.random(n)) / r
         s = np.sqrt(np.maximum(1.0 - z * z, 0.0))
         local = np.stack([s * np.cos(phi), s * np.sin(phi), z], axis=-1)
-        axes = latlong.rows_times(local, latlong.local_to_world(self.up).T)
+        axes = rows_times(local, local_to_world(self.up).T)
         return axes, 1.0 / self.relative_density(axes)
 
 
@@ -154,4 +154,4 @@ def cell_centres(rows: int, up: str = "z") -> np.ndarray:
     local = np.stack(np.broadcast_arrays(s[:, None] * np.cos(phi)[None, :],
                                          s[:, None] * np.sin(phi)[None, :], z[:, None]),
                      axis=-1).reshape(-1, 3)
-    return latlong.rows_times(local, latlong.local_to_world(up).T)
+    return rows_times(local, local_to_world(up).T)

@@ -24,13 +24,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from envfit.defaults import DEFAULT_SHININESS
-from envfit.base._errors import ParameterError
-from envfit.maps._envmap import EnvMap
-from envfit.maps._bright_sources import BrightSource, find_bright_sources
+from envfit.base import ParameterError
+from envfit.maps import EnvMap
+from envfit.maps import BrightSource, find_bright_sources
 from envfit.measure._adaptive_rmse import AdaptiveRMSE, adaptive_rmse
 from envfit.measure._axis_proposal import AxisProposal
 from envfit.sampling import ESTIMATORS, MapSampler, RendererRule, rule_points, split_map
-from envfit.shading._ground_truth import shading_integral, weight_function
+from envfit.shading import shading_integral, weight_function
 
 __all__ = ["RendererSetup", "rule_estimates", "measure_rule", "replicates", "SAMPLES_PER_AXIS",
            "AXIS_SAMPLING"]

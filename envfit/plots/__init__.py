@@ -30,7 +30,7 @@ importing the package loads none of its modules.
 """
 from __future__ import annotations
 
-from envfit.base._lazy import lazy_exports
+from envfit.base import lazy_exports
 
 import matplotlib
 
@@ -45,4 +45,24 @@ _LAZY = {
 
 __all__ = sorted(_LAZY)
 
-__getattr__, __dir__ = lazy_exports(__name__, _LAZY)
+#: names other envfit packages import from this one's modules: importable from the
+#: package (lazily) but not its public API (not in ``__all__``, not documented)
+_SHARED = {
+    "plot_bnot": "_theory",
+    "plot_convergence": "_theory",
+    "plot_error_spectra": "_theory",
+    "plot_low_order_closeup": "_theory",
+    "plot_power_spectra": "_theory",
+    "plot_truncation": "_theory",
+    "plot_advise": "_advise",
+    "plot_advise_library": "_advise_library",
+    "plot_frame": "_frame",
+    "plot_rendered": "_rendered",
+    "plot_renderer": "_renderer",
+    "plot_s_histogram": "_library",
+    "plot_sh": "_sh",
+    "plot_table1": "_theory",
+    "plot_wce_spectrum": "_theory",
+}
+
+__getattr__, __dir__ = lazy_exports(__name__, {**_LAZY, **_SHARED})

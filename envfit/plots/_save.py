@@ -4,7 +4,7 @@ from __future__ import annotations
 import io
 from pathlib import Path
 
-from envfit.base._atomic import atomic_write_bytes
+from envfit.base import atomic_write_bytes
 
 
 def save_figure(fig, path: str | Path, *, dpi: int = 120) -> Path:

@@ -29,7 +29,7 @@ importing the package loads none of its modules.
 """
 from __future__ import annotations
 
-from envfit.base._lazy import lazy_exports
+from envfit.base import lazy_exports
 
 _LAZY = {
     "predict_bandlimited": "_bandlimited",
@@ -46,4 +46,12 @@ _LAZY = {
 
 __all__ = sorted(_LAZY)
 
-__getattr__, __dir__ = lazy_exports(__name__, _LAZY)
+#: names other envfit packages import from this one's modules: importable from the
+#: package (lazily) but not its public API (not in ``__all__``, not documented)
+_SHARED = {
+    "SamplerRule": "_registry",
+    "predict_many": "_registry",
+    "spectral_truncation_curve": "_spectral",
+}
+
+__getattr__, __dir__ = lazy_exports(__name__, {**_LAZY, **_SHARED})

@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from envfit.shading._spectra import band_e2, model_scatter
+from envfit.shading import band_e2, model_scatter
 
 from envfit.predict._context import Prediction, PredictionContext, QuadratureRule, reads
 

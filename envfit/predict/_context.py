@@ -20,12 +20,11 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from envfit.base._errors import ParameterError
-from envfit.fit._sigma import combine_sigma
-from envfit.maps._envmap import EnvMap
+from envfit.base import ParameterError
+from envfit.fit import combine_sigma
+from envfit.maps import EnvMap
 from envfit.sampling import QuadratureRule, RendererRule, Rule
-from envfit.shading._spectra import (degree_weights, lookup_transfer, map_degree_power,
-                                     pixel_degree_power)
+from envfit.shading import degree_weights, lookup_transfer, map_degree_power, pixel_degree_power
 
 __all__ = ["PredictionContext", "Prediction", "reads", "Rule", "QuadratureRule",
            "RendererRule"]

@@ -40,7 +40,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable, Sequence
 
-from envfit.base._errors import ParameterError
+from envfit.base import ParameterError
 
 from envfit.predict._bandlimited import predict_bandlimited
 from envfit.predict._context import Prediction, PredictionContext, Rule, reads

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from envfit.base._errors import ParameterError
-from envfit.shading._spectra import spectral_rmse
+from envfit.base import ParameterError
+from envfit.shading import spectral_rmse
 
 from envfit.predict._context import Prediction, PredictionContext, QuadratureRule, reads
 

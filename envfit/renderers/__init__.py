@@ -59,7 +59,7 @@ Example
 """
 from __future__ import annotations
 
-from envfit.base._lazy import lazy_exports
+from envfit.base import lazy_exports
 
 _LAZY = {
     "RANDOMISATIONS": "_base", "PAIRINGS": "_base", "STRATEGY_NAMES": "_base",
@@ -96,4 +96,11 @@ _LAZY = {
 
 __all__ = sorted(_LAZY)
 
-__getattr__, __dir__ = lazy_exports(__name__, _LAZY)
+#: names other envfit packages import from this one's modules: importable from the
+#: package (lazily) but not its public API (not in ``__all__``, not documented)
+_SHARED = {
+    "FrameScene": "_frame",
+    "HIT_SURFACE": "_frame",
+}
+
+__getattr__, __dir__ = lazy_exports(__name__, {**_LAZY, **_SHARED})

@@ -25,7 +25,7 @@ from typing import Callable, Mapping
 import numpy as np
 
 from envfit.base import ParameterError
-from envfit.base._checks import as_square_points, as_unit_vectors
+from envfit.base import as_square_points, as_unit_vectors
 
 __all__ = ["RANDOMISATIONS", "PAIRINGS", "STRATEGY_NAMES", "DirectionSample",
            "EnvmapTechnique", "PermutationLaw", "SamplerSpec", "StrategySetting", "Renderer",

@@ -36,9 +36,9 @@ from typing import Callable
 
 import numpy as np
 
-from envfit.base._atomic import atomic_write_bytes
-from envfit.base._errors import OutputError
-from envfit.base._files import open_regular
+from envfit.base import atomic_write_bytes
+from envfit.base import OutputError
+from envfit.base import open_regular
 
 __all__ = ["ReferencePair", "map_digest", "cached_reference"]
 

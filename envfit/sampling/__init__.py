@@ -24,7 +24,7 @@ importing the package loads none of its modules.
 """
 from __future__ import annotations
 
-from envfit.base._lazy import lazy_exports
+from envfit.base import lazy_exports
 
 _LAZY = {
     "brdf_sampling_estimates": "_importance", "ESTIMATORS": "_importance",
@@ -38,4 +38,13 @@ _LAZY = {
 
 __all__ = sorted(_LAZY)
 
-__getattr__, __dir__ = lazy_exports(__name__, _LAZY)
+#: names other envfit packages import from this one's modules: importable from the
+#: package (lazily) but not its public API (not in ``__all__``, not documented)
+_SHARED = {
+    "bilinear_cell_average": "_map_sampler",
+    "square_samples": "_map_sampler",
+    "brdf_pdf": "_importance",
+    "normalised_moments": "_proxies",
+}
+
+__getattr__, __dir__ = lazy_exports(__name__, {**_LAZY, **_SHARED})

@@ -68,15 +68,15 @@ from typing import Callable, NamedTuple
 import numpy as np
 
 from envfit.defaults import DEFAULT_SHININESS
-from envfit.base._checks import as_unit_vectors
-from envfit.base._errors import ParameterError
-from envfit.base._resources import check_memory
-from envfit.maps._envmap import EnvMap
-from envfit.shading._estimators import LOOKUP_BLOCK, twisted_frames
-from envfit.shading._ground_truth import weight_function
-from envfit.sampling._map_sampler import MapSampler, _square
-from envfit.theory._brdf import WeightFunction
-from envfit.theory._pointsets import lambert_to_hemisphere
+from envfit.base import as_unit_vectors
+from envfit.base import ParameterError
+from envfit.base import check_memory
+from envfit.maps import EnvMap
+from envfit.shading import LOOKUP_BLOCK, twisted_frames
+from envfit.shading import weight_function
+from envfit.sampling._map_sampler import MapSampler, square_samples
+from envfit.theory import WeightFunction
+from envfit.theory import lambert_to_hemisphere
 
 __all__ = ["brdf_pdf", "map_is_estimates",
            "brdf_sampling_estimates", "mis_estimates", "mis_weights", "importance_estimates",
@@ -146,7 +146,7 @@ def brdf_pdf(weight: WeightFunction, cos) -> np.ndarray:
     :math:`p(z)/(2\pi r_s)`; zero for z < 0. Diffuse: z/π; glossy:
     :math:`n e^{n(z-1)}/(2\pi(1-e^{-n}))`.
 
-    >>> from envfit.theory._brdf import Diffuse
+    >>> from envfit.theory import Diffuse
     >>> bool(np.isclose(brdf_pdf(Diffuse(), 0.5), 0.5 / np.pi)), float(brdf_pdf(Diffuse(), -0.1))
     (True, 0.0)
     """
@@ -211,7 +211,7 @@ def map_is_estimates(envmap: EnvMap, axes, u, sampler: MapSampler | None = None,
     True
     """
     weight, A, R, s = _setup(envmap, axes, brdf, shininess, seed, shift)
-    U = _square(u)
+    U = square_samples(u)
     sampler = MapSampler(envmap) if sampler is None else sampler
     n, c = U.shape[0], envmap.channels
     out = np.empty((A.shape[0], c))
@@ -251,7 +251,7 @@ def brdf_sampling_estimates(envmap: EnvMap, axes, u, sampler=None, brdf="diffuse
     [[2.0]]
     """
     weight, A, R, s = _setup(envmap, axes, brdf, shininess, seed, shift)
-    U = _square(u)
+    U = square_samples(u)
     n, c = U.shape[0], envmap.channels
     out = np.empty((A.shape[0], c))
     for m0, m1 in _blocks(A.shape[0], n, c, "BRDF sampling"):
@@ -351,9 +351,9 @@ def _mis_points(u, mode, fraction):
             and np.ndim(u[0]) == 2:
         if mode != "multi":
             raise ParameterError("a pair (u_map, u_brdf) of point sets needs mode='multi'")
-        a, b = _square(u[0], "u_map"), _square(u[1], "u_brdf")
+        a, b = square_samples(u[0], "u_map"), square_samples(u[1], "u_brdf")
         return np.vstack([a, b]), a.shape[0]
-    U = _square(u)
+    U = square_samples(u)
     return U, int(np.floor(fraction * U.shape[0] + 0.5))
 
 

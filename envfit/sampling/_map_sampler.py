@@ -23,10 +23,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from envfit.base._checks import as_square_points
-from envfit.base._errors import ParameterError
-from envfit.maps import _latlong as latlong
-from envfit.maps._envmap import EnvMap
+from envfit.base import as_square_points
+from envfit.base import ParameterError
+from envfit.maps import local_to_world, row_solid_angles, rows_times
+from envfit.maps import EnvMap
 from envfit.sampling._sample_kernel import pixel_indices, warp_points
 
 __all__ = ["MapSampler", "DEFAULT_FLOOR"]
@@ -38,7 +38,7 @@ DEFAULT_FLOOR = 0.01
 
 # ----------------------------------------------------------------------------- inputs
 
-def _square(u, name: str = "u") -> np.ndarray:
+def square_samples(u, name: str = "u") -> np.ndarray:
     """Square points (..., 2) as a float64 (N, 2) array in [0, 1) (1 is moved just below 1)."""
     a = as_square_points(u, name=name)
     return np.minimum(a, np.nextafter(1.0, 0.0))
@@ -46,7 +46,7 @@ def _square(u, name: str = "u") -> np.ndarray:
 
 # ----------------------------------------------------------------------------- map sampler
 
-def _bilinear_cell_average(y: np.ndarray) -> np.ndarray:
+def bilinear_cell_average(y: np.ndarray) -> np.ndarray:
     r"""Mean of the bilinear interpolant of y over each pixel cell (in pixel coordinates).
 
     On a cell :math:`[-\frac12, \frac12]^2` about a pixel centre the interpolant averages to
@@ -123,8 +123,8 @@ class MapSampler:
             raise ParameterError("the map's luminance is not finite; cannot build a sampling pdf")
         h, w = y.shape
         if smooth:
-            y = _bilinear_cell_average(y)
-        om = latlong.row_solid_angles(h, w)                           # (H,)
+            y = bilinear_cell_average(y)
+        om = row_solid_angles(h, w)                           # (H,)
         mean = float(om @ y.sum(axis=1)) / (4.0 * np.pi)
         dens = y + eps * mean if mean > 0.0 else np.ones_like(y)
         mass = dens * om[:, None]
@@ -149,7 +149,7 @@ class MapSampler:
         self._col_cdf = np.hstack([np.zeros((h, 1)), cc])             # (H, W+1)
         # rows stacked with offsets i: one monotone table for the conditional search
         self._col_flat = (self._col_cdf + np.arange(h)[:, None]).ravel()
-        self._m = latlong.local_to_world(envmap.up)
+        self._m = local_to_world(envmap.up)
 
     def sample(self, u) -> tuple[np.ndarray, np.ndarray]:
         """Directions (N, 3) in the world frame of the map's ``up`` and their pdf per solid
@@ -161,7 +161,7 @@ class MapSampler:
         >>> d.shape, bool(np.allclose(s.pdf(d), p))
         ((5, 3), True)
         """
-        U = _square(u)
+        U = square_samples(u)
         return warp_points(U, self._row_cdf, self._col_cdf, self._z_edges, self.pixel_pdf,
                            self._m)
 
@@ -173,7 +173,7 @@ class MapSampler:
         phi = 2.0 * np.pi * (j + s) / self.width
         r = np.sqrt(np.maximum((1.0 - z) * (1.0 + z), 0.0))
         local = np.column_stack([r * np.cos(phi), r * np.sin(phi), z])
-        return latlong.rows_times(local, self._m.T)
+        return rows_times(local, self._m.T)
 
     def pixel_of(self, dirs) -> tuple[np.ndarray, np.ndarray]:
         """Pixel (row, column) indices of world directions (..., 3) (any nonzero length)."""

@@ -20,8 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from envfit.maps import _latlong as latlong
-from envfit.maps._envmap import EnvMap
+from envfit.maps import pixel_directions, pixel_solid_angles
+from envfit.maps import EnvMap
 from envfit.sampling._importance import brdf_pdf
 from envfit.sampling._map_sampler import MapSampler
 
@@ -41,11 +41,11 @@ def proxy_second_moments(envmap: EnvMap, sampler: MapSampler, weight, axes: np.n
     b = max(1, min(PROXY_BLOCK, h // 4))
     hb, wb = h // b, w // b
     y = np.abs(envmap.luminance())[:hb * b, :wb * b]
-    om = latlong.pixel_solid_angles(h, w)[:hb * b, :wb * b]
+    om = pixel_solid_angles(h, w)[:hb * b, :wb * b]
     pdf = sampler.pixel_pdf[:hb * b, :wb * b]
     y2o = (y * y * om).reshape(hb, b, wb, b).sum(axis=(1, 3)).ravel()
     y2op = (y * y * om / np.maximum(pdf, 1e-300)).reshape(hb, b, wb, b).sum(axis=(1, 3)).ravel()
-    dirs = latlong.pixel_directions(h, w, up=envmap.up)[:hb * b, :wb * b]
+    dirs = pixel_directions(h, w, up=envmap.up)[:hb * b, :wb * b]
     # each block's direction: its centroid of Y²ω (a sun's, in the block holding it), the
     # geometric centre where the block is black
     mass = (y * y * om)[..., None] + 1e-300

@@ -56,11 +56,11 @@ from typing import Sequence
 
 import numpy as np
 
-from envfit.base._checks import check_int
-from envfit.base._errors import ParameterError
-from envfit.shading._spectra import rule_error_power
-from envfit.theory._pointsets import POINTSETS, square_points
-from envfit.theory._quadrature import worst_case_error
+from envfit.base import check_int
+from envfit.base import ParameterError
+from envfit.shading import rule_error_power
+from envfit.theory import POINTSETS, square_points
+from envfit.theory import worst_case_error
 
 __all__ = ["STRATEGIES", "Rule", "QuadratureRule", "RendererRule", "rule_points"]
 

@@ -56,11 +56,11 @@ from typing import NamedTuple
 import numpy as np
 
 from envfit.defaults import DEFAULT_SHININESS
-from envfit.base._checks import as_unit_vectors
-from envfit.base._errors import ParameterError
-from envfit.maps._envmap import EnvMap
-from envfit.maps._bright_sources import BrightSource, find_bright_sources
-from envfit.shading._ground_truth import shading_integral
+from envfit.base import as_unit_vectors
+from envfit.base import ParameterError
+from envfit.maps import EnvMap
+from envfit.maps import BrightSource, find_bright_sources
+from envfit.shading import shading_integral
 from envfit.sampling._importance import ESTIMATORS
 from envfit.sampling._map_sampler import MapSampler
 

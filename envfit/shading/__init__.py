@@ -25,7 +25,7 @@ importing the package loads none of its modules.
 """
 from __future__ import annotations
 
-from envfit.base._lazy import lazy_exports
+from envfit.base import lazy_exports
 
 _LAZY = {
     "hsh_truncation_estimates": "_estimators", "quadrature_estimates": "_estimators",
@@ -38,4 +38,31 @@ _LAZY = {
 
 __all__ = sorted(_LAZY)
 
-__getattr__, __dir__ = lazy_exports(__name__, _LAZY)
+#: names other envfit packages import from this one's modules: importable from the
+#: package (lazily) but not its public API (not in ``__all__``, not documented)
+_SHARED = {
+    "power_by_degree": "_spectra",
+    "LOOKUP_BLOCK": "_estimators",
+    "alm_l_index": "_bilinear_sh",
+    "axes_to_local": "_patches",
+    "band_e2": "_spectra",
+    "bandlimited_worst_case_error": "_spectra",
+    "bandlimited_worst_case_errors": "_spectra",
+    "bilinear_sh_coefficients": "_bilinear_sh",
+    "degree_weights": "_spectra",
+    "lookup_transfer": "_spectra",
+    "low_degree_power_ratio": "_spectra",
+    "map_degree_power": "_spectra",
+    "model_scatter": "_spectra",
+    "pixel_degree_power": "_spectra",
+    "quadrature_estimates_multi": "_quadrature",
+    "random_axes": "_quadrature",
+    "rule_error_power": "_spectra",
+    "rule_power_cost": "_spectra",
+    "sh_analysis_cost": "_spectra",
+    "sh_truncation_curve_transfer": "_spectra",
+    "spectral_rmse": "_spectra",
+    "synthesize_convolution": "_bilinear_sh",
+}
+
+__getattr__, __dir__ = lazy_exports(__name__, {**_LAZY, **_SHARED})

@@ -18,12 +18,12 @@ from __future__ import annotations
 import numpy as np
 import ducc0
 
-from envfit.theory._brdf import gauss_legendre_01
+from envfit.theory import gauss_legendre_01
 
-from envfit.base._checks import check_int
-from envfit.base._errors import ParameterError
-from envfit.base._resources import check_memory
-from envfit.maps._envmap import EnvMap
+from envfit.base import check_int
+from envfit.base import ParameterError
+from envfit.base import check_memory
+from envfit.maps import EnvMap
 from envfit.shading._patches import gauss_legendre_order, local_angles, patch_rows
 
 __all__ = ["DUCC_EPSILON", "row_fourier", "bilinear_sh_coefficients", "alm_l_index",

@@ -54,12 +54,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from envfit.defaults import DEFAULT_SHININESS
-from envfit.theory._pointsets import frame_from_axis
+from envfit.theory import frame_from_axis
 
-from envfit.maps._envmap import EnvMap
-from envfit.base._checks import as_unit_vectors, check_int, check_ints
-from envfit.base._errors import ParameterError
-from envfit.base._resources import check_memory
+from envfit.maps import EnvMap
+from envfit.base import as_unit_vectors, check_int, check_ints
+from envfit.base import ParameterError
+from envfit.base import check_memory
 from envfit.shading._bilinear_sh import bilinear_sh_coefficients, synthesize_convolution
 from envfit.shading._ground_truth import (funk_hecke_factors, hsh_weight_coefficients,
                                           weight_function)

@@ -51,11 +51,11 @@ from __future__ import annotations
 import numpy as np
 
 from envfit.defaults import DEFAULT_SHININESS
-from envfit.theory._brdf import Diffuse, Glossy, WeightFunction
+from envfit.theory import Diffuse, Glossy, WeightFunction
 
-from envfit.base._checks import check_int
-from envfit.base._errors import ParameterError
-from envfit.maps._envmap import EnvMap
+from envfit.base import check_int
+from envfit.base import ParameterError
+from envfit.maps import EnvMap
 # the two methods and the patch geometry this front end dispatches to
 from envfit.shading._bilinear_sh import bilinear_sh_coefficients, synthesize_convolution
 from envfit.shading._hemisphere import hemisphere_integrals
@@ -183,7 +183,7 @@ def _check_sh_memory(envmap: EnvMap, lmax: int, axes: int) -> None:
     """The SH ground truth's memory guard, before the analysis: the interpolant's SH
     coefficients to ``lmax`` (:func:`envfit.shading._spectra.sh_analysis_cost`) and the
     synthesis at ``axes`` axes; one line naming the rows that fit."""
-    from envfit.base._resources import check_memory
+    from envfit.base import check_memory
     from envfit.shading._spectra import rows_within, sh_analysis_cost
     need, secs = sh_analysis_cost(envmap.height, envmap.channels, lmax)
     check_memory(need + 16 * (int(axes) + lmax * lmax) * envmap.channels,

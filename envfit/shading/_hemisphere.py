@@ -30,12 +30,12 @@ from typing import Callable, Iterable, NamedTuple
 
 import numpy as np
 
-from envfit.theory._brdf import gauss_legendre_01
+from envfit.theory import gauss_legendre_01
 
-from envfit.base._checks import check_int
-from envfit.base._resources import check_memory
-from envfit.maps._envmap import EnvMap
-from envfit.maps._latlong import local_to_world
+from envfit.base import check_int
+from envfit.base import check_memory
+from envfit.maps import EnvMap
+from envfit.maps import local_to_world
 from envfit.shading._patches import (axes_to_local, bilinear_in_patch, gauss_legendre_order,
                                      horizon_breaks, local_angles, patch_rows)
 

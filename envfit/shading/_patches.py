@@ -24,8 +24,8 @@ import math
 import numpy as np
 from scipy import special
 
-from envfit.base._checks import as_unit_vectors
-from envfit.maps._latlong import local_to_world
+from envfit.base import as_unit_vectors
+from envfit.maps import local_to_world
 
 __all__ = ["GL_TOL", "axes_to_local", "local_angles", "gauss_legendre_order",
            "patch_rows", "patch_corner_values", "bilinear_in_patch"]

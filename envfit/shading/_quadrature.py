@@ -9,10 +9,10 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from envfit.maps._envmap import EnvMap
-from envfit.base._errors import ParameterError
+from envfit.maps import EnvMap
+from envfit.base import ParameterError
 from envfit.shading._estimators import twisted_frames
-from envfit.base._resources import check_memory
+from envfit.base import check_memory
 from envfit.shading._spectra import (bandlimited_worst_case_error, bandlimited_worst_case_errors,
                                      low_degree_power_ratio, lookup_transfer, map_degree_power,
                                      model_scatter, pixel_degree_power, rule_error_power,

@@ -25,12 +25,12 @@ import math
 import ducc0
 import numpy as np
 
-from envfit.theory._sh import anisotropic_power_spectrum, zonal_sums
-from envfit.theory._sobolev import sobolev_coefficients
+from envfit.theory import anisotropic_power_spectrum, zonal_sums
+from envfit.theory import sobolev_coefficients
 
-from envfit.maps._envmap import EnvMap
-from envfit.base._errors import ParameterError
-from envfit.base._resources import check_memory
+from envfit.maps import EnvMap
+from envfit.base import ParameterError
+from envfit.base import check_memory
 from envfit.shading._bilinear_sh import bilinear_sh_coefficients
 
 __all__ = ["rule_error_power", "bandlimited_worst_case_error", "bandlimited_worst_case_errors",
@@ -51,7 +51,7 @@ _SEC_PER_L3, _SEC_PER_NL = 1.75e-10, 6e-8
 _RULE_BYTES_PER_L2 = 58
 
 
-def _power_by_degree(alm: np.ndarray, lmax: int) -> np.ndarray:
+def power_by_degree(alm: np.ndarray, lmax: int) -> np.ndarray:
     """(C, lmax+1) power per degree of complex m-major (healpy-layout) coefficients of a real map."""
     power = np.abs(alm) ** 2
     m = np.repeat(np.arange(lmax + 1), np.arange(lmax + 1, 0, -1))     # m of each packed entry
@@ -188,13 +188,13 @@ def map_degree_power(scaled: EnvMap, lmax: int) -> np.ndarray:
                        f"(~{secs:.0f} s)",
                  hint=f"downsample the map to at most {rows_within(scaled.channels, lmax)} "
                       f"rows (--max-height)")
-    return _power_by_degree(bilinear_sh_coefficients(scaled, lmax), lmax)
+    return power_by_degree(bilinear_sh_coefficients(scaled, lmax), lmax)
 
 
 def rows_within(channels: int, lmax: int) -> int:
     """The most rows (a power of 2, at least 1) whose SH analysis to min(lmax, 2H - 1) fits
     the memory budget (:func:`sh_analysis_cost`)."""
-    from envfit.base._resources import memory_budget_bytes
+    from envfit.base import memory_budget_bytes
     budget, h = memory_budget_bytes(), 1
     while h < 2 ** 16 and sh_analysis_cost(2 * h, channels, min(lmax, 4 * h - 1))[0] <= budget:
         h *= 2
@@ -223,7 +223,7 @@ def pixel_degree_power(scaled: EnvMap, lmax: int | None = None, *, nthreads: int
         alm = ducc0.sht.analysis_2d(map=np.ascontiguousarray(data[None, :, :, c]), spin=0, lmax=L,
                                     geometry="F1", phi0=np.pi / W, nthreads=int(nthreads))
         out.append(alm[0])
-    return _power_by_degree(np.stack(out), L)
+    return power_by_degree(np.stack(out), L)
 
 
 def lookup_transfer(bilinear_power, pixel_power) -> np.ndarray:

@@ -51,7 +51,7 @@ importing the package loads none of its modules.
 """
 from __future__ import annotations
 
-from envfit.base._lazy import lazy_exports
+from envfit.base import lazy_exports
 
 _LAZY = {
     "quick_config": "_config", "ValidateConfig": "_config",
@@ -63,4 +63,16 @@ _LAZY = {
 
 __all__ = sorted(_LAZY)
 
-__getattr__, __dir__ = lazy_exports(__name__, _LAZY)
+#: names other envfit packages import from this one's modules: importable from the
+#: package (lazily) but not its public API (not in ``__all__``, not documented)
+_SHARED = {
+    "check_renderer": "_rendered",
+    "rendered_summary_lines": "_rendered",
+    "QUICK_DESCRIPTION": "_config",
+    "rendered_renderers": "_rendered",
+    "renderer_config": "_renderer",
+    "summary_lines": "_renderer",
+    "write_report": "_report",
+}
+
+__getattr__, __dir__ = lazy_exports(__name__, {**_LAZY, **_SHARED})

@@ -14,7 +14,7 @@ from typing import Sequence
 
 import numpy as np
 
-from envfit.base._errors import ParameterError
+from envfit.base import ParameterError
 from envfit.predict import QuadratureRule, predictors_for
 
 from envfit.validate._keys import prediction_keys, variant

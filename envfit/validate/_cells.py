@@ -14,9 +14,9 @@ import math
 
 import numpy as np
 
-from envfit.base._keys import s_key
+from envfit.base import s_key
 from envfit.predict import QuadratureRule
-from envfit.shading._estimators import rmse_over_axes
+from envfit.shading import rmse_over_axes
 
 from envfit.validate._config import ALL_POINTSETS, BRDF_INDEX
 

@@ -5,12 +5,12 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 from typing import Sequence
 
-from envfit.base._checks import check_int, check_ints, check_names, check_positive
-from envfit.base._errors import ParameterError
+from envfit.base import check_int, check_ints, check_names, check_positive
+from envfit.base import ParameterError
 from envfit.defaults import (ALL_POINTSETS, BRDFS, DEFAULT_POINTSETS, DEFAULT_SHININESS,
                              QUICK_N, VALIDATE_N, WEIGHTINGS)
-from envfit.fit._sigma import parse_s
-from envfit.theory._pointsets import POINTSETS
+from envfit.fit import parse_s
+from envfit.theory import POINTSETS
 
 __all__ = ["ValidateConfig", "quick_config", "ALL_POINTSETS", "WEIGHTINGS", "BRDFS", "DEFAULT_N",
            "QUICK_N", "QUICK_POINTSETS", "S_CANDIDATES", "QUICK_DESCRIPTION", "BRDF_INDEX"]

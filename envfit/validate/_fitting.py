@@ -6,11 +6,11 @@ import time
 
 import numpy as np
 
-from envfit.base._store import ResultStore
-from envfit.fit._sigma import bandlimited_profiled_sigma, profiled_sigma
-from envfit.kernels._bandlimited import map_band_limit
-from envfit.maps._envmap import EnvMap
-from envfit.maps._scales import fit_scale
+from envfit.base import ResultStore
+from envfit.fit import bandlimited_profiled_sigma, profiled_sigma
+from envfit.kernels import map_band_limit
+from envfit.maps import EnvMap
+from envfit.maps import fit_scale
 
 from envfit.validate._config import ValidateConfig
 
@@ -30,7 +30,7 @@ def fit_cell(envmap: EnvMap, cfg: ValidateConfig, store: ResultStore, quiet: boo
     t0 = time.perf_counter()
     what = "" if kernel == "full" else "band-limited "
     if cfg.s == "auto":
-        from envfit.fit._smoothness import fit_smoothness
+        from envfit.fit import fit_smoothness
         res = fit_smoothness(envmap, method=cfg.fit_method if kernel == "full" else "likelihood",
                              n=cfg.fit_n, scale=cfg.scale, seed=cfg.seed, kernel=kernel,
                              quiet=quiet)

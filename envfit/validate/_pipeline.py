@@ -145,22 +145,22 @@ from typing import Callable
 
 import numpy as np
 
-from envfit.base._errors import ParameterError
-from envfit.base._keys import s_key
-from envfit.base._progress import progress_bar
-from envfit.base._resources import Plan, Stage, plan_memory
-from envfit.base._store import ResultStore, array_fingerprint
-from envfit.maps._envmap import EnvMap, check_sample_count
-from envfit.maps._scales import Scale, check_not_constant, fit_scale
+from envfit.base import ParameterError
+from envfit.base import s_key
+from envfit.base import progress_bar
+from envfit.base import Plan, Stage, plan_memory
+from envfit.base import ResultStore, array_fingerprint
+from envfit.maps import EnvMap, check_sample_count
+from envfit.maps import Scale, check_not_constant, fit_scale
 from envfit.predict import PredictionContext
-from envfit.shading._ground_truth import shading_integral, weight_function
-from envfit.shading._quadrature import LOOKUP_BLOCK, quadrature_estimates_multi, random_axes
-from envfit.shading._spectra import (bandlimited_worst_case_errors, low_degree_power_ratio,
-                                     rule_error_power, rule_power_cost, sh_analysis_cost)
-from envfit.theory._errors import TheoryParameterError
-from envfit.theory._pointsets import generate
-from envfit.theory._quadrature import worst_case_error
-from envfit.theory._weights import equal_weights, optimal_weights
+from envfit.shading import shading_integral, weight_function
+from envfit.shading import LOOKUP_BLOCK, quadrature_estimates_multi, random_axes
+from envfit.shading import (bandlimited_worst_case_errors, low_degree_power_ratio, rule_error_power,
+                            rule_power_cost, sh_analysis_cost)
+from envfit.theory import TheoryParameterError
+from envfit.theory import generate
+from envfit.theory import worst_case_error
+from envfit.theory import equal_weights, optimal_weights
 
 from envfit.validate._agreement import SLOPE_RANGE, agreement
 from envfit.validate._cells import cell_is_current, cell_key, error_stats, twist_seed
@@ -181,7 +181,7 @@ def plan_validation_memory(envmap: EnvMap, cfg: ValidateConfig) -> None:
     before any point is made: the quadrature rules at the largest N (the N x N kernel matrix
     of the OSW weights when ``"osw"`` is among the weightings; points, weights and
     ``workers`` lookup blocks) and the smoothness fit of ``fit_n`` samples."""
-    from envfit.fit._smoothness import plan_fit_memory
+    from envfit.fit import plan_fit_memory
     c = envmap.channels
     workers = max(1, int(cfg.workers))
     lookup = 8 * (8 + 2 * c) * workers                  # per direction of a lookup block

@@ -40,7 +40,7 @@ import numpy as np
 from envfit.base import ParameterError
 
 __all__ = ["RenderValidationOptions", "RenderValidation", "render_validation", "measure_cell",
-           "is_inside", "summary_lines", "RENDERED_BRDFS", "rendered_renderers"]
+           "is_inside", "rendered_summary_lines", "RENDERED_BRDFS", "rendered_renderers"]
 
 #: the BSDFs of the sphere: white diffuse, a white rough conductor (Fresnel 1), or a rough
 #: plastic (:class:`envfit.shading.microfacet.RoughPlastic`: GGX coat, η = 1.49, diffuse
@@ -345,7 +345,7 @@ def render_validation(envmap, options: RenderValidationOptions, *, progress=None
     return result
 
 
-def summary_lines(result: RenderValidation) -> list[str]:
+def rendered_summary_lines(result: RenderValidation) -> list[str]:
     """The printed answer: what was rendered, the share of cells inside and the median
     ratio, one line per cell, then per view-angle band (a conductor)."""
     o = result.options

@@ -58,17 +58,17 @@ from concurrent.futures import ThreadPoolExecutor, as_completed
 from dataclasses import asdict, dataclass
 from typing import Callable, Sequence
 
-from envfit.base._checks import check_int, check_ints, check_names, check_positive
-from envfit.base._errors import ParameterError
-from envfit.base._progress import progress_bar
-from envfit.base._resources import machine_cores
-from envfit.base._store import ResultStore, array_fingerprint
-from envfit.maps._envmap import EnvMap
+from envfit.base import check_int, check_ints, check_names, check_positive
+from envfit.base import ParameterError
+from envfit.base import progress_bar
+from envfit.base import machine_cores
+from envfit.base import ResultStore, array_fingerprint
+from envfit.maps import EnvMap
 from envfit.predict import PredictionContext, predict, renderer_model, renderer_predictor
-from envfit.measure._adaptive_rmse import agreement_with_interval
-from envfit.measure._rules import AXIS_SAMPLING, RendererSetup, measure_rule
+from envfit.measure import agreement_with_interval
+from envfit.measure import AXIS_SAMPLING, RendererSetup, measure_rule
 from envfit.sampling import STRATEGIES, RendererRule
-from envfit.theory._pointsets import POINTSETS
+from envfit.theory import POINTSETS
 
 from envfit.validate._renderer_results import (RendererCell, RendererLobeSummary,
                                                RendererRuleSummary, RendererValidation,

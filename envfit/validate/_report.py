@@ -38,7 +38,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from envfit.base._atomic import atomic_write_text
+from envfit.base import atomic_write_text
 from envfit.defaults import DEFAULT_SHININESS
 
 from envfit.validate._report_predicates import Verdict

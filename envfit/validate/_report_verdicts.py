@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 
-from envfit.base._keys import s_key
+from envfit.base import s_key
 from envfit.defaults import DEFAULT_SHININESS
 
 from envfit.validate._report_predicates import (LEVEL_HIGH, LEVEL_LOW, LOW_DEGREE_TOLERANCE,

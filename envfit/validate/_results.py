@@ -10,9 +10,9 @@ from typing import Sequence
 
 import numpy as np
 
-from envfit.base._html import html_result
-from envfit.base._keys import s_key
-from envfit.maps._envmap import EnvMap
+from envfit.base import html_result
+from envfit.base import s_key
+from envfit.maps import EnvMap
 from envfit.predict import PredictionContext, QuadratureRule, predict, predictors_for
 
 from envfit.validate._agreement import loglog_slope, measured_equivalent_n

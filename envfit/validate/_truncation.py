@@ -10,13 +10,13 @@ from typing import Sequence
 
 import numpy as np
 
-from envfit.base._progress import progress_bar
+from envfit.base import progress_bar
 from envfit.predict import PredictionContext, QuadratureRule, predict
-from envfit.shading._estimators import hsh_truncation_curve, rmse_over_axes, sh_truncation_curve
-from envfit.shading._ground_truth import shading_integral, weight_function
-from envfit.shading._spectra import sh_truncation_curve_transfer
-from envfit.theory._errors import TheoryParameterError
-from envfit.theory._truncation import equivalent_qmc_points, truncation_error_curve
+from envfit.shading import hsh_truncation_curve, rmse_over_axes, sh_truncation_curve
+from envfit.shading import shading_integral, weight_function
+from envfit.shading import sh_truncation_curve_transfer
+from envfit.theory import TheoryParameterError
+from envfit.theory import equivalent_qmc_points, truncation_error_curve
 
 __all__ = ["truncation_curves", "TRUNCATION_PREDICTIONS", "qmc_equivalents"]
 

@@ -47,7 +47,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from envfit.base import ParameterError
-from envfit.base._progress import progress
+from envfit.base import progress
 from envfit.predict.renderer._footprint import (_STREAMS, FootprintSums, PairedFootprint,
                                                 footprint_term, nearest_views,
                                                 pixel_footprints)

@@ -19,7 +19,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from envfit.base._resources import machine_cores
+from envfit.base import machine_cores
 from envfit.shading import twisted_frames
 from envfit.predict.warped._box_spectra import LOBE_OVERSAMPLING, BoxInputs, _axis_spectra
 from envfit.predict.warped._pixel_moments import _pixel_lobe, _pixel_moments, _Pixels

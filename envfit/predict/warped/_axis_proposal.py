@@ -22,7 +22,7 @@ import numpy as np
 
 from envfit.maps import EnvMap
 from envfit.sampling import MapSampler, proxy_second_moments
-from envfit.sampling._proxies import normalised_moments
+from envfit.sampling import normalised_moments
 from envfit.theory import spherical_fibonacci_sphere
 
 __all__ = ["AXIS_POOL", "proposal_axes"]

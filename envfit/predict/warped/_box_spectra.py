@@ -24,11 +24,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from envfit.base._resources import check_memory
+from envfit.base import check_memory
 from envfit.maps import EnvMap
-from envfit.maps import _latlong as latlong
+from envfit.maps import rows_dot, rows_times
 from envfit.sampling import MapSampler
-from envfit.sampling._importance import brdf_pdf
+from envfit.sampling import brdf_pdf
 from envfit.theory import lambert_to_hemisphere
 
 __all__ = ["LOBE_OVERSAMPLING", "NUFFT_EPSILON", "LOBE_CUTOFF", "BoxInputs"]
@@ -147,13 +147,13 @@ def _axis_spectra(box: BoxInputs, R: np.ndarray) -> list[np.ndarray]:
     tech, weight, out = box.technique, box.technique.weight, []
     if tech.samples_map:
         nodes = box.nodes
-        rho = brdf_pdf(weight, latlong.rows_dot(nodes.dirs, a))
+        rho = brdf_pdf(weight, rows_dot(nodes.dirs, a))
         active = rho > LOBE_CUTOFF * float(brdf_pdf(weight, 1.0))
         part = tech.map_part(rho[active], nodes.pdf[active])
         out.append(nodes.box(part.factor, active, box.band, box.nthreads))
     if tech.samples_lobe:
         grid = box.grid
-        d = latlong.rows_times(grid.local, R.T)
+        d = rows_times(grid.local, R.T)
         f = box.envmap.lookup(d)
         pm = box.sampler.pdf(d) if tech.name == "mis" else np.ones_like(grid.lobe)
         part = tech.lobe_part(grid.lobe, pm)

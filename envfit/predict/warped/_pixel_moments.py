@@ -31,10 +31,10 @@ import numpy as np
 from scipy import special
 
 from envfit.maps import EnvMap
-from envfit.maps import _latlong as latlong
+from envfit.maps import pixel_directions, pixel_solid_angles, rows_dot
 from envfit.sampling import MapSampler
-from envfit.sampling._importance import brdf_pdf
-from envfit.sampling._map_sampler import _bilinear_cell_average
+from envfit.sampling import brdf_pdf
+from envfit.sampling import bilinear_cell_average
 from envfit.predict.warped._axis_proposal import AXIS_POOL, _fibonacci_axes
 
 __all__ = ["cell_square_average", "exact_mean_variances"]
@@ -83,9 +83,9 @@ def cell_square_average(data: np.ndarray) -> np.ndarray:
 
 def _cell_average(data: np.ndarray) -> np.ndarray:
     """Mean of the bilinear interpolant over each pixel cell, (H, W, C): the sampler's own
-    :func:`envfit.sampling._map_sampler._bilinear_cell_average`, per channel."""
+    :func:`envfit.sampling._map_sampler.bilinear_cell_average`, per channel."""
     d = np.asarray(data, dtype=np.float64)
-    return np.stack([_bilinear_cell_average(d[..., c]) for c in range(d.shape[-1])], axis=-1)
+    return np.stack([bilinear_cell_average(d[..., c]) for c in range(d.shape[-1])], axis=-1)
 
 
 def _subdivision(envmap: EnvMap, weight) -> int:
@@ -106,16 +106,16 @@ class _Pixels:
     def __init__(self, envmap: EnvMap, sampler: MapSampler, sub: int = 1):
         h, w, c = envmap.data.shape
         if sub == 1:
-            om = latlong.pixel_solid_angles(h, w).reshape(-1, 1)
-            self.dirs = latlong.pixel_directions(h, w, up=envmap.up).reshape(-1, 3)
+            om = pixel_solid_angles(h, w).reshape(-1, 1)
+            self.dirs = pixel_directions(h, w, up=envmap.up).reshape(-1, 3)
             self.first = _cell_average(envmap.data).reshape(-1, c) * om
             self.second = cell_square_average(envmap.data).reshape(-1, c) * om
             self.pdf = sampler.pixel_pdf.reshape(-1)
             self.area = om[:, 0]
             return
         hs, ws = h * sub, w * sub
-        om = latlong.pixel_solid_angles(hs, ws).reshape(-1, 1)
-        self.dirs = latlong.pixel_directions(hs, ws, up=envmap.up).reshape(-1, 3)
+        om = pixel_solid_angles(hs, ws).reshape(-1, 1)
+        self.dirs = pixel_directions(hs, ws, up=envmap.up).reshape(-1, 3)
         L = envmap.lookup(self.dirs)
         self.first, self.second, self.area = L * om, L * L * om, om[:, 0]
         self.pdf = np.repeat(np.repeat(sampler.pixel_pdf, sub, axis=0), sub, axis=1).reshape(-1)
@@ -134,7 +134,7 @@ class _Lobe:
 
 def _pixel_lobe(px: _Pixels, weight, a) -> _Lobe:
     """The pixels in the lobe of axis a, gathered once for every technique's moments."""
-    rho = brdf_pdf(weight, latlong.rows_dot(px.dirs, a))
+    rho = brdf_pdf(weight, rows_dot(px.dirs, a))
     on = np.flatnonzero(rho > 0)
     return _Lobe(on, rho[on], px.pdf[on], px.first[on], px.second[on], px.area[on])
 
@@ -158,7 +158,7 @@ def _pixel_moments(px: _Pixels, technique, a, lobe: _Lobe | None = None) -> _Mom
     for i, part in enumerate(technique.terms(lb.rho, lb.pdf)):
         factor, p = part.factor, part.pdf
         q = float(p @ lb.area) if technique.is_lobe_part(i) else float(px.pdf @ px.area)
-        fp = factor * p                           # einsum, not BLAS: see latlong.rows_dot
+        fp = factor * p                           # einsum, not BLAS: see rows_dot
         m1 = np.einsum("i,ic->c", fp, lb.first) / q
         m2 = np.einsum("i,ic->c", fp * factor, lb.second) / q
         # m2 - m1² below the rounding of m2 is no variance (a constant integrand)

@@ -28,7 +28,7 @@ import math
 import numpy as np
 
 from envfit.base import ParameterError
-from envfit.sampling._map_sampler import _square
+from envfit.sampling import square_samples
 from envfit.predict.warped._spectral_tail import strip_tail
 from envfit.predict.warped._techniques import TECHNIQUES
 
@@ -60,11 +60,11 @@ def _split_points(spec, u) -> list[np.ndarray]:
     """The point sets of the parts: one set; for MIS the first round(ν₁N) points and the rest,
     or a given pair (u_map, u_brdf) (as :func:`envfit.sampling.mis_estimates`)."""
     if TECHNIQUES[spec.technique] == 1:
-        return [_square(u)]
+        return [square_samples(u)]
     if isinstance(u, (tuple, list)) and len(u) == 2 and np.ndim(u[0]) == 2:
-        parts = [_square(u[0], "u_map"), _square(u[1], "u_brdf")]
+        parts = [square_samples(u[0], "u_map"), square_samples(u[1], "u_brdf")]
     else:
-        U = _square(u)
+        U = square_samples(u)
         n1 = int(np.floor(spec.fraction * U.shape[0] + 0.5))
         parts = [U[:n1], U[n1:]]
     if min(p.shape[0] for p in parts) == 0:

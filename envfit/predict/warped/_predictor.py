@@ -35,7 +35,7 @@ import math
 from dataclasses import dataclass
 
 from envfit.defaults import DEFAULT_SHININESS, REFERENCE_SPECTRUM_AXES, RENDERER_GRID
-from envfit.base._errors import ParameterError
+from envfit.base import ParameterError
 from envfit.sampling import STRATEGIES, RendererRule, rule_points
 from envfit.measure import RendererSetup
 from envfit.predict.warped._warped_spectrum import (SpectrumInputs, WarpedSpectrum,

@@ -33,7 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from envfit.base import ParameterError
-from envfit.base._checks import check_int
+from envfit.base import check_int
 from envfit.maps import EnvMap
 from envfit.sampling import HEURISTICS
 

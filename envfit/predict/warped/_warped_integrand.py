@@ -21,13 +21,13 @@ from __future__ import annotations
 import numpy as np
 
 from envfit.base import ParameterError
-from envfit.base._checks import as_unit_vectors
+from envfit.base import as_unit_vectors
 from envfit.defaults import DEFAULT_SHININESS
 from envfit.maps import EnvMap
-from envfit.maps import _latlong as latlong
+from envfit.maps import rows_dot, rows_times
 from envfit.sampling import MapSampler
-from envfit.sampling._importance import brdf_pdf
-from envfit.sampling._map_sampler import _square
+from envfit.sampling import brdf_pdf
+from envfit.sampling import square_samples
 from envfit.shading import twisted_frames, weight_function
 from envfit.theory import lambert_to_hemisphere
 from envfit.predict.warped._techniques import Technique, check_options
@@ -38,14 +38,14 @@ __all__ = ["warped_integrand"]
 def _map_values(envmap: EnvMap, sampler: MapSampler, tech: Technique, a, U) -> np.ndarray:
     """The map part's h (K, C) at the points U (K, 2) for axis a."""
     d, pm = sampler.sample(U)
-    rho = brdf_pdf(tech.weight, latlong.rows_dot(d, a))
+    rho = brdf_pdf(tech.weight, rows_dot(d, a))
     return envmap.lookup(d) * tech.map_part(rho, pm).factor[:, None]
 
 
 def _lobe_values(envmap: EnvMap, sampler: MapSampler, tech: Technique, R, U) -> np.ndarray:
     """The lobe part's h (K, C) at the points U (K, 2) in the frame R (third column a)."""
     local = lambert_to_hemisphere(U, morph=tech.weight.morph)
-    d = latlong.rows_times(local, R.T)
+    d = rows_times(local, R.T)
     rho = brdf_pdf(tech.weight, local[:, 2])
     pm = sampler.pdf(d) if tech.name == "mis" else np.ones_like(rho)
     return envmap.lookup(d) * tech.lobe_part(rho, pm).factor[:, None]
@@ -86,7 +86,7 @@ def warped_integrand(envmap: EnvMap, technique: str, axis, u, *, brdf="diffuse",
         raise ParameterError(f"axis must be one vector (3,), got {a.shape[0]}")
     tech = Technique.of(technique, weight_function(brdf, shininess), heuristic, fraction)
     sampler = MapSampler(envmap) if sampler is None else sampler
-    U = _square(u)
+    U = square_samples(u)
     out = []
     if tech.samples_map:
         out.append(_map_values(envmap, sampler, tech, a[0], U))

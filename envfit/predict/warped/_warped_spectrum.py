@@ -94,8 +94,8 @@ import numpy as np
 
 from envfit.defaults import DEFAULT_SHININESS, REFERENCE_SPECTRUM_AXES, RENDERER_GRID
 from envfit.base import ParameterError
-from envfit.base._checks import as_unit_vectors, check_int
-from envfit.base._resources import check_memory
+from envfit.base import as_unit_vectors, check_int
+from envfit.base import check_memory
 from envfit.maps import EnvMap
 from envfit.sampling import MapSampler
 from envfit.shading import weight_function

@@ -38,7 +38,7 @@ The names of ``__all__`` are imported lazily, on first use (PEP 562).
 """
 from __future__ import annotations
 
-from envfit.base._lazy import lazy_exports
+from envfit.base import lazy_exports
 
 _LAZY = {"CYCLES": "_background"}
 

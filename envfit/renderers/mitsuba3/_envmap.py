@@ -27,7 +27,7 @@ import numpy as np
 
 from envfit.base import ParameterError
 from envfit.defaults import PLASTIC_SAMPLERS
-from envfit.maps._latlong import local_to_world
+from envfit.maps import local_to_world
 from envfit.renderers._base import (SPHERE_VIEWS, EnvmapTechnique, Renderer,
                                            SamplerSpec, StrategySetting, cosine_hemisphere,
                                            map_rgb, scene_comment, snippet_pixels)

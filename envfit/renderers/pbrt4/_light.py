@@ -36,7 +36,7 @@ import numba
 import numpy as np
 
 from envfit.base import ParameterError
-from envfit.maps._latlong import local_to_world
+from envfit.maps import local_to_world
 from envfit.renderers._base import (SPHERE_VIEWS, DirectionSample, EnvmapTechnique,
                                            Renderer, SamplerSpec, StrategySetting,
                                            cosine_hemisphere, scene_comment, snippet_pixels,

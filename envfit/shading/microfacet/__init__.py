@@ -20,7 +20,7 @@ importing the package loads none of its modules.
 """
 from __future__ import annotations
 
-from envfit.base._lazy import lazy_exports
+from envfit.base import lazy_exports
 
 _LAZY = {
     "ALPHA_RANGE": "_distributions", "DISTRIBUTIONS": "_distributions",

@@ -32,7 +32,7 @@ importing the package loads none of its modules.
 """
 from __future__ import annotations
 
-from envfit.base._lazy import lazy_exports
+from envfit.base import lazy_exports
 
 _LAZY = {
     "DyadicGrid": "_grid", "RandomisedMSE": "_grid",
