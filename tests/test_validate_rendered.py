@@ -12,7 +12,7 @@ import pytest
 from envfit.data_gen import sun_gp_map
 from envfit.maps import EnvMap, save_envmap
 from envfit.validate._rendered import (RenderValidation, RenderValidationOptions,
-                                       summary_lines)
+                                       rendered_summary_lines)
 
 SMALL = ["--resolution", "16", "--reference-spp", "256", "--frames", "12", "--max-level", "7",
          "--spp", "16"]
@@ -99,7 +99,7 @@ def _result(inside: list[bool]) -> RenderValidation:
                             "0-30 deg: 1 of 3 cells inside")),
 ])
 def test_sentences_follow_the_rows(inside, words):
-    lines = summary_lines(_result(inside))
+    lines = rendered_summary_lines(_result(inside))
     text = "\n".join(lines)
     for w in words:
         assert w in text

@@ -21,15 +21,23 @@ from envfit.cli._output import CommandOutput
 from envfit.cli._parse import positive_float, positive_int
 
 
+def _readers() -> str:
+    """The scene files read, from the registry: ".xml: Mitsuba 3", …"""
+    from envfit.frame import READERS
+    from envfit.renderers import get_renderer
+    return ", ".join(f"{k}: {get_renderer(v).display}" for k, v in READERS.items())
+
+
 def register(subparsers) -> None:
+    readers = _readers()
     p = subparsers.add_parser(
         "frame", help="predict the noise of a frame from the renderer's scene file",
-        description="Read a renderer's scene file (Mitsuba 3 XML) with the renderer, cast its "
+        description=f"Read a renderer's scene file ({readers}) with the renderer, cast its "
                     "shadow rays and predict each pixel's RMSE under the renderer's "
                     "estimator and pixel filter: the image RMSE per spp and the spp that "
                     "meets a target. Direct lighting from one environment map, diffuse "
                     "surfaces, the independent sampler.")
-    p.add_argument("scene", type=Path, help="the scene file (.xml: Mitsuba 3)")
+    p.add_argument("scene", type=Path, help=f"the scene file ({readers})")
     p.add_argument("--spp", type=int_list, default=None,
                    help="sample counts to predict, e.g. 16,64,256 (default: the scene's)")
     t = p.add_mutually_exclusive_group()

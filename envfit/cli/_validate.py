@@ -84,12 +84,14 @@ def register(sub) -> None:
 def _add_renderer_arguments(p) -> None:
     """``--renderer`` and the options of its rules."""
     g = p.add_argument_group("renderer rules (--renderer)")
+    from envfit.cli._validate_render import _rendering
+    names = _rendering()[0]
     g.add_argument("--renderer", nargs="?", const="rules", default=None,
-                   metavar="mitsuba3|cycles",
+                   metavar=names,
                    help="alone: also validate the renderer estimators (BRDF, map, MIS, sources + "
                         "MIS sampling): predicted vs measured RMSE with a 95 %% interval, after "
                         "the paper's cells, on --scale (linear is what renderers integrate); "
-                        "writes renderer.png. With a renderer's name (mitsuba3, cycles): that "
+                        f"writes renderer.png. With a renderer's name ({names.replace('|', ', ')}): that "
                         "renderer renders a sphere with --brdf (diffuse, ggx, beckmann or "
                         "roughplastic) and "
                         "its measured RMSE is set beside the renderer preset's prediction; "
@@ -219,7 +221,7 @@ def run(args: argparse.Namespace, output: CommandOutput) -> int:
     from envfit.base import atomic_write_json
     from envfit.cli._validate_render import dispatch
     from envfit.validate import run_validation
-    rendered = dispatch(args, output)        # --renderer mitsuba3|cycles: that check only
+    rendered = dispatch(args, output)        # --renderer NAME: that renderer's check only
     if rendered is not None:
         return rendered
     cfg, rcfg, env = _checked_inputs(args)

@@ -1,4 +1,4 @@
-"""``envfit validate MAP --renderer mitsuba3|cycles``: the renderer renders envfit's sphere and
+"""``envfit validate MAP --renderer NAME``: the renderer renders envfit's sphere and
 its measured RMSE is set beside the preset's prediction (:mod:`envfit.validate._rendered`);
 ``validate``'s other parts are not run. Parses and checks the flags, calls, prints, writes."""
 from __future__ import annotations
@@ -31,21 +31,30 @@ _RULES_FLAGS = {"--renderer-pointsets": "renderer_pointsets", "--renderer-n": "r
                 "--renderer-axes": "renderer_axes"}
 
 
+def _rendering() -> tuple[str, str, str]:
+    """From the registries: the renderers that render ('A|B'), each one's default samplers,
+    each one's roughness convention."""
+    from envfit.renderers import RENDERERS
+    from envfit.shading.microfacet import roughness_words
+    rs = [r for r in RENDERERS.values() if r.harness]
+    samplers = "; ".join(f"{r.display} {','.join(r.render_samplers)}" for r in rs)
+    rough = "; ".join(roughness_words(r.name) for r in rs)
+    return "|".join(r.name for r in rs), samplers, rough
+
+
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    g = p.add_argument_group("rendering (--renderer mitsuba3|cycles)")
+    names, samplers, rough = _rendering()
+    g = p.add_argument_group(f"rendering (--renderer {names})")
     a = g.add_mutually_exclusive_group()
     a.add_argument("--alpha", type=ALPHA, default=None, metavar="A",
                    help=f"microfacet alpha of --brdf ggx, beckmann or roughplastic, {ALPHA}, "
-                        "the same for every renderer (Mitsuba's alpha; Cycles is given the "
-                        "roughness sqrt(alpha))")
+                        "the same for every renderer (each is given its own roughness for "
+                        "it)")
     a.add_argument("--roughness", type=ROUGHNESS, default=None, metavar="R",
                    help=f"instead of --alpha: the renderer's own roughness, {ROUGHNESS}, as "
-                        "advise --roughness reads it: mitsuba3 alpha = R, cycles alpha = R^2 "
-                        "(Principled BSDF; src/kernel/svm/closure.h), within "
-                        f"{ALPHA}")
+                        f"advise --roughness reads it: {rough}")
     g.add_argument("--samplers", type=str_list, default=None, metavar="S1,S2",
-                   help="the renderer's samplers (default: Mitsuba independent,ldsampler; "
-                        "Cycles tabulated_sobol,blue_noise)")
+                   help=f"the renderer's samplers (default: {samplers})")
     g.add_argument("--spp", type=SPP, default=None, metavar="N1,N2",
                    help=f"samples per pixel of the cells, each {SPP} (default: 16,64)")
     g.add_argument("--resolution", type=RESOLUTION, default=None, metavar="R",

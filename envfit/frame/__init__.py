@@ -14,9 +14,8 @@ Modules:
   techniques with visibility, and each pixel's MSE under the film's filter.
 * :mod:`~envfit.frame._visibility` — shadow rays (Embree).
 
-The scene is read by the renderer's folder (:mod:`envfit.renderers._frame`); today Mitsuba 3
-XML scenes with the ``diffuse`` BSDF, one ``envmap`` emitter, ``direct`` or ``path``, and the
-``independent`` sampler.
+The scene is read by the renderer's folder (:mod:`envfit.renderers._frame`; the readers by
+file suffix: :data:`READERS`); what each reads and refuses is in its folder.
 
 The names of ``__all__`` are imported lazily, on first use (PEP 562).
 """
@@ -26,7 +25,7 @@ from envfit.base import lazy_exports
 
 _LAZY = {
     "predict_frame": "_api", "FrameOptions": "_api", "FramePrediction": "_api",
-    "FrameRow": "_api",
+    "FrameRow": "_api", "READERS": "_api",
 }
 
 __all__ = sorted(_LAZY)

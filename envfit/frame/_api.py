@@ -189,7 +189,7 @@ def predict_frame(scene, options: FrameOptions | None = None, **kw) -> FramePred
 
     Parameters
     ----------
-    scene : path of the renderer's scene file (Mitsuba 3: ``.xml``).
+    scene : path of the renderer's scene file (its suffix picks the reader: :data:`READERS`).
     options : :class:`FrameOptions`, or its fields as keywords.
 
     Examples
