@@ -14,7 +14,11 @@ per (scene, map), with the pixels' measured MSE × spp pooled over the spp (the
 
 * Spearman's rank correlation of predicted and measured pixel RMSE (≥ 0.8);
 * ten bins by predicted value: each bin's measured RMS over its predicted RMS (within 25 %);
-* the prediction's time against one reference render at ``--reference-spp``.
+* the prediction's time against one reference render at ``--reference-spp``;
+
+and with ``--target-relative R``, the spp the model advises for that image RMSE, rendered
+``--renders`` times at it and at half of it: the measured image RMSE over the target
+(≤ 1 within the model's error at the advised spp, ≈ √2 at half).
 
 Usage::
 
@@ -141,12 +145,33 @@ def _interval(meas: np.ndarray, k: int) -> tuple[float, float]:
     return m * dof / chi2.ppf(0.975, dof), m * dof / chi2.ppf(0.025, dof)
 
 
+def _measured(mi, sc, n: int, renders: int, seed: int) -> tuple[float, float, float]:
+    """The image RMSE over ``renders`` renders at ``n`` spp and its 95 % interval."""
+    imgs = np.stack([np.array(mi.render(sc, seed=seed + s, spp=n))[..., :3]
+                     for s in range(renders)])
+    meas = imgs.var(axis=0, ddof=1).mean(axis=2)
+    lo, hi = _interval(meas, renders - 1)
+    return math.sqrt(meas.mean()), math.sqrt(lo), math.sqrt(hi)
+
+
+def target_check(mi, path: Path, relative: float, renders: int, level: int) -> dict:
+    """The advised spp for ``relative`` × the image's mean, rendered at it and at half."""
+    p = predict_frame(path, target_relative=relative, level=level)
+    sc = mi.load_file(str(path))
+    out = {"target": p.target, "answer": p.answer}
+    for key, n in (("at_answer", p.answer), ("at_half", max(1, p.answer // 2))):
+        m, lo, hi = _measured(mi, sc, n, renders, 77 * n)
+        out[key] = {"spp": n, "measured": m, "low": lo, "high": hi, "over_target": m / p.target}
+    return out
+
+
 def check(path: Path, spps, renders: int, reference_spp: int, level: int,
           timed: dict) -> dict:
     from scipy.stats import spearmanr
 
     from envfit.renderers.mitsuba3._render import import_mitsuba   # internal: the renderer
     mi = import_mitsuba()
+    mi.set_log_level(mi.LogLevel.Error)      # a map's negative texels warn per sample
     t = time.perf_counter()
     p = predict_frame(path, spp=tuple(spps), level=level)
     t_pred = time.perf_counter() - t
@@ -191,6 +216,8 @@ def main(argv=None) -> int:
     ap.add_argument("--level", type=int, default=4)
     ap.add_argument("--scenes", nargs="*", default=None)
     ap.add_argument("--size", type=int, nargs=2, default=[64, 48], metavar=("W", "H"))
+    ap.add_argument("--target-relative", type=float, default=None,
+                    help="also render the advised spp for this relative image RMSE and half")
     ap.add_argument("--out", type=Path, default=Path("frame_check"))
     a = ap.parse_args(argv)
     a.out.mkdir(parents=True, exist_ok=True)
@@ -211,6 +238,15 @@ def main(argv=None) -> int:
             path = write_scene(a.out / f"{sname}_{mname}.xml", parts, mpath)
             r = check(path, a.spp, a.renders, a.reference_spp, a.level, timed)
             r.update(scene=sname, map=mname)
+            if a.target_relative:
+                from envfit.renderers.mitsuba3._render import import_mitsuba  # internal
+                t = target_check(import_mitsuba(), path, a.target_relative, a.renders, a.level)
+                r["target_check"] = t
+                print(f"{sname:14s} {mname:8s} target {t['target']:.4g}: {t['answer']} spp "
+                      f"measures {t['at_answer']['over_target']:.3f} x the target "
+                      f"[{t['at_answer']['low'] / t['target']:.3f}, "
+                      f"{t['at_answer']['high'] / t['target']:.3f}], {t['at_half']['spp']} spp "
+                      f"{t['at_half']['over_target']:.3f} x", flush=True)
             rows.append(r)
             cells = ", ".join(f"{c['spp']}: {c['ratio']:.3f}{'' if c['inside'] else ' OUT'}"
                               for c in r["cells"])

@@ -31,7 +31,7 @@ CONVENTION_HELP = (
     "the renderer whose lat-long layout the MAP file has: envfit (= --up y), openexr "
     "(ImfEnvmap LatLongMap: +y up, first/last row on the poles, first/last column on "
     "longitude +-pi), usd (DomeLight: = openexr), mitsuba3 (+y up, rows on the poles, "
-    "theta = pi i/(H-1)), pbrt3 (+z up, = --up z), blender (Cycles: +z up, mirrored: "
+    "theta = pi i/(H-1)), pbrt3 (+z up, = --up z), blender (+z up, mirrored: "
     "u = 1/2 - atan2(y,x)/2pi); pbrt4 is refused (equal-area square maps). The map is "
     "converted to envfit's grid (exactly where only pixels move, else bilinear). Not with "
     "--up; one map at a time")

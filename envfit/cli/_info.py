@@ -6,7 +6,7 @@ luminance) with its row, column, world direction and local angles (θ from the u
 
 With ``--convention C`` the file is read in renderer C's lat-long layout
 (:mod:`envfit.maps._conventions`) and the brightest direction is also given in C's terms:
-its polar angle θ from C's up axis, C's own azimuth (e.g. Cycles' ``atan2(y, x)``, OpenEXR's
+its polar angle θ from C's up axis, C's own azimuth (e.g. the blender layout's ``atan2(y, x)``, OpenEXR's
 longitude ``atan2(x, z)``) and the continuous pixel ``(col, row)`` at which C looks that
 direction up in the file (C's own formula; integers are pixel centres; sizes W×H).
 
