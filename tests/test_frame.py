@@ -205,8 +205,9 @@ def test_what_is_not_modelled_is_refused_in_one_line(scene_dir, change, words):
     with pytest.raises(ParameterError, match=words):
         predict_frame(path, spp=(4,), level=2)
     r = subprocess.run([sys.executable, "-m", "envfit.cli", "frame", str(path)],
-                       capture_output=True, text=True)
+                       capture_output=True, text=True, cwd=scene_dir)   # the installed envfit
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert words in r.stderr
     assert "Traceback" not in r.stderr
 
 
@@ -221,7 +222,7 @@ def test_the_answer_meets_the_target_and_one_less_does_not(scene_dir, tmp_path):
     out, js = tmp_path / "out", tmp_path / "f.json"
     r = subprocess.run([sys.executable, "-m", "envfit.cli", "frame", str(path), "--spp", "4,16",
                         "--level", "3", "--target-relative", "0.05", "--json", str(js),
-                        "--out", str(out), "-q"], capture_output=True, text=True)
+                        "--out", str(out), "-q"], capture_output=True, text=True, cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     d = json.loads(js.read_text())
     assert [x["spp"] for x in d["predictions"]] == [4, 16]
@@ -233,7 +234,8 @@ def test_the_answer_meets_the_target_and_one_less_does_not(scene_dir, tmp_path):
     assert abs(t - 0.05 * d["mean_value"]) < 1e-12
     r = subprocess.run([sys.executable, "-m", "envfit.cli", "frame", str(path), "--spp", "4",
                         "--level", "3", "--target", "0.01", "--percentile", "90", "--json",
-                        str(js), "-q"], capture_output=True, text=True)
+                        str(js), "-q"], capture_output=True, text=True, cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
     d = json.loads(js.read_text())
     p90, n = d["predictions"][0]["pixel_rmse_percentiles"]["90"], d["answer_spp"]
     assert p90 * np.sqrt(4 / n) <= 0.01 < p90 * np.sqrt(4 / (n - 1))

@@ -206,7 +206,7 @@ def test_validate_alpha_and_roughness_one_meaning_each():
         alpha_of(ns(alpha=None, roughness=0.1, renderer="cycles"))
     help_text = " ".join(cli.build_parser("validate")._subparsers._group_actions[0]
                          .choices["validate"].format_help().split())
-    assert "cycles alpha = R^2" in help_text and "0.05 <= alpha <= 1" in help_text
+    assert "Cycles' roughness R, alpha = R^2" in help_text and "0.05 <= alpha <= 1" in help_text
 
 
 # ------------------------------------------------------------------ item 9: one basename
