@@ -125,11 +125,9 @@ class FramePrediction:
     rays: int = 0
     exact: bool = True
     pixels: int = 0
-
-    @property
-    def mean_value(self) -> float:
-        """The converged image's mean over pixels and channels."""
-        return float(self.preview.mean())
+    mean_value: float = 0.0
+    """The converged image's mean over pixels and channels (each predicted pixel weighted by
+    the pixels it stands for)."""
 
     def pixel_rmse(self, spp: int) -> np.ndarray:
         """Each pixel's predicted RMSE (H, W) at ``spp``."""
@@ -235,4 +233,4 @@ def predict_frame(scene, options: FrameOptions | None = None, **kw) -> FramePred
         str(path), fs.renderer, fs.size, fs.sampler, fs.spp, fs.integrator, fs.filter_name,
         opts.side, opts.level, plan.image(value), plan.image(mse1), rows, target, kind,
         answer, tuple(notes), {"read": round(t1 - t0, 3), "model": round(t2 - t1, 3)},
-        pm.rays, plan.exact, len(plan.targets))
+        pm.rays, plan.exact, len(plan.targets), mean)
