@@ -13,7 +13,8 @@ What is read, and from where (Mitsuba 3.9.1):
 * an escaping camera ray: the environment emitter's ``eval`` of the escaped interaction, as
   ``DirectIntegrator::sample`` adds it (``src/integrators/direct.cpp``);
 * shadow geometry: meshes' ``vertex_positions`` and ``faces`` (world space, as Mitsuba
-  holds them after ``to_world``), a sphere tessellated from its ``to_world`` (an icosphere
+  holds them after ``to_world``), a disk as a circumscribed 256-gon, a sphere tessellated from
+  its ``to_world`` (an icosphere
   of 20 480 faces, inflated so that no facet cuts inside the true sphere);
 * the map: the emitter's own ``data`` tensor (``src/emitters/envmap.cpp`` keeps the bitmap
   with a one-texel halo column on each side; the halo is dropped), its ``to_world`` and
@@ -130,8 +131,30 @@ def _occluder(mi, params, shape, index: int) -> Occluder:
         # shadow is never missed through a facet; the sag of level 5 is ≈ 3·10⁻⁴ of the radius
         v = v / np.linalg.norm(v[f].mean(axis=1), axis=1).min() * (1.0 + 1e-6)
         return Occluder(cls, v @ m[:3, :3].T + m[:3, 3], f, True)
+    if cls == "Disk":
+        key = next(k for k in params.keys() if k.endswith(".to_world")
+                   and params[k] is not None and _disk_match(params, k, shape))
+        m = np.array(params[key].matrix, dtype=np.float64)
+        n = 256                            # circumscribed: the polygon covers the disk
+        t = 2 * np.pi * np.arange(n) / n
+        rim = np.column_stack([np.cos(t), np.sin(t), np.zeros(n)]) / np.cos(np.pi / n)
+        v = np.vstack([np.zeros((1, 3)), rim])
+        f = np.column_stack([np.zeros(n, np.int64), 1 + np.arange(n), 1 + (np.arange(n) + 1) % n])
+        return Occluder(cls, v @ m[:3, :3].T + m[:3, 3], f, True)
     raise ParameterError(f"shape {index} ({cls}) cannot be made into triangles for shadow "
-                         f"rays: use a mesh, sphere, rectangle, disk or cube")
+                         f"rays: use a mesh (obj, ply, rectangle, cube), a sphere or a disk")
+
+
+def _disk_match(params, key, shape) -> bool:
+    """Whether the ``to_world`` at ``key`` is this disk's: the unit disk in z = 0 mapped to
+    its bounding box's centre and half-extents."""
+    m = np.array(params[key].matrix, dtype=np.float64)
+    bb = shape.bbox()
+    c = (np.array(bb.min) + np.array(bb.max)) / 2
+    r = (np.array(bb.max) - np.array(bb.min)) / 2
+    half = np.sqrt(m[:3, 0] ** 2 + m[:3, 1] ** 2)
+    return bool(np.allclose(m[:3, 3], c, atol=1e-5 * (1 + abs(r).max()))
+                and np.allclose(half, r, rtol=1e-3, atol=1e-5 * (1 + abs(r).max())))
 
 
 def _sphere_match(params, key, shape) -> bool:
