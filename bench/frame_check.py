@@ -138,6 +138,12 @@ def write_scene(path: Path, parts, envmap: Path) -> Path:
     return path
 
 
+def _mitsuba():
+    """Mitsuba (``scalar_rgb``) through the renderer's harness."""
+    from envfit.renderers import get_renderer
+    return get_renderer("mitsuba3").harness_module().import_mitsuba()
+
+
 def _interval(meas: np.ndarray, k: int) -> tuple[float, float]:
     from scipy.stats import chi2
     m = float(meas.mean())
@@ -169,8 +175,7 @@ def check(path: Path, spps, renders: int, reference_spp: int, level: int,
           timed: dict) -> dict:
     from scipy.stats import spearmanr
 
-    from envfit.renderers.mitsuba3._render import import_mitsuba   # internal: the renderer
-    mi = import_mitsuba()
+    mi = _mitsuba()
     mi.set_log_level(mi.LogLevel.Error)      # a map's negative texels warn per sample
     t = time.perf_counter()
     p = predict_frame(path, spp=tuple(spps), level=level)
@@ -239,8 +244,7 @@ def main(argv=None) -> int:
             r = check(path, a.spp, a.renders, a.reference_spp, a.level, timed)
             r.update(scene=sname, map=mname)
             if a.target_relative:
-                from envfit.renderers.mitsuba3._render import import_mitsuba  # internal
-                t = target_check(import_mitsuba(), path, a.target_relative, a.renders, a.level)
+                t = target_check(_mitsuba(), path, a.target_relative, a.renders, a.level)
                 r["target_check"] = t
                 print(f"{sname:14s} {mname:8s} target {t['target']:.4g}: {t['answer']} spp "
                       f"measures {t['at_answer']['over_target']:.3f} x the target "
