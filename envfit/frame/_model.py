@@ -96,12 +96,15 @@ def _power(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 class _Techniques:
     """The renderer's map technique and cosine sampling tabulated once at level ``level``,
-    evaluated for a batch of film points (:meth:`parts`)."""
+    evaluated for a batch of film points (:meth:`parts`); ``technique``: one already built
+    from this scene's map (its warp is not built again)."""
 
-    def __init__(self, fs: FrameScene, level: int):
+    def __init__(self, fs: FrameScene, level: int, technique=None):
         rec = get_renderer(fs.renderer)
         opts = {"scale": fs.envmap_scale} if fs.envmap_scale != 1.0 else {}
-        self.rec, self.tech = rec, rec.technique(EnvMap(fs.envmap_data), **opts)
+        self.rec = rec
+        self.tech = technique if technique is not None else \
+            rec.technique(EnvMap(fs.envmap_data), **opts)
         self.map = MapTable.build(self.tech, level)
         self.local = BsdfTable.build(rec, level).local
         self.rot = np.asarray(fs.envmap_to_world, dtype=np.float64)
@@ -293,7 +296,7 @@ def point_moments(fs: FrameScene, block: FilmBlock, level: int = 4, quiet: bool 
     esc = block.hits["kind"] != HIT_SURFACE
     mean[esc], within[esc] = _background(block, tq, np.argwhere(esc))
     if len(edges):
-        coarse = _Techniques(fs, max(2, int(level) - 1))
+        coarse = _Techniques(fs, max(2, int(level) - 1), technique=tq.tech)   # one warp
         em, ev, ew, more = _refine(fs, block, vis, edges, coarse, bar)
         mean[edges], var[edges], within[edges] = em, ev, ew
         rays += more
