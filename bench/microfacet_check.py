@@ -38,7 +38,6 @@ from envfit.renderers import (VIEWS, CyclesOptions, CyclesSphere, Mitsuba3Option
 from envfit.predict.renderer import (MicrofacetModel, PresetModelOptions, pixel_footprints,
                                      pixel_frames)
 from envfit.renderers import get_renderer
-from envfit.shading.microfacet import multiscatter_or_conductor
 from envfit.validate import measure_cell
 
 sys.path.insert(0, str(Path(__file__).parent))
@@ -55,8 +54,9 @@ def _model(env, dist, alpha, args):
                            seed=args.seed)
     foot = (pixel_footprints(n, v, args.resolution, args.footprint) if args.footprint > 1
             else None)
-    return MicrofacetModel(EnvMap(env.data, up="y", name=env.name), get_renderer(args.renderer),
-                           multiscatter_or_conductor(dist, alpha, args.renderer), (n, v),
+    renderer = get_renderer(args.renderer)
+    return MicrofacetModel(EnvMap(env.data, up="y", name=env.name), renderer,
+                           renderer.bsdf(dist, alpha), (n, v),
                            options=PresetModelOptions(max_level=args.max_level),
                            select=args.frames, footprints=foot)
 

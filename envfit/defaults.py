@@ -47,7 +47,8 @@ MICROFACET_BSDF_WORDS = {"ggx": "white GGX conductor; Mitsuba 3, pbrt-v4, Cycles
                          "roughplastic": "Mitsuba 3's roughplastic",
                          "multiggx": "Cycles' Multiscatter GGX"}
 #: the microfacet alpha the advice's model takes (``advise --renderer R --roughness``, in
-#: each renderer's own units: :func:`envfit.shading.microfacet.roughness_range`)
+#: each renderer's own units: its record's roughness convention,
+#: :meth:`envfit.renderers.RoughnessConvention.range`)
 ADVISE_ALPHA = (0.05, 1.0)
 #: the renderer answer's target when none is given: 1 % of the map's mean radiance
 DEFAULT_TARGET_RELATIVE = 0.01

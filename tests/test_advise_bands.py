@@ -18,7 +18,6 @@ from envfit.maps import EnvMap, save_envmap
 from envfit.predict.renderer import MicrofacetModel, PresetModelOptions, band_frames
 from envfit.predict.renderer._bands import STRATA, band_key, bootstrap_interval, in_stratum
 from envfit.renderers import get_renderer
-from envfit.shading.microfacet import Conductor
 
 _DRAWS = {"normal": lambda rng, k: rng.normal(1.0, 0.3, k),
           "gamma2": lambda rng, k: rng.gamma(2.0, 0.5, k)}        # both of mean 1
@@ -82,7 +81,7 @@ def test_whole_sphere_is_the_weighted_combination_of_the_bands(sun_map):
     band's share far from the pool's, e.g. 0.016 for 0-30 instead of 0.25)."""
     opts = PresetModelOptions(max_level=3, pilot_level=2)
     pool = band_frames(1024, (0, 90), seed=7)
-    c = Conductor("ggx", 0.1)
+    c = get_renderer("mitsuba3").bsdf("ggx", 0.1)
     m = MicrofacetModel(sun_map, get_renderer("mitsuba3"), c, pool, options=opts, select=24)
     whole = m.predict("mis", "independent", 4).rmse
     spread = m.predict_band_errors("mis", "independent", 4)

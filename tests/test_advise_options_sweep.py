@@ -205,10 +205,11 @@ def test_roughness_is_stated_and_checked_in_the_renderers_units(renderer, tmp_pa
     0.05 within rounding; 1e-4 beyond either end is one line with the help's words."""
     import math
     from envfit.advisor._renderer_options import RendererAdviseOptions
-    from envfit.shading.microfacet import roughness_range, roughness_words
-    words = roughness_words(renderer)
+    from envfit.renderers import get_renderer
+    convention = get_renderer(renderer).roughness
+    words = convention.words()
     assert words in _help()
-    lo, hi = roughness_range(renderer)
+    lo, hi = convention.range()
     exact = {"mitsuba3": 0.05, "pbrt4": 0.05 ** 2, "cycles": math.sqrt(0.05)}[renderer]
     for r in (lo, hi, float(f"{exact:.7g}"), exact):
         o = RendererAdviseOptions(renderer, bsdf="ggx", roughness=r)

@@ -264,7 +264,6 @@ def test_microfacet_answer_bands_and_json_equal_the_model(sun_file, tmp_path, ca
     carry the per-band values of that model; every band sentence is true of its numbers."""
     from envfit.defaults import MICROFACET_FRAMES_SEED
     from envfit.predict.renderer import MicrofacetModel, band_frames
-    from envfit.shading.microfacet import Conductor
     rc, lines, _, d = _run(capsys, [sun_file, "--renderer", "mitsuba3", "--brdf", "ggx",
                                     "--roughness", "0.3", "--sampler", "independent",
                                     "--target-relative", "0.05", "--renderer-level", "5",
@@ -275,7 +274,8 @@ def test_microfacet_answer_bands_and_json_equal_the_model(sun_file, tmp_path, ca
     assert r["bsdf"] == {"type": "ggx", "roughness": 0.3, "alpha": 0.3, "fresnel": 1.0,
                          "sphere_pixels": None}
     opts = _options(5, microfacet=True)
-    m = MicrofacetModel(_load(sun_file), get_renderer("mitsuba3"), Conductor("ggx", 0.3),
+    m = MicrofacetModel(_load(sun_file), get_renderer("mitsuba3"),
+                        get_renderer("mitsuba3").bsdf("ggx", 0.3),
                         band_frames(opts.pool, (0, 90), seed=MICROFACET_FRAMES_SEED),
                         options=opts, select=NORMALS)
     n = rec["spp"]
@@ -313,7 +313,6 @@ def test_sphere_pixels_adds_the_footprint_of_the_model(sun_file, tmp_path, capsy
     here); the JSON and the model line say so."""
     from envfit.defaults import FOOTPRINT_SIDE, MICROFACET_FRAMES_SEED
     from envfit.predict.renderer import MicrofacetModel, band_frames, pixel_footprints
-    from envfit.shading.microfacet import Conductor
     base = [sun_file, "--renderer", "mitsuba3", "--brdf", "ggx", "--roughness", "0.1",
             "--sampler", "ldsampler", "--target-relative", "0.05", "--renderer-level", "6",
             "--spp", "4,16", *MODEL]
@@ -324,10 +323,11 @@ def test_sphere_pixels_adds_the_footprint_of_the_model(sun_file, tmp_path, capsy
     assert any("8 pixels across (each pixel's footprint included)" in ln for ln in lines)
     opts = _options(6, microfacet=True)
     frames = band_frames(opts.pool, (0, 90), seed=MICROFACET_FRAMES_SEED)
-    m = MicrofacetModel(_load(sun_file), get_renderer("mitsuba3"), Conductor("ggx", 0.1), frames,
+    mitsuba = get_renderer("mitsuba3")
+    m = MicrofacetModel(_load(sun_file), mitsuba, mitsuba.bsdf("ggx", 0.1), frames,
                         options=opts, select=NORMALS,
                         footprints=pixel_footprints(*frames, 8, FOOTPRINT_SIDE))
-    point = MicrofacetModel(_load(sun_file), get_renderer("mitsuba3"), Conductor("ggx", 0.1),
+    point = MicrofacetModel(_load(sun_file), mitsuba, mitsuba.bsdf("ggx", 0.1),
                             frames, options=opts, select=NORMALS)
     for p in r["predictions"]:
         got = m.predict(p["strategy"], "ldsampler", p["spp"]).rmse
@@ -439,7 +439,6 @@ def test_cycles_multiscatter_ggx_and_the_note_that_names_it(sun_file, tmp_path, 
     multiscatter conductor."""
     from envfit.defaults import MICROFACET_FRAMES_SEED
     from envfit.predict.renderer import MicrofacetModel, band_frames
-    from envfit.shading.microfacet import multiscatter_or_conductor
     common = [sun_file, "--renderer", "cycles", "--roughness", "0.5", "--target-relative",
               "0.05", "--renderer-level", "5", *MODEL]
     runs = {b: _run(capsys, [*common, "--brdf", b], tmp_path / b) for b in ("ggx", "multiggx")}
@@ -450,7 +449,7 @@ def test_cycles_multiscatter_ggx_and_the_note_that_names_it(sun_file, tmp_path, 
               for p in runs["ggx"][3]["renderer"]["predictions"]}
     opts = _options(5, microfacet=True)
     m = MicrofacetModel(_load(sun_file), get_renderer("cycles"),
-                        multiscatter_or_conductor("multiggx", 0.25, "cycles"),
+                        get_renderer("cycles").bsdf("multiggx", 0.25),
                         band_frames(opts.pool, (0, 90), seed=MICROFACET_FRAMES_SEED),
                         options=opts, select=NORMALS)
     for p in runs["multiggx"][3]["renderer"]["predictions"]:

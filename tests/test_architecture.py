@@ -223,7 +223,7 @@ def test_the_size_checker_sees_each_rule(tmp_path):
 
 # ---- renderers are plug-ins (issue 39): one folder each, no names outside them ----
 #: the packages that must not know any renderer by name (they go through the registry)
-RENDERER_FREE = ("predict", "advisor", "validate", "cli", "batch")
+RENDERER_FREE = ("predict", "advisor", "validate", "cli", "batch", "shading")
 
 
 def renderer_name_uses(path: Path, text: str | None = None, names=None) -> list[str]:
@@ -278,8 +278,10 @@ def test_the_renderer_name_checker_sees_each_use(tmp_path):
 # ---- predict and validate name no renderer at all, docstrings included (issue 39) ----
 #: the packages whose source never names a renderer, in code, comments or docstrings: what
 #: envfit assumes a renderer does (its technique, its samplers' variants, its microfacet
-#: conventions, the file:function citations of its source) is in the renderer's folder alone
-RENDERER_SILENT = ("predict", "validate")
+#: conventions, the file:function citations of its source) is in the renderer's folder alone;
+#: ``shading`` holds the microfacet techniques by what they are, each renderer's choice of
+#: them is its folder's ``_bsdf``
+RENDERER_SILENT = ("predict", "validate", "shading")
 
 
 def _renderer_words(names=None) -> list[str]:

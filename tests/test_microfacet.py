@@ -1,7 +1,8 @@
-"""envfit.shading.microfacet: distributions, per-renderer visible-normal sampling, Fresnel and
-the Conductor BSDF for pbrt-v4 and Cycles (Mitsuba 3 is checked against Mitsuba itself in
-test_microfacet_mitsuba.py): hand-worked values from the source formulas, pdf normalisation by
-quadrature, sampling histograms against the pdf, weights, reciprocity."""
+"""envfit.shading.microfacet: distributions, the visible-normal warps, Fresnel and the Conductor
+BSDF as each renderer's record builds it (Renderer.bsdf), for pbrt-v4 and Cycles (Mitsuba 3 is
+checked against Mitsuba itself in test_microfacet_mitsuba.py): hand-worked values from the
+source formulas, pdf normalisation by quadrature, sampling histograms against the pdf, weights,
+reciprocity."""
 from __future__ import annotations
 
 import math
@@ -10,12 +11,18 @@ import numpy as np
 import pytest
 
 from envfit.base import ParameterError
+from envfit.renderers import get_renderer
 from envfit.shading.microfacet import (Conductor, MicrofacetDistribution, fr_complex,
-                                       fresnel_conductor, roughness_to_alpha,
-                                       sample_visible_normals)
+                                       fresnel_conductor, sample_visible_normals)
 
 CASES = [("pbrt4", "ggx"), ("cycles", "ggx"), ("cycles", "beckmann"), ("mitsuba3", "ggx"),
          ("mitsuba3", "beckmann")]
+
+
+def _conductor(renderer, kind, alpha, eta=None, k=None):
+    """The renderer's conductor (its record's ``bsdf``), coloured where ``eta``, ``k``."""
+    kw = {} if eta is None else {"eta": eta, "k": k}
+    return get_renderer(renderer).bsdf(kind, alpha, **kw)
 
 
 def _sph(theta, phi):
@@ -32,10 +39,10 @@ def test_hand_worked_ggx_values(renderer):
     d = 1.0 / (math.pi * a * a * math.cos(th) ** 4 * (1 + math.tan(th) ** 2 / a ** 2) ** 2)
     lam_i = (math.sqrt(1 + a * a * 3.0) - 1) / 2          # tan²60° = 3
     lam_o = (math.sqrt(1 + a * a / 3.0) - 1) / 2          # tan²30° = 1/3
-    c = Conductor("ggx", a, renderer)
+    c = _conductor(renderer, "ggx", a)
     assert c.eval(wi, wo)[0] == pytest.approx(d / (4 * 0.5 * (1 + lam_i + lam_o)), rel=1e-12)
     assert c.pdf(wi, wo)[0] == pytest.approx(d / (4 * 0.5 * (1 + lam_i)), rel=1e-12)
-    m = Conductor("ggx", a, "mitsuba3")                    # separable G
+    m = _conductor("mitsuba3", "ggx", a)                   # separable G
     assert m.eval(wi, wo)[0] == pytest.approx(d / (1 + lam_i) / (1 + lam_o) / 2.0, rel=1e-12)
 
 
@@ -59,7 +66,7 @@ def _u_grid(n):
 @pytest.mark.parametrize("alpha", [0.3, 0.6])
 def test_pdf_integrates_to_the_valid_fraction(renderer, kind, alpha):
     """∫ pdf dω over the hemisphere = the share of u whose reflected ω_o is above the surface."""
-    c = Conductor(kind, alpha, renderer)
+    c = _conductor(renderer, kind, alpha)
     wi = _sph(math.radians(70), 0.4)
     total = _hemisphere_integral(lambda d: c.pdf(np.broadcast_to(wi, d.shape), d))
     u = _u_grid(300)
@@ -79,7 +86,7 @@ def test_pdf_integrates_to_the_valid_fraction(renderer, kind, alpha):
 def test_sampling_histogram_matches_pdf(renderer, kind):
     """Counts of 200 000 samples in (cos θ, φ) cells against the pdf's integral over each cell."""
     rng = np.random.default_rng(7)
-    c = Conductor(kind, 0.3, renderer)
+    c = _conductor(renderer, kind, 0.3)
     wi = _sph(math.radians(50), 1.0)
     n = 200_000
     s = c.sample(np.broadcast_to(wi, (n, 3)), rng.uniform(size=(n, 2)))
@@ -108,7 +115,7 @@ def test_sampling_histogram_matches_pdf(renderer, kind):
 @pytest.mark.parametrize("metal", [False, True])
 def test_weight_is_eval_over_pdf_in_closed_form(renderer, kind, metal):
     rng = np.random.default_rng(3)
-    c = Conductor(kind, 0.2, renderer, *((0.3, 2.5) if metal else (None, None)))
+    c = _conductor(renderer, kind, 0.2, *((0.3, 2.5) if metal else (None, None)))
     d = c.distribution
     wi = np.broadcast_to(_sph(math.radians(65), 0.2), (500, 3))
     s = c.sample(wi, rng.uniform(size=(500, 2)))
@@ -118,7 +125,7 @@ def test_weight_is_eval_over_pdf_in_closed_form(renderer, kind, metal):
                                rtol=1e-9)
     np.testing.assert_allclose(s.pdf[ok], c.pdf(wi, s.wo)[ok], rtol=1e-9)
     f = c.fresnel(np.einsum("ij,ij->i", wi, s.m))
-    if renderer == "mitsuba3":                          # weight = F·G1(ω_o, m)
+    if c.shadowing == "separable":                      # weight = F·G1(ω_o, m)
         expect = f * d.g1(s.wo, s.m)
     else:                                               # F (1 + Λ_i)/(1 + Λ_i + Λ_o)
         li, lo = d.lambda_(wi), d.lambda_(s.wo)
@@ -129,7 +136,7 @@ def test_weight_is_eval_over_pdf_in_closed_form(renderer, kind, metal):
 @pytest.mark.parametrize("renderer,kind", CASES)
 def test_eval_is_reciprocal(renderer, kind):
     rng = np.random.default_rng(5)
-    c = Conductor(kind, 0.25, renderer, 0.4, 2.0)
+    c = _conductor(renderer, kind, 0.25, 0.4, 2.0)
     a = rng.normal(size=(300, 3))
     b = rng.normal(size=(300, 3))
     a[:, 2], b[:, 2] = np.abs(a[:, 2]), np.abs(b[:, 2])
@@ -144,10 +151,12 @@ def test_same_u_differs_between_renderers_same_density():
     rng = np.random.default_rng(11)
     u = rng.uniform(size=(400, 2))
     wi = np.broadcast_to(_sph(0.7, 0.0), (400, 3))      # plane of incidence: xz
-    mit = sample_visible_normals("mitsuba3", "ggx", 0.3, wi, u)
-    cyc = sample_visible_normals("cycles", "ggx", 0.3, wi, u)
-    cyc_flip = sample_visible_normals("cycles", "ggx", 0.3, wi, np.c_[1 - u[:, 0], u[:, 1]])
-    pbrt = sample_visible_normals("pbrt4", "ggx", 0.3, wi, u)
+    warp = {r: get_renderer(r).bsdf("ggx", 0.3).vndf for r in ("mitsuba3", "cycles", "pbrt4")}
+    mit = sample_visible_normals(warp["mitsuba3"], "ggx", 0.3, wi, u)
+    cyc = sample_visible_normals(warp["cycles"], "ggx", 0.3, wi, u)
+    cyc_flip = sample_visible_normals(warp["cycles"], "ggx", 0.3, wi,
+                                      np.c_[1 - u[:, 0], u[:, 1]])
+    pbrt = sample_visible_normals(warp["pbrt4"], "ggx", 0.3, wi, u)
     np.testing.assert_allclose(mit, cyc_flip, atol=1e-12)
     np.testing.assert_allclose(mit * [1, -1, 1], cyc, atol=1e-12)
     assert np.median(np.linalg.norm(pbrt - cyc, axis=1)) > 0.05
@@ -183,12 +192,22 @@ def test_d_projected_area_is_one():
 
 
 def test_roughness_conventions_and_errors():
-    assert roughness_to_alpha(0.3, "mitsuba3") == 0.3
-    assert roughness_to_alpha(0.09, "pbrt4") == pytest.approx(0.3)
-    assert roughness_to_alpha(0.3, "cycles") == pytest.approx(0.09)
-    for bad in [lambda: Conductor("beckmann", 0.3, "pbrt4"), lambda: Conductor("ggx", 0.0),
-                lambda: Conductor("ggx", 1.5), lambda: Conductor("phong", 0.3),
-                lambda: Conductor("ggx", 0.3, "blender"), lambda: Conductor("ggx", 0.3, eta=1.0),
-                lambda: roughness_to_alpha(2.0, "cycles")]:
+    def alpha(renderer, r):
+        return get_renderer(renderer).roughness.to_alpha(r)
+    assert alpha("mitsuba3", 0.3) == 0.3
+    assert alpha("pbrt4", 0.09) == pytest.approx(0.3)
+    assert alpha("cycles", 0.3) == pytest.approx(0.09)
+    tech = {"shadowing": "separable", "vndf": "slope_space"}
+    for bad in [lambda: _conductor("pbrt4", "beckmann", 0.3),
+                lambda: _conductor("mitsuba3", "ggx", 0.0),
+                lambda: _conductor("mitsuba3", "ggx", 1.5),
+                lambda: _conductor("cycles", "phong", 0.3),
+                lambda: Conductor("ggx", 0.3, shadowing="blender", vndf="slope_space"),
+                lambda: Conductor("ggx", 0.3, shadowing="separable", vndf="blender"),
+                lambda: Conductor("beckmann", 0.3, shadowing="separable", vndf="hemisphere_polar"),
+                lambda: Conductor("ggx", 0.3, **tech, eta=1.0),
+                lambda: Conductor("ggx", 0.3, **tech, eta=1.0, k=2.0),   # no Fresnel form
+                lambda: sample_visible_normals("blender", "ggx", 0.3, [[0, 0, 1]], [[0.5, 0.5]]),
+                lambda: alpha("cycles", 2.0), lambda: get_renderer("envfit").bsdf("ggx", 0.3)]:
         with pytest.raises(ParameterError):
             bad()

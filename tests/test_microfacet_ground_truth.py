@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from envfit.maps import EnvMap
-from envfit.shading.microfacet import (Conductor, GroundTruthOptions,
-                                       microfacet_shading_integral)
+from envfit.renderers import get_renderer
+from envfit.shading.microfacet import GroundTruthOptions, microfacet_shading_integral
 
 
 def _smooth(d):
@@ -55,7 +55,8 @@ OPTS = GroundTruthOptions(rtol=1e-5, min_nodes=32, max_nodes=128)
                                                  ("mitsuba3", "beckmann", 0.3),
                                                  ("cycles", "ggx", 0.3)])
 def test_smooth_radiance_and_albedo_against_brute_force(renderer, kind, alpha):
-    c = Conductor(kind, alpha, renderer, *((0.3, 2.5) if renderer == "cycles" else (None, None)))
+    c = get_renderer(renderer).bsdf(kind, alpha, **({"eta": 0.3, "k": 2.5} if renderer == "cycles"
+                                                    else {}))
     normals = np.array([f[0] for f in FRAMES])
     views = np.array([f[1] for f in FRAMES])
     got = microfacet_shading_integral(_smooth, c, normals, views, OPTS)
@@ -71,7 +72,7 @@ def test_smooth_radiance_and_albedo_against_brute_force(renderer, kind, alpha):
 def test_envmap_bilinear_interpolant_against_brute_force():
     rng = np.random.default_rng(2)
     em = EnvMap(rng.uniform(0.5, 2.0, size=(8, 16, 2)))
-    c = Conductor("ggx", 0.3, "mitsuba3")
+    c = get_renderer("mitsuba3").bsdf("ggx", 0.3)
     n, v = FRAMES[0]
     got = microfacet_shading_integral(em, c, n[None], v[None],
                                       GroundTruthOptions(rtol=1e-6, max_nodes=512))
@@ -82,7 +83,7 @@ def test_envmap_bilinear_interpolant_against_brute_force():
 
 def test_mirror_limit():
     """α → 0: the integral tends to F·L(reflect(ω_i)) (F = 1, G → 1)."""
-    c = Conductor("ggx", 0.002, "cycles")
+    c = get_renderer("cycles").bsdf("ggx", 0.002)
     n, v = FRAMES[1]
     got = microfacet_shading_integral(_smooth, c, n[None], v[None], OPTS)
     r = 2 * (n @ v) * n - v
@@ -90,6 +91,6 @@ def test_mirror_limit():
 
 
 def test_view_below_surface_gives_zero():
-    c = Conductor("ggx", 0.2)
+    c = get_renderer("mitsuba3").bsdf("ggx", 0.2)
     got = microfacet_shading_integral(_smooth, c, [[0, 0, 1.0]], [[0.6, 0, -0.8]])
     assert got.values[0, 0] == 0.0

@@ -1,4 +1,4 @@
-"""envfit.shading.microfacet.Conductor(renderer="mitsuba3") against Mitsuba 3 itself
+"""Mitsuba 3's roughconductor as its record builds it (Renderer.bsdf) against Mitsuba 3 itself
 (``roughconductor``, scalar_rgb): eval, pdf and sample (direction, pdf, weight) for the same
 (wi, wo) and (wi, u), GGX and Beckmann, α 0.05–0.6, F = 1 ("none") and a metal (η, k)."""
 from __future__ import annotations
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from oracles.mitsuba_bsdf import mitsuba_bsdf_queries
 
-from envfit.shading.microfacet import Conductor
+from envfit.renderers import get_renderer
 
 mi = pytest.importorskip("mitsuba")
 mi.set_variant("scalar_rgb")
@@ -34,7 +34,7 @@ def _mitsuba(kind, alpha, metal, wi, wo, u):
 def test_roughconductor_matches_mitsuba(kind, alpha, metal):
     rng = np.random.default_rng([int(1000 * alpha), kind == "ggx", metal])
     wi, wo, u = _dirs(rng, N), _dirs(rng, N), rng.uniform(size=(N, 2))
-    c = Conductor(kind, alpha, "mitsuba3", *((0.2, 3.0) if metal else (None, None)))
+    c = get_renderer("mitsuba3").bsdf(kind, alpha, **({"eta": 0.2, "k": 3.0} if metal else {}))
     s = c.sample(wi, u)
     valid = s.weight > 0
     wo[valid[: N // 2].nonzero()[0]] = s.wo[valid[: N // 2].nonzero()[0]]  # half near the lobe

@@ -12,7 +12,7 @@ from envfit.maps import EnvMap
 from envfit.predict.renderer import (MicrofacetModel, PresetModelOptions, band_frames,
                                      pixel_frames)
 from envfit.renderers import get_renderer
-from envfit.shading.microfacet import Conductor, microfacet_shading_integral
+from envfit.shading.microfacet import microfacet_shading_integral
 
 MITSUBA = get_renderer("mitsuba3")
 _LD_POINTS = MITSUBA.sampler("ldsampler").film_points
@@ -32,7 +32,7 @@ def test_integrand_means_are_the_shading_integral(kind, alpha):
     """Each part's mean over the square (emitter sampling, visible-normal sampling, MIS's two
     weighted parts together) is the shading integral f·cos·L of the frame, which the ground
     truth computes by quadrature over the sphere with the technique's radiance."""
-    c = Conductor(kind, alpha)
+    c = MITSUBA.bsdf(kind, alpha)
     n, v = band_frames(3, (0, 80), seed=2)
     m = MicrofacetModel(_sun_map(), MITSUBA, c, (n, v), options=PresetModelOptions(max_level=8))
     truth = microfacet_shading_integral(m.technique.eval, c, n, v).values
@@ -68,7 +68,7 @@ def test_constant_map_emitter_sampling_of_a_rough_lobe_is_noisy_brdf_is_g1():
     """On a constant map L, visible-normal sampling's weight is F·G1(ω_o, m) (Mitsuba): its
     MSE at N independent points is L²·Var(G1)/N > 0 and far below emitter sampling's."""
     env = EnvMap(np.full((8, 16, 3), 2.0, np.float32))
-    m = MicrofacetModel(env, MITSUBA, Conductor("ggx", 0.2), band_frames(8, (0, 60), seed=0),
+    m = MicrofacetModel(env, MITSUBA, MITSUBA.bsdf("ggx", 0.2), band_frames(8, (0, 60), seed=0),
                         options=PresetModelOptions(max_level=6))
     brdf, emit = m.predict("brdf", "independent", 16).rmse, m.predict("map", "independent", 16).rmse
     assert 0 < brdf < 0.1 * emit
@@ -84,7 +84,7 @@ def test_prediction_inside_the_rendered_interval():
                                           roughconductor_bsdf, sphere_geometry)
     env = _sun_map(16)
     n, v, _ = pixel_frames(sphere_geometry(16), VIEWS, 48, seed=0)
-    model = MicrofacetModel(env, MITSUBA, Conductor("ggx", 0.3), (n, v),
+    model = MicrofacetModel(env, MITSUBA, MITSUBA.bsdf("ggx", 0.3), (n, v),
                             options=PresetModelOptions(max_level=7))
     cells = [(st, s, 16) for s in ("independent", "ldsampler") for st in ("map", "brdf", "mis")]
     preds = model.predict_many(cells)
@@ -106,7 +106,7 @@ def test_selected_frames_estimate_the_pool_mean():
     data = np.full((16, 32, 3), 0.5, np.float32)
     data[5, 9] = 400.0
     env = EnvMap(data, up="y")
-    c = Conductor("ggx", 0.1)
+    c = MITSUBA.bsdf("ggx", 0.1)
     n, v = band_frames(400, (0, 90), seed=4)
     opts = PresetModelOptions(max_level=5)
     full = MicrofacetModel(env, MITSUBA, c, (n, v), options=opts)
@@ -132,7 +132,7 @@ def test_compiled_conductor_is_the_numpy_conductor(kind, renderer):
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     d[:4] = [[0, 0, 1], [1, 0, 0], [0, 0, -1], [0.6, 0, 0.8]]
     for alpha in (0.05, 0.4, 1.0):
-        c = Conductor(kind, alpha, renderer=renderer)
+        c = get_renderer(renderer).bsdf(kind, alpha)
         for wi in ([0, 0, 1.0], [0.5, 0.2, np.sqrt(0.71)], [0.99, 0, np.sqrt(1 - 0.99 ** 2)]):
             wi = np.array(wi)
             f, p = conductor_eval_pdf(c, wi, d)
@@ -155,7 +155,7 @@ def test_compiled_sampling_is_the_numpy_conductor(kind, renderer):
     u[:6] = [[0.5, 0.5], [0, 0], [1, 1], [0, 1], [0.5, 0], [1, 0.5]]
     tol = 1e-10 if kind == "ggx" else 1e-9
     for alpha in (0.05, 0.3, 1.0):
-        c = Conductor(kind, alpha, renderer=renderer)
+        c = get_renderer(renderer).bsdf(kind, alpha)
         for wi in ([0, 0, 1.0], [0.5, 0.2, np.sqrt(0.71)], [0.3, -0.9, np.sqrt(0.1)],
                    [0.999, 0, np.sqrt(1 - 0.999 ** 2)]):
             wi = np.array(wi)
@@ -179,7 +179,7 @@ def test_beckmann_grid_sampling_is_the_pointwise_warp(renderer):
     from envfit.predict.renderer._vndf_kernels import conductor_sample
     u = midpoints(5)
     for alpha in (0.05, 0.3):
-        c = Conductor("beckmann", alpha, renderer=renderer)
+        c = get_renderer(renderer).bsdf("beckmann", alpha)
         for wi in ([0, 0, 1.0], [0.5, 0.2, np.sqrt(0.71)], [0.999, 0, np.sqrt(1 - 0.999 ** 2)]):
             grid = conductor_sample(c, np.array(wi), u, 5)
             point = conductor_sample(c, np.array(wi), u)
@@ -279,9 +279,9 @@ def _footprint_model(side=4, resolution=6, level=6):
     foot = pixel_footprints(n, v, resolution, side)
     opts = PresetModelOptions(max_level=level)
     env = _sun_map(32)
-    m = MicrofacetModel(env, MITSUBA, Conductor("ggx", 0.1), (n, v), options=opts,
+    m = MicrofacetModel(env, MITSUBA, MITSUBA.bsdf("ggx", 0.1), (n, v), options=opts,
                         footprints=foot)
-    plain = MicrofacetModel(env, MITSUBA, Conductor("ggx", 0.1), (n, v), options=opts)
+    plain = MicrofacetModel(env, MITSUBA, MITSUBA.bsdf("ggx", 0.1), (n, v), options=opts)
     return m, plain, foot[0], v[0]
 
 
@@ -403,8 +403,9 @@ def test_footprint_variances_scaled_to_the_pixel_converge_with_the_side():
     got = {}
     for side in (2, 8):
         foot = pixel_footprints(n[k:k + 1], v[k:k + 1], 64, side)
-        m = MicrofacetModel(_sun_map(32), MITSUBA, Conductor("ggx", 0.3), (n[k:k + 1], v[k:k + 1]),
-                            options=PresetModelOptions(max_level=6), footprints=foot)
+        m = MicrofacetModel(_sun_map(32), MITSUBA, MITSUBA.bsdf("ggx", 0.3),
+                            (n[k:k + 1], v[k:k + 1]), options=PresetModelOptions(max_level=6),
+                            footprints=foot)
         vals = m._part_values({"map", "brdf"}, m.normals[0], 7)
         got[side] = np.array([vals[w][t] for w in ("_var_c", "_var_a") for t in ("map", "brdf")])
     np.testing.assert_allclose(got[2], got[8], rtol=0.05)
@@ -417,7 +418,7 @@ def test_compiled_proxies_are_the_frame_loop(kind, renderer, monkeypatch):
     equal the per-frame numpy loop (the conductor's eval and pdf at the pilot table) to 1e-9."""
     import envfit.predict.renderer._microfacet_model as mm
     n, v = band_frames(40, (0, 89), seed=5)
-    m = MicrofacetModel(_sun_map(), get_renderer(renderer), Conductor(kind, 0.1, renderer=renderer),
+    m = MicrofacetModel(_sun_map(), get_renderer(renderer), get_renderer(renderer).bsdf(kind, 0.1),
                         (n[:2], v[:2]), options=PresetModelOptions(max_level=6))
     fast = m._proxies(n, v)
     monkeypatch.setattr(mm, "compiled_conductor", lambda c: False)
@@ -498,7 +499,8 @@ def test_a_conductor_between_powers_of_two_is_calibrated_and_its_strata_add_up()
     plastic's lobe choice stays at powers of two."""
     env = _sun_map()
     n, v = band_frames(48, (0, 90), seed=1)
-    m = MicrofacetModel(env, get_renderer("cycles"), Conductor("ggx", 0.3), (n, v),
+    m = MicrofacetModel(env, get_renderer("cycles"), get_renderer("cycles").bsdf("ggx", 0.3),
+                        (n, v),
                         options=PresetModelOptions(max_level=5, shifts=32))
     assert m.between_powers
     r64, r96, r128 = (m.predict("mis", "tabulated_sobol", k).rmse for k in (64, 96, 128))

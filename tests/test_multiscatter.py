@@ -1,4 +1,5 @@
-"""Cycles' Multiscatter GGX (``envfit.shading.microfacet._conductor``): the albedo table
+"""Cycles' Multiscatter GGX (``envfit.renderers.cycles._bsdf``, the energy scale of
+``envfit.shading.microfacet._multiscatter``): the albedo table
 against a direction-space quadrature of the single-scatter BSDF, the lookup's interpolation,
 the conductor's eval and weight scaled, the noise model scaled per frame, and bad
 combinations refused. Rendered by Cycles: tests/test_render_cycles.py (a white sphere under
@@ -13,14 +14,29 @@ from envfit.maps import EnvMap
 from envfit.predict.renderer import MicrofacetModel
 from envfit.predict.renderer._preset_model import PresetModelOptions
 from envfit.renderers import get_renderer
-from envfit.shading.microfacet import Conductor, energy_scale, multiscatter_or_conductor
-from envfit.shading.microfacet._conductor import TABLE_SIZE, _column
+from envfit.shading.microfacet import Conductor
+from envfit.shading.microfacet import energy_scale as _energy_scale
+from envfit.shading.microfacet._multiscatter import TABLE_SIZE
+from envfit.shading.microfacet._multiscatter import _column as _technique_column
+
+CYCLES = get_renderer("cycles")
+#: the techniques of Cycles' GGX (its record's conductor)
+TECHNIQUE = {"shadowing": CYCLES.bsdf("ggx", 0.3).shadowing,
+             "vndf": CYCLES.bsdf("ggx", 0.3).vndf}
+
+
+def _column(x):
+    return _technique_column(TECHNIQUE["shadowing"], TECHNIQUE["vndf"], x)
+
+
+def energy_scale(alpha, cos_i):
+    return _energy_scale(alpha, cos_i, **TECHNIQUE)
 
 
 def _albedo_by_directions(alpha: float, mu: float, n: int = 1200) -> float:
     """∫ f cos dω_o of the single-scatter Cycles GGX by a Gauss–Legendre rule in
     (cos θ_o, φ_o), the φ axis split at the mirror azimuth."""
-    c = Conductor("ggx", alpha, "cycles")
+    c = CYCLES.bsdf("ggx", alpha)
     x, w = np.polynomial.legendre.leggauss(n)
     ct = (x + 1) / 2
     wt = w / 2
@@ -52,8 +68,7 @@ def test_lookup_interpolates_as_cycles():
 
 
 def test_conductor_scales_eval_and_weight_not_the_pdf():
-    one, multi = Conductor("ggx", 0.4, "cycles"), Conductor("ggx", 0.4, "cycles",
-                                                             multiscatter=True)
+    one, multi = CYCLES.bsdf("ggx", 0.4), CYCLES.bsdf("multiggx", 0.4)
     rng = np.random.default_rng(2)
     wi = np.broadcast_to([0.6, 0.0, 0.8], (500, 3))
     u = rng.random((500, 2))
@@ -69,11 +84,8 @@ def test_model_mse_scales_by_the_square_per_frame():
     env = EnvMap((rng.random((16, 32, 3)) * 2 + 0.5).astype(np.float32))
     frame = (np.array([[0.0, 0.0, 1.0]]), np.array([[0.6, 0.0, 0.8]]))
     opts = PresetModelOptions(max_level=5)
-    one = MicrofacetModel(env, get_renderer("cycles"), Conductor("ggx", 0.3, "cycles"), frame,
-                          options=opts)
-    multi = MicrofacetModel(env, get_renderer("cycles"), multiscatter_or_conductor("multiggx", 0.3,
-                                                                             "cycles"),
-                            frame, options=opts)
+    one = MicrofacetModel(env, CYCLES, CYCLES.bsdf("ggx", 0.3), frame, options=opts)
+    multi = MicrofacetModel(env, CYCLES, CYCLES.bsdf("multiggx", 0.3), frame, options=opts)
     k = float(energy_scale(0.3, 0.8))
     for s in ("brdf", "mis"):
         assert multi.predict(s, "tabulated_sobol", 16).rmse == pytest.approx(
@@ -82,7 +94,7 @@ def test_model_mse_scales_by_the_square_per_frame():
 
 def test_bad_combinations():
     with pytest.raises(ParameterError, match="Multiscatter"):
-        multiscatter_or_conductor("multiggx", 0.3, "mitsuba3")
-    for args in (("beckmann", 0.3, "cycles"), ("ggx", 0.3, "mitsuba3")):
+        get_renderer("mitsuba3").bsdf("multiggx", 0.3)
+    for kind, kw in (("beckmann", {}), ("ggx", {"eta": 0.3, "k": 2.5, "fresnel": "moeller"})):
         with pytest.raises(ParameterError, match="multiscatter"):
-            Conductor(*args, multiscatter=True)
+            Conductor(kind, 0.3, **TECHNIQUE, multiscatter=True, **kw)

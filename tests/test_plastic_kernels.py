@@ -14,7 +14,7 @@ from envfit.predict.renderer import MicrofacetModel, PresetModelOptions, band_fr
 from envfit.predict.renderer._plastic_kernels import (compiled_plastic, plastic_eval_pdf,
                                                       plastic_proxies, plastic_sample)
 from envfit.renderers import get_renderer
-from envfit.shading.microfacet import Conductor, RoughPlastic
+from envfit.shading.microfacet import RoughPlastic
 
 ALPHAS = (0.05, 0.2, 0.6)
 VIEWS = np.array([[0.0, 0.0, 1.0], [0.5, 0.2, np.sqrt(0.71)], [0.3, -0.9, np.sqrt(0.1)],
@@ -111,7 +111,7 @@ def test_compiled_plastic_covers_roughplastic_only():
     assert compiled_plastic(RoughPlastic("ggx", 0.2, specular_reflectance=0.5,
                                          nonlinear=True, sample_visible=False))
     assert compiled_plastic(RoughPlastic("beckmann", 0.6, int_ior=1.2))
-    assert not compiled_plastic(Conductor("ggx", 0.2))
+    assert not compiled_plastic(get_renderer("mitsuba3").bsdf("ggx", 0.2))
 
     class Other(RoughPlastic):
         pass

@@ -92,18 +92,18 @@ def test_cycles_measurement_fields(tmp_path):
 def test_glossy_sphere_reflects_the_conductors_albedo(kind):
     """The Glossy BSDF sphere (glossy_bsdf, α = 0.3) under a constant map L: each pixel is
     L × the directional albedo of envfit's Cycles conductor at its view angle (the mean
-    weight f·cos/pdf of Conductor(renderer="cycles").sample, 200,000 points), to 1.5 % over
+    weight f·cos/pdf of the record's Conductor.sample, 200,000 points), to 1.5 % over
     the disk and per view-angle band: the roughness √α, the height-correlated G2 and Fresnel
     1, against Cycles' own BSDF. Multiscatter GGX (the node's default) conserves energy: its
     pixels are L (envfit's energy scale times the albedo, to 1.5 %), grazing views too."""
     from envfit.renderers import glossy_bsdf
-    from envfit.shading.microfacet import multiscatter_or_conductor
     L, alpha = 0.5, 0.3
     g = sphere_geometry(R, "disk")
     env = EnvMap(np.full((8, 16, 3), L))
     with CyclesSphere(env, CyclesOptions(resolution=R, bsdf=glossy_bsdf(kind, alpha))) as r:
         img, _ = r.render("brdf", "tabulated_sobol", 256, seed=3)
-    c = multiscatter_or_conductor(kind, alpha, "cycles")
+    from envfit.renderers import get_renderer
+    c = get_renderer("cycles").bsdf(kind, alpha)
     u = np.random.default_rng(0).random((200_000, 2))
     z = g.z[g.keep]
     want = []

@@ -96,7 +96,7 @@ def test_below_the_surface_and_interface():
     a = p.sample(np.repeat(up, 3, axis=0), np.full((3, 2), 0.4), u1=np.array([0.0, 0.5, 1.0]))
     b = p.sample(np.repeat(up, 3, axis=0), np.column_stack([[0.0, 0.5, 1.0], np.full((3, 2), 0.4)]))
     assert np.array_equal(a.wo, b.wo) and a.specular[0] and not a.specular[2]
-    for bad in [lambda: p.sample(up, [[0.1, 0.2]]), lambda: RoughPlastic(renderer="pbrt4"),
+    for bad in [lambda: p.sample(up, [[0.1, 0.2]]), lambda: RoughPlastic(vndf="pbrt4"),
                 lambda: RoughPlastic(int_ior=1.0, ext_ior=1.0),
                 lambda: RoughPlastic(diffuse_reflectance=-1)]:
         with pytest.raises(ParameterError):

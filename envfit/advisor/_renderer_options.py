@@ -54,10 +54,7 @@ from envfit.base import EnvfitError, ParameterError
 from envfit.defaults import FOOTPRINT_SIDE, MICROFACET_BSDFS, MICROFACET_FRAMES_SEED
 from envfit.maps import EnvMap
 from envfit.predict.renderer import PresetModelOptions, preset_request
-from envfit.renderers import STRATEGY_NAMES, get_renderer
-from envfit.shading.microfacet import (ROUGHNESS_RTOL, ROUGHNESS_UNITS, RoughPlastic,
-                                       multiscatter_or_conductor, roughness_range,
-                                       roughness_to_alpha, roughness_words)
+from envfit.renderers import ROUGHNESS_RTOL, STRATEGY_NAMES, get_renderer
 
 __all__ = ["RendererAdviseOptions", "PresetAdviseOptions", "STRATEGY_WORDS", "DEFAULT_MAX_SPP",
            "MAX_SPP", "DEFAULT_LEVEL", "DEFAULT_LEVEL_V", "DEFAULT_NORMALS", "NET_RANDOMISATIONS",
@@ -171,12 +168,13 @@ def _check_microfacet(p, bsdf: str, sampler: str) -> None:
 
 
 def checked_roughness(roughness, renderer: str) -> float:
-    """``--roughness`` in :func:`roughness_words`' range (a value within
-    :data:`~envfit.shading.microfacet.ROUGHNESS_RTOL` of an end is that end); else one line.
+    """``--roughness`` in the range of the renderer's roughness convention
+    (:meth:`~envfit.renderers.RoughnessConvention.range`; a value within
+    :data:`~envfit.renderers.ROUGHNESS_RTOL` of an end is that end); else one line.
 
-    >>> from envfit.shading.microfacet import roughness_range
     >>> from envfit.renderers import RENDERERS
-    >>> r = next(n for n in RENDERERS if roughness_range(n)[0] == 0.223607)   # R = sqrt(alpha)
+    >>> r = next(n for n, p in RENDERERS.items()                    # R = sqrt(alpha)
+    ...          if p.roughness and p.roughness.range()[0] == 0.223607)
     >>> checked_roughness(0.2236068, r)                 # within ROUGHNESS_RTOL of the end
     0.223607
     """
@@ -184,13 +182,14 @@ def checked_roughness(roughness, renderer: str) -> float:
         r = float(roughness)
     except (TypeError, ValueError):
         raise ParameterError(f"--roughness must be a number, got {roughness!r}") from None
-    lo, hi = roughness_range(renderer)
+    convention = get_renderer(renderer).roughness
+    lo, hi = convention.range()
     if lo * (1.0 - ROUGHNESS_RTOL) <= r < lo:
         return lo
     if hi < r <= hi * (1.0 + ROUGHNESS_RTOL):
         return hi
     if not (math.isfinite(r) and lo <= r <= hi):
-        raise ParameterError(f"--roughness {r:.12g} is outside {roughness_words(renderer)}")
+        raise ParameterError(f"--roughness {r:.12g} is outside {convention.words()}")
     return r
 
 
@@ -249,8 +248,9 @@ class RendererAdviseOptions:
         has it; not with ``envfit``).
     roughness : float or None
         With a microfacet ``bsdf``: the renderer's own roughness (α, √α or α² by renderer:
-        :data:`~envfit.shading.microfacet.ROUGHNESS_UNITS`), α in :data:`~envfit.defaults.ADVISE_ALPHA`
-        (:func:`roughness_words`; within :data:`~envfit.shading.microfacet.ROUGHNESS_RTOL`
+        its record's :attr:`~envfit.renderers.Renderer.roughness`), α in
+        :data:`~envfit.defaults.ADVISE_ALPHA` (its ``words()``; within
+        :data:`~envfit.renderers.ROUGHNESS_RTOL`
         of an end, that end).
     sphere_pixels : int or None
         The sphere's diameter on screen in pixels; the prediction then holds the error of
@@ -402,7 +402,7 @@ class RendererAdviseOptions:
         _check_microfacet(p, self.bsdf, self.sampler)
         if self.roughness is None:
             raise ParameterError(f"--brdf {self.bsdf} needs --roughness (the renderer's own: "
-                                 f"{ROUGHNESS_UNITS.get(p.name, 'its roughness')})")
+                                 f"{p.roughness.units if p.roughness else 'its roughness'})")
         object.__setattr__(self, "roughness", checked_roughness(self.roughness, p.name))
         self.conductor()                      # the renderer lacks this distribution: one line
 
@@ -430,11 +430,10 @@ class RendererAdviseOptions:
 
     def conductor(self):
         """The white conductor (Fresnel 1) as the renderer shades and samples it, or the
-        renderer's rough plastic (:class:`RoughPlastic`: a GGX coat, its defaults η 1.49, diffuse 0.5)."""
-        alpha = roughness_to_alpha(self.roughness, self.renderer)
-        if self.bsdf == "roughplastic":
-            return RoughPlastic("ggx", alpha)
-        return multiscatter_or_conductor(self.bsdf, alpha, self.renderer)
+        renderer's rough plastic (a GGX coat, its defaults η 1.49, diffuse 0.5): the record's
+        :meth:`~envfit.renderers.Renderer.bsdf` at the α of its roughness convention."""
+        p = self.record
+        return p.bsdf(self.bsdf, p.roughness.to_alpha(self.roughness))
 
     def model_options(self) -> PresetModelOptions:
         """The :class:`PresetModelOptions` of ``level`` and ``normals`` (pool: its default,

@@ -79,12 +79,12 @@ def sampler_help() -> str:
 
 
 def roughness_help() -> str:
-    """``--roughness``'s help: each renderer's unit and range
-    (:func:`envfit.shading.microfacet.roughness_words`)."""
-    from envfit.shading.microfacet import MICROFACET_RENDERERS, roughness_words
+    """``--roughness``'s help: each renderer's unit and range (its record's roughness
+    convention, :meth:`envfit.renderers.RoughnessConvention.words`)."""
+    from envfit.renderers import RENDERERS
+    words = "; ".join(r.roughness.words() for r in RENDERERS.values() if r.roughness)
     return (f"with a microfacet --brdf: the renderer's own roughness, in its range ("
-            f"{'; '.join(roughness_words(r) for r in MICROFACET_RENDERERS)}; checked with "
-            f"--renderer)")
+            f"{words}; checked with --renderer)")
 
 
 def _add_model_arguments(g) -> None:
@@ -138,13 +138,12 @@ def _net_words() -> str:
 def reject_without_renderer(args: argparse.Namespace) -> None:
     """A --renderer option given without --renderer: one line."""
     from envfit.renderers import RENDERERS
-    from envfit.shading.microfacet import MICROFACET_RENDERERS
     for dest, flag in _RENDERER_ONLY.items():
         if getattr(args, dest, None) not in (None, False):
             raise ParameterError(f"{flag} needs --renderer ({', '.join(RENDERERS)})")
     if getattr(args, "brdf", "diffuse") in MICROFACET_BSDFS:
         raise ParameterError(f"--brdf {args.brdf} needs --renderer "
-                             f"({', '.join(MICROFACET_RENDERERS)}): "
+                             f"({', '.join(r.name for r in RENDERERS.values() if r.microfacet)}): "
                              f"the microfacet model predicts a renderer's own estimator")
 
 

@@ -35,10 +35,9 @@ def _rendering() -> tuple[str, str, str]:
     """From the registries: the renderers that render ('A|B'), each one's default samplers,
     each one's roughness convention."""
     from envfit.renderers import RENDERERS
-    from envfit.shading.microfacet import roughness_words
     rs = [r for r in RENDERERS.values() if r.harness]
     samplers = "; ".join(f"{r.display} {','.join(r.render_samplers)}" for r in rs)
-    rough = "; ".join(roughness_words(r.name) for r in rs)
+    rough = "; ".join(r.roughness.words() for r in rs)
     return "|".join(r.name for r in rs), samplers, rough
 
 
@@ -94,7 +93,8 @@ def check_flags(args: argparse.Namespace) -> None:
     if not rendered:
         given = [f for f, k in _FLAGS.items() if getattr(args, k) is not None]
         if given:
-            raise ParameterError(f"{', '.join(given)} need(s) --renderer mitsuba3 or cycles")
+            names = " or ".join(_rendering()[0].split("|"))
+            raise ParameterError(f"{', '.join(given)} need(s) --renderer {names}")
         return
     given = [f for f, k in _RULES_FLAGS.items() if getattr(args, k) is not None]
     if given:
@@ -122,15 +122,20 @@ def options(args: argparse.Namespace, cache_dir):
 
 def alpha_of(args: argparse.Namespace) -> float | None:
     """The microfacet alpha of ``--alpha`` or of ``--roughness`` read as the renderer's own
-    value (:func:`envfit.shading.microfacet.roughness_to_alpha`, as ``advise``), within
+    value (the record's roughness convention,
+    :meth:`envfit.renderers.RoughnessConvention.to_alpha`, as ``advise``), within
     ``--alpha``'s range (one line naming the flag given)."""
     from envfit.base import ParameterError
     if args.roughness is None:
         return args.alpha
-    from envfit.shading.microfacet import ROUGHNESS_RULES, roughness_to_alpha
-    alpha = roughness_to_alpha(args.roughness, args.renderer)
+    from envfit.renderers import RENDERERS, get_renderer
+    convention = get_renderer(args.renderer).roughness
+    if convention is None:
+        names = tuple(r.name for r in RENDERERS.values() if r.roughness)
+        raise ParameterError(f"renderer must be one of {names}, got {args.renderer!r}")
+    alpha = convention.to_alpha(args.roughness)
     if not ALPHA.inside(alpha):
-        rule = ROUGHNESS_RULES[args.renderer]
+        rule = convention.rule
         raise ParameterError(f"--roughness {args.roughness:g} gives alpha = {alpha:g} for "
                              f"{args.renderer} ({rule}), outside {ALPHA}")
     return alpha

@@ -7,7 +7,9 @@ renderer's environment-map technique (radiance lookup, sampling warp and density
 renderer builds them: :class:`Mitsuba3Envmap`, :class:`Pbrt4ImageInfiniteLight`,
 :class:`CyclesBackground`, :class:`EnvfitMapTechnique`), its cosine BSDF sampling map and
 tangent frame, its MIS heuristic, the integrator settings per strategy (``map``, ``brdf``,
-``mis``; which of them the renderer can render), its samplers by their own names with the
+``mis``; which of them the renderer can render), its microfacet BSDFs built from the
+techniques of :mod:`envfit.shading.microfacet` (:meth:`Renderer.bsdf`) and its roughness
+convention (:attr:`Renderer.roughness`), its samplers by their own names with the
 spp each runs and a randomisation tag (:data:`RANDOMISATIONS`), the scene text a user
 pastes (:meth:`Renderer.snippet`), and where the renderer installs here, the harness that
 renders envfit's measurement with it (:class:`Mitsuba3Sphere`, :class:`CyclesSphere`).
@@ -31,6 +33,8 @@ Folders and modules:
   :class:`PermutationLaw` — is an option value its record gives the exact model), the
   concentric cosine map, the power and balance heuristics.
 * ``_registry`` — :data:`RENDERERS`, :func:`get_renderer`: one line per renderer.
+* ``_roughness`` — a renderer's roughness convention (:class:`RoughnessConvention`: its
+  roughness R → the microfacet α, its range and words).
 * ``_sphere`` — renderer-independent measurement: a white sphere rendered from six
   orthographic views, each pixel kept in the view nearest its normal and weighted 1/(n·v),
   so the weighted pixels sample normals uniformly; the RMSE with the reference's own
@@ -38,11 +42,14 @@ Folders and modules:
 * ``_reference`` — the high-spp reference renders, cached on disk (verified, atomic).
 * ``mitsuba3/`` — Mitsuba 3.9.1: ``_envmap`` (``envmap``: ``Hierarchical2D`` warp of a
   bilinear density, and ``direct``), ``_kensler`` (``multijitter``'s hashed permutations and
-  grid), ``_render`` (the renders, ``scalar_rgb``).
+  grid), ``_bsdf`` (``roughconductor``, ``roughplastic``, α itself), ``_render`` (the
+  renders, ``scalar_rgb``).
 * ``pbrt4/`` — pbrt-v4: ``_light`` (``ImageInfiniteLight``, equal-area square image,
-  compensated ``PiecewiseConstant2D``), ``_equal_area`` (``imgtool makeequiarea``).
+  compensated ``PiecewiseConstant2D``), ``_equal_area`` (``imgtool makeequiarea``),
+  ``_bsdf`` (the GGX ``conductor``, α = √R).
 * ``cycles/`` — Cycles 5.0: ``_background`` (the world light, importance map at ≥ 4096 ×
-  2048 under Auto), ``_scene`` (the scene text), ``_render`` (the renders through ``bpy``).
+  2048 under Auto), ``_bsdf`` (the microfacet closure and Multiscatter GGX, α = R²),
+  ``_scene`` (the scene text), ``_render`` (the renders through ``bpy``).
 * ``envfit/`` — envfit's own MapSampler, lobe sampling and balance MIS.
 
 Adding a renderer is a folder holding its record and one line in ``_registry``.
@@ -81,6 +88,7 @@ _LAZY = {
     "cycles_frame": "cycles._background",
     "EnvfitMapTechnique": "envfit._technique",
     "RENDERERS": "_registry", "get_renderer": "_registry", "renderer_names": "_registry",
+    "RoughnessConvention": "_roughness", "ROUGHNESS_RTOL": "_roughness",
     "BOOTSTRAP_RESAMPLES": "_sphere", "SphereError": "_sphere", "SphereGeometry": "_sphere",
     "SphereMeasurement": "_sphere", "SphereView": "_sphere", "VIEWS": "_sphere",
     "sphere_error": "_sphere", "sphere_geometry": "_sphere", "sphere_mean": "_sphere",

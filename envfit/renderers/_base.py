@@ -20,12 +20,15 @@ text a user pastes (:meth:`Renderer.snippet`).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable, Mapping
+from typing import TYPE_CHECKING, Callable, Mapping
 
 import numpy as np
 
 from envfit.base import ParameterError
 from envfit.base import as_square_points, as_unit_vectors
+
+if TYPE_CHECKING:                         # a field's annotation only
+    from envfit.renderers._roughness import RoughnessConvention
 
 __all__ = ["RANDOMISATIONS", "PAIRINGS", "STRATEGY_NAMES", "DirectionSample",
            "EnvmapTechnique", "PermutationLaw", "SamplerSpec", "StrategySetting", "Renderer",
@@ -421,6 +424,13 @@ class Renderer:
         → the samplers each is modelled for (None: every sampler)
     microfacet_why : BSDF → why its samplers are limited (a parenthesis in the refusal)
     bsdf_notes : BSDF → a note the advice carries (what the name means in this renderer)
+    bsdf_fn : ``(name, alpha, **params) -> BSDF`` — the renderer's microfacet BSDF of that
+        ``--brdf`` name as it shades and samples it, built from the techniques of
+        :mod:`envfit.shading.microfacet` (:meth:`bsdf`); None: it has none modelled
+    bsdf_names : BSDF → its name in the renderer's words, where the ``--brdf`` name is not
+        (said when another renderer is asked for it)
+    roughness : the :class:`~envfit.renderers.RoughnessConvention` of its microfacet BSDFs
+        (user-facing roughness R → α); None where it has none
     render_samplers : the samplers ``validate --renderer`` renders by default (empty: the
         renderer does not install here, nothing is rendered)
     harness : the module that renders envfit's measurement with it (``version()``,
@@ -444,6 +454,9 @@ class Renderer:
     microfacet: Mapping[str, tuple[str, ...] | None] = field(default_factory=dict)
     microfacet_why: Mapping[str, str] = field(default_factory=dict)
     bsdf_notes: Mapping[str, str] = field(default_factory=dict)
+    bsdf_fn: Callable[..., object] | None = None
+    bsdf_names: Mapping[str, str] = field(default_factory=dict)
+    roughness: RoughnessConvention | None = None
     render_samplers: tuple[str, ...] = ()
     harness: str = ""
 
@@ -500,6 +513,27 @@ class Renderer:
         import inspect
         return tuple(n for n, a in inspect.signature(self.snippet_fn).parameters.items()
                      if a.kind is a.KEYWORD_ONLY)
+
+    def bsdf(self, name: str, alpha: float, **params):
+        """The microfacet BSDF ``name`` (a ``--brdf`` name: ``ggx``, ``beckmann``, …) of
+        roughness α as this renderer shades and samples it (:attr:`bsdf_fn`; ``params``: its
+        η + ik or a plastic's reflectances). A BSDF that one other renderer alone has is
+        refused naming that renderer; the renderer's own function refuses the rest.
+
+        >>> from envfit.renderers import get_renderer
+        >>> get_renderer("pbrt4").bsdf("ggx", 0.3).shadowing
+        'height_correlated'
+        """
+        if name not in self.microfacet:
+            from envfit.renderers._registry import RENDERERS
+            owners = [r for r in RENDERERS.values() if name in r.microfacet]
+            if len(owners) == 1:
+                o = owners[0]
+                raise ParameterError(f"--brdf {name} is {o.possessive} "
+                                     f"{o.bsdf_names.get(name, name)}: --renderer {o.name}")
+        if self.bsdf_fn is None:
+            raise ParameterError(f"{self.display or self.name} has no microfacet BSDF")
+        return self.bsdf_fn(name, alpha, **params)
 
     def harness_module(self):
         """The module of :attr:`harness` (ParameterError where the renderer has none)."""

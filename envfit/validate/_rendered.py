@@ -249,7 +249,6 @@ def _model(envmap, options: RenderValidationOptions):
     from envfit.predict.renderer import (MicrofacetModel, PresetModel, PresetModelOptions,
                                          pixel_footprints, pixel_frames)
     from envfit.renderers import get_renderer
-    from envfit.shading.microfacet import RoughPlastic, multiscatter_or_conductor
     env = EnvMap(envmap.data, up="y", name=envmap.name)
     p, level = get_renderer(options.renderer), options.max_level
     if not options.microfacet:
@@ -260,9 +259,7 @@ def _model(envmap, options: RenderValidationOptions):
     n, v, _ = pixel_frames(g, VIEWS, len(VIEWS) * g.kept, seed=options.seed)   # every pixel
     foot = (pixel_footprints(n, v, options.resolution, options.footprint)
             if options.footprint > 1 else None)
-    bsdf = (RoughPlastic("ggx", options.alpha) if options.brdf == "roughplastic" else
-            multiscatter_or_conductor(options.brdf, options.alpha, options.renderer))
-    return MicrofacetModel(env, p, bsdf, (n, v),
+    return MicrofacetModel(env, p, p.bsdf(options.brdf, options.alpha), (n, v),
                            options=PresetModelOptions(max_level=level),
                            select=options.frames, footprints=foot)
 

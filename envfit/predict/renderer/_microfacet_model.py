@@ -79,7 +79,8 @@ class MicrofacetModel(LobeChoice, PresetModel):
         From :func:`envfit.renderers.preset` (its technique, tangent frame, MIS
         heuristic, samplers).
     conductor : envfit.shading.microfacet.Conductor or RoughPlastic
-        The BSDF as the same renderer shades and samples it (a rough plastic's BSDF sampling,
+        The BSDF as the same renderer shades and samples it (its record's
+        :meth:`~envfit.renderers.Renderer.bsdf`; a rough plastic's BSDF sampling,
         whose lobe takes a third random number: :mod:`._lobe_parts`, :meth:`request`).
     frames : tuple of arrays
         (normals (K, 3), views (K, 3)), world directions; ``weights`` (K,) optional (default
@@ -106,11 +107,11 @@ class MicrofacetModel(LobeChoice, PresetModel):
     >>> import numpy as np
     >>> from envfit.maps import EnvMap
     >>> from envfit.renderers import get_renderer
-    >>> from envfit.shading.microfacet import Conductor
     >>> from envfit.predict.renderer import band_frames
     >>> env = EnvMap(np.full((8, 16, 3), 2.0))
-    >>> m = MicrofacetModel(env, get_renderer("mitsuba3"), Conductor("ggx", 0.3),
-    ...                     band_frames(4, seed=0), options=PresetModelOptions(max_level=4))
+    >>> r = get_renderer("mitsuba3")
+    >>> m = MicrofacetModel(env, r, r.bsdf("ggx", 0.3), band_frames(4, seed=0),
+    ...                     options=PresetModelOptions(max_level=4))
     >>> round(m.predict("brdf", "independent", 16).rmse, 6) > 0    # G1 varies with m
     True
     """

@@ -1,6 +1,7 @@
 r"""Compiled (numba) forms of the rough plastic for the microfacet model's hot loops, each the
-same arithmetic as :class:`envfit.shading.microfacet.RoughPlastic` (``_plastic``, which cites
-the renderer's source it follows), which the tests compare it with:
+same arithmetic as :class:`envfit.shading.microfacet.RoughPlastic` (``_plastic``; the
+renderer's source it follows is cited in the renderer's folder, ``_bsdf``), which the tests
+compare it with:
 
 * :func:`plastic_eval_pdf` — f·cos θ_o and the sampling pdf at many light directions for one
   view (``RoughPlastic.eval`` and ``pdf``): the specular term ρ_s F(ω_i·H) D(H) G_1(ω_i, H)
@@ -23,9 +24,10 @@ The transmittance table T and the internal reflectance R_i are the BSDF's
 (``rough_fresnel_tables``, computed in numpy when it is built); only the per-direction
 arithmetic is compiled.
 
-The renderer's source each step follows is cited in :mod:`envfit.shading.microfacet._plastic`
-(eval, pdf, sample, the transmittance lookup, the distribution's eval, G1, G, sample and pdf,
-the dielectric Fresnel, the cosine hemisphere by the concentric disk).
+The renderer's source each step follows is cited in the renderer's folder
+(``envfit/renderers/<name>/_bsdf.py``: eval, pdf, sample, the transmittance lookup, the
+distribution's eval, G1, G, sample and pdf, the dielectric Fresnel, the cosine hemisphere by
+the concentric disk).
 """
 from __future__ import annotations
 

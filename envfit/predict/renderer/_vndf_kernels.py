@@ -39,12 +39,13 @@ import numba
 import numpy as np
 
 from envfit.predict.renderer._microfacet_kernels import _KINDS, _d, _lambda
+from envfit.shading.microfacet import VNDF_WARPS
 
 __all__ = ["conductor_sample", "compiled_sampling", "VNDF_VARIANTS"]
 
 #: the visible-normal warps by their code (module docstring; the index of a conductor's
-#: ``vndf_variant``)
-VNDF_VARIANTS = ("slope_space", "hemisphere_polar", "hemisphere_concentric")
+#: ``vndf_variant`` in :data:`envfit.shading.microfacet.VNDF_WARPS`)
+VNDF_VARIANTS = VNDF_WARPS
 
 _F32_EPS = float(np.finfo(np.float32).eps)
 _BIG = float(np.finfo(np.float64).max)
@@ -280,8 +281,11 @@ def _sample_grid(wi, view, a, b, alpha, variant, wo, out):  # pragma: no cover -
 
 
 def compiled_sampling(conductor) -> bool:
-    """Whether :func:`conductor_sample` repeats ``conductor.sample`` (white GGX or Beckmann)."""
-    return conductor.eta is None and conductor.distribution.kind in _KINDS
+    """Whether :func:`conductor_sample` repeats ``conductor.sample``: white GGX or Beckmann,
+    its weight's form the one its warp's code implies (variant 0 with separable G, the
+    hemisphere variants with height-correlated G)."""
+    return (conductor.eta is None and conductor.distribution.kind in _KINDS
+            and conductor.separable_g == (conductor.vndf_variant == 0))
 
 
 def _beckmann_constants(wp, variant):

@@ -19,16 +19,15 @@ only), which the model does not cover; bpy 5.3.0 was checked by rendering
   back; ``sobol_burley.h`` seeds it per pixel and dimension; ``tabulated_sobol.h`` reads 256
   tables scrambled so), which the model takes as nested uniform scrambling; the light's and the
   BSDF's dimensions are scrambled apart (pairing ``independent``).
-* **BSDFs** — white ``diffuse`` (:func:`cycles_frame`); Glossy GGX / Beckmann with
-  height-correlated G, roughness R and α = R² (:class:`envfit.shading.microfacet.Conductor`
-  ``renderer="cycles"``, ``_vndf``'s ``_sample_cycles_ggx`` / ``_sample_cycles_beckmann``; in
-  the compiled model the visible-normal variant 2 — hemisphere, concentric disk, m_z ≥ 0:
-  ``microfacet_ggx_sample_vndf``; Beckmann by ``microfacet_beckmann_sample_vndf``'s
-  safeguarded Newton/bisection, exact erf and erf⁻¹ where Cycles uses ``fast_erff`` /
-  ``fast_ierff``; ``src/kernel/closure/bsdf_microfacet.h``; the Glossy BSDF's roughness √α
-  in the harness, ``_render.glossy_bsdf``);
-  Multiscatter GGX as an energy scale on it
-  (:func:`envfit.shading.microfacet.multiscatter_or_conductor`).
+* **BSDFs** — white ``diffuse`` (:func:`cycles_frame`); in ``_bsdf`` (the record's ``bsdf``,
+  ``roughness``): Glossy GGX / Beckmann (:class:`envfit.shading.microfacet.Conductor` with
+  height-correlated G, the ``hemisphere_concentric`` visible-normal warp —
+  ``microfacet_ggx_sample_vndf``: hemisphere, concentric disk, m_z ≥ 0; Beckmann by
+  ``microfacet_beckmann_sample_vndf``'s safeguarded Newton/bisection, exact erf and erf⁻¹
+  where Cycles uses ``fast_erff`` / ``fast_ierff``; the compiled model's variant 2;
+  ``src/kernel/closure/bsdf_microfacet.h``), roughness R and α = R² (the Glossy BSDF's
+  roughness √α in the harness, ``_render.glossy_bsdf``); Multiscatter GGX (``multiggx``) as
+  an energy scale on it, 1/E of its own albedo table.
 * **Scene text and renders** — the bpy snippet (``_scene``), the rendered measurement through
   ``bpy`` (``_render``: :class:`CyclesSphere`, ``version``, ``open_sphere``).
 

@@ -43,6 +43,7 @@ from envfit.maps import local_to_world
 from envfit.renderers._base import (EnvmapTechnique, Renderer, SamplerSpec,
                                            StrategySetting, cosine_hemisphere, map_rgb,
                                            power_heuristic)
+from envfit.renderers.cycles._bsdf import BSDF_NAMES, ROUGHNESS, bsdf
 from envfit.renderers.cycles._scene import cycles_snippet
 
 __all__ = ["cycles_map_resolution", "CyclesBackground", "cycles_frame", "INTERPOLATIONS",
@@ -469,6 +470,9 @@ CYCLES = Renderer(
     bsdf_notes={"ggx": ("--brdf ggx is Cycles' single-scatter GGX (a Glossy BSDF set to GGX); "
                         "the Principled and Glossy BSDF nodes default to Multiscatter GGX: "
                         "--brdf multiggx")},
+    bsdf_fn=bsdf,
+    bsdf_names=BSDF_NAMES,
+    roughness=ROUGHNESS,
     render_samplers=("tabulated_sobol", "blue_noise"),
     harness="envfit.renderers.cycles._render",
 )

@@ -120,7 +120,7 @@ def glossy_bsdf(distribution: str = "ggx", alpha: float = 0.1, node: str = "glos
     """The sphere's BSDF for :attr:`CyclesOptions.bsdf`: the *Glossy BSDF* node, colour 1
     (Fresnel = 1: a white conductor), distribution ``GGX`` or ``Beckmann`` (single scattering),
     or ``multiggx``: *Multiscatter GGX*, the node's and the Principled BSDF's default (GGX
-    times ``energy_scale``, :mod:`envfit.shading.microfacet._conductor`), roughness √α (Cycles squares its
+    times ``energy_scale``, ``_bsdf``), roughness √α (Cycles squares its
     roughness and sets no Fresnel for single-scatter GGX and Beckmann: ``src/kernel/svm/
     closure.h``, ``svm_node_closure_bsdf``, case ``CLOSURE_BSDF_MICROFACET_GGX_ID``:
     ``alpha_x = alpha_y = sqr(saturatef(roughness))``, then ``bsdf_microfacet_ggx_setup`` or

@@ -39,15 +39,13 @@ held.
     seed_d) + jitter) / N``; ``ldsampler``: ``radical_inverse_2(permute(i, N, seed_d),
     scramble)``: N strata, one point each (the ``roughplastic`` lobe choice's model,
     ``STRATIFIED_1D``).
-* **BSDFs** — white ``diffuse`` (cosine sampling, :func:`mitsuba_frame`); ``roughconductor``
-  GGX / Beckmann with separable G and ``smith_g1`` view masking, visible normals as
-  ``MicrofacetDistribution::sample``, α its own parameter
-  (:class:`envfit.shading.microfacet.Conductor` ``renderer="mitsuba3"``, ``_vndf``'s
-  ``_sample_mitsuba``; in the compiled model the slope-space visible-normal variant 0 —
-  ``sample_visible_11`` of ``include/mitsuba/render/microfacet.h``: concentric disk, p_y
-  lerped, slopes rotated by the stretched view's azimuth; Beckmann by Jakob's inversion, u
-  clamped to [1e-6, 1 − 1e-6]; the weight ``smith_g1(wo, m)``, ``src/bsdfs/
-  roughconductor.cpp``); ``roughplastic`` (:class:`envfit.shading.microfacet.RoughPlastic`,
+* **BSDFs** — white ``diffuse`` (cosine sampling, :func:`mitsuba_frame`); in ``_bsdf``
+  (the record's ``bsdf``, ``roughness``): ``roughconductor`` GGX / Beckmann
+  (:class:`envfit.shading.microfacet.Conductor` with separable G and ``smith_g1`` view
+  masking, the ``slope_space`` visible-normal warp of ``MicrofacetDistribution::sample`` —
+  the compiled model's variant 0 —, Moeller's conductor Fresnel, the weight
+  ``smith_g1(wo, m)``; ``src/bsdfs/roughconductor.cpp``), α its own parameter;
+  ``roughplastic`` (:class:`envfit.shading.microfacet.RoughPlastic`,
   ``src/bsdfs/roughplastic.cpp``: ``sample1`` < ``prob_specular`` picks the specular lobe,
   ``sample2`` the direction), modelled for the samplers of the record's ``microfacet``.
 * **Scene text and renders** — the snippet (``_envmap._snippet``: Python dict or XML), the

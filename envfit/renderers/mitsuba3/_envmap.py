@@ -31,6 +31,7 @@ from envfit.maps import local_to_world
 from envfit.renderers._base import (SPHERE_VIEWS, EnvmapTechnique, Renderer,
                                            SamplerSpec, StrategySetting, cosine_hemisphere,
                                            map_rgb, scene_comment, snippet_pixels)
+from envfit.renderers.mitsuba3._bsdf import ROUGHNESS, bsdf
 from envfit.renderers.mitsuba3._kensler import KENSLER_PERMUTATIONS, multijitter_shape
 
 __all__ = ["Hierarchical2D", "Mitsuba3Envmap", "mitsuba_frame", "MITSUBA3", "LUMINANCE_RGB"]
@@ -559,6 +560,8 @@ MITSUBA3 = Renderer(
     microfacet={"ggx": None, "beckmann": None, "roughplastic": PLASTIC_SAMPLERS},
     microfacet_why={"roughplastic": " (orthogonal pairs the lobe choice with the direction in "
                                     "an array)"},
+    bsdf_fn=bsdf,
+    roughness=ROUGHNESS,
     render_samplers=("independent", "ldsampler"),
     harness="envfit.renderers.mitsuba3._render",
 )

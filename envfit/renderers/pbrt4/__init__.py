@@ -25,13 +25,13 @@ built here).
     (``StratifiedSampler::Create``; ``Get2D``: ``(x + dx)/xPixelSamples``, x along u_0):
     ``jittered`` with ``strata`` = :func:`_light.pbrt_strata`;
   - ``pmj02bn`` — ``cp_shift``; ``independent`` — ``independent``.
-* **BSDFs** — white ``diffuse`` (:func:`pbrt_sphere_frame`); the conductor with the
-  Trowbridge–Reitz (GGX) distribution only, height-correlated G, roughness R and α = √R
-  (:class:`envfit.shading.microfacet.Conductor` ``renderer="pbrt4"``, ``_vndf``'s
-  ``_sample_pbrt``; in the compiled model the visible-normal variant 1 — hemisphere, polar
-  disk: ``TrowbridgeReitzDistribution::Sample_wm`` of ``src/pbrt/util/scattering.h``,
-  ``SampleUniformDiskPolar``, m_z ≥ 1e-6; the weight G2/G1, ``src/pbrt/bxdfs.h``:
-  ``ConductorBxDF::Sample_f``).
+* **BSDFs** — white ``diffuse`` (:func:`pbrt_sphere_frame`); in ``_bsdf`` (the record's
+  ``bsdf``, ``roughness``): the conductor with the Trowbridge–Reitz (GGX) distribution only
+  (:class:`envfit.shading.microfacet.Conductor` with height-correlated G, the
+  ``hemisphere_polar`` visible-normal warp — ``TrowbridgeReitzDistribution::Sample_wm`` of
+  ``src/pbrt/util/scattering.h``, ``SampleUniformDiskPolar``, m_z ≥ 1e-6; the compiled
+  model's variant 1 —, ``FrComplex``; the weight G2/G1, ``src/pbrt/bxdfs.h``:
+  ``ConductorBxDF::Sample_f``), roughness R and α = √R.
 * **Scene text** — the scene lines and the conversion command (``_light._snippet``).
 
 The folder's record is :data:`PBRT4` (a :class:`~envfit.renderers.Renderer`).

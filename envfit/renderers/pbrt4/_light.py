@@ -41,6 +41,7 @@ from envfit.renderers._base import (SPHERE_VIEWS, DirectionSample, EnvmapTechniq
                                            Renderer, SamplerSpec, StrategySetting,
                                            cosine_hemisphere, scene_comment, snippet_pixels,
                                            square_points)
+from envfit.renderers.pbrt4._bsdf import ROUGHNESS, bsdf
 from envfit.renderers.pbrt4._equal_area import (_ATAN_POLY, PiecewiseConstant2D,
                                                   equal_area_sphere_to_square,
                                                   equal_area_square_to_sphere, make_equal_area)
@@ -415,4 +416,6 @@ PBRT4 = Renderer(
                        "ImageInfiniteLight::ImageLe, ClampZero) but samples the signed map's "
                        "|mean RGB| (src/pbrt/util/sampling.h: PiecewiseConstant1D takes abs)"),
     microfacet={"ggx": None},
+    bsdf_fn=bsdf,
+    roughness=ROUGHNESS,
 )

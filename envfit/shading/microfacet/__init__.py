@@ -1,17 +1,27 @@
-r"""Microfacet BSDFs as renderers shade them (issue 25): GGX and Beckmann distributions, Smith
-shadowing-masking (separable: Mitsuba 3; height-correlated: pbrt-v4, Cycles), visible-normal
-sampling step for step as each renderer does it, conductor Fresnel, the rough conductor BSDF
-(eval, pdf and sample sharing one warp) and the ground truth of its shading integral on a map.
+r"""Microfacet BSDFs as techniques (issue 25): GGX and Beckmann distributions, Smith
+shadowing-masking in its separable and height-correlated forms, three visible-normal warps,
+two conductor Fresnel forms, multiple scattering as an energy scale, the rough conductor and
+the rough plastic BSDFs (eval, pdf and sample sharing one warp) and the ground truth of a
+BSDF's shading integral on a map.
+
+Each technique is named by what it is, never by a renderer: which renderer shades its BSDFs
+by which techniques, with which roughness convention, read from which source, is its folder's
+(``envfit/renderers/<name>/_bsdf.py``), and its record builds the BSDF
+(:meth:`envfit.renderers.Renderer.bsdf`, :attr:`envfit.renderers.Renderer.roughness`).
 
 Modules:
 
 * :mod:`~envfit.shading.microfacet._distributions` — D, Λ, G1, separable and height-correlated
   G, the density of visible normals.
-* :mod:`~envfit.shading.microfacet._vndf` — visible-normal sampling: Mitsuba 3, pbrt-v4, Cycles.
-* :mod:`~envfit.shading.microfacet._fresnel` — conductor Fresnel (Mitsuba's and pbrt-v4's forms).
-* :mod:`~envfit.shading.microfacet._conductor` — :class:`Conductor`, roughness conventions,
-  Cycles' Multiscatter GGX (its energy scale).
-* :mod:`~envfit.shading.microfacet._plastic` — :class:`RoughPlastic` (Mitsuba 3 ``roughplastic``).
+* :mod:`~envfit.shading.microfacet._vndf` — the visible-normal warps :data:`VNDF_WARPS`.
+* :mod:`~envfit.shading.microfacet._fresnel` — the conductor Fresnel forms
+  :data:`FRESNEL_FORMS`.
+* :mod:`~envfit.shading.microfacet._conductor` — :class:`Conductor` (its shadowing form,
+  :data:`SHADOWINGS`; its warp; its Fresnel form; multiple scattering or not).
+* :mod:`~envfit.shading.microfacet._multiscatter` — the energy scale 1/E of a white GGX
+  lobe, E its own single-scatter albedo table.
+* :mod:`~envfit.shading.microfacet._plastic` — :class:`RoughPlastic`, a rough dielectric
+  coating over a Lambertian base with rough-interface transmittance tables.
 * :mod:`~envfit.shading.microfacet._ground_truth` — the shading integral's ground truth with
   its resolution rule.
 
@@ -26,13 +36,11 @@ _LAZY = {
     "ALPHA_RANGE": "_distributions", "DISTRIBUTIONS": "_distributions",
     "MicrofacetDistribution": "_distributions",
     "concentric_disk": "_vndf", "polar_disk": "_vndf", "sample_visible_normals": "_vndf",
-    "fr_complex": "_fresnel", "fresnel_conductor": "_fresnel",
-    "BSDFSample": "_conductor", "Conductor": "_conductor", "MICROFACET_RENDERERS": "_conductor",
-    "roughness_to_alpha": "_conductor", "alpha_to_roughness": "_conductor",
-    "roughness_range": "_conductor", "roughness_words": "_conductor", "ROUGHNESS_UNITS": "_conductor",
-    "ROUGHNESS_RTOL": "_conductor", "ROUGHNESS_RULES": "_conductor",
+    "VNDF_WARPS": "_vndf",
+    "FRESNEL_FORMS": "_fresnel", "fr_complex": "_fresnel", "fresnel_conductor": "_fresnel",
+    "BSDFSample": "_conductor", "Conductor": "_conductor", "SHADOWINGS": "_conductor",
+    "albedo_table": "_multiscatter", "energy_scale": "_multiscatter",
     "PlasticSample": "_plastic", "RoughPlastic": "_plastic",
-    "energy_scale": "_conductor", "multiscatter_or_conductor": "_conductor",
     "GroundTruthOptions": "_ground_truth", "MicrofacetShading": "_ground_truth",
     "microfacet_shading_integral": "_ground_truth",
 }

@@ -1,29 +1,28 @@
 r"""Isotropic microfacet normal distributions (GGX / Trowbridge–Reitz and Beckmann) and Smith's
-shadowing-masking, as Mitsuba 3, pbrt-v4 and Cycles evaluate them.
+shadowing-masking in its two forms, separable and height-correlated.
 
 All directions are in the local shading frame (z = the normal), as (K, 3) float64 arrays.
 
-* :math:`D_{GGX}(m) = \dfrac{1}{\pi\alpha^2\,\cos^4\theta_m\,(1 + \tan^2\theta_m/\alpha^2)^2}`
-  (Mitsuba ``MicrofacetDistribution::eval``, pbrt-v4 ``TrowbridgeReitzDistribution::D``,
-  Cycles ``bsdf_D``, all the same function);
+* :math:`D_{GGX}(m) = \dfrac{1}{\pi\alpha^2\,\cos^4\theta_m\,(1 + \tan^2\theta_m/\alpha^2)^2}`;
 * :math:`D_{B}(m) = \dfrac{\exp(-\tan^2\theta_m/\alpha^2)}{\pi\alpha^2\cos^4\theta_m}`;
 * Smith :math:`\Lambda`: GGX :math:`\tfrac12(\sqrt{1 + \alpha^2\tan^2\theta} - 1)` (Heitz 2014,
   Eq. 72); Beckmann by the rational approximation of Walter et al. 2007 in the variable
   :math:`a = 1/(\alpha\tan\theta)`: :math:`\Lambda \approx (1 - 1.259a + 0.396a^2)/(3.535a +
-  2.181a^2)` for :math:`a < 1.6`, 0 beyond — the one Cycles uses
-  (``bsdf_lambda_from_sqr_alpha_tan_n``) and the one whose :math:`1/(1+\Lambda)` is Mitsuba's
-  ``smith_g1`` rational :math:`(3.535a + 2.181a^2)/(1 + 2.276a + 2.577a^2)` (algebraically
-  equal); the exact Beckmann :math:`\Lambda = \tfrac12(\operatorname{erf}(a) - 1 +
+  2.181a^2)` for :math:`a < 1.6`, 0 beyond, whose :math:`1/(1+\Lambda)` is the rational
+  :math:`G_1 = (3.535a + 2.181a^2)/(1 + 2.276a + 2.577a^2)` (algebraically equal: either is
+  what a renderer evaluates); the exact Beckmann
+  :math:`\Lambda = \tfrac12(\operatorname{erf}(a) - 1 +
   e^{-a^2}/(a\sqrt\pi))` is :meth:`MicrofacetDistribution.lambda_exact`;
 * :math:`G_1(v, m) = \chi^+(v\cdot m / v_z)/(1 + \Lambda(v))`;
-  separable :math:`G = G_1(\omega_i)G_1(\omega_o)` (Mitsuba ``MicrofacetDistribution::G``);
-  height-correlated :math:`G = 1/(1 + \Lambda(\omega_i) + \Lambda(\omega_o))` (pbrt-v4
-  ``TrowbridgeReitzDistribution::G``, Cycles ``bsdf_G``);
+  separable :math:`G = G_1(\omega_i)G_1(\omega_o)`;
+  height-correlated :math:`G = 1/(1 + \Lambda(\omega_i) + \Lambda(\omega_o))`;
 * the distribution of visible normals :math:`D_{\omega_i}(m) = G_1(\omega_i, m)\,
   \max(0, \omega_i\cdot m)\,D(m)/\cos\theta_i` (Heitz 2014, Eq. 16).
 
-Accepted roughness: :math:`\alpha \in [10^{-4}, 1]` (Mitsuba and pbrt-v4 clamp α to ≥ 1e-4;
-issue 25 uses 0.05–1).
+Accepted roughness: :math:`\alpha \in [10^{-4}, 1]` (the renderers' own floor on α, each
+cited in its folder, ``envfit/renderers/<name>/_bsdf.py``; issue 25 uses 0.05–1).
+
+Which renderer evaluates which form, read from which source, its folder says.
 
 References: Walter, Marschner, Li, Torrance, "Microfacet Models for Refraction through Rough
 Surfaces", EGSR 2007; Heitz, "Understanding the Masking-Shadowing Function in
@@ -91,7 +90,7 @@ class MicrofacetDistribution:
         return np.where(up, np.nan_to_num(d, nan=0.0, posinf=0.0), 0.0)
 
     def lambda_(self, v: np.ndarray) -> np.ndarray:
-        r"""Smith's Λ(v) as the renderers compute it (GGX exact, Beckmann rational)."""
+        r"""Smith's Λ(v) as renderers compute it (GGX exact, Beckmann rational)."""
         t2 = self.alpha ** 2 * _tan2(v)
         if self.kind == "ggx":
             return 0.5 * (np.sqrt(1.0 + t2) - 1.0)
@@ -112,17 +111,17 @@ class MicrofacetDistribution:
 
     def g1(self, v: np.ndarray, m: np.ndarray) -> np.ndarray:
         r"""Smith's masking :math:`G_1(v, m) = \chi^+(v\cdot m / v_z)/(1+\Lambda(v))`
-        (Mitsuba ``smith_g1``: zero where v sees the back of the microfacet)."""
+        (zero where v sees the back of the microfacet)."""
         g = 1.0 / (1.0 + self.lambda_(v))
         back = np.einsum("ij,ij->i", v, m) * v[:, 2] <= 0.0
         return np.where(back, 0.0, g)
 
     def g_separable(self, wi: np.ndarray, wo: np.ndarray, m: np.ndarray) -> np.ndarray:
-        """Separable shadowing-masking G1(wi, m)·G1(wo, m) (Mitsuba 3)."""
+        """Separable shadowing-masking G1(wi, m)·G1(wo, m)."""
         return self.g1(wi, m) * self.g1(wo, m)
 
     def g_correlated(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
-        """Height-correlated shadowing-masking 1/(1 + Λ(wi) + Λ(wo)) (pbrt-v4, Cycles)."""
+        """Height-correlated shadowing-masking 1/(1 + Λ(wi) + Λ(wo))."""
         return 1.0 / (1.0 + self.lambda_(wi) + self.lambda_(wo))
 
     def visible_pdf(self, wi: np.ndarray, m: np.ndarray) -> np.ndarray:

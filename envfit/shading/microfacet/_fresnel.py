@@ -1,34 +1,35 @@
-r"""Unpolarised Fresnel reflectance of a conductor with complex index of refraction η + ik, two
-ways (the two renderers' own forms; they agree to rounding):
+r"""Unpolarised Fresnel reflectance of a conductor with complex index of refraction η + ik, in
+two forms (:data:`FRESNEL_FORMS`; they agree to rounding):
 
-* :func:`fresnel_conductor` — Mitsuba 3 (``include/mitsuba/render/fresnel.h``:
-  ``fresnel_conductor``, "modified from *Optics* by K.D. Moeller"): with
-  :math:`t = \eta^2 - k^2 - \sin^2\theta`, :math:`a^2 + b^2 = \sqrt{t^2 + 4\eta^2k^2}`,
-  :math:`a = \sqrt{(a^2 + b^2 + t)/2}`,
+* ``moeller`` — :func:`fresnel_conductor`, the real-arithmetic form (after K.D. Moeller,
+  *Optics*): with :math:`t = \eta^2 - k^2 - \sin^2\theta`, :math:`a^2 + b^2 = \sqrt{t^2 +
+  4\eta^2k^2}`, :math:`a = \sqrt{(a^2 + b^2 + t)/2}`,
 
   .. math:: R_s = \frac{a^2 + b^2 + \cos^2\theta - 2a\cos\theta}{a^2 + b^2 + \cos^2\theta +
      2a\cos\theta},\quad R_p = R_s\,\frac{(a^2 + b^2)\cos^2\theta + \sin^4\theta -
      2a\cos\theta\sin^2\theta}{(a^2 + b^2)\cos^2\theta + \sin^4\theta +
      2a\cos\theta\sin^2\theta},\quad F = \tfrac12(R_s + R_p);
 
-* :func:`fr_complex` — pbrt-v4 (``src/pbrt/util/scattering.h``: ``FrComplex``): Snell's law
-  with complex η̃ = η + ik, :math:`\cos\theta_t = \sqrt{1 - \sin^2\theta/\tilde\eta^2}`,
+* ``complex`` — :func:`fr_complex`, Snell's law in complex arithmetic with η̃ = η + ik,
+  :math:`\cos\theta_t = \sqrt{1 - \sin^2\theta/\tilde\eta^2}`,
   :math:`r_\parallel = (\tilde\eta\cos\theta - \cos\theta_t)/(\tilde\eta\cos\theta +
   \cos\theta_t)`, :math:`r_\perp = (\cos\theta - \tilde\eta\cos\theta_t)/(\cos\theta +
-  \tilde\eta\cos\theta_t)`, :math:`F = (|r_\parallel|^2 + |r_\perp|^2)/2`.
+  \tilde\eta\cos\theta_t)`, :math:`F = (|r_\parallel|^2 + |r_\perp|^2)/2`, cos θ clamped to
+  [0, 1].
 
-Mitsuba's default ``material`` "none" is (η, k) = (0, 1), for which F ≡ 1 (the plugin's "100%
-reflective mirror"); envfit's default is F = 1 as well (white: the map alone sets the error).
+(η, k) = (0, 1) gives F ≡ 1 (a perfect mirror); envfit's conductors are white by default
+(no η, k: F = 1, the map alone sets the error). Which renderer uses which form, read from
+which source, its folder says (``envfit/renderers/<name>/_bsdf.py``).
 """
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["fr_complex", "fresnel_conductor"]
+__all__ = ["fr_complex", "fresnel_conductor", "FRESNEL_FORMS"]
 
 
 def fresnel_conductor(cos_theta, eta: float, k: float) -> np.ndarray:
-    """Mitsuba 3's ``fresnel_conductor(cos θ, η + ik)``; cos θ ∈ [0, 1], any shape."""
+    """The ``moeller`` form F(cos θ, η + ik); cos θ ∈ [0, 1], any shape."""
     c = np.asarray(cos_theta, dtype=np.float64)
     c2 = c * c
     s2 = 1.0 - c2
@@ -46,7 +47,7 @@ def fresnel_conductor(cos_theta, eta: float, k: float) -> np.ndarray:
 
 
 def fr_complex(cos_theta, eta: float, k: float) -> np.ndarray:
-    """pbrt-v4's ``FrComplex(cos θ, η + ik)``; cos θ clamped to [0, 1], any shape."""
+    """The ``complex`` form F(cos θ, η + ik); cos θ clamped to [0, 1], any shape."""
     c = np.clip(np.asarray(cos_theta, dtype=np.float64), 0.0, 1.0)
     e = complex(eta, k)
     sin2_t = (1.0 - c * c) / (e * e)
@@ -54,3 +55,7 @@ def fr_complex(cos_theta, eta: float, k: float) -> np.ndarray:
     r_parl = (e * c - cos_t) / (e * c + cos_t)
     r_perp = (c - e * cos_t) / (c + e * cos_t)
     return 0.5 * (np.abs(r_parl) ** 2 + np.abs(r_perp) ** 2)
+
+
+#: the conductor Fresnel forms by name (module docstring) → F(cos θ, η, k)
+FRESNEL_FORMS = {"moeller": fresnel_conductor, "complex": fr_complex}

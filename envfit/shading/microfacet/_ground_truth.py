@@ -177,7 +177,7 @@ def _transfer(bsdf, wi: np.ndarray, m: np.ndarray):
     dot = np.einsum("ij,ij->i", wi, m)
     wo = 2.0 * dot[:, None] * m - wi
     ok = (dot > 0) & (wo[:, 2] > 0)
-    g2 = bsdf.shadowing(wi, wo, m)
+    g2 = bsdf.shadowing_masking(wi, wo, m)
     w = bsdf.fresnel(dot) * g2 * dot / (wi[:, 2] * m[:, 2])
     return wo, np.where(ok, w, 0.0)
 
@@ -232,7 +232,7 @@ def microfacet_shading_integral(radiance, bsdf, normals, views,
     ----------
     radiance : EnvMap (its bilinear interpolant) or a callable dirs (M, 3) → (M,) or (M, C)
         (for a callable, n starts at ``min_nodes``)
-    bsdf : a :class:`~envfit.shading.microfacet.Conductor` (its renderer's G and Fresnel)
+    bsdf : a :class:`~envfit.shading.microfacet.Conductor` (its G and Fresnel)
     normals, views : (K, 3) world directions: the surface normals and the directions to the
         viewer (ω_i); frames with views below the surface give 0
     options : :class:`GroundTruthOptions` (the resolution rule)

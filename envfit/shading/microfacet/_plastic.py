@@ -1,50 +1,46 @@
-r"""A rough plastic BSDF as Mitsuba 3's ``roughplastic`` plugin shades it: a rough dielectric
-coating (GGX or Beckmann, relative index η) over a Lambertian base, :class:`RoughPlastic`, with
-the interface of :class:`~envfit.shading.microfacet.Conductor` (``eval`` = f·cos θ_o, ``pdf``,
-``sample``).
+r"""A rough plastic BSDF: a rough dielectric coating (GGX or Beckmann, relative index η) over a
+Lambertian base, :class:`RoughPlastic`, with the interface of
+:class:`~envfit.shading.microfacet.Conductor` (``eval`` = f·cos θ_o, ``pdf``, ``sample``).
 
-Source: Mitsuba 3 ``src/bsdfs/roughplastic.cpp`` (``RoughPlastic::RoughPlastic``,
-``parameters_changed``, ``eval``, ``pdf``, ``sample``, ``lerp_gather``);
-``include/mitsuba/render/microfacet.h`` (``MicrofacetDistribution::eval``, ``smith_g1``, ``G``,
-``sample``, ``pdf``; ``eval_reflectance``, ``eval_transmittance``);
-``include/mitsuba/render/fresnel.h`` (``fresnel``, ``refract``); ``include/mitsuba/core/warp.h``
-(``square_to_cosine_hemisphere``, ``square_to_uniform_disk_concentric``). Local frame, z = the
-normal, ω_i towards the viewer; with H = (ω_i + ω_o)/‖ω_i + ω_o‖, F(·) the dielectric Fresnel
-of η = int_ior/ext_ior, ρ_s, ρ_d the specular and diffuse reflectances:
+Local frame, z = the normal, ω_i towards the viewer; with H = (ω_i + ω_o)/‖ω_i + ω_o‖, F(·)
+the dielectric Fresnel of η = int_ior/ext_ior (:func:`fresnel_dielectric`), ρ_s, ρ_d the
+specular and diffuse reflectances, separable shadowing-masking (G1 with χ⁺):
 
 .. math::
    f\cos\theta_o = \rho_s\,\frac{F(\omega_i\cdot H)\,D(H)\,G_1(\omega_i,H)G_1(\omega_o,H)}
    {4\cos\theta_i} + \frac{\rho_d}{1 - R_i'}\,\frac{\cos\theta_o}{\pi\eta^2}\,T(\cos\theta_i)
    \,T(\cos\theta_o),
 
-with :math:`R_i' = R_i` (``nonlinear`` false) or :math:`\rho_d R_i` (true). T and R_i are *not*
-the smooth-interface Fresnel terms of the ``plastic`` plugin but rough-interface integrals,
-tabulated when the plugin is built (``parameters_changed``):
+D(H) zeroed where D cos θ_H ≤ 10⁻²⁰, with :math:`R_i' = R_i` (``nonlinear`` false) or
+:math:`\rho_d R_i` (true). T and R_i are *not* the smooth-interface Fresnel terms but
+rough-interface integrals, tabulated when the BSDF is built (:func:`rough_fresnel_tables`):
 
-* :math:`T(\mu)` (``m_external_transmittance``, ``eval_transmittance(distr, wi, η)``): at 64
-  cosines :math:`\mu_j = \max(10^{-6}, j/63)`, ω = (√(1−μ²), 0, μ), the average over visible
-  normals m ~ :math:`D_\omega` of :math:`(1 - F(\omega\cdot m))\,G_1(\omega_t, m)` with ω_t the
-  refraction of ω at m (zero unless ω_t is below the surface), by a Gauss–Legendre product rule
-  on the unit square of the sampling warp (32² nodes if η > 1, else 128²); looked up by linear
-  interpolation (``lerp_gather``: x = 63 cos θ, index min(⌊x⌋, 62)).
-* :math:`R_i` (``m_internal_reflectance``) :math:`= 2\,\operatorname{mean}_j\,\mu_j R(\mu_j)`
-  where :math:`R(\mu)` (``eval_reflectance(distr, wi, 1/η)``) averages :math:`F_{1/\eta}(\omega
-  \cdot m)\,G_1(\omega_r, m)` over visible normals (ω_r the mirror direction, zero below), with
-  128² nodes if 1/η ≤ 1.
+* :math:`T(\mu)`: at 64 cosines :math:`\mu_j = \max(10^{-6}, j/63)` (float32),
+  ω = (√(1−μ²), 0, μ), the average over visible normals m ~ :math:`D_\omega` of
+  :math:`(1 - F(\omega\cdot m))\,G_1(\omega_t, m)` with ω_t the refraction of ω at m (zero
+  unless ω_t is below the surface), by a Gauss–Legendre product rule on the unit square of the
+  BSDF's visible-normal warp (32² nodes if η > 1, else 128²; nodes and weights rounded to
+  float32); looked up by linear interpolation (x = 63 cos θ, index min(⌊x⌋, 62)).
+* :math:`R_i` :math:`= 2\,\operatorname{mean}_j\,\mu_j R(\mu_j)` where :math:`R(\mu)` averages
+  :math:`F_{1/\eta}(\omega\cdot m)\,G_1(\omega_r, m)` over visible normals (ω_r the mirror
+  direction, zero below), with 128² nodes if 1/η ≤ 1.
 
-Sampling (``sample``): the specular lobe with probability
+Sampling (:meth:`RoughPlastic.sample`): the specular lobe with probability
 :math:`p_s = \frac{(1 - T_i)\,w}{(1 - T_i)\,w + T_i\,(1 - w)}`, :math:`w = \bar\rho_s/(\bar\rho_d +
-\bar\rho_s)` (``m_specular_sampling_weight``, from the reflectances' means) and
-:math:`T_i = T(\cos\theta_i)`, chosen when ``sample1`` < p_s; then ω_o = reflect(ω_i, m), m by
-Mitsuba's visible-normal warp (:func:`~envfit.shading.microfacet.sample_visible_normals`) or,
-``sample_visible`` false, by the D(m)cos θ_m warp. Otherwise ω_o is cosine-distributed by the
-concentric map. The density is the mixture
+\bar\rho_s)` (from the reflectances' means) and :math:`T_i = T(\cos\theta_i)`, chosen when the
+lobe number < p_s; then ω_o = reflect(ω_i, m), m by the visible-normal warp
+(:func:`~envfit.shading.microfacet.sample_visible_normals`) or, ``sample_visible`` false, by
+the D(m)cos θ_m warp. Otherwise ω_o is cosine-distributed by the concentric map. The density
+is the mixture
 
 .. math:: p(\omega_o) = p_s\,\frac{D(H)\,G_1(\omega_i,H)}{4\cos\theta_i} + (1 - p_s)\,
    \frac{\cos\theta_o}{\pi}
 
 (``sample_visible`` false: :math:`D(H)\cos\theta_H/(4\,\omega_o\cdot H)` for the first term),
 and the weight f·cos/p over both lobes (0 where p = 0, i.e. ω_o below the surface).
+
+Which renderer has this BSDF, read from which source (each step above by file and function),
+its folder says (``envfit/renderers/<name>/_bsdf.py``).
 """
 from __future__ import annotations
 
@@ -57,19 +53,18 @@ import numpy as np
 from envfit.base import ParameterError
 from envfit.shading.microfacet._conductor import BSDFSample, _dirs
 from envfit.shading.microfacet._distributions import MicrofacetDistribution
-from envfit.shading.microfacet._vndf import concentric_disk, sample_visible_normals
+from envfit.shading.microfacet._vndf import VNDF_WARPS, concentric_disk, sample_visible_normals
 
 __all__ = ["PlasticSample", "RoughPlastic", "TRANSMITTANCE_RES", "fresnel_dielectric",
            "rough_fresnel_tables"]
 
-#: Mitsuba's ``MI_ROUGH_TRANSMITTANCE_RES``: cosines in the transmittance table.
+#: cosines in the transmittance table
 TRANSMITTANCE_RES = 64
 _ROWS = 8                                     # table cosines integrated per numpy pass
 
 
 def fresnel_dielectric(cos_theta_i, eta: float):
-    r"""Mitsuba 3's ``fresnel(cos θ_i, η)`` (``fresnel.h``): the unpolarised reflectance of a
-    dielectric interface and the transmitted cosine.
+    r"""The unpolarised reflectance of a dielectric interface and the transmitted cosine.
 
     With :math:`\eta_{it} = \eta`, :math:`\eta_{ti} = 1/\eta` for cos θ_i ≥ 0 (else swapped),
     :math:`\cos^2\theta_t = 1 - (1 - \cos^2\theta_i)\eta_{ti}^2` (clamped at 0: total
@@ -102,8 +97,8 @@ def fresnel_dielectric(cos_theta_i, eta: float):
 
 
 def _gauss_legendre_square(res: int) -> tuple[np.ndarray, np.ndarray]:
-    """The nodes (res², 2) in [0, 1]² and weights (res²,) of ``eval_reflectance``'s product rule,
-    rounded to float32 as Mitsuba stores them (``quad::gauss_legendre``, node·½ + ½)."""
+    """The nodes (res², 2) in [0, 1]² and weights (res²,) of the tables' product rule, rounded
+    to float32 (Gauss–Legendre on [−1, 1], node·½ + ½)."""
     x, w = np.polynomial.legendre.leggauss(res)
     x32, w32 = x.astype(np.float32), w.astype(np.float32)
     node = x32 * np.float32(0.5) + np.float32(0.5)
@@ -114,8 +109,9 @@ def _gauss_legendre_square(res: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _rough_fresnel_integral(dist: MicrofacetDistribution, mu: np.ndarray, eta: float,
-                            transmit: bool) -> np.ndarray:
-    """``eval_transmittance`` (``transmit``) or ``eval_reflectance`` at cosines ``mu``."""
+                            transmit: bool, vndf: str) -> np.ndarray:
+    """The rough transmittance (``transmit``) or reflectance at cosines ``mu``, by the
+    ``vndf`` warp."""
     u, w = _gauss_legendre_square(32 if eta > 1.0 else 128)
     out = np.empty(len(mu))
     for j in range(0, len(mu), _ROWS):
@@ -123,7 +119,7 @@ def _rough_fresnel_integral(dist: MicrofacetDistribution, mu: np.ndarray, eta: f
         wi1 = np.stack([np.sqrt(1.0 - rows * rows), np.zeros_like(rows), rows], axis=1)
         wi = np.repeat(wi1, len(u), axis=0)
         uu = np.tile(u, (len(rows), 1))
-        m = sample_visible_normals("mitsuba3", dist.kind, dist.alpha, wi, uu)
+        m = sample_visible_normals(vndf, dist.kind, dist.alpha, wi, uu)
         dot = np.einsum("ij,ij->i", wi, m)
         f, cos_t, _, eta_ti = fresnel_dielectric(dot, eta)
         if transmit:
@@ -137,10 +133,12 @@ def _rough_fresnel_integral(dist: MicrofacetDistribution, mu: np.ndarray, eta: f
 
 
 @lru_cache(maxsize=32)
-def rough_fresnel_tables(kind: str, alpha: float, eta: float) -> tuple[np.ndarray, float]:
-    """Mitsuba's ``RoughPlastic::parameters_changed`` tables: the rough external transmittance
-    T(μ_j) at μ_j = max(1e-6, j/63), j = 0…63 (read-only array), and the internal
-    reflectance R_i = 2·mean_j(μ_j R_{1/η}(μ_j)). Cached per (kind, α, η).
+def rough_fresnel_tables(kind: str, alpha: float, eta: float,
+                         vndf: str = "slope_space") -> tuple[np.ndarray, float]:
+    """The coating's tables: the rough external transmittance T(μ_j) at
+    μ_j = max(1e-6, j/63), j = 0…63 (read-only array), and the internal reflectance
+    R_i = 2·mean_j(μ_j R_{1/η}(μ_j)), each by the ``vndf`` warp. Cached per (kind, α, η,
+    warp).
 
     >>> t, ri = rough_fresnel_tables("ggx", 0.3, 1.49)
     >>> t.shape, round(float(t[-1]), 3), round(ri, 3)     # T(1) < 1 − F(1) = 0.96: rough
@@ -149,14 +147,15 @@ def rough_fresnel_tables(kind: str, alpha: float, eta: float) -> tuple[np.ndarra
     dist = MicrofacetDistribution(kind, alpha)
     mu32 = np.maximum(np.float32(1e-6), np.linspace(0, 1, TRANSMITTANCE_RES, dtype=np.float32))
     mu = mu32.astype(np.float64)
-    table = _rough_fresnel_integral(dist, mu, eta, transmit=True)
+    table = _rough_fresnel_integral(dist, mu, eta, True, vndf)
     table.setflags(write=False)
-    internal = 2.0 * float(np.mean(_rough_fresnel_integral(dist, mu, 1.0 / eta, False) * mu))
+    internal = 2.0 * float(np.mean(_rough_fresnel_integral(dist, mu, 1.0 / eta, False, vndf)
+                                   * mu))
     return table, internal
 
 
 def _lerp_gather(table: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """``RoughPlastic::lerp_gather``: the table linearly interpolated at x ∈ [0, 1]."""
+    """The table linearly interpolated at x ∈ [0, 1] (index min(⌊x·63⌋, 62))."""
     x = np.clip(x, 0.0, 1.0) * (len(table) - 1)
     idx = np.minimum(x.astype(np.int64), len(table) - 2)
     return table[idx] + (x - idx) * (table[idx + 1] - table[idx])
@@ -179,7 +178,7 @@ def _reflectance(value, name: str) -> float:
 
 
 def _normals_all(kind: str, alpha: float, u: np.ndarray) -> np.ndarray:
-    """``MicrofacetDistribution::sample`` without ``sample_visible`` (isotropic): m ~ D(m)cos θ_m;
+    """Sampling all normals (not the visible ones; isotropic): m ~ D(m)cos θ_m;
     φ = 2πu_y, Beckmann cos θ = (1 − α² ln(1 − u_x))^(−½), GGX tan²θ = α²u_x/(1 − u_x)."""
     phi = 2.0 * math.pi * u[:, 1]
     with np.errstate(divide="ignore"):
@@ -194,24 +193,25 @@ def _normals_all(kind: str, alpha: float, u: np.ndarray) -> np.ndarray:
 @dataclass(frozen=True)
 class PlasticSample(BSDFSample):
     """A :class:`BSDFSample` that also says which lobe drew each sample: ``specular`` (K,) bool
-    (Mitsuba's ``sampled_component`` 0); ``m`` is the sampled normal for specular samples, the
+    (the specular component); ``m`` is the sampled normal for specular samples, the
     half vector of (ω_i, ω_o) for diffuse ones."""
 
     specular: np.ndarray
 
 
 class RoughPlastic:
-    r"""Mitsuba 3's ``roughplastic`` (a rough dielectric coating over a diffuse base), with the
-    interface of :class:`~envfit.shading.microfacet.Conductor`.
+    r"""A rough dielectric coating over a diffuse base (module docstring), with the interface
+    of :class:`~envfit.shading.microfacet.Conductor`.
 
     Parameters
     ----------
-    distribution : "beckmann" (Mitsuba's default) or "ggx"
-    alpha : the coating's roughness α in [1e-4, 1] (Mitsuba's default 0.1)
-    renderer : "mitsuba3" (the only one: pbrt-v4 and Cycles have no such plugin)
+    distribution : "beckmann" (default) or "ggx"
+    alpha : the coating's roughness α in [1e-4, 1] (default 0.1)
+    vndf : the visible-normal warp of the tables and the specular sampling, a name of
+        :data:`~envfit.shading.microfacet.VNDF_WARPS` (default ``slope_space``)
     int_ior, ext_ior : the indices of refraction inside (polypropylene, 1.49) and outside (air,
         1.000277) the coating; η = int_ior/ext_ior
-    diffuse_reflectance : the base's albedo ρ_d (Mitsuba's default 0.5; envfit's white base: 1)
+    diffuse_reflectance : the base's albedo ρ_d (default 0.5; envfit's white base: 1)
     specular_reflectance : the factor ρ_s on the specular term (1: physical)
     nonlinear : divide ρ_d by 1 − ρ_d R_i instead of 1 − R_i (internal scattering's colour shift)
     sample_visible : sample visible normals (default) or D(m)cos θ_m
@@ -223,19 +223,19 @@ class RoughPlastic:
     True
     """
 
-    def __init__(self, distribution: str = "beckmann", alpha: float = 0.1,
-                 renderer: str = "mitsuba3", *, int_ior: float = 1.49, ext_ior: float = 1.000277,
+    def __init__(self, distribution: str = "beckmann", alpha: float = 0.1, *,
+                 vndf: str = "slope_space", int_ior: float = 1.49, ext_ior: float = 1.000277,
                  diffuse_reflectance: float = 0.5, specular_reflectance: float = 1.0,
                  nonlinear: bool = False, sample_visible: bool = True) -> None:
-        if renderer != "mitsuba3":
-            raise ParameterError(f"RoughPlastic models Mitsuba 3's roughplastic only "
-                                 f"(renderer='mitsuba3'), got {renderer!r}")
+        if vndf not in VNDF_WARPS or (vndf == "hemisphere_polar" and distribution != "ggx"):
+            raise ParameterError(f"vndf must be one of {VNDF_WARPS} (hemisphere_polar: GGX "
+                                 f"only), got {vndf!r} for {distribution!r}")
         n_i, n_e = _reflectance(int_ior, "int_ior"), _reflectance(ext_ior, "ext_ior")
         if n_i <= 0.0 or n_e <= 0.0 or n_i == n_e:
             raise ParameterError(f"int_ior and ext_ior must be positive and differ, got "
                                  f"{int_ior!r} and {ext_ior!r}")
         self.distribution = MicrofacetDistribution(distribution, alpha)
-        self.renderer = renderer
+        self.vndf = vndf
         self.eta = n_i / n_e
         self.diffuse_reflectance = _reflectance(diffuse_reflectance, "diffuse_reflectance")
         self.specular_reflectance = _reflectance(specular_reflectance, "specular_reflectance")
@@ -245,7 +245,7 @@ class RoughPlastic:
         s = self.specular_reflectance
         self.specular_sampling_weight = s / (self.diffuse_reflectance + s)
         self.transmittance_table, self.internal_reflectance = rough_fresnel_tables(
-            self.distribution.kind, self.distribution.alpha, self.eta)
+            self.distribution.kind, self.distribution.alpha, self.eta, vndf)
 
     def __repr__(self) -> str:
         d = self.distribution
@@ -259,7 +259,7 @@ class RoughPlastic:
         return self.distribution.alpha
 
     def transmittance(self, cos_theta) -> np.ndarray:
-        """T(cos θ): the rough coating's tabulated transmittance, interpolated (``lerp_gather``)."""
+        """T(cos θ): the rough coating's tabulated transmittance, interpolated."""
         return _lerp_gather(self.transmittance_table, np.asarray(cos_theta, dtype=np.float64))
 
     def prob_specular(self, cos_theta_i) -> np.ndarray:
@@ -270,7 +270,7 @@ class RoughPlastic:
         return ps / (ps + pd)
 
     def _D(self, m: np.ndarray) -> np.ndarray:  # noqa: N802
-        """``MicrofacetDistribution::eval``: D(m), zeroed where D cos θ_m ≤ 1e-20."""
+        """D(m), zeroed where D cos θ_m ≤ 1e-20."""
         d = self.distribution.D(m)
         return np.where(d * m[:, 2] > 1e-20, d, 0.0)
 
@@ -283,7 +283,7 @@ class RoughPlastic:
         return np.nan_to_num(p)
 
     def eval(self, wi, wo) -> np.ndarray:
-        """f(ω_i, ω_o)·cos θ_o (K,): the specular and the diffuse term (``RoughPlastic::eval``)."""
+        """f(ω_i, ω_o)·cos θ_o (K,): the specular and the diffuse term."""
         wi, wo = _dirs(wi, "wi"), _dirs(wo, "wo")
         ci, co = wi[:, 2], wo[:, 2]
         ok = (ci > 0) & (co > 0)
@@ -299,7 +299,7 @@ class RoughPlastic:
         return np.where(ok, np.nan_to_num(spec) + diff, 0.0)
 
     def pdf(self, wi, wo) -> np.ndarray:
-        """The solid-angle density (K,) of ``sample``: the two lobes' mixture (``pdf``)."""
+        """The solid-angle density (K,) of ``sample``: the two lobes' mixture."""
         wi, wo = _dirs(wi, "wi"), _dirs(wo, "wo")
         ok = (wi[:, 2] > 0) & (wo[:, 2] > 0)
         ps = self.prob_specular(wi[:, 2])
@@ -321,12 +321,12 @@ class RoughPlastic:
         return u1, u
 
     def sample(self, wi, u, u1=None) -> PlasticSample:
-        """Draw ω_o for views ``wi`` (K, 3) as ``RoughPlastic::sample`` does.
+        """Draw ω_o for views ``wi`` (K, 3): the lobe, then the direction in it.
 
-        ``u`` is (K, 3): column 0 is Mitsuba's ``sample1`` (the lobe: specular where it is below
-        :meth:`prob_specular`), columns 1–2 its ``sample2`` (the direction). Alternatively ``u``
-        (K, 2) is ``sample2`` and ``u1`` (K,) is ``sample1``; a (K, 2) ``u`` without ``u1`` is
-        an error (the lobe choice needs its own uniform number, as Mitsuba's ``next_1d``).
+        ``u`` is (K, 3): column 0 is the lobe number ``sample1`` (specular where it is below
+        :meth:`prob_specular`), columns 1–2 the direction's point ``sample2``. Alternatively
+        ``u`` (K, 2) is ``sample2`` and ``u1`` (K,) is ``sample1``; a (K, 2) ``u`` without
+        ``u1`` is an error (the lobe choice needs its own uniform number, a 1-D draw).
         pdf and weight are those of the mixture (:meth:`pdf`, :meth:`eval` / :meth:`pdf`).
         """
         wi = _dirs(wi, "wi")
@@ -339,7 +339,7 @@ class RoughPlastic:
         m = np.zeros((len(wi), 3))
         if np.any(spec):                                  # each lobe's warp where it is drawn
             ws, us = wi[spec], s2[spec]
-            m[spec] = (sample_visible_normals("mitsuba3", d.kind, d.alpha, ws, us)
+            m[spec] = (sample_visible_normals(self.vndf, d.kind, d.alpha, ws, us)
                        if self.sample_visible else _normals_all(d.kind, d.alpha, us))
             wo[spec] = 2.0 * np.einsum("ij,ij->i", ws, m[spec])[:, None] * m[spec] - ws
         if not np.all(spec):
@@ -359,10 +359,10 @@ class RoughPlastic:
         :math:`u_x < p_s` and :math:`u_x` rescaled to [0, 1) within its lobe
         (:math:`u_x/p_s` or :math:`(u_x - p_s)/(1 - p_s)`) as ``sample2``'s first coordinate.
 
-        The pair (lobe, ω_o) has the same distribution as Mitsuba's (its lobe drawn from a
-        third number, ``sample1``), so an estimator of i.i.d. samples has the same variance
+        The pair (lobe, ω_o) has the same distribution as :meth:`sample`'s (its lobe drawn from
+        a third number, ``sample1``), so an estimator of i.i.d. samples has the same variance
         (the noise model of the independent sampler); a QMC point set's error is not the
-        same, since Mitsuba's lobe dimension is a separate one.
+        same, since a renderer's lobe dimension is a separate one.
 
         >>> p = RoughPlastic("ggx", 0.2)
         >>> wi = np.tile([0.0, 0.6, 0.8], (3, 1))

@@ -1,29 +1,30 @@
-r"""Visible-normal sampling of the microfacet distributions, step for step as each renderer does
-it: a uniform point ``u`` of the unit square → a microfacet normal m with density
-:math:`D_{\omega_i}(m)` (:meth:`MicrofacetDistribution.visible_pdf`).
+r"""Visible-normal sampling of the microfacet distributions: a uniform point ``u`` of the unit
+square → a microfacet normal m with density :math:`D_{\omega_i}(m)`
+(:meth:`MicrofacetDistribution.visible_pdf`), by one of three warps (:data:`VNDF_WARPS`).
 
 All three draw the same density; they differ in the map from ``u`` to m, so the same ``u``
-gives different normals:
+gives different normals. Each is named by its GGX form; its Beckmann form is listed with it:
 
-* **Mitsuba 3** (``include/mitsuba/render/microfacet.h``: ``MicrofacetDistribution::sample``,
-  ``sample_visible_11``): stretch ω_i, sample the α = 1 visible slopes in the frame of ω_i's
+* ``slope_space`` — stretch ω_i, sample the α = 1 visible slopes in the frame of ω_i's
   azimuth, rotate and unstretch the slopes. GGX: Heitz 2018 in slope space from the
-  **concentric** disk point (``warp::square_to_uniform_disk_concentric``), p_y lerped with
-  s = ½(1 + cos θ_i); the disk's x becomes the slope across the plane of incidence
-  with the sign opposite to pbrt's/Cycles' T1 (the same u gives m mirrored across the plane
-  of incidence relative to Cycles). Beckmann: Jakob's
-  numerical inversion of Heitz–d'Eon 2014 (initial guess, CDF normalisation, three plain
-  Newton steps in the erf domain).
-* **pbrt-v4** (``src/pbrt/util/scattering.h``: ``TrowbridgeReitzDistribution::Sample_wm``;
-  GGX only): Heitz 2018 in the hemisphere configuration with basis T1 = z × ω_h, T2 = ω_h × T1
-  and a **polar** disk point (``SampleUniformDiskPolar``: r = √u₀, φ = 2πu₁); m_z ≥ 1e-6.
-* **Cycles** (``src/kernel/closure/bsdf_microfacet.h``: ``microfacet_ggx_sample_vndf``,
-  ``microfacet_beckmann_sample_vndf``): GGX as pbrt but with the **concentric** disk point
-  (``sample_uniform_disk``) and m_z ≥ 0; Beckmann: the OSL reformulation of Jakob's routine
-  (a closed-form start, up to three safeguarded Newton/bisection steps, stop at |residual|
-  ≤ 1e-6). Cycles evaluates erf and erf⁻¹ by fast approximations (``fast_erff``,
-  ``fast_ierff``); this port uses the exact functions (scipy), so its Beckmann normals differ
-  from Cycles' by those approximations' error.
+  **concentric** disk point (:func:`concentric_disk`, the branch-reduced form that picks the
+  y branch on |x| < |y|), p_y lerped with s = ½(1 + cos θ_i); the disk's x becomes the slope
+  across the plane of incidence with the sign opposite to the hemisphere warps' T1 (the same
+  u gives m mirrored across the plane of incidence). Beckmann: Jakob's numerical inversion of
+  Heitz–d'Eon 2014 (initial guess, CDF normalisation, three plain Newton steps in the erf
+  domain, u clamped to [1e-6, 1 − 1e-6]); stretched views within 4 float32 ε of the pole
+  take azimuth 0.
+* ``hemisphere_polar`` — GGX only: Heitz 2018 in the hemisphere configuration with basis
+  T1 = z × ω_h, T2 = ω_h × T1 and a **polar** disk point (:func:`polar_disk`: r = √u₀,
+  φ = 2πu₁); m_z ≥ 1e-6.
+* ``hemisphere_concentric`` — GGX: as ``hemisphere_polar`` with the **concentric** disk point
+  and m_z ≥ 0 (T1 = (1, 0, 0), T2 = (0, 1, 0) where the stretched view's |xy|² ≤ 1e-7).
+  Beckmann: the safeguarded reformulation of Jakob's routine (a closed-form start, up to
+  three Newton/bisection steps, stop at |residual| ≤ 1e-6; polar slopes at normal
+  incidence, stretched cos θ ≥ 0.99999), with the exact erf and erf⁻¹ (scipy).
+
+Which renderer samples by which warp, read from which source, its folder says
+(``envfit/renderers/<name>/_bsdf.py``).
 
 References: Heitz, "Sampling the GGX Distribution of Visible Normals", JCGT 7(4), 2018;
 Heitz, d'Eon, "Importance Sampling Microfacet-Based BSDFs using the Distribution of Visible
@@ -39,16 +40,17 @@ from scipy.special import erf, erfinv
 
 from envfit.base import ParameterError
 
-__all__ = ["concentric_disk", "polar_disk", "sample_visible_normals", "VNDF_RENDERERS"]
+__all__ = ["concentric_disk", "polar_disk", "sample_visible_normals", "VNDF_WARPS"]
 
-VNDF_RENDERERS = ("mitsuba3", "pbrt4", "cycles")
+#: the visible-normal warps by name (module docstring)
+VNDF_WARPS = ("slope_space", "hemisphere_polar", "hemisphere_concentric")
 _INV_SQRT_PI = 1.0 / math.sqrt(math.pi)
 _F32_EPS = float(np.finfo(np.float32).eps)
 
 
 def concentric_disk(u: np.ndarray) -> np.ndarray:
-    """Shirley–Chiu concentric square → disk (Mitsuba's branch-reduced form; Cycles'
-    ``sample_uniform_disk`` gives the same point, ties included). (K, 2) → (K, 2)."""
+    """Shirley–Chiu concentric square → disk, the branch-reduced form (the y branch on
+    |x| < |y|; the classic form gives the same point, ties included). (K, 2) → (K, 2)."""
     x = 2.0 * u[:, 0] - 1.0
     y = 2.0 * u[:, 1] - 1.0
     q13 = np.abs(x) < np.abs(y)
@@ -62,7 +64,7 @@ def concentric_disk(u: np.ndarray) -> np.ndarray:
 
 
 def polar_disk(u: np.ndarray) -> np.ndarray:
-    """pbrt-v4's ``SampleUniformDiskPolar``: r = √u₀, φ = 2πu₁. (K, 2) → (K, 2)."""
+    """The polar square → disk map: r = √u₀, φ = 2πu₁. (K, 2) → (K, 2)."""
     r = np.sqrt(u[:, 0])
     t = 2.0 * math.pi * u[:, 1]
     return np.stack([r * np.cos(t), r * np.sin(t)], axis=1)
@@ -76,8 +78,8 @@ def _stretch(wi: np.ndarray, alpha: float) -> np.ndarray:
     return _normalize(np.stack([alpha * wi[:, 0], alpha * wi[:, 1], wi[:, 2]], axis=1))
 
 
-def _mitsuba_ggx_11(cos_i: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """``sample_visible_11``, GGX branch: α = 1 visible slopes for incidence cos θ_i."""
+def _ggx_slopes_11(cos_i: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """GGX's α = 1 visible slopes for incidence cos θ_i (Heitz 2018 in slope space)."""
     p = concentric_disk(u)
     s = 0.5 * (1.0 + cos_i)
     h = np.sqrt(np.maximum(1.0 - p[:, 0] ** 2, 0.0))
@@ -89,8 +91,8 @@ def _mitsuba_ggx_11(cos_i: np.ndarray, u: np.ndarray) -> np.ndarray:
     return np.stack([(cos_i * py - sin_i * z) * norm, x * norm], axis=1)
 
 
-def _mitsuba_beckmann_11(cos_i: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """``sample_visible_11``, Beckmann branch: Jakob's inversion with three Newton steps."""
+def _beckmann_slopes_newton(cos_i: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """Beckmann's α = 1 visible slopes: Jakob's inversion with three plain Newton steps."""
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         tan_i = np.sqrt(np.maximum(1.0 - cos_i * cos_i, 0.0)) / cos_i
         cot_i = 1.0 / tan_i
@@ -106,8 +108,8 @@ def _mitsuba_beckmann_11(cos_i: np.ndarray, u: np.ndarray) -> np.ndarray:
     return np.stack([erfinv(x), erfinv(2.0 * u[:, 1] - 1.0)], axis=1)
 
 
-def _sample_mitsuba(kind: str, alpha: float, wi: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """``MicrofacetDistribution::sample`` with ``sample_visible`` (steps 1–4)."""
+def _slope_space(kind: str, alpha: float, wi: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """The ``slope_space`` warp: stretch, the α = 1 slopes, rotate, unstretch."""
     wp = _stretch(wi, alpha)
     sin2 = 1.0 - wp[:, 2] ** 2
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -115,7 +117,7 @@ def _sample_mitsuba(kind: str, alpha: float, wi: np.ndarray, u: np.ndarray) -> n
     small = np.abs(sin2) <= 4.0 * _F32_EPS
     cos_phi = np.where(small, 1.0, cs[:, 0])
     sin_phi = np.where(small, 0.0, cs[:, 1])
-    eleven = _mitsuba_ggx_11 if kind == "ggx" else _mitsuba_beckmann_11
+    eleven = _ggx_slopes_11 if kind == "ggx" else _beckmann_slopes_newton
     s = eleven(wp[:, 2], u)
     sx = (cos_phi * s[:, 0] - sin_phi * s[:, 1]) * alpha
     sy = (sin_phi * s[:, 0] + cos_phi * s[:, 1]) * alpha
@@ -130,10 +132,11 @@ def _heitz2018(wh: np.ndarray, t1: np.ndarray, t2: np.ndarray, p: np.ndarray) ->
     return p[:, :1] * t1 + py[:, None] * t2 + pz[:, None] * wh
 
 
-def _sample_pbrt(kind: str, alpha: float, wi: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """``TrowbridgeReitzDistribution::Sample_wm`` (GGX only)."""
+def _hemisphere_polar(kind: str, alpha: float, wi: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """The ``hemisphere_polar`` warp (GGX only)."""
     if kind != "ggx":
-        raise ParameterError("pbrt-v4 has no Beckmann distribution (TrowbridgeReitz only)")
+        raise ParameterError("the hemisphere_polar visible-normal warp is GGX's only (Heitz "
+                             f"2018), got {kind!r}")
     wh = _stretch(wi, alpha)
     wh = np.where(wh[:, 2:] < 0, -wh, wh)
     normal = wh[:, 2] >= 0.99999
@@ -146,8 +149,8 @@ def _sample_pbrt(kind: str, alpha: float, wi: np.ndarray, u: np.ndarray) -> np.n
                                 np.maximum(nh[:, 2], 1e-6)], axis=1))
 
 
-def _sample_cycles_ggx(alpha: float, wi: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """``microfacet_ggx_sample_vndf``."""
+def _hemisphere_concentric_ggx(alpha: float, wi: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """The ``hemisphere_concentric`` warp, GGX."""
     wh = _stretch(wi, alpha)
     lensq = wh[:, 0] ** 2 + wh[:, 1] ** 2
     ok = lensq > 1e-7
@@ -160,8 +163,8 @@ def _sample_cycles_ggx(alpha: float, wi: np.ndarray, u: np.ndarray) -> np.ndarra
                                 np.maximum(hh[:, 2], 0.0)], axis=1))
 
 
-def _cycles_beckmann_slope_x(tan_i, u0):
-    """``microfacet_beckmann_sample_vndf``'s root search for the x slope (exact erf/erf⁻¹)."""
+def _safeguarded_slope_x(tan_i, u0):
+    """The safeguarded root search for Beckmann's x slope (exact erf/erf⁻¹)."""
     cot_i = 1.0 / tan_i
     erf_a, exp_a2 = erf(cot_i), np.exp(-cot_i * cot_i)
     k = tan_i * _INV_SQRT_PI
@@ -186,8 +189,9 @@ def _cycles_beckmann_slope_x(tan_i, u0):
     return inv
 
 
-def _sample_cycles_beckmann(alpha: float, wi: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """``microfacet_beckmann_sample_vndf`` (steps 1–5; normal incidence by its special case)."""
+def _hemisphere_concentric_beckmann(alpha: float, wi: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """The ``hemisphere_concentric`` warp, Beckmann: the safeguarded slopes (polar ones at
+    normal incidence)."""
     wh = _stretch(wi, alpha)
     normal = wh[:, 2] >= 0.99999
     sin_i = np.sqrt(np.maximum(1.0 - wh[:, 2] ** 2, 0.0))
@@ -198,20 +202,21 @@ def _sample_cycles_beckmann(alpha: float, wi: np.ndarray, u: np.ndarray) -> np.n
     with np.errstate(divide="ignore"):
         r = np.sqrt(-np.log(u[:, 0]))
     phi = 2.0 * math.pi * u[:, 1]
-    sx = np.where(normal, r * np.cos(phi), _cycles_beckmann_slope_x(tan_i, u[:, 0]))
+    sx = np.where(normal, r * np.cos(phi), _safeguarded_slope_x(tan_i, u[:, 0]))
     sy = np.where(normal, r * np.sin(phi), erfinv(2.0 * u[:, 1] - 1.0))
     rx = (cos_phi * sx - sin_phi * sy) * alpha
     ry = (sin_phi * sx + cos_phi * sy) * alpha
     return _normalize(np.stack([-rx, -ry, np.ones_like(rx)], axis=1))
 
 
-def sample_visible_normals(renderer: str, kind: str, alpha: float, wi, u) -> np.ndarray:
-    r"""Microfacet normals m (K, 3) drawn from :math:`D_{\omega_i}` as ``renderer`` draws them.
+def sample_visible_normals(warp: str, kind: str, alpha: float, wi, u) -> np.ndarray:
+    r"""Microfacet normals m (K, 3) drawn from :math:`D_{\omega_i}` by the visible-normal
+    ``warp``.
 
     Parameters
     ----------
-    renderer : "mitsuba3", "pbrt4" or "cycles"
-    kind : "ggx" or "beckmann" (pbrt-v4: "ggx" only)
+    warp : a name of :data:`VNDF_WARPS` (module docstring)
+    kind : "ggx" or "beckmann" (``hemisphere_polar``: "ggx" only)
     alpha : the roughness α (already checked by the caller's distribution)
     wi : (K, 3) unit view directions in the local frame, wi_z > 0
     u : (K, 2) points of the unit square
@@ -222,12 +227,12 @@ def sample_visible_normals(renderer: str, kind: str, alpha: float, wi, u) -> np.
     """
     wi = np.asarray(wi, dtype=np.float64).reshape(-1, 3)
     u = np.asarray(u, dtype=np.float64).reshape(-1, 2)
-    if renderer == "mitsuba3":
-        return _sample_mitsuba(kind, alpha, wi, u)
-    if renderer == "pbrt4":
-        return _sample_pbrt(kind, alpha, wi, u)
-    if renderer == "cycles":
+    if warp == "slope_space":
+        return _slope_space(kind, alpha, wi, u)
+    if warp == "hemisphere_polar":
+        return _hemisphere_polar(kind, alpha, wi, u)
+    if warp == "hemisphere_concentric":
         if kind == "ggx":
-            return _sample_cycles_ggx(alpha, wi, u)
-        return _sample_cycles_beckmann(alpha, wi, u)
-    raise ParameterError(f"renderer must be one of {VNDF_RENDERERS}, got {renderer!r}")
+            return _hemisphere_concentric_ggx(alpha, wi, u)
+        return _hemisphere_concentric_beckmann(alpha, wi, u)
+    raise ParameterError(f"visible-normal warp must be one of {VNDF_WARPS}, got {warp!r}")

@@ -1,9 +1,9 @@
 r"""A BSDF that picks one of two lobes by a number of its own, under a sampler whose 1-D
 dimension is N strata with one point in each, paired at random with the 2-D points.
 
-A rough plastic (:class:`envfit.shading.microfacet.RoughPlastic`, whose module cites the
-renderer's source) takes ``sample1`` (a 1-D number) and ``sample2`` (a 2-D one): the specular
-lobe when ``sample1`` < :math:`p` (``prob_specular``), the diffuse one otherwise, then ω from
+A rough plastic (:class:`envfit.shading.microfacet.RoughPlastic`; the renderer's folder's
+``_bsdf`` cites its source) takes ``sample1`` (a 1-D number) and ``sample2`` (a 2-D one): the
+specular lobe when ``sample1`` < :math:`p` (``prob_specular``), the diffuse one otherwise, then ω from
 ``sample2`` in that lobe, weighted by f·cos over the *mixture* pdf. The randomisations of
 :data:`STRATIFIED_1D` draw the 1-D number as one point in each of the N strata
 [k/N, (k+1)/N):
