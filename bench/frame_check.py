@@ -58,6 +58,12 @@ def _diffuse(rgb) -> str:
     return f'<bsdf type="diffuse"><rgb name="reflectance" value="{rgb}"/></bsdf>'
 
 
+def _conductor(dist: str, alpha: float, extra: str = "") -> str:
+    return (f'<bsdf type="roughconductor"><string name="distribution" value="{dist}"/>'
+            f'<float name="alpha" value="{alpha}"/>{extra}</bsdf>')
+
+
+GOLD = '<string name="material" value="Au"/>'
 CHECKER = ('<bsdf type="diffuse"><texture type="checkerboard" name="reflectance">'
            '<rgb name="color0" value="0.15"/><rgb name="color1" value="0.7"/>'
            '<transform name="to_uv"><scale x="6" y="6"/></transform></texture></bsdf>')
@@ -127,6 +133,18 @@ def scenes(folder: Path, size=(64, 48)) -> dict:
                       f'<float name="radius" value="0.35"/>{_diffuse("0.8")}</shape>'
                       + GROUND.format(bsdf=_diffuse("0.5")),
                       '<transform name="to_world"><rotate y="1" angle="-40"/></transform>'),
+        "gloss": ('<integrator type="direct"/>',
+                  CAMERA["persp"].format(fov=45, origin="0, 1.4, 4.5", target="0, 0.45, 0",
+                                         film=film["box"]),
+                  f'<shape type="sphere"><point name="center" x="-0.65" y="0.5" z="0"/>'
+                  f'<float name="radius" value="0.5"/>{_conductor("ggx", 0.1)}</shape>'
+                  f'<shape type="sphere"><point name="center" x="0.6" y="0.45" z="0.2"/>'
+                  f'<float name="radius" value="0.45"/>'
+                  f'{_conductor("beckmann", 0.3, GOLD)}</shape>'
+                  f'<shape type="cube"><transform name="to_world"><scale value="0.25"/>'
+                  f'<rotate y="1" angle="30"/><translate x="0.1" y="0.25" z="1"/></transform>'
+                  f'{_conductor("ggx", 0.4)}</shape>'
+                  + GROUND.format(bsdf=_diffuse("0.5")), ""),
     }
 
 

@@ -68,8 +68,16 @@ def _renders(path, spp: int, k: int) -> np.ndarray:
     return np.stack([np.array(mi.render(sc, seed=s, spp=spp))[..., :3] for s in range(k)])
 
 
-@pytest.mark.parametrize("rfilter", ["box", "gaussian"])
-def test_the_image_and_pixel_rmse_are_mitsubas(scene_dir, rfilter):
+#: a rough gold conductor with a textured specular reflectance (the sphere's BSDF)
+GOLD = ('<bsdf type="roughconductor"><string name="distribution" value="ggx"/>'
+        '<float name="alpha" value="0.2"/><string name="material" value="Au"/>'
+        '<texture type="checkerboard" name="specular_reflectance"><rgb name="color0" '
+        'value="0.9"/><rgb name="color1" value="0.4"/><transform name="to_uv"><scale x="4" '
+        'y="4"/></transform></texture></bsdf>')
+
+
+@pytest.mark.parametrize("rfilter,bsdf", [("box", None), ("gaussian", None), ("box", GOLD)])
+def test_the_image_and_pixel_rmse_are_mitsubas(scene_dir, rfilter, bsdf):
     """Predicted against 40 renders at 4 spp (the estimator is unbiased: each pixel's MSE is
     its variance over renders): the image RMSE inside [0.8 × low, 1.25 × high] of its 95 %
     interval, and the pixels' ranks agree (Spearman ≥ 0.8)."""
@@ -78,7 +86,8 @@ def test_the_image_and_pixel_rmse_are_mitsubas(scene_dir, rfilter):
     from scipy.stats import chi2, spearmanr
 
     from envfit.frame import predict_frame
-    path = _scene(scene_dir, f"{rfilter}.xml", rfilter=rfilter)
+    path = _scene(scene_dir, f"{rfilter}{'_gold' if bsdf else ''}.xml", rfilter=rfilter,
+                  **({"bsdf": bsdf} if bsdf else {}))
     p = predict_frame(path, spp=(4,), level=4)
     imgs = _renders(path, 4, 40)
     meas = imgs.var(axis=0, ddof=1).mean(axis=2)          # (H, W)
@@ -108,6 +117,47 @@ def test_the_gaussian_filter_lowers_the_noise_as_mitsuba_splats(scene_dir):
     rg = np.sqrt(_renders(scene_dir / "g2.xml", 4, 24).var(axis=0, ddof=1).mean())
     assert gau < 0.8 * box
     assert abs((gau / box) / (rg / rb) - 1) < 0.15
+
+
+def test_a_rough_conductor_is_mitsubas_own_at_the_hits(scene_dir):
+    """At first hits on a textured gold GGX sphere: the reader's specular reflectance × the
+    lobe × its Fresnel per channel, and the lobe's pdf, against Mitsuba's own
+    ``BSDF::eval_pdf`` at random directions (an independent evaluation of the same plugin)."""
+    pytest.importorskip("mitsuba")
+    from envfit.renderers.mitsuba3._frame_scene import read_scene
+    from envfit.renderers.mitsuba3._render import import_mitsuba
+    path = _scene(scene_dir, "gold_hits.xml", bsdf=GOLD)
+    fs = read_scene(path)
+    mi = import_mitsuba()
+    sc = mi.load_file(str(path))
+    sensor = sc.sensors()[0]
+    rng = np.random.default_rng(3)
+    xy = np.column_stack([rng.uniform(8, 16, 12), rng.uniform(3, 9, 12)])
+    h = fs.hits_at(xy)
+    gold = [i for i, b in enumerate(fs.bsdfs) if b.kind == "glossy"]
+    assert len(gold) == 1 and [b.kind for b in fs.bsdfs].count("diffuse") == 2
+    lobe = fs.bsdfs[gold[0]]
+    assert lobe.fresnel is not None
+    checked = 0
+    for k, (x, y) in enumerate(xy):
+        ray, _ = sensor.sample_ray(0.0, 0.5, mi.Point2f(x / 24, y / 18), mi.Point2f(0.5, 0.5))
+        si = sc.ray_intersect(ray)
+        if h["shape"][k] != gold[0] or not h["facing"][k]:
+            continue
+        for _ in range(8):
+            wo = rng.normal(size=3)
+            wo[2] = abs(wo[2])
+            wo /= np.linalg.norm(wo)
+            val, pdf = si.bsdf().eval_pdf(mi.BSDFContext(), si, mi.Vector3f(*wo))
+            wi = h["wi"][k:k + 1]
+            m = (wi + wo) / np.linalg.norm(wi + wo)
+            ours = (h["albedo"][k] * lobe.lobe.eval(wi, wo[None])[0]
+                    * lobe.fresnel(np.sum(wi * m, axis=1))[0])
+            assert np.allclose(ours, np.array(tuple(val))[:3], rtol=2e-4, atol=1e-7)
+            assert np.isclose(lobe.lobe.pdf(wi, wo[None])[0], float(pdf), rtol=2e-4)
+            checked += 1
+    assert checked >= 40
+    assert len(np.unique(np.round(h["albedo"][h["shape"] == gold[0], 0], 3))) == 2   # texture
 
 
 def test_shadow_rays_agree_with_mitsubas_ray_test(scene_dir):
@@ -193,7 +243,9 @@ def test_a_sample_of_pixels_estimates_the_image_within_its_error(scene_dir):
 
 
 @pytest.mark.parametrize("change,words", [
-    ({"bsdf": '<bsdf type="conductor"/>'}, "reads the diffuse BSDF only"),
+    ({"bsdf": '<bsdf type="conductor"/>'}, "reads the diffuse and roughconductor BSDFs only"),
+    ({"bsdf": '<bsdf type="roughconductor"><float name="alpha_u" value="0.1"/>'
+              '<float name="alpha_v" value="0.3"/></bsdf>'}, "anisotropic or textured"),
     ({"sampler": "ldsampler"}, "predicts the independent sampler"),
     ({"integrator": "volpath"}, "is not modelled"),
 ])

@@ -35,8 +35,8 @@ def register(subparsers) -> None:
         description=f"Read a renderer's scene file ({readers}) with the renderer, cast its "
                     "shadow rays and predict each pixel's RMSE under the renderer's "
                     "estimator and pixel filter: the image RMSE per spp and the spp that "
-                    "meets a target. Direct lighting from one environment map, diffuse "
-                    "surfaces, the independent sampler.")
+                    "meets a target. Direct lighting from one environment map, diffuse and "
+                    "rough conductor surfaces, the independent sampler.")
     p.add_argument("scene", type=Path, help=f"the scene file ({readers})")
     p.add_argument("--spp", type=int_list, default=None,
                    help="sample counts to predict, e.g. 16,64,256 (default: the scene's)")

@@ -221,7 +221,8 @@ def predict_frame(scene, options: FrameOptions | None = None, **kw) -> FramePred
     answer = _answer(plan, mse1, target, opts.percentile) if target > 0 else None
     notes = list(fs.notes)
     r = max(2, -(-8 // opts.side)) * opts.side
-    notes.append(f"direct lighting from the map ({fs.integrator}); diffuse surfaces; "
+    bsdfs = ", ".join(dict.fromkeys(b.name for b in fs.bsdfs)) or "none"
+    notes.append(f"direct lighting from the map ({fs.integrator}); BSDFs: {bsdfs}; "
                  f"{opts.side}×{opts.side} film points per pixel, {r}×{r} in the {pm.edges} "
                  f"pixels a silhouette crosses")
     if not plan.exact:

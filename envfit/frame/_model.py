@@ -1,24 +1,33 @@
 r"""The frame model: each pixel's predicted error under the renderer's estimator, with the
 scene's shadows, materials and pixel filter.
 
-**One film point.** At a film point x whose camera ray hits a diffuse surface of albedo ρ at p
-with shading normal n, one spp of the renderer's direct estimator is (``direct`` with
-:math:`n_e` emitter and :math:`n_b` BSDF samples; ``path`` at depth 2 is :math:`n_e = n_b = 1`)
+**One film point.** At a film point x whose camera ray hits a surface at p with shading frame
+(s, t, n) and the direction :math:`\omega_i` to the camera, one spp of the renderer's direct
+estimator is (``direct`` with :math:`n_e` emitter and :math:`n_b` BSDF samples; ``path`` at
+depth 2 is :math:`n_e = n_b = 1`)
 
 .. math::  F(x) = \frac1{n_e}\sum_{i} h_e(x, u_i) + \frac1{n_b}\sum_k h_b(x, u'_k),
 
-:math:`h_e = \rho\,\frac{L(\omega)\cos^+\theta}{\pi p_e(\omega)}\,w_e(\omega)\,V(p, \omega)` at
-the map sample :math:`\omega(u)` and :math:`h_b = \rho\,L(\omega)\,w_b(\omega)\,V(p, \omega)`
-at the cosine sample, with the renderer's own technique, pdfs and power-heuristic weights
-(as ``map_values`` and ``bsdf_values`` of :mod:`envfit.predict.renderer._preset_integrand`
-tabulate them for the sphere) and the
-visibility V of :mod:`._visibility`. Its mean and variance over the samples,
+:math:`h_e = \frac{L(\omega)\,f(\omega_i, \omega)\cos^+\theta}{p_e(\omega)}\,
+w_e(\omega)\,V(p, \omega)` at the map sample :math:`\omega(u)` and
+:math:`h_b = L(\omega)\,\frac{f\cos\theta}{p_b}(\omega)\,w_b(\omega)\,V(p, \omega)` at
+the BSDF's own sample, with the renderer's own technique, pdfs and power-heuristic weights
+(:math:`w_e = (\tfrac{n_e}{n} p_e)^2/((\tfrac{n_e}{n} p_e)^2 + (\tfrac{n_b}{n} p_b)^2)`) and
+the visibility V of :mod:`._visibility`. For a diffuse surface of albedo ρ, f = ρ/π and the BSDF
+samples the cosine (as ``map_values`` and ``bsdf_values`` of
+:mod:`envfit.predict.renderer._preset_integrand` tabulate them for the sphere); for a glossy
+lobe (a rough conductor, :class:`~envfit.renderers._frame.FrameBsdf`) f·cos, :math:`p_b` and
+the sample weight f·cos/:math:`p_b` are the renderer's lobe's (visible-normal sampling), times
+its Fresnel per channel at :math:`\omega_i\cdot m` and the specular reflectance at the hit. Its
+mean and variance over the samples,
 
 .. math::  I(x) = E_u h_e + E_{u'} h_b,\qquad
            v(x) = \frac{\mathrm{Var}_u h_e}{n_e} + \frac{\mathrm{Var}_{u'} h_b}{n_b},
 
 are the midpoint quadratures of the technique's own tables at level ``level`` (4^level
-points each). A camera ray that escapes sees the map: :math:`I(x) = L`, :math:`v(x) = 0`.
+points each; a glossy lobe's at ``level`` + its ``level_extra``: the map technique's in the
+map's sample square, the lobe's in its own). A camera ray that escapes sees the map:
+:math:`I(x) = L`, :math:`v(x) = 0`.
 
 **Film points.** Each pixel has S × S strata, each represented by its midpoint; where the
 camera sees the map, a stratum's mean and the variance of I within it come from
@@ -54,7 +63,7 @@ from envfit.base import ParameterError
 from envfit.base import progress_bar
 from envfit.frame._visibility import Visibility
 from envfit.maps import EnvMap
-from envfit.predict.renderer import BsdfTable, MapTable
+from envfit.predict.renderer import BsdfTable, MapTable, midpoints
 from envfit.renderers import get_renderer
 from envfit.renderers import HIT_SURFACE, FrameScene
 
@@ -102,10 +111,11 @@ class _Techniques:
     def __init__(self, fs: FrameScene, level: int, technique=None):
         rec = get_renderer(fs.renderer)
         opts = {"scale": fs.envmap_scale} if fs.envmap_scale != 1.0 else {}
-        self.rec = rec
+        self.rec, self.level = rec, int(level)
         self.tech = technique if technique is not None else \
             rec.technique(EnvMap(fs.envmap_data), **opts)
         self.map = MapTable.build(self.tech, level)
+        self._maps = {self.level: self.map}
         self.local = BsdfTable.build(rec, level).local
         self.rot = np.asarray(fs.envmap_to_world, dtype=np.float64)
         self.map_world = self.map.directions @ self.rot.T
@@ -134,6 +144,47 @@ class _Techniques:
                     self.fe * np.asarray(pdf).reshape(d.shape[:2]))
         hb = np.asarray(rad).reshape(d.shape) * wb[..., None]
         return he, hb, self.map_world, d @ self.rot.T
+
+    def _map_at(self, level: int) -> MapTable:
+        if level not in self._maps:
+            self._maps[level] = MapTable.build(self.tech, level)
+        return self._maps[level]
+
+    def glossy_parts(self, tangent: np.ndarray, wi: np.ndarray, bsdf):
+        r"""For B film points of one glossy :class:`~envfit.renderers._frame.FrameBsdf`
+        (their shading frames ``tangent`` (B, 3, 3), rows s, t, n, world; ``wi`` (B, 3) in
+        them): the map part :math:`L f\cos\theta_o/p_e\; w_e` (B, P, 3), the lobe's part
+        :math:`L\,(f\cos/p_b)\,w_b` (B, Q, 3), and their world directions (P, 3) and
+        (B, Q, 3), both tables at the midpoints of level ``level`` + ``bsdf.level_extra``
+        (the map's sample square; the lobe's, drawn by its own ``sample``)."""
+        lvl = self.level + int(bsdf.level_extra)
+        mt = self._map_at(lvl)
+        fr = tangent @ self.rot                            # rows s, t, n in the map's frame
+        loc = np.einsum("bkj,pj->bpk", fr, mt.directions)  # the map's directions, shading
+        b, p = loc.shape[:2]
+        wi_p, flat = np.repeat(wi, p, axis=0), loc.reshape(-1, 3)
+        fcos = bsdf.lobe.eval(wi_p, flat).reshape(b, p)
+        pb = bsdf.lobe.pdf(wi_p, flat).reshape(b, p)
+        pe = mt.pdf[None, :]
+        we = np.where((fcos > 0) & (pe > 0), _power(self.fe * pe, self.fb * pb), 0.0)
+        he = np.pi * mt.base[None] * (fcos * we)[..., None]
+        if bsdf.fresnel is not None:
+            h = wi_p + flat
+            h /= np.maximum(np.linalg.norm(h, axis=1, keepdims=True), 1e-300)
+            he = he * bsdf.fresnel(np.sum(wi_p * h, axis=1)).reshape(b, p, 3)
+        u = midpoints(lvl)
+        q = len(u)
+        wi_q = np.repeat(wi, q, axis=0)
+        smp = bsdf.lobe.sample(wi_q, np.tile(u, (b, 1)))
+        d = np.einsum("bqk,bkj->bqj", smp.wo.reshape(b, q, 3), fr)
+        rad, pdf_e = self._eval_pdf(d.reshape(-1, 3))
+        weight = smp.weight.reshape(b, q)
+        wb = np.where(weight > 0, _power(self.fb * smp.pdf.reshape(b, q),
+                                         self.fe * np.asarray(pdf_e).reshape(b, q)), 0.0)
+        hb = np.asarray(rad).reshape(b, q, 3) * (weight * wb)[..., None]
+        if bsdf.fresnel is not None:
+            hb = hb * bsdf.fresnel(np.sum(wi_q * smp.m, axis=1)).reshape(b, q, 3)
+        return he, hb, mt.directions @ self.rot.T, d @ self.rot.T
 
 
 def _lerp(c: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -207,9 +258,10 @@ def film_block(fs: FrameScene, pixels, side: int) -> FilmBlock:
                      dirs[inv].reshape(len(px), 2, 2, 3))
 
 
-def _surface_moments(h: dict, tq: _Techniques, vis: Visibility, ne: int, nb: int, bar):
+def _surface_moments(h: dict, tq: _Techniques, vis: Visibility, fs: FrameScene, bar):
     """I and v (P, 3) of flat film points ``h`` (the arrays of :attr:`FrameScene.hits_at`)
     that hit a surface facing the camera, 0 elsewhere; and the shadow rays cast."""
+    ne, nb = fs.emitter_samples, fs.bsdf_samples
     p_all = len(h["kind"])
     mean, var = np.zeros((p_all, 3)), np.zeros((p_all, 3))
     idx = np.flatnonzero((h["kind"] == HIT_SURFACE) & h["facing"])
@@ -220,14 +272,18 @@ def _surface_moments(h: dict, tq: _Techniques, vis: Visibility, ne: int, nb: int
     for b in batches:
         shape = int(h["shape"][b[0]])
         o = h["position"][b] + _offset(h["position"][b])[:, None] * h["geo_normal"][b]
-        he, hb, de, db = tq.parts(h["normal"][b])
+        bsdf = fs.bsdfs[shape] if shape < len(fs.bsdfs) else None
+        if bsdf is not None and bsdf.kind == "glossy":
+            he, hb, de, db = tq.glossy_parts(h["tangent"][b], h["wi"][b], bsdf)
+        else:
+            he, hb, de, db = tq.parts(h["normal"][b])
         p = de.shape[0]
         ve = vis.visible(np.repeat(o, p, axis=0), np.tile(de, (len(b), 1)), shape)
-        vb = vis.visible(np.repeat(o, p, axis=0), db.reshape(-1, 3), shape)
+        vb = vis.visible(np.repeat(o, db.shape[1], axis=0), db.reshape(-1, 3), shape)
         rays += ve.size + vb.size
         a = h["albedo"][b][:, None, :]
         e = he * ve.reshape(len(b), p)[..., None] * a
-        g = hb * vb.reshape(len(b), p)[..., None] * a
+        g = hb * vb.reshape(len(b), -1)[..., None] * a
         mean[b] = e.mean(axis=1) + g.mean(axis=1)
         var[b] = (e.var(axis=1) / ne if ne else 0.0) + (g.var(axis=1) / nb if nb else 0.0)
         bar.update(len(b))
@@ -265,7 +321,7 @@ def _refine(fs: FrameScene, block: FilmBlock, vis: Visibility, sel: np.ndarray,
     fx = x[:, None] + ((j + b) / s).ravel()[None, :]
     fy = y[:, None] + ((i + a) / s).ravel()[None, :]
     h = fs.hits_at(np.column_stack([fx.ravel(), fy.ravel()]))
-    m, v, rays = _surface_moments(h, tq, vis, fs.emitter_samples, fs.bsdf_samples, bar)
+    m, v, rays = _surface_moments(h, tq, vis, fs, bar)
     esc = h["kind"] != HIT_SURFACE
     m[esc] = h["background"][esc]
     m = m.reshape(len(sel), s, s, r * r, 3)
@@ -290,7 +346,7 @@ def point_moments(fs: FrameScene, block: FilmBlock, level: int = 4, quiet: bool 
     todo = int(np.sum((flat["kind"] == HIT_SURFACE) & flat["facing"]))
     bar = progress_bar(todo + len(edges) * block.side ** 2 * r * r, desc="frame model",
                        quiet=quiet, unit="point")
-    m, v, rays = _surface_moments(flat, tq, vis, fs.emitter_samples, fs.bsdf_samples, bar)
+    m, v, rays = _surface_moments(flat, tq, vis, fs, bar)
     mean, var = m.reshape(shp + (3,)), v.reshape(shp + (3,))
     within = np.zeros(shp + (3,))
     esc = block.hits["kind"] != HIT_SURFACE

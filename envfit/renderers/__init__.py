@@ -108,6 +108,7 @@ __all__ = sorted(_LAZY)
 #: package (lazily) but not its public API (not in ``__all__``, not documented)
 _SHARED = {
     "FrameScene": "_frame",
+    "FrameBsdf": "_frame",
     "HIT_SURFACE": "_frame",
 }
 

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["FrameScene", "Occluder", "HIT_NONE", "HIT_SURFACE"]
+__all__ = ["FrameScene", "FrameBsdf", "Occluder", "HIT_NONE", "HIT_SURFACE"]
 
 #: :attr:`FrameScene.kind` of a film point whose camera ray escapes to the map
 HIT_NONE = 0
@@ -38,6 +38,26 @@ class Occluder:
 
 
 @dataclass(frozen=True)
+class FrameBsdf:
+    r"""One shape's BSDF as the frame model evaluates it, in the shading frame (normal +z,
+    ``wi`` towards the camera), built by the renderer's folder from its own plugin.
+
+    ``kind``: ``"diffuse"`` (Lambert: the model's cosine tables; ``lobe`` None) or
+    ``"glossy"``: ``lobe`` has the renderer's ``eval(wi, wo)`` (f·cos θ_o), ``pdf(wi, wo)``
+    and ``sample(wi, u)`` (``wo``, ``weight`` = f·cos/pdf, ``pdf``, the microfacet normal
+    ``m``) with a white Fresnel term, and ``fresnel(cos)`` (…, 3) the per-channel factor
+    at cos θ = ω_i·m (None: 1). The texture factor (the diffuse or specular reflectance
+    at the hit) is the hit's ``albedo``. ``level_extra``: how many grid levels finer than
+    the diffuse tables this lobe is tabulated (a sharper lobe needs more points)."""
+
+    kind: str
+    name: str
+    lobe: object = None
+    fresnel: object = None
+    level_extra: int = 0
+
+
+@dataclass(frozen=True)
 class FrameScene:
     r"""The scene around the frame's pixels, and the renderer's own first hits on demand.
 
@@ -47,6 +67,7 @@ class FrameScene:
     renderer : the renderer's registry name.
     size : (W, H) pixels.
     occluders : the shapes as triangles (:class:`Occluder`).
+    bsdfs : each shape's :class:`FrameBsdf` (the order of ``occluders``).
     envmap_data : (h, w, 3) the map's texels as the emitter holds them.
     envmap_to_world : (3, 3) the emitter's rotation (its ``to_world``).
     envmap_scale : the emitter's radiance scale.
@@ -62,8 +83,9 @@ class FrameScene:
     hits_at : the first hits of the camera rays at film positions (P, 2) in pixels (x right,
         y down), by the renderer: a dict of arrays (P, …): ``kind`` (int8, :data:`HIT_NONE`
         or :data:`HIT_SURFACE`), ``position`` (world), ``normal`` (shading), ``geo_normal``
-        (facing the camera's side), ``tangent`` (the BSDF's frame rows s, t, n), ``albedo``
-        (the diffuse reflectance with its textures), ``facing`` (the camera sees the BSDF's
+        (facing the camera's side), ``tangent`` (the BSDF's frame rows s, t, n), ``wi``
+        (towards the camera, in that frame), ``albedo`` (the diffuse reflectance, or a
+        glossy lobe's specular reflectance, with its textures), ``facing`` (the camera sees the BSDF's
         upper side), ``shape`` (index in ``occluders``, −1 where none), ``background`` (the
         map's radiance where the ray escapes).
     rays_at : the camera rays at film positions (P, 2): origins (P, 3) and directions
@@ -92,6 +114,7 @@ class FrameScene:
     hits_at: object = field(repr=False)
     rays_at: object = field(repr=False)
     notes: tuple = ()
+    bsdfs: tuple = ()
 
     @property
     def width(self) -> int:

@@ -42,6 +42,7 @@ __all__ = sorted(_LAZY)
 _SHARED = {
     "BsdfTable": "_preset_integrand",
     "MapTable": "_preset_integrand",
+    "midpoints": "_preset_integrand",
     "preset_request": "_preset_model",
 }
 

@@ -8,8 +8,14 @@ What is read, and from where (Mitsuba 3.9.1):
   aperture, time 0), as ``SamplingIntegrator::render_sample`` draws them
   (``src/render/integrator.cpp``);
 * the first hit: ``Scene::ray_intersect``; its shading frame ``si.sh_frame`` (the BSDF's
-  frame), geometric normal ``si.n``, and the BSDF's diffuse reflectance
-  ``BSDF::eval_diffuse_reflectance`` (textures evaluated by Mitsuba at ``si.uv``);
+  frame), geometric normal ``si.n``, the direction to the camera ``si.wi``, and the BSDF's
+  diffuse reflectance ``BSDF::eval_diffuse_reflectance`` (textures evaluated by Mitsuba at
+  ``si.uv``); for a ``roughconductor`` its specular reflectance there, as Mitsuba's own
+  ``BSDF::eval`` towards the normal over the white lobe's value (``RoughConductor::eval``,
+  ``src/bsdfs/roughconductor.cpp``: F·D·G/(4 cos θ_i) times ``specular_reflectance``);
+* the BSDFs: ``diffuse``, and ``roughconductor`` (isotropic, visible-normal sampling: its
+  ``distribution``, ``alpha``, ``eta`` and ``k`` from ``traverse``) as this folder's
+  :func:`~envfit.renderers.mitsuba3._bsdf.bsdf` builds it (its Fresnel per RGB channel);
 * an escaping camera ray: the environment emitter's ``eval`` of the escaped interaction, as
   ``DirectIntegrator::sample`` adds it (``src/integrators/direct.cpp``);
 * shadow geometry: meshes' ``vertex_positions`` and ``faces`` (world space, as Mitsuba
@@ -21,8 +27,8 @@ What is read, and from where (Mitsuba 3.9.1):
   ``scale``;
 * the filter: ``ReconstructionFilter::eval`` and ``radius`` (``src/rfilters/*.cpp``).
 
-Only the ``diffuse`` BSDF and one ``envmap`` emitter are read; anything else is refused in one
-line (:class:`envfit.base.ParameterError`) before any work.
+Only the ``diffuse`` and ``roughconductor`` BSDFs and one ``envmap`` emitter are read;
+anything else is refused in one line (:class:`envfit.base.ParameterError`) before any work.
 """
 from __future__ import annotations
 
@@ -33,7 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from envfit.base import ParameterError
-from envfit.renderers._frame import HIT_SURFACE, FrameScene, Occluder
+from envfit.renderers._frame import HIT_SURFACE, FrameBsdf, FrameScene, Occluder
 
 __all__ = ["read_scene", "SAMPLER_CLASSES"]
 
@@ -167,25 +173,68 @@ def _sphere_match(params, key, shape) -> bool:
                 and np.allclose(np.linalg.norm(m[:3, :3], axis=0), r, rtol=1e-4))
 
 
-def _bsdf_checks(shapes) -> None:
+#: a glossy lobe's tables are this many levels finer than the diffuse ones, by its α: the
+#: lobe must span enough cells of the BSDF technique's grid (chosen on the renders of
+#: bench/frame_check.py's ``gloss`` scene)
+_GLOSS_LEVELS = ((0.05, 3), (0.15, 2), (1.0, 1))
+
+
+def _conductor(mi, b, where: str) -> FrameBsdf:
+    """Mitsuba's ``roughconductor`` as a :class:`FrameBsdf` (``roughconductor.cpp``)."""
+    from envfit.renderers.mitsuba3._bsdf import bsdf
+    text = str(b)
+    params = mi.traverse(b)
+    if "alpha.value" not in params.keys():
+        raise ParameterError(f"{where} has an anisotropic or textured roughness: the frame "
+                             f"model reads an isotropic roughconductor (one alpha)")
+    if not _field(text, "sample_visible", 1):
+        raise ParameterError(f"{where} samples the full microfacet distribution "
+                             f"(sample_visible false): the frame model reads visible-normal "
+                             f"sampling, Mitsuba's default")
+    dist = re.search(r"distribution\s*=\s*(\w+)", text).group(1)
+    alpha = max(float(params["alpha.value"]), 1e-4)
+    eta, k = (np.broadcast_to(np.atleast_1d(np.asarray(params[f"{x}.value"], dtype=np.float64)),
+                              (3,)) for x in ("eta", "k"))
+    lobe = bsdf(dist, alpha)
+    white = bool(np.all(eta == 0.0) and np.all(k == 1.0))          # material "none": F = 1
+    channels = [bsdf(dist, alpha, eta=float(e), k=float(kk)) for e, kk in zip(eta, k)]
+
+    def fresnel(cos):
+        return np.stack([c.fresnel(cos) for c in channels], axis=-1)
+
+    extra = next(e for a, e in _GLOSS_LEVELS if alpha <= a)
+    return FrameBsdf("glossy", f"roughconductor ({dist}, alpha {alpha:g})", lobe,
+                     None if white else fresnel, extra)
+
+
+def _frame_bsdfs(mi, shapes) -> tuple:
+    """Each shape's :class:`FrameBsdf`; a BSDF or emitter the model does not read is refused."""
+    out = []
     for i, sh in enumerate(shapes):
         b = sh.bsdf()
         cls = _class(b)
-        if cls != "SmoothDiffuse":
-            raise ParameterError(f"shape {i} ({_class(sh)}) has the BSDF {cls}: the frame model "
-                                 f"reads the diffuse BSDF only so far")
+        where = f"shape {i} ({_class(sh)})"
         if sh.emitter() is not None:
-            raise ParameterError(f"shape {i} ({_class(sh)}) is an area emitter: the frame model "
+            raise ParameterError(f"{where} is an area emitter: the frame model "
                                  f"predicts lighting from the environment map only")
+        if cls == "SmoothDiffuse":
+            out.append(FrameBsdf("diffuse", "diffuse"))
+        elif cls == "RoughConductor":
+            out.append(_conductor(mi, b, where))
+        else:
+            raise ParameterError(f"{where} has the BSDF {cls}: the frame model reads the "
+                                 f"diffuse and roughconductor BSDFs only so far")
+    return tuple(out)
 
 
 class _Camera:
     """First hits of camera rays at film positions, by Mitsuba (``Sensor::sample_ray``,
     ``Scene::ray_intersect``)."""
 
-    def __init__(self, mi, scene, sensor, emitter):
+    def __init__(self, mi, scene, sensor, emitter, bsdfs=()):
         self.mi, self.scene, self.sensor, self.emitter = mi, scene, sensor, emitter
         self.shapes = list(scene.shapes())
+        self.bsdfs = bsdfs
         self.w, self.h = (int(x) for x in sensor.film().size())
 
     def _ray(self, x: float, y: float):
@@ -204,9 +253,11 @@ class _Camera:
         p = len(xy)
         out = {"kind": np.zeros(p, np.int8), "position": np.zeros((p, 3)),
                "normal": np.zeros((p, 3)), "geo_normal": np.zeros((p, 3)),
-               "tangent": np.zeros((p, 3, 3)), "albedo": np.zeros((p, 3)),
+               "tangent": np.zeros((p, 3, 3)), "wi": np.zeros((p, 3)),
+               "albedo": np.zeros((p, 3)),
                "facing": np.zeros(p, bool), "shape": np.full(p, -1, np.int64),
                "background": np.zeros((p, 3))}
+        up = self.mi.Vector3f(0.0, 0.0, 1.0)
         for k, (x, y) in enumerate(np.asarray(xy, dtype=np.float64).tolist()):
             ray = self._ray(x, y)
             si = self.scene.ray_intersect(ray)
@@ -223,9 +274,35 @@ class _Camera:
             out["geo_normal"][k] = ng
             out["tangent"][k] = (tuple(fr.s), tuple(fr.t), n)
             out["facing"][k] = si.wi[2] > 0.0
-            out["albedo"][k] = tuple(si.bsdf().eval_diffuse_reflectance(si, True))[:3]
-            out["shape"][k] = self._index(si.shape)
+            out["wi"][k] = tuple(si.wi)
+            shape = out["shape"][k] = self._index(si.shape)
+            if self._glossy(shape):
+                if si.wi[2] > 0.0:                              # Mitsuba's eval to the normal
+                    out["albedo"][k] = tuple(si.bsdf().eval(self.mi.BSDFContext(), si, up))[:3]
+            else:
+                out["albedo"][k] = tuple(si.bsdf().eval_diffuse_reflectance(si, True))[:3]
+        self._specular(out)
         return out
+
+    def _glossy(self, shape: int) -> bool:
+        return 0 <= shape < len(self.bsdfs) and self.bsdfs[shape].kind == "glossy"
+
+    def _specular(self, out: dict) -> None:
+        """A glossy hit's specular reflectance (textures included): Mitsuba's ``eval``
+        towards the normal (in ``albedo``) over the white lobe's there, times its Fresnel."""
+        for shape in np.unique(out["shape"]):
+            if not self._glossy(int(shape)):
+                continue
+            b = self.bsdfs[int(shape)]
+            sel = np.flatnonzero((out["shape"] == shape) & (out["wi"][:, 2] > 0.0))
+            wi = out["wi"][sel]
+            wo = np.broadcast_to([0.0, 0.0, 1.0], wi.shape)
+            m = wi + wo
+            m /= np.linalg.norm(m, axis=1, keepdims=True)
+            ref = b.lobe.eval(wi, wo)[:, None] * (
+                b.fresnel(np.sum(wi * m, axis=1)) if b.fresnel is not None else 1.0)
+            val = out["albedo"][sel]
+            out["albedo"][sel] = np.where(ref > 0, val / np.where(ref > 0, ref, 1.0), 0.0)
 
     def rays(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The camera rays at film positions ``xy`` (P, 2): origins (P, 3) and directions
@@ -243,7 +320,8 @@ def read_scene(path) -> FrameScene:
     """The :class:`~envfit.renderers._frame.FrameScene` of the Mitsuba 3 scene file ``path``.
 
     Raises :class:`envfit.base.ParameterError` (one line) for a file Mitsuba cannot load, a
-    scene without exactly one ``envmap`` emitter, a BSDF other than ``diffuse``, an area
+    scene without exactly one ``envmap`` emitter, a BSDF other than ``diffuse`` and an
+    isotropic ``roughconductor`` with visible-normal sampling, an area
     emitter, or an integrator other than ``direct``/``path``."""
     from envfit.renderers.mitsuba3._render import import_mitsuba
     path = Path(path)
@@ -258,7 +336,7 @@ def read_scene(path) -> FrameScene:
     integ, ne, nb, depth = _integrator(scene)
     emitter, data, to_world, scale = _emitter(mi, scene)
     shapes = list(scene.shapes())
-    _bsdf_checks(shapes)
+    bsdfs = _frame_bsdfs(mi, shapes)
     params = mi.traverse(scene)
     occ = tuple(_occluder(mi, params, s, i) for i, s in enumerate(shapes))
     sampler = sensor.sampler()
@@ -273,7 +351,7 @@ def read_scene(path) -> FrameScene:
     if integ == "path" and depth not in (2,):
         notes.append(f"path with max_depth {depth}: its direct lighting from the map is "
                      f"predicted, not the longer paths")
-    cam = _Camera(mi, scene, sensor, emitter)
+    cam = _Camera(mi, scene, sensor, emitter, bsdfs)
     return FrameScene(
         path=str(path), renderer="mitsuba3", size=tuple(int(x) for x in sensor.film().size()),
         occluders=occ, envmap_data=data, envmap_to_world=to_world,
@@ -282,4 +360,4 @@ def read_scene(path) -> FrameScene:
         filter_name=fname, filter_radius=radius,
         filter_weights=np.vectorize(lambda t: float(rf.eval(float(t))), otypes=[float]),
         hits_at=cam.hits, rays_at=cam.rays,
-        notes=tuple(notes))
+        notes=tuple(notes), bsdfs=bsdfs)
