@@ -47,7 +47,7 @@ CAMERA = {
              '<lookat origin="{origin}" target="{target}" up="0, 1, 0"/>'
              '<scale x="{scale}" y="{scale}"/></transform>{film}</sensor>',
 }
-FILM = ('<sampler type="independent"><integer name="sample_count" value="4"/></sampler>'
+FILM = ('<sampler type="{sampler}"><integer name="sample_count" value="4"/></sampler>'
         '<film type="hdrfilm"><integer name="width" value="{w}"/>'
         '<integer name="height" value="{h}"/><rfilter type="{rfilter}"/></film>')
 GROUND = ('<shape type="rectangle"><transform name="to_world"><scale value="6"/>'
@@ -87,12 +87,15 @@ def _torus(path: Path, major=0.6, minor=0.25, n=48, m=24) -> Path:
     return path
 
 
-def scenes(folder: Path, size=(64, 48)) -> dict:
-    """name → (integrator, camera, shapes, map to_world) of the four scenes."""
+def scenes(folder: Path, size=(64, 48), sampler: str = "independent") -> dict:
+    """name → (integrator, camera, shapes, map to_world) of the scenes (a sampler other than
+    ``independent``: every film with the box filter, the one its frame model reads)."""
     w, h = size
     torus = _torus(folder / "torus.obj")
-    film = {"box": FILM.format(w=w, h=h, rfilter="box"),
-            "gaussian": FILM.format(w=w, h=h, rfilter="gaussian")}
+    net = sampler != "independent"
+    film = {"box": FILM.format(w=w, h=h, rfilter="box", sampler=sampler),
+            "gaussian": FILM.format(w=w, h=h, rfilter="box" if net else "gaussian",
+                                    sampler=sampler)}
     return {
         "spheres_box": ('<integrator type="direct"/>',
                         CAMERA["persp"].format(fov=40, origin="0, 1.5, 5", target="0, 0.4, 0",
@@ -199,7 +202,7 @@ def check(path: Path, spps, renders: int, reference_spp: int, level: int,
     p = predict_frame(path, spp=tuple(spps), level=level)
     t_pred = time.perf_counter() - t
     sc = mi.load_file(str(path))
-    cells, pooled = [], []
+    cells, pooled, pairs, rho = [], [], [], []
     for n, row in zip(spps, p.rows):
         imgs = np.stack([np.array(mi.render(sc, seed=1000 * n + s, spp=n))[..., :3]
                          for s in range(renders)])
@@ -211,10 +214,19 @@ def check(path: Path, spps, renders: int, reference_spp: int, level: int,
                       "ratio": row.rmse / math.sqrt(meas.mean()),
                       "inside": bool(0.64 * lo <= pred <= 1.5625 * hi)})
         pooled.append(meas * n)
-    meas1 = np.mean(pooled, axis=0)
-    pred1 = p.mse1.mean(axis=2)
-    order = np.argsort(pred1.ravel())
-    bins = [float(np.sqrt(meas1.ravel()[b].mean() / max(pred1.ravel()[b].mean(), 1e-300)))
+        if p.mse_by_spp:                       # a net sampler: not MSE1/N, per spp
+            pm = p.pixel_rmse(n).ravel() ** 2
+            pairs.append((pm, meas.ravel()))
+            rho.append(float(spearmanr(pm, meas.ravel())[0]))
+    if p.mse_by_spp:
+        pred1, meas1 = (np.concatenate(x) for x in zip(*pairs))
+        spear = min(rho)
+    else:
+        meas1 = np.mean(pooled, axis=0).ravel()
+        pred1 = p.mse1.mean(axis=2).ravel()
+        spear = float(spearmanr(pred1, meas1)[0])
+    order = np.argsort(pred1)
+    bins = [float(np.sqrt(meas1[b].mean() / max(pred1[b].mean(), 1e-300)))
             for b in np.array_split(order, 10)]
     key = path.stem.rsplit("_", 1)[0]                   # one reference time per scene
     if key not in timed:
@@ -222,7 +234,7 @@ def check(path: Path, spps, renders: int, reference_spp: int, level: int,
         mi.render(sc, seed=7, spp=reference_spp)
         timed[key] = time.perf_counter() - t
     t_ref = timed[key]
-    return {"cells": cells, "spearman": float(spearmanr(pred1.ravel(), meas1.ravel())[0]),
+    return {"cells": cells, "spearman": spear,
             "bins_measured_over_predicted": bins,
             "bins_inside": int(sum(0.8 <= b <= 1.25 for b in bins)),
             "edges": next((x for x in p.notes if "silhouette" in x), ""),
@@ -241,6 +253,8 @@ def main(argv=None) -> int:
     ap.add_argument("--size", type=int, nargs=2, default=[64, 48], metavar=("W", "H"))
     ap.add_argument("--target-relative", type=float, default=None,
                     help="also render the advised spp for this relative image RMSE and half")
+    ap.add_argument("--sampler", default="independent",
+                    help="the scenes' sampler (ldsampler: every scene with the box filter)")
     ap.add_argument("--out", type=Path, default=Path("frame_check"))
     a = ap.parse_args(argv)
     a.out.mkdir(parents=True, exist_ok=True)
@@ -252,13 +266,14 @@ def main(argv=None) -> int:
             maps.append(("sun-gp", save_envmap(a.out / "sun-gp.exr", env.envmap)))
         else:
             maps.append((Path(m).stem, Path(m).resolve()))
-    sc = scenes(a.out, tuple(a.size))
+    sc = scenes(a.out, tuple(a.size), a.sampler)
     rows, timed = [], {}
     for sname, parts in sc.items():
         if a.scenes and sname not in a.scenes:
             continue
         for mname, mpath in maps:
-            path = write_scene(a.out / f"{sname}_{mname}.xml", parts, mpath)
+            tag = "" if a.sampler == "independent" else f"_{a.sampler}"
+            path = write_scene(a.out / f"{sname}{tag}_{mname}.xml", parts, mpath)
             r = check(path, a.spp, a.renders, a.reference_spp, a.level, timed)
             r.update(scene=sname, map=mname)
             if a.target_relative:

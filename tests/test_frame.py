@@ -160,6 +160,57 @@ def test_a_rough_conductor_is_mitsubas_own_at_the_hits(scene_dir):
     assert len(np.unique(np.round(h["albedo"][h["shape"] == gold[0], 0], 3))) == 2   # texture
 
 
+def test_the_net_simulation_is_the_digital_shifts_exact_mse():
+    """One film cell whose map part is a 32 × 32 table (smooth, with a jump): the mean over
+    4096 of
+    ``ldsampler``'s scrambles of the pixel's squared error (the renderer's own points,
+    :mod:`envfit.frame._nets`) against the exact MSE of a uniformly digitally shifted
+    (0, 2)-net (the Walsh coefficients on the net's dual: a second algorithm)."""
+    from envfit.frame._nets import _squared_errors
+    from envfit.predict.renderer.randomisation import DyadicGrid, randomised_mse
+    from envfit.renderers import get_renderer
+    m, n = 32, 16
+    x = (np.arange(m) + 0.5) / m
+    table = x[:, None] ** 2 + np.sin(3 * x[None, :]) + (x[:, None] + 0.7 * x[None, :] > 0.9)
+    flat = np.vstack([np.repeat(table.reshape(-1, 1), 3, axis=1), np.zeros((1, 3))])
+    offs, sides = np.array([[0, m * m]]), np.array([[m, 1]])
+    pts = get_renderer("mitsuba3").sampler("ldsampler").film_points(4096, n, 3, 1)
+    out = np.zeros((1, 3))
+    _squared_errors(flat, offs, sides, np.zeros(1, np.int64), np.ones(1, np.int64),
+                    *(np.ascontiguousarray(pts[:, :, d]) for d in (0, 1, 2)),
+                    np.full((1, 3), table.mean()), out)
+    exact = randomised_mse("digital_shift", DyadicGrid.from_arrays(table, table ** 2), n).mse[0]
+    assert abs(out[0, 0] / exact - 1) < 0.08, (out[0, 0], exact)
+    assert exact < 0.3 * table.var() / n                  # far below the independent MSE
+
+
+def test_the_ldsampler_frame_is_mitsubas(scene_dir):
+    """A frame under ``ldsampler`` (box filter) at 16 spp against 40 renders: the image RMSE
+    inside [0.8 × low, 1.25 × high] of its 95 % interval; its error is not MSE₁/N (the
+    independent sampler's scene predicts more at 64 spp)."""
+    pytest.importorskip("mitsuba")
+    pytest.importorskip("embreex")
+    from scipy.stats import chi2
+
+    from envfit.frame import predict_frame
+    path = _scene(scene_dir, "ld.xml", sampler="ldsampler")
+    p = predict_frame(path, spp=(16, 64), level=3)
+    assert set(p.mse_by_spp) >= {16, 64}
+    if p.answer is None:                          # none meets up to the tables' reach
+        assert p.below == max(p.mse_by_spp)
+    else:
+        assert p.below is None or p.below < p.answer
+    imgs = _renders(path, 16, 40)
+    meas = imgs.var(axis=0, ddof=1).mean(axis=2)
+    k, mm = imgs.shape[0] - 1, float(meas.mean())
+    dof = k * meas.sum() ** 2 / (meas ** 2).sum()
+    lo, hi = mm * dof / chi2.ppf(0.975, dof), mm * dof / chi2.ppf(0.025, dof)
+    pred = p.rows[0].rmse ** 2
+    assert 0.8 ** 2 * lo <= pred <= 1.25 ** 2 * hi, (pred, lo, hi)
+    ind = predict_frame(_scene(scene_dir, "ind.xml"), spp=(64,), level=3)
+    assert p.rows[1].rmse < 0.9 * ind.rows[0].rmse
+
+
 def test_shadow_rays_agree_with_mitsubas_ray_test(scene_dir):
     """Random rays from points on the ground: Embree on the scene's triangles (an icosphere
     for the sphere) against Mitsuba's ``Scene::ray_test`` on its own shapes."""
@@ -246,7 +297,8 @@ def test_a_sample_of_pixels_estimates_the_image_within_its_error(scene_dir):
     ({"bsdf": '<bsdf type="conductor"/>'}, "reads the diffuse and roughconductor BSDFs only"),
     ({"bsdf": '<bsdf type="roughconductor"><float name="alpha_u" value="0.1"/>'
               '<float name="alpha_v" value="0.3"/></bsdf>'}, "anisotropic or textured"),
-    ({"sampler": "ldsampler"}, "predicts the independent sampler"),
+    ({"sampler": "multijitter"}, "predicts the independent, ldsampler samplers"),
+    ({"sampler": "ldsampler", "rfilter": "gaussian"}, "with the box filter only"),
     ({"integrator": "volpath"}, "is not modelled"),
 ])
 def test_what_is_not_modelled_is_refused_in_one_line(scene_dir, change, words):

@@ -36,7 +36,8 @@ def register(subparsers) -> None:
                     "shadow rays and predict each pixel's RMSE under the renderer's "
                     "estimator and pixel filter: the image RMSE per spp and the spp that "
                     "meets a target. Direct lighting from one environment map, diffuse and "
-                    "rough conductor surfaces, the independent sampler.")
+                    "rough conductor surfaces, the independent and ldsampler (box filter) "
+                    "samplers.")
     p.add_argument("scene", type=Path, help=f"the scene file ({readers})")
     p.add_argument("--spp", type=int_list, default=None,
                    help="sample counts to predict, e.g. 16,64,256 (default: the scene's)")
@@ -72,9 +73,13 @@ def _lines(r) -> list[str]:
 def _answer(r, percentile) -> str:
     what = "the image RMSE" if percentile is None else f"the {percentile:g}th percentile " \
                                                        f"of the pixels' RMSE"
+    if r.answer is None:
+        return (f"answer: none: {what} misses {r.target:.5g} ({r.target_kind}) at every spp "
+                f"the {r.sampler} sampler runs up to {r.below}")
     return (f"answer: {r.answer} spp: {what} meets {r.target:.5g} ({r.target_kind}) "
-            f"at {r.answer} spp and not at {r.answer - 1}" if r.answer > 1 else
-            f"answer: 1 spp: {what} meets {r.target:.5g} ({r.target_kind}) at 1 spp")
+            f"at {r.answer} spp and not at {r.below}" if r.below else
+            f"answer: {r.answer} spp: {what} meets {r.target:.5g} ({r.target_kind}) at "
+            f"{r.answer} spp, the fewest the {r.sampler} sampler runs")
 
 
 def _write(output: CommandOutput, r, out: Path) -> None:

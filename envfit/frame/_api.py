@@ -8,7 +8,9 @@ moments (:func:`._model.point_moments`), each pixel's MSE under the film's filte
 The image RMSE is over all pixels and the three channels against the converged image:
 :math:`\sqrt{\frac{1}{3HW}\sum_{p,c}\mathrm{MSE}_{p,c}(N)}`, and a pixel's RMSE is
 :math:`\sqrt{\frac13\sum_c \mathrm{MSE}_{p,c}(N)}`; with the ``independent`` sampler both
-fall exactly as :math:`N^{-1/2}`.
+fall exactly as :math:`N^{-1/2}`. A sampler whose dimensions are one net per pixel (Mitsuba's
+``ldsampler``) is predicted at each spp it runs (:mod:`._nets`), and the answer searched over
+those counts up to :data:`NET_TOP`.
 """
 from __future__ import annotations
 
@@ -20,9 +22,11 @@ from pathlib import Path
 
 import numpy as np
 
-from envfit.base import ParameterError
+from envfit.base import ParameterError, progress_bar
 from envfit.frame._model import (MODELLED_SAMPLERS, film_block, filter_reach, pixel_mse,
                                  point_moments)
+from envfit.frame._nets import (LIMITS, net_level, net_sampler, pixel_mse_nets, resolved,
+                               scrambles)
 from envfit.frame._plan import PixelPlan, film_pixels, plan_pixels
 from envfit.renderers import get_renderer
 
@@ -32,6 +36,8 @@ __all__ = ["FrameOptions", "FrameRow", "FramePrediction", "predict_frame", "READ
 READERS = {".xml": "mitsuba3"}
 #: pixel percentiles reported per spp
 PERCENTILES = (50, 90, 99)
+#: the largest spp a net sampler's answer is searched to
+NET_TOP = 4096
 
 
 @dataclass(frozen=True)
@@ -102,8 +108,11 @@ class FramePrediction:
 
     ``preview`` is the converged image the model implies (H, W, 3), ``mse1`` the per-pixel
     MSE at one spp (H, W, 3) — on the plan's grid of cells where not every pixel was
-    predicted (``exact`` false; ``pixels`` were); ``answer`` the smallest spp meeting the
-    target (None without one); ``notes`` what the model assumed, as sentences."""
+    predicted (``exact`` false; ``pixels`` were); for a net sampler (not 1/N) ``mse1`` is N ×
+    the MSE at the first spp and ``mse_by_spp`` {N: MSE (H, W, 3)} holds every spp
+    predicted; ``answer`` the smallest spp meeting the target (None where none does up to
+    the search's top), ``below`` the sampler's next smaller spp (where it misses);
+    ``notes`` what the model assumed, as sentences."""
 
     scene: str
     renderer: str
@@ -128,9 +137,16 @@ class FramePrediction:
     mean_value: float = 0.0
     """The converged image's mean over pixels and channels (each predicted pixel weighted by
     the pixels it stands for)."""
+    mse_by_spp: dict = field(default_factory=dict, repr=False)
+    below: int | None = None
 
     def pixel_rmse(self, spp: int) -> np.ndarray:
         """Each pixel's predicted RMSE (H, W) at ``spp``."""
+        if self.mse_by_spp:
+            if int(spp) not in self.mse_by_spp:
+                raise ParameterError(f"spp {spp} was not predicted for the {self.sampler} "
+                                     f"sampler: one of {sorted(self.mse_by_spp)}")
+            return np.sqrt(self.mse_by_spp[int(spp)].mean(axis=2))
         return np.sqrt(self.mse1.mean(axis=2) / int(spp))
 
     def to_dict(self) -> dict:
@@ -148,7 +164,8 @@ class FramePrediction:
                                                             r.percentiles.items()}}
                                 for r in self.rows],
                 "target": self.target, "target_kind": self.target_kind,
-                "answer_spp": self.answer, "notes": list(self.notes),
+                "answer_spp": self.answer, "below_spp": self.below,
+                "notes": list(self.notes),
                 "seconds": self.seconds, "shadow_rays": self.rays}
 
 
@@ -162,8 +179,8 @@ def _reader(path: Path):
     return module.read_scene
 
 
-def _row(plan: PixelPlan, mse1: np.ndarray, n: int, mean: float) -> FrameRow:
-    v = mse1.mean(axis=1) / n                                  # each target's MSE
+def _row(plan: PixelPlan, mse: np.ndarray, n: int, mean: float) -> FrameRow:
+    v = mse.mean(axis=1)                                       # each target's MSE at n
     img = float(np.sqrt(plan.mean(v)))
     se = plan.standard_error(v) / (2 * plan.mean(v)) if plan.mean(v) > 0 else 0.0
     pix = np.sqrt(v)
@@ -173,13 +190,38 @@ def _row(plan: PixelPlan, mse1: np.ndarray, n: int, mean: float) -> FrameRow:
                     float(se))
 
 
+def _measure(plan: PixelPlan, mse: np.ndarray, percentile) -> float:
+    """The image MSE, or the square of the pixels' RMSE at ``percentile``."""
+    v = mse.mean(axis=1)
+    return float(plan.mean(v)) if percentile is None else float(np.percentile(
+        np.sqrt(v), percentile, weights=plan.weights, method="inverted_cdf")) ** 2
+
+
 def _answer(plan: PixelPlan, mse1: np.ndarray, target: float, percentile) -> int:
     """The smallest N whose image RMSE (or the pixel percentile's) is ≤ target: exact, as
     the MSE is MSE₁/N."""
-    v = mse1.mean(axis=1)
-    m = float(plan.mean(v)) if percentile is None else float(np.percentile(
-        np.sqrt(v), percentile, weights=plan.weights, method="inverted_cdf")) ** 2
+    m = _measure(plan, mse1, percentile)
     return max(1, math.ceil(m / (target * target) * (1 - 1e-12)))
+
+
+def _net_answer(plan: PixelPlan, mse: dict, target: float, percentile):
+    """(the smallest spp of ``mse``'s whose measure is ≤ target, the next smaller one)."""
+    ladder = sorted(mse)
+    for i, n in enumerate(ladder):
+        if _measure(plan, mse[n], percentile) <= target * target:
+            return n, (ladder[i - 1] if i else None)
+    return None, ladder[-1]
+
+
+def _ladder(spec, top: int) -> list[int]:
+    """The spp counts the sampler runs, up to ``top``."""
+    out, n = [], 1
+    while n <= top:
+        r = int(spec.spp(n))
+        if r <= top and r not in out:
+            out.append(r)
+        n = r + 1
+    return out
 
 
 def predict_frame(scene, options: FrameOptions | None = None, **kw) -> FramePrediction:
@@ -201,30 +243,54 @@ def predict_frame(scene, options: FrameOptions | None = None, **kw) -> FramePred
     read = _reader(path)
     t0 = time.perf_counter()
     fs = read(path)
-    if fs.sampler not in MODELLED_SAMPLERS:
+    spec = net_sampler(fs)
+    if fs.sampler not in MODELLED_SAMPLERS and spec is None:
         raise ParameterError(f"the scene's sampler is {fs.sampler}: the frame model predicts "
-                             f"the {', '.join(MODELLED_SAMPLERS)} sampler so far")
+                             f"the {', '.join(MODELLED_SAMPLERS + ('ldsampler',))} samplers "
+                             f"so far")
     plan = plan_pixels(fs.size, opts.max_pixels, opts.seed)
     block = film_block(fs, film_pixels(plan.targets, filter_reach(fs), fs.size), opts.side)
     t1 = time.perf_counter()
-    pm = point_moments(fs, block, opts.level, quiet=opts.quiet)
-    value, mse1 = pixel_mse(fs, block, pm, plan.targets)
+    spps = tuple(int(n) for n in opts.spp) or (fs.spp,)
+    if spec is None:
+        pm = point_moments(fs, block, opts.level, quiet=opts.quiet)
+        value, mse1 = pixel_mse(fs, block, pm, plan.targets)
+        rays, edges, by_spp = pm.rays, pm.edges, {}
+        mse = {n: mse1 / n for n in spps}
+    else:
+        spps = tuple(dict.fromkeys(int(spec.spp(n)) for n in spps))
+        level = net_level(opts.level, spps)
+        todo = sorted(set(spps) | set(_ladder(spec, min(NET_TOP, resolved(level)))))
+        bar = progress_bar(len(plan.targets), desc="frame model", quiet=opts.quiet,
+                           unit="pixel")
+        value, mse, rays, edges = pixel_mse_nets(fs, block, plan.targets, todo, level,
+                                                 opts.seed, bar)
+        bar.close()
+        mse1 = mse[spps[0]] * spps[0]
+        by_spp = mse
     t2 = time.perf_counter()
     mean = float(plan.mean(value).mean())
-    spps = tuple(int(n) for n in opts.spp) or (fs.spp,)
-    rows = tuple(_row(plan, mse1, n, mean) for n in spps)
+    rows = tuple(_row(plan, mse[n], n, mean) for n in spps)
     if opts.target is not None:
         target, kind = float(opts.target), "absolute"
     else:
         rel = 0.01 if opts.target_relative is None else float(opts.target_relative)
         target, kind = rel * mean, f"relative {rel:g}"
-    answer = _answer(plan, mse1, target, opts.percentile) if target > 0 else None
+    if spec is None:
+        answer = _answer(plan, mse1, target, opts.percentile) if target > 0 else None
+        below = None if answer is None else answer - 1
+    else:
+        answer, below = _net_answer(plan, by_spp, target, opts.percentile)
     notes = list(fs.notes)
     r = max(2, -(-8 // opts.side)) * opts.side
     bsdfs = ", ".join(dict.fromkeys(b.name for b in fs.bsdfs)) or "none"
     notes.append(f"direct lighting from the map ({fs.integrator}); BSDFs: {bsdfs}; "
-                 f"{opts.side}×{opts.side} film points per pixel, {r}×{r} in the {pm.edges} "
+                 f"{opts.side}×{opts.side} film points per pixel, {r}×{r} in the {edges} "
                  f"pixels a silhouette crosses")
+    if spec is not None:
+        notes.append(f"{fs.sampler}: " + LIMITS.format(
+            r=", ".join(f"{scrambles(n)} at {n} spp" for n in spps), level=level,
+            top=resolved(level)))
     if not plan.exact:
         notes.append(f"{len(plan.targets)} of {fs.width * fs.height} pixels predicted, one "
                      f"drawn in each cell of a {plan.grid[1]}x{plan.grid[0]} grid (seed "
@@ -234,4 +300,5 @@ def predict_frame(scene, options: FrameOptions | None = None, **kw) -> FramePred
         str(path), fs.renderer, fs.size, fs.sampler, fs.spp, fs.integrator, fs.filter_name,
         opts.side, opts.level, plan.image(value), plan.image(mse1), rows, target, kind,
         answer, tuple(notes), {"read": round(t1 - t0, 3), "model": round(t2 - t1, 3)},
-        pm.rays, plan.exact, len(plan.targets), mean)
+        rays, plan.exact, len(plan.targets), mean,
+        {n: plan.image(v) for n, v in by_spp.items()}, below)

@@ -258,34 +258,45 @@ def film_block(fs: FrameScene, pixels, side: int) -> FilmBlock:
                      dirs[inv].reshape(len(px), 2, 2, 3))
 
 
-def _surface_moments(h: dict, tq: _Techniques, vis: Visibility, fs: FrameScene, bar):
-    """I and v (P, 3) of flat film points ``h`` (the arrays of :attr:`FrameScene.hits_at`)
-    that hit a surface facing the camera, 0 elsewhere; and the shadow rays cast."""
-    ne, nb = fs.emitter_samples, fs.bsdf_samples
-    p_all = len(h["kind"])
-    mean, var = np.zeros((p_all, 3)), np.zeros((p_all, 3))
+def surface_tables(h: dict, tq: _Techniques, vis: Visibility, fs: FrameScene):
+    """The techniques' tables with visibility of the flat film points ``h`` (the arrays of
+    :attr:`FrameScene.hits_at`) that hit a surface facing the camera, in batches of one
+    shape: yields (indices (B,), the map part (B, P, 3), the BSDF part (B, Q, 3), level of
+    each, shadow rays cast) — the parts :math:`h_e`, :math:`h_b` of the module docstring at
+    the midpoints of a 2^level × 2^level grid of each technique's sample square."""
     idx = np.flatnonzero((h["kind"] == HIT_SURFACE) & h["facing"])
     idx = idx[np.argsort(h["shape"][idx], kind="stable")]           # one shape per batch
     batches = [b for s in np.unique(h["shape"][idx]) for sel in [idx[h["shape"][idx] == s]]
                for b in np.array_split(sel, max(1, -(-len(sel) // _BATCH)))]
-    rays = 0
     for b in batches:
         shape = int(h["shape"][b[0]])
         o = h["position"][b] + _offset(h["position"][b])[:, None] * h["geo_normal"][b]
         bsdf = fs.bsdfs[shape] if shape < len(fs.bsdfs) else None
         if bsdf is not None and bsdf.kind == "glossy":
             he, hb, de, db = tq.glossy_parts(h["tangent"][b], h["wi"][b], bsdf)
+            level = tq.level + int(bsdf.level_extra)
         else:
             he, hb, de, db = tq.parts(h["normal"][b])
+            level = tq.level
         p = de.shape[0]
         ve = vis.visible(np.repeat(o, p, axis=0), np.tile(de, (len(b), 1)), shape)
         vb = vis.visible(np.repeat(o, db.shape[1], axis=0), db.reshape(-1, 3), shape)
-        rays += ve.size + vb.size
         a = h["albedo"][b][:, None, :]
-        e = he * ve.reshape(len(b), p)[..., None] * a
-        g = hb * vb.reshape(len(b), -1)[..., None] * a
+        yield (b, he * ve.reshape(len(b), p)[..., None] * a,
+               hb * vb.reshape(len(b), -1)[..., None] * a, level, ve.size + vb.size)
+
+
+def _surface_moments(h: dict, tq: _Techniques, vis: Visibility, fs: FrameScene, bar):
+    """I and v (P, 3) of flat film points ``h`` (the arrays of :attr:`FrameScene.hits_at`)
+    that hit a surface facing the camera, 0 elsewhere; and the shadow rays cast."""
+    ne, nb = fs.emitter_samples, fs.bsdf_samples
+    p_all = len(h["kind"])
+    mean, var = np.zeros((p_all, 3)), np.zeros((p_all, 3))
+    rays = 0
+    for b, e, g, _, cast in surface_tables(h, tq, vis, fs):
         mean[b] = e.mean(axis=1) + g.mean(axis=1)
         var[b] = (e.var(axis=1) / ne if ne else 0.0) + (g.var(axis=1) / nb if nb else 0.0)
+        rays += cast
         bar.update(len(b))
     return mean, var, rays
 

@@ -68,6 +68,9 @@ class FrameScene:
     size : (W, H) pixels.
     occluders : the shapes as triangles (:class:`Occluder`).
     bsdfs : each shape's :class:`FrameBsdf` (the order of ``occluders``).
+    draws : the sampler calls (dimension pairs after the film's, call 0) of the first emitter
+        and the first BSDF 2-D sample of a spp, as the integrator makes them (None: not
+        known for this integrator and sample counts).
     envmap_data : (h, w, 3) the map's texels as the emitter holds them.
     envmap_to_world : (3, 3) the emitter's rotation (its ``to_world``).
     envmap_scale : the emitter's radiance scale.
@@ -115,6 +118,7 @@ class FrameScene:
     rays_at: object = field(repr=False)
     notes: tuple = ()
     bsdfs: tuple = ()
+    draws: tuple | None = None
 
     @property
     def width(self) -> int:

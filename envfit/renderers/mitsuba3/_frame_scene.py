@@ -81,6 +81,18 @@ def _integrator(scene) -> tuple[str, int, int, int]:
                          f"(the frame model predicts direct lighting from the map)")
 
 
+def _draws(integrator: str, ne: int, nb: int):
+    """The sampler calls of the first emitter and BSDF 2-D draws (``direct`` with one sample
+    of each, or ``path``), as the renderer's own strategy records place them
+    (:mod:`._envmap`: ``_direct_draws``, ``_path_draws``); None otherwise."""
+    from envfit.renderers.mitsuba3._envmap import _direct_draws, _path_draws
+    if integrator == "path":
+        return tuple(_path_draws()["calls"])
+    if integrator == "direct" and ne == 1 and nb == 1:
+        return tuple(_direct_draws(1)["calls"])
+    return None
+
+
 def _emitter(mi, scene):
     ems = list(scene.emitters())
     kinds = [_class(e) for e in ems]
@@ -352,6 +364,7 @@ def read_scene(path) -> FrameScene:
         notes.append(f"path with max_depth {depth}: its direct lighting from the map is "
                      f"predicted, not the longer paths")
     cam = _Camera(mi, scene, sensor, emitter, bsdfs)
+    draws = _draws(integ, ne, nb)
     return FrameScene(
         path=str(path), renderer="mitsuba3", size=tuple(int(x) for x in sensor.film().size()),
         occluders=occ, envmap_data=data, envmap_to_world=to_world,
@@ -360,4 +373,4 @@ def read_scene(path) -> FrameScene:
         filter_name=fname, filter_radius=radius,
         filter_weights=np.vectorize(lambda t: float(rf.eval(float(t))), otypes=[float]),
         hits_at=cam.hits, rays_at=cam.rays,
-        notes=tuple(notes), bsdfs=bsdfs)
+        notes=tuple(notes), bsdfs=bsdfs, draws=draws)
