@@ -138,7 +138,7 @@ class _Techniques:
                                                   / np.pi), 0.0)
         he = self.map.base[None] * (np.maximum(c, 0.0) * we)[..., None]
         frames = self.rec.tangent_frame(n)              # (B, 3, 3) rows s, t, n
-        d = np.einsum("pk,bkj->bpj", self.local, frames)
+        d = np.matmul(self.local, frames)                # (B, P, 3): local @ rows s, t, n
         rad, pdf = self._eval_pdf(d.reshape(-1, 3))
         wb = _power(self.fb * self.local[None, :, 2] / np.pi,
                     self.fe * np.asarray(pdf).reshape(d.shape[:2]))

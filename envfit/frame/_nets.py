@@ -188,28 +188,64 @@ def _squared_errors(flat, offs, sides, first, grid, film, ue, ub, means,
                     out):  # pragma: no cover - numba
     """out[k] = the mean over the scrambles r of (F − I)² (channels) of pixel k, whose cells
     are rows ``first[k]`` … of ``offs``/``sides`` on a ``grid[k]``² film grid."""
+    nr, nn = film.shape[0], film.shape[1]
     for k in numba.prange(out.shape[0]):
         g = grid[k]
-        acc = np.zeros(3)
-        for r in range(film.shape[0]):
-            f = np.zeros(3)
-            for j in range(film.shape[1]):
+        a0 = a1 = a2 = 0.0
+        for r in range(nr):
+            f0 = f1 = f2 = 0.0
+            for j in range(nn):
                 cx = min(int(film[r, j, 0] * g), g - 1)
                 cy = min(int(film[r, j, 1] * g), g - 1)
                 c = first[k] + cy * g + cx
-                for part in range(2):
-                    m = sides[c, part]
-                    u = ue if part == 0 else ub
-                    i0 = min(int(u[r, j, 0] * m), m - 1)
-                    i1 = min(int(u[r, j, 1] * m), m - 1)
-                    t = offs[c, part] + i0 * m + i1
-                    for ch in range(3):
-                        f[ch] += flat[t, ch]
-            for ch in range(3):
-                d = f[ch] / film.shape[1] - means[k, ch]
-                acc[ch] += d * d
+                m = sides[c, 0]
+                t = offs[c, 0] + min(int(ue[r, j, 0] * m), m - 1) * m \
+                    + min(int(ue[r, j, 1] * m), m - 1)
+                f0 += flat[t, 0]
+                f1 += flat[t, 1]
+                f2 += flat[t, 2]
+                m = sides[c, 1]
+                t = offs[c, 1] + min(int(ub[r, j, 0] * m), m - 1) * m \
+                    + min(int(ub[r, j, 1] * m), m - 1)
+                f0 += flat[t, 0]
+                f1 += flat[t, 1]
+                f2 += flat[t, 2]
+            d0, d1, d2 = f0 / nn - means[k, 0], f1 / nn - means[k, 1], f2 / nn - means[k, 2]
+            a0 += d0 * d0
+            a1 += d1 * d1
+            a2 += d2 * d2
+        out[k, 0], out[k, 1], out[k, 2] = a0 / nr, a1 / nr, a2 / nr
+
+
+@numba.njit(cache=True, parallel=True)
+def _table_stats(flat, offs, sides, means, shell):  # pragma: no cover - numba
+    """Each cell's table mean and finest-shell power (the mean over its 2 × 2 blocks of their
+    variance; 0 for a one-entry table), (C, 3) each."""
+    for c in numba.prange(offs.shape[0]):
+        m, o = sides[c], offs[c]
         for ch in range(3):
-            out[k, ch] = acc[ch] / film.shape[0]
+            s1 = 0.0
+            s2 = 0.0
+            b2 = 0.0
+            for i in range(0, m, 2 if m > 1 else 1):
+                for j in range(0, m, 2 if m > 1 else 1):
+                    if m == 1:
+                        v = flat[o, ch]
+                        s1 += v
+                        s2 += v * v
+                        b2 += v * v
+                        continue
+                    bs = 0.0
+                    for di in range(2):
+                        for dj in range(2):
+                            v = flat[o + (i + di) * m + j + dj, ch]
+                            bs += v
+                            s2 += v * v
+                    s1 += bs
+                    b2 += (bs / 4.0) ** 2
+            cells = m * m
+            means[c, ch] = s1 / cells
+            shell[c, ch] = max(s2 / cells - b2 / (cells / 4.0 if m > 1 else 1.0), 0.0)
 
 
 def pixel_mse_nets(fs: FrameScene, block: FilmBlock, targets, spps, level: int, seed: int,
@@ -241,11 +277,14 @@ def pixel_mse_nets(fs: FrameScene, block: FilmBlock, targets, spps, level: int, 
         counts = np.bincount(h["pixel"], minlength=len(part))
         first = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
         grid = np.round(np.sqrt(counts)).astype(np.int64)
-        cell_mean = np.stack([_table_means(flat, offs[:, p], sides[:, p]) for p in (0, 1)]
-                             ).sum(axis=0)                                    # (C, 3)
+        cell_mean, shell = np.zeros((len(offs), 3)), np.zeros((len(offs), 3))
+        for p in (0, 1):
+            a, b = np.zeros((len(offs), 3)), np.zeros((len(offs), 3))
+            _table_stats(flat, np.ascontiguousarray(offs[:, p]),
+                         np.ascontiguousarray(sides[:, p]), a, b)
+            cell_mean += a
+            shell += b
         means = np.add.reduceat(cell_mean, first, axis=0) / counts[:, None]
-        shell = np.stack([_shell_power(flat, offs[:, p], sides[:, p]) for p in (0, 1)]
-                         ).sum(axis=0)
         above = np.add.reduceat(shell, first, axis=0) / counts[:, None]
         value[lo:lo + len(part)] = means
         for n in spps:
@@ -259,27 +298,3 @@ def pixel_mse_nets(fs: FrameScene, block: FilmBlock, targets, spps, level: int, 
         if bar is not None:
             bar.update(len(part))
     return value, mse, rays, int(np.sum(edges[sel]))
-
-
-def _shell_power(flat: np.ndarray, offs: np.ndarray, sides: np.ndarray) -> np.ndarray:
-    """The power (C, 3) of each cell's table in its finest shell: the mean over its 2 × 2
-    blocks of the blocks' variance (0 for a one-entry table)."""
-    out = np.zeros((len(offs), 3))
-    for m in np.unique(sides):
-        if m < 2:
-            continue
-        w = np.flatnonzero(sides == m)
-        t = flat[offs[w, None] + np.arange(m * m)[None, :]].reshape(len(w), m // 2, 2,
-                                                                    m // 2, 2, 3)
-        out[w] = t.var(axis=(2, 4)).mean(axis=(1, 2))
-    return out
-
-
-def _table_means(flat: np.ndarray, offs: np.ndarray, sides: np.ndarray) -> np.ndarray:
-    """The mean (C, 3) of each cell's table."""
-    out = np.zeros((len(offs), 3))
-    for m in np.unique(sides):
-        w = np.flatnonzero(sides == m)
-        idx = offs[w, None] + np.arange(m * m)[None, :]
-        out[w] = flat[idx].mean(axis=1)
-    return out
