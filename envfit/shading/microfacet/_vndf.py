@@ -8,7 +8,7 @@ gives different normals. Each is named by its GGX form; its Beckmann form is lis
 * ``slope_space`` — stretch ω_i, sample the α = 1 visible slopes in the frame of ω_i's
   azimuth, rotate and unstretch the slopes. GGX: Heitz 2018 in slope space from the
   **concentric** disk point (:func:`concentric_disk`, the branch-reduced form that picks the
-  y branch on |x| < |y|), p_y lerped with s = ½(1 + cos θ_i); the disk's x becomes the slope
+  y branch on :math:`|x| < |y|`), p_y lerped with s = ½(1 + cos θ_i); the disk's x becomes the slope
   across the plane of incidence with the sign opposite to the hemisphere warps' T1 (the same
   u gives m mirrored across the plane of incidence). Beckmann: Jakob's numerical inversion of
   Heitz–d'Eon 2014 (initial guess, CDF normalisation, three plain Newton steps in the erf
@@ -18,7 +18,7 @@ gives different normals. Each is named by its GGX form; its Beckmann form is lis
   T1 = z × ω_h, T2 = ω_h × T1 and a **polar** disk point (:func:`polar_disk`: r = √u₀,
   φ = 2πu₁); m_z ≥ 1e-6.
 * ``hemisphere_concentric`` — GGX: as ``hemisphere_polar`` with the **concentric** disk point
-  and m_z ≥ 0 (T1 = (1, 0, 0), T2 = (0, 1, 0) where the stretched view's |xy|² ≤ 1e-7).
+  and m_z ≥ 0 (T1 = (1, 0, 0), T2 = (0, 1, 0) where the stretched view's :math:`x^2 + y^2 \le 10^{-7}`).
   Beckmann: the safeguarded reformulation of Jakob's routine (a closed-form start, up to
   three Newton/bisection steps, stop at |residual| ≤ 1e-6; polar slopes at normal
   incidence, stretched cos θ ≥ 0.99999), with the exact erf and erf⁻¹ (scipy).
@@ -50,7 +50,8 @@ _F32_EPS = float(np.finfo(np.float32).eps)
 
 def concentric_disk(u: np.ndarray) -> np.ndarray:
     """Shirley–Chiu concentric square → disk, the branch-reduced form (the y branch on
-    |x| < |y|; the classic form gives the same point, ties included). (K, 2) → (K, 2)."""
+    :math:`|x| < |y|`; the classic form gives the same point, ties included).
+    (K, 2) → (K, 2)."""
     x = 2.0 * u[:, 0] - 1.0
     y = 2.0 * u[:, 1] - 1.0
     q13 = np.abs(x) < np.abs(y)
