@@ -196,10 +196,16 @@ def test_the_ldsampler_frame_is_mitsubas(scene_dir):
     path = _scene(scene_dir, "ld.xml", sampler="ldsampler")
     p = predict_frame(path, spp=(16, 64), level=3)
     assert set(p.mse_by_spp) >= {16, 64}
-    if p.answer is None:                          # none meets up to the tables' reach
-        assert p.below == max(p.mse_by_spp)
-    else:
-        assert p.below is None or p.below < p.answer
+    mse = {n: float(v.mean()) for n, v in p.mse_by_spp.items()}
+    top, (n0, n1) = p.target ** 2, sorted(mse)[-2:]
+    if p.answer_rate is None:                     # the answer among the predicted counts
+        assert p.answer in mse and mse[p.answer] <= top
+        assert p.below is None or mse[p.below] > top
+    else:                                         # past them, at the last two's local rate
+        a = 2 * p.answer_rate
+        assert abs(mse[n0] / mse[n1] - (n1 / n0) ** a) < 1e-9 * mse[n0] / mse[n1]
+        assert mse[n1] > top and p.answer == 4 * p.below
+        assert mse[n1] * (n1 / p.answer) ** a <= top < mse[n1] * (n1 / p.below) ** a
     imgs = _renders(path, 16, 40)
     meas = imgs.var(axis=0, ddof=1).mean(axis=2)
     k, mm = imgs.shape[0] - 1, float(meas.mean())

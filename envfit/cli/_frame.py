@@ -73,11 +73,13 @@ def _lines(r) -> list[str]:
 def _answer(r, percentile) -> str:
     what = "the image RMSE" if percentile is None else f"the {percentile:g}th percentile " \
                                                        f"of the pixels' RMSE"
+    past = (f" (extrapolated past {max(r.mse_by_spp)} spp at RMSE ∝ spp^-{r.answer_rate:.2f})"
+            if r.answer_rate is not None else "")
     if r.answer is None:
         return (f"answer: none: {what} misses {r.target:.5g} ({r.target_kind}) at every spp "
-                f"the {r.sampler} sampler runs up to {r.below}")
+                f"the {r.sampler} sampler runs up to {r.below}{past}")
     return (f"answer: {r.answer} spp: {what} meets {r.target:.5g} ({r.target_kind}) "
-            f"at {r.answer} spp and not at {r.below}" if r.below else
+            f"at {r.answer} spp and not at {r.below}{past}" if r.below else
             f"answer: {r.answer} spp: {what} meets {r.target:.5g} ({r.target_kind}) at "
             f"{r.answer} spp, the fewest the {r.sampler} sampler runs")
 

@@ -139,6 +139,9 @@ class FramePrediction:
     the pixels it stands for)."""
     mse_by_spp: dict = field(default_factory=dict, repr=False)
     below: int | None = None
+    answer_rate: float | None = None
+    """Where a net sampler's answer lies past the spp predicted: the RMSE exponent it was
+    extrapolated at (None: the answer was predicted)."""
 
     def pixel_rmse(self, spp: int) -> np.ndarray:
         """Each pixel's predicted RMSE (H, W) at ``spp``."""
@@ -165,6 +168,7 @@ class FramePrediction:
                                 for r in self.rows],
                 "target": self.target, "target_kind": self.target_kind,
                 "answer_spp": self.answer, "below_spp": self.below,
+                "answer_extrapolated_rate": self.answer_rate,
                 "notes": list(self.notes),
                 "seconds": self.seconds, "shadow_rays": self.rays}
 
@@ -204,13 +208,24 @@ def _answer(plan: PixelPlan, mse1: np.ndarray, target: float, percentile) -> int
     return max(1, math.ceil(m / (target * target) * (1 - 1e-12)))
 
 
-def _net_answer(plan: PixelPlan, mse: dict, target: float, percentile):
-    """(the smallest spp of ``mse``'s whose measure is ≤ target, the next smaller one)."""
-    ladder = sorted(mse)
-    for i, n in enumerate(ladder):
+def _net_answer(plan: PixelPlan, mse: dict, target: float, percentile, ladder: list):
+    """(the smallest spp of ``ladder`` whose measure is ≤ target, the next smaller one, the
+    RMSE exponent used past the predicted counts or None): the spp of ``mse`` as predicted;
+    past the largest, extrapolated from the last two at their local rate (MSE ∝ N^-a)."""
+    have = sorted(mse)
+    for i, n in enumerate(have):
         if _measure(plan, mse[n], percentile) <= target * target:
-            return n, (ladder[i - 1] if i else None)
-    return None, ladder[-1]
+            return n, (have[i - 1] if i else None), None
+    if len(have) < 2:
+        return None, have[-1], None
+    (n0, n1), (m0, m1) = have[-2:], (_measure(plan, mse[n], percentile) for n in have[-2:])
+    a = math.log(m0 / m1) / math.log(n1 / n0) if m0 > 0 and m1 > 0 else 1.0
+    prev = n1
+    for n in (x for x in ladder if x > n1):
+        if m1 * (n1 / n) ** a <= target * target:
+            return n, prev, a / 2
+        prev = n
+    return None, prev, a / 2
 
 
 def _ladder(spec, top: int) -> list[int]:
@@ -260,11 +275,12 @@ def predict_frame(scene, options: FrameOptions | None = None, **kw) -> FramePred
     else:
         spps = tuple(dict.fromkeys(int(spec.spp(n)) for n in spps))
         level = net_level(opts.level, spps)
-        todo = sorted(set(spps) | set(_ladder(spec, min(NET_TOP, resolved(level)))))
+        ladder = _ladder(spec, NET_TOP)
+        todo = sorted(set(spps) | {n for n in ladder if n <= resolved(level)})
         bar = progress_bar(len(plan.targets), desc="frame model", quiet=opts.quiet,
                            unit="pixel")
         value, mse, rays, edges = pixel_mse_nets(fs, block, plan.targets, todo, level,
-                                                 opts.seed, bar)
+                                                 opts.seed, bar, base=opts.level)
         bar.close()
         mse1 = mse[spps[0]] * spps[0]
         by_spp = mse
@@ -276,11 +292,12 @@ def predict_frame(scene, options: FrameOptions | None = None, **kw) -> FramePred
     else:
         rel = 0.01 if opts.target_relative is None else float(opts.target_relative)
         target, kind = rel * mean, f"relative {rel:g}"
+    rate = None
     if spec is None:
         answer = _answer(plan, mse1, target, opts.percentile) if target > 0 else None
         below = None if answer is None else answer - 1
     else:
-        answer, below = _net_answer(plan, by_spp, target, opts.percentile)
+        answer, below, rate = _net_answer(plan, by_spp, target, opts.percentile, ladder)
     notes = list(fs.notes)
     r = max(2, -(-8 // opts.side)) * opts.side
     bsdfs = ", ".join(dict.fromkeys(b.name for b in fs.bsdfs)) or "none"
@@ -290,7 +307,12 @@ def predict_frame(scene, options: FrameOptions | None = None, **kw) -> FramePred
     if spec is not None:
         notes.append(f"{fs.sampler}: " + LIMITS.format(
             r=", ".join(f"{scrambles(n)} at {n} spp" for n in spps), level=level,
-            top=resolved(level)))
+            top=max(by_spp)))
+        if rate is not None:
+            notes.append(f"past {max(by_spp)} spp the answer is extrapolated from "
+                         f"{sorted(by_spp)[-2]} and {max(by_spp)} spp at their local rate, "
+                         f"RMSE ∝ spp^-{rate:.2f} (--level {opts.level + 1} predicts to "
+                         f"{resolved(net_level(opts.level + 1, spps))} spp)")
     if not plan.exact:
         notes.append(f"{len(plan.targets)} of {fs.width * fs.height} pixels predicted, one "
                      f"drawn in each cell of a {plan.grid[1]}x{plan.grid[0]} grid (seed "
@@ -301,4 +323,4 @@ def predict_frame(scene, options: FrameOptions | None = None, **kw) -> FramePred
         opts.side, opts.level, plan.image(value), plan.image(mse1), rows, target, kind,
         answer, tuple(notes), {"read": round(t1 - t0, 3), "model": round(t2 - t1, 3)},
         rays, plan.exact, len(plan.targets), mean,
-        {n: plan.image(v) for n, v in by_spp.items()}, below)
+        {n: plan.image(v) for n, v in by_spp.items()}, below, rate)

@@ -106,12 +106,16 @@ def _power(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 class _Techniques:
     """The renderer's map technique and cosine sampling tabulated once at level ``level``,
     evaluated for a batch of film points (:meth:`parts`); ``technique``: one already built
-    from this scene's map (its warp is not built again)."""
+    from this scene's map (its warp is not built again). A glossy lobe's tables are at
+    :meth:`glossy_level`: ``gloss_base`` (default ``level``) plus the lobe's
+    ``level_extra``, never coarser than ``level``."""
 
-    def __init__(self, fs: FrameScene, level: int, technique=None):
+    def __init__(self, fs: FrameScene, level: int, technique=None,
+                 gloss_base: int | None = None):
         rec = get_renderer(fs.renderer)
         opts = {"scale": fs.envmap_scale} if fs.envmap_scale != 1.0 else {}
         self.rec, self.level = rec, int(level)
+        self.gloss_base = self.level if gloss_base is None else int(gloss_base)
         self.tech = technique if technique is not None else \
             rec.technique(EnvMap(fs.envmap_data), **opts)
         self.map = MapTable.build(self.tech, level)
@@ -145,6 +149,10 @@ class _Techniques:
         hb = np.asarray(rad).reshape(d.shape) * wb[..., None]
         return he, hb, self.map_world, d @ self.rot.T
 
+    def glossy_level(self, bsdf) -> int:
+        """The level of a glossy lobe's tables."""
+        return max(self.level, self.gloss_base + int(bsdf.level_extra))
+
     def _map_at(self, level: int) -> MapTable:
         if level not in self._maps:
             self._maps[level] = MapTable.build(self.tech, level)
@@ -155,9 +163,9 @@ class _Techniques:
         (their shading frames ``tangent`` (B, 3, 3), rows s, t, n, world; ``wi`` (B, 3) in
         them): the map part :math:`L f\cos\theta_o/p_e\; w_e` (B, P, 3), the lobe's part
         :math:`L\,(f\cos/p_b)\,w_b` (B, Q, 3), and their world directions (P, 3) and
-        (B, Q, 3), both tables at the midpoints of level ``level`` + ``bsdf.level_extra``
+        (B, Q, 3), both tables at the midpoints of level :meth:`glossy_level`
         (the map's sample square; the lobe's, drawn by its own ``sample``)."""
-        lvl = self.level + int(bsdf.level_extra)
+        lvl = self.glossy_level(bsdf)
         mt = self._map_at(lvl)
         fr = tangent @ self.rot                            # rows s, t, n in the map's frame
         loc = np.einsum("bkj,pj->bpk", fr, mt.directions)  # the map's directions, shading
@@ -274,7 +282,7 @@ def surface_tables(h: dict, tq: _Techniques, vis: Visibility, fs: FrameScene):
         bsdf = fs.bsdfs[shape] if shape < len(fs.bsdfs) else None
         if bsdf is not None and bsdf.kind == "glossy":
             he, hb, de, db = tq.glossy_parts(h["tangent"][b], h["wi"][b], bsdf)
-            level = tq.level + int(bsdf.level_extra)
+            level = tq.glossy_level(bsdf)
         else:
             he, hb, de, db = tq.parts(h["normal"][b])
             level = tq.level

@@ -23,8 +23,8 @@ interpolated across the pixel, as the independent model's :func:`~envfit.frame._
 _background` takes them).
 
 The tables' level is one above the requested level and above log₄ N (:func:`net_level`: the
-grid ≥ 4 × finer than the net's 1/N cells), and the answer is searched to N = 4^(L−1)
-(:func:`resolved`). The error from the integrand's variation above the grid is added as
+grid ≥ 4 × finer than the net's 1/N cells), and the answer is predicted to N = 4^(L−1)
+(:func:`resolved`; past it the caller extrapolates at the last two counts' rate). The error from the integrand's variation above the grid is added as
 :data:`ABOVE` × the tables' finest-shell power over N: the digital shift's dual net takes
 ≈ 1/N of the power above a grid, and that power is the finest shell's × 1/3 where each finer
 shell holds a quarter of the one before (an integrand linear inside the cells; a jump's
@@ -50,9 +50,9 @@ __all__ = ["net_sampler", "pixel_mse_nets", "scrambles", "net_level", "resolved"
 
 #: what the net model leaves out, as the prediction's note says it
 LIMITS = ("each pixel's error from the sampler's own points over {r} of its scrambles (box "
-          "filter), the tables at level {level} (4^{level} points; trusted to {top} spp, "
-          "the answer searched to there), the error above their grid from their finest "
-          "shell; the film's variation inside a film cell is left out")
+          "filter), the tables at level {level} (4^{level} points; predicted to {top} spp), "
+          "the error above their grid from their finest shell; the film's variation inside "
+          "a film cell is left out")
 #: film cells per side where a silhouette crosses the pixel
 _EDGE = 8
 #: pixels per batch of tables
@@ -249,18 +249,20 @@ def _table_stats(flat, offs, sides, means, shell):  # pragma: no cover - numba
 
 
 def pixel_mse_nets(fs: FrameScene, block: FilmBlock, targets, spps, level: int, seed: int,
-                   bar=None) -> tuple[np.ndarray, dict, int, int]:
+                   bar=None, base: int | None = None) -> tuple[np.ndarray, dict, int, int]:
     """(converged value (K, 3), {N: MSE (K, 3)}, shadow rays, edge pixels) of the
     ``targets`` pixels (K, 2) of ``block`` at each runnable N of ``spps`` (module
-    docstring); the tables at level ``level`` (edge cells one coarser)."""
+    docstring); the tables at level ``level`` (edge cells one coarser), a glossy lobe's at
+    ``base`` (the requested level) + its extra levels where that is finer."""
     spec = net_sampler(fs)
     tg = np.asarray(targets, dtype=np.int64).reshape(-1, 2)
     index = {(int(y), int(x)): i for i, (y, x) in enumerate(block.pixels)}
     sel = np.array([index[(int(y), int(x))] for y, x in tg], dtype=np.int64)
     vis = Visibility(fs.occluders)
     edges = edge_pixels(block, vis)
-    fine = _Techniques(fs, int(level))
-    coarse = _Techniques(fs, max(2, int(level) - 1), technique=fine.tech)
+    base = int(level) if base is None else int(base)
+    fine = _Techniques(fs, int(level), gloss_base=base)
+    coarse = _Techniques(fs, max(2, int(level) - 1), technique=fine.tech, gloss_base=base - 1)
     calls = fs.draws
     dims = max(calls) + 1
     points = {n: spec.film_points(scrambles(n), n, dims, seed) for n in spps}
