@@ -183,6 +183,12 @@ def _tables(fs: FrameScene, h: dict, fine: _Techniques, coarse: _Techniques,
     return np.concatenate(chunks), offs, sides, rays
 
 
+@numba.njit(cache=True, inline="always")
+def _entry(off, m, u0, u1):  # pragma: no cover - numba
+    """The row of ``flat`` that a point (u0, u1) reads in an m × m table at ``off``."""
+    return off + min(int(u0 * m), m - 1) * m + min(int(u1 * m), m - 1)
+
+
 @numba.njit(cache=True, parallel=True)
 def _squared_errors(flat, offs, sides, first, grid, film, ue, ub, means,
                     out):  # pragma: no cover - numba
@@ -198,18 +204,11 @@ def _squared_errors(flat, offs, sides, first, grid, film, ue, ub, means,
                 cx = min(int(film[r, j, 0] * g), g - 1)
                 cy = min(int(film[r, j, 1] * g), g - 1)
                 c = first[k] + cy * g + cx
-                m = sides[c, 0]
-                t = offs[c, 0] + min(int(ue[r, j, 0] * m), m - 1) * m \
-                    + min(int(ue[r, j, 1] * m), m - 1)
-                f0 += flat[t, 0]
-                f1 += flat[t, 1]
-                f2 += flat[t, 2]
-                m = sides[c, 1]
-                t = offs[c, 1] + min(int(ub[r, j, 0] * m), m - 1) * m \
-                    + min(int(ub[r, j, 1] * m), m - 1)
-                f0 += flat[t, 0]
-                f1 += flat[t, 1]
-                f2 += flat[t, 2]
+                t = _entry(offs[c, 0], sides[c, 0], ue[r, j, 0], ue[r, j, 1])
+                s = _entry(offs[c, 1], sides[c, 1], ub[r, j, 0], ub[r, j, 1])
+                f0 += flat[t, 0] + flat[s, 0]
+                f1 += flat[t, 1] + flat[s, 1]
+                f2 += flat[t, 2] + flat[s, 2]
             d0, d1, d2 = f0 / nn - means[k, 0], f1 / nn - means[k, 1], f2 / nn - means[k, 2]
             a0 += d0 * d0
             a1 += d1 * d1
