@@ -176,8 +176,8 @@ def test_the_net_simulation_is_the_digital_shifts_exact_mse():
     offs, sides = np.array([[0, m * m]]), np.array([[m, 1]])
     pts = get_renderer("mitsuba3").sampler("ldsampler").film_points(4096, n, 3, 1)
     out = np.zeros((1, 3))
-    _squared_errors(flat, offs, sides, np.zeros(1, np.int64), np.ones(1, np.int64),
-                    *(np.ascontiguousarray(pts[:, :, d]) for d in (0, 1, 2)),
+    _squared_errors(flat, offs, sides, np.array([[0, 1]]),
+                    np.ascontiguousarray(pts.transpose(2, 0, 1, 3)),
                     np.full((1, 3), table.mean()), out)
     exact = randomised_mse("digital_shift", DyadicGrid.from_arrays(table, table ** 2), n).mse[0]
     assert abs(out[0, 0] / exact - 1) < 0.08, (out[0, 0], exact)

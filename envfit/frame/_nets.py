@@ -190,20 +190,22 @@ def _entry(off, m, u0, u1):  # pragma: no cover - numba
 
 
 @numba.njit(cache=True, parallel=True)
-def _squared_errors(flat, offs, sides, first, grid, film, ue, ub, means,
+def _squared_errors(flat, offs, sides, pixels, points, means,
                     out):  # pragma: no cover - numba
     """out[k] = the mean over the scrambles r of (F − I)² (channels) of pixel k, whose cells
-    are rows ``first[k]`` … of ``offs``/``sides`` on a ``grid[k]``² film grid."""
+    are rows ``pixels[k, 0]`` … of ``offs``/``sides`` on a ``pixels[k, 1]``² film grid;
+    ``points`` (3, R, N, 2): the film's, the emitter's and the BSDF's points."""
+    film, ue, ub = points[0], points[1], points[2]
     nr, nn = film.shape[0], film.shape[1]
     for k in numba.prange(out.shape[0]):
-        g = grid[k]
+        g = pixels[k, 1]
         a0 = a1 = a2 = 0.0
         for r in range(nr):
             f0 = f1 = f2 = 0.0
             for j in range(nn):
                 cx = min(int(film[r, j, 0] * g), g - 1)
                 cy = min(int(film[r, j, 1] * g), g - 1)
-                c = first[k] + cy * g + cx
+                c = pixels[k, 0] + cy * g + cx
                 t = _entry(offs[c, 0], sides[c, 0], ue[r, j, 0], ue[r, j, 1])
                 s = _entry(offs[c, 1], sides[c, 1], ub[r, j, 0], ub[r, j, 1])
                 f0 += flat[t, 0] + flat[s, 0]
@@ -291,10 +293,9 @@ def pixel_mse_nets(fs: FrameScene, block: FilmBlock, targets, spps, level: int, 
         for n in spps:
             pt = points[n]
             out = np.zeros((len(part), 3))
-            _squared_errors(flat, offs, sides, first, grid,
-                            np.ascontiguousarray(pt[:, :, 0]),
-                            np.ascontiguousarray(pt[:, :, calls[0]]),
-                            np.ascontiguousarray(pt[:, :, calls[1]]), means, out)
+            _squared_errors(flat, offs, sides, np.column_stack([first, grid]),
+                            np.ascontiguousarray(pt[:, :, [0, calls[0], calls[1]]]
+                                                 .transpose(2, 0, 1, 3)), means, out)
             mse[n][lo:lo + len(part)] = out + ABOVE * above / n
         if bar is not None:
             bar.update(len(part))
