@@ -12,6 +12,9 @@ Modules:
   :class:`FramePrediction`: the steps and the result.
 * :mod:`~envfit.frame._model` — each film point's mean and variance under the renderer's
   techniques with visibility, and each pixel's MSE under the film's filter.
+* :mod:`~envfit.frame._nets` — each pixel's MSE under a sampler whose dimensions are one
+  randomised net per pixel (Mitsuba's ``ldsampler``), simulated with its own points.
+* :mod:`~envfit.frame._plan` — which pixels are predicted (all, or one per cell of a grid).
 * :mod:`~envfit.frame._visibility` — shadow rays (Embree).
 
 The scene is read by the renderer's folder (:mod:`envfit.renderers._frame`; the readers by
