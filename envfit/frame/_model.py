@@ -119,10 +119,10 @@ class _Techniques:
         self.tech = technique if technique is not None else \
             rec.technique(EnvMap(fs.envmap_data), **opts)
         self.map = MapTable.build(self.tech, level)
-        self._maps = {self.level: self.map}
         self.local = BsdfTable.build(rec, level).local
         self.rot = np.asarray(fs.envmap_to_world, dtype=np.float64)
         self.map_world = self.map.directions @ self.rot.T
+        self._maps = {self.level: (self.map, self.map_world)}
         tot = fs.emitter_samples + fs.bsdf_samples
         self.fe, self.fb = fs.emitter_samples / tot, fs.bsdf_samples / tot
 
@@ -153,9 +153,11 @@ class _Techniques:
         """The level of a glossy lobe's tables."""
         return max(self.level, self.gloss_base + int(bsdf.level_extra))
 
-    def _map_at(self, level: int) -> MapTable:
+    def _map_at(self, level: int):
+        """The map technique's table at ``level`` and its directions in world space."""
         if level not in self._maps:
-            self._maps[level] = MapTable.build(self.tech, level)
+            mt = MapTable.build(self.tech, level)
+            self._maps[level] = (mt, mt.directions @ self.rot.T)
         return self._maps[level]
 
     def glossy_parts(self, tangent: np.ndarray, wi: np.ndarray, bsdf):
@@ -166,7 +168,7 @@ class _Techniques:
         (B, Q, 3), both tables at the midpoints of level :meth:`glossy_level`
         (the map's sample square; the lobe's, drawn by its own ``sample``)."""
         lvl = self.glossy_level(bsdf)
-        mt = self._map_at(lvl)
+        mt, world = self._map_at(lvl)
         fr = tangent @ self.rot                            # rows s, t, n in the map's frame
         loc = np.einsum("bkj,pj->bpk", fr, mt.directions)  # the map's directions, shading
         b, p = loc.shape[:2]
@@ -192,7 +194,7 @@ class _Techniques:
         hb = np.asarray(rad).reshape(b, q, 3) * (weight * wb)[..., None]
         if bsdf.fresnel is not None:
             hb = hb * bsdf.fresnel(np.sum(wi_q * smp.m, axis=1)).reshape(b, q, 3)
-        return he, hb, mt.directions @ self.rot.T, d @ self.rot.T
+        return he, hb, world, d @ self.rot.T
 
 
 def _lerp(c: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:

@@ -42,7 +42,8 @@ import numba
 import numpy as np
 
 from envfit.base import ParameterError
-from envfit.frame._model import (FilmBlock, _Techniques, edge_pixels, surface_tables)
+from envfit.frame._model import (FilmBlock, _lerp, _Techniques, edge_pixels,
+                                 surface_tables)
 from envfit.frame._visibility import Visibility
 from envfit.renderers import HIT_SURFACE, FrameScene, get_renderer
 
@@ -104,11 +105,7 @@ def _sky(block: FilmBlock, rows, tq: _Techniques) -> dict:
     g = _EDGE
     t = (np.arange(g) + 0.5) / g
     u, v = np.broadcast_arrays(t[None, :], t[:, None])
-    c = block.corners[rows]                                        # (P, 2, 2, 3)
-    d = (((1 - u) * (1 - v))[..., None] * c[:, None, None, 0, 0]
-         + (u * (1 - v))[..., None] * c[:, None, None, 0, 1]
-         + ((1 - u) * v)[..., None] * c[:, None, None, 1, 0]
-         + (u * v)[..., None] * c[:, None, None, 1, 1]).reshape(-1, 3)
+    d = _lerp(block.corners[rows], u, v).reshape(-1, 3)
     d /= np.linalg.norm(d, axis=1)[:, None]
     h = {key: np.zeros((len(d),) + val.shape[3:], val.dtype)
          for key, val in block.hits.items()}
