@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from envfit.advisor import PresetAdviseOptions, advise_preset
+from envfit.advisor import RendererAdviseOptions, advise_renderer_map
 from envfit.base._atomic import atomic_write_csv, atomic_write_json  # internal: the atomic writers of the product's outputs
 from envfit.base._progress import progress_bar  # internal: the product's progress bar
 
@@ -43,17 +43,17 @@ COLUMNS = ["map", "sampler", "target_relative", "target_rmse", "role", "spp", "s
 def advice(env, sampler: str, target: float, args) -> dict:
     """The advice (recommended spp, half of it as the sampler runs it, their predictions)."""
     t = time.perf_counter()
-    opts = PresetAdviseOptions("mitsuba3", sampler=sampler, strategies=["mis"],
+    opts = RendererAdviseOptions("mitsuba3", sampler=sampler, strategies=["mis"],
                                level=args.level, normals=args.normals)
-    adv = advise_preset(env, opts, target_relative=target, cache_dir=args.cache)
+    adv = advise_renderer_map(env, opts.asking(target_relative=target, cache_dir=args.cache))
     a = adv.default
     half = half_spp(opts, a.spp) if a.reached else None
     half_pred = None
     if half is not None:            # the model's prediction there (cached cells, one pass)
-        adv2 = advise_preset(env, PresetAdviseOptions("mitsuba3", sampler=sampler,
+        adv2 = advise_renderer_map(env, RendererAdviseOptions("mitsuba3", sampler=sampler,
                                                       strategies=["mis"], spp=[half],
-                                                      level=args.level, normals=args.normals),
-                             target_relative=target, cache_dir=args.cache)
+                                                      level=args.level, normals=args.normals).asking(
+            target_relative=target, cache_dir=args.cache))
         half_pred = adv2.cells[("mis", half)]
     return {"spp": a.spp, "predicted": a.predicted_rmse, "half": half,
             "half_predicted": half_pred, "target_rmse": adv.target_rmse,
@@ -63,7 +63,7 @@ def advice(env, sampler: str, target: float, args) -> dict:
 
 def half_spp(opts, spp: int) -> int | None:
     """The largest spp the sampler runs at or below spp / 2 (None below 2)."""
-    spec = opts.preset.sampler(opts.sampler)
+    spec = opts.record.sampler(opts.sampler)
     n = spp // 2
     while n >= 1 and spec.spp(n) > spp // 2:
         n -= 1

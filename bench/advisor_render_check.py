@@ -61,7 +61,7 @@ def main() -> int:
               f"{r['measured_rmse']:.5g} [{r['low']:.5g}, {r['high']:.5g}] advisor {p:.5g} "
               f"({p / r['measured_rmse']:.3f}; bench model {r['predicted'] / r['measured_rmse']:.3f})"
               f" {'inside' if ok else 'OUTSIDE'}; {m['normals']} {m.get('unit', 'normals')}"
-              + (f", {m['shifts']} scrambles" if adv.options.preset.sampler(r["sampler"])
+              + (f", {m['shifts']} scrambles" if adv.options.record.sampler(r["sampler"])
                  .randomisation in SIZED_RANDOMISATIONS else ""))
     print(f"inside {inside} of {total}; CPU {_cpu()}")
     return 0 if inside == total else 1

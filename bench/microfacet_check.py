@@ -35,7 +35,7 @@ from envfit.maps import EnvMap
 from envfit.renderers import (VIEWS, CyclesOptions, CyclesSphere, Mitsuba3Options,
                                       Mitsuba3Sphere, glossy_bsdf, roughconductor_bsdf,
                                       sphere_geometry)
-from envfit.predict.renderer import (MicrofacetModel, PresetModelOptions, pixel_footprints,
+from envfit.predict.renderer import (MicrofacetModel, RendererModelOptions, pixel_footprints,
                                      pixel_frames)
 from envfit.renderers import get_renderer
 from envfit.validate import measure_cell
@@ -57,7 +57,7 @@ def _model(env, dist, alpha, args):
     renderer = get_renderer(args.renderer)
     return MicrofacetModel(EnvMap(env.data, up="y", name=env.name), renderer,
                            renderer.bsdf(dist, alpha), (n, v),
-                           options=PresetModelOptions(max_level=args.max_level),
+                           options=RendererModelOptions(max_level=args.max_level),
                            select=args.frames, footprints=foot)
 
 

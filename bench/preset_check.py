@@ -1,4 +1,4 @@
-"""The renderer-preset prediction (envfit.predict.renderer._preset_model) against the sphere
+"""The renderer-preset prediction (envfit.predict.renderer._diffuse_model) against the sphere
 renders of bench/render_check.py (issue 24's acceptance).
 
 Reads ``render_check_<renderer>.json`` files written by bench/render_check.py (measured RMSE
@@ -41,7 +41,7 @@ def inside(pred: float, r: dict) -> bool:
 
 def models(renderer: str, env, opts):
     """The preset models of one map (plain and, for Mitsuba 3, with mis_compensation)."""
-    from envfit.predict.renderer import PresetModel
+    from envfit.predict.renderer import DiffuseModel
     from envfit.renderers import get_renderer
     from envfit.maps import EnvMap
     p = get_renderer(renderer)
@@ -49,8 +49,8 @@ def models(renderer: str, env, opts):
     # convention inside the preset); the other renderers' worlds as render_check sees them
     seen = EnvMap(env.data, up="y", name=env.name) if renderer == "mitsuba3" \
         else map_as_seen(renderer, env)
-    plain = PresetModel(seen, p, options=opts)
-    comp = PresetModel(seen, p, {"mis_compensation": True}, opts) if renderer == "mitsuba3" \
+    plain = DiffuseModel(seen, p, options=opts)
+    comp = DiffuseModel(seen, p, {"mis_compensation": True}, opts) if renderer == "mitsuba3" \
         else plain
     return {"plain": plain, "comp": comp}
 
@@ -98,7 +98,7 @@ def summarise(rows: list) -> None:
 
 
 def main(argv=None) -> int:
-    from envfit.predict.renderer import PresetModelOptions
+    from envfit.predict.renderer import RendererModelOptions
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("inputs", nargs="+", help="render_check_<renderer>.json files")
     ap.add_argument("--maps", nargs="*", default=[],
@@ -114,7 +114,7 @@ def main(argv=None) -> int:
         saved = json.loads(Path(f).read_text())
         renderer = saved["meta"]["renderer"]
         rows += saved["rows"]
-    opts = PresetModelOptions(normals=args.normals, max_level=args.max_level)
+    opts = RendererModelOptions(normals=args.normals, max_level=args.max_level)
     seconds = {}
     for name in dict.fromkeys(r["map"] for r in rows):
         spec = name if name in SYNTH else paths[name]

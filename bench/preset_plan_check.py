@@ -22,7 +22,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from render_check import _cpu  # noqa: E402
 
 from envfit.advisor._budget import renderer_passes, renderer_plan  # noqa: E402  # internal: the plan under test
-from envfit.advisor._renderer_advice import advise_preset  # noqa: E402  # internal: the model's own timings (passes, seconds)
+from envfit.advisor._renderer_advice import advise_renderer_map  # noqa: E402  # internal: the model's own timings (passes, seconds)
 from envfit.advisor import RendererAdviseOptions  # noqa: E402
 from envfit.maps import load_envmap  # noqa: E402
 from envfit.renderers import get_renderer  # noqa: E402
@@ -57,7 +57,7 @@ def time_one(env, renderer: str, sampler: str, bsdf: str, normals: int, level: i
     plan = (renderer_plan(env.width * env.height, opts).seconds()
             / renderer_passes(opts.record.sampler(opts.sampler).randomisation))
     t0 = time.perf_counter()
-    adv = advise_preset(env, opts, cache=False)
+    adv = advise_renderer_map(env, opts.asking(cache=False))
     wall = time.perf_counter() - t0
     passes = max(1, adv.model["passes"])
     return (plan, adv.model["seconds_model"] / passes, passes, wall, opts.level), None

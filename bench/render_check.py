@@ -22,7 +22,7 @@ patterns tabulated_sobol, blue_noise. One renderer per run (bpy and Mitsuba are 
 in one process).
 
 ``--footprint 2`` predicts each pixel's footprint too (2 × 2 normals over each pixel of the
-``--resolution`` sphere, ``PresetModelOptions.sphere_pixels``; 4× the model's work); the
+``--resolution`` sphere, ``RendererModelOptions.sphere_pixels``; 4× the model's work); the
 default, 1, predicts point normals: on a white diffuse sphere the footprint moved city's Cycles
 predictions by −0.6 % to +2 % (docs/validation.md). ``--repredict`` predicts the saved rows of
 the maps again with this run's options, without rendering (the old prediction kept as
@@ -107,16 +107,16 @@ class Predictor:
         self._presets: dict = {}
 
     def preset_model(self, compensation: bool):
-        """The renderer preset's noise model (envfit.predict.renderer.PresetModel) of the map,
+        """The renderer preset's noise model (envfit.predict.renderer.DiffuseModel) of the map,
         plain or with Mitsuba's mis_compensation, built once."""
         if compensation not in self._presets:
-            from envfit.predict.renderer import PresetModel, PresetModelOptions
+            from envfit.predict.renderer import DiffuseModel, RendererModelOptions
             from envfit.renderers import get_renderer
             env = EnvMap(self.file_env.data, up="y", name=self.file_env.name)
             options = {"mis_compensation": compensation} if self.renderer == "mitsuba3" else {}
-            self._presets[compensation] = PresetModel(
+            self._presets[compensation] = DiffuseModel(
                 env, get_renderer(self.renderer), options,
-                PresetModelOptions(normals=PRESET_NORMALS, max_level=self.max_level,
+                RendererModelOptions(normals=PRESET_NORMALS, max_level=self.max_level,
                                    sphere_pixels=self.footprint and self.footprint[0],
                                    footprint_side=self.footprint[1] if self.footprint else 2))
         return self._presets[compensation]
@@ -140,7 +140,7 @@ def predict_cell(predictor: Predictor, sampler: str, strategy: str, spp: int) ->
     """The predicted RMSE of one cell — THE place the prediction is chosen.
 
     The renderer preset's own estimator and its sampler's exact randomisation
-    (:class:`envfit.predict.renderer.PresetModel`; Mitsuba 3's ``mis-comp`` with the envmap's
+    (:class:`envfit.predict.renderer.DiffuseModel`; Mitsuba 3's ``mis-comp`` with the envmap's
     mis_compensation; Cycles' world importance map, power heuristic and Owen-scrambled
     patterns), all planned cells of the map in one pass over the normals. The generic rules
     of :func:`generic_cell` are the second column."""

@@ -37,7 +37,7 @@ __all__ = ["BRDFS", "WEIGHTINGS", "ALL_POINTSETS", "DEFAULT_POINTSETS", "DEFAULT
 
 # ----------------------------------------------------------------------------- vocabularies
 
-#: the microfacet BSDFs a renderer preset shades (``envfit advise --renderer R --brdf``): white
+#: the microfacet BSDFs a renderer's model shades (``envfit advise --renderer R --brdf``): white
 #: conductors (:class:`envfit.shading.microfacet.Conductor`) and Mitsuba 3's rough plastic
 #: (:class:`envfit.shading.microfacet.RoughPlastic`, a GGX coat)
 MICROFACET_BSDFS = ("ggx", "beckmann", "roughplastic", "multiggx")

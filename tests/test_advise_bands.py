@@ -15,7 +15,7 @@ import pytest
 
 from envfit.defaults import BAND_MIN_FRAMES
 from envfit.maps import EnvMap, save_envmap
-from envfit.predict.renderer import MicrofacetModel, PresetModelOptions, band_frames
+from envfit.predict.renderer import MicrofacetModel, RendererModelOptions, band_frames
 from envfit.predict.renderer._bands import STRATA, band_key, bootstrap_interval, in_stratum
 from envfit.renderers import get_renderer
 
@@ -79,7 +79,7 @@ def test_whole_sphere_is_the_weighted_combination_of_the_bands(sun_map):
     pool's share in it (and near the orthographic density's sin^2 hi - sin^2 lo); the whole
     sphere's MSE is the bands' MSE weighted so (what was wrong: the frames' weights put a
     band's share far from the pool's, e.g. 0.016 for 0-30 instead of 0.25)."""
-    opts = PresetModelOptions(max_level=3, pilot_level=2)
+    opts = RendererModelOptions(max_level=3, pilot_level=2)
     pool = band_frames(1024, (0, 90), seed=7)
     c = get_renderer("mitsuba3").bsdf("ggx", 0.1)
     m = MicrofacetModel(sun_map, get_renderer("mitsuba3"), c, pool, options=opts, select=24)

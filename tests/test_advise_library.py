@@ -13,7 +13,7 @@ import pytest
 
 from envfit import cli
 from envfit.batch._library_advise import MapRow, advise_library, coverage
-from envfit.advisor._renderer_advice import advise_preset
+from envfit.advisor._renderer_advice import advise_renderer_map
 from envfit.advisor._renderer_options import RendererAdviseOptions
 from envfit.batch import LibraryOptions
 from envfit.maps import EnvMap
@@ -40,7 +40,7 @@ def test_rows_are_the_single_map_advice(tmp_path):
                          library=LibraryOptions(workers=1))
     assert [r.slug for r in lib.rows] == ["m0", "m1", "m2"] and lib.computed == 3
     for env, row in zip(maps, lib.rows):
-        one = advise_preset(env, opts, target_relative=0.05, cache=False)
+        one = advise_renderer_map(env, opts.asking(target_relative=0.05, cache=False))
         rec = one.recommendation
         assert (row.strategy, row.spp, row.reached) == (rec["strategy"], rec["spp"],
                                                         rec["reached"])
@@ -63,7 +63,7 @@ def test_a_sized_model_stays_sized_in_a_library():
     lib = advise_library(maps, opts, target_relative=0.05, cache=False,
                          library=LibraryOptions(workers=1))
     for env, row in zip(maps, lib.rows):
-        one = advise_preset(env, opts, target_relative=0.05, cache=False)
+        one = advise_renderer_map(env, opts.asking(target_relative=0.05, cache=False))
         assert one.model["sized"] and (row.spp, row.predicted_rmse) == (
             one.recommendation["spp"], one.recommendation["predicted_rmse"])
         assert row.model_se == one.model["model_se"][row.strategy]
@@ -145,8 +145,8 @@ def test_cli_advises_a_folder_and_resumes(tmp_path, capsys):
     out = capsys.readouterr().out
     d = json.loads((tmp_path / "o" / "advise_library.json").read_text())
     assert [m["label"] for m in d["maps"]] == ["m0.exr", "m1.exr", "m2.exr"]
-    one = advise_preset(_maps()[1], RendererAdviseOptions("mitsuba3", **OPTS),
-                        target_relative=0.05, cache=False)
+    one = advise_renderer_map(_maps()[1], RendererAdviseOptions("mitsuba3", **OPTS).asking(
+        target_relative=0.05, cache=False))
     assert d["maps"][1]["spp"] == one.recommendation["spp"]
     assert "  m1.exr " in out and "3 map(s) computed, 0 resumed" in out
     for name in ("advise_library.csv", "advise_library.png"):

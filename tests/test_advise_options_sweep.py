@@ -8,7 +8,7 @@ a repeat; every list of names in ``--help`` is its registry's; ``--help`` has no
 roughness range is stated and checked in each renderer's own units.
 
 The ends themselves are checked against the models' own checks (AdviseOptions,
-PresetModelOptions), a second path, so the parser's ranges cannot drift from them.
+RendererModelOptions), a second path, so the parser's ranges cannot drift from them.
 """
 from __future__ import annotations
 
@@ -103,12 +103,12 @@ def test_the_ends_of_each_range_are_accepted(flag):
 
 
 def test_the_parser_ranges_are_the_models():
-    """The ends the parser states are the ends AdviseOptions and PresetModelOptions accept
+    """The ends the parser states are the ends AdviseOptions and RendererModelOptions accept
     (a second path: their own checks)."""
     from envfit.advisor._options import AdviseOptions
     from envfit.base._errors import ParameterError
     from envfit.cli._advise_renderer import _MODEL_RANGES
-    from envfit.predict.renderer import PresetModelOptions
+    from envfit.predict.renderer import RendererModelOptions
     by = {_flag(a): _range(a) for a in _NUMERIC}
     for flag, field in (("--fit-n", "fit_n"), ("--realisations", "seeds"), ("--axes", "axes"),
                         ("--renderer-grid", "renderer_grid"),
@@ -125,10 +125,10 @@ def test_the_parser_ranges_are_the_models():
                 AdviseOptions(**{field: r.hi + 1})
     for field, (lo, hi) in _MODEL_RANGES.items():
         for v in (lo, hi):
-            PresetModelOptions(**{field: v, **({"pool": v} if field == "normals" else {})})
+            RendererModelOptions(**{field: v, **({"pool": v} if field == "normals" else {})})
         for v in (lo - 1, hi + 1):
             with pytest.raises(ParameterError):
-                PresetModelOptions(**{field: v, **({"pool": v} if field == "normals" else {})})
+                RendererModelOptions(**{field: v, **({"pool": v} if field == "normals" else {})})
 
 
 @pytest.mark.parametrize("renderer", [None, "mitsuba3"])

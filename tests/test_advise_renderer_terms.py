@@ -2,7 +2,7 @@
 _renderer_options; envfit.cli._advise_renderer): the answer in the renderer's terms.
 
 Reference values come from a second path: a fresh
-:class:`envfit.predict.renderer._preset_model.PresetModel` built here with the same options
+:class:`envfit.predict.renderer._diffuse_model.DiffuseModel` built here with the same options
 predicts every runnable spp below the answer (all must miss the target) and the answer (it
 must meet it), and the ``--spp`` table and the JSON predictions must equal its numbers; the
 snippet is loaded by Mitsuba itself. Maps: 16-row synthesized maps (a sun on a GP, a smooth
@@ -17,19 +17,19 @@ import pytest
 
 from envfit.data_gen import gaussian_process_map, sun_gp_map
 from envfit.maps import EnvMap, save_envmap
-from envfit.predict.renderer._preset_model import PresetModel, PresetModelOptions
+from envfit.predict.renderer._diffuse_model import DiffuseModel, RendererModelOptions
 from envfit.renderers import get_renderer
 
 NORMALS = 6
 MODEL = ["--renderer-normals", str(NORMALS)]
 
 
-def _options(level: int, microfacet: bool = False) -> PresetModelOptions:
+def _options(level: int, microfacet: bool = False) -> RendererModelOptions:
     """The model options the CLI builds for ``--renderer-level level`` and NORMALS (a
     conductor's frames from a pool of MICROFACET_POOL)."""
     from envfit.advisor._renderer_options import MICROFACET_POOL
-    pool = MICROFACET_POOL if microfacet else PresetModelOptions().pool
-    return PresetModelOptions(normals=NORMALS, pool=pool, max_level=level)
+    pool = MICROFACET_POOL if microfacet else RendererModelOptions().pool
+    return RendererModelOptions(normals=NORMALS, pool=pool, max_level=level)
 
 
 @pytest.fixture(scope="module")
@@ -88,7 +88,7 @@ def test_independent_answer_is_the_smallest_spp_meeting_the_target(sun_file, tmp
     assert "(5 % of the map's mean radiance" in _answer(lines)
     assert rec["strategy"] == "mis" and rec["reached"] and n > 4
     # independently: every spp below the answer misses, the answer meets
-    m = PresetModel(_load(sun_file), get_renderer("mitsuba3"), options=_options(5))
+    m = DiffuseModel(_load(sun_file), get_renderer("mitsuba3"), options=_options(5))
     preds = m.predict_many([("mis", "independent", k) for k in range(1, n + 1)])
     assert preds[-1].rmse <= target
     assert all(p.rmse > target for p in preds[:-1])
@@ -103,7 +103,7 @@ def test_independent_answer_is_the_smallest_spp_meeting_the_target(sun_file, tmp
 
 def test_ldsampler_answer_runs_a_power_of_four_and_the_one_below_misses(gp_file, tmp_path,
                                                                         capsys):
-    m = PresetModel(_load(gp_file), get_renderer("mitsuba3"), options=_options(6))
+    m = DiffuseModel(_load(gp_file), get_renderer("mitsuba3"), options=_options(6))
     p4, p16 = (m.predict("mis", "ldsampler", k).rmse for k in (4, 16))
     assert p16 < p4
     target = float(np.sqrt(p4 * p16))                         # between the two
@@ -134,7 +134,7 @@ def test_spp_table_json_and_mis_compensation_equal_the_model(sun_file, tmp_path,
     assert rc == 0
     r = d["renderer"]
     assert r["name"] == "mitsuba3" and r["sampler"] == "ldsampler" and r["mis_compensation"]
-    m = PresetModel(_load(sun_file), get_renderer("mitsuba3"), {"mis_compensation": True},
+    m = DiffuseModel(_load(sun_file), get_renderer("mitsuba3"), {"mis_compensation": True},
                     _options(5))
     for p in r["predictions"]:
         assert set(p) == {"strategy", "sampler", "spp", "predicted_rmse"}
@@ -192,7 +192,7 @@ def test_cached_run_prints_the_same_answer_without_the_model(sun_file, tmp_path,
     assert d2["renderer"]["model"]["passes"] == 0 and d1["renderer"]["model"]["passes"] >= 1
     assert "0 pass(es), 0 cell(s) computed" in "\n".join(second)
     # an edited entry is not used: recomputed with a note
-    entry = next((tmp_path / "cache" / "advise" / "preset").glob("*.json"))
+    entry = next((tmp_path / "cache" / "advise" / "renderer_cells").glob("*.json"))
     doc = json.loads(entry.read_text())
     key = next(iter(doc["value"]["cells"]))
     doc["value"]["cells"][key]["rmse"] = 123.0
@@ -337,7 +337,7 @@ def test_sphere_pixels_adds_the_footprint_of_the_model(sun_file, tmp_path, capsy
 
 
 def test_diffuse_sphere_pixels_is_the_model_with_footprints(sun_file, tmp_path, capsys):
-    """Diffuse --sphere-pixels 8: the predictions are those of a PresetModel whose normals
+    """Diffuse --sphere-pixels 8: the predictions are those of a DiffuseModel whose normals
     carry the footprints of a sphere 8 pixels across (sphere_pixels=8, side FOOTPRINT_SIDE),
     above the point normals' at every cell; the JSON and the model line say so."""
     from dataclasses import replace
@@ -351,8 +351,8 @@ def test_diffuse_sphere_pixels_is_the_model_with_footprints(sun_file, tmp_path, 
     assert any("white diffuse sphere 8 pixels across (each pixel's footprint included), "
                "each pixel seen by the axis view nearest its normal" in ln for ln in lines)
     opts = replace(_options(6), sphere_pixels=8, footprint_side=FOOTPRINT_SIDE)
-    m = PresetModel(_load(sun_file), get_renderer("mitsuba3"), options=opts)
-    point = PresetModel(_load(sun_file), get_renderer("mitsuba3"), options=_options(6))
+    m = DiffuseModel(_load(sun_file), get_renderer("mitsuba3"), options=opts)
+    point = DiffuseModel(_load(sun_file), get_renderer("mitsuba3"), options=_options(6))
     for p in r["predictions"]:
         got = m.predict(p["strategy"], "ldsampler", p["spp"]).rmse
         assert p["predicted_rmse"] == pytest.approx(got, rel=1e-12)

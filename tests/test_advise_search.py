@@ -68,7 +68,7 @@ def test_rough_plastic_searches_only_what_its_lobe_grid_resolves():
     from envfit.base import ParameterError
     from envfit.maps import EnvMap
     from envfit.predict.renderer import MicrofacetModel, band_frames
-    from envfit.predict.renderer import PresetModelOptions
+    from envfit.predict.renderer import RendererModelOptions
     from envfit.renderers import get_renderer
     from envfit.shading.microfacet import RoughPlastic
     kw = dict(renderer="mitsuba3", sampler="ldsampler", roughness=0.2)
@@ -76,7 +76,7 @@ def test_rough_plastic_searches_only_what_its_lobe_grid_resolves():
     assert RendererAdviseOptions(bsdf="ggx", **kw).spp_cap() == 4096
     m = MicrofacetModel(EnvMap(np.full((8, 16, 3), 2.0)), get_renderer("mitsuba3"),
                         RoughPlastic("ggx", 0.2), band_frames(2, seed=0),
-                        options=PresetModelOptions(max_level=4))
+                        options=RendererModelOptions(max_level=4))
     assert m.request("mis", "ldsampler", 1024).level == 10       # ldsampler runs 4^k spp
     assert m.request("map", "ldsampler", 4096).level == 4       # the emitter alone: sampled
     with pytest.raises(ParameterError, match="level 12"):

@@ -214,7 +214,7 @@ def test_fix_nonfinite_says_the_truth_both_ways(tmp_path):
     _refused(["info", chan, "--fix-nonfinite"], "channel 1 is non-finite throughout")
 
 
-# ------------------------------------------------ advise --renderer: the preset cache
+# ---------------------------------------- advise --renderer: the renderer_cells cache
 ADVISE = ["--renderer", "mitsuba3", "--sampler", "independent", "--strategies", "brdf",
           "--target-relative", "0.05", "--renderer-level", "3", "--renderer-normals", "6"]
 
@@ -267,15 +267,15 @@ def _all_low(cells):
     (_zero, "cell brdf:1: rmse = 0 for a map that is not constant"),
     (_tiny_rmse, "cell brdf:1: rmse = 1e-09 is not the root of the mean of its mse (16.0)"),
     (_all_low, "is not the root of the mean of its mse")])
-def test_inconsistent_preset_cells_are_recomputed(edit, why, sun_file, fresh, tmp_path):
+def test_inconsistent_renderer_cells_are_recomputed(edit, why, sun_file, fresh, tmp_path):
     cache = tmp_path / "cache"
     first, _ = _advise(sun_file, cache)
     assert first["predictions"] == fresh["predictions"]
     assert first["recommendation"] == fresh["recommendation"]
-    (entry,) = (cache / "advise" / "preset").glob("*.json")
+    (entry,) = (cache / "advise" / "renderer_cells").glob("*.json")
     _forge(entry, edit)
     again, err = _advise(sun_file, cache)
-    assert any(ln.startswith(f"cache: recomputed {entry}: invalid preset entry: ")
+    assert any(ln.startswith(f"cache: recomputed {entry}: invalid renderer_cells entry: ")
                and why in ln for ln in err), err
     assert again["recommendation"] == fresh["recommendation"]
     assert again["recommendation"]["spp"] > 1
@@ -301,10 +301,10 @@ def test_a_constant_maps_zero_rmse_is_kept(tmp_path):
 
 
 @pytest.mark.parametrize("kind", ["fifo", "devzero", "socket", "loop"])
-def test_a_preset_entry_that_is_no_file_is_recomputed(kind, sun_file, fresh, tmp_path):
+def test_a_renderer_cells_entry_that_is_no_file_is_recomputed(kind, sun_file, fresh, tmp_path):
     cache = tmp_path / "cache"
     _advise(sun_file, cache)
-    (entry,) = (cache / "advise" / "preset").glob("*.json")
+    (entry,) = (cache / "advise" / "renderer_cells").glob("*.json")
     entry.unlink()
     held = None
     if kind == "fifo":

@@ -1,5 +1,5 @@
 """The pixel footprint of the diffuse renderer model (envfit.predict.renderer._footprint with
-PresetModel): a sphere R pixels across, each normal in its nearest view."""
+DiffuseModel): a sphere R pixels across, each normal in its nearest view."""
 from __future__ import annotations
 
 import numpy as np
@@ -7,7 +7,7 @@ import pytest
 
 from envfit.base import ParameterError
 from envfit.maps import EnvMap
-from envfit.predict.renderer import PresetModel, PresetModelOptions, pixel_footprints
+from envfit.predict.renderer import DiffuseModel, RendererModelOptions, pixel_footprints
 from envfit.renderers import get_renderer
 
 
@@ -42,8 +42,8 @@ def test_diffuse_footprint_independent_is_the_pixels_variance(name):
     p = get_renderer(name)
     opts = dict(normals=3, pool=32, max_level=4)
     env = _sun_map()
-    m = PresetModel(env, p, None, PresetModelOptions(**opts, sphere_pixels=6, footprint_side=3))
-    plain = PresetModel(env, p, None, PresetModelOptions(**opts))
+    m = DiffuseModel(env, p, None, RendererModelOptions(**opts, sphere_pixels=6, footprint_side=3))
+    plain = DiffuseModel(env, p, None, RendererModelOptions(**opts))
     fine = 5
     strategies = ("map", "brdf", "mis")
     for strategy in strategies:
@@ -68,11 +68,11 @@ def test_diffuse_footprint_options():
     """sphere_pixels must be an integer >= 4 and footprint_side 1..8; the model's normals
     carry footprint_side² footprint normals each, about the normal."""
     with pytest.raises(ParameterError):
-        PresetModelOptions(sphere_pixels=3)
+        RendererModelOptions(sphere_pixels=3)
     with pytest.raises(ParameterError):
-        PresetModelOptions(sphere_pixels=16, footprint_side=0)
-    m = PresetModel(_sun_map(), get_renderer("mitsuba3"), None,
-                    PresetModelOptions(normals=4, pool=32, max_level=3, sphere_pixels=64))
+        RendererModelOptions(sphere_pixels=16, footprint_side=0)
+    m = DiffuseModel(_sun_map(), get_renderer("mitsuba3"), None,
+                    RendererModelOptions(normals=4, pool=32, max_level=3, sphere_pixels=64))
     for normal, foot in m.normals:
         assert foot.shape == (4, 3)
         assert np.allclose(foot.mean(axis=0), normal, atol=0.05)
@@ -88,8 +88,8 @@ def test_diffuse_footprint_ldsampler_is_the_pairing_simulated():
     (``PairedFootprint``: the film's dimension 0 with the emitter's 1 and the BSDF's 3, as
     ``path`` draws them) on the footprint normals' own tables, not Var c/(N − 1)."""
     from envfit.predict.renderer._footprint import footprint_term
-    m = PresetModel(_sun_map(), get_renderer("mitsuba3"), None,
-                    PresetModelOptions(normals=3, pool=32, max_level=4, sphere_pixels=6))
+    m = DiffuseModel(_sun_map(), get_renderer("mitsuba3"), None,
+                    RendererModelOptions(normals=3, pool=32, max_level=4, sphere_pixels=6))
     fine, n = 5, 16
     got = m.predict("mis", "ldsampler", n).mse
     r = m.request("mis", "ldsampler", n)

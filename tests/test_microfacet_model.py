@@ -9,7 +9,7 @@ import pytest
 
 from envfit.base import ParameterError
 from envfit.maps import EnvMap
-from envfit.predict.renderer import (MicrofacetModel, PresetModelOptions, band_frames,
+from envfit.predict.renderer import (MicrofacetModel, RendererModelOptions, band_frames,
                                      pixel_frames)
 from envfit.renderers import get_renderer
 from envfit.shading.microfacet import microfacet_shading_integral
@@ -34,7 +34,7 @@ def test_integrand_means_are_the_shading_integral(kind, alpha):
     truth computes by quadrature over the sphere with the technique's radiance."""
     c = MITSUBA.bsdf(kind, alpha)
     n, v = band_frames(3, (0, 80), seed=2)
-    m = MicrofacetModel(_sun_map(), MITSUBA, c, (n, v), options=PresetModelOptions(max_level=8))
+    m = MicrofacetModel(_sun_map(), MITSUBA, c, (n, v), options=RendererModelOptions(max_level=8))
     truth = microfacet_shading_integral(m.technique.eval, c, n, v).values
     for k in range(3):
         vals = m._part_values({"map", "brdf", "mis"}, m.normals[k], 9)
@@ -69,7 +69,7 @@ def test_constant_map_emitter_sampling_of_a_rough_lobe_is_noisy_brdf_is_g1():
     MSE at N independent points is L²·Var(G1)/N > 0 and far below emitter sampling's."""
     env = EnvMap(np.full((8, 16, 3), 2.0, np.float32))
     m = MicrofacetModel(env, MITSUBA, MITSUBA.bsdf("ggx", 0.2), band_frames(8, (0, 60), seed=0),
-                        options=PresetModelOptions(max_level=6))
+                        options=RendererModelOptions(max_level=6))
     brdf, emit = m.predict("brdf", "independent", 16).rmse, m.predict("map", "independent", 16).rmse
     assert 0 < brdf < 0.1 * emit
 
@@ -85,7 +85,7 @@ def test_prediction_inside_the_rendered_interval():
     env = _sun_map(16)
     n, v, _ = pixel_frames(sphere_geometry(16), VIEWS, 48, seed=0)
     model = MicrofacetModel(env, MITSUBA, MITSUBA.bsdf("ggx", 0.3), (n, v),
-                            options=PresetModelOptions(max_level=7))
+                            options=RendererModelOptions(max_level=7))
     cells = [(st, s, 16) for s in ("independent", "ldsampler") for st in ("map", "brdf", "mis")]
     preds = model.predict_many(cells)
     opts = Mitsuba3Options(resolution=16, reference_spp=1024, reference_sampler="ldsampler",
@@ -108,7 +108,7 @@ def test_selected_frames_estimate_the_pool_mean():
     env = EnvMap(data, up="y")
     c = MITSUBA.bsdf("ggx", 0.1)
     n, v = band_frames(400, (0, 90), seed=4)
-    opts = PresetModelOptions(max_level=5)
+    opts = RendererModelOptions(max_level=5)
     full = MicrofacetModel(env, MITSUBA, c, (n, v), options=opts)
     sel = MicrofacetModel(env, MITSUBA, c, (n, v), options=opts, select=96)
     head = MicrofacetModel(env, MITSUBA, c, (n[:96], v[:96]), options=opts)
@@ -175,7 +175,7 @@ def test_beckmann_grid_sampling_is_the_pointwise_warp(renderer):
     """On the midpoints of a grid, Beckmann's warp taken once per row and column (separable:
     slope x from u0, slope y from u1; Cycles' normal incidence polar) gives the same numbers
     as the warp point by point: ω_o, weight and pdf equal to the last bit."""
-    from envfit.predict.renderer._preset_integrand import midpoints
+    from envfit.predict.renderer._integrand_tables import midpoints
     from envfit.predict.renderer._vndf_kernels import conductor_sample
     u = midpoints(5)
     for alpha in (0.05, 0.3):
@@ -277,7 +277,7 @@ def _footprint_model(side=4, resolution=6, level=6):
     k = int(np.argmax(theta))                                  # the most grazing pixel
     n, v = n[k:k + 1], v[k:k + 1]
     foot = pixel_footprints(n, v, resolution, side)
-    opts = PresetModelOptions(max_level=level)
+    opts = RendererModelOptions(max_level=level)
     env = _sun_map(32)
     m = MicrofacetModel(env, MITSUBA, MITSUBA.bsdf("ggx", 0.1), (n, v), options=opts,
                         footprints=foot)
@@ -404,7 +404,7 @@ def test_footprint_variances_scaled_to_the_pixel_converge_with_the_side():
     for side in (2, 8):
         foot = pixel_footprints(n[k:k + 1], v[k:k + 1], 64, side)
         m = MicrofacetModel(_sun_map(32), MITSUBA, MITSUBA.bsdf("ggx", 0.3),
-                            (n[k:k + 1], v[k:k + 1]), options=PresetModelOptions(max_level=6),
+                            (n[k:k + 1], v[k:k + 1]), options=RendererModelOptions(max_level=6),
                             footprints=foot)
         vals = m._part_values({"map", "brdf"}, m.normals[0], 7)
         got[side] = np.array([vals[w][t] for w in ("_var_c", "_var_a") for t in ("map", "brdf")])
@@ -419,7 +419,7 @@ def test_compiled_proxies_are_the_frame_loop(kind, renderer, monkeypatch):
     import envfit.predict.renderer._microfacet_model as mm
     n, v = band_frames(40, (0, 89), seed=5)
     m = MicrofacetModel(_sun_map(), get_renderer(renderer), get_renderer(renderer).bsdf(kind, 0.1),
-                        (n[:2], v[:2]), options=PresetModelOptions(max_level=6))
+                        (n[:2], v[:2]), options=RendererModelOptions(max_level=6))
     fast = m._proxies(n, v)
     monkeypatch.setattr(mm, "compiled_conductor", lambda c: False)
     slow = m._proxies(n, v)
@@ -462,7 +462,7 @@ def test_rough_plastic_lobe_choice_matches_a_simulation_of_the_estimator(sampler
     plastic, n, reps = RoughPlastic("ggx", 0.2), 16, 4000
     normal, view = _unit([0.3, 0.5, 0.8]), _unit([0.0, 0.2, 1.0])
     m = MicrofacetModel(_sun_map(), MITSUBA, plastic, (normal[None], view[None]),
-                        options=PresetModelOptions(max_level=7))
+                        options=RendererModelOptions(max_level=7))
     rows = np.asarray(MITSUBA.tangent_frame(normal[None])[0])
     wi = rows @ view
     rng = np.random.default_rng(7)
@@ -501,7 +501,7 @@ def test_a_conductor_between_powers_of_two_is_calibrated_and_its_strata_add_up()
     n, v = band_frames(48, (0, 90), seed=1)
     m = MicrofacetModel(env, get_renderer("cycles"), get_renderer("cycles").bsdf("ggx", 0.3),
                         (n, v),
-                        options=PresetModelOptions(max_level=5, shifts=32))
+                        options=RendererModelOptions(max_level=5, shifts=32))
     assert m.between_powers
     r64, r96, r128 = (m.predict("mis", "tabulated_sobol", k).rmse for k in (64, 96, 128))
     assert r64 > r96 > r128 > 0
@@ -514,4 +514,4 @@ def test_a_conductor_between_powers_of_two_is_calibrated_and_its_strata_add_up()
                                                  rel=1e-9)
     from envfit.shading.microfacet import RoughPlastic
     assert not MicrofacetModel(env, MITSUBA, RoughPlastic("ggx", 0.3), (n, v),
-                               options=PresetModelOptions(max_level=5)).between_powers
+                               options=RendererModelOptions(max_level=5)).between_powers

@@ -11,7 +11,7 @@ from envfit.advisor._renderer_model import model_version
 
 
 @pytest.mark.parametrize("where", ["renderers/mitsuba3/_envmap.py", "renderers/cycles/_render.py",
-                                   "predict/renderer/_preset_request.py",
+                                   "predict/renderer/_cell_request.py",
                                    "predict/renderer/randomisation/_owen.py",
                                    "shading/microfacet/_conductor.py"])
 def test_a_change_to_any_model_module_changes_the_version(monkeypatch, where):

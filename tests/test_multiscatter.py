@@ -12,7 +12,7 @@ import pytest
 from envfit.base import ParameterError
 from envfit.maps import EnvMap
 from envfit.predict.renderer import MicrofacetModel
-from envfit.predict.renderer._preset_model import PresetModelOptions
+from envfit.predict.renderer._diffuse_model import RendererModelOptions
 from envfit.renderers import get_renderer
 from envfit.shading.microfacet import Conductor
 from envfit.shading.microfacet import energy_scale as _energy_scale
@@ -83,7 +83,7 @@ def test_model_mse_scales_by_the_square_per_frame():
     rng = np.random.default_rng(0)
     env = EnvMap((rng.random((16, 32, 3)) * 2 + 0.5).astype(np.float32))
     frame = (np.array([[0.0, 0.0, 1.0]]), np.array([[0.6, 0.0, 0.8]]))
-    opts = PresetModelOptions(max_level=5)
+    opts = RendererModelOptions(max_level=5)
     one = MicrofacetModel(env, CYCLES, CYCLES.bsdf("ggx", 0.3), frame, options=opts)
     multi = MicrofacetModel(env, CYCLES, CYCLES.bsdf("multiggx", 0.3), frame, options=opts)
     k = float(energy_scale(0.3, 0.8))

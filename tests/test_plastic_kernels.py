@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from envfit.maps import EnvMap
-from envfit.predict.renderer import MicrofacetModel, PresetModelOptions, band_frames
+from envfit.predict.renderer import MicrofacetModel, RendererModelOptions, band_frames
 from envfit.predict.renderer._plastic_kernels import (compiled_plastic, plastic_eval_pdf,
                                                       plastic_proxies, plastic_sample)
 from envfit.renderers import get_renderer
@@ -122,7 +122,7 @@ def test_compiled_plastic_covers_roughplastic_only():
 def _model(plastic, level=6, frames=6):
     env = EnvMap(np.random.default_rng(0).random((8, 16, 3)) + 0.1)
     return MicrofacetModel(env, get_renderer("mitsuba3"), plastic, band_frames(frames, seed=1),
-                           options=PresetModelOptions(max_level=level))
+                           options=RendererModelOptions(max_level=level))
 
 
 @pytest.mark.parametrize("kind", ["ggx", "beckmann"])

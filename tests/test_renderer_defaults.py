@@ -6,7 +6,7 @@ meets" with the reason), or, for a sampler the model lacks, one line that names 
 which answer themselves.
 
 The answer is checked against a second path: a fresh
-:class:`~envfit.predict.renderer._preset_model.PresetModel` with the CLI's default level for
+:class:`~envfit.predict.renderer._diffuse_model.DiffuseModel` with the CLI's default level for
 the sampler predicts the answer (it meets the target) and the runnable spp below it (it
 misses). The model runs on 1 normal (``--renderer-normals 1``; the level and the spp searched
 are the defaults) and a 16-row map, so each case takes seconds.
@@ -22,7 +22,7 @@ import pytest
 from envfit.advisor._renderer_options import default_level
 from envfit.data_gen import gaussian_process_map
 from envfit.maps import EnvMap, load_envmap, save_envmap
-from envfit.predict.renderer._preset_model import PresetModel, PresetModelOptions
+from envfit.predict.renderer._diffuse_model import DiffuseModel, RendererModelOptions
 from envfit.renderers import get_renderer
 
 RENDERERS = ("envfit", "mitsuba3", "pbrt4", "cycles")
@@ -61,8 +61,8 @@ def test_sampler_answers_at_its_defaults(renderer, sampler, gp_file, tmp_path, c
     lines = [x for x in lines if not x.startswith("note: ")]      # the map's notes first
     rec = d["renderer"]["recommendation"]
     spec = get_renderer(renderer).sampler(sampler)
-    opts = PresetModelOptions(normals=1, max_level=default_level(spec.randomisation))
-    m = PresetModel(load_envmap(gp_file), get_renderer(renderer), options=opts)
+    opts = RendererModelOptions(normals=1, max_level=default_level(spec.randomisation))
+    m = DiffuseModel(load_envmap(gp_file), get_renderer(renderer), options=opts)
     target, s = rec["target_rmse"], rec["strategy"]
     if rec["reached"]:
         n = rec["spp"]

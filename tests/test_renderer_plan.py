@@ -9,7 +9,7 @@ import pytest
 
 from envfit.data_gen import gaussian_process_map
 from envfit.maps import EnvMap, load_envmap, save_envmap
-from envfit.predict.renderer._preset_model import PresetModel, PresetModelOptions
+from envfit.predict.renderer._diffuse_model import DiffuseModel, RendererModelOptions
 from envfit.renderers import get_renderer
 
 
@@ -61,8 +61,8 @@ def test_spp_searched_are_lazy_and_the_top_of_the_range_is_searched(gp_file, tmp
     assert isinstance(r, range) and len(r) == 2 ** 31 - 1
     assert coarse_spp(r)[:3] == [1, 2, 4] and coarse_spp(r)[-2:] == [2 ** 30, 2 ** 31 - 1]
     # end to end: a target no spp meets, searched to the top of the range in seconds
-    m = PresetModel(load_envmap(gp_file), get_renderer("mitsuba3"),
-                    options=PresetModelOptions(normals=1, max_level=7))
+    m = DiffuseModel(load_envmap(gp_file), get_renderer("mitsuba3"),
+                    options=RendererModelOptions(normals=1, max_level=7))
     top = m.predict("map", "independent", 2 ** 31 - 1).rmse
     rc, lines, _, d = _run(capsys, tmp_path, gp_file, "--renderer", "mitsuba3", "--strategies",
                            "map", "--renderer-normals", "1", "--nmax", str(2 ** 31 - 1),
@@ -125,13 +125,13 @@ def test_plan_memory_bounds_the_measured_peak(gp_file):
     arrays) from the loaded map on, against the plan: at least the peak, at most 2.5x it."""
     import tracemalloc
     from envfit.advisor._budget import renderer_plan
-    from envfit.advisor._renderer_advice import advise_preset
+    from envfit.advisor._renderer_advice import advise_renderer_map
     env = load_envmap(gp_file)
     o = _opts(sampler="ldsampler", level=8, normals=2)
     plan = renderer_plan(env.width * env.height, o, resident=env.data.nbytes)
     tracemalloc.start()
     try:
-        adv = advise_preset(env, o, target_rmse=1e-9, cache=False)
+        adv = advise_renderer_map(env, o.asking(target_rmse=1e-9, cache=False))
         peak = tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()
@@ -221,8 +221,8 @@ def test_independent_sampler_answers_beyond_the_default_nmax_from_its_exact_rate
     """An independent sampler's RMSE is exactly sigma/sqrt(spp) (issue 40): without --nmax its
     answer is searched to the renderer's 32-bit spp, said as such, and equals the closed form
     ceil(sigma^2 / target^2) from the model's 1-spp prediction; with --nmax 65536 it is not."""
-    m = PresetModel(load_envmap(gp_file), get_renderer("mitsuba3"),
-                    options=PresetModelOptions(normals=4, max_level=7))
+    m = DiffuseModel(load_envmap(gp_file), get_renderer("mitsuba3"),
+                    options=RendererModelOptions(normals=4, max_level=7))
     sigma = m.predict("brdf", "independent", 1).rmse
     target = sigma / 1000.0                               # needs ~10^6 spp
     base = ["--renderer", "mitsuba3", "--strategies", "brdf", "--renderer-normals", "4",

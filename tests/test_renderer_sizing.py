@@ -12,14 +12,14 @@ import tempfile
 import numpy as np
 import pytest
 
-from envfit.advisor._renderer_advice import advise_preset
+from envfit.advisor._renderer_advice import advise_renderer_map
 from envfit.advisor._renderer_options import (AUTO_LEVEL, AUTO_SHIFTS, DEFAULT_LEVEL,
                                             DEFAULT_NORMALS, RendererAdviseOptions)
 from envfit.advisor._renderer_sizing import (BUDGET, NORMALS, SHIFTS, miss_words, pass_points,
                                            predicted_error, sized_options)
 from envfit.maps import EnvMap
 from envfit.predict.renderer._model_error import draws_error, model_error
-from envfit.predict.renderer._preset_model import PresetModel, PresetModelOptions
+from envfit.predict.renderer._diffuse_model import DiffuseModel, RendererModelOptions
 from envfit.renderers import get_renderer
 
 
@@ -38,7 +38,7 @@ def test_the_scrambles_error_is_the_spread_over_independent_scrambles():
     env, p = _sunny(), get_renderer("cycles")
     rmse, reported, technique = [], [], None
     for seed in range(40):
-        m = PresetModel(env, p, options=PresetModelOptions(normals=6, pool=64, max_level=4,
+        m = DiffuseModel(env, p, options=RendererModelOptions(normals=6, pool=64, max_level=4,
                                                            shifts=16, seed=seed, reach=256),
                         technique=technique)
         technique = m.technique                                 # the map's, built once
@@ -104,7 +104,7 @@ def test_the_sized_answer_says_what_its_model_error_is(renderer, model_error):
     model, and the line gives that model's error and the pilot's estimate of it; the spp
     below each answer is said to miss by its margin in units of the model error there."""
     opts = RendererAdviseOptions(renderer, normals=None, model_error=model_error)
-    adv = advise_preset(_sunny(32), opts, cache_dir=tempfile.mkdtemp())
+    adv = advise_renderer_map(_sunny(32), opts.asking(cache_dir=tempfile.mkdtemp()))
     m, text = adv.model, "\n".join(adv.lines())
     e = m["model_se"]["mis"]
     assert m["sized"] and f"±{100 * e[0]:.1f} % of the predicted RMSE" in text
@@ -149,8 +149,8 @@ def test_without_sampled_nets_the_normals_alone_are_sized():
     assert f.normals == 96 and 0.061 * math.sqrt(48 / 96) <= 0.05 < 0.061 * math.sqrt(48 / 48)
     assert f.shifts is None and not f.auto
     # the pilot reports 0.090 on _sunny(32): a target of 0.06 takes 144 normals (0.03: 576)
-    adv = advise_preset(_sunny(32), RendererAdviseOptions("mitsuba3", model_error=0.06),
-                        cache_dir=tempfile.mkdtemp())
+    adv = advise_renderer_map(_sunny(32), RendererAdviseOptions("mitsuba3", model_error=0.06).asking(
+        cache_dir=tempfile.mkdtemp()))
     text, m = "\n".join(adv.lines()), adv.model
     assert m["pilot"]["model_se"][0] > 0.06                 # so the pilot is followed
     assert m["pilot"] is not None and m["normals"] > 48
@@ -158,8 +158,8 @@ def test_without_sampled_nets_the_normals_alone_are_sized():
 
 
 def test_an_explicit_model_is_not_sized():
-    unsized = advise_preset(_sunny(32), RendererAdviseOptions("pbrt4", level=7, normals=48),
-                            cache_dir=tempfile.mkdtemp())
+    unsized = advise_renderer_map(_sunny(32), RendererAdviseOptions("pbrt4", level=7, normals=48).asking(
+        cache_dir=tempfile.mkdtemp()))
     assert not unsized.model["sized"] and unsized.model["pilot"] is None
     assert "sized to" not in "\n".join(unsized.lines())
 
@@ -187,8 +187,8 @@ def test_the_normals_error_is_of_the_size_of_the_error_against_the_whole_pool():
         data[i:i + 2, j:j + 2] = 40.0 * rng.random(3)
         got = {}
         for k in (8, 128):
-            m = PresetModel(EnvMap(data, name="sun"), get_renderer("mitsuba3"),
-                            options=PresetModelOptions(normals=k, pool=128, max_level=4,
+            m = DiffuseModel(EnvMap(data, name="sun"), get_renderer("mitsuba3"),
+                            options=RendererModelOptions(normals=k, pool=128, max_level=4,
                                                        shifts=16, seed=seed, reach=64))
             got[k] = m.predict("mis", "ldsampler", 16)
         z.append((got[8].rmse / got[128].rmse - 1) / got[8].model_se_parts[0])
@@ -214,7 +214,7 @@ def test_microfacet_conductors_are_sized_a_rough_plastics_nets_are_not():
     assert o.auto and o.shifts is None
     opts = RendererAdviseOptions("mitsuba3", sampler="ldsampler", bsdf="ggx", roughness=0.3,
                                model_error=0.5)
-    adv = advise_preset(_sunny(16), opts, cache_dir=tempfile.mkdtemp())
+    adv = advise_renderer_map(_sunny(16), opts.asking(cache_dir=tempfile.mkdtemp()))
     m, text = adv.model, "\n".join(adv.lines())
     e = m["model_se"]["mis"][0]
     assert m["sized"] and m["pilot"] is None and (m["level"], m["shifts"]) == (7, 16)

@@ -251,7 +251,7 @@ def prediction_height(envmap: EnvMap, opts: AdviseOptions) -> tuple[int, Plan]:
 #: GGX (alpha 0.2) independent 465
 RENDERER_BYTES_PER_POINT = 500
 #: bytes per shifted point of a digital shift sampled above its grid (Q x N points per N,
-#: ``PresetModelOptions.shifts``): ldsampler at L = 9 to 4096 spp measured +470 (diffuse),
+#: ``RendererModelOptions.shifts``): ldsampler at L = 9 to 4096 spp measured +470 (diffuse),
 #: +200 (GGX) per point
 RENDERER_BYTES_PER_SHIFTED = 500
 #: bytes per (pool normal, pilot point) pair of the normals' proposal (the P x 4^pilot cosine
@@ -294,11 +294,11 @@ def _renderer_stages(pixels: int, opts, level: int, normals: int, max_spp: int) 
     """The renderer model's stages (:func:`renderer_plan`) at ``level``, ``normals`` and
     ``max_spp`` (the other options as in ``opts``)."""
     from envfit.advisor._renderer_options import MICROFACET_POOL, spp_cap
-    from envfit.predict.renderer import PresetModelOptions
+    from envfit.predict.renderer import RendererModelOptions
     m = opts.model_options()
     rand = opts.record.sampler(opts.sampler).randomisation
     base = (MICROFACET_POOL if opts.microfacet and opts.bsdf != "roughplastic"
-            else PresetModelOptions().pool)
+            else RendererModelOptions().pool)
     pool = max(base, normals)                                 # as opts.model_options()
     pilot = 4 ** m.pilot_level
     foot = m.footprint_side ** 2 if opts.sphere_pixels is not None else 1

@@ -280,7 +280,7 @@ def _bad_renderer_cells(v: Any) -> str | None:
 
 def _bad_rmse(rmse: float, mse: list) -> str | None:
     """A cell's RMSE is √(mean over channels of its MSE)
-    (:class:`envfit.predict.renderer._preset_model.PresetPrediction`): rmse² equals the
+    (:class:`envfit.predict.renderer._diffuse_model.RendererPrediction`): rmse² equals the
     mean to rounding (1e-9 relative; both 0 only together)."""
     if not mse:
         return "mse is empty"
@@ -304,11 +304,12 @@ def _renderer_cells_for_map(v: dict, envmap) -> str | None:
 #: a kind without one is returned as stored
 SCHEMAS: dict[str, Callable[[Any], str | None]] = {
     "fit": _bad_fit, "power": _bad_power, "transfer": _bad_transfer, "wce": _bad_curve,
-    "renderer": _bad_spectrum, "preset": _bad_renderer_cells}
+    "renderer": _bad_spectrum, "renderer_cells": _bad_renderer_cells}
 
 
 #: checks of a kind's value against the map it was computed for (after its schema)
-MAP_CHECKS: dict[str, Callable[[Any, Any], str | None]] = {"preset": _renderer_cells_for_map}
+MAP_CHECKS: dict[str, Callable[[Any, Any], str | None]] = {
+    "renderer_cells": _renderer_cells_for_map}
 
 
 def entry_problem(kind: str, value: Any, envmap=None) -> str | None:

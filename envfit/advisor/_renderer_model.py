@@ -4,10 +4,10 @@ predictor registry and cached.
 Each (strategy, spp) cell is predicted by the predictor ``renderer`` of
 :data:`envfit.predict.PREDICTORS` (:func:`envfit.predict._registry.predict_many`, one
 :class:`~envfit.predict._registry.SamplerRule` per cell): the RMSE of the renderer's own
-estimator over the model's normals (:class:`~envfit.predict.renderer.PresetModel`; a microfacet
+estimator over the model's normals (:class:`~envfit.predict.renderer.DiffuseModel`; a microfacet
 BSDF's over frames, :class:`~envfit.predict.renderer.MicrofacetModel`), every cell of a search
 pass in one pass of the model. Each cell is stored in the advisor's cache
-(:mod:`envfit.advisor._cache`, kind ``"preset"``: one checksummed JSON file per map, renderer,
+(:mod:`envfit.advisor._cache`, kind ``"renderer_cells"``: one checksummed JSON file per map, renderer,
 sampler, technique options, model options and :func:`model_version`), so a second run on the
 same map and sampler builds no model at all.
 """
@@ -28,13 +28,13 @@ from envfit.predict import SamplerRule, predict_many
 from envfit.predict.renderer import pixel_footprints
 from envfit.predict.renderer import band_frames
 from envfit.predict.renderer import MicrofacetModel
-from envfit.predict.renderer import PresetModel
+from envfit.predict.renderer import DiffuseModel
 
 __all__ = ["CachedRendererModel", "model_version", "PREDICTOR", "RENDERER_CACHE_FORMAT"]
 
 #: the predictor of :data:`envfit.predict.PREDICTORS` that predicts a renderer's cells
 PREDICTOR = "renderer"
-#: the layout of a cached entry of kind "preset"
+#: the layout of a cached entry of kind "renderer_cells"
 RENDERER_CACHE_FORMAT = 1
 
 
@@ -65,14 +65,14 @@ class CachedRendererModel:
 
     def __init__(self, envmap, opts, store: AdviseCache, map_key: dict, technique=None):
         self.envmap, self.opts, self.store = envmap, opts, store
-        self.technique = technique            # built once for a map (PresetModel's)
+        self.technique = technique            # built once for a map (DiffuseModel's)
         self.key = {**map_key, **opts.key(), "model_version": model_version(),
                     "format": RENDERER_CACHE_FORMAT}
-        doc = store.load("preset", self.key, envmap=envmap)     # checked against the map
+        doc = store.load("renderer_cells", self.key, envmap=envmap)     # checked against the map
         self.cells: dict[str, dict] = dict(doc["cells"]) if doc else {}
         self.cells_cached = len(self.cells)
         self.asked: set[str] = set()          # the cells of this run (cached or not)
-        self.model: PresetModel | None = None
+        self.model: DiffuseModel | None = None
         self.plan = None                      # the model's Plan, made before it is built
         self.passes = self.cells_computed = 0
         self.seconds = 0.0
@@ -85,7 +85,7 @@ class CachedRendererModel:
         frame's pixel footprint)."""
         o = self.opts
         if not o.microfacet:
-            return PresetModel(self.envmap, o.record, o.technique_options(), o.model_options(),
+            return DiffuseModel(self.envmap, o.record, o.technique_options(), o.model_options(),
                                technique=self.technique)
         m = o.model_options()
         frames = band_frames(max(m.pool, o.normals), (0.0, 90.0), seed=MICROFACET_FRAMES_SEED)
@@ -159,7 +159,7 @@ class CachedRendererModel:
         self.passes = self.model.runs      # a prefix sampler's N between powers: no pass
         self.cells_computed += len(todo)
         self.seconds += time.perf_counter() - t0
-        self.store.save("preset", self.key, {"cells": self.cells})
+        self.store.save("renderer_cells", self.key, {"cells": self.cells})
 
 
 def _duration(plan, passes: int) -> str:

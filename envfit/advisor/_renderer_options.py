@@ -10,16 +10,16 @@ renderer lacks the sampler, cannot render the strategy (its record's
 :class:`~envfit.renderers.StrategySetting` says why: e.g. a light-only mode that exists only
 in debug builds), or has no exact noise model (e.g. a Halton sampler; envfit's MIS with one
 shared shift): the last by asking the model itself
-(:func:`envfit.predict.renderer._preset_request.preset_request`, no map; the technique's
+(:func:`envfit.predict.renderer._cell_request.cell_request`, no map; the technique's
 options are checked on a 4 × 8 map). The run's target, snippet and cache are options too
 (:meth:`RendererAdviseOptions.asking` sets them on checked options).
 
 The largest spp searched (:meth:`RendererAdviseOptions.spp_cap`) is ``max_spp`` (default
 65536) or less where the model's grid of level L (M = 2^L cells per side,
-``PresetModelOptions.max_level``) resolves fewer points of the sampler: Owen-scrambled nets
+``RendererModelOptions.max_level``) resolves fewer points of the sampler: Owen-scrambled nets
 and digitally shifted ones are exact on the grid to N = 2^(L−1) (M ≥ 2N) and predicted for
 any N above, their power above the grid sampled at Q·N scrambled (shifted) points
-(``PresetModelOptions.shifts`` = Q), searched while they are no more than the fine table's
+(``RendererModelOptions.shifts`` = Q), searched while they are no more than the fine table's
 4^(L+1) points, N ≤ 4^(L+1)/Q (4096 at the default level 9, a common default of render
 samples; ``sampled=False``: 2^(L−1)); Kensler's correlated multi-jittering and orthogonal
 arrays M ≥ N (and their (N, N) tables: at most 1024); a Cranley–Patterson shift N ≤ M/8
@@ -53,7 +53,7 @@ from envfit.base import check_int, check_ints, check_names
 from envfit.base import EnvfitError, ParameterError
 from envfit.defaults import FOOTPRINT_SIDE, MICROFACET_BSDFS, MICROFACET_FRAMES_SEED
 from envfit.maps import EnvMap
-from envfit.predict.renderer import PresetModelOptions, preset_request
+from envfit.predict.renderer import RendererModelOptions, cell_request
 from envfit.renderers import ROUGHNESS_RTOL, STRATEGY_NAMES, get_renderer
 
 __all__ = ["RendererAdviseOptions", "PresetAdviseOptions", "STRATEGY_WORDS", "DEFAULT_MAX_SPP",
@@ -72,8 +72,8 @@ DEFAULT_MAX_SPP = 65536
 #: ``NODE_SOCKET_API(int, aa_samples)``, ``uint32_t m_sample_count``)
 MAX_SPP = 2 ** 31 - 1
 #: the model's finest grid level L (M = 2^L) for the nets and multi-jittering,
-#: PresetModelOptions' default
-DEFAULT_LEVEL = PresetModelOptions().max_level
+#: RendererModelOptions' default
+DEFAULT_LEVEL = RendererModelOptions().max_level
 #: the default level of the samplers whose model needs only V or the strata (independent,
 #: jittered): on city.exr (one renderer, independent, 48 normals) levels 6, 7, 8 and 9 put the
 #: 1 % answer at 5968, 5986, 5985, 5985 spp (MIS) and 11755, 11772, 11770, 11765 (emitter
@@ -81,8 +81,8 @@ DEFAULT_LEVEL = PresetModelOptions().max_level
 DEFAULT_LEVEL_V = 7
 #: randomisations of digital nets: the model takes N = 2^m points only
 NET_RANDOMISATIONS = ("digital_shift", "owen", "cp_shift")
-#: the model's normals K, PresetModelOptions' default
-DEFAULT_NORMALS = PresetModelOptions().normals
+#: the model's normals K, RendererModelOptions' default
+DEFAULT_NORMALS = RendererModelOptions().normals
 #: the frames a conductor's K frames are importance-sampled from: a sharp lobe meets a sun
 #: in few frames (rendered, sun-gp-1.5 GGX α = 0.05: a pool of 2048 pixels put 16 of 18 cells
 #: inside, every pixel 18 of 18); the proxies cost ~0.3 ms a frame (compiled)
@@ -108,12 +108,12 @@ _ORDER = ("mis", "map", "brdf")
 
 
 def spp_cap(randomisation: str, level: int, max_spp: int,
-            shifts: int = PresetModelOptions().shifts, *, sampled: bool = True,
+            shifts: int = RendererModelOptions().shifts, *, sampled: bool = True,
             reach: int | None = None) -> int:
     """The largest spp the model resolves for ``randomisation`` at grid level ``level``
     (module docstring; ``shifts``: Q of a digital shift's sampling; ``sampled=False``: the
     spp its grid resolves without sampling; ``reach``: the sampled nets' largest N where it
-    is not the fine table's 4^(L+1)/Q, ``PresetModelOptions.reach``), at most ``max_spp``.
+    is not the fine table's 4^(L+1)/Q, ``RendererModelOptions.reach``), at most ``max_spp``.
 
     >>> spp_cap("digital_shift", 9, 65536), spp_cap("owen", 9, 65536), spp_cap("cmj", 9, 65536)
     (4096, 4096, 512)
@@ -162,7 +162,7 @@ def _check_microfacet(p, bsdf: str, sampler: str) -> None:
                              f"{', '.join(names)} samplers{only.microfacet_why.get(bsdf, '')}: "
                              f"--renderer {only.name} --sampler {'|'.join(names)}")
     if not p.microfacet:
-        raise ParameterError(f"{p.display} has no microfacet conductor preset; use --renderer "
+        raise ParameterError(f"{p.display} has no microfacet conductor model; use --renderer "
                              f"{_or(r.name for r in RENDERERS.values() if r.microfacet)}")
     # else the renderer's BSDF refuses the distribution itself (Conductor, one line)
 
@@ -230,11 +230,11 @@ class RendererAdviseOptions:
         The model's grid level L (1…11; None: :func:`default_level` of the sampler, or the
         sized model's, :attr:`auto`).
     normals : int or None
-        The model's normals K (``PresetModelOptions``; None: :data:`DEFAULT_NORMALS`); for a
+        The model's normals K (``RendererModelOptions``; None: :data:`DEFAULT_NORMALS`); for a
         microfacet BSDF the frames (normal, view) of
         :func:`envfit.predict.renderer.band_frames`.
     shifts, reach : int or None
-        The sampled nets' Q and largest N (``PresetModelOptions``; None: its defaults, or the
+        The sampled nets' Q and largest N (``RendererModelOptions``; None: its defaults, or the
         sized model's).
     model_error : float or None
         The relative standard error of the predicted RMSE the sized model aims at (0 < e <
@@ -257,7 +257,7 @@ class RendererAdviseOptions:
         each pixel's footprint (the normals a pixel spans,
         :func:`envfit.predict.renderer.pixel_footprints`, FOOTPRINT_SIDE squared of them;
         that many times the model's work). Diffuse: each normal's pixel in the axis view
-        nearest it (``PresetModelOptions.sphere_pixels``); microfacet: in the frame's view.
+        nearest it (``RendererModelOptions.sphere_pixels``); microfacet: in the frame's view.
         None: every pixel a point (a large object).
     quiet : bool
         No progress bar over the model's normals (frames) in a pass (default; the CLI:
@@ -435,18 +435,18 @@ class RendererAdviseOptions:
         p = self.record
         return p.bsdf(self.bsdf, p.roughness.to_alpha(self.roughness))
 
-    def model_options(self) -> PresetModelOptions:
-        """The :class:`PresetModelOptions` of ``level`` and ``normals`` (pool: its default,
+    def model_options(self) -> RendererModelOptions:
+        """The :class:`RendererModelOptions` of ``level`` and ``normals`` (pool: its default,
         :data:`MICROFACET_POOL` for a conductor, at least ``normals``; a rough plastic keeps
         the default: its frames' proxies are numpy, 8192 frames took 33 s)."""
         for name in ("level", "normals"):
             check_int(getattr(self, name), f"--renderer-{name}", 1)
         compiled = self.microfacet and self.bsdf != "roughplastic"    # its proxies: numpy
-        base = MICROFACET_POOL if compiled else PresetModelOptions().pool
+        base = MICROFACET_POOL if compiled else RendererModelOptions().pool
         pool = max(base, int(self.normals))
         pixels = None if self.microfacet else self.sphere_pixels   # microfacet: per frame
-        shifts = PresetModelOptions().shifts if self.shifts is None else self.shifts
-        return PresetModelOptions(normals=int(self.normals), pool=pool,
+        shifts = RendererModelOptions().shifts if self.shifts is None else self.shifts
+        return RendererModelOptions(normals=int(self.normals), pool=pool,
                                   max_level=int(self.level), sphere_pixels=pixels,
                                   footprint_side=FOOTPRINT_SIDE,
                                   shifts=check_int(shifts, "shifts", 4), reach=self.reach)
@@ -463,7 +463,7 @@ class RendererAdviseOptions:
         names = sorted(names, key=_ORDER.index)
         if self.technique_options():                # its options, checked (none: nothing to
             p.technique(_dummy_map(), **self.technique_options())   # build, up to 8 M cells)
-        light = PresetModelOptions(normals=1, pool=1, max_level=1, pilot_level=1)
+        light = RendererModelOptions(normals=1, pool=1, max_level=1, pilot_level=1)
         spec = p.sampler(self.sampler)
         if spec.randomisation == "cp_shift" and spec.name in _NOT_SOBOL:
             raise ParameterError(f"no noise model of {p.possessive} {spec.name}: "
@@ -479,7 +479,7 @@ class RendererAdviseOptions:
                        f"({STRATEGY_WORDS[s]}): {setting.note.strip()}")
             else:
                 try:
-                    preset_request(p, light, s, self.sampler, spp)
+                    cell_request(p, light, s, self.sampler, spp)
                 except EnvfitError as exc:
                     why = (f"no noise model of {p.possessive} {self.sampler} with "
                            f"strategy {s!r}: {exc}")

@@ -21,7 +21,7 @@ from envfit.cli._ranges import Ranged, name_words
 from envfit.defaults import MICROFACET_BSDFS
 
 #: the renderer model's ranges of --renderer-level, --renderer-normals and --sphere-pixels
-#: (PresetModelOptions.__post_init__'s; tests/test_advise_options_sweep.py checks both ends)
+#: (RendererModelOptions.__post_init__'s; tests/test_advise_options_sweep.py checks both ends)
 _MODEL_RANGES = {"max_level": (1, 11), "normals": (1, 4096), "sphere_pixels": (4, 1 << 16)}
 
 __all__ = ["add_renderer_arguments", "reject_without_renderer", "renderer_options_from_args",

@@ -94,7 +94,7 @@ def _add_renderer_arguments(p) -> None:
                         f"writes renderer.png. With a renderer's name ({names.replace('|', ', ')}): that "
                         "renderer renders a sphere with --brdf (diffuse, ggx, beckmann or "
                         "roughplastic) and "
-                        "its measured RMSE is set beside the renderer preset's prediction; "
+                        "its measured RMSE is set beside the renderer model's prediction; "
                         "nothing else is run (options under 'rendering')")
     g.add_argument("--strategies", type=str_list, default=None, metavar="brdf,map,mis,split",
                    help="renderer strategies (default: all four; rendered: those the renderer "

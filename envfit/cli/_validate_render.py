@@ -1,5 +1,5 @@
 """``envfit validate MAP --renderer NAME``: the renderer renders envfit's sphere and
-its measured RMSE is set beside the preset's prediction (:mod:`envfit.validate._rendered`);
+its measured RMSE is set beside the renderer model's prediction (:mod:`envfit.validate._rendered`);
 ``validate``'s other parts are not run. Parses and checks the flags, calls, prints, writes."""
 from __future__ import annotations
 

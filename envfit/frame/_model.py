@@ -15,7 +15,7 @@ the BSDF's own sample, with the renderer's own technique, pdfs and power-heurist
 (:math:`w_e = (\tfrac{n_e}{n} p_e)^2/((\tfrac{n_e}{n} p_e)^2 + (\tfrac{n_b}{n} p_b)^2)`) and
 the visibility V of :mod:`._visibility`. For a diffuse surface of albedo ρ, f = ρ/π and the BSDF
 samples the cosine (as ``map_values`` and ``bsdf_values`` of
-:mod:`envfit.predict.renderer._preset_integrand` tabulate them for the sphere); for a glossy
+:mod:`envfit.predict.renderer._integrand_tables` tabulate them for the sphere); for a glossy
 lobe (a rough conductor, :class:`~envfit.renderers._frame.FrameBsdf`) f·cos, :math:`p_b` and
 the sample weight f·cos/:math:`p_b` are the renderer's lobe's (visible-normal sampling), times
 its Fresnel per channel at :math:`\omega_i\cdot m` and the specular reflectance at the hit. Its

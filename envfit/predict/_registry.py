@@ -31,7 +31,7 @@ renderer         :func:`predict_renderer`              SamplerRule     the exact
 :func:`predict` is the one way to a prediction: ``envfit validate`` (its quadrature rules and
 ``--renderer``) and ``envfit advise`` (its quadrature rows and renderer rows) both call it, and ``envfit advise
 --renderer NAME`` calls :func:`predict_many` of ``renderer``: a real renderer's model
-(:class:`~envfit.predict.renderer.PresetModel`, or its microfacet twin) in the context's
+(:class:`~envfit.predict.renderer.DiffuseModel`, or its microfacet twin) in the context's
 ``renderer``, one :class:`SamplerRule` (strategy, the renderer's sampler, spp) per cell, all
 cells of a search pass in one pass of the model.
 """
@@ -79,7 +79,7 @@ class SamplerRule(Rule):
 class SamplerPrediction(Prediction):
     """A :class:`Prediction` of a :class:`SamplerRule`, with the model's whole cell
     (``cell``: its MSE per channel, its parts and its own error,
-    :class:`~envfit.predict.renderer.PresetPrediction`)."""
+    :class:`~envfit.predict.renderer.RendererPrediction`)."""
 
     cell: object = None
 
@@ -94,7 +94,7 @@ def _renderer_cells(ctx: PredictionContext, rules: Sequence[SamplerRule]) -> lis
 @reads(SamplerRule)
 def predict_renderer(ctx: PredictionContext, rule: SamplerRule) -> SamplerPrediction:
     """The RMSE of a real renderer's own estimator at one cell: ``ctx.renderer`` (a
-    :class:`~envfit.predict.renderer.PresetModel` or
+    :class:`~envfit.predict.renderer.DiffuseModel` or
     :class:`~envfit.predict.renderer.MicrofacetModel`) predicts the exact MSE of the sampler's
     randomisation over its normals (frames); :func:`predict_many` predicts many cells in one
     pass."""

@@ -1,5 +1,5 @@
-r"""The shared parts of the renderer presets: the environment-map technique protocol, the
-preset and sampler records, the concentric cosine map, the power/balance MIS weights.
+r"""The shared parts of the renderers' records: the environment-map technique protocol, the
+renderer and sampler records, the concentric cosine map, the power/balance MIS weights.
 
 A *technique* (:class:`EnvmapTechnique`) is one renderer's environment-map emitter as its
 source builds it — Mitsuba 3's style: one object holding the radiance lookup
@@ -11,7 +11,7 @@ which :meth:`envfit.maps.EnvMap.lookup` sees file pixel (i, j) at
 the renderer's own (native) frame for the same file and the fixed orthogonal matrix
 :attr:`EnvmapTechnique.native_to_world` that maps it to envfit's.
 
-A *preset* (:class:`Renderer`) adds the rest of the renderer's direct-light
+A renderer's record (:class:`Renderer`) adds the rest of the renderer's direct-light
 estimator: the cosine BSDF sampling map and the renderer's tangent frame, the MIS
 heuristic, the integrator settings per strategy, the samplers by their own names (with the
 spp each one actually runs and its randomisation tag, :data:`RANDOMISATIONS`), and the scene
@@ -464,9 +464,9 @@ class Renderer:
         if self.heuristic not in _HEURISTICS:
             raise ParameterError(f"unknown heuristic {self.heuristic!r}")
         if set(self.strategies) != set(STRATEGY_NAMES):
-            raise ParameterError(f"a preset sets every strategy of {STRATEGY_NAMES}")
+            raise ParameterError(f"a renderer record sets every strategy of {STRATEGY_NAMES}")
         if sum(s.default for s in self.samplers.values()) != 1:
-            raise ParameterError("a preset has exactly one default sampler")
+            raise ParameterError("a renderer record has exactly one default sampler")
 
     @property
     def default_sampler(self) -> str:

@@ -23,7 +23,7 @@ Modules:
 * :mod:`~envfit.validate._renderer` — ``envfit validate --renderer``: the renderer
   estimators' predicted RMSE against the measured one.
 * :mod:`~envfit.validate._rendered` — ``envfit validate MAP --renderer NAME``: the
-  renderer renders a sphere and its measured RMSE is set beside the preset's prediction
+  renderer renders a sphere and its measured RMSE is set beside the renderer model's prediction
   (:func:`render_validation`, :class:`RenderValidationOptions`, :func:`measure_cell`).
 * :mod:`~envfit.validate._renderer_results` — What ``envfit validate --renderer`` returns and
   prints: the cells, their summaries per rule and per lobe, the section and its table.

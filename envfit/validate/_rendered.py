@@ -1,13 +1,13 @@
 r"""``envfit validate MAP --renderer NAME`` (a renderer with a harness,
 :func:`rendered_renderers`): the renderer itself renders the sphere of
-:mod:`envfit.renderers`, and its measured error is set beside the renderer preset's
+:mod:`envfit.renderers`, and its measured error is set beside the renderer model's
 prediction, cell by cell (sampler × strategy × spp) — the check a renderer engineer runs
 before trusting an ``advise`` answer for their renderer.
 
 The steps (:func:`render_validation`):
 
-1. **The model** (:func:`_model`): the preset's noise model of the map as the renderer reads
-   the file — :class:`envfit.predict.renderer.PresetModel` over uniform normals for the white
+1. **The model** (:func:`_model`): the renderer's noise model of the map as the renderer reads
+   the file — :class:`envfit.predict.renderer.DiffuseModel` over uniform normals for the white
    diffuse sphere (the ``cube`` layout: each pixel in the view nearest its normal, weighted
    1/(n·v)); :class:`envfit.predict.renderer.MicrofacetModel` over frames (normal, view)
    importance-sampled from every rendered pixel for a white rough conductor (the ``disk`` layout: every
@@ -243,16 +243,16 @@ def check_renderer(renderer: str) -> str:
 
 
 def _model(envmap, options: RenderValidationOptions):
-    """The preset's noise model of the map as the renderer reads its file (step 1)."""
+    """The renderer's noise model of the map as the renderer reads its file (step 1)."""
     from envfit.maps import EnvMap
     from envfit.renderers import VIEWS, sphere_geometry
-    from envfit.predict.renderer import (MicrofacetModel, PresetModel, PresetModelOptions,
+    from envfit.predict.renderer import (MicrofacetModel, DiffuseModel, RendererModelOptions,
                                          pixel_footprints, pixel_frames)
     from envfit.renderers import get_renderer
     env = EnvMap(envmap.data, up="y", name=envmap.name)
     p, level = get_renderer(options.renderer), options.max_level
     if not options.microfacet:
-        return PresetModel(env, p, {}, PresetModelOptions(
+        return DiffuseModel(env, p, {}, RendererModelOptions(
             normals=options.frames, max_level=level, footprint_side=options.footprint,
             sphere_pixels=options.resolution if options.footprint > 1 else None))
     g = sphere_geometry(options.resolution, "disk")
@@ -260,7 +260,7 @@ def _model(envmap, options: RenderValidationOptions):
     foot = (pixel_footprints(n, v, options.resolution, options.footprint)
             if options.footprint > 1 else None)
     return MicrofacetModel(env, p, p.bsdf(options.brdf, options.alpha), (n, v),
-                           options=PresetModelOptions(max_level=level),
+                           options=RendererModelOptions(max_level=level),
                            select=options.frames, footprints=foot)
 
 

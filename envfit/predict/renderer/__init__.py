@@ -3,9 +3,9 @@ r"""A real renderer's noise, predicted from its own estimator (the renderer's re
 
 Modules:
 
-* :mod:`~envfit.predict.renderer._preset_model` — a real renderer's noise on a white diffuse
+* :mod:`~envfit.predict.renderer._diffuse_model` — a real renderer's noise on a white diffuse
   surface (its own estimator, its sampler's exact randomisation); its integrand tables
-  (``_preset_integrand``), its cells as the renderer runs them (``_preset_request``), the
+  (``_integrand_tables``), its cells as the renderer runs them (``_cell_request``), the
   nets a pass samples (``_sampled_nets``) and the model's own error (``_model_error``).
 * :mod:`~envfit.predict.renderer._microfacet_model` — the same for a rough conductor or a
   rough plastic (GGX, Beckmann), per frame (normal, view): view-dependent; its compiled loops
@@ -21,6 +21,10 @@ Modules:
 
 envfit's own rules (its renderer rows) are predicted by :mod:`envfit.predict.warped`.
 
+The former names ``PresetModel``, ``PresetModelOptions`` and ``PresetPrediction`` (of
+``DiffuseModel``, ``RendererModelOptions``, ``RendererPrediction``) still resolve, as aliases
+outside ``__all__``.
+
 The names of ``__all__`` are imported lazily, on first use (PEP 562), so that
 importing the package loads none of its modules.
 """
@@ -29,21 +33,27 @@ from __future__ import annotations
 from envfit.base import lazy_exports
 
 _LAZY = {
-    "PresetModel": "_preset_model", "PresetModelOptions": "_preset_model",
-    "PresetPrediction": "_preset_model",
+    "DiffuseModel": "_diffuse_model", "RendererModelOptions": "_diffuse_model",
+    "RendererPrediction": "_diffuse_model",
+    # the former names, kept as aliases
+    "PresetModel": "_diffuse_model", "PresetModelOptions": "_diffuse_model",
+    "PresetPrediction": "_diffuse_model",
     "MicrofacetModel": "_microfacet_model", "band_frames": "_frames",
     "pixel_frames": "_frames", "pixel_footprints": "_footprint",
 }
 
-__all__ = sorted(_LAZY)
+#: the former names: they resolve, but the supported names are the new ones
+_FORMER = ("PresetModel", "PresetModelOptions", "PresetPrediction")
+
+__all__ = sorted(k for k in _LAZY if k not in _FORMER)
 
 #: names other envfit packages import from this one's modules: importable from the
 #: package (lazily) but not its public API (not in ``__all__``, not documented)
 _SHARED = {
-    "BsdfTable": "_preset_integrand",
-    "MapTable": "_preset_integrand",
-    "midpoints": "_preset_integrand",
-    "preset_request": "_preset_model",
+    "BsdfTable": "_integrand_tables",
+    "MapTable": "_integrand_tables",
+    "midpoints": "_integrand_tables",
+    "cell_request": "_diffuse_model",
 }
 
 __getattr__, __dir__ = lazy_exports(__name__, {**_LAZY, **_SHARED})

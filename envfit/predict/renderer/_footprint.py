@@ -28,7 +28,7 @@ Var c/(N − 1) but E(F − I)² − E(F₀ − I)² over the sampler's own poin
 :func:`paired_extra`): F the pixel estimate with the integrand interpolated across the pixel
 from the footprint's tables (:func:`film_weights`), F₀ the same samples of the mean table.
 
-Used by :class:`~envfit.predict.renderer._preset_model.PresetModel` (a diffuse sphere R pixels
+Used by :class:`~envfit.predict.renderer._diffuse_model.DiffuseModel` (a diffuse sphere R pixels
 across, each normal in the view nearest it: :func:`nearest_views`) and
 :class:`~envfit.predict.renderer._microfacet_model.MicrofacetModel` (per frame).
 """

@@ -22,7 +22,7 @@ import numpy as np
 
 from envfit.predict.renderer._microfacet_kernels import PARTS, accumulate_parts
 from envfit.predict.renderer._plastic_kernels import compiled_plastic, plastic_sample
-from envfit.predict.renderer._preset_integrand import moment_pyramid
+from envfit.predict.renderer._integrand_tables import moment_pyramid
 from envfit.predict.renderer.randomisation import (STRATIFIED_1D, DyadicGrid,
                                                    lobe_choice_mis, lobe_choice_mse)
 
@@ -67,12 +67,12 @@ class LobeChoice:
         for name, u1 in _LOBES:
             acc = np.zeros((len(PARTS), len(u), 3))
             for normal in normals:
-                rows = np.asarray(self.preset.tangent_frame(normal.reshape(1, 3))[0])
+                rows = np.asarray(self.renderer.tangent_frame(normal.reshape(1, 3))[0])
                 wi = rows @ view
                 wo, weight, pdf = self._sample_lobe(wi, u, u1)
                 rad, pe = self._technique_values(wo, rows, weight)
                 accumulate_parts(acc, None, (rad, weight, pdf, pe), self._fractions("mis"),
-                                 self.preset.heuristic)
+                                 self.renderer.heuristic)
                 if name == "a":
                     ps.append(float(self.conductor.prob_specular(np.array([max(wi[2], 0.0)]))[0]
                                     if wi[2] > 0 else 0.0))

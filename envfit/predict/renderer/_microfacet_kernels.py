@@ -223,7 +223,7 @@ def accumulate_parts(acc, map_side, bsdf_side, fractions, heuristic) -> np.ndarr
     table's directions: map part :math:`h_e = \pi\,f\cos\cdot` base; ``bsdf_side`` =
     (radiance (P, 3), weight (P,), conductor pdf (P,), map pdf (P,)) at the BSDF table's
     samples: :math:`h_b` = radiance · weight; either None. The MIS parts weight each by the
-    preset's ``heuristic`` with the sample ``fractions`` (``Renderer.mis_weights``),
+    renderer's ``heuristic`` with the sample ``fractions`` (``Renderer.mis_weights``),
     and ``mis_t`` is their sum — the diffuse model's ``_part_values``, fused.
     """
     def packed(side):

@@ -1,6 +1,6 @@
 r"""A real renderer's noise on a rough conductor (GGX or Beckmann), predicted per *frame*
 (normal n, view ω_o): the view-dependent counterpart of
-:class:`~envfit.predict.renderer._preset_model.PresetModel` (issue 25).
+:class:`~envfit.predict.renderer._diffuse_model.DiffuseModel` (issue 25).
 
 A microfacet lobe is not zonal: the integrand of one pixel depends on the frame (n, ω_o), not on
 n alone. For one frame and one spp of the renderer's ``direct`` estimator, the two warped
@@ -54,29 +54,29 @@ from envfit.predict.renderer._plastic_kernels import (compiled_plastic, plastic_
 from envfit.predict.renderer._bands import BANDS, STRATA, band_key, band_spread, in_stratum
 from envfit.predict.renderer._footprint import _unit, with_variances
 from envfit.predict.renderer._lobe_parts import LobeChoice
-from envfit.predict.renderer._preset_integrand import MapTable
+from envfit.predict.renderer._integrand_tables import MapTable
 from envfit.predict.renderer.randomisation import STRATIFIED_1D
-from envfit.predict.renderer._preset_model import (PresetModel, PresetModelOptions,
+from envfit.predict.renderer._diffuse_model import (DiffuseModel, RendererModelOptions,
                                                    samples_above, systematic_indices)
 
 __all__ = ["MicrofacetModel", "BANDS"]
 
 _CHUNK = 1 << 18
-#: the finest grid of a rough plastic's lobe path (PresetModelOptions' max_level): its table
+#: the finest grid of a rough plastic's lobe path (RendererModelOptions' max_level): its table
 #: at level 12 holds 16 M points per part
 _MAX_LOBE_LEVEL = 11
 
 
-class MicrofacetModel(LobeChoice, PresetModel):
-    r"""The noise model of one map and one rough conductor under one renderer preset, over
+class MicrofacetModel(LobeChoice, DiffuseModel):
+    r"""The noise model of one map and one rough conductor under one renderer, over
     given frames (module docstring).
 
     Parameters
     ----------
     envmap : EnvMap
         The map, its pixels as the renderer reads the file.
-    preset : Renderer
-        From :func:`envfit.renderers.preset` (its technique, tangent frame, MIS
+    renderer : Renderer
+        From :func:`envfit.renderers.get_renderer` (its technique, tangent frame, MIS
         heuristic, samplers).
     conductor : envfit.shading.microfacet.Conductor or RoughPlastic
         The BSDF as the same renderer shades and samples it (its record's
@@ -86,7 +86,7 @@ class MicrofacetModel(LobeChoice, PresetModel):
         (normals (K, 3), views (K, 3)), world directions; ``weights`` (K,) optional (default
         equal).
     technique_options : dict, optional
-    options : PresetModelOptions, optional
+    options : RendererModelOptions, optional
         ``max_level`` (the finest grid level) and ``pilot_level`` are read; the normals'
         options are not (the frames are given).
     select : int, optional
@@ -99,7 +99,7 @@ class MicrofacetModel(LobeChoice, PresetModel):
         (:mod:`._footprint`); J times the tables' work. None: each
         frame is a point (an object of many pixels).
     technique : optional
-        The technique already built from this map, preset and options (another model's
+        The technique already built from this map, renderer and options (another model's
         :attr:`technique`): not built again.
 
     Examples
@@ -111,16 +111,16 @@ class MicrofacetModel(LobeChoice, PresetModel):
     >>> env = EnvMap(np.full((8, 16, 3), 2.0))
     >>> r = get_renderer("mitsuba3")
     >>> m = MicrofacetModel(env, r, r.bsdf("ggx", 0.3), band_frames(4, seed=0),
-    ...                     options=PresetModelOptions(max_level=4))
+    ...                     options=RendererModelOptions(max_level=4))
     >>> round(m.predict("brdf", "independent", 16).rmse, 6) > 0    # G1 varies with m
     True
     """
 
     progress_unit = "frame"
 
-    def __init__(self, envmap, preset, conductor, frames, weights=None,
+    def __init__(self, envmap, renderer, conductor, frames, weights=None,
                  technique_options: dict | None = None,
-                 options: PresetModelOptions | None = None, select: int | None = None,
+                 options: RendererModelOptions | None = None, select: int | None = None,
                  footprints=None, technique=None):
         normals, views = (np.asarray(f, dtype=np.float64).reshape(-1, 3) for f in frames)
         if len(normals) != len(views) or len(normals) == 0:
@@ -128,10 +128,10 @@ class MicrofacetModel(LobeChoice, PresetModel):
         w = np.ones(len(normals)) if weights is None else np.asarray(weights, np.float64)
         if w.shape != (len(normals),) or not np.all(w >= 0) or w.sum() <= 0:
             raise ParameterError("weights must be one non-negative number per frame")
-        self.preset, self.conductor = preset, conductor
-        self.options = options or PresetModelOptions()
+        self.renderer, self.conductor = renderer, conductor
+        self.options = options or RendererModelOptions()
         self.technique = (technique if technique is not None      # another model's: reused
-                          else preset.technique(envmap, **(technique_options or {})))
+                          else renderer.technique(envmap, **(technique_options or {})))
         foot = None
         if footprints is not None:
             foot = np.asarray(footprints, dtype=np.float64)
@@ -161,7 +161,7 @@ class MicrofacetModel(LobeChoice, PresetModel):
         systematic sampling with probability :math:`\pi_a \propto w_a(\frac13 +
         \frac{v_e(a)}{3\sum w v_e} + \frac{v_b(a)}{3\sum w v_b})` (sums over the stratum),
         :math:`v_e, v_b` the variances of emitter and visible-normal sampling at the frame on
-        the map part's pilot table (:attr:`PresetModelOptions.pilot_level`); weights
+        the map part's pilot table (:attr:`RendererModelOptions.pilot_level`); weights
         :math:`w_a/\pi_a`, scaled to sum to the pool's weight in the stratum (the ratio
         estimator of each stratum's mean, Cochran, *Sampling Techniques*, 3rd ed. (1977),
         Sec. 6.10, the "separate" estimator): each band's value is its frames' weighted mean
@@ -194,7 +194,7 @@ class MicrofacetModel(LobeChoice, PresetModel):
         conductor (:func:`conductor_proxies`) and a rough plastic (:func:`plastic_proxies`),
         else numpy over blocks of frames."""
         tab = MapTable.build(self.technique, self.options.pilot_level)
-        frames = np.asarray(self.preset.tangent_frame(_unit(normals)))
+        frames = np.asarray(self.renderer.tangent_frame(_unit(normals)))
         wis = np.einsum("kij,kj->ki", frames, _unit(views))
         fast = (conductor_proxies if compiled_conductor(self.conductor)
                 else plastic_proxies if compiled_plastic(self.conductor) else None)
@@ -219,13 +219,13 @@ class MicrofacetModel(LobeChoice, PresetModel):
         return v_e, v_b
 
     def request(self, strategy: str, sampler: str, spp: int):
-        """:meth:`PresetModel.request`; a BSDF whose sampling takes a lobe choice (a rough
+        """:meth:`DiffuseModel.request`; a BSDF whose sampling takes a lobe choice (a rough
         plastic) is modelled, when it is sampled, for the samplers whose 1-D number is i.i.d.
         or stratified in a random order (:mod:`._lobe_parts`), not ``orthogonal``."""
         r = super().request(strategy, sampler, spp)
         if (self._two_lobes() and strategy != "map"
                 and r.name not in ("independent",) + STRATIFIED_1D):
-            ok = [n for n, s in self.preset.samplers.items()
+            ok = [n for n, s in self.renderer.samplers.items()
                   if s.randomisation in ("independent",) + STRATIFIED_1D]
             ok = " and ".join([", ".join(ok[:-1]), ok[-1]] if len(ok) > 1 else ok)
             raise ParameterError(f"the rough plastic's {strategy} is modelled for the "
@@ -250,12 +250,12 @@ class MicrofacetModel(LobeChoice, PresetModel):
         return not self._two_lobes()
 
     def _run(self, todo: list, **kw) -> None:
-        """:meth:`PresetModel._run`, with the lobes' tables when a request needs them."""
+        """:meth:`DiffuseModel._run`, with the lobes' tables when a request needs them."""
         self._lobes = self._lobe_requests(todo)
         super()._run(todo, **kw)
 
     def _randomised_cell(self, r, vals: dict, grids: dict, fine: int, levels):
-        """:meth:`PresetModel._randomised_cell`; a two-lobe BSDF's stream under a stratified
+        """:meth:`DiffuseModel._randomised_cell`; a two-lobe BSDF's stream under a stratified
         1-D sampler by :meth:`_lobe_cell`."""
         if self._two_lobes() and r.strategy != "map" and r.name in STRATIFIED_1D:
             return self._lobe_cell(r, vals, fine)
@@ -308,7 +308,7 @@ class MicrofacetModel(LobeChoice, PresetModel):
         return r
 
     def _store(self, r, mse_k: np.ndarray, parts_k: np.ndarray, shift_se: float = 0.0) -> None:
-        """As :meth:`PresetModel._store`, and per view-angle stratum and ``"all"`` its RMSE,
+        """As :meth:`DiffuseModel._store`, and per view-angle stratum and ``"all"`` its RMSE,
         weight, frames and bootstrap interval
         (:func:`~envfit.predict.renderer._bands.band_spread`: the whole sphere is the bands'
         weighted combination)."""
@@ -320,7 +320,7 @@ class MicrofacetModel(LobeChoice, PresetModel):
 
     def _table(self, kind: str, where):
         """The map table, or the BSDF's square points, at the midpoints of level ``where``
-        (an int) or at the randomised points of :meth:`PresetModel._shifts` (``where`` =
+        (an int) or at the randomised points of :meth:`DiffuseModel._shifts` (``where`` =
         ("shift", N) or ("owen", N))."""
         key = (kind, where)
         if key not in self._tables:
@@ -396,7 +396,7 @@ class MicrofacetModel(LobeChoice, PresetModel):
         return {**out, **self._lobe_values(strategies, foot, view, fine)}
 
     def _paired(self, r) -> bool:
-        """:meth:`PresetModel._paired`, but not for a rough plastic's sampled lobes (their
+        """:meth:`DiffuseModel._paired`, but not for a rough plastic's sampled lobes (their
         footprint keeps :func:`._footprint.footprint_term`)."""
         return super()._paired(r) and not (self._two_lobes() and r.strategy != "map")
 
@@ -424,7 +424,7 @@ class MicrofacetModel(LobeChoice, PresetModel):
                 acc = (np.zeros((len(PARTS), size, 3)) if kept is None
                        else self._per_normal((len(normals), len(PARTS), size, 3)))
             sums.append(accumulate_parts(acc if kept is None else acc[k], map_side, bsdf_side,
-                                         self._fractions("mis"), self.preset.heuristic))
+                                         self._fractions("mis"), self.renderer.heuristic))
         if kept is not None:
             kept.update({p: acc[:, PARTS.index(p)] for p in self._keep})    # (J, P, C) views
             acc = acc.sum(axis=0)
@@ -446,7 +446,7 @@ class MicrofacetModel(LobeChoice, PresetModel):
         conductor pdf, map pdf at the map table's directions) and the BSDF side (radiance,
         weight, conductor pdf, map pdf at the BSDF table's samples), each None when no
         strategy of ``strategies`` uses it."""
-        rows = np.asarray(self.preset.tangent_frame(normal.reshape(1, 3))[0])  # t, b, n
+        rows = np.asarray(self.renderer.tangent_frame(normal.reshape(1, 3))[0])  # t, b, n
         wi = rows @ view
         map_side = bsdf_side = None
         if strategies & {"map", "mis"}:

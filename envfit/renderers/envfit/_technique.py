@@ -1,4 +1,4 @@
-r"""envfit's own estimator as a preset, so that the registry is complete: the
+r"""envfit's own estimator as a renderer record, so that the registry is complete: the
 :class:`envfit.sampling.MapSampler` (piecewise constant per pixel, pdf ∝ luminance × solid
 angle, the bilinear-smoothed luminance, a 1 % floor), BRDF sampling by the lobe's own morph
 (diffuse :math:`z = \sqrt{u_0}`, :math:`\phi = 2\pi u_1`), the **balance** heuristic with

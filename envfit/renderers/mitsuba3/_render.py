@@ -240,7 +240,7 @@ class Mitsuba3Sphere:
 
     def spp_used(self, sampler: str, spp: int) -> int:
         """The sample count Mitsuba's ``sampler`` actually takes for ``spp`` (it rounds, e.g.
-        ``ldsampler`` to a power of two, ``orthogonal`` to p² with p prime): the preset's
+        ``ldsampler`` to a power of two, ``orthogonal`` to p² with p prime): the record's
         rounding, read from Mitsuba's ``set_sample_count`` and tested against it
         (``tests/test_presets_mitsuba3.py``), so that Mitsuba never warns that it rounds."""
         from envfit.renderers import get_renderer

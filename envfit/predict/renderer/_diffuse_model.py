@@ -1,4 +1,4 @@
-r"""A real renderer's noise on a white diffuse surface, predicted from its preset: the
+r"""A real renderer's noise on a white diffuse surface, predicted from its record: the
 renderer's own estimator (technique, cosine map and frame, MIS weights and sample counts,
 :mod:`envfit.renderers`), its sampler's randomisation of the square samples
 (:mod:`envfit.predict.renderer.randomisation`), averaged over uniform normals as the sphere
@@ -7,7 +7,7 @@ measurement of :mod:`envfit.renderers` averages them.
 For a strategy with one emitter and/or one BSDF sample per spp and N = the spp the sampler
 runs (its own rounding, :meth:`~envfit.renderers.SamplerSpec.spp`), the pixel value at
 normal n is :math:`F = \frac1N\sum_j h_e(u_j) + \frac1N\sum_j h_b(u'_j)` with the warped
-integrands of :mod:`._preset_integrand`, and
+integrands of :mod:`._integrand_tables`, and
 
 .. math::  \mathrm{MSE} = \frac13\sum_c \int_{S^2} E(F_c(n) - I_c(n))^2\,\frac{dn}{4\pi}
            \approx \frac13\sum_c\sum_a \varpi_a\, \mathrm{MSE}_c(n_a),
@@ -26,11 +26,11 @@ unbiased for the pool mean; a sun that makes a few normals dominate is not misse
 :func:`envfit.predict.warped._axis_proposal.proposal_axes` does for envfit's techniques).
 
 The cell a renderer runs — its spp rounded, its randomisation and the grid level — is
-:func:`._preset_request.preset_request`.
+:func:`._cell_request.cell_request`.
 
 Cost (measured, AMD EPYC, 2 cores, idle): a 1024 × 512 map (city.exr), four samplers
 (independent, jittered, CMJ, a digital shift) × map/brdf/mis × spp 16, 64, 256 in one
-:meth:`PresetModel.predict_many`: 21 s with 8 normals, ≈ 2.5 s per normal (tables at level 10:
+:meth:`DiffuseModel.predict_many`: 21 s with 8 normals, ≈ 2.5 s per normal (tables at level 10:
 1 M integrand points per part; the L = 9 Walsh transforms of the digital shift at 256 spp
 dominate); with spp 1024 too (tables at level 11, 4 M points) ≈ 10 s per normal. On the shared
 machine under load ≈ 20 the same work took 4×.
@@ -53,21 +53,21 @@ from envfit.predict.renderer._footprint import (_STREAMS, FootprintSums, PairedF
                                                 pixel_footprints)
 from envfit.predict.renderer._model_error import (draws_error, larger_error, larger_error_parts,
                                                  model_error)
-from envfit.predict.renderer._preset_integrand import (BsdfTable, MapTable, bsdf_values,
+from envfit.predict.renderer._integrand_tables import (BsdfTable, MapTable, bsdf_values,
                                                        map_values, midpoints, mis_parts,
                                                        moment_pyramid)
-from envfit.predict.renderer._preset_request import (CellRequest, grid_level, preset_request,
+from envfit.predict.renderer._cell_request import (CellRequest, grid_level, cell_request,
                                                      samples_above)
 from envfit.predict.renderer._sampled_nets import SAMPLE_TAG, SampledNets, curve_parts
 from envfit.predict.renderer.randomisation import DyadicGrid, mis_mse, randomised_mse
 from envfit.theory import spherical_fibonacci_sphere
 
-__all__ = ["PresetModelOptions", "PresetModel", "PresetPrediction", "grid_level",
-           "samples_above", "preset_request", "systematic_indices"]
+__all__ = ["RendererModelOptions", "DiffuseModel", "RendererPrediction", "grid_level",
+           "samples_above", "cell_request", "systematic_indices"]
 
 @dataclass(frozen=True)
-class PresetModelOptions:
-    """Settings of :class:`PresetModel`.
+class RendererModelOptions:
+    """Settings of :class:`DiffuseModel`.
 
     Attributes
     ----------
@@ -116,7 +116,7 @@ class PresetModelOptions:
 
 
 @dataclass(frozen=True)
-class PresetPrediction:
+class RendererPrediction:
     """One predicted cell.
 
     Attributes
@@ -195,21 +195,21 @@ def _proposal(table: MapTable, pool: np.ndarray, count: int):
     return pool[idx], w / w.sum()
 
 
-class PresetModel:
-    r"""The noise model of one map under one renderer preset (module docstring).
+class DiffuseModel:
+    r"""The noise model of one map under one renderer (module docstring).
 
     Parameters
     ----------
     envmap : EnvMap
         The map, its pixels as the renderer reads the file.
-    preset : Renderer
-        From :func:`envfit.renderers.preset`.
+    renderer : Renderer
+        From :func:`envfit.renderers.get_renderer`.
     technique_options : dict, optional
-        For the preset's technique factory (e.g. ``mis_compensation`` where the record's
+        For the renderer's technique factory (e.g. ``mis_compensation`` where the record's
         :attr:`~envfit.renderers.Renderer.mis_compensation` says the emitter has it).
-    options : PresetModelOptions, optional
+    options : RendererModelOptions, optional
     technique : optional
-        The technique already built from this map, preset and options (another model's
+        The technique already built from this map, renderer and options (another model's
         :attr:`technique`): not built again.
 
     Examples
@@ -217,8 +217,8 @@ class PresetModel:
     >>> import numpy as np
     >>> from envfit.maps import EnvMap
     >>> from envfit.renderers import get_renderer
-    >>> m = PresetModel(EnvMap(np.full((8, 16, 3), 2.0)), get_renderer("mitsuba3"),
-    ...                 options=PresetModelOptions(normals=4, pool=16, max_level=3))
+    >>> m = DiffuseModel(EnvMap(np.full((8, 16, 3), 2.0)), get_renderer("mitsuba3"),
+    ...                 options=RendererModelOptions(normals=4, pool=16, max_level=3))
     >>> m.predict("brdf", "independent", 16).rmse        # cosine sampling of a constant map
     0.0
     """
@@ -228,12 +228,12 @@ class PresetModel:
     #: no progress bar over a pass's normals (frames) when true; its text and unit
     quiet, progress_label, progress_unit = True, "renderer model", "normal"
 
-    def __init__(self, envmap, preset, technique_options: dict | None = None,
-                 options: PresetModelOptions | None = None, *, technique=None):
-        self.preset = preset
-        self.options = options or PresetModelOptions()
+    def __init__(self, envmap, renderer, technique_options: dict | None = None,
+                 options: RendererModelOptions | None = None, *, technique=None):
+        self.renderer = renderer
+        self.options = options or RendererModelOptions()
         self.technique = (technique if technique is not None else
-                          preset.technique(envmap, **(technique_options or {})))
+                          renderer.technique(envmap, **(technique_options or {})))
         pilot = MapTable.build(self.technique, self.options.pilot_level)
         self.normals, self.weights = _proposal(pilot, _serpentine_pool(self.options.pool),
                                                self.options.normals)
@@ -247,14 +247,14 @@ class PresetModel:
 
     def request(self, strategy: str, sampler: str, spp: int) -> CellRequest:
         """The cell as the renderer runs it: spp rounded, randomisation and its options
-        (:func:`preset_request`)."""
-        return preset_request(self.preset, self.options, strategy, sampler, spp)
+        (:func:`cell_request`)."""
+        return cell_request(self.renderer, self.options, strategy, sampler, spp)
 
-    def predict(self, strategy: str, sampler: str, spp: int) -> PresetPrediction:
-        """The predicted cell (:class:`PresetPrediction`); cached."""
+    def predict(self, strategy: str, sampler: str, spp: int) -> RendererPrediction:
+        """The predicted cell (:class:`RendererPrediction`); cached."""
         return self.predict_many([(strategy, sampler, spp)])[0]
 
-    def predict_many(self, cells) -> list[PresetPrediction]:
+    def predict_many(self, cells) -> list[RendererPrediction]:
         """Predictions of many (strategy, sampler, spp) cells in one pass over the normals
         (none where every cell is cached, or lies between powers of two whose predictions
         and prefix variances an earlier pass made: :mod:`._sampled_nets`)."""
@@ -323,7 +323,7 @@ class PresetModel:
         if key not in self._tables:
             u = self._points(where)
             self._tables[key] = (MapTable.at(self.technique, u) if kind == "map"
-                                 else BsdfTable.at(self.preset, u))
+                                 else BsdfTable.at(self.renderer, u))
         return self._tables[key]
 
     def _points(self, where) -> np.ndarray:
@@ -331,7 +331,7 @@ class PresetModel:
         return midpoints(where) if isinstance(where, int) else self.nets.sample(*where).points
 
     def _fractions(self, strategy: str) -> tuple[float, float]:
-        s = self.preset.strategy(strategy)
+        s = self.renderer.strategy(strategy)
         tot = s.emitter_samples + s.bsdf_samples
         return s.emitter_samples / tot, s.bsdf_samples / tot
 
@@ -356,7 +356,7 @@ class PresetModel:
         if need_map:
             out["map"], we = map_values(self._table("map", fine), normal, fr)
         if need_bsdf:
-            out["brdf"], wb = bsdf_values(self.technique, self.preset,
+            out["brdf"], wb = bsdf_values(self.technique, self.renderer,
                                           self._table("bsdf", fine), normal, fr)
         if "mis" in strategies:
             out["mis_e"], out["mis_b"], out["mis_t"] = mis_parts(out["map"], we, out["brdf"],
@@ -415,8 +415,8 @@ class PresetModel:
         ``shift_se`` (:mod:`._model_error`)."""
         mse = np.clip(self.weights @ mse_k, 0.0, None)
         a = self.weights @ parts_k
-        s = self.preset.strategy(r.strategy)
-        self._cache[r] = PresetPrediction(
+        s = self.renderer.strategy(r.strategy)
+        self._cache[r] = RendererPrediction(
             float(np.sqrt(np.mean(mse))), mse, r.strategy, r.sampler, r.spp, r.n,
             s.emitter_samples, s.bsdf_samples, r.name, r.shared, r.level,
             {"map": float(a[0]), "brdf": float(a[1]), "cross": float(a[2])}, len(self.normals),
@@ -438,7 +438,7 @@ class PresetModel:
         """Whether the film's pairing with the techniques is simulated over the sampler's own
         points (its record's ``film_points``: :class:`._footprint.PairedFootprint`) rather than
         taken as random (:func:`._footprint.footprint_term`)."""
-        spec = self.preset.sampler(r.sampler)
+        spec = self.renderer.sampler(r.sampler)
         return (r.name == "digital_shift" and spec.pairing == "same_net_permuted"
                 and spec.film_points is not None)
 
@@ -446,7 +446,7 @@ class PresetModel:
         """The sampler calls of the emitter's and the BSDF's draws of ``r``'s strategy
         (:attr:`envfit.renderers.StrategySetting.calls`; where the record has none, the
         emitter's first and the BSDF's after every emitter sample)."""
-        s = self.preset.strategy(r.strategy)
+        s = self.renderer.strategy(r.strategy)
         return s.calls if s.calls is not None else (1, 1 + s.emitter_samples)
 
     def _pairing(self, r: CellRequest) -> PairedFootprint:
@@ -458,7 +458,7 @@ class PresetModel:
         if key not in self._tables:
             self._tables[key] = PairedFootprint(n, max(self.options.shifts, (1 << 20) // n),
                                                 self.options.seed,
-                                                self.preset.sampler(r.sampler).film_points,
+                                                self.renderer.sampler(r.sampler).film_points,
                                                 dims)
         return self._tables[key]
 
@@ -508,3 +508,8 @@ class PresetModel:
         above, se = self.nets.above(tag, r.level, r.n, grids[key].mean, vals[part], grids,
                                     part)
         return grids[key].with_sampled_above(r.name, "sobol", r.n, above, se)
+
+
+#: the former names (of the time the renderers were called "presets")
+PresetModel, PresetModelOptions, PresetPrediction = (DiffuseModel, RendererModelOptions,
+                                                     RendererPrediction)

@@ -1,4 +1,4 @@
-r"""The warped integrands of a renderer preset's direct-light estimator on a white diffuse
+r"""The warped integrands of a real renderer's direct-light estimator on a white diffuse
 surface, tabulated at the midpoints of a dyadic grid of the sample square.
 
 For a normal n, albedo 1 and one 2-D sample u per technique (:mod:`envfit.renderers`):
@@ -10,7 +10,7 @@ For a normal n, albedo 1 and one 2-D sample u per technique (:mod:`envfit.render
   :math:`f\cos/p = 1`),
 
 with L the renderer's radiance lookup (``technique.eval``), :math:`p_e` its density
-(``technique.pdf``), :math:`p_b = \cos/\pi` and w the preset's MIS weights with its sample
+(``technique.pdf``), :math:`p_b = \cos/\pi` and w the renderer's MIS weights with its sample
 fractions (:meth:`~envfit.renderers.Renderer.mis_weights`; 1 for a strategy with
 one technique). Per channel (RGB).
 
@@ -98,20 +98,20 @@ class MapTable:
 @dataclass(frozen=True)
 class BsdfTable:
     """The BSDF part's local directions (P, 3) (normal +z) at the midpoints of level
-    ``level``, by the preset's cosine map."""
+    ``level``, by the renderer's cosine map."""
 
     level: int
     local: np.ndarray
 
     @classmethod
-    def build(cls, preset, level: int) -> "BsdfTable":
+    def build(cls, renderer, level: int) -> "BsdfTable":
         """The table at the midpoints of level ``level``."""
-        return cls(int(level), cls.at(preset, midpoints(level)).local)
+        return cls(int(level), cls.at(renderer, midpoints(level)).local)
 
     @classmethod
-    def at(cls, preset, u: np.ndarray) -> "BsdfTable":
+    def at(cls, renderer, u: np.ndarray) -> "BsdfTable":
         """The table at the square points ``u`` (P, 2) (``level`` −1: no grid)."""
-        return cls(-1, np.asarray(preset.cosine(u).directions))
+        return cls(-1, np.asarray(renderer.cosine(u).directions))
 
 
 @numba.njit(cache=True, parallel=True)
@@ -142,24 +142,24 @@ def map_values(table: MapTable, normal, fractions) -> tuple[np.ndarray, np.ndarr
     return h, w
 
 
-def bsdf_values(technique, preset, table: BsdfTable, normal,
+def bsdf_values(technique, renderer, table: BsdfTable, normal,
                 fractions) -> tuple[np.ndarray, np.ndarray]:
     r"""The BSDF part at one normal: the radiance :math:`L(\omega)` (P, 3) at
     :math:`\omega = \mathrm{frame}_n(\mathrm{local})` and the MIS weight :math:`w_b` (P,) with
     the sample ``fractions`` (emitter, BSDF) — multiply them for :math:`h_b`."""
     n = np.asarray(normal, dtype=np.float64).reshape(1, 3)
-    frame = np.ascontiguousarray(preset.tangent_frame(n)[0])
+    frame = np.ascontiguousarray(renderer.tangent_frame(n)[0])
     fe, fb = float(fractions[0]), float(fractions[1])
     p = table.local.shape[0]
     lookup = getattr(technique, "bsdf_lookup", None)
-    if lookup is not None and preset.heuristic == "power":
+    if lookup is not None and renderer.heuristic == "power":
         return lookup(table.local, frame, fe, fb)
     rad, wts = [], []
     for i in range(0, p, _CHUNK):
         loc = table.local[i:i + _CHUNK]
         d = loc @ frame
         rad.append(technique.eval_unit(d))
-        w = preset.mis_weights(technique.pdf_unit(d), loc[:, 2] / np.pi, "mis")[1] \
+        w = renderer.mis_weights(technique.pdf_unit(d), loc[:, 2] / np.pi, "mis")[1] \
             if fe > 0 else np.ones(len(loc))
         wts.append(w)
     return np.concatenate(rad), np.concatenate(wts)

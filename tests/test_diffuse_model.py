@@ -1,4 +1,4 @@
-"""The renderer-preset noise model (envfit.predict.renderer._preset_integrand, _preset_model):
+"""The renderer-preset noise model (envfit.predict.renderer._integrand_tables, _diffuse_model):
 its numba kernels against the preset technique's own numpy methods, the warped integrands'
 means against the shading integral by quadrature over the sphere, the constant map, and the
 prediction against Mitsuba 3's rendered sphere (small map, 16 × 16-pixel views)."""
@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from envfit.maps import EnvMap
-from envfit.predict.renderer import _preset_integrand as pi
-from envfit.predict.renderer._preset_model import (PresetModel, PresetModelOptions,
+from envfit.predict.renderer import _integrand_tables as pi
+from envfit.predict.renderer._diffuse_model import (DiffuseModel, RendererModelOptions,
                                                    grid_level, samples_above)
 from envfit.renderers import get_renderer
 
@@ -89,8 +89,8 @@ def test_pyramid_equals_cell_moments():
 
 
 def test_constant_map_brdf_is_exact_and_levels():
-    m = PresetModel(EnvMap(np.full((8, 16, 3), 2.0, np.float32)), MITSUBA,
-                    options=PresetModelOptions(normals=4, pool=16, max_level=4))
+    m = DiffuseModel(EnvMap(np.full((8, 16, 3), 2.0, np.float32)), MITSUBA,
+                    options=RendererModelOptions(normals=4, pool=16, max_level=4))
     assert m.predict("brdf", "ldsampler", 16).rmse == 0.0
     assert m.predict("map", "independent", 16).rmse > 0.0       # the cosine is not sampled
     assert grid_level("digital_shift", 64, 9) == 7
@@ -129,7 +129,7 @@ def test_prediction_inside_the_rendered_interval():
     env = _sun_map(16)
     cells = [(st, s, n) for s in ("independent", "ldsampler") for st in ("map", "mis")
              for n in (16, 64)]
-    model = PresetModel(env, MITSUBA, options=PresetModelOptions(normals=32, pool=256,
+    model = DiffuseModel(env, MITSUBA, options=RendererModelOptions(normals=32, pool=256,
                                                                  max_level=7))
     _inside_rendered(env, cells, model.predict_many(cells))
 
@@ -141,7 +141,7 @@ def test_orthogonal_prediction_inside_the_rendered_interval():
     are 16 pixels across, so each pixel's footprint is predicted too (``sphere_pixels``)."""
     env = _sun_map(16)
     cells = [(st, "orthogonal", n) for st in ("map", "brdf", "mis") for n in (25, 121)]
-    model = PresetModel(env, MITSUBA, options=PresetModelOptions(normals=32, pool=256,
+    model = DiffuseModel(env, MITSUBA, options=RendererModelOptions(normals=32, pool=256,
                                                                  max_level=7, sphere_pixels=16))
     preds = model.predict_many(cells)
     assert {p.randomisation for p in preds} == {"orthogonal"}
@@ -156,13 +156,13 @@ def test_ldsampler_beyond_the_grid_agrees_with_a_finer_grid_and_renders():
     spp on 32 × 32 cells it lies inside the rendered interval."""
     env = _sun_map(16)
     cells = [(st, "ldsampler", 64) for st in ("map", "mis")]
-    coarse, fine = (PresetModel(env, MITSUBA, options=PresetModelOptions(
+    coarse, fine = (DiffuseModel(env, MITSUBA, options=RendererModelOptions(
         normals=8, pool=256, max_level=lv)).predict_many(cells) for lv in (3, 7))
     assert [p.level for p in coarse] == [3, 3] and [p.level for p in fine] == [7, 7]
     for a, b in zip(coarse, fine):
         assert a.rmse == pytest.approx(b.rmse, rel=0.06)
     cells = [(st, "ldsampler", 256) for st in ("map", "mis")]
-    model = PresetModel(env, MITSUBA, options=PresetModelOptions(normals=32, pool=256,
+    model = DiffuseModel(env, MITSUBA, options=RendererModelOptions(normals=32, pool=256,
                                                                  max_level=5))
     preds = model.predict_many(cells)
     assert all(p.level == 5 for p in preds)

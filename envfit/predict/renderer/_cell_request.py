@@ -1,6 +1,6 @@
 r"""A predicted cell as the renderer runs it: the spp its sampler runs, the randomisation of
 :mod:`envfit.predict.renderer.randomisation` and its options, whether the two streams share
-one point set, and the grid level of the renderer model (:mod:`._preset_model`).
+one point set, and the grid level of the renderer model (:mod:`._diffuse_model`).
 
 Grid level per randomisation and N (:func:`grid_level`, measured on city.exr's integrands at
 three normals): V alone for ``independent``; the strata as cells for ``jittered`` (M = r:
@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 from envfit.base import ParameterError
 from envfit.predict.renderer._sampled_nets import SAMPLE_TAG
 
-__all__ = ["CellRequest", "preset_request", "grid_level", "samples_above"]
+__all__ = ["CellRequest", "cell_request", "grid_level", "samples_above"]
 
 #: pairing → whether the two streams share one point set; the columns of a randomised
 #: orthogonal array have independent permutations per dimension: their cross term is 0
@@ -91,18 +91,18 @@ class CellRequest:
     prefix: bool = False                    # any N: the first N of the randomised sequence
 
 
-def preset_request(preset, options, strategy: str, sampler: str,
+def cell_request(renderer, options, strategy: str, sampler: str,
                    spp: int) -> CellRequest:
-    """The cell of ``preset`` as the renderer runs it: spp rounded, randomisation and its
+    """The cell of ``renderer`` as the renderer runs it: spp rounded, randomisation and its
     options, the grid level of ``options`` (no map needed: the model's checks)."""
-    s = preset.strategy(strategy)
+    s = renderer.strategy(strategy)
     if not s.renderable:
-        raise ParameterError(f"{preset.name} cannot render strategy {strategy!r}")
-    spec = preset.sampler(sampler)
+        raise ParameterError(f"{renderer.name} cannot render strategy {strategy!r}")
+    spec = renderer.sampler(sampler)
     n = spec.spp(spp)
     from envfit.predict.renderer.randomisation import RANDOMISATIONS
     if spec.randomisation not in RANDOMISATIONS:
-        raise ParameterError(f"no exact model of {preset.name}'s {sampler} "
+        raise ParameterError(f"no exact model of {renderer.name}'s {sampler} "
                              f"({spec.randomisation}) yet")
     name = spec.randomisation
     two = s.emitter_samples > 0 and s.bsdf_samples > 0
@@ -115,7 +115,7 @@ def preset_request(preset, options, strategy: str, sampler: str,
         opts = opts_b = spec.model_options(n) or _PLAIN[name]
     elif name == "orthogonal":
         if s.dimensions is None:
-            raise ParameterError(f"{preset.name} does not say at which dimensions "
+            raise ParameterError(f"{renderer.name} does not say at which dimensions "
                                  f"strategy {strategy!r} draws its samples")
         opts, opts_b = ((("dimension", d),) for d in s.dimensions)
     level = grid_level(name, n, options.max_level)
