@@ -33,7 +33,9 @@ Modules, by step:
 * Result: :mod:`~envfit.advisor._result` — :class:`Advice`, its rows (one rule each), their
   order and the recommendation line; :mod:`~envfit.advisor._renderer_advice` —
   :class:`RendererAdvice` (the spp per strategy, the integrator's settings, the scene text)
-  and the renderer pipeline :func:`~envfit.advisor._renderer_advice.advise_renderer_map`.
+  and the renderer pipeline :func:`~envfit.advisor._renderer_advice.advise_renderer_map`;
+  :mod:`~envfit.advisor._renderer_adaptive` — :func:`advise_adaptive`: a renderer's adaptive
+  sampling at a noise threshold, and the threshold that meets the target.
 * Shared: :mod:`~envfit.advisor._budget` — the memory and time plan before any work (a map
   too big is downsampled, or the run refused in one line naming an option that fits);
   :mod:`~envfit.advisor._cache` — the on-disk cache (fits, transfers, wce curves, renderer
@@ -54,6 +56,7 @@ _LAZY = {
     "advise_with": "_advise",
     "AdviseOptions": "_options", "RendererAdviseOptions": "_renderer_options",
     "Advice": "_result", "RendererAdvice": "_renderer_advice",
+    "advise_adaptive": "_renderer_adaptive", "AdaptiveAdvice": "_renderer_adaptive",
     # the former names, kept as aliases
     "advise_preset": "_renderer_advice", "PresetAdvice": "_renderer_advice",
     "PresetAdviseOptions": "_renderer_options",
@@ -68,6 +71,7 @@ __all__ = sorted(k for k in _LAZY if k not in _FORMER)
 #: package (lazily) but not its public API (not in ``__all__``, not documented)
 _SHARED = {
     "cache_write_problem": "_cache",
+    "check_adaptive": "_renderer_adaptive",
     "BASES": "_options",
     "MAX_AXES": "_options",
     "MAX_SEEDS": "_options",

@@ -32,7 +32,10 @@ _RENDERER_ONLY = {"sampler": "--sampler", "spp": "--spp", "snippet": "--snippet"
                 "mis_compensation": "--mis-compensation", "rules": "--rules",
                 "renderer_level": "--renderer-level", "renderer_normals": "--renderer-normals",
                 "renderer_model_error": "--renderer-model-error",
-                "roughness": "--roughness", "sphere_pixels": "--sphere-pixels"}
+                "roughness": "--roughness", "sphere_pixels": "--sphere-pixels",
+                "adaptive_threshold": "--adaptive-threshold",
+                "adaptive_samples": "--adaptive-samples",
+                "adaptive_min_samples": "--adaptive-min-samples"}
 #: options of envfit's generic renderer rows, which --renderer replaces
 _GENERIC_ROWS = {"no_renderer": "--no-renderer", "renderer_pointsets": "--renderer-pointsets",
                  "renderer_grid": "--renderer-grid",
@@ -67,6 +70,25 @@ def add_renderer_arguments(p) -> None:
                    help="with --renderer: also envfit's table of quadrature rules and SH/HSH "
                         "truncations (the fit and its search: slower)")
     _add_model_arguments(g)
+    _add_adaptive_arguments(g)
+
+
+def _add_adaptive_arguments(g) -> None:
+    """The adaptive sampling of a renderer that has it (Cycles' Noise Threshold)."""
+    from envfit.renderers import RENDERERS
+    having = _or([r.display for r in RENDERERS.values() if r.adaptive is not None])
+    tau = Ranged(0, None, "T", integer=False)
+    g.add_argument("--adaptive-threshold", type=tau, default=None, metavar="T",
+                   help=f"{having}: also predict adaptive sampling at this noise threshold "
+                        f"(Blender's Noise Threshold; 0: its automatic one), the RMSE and the "
+                        f"samples a pixel takes, and advise the threshold that meets the "
+                        f"target")
+    g.add_argument("--adaptive-samples", type=Ranged(1, 1 << 24, "N"), default=None,
+                   metavar="N", help="with --adaptive-threshold: the most samples a pixel "
+                                     "takes (Blender's Max Samples; default 4096)")
+    g.add_argument("--adaptive-min-samples", type=Ranged(0, 1 << 24, "M"), default=None,
+                   metavar="M", help="with --adaptive-threshold: Blender's Min Samples "
+                                     "(default 0: its automatic rule)")
 
 
 def sampler_help() -> str:
@@ -174,6 +196,7 @@ def renderer_options_from_args(args: argparse.Namespace):
     if args.nmin is not None and not args.rules:     # the renderer search starts at 1 spp
         raise ParameterError("--nmin sizes envfit's rules (--rules); with --renderer the "
                              "search starts at the sampler's smallest spp")
+    _check_adaptive_args(args)
     popts = RendererAdviseOptions(
         args.renderer, sampler=args.sampler, strategies=args.strategies, spp=args.spp or (),
         mis_compensation=args.mis_compensation, max_spp=args.nmax,
@@ -278,6 +301,33 @@ def _snippet_file(args: argparse.Namespace, env, out) -> tuple[str, str | None]:
                        f"({'; '.join(changes)}), written there")
 
 
+def _check_adaptive_args(args: argparse.Namespace) -> None:
+    """The adaptive options: one line before any work where they cannot be answered."""
+    if getattr(args, "adaptive_threshold", None) is None:
+        for dest in ("adaptive_samples", "adaptive_min_samples"):
+            if getattr(args, dest, None) is not None:
+                raise ParameterError(f"{_RENDERER_ONLY[dest]} needs --adaptive-threshold")
+        return
+    if getattr(args, "library", False):
+        raise ParameterError("--adaptive-threshold answers one map at a time so far")
+    from envfit.advisor import check_adaptive
+    check_adaptive(args.renderer, args.sampler, args.strategies, args.adaptive_threshold,
+                   args.adaptive_samples, args.adaptive_min_samples or 0)
+
+
+def _adaptive(args: argparse.Namespace, env, ropts, adv, output: CommandOutput):
+    """The adaptive answer (:func:`envfit.advisor._renderer_adaptive.advise_adaptive`) at the
+    advice's target, printed; its JSON, or None without --adaptive-threshold."""
+    if args.adaptive_threshold is None:
+        return None
+    from envfit.advisor import advise_adaptive
+    a = advise_adaptive(env, ropts, args.adaptive_threshold, target_rmse=adv.target_rmse,
+                        samples=args.adaptive_samples,
+                        min_samples=args.adaptive_min_samples or 0, quiet=args.quiet)
+    output.say(*a.lines())
+    return a.to_dict()
+
+
 def _result(env, adv, rules, notes: list) -> dict:
     """The JSON: the rules' (with --rules) or the map's summary, with the renderer section."""
     if rules is not None:
@@ -313,7 +363,10 @@ def run_renderer(args: argparse.Namespace, output: CommandOutput, ropts, rules,
     output.say(f"({time.perf_counter() - t0:.1f} s: renderer model {m['seconds_model']:.1f}"
                + (f", rules {rules.timings['total']:.1f}" if rules is not None else "")
                + f"; cache {m['cache_hits']} hit(s), {m['cache_writes']} write(s))")
+    adaptive = _adaptive(args, env, ropts, adv, output)
     d = _result(env, adv, rules, [*env.notes, *([snip_note] if snip_note else []), *adv.notes])
+    if adaptive is not None:
+        d["renderer"]["adaptive"] = adaptive
     if args.snippet:
         d["renderer"]["snippet_map"] = filename
     d["timings"] = {**d.get("timings", {}), "renderer_model": m["seconds_model"],

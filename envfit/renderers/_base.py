@@ -436,6 +436,11 @@ class Renderer:
     harness : the module that renders envfit's measurement with it (``version()``,
         ``open_sphere(envmap, brdf, alpha, **common)``); the renderer's own package is
         imported only when the harness is used
+    adaptive : its adaptive sampling, where modelled (None: it has none): its settings
+        (``settings(threshold, samples, min_samples)``), its per-pixel test (``error``,
+        ``class_a``, ``step``, ``neighbourhood``) and its pattern's points (``points``), read
+        by :class:`envfit.predict.renderer._adaptive.AdaptiveModel` (Cycles':
+        :mod:`envfit.renderers.cycles._adaptive`)
     """
 
     name: str
@@ -459,6 +464,7 @@ class Renderer:
     roughness: RoughnessConvention | None = None
     render_samplers: tuple[str, ...] = ()
     harness: str = ""
+    adaptive: object | None = None
 
     def __post_init__(self):
         if self.heuristic not in _HEURISTICS:

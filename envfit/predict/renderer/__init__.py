@@ -11,6 +11,9 @@ Modules:
   rough plastic (GGX, Beckmann), per frame (normal, view): view-dependent; its compiled loops
   (``_microfacet_kernels``, ``_vndf_kernels``, ``_plastic_kernels``), a two-lobe BSDF's cells
   (``_lobe_parts``) and the view-angle bands (``_bands``).
+* :mod:`~envfit.predict.renderer._adaptive` — a renderer's adaptive sampling on the white
+  diffuse surface: for a noise threshold, the samples each pixel spends and the error left,
+  by running the renderer's own test on its own points (:class:`AdaptiveModel`).
 * :mod:`~envfit.predict.renderer._frames` — the frames it averages over: a render's pixels,
   or views in a band of polar angles.
 * :mod:`~envfit.predict.renderer._footprint` — a rendered pixel's footprint: the normals it
@@ -39,6 +42,8 @@ _LAZY = {
     "PresetModel": "_diffuse_model", "PresetModelOptions": "_diffuse_model",
     "PresetPrediction": "_diffuse_model",
     "MicrofacetModel": "_microfacet_model", "band_frames": "_frames",
+    "AdaptiveModel": "_adaptive", "AdaptiveOptions": "_adaptive",
+    "AdaptivePrediction": "_adaptive",
     "pixel_frames": "_frames", "pixel_footprints": "_footprint",
 }
 

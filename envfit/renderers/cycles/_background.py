@@ -43,6 +43,7 @@ from envfit.maps import local_to_world
 from envfit.renderers._base import (EnvmapTechnique, Renderer, SamplerSpec,
                                            StrategySetting, cosine_hemisphere, map_rgb,
                                            power_heuristic)
+from envfit.renderers.cycles._adaptive import CYCLES_ADAPTIVE
 from envfit.renderers.cycles._bsdf import BSDF_NAMES, ROUGHNESS, bsdf
 from envfit.renderers.cycles._scene import cycles_snippet
 
@@ -475,4 +476,5 @@ CYCLES = Renderer(
     roughness=ROUGHNESS,
     render_samplers=("tabulated_sobol", "blue_noise"),
     harness="envfit.renderers.cycles._render",
+    adaptive=CYCLES_ADAPTIVE,
 )

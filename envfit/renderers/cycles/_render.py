@@ -306,6 +306,39 @@ def _read_exr(path: Path, channels=None) -> np.ndarray:
     return px[..., idx]
 
 
+def _sample_counts(value: np.ndarray, first: int) -> np.ndarray:
+    """The samples each pixel took from the *Debug Sample Count* pass, which Cycles writes as
+    count / N, N the samples of the render's longest pixel (``integrator/pass_accessor.cpp``:
+    ``scale = 1 / num_samples``, the samples rendered, not the setting): N from the pixels that
+    stop at the first test, ``first`` (the views' corners see one constant direction of the
+    world and pass at once); checked to make every count a whole number."""
+    v = np.asarray(value, dtype=np.float64)
+    lo = float(v[v > 0].min())
+    n = first / lo
+    counts = v * n
+    if not np.all(np.abs(counts - np.rint(counts)) < 0.02 * np.maximum(1.0, counts / 512)):
+        raise RuntimeError("the sample count pass is not a whole number of samples at any "
+                           "scale the first test gives")
+    return np.rint(counts)
+
+
+def _read_layers(path: Path) -> dict:
+    """A multilayer EXR's passes {pass name: (H, W, channels)} (every subimage; channel names
+    ``<view layer>.<pass>.<channel>``)."""
+    import OpenImageIO as oiio
+    out: dict = {}
+    for k in range(oiio.ImageBuf(str(path)).nsubimages):
+        buf = oiio.ImageBuf(str(path), k, 0)
+        names = list(buf.spec().channelnames)
+        px = np.asarray(buf.get_pixels(oiio.FLOAT), dtype=np.float64)
+        for i, name in enumerate(names):
+            layer = name.rsplit(".", 1)[0].split(".", 1)[-1]
+            out.setdefault(layer, []).append(px[..., i])
+    if not out:
+        raise RuntimeError(f"{path}: no image")
+    return {k: np.stack(v, axis=-1) for k, v in out.items()}
+
+
 class CyclesSphere:
     """The sphere of :mod:`._sphere` in Cycles on one map (module docstring); a context
     manager (the temporary files are removed on exit)."""
@@ -376,6 +409,52 @@ class CyclesSphere:
             images.append(img)
             secs.append(t)
         return np.stack(images), secs
+
+    def render_adaptive(self, pattern: str, threshold: float, samples: int, seed, *,
+                        min_samples: int = 0) -> tuple[np.ndarray, np.ndarray, list]:
+        """The six views (6, R, R, 3) rendered with Cycles' adaptive sampling (MIS; Blender's
+        ``use_adaptive_sampling``, ``adaptive_threshold``, ``adaptive_min_samples``,
+        ``samples`` the most), the samples each pixel took (6, R, R) from Cycles' *Debug
+        Sample Count* pass (its value × ``samples``), and the seconds of each view."""
+        if pattern not in PATTERNS:
+            raise ParameterError(f"Cycles sampling pattern must be one of "
+                                 f"{', '.join(PATTERNS)}; got {pattern!r}")
+        c, vl = self.scene.cycles, self.scene.view_layers[0]
+        fmt = self.scene.render.image_settings
+        c.sampling_pattern = PATTERNS[pattern]
+        c.samples = int(samples)
+        c.use_adaptive_sampling = True
+        c.adaptive_threshold = float(threshold)
+        c.adaptive_min_samples = int(min_samples)
+        vl.cycles.pass_debug_sample_count = True
+        if hasattr(fmt, "media_type"):                  # Blender 5: the layers are a media type
+            fmt.media_type = "MULTI_LAYER_IMAGE"
+        fmt.file_format = "OPEN_EXR_MULTILAYER"
+        self.world.cycles.sampling_method = WORLD_SAMPLING["mis"]
+        images, counts, secs = [], [], []
+        from envfit.renderers.cycles._adaptive import CYCLES_ADAPTIVE
+        first = int(CYCLES_ADAPTIVE.settings(threshold, int(samples), int(min_samples)).checks[0])
+        try:
+            for k, sd in enumerate(view_seeds(seed)):
+                c.seed = int(sd)
+                self.camera.matrix_world = _view_matrix(VIEWS[k])
+                out = self._dir / f"adaptive{k}.exr"
+                self.scene.render.filepath = str(out)
+                t = time.perf_counter()
+                with _quiet_blender():
+                    self.bpy.ops.render.render(write_still=True)
+                secs.append(time.perf_counter() - t)
+                layers = _read_layers(out)
+                out.unlink()
+                images.append(layers["Combined"][..., :3])
+                counts.append(_sample_counts(layers["Debug Sample Count"][..., 0], first))
+        finally:
+            c.use_adaptive_sampling = False
+            vl.cycles.pass_debug_sample_count = False
+            if hasattr(fmt, "media_type"):
+                fmt.media_type = "IMAGE"
+            fmt.file_format = "OPEN_EXR"
+        return np.stack(images), np.stack(counts), secs
 
     def spp_used(self, pattern: str, spp: int) -> int:
         """The spp Cycles renders for ``spp`` asked: ``spp`` (no rounding, any pattern)."""
