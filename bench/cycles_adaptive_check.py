@@ -8,7 +8,8 @@ For each map × noise threshold: measured RMSE [low, high], predicted, ratio, in
 ([0.8 × low, 1.25 × high]); measured and predicted mean spp and their ratio (the issue's
 rule: within 20 %); with ``--target-relative``, the threshold the model advises for that
 target (relative to the sphere's mean radiance), rendered: it meets the target, or not.
-Writes ``OUT/cycles_adaptive.json`` after every cell (resumable: done cells are skipped).
+Writes ``OUT/cycles_adaptive.json`` after every cell (resumable: done cells are skipped);
+``--repredict`` predicts the saved rows again with the current model, without rendering.
 
     python bench/cycles_adaptive_check.py /tmp/maps/forest64.exr /tmp/maps/city64.exr \\
         sun-gp-1.5 --synth-height 64 --thresholds 0.1 0.03 0.01 --resolution 32 \\
@@ -43,8 +44,37 @@ def weighted_spp(counts: np.ndarray, geometry) -> float:
     return float(np.sum(counts[:, keep] * w[keep]) / (len(counts) * np.sum(w[keep])))
 
 
+def _model(env: EnvMap, args):
+    from envfit.predict.renderer import AdaptiveModel, AdaptiveOptions
+    seen = EnvMap(env.data, up="y", name=env.name)        # as the Cycles world looks it up
+    return AdaptiveModel(seen, get_renderer("cycles"), samples=args.samples,
+                         sphere_pixels=None if args.no_footprint else args.resolution,
+                         options=AdaptiveOptions(normals=args.normals,
+                                                 realizations=args.realizations,
+                                                 seed=args.seed), quiet=False)
+
+
+def _predicted(row: dict, p) -> None:
+    """The prediction's fields of a row (its measurement kept)."""
+    spp = row["measured_spp"]
+    row.update(predicted=p.predicted_rmse, ratio=p.predicted_rmse / row["measured_rmse"],
+               inside=bool(0.8 * row["low"] <= p.predicted_rmse <= 1.25 * row["high"]),
+               predicted_spp=p.mean_spp, spp_ratio=p.mean_spp / spp,
+               spp_within_20=bool(abs(p.mean_spp / spp - 1) <= 0.2),
+               predicted_spp_95=p.spp_percentiles[95], model_se=p.model_se)
+
+
+def repredict_map(spec: str, args, rows: list) -> None:
+    """The saved rows of one map predicted again by this code, without rendering."""
+    name, env = load_map(spec, args.synth_height)
+    mine = [r for r in rows if r["map"] == name and "measured_rmse" in r]
+    if mine:
+        model = _model(env, args)
+        for r in mine:
+            _predicted(r, model.predict(r["tau"]))
+
+
 def run_map(spec: str, args, rows: list, meta: dict, out: Path) -> None:
-    from envfit.predict.renderer._adaptive import AdaptiveModel, AdaptiveOptions
     from envfit.renderers.cycles._render import CyclesOptions, CyclesSphere
     name, env = load_map(spec, args.synth_height)
     done = {(r["map"], r["threshold"]) for r in rows}
@@ -52,13 +82,9 @@ def run_map(spec: str, args, rows: list, meta: dict, out: Path) -> None:
     want_target = args.target_relative and (name, f"target {args.target_relative}") not in done
     if not todo and not want_target:
         return
-    seen = EnvMap(env.data, up="y", name=env.name)        # as the Cycles world looks it up
     t0 = time.perf_counter()
-    model = AdaptiveModel(seen, get_renderer("cycles"), samples=args.samples,
-                          options=AdaptiveOptions(normals=args.normals,
-                                                  realizations=args.realizations,
-                                                  seed=args.seed), quiet=False)
-    model._run()
+    model = _model(env, args)
+    model.predict(args.thresholds[0])
     meta.setdefault("model_seconds", {})[name] = time.perf_counter() - t0
     rng = np.random.default_rng([args.seed, len(rows)])
     with CyclesSphere(env, CyclesOptions(resolution=args.resolution,
@@ -73,20 +99,14 @@ def run_map(spec: str, args, rows: list, meta: dict, out: Path) -> None:
             imgs, counts, secs = s.render_adaptive(args.pattern, threshold, args.samples,
                                                    int(rng.integers(1 << 31)))
             err = sphere_error(imgs, ref.a, ref.b, s.geometry, seed=rng)
-            p = model.predict(threshold)
-            spp = weighted_spp(counts, s.geometry)
             row = {"map": name, "threshold": label, "tau": threshold,
                    "measured_rmse": err.rmse, "low": err.low, "high": err.high,
-                   "predicted": p.predicted_rmse, "ratio": p.predicted_rmse / err.rmse,
-                   "inside": bool(0.8 * err.low <= p.predicted_rmse <= 1.25 * err.high),
-                   "measured_spp": spp, "predicted_spp": p.mean_spp,
-                   "spp_ratio": p.mean_spp / spp,
-                   "spp_within_20": bool(abs(p.mean_spp / spp - 1) <= 0.2),
+                   "measured_spp": weighted_spp(counts, s.geometry),
                    "measured_max_spp": float(counts[:, s.geometry.keep].max()),
-                   "predicted_spp_95": p.spp_percentiles[95], "model_se": p.model_se,
                    "render_seconds": float(time.perf_counter() - t),
                    "view_seconds": [float(x) for x in secs],
                    "mean_radiance": mean_radiance}
+            _predicted(row, model.predict(threshold))
             rows.append(row)
             atomic_write_json(out / "cycles_adaptive.json", {"meta": meta, "rows": rows})
             return row
@@ -135,12 +155,17 @@ def main() -> None:
     ap.add_argument("--pattern", default="tabulated_sobol")
     ap.add_argument("--resolution", type=int, default=32)
     ap.add_argument("--reference-spp", type=int, default=2048)
-    ap.add_argument("--normals", type=int, default=64)
+    ap.add_argument("--normals", type=int, default=128)
     ap.add_argument("--realizations", type=int, default=64)
     ap.add_argument("--synth-height", type=int, default=64)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--cache", default=None, help="reference cache folder")
     ap.add_argument("--out", default="adaptive_check")
+    ap.add_argument("--no-footprint", action="store_true",
+                    help="predict every pixel as a point (default: its footprint on the "
+                         "--resolution sphere)")
+    ap.add_argument("--repredict", action="store_true",
+                    help="predict the saved rows again with this code, without rendering")
     args = ap.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -149,7 +174,11 @@ def main() -> None:
     meta, rows = doc["meta"], doc["rows"]
     meta.update(cpu=_cpu(), args=vars(args))
     for spec in args.maps:
-        run_map(spec, args, rows, meta, out)
+        if args.repredict:
+            repredict_map(spec, args, rows)
+            atomic_write_json(path, {"meta": meta, "rows": rows})
+        else:
+            run_map(spec, args, rows, meta, out)
     report(rows)
 
 

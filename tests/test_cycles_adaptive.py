@@ -104,6 +104,20 @@ def test_the_draws_at_a_fixed_spp_agree_with_the_exact_owen_model():
         assert p.fixed[n] == pytest.approx(ref, rel=0.15), n
 
 
+def test_with_the_pixel_footprint_the_draws_agree_with_the_exact_footprint_model():
+    env, cyc = _sunny(), get_renderer("cycles")
+    m = AdaptiveModel(env, cyc, samples=256, sphere_pixels=8,
+                      options=AdaptiveOptions(normals=8, pool=64, realizations=100, level=7))
+    exact = DiffuseModel(env, cyc, options=RendererModelOptions(normals=8, pool=64, max_level=7,
+                                                                sphere_pixels=8))
+    p = m.predict(0.01)
+    point = AdaptiveModel(env, cyc, samples=256, options=m.options).predict(0.01)
+    for n in (64, 256):
+        assert p.fixed[n] == pytest.approx(exact.predict("mis", "tabulated_sobol", n).rmse,
+                                           rel=0.15), n
+    assert p.fixed[256] > point.fixed[256]           # an 8-pixel sphere: the footprint adds
+
+
 def test_a_lower_threshold_spends_more_and_leaves_less_error():
     m = AdaptiveModel(_sunny(), get_renderer("cycles"), samples=1024,
                       options=AdaptiveOptions(normals=8, pool=64, realizations=36, level=6))

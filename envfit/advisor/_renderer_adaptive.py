@@ -91,10 +91,11 @@ def check_adaptive(renderer: str, sampler: str | None, strategies, threshold: fl
 
 
 def advise_adaptive(envmap, opts, threshold: float, *, target_rmse: float,
-                    samples: int | None = None, min_samples: int = 0, normals: int = 64,
+                    samples: int | None = None, min_samples: int = 0, normals: int = 128,
                     realizations: int = 64, seed: int = 0, quiet: bool = True) -> AdaptiveAdvice:
     """The adaptive answer for the renderer of ``opts`` (a
-    :class:`~envfit.advisor.RendererAdviseOptions`: its renderer, sampler and first strategy)
+    :class:`~envfit.advisor.RendererAdviseOptions`: its renderer, sampler, first strategy and
+    ``sphere_pixels``: each sample at its film position's normal)
     at ``threshold`` (0: the renderer's automatic one), with the threshold that meets
     ``target_rmse``."""
     from envfit.predict.renderer import AdaptiveModel, AdaptiveOptions
@@ -106,6 +107,7 @@ def advise_adaptive(envmap, opts, threshold: float, *, target_rmse: float,
         raise ParameterError(f"the target RMSE must be > 0, got {target_rmse!r}")
     model = AdaptiveModel(envmap, rec, sampler=sampler, strategy=strategies[0],
                           samples=samples, min_samples=min_samples,
+                          sphere_pixels=opts.sphere_pixels,
                           options=AdaptiveOptions(normals=normals, realizations=realizations,
                                                   seed=seed), quiet=quiet)
     asked = model.predict(threshold)

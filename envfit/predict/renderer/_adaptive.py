@@ -36,8 +36,13 @@ against the exact randomisation model (a second algorithm). Every threshold reus
 draws (common random numbers), so :meth:`AdaptiveModel.threshold_for` searches them at no new
 cost.
 
-What it leaves out: a pixel's footprint (the sphere's pixels see a point each); a pixel's
-neighbours see its normal.
+**The pixel's footprint** (``sphere_pixels`` = D, the sphere D pixels across as the renders
+of :mod:`envfit.renderers` show it): each sample then sees the normal at its own film position
+in the pixel (the rule's film points; :func:`._footprint.pixel_footprints` at
+:data:`FILM_SIDE` × :data:`FILM_SIDE` sub-positions), and the converged value is the mean over
+the pixel. Without it every pixel sees one normal.
+
+What it leaves out: a pixel's neighbours see its normal; the sphere's rim.
 """
 from __future__ import annotations
 
@@ -53,7 +58,11 @@ from envfit.predict.renderer._integrand_tables import (BsdfTable, MapTable, bsdf
                                                        map_values, midpoints)
 from envfit.predict.renderer._model_error import model_error
 
-__all__ = ["AdaptiveOptions", "AdaptivePrediction", "AdaptiveModel"]
+__all__ = ["AdaptiveOptions", "AdaptivePrediction", "AdaptiveModel", "FILM_SIDE"]
+
+#: the sub-positions per side of a pixel at which a sample's normal is taken (its film
+#: position's), and those over which the converged value is averaged
+FILM_SIDE, TRUTH_SIDE = 16, 4
 
 
 @dataclass(frozen=True)
@@ -70,7 +79,7 @@ class AdaptiveOptions:
     seed : of the pixels' hashes and their neighbours (``numpy.random.default_rng``).
     """
 
-    normals: int = 64
+    normals: int = 128
     pool: int = 1024
     realizations: int = 64
     level: int = 8
@@ -159,6 +168,9 @@ class AdaptiveModel:
         The most samples a pixel takes (the renderer's own default when None).
     min_samples : int
         0: the renderer's automatic rule.
+    sphere_pixels : int, optional
+        D: the sphere's diameter in pixels — each sample sees the normal at its film position
+        (module docstring); None: every pixel a point.
     options : AdaptiveOptions, optional
 
     Examples
@@ -176,7 +188,8 @@ class AdaptiveModel:
 
     def __init__(self, envmap, renderer, *, sampler: str | None = None, strategy: str = "mis",
                  samples: int | None = None, min_samples: int = 0,
-                 options: AdaptiveOptions | None = None, quiet: bool = True):
+                 sphere_pixels: int | None = None, options: AdaptiveOptions | None = None,
+                 quiet: bool = True):
         rule = getattr(renderer, "adaptive", None)
         if rule is None:
             raise ParameterError(f"{renderer.display or renderer.name} has no adaptive "
@@ -199,6 +212,11 @@ class AdaptiveModel:
             normals=self.options.normals, pool=self.options.pool))
         self.technique, self.normals, self.weights = (diffuse.technique, diffuse.normals,
                                                       diffuse.weights)
+        if sphere_pixels is not None and (isinstance(sphere_pixels, bool) or not isinstance(
+                sphere_pixels, (int, np.integer)) or not 4 <= sphere_pixels <= 1 << 16):
+            raise ParameterError(f"sphere_pixels must be an integer from 4 to {1 << 16}, got "
+                                 f"{sphere_pixels!r}")
+        self.sphere_pixels = sphere_pixels
         self.side = math.isqrt(self.options.realizations)
         self._draws, self._fixed_rmse = None, None
         self.seconds = 0.0
@@ -219,6 +237,26 @@ class AdaptiveModel:
             out = out + h * we[:, None]
         return out
 
+    def _samples_seeing(self, normals: np.ndarray, tabs: tuple) -> np.ndarray:
+        """F = h_e + h_b (P, C) at the points of ``tabs``, sample p seeing ``normals[p]``:
+        the map part's cosine and both MIS weights per sample, the BSDF sample turned into
+        the world by each sample's own frame."""
+        fr = self._fractions()
+        local = tabs[1].local
+        frames = np.asarray(self.renderer.tangent_frame(normals))          # (P, 3, 3) rows
+        dirs = np.einsum("pi,pij->pj", local, frames)
+        look = getattr(self.technique, "eval_pdf", None)
+        rad, pe = look(dirs) if look is not None else (self.technique.eval_unit(dirs),
+                                                        self.technique.pdf_unit(dirs))
+        wb = self.renderer.mis_weights(pe, local[:, 2] / np.pi, self.strategy)[1]
+        out = rad * np.asarray(wb)[:, None]
+        if fr[0] > 0:
+            t = tabs[0]
+            cos = np.clip(np.sum(normals * t.directions, axis=1), 0.0, None)
+            we = self.renderer.mis_weights(t.pdf, cos / np.pi, self.strategy)[0]
+            out = out + t.base * (cos * np.where(t.pdf > 0, we, 0.0))[:, None]
+        return out
+
     def _run(self) -> dict:
         """The draws every threshold reads: per normal and pixel, the sums of its first n
         samples (all of them, and twice the class-A ones) at every n a block of the rule's
@@ -228,7 +266,7 @@ class AdaptiveModel:
         t0 = time.perf_counter()
         o, n, step = self.options, self.samples, self.rule.step
         rng = np.random.default_rng(o.seed)
-        ue, ub = self.rule.points(self.sampler, n, o.realizations, rng)
+        ue, ub, uf = self.rule.points(self.sampler, n, o.realizations, rng, film=True)
         r = o.realizations
         pts = (MapTable.at(self.technique, ue.reshape(-1, 2)),
                BsdfTable.at(self.renderer, ub.reshape(-1, 2)))
@@ -239,15 +277,29 @@ class AdaptiveModel:
         blocks = np.zeros((len(self.normals), r, len(edges) - 1, 3))
         halves = np.zeros_like(blocks)
         truth = np.zeros((len(self.normals), 3))
+        feet = None
+        if self.sphere_pixels is not None:
+            from envfit.predict.renderer._footprint import nearest_views, pixel_footprints
+            views = nearest_views(self.normals)
+            feet = (pixel_footprints(self.normals, views, self.sphere_pixels, FILM_SIDE),
+                    pixel_footprints(self.normals, views, self.sphere_pixels, TRUTH_SIDE))
+            cell = np.clip((uf.reshape(-1, 2) * FILM_SIDE).astype(np.int64), 0, FILM_SIDE - 1)
+            at = cell[:, 1] * FILM_SIDE + cell[:, 0]
         for k, normal in enumerate(progress(self.normals, total=len(self.normals),
                                             desc="adaptive model", unit="normal",
                                             quiet=self.quiet)):
-            f = self._samples_at(normal, pts).reshape(r, n, -1)
+            if feet is None:
+                f = self._samples_at(normal, pts).reshape(r, n, -1)
+                truth_k = self._samples_at(normal, grid).mean(axis=0)
+            else:
+                f = self._samples_seeing(feet[0][k][at], pts).reshape(r, n, -1)
+                truth_k = np.mean([self._samples_at(x, grid).mean(axis=0) for x in feet[1][k]],
+                                  axis=0)
             c = f.shape[2]
             blocks[k, :, :, :c] = np.cumsum(f, axis=1)[:, edges[1:] - 1]
             halves[k, :, :, :c] = 2.0 * np.cumsum(f * a_mask[None, :, None],
                                                   axis=1)[:, edges[1:] - 1]
-            truth[k, :c] = self._samples_at(normal, grid).mean(axis=0)
+            truth[k, :c] = truth_k
         self._draws = {"edges": edges, "blocks": blocks, "halves": halves, "truth": truth}
         self.seconds += time.perf_counter() - t0
         return self._draws

@@ -247,24 +247,29 @@ class CyclesAdaptive:
         return diff / (self.epsilon + norm)
 
     def points(self, sampler: str, samples: int, realizations: int,
-               rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+               rng: np.random.Generator, *, film: bool = False) -> tuple:
         """The light's and the BSDF's (x, y) of the samples 0 … samples − 1 of
         ``realizations`` pixels with random hashes: two arrays (R, samples, 2), float64 (each
-        pixel reads two different tables, each in its own scrambled order)."""
+        pixel reads two different tables, each in its own scrambled order); with ``film``, the
+        film position in the pixel too (``PRNG_FILTER``, a third table; sample 0 at the
+        pixel's centre: ``kernel/integrator/init_from_camera.h``:
+        ``integrate_camera_sample``; the box filter of width 1 keeps it)."""
         if sampler not in self.samplers:
             raise ParameterError(f"Cycles' adaptive sampling is modelled for the "
                                  f"{', '.join(self.samplers)} pattern only, not {sampler!r}")
         size = table_size(samples)
         tables = tabulated_sobol_tables(size)
         r = int(realizations)
-        pick = np.argsort(rng.random((r, PATTERNS)), axis=1)[:, :2]     # two distinct tables
-        seeds = rng.integers(0, 1 << 32, size=(r, 2), dtype=np.uint64).astype(U32)
+        pick = np.argsort(rng.random((r, PATTERNS)), axis=1)[:, :3]     # distinct tables
+        seeds = rng.integers(0, 1 << 32, size=(r, 3), dtype=np.uint64).astype(U32)
         s = np.arange(int(samples), dtype=U32)
         out = []
-        for k in range(2):
+        for k in range(3 if film else 2):
             idx = nested_uniform_scramble(s[None, :], seeds[:, k:k + 1]) & U32(size - 1)
             out.append(tables[pick[:, k:k + 1], idx.astype(np.int64)].astype(np.float64))
-        return out[0], out[1]
+        if film:
+            out[2][:, 0] = 0.5
+        return tuple(out)
 
 
 #: the record's adaptive sampling (:attr:`envfit.renderers.Renderer.adaptive`)
