@@ -1,9 +1,10 @@
 """envfit.theory._cholesky: the blocked Cholesky that avoids OpenBLAS's threaded-dsyrk crash.
 
 Oracles: scipy.linalg.cholesky (LAPACK in one call) on small matrices, L L^T = A, LAPACK's
-info convention on matrices with a known first non-positive pivot, and, at N = 16 000 (the
-size where bare dpotrf segfaults on AVX-512 with two threads), the interpolation property
-of the Table 2 cell evaluated by the independent direct kernel sum.
+info convention on matrices with a known first non-positive pivot, and the interpolation
+property of the Table 2 cell evaluated by the independent direct kernel sum at N = 5 000
+(three panels); at N = 16 000 (the size where bare dpotrf segfaults on AVX-512 with two
+threads): ``python bench/table2_cell_16000.py``.
 """
 from __future__ import annotations
 
@@ -79,16 +80,16 @@ def test_rejects_c_ordered_input():
         cholesky_inplace(np.ascontiguousarray(_spd(20)))
 
 
-@pytest.mark.slow
-def test_table2_cell_at_16000_samples_does_not_crash(tmp_path):
-    """N = 16 000: bare OpenBLAS dpotrf segfaults here on AVX-512 with 2 threads. Run in a
-    child process so that a crash is a clear failure; the interpolant must reproduce its
-    samples (checked by the direct kernel sum, which does not use the factor)."""
-    code = textwrap.dedent("""
+def _table2_cell_child(n: int, cwd) -> float:
+    """The Table 2 cell's interpolant (blocked Cholesky, default panels and tiles) at ``n``
+    spherical-Fibonacci samples, built in a child process so that a crash is a clear failure;
+    returns the largest error of the interpolant at 300 of its samples by the direct kernel
+    sum (which does not use the factor)."""
+    code = textwrap.dedent(f"""
         import numpy as np
         from envfit.kernels._interpolation import SobolevInterpolator
         from envfit.theory._sphere_points import sphere_points
-        n = 16000
+        n = {int(n)}
         p = sphere_points("sf", n, seed=0)
         f = np.c_[p[:, 2] ** 2 + 0.3 * p[:, 0], np.abs(p[:, 1])]
         it = SobolevInterpolator(p, f, 1.5, solver="cholesky")
@@ -96,7 +97,15 @@ def test_table2_cell_at_16000_samples_does_not_crash(tmp_path):
         err = np.max(np.abs(it.evaluate(p[idx], method="direct") - f[idx]))
         print(err, it.timings["cholesky"])
     """)
-    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path)
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=cwd)
     assert proc.returncode == 0, f"child exited with {proc.returncode}: {proc.stderr[-2000:]}"
-    err = float(proc.stdout.split()[0])
-    assert err < 1e-6
+    return float(proc.stdout.split()[0])
+
+
+def test_table2_cell_over_several_panels_and_tiles_reproduces_its_samples(tmp_path):
+    """N = 5 000: three of the 2048-column panels and two of the 4096-row tiles of the trailing
+    update, the Table 2 cell's path (a child process); the interpolant reproduces its samples
+    by the direct kernel sum. N = 16 000, where bare OpenBLAS dpotrf segfaults on AVX-512 with
+    2 threads, is ``python bench/table2_cell_16000.py`` (the same child, ~100 s)."""
+    assert 2 * PANEL < 5000 < 3 * PANEL and TILE < 5000
+    assert _table2_cell_child(5000, tmp_path) < 1e-6
