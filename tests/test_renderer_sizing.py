@@ -175,10 +175,11 @@ def test_cli_refuses_a_model_error_out_of_range_in_one_line():
 def test_the_normals_error_is_of_the_size_of_the_error_against_the_whole_pool():
     """The normals' part is a ratio estimator's standard error (iid theory) for a systematic
     sample of the normals: over 12 maps (a sun of random place and colour), the prediction
-    with 8 normals against the one over the whole pool of 128, in units of the reported
-    error. Measured: RMS z = 0.67 (systematic sampling beats iid: the report is ~1.5x
-    conservative). Asserted: RMS z in (0.25, 1.5) and every |z| under 3.5, so a report too
-    small, or one so large that it says nothing, fails."""
+    with 8 normals against the one over the whole pool of 64, in units of the reported
+    error. Measured: RMS z = 0.61, max |z| 1.35 (0.67 with a pool of 128, twice the work;
+    systematic sampling beats iid: the report is ~1.5x conservative). Asserted: RMS z in
+    (0.25, 1.5) and every |z| under 3.5, so a report too small, or one so large that it says
+    nothing, fails."""
     z = []
     for seed in range(12):
         rng = np.random.default_rng(seed)
@@ -186,12 +187,12 @@ def test_the_normals_error_is_of_the_size_of_the_error_against_the_whole_pool():
         i, j = rng.integers(1, 13), rng.integers(0, 30)
         data[i:i + 2, j:j + 2] = 40.0 * rng.random(3)
         got = {}
-        for k in (8, 128):
+        for k in (8, 64):
             m = DiffuseModel(EnvMap(data, name="sun"), get_renderer("mitsuba3"),
-                            options=RendererModelOptions(normals=k, pool=128, max_level=4,
+                            options=RendererModelOptions(normals=k, pool=64, max_level=4,
                                                        shifts=16, seed=seed, reach=64))
             got[k] = m.predict("mis", "ldsampler", 16)
-        z.append((got[8].rmse / got[128].rmse - 1) / got[8].model_se_parts[0])
+        z.append((got[8].rmse / got[64].rmse - 1) / got[8].model_se_parts[0])
     z = np.asarray(z)
     rms = np.sqrt(np.mean(z ** 2))
     assert 0.25 < rms < 1.5 and np.all(np.abs(z) < 3.5), z.round(2)
