@@ -195,16 +195,29 @@ def test_nmax_over_budget_names_the_largest_runnable_spp_that_fits(gp_file, tmp_
 def test_the_sized_default_fits_where_level_9_does_not_and_sizes_within_the_budget(
         gp_file, tmp_path, monkeypatch, capsys):
     """The sized default (level 7 pilot) runs under the 1 GB budget that refuses level 9, and
-    its final model is one whose plan fits that budget (never refused after its pilot)."""
+    its final model is one whose plan fits that budget (never refused after its pilot). At
+    --renderer-model-error 0.03 the pilot (48 normals, 0.033) is followed by a larger model
+    (96 normals). The tightest target, 0.01, takes the most normals the sizing allows (576:
+    4.5 min of CPU at load 6) and is ``python bench/renderer_plan_sized_budget.py``; here the
+    sizing's choice for it from the same pilot, with the budget's test, is checked to fit."""
+    from dataclasses import replace
+
+    from envfit.advisor._renderer_sizing import _fits_memory, sized_options
     monkeypatch.setenv("ENVFIT_MEMORY_LIMIT", "1G")
     rc, _, err, d = _run(capsys, tmp_path, gp_file, "--renderer", "mitsuba3", "--sampler",
-                         "ldsampler", "--renderer-model-error", "0.01", "--quiet")
+                         "ldsampler", "--renderer-model-error", "0.03", "--quiet")
     assert rc == 0 and err == []
     m = d["renderer"]["model"]
-    assert m["sized"] and m["level"] == 7
+    assert m["sized"] and m["level"] == 7 and m["pilot"] is not None and m["normals"] > 48
     o = _opts(sampler="ldsampler", level=7, normals=m["normals"])
-    from dataclasses import replace
     assert _plan_fits(replace(o, shifts=m["shifts"], reach=m["reach"]), "1G", monkeypatch)
+    # the same pilot at a target of 0.01: the bench run's final model (576 normals, 16
+    # scrambles), within the budget
+    tight = _opts(sampler="ldsampler", model_error=0.01)
+    f = sized_options(tight, m["pilot"]["model_se"][1:], reach=m["reach"],
+                      fits=_fits_memory(load_envmap(gp_file)))
+    assert (f.level, f.normals, f.shifts) == (7, 576, 16)
+    assert _plan_fits(f, "1G", monkeypatch)
 
 
 def test_progress_bar_over_the_normals_and_quiet_silences_it(gp_file, tmp_path, capsys):
