@@ -75,7 +75,7 @@ def repredict_map(spec: str, args, rows: list) -> None:
 
 
 def run_map(spec: str, args, rows: list, meta: dict, out: Path) -> None:
-    from envfit.renderers.cycles._render import CyclesOptions, CyclesSphere
+    from envfit.renderers.cycles._render import CyclesOptions, CyclesSphere  # internal: the harness
     name, env = load_map(spec, args.synth_height)
     done = {(r["map"], r["threshold"]) for r in rows}
     todo = [t for t in args.thresholds if (name, t) not in done]
