@@ -310,18 +310,19 @@ def test_sphere_pixels_adds_the_footprint_of_the_model(sun_file, tmp_path, capsy
     their pixels' footprints (pixel_footprints of the same frames, side FOOTPRINT_SIDE), not
     the point frames' (the footprint adds the film's interaction but smooths the mean
     integrand, so it moves a cell either way: ldsampler's map part at 4 spp went down 1.3 %
-    here); the JSON and the model line say so."""
+    at level 6); the JSON and the model line say so. Level 5, the least that resolves 16 spp
+    (a quarter of level 6's tables: the two footprint tests 95 -> 53 CPU-s at load 5-6)."""
     from envfit.defaults import FOOTPRINT_SIDE, MICROFACET_FRAMES_SEED
     from envfit.predict.renderer import MicrofacetModel, band_frames, pixel_footprints
     base = [sun_file, "--renderer", "mitsuba3", "--brdf", "ggx", "--roughness", "0.1",
-            "--sampler", "ldsampler", "--target-relative", "0.05", "--renderer-level", "6",
+            "--sampler", "ldsampler", "--target-relative", "0.05", "--renderer-level", "5",
             "--spp", "4,16", *MODEL]
     rc, lines, _, d = _run(capsys, [*base, "--sphere-pixels", "8"], tmp_path)
     assert rc == 0
     r = d["renderer"]
     assert r["bsdf"]["sphere_pixels"] == 8
     assert any("8 pixels across (each pixel's footprint included)" in ln for ln in lines)
-    opts = _options(6, microfacet=True)
+    opts = _options(5, microfacet=True)
     frames = band_frames(opts.pool, (0, 90), seed=MICROFACET_FRAMES_SEED)
     mitsuba = get_renderer("mitsuba3")
     m = MicrofacetModel(_load(sun_file), mitsuba, mitsuba.bsdf("ggx", 0.1), frames,
@@ -339,20 +340,21 @@ def test_sphere_pixels_adds_the_footprint_of_the_model(sun_file, tmp_path, capsy
 def test_diffuse_sphere_pixels_is_the_model_with_footprints(sun_file, tmp_path, capsys):
     """Diffuse --sphere-pixels 8: the predictions are those of a DiffuseModel whose normals
     carry the footprints of a sphere 8 pixels across (sphere_pixels=8, side FOOTPRINT_SIDE),
-    above the point normals' at every cell; the JSON and the model line say so."""
+    above the point normals' at every cell; the JSON and the model line say so (level 5,
+    the least that resolves 16 spp)."""
     from dataclasses import replace
     from envfit.defaults import FOOTPRINT_SIDE
     base = [sun_file, "--renderer", "mitsuba3", "--sampler", "ldsampler",
-            "--target-relative", "0.05", "--renderer-level", "6", "--spp", "4,16", *MODEL]
+            "--target-relative", "0.05", "--renderer-level", "5", "--spp", "4,16", *MODEL]
     rc, lines, _, d = _run(capsys, [*base, "--sphere-pixels", "8"], tmp_path)
     assert rc == 0
     r = d["renderer"]
     assert r["bsdf"] == {"type": "diffuse", "reflectance": 1.0, "sphere_pixels": 8}
     assert any("white diffuse sphere 8 pixels across (each pixel's footprint included), "
                "each pixel seen by the axis view nearest its normal" in ln for ln in lines)
-    opts = replace(_options(6), sphere_pixels=8, footprint_side=FOOTPRINT_SIDE)
+    opts = replace(_options(5), sphere_pixels=8, footprint_side=FOOTPRINT_SIDE)
     m = DiffuseModel(_load(sun_file), get_renderer("mitsuba3"), options=opts)
-    point = DiffuseModel(_load(sun_file), get_renderer("mitsuba3"), options=_options(6))
+    point = DiffuseModel(_load(sun_file), get_renderer("mitsuba3"), options=_options(5))
     for p in r["predictions"]:
         got = m.predict(p["strategy"], "ldsampler", p["spp"]).rmse
         assert p["predicted_rmse"] == pytest.approx(got, rel=1e-12)
