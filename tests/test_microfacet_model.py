@@ -102,13 +102,15 @@ def test_selected_frames_estimate_the_pool_mean():
     """Frames importance-sampled from a pool (``select``) estimate the pool's mean MSE: a
     sharp lobe on a map with a small sun, about 96 of 400 frames against all 400 (a
     second computation): within 10 % for each strategy, where the first 96 frames of the
-    pool (uniform) are off by more than 30 % (the sun is caught rarely)."""
+    pool (uniform) are off by more than 30 % (the sun is caught rarely). Grid level 4
+    (measured: selected within 3 %, the head off by up to 73 %; at level 5, 5 % and 73 %, at
+    twice the CPU time)."""
     data = np.full((16, 32, 3), 0.5, np.float32)
     data[5, 9] = 400.0
     env = EnvMap(data, up="y")
     c = MITSUBA.bsdf("ggx", 0.1)
     n, v = band_frames(400, (0, 90), seed=4)
-    opts = RendererModelOptions(max_level=5)
+    opts = RendererModelOptions(max_level=4)
     full = MicrofacetModel(env, MITSUBA, c, (n, v), options=opts)
     sel = MicrofacetModel(env, MITSUBA, c, (n, v), options=opts, select=96)
     head = MicrofacetModel(env, MITSUBA, c, (n[:96], v[:96]), options=opts)
