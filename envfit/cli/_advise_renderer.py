@@ -79,16 +79,17 @@ def _add_adaptive_arguments(g) -> None:
     having = _or([r.display for r in RENDERERS.values() if r.adaptive is not None])
     tau = Ranged(0, None, "T", integer=False)
     g.add_argument("--adaptive-threshold", type=tau, default=None, metavar="T",
-                   help=f"{having}: also predict adaptive sampling at this noise threshold "
-                        f"(Blender's Noise Threshold; 0: its automatic one), the RMSE and the "
-                        f"samples a pixel takes, and advise the threshold that meets the "
-                        f"target")
-    g.add_argument("--adaptive-samples", type=Ranged(1, 1 << 24, "N"), default=None,
-                   metavar="N", help="with --adaptive-threshold: the most samples a pixel "
-                                     "takes (Blender's Max Samples; default 4096)")
-    g.add_argument("--adaptive-min-samples", type=Ranged(0, 1 << 24, "M"), default=None,
-                   metavar="M", help="with --adaptive-threshold: Blender's Min Samples "
-                                     "(default 0: its automatic rule)")
+                   help=f"{having}: also predict adaptive sampling at this noise threshold, "
+                        f"{tau} (Blender's Noise Threshold; 0: its automatic one), the RMSE "
+                        f"and the samples a pixel takes, and advise the threshold that meets "
+                        f"the target")
+    most, least = Ranged(1, 1 << 24, "N"), Ranged(0, 1 << 24, "M")
+    g.add_argument("--adaptive-samples", type=most, default=None, metavar="N",
+                   help=f"with --adaptive-threshold: the most samples a pixel takes, {most} "
+                        f"(Blender's Max Samples; default 4096)")
+    g.add_argument("--adaptive-min-samples", type=least, default=None, metavar="M",
+                   help=f"with --adaptive-threshold: Blender's Min Samples, {least} (default "
+                        f"0: its automatic rule)")
 
 
 def sampler_help() -> str:

@@ -25,6 +25,12 @@ def _fmt(v) -> str:
     return str(v) if isinstance(v, int) else f"{v:g}".replace("e+0", "e").replace("e+", "e")
 
 
+def _positional(v: float) -> str:
+    """A float as a user types it, without an exponent (argparse reads ``-1e-06`` as an
+    option, ``-0.000001`` as a value)."""
+    return format(v, ".12f").rstrip("0").rstrip(".")
+
+
 class Ranged:
     """An argparse ``type=`` for a number (or a comma list of them, ``many=True``) in a
     stated range.
@@ -98,7 +104,7 @@ class Ranged:
         if self.multiple:
             out.append(next(v for v in range(self.lo + 1, self.lo + self.multiple + 1)
                             if v % self.multiple))
-        return [repr(v) if isinstance(v, float) else str(v) for v in out]
+        return [_positional(v) if isinstance(v, float) else str(v) for v in out]
 
     def _one(self, text: str):
         t = str(text).strip()
