@@ -202,6 +202,10 @@ class AdaptiveModel:
         if self.sampler not in rule.samplers:
             raise ParameterError(f"{renderer.possessive} {rule.name} is modelled for "
                                  f"{', '.join(rule.samplers)} only, not {self.sampler!r}")
+        if sphere_pixels is not None and (isinstance(sphere_pixels, bool) or not isinstance(
+                sphere_pixels, (int, np.integer)) or not 4 <= sphere_pixels <= 1 << 16):
+            raise ParameterError(f"sphere_pixels must be an integer from 4 to {1 << 16}, got "
+                                 f"{sphere_pixels!r}")
         self.strategy = strategy
         self.samples = int(rule.default_samples if samples is None else samples)
         rule.settings(rule.default_threshold, self.samples, min_samples)    # checked early
@@ -212,10 +216,6 @@ class AdaptiveModel:
             normals=self.options.normals, pool=self.options.pool))
         self.technique, self.normals, self.weights = (diffuse.technique, diffuse.normals,
                                                       diffuse.weights)
-        if sphere_pixels is not None and (isinstance(sphere_pixels, bool) or not isinstance(
-                sphere_pixels, (int, np.integer)) or not 4 <= sphere_pixels <= 1 << 16):
-            raise ParameterError(f"sphere_pixels must be an integer from 4 to {1 << 16}, got "
-                                 f"{sphere_pixels!r}")
         self.sphere_pixels = sphere_pixels
         self.side = math.isqrt(self.options.realizations)
         self._draws, self._fixed_rmse = None, None
