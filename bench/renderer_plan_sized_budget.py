@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import os
+import subprocess
 import sys
 import tempfile
 from dataclasses import replace
@@ -22,10 +23,9 @@ from pathlib import Path
 
 def main() -> int:
     os.environ["ENVFIT_MEMORY_LIMIT"] = "1G"
-    from envfit.advisor._budget import renderer_plan
-    from envfit.advisor._renderer_options import RendererAdviseOptions
-    from envfit.base._resources import memory_budget_bytes
-    from envfit.cli import main as cli
+    from envfit.advisor import RendererAdviseOptions
+    from envfit.advisor._budget import renderer_plan  # internal: the plan the sizing checks
+    from envfit.base._resources import memory_budget_bytes  # internal: the budget it checks
     from envfit.data_gen import gaussian_process_map
     from envfit.maps import EnvMap, save_envmap
 
@@ -33,9 +33,10 @@ def main() -> int:
     env = EnvMap(gaussian_process_map(1.8, 16, seed=3, channels=3) + 2.0, name="gp16")
     path = save_envmap(tmp / "gp16.exr", env)
     out = tmp / "a.json"
-    rc = cli(["advise", str(path), "--renderer", "mitsuba3", "--sampler", "ldsampler",
-              "--renderer-model-error", "0.01", "--quiet", "--cache-dir", str(tmp / "cache"),
-              "--json", str(out)])
+    rc = subprocess.run([sys.executable, "-m", "envfit.cli", "advise", str(path), "--renderer",
+                         "mitsuba3", "--sampler", "ldsampler", "--renderer-model-error", "0.01",
+                         "--quiet", "--cache-dir", str(tmp / "cache"), "--json", str(out)],
+                        env=os.environ, cwd=tmp).returncode
     m = json.loads(out.read_text())["renderer"]["model"] if rc == 0 else {}
     o = RendererAdviseOptions("mitsuba3", sampler="ldsampler", level=7,
                               normals=m.get("normals", 48))
