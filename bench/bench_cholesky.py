@@ -41,7 +41,7 @@ METHODS = ("blocked", "dpotrf", "dpotrf-1t", "dpotrf-haswell")
 
 def _matrix(n: int, s: float):
     import numpy as np
-    from envfit.kernels import _kernels  # internal: the numba kernel-matrix fill, timed bare
+    from envfit.sobolev import _interpolation_kernels as _kernels  # internal: the numba kernel-matrix fill, timed bare
     from envfit.theory import kernel_constant
     j = np.arange(n)
     z = 1.0 - (2 * j + 1) / n

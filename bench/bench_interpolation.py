@@ -1,4 +1,4 @@
-"""Benchmark of the Sobolev kernel interpolator (envfit.kernels._interpolation) against its baselines.
+"""Benchmark of the Sobolev kernel interpolator (envfit.sobolev._interpolation) against its baselines.
 
 Run:  /tmp/venv/bin/python bench/bench_interpolation.py [--quick] [--json out.json]
       [--repeats 3] [--s 1.1,1.5,1.9] [--n 20000] [--height 512]
@@ -43,9 +43,9 @@ from scipy.interpolate import RBFInterpolator                    # noqa: E402
 from scipy.linalg import lapack                                  # noqa: E402
 from threadpoolctl import threadpool_info, threadpool_limits     # noqa: E402
 
-from envfit.kernels import SobolevInterpolator  # noqa: E402
-from envfit.kernels import _kernels  # noqa: E402  # internal: the kernel fill, timed bare
-from envfit.kernels._nearfar import far_field_expansion, near_radius  # noqa: E402  # internal: the near/far product's parts, timed one by one
+from envfit.sobolev import SobolevInterpolator  # noqa: E402
+from envfit.sobolev import _interpolation_kernels as _kernels  # noqa: E402  # internal: the kernel fill, timed bare
+from envfit.sobolev._nearfar import far_field_expansion, near_radius  # noqa: E402  # internal: the near/far product's parts, timed one by one
 from envfit.maps import pixel_directions  # noqa: E402
 from envfit.theory import kernel_constant  # noqa: E402
 

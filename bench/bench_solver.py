@@ -1,4 +1,4 @@
-"""Benchmark: the iterative solver (envfit.kernels._iterative) against the dense Cholesky.
+"""Benchmark: the iterative solver (envfit.sobolev._iterative) against the dense Cholesky.
 
 Run:  nice -n 5 python bench/bench_solver.py [--quick] [--map forest.exr] [--n 5000,20000,80000,200000]
       [--s 1.1,1.5,1.9] [--cell-n 20000] [--no-verify] [--json out.json] [--csv out.csv]
@@ -38,7 +38,7 @@ from bench_cholesky import cpu_description, run_child  # noqa: E402
 from envfit.base._atomic import atomic_write_csv, atomic_write_json  # noqa: E402  # internal: the product's atomic, numpy-aware writers
 from envfit.base._resources import memory_budget_bytes  # noqa: E402  # internal: the memory guard's own budget
 from envfit.fit import run_table2, sample_directions  # noqa: E402
-from envfit.kernels import SobolevInterpolator  # noqa: E402
+from envfit.sobolev import SobolevInterpolator  # noqa: E402
 from envfit.maps import fit_scale, load_envmap  # noqa: E402
 
 DEFAULT_MAP = "/work/shared/envmaps/forest.exr"

@@ -26,7 +26,7 @@ from envfit.base import (DuplicatePointsError, EnvfitError, EnvMapFileError, Env
 _LAZY = {
     "EnvMap": "maps._envmap", "load_envmap": "maps._io", "save_envmap": "maps._io",
     "fit_scale": "maps._scales", "Scale": "maps._scales",
-    "SobolevInterpolator": "kernels._interpolation",
+    "SobolevInterpolator": "sobolev._interpolation",
     "fit_smoothness": "fit._smoothness", "FitResult": "fit._smoothness",
     "run_table2": "fit._table2", "Table2Result": "fit._table2",
     "shading_integral": "shading._ground_truth",

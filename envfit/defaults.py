@@ -78,7 +78,7 @@ BAND_BOOTSTRAP_SEED = 20252
 #: the accepted values of ``up``, the world axis that row 0 of a map touches
 #: (:mod:`envfit.maps._latlong`; ``--up``)
 UPS = ("y", "z", "x")
-#: the interpolator's linear solvers (:class:`envfit.kernels._interpolation.SobolevInterpolator`;
+#: the interpolator's linear solvers (:class:`envfit.sobolev._interpolation.SobolevInterpolator`;
 #: ``table2 --solver``)
 SOLVERS = ("auto", "cholesky", "iterative")
 #: the smoothness fit's criteria (:func:`envfit.fit._smoothness.fit_smoothness`; ``--fit-method``)

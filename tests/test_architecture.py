@@ -9,13 +9,13 @@ higher one nor another sub-package of its own layer (one pipeline leaning on ano
     data_gen                      (synthetic maps: theory only)
     base                          (errors, checks, atomic writes, store, memory guard, progress)
     maps, plots                   (maps: also bright-source detection and the preview)
-    kernels, shading              (shading: ground truth, the paper's estimators, spectra)
+    sobolev, shading              (the Sobolev kernel; ground truth, the paper's estimators)
     sampling                      (how a renderer draws: map sampler, MIS, sources, rules)
     renderers                     (one folder per renderer: its technique, samplers, harness)
     measure                       (adaptive RMSE, axis proposal, renderer rules' measurement)
     fit
     predict                       (named predictors: use fitted s and σ̂; renderer/ sub-package)
-    export, validate, advisor,    (export: SH coefficients, formats, ringing, sh report)
+    sh, validate, advisor,        (sh: SH coefficients, formats, ringing, the sh report)
     frame                         (a user's frame, read from the renderer's scene file)
     batch
     cli
@@ -48,8 +48,8 @@ import envfit
 
 
 LAYERS = [("theory",), ("defaults",), ("data_gen",), ("base",), ("maps", "plots"),
-          ("kernels", "shading"),
-          ("sampling",), ("renderers",), ("measure",), ("fit",), ("predict",), ("export", "validate", "advisor", "frame"),
+          ("sobolev", "shading"),
+          ("sampling",), ("renderers",), ("measure",), ("fit",), ("predict",), ("sh", "validate", "advisor", "frame"),
           ("batch",), ("cli",)]
 RANK = {pkg: i for i, group in enumerate(LAYERS) for pkg in group}
 

@@ -1,4 +1,4 @@
-"""The band-limited kernel K_L (envfit.kernels._bandlimited), its likelihood, the pixel-centre samples,
+"""The band-limited kernel K_L (envfit.sobolev._bandlimited), its likelihood, the pixel-centre samples,
 the band-limited fit of s, and the lookup transfer τ_l (envfit.shading._spectra)."""
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from scipy import stats
 
 from envfit.data_gen._gp import expected_variance, gaussian_process_map
 from envfit.data_gen._sht import real_index, synthesize
-from envfit.kernels._bandlimited import (BandlimitedKernel, bandlimited_log_likelihood,
+from envfit.sobolev._bandlimited import (BandlimitedKernel, bandlimited_log_likelihood,
                                          pixel_centre_samples)
 from envfit.maps._envmap import EnvMap
 from envfit.base._errors import ParameterError

@@ -87,7 +87,7 @@ def _table2_cell_child(n: int, cwd) -> float:
     sum (which does not use the factor)."""
     code = textwrap.dedent(f"""
         import numpy as np
-        from envfit.kernels._interpolation import SobolevInterpolator
+        from envfit.sobolev._interpolation import SobolevInterpolator
         from envfit.theory._sphere_points import sphere_points
         n = {int(n)}
         p = sphere_points("sf", n, seed=0)

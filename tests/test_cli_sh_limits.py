@@ -11,13 +11,13 @@ import numpy as np
 import pytest
 
 import envfit.cli as cli
-import envfit.export._plan as sh_plan
+import envfit.sh._plan as sh_plan
 from envfit.base._errors import MemoryBudgetError, ParameterError
 from envfit.maps import EnvMap
 from envfit.maps import pixel_directions, pixel_solid_angles
-from envfit.export._plan import Rates, check_sh_plan, sh_stages
-from envfit.export._ringing import dense_negative_fractions
-from envfit.export._sh_export import sh_coefficients, sh_eval
+from envfit.sh._plan import Rates, check_sh_plan, sh_stages
+from envfit.sh._ringing import dense_negative_fractions
+from envfit.sh._sh_export import sh_coefficients, sh_eval
 
 #: fixed kernel speeds (this machine's order of magnitude), so messages are deterministic
 RATES = Rates(basis=2e-8, flop=2e-10, synthesis=1e-9, rotation=2e-9)
@@ -184,7 +184,7 @@ def test_note_before_a_long_run_states_the_plan_both_ways(tmp_path, monkeypatch,
 
 
 def test_radiance_check_makes_no_directions(sun_env, monkeypatch):
-    import envfit.export._ringing as ringing
+    import envfit.sh._ringing as ringing
     monkeypatch.setattr(ringing, "spherical_fibonacci_sphere",
                         lambda n: (_ for _ in ()).throw(AssertionError("directions made")))
     e = sh_coefficients(sun_env, 2)

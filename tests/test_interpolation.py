@@ -1,4 +1,4 @@
-"""Tests of envfit.kernels._interpolation (kernel interpolation with K_gd, Eq. 14) and its numba kernels.
+"""Tests of envfit.sobolev._interpolation (kernel interpolation with K_gd, Eq. 14) and its numba kernels.
 
 Every expected value comes from an independent computation: numpy's libm power, dense
 numpy/scipy linear algebra on a kernel matrix built by ``envfit.theory._sobolev``, scipy's
@@ -16,12 +16,12 @@ import scipy.stats
 from numpy.polynomial import legendre
 from scipy.interpolate import RBFInterpolator
 
-from envfit.kernels import _kernels as _kernels
+from envfit.sobolev import _interpolation_kernels as _kernels
 from envfit.base._errors import DuplicatePointsError, MemoryBudgetError, ParameterError
 from envfit.base._resources import interpolator_nbytes, largest_feasible_n
 from envfit.base._checks import as_unit_vectors
-from envfit.kernels._interpolation import SobolevInterpolator
-from envfit.kernels._nearfar import far_field_expansion
+from envfit.sobolev._interpolation import SobolevInterpolator
+from envfit.sobolev._nearfar import far_field_expansion
 from envfit.base._resources import MEMORY_FRACTION, available_memory_bytes
 from envfit.theory._sobolev import kernel_constant, kernel_from_distance2
 
@@ -396,13 +396,13 @@ def test_normalisation_is_idempotent_and_row_independent():
 
 
 def test_profiled_log_likelihood_is_one_formula_for_all_three_paths():
-    """envfit.kernels._likelihood.profiled_log_likelihood against scipy's multivariate normal,
+    """envfit.sobolev._likelihood.profiled_log_likelihood against scipy's multivariate normal,
     and the interpolator, the band-limited likelihood and fit.sigma.profiled_sigma all
     giving its numbers."""
     from envfit.data_gen._gp import gaussian_process_map
     from envfit.fit._sigma import profiled_sigma
-    from envfit.kernels._bandlimited import BandlimitedKernel, bandlimited_log_likelihood
-    from envfit.kernels._likelihood import profiled_log_likelihood
+    from envfit.sobolev._bandlimited import BandlimitedKernel, bandlimited_log_likelihood
+    from envfit.sobolev._likelihood import profiled_log_likelihood
     from envfit.maps._envmap import EnvMap
     from envfit.maps._latlong import local_to_world
     from envfit.theory._sphere_points import sphere_points

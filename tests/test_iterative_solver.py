@@ -1,4 +1,4 @@
-"""The iterative solver (envfit.kernels._iterative): CG with near/far products and the
+"""The iterative solver (envfit.sobolev._iterative): CG with near/far products and the
 local Lagrange + coarse preconditioner, against the dense Cholesky (a second algorithm)."""
 from __future__ import annotations
 
@@ -6,13 +6,13 @@ import numpy as np
 import pytest
 
 import envfit.cli as cli
-import envfit.kernels._interpolation as interp_mod
+import envfit.sobolev._interpolation as interp_mod
 from envfit.base._errors import MemoryBudgetError, ParameterError
 from envfit.base._resources import (interpolator_nbytes, iterative_nbytes, largest_feasible_n,
                                     memory_budget_bytes)
 from envfit.fit._table2 import run_table2, sample_directions
-from envfit.kernels._interpolation import SobolevInterpolator
-from envfit.kernels._iterative import IterativeSolver, _kernel_block
+from envfit.sobolev._interpolation import SobolevInterpolator
+from envfit.sobolev._iterative import IterativeSolver, _kernel_block
 from envfit.maps._envmap import EnvMap
 from envfit.maps._io import save_envmap
 
@@ -185,9 +185,9 @@ def test_tiny_node_sets(nodes):
 
 # ------------------------------------------------- issue 22: tiny Krylov spaces, dense fallback
 import envfit.fit._table2 as table2_mod                    # noqa: E402
-import envfit.kernels._iterative as iterative_mod          # noqa: E402
+import envfit.sobolev._iterative as iterative_mod          # noqa: E402
 from envfit.base._errors import EnvfitError                # noqa: E402
-from envfit.kernels._iterative import IterativeSolverError, _ritz_extremes   # noqa: E402
+from envfit.sobolev._iterative import IterativeSolverError, _ritz_extremes   # noqa: E402
 
 
 def _plain_cg(a, r0, k):

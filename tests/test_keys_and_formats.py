@@ -90,7 +90,7 @@ def test_spectrum_round_trip_is_exact_and_a_bad_one_refused():
 # ----------------------------------------------------------------------------- stage
 
 def test_the_sh_plan_stages_are_the_plan_stages():
-    from envfit.export._plan import Rates, sh_stages
+    from envfit.sh._plan import Rates, sh_stages
     rates = Rates(basis=1e-8, flop=1e-10, synthesis=1e-9, rotation=1e-9)
     stages = sh_stages(16, 3, 4, 6, rates=rates)
     assert all(type(s) is Stage for s in stages)

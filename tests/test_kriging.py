@@ -14,7 +14,7 @@ from envfit.data_gen._gp import gaussian_process_map
 from envfit.fit._kriging import (SynthesisModel, bilinear_stencil, expected_interpolation_mse,
                                  field_covariance)
 from envfit.fit._table2 import sample_directions
-from envfit.kernels._interpolation import SobolevInterpolator
+from envfit.sobolev._interpolation import SobolevInterpolator
 from envfit.maps._envmap import EnvMap
 from envfit.maps._latlong import bilinear_lookup, pixel_directions, row_solid_angles
 from envfit.theory._sobolev import kernel_from_distance2, kernel_series

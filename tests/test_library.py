@@ -18,7 +18,7 @@ from envfit.maps._envmap import EnvMap
 from envfit.maps._io import save_envmap
 from envfit.base._errors import EnvMapFileError, ExecutorError, ParameterError
 from envfit.fit._smoothness import fit_smoothness
-from envfit.kernels._interpolation import SobolevInterpolator
+from envfit.sobolev._interpolation import SobolevInterpolator
 from envfit.batch import LibraryOptions, fit_smoothness_library, run_table2_library
 from envfit.maps._lazy_maps import MapSource, resolve_map_sources
 from envfit.fit._table2 import run_table2

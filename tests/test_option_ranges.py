@@ -12,7 +12,7 @@ import pytest
 
 import envfit.cli as cli
 from envfit.cli._ranges import PIXELS, Ranged, ranged_actions
-from envfit.export._ringing import BAND_LIMIT
+from envfit.sh._ringing import BAND_LIMIT
 
 #: numeric options of the shared groups of envfit/cli/_common.py (add_common_arguments,
 #: add_map_arguments), which this slice does not own: --seed takes any seed numpy takes,

@@ -27,12 +27,12 @@ from envfit.data_gen._sun_gp import sun_gp_map
 from envfit.maps._conventions import convention
 from envfit.maps._envmap import EnvMap
 from envfit.maps._latlong import pixel_directions, pixel_solid_angles
-from envfit.export._ringing import (RingingRow, choose, dense_negative_fractions,
+from envfit.sh._ringing import (RingingRow, choose, dense_negative_fractions,
                                     negative_fraction, truncation_rmse)
-from envfit.export import SHReportOptions, sh_report
+from envfit.sh import SHReportOptions, sh_report
 from envfit.shading._bilinear_sh import bilinear_sh_coefficients
 from envfit.shading._ground_truth import funk_hecke_factors, shading_integral
-from envfit.export._sh_export import (RH_CONSTANTS, clamped_cosine_sh, real_sh_basis,
+from envfit.sh._sh_export import (RH_CONSTANTS, clamped_cosine_sh, real_sh_basis,
                                       rh_irradiance, sh_coefficients, sloan_lambda, sloan_window,
                                       window_weights)
 from envfit.shading._spectra import map_degree_power
@@ -103,7 +103,7 @@ def test_known_coefficients_in_each_convention(name):
 def test_condon_shortley_signs_match_sloans_basis():
     """Written with ``condon_shortley``, the coefficients times the basis with the phase
     (Sloan 2008, D3DX: √2 Re/Im of scipy's complex Y) give the same function."""
-    from envfit.export._sh_format import signed_coefficients
+    from envfit.sh._sh_format import signed_coefficients
     env = EnvMap(_poly(pixel_directions(32, up="z"))[..., None], up="z")
     sh = sh_coefficients(env, 2, condon_shortley=True)
     th, ph = np.arccos(DIRS[:, 2]), np.arctan2(DIRS[:, 1], DIRS[:, 0])

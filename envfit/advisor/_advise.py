@@ -185,7 +185,7 @@ from envfit.advisor._result import Advice, AdviceRow, recommendation_text
 from envfit.advisor._search import search_rules
 from envfit.base import ParameterError
 from envfit.base import format_bytes, memory_budget_bytes, peak_rss_bytes, plan_memory, rss_bytes
-from envfit.kernels import max_samples
+from envfit.sobolev import max_samples
 from envfit.maps import EnvMap
 
 __all__ = ["advise", "advise_with", "plan_advise_memory"]

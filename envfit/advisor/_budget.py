@@ -35,7 +35,7 @@ from envfit.advisor._options import AdviseOptions
 from envfit.base import MemoryBudgetError
 from envfit.base import (Plan, Stage, budget_words, format_bytes, interpolator_nbytes,
                          largest_n_within, memory_budget_bytes)
-from envfit.kernels import max_samples
+from envfit.sobolev import max_samples
 from envfit.maps import EnvMap
 from envfit.shading import default_sh_lmax
 from envfit.sampling import STRATEGIES

@@ -126,7 +126,7 @@ def budget_words() -> str:
 
 
 #: the smallest ``ENVFIT_TIME_LIMIT`` taken (seconds): planning a run (measuring the machine's
-#: rates, :func:`envfit.export._plan.machine_rates`) takes a good part of a second already
+#: rates, :func:`envfit.sh._plan.machine_rates`) takes a good part of a second already
 MIN_TIME_LIMIT = 1.0
 
 
@@ -300,7 +300,7 @@ def _check_solver(solver: str) -> str:
 
 
 def iterative_nbytes(n: int, nchannels: int = 1) -> int:
-    """Memory of the iterative path (:mod:`envfit.kernels._iterative`): O(N k), no N x N array.
+    """Memory of the iterative path (:mod:`envfit.sobolev._iterative`): O(N k), no N x N array.
 
     CSR entries at 12 bytes (value + int32 index) ``x 1.3`` (construction's transient copy):
     the near part of the product (~2 x 48 per row, both triangles) and the symmetrised local
@@ -360,7 +360,7 @@ class Stage:
     calibrated on envfit's own measurements: a rough figure, within ~2x on a loaded machine);
     ``detail``: what dominates it (e.g. ``"SH coefficients to l = 2047"``); ``option``: the
     command-line option that sizes it, when one does (e.g. ``"--lmax"``, in
-    :func:`envfit.export._plan.check_sh_plan`'s refusals).
+    :func:`envfit.sh._plan.check_sh_plan`'s refusals).
     """
 
     name: str

@@ -25,7 +25,7 @@ import numpy as np
 
 from envfit.base import ParameterError
 from envfit.base import interpolator_nbytes, memory_budget_bytes
-from envfit.kernels import SobolevInterpolator
+from envfit.sobolev import SobolevInterpolator
 from envfit.maps import MapSource
 from envfit.maps import rmse, rmse_solid_angle
 from envfit.maps import fit_scale

@@ -1,15 +1,15 @@
 """``envfit sh MAP --lmax L``: real SH coefficients of a map for engines, with the predicted
 truncation error, the ringing table (windows x degrees: predicted error and the share of
 directions where the truncated signal goes negative) and the degree/window to use for a
-target (:mod:`envfit.export._report`).
+target (:mod:`envfit.sh._report`).
 
 Without ``--out`` the ``--format`` document (json, csv or glsl) goes to stdout and the
 summary to stderr; with ``--out DIR`` the folder gets ``sh.png`` (look here first),
 ``sh.json``, ``sh.csv``, ``sh.glsl`` and ``ringing.csv`` and the summary goes to stdout.
 
-Every option is checked before the work (:func:`envfit.export._report.plan`): ``--lmax``
+Every option is checked before the work (:func:`envfit.sh._report.plan`): ``--lmax``
 and ``--table-lmax`` within the map's band limit H − 1, and the planned time and memory
-(:mod:`envfit.export._plan`) within the machine's memory budget and ``ENVFIT_TIME_LIMIT``
+(:mod:`envfit.sh._plan`) within the machine's memory budget and ``ENVFIT_TIME_LIMIT``
 (seconds, default 900); a value beyond is refused in one line naming the largest that fits.
 A run estimated over 10 s is announced on stderr with its largest stage.
 
@@ -27,8 +27,8 @@ from envfit.cli._common import (add_common_arguments, add_map_arguments, load_ma
                                 map_convention, out_dir)
 from envfit.cli._output import CommandOutput
 from envfit.cli._ranges import Ranged
-from envfit.export import MAX_CHECK_AXES, MAX_CHECK_HEIGHT
-from envfit.export import BAND_LIMIT
+from envfit.sh import MAX_CHECK_AXES, MAX_CHECK_HEIGHT
+from envfit.sh import BAND_LIMIT
 
 #: the ranges of the options (``--help`` and the errors say these words)
 LMAX = Ranged(0, None, "L", hi_text=BAND_LIMIT)
@@ -39,9 +39,9 @@ HEIGHT = Ranged(1, MAX_CHECK_HEIGHT, "H")
 
 
 def register(sub) -> None:
-    from envfit.export import FORMATS
-    from envfit.export import CHECK_AXES, DENSE_HEIGHT, TABLE_LMAX
-    from envfit.export import WINDOWS
+    from envfit.sh import FORMATS
+    from envfit.sh import CHECK_AXES, DENSE_HEIGHT, TABLE_LMAX
+    from envfit.sh import WINDOWS
     p = sub.add_parser(
         "sh", help="real SH coefficients for engines (irradiance, windows, ringing predictor)",
         description="Real spherical-harmonic coefficients of the map to degree L in the "
@@ -105,8 +105,8 @@ def _plan_note(args: argparse.Namespace, stages) -> None:
 
 
 def run(args: argparse.Namespace, output: CommandOutput) -> int:
-    from envfit.export import SHReportOptions, document, measured_where, plan, sh_outputs, sh_report
-    from envfit.export import CHECK_AXES
+    from envfit.sh import SHReportOptions, document, measured_where, plan, sh_outputs, sh_report
+    from envfit.sh import CHECK_AXES
     env = load_map_from_args(args)
     conv = map_convention(args)
     opts = SHReportOptions(irradiance=args.irradiance, window=args.window,

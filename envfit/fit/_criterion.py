@@ -5,7 +5,7 @@ samples :math:`f_k` (N × C_k) at the same N directions, only the factor of
 :math:`K^{(s)}` (map-independent) and solves:
 
 * ``likelihood``: :math:`\ell_k = \sum_c \ell_{kc}` of the profiled likelihood
-  (:func:`envfit.kernels._likelihood.profiled_log_likelihood`) on the centred samples,
+  (:func:`envfit.sobolev._likelihood.profiled_log_likelihood`) on the centred samples,
   score :math:`-\ell_k/N`; channels constant at the samples are left out (σ̂ = 0);
 * ``loo``: Rippa's closed-form residuals :math:`\alpha/\mathrm{diag}(K^{-1})` (the
   diagonal costs N³/3 once per s, shared by all maps), score the RMS residual;
@@ -24,8 +24,8 @@ from typing import Sequence
 
 import numpy as np
 
-from envfit.kernels import bandlimited_log_likelihood
-from envfit.kernels import SobolevInterpolator
+from envfit.sobolev import bandlimited_log_likelihood
+from envfit.sobolev import SobolevInterpolator
 
 __all__ = ["N_BOOTSTRAP", "evaluate_criterion", "bootstrap_indices", "constant_columns"]
 
@@ -63,7 +63,7 @@ def evaluate_criterion(method: str, points: np.ndarray, values: np.ndarray, s: f
     bootstrap : also return ``boot``, the ``n_bootstrap`` resampled mean squared errors
         (loo/holdout; seeded by ``seed``, :func:`bootstrap_indices`).
     band_lmax : likelihood only: the kernel band-limited at that degree
-        (:func:`envfit.kernels._bandlimited.bandlimited_log_likelihood`) instead of K_gd.
+        (:func:`envfit.sobolev._bandlimited.bandlimited_log_likelihood`) instead of K_gd.
 
     Returns
     -------

@@ -13,9 +13,9 @@ from envfit.theory import cho_factor, cho_solve
 from envfit.theory import sphere_points
 from envfit.theory import kernel_matrix
 
-from envfit.kernels import (bandlimited_log_likelihood, map_band_limit, max_samples,
+from envfit.sobolev import (bandlimited_log_likelihood, map_band_limit, max_samples,
                             pixel_centre_samples)
-from envfit.kernels import profiled_log_likelihood
+from envfit.sobolev import profiled_log_likelihood
 from envfit.base import check_int
 from envfit.maps import EnvMap
 from envfit.base import ParameterError
@@ -66,8 +66,8 @@ def profiled_sigma(envmap: EnvMap, s: float, *, n: int = 1500, seed: int = 0) ->
               \quad (14)
 
     by a float64 Cholesky factorisation
-    (:func:`envfit.kernels._likelihood.profiled_log_likelihood`). Does not need
-    :mod:`envfit.kernels._interpolation`.
+    (:func:`envfit.sobolev._likelihood.profiled_log_likelihood`). Does not need
+    :mod:`envfit.sobolev._interpolation`.
     ``envmap`` must already be on the wanted value scale.
 
     >>> from envfit.maps._envmap import EnvMap
@@ -106,8 +106,8 @@ def combine_sigma(sigmas) -> float:
 
 def bandlimited_profiled_sigma(scaled: EnvMap, s: float, *, n: int = 1500,
                                seed: int = 0) -> tuple[np.ndarray, int]:
-    r"""σ̂ per channel at a given s under the band-limited model (:mod:`envfit.kernels._bandlimited`):
-    ``n`` spherical Fibonacci directions (at most :func:`envfit.kernels._bandlimited.max_samples`)
+    r"""σ̂ per channel at a given s under the band-limited model (:mod:`envfit.sobolev._bandlimited`):
+    ``n`` spherical Fibonacci directions (at most :func:`envfit.sobolev._bandlimited.max_samples`)
     moved to their pixel centres, values centred per
     channel, :math:`\hat\sigma_c^2 = f_c^T K_{H-1}^{-1} f_c / n`. ``scaled`` must already
     be on the wanted value scale. Returns ``(sigma (C,), samples used)``.

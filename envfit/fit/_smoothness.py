@@ -18,7 +18,7 @@ uncertainty, by one of three explicit criteria (beyond the paper's Table 2 grid 
 
 The likelihood can use the kernel band-limited at the map's Nyquist degree H − 1 with the
 samples at pixel centres (``kernel="bandlimited"``, ``envfit fit --kernel bandlimited``;
-:mod:`envfit.kernels._bandlimited`): the exact model of a band-limited GP map, without the upward
+:mod:`envfit.sobolev._bandlimited`): the exact model of a band-limited GP map, without the upward
 bias of ŝ that the full kernel and bilinear lookups give on a finite-resolution map.
 
 The criterion at one s is :func:`envfit.fit._criterion.evaluate_criterion`; ŝ and its interval
@@ -27,7 +27,7 @@ step 0.025, cubic spline), the same search and the same numbers as a map inside 
 (:func:`envfit.batch._library_fit.fit_smoothness_library`).
 
 :math:`\hat\sigma` (per channel, on the named scale) is reported for every method at its
-estimate (the profiled σ̂ of :func:`envfit.kernels._likelihood.profiled_log_likelihood`,
+estimate (the profiled σ̂ of :func:`envfit.sobolev._likelihood.profiled_log_likelihood`,
 computed at ŝ): under the Gaussian-process reading, the expected squared error of a quadrature
 rule is :math:`\sigma^2\,\mathrm{wce}^2`, which is how ``envfit validate`` and ``envfit
 advise`` turn worst-case errors into predicted RMS errors.
@@ -40,7 +40,7 @@ from typing import Callable
 
 import numpy as np
 
-from envfit.kernels import map_band_limit, max_samples, pixel_centre_samples
+from envfit.sobolev import map_band_limit, max_samples, pixel_centre_samples
 from envfit.base import check_int
 from envfit.base import html_result
 from envfit.maps import EnvMap, check_sample_count
@@ -60,7 +60,7 @@ __all__ = ["METHODS", "KERNELS", "DEFAULT_METHOD", "DEFAULT_N", "FitResult", "Sa
 
 METHODS = FIT_METHODS                      # envfit.defaults
 #: ``full``: K_gd (Eq. 14), samples by bilinear lookup; ``bandlimited``: K_gd truncated at the
-#: map's Nyquist degree H − 1, samples at pixel centres (:mod:`envfit.kernels._bandlimited`)
+#: map's Nyquist degree H − 1, samples at pixel centres (:mod:`envfit.sobolev._bandlimited`)
 KERNELS = ("full", "bandlimited")
 DEFAULT_METHOD = "likelihood"
 DEFAULT_N = 3000
@@ -154,7 +154,7 @@ def fit_smoothness_samples(points: np.ndarray, values: np.ndarray, *, method: st
     :class:`~envfit.base._errors.ParameterError` (there is nothing to fit). Used by
     :func:`fit_smoothness`; also usable directly on sampled data (e.g. exact
     Gaussian-process samples in the tests). ``band_lmax`` (likelihood only): use the kernel
-    band-limited at that degree (:mod:`envfit.kernels._bandlimited`) instead of K_gd.
+    band-limited at that degree (:mod:`envfit.sobolev._bandlimited`) instead of K_gd.
     ``callback(s)`` after each evaluation.
     """
     _check_method(method, band_lmax)
@@ -230,7 +230,7 @@ def fit_smoothness(envmap: EnvMap, *, method: str = DEFAULT_METHOD, n: int = DEF
 
     ``kernel="bandlimited"`` (likelihood only): the kernel truncated at the map's Nyquist
     degree H − 1 and the samples moved to their nearest pixel centres (repeats dropped), the
-    exact model of a band-limited Gaussian-process map (:mod:`envfit.kernels._bandlimited`; it
+    exact model of a band-limited Gaussian-process map (:mod:`envfit.sobolev._bandlimited`; it
     removes the upward bias of ŝ that the full kernel and bilinear lookups give).
 
     Checked before anything of size ``n`` is made: ``n`` an integer ≥ 10, the memory guard

@@ -3,7 +3,7 @@ Sobolev kernel K_gd^(s) for a grid of (s, N), and report the reconstruction RMSE
 
 For each N the map is sampled at N directions (spherical Fibonacci by default, the same
 points for every s); for each s the samples are interpolated with
-:class:`~envfit.kernels._interpolation.SobolevInterpolator`, evaluated at every pixel centre, and
+:class:`~envfit.sobolev._interpolation.SobolevInterpolator`, evaluated at every pixel centre, and
 compared with the map on a named value scale (:mod:`envfit.maps._scales`; the paper's values are
 display-referred, see docs/ERRATA.md, "Table 2"). The scale is fitted once on the map and applied to
 the map *before* sampling: the scaled map is the function being reconstructed.
@@ -29,7 +29,7 @@ from envfit.base import html_result
 from envfit.base import s_key
 from envfit.maps import EnvMap, check_sample_count
 from envfit.base import ParameterError
-from envfit.kernels import SobolevInterpolator
+from envfit.sobolev import SobolevInterpolator
 from envfit.maps import local_to_world
 from envfit.maps import rmse, rmse_solid_angle
 from envfit.base import SOLVERS, plan_memory
@@ -215,7 +215,7 @@ def run_table2(envmap: EnvMap, s_values: Sequence[float] = PAPER_S,
     on_note : called with each note of the store (a stored cell recomputed because it was
         not sound); default: printed to stderr (:func:`envfit.base._progress.print_note`). The notes
         are also in ``result.notes``.
-    solver : the interpolator's solver (:class:`~envfit.kernels._interpolation.SobolevInterpolator`):
+    solver : the interpolator's solver (:class:`~envfit.sobolev._interpolation.SobolevInterpolator`):
         ``"auto"`` (measured crossover; iterative where the dense matrix does not fit),
         ``"cholesky"`` or ``"iterative"``. An iterative cell is iterated until its RMSE equals
         the exact solution's to :data:`RMSE_RTOL` relative (a bound, recorded per cell).

@@ -8,7 +8,7 @@ import numpy as np
 
 from envfit.base import ResultStore
 from envfit.fit import bandlimited_profiled_sigma, profiled_sigma
-from envfit.kernels import map_band_limit
+from envfit.sobolev import map_band_limit
 from envfit.maps import EnvMap
 from envfit.maps import fit_scale
 

@@ -66,7 +66,7 @@ result keys are :data:`envfit.validate._keys.PREDICTION_KEYS`. Four predictions 
     axis: :math:`\hat R = (\sigma'^2 E'^2 + (\sum_j w_j - 1)^2\,\overline{m^2})^{1/2}`
     (:math:`\overline{m^2}` the mean over channels of the squared solid-angle mean);
     (iii) s and σ come from the likelihood of the same band-limited model
-    (:mod:`envfit.kernels._bandlimited`: the kernel truncated at degree H − 1, samples at pixel
+    (:mod:`envfit.sobolev._bandlimited`: the kernel truncated at degree H − 1, samples at pixel
     centres), fitted beside the paper's fit (``s_refined``, ``sigma_refined``): the full
     kernel and bilinear lookups read a finite-resolution map as smoother than it is (ŝ
     about 0.04 too high on 256-row GP maps with s₀ = 1.5, 0.16 on 64-row ones), which made

@@ -215,7 +215,7 @@ def real_sh_basis(dirs, lmax: int) -> np.ndarray:
 
     Normalised recurrences in z with :math:`(x+iy)^m` for the azimuth (no sinθ, no
     factorials; the same algorithm as the GLSL ``shEval`` of
-    :mod:`envfit.export._sh_format`): :math:`Q_0^0 = 1/\sqrt{4\pi}`,
+    :mod:`envfit.sh._sh_format`): :math:`Q_0^0 = 1/\sqrt{4\pi}`,
     :math:`Q_m^m = Q_{m-1}^{m-1}\sqrt{(2m+1)/2m}`, :math:`Q_{m+1}^m = \sqrt{2m+3}\,z\,Q_m^m`,
     :math:`Q_l^m = a_{lm}(zQ_{l-1}^m - b_{lm}Q_{l-2}^m)`, :math:`a_{lm} = \sqrt{(4l^2-1)/(l^2-m^2)}`,
     :math:`b_{lm} = \sqrt{((l-1)^2-m^2)/(4(l-1)^2-1)}`. Independent of ducc0.
@@ -378,7 +378,7 @@ def sloan_lambda(alm, factors, lmax: int, nlat: int | None = None) -> float:
     λ → ∞ leaves the mean (l = 0), so λ exists for a signal of non-negative mean; it is
     bracketed by doubling from :math:`10^{-3}/(L^2(L+1)^2)`, then bisected geometrically.
     A node grid cannot prove positivity between nodes; the dense check of
-    :mod:`envfit.export._ringing` measures what is left (none found on the maps tried).
+    :mod:`envfit.sh._ringing` measures what is left (none found on the maps tried).
     """
     lmax = check_int(lmax, "lmax", 0)
     g = np.asarray(factors, dtype=np.float64)[:lmax + 1]
@@ -419,7 +419,7 @@ class SHCoefficients:
     coefficients : ((L+1)², C) the exported coefficients, world frame, index l(l+1)+m:
         :math:`w_l L_{lm}` (radiance) or :math:`w_l\hat A_l L_{lm}` (``irradiance``), in
         this module's basis (``condon_shortley`` flips odd m when written:
-        :func:`envfit.export._sh_format.signed_coefficients`)
+        :func:`envfit.sh._sh_format.signed_coefficients`)
     radiance : ((L+1)², C) the windowed radiance coefficients :math:`w_l L_{lm}` (the input
         of R&H's quadratic form, :func:`rh_irradiance`)
     irradiance : whether ``coefficients`` are the clamped-cosine convolution

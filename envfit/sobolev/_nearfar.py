@@ -1,7 +1,7 @@
 r"""The near/far split that evaluates kernel sums in O(N log N): the kernel's power part
 :math:`g(t) = (2 - 2t)^{s-1}` outside a cap of chordal radius δ is a polynomial
 :math:`P_L(t)`, i.e. an SH convolution (ducc0), and pairs closer than δ get the exact
-correction :math:`g - P_L` from a 3-D cell list (see :mod:`envfit.kernels._interpolation`).
+correction :math:`g - P_L` from a 3-D cell list (see :mod:`envfit.sobolev._interpolation`).
 """
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ from scipy import special
 
 from envfit.base import check_s
 from envfit.base import ParameterError
-from envfit.kernels import _kernels
+from envfit.sobolev import _interpolation_kernels as _kernels
 
 __all__ = ["FarFieldExpansion", "far_field_expansion", "near_radius", "CellList",
            "nearfar_power_sums", "SHT_EPSILON", "NEAR_NEIGHBOURS"]

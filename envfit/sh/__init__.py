@@ -3,20 +3,20 @@ ringing and negativity checks, the plan and the ``envfit sh`` report.
 
 Modules:
 
-* :mod:`~envfit.export._plan` — Time and memory of ``envfit sh`` before the work: every
+* :mod:`~envfit.sh._plan` — Time and memory of ``envfit sh`` before the work: every
   option's valid range (issue 22, item 7).
-* :mod:`~envfit.export._report` — ``envfit sh``'s whole result: the exported coefficients,
+* :mod:`~envfit.sh._report` — ``envfit sh``'s whole result: the exported coefficients,
   their predicted (and measured) error and negativity, the ringing table over degrees and
   windows, and the choice for a target (:func:`sh_report`, :class:`SHReport`); its documents
   (JSON, CSV, GLSL: :func:`document`), its files for ``--out`` (:func:`sh_outputs`) and the
   preview images of ``sh.png`` (:func:`preview_images`).
-* :mod:`~envfit.export._ringing` — ``envfit sh``'s predictions: the truncation error of
+* :mod:`~envfit.sh._ringing` — ``envfit sh``'s predictions: the truncation error of
   exported SH coefficients, the fraction of directions where the windowed, truncated signal
   goes negative, and the (degree, window) to use for a target.
-* :mod:`~envfit.export._sh_export` — Real spherical-harmonic coefficients of a map for
+* :mod:`~envfit.sh._sh_export` — Real spherical-harmonic coefficients of a map for
   engines: conversion, irradiance, windows.
-* :mod:`~envfit.export._sh_format` — Text forms of
-  :class:`envfit.export._sh_export.SHCoefficients` for engines: CSV and GLSL.
+* :mod:`~envfit.sh._sh_format` — Text forms of
+  :class:`envfit.sh._sh_export.SHCoefficients` for engines: CSV and GLSL.
 
 The names of ``__all__`` are imported lazily, on first use (PEP 562), so that
 importing the package loads none of its modules.

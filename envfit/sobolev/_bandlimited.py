@@ -20,7 +20,7 @@ where the map's value *is* the field's value. Measured on 11 GP maps (s₀ = 1.5
 Evaluation. :math:`K_L` is a cosine polynomial of degree L in the angle θ; it is summed
 once per s by the Legendre recurrence (:func:`envfit.theory._sobolev.kernel_series`) on a uniform
 θ grid of 64 (L + 1) intervals (at least 4096) and read by cubic interpolation in θ
-(:mod:`envfit.kernels._bandlimited_kernels`): relative error below 1e-9 for the default
+(:mod:`envfit.sobolev._bandlimited_kernels`): relative error below 1e-9 for the default
 oversampling (tested against the direct sum; the table itself comes from the sum at
 2L + 3 angles by a DCT-I, so it costs O(L²)), and a kernel matrix costs no more than the
 full kernel's.
@@ -43,11 +43,11 @@ from scipy.linalg import lapack
 from envfit.theory import cholesky_inplace
 from envfit.theory import kernel_series
 
-from envfit.kernels import _bandlimited_kernels as _bk
+from envfit.sobolev import _bandlimited_kernels as _bk
 from envfit.maps import EnvMap
 from envfit.base import ParameterError
 from envfit.base import as_unit_vectors, check_s
-from envfit.kernels._likelihood import ProfiledLikelihood, profiled_log_likelihood
+from envfit.sobolev._likelihood import ProfiledLikelihood, profiled_log_likelihood
 from envfit.maps import direction_to_pixel
 from envfit.base import plan_memory
 
@@ -168,7 +168,7 @@ def bandlimited_log_likelihood(points, values, s: float, lmax: int) -> ProfiledL
 
     The values are used as given (centre them first: the model is zero-mean). One float64
     Cholesky factorisation serves every channel. Returns ``(loglik, sigma)`` of shape (C,)
-    (scalars for 1-D values), by :func:`envfit.kernels._likelihood.profiled_log_likelihood`.
+    (scalars for 1-D values), by :func:`envfit.sobolev._likelihood.profiled_log_likelihood`.
 
     >>> import numpy as np
     >>> rng = np.random.default_rng(0)

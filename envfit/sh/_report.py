@@ -8,8 +8,8 @@ The map is first put on its value scale (``linear``: radiance as is; ``display``
 display-referred values of :mod:`envfit.maps._scales`); then the exact local coefficients
 of its bilinear interpolant are computed once to :math:`L_P = 2H-1`
 (:func:`envfit.shading._bilinear_sh.bilinear_sh_coefficients`), giving the export
-(:func:`envfit.export._sh_export.sh_coefficients`), the power per degree of the predictions
-and the ringing table (:mod:`envfit.export._ringing`).
+(:func:`envfit.sh._sh_export.sh_coefficients`), the power per degree of the predictions
+and the ringing table (:mod:`envfit.sh._ringing`).
 
 Example
 -------
@@ -37,15 +37,15 @@ from envfit.base import progress
 from envfit.base import ParameterError
 from envfit.maps import EnvMap
 from envfit.maps import SCALES, fit_scale
-from envfit.export._plan import check_sh_plan
-from envfit.export._ringing import (CHECK_AXES, DENSE_HEIGHT, TABLE_LMAX, RingingRow, check_lmax,
+from envfit.sh._plan import check_sh_plan
+from envfit.sh._ringing import (CHECK_AXES, DENSE_HEIGHT, TABLE_LMAX, RingingRow, check_lmax,
                                     choose, dense_negative_fractions, measured_rmse,
                                     negative_fraction, ringing_rows, signal_mean, truncation_rmse)
 from envfit.shading import bilinear_sh_coefficients
-from envfit.export._sh_export import (NORMALISATION, ORDERING, RH_CONSTANTS, WINDOWS,
+from envfit.sh._sh_export import (NORMALISATION, ORDERING, RH_CONSTANTS, WINDOWS,
                                       SHCoefficients, clamped_cosine_sh, pixel_synthesis,
                                       sh_coefficients, shading_factors, truncate_alm)
-from envfit.export._sh_format import signed_coefficients, to_csv, to_glsl
+from envfit.sh._sh_format import signed_coefficients, to_csv, to_glsl
 from envfit.shading import power_by_degree   # the alm are computed here once
 
 __all__ = ["FORMATS", "SHReport", "SHReportOptions", "sh_report", "plan", "default_table_lmax", "document",
@@ -148,7 +148,7 @@ class SHReport:
 
 
 def measured_where(height: int, irradiance: bool, check_axes: int) -> str:
-    """What the measured error was computed over (:func:`envfit.export._ringing.measured_rmse`):
+    """What the measured error was computed over (:func:`envfit.sh._ringing.measured_rmse`):
     irradiance at ``check_axes`` spherical Fibonacci directions; radiance on the pixel
     centres of a 2H-row lat-long grid, weighted by solid angle (``check_axes`` unused).
 
@@ -176,7 +176,7 @@ class SHReportOptions:
     Attributes
     ----------
     irradiance : export :math:`\\hat A_l L_{lm}` (R&H 2001) instead of :math:`L_{lm}`.
-    window : one of :data:`envfit.export._sh_export.WINDOWS` for the export.
+    window : one of :data:`envfit.sh._sh_export.WINDOWS` for the export.
     target_relative : the relative RMSE the choice must meet.
     scale : "linear" or "display" (the values the coefficients are of).
     table_lmax : the ringing table covers L = 1…table_lmax and ``lmax``, 1 ≤ table_lmax ≤
@@ -212,7 +212,7 @@ def _options(options: SHReportOptions | None) -> SHReportOptions:
 def plan(envmap: EnvMap, lmax, options: SHReportOptions | None = None) -> list:
     """Every option checked before any work (ParameterError / MemoryBudgetError, one line):
     names and ranges, then the planned time and memory
-    (:func:`envfit.export._plan.check_sh_plan`); returns its stages."""
+    (:func:`envfit.sh._plan.check_sh_plan`); returns its stages."""
     o = _options(options)
     if not isinstance(envmap, EnvMap):
         raise ParameterError("sh_report needs an EnvMap")
@@ -361,7 +361,7 @@ def _display(values: np.ndarray) -> np.ndarray:
 def preview_images(r: SHReport) -> dict:
     """The map and the exported signal at the map's pixels (display RGB) and where the signal
     is negative (any channel): the signal by ``ducc0.sht.synthesis_2d`` on the map's own
-    equiangular grid (:func:`envfit.export._sh_export.pixel_synthesis`)."""
+    equiangular grid (:func:`envfit.sh._sh_export.pixel_synthesis`)."""
     m, e = r.scaled, r.export
     f = np.asarray(e.window_weights) * shading_factors(e.lmax, e.irradiance)
     vals = pixel_synthesis(m, bilinear_sh_coefficients(m, e.lmax), f, e.lmax)

@@ -29,7 +29,7 @@ Numerics
   which keeps full relative accuracy next to the cusp of the kernel; the Gram form
   ``2 - 2 u.v`` (a rank-3 "BLAS" product, memory bound anyway) loses it there.
 * **Evaluation** :math:`\tilde f(q) = c_s \sum_j \alpha_j - \sum_j \alpha_j |q - p_j|^{2s-2}`
-  by the power sums of :class:`envfit.kernels._kernel_sums.KernelNodes`: ``"direct"`` (a fused
+  by the power sums of :class:`envfit.sobolev._kernel_sums.KernelNodes`: ``"direct"`` (a fused
   numba loop, exact to ~1e-15), ``"nearfar"`` (an SH convolution plus an exact near-field
   correction, O(N log N), ~1e-12) or ``"auto"`` (``"nearfar"`` when M N >= 5e7 and N >= 500).
 * **Threads.** numba kernels, BLAS/LAPACK calls and ducc0 transforms alternate and never
@@ -63,10 +63,10 @@ from scipy.linalg import lapack
 
 from envfit.theory import inverse_diagonal
 
-from envfit.kernels._iterative import IterativeSolver, IterativeSolverError, SolveInfo
-from envfit.kernels._kernel_nodes import (BLOCK_BYTES, DUPLICATE_DISTANCE, EVAL_METHODS, KernelNodes,
+from envfit.sobolev._iterative import IterativeSolver, IterativeSolverError, SolveInfo
+from envfit.sobolev._kernel_nodes import (BLOCK_BYTES, DUPLICATE_DISTANCE, EVAL_METHODS, KernelNodes,
                                           closest_pair, nthreads)
-from envfit.kernels._likelihood import ProfiledLikelihood, profiled_log_likelihood
+from envfit.sobolev._likelihood import ProfiledLikelihood, profiled_log_likelihood
 from envfit.base import as_unit_vectors, check_s
 from envfit.base import DuplicatePointsError, ParameterError
 from envfit.base import (MEMORY_FRACTION, SOLVERS, available_memory_bytes, check_memory,
@@ -194,7 +194,7 @@ class SobolevInterpolator:
     def _solve_iterative(self, pts: np.ndarray, vals: np.ndarray, reason: str) -> tuple[str, str]:
         """CG (sets coefficients, solve_info); ``("cholesky", why)`` to fall back: ``auto``
         whose CG broke down or did not converge while the dense matrix fits. ``"iterative"``
-        raises :class:`~envfit.kernels._iterative.IterativeSolverError` then."""
+        raises :class:`~envfit.sobolev._iterative.IterativeSolverError` then."""
         t = time.perf_counter()
         self._iterative = IterativeSolver(pts, self.s, nthreads=nthreads())
         self.timings["setup"] = time.perf_counter() - t
@@ -211,7 +211,7 @@ class SobolevInterpolator:
 
     def _iterative_failed(self, reason: str, why: str) -> str:
         """The reason of the dense fallback (``solver="auto"`` where K fits in memory);
-        else :class:`~envfit.kernels._iterative.IterativeSolverError` saying what to do."""
+        else :class:`~envfit.sobolev._iterative.IterativeSolverError` saying what to do."""
         fits = interpolator_nbytes(self.n, self.nchannels, "cholesky") <= memory_budget_bytes()
         if self._solver_mode == "auto" and fits:
             self._fallback = why
@@ -320,7 +320,7 @@ class SobolevInterpolator:
 
     # -- construction ------------------------------------------------------------
     def _factorize(self) -> np.ndarray:
-        """The in-place Cholesky factor of K (:meth:`~envfit.kernels._kernel_nodes.KernelNodes.factorize`)."""
+        """The in-place Cholesky factor of K (:meth:`~envfit.sobolev._kernel_nodes.KernelNodes.factorize`)."""
         return self._nodes.factorize(self.timings)
 
     # -- linear algebra ------------------------------------------------------------
@@ -417,7 +417,7 @@ class SobolevInterpolator:
         :math:`\hat\sigma^2 = f^T K^{-1} f / N` gives
         :math:`\ell = -\tfrac12 (N \log\hat\sigma^2 + \log\det K + N (1 + \log 2\pi))`.
         Returns ``(loglik, sigma)`` (:math:`\hat\sigma`), arrays of shape (C,) or scalars for
-        1-D values (:func:`envfit.kernels._likelihood.profiled_log_likelihood`, from this
+        1-D values (:func:`envfit.sobolev._likelihood.profiled_log_likelihood`, from this
         factorisation's solve and log-determinant).
         """
         vals, alpha, vector = self._coefficients_for(values)

@@ -1,4 +1,4 @@
-r"""Numba loop behind :mod:`envfit.kernels._bandlimited`: a kernel matrix from a table in the angle.
+r"""Numba loop behind :mod:`envfit.sobolev._bandlimited`: a kernel matrix from a table in the angle.
 
 A zonal kernel band-limited to degree L is a cosine polynomial of degree L in the angle
 θ between the two directions, even about θ = 0 and about θ = π. It is tabulated at

@@ -1,15 +1,15 @@
-r"""Text forms of :class:`envfit.export._sh_export.SHCoefficients` for engines: CSV and GLSL.
+r"""Text forms of :class:`envfit.sh._sh_export.SHCoefficients` for engines: CSV and GLSL.
 
 * :func:`to_csv` — one row per coefficient: ``l, m, index`` and one column per channel
   (``R, G, B`` or ``Y``).
 * :func:`to_glsl` — ``const vecC shCoefficients[(L+1)^2]`` (9 significant digits), a generic
   ``shEval(vec3 n)`` (the normalised recurrences of
-  :func:`envfit.export._sh_export.real_sh_basis`, any L, float arithmetic), and for L ≥ 2
+  :func:`envfit.sh._sh_export.real_sh_basis`, any L, float arithmetic), and for L ≥ 2
   ``shIrradianceRH(vec3 n)``: Ramamoorthi & Hanrahan 2001 Eq. 13 with their constants
-  c1…c5 (:data:`envfit.export._sh_export.RH_CONSTANTS`) on the 9 radiance coefficients
+  c1…c5 (:data:`envfit.sh._sh_export.RH_CONSTANTS`) on the 9 radiance coefficients
   (``shRadiance9``; for a radiance export the first 9 of ``shCoefficients``).
 
-The JSON form (with the predicted errors) is built by :mod:`envfit.export._ringing`.
+The JSON form (with the predicted errors) is built by :mod:`envfit.sh._ringing`.
 """
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ import csv
 import numpy as np
 
 from envfit.base import ParameterError
-from envfit.export._sh_export import NORMALISATION, ORDERING, RH_CONSTANTS, SHCoefficients
+from envfit.sh._sh_export import NORMALISATION, ORDERING, RH_CONSTANTS, SHCoefficients
 
 __all__ = ["to_csv", "to_glsl", "signed_coefficients", "GLSL_TYPES"]
 
@@ -40,7 +40,7 @@ def to_csv(sh: SHCoefficients) -> str:
     """CSV text: header ``l,m,index,<channels>``, (L+1)² rows, 17 significant digits.
 
     >>> from envfit.maps._envmap import EnvMap
-    >>> from envfit.export._sh_export import sh_coefficients
+    >>> from envfit.sh._sh_export import sh_coefficients
     >>> print(to_csv(sh_coefficients(EnvMap(np.ones((4, 8, 1))), 0))[:27])   # √(4π)
     l,m,index,Y
     0,0,0,3.5449077
@@ -128,7 +128,7 @@ def to_glsl(sh: SHCoefficients, comments=()) -> str:
     ``sh.condon_shortley``): the array and ``shEval`` agree.
 
     >>> from envfit.maps._envmap import EnvMap
-    >>> from envfit.export._sh_export import sh_coefficients
+    >>> from envfit.sh._sh_export import sh_coefficients
     >>> src = to_glsl(sh_coefficients(EnvMap(np.ones((8, 16, 3))), 2))
     >>> "const vec3 shCoefficients[9]" in src, "shIrradianceRH" in src
     (True, True)

@@ -2,8 +2,8 @@ r"""The Gaussian-process log-likelihood with the scale profiled out, implemented
 
 Model :math:`f_c \sim N(0, \sigma_c^2 K)` for each channel c of the samples (N × C),
 with K any positive-definite kernel matrix (the paper's :math:`K^{(s)}_{gd}`,
-:class:`envfit.kernels._interpolation.SobolevInterpolator`, or the band-limited
-:math:`K^{(s)}_L`, :func:`envfit.kernels._bandlimited.bandlimited_log_likelihood`). The
+:class:`envfit.sobolev._interpolation.SobolevInterpolator`, or the band-limited
+:math:`K^{(s)}_L`, :func:`envfit.sobolev._bandlimited.bandlimited_log_likelihood`). The
 maximising scale and the log-likelihood there are
 
 .. math:: \hat\sigma_c^2 = \frac{f_c^T K^{-1} f_c}{N}, \qquad

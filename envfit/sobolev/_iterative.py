@@ -6,7 +6,7 @@ at s = 1.9, N = 20 000). Three pieces, all built once per node set and reused fo
 right-hand side (channels, maps of a library):
 
 **The product** :class:`NodeOperator` — the near/far split of
-:mod:`envfit.kernels._nearfar` at the nodes themselves: the far field :math:`P_L(p_i\cdot p_j)`
+:mod:`envfit.sobolev._nearfar` at the nodes themselves: the far field :math:`P_L(p_i\cdot p_j)`
 by a ducc0 adjoint synthesis + synthesis at the fixed node angles (precomputed, with the
 :math:`w_l` per coefficient), the near correction :math:`g - P_L` for pairs closer than
 :math:`\delta` as a precomputed sparse matrix (kd-tree pairs, ~:data:`OPERATOR_NEIGHBOURS`
@@ -24,7 +24,7 @@ dominated by them and a plan-based ``ducc0.nufft.plan`` route was not tried.
   reproduction, :math:`[K_{N_i} \; 1; 1^T \; 0][c; d] = [e_i; 0]`, i.e.
   :math:`c = u - v (1^T u)/(1^T v)`, :math:`u = K_{N_i}^{-1} e_i`,
   :math:`v = K_{N_i}^{-1} 1` (one k x k Cholesky per node in a parallel numba kernel,
-  :func:`envfit.kernels._kernels.local_lagrange`). Column i of the sparse
+  :func:`envfit.sobolev._interpolation_kernels.local_lagrange`). Column i of the sparse
   :math:`Z` (N x N, N k entries) is :math:`c^{(i)}`, so :math:`KZ \approx I`; the
   preconditioner uses :math:`Z_s = (Z + Z^T)/2`.
 * *coarse correction*: :math:`Q = S^T K_{SS}^{-1} S` on a subset S of m nodes (those
@@ -79,8 +79,8 @@ from envfit.theory import sphere_points
 
 from envfit.base import EnvfitError, ParameterError
 from envfit.base import iterative_coarse_nodes
-from envfit.kernels import _kernels
-from envfit.kernels._nearfar import (SHT_EPSILON, CellList, _to_theta_phi, far_field_expansion,
+from envfit.sobolev import _interpolation_kernels as _kernels
+from envfit.sobolev._nearfar import (SHT_EPSILON, CellList, _to_theta_phi, far_field_expansion,
                                      near_radius, nearfar_power_sums)
 
 __all__ = ["NodeOperator", "LagrangePreconditioner", "SolveInfo", "IterativeSolver",
@@ -119,7 +119,7 @@ def _one_blas_thread():
 
 class IterativeSolverError(EnvfitError, RuntimeError):
     """The iterative path could not solve a system (CG breakdown, non-finite numbers, or no
-    convergence within ``maxiter``). :class:`~envfit.kernels._interpolation.SobolevInterpolator`
+    convergence within ``maxiter``). :class:`~envfit.sobolev._interpolation.SobolevInterpolator`
     with ``solver="auto"`` falls back to the dense Cholesky path on it (and records why in
     ``solve_info.reason``); with ``solver="iterative"`` it is the one-line error."""
 
@@ -131,7 +131,7 @@ class NodeOperator:
 
     ``matvec(X)`` for X (N, C) costs 2 C ducc0 SH transforms of degree L plus a sparse
     product with ~:data:`OPERATOR_NEIGHBOURS` N entries; accuracy that of
-    :mod:`envfit.kernels._nearfar` (~1e-12 of :math:`\sum_j |x_j K_{ij}|`).
+    :mod:`envfit.sobolev._nearfar` (~1e-12 of :math:`\sum_j |x_j K_{ij}|`).
     """
 
     def __init__(self, points: np.ndarray, s: float, *, delta: float | None = None,
@@ -171,7 +171,7 @@ class NodeOperator:
 def _near_matrix(points, tree, delta, a, cheb) -> sp.csr_matrix:
     r"""Sparse :math:`(g - P_L)(d^2_{ij})` for :math:`d_{ij} < \delta`, diagonal
     :math:`-P_L(1)` (:math:`g(0) = 0`); :math:`P_L` near the cusp from its Chebyshev
-    coefficients in :math:`d^2` (:class:`~envfit.kernels._nearfar.FarFieldExpansion`)."""
+    coefficients in :math:`d^2` (:class:`~envfit.sobolev._nearfar.FarFieldExpansion`)."""
     n = points.shape[0]
     pairs = tree.query_pairs(delta, output_type="ndarray")
     i, j = pairs[:, 0], pairs[:, 1]
@@ -242,7 +242,7 @@ class LagrangePreconditioner:
     def _coarse_product(self, y: np.ndarray) -> np.ndarray:
         r""":math:`K_{:,S}\, y` at every node: :math:`c_s \sum y - \sum_j y_j |p_i - p_j|^{2s-2}`
         (m sources): direct fused numba sums below :data:`_COARSE_DIRECT_MAX` pairs, else the
-        near/far split (:func:`~envfit.kernels._nearfar.nearfar_power_sums`)."""
+        near/far split (:func:`~envfit.sobolev._nearfar.nearfar_power_sums`)."""
         a = self.s - 1.0
         kind = _kernels.power_kind(a)
         n, nc = self._nodes.shape[0], y.shape[1]

@@ -6,7 +6,7 @@ Signal
     :math:`S(n) = \sum_{l\le L} w_l g_l \sum_m f_{lm}Y_{lm}(n)` with :math:`g_l = \hat A_l`
     (irradiance, the clamped cosine of Ramamoorthi & Hanrahan 2001) or 1 (the radiance
     reconstruction), :math:`f_{lm}` the exact coefficients of the map's bilinear
-    interpolant, :math:`w_l` a window (:data:`envfit.export._sh_export.WINDOWS`).
+    interpolant, :math:`w_l` a window (:data:`envfit.sh._sh_export.WINDOWS`).
 
 Predicted error (:func:`truncation_rmse`)
     By Parseval, the mean over uniformly distributed directions of the squared error
@@ -22,7 +22,7 @@ Predicted error (:func:`truncation_rmse`)
     Reported relative to the signal's mean :math:`g_0 f_{00}/\sqrt{4\pi}` (averaged over
     channels). Measured (:func:`measured_rmse`, ``check``): irradiance — the RMS over
     :data:`CHECK_AXES` spherical Fibonacci directions of the exported coefficients'
-    evaluation (:func:`envfit.export._sh_export.sh_eval`) against π ×
+    evaluation (:func:`envfit.sh._sh_export.sh_eval`) against π ×
     :func:`envfit.shading._ground_truth.shading_integral`; radiance — the solid-angle
     weighted RMS of the synthesised signal against the bilinear lookup on a 2H-row grid.
 
@@ -56,7 +56,7 @@ from envfit.predict import spectral_truncation_curve
 from envfit.shading import shading_integral
 from envfit.shading import axes_to_local
 from envfit.shading import bilinear_sh_coefficients, synthesize_convolution
-from envfit.export._sh_export import (WINDOWS, gl_synthesis, negative_tolerance, pixel_synthesis,
+from envfit.sh._sh_export import (WINDOWS, gl_synthesis, negative_tolerance, pixel_synthesis,
                                       sh_eval, shading_factors, sloan_lambda, truncate_alm,
                                       window_weights)
 from envfit.theory import spherical_fibonacci_sphere
@@ -173,7 +173,7 @@ def dense_negative_fractions(exports, height: int = DENSE_HEIGHT, *,
                              block_bytes: int = DENSE_BLOCK_BYTES,
                              quiet: bool = True) -> list[float | None]:
     """Solid-angle share where any channel of each
-    :class:`~envfit.export._sh_export.SHCoefficients` in ``exports`` is negative, by the
+    :class:`~envfit.sh._sh_export.SHCoefficients` in ``exports`` is negative, by the
     direct sum at every pixel centre of a ``height``-row lat-long grid of their world frame
     (:func:`sh_eval`), weighted by the exact pixel solid angles; None above
     :data:`DIRECT_LMAX`.
@@ -181,7 +181,7 @@ def dense_negative_fractions(exports, height: int = DENSE_HEIGHT, *,
     The grid is visited in blocks of rows of at most ``block_bytes`` (directions and values
     of every export), so the memory does not grow with ``height`` (issue 22: a 100000-row
     grid asked for terabytes at once); the time does, and is planned beforehand
-    (:func:`envfit.export._plan.check_sh_plan`)."""
+    (:func:`envfit.sh._plan.check_sh_plan`)."""
     todo = [e for e in exports if e.lmax <= DIRECT_LMAX]
     if not todo:
         return [None] * len(exports)

@@ -1,6 +1,6 @@
 r"""The kernel on a node set: the nodes in the layout the numba kernels read, the kernel
 matrix factorised in place, and the sums :math:`\sum_j \alpha_j |q - p_j|^{2s-2}` that
-evaluate an interpolant (:class:`envfit.kernels._interpolation.SobolevInterpolator`).
+evaluate an interpolant (:class:`envfit.sobolev._interpolation.SobolevInterpolator`).
 
 Marques, Bouville, Bouatouch, Sec. 9.1, Eq. 14: the interpolant
 :math:`\tilde f(q) = c_s \sum_j \alpha_j - \sum_j \alpha_j |q - p_j|^{2s-2}` is evaluated
@@ -8,10 +8,10 @@ from these power sums by one of two methods:
 
 ``"direct"`` (exact)
     a fused numba loop (distance, power, accumulation; no temporaries) with a
-    vectorised float64 power (``envfit.kernels._kernels.fast_pow``, ~1e-15 relative; ``sqrt``
+    vectorised float64 power (``envfit.sobolev._interpolation_kernels.fast_pow``, ~1e-15 relative; ``sqrt``
     for s = 1.5). M N power evaluations; more than three channels go through a bounded
     power block and BLAS.
-``"nearfar"`` (fast summation, :mod:`envfit.kernels._nearfar`)
+``"nearfar"`` (fast summation, :mod:`envfit.sobolev._nearfar`)
     the kernel's power part :math:`g(t) = (2 - 2t)^{s-1}`, ``t = q.p``, is replaced
     outside a cap of chordal radius :math:`\delta` by a polynomial :math:`P_L(t)`
     (Chebyshev interpolation on :math:`[-1, 1 - \delta^2/2]` truncated at 1e-15;
@@ -46,8 +46,8 @@ from envfit.theory import cholesky_inplace
 from envfit.theory import kernel_constant
 
 from envfit.base import DuplicatePointsError
-from envfit.kernels import _kernels
-from envfit.kernels._nearfar import CellList, near_radius, nearfar_power_sums
+from envfit.sobolev import _interpolation_kernels as _kernels
+from envfit.sobolev._nearfar import CellList, near_radius, nearfar_power_sums
 
 __all__ = ["KernelNodes", "EVAL_METHODS", "DUPLICATE_DISTANCE", "closest_pair", "nthreads"]
 
@@ -85,7 +85,7 @@ class KernelNodes:
     r"""Unit-vector nodes :math:`p_j` and the kernel :math:`K^{(s)}_{gd}` on them (Eq. 14).
 
     ``px, py, pz`` are the contiguous coordinates the numba kernels read, ``a = s - 1`` the
-    exponent of the power part with its :func:`~envfit.kernels._kernels.power_kind`, and
+    exponent of the power part with its :func:`~envfit.sobolev._interpolation_kernels.power_kind`, and
     ``constant`` :math:`c_s = 2^{2s-1}/s`. The cell lists of the near/far split are built on
     first use and kept per near radius.
     """
@@ -178,7 +178,7 @@ class KernelNodes:
         return cl
 
     def power_sums_nearfar(self, q: np.ndarray, alpha: np.ndarray) -> np.ndarray:
-        r"""The same sums by the near/far split (:func:`~envfit.kernels._nearfar.nearfar_power_sums`)."""
+        r"""The same sums by the near/far split (:func:`~envfit.sobolev._nearfar.nearfar_power_sums`)."""
         delta = near_radius(self.n)
         return nearfar_power_sums(self.points, self.cell_list(delta), q, alpha, self.s, delta,
                                   self.a, self.kind, nthreads())

@@ -1,4 +1,4 @@
-r"""Numba kernels behind :mod:`envfit.kernels._interpolation` (the hot loops of envfit).
+r"""Numba kernels behind :mod:`envfit.sobolev._interpolation` (the hot loops of envfit).
 
 Everything here works on the *power part* of the generalized distance kernel (Eq. 14),
 
@@ -351,7 +351,7 @@ def _near_of_query(qx, qy, qz, cells, sw, law, buf, acc):
 
 @njit(parallel=True, **_OPTS)
 def near_field_correction(q, cells, sw, law, out):
-    """Near-field part of the near/far split (see ``envfit.kernels._nearfar.FarFieldExpansion``).
+    """Near-field part of the near/far split (see ``envfit.sobolev._nearfar.FarFieldExpansion``).
 
     ``out[i, c] = sum_{j: d2_ij < delta2} sw[j, c] (d2_ij^a - S(d2_ij))`` where
     ``S(d2) = sum_k cheb[k] T_k(2 d2 / delta2 - 1)`` is the far-field polynomial restricted
@@ -430,7 +430,7 @@ def _cholesky_solve_two(m, u, v):
 @njit(parallel=True, **_OPTS)
 def local_lagrange(px, py, pz, nb, a, kind, c, out):
     r"""Local Lagrange coefficients with constant reproduction (the iterative solver's
-    preconditioner, :mod:`envfit.kernels._iterative`).
+    preconditioner, :mod:`envfit.sobolev._iterative`).
 
     For node i with neighbours ``nb[i]`` (k indices, ``nb[i, 0] = i``):
     :math:`K_{loc} = c - |p_a - p_b|^{2a}` (k x k, SPD, :func:`_local_matrix`), Cholesky in

@@ -22,9 +22,9 @@ the machine's current load, :func:`load_factor`):
 * the world-frame rotation of an export of degree l (``ducc0.sht.rotate_alm``):
   :math:`C(l+1)^3` units;
 * the dense check: :math:`2h^2` pixels × :math:`(t+1)^2` basis values (t ≤
-  :data:`~envfit.export._ringing.DIRECT_LMAX` the largest degree checked) + as many
+  :data:`~envfit.sh._ringing.DIRECT_LMAX` the largest degree checked) + as many
   multiply-adds per export channel; memory: one block of rows
-  (:data:`~envfit.export._ringing.DENSE_BLOCK_BYTES`) + a 32 MiB basis chunk;
+  (:data:`~envfit.sh._ringing.DENSE_BLOCK_BYTES`) + a 32 MiB basis chunk;
 * the measured error: irradiance — :math:`M(l+1)^2` basis values per export of degree
   l ≤ DIRECT_LMAX at M axes, :math:`CM(l+1)` synthesis units above it and for the ground
   truth (:math:`l = L_{sh} = \max(H-1, \min(2H-1, 511))`; measured: 2 µs per axis at
@@ -50,7 +50,7 @@ import numpy as np
 from envfit.base import MemoryBudgetError, ParameterError
 from envfit.base import Stage, budget_words, format_bytes, memory_budget_bytes, time_limit_words
 from envfit.base import time_limit_seconds as _time_limit
-from envfit.export._ringing import (CHECK_AXES, DENSE_BLOCK_BYTES, DENSE_HEIGHT,
+from envfit.sh._ringing import (CHECK_AXES, DENSE_BLOCK_BYTES, DENSE_HEIGHT,
                                     DIRECT_LMAX, check_degree)
 
 __all__ = ["DEFAULT_TIME_LIMIT", "Rates", "time_limit_seconds", "machine_rates",
@@ -94,7 +94,7 @@ def _cpu_rates() -> Rates:
     289×96 product, a three-channel GL synthesis of degree 32 on 256 rings (a ringing
     row's), a rotation of degree 32."""
     import ducc0
-    from envfit.export._sh_export import gl_synthesis, real_sh_basis
+    from envfit.sh._sh_export import gl_synthesis, real_sh_basis
     rng = np.random.default_rng(0)
     d = rng.normal(size=(16384, 3))
     d /= np.linalg.norm(d, axis=1, keepdims=True)
@@ -202,7 +202,7 @@ def _measured(h: int, c: int, Ls, L: int, axes: int, irradiance: bool, r: Rates)
 def sh_stages(height: int, channels: int, lmax: int, table_lmax: int, *, check: bool = True,
               check_axes: int = CHECK_AXES, dense_height: int = DENSE_HEIGHT,
               irradiance: bool = False, rates: Rates | None = None) -> list[Stage]:
-    """The stages of :func:`envfit.export._report.sh_report` with their estimated
+    """The stages of :func:`envfit.sh._report.sh_report` with their estimated
     seconds and peak bytes (module docstring), in the order they run."""
     r = machine_rates() if rates is None else rates
     h, c = int(height), max(1, int(channels))
