@@ -326,7 +326,8 @@ def _adaptive(args: argparse.Namespace, env, ropts, adv, output: CommandOutput):
                         samples=args.adaptive_samples,
                         min_samples=args.adaptive_min_samples or 0, quiet=args.quiet)
     output.say(*a.lines())
-    return a.to_dict()
+    return {**a.to_dict(), "seconds": a.asked.seconds if a.advised is None else
+            a.advised.seconds}
 
 
 def _result(env, adv, rules, notes: list) -> dict:
@@ -368,6 +369,7 @@ def run_renderer(args: argparse.Namespace, output: CommandOutput, ropts, rules,
     d = _result(env, adv, rules, [*env.notes, *([snip_note] if snip_note else []), *adv.notes])
     if adaptive is not None:
         d["renderer"]["adaptive"] = adaptive
+        d["timings"] = {**d.get("timings", {}), "adaptive_model": adaptive.pop("seconds")}
     if args.snippet:
         d["renderer"]["snippet_map"] = filename
     d["timings"] = {**d.get("timings", {}), "renderer_model": m["seconds_model"],
