@@ -215,3 +215,13 @@ def test_a_renderer_without_adaptive_sampling_is_refused_in_one_line(capsys, tmp
                "--adaptive-threshold", "0.01"])
     err = capsys.readouterr().err.strip()
     assert rc == 2 and "Mitsuba 3 has no adaptive sampling modelled" in err
+
+
+def test_adaptive_sampling_of_a_library_is_refused_in_one_line(capsys, tmp_path):
+    from envfit.cli import main
+    from envfit.maps import save_envmap
+    for k in range(2):
+        save_envmap(tmp_path / f"m{k}.exr", _sunny(8))
+    rc = main(["advise", str(tmp_path), "--renderer", "cycles", "--adaptive-threshold", "0.01"])
+    err = capsys.readouterr().err.strip()
+    assert rc == 2 and err.endswith("--adaptive-threshold answers one map at a time so far")
