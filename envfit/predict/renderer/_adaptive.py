@@ -214,6 +214,7 @@ class AdaptiveModel:
         self.quiet = quiet
         diffuse = DiffuseModel(envmap, renderer, options=RendererModelOptions(
             normals=self.options.normals, pool=self.options.pool))
+        self._diffuse = diffuse
         self.technique, self.normals, self.weights = (diffuse.technique, diffuse.normals,
                                                       diffuse.weights)
         self.sphere_pixels = sphere_pixels
@@ -223,9 +224,8 @@ class AdaptiveModel:
 
     # ------------------------------------------------------------------ the draws
     def _fractions(self) -> tuple[float, float]:
-        s = self.renderer.strategy(self.strategy)
-        tot = s.emitter_samples + s.bsdf_samples
-        return s.emitter_samples / tot, s.bsdf_samples / tot
+        """The strategy's sample fractions (emitter, BSDF), as the diffuse model reads them."""
+        return self._diffuse._fractions(self.strategy)
 
     def _samples_at(self, normal, tabs: tuple) -> np.ndarray:
         """F = h_e + h_b (P, C) at the points of ``tabs`` (map table, BSDF table)."""
