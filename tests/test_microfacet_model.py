@@ -192,15 +192,46 @@ def test_beckmann_grid_sampling_is_the_pointwise_warp(renderer):
         conductor_sample(c, np.array([0, 0, 1.0]), u, 4)
 
 
+@pytest.mark.parametrize("renderer", ["mitsuba3", "cycles"])
+def test_beckmann_kept_slopes_are_the_warp(renderer):
+    """Beckmann's slopes y, taken once per point set and kept for the next views, give the
+    numbers of the warp taken point by point (to the last bit); points with another u1 are
+    not served the kept slopes, and the kept slopes go with their points."""
+    import gc
+    from envfit.predict.renderer import _vndf_kernels as vk
+    c = get_renderer(renderer).bsdf("beckmann", 0.3)
+    variant = c.vndf_variant
+    u = np.random.default_rng(5).random((4000, 2))
+    for wi in ([0, 0, 1.0], [0.5, 0.2, np.sqrt(0.71)], [0.999, 0, np.sqrt(1 - 0.999 ** 2)]):
+        wi = np.array(wi)
+        view = vk._view_constants(wi, 0.3, variant, 1)
+        wo, out = np.empty((len(u), 3)), np.empty((2, len(u)))
+        vk._sample(wi, view, u, np.zeros(0), 0.3, variant, 1, wo, out)      # point by point
+        for _ in range(2):                                  # slopes taken, then kept
+            got = vk.conductor_sample(c, wi, u)
+            for a, b in zip(got, (wo, out[0], out[1])):
+                np.testing.assert_array_equal(a, b)
+        other = u.copy()
+        other[7, 1] = 0.123
+        assert not np.array_equal(vk.conductor_sample(c, wi, other)[0][7], wo[7])
+    assert variant in vk._Y_KEPT
+    del u, other
+    gc.collect()
+    assert variant not in vk._Y_KEPT
+
+
 def test_compiled_erfinv_is_scipys():
     """The compiled erf⁻¹ of the Beckmann warps equals scipy.special.erfinv to 1e-14 relative
-    on a fine grid of (−1, 1) and in both tails down to 1 ∓ 1e-16; ±inf at ±1, NaN outside."""
+    on a fine grid of (−1, 1) and in both tails down to 1 ∓ 1e-16 (to 1e-15 on Giles'
+    double-precision branch, |y| < 0.9978); ±inf at ±1, NaN outside."""
     from scipy.special import erfinv
     from envfit.predict.renderer._vndf_kernels import _erfinv
     tails = 1.0 - np.logspace(-16, -1, 300)
     y = np.concatenate([np.linspace(-1, 1, 40001)[1:-1], tails, -tails, [0.0, 1e-300, -5e-324]])
     got = np.array([_erfinv(v) for v in y])
     np.testing.assert_allclose(got, erfinv(y), rtol=1e-14, atol=0)
+    centre = np.abs(y) < 0.9978
+    np.testing.assert_allclose(got[centre], erfinv(y[centre]), rtol=1e-15, atol=0)
     assert _erfinv(1.0) == np.inf and _erfinv(-1.0) == -np.inf
     assert np.isnan(_erfinv(1.5)) and np.isnan(_erfinv(np.nan))
 
