@@ -46,8 +46,9 @@ import numpy as np
 from envfit.advisor._cache import AdviseCache
 from envfit.advisor._prediction import mean_shading_value
 from envfit.advisor._renderer_options import (DEFAULT_LEVEL, DEFAULT_MAX_SPP, DEFAULT_NORMALS,
-                                            SIZED_RANDOMISATIONS, STRATEGY_WORDS,
-                                            RendererAdviseOptions, spp_cap)
+                                            SIZED_RANDOMISATIONS, STRATA_CAP,
+                                            STRATEGY_WORDS, RendererAdviseOptions, spp_cap)
+from envfit.predict.renderer.randomisation import STRATA_SAMPLED
 from envfit.advisor._renderer_search import StrategyAnswer, next_runnable, switched_strategy
 from envfit.advisor._renderer_sizing import (below_words, model_dict, model_error_lines,
                                            sized_search)
@@ -260,6 +261,10 @@ class RendererAdvice:
         if nxt > o.max_spp:
             return "raise --nmax or relax the target"
         rand = spec.randomisation
+        if rand in STRATA_SAMPLED and o.spp_cap() == min(STRATA_CAP, o.max_spp):
+            return (f"the model predicts {o.sampler} to {STRATA_CAP} spp (exactly to "
+                    f"{o.spp_cap(sampled=False)} spp at grid level {o.level}, from drawn "
+                    f"point sets above); {nxt} spp is beyond it")
         level = next((lv for lv in range(o.level + 1, 12)
                       if spp_cap(rand, lv, o.max_spp, sampled=o.samples_above_grid) >= nxt),
                      None)

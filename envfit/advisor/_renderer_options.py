@@ -22,7 +22,9 @@ any N above, their power above the grid sampled at Q·N scrambled (shifted) poin
 (``RendererModelOptions.shifts`` = Q), searched while they are no more than the fine table's
 4^(L+1) points, N ≤ 4^(L+1)/Q (4096 at the default level 9, a common default of render
 samples; ``sampled=False``: 2^(L−1)); Kensler's correlated multi-jittering and orthogonal
-arrays M ≥ N (and their (N, N) tables: at most 1024); a Cranley–Patterson shift N ≤ M/8
+arrays exactly to M ≥ N (and their (N, N) tables: at most 1024; ``sampled=False``), their
+point sets drawn above, to :data:`STRATA_CAP` (a microfacet BSDF's frames: the exact reach
+only); a Cranley–Patterson shift N ≤ M/8
 (:mod:`envfit.predict.renderer.randomisation._cp_shift`); independent and jittered samplers
 any N (V and the strata are resolved at every N).
 
@@ -53,13 +55,14 @@ from envfit.base import check_int, check_ints, check_names
 from envfit.base import EnvfitError, ParameterError
 from envfit.defaults import FOOTPRINT_SIDE, MICROFACET_BSDFS, MICROFACET_FRAMES_SEED
 from envfit.maps import EnvMap
-from envfit.predict.renderer import RendererModelOptions, cell_request
+from envfit.predict.renderer import RendererModelOptions, cell_request, strata_reach
+from envfit.predict.renderer.randomisation import STRATA_SAMPLED
 from envfit.renderers import ROUGHNESS_RTOL, STRATEGY_NAMES, get_renderer
 
 __all__ = ["RendererAdviseOptions", "PresetAdviseOptions", "STRATEGY_WORDS", "DEFAULT_MAX_SPP",
            "MAX_SPP", "DEFAULT_LEVEL", "DEFAULT_LEVEL_V", "DEFAULT_NORMALS", "NET_RANDOMISATIONS",
            "spp_cap", "default_level", "SIZED_RANDOMISATIONS",
-           "NORMALS_SIZED_RANDOMISATIONS", "AUTO_LEVEL", "AUTO_SHIFTS",
+           "NORMALS_SIZED_RANDOMISATIONS", "AUTO_LEVEL", "AUTO_SHIFTS", "STRATA_CAP",
            "DEFAULT_MODEL_ERROR"]
 
 #: a strategy in words
@@ -99,6 +102,9 @@ NORMALS_SIZED_RANDOMISATIONS = ("independent", "jittered")
 AUTO_LEVEL, AUTO_SHIFTS = 7, 16
 #: the relative standard error of the predicted RMSE the sized model aims at
 DEFAULT_MODEL_ERROR = 0.05
+#: the largest spp searched for correlated multi-jittering and orthogonal arrays, whose point
+#: sets the model draws above the exact models' reach (``predict.renderer._diffuse_model``)
+STRATA_CAP = 4096
 #: envfit's own point sets that the model's Cranley-Patterson shift (Sobol' points) is not
 _NOT_SOBOL = ("lp", "sf", "bnot")
 #: the fields of what a run asks besides the model (:meth:`RendererAdviseOptions.asking`)
@@ -116,15 +122,17 @@ def spp_cap(randomisation: str, level: int, max_spp: int,
     is not the fine table's 4^(L+1)/Q, ``RendererModelOptions.reach``), at most ``max_spp``.
 
     >>> spp_cap("digital_shift", 9, 65536), spp_cap("owen", 9, 65536), spp_cap("cmj", 9, 65536)
-    (4096, 4096, 512)
+    (4096, 4096, 4096)
     >>> spp_cap("owen", 9, 65536, sampled=False), spp_cap("owen", 10, 65536)
     (256, 16384)
     >>> spp_cap("cp_shift", 9, 65536), spp_cap("digital_shift", 11, 65536)
     (64, 65536)
+    >>> spp_cap("cmj", 9, 65536, sampled=False), spp_cap("orthogonal", 7, 65536)
+    (512, 4096)
     """
     net = max(1 << (level - 1), (reach or 4 ** (level + 1) // shifts) * sampled)  # above M/2
-    top = {"digital_shift": net, "owen": net,
-           "cmj": min(1 << level, 1024), "orthogonal": min(1 << level, 1024),
+    strata = STRATA_CAP if sampled else strata_reach("cmj", level)       # drawn above
+    top = {"digital_shift": net, "owen": net, "cmj": strata, "orthogonal": strata,
            "cp_shift": max(1, 1 << max(level - 3, 0)),
            "jittered": 4 ** level}
     return int(min(max_spp, top.get(randomisation, max_spp)))
@@ -132,12 +140,15 @@ def spp_cap(randomisation: str, level: int, max_spp: int,
 
 def default_level(randomisation: str) -> int:
     """The model's default grid level for a sampler's randomisation: :data:`DEFAULT_LEVEL_V`
-    for ``independent`` and ``jittered``, else :data:`DEFAULT_LEVEL`.
+    for ``independent`` and ``jittered``, and for correlated multi-jittering and orthogonal
+    arrays (exact to 2^7 spp, their point sets drawn above:
+    ``envfit.predict.renderer._diffuse_model.strata_reach``), else :data:`DEFAULT_LEVEL`.
 
     >>> default_level("independent"), default_level("owen")
     (7, 9)
     """
-    return DEFAULT_LEVEL_V if randomisation in ("independent", "jittered") else DEFAULT_LEVEL
+    return DEFAULT_LEVEL_V if randomisation in ("independent", "jittered", "cmj",
+                                                "orthogonal") else DEFAULT_LEVEL
 
 
 def _or(names) -> str:
@@ -535,8 +546,9 @@ class RendererAdviseOptions:
         too where :attr:`samples_above_grid` is false)."""
         spec = self.record.sampler(self.sampler)
         m = self.model_options()
+        drawn = not (self.microfacet and spec.randomisation in STRATA_SAMPLED)  # no frames
         return spp_cap(spec.randomisation, self.level, self.max_spp, m.shifts,
-                       sampled=sampled and self.samples_above_grid, reach=m.reach)
+                       sampled=sampled and self.samples_above_grid and drawn, reach=m.reach)
 
     def key(self) -> dict:
         """What the predictions depend on besides the map (the cache key's part)."""

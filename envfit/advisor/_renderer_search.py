@@ -43,6 +43,7 @@ from envfit.advisor._model import map_key
 from envfit.advisor._renderer_model import CachedRendererModel
 from envfit.advisor._renderer_options import NET_RANDOMISATIONS
 from envfit.defaults import SWITCH_FACTOR
+from envfit.predict.renderer.randomisation import STRATA_SAMPLED
 
 __all__ = ["StrategyAnswer", "answer_error", "next_runnable", "search_model",
            "switched_strategy", "coarse_spp", "search_spp", "CANDIDATES"]
@@ -178,8 +179,10 @@ def search_model(envmap, opts, store: AdviseCache, target: float, listed,
         runnable = [n for n in runnable if n & (n - 1) == 0]
     cm = CachedRendererModel(envmap, opts, store, map_key(envmap, "linear"), technique)
     cm.stage = stage
+    drawn = spec.randomisation in STRATA_SAMPLED       # drawn point sets above the grid's
     answers = search_spp(cm, strategies or opts.strategies, runnable, target, listed,
-                         independent=spec.randomisation == "independent")
+                         independent=spec.randomisation == "independent",
+                         first_cap=opts.spp_cap(sampled=False) if drawn else None)
     return cm, answers
 
 

@@ -37,6 +37,7 @@ from envfit.advisor._cache import AdviseCache
 from envfit.advisor._renderer_search import (StrategyAnswer, answer_error, search_model,
                                            switched_strategy)
 from envfit.base import memory_budget_bytes
+from envfit.predict.renderer.randomisation import STRATA_SAMPLED
 
 __all__ = ["NORMALS", "SHIFTS", "BUDGET", "pass_points", "sized_options", "predicted_error",
            "sized_search", "model_dict", "model_error_lines", "miss_words", "spp_span",
@@ -213,7 +214,9 @@ def _final_reach(opts, a: StrategyAnswer, listed, error: float = 0.0) -> int | N
 def model_dict(opts, by: dict, answers: dict, pilot, cms) -> dict:
     """What the model was and what the searches ``cms`` cost (:attr:`RendererAdvice.model`)."""
     m = opts.model_options()
+    drawn = opts.record.sampler(opts.sampler).randomisation in STRATA_SAMPLED
     out = {"normals": m.normals, "unit": _unit(opts), "level": opts.level, "shifts": m.shifts,
+           "draws_word": "drawn point sets" if drawn else "scrambles",
            "reach": m.reach,
            "model_error_target": opts.model_error,
            "model_se": {s: answer_error(by[s], a) for s, a in answers.items()},
@@ -240,7 +243,8 @@ def model_error_lines(m: dict, a) -> list[str]:
     where = f"{a.spp} spp" if a.reached else f"{a.searched_max} spp"
     unit = m.get("unit", "normals")
     parts = f"±{100 * e[1]:.1f} % from the {unit}" + (
-        f", ±{100 * e[2]:.1f} % from the scrambles" if e[2] > 0 else "")
+        f", ±{100 * e[2]:.1f} % from the {m.get('draws_word', 'scrambles')}" if e[2] > 0
+        else "")
     line = (f"model error at {where}: ±{100 * e[0]:.1f} % of the predicted RMSE (one "
             f"standard error: {parts})")
     p = m.get("pilot")

@@ -280,11 +280,15 @@ class PermutationLaw:
     pair_table : ``l -> (l², l²)`` array, :math:`\Pr(\sigma(y) = b, \sigma(y') = b')` over the
         sampler's seeds, rows (y, b), columns (y', b')
     note : how the table was made (said in the model's note)
+    permute : ``(index, length, seeds) -> σ(index)`` the hash itself (broadcast; uint32
+        seeds), by which the renderer model draws the permutations where it samples point sets
+        (``envfit.predict.renderer.randomisation``'s ``strata_points``); None: not drawable
     """
 
     name: str
     pair_table: Callable[[int], np.ndarray]
     note: str = ""
+    permute: Callable | None = None
 
 
 @dataclass(frozen=True)

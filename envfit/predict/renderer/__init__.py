@@ -59,6 +59,7 @@ _SHARED = {
     "MapTable": "_integrand_tables",
     "midpoints": "_integrand_tables",
     "cell_request": "_diffuse_model",
+    "strata_reach": "_drawn_strata",
 }
 
 __getattr__, __dir__ = lazy_exports(__name__, {**_LAZY, **_SHARED})

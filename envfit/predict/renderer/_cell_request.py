@@ -59,8 +59,10 @@ def grid_level(randomisation: str, n: int, max_level: int) -> int:
         want = (n - 1).bit_length() + 3                 # N <= M/8 (randomisation._cp_shift)
     else:
         want = (n - 1).bit_length() + 1
-    # M >= N (the CP shift's box: M >= 4) unless the power above the grid is sampled
-    sampled = randomisation in ("independent", "jittered") + tuple(SAMPLE_TAG)
+    # M >= N (the CP shift's box: M >= 4) unless the power above the grid is sampled (or the
+    # point sets drawn above the grid's reach: randomisation._strata_samples)
+    sampled = randomisation in ("independent", "jittered", "cmj", "orthogonal") + \
+        tuple(SAMPLE_TAG)
     floor = max(0 if sampled else (n - 1).bit_length(), 2 * (randomisation == "cp_shift"))
     return max(1, floor, min(int(max_level), want))
 

@@ -60,6 +60,7 @@ from envfit.predict.renderer._cell_request import (CellRequest, grid_level, cell
                                                      samples_above)
 from envfit.predict.renderer._sampled_nets import SAMPLE_TAG, SampledNets, curve_parts
 from envfit.predict.renderer.randomisation import DyadicGrid, mis_mse, randomised_mse
+from envfit.predict.renderer._drawn_strata import DrawnStrata, geometric
 from envfit.theory import spherical_fibonacci_sphere
 
 __all__ = ["RendererModelOptions", "DiffuseModel", "RendererPrediction", "grid_level",
@@ -195,7 +196,7 @@ def _proposal(table: MapTable, pool: np.ndarray, count: int):
     return pool[idx], w / w.sum()
 
 
-class DiffuseModel:
+class DiffuseModel(DrawnStrata):
     r"""The noise model of one map under one renderer (module docstring).
 
     Parameters
@@ -263,9 +264,10 @@ class DiffuseModel:
         anchors = {a for r in between for a in self._anchors(r)}
         todo = list({r for r in reqs if r not in self._cache and r not in between}
                     | {a for a in anchors if a not in self._cache})
-        want = {r.strategy: r.shared for r in between}
-        top = max((a.n for a in anchors), default=0)
-        curves = bool(between) and not self.nets.has_curves(want, top)
+        nets = {r for r in between if not self._drawn_strata(r)}    # prefix variances
+        want = {r.strategy: r.shared for r in nets}
+        top = max((a.n for r in nets for a in self._anchors(r)), default=0)
+        curves = bool(nets) and not self.nets.has_curves(want, top)
         pre = [r for r in todo if self._prefix_net(r)]      # a prefix sampler's pass: its
         if pre:                                             # variances for later N, too
             want.update({r.strategy: r.shared for r in pre})
@@ -276,7 +278,8 @@ class DiffuseModel:
             self.seconds += time.perf_counter() - t
         for r in between:
             lo, hi = (self._cache[a] for a in self._anchors(r))
-            mse = self.nets.between(r.strategy, r.shared, r.n, lo.mse, hi.mse)
+            mse = (geometric(r.n, lo, hi) if self._drawn_strata(r) else
+                   self.nets.between(r.strategy, r.shared, r.n, lo.mse, hi.mse))
             f = float(np.mean(mse)) / float(np.mean(lo.mse)) if np.mean(lo.mse) > 0 else 0.0
             self._cache[r] = replace(lo, rmse=float(np.sqrt(np.mean(mse))), mse=mse,
                                      spp=r.spp, spp_rendered=r.n,
@@ -298,11 +301,19 @@ class DiffuseModel:
                 and self.options.sphere_pixels is None)
 
     def _is_between(self, r: CellRequest) -> bool:
-        """Whether ``r`` is a prefix sampler's (:meth:`_prefix_net`) N between powers of two."""
+        """Whether ``r`` is a prefix sampler's (:meth:`_prefix_net`) N between powers of two,
+        or a drawn stratified cell's (:meth:`_drawn_strata`) between the spp its sampler runs
+        at powers of two (:meth:`_strata_anchors`)."""
+        if self._drawn_strata(r):
+            return r.n not in self._strata_anchors(r)
         return self._prefix_net(r) and r.n & (r.n - 1) != 0
 
     def _anchors(self, r: CellRequest) -> tuple[CellRequest, CellRequest]:
-        """The requests of the powers of two around ``r.n``."""
+        """The requests of the powers of two around ``r.n`` (a drawn stratified cell's: of
+        :meth:`_strata_anchors`)."""
+        if self._drawn_strata(r):
+            return tuple(self.request(r.strategy, r.sampler, a)
+                         for a in self._strata_anchors(r))
         lo = 1 << (r.n.bit_length() - 1)
         return tuple(replace(r, spp=m, n=m, level=grid_level(r.name, m, self.options.max_level))
                      for m in (lo, 2 * lo))
@@ -382,10 +393,12 @@ class DiffuseModel:
         k = len(self.normals)
         per = {r: [None] * k for r in todo}                  # mse (C,) per normal
         draws = {r: 0.0 for r in todo}                       # Σ_a w_a (sampled, per draw)
+        grid_cells = any(not self._drawn_strata(r) for r in todo) or (  # not all drawn, or
+            bool(todo) and self.options.sphere_pixels is not None)      # their footprints
         parts = {r: np.zeros((k, 3)) for r in todo}          # map, brdf, cross per normal
         for i, normal in enumerate(progress(self.normals, total=k, desc=self.progress_label,
                                             quiet=self.quiet, unit=self.progress_unit)):
-            vals = self._part_values(strategies, normal, fine) if todo else {}
+            vals = self._part_values(strategies, normal, fine) if grid_cells else {}
             grids: dict = {"normal": normal, "strategies": strategies}
             for r in todo:
                 res = self._cell(r, vals, grids, fine, levels)
@@ -396,6 +409,8 @@ class DiffuseModel:
                 self.nets.add_curves(float(self.weights[i]),
                                      self._sampled_values(grids, "owen", strategies))
         self.nets.finish_curves()
+        for key in [k for k in self._tables if k[0] == "strata"]:
+            del self._tables[key]                   # a drawn cell's tables serve one pass
         for r in todo:
             self._store(r, np.stack(per[r]), parts[r], draws_error(np.atleast_1d(draws[r])))
 
@@ -476,6 +491,8 @@ class DiffuseModel:
                 grids[key] = self._with_sampled(grids, key, part, r)
             return grids[key]
 
+        if self._drawn_strata(r):
+            return self._strata_cell(r, grids)
         opts = dict(r.options)
         if r.strategy in ("map", "brdf"):
             res = randomised_mse(r.name, grid(r.strategy), r.n,
@@ -491,6 +508,8 @@ class DiffuseModel:
     def _draws(self, r: CellRequest, grids: dict):
         """The sampled power above the grids of ``r`` at this normal per draw, the channels'
         mean (Q,), or 0 where nothing is sampled (a two-lobe BSDF's stratified stream)."""
+        if ("strata_draws", r) in grids:
+            return grids["strata_draws", r]
         if not samples_above(r.name, r.n, r.level):
             return 0.0
         tag, out = SAMPLE_TAG[r.name], 0.0

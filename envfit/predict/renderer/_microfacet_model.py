@@ -117,6 +117,8 @@ class MicrofacetModel(LobeChoice, DiffuseModel):
     """
 
     progress_unit = "frame"
+    #: no drawn stratified cells: a lobe's frames are tabulated on the grid only
+    draws_strata = False
 
     def __init__(self, envmap, renderer, conductor, frames, weights=None,
                  technique_options: dict | None = None,

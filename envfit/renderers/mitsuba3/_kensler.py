@@ -104,7 +104,8 @@ def pair_table(length: int, seeds: int = TABLE_SEEDS) -> np.ndarray:
 #: the law of ``multijitter``'s permutations: the value of the ``cmj`` model's
 #: ``permutations`` option in the sampler's record (``_envmap.SAMPLERS``)
 KENSLER_PERMUTATIONS = PermutationLaw(
-    "kensler", pair_table, f"Mitsuba's permutation pairs estimated from {TABLE_SEEDS} seeds")
+    "kensler", pair_table, f"Mitsuba's permutation pairs estimated from {TABLE_SEEDS} seeds",
+    permute_kensler)
 
 
 def multijitter_shape(spp: int) -> tuple[int, int]:

@@ -18,6 +18,9 @@ Modules (private, one per method; each cites its equation and reference):
   (:func:`shift_sample`, :func:`sampled_above`): the digital shift for any N.
 * ``_owen_samples`` — nested uniform scrambles of a net (:func:`owen_sample`), whose power
   above the grid :func:`sampled_above` estimates likewise: Owen scrambling for any N.
+* ``_strata_samples`` — correlated multi-jittered and orthogonal-array point sets drawn
+  (:func:`strata_points`) and their MSE as the variance over the draws
+  (:func:`sampled_strata_mse`): those samplers above their exact models' reach.
 * ``_registry`` — :data:`RANDOMISATIONS` and the dispatcher :func:`randomised_mse`.
 * ``_mis`` — :func:`mis_mse`, two streams, independent or sharing one point set.
 * ``_lobe_choice`` — :func:`lobe_choice_mse`, :func:`lobe_choice_mis`: a BSDF that picks
@@ -45,6 +48,8 @@ _LAZY = {
     "sampled_above": "_shift_samples",
     "owen_sample": "_owen_samples", "owen_scramble": "_owen_samples",
     "RANDOMISATIONS": "_registry", "Randomisation": "_registry", "randomised_mse": "_registry",
+    "STRATA_SAMPLED": "_strata_samples", "strata_points": "_strata_samples",
+    "sampled_strata_mse": "_strata_samples",
     "MisMSE": "_mis", "mis_mse": "_mis",
     "STRATIFIED_1D": "_lobe_choice", "lobe_choice_mse": "_lobe_choice",
     "lobe_choice_mis": "_lobe_choice",
