@@ -206,7 +206,7 @@ def test_beckmann_kept_slopes_are_the_warp(renderer):
         wi = np.array(wi)
         view = vk._view_constants(wi, 0.3, variant, 1)
         wo, out = np.empty((len(u), 3)), np.empty((2, len(u)))
-        vk._sample(wi, view, u, np.zeros(0), 0.3, variant, 1, wo, out)      # point by point
+        vk._sample(wi, view, u, np.zeros(0), (0.3, variant, 1), wo, out)      # point by point
         for _ in range(2):                                  # slopes taken, then kept
             got = vk.conductor_sample(c, wi, u)
             for a, b in zip(got, (wo, out[0], out[1])):

@@ -284,9 +284,10 @@ def _reflect(wi, m, lam_i, alpha, variant, kind):  # pragma: no cover - numba
 
 
 @numba.njit(cache=True, parallel=True, error_model="numpy")
-def _sample(wi, view, u, ys, alpha, variant, kind, wo, out):  # pragma: no cover - numba
-    """:func:`conductor_sample` at the points ``u``; Beckmann's slopes y ``ys`` given
-    (:func:`_y_slopes`; empty: taken here)."""
+def _sample(wi, view, u, ys, lobe, wo, out):  # pragma: no cover - numba
+    """:func:`conductor_sample` at the points ``u`` for ``lobe`` = (α, variant, kind);
+    Beckmann's slopes y ``ys`` given (:func:`_y_slopes`; empty: taken here)."""
+    alpha, variant, kind = lobe
     lam_i = _lambda(wi[0], wi[1], wi[2], alpha, kind)
     given = kind == 1 and ys.shape[0] == u.shape[0]
     for p in numba.prange(u.shape[0]):
@@ -453,5 +454,5 @@ def conductor_sample(conductor, wi, u, level: int | None = None
         u = np.ascontiguousarray(u, dtype=np.float64)
         polar = variant == 2 and view[3, 0] > 0.0
         ys = _y_slopes(u, variant) if kind == 1 and not polar else np.zeros(0)
-        _sample(wi, view, u, ys, alpha, variant, kind, wo, out)
+        _sample(wi, view, u, ys, (alpha, variant, kind), wo, out)
     return wo, out[0], out[1]
