@@ -198,19 +198,17 @@ def test_the_normals_error_is_of_the_size_of_the_error_against_the_whole_pool():
     assert 0.25 < rms < 1.5 and np.all(np.abs(z) < 3.5), z.round(2)
 
 
-def test_microfacet_conductors_are_sized_a_rough_plastics_nets_are_not():
-    """A GGX or Beckmann conductor's nets take the sized pilot (level 7, 16 scrambles); a
-    rough plastic's lobe choice has no sampled nets above the grid, so its ldsampler keeps
-    the level-9 grid (a pilot at level 7 would resolve 64 spp only) while its independent
-    sampler is sized in its frames; a conductor's sized answer reports an error that meets
-    the target or says what the pilot estimated."""
+def test_microfacet_conductors_and_a_rough_plastics_nets_are_sized():
+    """A GGX or Beckmann conductor's nets take the sized pilot (level 7, 16 scrambles), and so
+    does a rough plastic's ldsampler (its lobe choice's mixtures sampled above the grid), while
+    its independent sampler is sized in its frames; a conductor's sized answer reports an
+    error that meets the target or says what the pilot estimated."""
     for renderer, sampler, bsdf, r in (("cycles", None, "ggx", 0.5),
                                        ("mitsuba3", "ldsampler", "beckmann", 0.2),
+                                       ("mitsuba3", "ldsampler", "roughplastic", 0.2),
                                        ("pbrt4", None, "ggx", 0.04)):
         o = RendererAdviseOptions(renderer, sampler=sampler, bsdf=bsdf, roughness=r)
         assert o.auto and (o.level, o.shifts) == (AUTO_LEVEL, AUTO_SHIFTS)
-    o = RendererAdviseOptions("mitsuba3", sampler="ldsampler", bsdf="roughplastic", roughness=0.2)
-    assert not o.auto and o.level == DEFAULT_LEVEL
     o = RendererAdviseOptions("mitsuba3", bsdf="roughplastic", roughness=0.2)
     assert o.auto and o.shifts is None
     opts = RendererAdviseOptions("mitsuba3", sampler="ldsampler", bsdf="ggx", roughness=0.3,

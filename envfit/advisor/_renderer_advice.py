@@ -266,7 +266,7 @@ class RendererAdvice:
                     f"{o.spp_cap(sampled=False)} spp at grid level {o.level}, from drawn "
                     f"point sets above); {nxt} spp is beyond it")
         level = next((lv for lv in range(o.level + 1, 12)
-                      if spp_cap(rand, lv, o.max_spp, sampled=o.samples_above_grid) >= nxt),
+                      if spp_cap(rand, lv, o.max_spp) >= nxt),
                      None)
         head = (f"the model resolves {o.sampler} to {a.searched_max} spp at grid level "
                 f"{o.level}")

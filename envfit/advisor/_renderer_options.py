@@ -363,9 +363,7 @@ class RendererAdviseOptions:
         pilot (:attr:`auto`) or the defaults; ``model_error`` checked."""
         set_ = object.__setattr__
         nets = randomisation in SIZED_RANDOMISATIONS
-        # a rough plastic's lobe choice has no sampled nets: its nets only to the grid's reach
-        eligible = ((nets and self.bsdf != "roughplastic"
-                     or randomisation in NORMALS_SIZED_RANDOMISATIONS)
+        eligible = ((nets or randomisation in NORMALS_SIZED_RANDOMISATIONS)
                     and self.sphere_pixels is None)
         auto = eligible and (self.level is None and self.normals is None and self.shifts is None
                              and self.reach is None if self.sized is None else bool(self.sized))
@@ -420,13 +418,6 @@ class RendererAdviseOptions:
     @property
     def microfacet(self) -> bool:
         return self.bsdf != "diffuse"
-
-    @property
-    def samples_above_grid(self) -> bool:
-        """Whether the model samples a digital net's power above its grid (a digital shift,
-        Owen scrambling): not for a rough plastic, whose lobe choice needs the grid
-        (``MicrofacetModel.request``)."""
-        return self.bsdf != "roughplastic"
 
     @property
     def every_spp(self) -> bool:
@@ -542,13 +533,12 @@ class RendererAdviseOptions:
 
     def spp_cap(self, *, sampled: bool = True) -> int:
         """The largest spp searched for this sampler (:func:`spp_cap`; ``sampled=False``: the
-        largest its grid resolves without sampling, where the search's first pass stops; so
-        too where :attr:`samples_above_grid` is false)."""
+        largest its grid resolves without sampling, where the search's first pass stops)."""
         spec = self.record.sampler(self.sampler)
         m = self.model_options()
         drawn = not (self.microfacet and spec.randomisation in STRATA_SAMPLED)  # no frames
         return spp_cap(spec.randomisation, self.level, self.max_spp, m.shifts,
-                       sampled=sampled and self.samples_above_grid and drawn, reach=m.reach)
+                       sampled=sampled and drawn, reach=m.reach)
 
     def key(self) -> dict:
         """What the predictions depend on besides the map (the cache key's part)."""

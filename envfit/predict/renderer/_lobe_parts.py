@@ -22,7 +22,9 @@ import numpy as np
 
 from envfit.predict.renderer._microfacet_kernels import PARTS, accumulate_parts
 from envfit.predict.renderer._plastic_kernels import compiled_plastic, plastic_sample
+from envfit.predict.renderer._cell_request import samples_above
 from envfit.predict.renderer._integrand_tables import moment_pyramid
+from envfit.predict.renderer._sampled_nets import SAMPLE_TAG
 from envfit.predict.renderer.randomisation import (STRATIFIED_1D, DyadicGrid,
                                                    lobe_choice_mis, lobe_choice_mse)
 
@@ -82,25 +84,52 @@ class LobeChoice:
         out["_p"] = float(np.mean(ps))
         return out
 
-    def _lobe_cell(self, r, vals: dict, fine: int):
+    def _lobe_cell(self, r, vals: dict, grids: dict, fine: int):
         """(mse, emitter part, BSDF part, 2·cross) per channel of a two-lobe BSDF's request
-        under a stratified 1-D sampler (:func:`lobe_choice_mse`, :func:`lobe_choice_mis`)."""
-        def grid(values):
-            a, b = moment_pyramid(values, fine, {r.level})[r.level]
-            return DyadicGrid.from_arrays(a, np.maximum(b, a * a))
+        under a stratified 1-D sampler (:func:`lobe_choice_mse`, :func:`lobe_choice_mis`).
+        Where the net's power above the grid is sampled (N > M/2: :func:`samples_above`), each
+        combination of the lobes' tables gets its own, from the same combination of the lobes'
+        values at the pass's sampled points (:meth:`_lobe_above`)."""
+        sampled = samples_above(r.name, r.n, r.level)
+        sv = (self._sampled_values(grids, SAMPLE_TAG[r.name], {r.strategy} | grids.get(
+            "strategies", set()), r.n) if sampled else None)
+        p = vals["_p"]
 
-        def grid_of(prefix, base=None):
+        def grid(combine, part):
+            a, b = moment_pyramid(combine(vals), fine, {r.level})[r.level]
+            g = DyadicGrid.from_arrays(a, np.maximum(b, a * a))
+            return self._lobe_above(r, g, combine(sv), grids, part) if sampled else g
+
+        def grid_of(prefix, base=None, part=None):
             def of(x, y):
-                v = x * vals[f"{prefix}a"] + y * vals[f"{prefix}b"]
-                return grid(v if base is None else v + vals[base])
+                def combine(v):
+                    out = x * v[f"{prefix}a"] + y * v[f"{prefix}b"]
+                    return out if base is None else out + v[base]
+                near = part is not None and abs(x - p) * r.n < 1.0   # the drawn count's K
+                return grid(combine, (part, x, y, near))
             return of
 
-        p, opts, opts_b = vals["_p"], dict(r.options), dict(r.options_b)
+        opts, opts_b = dict(r.options), dict(r.options_b)
         if r.strategy == "brdf":
-            mse = lobe_choice_mse(r.name, grid_of("brdf_"), r.n, p, **opts_b)
+            mse = lobe_choice_mse(r.name, grid_of("brdf_", part="brdf"), r.n, p, **opts_b)
             z = np.zeros_like(mse)
             return mse, z, mse, z
-        mse, e, b, cross = lobe_choice_mis(r.name, grid(vals["mis_e"]), grid_of("mis_b"), r.n,
-                                           p, shared=r.shared, options=opts, options_b=opts_b,
-                                           total_of=grid_of("mis_b", "mis_e"))
+        mse, e, b, cross = lobe_choice_mis(
+            r.name, grid(lambda v: v["mis_e"], ("mis_e", 1.0, 0.0, True)),
+            grid_of("mis_b", part="mis_b"), r.n, p, shared=r.shared, options=opts,
+            options_b=opts_b, total_of=grid_of("mis_b", "mis_e", part="mis_t"))
         return mse, e, b, 2.0 * cross
+
+    def _lobe_above(self, r, g: DyadicGrid, values, grids: dict, key) -> DyadicGrid:
+        """``g`` with its power above the grid sampled from ``values`` at the pass's sampled
+        points (:meth:`~._sampled_nets.SampledNets.above`, memoised per combination ``key`` =
+        (part, x, y, near)); the combination nearest the lobe's probability (``near``) is also
+        filed under its part's name, whose draws give the model's error
+        (:meth:`DiffuseModel._draws`)."""
+        tag, part, near = SAMPLE_TAG[r.name], key[0], key[3]
+        name = f"lobe {key[0]} {key[1]!r} {key[2]!r}"
+        above, se = self.nets.above(tag, r.level, r.n, g.mean, values, grids, name)
+        if near:
+            top = max(r.n, self.nets.top)
+            grids["above", part, r.level, tag, top] = grids["above", name, r.level, tag, top]
+        return g.with_sampled_above(r.name, "sobol", r.n, above, se)

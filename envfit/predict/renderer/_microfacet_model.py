@@ -40,8 +40,6 @@ the renderer's conductor and integrator as its folder cites them (``envfit/rende
 """
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 
 from envfit.base import ParameterError
@@ -57,14 +55,11 @@ from envfit.predict.renderer._lobe_parts import LobeChoice
 from envfit.predict.renderer._integrand_tables import MapTable
 from envfit.predict.renderer.randomisation import STRATIFIED_1D
 from envfit.predict.renderer._diffuse_model import (DiffuseModel, RendererModelOptions,
-                                                   samples_above, systematic_indices)
+                                                   systematic_indices)
 
 __all__ = ["MicrofacetModel", "BANDS"]
 
 _CHUNK = 1 << 18
-#: the finest grid of a rough plastic's lobe path (RendererModelOptions' max_level): its table
-#: at level 12 holds 16 M points per part
-_MAX_LOBE_LEVEL = 11
 
 
 class MicrofacetModel(LobeChoice, DiffuseModel):
@@ -234,14 +229,6 @@ class MicrofacetModel(LobeChoice, DiffuseModel):
                                  f"{ok} samplers "
                                  f"(its lobe choice is a 1-D dimension {sampler} pairs with "
                                  f"the direction's in an array); got {sampler}")
-        if self._two_lobes() and strategy != "map" and samples_above(r.name, r.n, r.level):
-            level = (r.n - 1).bit_length()                             # lobes: no sampling
-            if level > _MAX_LOBE_LEVEL:
-                raise ParameterError(
-                    f"the rough plastic's {strategy} under {sampler} at {r.n} spp needs a grid "
-                    f"of level {level} (its lobe choice is not sampled above the grid); the "
-                    f"model goes to level {_MAX_LOBE_LEVEL} ({1 << _MAX_LOBE_LEVEL} spp)")
-            r = replace(r, level=max(r.level, level))
         return r
 
     @property
@@ -260,7 +247,7 @@ class MicrofacetModel(LobeChoice, DiffuseModel):
         """:meth:`DiffuseModel._randomised_cell`; a two-lobe BSDF's stream under a stratified
         1-D sampler by :meth:`_lobe_cell`."""
         if self._two_lobes() and r.strategy != "map" and r.name in STRATIFIED_1D:
-            return self._lobe_cell(r, vals, fine)
+            return self._lobe_cell(r, vals, grids, fine)
         return super()._randomised_cell(r, vals, grids, fine, levels)
 
     def predict_bands(self, strategy: str, sampler: str, spp: int) -> dict:
