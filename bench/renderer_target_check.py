@@ -168,7 +168,7 @@ def _pixel_terms(imgs, ref, geometry) -> tuple[np.ndarray, np.ndarray, np.ndarra
 def measure(session, sampler: str, spp: int, ref, rng, args) -> dict:
     """Independent renders of the six views at ``spp`` until the interval is narrow enough
     (module docstring, step 3): the pooled RMSE, its interval and the per-render values."""
-    from envfit.renderers._sphere import BOOTSTRAP_RESAMPLES, sphere_error
+    from envfit.renderers import BOOTSTRAP_RESAMPLES, sphere_error
     terms, per, offsets, secs = [], [], [], 0.0
     while True:
         imgs, s = session.render(STRATEGY, sampler, spp, rng)
