@@ -138,17 +138,22 @@ def spp_cap(randomisation: str, level: int, max_spp: int,
     return int(min(max_spp, top.get(randomisation, max_spp)))
 
 
-def default_level(randomisation: str) -> int:
+def default_level(randomisation: str, *, drawn: bool = True) -> int:
     """The model's default grid level for a sampler's randomisation: :data:`DEFAULT_LEVEL_V`
     for ``independent`` and ``jittered``, and for correlated multi-jittering and orthogonal
-    arrays (exact to 2^7 spp, their point sets drawn above:
-    ``envfit.predict.renderer._diffuse_model.strata_reach``), else :data:`DEFAULT_LEVEL`.
+    arrays where their point sets are drawn above the exact models' reach (``drawn``: the
+    diffuse surface; exact to 2^7 spp,
+    ``envfit.predict.renderer._drawn_strata.strata_reach``), else :data:`DEFAULT_LEVEL` (a
+    microfacet BSDF's strata: the exact model only, to 2^9 spp).
 
-    >>> default_level("independent"), default_level("owen")
-    (7, 9)
+    >>> default_level("independent"), default_level("owen"), default_level("cmj")
+    (7, 9, 7)
+    >>> default_level("cmj", drawn=False), default_level("orthogonal", drawn=False)
+    (9, 9)
     """
-    return DEFAULT_LEVEL_V if randomisation in ("independent", "jittered", "cmj",
-                                                "orthogonal") else DEFAULT_LEVEL
+    strata = ("cmj", "orthogonal") if drawn else ()
+    return DEFAULT_LEVEL_V if randomisation in ("independent", "jittered", *strata) \
+        else DEFAULT_LEVEL
 
 
 def _or(names) -> str:
@@ -374,7 +379,7 @@ class RendererAdviseOptions:
                 if getattr(self, name) is None:
                     set_(self, name, value)
         if self.level is None:
-            set_(self, "level", default_level(randomisation))
+            set_(self, "level", default_level(randomisation, drawn=not self.microfacet))
         if self.normals is None:
             set_(self, "normals", DEFAULT_NORMALS)
         e = DEFAULT_MODEL_ERROR if self.model_error is None else self.model_error
@@ -387,7 +392,7 @@ class RendererAdviseOptions:
     def auto(self) -> bool:
         """Whether the model is sized to :attr:`model_error` (:mod:`._renderer_sizing`):
         Owen-scrambled and digitally shifted nets (on the diffuse surface or a microfacet
-        conductor; a rough plastic's lobe choice has none above the grid), independent and
+        BSDF, a rough plastic's lobe mixtures included), independent and
         stratified samplers (any BSDF), without pixel footprints, with none of ``level``,
         ``normals``, ``shifts``, ``reach`` given (or ``sized`` given);
         ``dataclasses.replace`` keeps it."""
