@@ -104,3 +104,35 @@ def test_diffuse_footprint_ldsampler_is_the_pairing_simulated():
         before.append(base + footprint_term("mis", "digital_shift", n, vals))
     np.testing.assert_allclose(got, m.weights @ np.array(want), rtol=1e-10)
     assert not np.allclose(got, m.weights @ np.array(before), rtol=1e-3)
+
+
+def test_paired_lobe_choice_is_the_one_table_pairing_where_the_lobes_agree():
+    """A two-lobe BSDF's paired footprint (``LobeChoice._lobe_extra``: each sample's lobe from
+    its stratified 1-D number, the two tables side by side) is the one-table pairing
+    (``PairedFootprint.extra``) where both lobes' tables are that table, whatever p; with
+    lobes apart it differs. The lobe numbers put one point in each of N strata per pixel."""
+    from types import SimpleNamespace
+
+    from envfit.predict.renderer._footprint import PairedFootprint
+    from envfit.predict.renderer._lobe_parts import LobeChoice
+    points = get_renderer("mitsuba3").sampler("ldsampler").film_points
+    n, size = 16, 64
+    pf = PairedFootprint(n, 2048, 3, points, dims=6)
+    u = pf.lobe_numbers()
+    np.testing.assert_array_equal(np.sort(np.floor(u * n), axis=1),
+                                  np.broadcast_to(np.arange(n), u.shape))
+    rng = np.random.default_rng(0)
+    e, g, h = (rng.random((4, size, 3)) for _ in range(3))
+    g[1] += 3.0                                   # a bright normal: the film's pairing matters
+    stub = SimpleNamespace(_pairing=lambda r: pf, _calls=lambda r: (1, 3))
+    for strategy, tables in (("mis", {"mis_e": e, "mis_b": g}), ("brdf", {"brdf": g})):
+        prefix = "brdf_" if strategy == "brdf" else "mis_b"
+        kept = {"mis_e": e, f"{prefix}a": g, f"{prefix}b": g}
+        r = SimpleNamespace(strategy=strategy)
+        one = pf.extra(tables, strategy, (1, 3))[0]
+        for p in (0.1, 0.5, 0.93):
+            got = LobeChoice._lobe_extra(stub, r, {"_normals": kept, "_p": p})
+            np.testing.assert_allclose(got, one, rtol=1e-12)
+        kept[f"{prefix}b"] = h
+        apart = LobeChoice._lobe_extra(stub, r, {"_normals": kept, "_p": 0.5})
+        assert not np.allclose(apart, one, rtol=1e-3)

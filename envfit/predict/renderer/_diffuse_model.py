@@ -443,11 +443,16 @@ class DiffuseModel(DrawnStrata):
         (:func:`._footprint.footprint_term`)."""
         res = self._randomised_cell(r, vals, grids, fine, levels)
         if "_normals" in vals and self._paired(r):
-            extra = self._pairing(r).extra(vals["_normals"], r.strategy, self._calls(r),
-                                             means=vals)[0]
+            extra = self._paired_extra(r, vals)
         else:
             extra = footprint_term(r.strategy, r.name, r.n, vals)
         return (res[0] + extra,) + tuple(res[1:])
+
+    def _paired_extra(self, r: CellRequest, vals: dict) -> np.ndarray:
+        """The MSE (C,) the film adds to ``r`` at one frame under a paired film
+        (:meth:`_paired`): :meth:`._footprint.PairedFootprint.extra` of its streams."""
+        return self._pairing(r).extra(vals["_normals"], r.strategy, self._calls(r),
+                                      means=vals)[0]
 
     def _paired(self, r: CellRequest) -> bool:
         """Whether the film's pairing with the techniques is simulated over the sampler's own

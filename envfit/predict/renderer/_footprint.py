@@ -285,9 +285,22 @@ class PairedFootprint:
     """
 
     def __init__(self, n: int, pixels: int, seed: int, film_points, dims: int = 3):
-        self.n = int(n)
+        self.n, self.seed = int(n), int(seed)
         self.points = film_points(pixels, self.n, int(dims), seed)
-        self._weights, self._cells = {}, {}
+        self._weights, self._cells, self._lobe = {}, {}, None
+
+    def lobe_numbers(self) -> np.ndarray:
+        """(R, N) each sample's 1-D number of a BSDF's lobe choice: one point in each of the
+        N strata, one offset per pixel, the strata in a random order of the pixel's own —
+        a digitally shifted van der Corput net whose scramble and order are drawn apart from
+        the 2-D dimensions' (the renderer's record cites where its sampler does so), as
+        :func:`~.randomisation.lobe_choice_mse` takes it."""
+        if self._lobe is None:
+            rng = np.random.default_rng([self.seed, self.n, 0x10BE])
+            r = self.points.shape[0]
+            order = rng.permuted(np.broadcast_to(np.arange(self.n), (r, self.n)), axis=1)
+            self._lobe = (order + rng.random((r, 1))) / self.n
+        return self._lobe
 
     def weights(self, side: int) -> np.ndarray:
         """:func:`film_weights` of the film's points (R, N, side²)."""

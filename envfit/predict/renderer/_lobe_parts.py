@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from envfit.predict.renderer._footprint import paired_extra
 from envfit.predict.renderer._microfacet_kernels import PARTS, accumulate_parts
 from envfit.predict.renderer._plastic_kernels import compiled_plastic, plastic_sample
 from envfit.predict.renderer._cell_request import samples_above
@@ -58,31 +59,61 @@ class LobeChoice:
         return (np.where(dead[:, None], [0.0, 0.0, 1.0], s.wo), s.weight,
                 np.where(dead, 0.0, s.pdf))
 
-    def _lobe_values(self, strategies: set, normals, view, fine: int) -> dict:
+    def _lobe_values(self, strategies: set, normals, view, fine: int, kept=None) -> dict:
         """``brdf_a``, ``brdf_b``, ``mis_ba``, ``mis_bb`` (P, 3): each lobe's BSDF part and
         MIS-weighted part averaged over ``normals``, and ``_p``, the mean specular
-        probability; {} when no request of the pass needs them."""
+        probability; {} when no request of the pass needs them. With a dict ``kept`` (a
+        footprint's paired film, :meth:`_lobe_extra`), each normal's parts (J, P, 3) are
+        filed there under the same names."""
         if not (self._lobes and strategies & {"brdf", "mis"}):
             return {}
         u = self._table("bsdf", fine)
         out, ps = {}, []
         for name, u1 in _LOBES:
-            acc = np.zeros((len(PARTS), len(u), 3))
-            for normal in normals:
+            acc = np.zeros((len(normals), len(PARTS), len(u), 3))
+            for k, normal in enumerate(normals):
                 rows = np.asarray(self.renderer.tangent_frame(normal.reshape(1, 3))[0])
                 wi = rows @ view
                 wo, weight, pdf = self._sample_lobe(wi, u, u1)
                 rad, pe = self._technique_values(wo, rows, weight)
-                accumulate_parts(acc, None, (rad, weight, pdf, pe), self._fractions("mis"),
+                accumulate_parts(acc[k], None, (rad, weight, pdf, pe), self._fractions("mis"),
                                  self.renderer.heuristic)
                 if name == "a":
                     ps.append(float(self.conductor.prob_specular(np.array([max(wi[2], 0.0)]))[0]
                                     if wi[2] > 0 else 0.0))
-            acc /= len(normals)
-            out[f"brdf_{name}"], out[f"mis_b{name}"] = acc[PARTS.index("brdf")], \
-                acc[PARTS.index("mis_b")]
+            for part, key in (("brdf", f"brdf_{name}"), ("mis_b", f"mis_b{name}")):
+                per = acc[:, PARTS.index(part)]
+                out[key] = per.mean(axis=0)
+                if kept is not None:
+                    kept[key] = per
         out["_p"] = float(np.mean(ps))
         return out
+
+    def _lobe_extra(self, r, vals: dict) -> np.ndarray:
+        """The MSE (C,) a pixel footprint adds to a two-lobe BSDF's ``brdf`` or ``mis``
+        stream under a paired film (:class:`._footprint.PairedFootprint`, as
+        :meth:`DiffuseModel._cell` for one lobe), simulated over the sampler's own film and
+        technique points: each BSDF sample takes lobe a where its stratified 1-D number
+        (:meth:`~._footprint.PairedFootprint.lobe_numbers`) is below the frame's p, its value
+        then the lobe's table at its cell (:func:`._footprint.paired_extra` over the two
+        tables side by side). Taken as randomly paired (:func:`._footprint.footprint_term`),
+        this term read 0.80 of the paired one for a GGX conductor on city (ldsampler,
+        1024 spp, 2 × 2 normals a pixel), and the rough plastic's MIS 0.74–0.80 of the
+        render (docs/validation.md)."""
+        kept, p = vals["_normals"], vals["_p"]
+        pairing = self._pairing(r)
+        e_call, b_call = self._calls(r)
+        prefix = "brdf_" if r.strategy == "brdf" else "mis_b"
+        a, b = kept[f"{prefix}a"], kept[f"{prefix}b"]
+        size = a.shape[1]
+        cells = pairing.cells(b_call, size) + size * (pairing.lobe_numbers() >= p)
+        mean = p * a.mean(axis=(0, 1)) + (1.0 - p) * b.mean(axis=(0, 1))
+        streams = [(np.concatenate([a, b], axis=1), cells, mean)]
+        if r.strategy == "mis":
+            e = kept["mis_e"]
+            streams.insert(0, (e, pairing.cells(e_call, e.shape[1]), None))
+        side = int(round(np.sqrt(a.shape[0])))
+        return paired_extra(streams, pairing.weights(side))[0]
 
     def _lobe_cell(self, r, vals: dict, grids: dict, fine: int):
         """(mse, emitter part, BSDF part, 2·cross) per channel of a two-lobe BSDF's request

@@ -380,14 +380,17 @@ class MicrofacetModel(LobeChoice, DiffuseModel):
         idx = {p: PARTS.index(p) for p in gbar}
         out = with_variances(gbar, {p: sums[:, i, 0] / size for p, i in idx.items()},
                              {p: sums[:, i, 1].sum(axis=0) / (j * size) for p, i in idx.items()})
+        lobes = self._lobe_values(strategies, foot, view, fine, kept)
         if kept:
             out["_normals"] = kept
-        return {**out, **self._lobe_values(strategies, foot, view, fine)}
+        return {**out, **lobes}
 
-    def _paired(self, r) -> bool:
-        """:meth:`DiffuseModel._paired`, but not for a rough plastic's sampled lobes (their
-        footprint keeps :func:`._footprint.footprint_term`)."""
-        return super()._paired(r) and not (self._two_lobes() and r.strategy != "map")
+    def _paired_extra(self, r, vals: dict) -> np.ndarray:
+        """:meth:`DiffuseModel._paired_extra`; a two-lobe BSDF's stream with its lobe choice
+        (:meth:`_lobe_extra`)."""
+        if self._two_lobes() and r.strategy != "map" and r.name in STRATIFIED_1D:
+            return self._lobe_extra(r, vals)
+        return super()._paired_extra(r, vals)
 
     @staticmethod
     def _named(acc: np.ndarray, strategies: set) -> dict:

@@ -363,8 +363,10 @@ SAMPLERS = {
         "ldsampler", "digital_shift", "same_net_permuted", _ld,
         "(van der Corput, Sobol' 2) (0,2)-net XOR-scrambled by ONE per-pixel shift "
         "sample_tea_32(seed, 0x98bc51ab) for every 2-D dimension; each dimension only "
-        "permutes the order (permute(index, N, seed + dimension)); spp -> square of a power "
-        "of two (min 4). " + _M + "ldsampler.cpp set_sample_count, next_2d",
+        "permutes the order (permute(index, N, seed + dimension)); next_1d is van der "
+        "Corput XOR its own scramble sample_tea_32(seed, 0x48bc48eb), also in its own order "
+        "(a lobe choice's number apart from the 2-D points); spp -> square of a power of two "
+        "(min 4). " + _M + "ldsampler.cpp set_sample_count, next_1d, next_2d",
         film_points=_ldsampler_points),
     "orthogonal": SamplerSpec(
         "orthogonal", "orthogonal", "joint_array", _orthogonal,
