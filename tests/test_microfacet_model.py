@@ -573,3 +573,26 @@ def test_rough_plastic_above_its_lobe_grid_is_the_finer_grids_exact_model(strate
     assert got.model_se is not None and got.model_se_parts[1] > 0
     tol = 3 * got.model_se_parts[1] + 0.05
     assert abs(got.rmse / want.rmse - 1) < tol, (got.rmse, want.rmse, tol)
+
+
+def test_rough_plastic_lobe_cells_alone_skip_the_mixture_with_the_same_numbers():
+    """A pass whose BSDF requests are all lobe cells (ldsampler, stratified) takes no sample
+    of the plastic's mixture (``_lobes_only``) and predicts, to the last bit, what a pass with
+    an independent-sampler request (which reads the mixture) predicts for the same cells."""
+    from envfit.shading.microfacet import RoughPlastic
+    n, v = band_frames(3, (0, 80), seed=4)
+
+    def model():
+        return MicrofacetModel(_sun_map(), MITSUBA, RoughPlastic("ggx", 0.2), (n, v),
+                               options=RendererModelOptions(max_level=5))
+    cells = [(s, smp, 64) for s in ("map", "brdf", "mis") for smp in ("ldsampler", "stratified")]
+    alone, mixed = model(), model()
+    calls = []
+    sample = alone._sample
+    alone._sample = lambda *a, **k: calls.append(1) or sample(*a, **k)
+    got = alone.predict_many(cells)
+    assert alone._lobes_only and not calls
+    want = mixed.predict_many(cells + [("brdf", "independent", 64)])[:len(cells)]
+    assert not mixed._lobes_only
+    for g, w in zip(got, want):
+        np.testing.assert_array_equal(g.mse, w.mse)

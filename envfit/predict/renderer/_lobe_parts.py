@@ -39,6 +39,9 @@ class LobeChoice:
     docstring): ``_lobes`` says whether the pass in progress needs the lobes' tables."""
 
     _lobes = False
+    #: the pass's BSDF-sampling requests are all lobe cells, without footprints: the mixture's
+    #: BSDF side (``MicrofacetModel._sides``) is read by none, so not taken
+    _lobes_only = False
 
     def _two_lobes(self) -> bool:
         return hasattr(self.conductor, "sample_square")

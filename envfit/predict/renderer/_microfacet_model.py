@@ -241,6 +241,8 @@ class MicrofacetModel(LobeChoice, DiffuseModel):
     def _run(self, todo: list, **kw) -> None:
         """:meth:`DiffuseModel._run`, with the lobes' tables when a request needs them."""
         self._lobes = self._lobe_requests(todo)
+        self._lobes_only = self._lobes and self.footprints is None and all(
+            r.name in STRATIFIED_1D for r in todo if r.strategy != "map")
         super()._run(todo, **kw)
 
     def _randomised_cell(self, r, vals: dict, grids: dict, fine: int, levels):
@@ -445,7 +447,7 @@ class MicrofacetModel(LobeChoice, DiffuseModel):
             tab = self._table("map", fine)
             fc, pb = self._eval_pdf(wi, tab.directions, rows)
             map_side = (tab.base, fc, pb, tab.pdf)
-        if strategies & {"brdf", "mis"}:
+        if strategies & {"brdf", "mis"} and not self._lobes_only:
             wo, weight, pdf = self._sample(wi, self._table("bsdf", fine),
                                            fine if isinstance(fine, int) else None)
             rad, pe = self._technique_values(wo, rows, weight)
@@ -459,5 +461,8 @@ class MicrofacetModel(LobeChoice, DiffuseModel):
         if len(frame) == 3:
             return self._footprint_parts(strategies, frame, fine)
         normal, view = frame
+        lobes = self._lobe_values(strategies, [normal], view, fine)
+        if self._lobes_only and not strategies & {"map", "mis"}:
+            return lobes                                # no side of the mixture is read
         return {**self._named(self._accumulated(strategies, [normal], view, fine)[0], strategies),
-                **self._lobe_values(strategies, [normal], view, fine)}
+                **lobes}
