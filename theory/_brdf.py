@@ -35,7 +35,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import special
 
 from envfit.theory._errors import TheoryParameterError, check_degree
 from envfit.theory._weight_function import (WeightFunction, ZonalWeight, gauss_legendre_01,
@@ -105,8 +104,8 @@ class Diffuse(WeightFunction):
             b[1] = 1.0 / math.sqrt(3 * math.pi)
         ev = l[(l >= 2) & (l % 2 == 0)].astype(np.float64)
         if ev.size:
-            logmag = (special.gammaln(ev - 1) - ev * math.log(2.0)
-                      - special.gammaln(ev / 2) - special.gammaln(ev / 2 + 2))
+            logmag = (_special().gammaln(ev - 1) - ev * math.log(2.0)
+                      - _special().gammaln(ev / 2) - _special().gammaln(ev / 2 + 2))
             sign = np.where((ev / 2 + 1) % 2 == 0, 1.0, -1.0)
             b[ev.astype(int)] = sign * np.sqrt((2 * ev + 1) / math.pi) * np.exp(logmag)
         return b
@@ -132,6 +131,13 @@ class Diffuse(WeightFunction):
             raise TheoryParameterError("morph: z' must lie in [0, 1]")
         return np.sqrt(zp)
 
+
+
+def _special():
+    """scipy.special, imported on first use (it costs ~0.3 s, and most callers of this module
+    only read its names)."""
+    from scipy import special
+    return special
 
 @dataclass(frozen=True, repr=False)
 class Glossy(WeightFunction):
@@ -198,7 +204,7 @@ class Glossy(WeightFunction):
             top = int(12.0 * math.sqrt(n)) + 64
             nu = np.arange(top + 1) + 0.5
             with np.errstate(under="ignore"):
-                rel = math.sqrt(math.pi * n) * special.ive(nu, 0.5 * n) / (-math.expm1(-n))
+                rel = math.sqrt(math.pi * n) * _special().ive(nu, 0.5 * n) / (-math.expm1(-n))
             above = np.nonzero(rel > 1e-15)[0]
             cache["D"] = int(above[-1]) if above.size else 0
         return cache["D"]
@@ -235,7 +241,7 @@ class Glossy(WeightFunction):
         kmax = int(n + 12.0 * math.sqrt(n) + 40)
         k = np.arange(kmax + 1)
         with np.errstate(under="ignore"):
-            c = (2 * k + 1) * math.sqrt(math.pi / (2.0 * n)) * special.ive(k + 0.5, n)
+            c = (2 * k + 1) * math.sqrt(math.pi / (2.0 * n)) * _special().ive(k + 0.5, n)
         nz = np.nonzero(c > 0.0)[0]
         K = int(nz[-1]) if nz.size else 0
         c, k = c[:K + 1], k[:K + 1]
@@ -270,7 +276,7 @@ class Glossy(WeightFunction):
         n = self.shininess
         nu = np.arange(lmax + 1) + 0.5
         with np.errstate(under="ignore"):        # far beyond √n: 0, as it is
-            return np.sqrt(n * nu) * special.ive(nu, n) / (-np.expm1(-n))
+            return np.sqrt(n * nu) * _special().ive(nu, n) / (-np.expm1(-n))
 
     def hsh_coefficients(self, lmax: int) -> np.ndarray:
         r"""Eq. 30 (exact): :math:`\tilde b_l = \frac{e^{-n/2}}{1-e^{-n}}\sqrt{n\nu}\,I_\nu(n/2)`, ν = l + ½."""
@@ -278,7 +284,7 @@ class Glossy(WeightFunction):
         n = self.shininess
         nu = np.arange(lmax + 1) + 0.5
         with np.errstate(under="ignore"):
-            return np.sqrt(n * nu) * special.ive(nu, 0.5 * n) / (-np.expm1(-n))
+            return np.sqrt(n * nu) * _special().ive(nu, 0.5 * n) / (-np.expm1(-n))
 
     def cdf(self, z):
         n = self.shininess
