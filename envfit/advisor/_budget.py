@@ -303,9 +303,7 @@ def _renderer_stages(pixels: int, opts, level: int, normals: int, max_spp: int) 
     pilot = 4 ** m.pilot_level
     foot = m.footprint_side ** 2 if opts.sphere_pixels is not None else 1
     fine = 4 ** (level + 1)
-    from envfit.predict.renderer.randomisation import STRATA_SAMPLED
-    drawn = not (opts.microfacet and rand in STRATA_SAMPLED)  # a lobe's frames: grid only
-    cap = spp_cap(rand, level, max_spp, m.shifts, sampled=drawn,
+    cap = spp_cap(rand, level, max_spp, m.shifts, sampled=opts.reaches_above(rand),
                   reach=m.reach if level == m.max_level else None)
     # Q·cap points: every sampled N reads its prefix of one table (_sampled_nets)
     shifted = (int(m.shifts * cap)

@@ -379,7 +379,7 @@ class RendererAdviseOptions:
                 if getattr(self, name) is None:
                     set_(self, name, value)
         if self.level is None:
-            set_(self, "level", default_level(randomisation, drawn=not self.microfacet))
+            set_(self, "level", default_level(randomisation, drawn=self.draws_strata))
         if self.normals is None:
             set_(self, "normals", DEFAULT_NORMALS)
         e = DEFAULT_MODEL_ERROR if self.model_error is None else self.model_error
@@ -423,6 +423,13 @@ class RendererAdviseOptions:
     @property
     def microfacet(self) -> bool:
         return self.bsdf != "diffuse"
+
+    @property
+    def draws_strata(self) -> bool:
+        """Whether the model draws a multi-jittered or orthogonal sampler's point sets above
+        its exact reach (``predict.renderer._drawn_strata``): on the diffuse surface, not
+        over a microfacet BSDF's frames, whose strata stay exact on the grid."""
+        return not self.microfacet
 
     @property
     def every_spp(self) -> bool:
@@ -541,9 +548,14 @@ class RendererAdviseOptions:
         largest its grid resolves without sampling, where the search's first pass stops)."""
         spec = self.record.sampler(self.sampler)
         m = self.model_options()
-        drawn = not (self.microfacet and spec.randomisation in STRATA_SAMPLED)  # no frames
         return spp_cap(spec.randomisation, self.level, self.max_spp, m.shifts,
-                       sampled=sampled and drawn, reach=m.reach)
+                       sampled=sampled and self.reaches_above(spec.randomisation),
+                       reach=m.reach)
+
+    def reaches_above(self, randomisation: str) -> bool:
+        """Whether the model goes above the grid's exact reach for ``randomisation``: nets
+        always (their power above sampled), strata where :attr:`draws_strata`."""
+        return self.draws_strata or randomisation not in STRATA_SAMPLED
 
     def key(self) -> dict:
         """What the predictions depend on besides the map (the cache key's part)."""

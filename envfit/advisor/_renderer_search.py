@@ -179,7 +179,7 @@ def search_model(envmap, opts, store: AdviseCache, target: float, listed,
         runnable = [n for n in runnable if n & (n - 1) == 0]
     cm = CachedRendererModel(envmap, opts, store, map_key(envmap, "linear"), technique)
     cm.stage = stage
-    drawn = spec.randomisation in STRATA_SAMPLED       # drawn point sets above the grid's
+    drawn = opts.draws_strata and spec.randomisation in STRATA_SAMPLED  # drawn above the grid
     answers = search_spp(cm, strategies or opts.strategies, runnable, target, listed,
                          independent=spec.randomisation == "independent",
                          first_cap=opts.spp_cap(sampled=False) if drawn else None)

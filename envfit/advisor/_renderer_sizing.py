@@ -214,7 +214,8 @@ def _final_reach(opts, a: StrategyAnswer, listed, error: float = 0.0) -> int | N
 def model_dict(opts, by: dict, answers: dict, pilot, cms) -> dict:
     """What the model was and what the searches ``cms`` cost (:attr:`RendererAdvice.model`)."""
     m = opts.model_options()
-    drawn = opts.record.sampler(opts.sampler).randomisation in STRATA_SAMPLED
+    rand = opts.record.sampler(opts.sampler).randomisation
+    drawn = opts.draws_strata and rand in STRATA_SAMPLED
     out = {"normals": m.normals, "unit": _unit(opts), "level": opts.level, "shifts": m.shifts,
            "draws_word": "drawn point sets" if drawn else "scrambles",
            "reach": m.reach,

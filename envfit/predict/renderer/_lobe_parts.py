@@ -99,10 +99,9 @@ class LobeChoice:
         technique points: each BSDF sample takes lobe a where its stratified 1-D number
         (:meth:`~._footprint.PairedFootprint.lobe_numbers`) is below the frame's p, its value
         then the lobe's table at its cell (:func:`._footprint.paired_extra` over the two
-        tables side by side). Taken as randomly paired (:func:`._footprint.footprint_term`),
-        this term read 0.80 of the paired one for a GGX conductor on city (ldsampler,
-        1024 spp, 2 × 2 normals a pixel), and the rough plastic's MIS 0.74–0.80 of the
-        render (docs/validation.md)."""
+        tables side by side), where :func:`._footprint.footprint_term` would take them as
+        randomly paired (on city at 1024 spp, 2 × 2 normals a pixel, the plastic's MIS
+        moved +3 %: docs/validation.md)."""
         kept, p = vals["_normals"], vals["_p"]
         pairing = self._pairing(r)
         e_call, b_call = self._calls(r)
