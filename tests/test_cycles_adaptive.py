@@ -14,7 +14,8 @@ from envfit.maps import EnvMap
 from envfit.predict.renderer import DiffuseModel, RendererModelOptions
 from envfit.predict.renderer._adaptive import AdaptiveModel, AdaptiveOptions
 from envfit.renderers import get_renderer
-from envfit.renderers.cycles._adaptive import (CYCLES_ADAPTIVE, class_a, nested_uniform_scramble,
+from envfit.renderers.cycles._adaptive import CYCLES_ADAPTIVE
+from envfit.renderers.cycles._patterns import (class_a, nested_uniform_scramble,
                                                table_size, tabulated_sobol_tables)
 
 
@@ -91,16 +92,19 @@ def _sunny(h: int = 16) -> EnvMap:
     return EnvMap(data.astype(np.float32), up="y")
 
 
-def test_the_draws_at_a_fixed_spp_agree_with_the_exact_owen_model():
+@pytest.mark.parametrize("sampler", ["tabulated_sobol", "blue_noise"])
+def test_the_draws_at_a_fixed_spp_agree_with_the_fixed_spp_model(sampler):
+    """Tabulated Sobol against the exact Owen model; blue noise against the fixed-spp model's
+    own drawn runs (a run of length 256's first 2^m samples is an aligned 2^m-run)."""
     env, cyc = _sunny(), get_renderer("cycles")
-    m = AdaptiveModel(env, cyc, samples=256, options=AdaptiveOptions(normals=8, pool=64,
-                                                                    realizations=100, level=7))
+    m = AdaptiveModel(env, cyc, samples=256, sampler=sampler,
+                      options=AdaptiveOptions(normals=8, pool=64, realizations=100, level=7))
     exact = DiffuseModel(env, cyc, options=RendererModelOptions(normals=8, pool=64,
                                                                 max_level=7))
     assert np.allclose(m.normals, exact.normals)      # one proposal: the same normals
     p = m.predict(0.01)
     for n in (16, 64, 256):
-        ref = exact.predict("mis", "tabulated_sobol", n).rmse
+        ref = exact.predict("mis", sampler, n).rmse
         assert p.fixed[n] == pytest.approx(ref, rel=0.15), n
 
 
@@ -141,8 +145,8 @@ def test_refusals_are_one_line():
     env = _sunny(8)
     with pytest.raises(ParameterError, match="no adaptive sampling"):
         AdaptiveModel(env, get_renderer("mitsuba3"))
-    with pytest.raises(ParameterError, match="tabulated_sobol"):
-        AdaptiveModel(env, get_renderer("cycles"), sampler="blue_noise")
+    with pytest.raises(ParameterError, match="tabulated_sobol and blue_noise only"):
+        AdaptiveModel(env, get_renderer("cycles"), sampler="sobol_burley")
     with pytest.raises(ParameterError, match="threshold"):
         CYCLES_ADAPTIVE.settings(-1.0)
     with pytest.raises(ParameterError, match="samples"):
@@ -198,7 +202,8 @@ def test_advise_writes_the_adaptive_contract_and_says_its_numbers(capsys, tmp_pa
 
 @pytest.mark.parametrize("args, words", [
     (("--adaptive-min-samples", "8"), "--adaptive-min-samples needs --adaptive-threshold"),
-    (("--adaptive-threshold", "0.01", "--sampler", "blue_noise"), "tabulated_sobol pattern only"),
+    (("--adaptive-threshold", "0.01", "--sampler", "sobol_burley"),
+     "tabulated_sobol and blue_noise patterns only"),
     (("--adaptive-threshold", "-1"), "--adaptive-threshold"),
 ])
 def test_advise_adaptive_refusals_are_one_line(capsys, tmp_path, args, words):

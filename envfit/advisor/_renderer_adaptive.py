@@ -82,7 +82,7 @@ def check_adaptive(renderer: str, sampler: str | None, strategies, threshold: fl
                              f"(--adaptive-threshold)")
     if sampler is not None and sampler not in rule.samplers:
         raise ParameterError(f"{rec.possessive} {rule.name} is modelled for the "
-                             f"{', '.join(rule.samplers)} pattern only, not --sampler {sampler}")
+                             f"{' and '.join(rule.samplers)} patterns only, not --sampler {sampler}")
     if strategies and strategies[0] not in ("mis", "brdf"):
         raise ParameterError(f"{rule.name} is modelled for the strategies mis and brdf, not "
                              f"{strategies[0]}")

@@ -48,7 +48,7 @@ from envfit.advisor._prediction import mean_shading_value
 from envfit.advisor._renderer_options import (DEFAULT_LEVEL, DEFAULT_MAX_SPP, DEFAULT_NORMALS,
                                             SIZED_RANDOMISATIONS, STRATA_CAP,
                                             STRATEGY_WORDS, RendererAdviseOptions, spp_cap)
-from envfit.predict.renderer.randomisation import STRATA_SAMPLED
+from envfit.predict.renderer.randomisation import ALWAYS_DRAWN, STRATA_SAMPLED
 from envfit.advisor._renderer_search import StrategyAnswer, next_runnable, switched_strategy
 from envfit.advisor._renderer_sizing import (below_words, model_dict, model_error_lines,
                                            sized_search)
@@ -261,6 +261,9 @@ class RendererAdvice:
         if nxt > o.max_spp:
             return "raise --nmax or relax the target"
         rand = spec.randomisation
+        if rand in ALWAYS_DRAWN and o.spp_cap() == min(STRATA_CAP, o.max_spp):
+            return (f"the model predicts {o.sampler} to {STRATA_CAP} spp (its runs of the "
+                    f"shared sequence drawn at every spp); {nxt} spp is beyond it")
         if rand in STRATA_SAMPLED and o.spp_cap() == min(STRATA_CAP, o.max_spp):
             return (f"the model predicts {o.sampler} to {STRATA_CAP} spp (exactly to "
                     f"{o.spp_cap(sampled=False)} spp at grid level {o.level}, from drawn "

@@ -56,7 +56,7 @@ from envfit.base import EnvfitError, ParameterError
 from envfit.defaults import FOOTPRINT_SIDE, MICROFACET_BSDFS, MICROFACET_FRAMES_SEED
 from envfit.maps import EnvMap
 from envfit.predict.renderer import RendererModelOptions, cell_request, strata_reach
-from envfit.predict.renderer.randomisation import STRATA_SAMPLED
+from envfit.predict.renderer.randomisation import ALWAYS_DRAWN, STRATA_SAMPLED
 from envfit.renderers import ROUGHNESS_RTOL, STRATEGY_NAMES, get_renderer
 
 __all__ = ["RendererAdviseOptions", "PresetAdviseOptions", "STRATEGY_WORDS", "DEFAULT_MAX_SPP",
@@ -133,6 +133,7 @@ def spp_cap(randomisation: str, level: int, max_spp: int,
     net = max(1 << (level - 1), (reach or 4 ** (level + 1) // shifts) * sampled)  # above M/2
     strata = STRATA_CAP if sampled else strata_reach("cmj", level)       # drawn above
     top = {"digital_shift": net, "owen": net, "cmj": strata, "orthogonal": strata,
+           "shared_sequence": strata,
            "cp_shift": max(1, 1 << max(level - 3, 0)),
            "jittered": 4 ** level}
     return int(min(max_spp, top.get(randomisation, max_spp)))
@@ -554,8 +555,10 @@ class RendererAdviseOptions:
 
     def reaches_above(self, randomisation: str) -> bool:
         """Whether the model goes above the grid's exact reach for ``randomisation``: nets
-        always (their power above sampled), strata where :attr:`draws_strata`."""
-        return self.draws_strata or randomisation not in STRATA_SAMPLED
+        always (their power above sampled), a shared sequence's runs always (drawn at every
+        N), strata where :attr:`draws_strata`."""
+        return (self.draws_strata or randomisation not in STRATA_SAMPLED
+                or randomisation in ALWAYS_DRAWN)
 
     def key(self) -> dict:
         """What the predictions depend on besides the map (the cache key's part)."""

@@ -37,7 +37,7 @@ from envfit.advisor._cache import AdviseCache
 from envfit.advisor._renderer_search import (StrategyAnswer, answer_error, search_model,
                                            switched_strategy)
 from envfit.base import memory_budget_bytes
-from envfit.predict.renderer.randomisation import STRATA_SAMPLED
+from envfit.predict.renderer.randomisation import ALWAYS_DRAWN, STRATA_SAMPLED
 
 __all__ = ["NORMALS", "SHIFTS", "BUDGET", "pass_points", "sized_options", "predicted_error",
            "sized_search", "model_dict", "model_error_lines", "miss_words", "spp_span",
@@ -217,7 +217,8 @@ def model_dict(opts, by: dict, answers: dict, pilot, cms) -> dict:
     rand = opts.record.sampler(opts.sampler).randomisation
     drawn = opts.draws_strata and rand in STRATA_SAMPLED
     out = {"normals": m.normals, "unit": _unit(opts), "level": opts.level, "shifts": m.shifts,
-           "draws_word": "drawn point sets" if drawn else "scrambles",
+           "draws_word": ("drawn runs" if rand in ALWAYS_DRAWN else "drawn point sets")
+           if drawn else "scrambles",
            "reach": m.reach,
            "model_error_target": opts.model_error,
            "model_se": {s: answer_error(by[s], a) for s, a in answers.items()},

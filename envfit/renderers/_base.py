@@ -42,9 +42,10 @@ __all__ = ["RANDOMISATIONS", "PAIRINGS", "STRATEGY_NAMES", "DirectionSample",
 #: i.i.d. points; r×r (or x×y) jittered strata with fresh jitter; Kensler's correlated
 #: multi-jittering; a random XOR (digital) shift of a (0, 2)-net; nested uniform (Owen)
 #: scrambling of a Sobol' net; a Cranley–Patterson rotation of a fixed point set; a
-#: randomised orthogonal array; random digit permutations (Halton: outside the issue's list)
+#: randomised orthogonal array; runs of one fixed scrambled sequence shared by all pixels
+#: (drawn); random digit permutations (Halton: outside the issue's list)
 RANDOMISATIONS = ("independent", "jittered", "cmj", "digital_shift", "owen", "cp_shift",
-                  "orthogonal", "digit_permutation")
+                  "orthogonal", "shared_sequence", "digit_permutation")
 
 #: how the emitter's and the BSDF's 2-D samples of one pixel relate: independently
 #: randomised dimensions; the same randomised net in two orders (Mitsuba ``ldsampler``);

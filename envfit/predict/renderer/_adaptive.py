@@ -201,7 +201,7 @@ class AdaptiveModel:
         self.sampler = sampler or rule.samplers[0]
         if self.sampler not in rule.samplers:
             raise ParameterError(f"{renderer.possessive} {rule.name} is modelled for "
-                                 f"{', '.join(rule.samplers)} only, not {self.sampler!r}")
+                                 f"{' and '.join(rule.samplers)} only, not {self.sampler!r}")
         if sphere_pixels is not None and (isinstance(sphere_pixels, bool) or not isinstance(
                 sphere_pixels, (int, np.integer)) or not 4 <= sphere_pixels <= 1 << 16):
             raise ParameterError(f"sphere_pixels must be an integer from 4 to {1 << 16}, got "

@@ -61,8 +61,8 @@ def grid_level(randomisation: str, n: int, max_level: int) -> int:
         want = (n - 1).bit_length() + 1
     # M >= N (the CP shift's box: M >= 4) unless the power above the grid is sampled (or the
     # point sets drawn above the grid's reach: randomisation._strata_samples)
-    sampled = randomisation in ("independent", "jittered", "cmj", "orthogonal") + \
-        tuple(SAMPLE_TAG)
+    sampled = randomisation in ("independent", "jittered", "cmj", "orthogonal",
+                                "shared_sequence") + tuple(SAMPLE_TAG)
     floor = max(0 if sampled else (n - 1).bit_length(), 2 * (randomisation == "cp_shift"))
     return max(1, floor, min(int(max_level), want))
 
@@ -115,6 +115,8 @@ def cell_request(renderer, options, strategy: str, sampler: str,
     opts = opts_b = ()
     if name in _PLAIN:
         opts = opts_b = spec.model_options(n) or _PLAIN[name]
+    elif name == "shared_sequence":                 # the same runs, each request's own
+        opts, opts_b = (spec.model_options(n) + (("stream", t),) for t in ("light", "bsdf"))
     elif name == "orthogonal":
         if s.dimensions is None:
             raise ParameterError(f"{renderer.name} does not say at which dimensions "

@@ -59,7 +59,8 @@ from envfit.predict.renderer._integrand_tables import (BsdfTable, MapTable, bsdf
 from envfit.predict.renderer._cell_request import (CellRequest, grid_level, cell_request,
                                                      samples_above)
 from envfit.predict.renderer._sampled_nets import SAMPLE_TAG, SampledNets, curve_parts
-from envfit.predict.renderer.randomisation import DyadicGrid, mis_mse, randomised_mse
+from envfit.predict.renderer.randomisation import (ALWAYS_DRAWN, DyadicGrid, mis_mse,
+                                                   randomised_mse)
 from envfit.predict.renderer._drawn_strata import DrawnStrata, geometric
 from envfit.theory import spherical_fibonacci_sphere
 
@@ -264,6 +265,9 @@ class DiffuseModel(DrawnStrata):
         anchors = {a for r in between for a in self._anchors(r)}
         todo = list({r for r in reqs if r not in self._cache and r not in between}
                     | {a for a in anchors if a not in self._cache})
+        if todo:                                # a shared sequence's whole bracket of N
+            todo += [r for r in self._drawn_brackets(todo) if r not in self._cache
+                     and r not in todo]
         nets = {r for r in between if not self._drawn_strata(r)}    # prefix variances
         want = {r.strategy: r.shared for r in nets}
         top = max((a.n for r in nets for a in self._anchors(r)), default=0)
@@ -305,7 +309,7 @@ class DiffuseModel(DrawnStrata):
         or a drawn stratified cell's (:meth:`_drawn_strata`) between the spp its sampler runs
         at powers of two (:meth:`_strata_anchors`)."""
         if self._drawn_strata(r):
-            return r.n not in self._strata_anchors(r)
+            return r.name not in ALWAYS_DRAWN and r.n not in self._strata_anchors(r)
         return self._prefix_net(r) and r.n & (r.n - 1) != 0
 
     def _anchors(self, r: CellRequest) -> tuple[CellRequest, CellRequest]:
@@ -387,6 +391,7 @@ class DiffuseModel(DrawnStrata):
         strategies = {r.strategy for r in todo} | set(curve_strategies or ())
         levels = {r.level for r in todo} or {self.options.max_level}
         self._keep = {p for r in todo if self._paired(r) for p in _STREAMS[r.strategy]}
+        self._plan_drawn(todo)
         self.nets.plan([r for r in todo if samples_above(r.name, r.n, r.level)], curve_top,
                        curve_strategies)
         self.runs += 1

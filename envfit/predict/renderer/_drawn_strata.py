@@ -1,5 +1,6 @@
-r"""The renderer model's drawn stratified cells: correlated multi-jittering and orthogonal
-arrays above the N their exact models reach, as a part of :class:`._diffuse_model.DiffuseModel`.
+r"""The renderer model's drawn cells: correlated multi-jittering and orthogonal arrays above
+the N their exact models reach, and a shared sequence's runs (blue noise) at every N, as a part
+of :class:`._diffuse_model.DiffuseModel`.
 
 The exact models (``randomisation._cmj``, ``._orthogonal``) sum over the N × N fine cells of
 the grid, so the model takes them to N = 2^L, at most 1024 (:func:`strata_reach`). Above, a
@@ -13,8 +14,11 @@ same sets serve every normal, so the sets' error is added over the normals draw 
 (:func:`._model_error.draws_error`) and reported with the normals' own.
 
 Between the spp the sampler runs at powers of two (:meth:`DrawnStrata._strata_anchors`; the
-search's coarse pass asks for exactly those) a cell is the anchors' local power law
-(:func:`geometric`): a search's bracket costs no new draws.
+search's coarse pass asks for exactly those) a stratified cell is the anchors' local power law
+(:func:`geometric`): a search's bracket costs no new draws. A shared sequence's runs
+(``randomisation._shared_sequence``) are drawn at every N: a run that straddles aligned
+blocks is not between its neighbours (it is a union of smaller nets); its two streams are
+the same pixels' runs, so the variance of their sum is drawn, cross term included.
 
 Checked: a drawn cell equals the exact cell at the same N within its reported error
 (``tests/test_randomisation_strata_samples.py``), and a renderer's multi-jittered and
@@ -30,7 +34,7 @@ import numpy as np
 
 from envfit.predict.renderer._integrand_tables import (BsdfTable, MapTable, bsdf_values,
                                                        map_values)
-from envfit.predict.renderer.randomisation import (STRATA_SAMPLED, sampled_strata_mse,
+from envfit.predict.renderer.randomisation import (ALWAYS_DRAWN, STRATA_SAMPLED, sampled_mse,
                                                    strata_points)
 
 if TYPE_CHECKING:                                   # annotations only (no import cycle)
@@ -53,9 +57,13 @@ def strata_reach(randomisation: str, level: int) -> int:
     grid ``level`` (the fine cells on the grid, their O(N²) sums at most 1024²); above it the
     renderer model draws their point sets (:mod:`.randomisation._strata_samples`).
 
+    A shared sequence's runs (``shared_sequence``) have no exact model: drawn at every N.
+
     >>> strata_reach("cmj", 9), strata_reach("orthogonal", 7), strata_reach("owen", 9)
     (512, 128, 0)
     """
+    if randomisation in ALWAYS_DRAWN:
+        return 0
     return min(1 << int(level), 1024) if randomisation in STRATA_SAMPLED else 0
 
 
@@ -105,39 +113,133 @@ class DrawnStrata:
         return (self.draws_strata and r.name in STRATA_SAMPLED
                 and r.n > strata_reach(r.name, r.level))
 
+    _STREAM_PARTS = {"map": (("e", "map"),), "brdf": (("b", "brdf"),),
+                     "mis": (("e", "mis_e"), ("b", "mis_b"))}
+
     def _strata_cell(self, r: CellRequest, grids: dict):
-        """(mse, map part, BSDF part, 0) per channel of a drawn stratified cell at one normal:
-        each stream's variance over Q draws of the sampler's point sets
-        (:mod:`.randomisation._strata_samples`); the streams' permutations are independent, so
-        their variances add. The per-draw terms go to ``grids`` for :meth:`_draws`."""
-        streams = {"map": (("e", "map"),), "brdf": (("b", "brdf"),),
-                   "mis": (("e", "mis_e"), ("b", "mis_b"))}[r.strategy]
-        out = {"e": 0.0, "b": 0.0}
-        per_draw = 0.0
-        for stream, part in streams:
-            mse, z = sampled_strata_mse(self._strata_values(grids, r, stream)[part])
-            out[stream], per_draw = mse, per_draw + z
-        grids["strata_draws", r] = per_draw
-        e, b = (np.asarray(out[k]) * np.ones(1) for k in ("e", "b"))
+        """(mse, map part, BSDF part, 2·cross) per channel of a drawn cell at one normal: each
+        stream's variance over Q draws of the sampler's point sets
+        (:mod:`.randomisation._strata_samples`). Stratified streams' permutations are
+        independent, so their variances add; a shared sequence's streams are the same
+        pixels' runs (:meth:`_stream_seed`), so the variance is the sum's, its cross term
+        measured (:meth:`_shared_cells`, all N of a class at once). The per-draw terms go to
+        ``grids`` for :meth:`_draws`."""
+        if r.name in ALWAYS_DRAWN:
+            return self._shared_cells(r, grids)[r]
+        means = {s: self._strata_values(grids, r, s)[part]
+                 for s, part in self._STREAM_PARTS[r.strategy]}
+        out = {s: sampled_mse(f) for s, f in means.items()}
+        grids["strata_draws", r] = sum(z for _, z in out.values())
+        zero = np.zeros(1)
+        e, b = (out[s][0] * np.ones(1) if s in out else zero for s in ("e", "b"))
         e, b = np.broadcast_arrays(e, b)
         return e + b, e, b, np.zeros_like(e)
 
-    def _strata_values(self, grids: dict, r: CellRequest, stream: str) -> dict:
-        """The parts of ``stream`` (``e``: ``map``, ``mis_e``; ``b``: ``brdf``, ``mis_b``) at
-        one normal (a footprint's: their mean over its normals) at the drawn point sets of
-        ``r``, (Q, N, C) each; the points and the technique's table once per pass."""
-        opts = r.options if stream == "e" else r.options_b
-        key = ("strata", r.name, r.n, opts, stream)
+    def _shared_cells(self, r: CellRequest, grids: dict) -> dict:
+        """The results (as :meth:`_strata_cell`) at one normal of every cell of ``r``'s
+        strategy, sampler and class of runs in the pass (:meth:`_plan_drawn`): each N's
+        estimates are the runs' prefix means, vectorised over the class's N."""
+        key = ("shared cells", r.strategy, r.sampler, dict(r.options)["points"].step(r.n))
         if key in grids:
             return grids[key]
+        cells = [c for c in self._class_cells.get(key[1:], ()) if c.n <= self._run_key(
+            r, "e" if r.strategy != "brdf" else "b")[2]] or [r]
+        ns = np.array([c.n for c in cells])
+        f = {}
+        for stream, part in self._STREAM_PARTS[r.strategy]:
+            cums = self._strata_values(grids, r, stream, prefix=True)[part]     # (Q, L, C)
+            f[stream] = cums[:, ns - 1, :] / ns[None, :, None]                  # (Q, K, C)
+        q = next(iter(f.values())).shape[0]
+
+        def var(x):
+            d2 = (x - x.mean(axis=0)) ** 2 * (q / (q - 1.0))
+            return d2.mean(axis=0), d2.mean(axis=2)                  # (K, C), (Q, K)
+
+        tot, z = var(sum(f.values()))
+        ve, vb = (var(f[s])[0] if s in f else np.zeros_like(tot) for s in ("e", "b"))
+        out = {}
+        for k, c in enumerate(cells):
+            grids["strata_draws", c] = z[:, k]
+            out[c] = (tot[k], ve[k], vb[k], tot[k] - ve[k] - vb[k])
+        grids[key] = out
+        return out
+
+    def _stream_seed(self, r: CellRequest, stream: str) -> int:
+        """The seed of a stream's draws: a shared sequence's streams draw the same pixels
+        (one seed), stratified streams independent sets."""
+        return self.options.seed + (stream == "b" and r.name not in ALWAYS_DRAWN)
+
+    def _plan_drawn(self, todo) -> None:
+        """A pass's shared-sequence runs: per (request's options, start spacing) the longest N
+        asked, the length its runs are drawn to (:meth:`_run_key`); per (strategy, sampler,
+        spacing) the cells they serve (:meth:`_shared_cells`)."""
+        self._run_lengths, self._class_cells = {}, {}
+        for r in todo:
+            if self._drawn_strata(r) and r.name in ALWAYS_DRAWN:
+                step = dict(r.options)["points"].step(r.n)
+                for opts in {r.options, r.options_b}:
+                    k = (opts, step)
+                    self._run_lengths[k] = max(self._run_lengths.get(k, 0), r.n)
+                self._class_cells.setdefault((r.strategy, r.sampler, step), []).append(r)
+
+    def _drawn_brackets(self, reqs) -> list:
+        """The requests a shared sequence's cells bring along: every N between the powers of
+        two around a requested N (:meth:`_plan_drawn` draws their runs once: the prefixes of
+        one class's runs give all of them, so a search's later passes find them cached)."""
+        extra = set()
+        for r in reqs:
+            if (self._drawn_strata(r) and r.name in ALWAYS_DRAWN and r.n & (r.n - 1)
+                    and ("bracket", r.strategy, r.sampler, r.n.bit_length()) not in extra):
+                extra.add(("bracket", r.strategy, r.sampler, r.n.bit_length()))
+                lo = 1 << (r.n.bit_length() - 1)
+                extra.update(self.request(r.strategy, r.sampler, n)
+                             for n in range(lo + 1, 2 * lo))
+        return [x for x in extra if not isinstance(x, tuple)]
+
+    def _run_key(self, r: CellRequest, stream: str) -> tuple:
+        """(the table key, Q, the run length L, the runs' spacing) of ``r``'s stream: a
+        shared sequence's class of runs (its starts' spacing, :meth:`_plan_drawn`'s length),
+        else the cell's own Q point sets of N."""
+        opts = r.options if stream == "e" else r.options_b
+        if r.name not in ALWAYS_DRAWN:
+            return ("strata", r.name, r.n, opts, stream), strata_draws(r.n), r.n, None
+        step = dict(opts)["points"].step(r.n)
+        length = max(r.n, getattr(self, "_run_lengths", {}).get((opts, step), 0))
+        return (("runs", r.name, step, length, opts, stream), strata_draws(length), length,
+                step)
+
+    def _strata_values(self, grids: dict, r: CellRequest, stream: str, *,
+                       prefix: bool = False) -> dict:
+        """The draws' estimates (Q, C) of the parts of ``stream`` (``e``: ``map``, ``mis_e``;
+        ``b``: ``brdf``, ``mis_b``) at one normal (a footprint's: their mean over its
+        normals) at the drawn point sets of ``r``; the points and the technique's table once
+        per pass. With ``prefix`` (a shared sequence's runs, which serve every N of their
+        class): each part's prefix sums along the runs (Q, L, C), each computed once per
+        normal on first use."""
+        key, q, length, step = self._run_key(r, stream)
+        if key not in grids:
+            grids[key] = self._drawn_parts(key, q, length, step, r, stream, grids["normal"])
+        parts = grids[key]
+        if not prefix:
+            return {k: v.mean(axis=1) for k, v in parts.items()}
+        sums = grids.setdefault(("prefix",) + key, {})
+        return _PrefixSums(parts, sums)
+
+    def _drawn_parts(self, key, q: int, length: int, step, r: CellRequest, stream: str,
+                     normal) -> dict:
+        """The parts of ``stream`` at the drawn points of ``key`` at one normal (Q, L, C)."""
         if key not in self._tables:
-            q = strata_draws(r.n)
-            u = strata_points(r.name, r.n, q, self.options.seed + (stream == "b"),
-                              **dict(opts)).reshape(-1, 2)
-            self._tables[key] = (q, MapTable.at(self.technique, u) if stream == "e"
+            opts = dict(r.options if stream == "e" else r.options_b)
+            if step is None:
+                u = strata_points(r.name, r.n, q, self._stream_seed(r, stream), **opts)
+            else:
+                u = opts["points"].runs(step, length, q,
+                                        np.random.default_rng(self._stream_seed(r, stream)),
+                                        opts.get("stream", "light"))
+            u = u.reshape(-1, 2)
+            self._tables[key] = (MapTable.at(self.technique, u) if stream == "e"
                                  else BsdfTable.at(self.renderer, u))
-        q, table = self._tables[key]
-        normal = grids["normal"]
+        table = self._tables[key]
         normals = normal[1] if isinstance(normal, tuple) else [normal]
         fr = self._fractions("mis")
         acc = {}
@@ -149,6 +251,20 @@ class DrawnStrata:
                 h, w = bsdf_values(self.technique, self.renderer, table, x, fr)
                 vals = {"brdf": h, "mis_b": h * w[:, None]}
             for k, v in vals.items():
-                acc[k] = acc.get(k, 0.0) + v / len(normals)
-        grids[key] = {k: v.reshape(q, r.n, -1) for k, v in acc.items()}
-        return grids[key]
+                acc[k] = v if k not in acc else acc[k] + v
+        k = len(normals)
+        return {p: (v if k == 1 else v / k).reshape(q, length, -1) for p, v in acc.items()}
+
+
+class _PrefixSums(dict):
+    """A part's prefix sums along the runs (Q, L, C), computed on first access and kept in
+    ``sums`` (the normal's cache)."""
+
+    def __init__(self, parts: dict, sums: dict):
+        super().__init__()
+        self._parts, self._sums = parts, sums
+
+    def __missing__(self, part: str) -> np.ndarray:
+        if part not in self._sums:
+            self._sums[part] = np.cumsum(self._parts[part], axis=1)
+        return self._sums[part]

@@ -11,14 +11,17 @@ only), which the model does not cover; bpy 5.3.0 was checked by rendering
   bit the numpy form).
 * **Integrator** ``path`` at 1 bounce — light and BSDF samples combined by the power
   heuristic; emitter-only sampling is not renderable (the record's strategies).
-* **Samplers** — ``tabulated_sobol`` (the factory default), ``blue_noise``, ``sobol_burley``:
+* **Samplers** — ``tabulated_sobol`` (the factory default) and ``sobol_burley``:
   Owen-scrambled Sobol' prefixes, any spp (``_background.SAMPLERS``): the ``owen`` model, the
   record's ``prefix`` (the sample index shuffled by ``nested_uniform_scramble``). Cycles
   scrambles with a hash (``intern/cycles/kernel/sample/util.h``: ``nested_uniform_scramble`` =
   bit reversal, ``reversed_bit_owen`` — Vegdahl's improved Laine–Karras hash — and reversal
   back; ``sobol_burley.h`` seeds it per pixel and dimension; ``tabulated_sobol.h`` reads 256
   tables scrambled so), which the model takes as nested uniform scrambling; the light's and the
-  BSDF's dimensions are scrambled apart (pairing ``independent``).
+  BSDF's dimensions are scrambled apart (pairing ``independent``). ``blue_noise`` (what
+  *Automatic* renders a final frame with) is not per pixel: one sequence with fixed-seed
+  scrambles, each pixel a run of it (``_patterns``: :data:`~._patterns.BLUE_NOISE`), the
+  ``shared_sequence`` randomisation, drawn at every spp.
 * **BSDFs** — white ``diffuse`` (:func:`cycles_frame`); in ``_bsdf`` (the record's ``bsdf``,
   ``roughness``): Glossy GGX / Beckmann (:class:`envfit.shading.microfacet.Conductor` with
   height-correlated G, the ``hemisphere_concentric`` visible-normal warp —

@@ -1,7 +1,7 @@
 r"""Cycles' adaptive sampling as its source runs it (blender/cycles @ v5.0.0; the same code in
-Blender 5.0.1 and on its main branch of 2026-07), and the points a pixel of the Tabulated
-Sobol pattern draws — everything the adaptive model
-(:mod:`envfit.predict.renderer._adaptive`) needs of Cycles.
+Blender 5.0.1 and on its main branch of 2026-07) — everything the adaptive model
+(:mod:`envfit.predict.renderer._adaptive`) needs of Cycles but its patterns' points
+(:mod:`._patterns`).
 
 **The settings** (``src/scene/integrator.cpp``: ``Integrator::get_adaptive_sampling``).
 Blender's *Noise Threshold* τ (default 0.01; 0 = automatic: max(0.001, 1/samples)) and *Min
@@ -31,16 +31,10 @@ and the pixel has converged when e < 5τ.
 3 × 3 neighbourhood holds an unconverged pixel is marked unconverged, so a pixel stops at the
 first test where it and its eight neighbours pass (each of them sampled as long as it was).
 
-**The points** (``src/kernel/sample/tabulated_sobol.h``, ``src/scene/tabulated_sobol.cpp``):
-256 tables (``NUM_TAB_SOBOL_PATTERNS``) of L = clamp(next power of two of samples − 1, 256,
-8192) 4-D points made by ``tabulated_sobol_generate_4D`` (Helmer, Christensen & Kensler);
-sample s of a pixel's request of dimension d reads table ``hash_shuffle_uint(d, 256, seed)``
-at ``nested_uniform_scramble(s, hash_wang_seeded_uint(d, seed)) & (L − 1)``, seed the pixel's
-hash. The light's and the BSDF's 3-D requests (``PRNG_LIGHT``, ``PRNG_SURFACE_BSDF``) take
-their (x, y) from the table's dimensions 0, 1, from two different tables, each index order
-scrambled with its own seed: :meth:`CyclesAdaptive.points` draws both for random pixel hashes.
-The generator is transcribed in float32 / uint32 as the source computes it
-(``bench/cycles_tabulated_sobol_nets.py`` checks its nets).
+**The points** of each pixel's film, light and BSDF requests under its pattern — Tabulated
+Sobol (a random table and order per pixel and request) or blue noise (the pixel's run of one
+fixed sequence, the run as long as Max Samples: ``blue_noise_sequence_length`` is the render's
+samples) — are :mod:`envfit.renderers.cycles._patterns`'.
 
 Example
 -------
@@ -51,123 +45,17 @@ Example
 """
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from envfit.base import ParameterError
+from envfit.renderers.cycles._patterns import class_a, pattern_points
 
-__all__ = ["AdaptiveSettings", "CyclesAdaptive", "CYCLES_ADAPTIVE", "tabulated_sobol_tables",
-           "nested_uniform_scramble", "class_a"]
+__all__ = ["AdaptiveSettings", "CyclesAdaptive", "CYCLES_ADAPTIVE"]
 
-U32 = np.uint32
 _SRC = "blender/cycles @ v5.0.0 "
-
-#: ``tabulated_sobol_generate_4D``'s xor tables of dimensions 0 and 1
-_XORS = (
-    (0,) * 32,
-    (0x00000000, 0x00000001, 0x00000001, 0x00000007, 0x00000001, 0x00000013, 0x00000015,
-     0x0000007f, 0x00000001, 0x00000103, 0x00000105, 0x0000070f, 0x00000111, 0x00001333,
-     0x00001555, 0x00007fff, 0x00000001, 0x00010003, 0x00010005, 0x0007000f, 0x00010011,
-     0x00130033, 0x00150055, 0x007f00ff, 0x00010101, 0x01030303, 0x01050505, 0x070f0f0f,
-     0x01111111, 0x13333333, 0x15555555, 0x7fffffff),
-)
-#: ``NUM_TAB_SOBOL_PATTERNS``, ``MIN_TAB_SOBOL_SAMPLES``, ``MAX_TAB_SOBOL_SAMPLES``
-#: (``src/kernel/types.h``)
-PATTERNS, MIN_TABLE, MAX_TABLE = 256, 256, 8192
-
-
-def _hash_hp_uint(i):
-    """``hash_hp_uint`` (``src/util/hash.h``), elementwise on uint32."""
-    with np.errstate(over="ignore"):
-        i = np.asarray(i, dtype=U32)
-        i = i ^ (i >> U32(16))
-        i = i * U32(0x21F0AAAD)
-        i = i ^ (i >> U32(15))
-        i = i * U32(0xD35A2D97)
-        i = i ^ (i >> U32(15))
-        return i ^ U32(0xE6FE3BEB)
-
-
-def _hash_hp_float(i) -> np.ndarray:
-    """``hash_hp_float``: ``uint_to_float_excl(hash_hp_uint(i))`` in float32."""
-    return (_hash_hp_uint(i).astype(np.float32) * np.float32(1.0 / 4294967808.0))
-
-
-def _reverse_bits(x: np.ndarray) -> np.ndarray:
-    """``reverse_integer_bits`` on uint32."""
-    x = np.asarray(x, dtype=U32)
-    x = ((x >> U32(1)) & U32(0x55555555)) | ((x & U32(0x55555555)) << U32(1))
-    x = ((x >> U32(2)) & U32(0x33333333)) | ((x & U32(0x33333333)) << U32(2))
-    x = ((x >> U32(4)) & U32(0x0F0F0F0F)) | ((x & U32(0x0F0F0F0F)) << U32(4))
-    x = ((x >> U32(8)) & U32(0x00FF00FF)) | ((x & U32(0x00FF00FF)) << U32(8))
-    return (x >> U32(16)) | (x << U32(16))
-
-
-def nested_uniform_scramble(i, seed) -> np.ndarray:
-    """``nested_uniform_scramble`` (``src/kernel/sample/util.h``): ``reversed_bit_owen`` on the
-    reversed bits; ``i`` and ``seed`` broadcast (uint32)."""
-    with np.errstate(over="ignore"):
-        n = _reverse_bits(i)
-        seed = np.asarray(seed, dtype=U32)
-        n = n ^ (n * U32(0x3D20ADEA))
-        n = n + seed
-        n = n * ((seed >> U32(16)) | U32(1))
-        n = n ^ (n * U32(0x05526C56))
-        n = n ^ (n * U32(0x53A22864))
-        return _reverse_bits(n)
-
-
-def class_a(n: int) -> np.ndarray:
-    """``sample_is_class_A`` for the samples 0 … n − 1: popcount(s & 0xaaaaaaaa) odd."""
-    s = np.arange(int(n), dtype=np.uint64) & np.uint64(0xAAAAAAAA)
-    bits = np.zeros(len(s), dtype=np.uint8)
-    for b in range(1, 32, 2):
-        bits ^= ((s >> np.uint64(b)) & np.uint64(1)).astype(np.uint8)
-    return bits.astype(bool)
-
-
-@functools.lru_cache(maxsize=4)
-def tabulated_sobol_tables(size: int, patterns: int = PATTERNS) -> np.ndarray:
-    """Dimensions 0 and 1 of the ``patterns`` tables of ``size`` points Cycles generates
-    (``tabulated_sobol_generate_4D(points, size, j)``, j = 0 … patterns − 1), shape
-    (patterns, size, 2) float32, read-only; the four dimensions' random numbers are drawn in
-    the source's order (4 per point) so that dimensions 0 and 1 are the source's."""
-    size = int(size)
-    j = np.arange(patterns, dtype=U32)
-    with np.errstate(over="ignore"):
-        seed = U32(0x44605A73)
-        seed = seed ^ U32(seed << U32(19))                 # hash_hp_seeded_uint(j, 0x44605a73)
-        rng = _hash_hp_uint(j ^ seed)
-    pts = np.zeros((patterns, size, 2), dtype=np.float32)
-    with np.errstate(over="ignore"):
-        pts[:, 0, 0] = _hash_hp_float(rng)
-        pts[:, 0, 1] = _hash_hp_float(rng + U32(1))
-        rng = rng + U32(4)
-        n, log_n = 1, 0
-        while n < size:
-            strata = np.float32(2 * n)
-            count = min(n, size - n)
-            i = np.arange(count)
-            # the random numbers of points n … n + count − 1: 4 each, in order
-            base = rng[:, None] + (4 * i).astype(U32)[None, :]
-            for d in range(2):
-                occ = (pts[:, i ^ _XORS[d][log_n], d] * strata).astype(np.uint32)
-                pts[:, n:n + count, d] = ((occ ^ U32(1)).astype(np.float32)
-                                          + _hash_hp_float(base + U32(d))) / strata
-            rng = rng + U32(4 * count)
-            n, log_n = 2 * n, log_n + 1
-    pts.flags.writeable = False
-    return pts
-
-
-def table_size(samples: int) -> int:
-    """L: ``clamp(next_power_of_two(samples − 1), 256, 8192)`` (``Integrator::device_update``;
-    ``next_power_of_two(x)`` = 1 << (32 − clz(x)), the power of two above x)."""
-    x = int(samples) - 1
-    return int(min(max(1 << x.bit_length() if x > 0 else 1, MIN_TABLE), MAX_TABLE))
 
 
 @dataclass(frozen=True)
@@ -205,7 +93,7 @@ class CyclesAdaptive:
     #: a pixel stops only with its (2r + 1)² neighbourhood
     neighbourhood = 1
     #: the sampling patterns whose points :meth:`points` draws
-    samplers = ("tabulated_sobol",)
+    samplers = ("tabulated_sobol", "blue_noise")
     default_threshold, default_samples = 0.01, 4096
 
     def settings(self, threshold: float, samples: int = 4096,
@@ -249,27 +137,13 @@ class CyclesAdaptive:
     def points(self, sampler: str, samples: int, realizations: int,
                rng: np.random.Generator, *, film: bool = False) -> tuple:
         """The light's and the BSDF's (x, y) of the samples 0 … samples − 1 of
-        ``realizations`` pixels with random hashes: two arrays (R, samples, 2), float64 (each
-        pixel reads two different tables, each in its own scrambled order); with ``film``, the
-        film position in the pixel too (``PRNG_FILTER``, a third table; sample 0 at the
-        pixel's centre: ``kernel/integrator/init_from_camera.h``:
-        ``integrate_camera_sample``; the box filter of width 1 keeps it)."""
+        ``realizations`` pixels of a render of ``samples`` (Max Samples) under the pattern
+        ``sampler``: two arrays (R, samples, 2), float64; with ``film``, the film position in
+        the pixel too (:func:`._patterns.pattern_points`)."""
         if sampler not in self.samplers:
             raise ParameterError(f"Cycles' adaptive sampling is modelled for the "
-                                 f"{', '.join(self.samplers)} pattern only, not {sampler!r}")
-        size = table_size(samples)
-        tables = tabulated_sobol_tables(size)
-        r = int(realizations)
-        pick = np.argsort(rng.random((r, PATTERNS)), axis=1)[:, :3]     # distinct tables
-        seeds = rng.integers(0, 1 << 32, size=(r, 3), dtype=np.uint64).astype(U32)
-        s = np.arange(int(samples), dtype=U32)
-        out = []
-        for k in range(3 if film else 2):
-            idx = nested_uniform_scramble(s[None, :], seeds[:, k:k + 1]) & U32(size - 1)
-            out.append(tables[pick[:, k:k + 1], idx.astype(np.int64)].astype(np.float64))
-        if film:
-            out[2][:, 0] = 0.5
-        return tuple(out)
+                                 f"{', '.join(self.samplers)} patterns only, not {sampler!r}")
+        return pattern_points(sampler, samples, realizations, rng, film=film)
 
 
 #: the record's adaptive sampling (:attr:`envfit.renderers.Renderer.adaptive`)

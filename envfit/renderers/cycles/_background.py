@@ -45,6 +45,7 @@ from envfit.renderers._base import (EnvmapTechnique, Renderer, SamplerSpec,
                                            power_heuristic)
 from envfit.renderers.cycles._adaptive import CYCLES_ADAPTIVE
 from envfit.renderers.cycles._bsdf import BSDF_NAMES, ROUGHNESS, bsdf
+from envfit.renderers.cycles._patterns import BLUE_NOISE
 from envfit.renderers.cycles._scene import cycles_snippet
 
 __all__ = ["cycles_map_resolution", "CyclesBackground", "cycles_frame", "INTERPOLATIONS",
@@ -398,6 +399,13 @@ def cycles_frame(normals) -> np.ndarray:
 # ----------------------------------------------------------------------------- samplers
 
 _C = "cycles @ 2eba4102 (v5.0.0) src/kernel/sample/"
+
+
+def _blue_noise_options(n: int) -> tuple:
+    """The ``shared_sequence`` randomisation's option: Cycles' blue-noise runs."""
+    return (("points", BLUE_NOISE),)
+
+
 SAMPLERS = {
     "tabulated_sobol": SamplerSpec(
         "tabulated_sobol", "owen", "independent", int,
@@ -412,11 +420,14 @@ SAMPLERS = {
         "('Classic'); the factory scene's pattern. " + _C + "tabulated_sobol.h", default=True,
         prefix=True),
     "blue_noise": SamplerSpec(
-        "blue_noise", "owen", "independent", int,
-        "one Sobol-Burley (Owen-scrambled) sequence shared by all pixels, pixel p using "
-        "indices sample + p*N, p a base-4 Owen scramble of its Morton code; Blender "
-        "'BLUE_NOISE' (and 'AUTOMATIC' for final renders); spp unchanged. " + _C + "pattern.h "
-        "blue_noise_indexing"),
+        "blue_noise", "shared_sequence", "independent", int,
+        "one Sobol-Burley sequence shared by all pixels with fixed (seed 0) Owen scrambles, "
+        "pixel p taking indices sample + p*N (N the render's samples), p a base-4 Owen "
+        "scramble of its Morton code: a pixel differs from another only by the run it reads "
+        "(drawn: _patterns.BlueNoiseRuns); Blender 'BLUE_NOISE' (= BLUE_NOISE_PURE, and "
+        "'AUTOMATIC' for final renders: blender/sync.cpp sync_integrator); spp unchanged. "
+        + _C + "pattern.h blue_noise_indexing, path_rng_pixel_init; sobol_burley.h",
+        options=_blue_noise_options),
     "sobol_burley": SamplerSpec(
         "sobol_burley", "owen", "independent", int,
         "per pixel Owen-scrambled Sobol' (index shuffled, coordinates scrambled with seeds "

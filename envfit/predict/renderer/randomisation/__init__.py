@@ -21,6 +21,8 @@ Modules (private, one per method; each cites its equation and reference):
 * ``_strata_samples`` — correlated multi-jittered and orthogonal-array point sets drawn
   (:func:`strata_points`) and their MSE as the variance over the draws
   (:func:`sampled_strata_mse`): those samplers above their exact models' reach.
+* ``_shared_sequence`` — runs of one fixed scrambled sequence shared by every pixel
+  (:func:`shared_sequence_mse`): a sampler whose pixels differ only by where they read it.
 * ``_registry`` — :data:`RANDOMISATIONS` and the dispatcher :func:`randomised_mse`.
 * ``_mis`` — :func:`mis_mse`, two streams, independent or sharing one point set.
 * ``_lobe_choice`` — :func:`lobe_choice_mse`, :func:`lobe_choice_mis`: a BSDF that picks
@@ -49,7 +51,9 @@ _LAZY = {
     "owen_sample": "_owen_samples", "owen_scramble": "_owen_samples",
     "RANDOMISATIONS": "_registry", "Randomisation": "_registry", "randomised_mse": "_registry",
     "STRATA_SAMPLED": "_strata_samples", "strata_points": "_strata_samples",
-    "sampled_strata_mse": "_strata_samples",
+    "sampled_strata_mse": "_strata_samples", "ALWAYS_DRAWN": "_strata_samples",
+    "sampled_mse": "_strata_samples",
+    "shared_sequence_mse": "_shared_sequence",
     "MisMSE": "_mis", "mis_mse": "_mis",
     "STRATIFIED_1D": "_lobe_choice", "lobe_choice_mse": "_lobe_choice",
     "lobe_choice_mis": "_lobe_choice",

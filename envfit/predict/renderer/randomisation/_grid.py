@@ -80,7 +80,10 @@ class DyadicGrid:
         Sampled power above the grid, {(randomisation, net, N): (estimate (C,), standard
         error (C,))} (:mod:`._shift_samples`; :meth:`with_sampled_above`), read by the
         digital shift's and Owen scrambling's predictions in place of their values from the
-        grid (:attr:`shift_above`: the digital shift's, by (net, N)).
+        grid (:attr:`shift_above`: the digital shift's, by (net, N)); and a shared sequence's
+        runs' prefix sums of the cell means, by ("shared_sequence", sampler, stream, spacing,
+        length, Q, seed) (:mod:`._shared_sequence`: kept so that every N of a class reads
+        them).
 
     Use :meth:`from_callable` or :meth:`from_arrays`; they check and reconcile the inputs.
     """
@@ -119,7 +122,7 @@ class DyadicGrid:
         """The variance of the cell means (the power the grid resolves), per channel."""
         return np.clip(self.variance - self.above, 0.0, None)
 
-    @property
+    @cached_property
     def above(self) -> np.ndarray:
         r""":math:`P_\text{above}`, the mean within-cell variance (power above the grid)."""
         return self.within.mean(axis=(1, 2))

@@ -13,7 +13,9 @@ taking the same :class:`DyadicGrid` of the warped integrand.
 * ``cp_shift`` — a Cranley–Patterson shift of a point set, options ``points``, ``net``
   (also envfit's own rules);
 * ``orthogonal`` — a Bose orthogonal array of strength 2 with permuted strata and jitter,
-  option ``dimension``.
+  option ``dimension``;
+* ``shared_sequence`` — one fixed scrambled sequence shared by every pixel, each pixel a run
+  of it (drawn), options ``points`` (the sampler's runs), ``stream``, ``draws``, ``seed``.
 
 A renderer's sampler names its randomisation (:attr:`envfit.renderers.SamplerSpec.randomisation`)
 and its options (:attr:`~envfit.renderers.SamplerSpec.options`); which sampler is which is in
@@ -36,6 +38,7 @@ from ._independent import independent_mse
 from ._jittered import jittered_mse
 from ._orthogonal import orthogonal_mse
 from ._owen import owen_mse
+from ._shared_sequence import shared_sequence_mse
 
 __all__ = ["RANDOMISATIONS", "Randomisation", "randomised_mse"]
 
@@ -63,6 +66,8 @@ RANDOMISATIONS = {r.name: r for r in (
                   "Cranley-Patterson shift of a point set"),
     Randomisation("orthogonal", orthogonal_mse, ("dimension",),
                   "Bose orthogonal array (strength 2), permuted strata, jitter"),
+    Randomisation("shared_sequence", shared_sequence_mse, ("points", "stream", "draws", "seed"),
+                  "runs of one fixed scrambled sequence shared by all pixels (drawn)"),
 )}
 
 

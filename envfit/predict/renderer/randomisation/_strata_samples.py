@@ -35,11 +35,13 @@ from envfit.base import ParameterError
 from ._cmj import _shape
 from ._orthogonal import _prime_root, bose_indices
 
-__all__ = ["STRATA_SAMPLED", "cmj_points", "orthogonal_points", "strata_points",
-           "sampled_strata_mse"]
+__all__ = ["STRATA_SAMPLED", "ALWAYS_DRAWN", "cmj_points", "orthogonal_points",
+           "strata_points", "sampled_strata_mse", "sampled_mse"]
 
 #: the randomisations whose point sets are drawn above their exact model's reach
-STRATA_SAMPLED = ("cmj", "orthogonal")
+STRATA_SAMPLED = ("cmj", "orthogonal", "shared_sequence")
+#: those drawn at every N (no exact model: :mod:`._shared_sequence`)
+ALWAYS_DRAWN = ("shared_sequence",)
 
 
 def _permutations(length: int, draws: int, rng: np.random.Generator, law) -> np.ndarray:
@@ -99,7 +101,8 @@ def orthogonal_points(n: int, draws: int, rng: np.random.Generator, *,
 def strata_points(name: str, n: int, draws: int, seed: int, **options) -> np.ndarray:
     """``draws`` point sets of randomisation ``name`` (:data:`STRATA_SAMPLED`) with its
     registry options (``nx``, ``ny``, ``permutations`` of ``cmj``; ``dimension`` of
-    ``orthogonal``), drawn by ``numpy.random.default_rng(seed)``."""
+    ``orthogonal``; ``points`` and ``stream`` of ``shared_sequence``: the sampler's runs),
+    drawn by ``numpy.random.default_rng(seed)``."""
     if name not in STRATA_SAMPLED:
         raise ParameterError(f"no drawn point sets of {name!r}: one of {STRATA_SAMPLED}")
     if int(draws) < 2:
@@ -107,7 +110,22 @@ def strata_points(name: str, n: int, draws: int, seed: int, **options) -> np.nda
     rng = np.random.default_rng(seed)
     if name == "cmj":
         return cmj_points(n, int(draws), rng, **options)
+    if name == "shared_sequence":
+        return options["points"].points(int(n), int(draws), rng, options.get("stream", "light"))
     return orthogonal_points(n, int(draws), rng, **options)
+
+
+def sampled_mse(means: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`sampled_strata_mse` from the draws' estimates :math:`F_q` (Q, C).
+
+    >>> mse, z = sampled_mse(np.array([[1.0], [2.0]]))
+    >>> float(mse[0]), z.tolist()
+    (0.5, [0.5, 0.5])
+    """
+    f = np.asarray(means, dtype=np.float64)
+    q = f.shape[0]
+    dev2 = (f - f.mean(axis=0)) ** 2 * (q / (q - 1.0))
+    return dev2.mean(axis=0), dev2.mean(axis=1)
 
 
 def sampled_strata_mse(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -120,7 +138,4 @@ def sampled_strata_mse(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     >>> float(mse[0]), z.tolist()
     (0.5, [0.5, 0.5])
     """
-    f = np.asarray(values, dtype=np.float64).mean(axis=1)            # (Q, C)
-    q = f.shape[0]
-    dev2 = (f - f.mean(axis=0)) ** 2 * (q / (q - 1.0))
-    return dev2.mean(axis=0), dev2.mean(axis=1)
+    return sampled_mse(np.asarray(values, dtype=np.float64).mean(axis=1))
