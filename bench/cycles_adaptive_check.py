@@ -47,7 +47,7 @@ def weighted_spp(counts: np.ndarray, geometry) -> float:
 def _model(env: EnvMap, args):
     from envfit.predict.renderer import AdaptiveModel, AdaptiveOptions
     seen = EnvMap(env.data, up="y", name=env.name)        # as the Cycles world looks it up
-    return AdaptiveModel(seen, get_renderer("cycles"), samples=args.samples,
+    return AdaptiveModel(seen, get_renderer("cycles"), samples=args.samples, sampler=args.pattern,
                          sphere_pixels=None if args.no_footprint else args.resolution,
                          options=AdaptiveOptions(normals=args.normals,
                                                  realizations=args.realizations,

@@ -246,9 +246,12 @@ def _predictor(env: EnvMap, args) -> Predictor:
 
 def repredict_map(name: str, env: EnvMap, args, rows: list) -> None:
     """Predict the saved rows of map ``name`` again with this run's model options (no
-    rendering): each row keeps its measurement, gains the new ``predicted``, ``ratio`` and
-    ``inside``, and keeps the old prediction as ``predicted_before``."""
-    mine = [r for r in rows if r["map"] == name and r["renderer"] == args.renderer]
+    rendering) that this run's ``--samplers``, ``--strategies`` and ``--spp`` select: each
+    row keeps its measurement, gains the new ``predicted``, ``ratio`` and ``inside``, and keeps
+    the old prediction as ``predicted_before``."""
+    mine = [r for r in rows if r["map"] == name and r["renderer"] == args.renderer
+            and r["sampler"] in args.samplers and r["strategy"] in args.strategies
+            and r["spp"] in args.spp]
     if not mine:
         return
     pred = _predictor(env, args)

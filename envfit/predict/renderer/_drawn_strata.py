@@ -137,30 +137,39 @@ class DrawnStrata:
 
     def _shared_cells(self, r: CellRequest, grids: dict) -> dict:
         """The results (as :meth:`_strata_cell`) at one normal of every cell of ``r``'s
-        strategy, sampler and class of runs in the pass (:meth:`_plan_drawn`): each N's
-        estimates are the runs' prefix means, vectorised over the class's N."""
+        strategy, sampler and class of runs in the pass (:meth:`_plan_drawn`). An N-point
+        pixel's run is any N consecutive points of a class run starting at a multiple of
+        N (a multiple of the class's spacing): each run of length L holds ⌊L/N⌋ of them end
+        to end (:func:`_windows`), so a small N of a long class is drawn as often as a long
+        one. Their squared deviations from the mean over all of them, scaled by Q/(Q − 1)
+        (Q runs: an unbiased variance where a run holds one window, at most 1/(Q − 1) high
+        otherwise), are the MSE; a run's mean of them is its draw's term."""
         key = ("shared cells", r.strategy, r.sampler, dict(r.options)["points"].step(r.n))
         if key in grids:
             return grids[key]
-        cells = [c for c in self._class_cells.get(key[1:], ()) if c.n <= self._run_key(
-            r, "e" if r.strategy != "brdf" else "b")[2]] or [r]
-        ns = np.array([c.n for c in cells])
-        f = {}
-        for stream, part in self._STREAM_PARTS[r.strategy]:
-            cums = self._strata_values(grids, r, stream, prefix=True)[part]     # (Q, L, C)
-            f[stream] = cums[:, ns - 1, :] / ns[None, :, None]                  # (Q, K, C)
-        q = next(iter(f.values())).shape[0]
+        length = self._run_key(r, "e" if r.strategy != "brdf" else "b")[2]
+        cells = [c for c in self._class_cells.get(key[1:], ()) if c.n <= length] or [r]
+        cums = {s: self._strata_values(grids, r, s, prefix=True)[part]
+                for s, part in self._STREAM_PARTS[r.strategy]}        # (Q, L, C) each
+        out, groups = {}, {}
+        for c in cells:                         # the cells whose runs hold W windows each
+            groups.setdefault(next(iter(cums.values())).shape[1] // c.n, []).append(c)
+        for group in groups.values():
+            ns = np.array([c.n for c in group])
+            f = {s: _windows(v, ns) for s, v in cums.items()}           # (Q, K, W, C)
+            q = next(iter(f.values())).shape[0]
+            scale = q / (q - 1.0)
 
-        def var(x):
-            d2 = (x - x.mean(axis=0)) ** 2 * (q / (q - 1.0))
-            return d2.mean(axis=0), d2.mean(axis=2)                  # (K, C), (Q, K)
+            def dev2(x):
+                return (x - x.mean(axis=(0, 2), keepdims=True)) ** 2 * scale
 
-        tot, z = var(sum(f.values()))
-        ve, vb = (var(f[s])[0] if s in f else np.zeros_like(tot) for s in ("e", "b"))
-        out = {}
-        for k, c in enumerate(cells):
-            grids["strata_draws", c] = z[:, k]
-            out[c] = (tot[k], ve[k], vb[k], tot[k] - ve[k] - vb[k])
+            d = dev2(sum(f.values()))
+            tot, z = d.mean(axis=(0, 2)), d.mean(axis=(2, 3))            # (K, C), (Q, K)
+            ve, vb = (dev2(f[s]).mean(axis=(0, 2)) if s in f else np.zeros_like(tot)
+                      for s in ("e", "b"))
+            for k, c in enumerate(group):
+                grids["strata_draws", c] = z[:, k]
+                out[c] = (tot[k], ve[k], vb[k], tot[k] - ve[k] - vb[k])
         grids[key] = out
         return out
 
@@ -254,6 +263,17 @@ class DrawnStrata:
                 acc[k] = v if k not in acc else acc[k] + v
         k = len(normals)
         return {p: (v if k == 1 else v / k).reshape(q, length, -1) for p, v in acc.items()}
+
+
+def _windows(cums: np.ndarray, ns: np.ndarray) -> np.ndarray:
+    """The means (Q, K, W, C) of the W consecutive N-point windows of each run for the K
+    values N of ``ns`` (all with ⌊L/N⌋ = W), from the runs' prefix sums (Q, L, C)."""
+    ns = np.asarray(ns)
+    w = cums.shape[1] // int(ns[0])
+    ends = ns[:, None] * np.arange(1, w + 1)[None, :] - 1                # (K, W)
+    s_end = cums[:, ends]                                                # (Q, K, W, C)
+    s_start = np.concatenate([np.zeros_like(s_end[:, :, :1]), s_end[:, :, :-1]], axis=2)
+    return (s_end - s_start) / ns[None, :, None, None]
 
 
 class _PrefixSums(dict):
