@@ -41,7 +41,7 @@ from envfit.renderers import get_renderer
 from envfit.validate import measure_cell
 
 sys.path.insert(0, str(Path(__file__).parent))
-from render_check import _cpu, load_map  # noqa: E402  (bench helpers: CPU name, maps)
+from render_check import _cpu, _filter_arg, load_map  # noqa: E402  (bench helpers)
 
 COLUMNS = ["map", "distribution", "alpha", "sampler", "strategy", "spp", "spp_used",
            "measured_rmse", "low", "high", "predicted", "ratio", "inside", "mean_offset",
@@ -52,13 +52,24 @@ def _model(env, dist, alpha, args):
     g = sphere_geometry(args.resolution, args.layout)
     n, v, _ = pixel_frames(g, VIEWS, args.pool or len(VIEWS) * g.kept,
                            seed=args.seed)
-    foot = (pixel_footprints(n, v, args.resolution, args.footprint) if args.footprint > 1
-            else None)
+    film = _film(args)
+    foot = (pixel_footprints(n, v, args.resolution, args.footprint, film)
+            if args.footprint > 1 else None)
     renderer = get_renderer(args.renderer)
     return MicrofacetModel(EnvMap(env.data, up="y", name=env.name), renderer,
                            renderer.bsdf(dist, alpha), (n, v),
-                           options=RendererModelOptions(max_level=args.max_level),
+                           options=RendererModelOptions(max_level=args.max_level,
+                                                        pixel_filter=film),
                            select=args.frames, footprints=foot)
+
+
+def _film(args):
+    """The renders' pixel filter as the model's film warp (the box where none is asked)."""
+    from envfit.renderers import BOX_FILTER
+    if args.renderer != "cycles" or tuple(args.pixel_filter) == ("box", 1.0):
+        return BOX_FILTER
+    from envfit.renderers.cycles._film import film_warp  # internal: Cycles' filter table
+    return film_warp(*args.pixel_filter)
 
 
 def _session(args, dist: str, alpha: float):
@@ -66,7 +77,8 @@ def _session(args, dist: str, alpha: float):
     ``ldsampler``) or Cycles' Glossy BSDF (references by Tabulated Sobol, MIS)."""
     if args.renderer == "cycles":
         opts = CyclesOptions(resolution=args.resolution, reference_spp=args.reference_spp,
-                             cache_dir=args.cache, bsdf=glossy_bsdf(dist, alpha))
+                             cache_dir=args.cache, bsdf=glossy_bsdf(dist, alpha),
+                             pixel_filter=(args.pixel_filter[0].upper(), args.pixel_filter[1]))
         return lambda env: CyclesSphere(env, opts)
     opts = Mitsuba3Options(resolution=args.resolution, reference_spp=args.reference_spp,
                            cache_dir=args.cache, reference_sampler="ldsampler",
@@ -204,6 +216,9 @@ def main(argv=None) -> int:
     ap.add_argument("--synth-height", type=int, default=256)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--cache", default=None)
+    ap.add_argument("--pixel-filter", default="box:1", type=_filter_arg,
+                    help="Cycles' pixel filter KIND:WIDTH (box, gaussian, blackman_harris; "
+                         "Blender's default blackman_harris:1.5), rendered and predicted")
     ap.add_argument("--repredict", action="store_true",
                     help="predict the saved rows again with this run's options (no rendering)")
     ap.add_argument("--out", default="microfacet_check_out")
@@ -222,7 +237,8 @@ def main(argv=None) -> int:
         saved = json.loads((out / "microfacet_check.json").read_text())
         rows, meta = saved["rows"], saved["meta"]
     meta.update(cpu=_cpu(), argv=sys.argv[1:], resolution=args.resolution, layout=args.layout,
-                reference_spp=args.reference_spp, frames=args.frames, footprint=args.footprint)
+                reference_spp=args.reference_spp, frames=args.frames, footprint=args.footprint,
+                pixel_filter=list(args.pixel_filter))
     t = time.perf_counter()
     run(args, rows, meta, out)
     print_summary(rows)

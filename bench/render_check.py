@@ -96,11 +96,12 @@ class Predictor:
     """envfit's predictions of one map as a renderer sees it (the models built once)."""
 
     def __init__(self, renderer: str, env: EnvMap, grid: int, axes: int,
-                 max_level: int = 9, footprint: tuple | None = None):
+                 max_level: int = 9, footprint: tuple | None = None, film=None):
         self.renderer, self.env, self.grid, self.axes = renderer, map_as_seen(renderer, env), \
             grid, axes
         self.max_level = max_level
         self.footprint = footprint       # (R pixels across, side) or None: point normals
+        self.film = film                 # the renders' pixel filter (a FilmWarp; None: box)
         self._model = None
         self.file_env = env              # the pixels as the renderer reads the file
         self.cells: list = []            # (sampler, strategy, spp) planned: one model pass
@@ -111,14 +112,15 @@ class Predictor:
         plain or with Mitsuba's mis_compensation, built once."""
         if compensation not in self._presets:
             from envfit.predict.renderer import DiffuseModel, RendererModelOptions
-            from envfit.renderers import get_renderer
+            from envfit.renderers import BOX_FILTER, get_renderer
             env = EnvMap(self.file_env.data, up="y", name=self.file_env.name)
             options = {"mis_compensation": compensation} if self.renderer == "mitsuba3" else {}
             self._presets[compensation] = DiffuseModel(
                 env, get_renderer(self.renderer), options,
                 RendererModelOptions(normals=PRESET_NORMALS, max_level=self.max_level,
                                    sphere_pixels=self.footprint and self.footprint[0],
-                                   footprint_side=self.footprint[1] if self.footprint else 2))
+                                   footprint_side=self.footprint[1] if self.footprint else 2,
+                                   pixel_filter=self.film or BOX_FILTER))
         return self._presets[compensation]
 
     def model(self):
@@ -179,7 +181,9 @@ def _session(renderer: str, env: EnvMap, args):
     from envfit.renderers import CyclesOptions, CyclesSphere
     s = CyclesSphere(env, CyclesOptions(resolution=args.resolution,
                                         reference_spp=args.reference_spp, cache_dir=args.cache,
-                                        threads=args.threads))
+                                        threads=args.threads,
+                                        pixel_filter=(args.pixel_filter[0].upper(),
+                                                      args.pixel_filter[1])))
     return {"plain": s, "comp": s}
 
 
@@ -239,9 +243,19 @@ def run_map(spec: str, args, rows: list, meta: dict, out: Path) -> None:
             s.close()
 
 
+def _filter_arg(text: str) -> tuple:
+    """``KIND:WIDTH`` → (kind, width)."""
+    kind, _, width = text.partition(":")
+    return kind.lower(), float(width or 1.0)
+
+
 def _predictor(env: EnvMap, args) -> Predictor:
     foot = (args.resolution, args.footprint) if args.footprint > 1 else None
-    return Predictor(args.renderer, env, args.grid, args.axes, args.max_level, foot)
+    film = None
+    if args.renderer == "cycles" and tuple(args.pixel_filter) != ("box", 1.0):
+        from envfit.renderers.cycles._film import film_warp  # internal: Cycles' filter table
+        film = film_warp(*args.pixel_filter)
+    return Predictor(args.renderer, env, args.grid, args.axes, args.max_level, foot, film)
 
 
 def repredict_map(name: str, env: EnvMap, args, rows: list) -> None:
@@ -316,6 +330,9 @@ def main(argv=None) -> int:
                     help="the model's pixel footprint: side x side normals over each pixel of "
                          "the --resolution sphere (default 1: each pixel at its centre, no "
                          "footprint term)")
+    ap.add_argument("--pixel-filter", default="box:1", type=_filter_arg,
+                    help="Cycles' pixel filter KIND:WIDTH (box, gaussian, blackman_harris; "
+                         "Blender's default blackman_harris:1.5), rendered and predicted")
     ap.add_argument("--repredict", action="store_true",
                     help="predict the saved rows of the maps again (no rendering)")
     ap.add_argument("--out", default="render_check_out")
@@ -345,6 +362,7 @@ def main(argv=None) -> int:
     meta["integrators"] = {s: {"type": st.integrator, **st.settings}
                            for s, st in settings.items()}
     meta["renderer_version"] = rec.harness_module().version()      # e.g. Blender 5.3.0
+    meta["pixel_filter"] = list(args.pixel_filter)
     t = time.perf_counter()
     for spec in args.maps:
         run_map(spec, args, rows, meta, out)

@@ -321,7 +321,8 @@ def test_sphere_pixels_adds_the_footprint_of_the_model(sun_file, tmp_path, capsy
     assert rc == 0
     r = d["renderer"]
     assert r["bsdf"]["sphere_pixels"] == 8
-    assert any("8 pixels across (each pixel's footprint included)" in ln for ln in lines)
+    assert any("8 pixels across (each pixel's footprint included, the box pixel filter; "
+               "Mitsuba's hdrfilm defaults to the gaussian filter" in ln for ln in lines)
     opts = _options(5, microfacet=True)
     frames = band_frames(opts.pool, (0, 90), seed=MICROFACET_FRAMES_SEED)
     mitsuba = get_renderer("mitsuba3")
@@ -349,9 +350,11 @@ def test_diffuse_sphere_pixels_is_the_model_with_footprints(sun_file, tmp_path, 
     rc, lines, _, d = _run(capsys, [*base, "--sphere-pixels", "8"], tmp_path)
     assert rc == 0
     r = d["renderer"]
-    assert r["bsdf"] == {"type": "diffuse", "reflectance": 1.0, "sphere_pixels": 8}
-    assert any("white diffuse sphere 8 pixels across (each pixel's footprint included), "
-               "each pixel seen by the axis view nearest its normal" in ln for ln in lines)
+    assert r["bsdf"] == {"type": "diffuse", "reflectance": 1.0, "sphere_pixels": 8,
+                         "pixel_filter": "box 1 px"}
+    assert any("white diffuse sphere 8 pixels across (each pixel's footprint included, the "
+               "box pixel filter; Mitsuba's hdrfilm defaults to the gaussian filter" in ln
+               and "each pixel seen by the axis view nearest its normal" in ln for ln in lines)
     opts = replace(_options(5), sphere_pixels=8, footprint_side=FOOTPRINT_SIDE)
     m = DiffuseModel(_load(sun_file), get_renderer("mitsuba3"), options=opts)
     point = DiffuseModel(_load(sun_file), get_renderer("mitsuba3"), options=_options(5))

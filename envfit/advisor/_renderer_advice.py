@@ -380,7 +380,8 @@ class RendererAdvice:
     def _surface(self) -> str:
         o = self.options
         pixels = ("" if o.sphere_pixels is None else
-                  f", {o.sphere_pixels} pixels across (each pixel's footprint included)")
+                  f", {o.sphere_pixels} pixels across (each pixel's footprint included, "
+                  f"{self._filter_words()})")
         if not o.microfacet:
             if o.sphere_pixels is None:
                 return "the RMSE over uniform normals of a white diffuse surface"
@@ -396,6 +397,22 @@ class RendererAdvice:
                 f"orthographic camera has of a sphere{pixels} (theta_o density cos sin) and "
                 f"uniform map orientations")
 
+    def _film_dict(self) -> dict:
+        """``pixel_filter``: the footprint's filter (with ``sphere_pixels`` only)."""
+        o = self.options
+        if o.sphere_pixels is None:
+            return {}
+        return {"pixel_filter": o.model_options().film(o.record).name}
+
+    def _filter_words(self) -> str:
+        """The pixel filter the footprint assumes, in the renderer's words."""
+        o = self.options
+        film = o.model_options().film(o.record)
+        if film.table is not None:
+            return f"{o.record.possessive} default pixel filter, {film.name}"
+        note = o.record.pixel_filter_note
+        return "the box pixel filter" + (f"; {note}" if note else "")
+
     def _bsdf_dict(self) -> dict:
         """The JSON's ``bsdf`` of a microfacet BSDF."""
         o = self.options
@@ -405,7 +422,7 @@ class RendererAdvice:
             d.update(distribution="ggx", eta=c.eta, diffuse_reflectance=c.diffuse_reflectance)
         else:
             d["fresnel"] = 1.0
-        return {**d, "sphere_pixels": o.sphere_pixels}
+        return {**d, "sphere_pixels": o.sphere_pixels, **self._film_dict()}
 
     def to_dict(self) -> dict:
         """The JSON's ``renderer`` section."""
@@ -415,7 +432,7 @@ class RendererAdvice:
                 "mis_compensation": o.mis_compensation, "target_rmse": self.target_rmse,
                 "bsdf": (self._bsdf_dict() if o.microfacet
                          else {"type": "diffuse", "reflectance": 1.0,
-                               "sphere_pixels": o.sphere_pixels}),
+                               "sphere_pixels": o.sphere_pixels, **self._film_dict()}),
                 "target_relative": self.target_relative, "mean_radiance": self.mean_radiance,
                 "recommendation": self.recommendation, "predictions": self.predictions(),
                 "answers": [{**self._answer_dict(self.answers[s])} for s in o.strategies],

@@ -90,7 +90,8 @@ class CachedRendererModel:
         m = o.model_options()
         frames = band_frames(max(m.pool, o.normals), (0.0, 90.0), seed=MICROFACET_FRAMES_SEED)
         foot = (None if o.sphere_pixels is None
-                else pixel_footprints(*frames, o.sphere_pixels, FOOTPRINT_SIDE))
+                else pixel_footprints(*frames, o.sphere_pixels, FOOTPRINT_SIDE,
+                                      m.film(o.record)))
         return MicrofacetModel(self.envmap, o.record, o.conductor(), frames,
                                technique_options=o.technique_options(), options=m,
                                select=o.normals, footprints=foot, technique=self.technique)

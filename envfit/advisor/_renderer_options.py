@@ -572,6 +572,9 @@ class RendererAdviseOptions:
                        frames_seed=MICROFACET_FRAMES_SEED)
         if self.sphere_pixels is not None:
             key.update(sphere_pixels=self.sphere_pixels, footprint_side=FOOTPRINT_SIDE)
+            film = m.film(self.record)
+            if film.table is not None:        # the box's keys (and caches) unchanged
+                key["pixel_filter"] = film.name
         return key
 
 

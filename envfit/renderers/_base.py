@@ -446,6 +446,11 @@ class Renderer:
         ``class_a``, ``step``, ``neighbourhood``) and its pattern's points (``points``), read
         by :class:`envfit.predict.renderer._adaptive.AdaptiveModel` (Cycles':
         :mod:`envfit.renderers.cycles._adaptive`)
+    pixel_filter : its default pixel filter where it importance-samples it, as the
+        :class:`~envfit.renderers.FilmWarp` a sample's film offset follows (the pixel
+        footprint of the model's ``sphere_pixels``); None: the box of width 1
+    pixel_filter_note : what its default filter is where the model does not take it
+        (``pixel_filter`` None), said with its predictions' footprint
     """
 
     name: str
@@ -470,6 +475,8 @@ class Renderer:
     render_samplers: tuple[str, ...] = ()
     harness: str = ""
     adaptive: object | None = None
+    pixel_filter: object | None = None
+    pixel_filter_note: str = ""
 
     def __post_init__(self):
         if self.heuristic not in _HEURISTICS:

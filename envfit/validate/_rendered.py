@@ -248,19 +248,20 @@ def _model(envmap, options: RenderValidationOptions):
     from envfit.renderers import VIEWS, sphere_geometry
     from envfit.predict.renderer import (MicrofacetModel, DiffuseModel, RendererModelOptions,
                                          pixel_footprints, pixel_frames)
-    from envfit.renderers import get_renderer
+    from envfit.renderers import BOX_FILTER, get_renderer
     env = EnvMap(envmap.data, up="y", name=envmap.name)
     p, level = get_renderer(options.renderer), options.max_level
-    if not options.microfacet:
+    if not options.microfacet:                      # the harnesses render the box filter
         return DiffuseModel(env, p, {}, RendererModelOptions(
             normals=options.frames, max_level=level, footprint_side=options.footprint,
-            sphere_pixels=options.resolution if options.footprint > 1 else None))
+            sphere_pixels=options.resolution if options.footprint > 1 else None,
+            pixel_filter=BOX_FILTER))
     g = sphere_geometry(options.resolution, "disk")
     n, v, _ = pixel_frames(g, VIEWS, len(VIEWS) * g.kept, seed=options.seed)   # every pixel
     foot = (pixel_footprints(n, v, options.resolution, options.footprint)
             if options.footprint > 1 else None)
     return MicrofacetModel(env, p, p.bsdf(options.brdf, options.alpha), (n, v),
-                           options=RendererModelOptions(max_level=level),
+                           options=RendererModelOptions(max_level=level, pixel_filter=BOX_FILTER),
                            select=options.frames, footprints=foot)
 
 

@@ -39,8 +39,10 @@ cost.
 **The pixel's footprint** (``sphere_pixels`` = D, the sphere D pixels across as the renders
 of :mod:`envfit.renderers` show it): each sample then sees the normal at its own film position
 in the pixel (the rule's film points; :func:`._footprint.pixel_footprints` at
-:data:`FILM_SIDE` × :data:`FILM_SIDE` sub-positions), and the converged value is the mean over
-the pixel. Without it every pixel sees one normal.
+:data:`FILM_SIDE` × :data:`FILM_SIDE` sub-positions, moved by the pixel filter's film warp —
+the renderer's default filter where it importance-samples one: the sub-positions are its
+quantiles), and the converged value is the mean over the filter. Without it every pixel sees
+one normal.
 
 What it leaves out: a pixel's neighbours see its normal; the sphere's rim.
 """
@@ -77,6 +79,9 @@ class AdaptiveOptions:
         √R × √R patch of neighbours.
     level : the midpoint tables (4^level points) of each normal's converged value.
     seed : of the pixels' hashes and their neighbours (``numpy.random.default_rng``).
+    pixel_filter : with ``sphere_pixels``, the :class:`~envfit.renderers.FilmWarp` a
+        sample's film number moves it by (its sub-positions are the filter's quantiles);
+        None (default): the renderer's default filter.
     """
 
     normals: int = 128
@@ -84,6 +89,7 @@ class AdaptiveOptions:
     realizations: int = 64
     level: int = 8
     seed: int = 0
+    pixel_filter: object | None = None
 
     def __post_init__(self):
         for name, lo, hi in (("normals", 1, 4096), ("pool", 1, 1 << 16),
@@ -281,8 +287,9 @@ class AdaptiveModel:
         if self.sphere_pixels is not None:
             from envfit.predict.renderer._footprint import nearest_views, pixel_footprints
             views = nearest_views(self.normals)
-            feet = (pixel_footprints(self.normals, views, self.sphere_pixels, FILM_SIDE),
-                    pixel_footprints(self.normals, views, self.sphere_pixels, TRUTH_SIDE))
+            film = (self.options.pixel_filter or self.renderer.pixel_filter)   # None: the box
+            feet = (pixel_footprints(self.normals, views, self.sphere_pixels, FILM_SIDE, film),
+                    pixel_footprints(self.normals, views, self.sphere_pixels, TRUTH_SIDE, film))
             cell = np.clip((uf.reshape(-1, 2) * FILM_SIDE).astype(np.int64), 0, FILM_SIDE - 1)
             at = cell[:, 1] * FILM_SIDE + cell[:, 0]
         for k, normal in enumerate(progress(self.normals, total=len(self.normals),

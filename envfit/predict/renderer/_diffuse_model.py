@@ -85,6 +85,10 @@ class RendererModelOptions:
         normals) adds its term (:mod:`._footprint`), and the tables cost footprint_side² times
         as much.
     footprint_side : side of the footprint's grid of normals (default 2).
+    pixel_filter : the :class:`~envfit.renderers.FilmWarp` of the renders' pixel filter —
+        where a sample lands in its pixel, the footprint's shape; None (default): the
+        renderer's default filter (its record's ``pixel_filter``; the box where it has
+        none).
     shifts : Q, the random shifts (Owen scrambles) over which a digital shift's (an
         Owen-scrambled net's) power above a grid coarser than 2N is sampled (relative
         standard error ≈ √(2/Q) of that part per normal).
@@ -102,6 +106,7 @@ class RendererModelOptions:
     shifts: int = 256
     seed: int = 0
     reach: int | None = None
+    pixel_filter: object | None = None
 
     def __post_init__(self):
         for name, lo, hi in (("normals", 1, 4096), ("pool", 1, 1 << 16), ("max_level", 1, 11),
@@ -115,6 +120,15 @@ class RendererModelOptions:
                 raise ParameterError(f"{name} must be an integer from {lo} to {hi}, got {v!r}")
         if self.normals > self.pool:
             raise ParameterError("normals must not exceed pool")
+        if self.pixel_filter is not None and not callable(getattr(self.pixel_filter,
+                                                                  "variance_scale", None)):
+            raise ParameterError("pixel_filter must be a FilmWarp (envfit.renderers) or None")
+
+    def film(self, renderer):
+        """The pixel filter's film warp: :attr:`pixel_filter`, else the renderer's default
+        (its record's ``pixel_filter``), else the box."""
+        from envfit.renderers import BOX_FILTER
+        return self.pixel_filter or getattr(renderer, "pixel_filter", None) or BOX_FILTER
 
 
 @dataclass(frozen=True)
@@ -239,9 +253,11 @@ class DiffuseModel(DrawnStrata):
         pilot = MapTable.build(self.technique, self.options.pilot_level)
         self.normals, self.weights = _proposal(pilot, _serpentine_pool(self.options.pool),
                                                self.options.normals)
+        self.film = self.options.film(renderer)
         if self.options.sphere_pixels is not None:
             foot = pixel_footprints(self.normals, nearest_views(self.normals),
-                                    self.options.sphere_pixels, self.options.footprint_side)
+                                    self.options.sphere_pixels, self.options.footprint_side,
+                                    self.film)
             self.normals = list(zip(self.normals, foot))
         self._tables: dict = {}
         self._cache: dict = {}
@@ -356,7 +372,8 @@ class DiffuseModel(DrawnStrata):
         pair, their means over the footprint with its ``_var_c`` and ``_var_a``
         (:class:`._footprint.FootprintSums`)."""
         if isinstance(normal, tuple):
-            sums = FootprintSums(keep=self._keep if isinstance(fine, int) else ())
+            sums = FootprintSums(keep=self._keep if isinstance(fine, int) else (),
+                                 scale=self.film.variance_scale(self.options.footprint_side))
             for x in normal[1]:
                 sums.add(self._point_parts(strategies, x, fine))
             return sums.parts()

@@ -69,8 +69,12 @@ def _view_basis(views: np.ndarray):
     return right, up
 
 
-def pixel_footprints(normals, views, resolution: int, side: int = 2) -> np.ndarray:
-    r"""The normals (K, side², 3) at side × side stratum midpoints of each frame's pixel: the
+def pixel_footprints(normals, views, resolution: int, side: int = 2,
+                     film=None) -> np.ndarray:
+    r"""The normals (K, side², 3) at side × side stratum midpoints of each frame's pixel
+    (their film offsets from the pixel's centre those of ``film``, a renderer's
+    :class:`~envfit.renderers.FilmWarp` — its importance-sampled pixel filter; None: the box,
+    the midpoints of the pixel's strata): the
     pixel of an orthographic view of the unit sphere R pixels across (the image plane spans
     [-1, 1]², pixel side h = 2/R; :mod:`envfit.renderers` renders R × R views) whose
     centre shows ``normals[k]`` from the view axis ``views[k]`` (the pixel's axes those of
@@ -95,7 +99,7 @@ def pixel_footprints(normals, views, resolution: int, side: int = 2) -> np.ndarr
         raise ParameterError("pixel_footprints: one view per normal, the normal facing it")
     right, up = _view_basis(v)
     h = 2.0 / r
-    d = ((np.arange(s) + 0.5) / s - 0.5) * h
+    d = (((np.arange(s) + 0.5) / s - 0.5) if film is None else film.midpoints(s)) * h
     dx, dy = (a.ravel() for a in np.meshgrid(d, d))
     x = np.sum(n * right, axis=1)[:, None] + dx
     y = np.sum(n * up, axis=1)[:, None] + dy
@@ -124,9 +128,10 @@ class FootprintSums:
     ``keep`` are also kept per normal (``_normals``: (J, P, C) each) for
     :class:`PairedFootprint`."""
 
-    def __init__(self, keep=()):
+    def __init__(self, keep=(), scale: float | None = None):
         self.s1, self.s2, self.means, self.count = {}, {}, {}, 0
         self.keep = {p: [] for p in keep}
+        self.scale = scale
 
     def add(self, parts: dict) -> None:
         """Add one footprint normal's parts."""
@@ -142,20 +147,22 @@ class FootprintSums:
         """The mean tables, and ``_var_c`` and ``_var_a`` (dicts of (C,) per part)."""
         out = {p: s / self.count for p, s in self.s1.items()}
         out = with_variances(out, {p: np.stack(m) for p, m in self.means.items()},
-                             {p: s2 / self.count for p, s2 in self.s2.items()})
+                             {p: s2 / self.count for p, s2 in self.s2.items()}, self.scale)
         if self.keep:
             out["_normals"] = {p: np.stack(g) for p, g in self.keep.items() if g}
         return out
 
 
-def with_variances(gbar: dict, means: dict, mean_sq: dict) -> dict:
+def with_variances(gbar: dict, means: dict, mean_sq: dict, scale: float | None = None) -> dict:
     r"""``gbar`` (the footprint's mean table (P, C) per part) with ``_var_c`` and ``_var_a``
     added, from each footprint normal's table mean ``means`` (J, C) and the mean of g² over
     the normals and the table ``mean_sq`` (C,): :math:`\mathrm{Var}\,a` = the variance of
     the normals' means, :math:`\mathrm{Var}\,c = E g^2 - E_u \bar g^2 - \mathrm{Var}\,a`
-    (clipped at 0), both over the J normals times :func:`pixel_variance_scale` (J) — the
-    variances over the pixel (module docstring)."""
-    k = pixel_variance_scale(len(next(iter(means.values()))))
+    (clipped at 0), both over the J normals times ``scale`` (default
+    :func:`pixel_variance_scale` (J), the box's; a film warp's
+    :meth:`~envfit.renderers.FilmWarp.variance_scale`) — the variances over the pixel's
+    filter (module docstring)."""
+    k = pixel_variance_scale(len(next(iter(means.values())))) if scale is None else scale
     var_a = {p: np.var(means[p], axis=0) for p in gbar}
     var_c = {p: k * np.clip(mean_sq[p] - np.einsum("pc,pc->c", g, g) / len(g) - var_a[p], 0.0,
                             None) for p, g in gbar.items()}

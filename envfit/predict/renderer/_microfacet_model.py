@@ -40,6 +40,8 @@ the renderer's conductor and integrator as its folder cites them (``envfit/rende
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from envfit.base import ParameterError
@@ -127,6 +129,7 @@ class MicrofacetModel(LobeChoice, DiffuseModel):
             raise ParameterError("weights must be one non-negative number per frame")
         self.renderer, self.conductor = renderer, conductor
         self.options = options or RendererModelOptions()
+        self.film = self.options.film(renderer)        # the footprints' pixel filter
         self.technique = (technique if technique is not None      # another model's: reused
                           else renderer.technique(envmap, **(technique_options or {})))
         foot = None
@@ -381,7 +384,8 @@ class MicrofacetModel(LobeChoice, DiffuseModel):
         gbar = self._named(acc, strategies)
         idx = {p: PARTS.index(p) for p in gbar}
         out = with_variances(gbar, {p: sums[:, i, 0] / size for p, i in idx.items()},
-                             {p: sums[:, i, 1].sum(axis=0) / (j * size) for p, i in idx.items()})
+                             {p: sums[:, i, 1].sum(axis=0) / (j * size) for p, i in idx.items()},
+                             self.film.variance_scale(math.isqrt(j)))
         lobes = self._lobe_values(strategies, foot, view, fine, kept)
         if kept:
             out["_normals"] = kept

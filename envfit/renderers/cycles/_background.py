@@ -45,6 +45,7 @@ from envfit.renderers._base import (EnvmapTechnique, Renderer, SamplerSpec,
                                            power_heuristic)
 from envfit.renderers.cycles._adaptive import CYCLES_ADAPTIVE
 from envfit.renderers.cycles._bsdf import BSDF_NAMES, ROUGHNESS, bsdf
+from envfit.renderers.cycles._film import BLACKMAN_HARRIS
 from envfit.renderers.cycles._patterns import BLUE_NOISE
 from envfit.renderers.cycles._scene import cycles_snippet
 
@@ -488,4 +489,5 @@ CYCLES = Renderer(
     render_samplers=("tabulated_sobol", "blue_noise"),
     harness="envfit.renderers.cycles._render",
     adaptive=CYCLES_ADAPTIVE,
+    pixel_filter=BLACKMAN_HARRIS,
 )

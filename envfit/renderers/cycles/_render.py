@@ -30,7 +30,8 @@ The scene (built once per :class:`CyclesSphere`, from Blender's empty factory se
   with one convex sphere a bounce leaving it can only escape to the world, so this is direct
   lighting exactly (tested: more bounces give the same image); clamping off; denoising and
   adaptive sampling off; the light tree at its default (on); the **box** pixel filter of
-  width 1; the CPU device;
+  width 1 (or ``CyclesOptions.pixel_filter``: Blender's default is Blackman–Harris 1.5 px,
+  ``_film``); the CPU device;
 * **sampling pattern**: Tabulated Sobol (the factory startup scene's) or Blue Noise
   (:data:`PATTERNS`); a random seed per render (consecutive seeds are correlated: Cycles XORs
   the seed into each pixel's hash, ``kernel/sample/pattern.h``: ``path_rng_pixel_init``);
@@ -97,6 +98,8 @@ class CyclesOptions:
     max_bounces : light-path bounces (1: direct lighting; more only to check that it is).
     bsdf : None (the white Diffuse BSDF) or :func:`glossy_bsdf` (a white microfacet
         conductor: the Glossy BSDF node).
+    pixel_filter : (Blender's ``pixel_filter_type``, ``filter_width``): the box of width 1
+        (the lab's, default) or Blender's default ``("BLACKMAN_HARRIS", 1.5)``, ``GAUSSIAN``.
     """
 
     resolution: int = 64
@@ -106,8 +109,13 @@ class CyclesOptions:
     cache_dir: str | None = None
     max_bounces: int = 1
     bsdf: tuple | None = None
+    pixel_filter: tuple = ("BOX", 1.0)
 
     def __post_init__(self):
+        kind, width = self.pixel_filter
+        if kind not in ("BOX", "GAUSSIAN", "BLACKMAN_HARRIS") or not float(width) > 0:
+            raise ParameterError(f"pixel_filter must be (BOX | GAUSSIAN | BLACKMAN_HARRIS, "
+                                 f"width > 0), got {self.pixel_filter!r}")
         if self.bsdf is not None and dict(self.bsdf).get("type") != "glossy":
             raise ParameterError("bsdf must be None (white diffuse) or glossy_bsdf(...)")
         for name, lo in (("resolution", 4), ("reference_spp", 1), ("max_bounces", 1)):
@@ -264,8 +272,7 @@ def _settings(scene, options: CyclesOptions) -> None:
     c.device = "CPU"
     c.use_adaptive_sampling = False
     c.use_denoising = False
-    c.pixel_filter_type = "BOX"
-    c.filter_width = 1.0
+    c.pixel_filter_type, c.filter_width = options.pixel_filter[0], float(options.pixel_filter[1])
     c.max_bounces = c.diffuse_bounces = options.max_bounces
     c.glossy_bounces = options.max_bounces if options.bsdf is not None else 0
     c.transmission_bounces = c.volume_bounces = 0
@@ -469,6 +476,8 @@ class CyclesSphere:
                "world": "native"}          # the texture at the ray direction (not permuted)
         if o.bsdf is not None:                  # the diffuse references' keys unchanged
             key["bsdf"] = dict(o.bsdf)
+        if tuple(o.pixel_filter) != ("BOX", 1.0):     # the box renders' keys unchanged
+            key["pixel_filter"] = list(o.pixel_filter)
 
         def render():
             rng = np.random.default_rng(o.reference_seed)
@@ -486,7 +495,9 @@ class CyclesSphere:
         imgs, secs = self.render(strategy, pattern, spp, rng)
         err = sphere_error(imgs, ref.a, ref.b, self.geometry, seed=rng)
         opts = {"world_sampling": WORLD_SAMPLING[strategy], "blender": self.version,
-                "device": "CPU", "filter": "box 1 px", "light_tree": True,
+                "device": "CPU",
+                "filter": f"{self.options.pixel_filter[0].lower()} "
+                          f"{self.options.pixel_filter[1]:g} px", "light_tree": True,
                 "max_bounces": self.options.max_bounces}
         return measurement(err, spp=spp, renderer=self.renderer, sampler=pattern,
                            strategy=strategy, reference_spp=self.options.reference_spp,

@@ -566,4 +566,8 @@ MITSUBA3 = Renderer(
     roughness=ROUGHNESS,
     render_samplers=("independent", "ldsampler"),
     harness="envfit.renderers.mitsuba3._render",
+    pixel_filter_note=("Mitsuba's hdrfilm defaults to the gaussian filter (stddev 0.5, radius "
+                       "2 px), which splats each sample into the pixels around it "
+                       "(src/render/imageblock.cpp: ImageBlock::put): not modelled on the "
+                       "sphere"),
 )

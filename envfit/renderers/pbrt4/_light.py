@@ -418,4 +418,8 @@ PBRT4 = Renderer(
     microfacet={"ggx": None},
     bsdf_fn=bsdf,
     roughness=ROUGHNESS,
+    pixel_filter_note=("pbrt-v4's default filter is the gaussian (radius 1.5, sigma 0.5), "
+                       "sampled by its FilterSampler with the weights f/pdf "
+                       "(src/pbrt/filters.h: GaussianFilter::Sample): not modelled on the "
+                       "sphere"),
 )
