@@ -61,7 +61,8 @@ view(0)
 
 def _settings(n: int, spp: int, pattern: str) -> str:
     """The render settings of the measurements (:func:`envfit.renderers.cycles._render.
-    _settings`): an n × n film, box filter of width 1, direct light only, no clamping,
+    _settings`): an n × n film, Blender's default pixel filter (Blackman–Harris 1.5 px, the
+    record's ``pixel_filter``: the footprint the model takes), direct light only, no clamping,
     denoising or adaptive sampling, the light tree on, the pattern at ``spp``."""
     return (f"r, c = scene.render, scene.cycles\n"
             f'r.engine = "CYCLES"\n'
@@ -76,8 +77,9 @@ def _settings(n: int, spp: int, pattern: str) -> str:
             f'c.sampling_pattern = "{pattern.upper()}"\n'
             f"c.use_adaptive_sampling = False\n"
             f"c.use_denoising = False\n"
-            f'c.pixel_filter_type = "BOX"\n'
-            f"c.filter_width = 1.0\n"
+            f"# Blender's default pixel filter, the footprint the model takes (--sphere-pixels)\n"
+            f'c.pixel_filter_type = "BLACKMAN_HARRIS"\n'
+            f"c.filter_width = 1.5\n"
             f"c.max_bounces = c.diffuse_bounces = 1\n"
             f"c.glossy_bounces = c.transmission_bounces = c.volume_bounces = 0\n"
             f"c.transparent_max_bounces = 0\n"
@@ -91,8 +93,8 @@ def cycles_snippet(s: StrategySetting, spec: SamplerSpec, spp: int, *,
     (:mod:`envfit.renderers.cycles._render`): Blender's empty factory scene, the exact
     sphere with the white Diffuse BSDF, the world's Environment Texture (Linear) straight into
     the Background and its sampling for the strategy, an orthographic camera on each of the
-    six :data:`SPHERE_VIEWS` (``view(k)``), a film of :func:`snippet_pixels` pixels with the
-    box filter of width 1, direct light only (max bounces 1, diffuse 1, the rest 0: the one
+    six :data:`SPHERE_VIEWS` (``view(k)``), a film of :func:`snippet_pixels` pixels with
+    Blender's default Blackman–Harris filter of 1.5 px, direct light only (max bounces 1, diffuse 1, the rest 0: the one
     bounce off a convex sphere escapes to the world), no clamping, denoising or adaptive
     sampling, the light tree on, the pattern and spp (Sobol-Burley only in Cycles' debug UI:
     ``cycles/properties.py``: ``enum_sampling_pattern``)."""
