@@ -9,10 +9,13 @@ spans, ``envfit.predict.renderer._footprint``) is that density, not the pixel's 
 
 :class:`FilmWarp` holds the offset as the renderer computes it — a table read with linear
 interpolation at u·(T − 1), or u − ½ — and gives the footprint what it needs: the offsets of
-the strata midpoints (i + ½)/s (:meth:`~FilmWarp.midpoints`, where the footprint's s × s
-normals sit) and the factor that turns the variance over those s points of a function linear
+the s equal-probability strata of the film number (:meth:`~FilmWarp.midpoints`: each
+stratum's centre of mass, where the footprint's s × s normals sit; the strata midpoints for
+the box) and the factor that turns the variance over those s points of a function linear
 across the pixel into its variance over the filter (:meth:`~FilmWarp.variance_scale`; s²/(s² −
-1) for the box). A renderer that *splats* each sample into its neighbours with weights
+1) for the box). Measured on Cycles' Blackman–Harris 1.5 px, a diffuse sphere 64 px across
+(forest, city; 16–1024 spp): at side 2 the centres of mass predict within 1 % of side 4,
+where the strata's midpoint quantiles read 1–3 % high and ±σ 1–2 % low. A renderer that *splats* each sample into its neighbours with weights
 (Mitsuba's ``gaussian``) has no film warp; its record says so.
 
 Example
@@ -54,9 +57,19 @@ class FilmWarp:
         f = x - i
         return (1.0 - f) * t[i] + f * t[np.minimum(i + 1, len(t) - 1)]
 
+    @functools.cache
     def midpoints(self, side: int) -> np.ndarray:
-        """The offsets of the ``side`` strata midpoints (i + ½)/side."""
-        return self.offset((np.arange(int(side)) + 0.5) / int(side))
+        """The mean offset of each of the ``side`` equal-probability strata of the film number
+        (the strata midpoints (i + ½)/side − ½ for the box; for a filter, its strata's
+        centres of mass)."""
+        s = int(side)
+        if self.table is None:
+            return (np.arange(s) + 0.5) / s - 0.5
+        u = (np.arange(_DENSE) + 0.5) / _DENSE
+        out = self.offset(u).reshape(s, -1).mean(axis=1) if _DENSE % s == 0 else np.array(
+            [self.offset(u[(u >= i / s) & (u < (i + 1) / s)]).mean() for i in range(s)])
+        out.flags.writeable = False
+        return out
 
     @functools.cache
     def variance(self) -> float:
