@@ -41,7 +41,7 @@ from envfit.renderers import get_renderer
 from envfit.validate import measure_cell
 
 sys.path.insert(0, str(Path(__file__).parent))
-from render_check import _cpu, _filter_arg, load_map  # noqa: E402  (bench helpers)
+from render_check import _cpu, _filter_arg, film_warp_of, load_map  # noqa: E402  (bench helpers)
 
 COLUMNS = ["map", "distribution", "alpha", "sampler", "strategy", "spp", "spp_used",
            "measured_rmse", "low", "high", "predicted", "ratio", "inside", "mean_offset",
@@ -66,10 +66,7 @@ def _model(env, dist, alpha, args):
 def _film(args):
     """The renders' pixel filter as the model's film warp (the box where none is asked)."""
     from envfit.renderers import BOX_FILTER
-    if args.renderer != "cycles" or tuple(args.pixel_filter) == ("box", 1.0):
-        return BOX_FILTER
-    from envfit.renderers.cycles._film import film_warp  # internal: Cycles' filter table
-    return film_warp(*args.pixel_filter)
+    return film_warp_of(args) or BOX_FILTER
 
 
 def _session(args, dist: str, alpha: float):

@@ -249,13 +249,18 @@ def _filter_arg(text: str) -> tuple:
     return kind.lower(), float(width or 1.0)
 
 
+def film_warp_of(args):
+    """The renders' ``--pixel-filter`` as the model's film warp (None: the box)."""
+    if args.renderer != "cycles" or tuple(args.pixel_filter) == ("box", 1.0):
+        return None
+    from envfit.renderers.cycles._film import film_warp  # internal: Cycles' filter table
+    return film_warp(*args.pixel_filter)
+
+
 def _predictor(env: EnvMap, args) -> Predictor:
     foot = (args.resolution, args.footprint) if args.footprint > 1 else None
-    film = None
-    if args.renderer == "cycles" and tuple(args.pixel_filter) != ("box", 1.0):
-        from envfit.renderers.cycles._film import film_warp  # internal: Cycles' filter table
-        film = film_warp(*args.pixel_filter)
-    return Predictor(args.renderer, env, args.grid, args.axes, args.max_level, foot, film)
+    return Predictor(args.renderer, env, args.grid, args.axes, args.max_level, foot,
+                     film_warp_of(args))
 
 
 def repredict_map(name: str, env: EnvMap, args, rows: list) -> None:

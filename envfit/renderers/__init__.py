@@ -71,7 +71,7 @@ from envfit.base import lazy_exports
 _LAZY = {
     "RANDOMISATIONS": "_base", "PAIRINGS": "_base", "STRATEGY_NAMES": "_base",
     "DirectionSample": "_base", "EnvmapTechnique": "_base", "PermutationLaw": "_base",
-    "Renderer": "_base", "FilmWarp": "_film", "BOX_FILTER": "_film",
+    "Renderer": "_base", "FilmWarp": "_film", "BOX_FILTER": "_film", "film_of": "_film",
     "SamplerSpec": "_base", "StrategySetting": "_base", "concentric_disk": "_base",
     "cosine_hemisphere": "_base", "power_heuristic": "_base", "balance_heuristic": "_base",
     "Hierarchical2D": "mitsuba3._envmap", "Mitsuba3Envmap": "mitsuba3._envmap",

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["FilmWarp", "BOX_FILTER"]
+__all__ = ["FilmWarp", "BOX_FILTER", "film_of"]
 
 #: midpoints of the dense rule :meth:`FilmWarp.variance` integrates with (exact for the
 #: piecewise-linear tables up to 2^16 entries)
@@ -88,3 +88,9 @@ class FilmWarp:
 
 #: the box filter of width 1 (uniform in the pixel)
 BOX_FILTER = FilmWarp()
+
+
+def film_of(renderer, chosen=None) -> FilmWarp:
+    """The film warp a model takes: ``chosen``, else the renderer's default filter (its
+    record's ``pixel_filter``), else the box."""
+    return chosen or getattr(renderer, "pixel_filter", None) or BOX_FILTER

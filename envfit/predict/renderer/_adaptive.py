@@ -287,7 +287,8 @@ class AdaptiveModel:
         if self.sphere_pixels is not None:
             from envfit.predict.renderer._footprint import nearest_views, pixel_footprints
             views = nearest_views(self.normals)
-            film = (self.options.pixel_filter or self.renderer.pixel_filter)   # None: the box
+            from envfit.renderers import film_of
+            film = film_of(self.renderer, self.options.pixel_filter)
             feet = (pixel_footprints(self.normals, views, self.sphere_pixels, FILM_SIDE, film),
                     pixel_footprints(self.normals, views, self.sphere_pixels, TRUTH_SIDE, film))
             cell = np.clip((uf.reshape(-1, 2) * FILM_SIDE).astype(np.int64), 0, FILM_SIDE - 1)

@@ -127,8 +127,8 @@ class RendererModelOptions:
     def film(self, renderer):
         """The pixel filter's film warp: :attr:`pixel_filter`, else the renderer's default
         (its record's ``pixel_filter``), else the box."""
-        from envfit.renderers import BOX_FILTER
-        return self.pixel_filter or getattr(renderer, "pixel_filter", None) or BOX_FILTER
+        from envfit.renderers import film_of
+        return film_of(renderer, self.pixel_filter)
 
 
 @dataclass(frozen=True)
