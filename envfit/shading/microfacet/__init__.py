@@ -1,7 +1,7 @@
 r"""Microfacet BSDFs as techniques (issue 25): GGX and Beckmann distributions, Smith
 shadowing-masking in its separable and height-correlated forms, three visible-normal warps,
 two conductor Fresnel forms, multiple scattering as an energy scale, the rough conductor and
-the rough plastic BSDFs (eval, pdf and sample sharing one warp) and the ground truth of a
+the rough plastic and principled BSDFs (eval, pdf and sample sharing one warp) and the ground truth of a
 BSDF's shading integral on a map.
 
 Each technique is named by what it is, never by a renderer: which renderer shades its BSDFs
@@ -22,6 +22,9 @@ Modules:
   lobe, E its own single-scatter albedo table.
 * :mod:`~envfit.shading.microfacet._plastic` — :class:`RoughPlastic`, a rough dielectric
   coating over a Lambertian base with rough-interface transmittance tables.
+* :mod:`~envfit.shading.microfacet._principled` — :class:`Principled`, the principled
+  ("Disney") BSDF's diffuse-with-retro-reflection and GGX specular lobes, the Fresnel a
+  blend of the dielectric's and a metal's.
 * :mod:`~envfit.shading.microfacet._ground_truth` — the shading integral's ground truth with
   its resolution rule.
 
@@ -41,6 +44,7 @@ _LAZY = {
     "BSDFSample": "_conductor", "Conductor": "_conductor", "SHADOWINGS": "_conductor",
     "albedo_table": "_multiscatter", "energy_scale": "_multiscatter",
     "PlasticSample": "_plastic", "RoughPlastic": "_plastic",
+    "PRINCIPLED_DEFAULTS": "_principled", "Principled": "_principled",
     "GroundTruthOptions": "_ground_truth", "MicrofacetShading": "_ground_truth",
     "microfacet_shading_integral": "_ground_truth",
 }

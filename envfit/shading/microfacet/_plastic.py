@@ -56,7 +56,7 @@ from envfit.shading.microfacet._distributions import MicrofacetDistribution
 from envfit.shading.microfacet._vndf import VNDF_WARPS, concentric_disk, sample_visible_normals
 
 __all__ = ["PlasticSample", "RoughPlastic", "TRANSMITTANCE_RES", "fresnel_dielectric",
-           "rough_fresnel_tables"]
+           "rough_fresnel_tables", "split_lobe_numbers"]
 
 #: cosines in the transmittance table
 TRANSMITTANCE_RES = 64
@@ -190,6 +190,23 @@ def _normals_all(kind: str, alpha: float, u: np.ndarray) -> np.ndarray:
     return np.stack([np.cos(phi) * sin_t, np.sin(phi) * sin_t, cos_t], axis=1)
 
 
+def split_lobe_numbers(u, u1) -> tuple[np.ndarray, np.ndarray]:
+    """(sample1 (K,), sample2 (K, 2)) of a two-lobe BSDF's ``sample``: ``u`` (K, 3), or ``u``
+    (K, 2) with ``u1`` (K,)."""
+    u = np.asarray(u, dtype=np.float64)
+    if u1 is None:
+        if u.ndim != 2 or u.shape[1] != 3:
+            raise ParameterError(f"u must have shape (K, 3) (sample1, sample2) when u1 is "
+                                 f"not given, got {u.shape}")
+        return u[:, 0], u[:, 1:]
+    if u.ndim != 2 or u.shape[1] != 2:
+        raise ParameterError(f"u must have shape (K, 2) when u1 is given, got {u.shape}")
+    u1 = np.asarray(u1, dtype=np.float64).reshape(-1)
+    if len(u1) != len(u):
+        raise ParameterError(f"u and u1 must have as many rows, got {len(u)} and {len(u1)}")
+    return u1, u
+
+
 @dataclass(frozen=True)
 class PlasticSample(BSDFSample):
     """A :class:`BSDFSample` that also says which lobe drew each sample: ``specular`` (K,) bool
@@ -269,6 +286,11 @@ class RoughPlastic:
         ps, pd = (1.0 - t) * w, t * (1.0 - w)
         return ps / (ps + pd)
 
+    def lobe_probability(self, cos_theta_i) -> np.ndarray:
+        """The chance that ``sample1`` picks the first lobe (sample1 below it): the specular
+        one, :meth:`prob_specular` (a two-lobe BSDF's interface)."""
+        return self.prob_specular(cos_theta_i)
+
     def _D(self, m: np.ndarray) -> np.ndarray:  # noqa: N802
         """D(m), zeroed where D cos θ_m ≤ 1e-20."""
         d = self.distribution.D(m)
@@ -306,20 +328,6 @@ class RoughPlastic:
         p = ps * self._specular_pdf(wi, wo, _half(wi, wo)) + (1.0 - ps) * wo[:, 2] / math.pi
         return np.where(ok, p, 0.0)
 
-    def _split(self, u, u1) -> tuple[np.ndarray, np.ndarray]:
-        u = np.asarray(u, dtype=np.float64)
-        if u1 is None:
-            if u.ndim != 2 or u.shape[1] != 3:
-                raise ParameterError(f"u must have shape (K, 3) (sample1, sample2) when u1 is "
-                                     f"not given, got {u.shape}")
-            return u[:, 0], u[:, 1:]
-        if u.ndim != 2 or u.shape[1] != 2:
-            raise ParameterError(f"u must have shape (K, 2) when u1 is given, got {u.shape}")
-        u1 = np.asarray(u1, dtype=np.float64).reshape(-1)
-        if len(u1) != len(u):
-            raise ParameterError(f"u and u1 must have as many rows, got {len(u)} and {len(u1)}")
-        return u1, u
-
     def sample(self, wi, u, u1=None) -> PlasticSample:
         """Draw ω_o for views ``wi`` (K, 3): the lobe, then the direction in it.
 
@@ -330,7 +338,7 @@ class RoughPlastic:
         pdf and weight are those of the mixture (:meth:`pdf`, :meth:`eval` / :meth:`pdf`).
         """
         wi = _dirs(wi, "wi")
-        s1, s2 = self._split(u, u1)
+        s1, s2 = split_lobe_numbers(u, u1)
         if len(s2) != len(wi):
             raise ParameterError(f"wi and u must have as many rows, got {len(wi)} and {len(s2)}")
         d = self.distribution
