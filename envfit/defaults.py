@@ -33,19 +33,24 @@ __all__ = ["BRDFS", "WEIGHTINGS", "ALL_POINTSETS", "DEFAULT_POINTSETS", "DEFAULT
            "RENDERER_AXES_START", "RENDERER_MAX_AXES", "UPS", "SOLVERS", "FIT_METHODS",
            "EXECUTORS", "PREDICTOR_CHOICES", "MICROFACET_BSDFS", "MICROFACET_FRAMES_SEED",
            "FOOTPRINT_SIDE", "BAND_MIN_FRAMES", "BAND_BOOTSTRAP_RESAMPLES", "BAND_BOOTSTRAP_SEED",
-           "ADVISE_ALPHA", "MICROFACET_BSDF_WORDS"]
+           "ADVISE_ALPHA", "MICROFACET_BSDF_WORDS", "TWO_LOBE_BSDFS"]
 
 # ----------------------------------------------------------------------------- vocabularies
 
 #: the microfacet BSDFs a renderer's model shades (``envfit advise --renderer R --brdf``): white
-#: conductors (:class:`envfit.shading.microfacet.Conductor`) and Mitsuba 3's rough plastic
-#: (:class:`envfit.shading.microfacet.RoughPlastic`, a GGX coat)
-MICROFACET_BSDFS = ("ggx", "beckmann", "roughplastic", "multiggx")
+#: conductors (:class:`envfit.shading.microfacet.Conductor`), Mitsuba 3's rough plastic
+#: (:class:`envfit.shading.microfacet.RoughPlastic`, a GGX coat) and principled BSDF
+#: (:class:`envfit.shading.microfacet.Principled`)
+MICROFACET_BSDFS = ("ggx", "beckmann", "roughplastic", "multiggx", "principled")
+#: the microfacet BSDFs of two lobes, one picked per BSDF sample by a number of its own
+#: (their frames' proxies are numpy; a net is searched at its powers of two)
+TWO_LOBE_BSDFS = ("roughplastic", "principled")
 #: each of :data:`MICROFACET_BSDFS` in words (``advise --help``; the same keys, in order)
 MICROFACET_BSDF_WORDS = {"ggx": "white GGX conductor; Mitsuba 3, pbrt-v4, Cycles",
                          "beckmann": "white Beckmann conductor; Mitsuba 3, Cycles",
                          "roughplastic": "Mitsuba 3's roughplastic",
-                         "multiggx": "Cycles' Multiscatter GGX"}
+                         "multiggx": "Cycles' Multiscatter GGX",
+                         "principled": "Mitsuba 3's principled; --bsdf-param NAME=VALUE"}
 #: the microfacet alpha the advice's model takes (``advise --renderer R --roughness``, in
 #: each renderer's own units: its record's roughness convention,
 #: :meth:`envfit.renderers.RoughnessConvention.range`)

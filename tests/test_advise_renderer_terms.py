@@ -437,6 +437,55 @@ def test_roughplastic_answer_is_the_models_and_orthogonal_is_refused(sun_file, t
         assert rc == 2 and len(err) == 1 and "ldsampler" in err[0]
 
 
+def test_principled_answer_is_the_models_with_its_defaults_and_parameters(sun_file, tmp_path,
+                                                                        capsys):
+    """--brdf principled (Mitsuba's principled) without --roughness is the plugin's defaults
+    (roughness 0.5: alpha 0.25); --bsdf-param sets metallic: the answer's spp meets the
+    target and the spp below misses per a fresh MicrofacetModel of Principled(0.5,
+    metallic=1) over the same frames; the JSON and the model line name every parameter; the
+    snippet is Mitsuba's principled and loads in Mitsuba; a bad parameter, a BSDF without
+    parameters or another renderer is one line before the map is read."""
+    from envfit.defaults import MICROFACET_FRAMES_SEED
+    from envfit.predict.renderer import MicrofacetModel, band_frames
+    from envfit.shading.microfacet import Principled
+    rc, lines, _, d = _run(capsys, [sun_file, "--renderer", "mitsuba3", "--brdf", "principled",
+                                    "--bsdf-param", "metallic=1", "--target-relative", "0.05",
+                                    "--renderer-level", "5", "--snippet", *MODEL], tmp_path)
+    assert rc == 0
+    b = d["renderer"]["bsdf"]
+    assert (b["type"], b["roughness"], b["alpha"], b["metallic"], b["specular"]) == \
+        ("principled", 0.5, 0.25, 1.0, 0.5) and b["eta"] == pytest.approx(1.5, rel=1e-6)
+    m = MicrofacetModel(_load(sun_file), get_renderer("mitsuba3"), Principled(0.5, metallic=1),
+                        band_frames(_options(5).pool, (0, 90), seed=MICROFACET_FRAMES_SEED),
+                        options=_options(5), select=NORMALS)
+    rec = d["renderer"]["recommendation"]
+    n, target = rec["spp"], rec["target_rmse"]
+    assert m.predict("mis", "independent", n).rmse <= target < \
+        m.predict("mis", "independent", n - 1).rmse
+    assert any("principled BSDF (Mitsuba's principled: roughness 0.5, GGX alpha 0.25, "
+               "base_color 0.5, metallic 1," in ln for ln in lines)
+    line = next(ln for ln in lines if '"bsdf": {"type": "principled"' in ln)
+    text = line.split('"bsdf": ', 1)[1].rstrip("},") + "}"
+    assert json.loads(text) == {"type": "principled", "roughness": 0.5, "metallic": 1}
+    mi = pytest.importorskip("mitsuba")
+    mi.set_variant("scalar_rgb")
+    assert "Principled" in str(mi.load_dict(json.loads(text)))
+    for extra, words in ((["--bsdf-param", "metallic=2"], "metallic must be in [0, 1]"),
+                         (["--bsdf-param", "clearcoat=1"], "clearcoat is not a parameter"),
+                         (["--bsdf-param", "metallic"], "expected NAME=VALUE"),
+                         (["--bsdf-param", "metallic=1", "--bsdf-param", "metallic=0"],
+                          "given twice"),
+                         (["--roughness", "0.1"], "alpha = R^2: 0.223607 to 1"),
+                         (["--renderer", "cycles"], "--renderer mitsuba3")):
+        rc, _, err, _ = _run(capsys, [tmp_path / "missing.exr", "--renderer", "mitsuba3",
+                                      "--brdf", "principled", *extra], tmp_path)
+        assert rc == 2 and len(err) == 1 and words in err[0], err
+    rc, _, err, _ = _run(capsys, [tmp_path / "missing.exr", "--renderer", "mitsuba3", "--brdf",
+                                  "ggx", "--roughness", "0.2", "--bsdf-param", "metallic=1"],
+                         tmp_path)
+    assert rc == 2 and len(err) == 1 and "--brdf principled" in err[0]
+
+
 def test_cycles_multiscatter_ggx_and_the_note_that_names_it(sun_file, tmp_path, capsys):
     """--renderer cycles --brdf ggx notes that Cycles' nodes default to Multiscatter GGX;
     --brdf multiggx does not, and predicts every cell above the single-scatter one (its

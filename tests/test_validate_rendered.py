@@ -78,6 +78,23 @@ def test_mitsuba_renders_the_rough_plastic_inside_its_prediction(sun_file, tmp_p
     assert rc == 2 and len(err) == 1 and "orthogonal" in err[0]
 
 
+def test_mitsuba_renders_the_principled_bsdf_inside_its_prediction(sun_file, tmp_path, capsys,
+                                                                    monkeypatch):
+    """Mitsuba's principled at its defaults but metallic 0.3 (roughness 0.5 without
+    --roughness), the independent and ldsampler samplers × brdf, map, mis at 16 spp: every
+    cell inside; the summary names the parameter; --bsdf-param with a conductor is one line."""
+    pytest.importorskip("mitsuba")
+    rc, lines, _, d = _run(capsys, [sun_file, "--renderer", "mitsuba3", "--brdf",
+                                    "principled", "--bsdf-param", "metallic=0.3", *SMALL],
+                           tmp_path, monkeypatch)
+    assert rc == 0 and d["cells"] == 6 and d["inside"] == 6, lines
+    assert "principled, GGX alpha 0.25, metallic 0.3" in lines[1]
+    rc, _, err, _ = _run(capsys, [tmp_path / "missing.exr", "--renderer", "mitsuba3",
+                                  "--brdf", "ggx", "--alpha", "0.2", "--bsdf-param",
+                                  "metallic=1"], tmp_path, monkeypatch)
+    assert rc == 2 and len(err) == 1 and "--bsdf-param" in err[0]
+
+
 def _result(inside: list[bool]) -> RenderValidation:
     o = RenderValidationOptions("mitsuba3", brdf="beckmann", alpha=0.1, spp=(16,),
                                 samplers=("independent",))

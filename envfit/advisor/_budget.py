@@ -35,6 +35,7 @@ from envfit.advisor._options import AdviseOptions
 from envfit.base import MemoryBudgetError
 from envfit.base import (Plan, Stage, budget_words, format_bytes, interpolator_nbytes,
                          largest_n_within, memory_budget_bytes)
+from envfit.defaults import TWO_LOBE_BSDFS
 from envfit.sobolev import max_samples
 from envfit.maps import EnvMap
 from envfit.shading import default_sh_lmax
@@ -297,7 +298,7 @@ def _renderer_stages(pixels: int, opts, level: int, normals: int, max_spp: int) 
     from envfit.predict.renderer import RendererModelOptions
     m = opts.model_options()
     rand = opts.record.sampler(opts.sampler).randomisation
-    base = (MICROFACET_POOL if opts.microfacet and opts.bsdf != "roughplastic"
+    base = (MICROFACET_POOL if opts.microfacet and opts.bsdf not in TWO_LOBE_BSDFS
             else RendererModelOptions().pool)
     pool = max(base, normals)                                 # as opts.model_options()
     pilot = 4 ** m.pilot_level

@@ -387,12 +387,17 @@ class RendererAdvice:
                 return "the RMSE over uniform normals of a white diffuse surface"
             return (f"the RMSE over uniform normals of a white diffuse sphere{pixels[1:]}, "
                     f"each pixel seen by the axis view nearest its normal")
-        bsdf = (f"rough plastic ({_maker(o.record)} roughplastic: a GGX coat of alpha "
-                f"{o.conductor().alpha:.4g}, eta 1.49, over a diffuse base of reflectance 0.5)"
-                if o.bsdf == "roughplastic" else
-                f"white {_BSDF_WORDS.get(o.bsdf, o.bsdf.title()).format(o.record.possessive)} "
-                f"conductor "
-                f"(alpha {o.conductor().alpha:.4g}, Fresnel 1)")
+        c = o.conductor()
+        if o.bsdf == "roughplastic":
+            bsdf = (f"rough plastic ({_maker(o.record)} roughplastic: a GGX coat of alpha "
+                    f"{c.alpha:.4g}, eta 1.49, over a diffuse base of reflectance 0.5)")
+        elif o.bsdf == "principled":
+            rest = ", ".join(f"{k} {v:g}" for k, v in c.params.items() if k != "roughness")
+            bsdf = (f"principled BSDF ({_maker(o.record)} principled: roughness "
+                    f"{o.roughness:g}, GGX alpha {c.alpha:.4g}, {rest}, eta {c.eta:.4g})")
+        else:
+            bsdf = (f"white {_BSDF_WORDS.get(o.bsdf, o.bsdf.title()).format(o.record.possessive)}"
+                    f" conductor (alpha {c.alpha:.4g}, Fresnel 1)")
         return (f"the RMSE of a {bsdf} over the views an "
                 f"orthographic camera has of a sphere{pixels} (theta_o density cos sin) and "
                 f"uniform map orientations")
@@ -420,6 +425,9 @@ class RendererAdvice:
         d = {"type": o.bsdf, "roughness": o.roughness, "alpha": c.alpha}
         if o.bsdf == "roughplastic":
             d.update(distribution="ggx", eta=c.eta, diffuse_reflectance=c.diffuse_reflectance)
+        elif o.bsdf == "principled":
+            d.update(distribution="ggx", eta=c.eta,
+                     **{k: v for k, v in c.params.items() if k != "roughness"})
         else:
             d["fresnel"] = 1.0
         return {**d, "sphere_pixels": o.sphere_pixels, **self._film_dict()}
@@ -478,7 +486,7 @@ def _add_snippet(adv: RendererAdvice, envmap, filename: str) -> None:
     if opts.mis_compensation:
         kw["mis_compensation"] = True
     if opts.microfacet:     # a renderer whose snippet writes one (the CLI refuses the rest)
-        kw["microfacet"] = (opts.bsdf, opts.conductor().alpha)      # (roughplastic, α)
+        kw["microfacet"] = (opts.bsdf, opts.conductor().alpha, dict(opts.bsdf_params))
     takes = opts.record.snippet_options()
     adv.snippet = opts.record.snippet(a.strategy, opts.sampler, adv.snippet_spp,
                                       filename=filename,

@@ -45,7 +45,7 @@ from __future__ import annotations
 
 import copy
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -53,7 +53,8 @@ import numpy as np
 
 from envfit.base import check_int, check_ints, check_names
 from envfit.base import EnvfitError, ParameterError
-from envfit.defaults import FOOTPRINT_SIDE, MICROFACET_BSDFS, MICROFACET_FRAMES_SEED
+from envfit.defaults import (FOOTPRINT_SIDE, MICROFACET_BSDFS, MICROFACET_FRAMES_SEED,
+                             TWO_LOBE_BSDFS)
 from envfit.maps import EnvMap
 from envfit.predict.renderer import RendererModelOptions, cell_request, strata_reach
 from envfit.predict.renderer.randomisation import ALWAYS_DRAWN, STRATA_SAMPLED
@@ -184,8 +185,9 @@ def _check_microfacet(p, bsdf: str, sampler: str) -> None:
     # else the renderer's BSDF refuses the distribution itself (Conductor, one line)
 
 
-def checked_roughness(roughness, renderer: str) -> float:
-    """``--roughness`` in the range of the renderer's roughness convention
+def checked_roughness(roughness, renderer: str, bsdf: str | None = None) -> float:
+    """``--roughness`` in the range of the renderer's roughness convention (of ``bsdf``'s,
+    where it has its own: :meth:`~envfit.renderers.Renderer.roughness_of`)
     (:meth:`~envfit.renderers.RoughnessConvention.range`; a value within
     :data:`~envfit.renderers.ROUGHNESS_RTOL` of an end is that end); else one line.
 
@@ -199,7 +201,8 @@ def checked_roughness(roughness, renderer: str) -> float:
         r = float(roughness)
     except (TypeError, ValueError):
         raise ParameterError(f"--roughness must be a number, got {roughness!r}") from None
-    convention = get_renderer(renderer).roughness
+    p = get_renderer(renderer)
+    convention = p.roughness if bsdf is None else p.roughness_of(bsdf)
     lo, hi = convention.range()
     if lo * (1.0 - ROUGHNESS_RTOL) <= r < lo:
         return lo
@@ -265,10 +268,16 @@ class RendererAdviseOptions:
         has it; not with ``envfit``).
     roughness : float or None
         With a microfacet ``bsdf``: the renderer's own roughness (α, √α or α² by renderer:
-        its record's :attr:`~envfit.renderers.Renderer.roughness`), α in
+        its record's :attr:`~envfit.renderers.Renderer.roughness`, or the BSDF's own,
+        :meth:`~envfit.renderers.Renderer.roughness_of`; None: the BSDF's default where it
+        has one, :attr:`~envfit.renderers.Renderer.bsdf_params`), α in
         :data:`~envfit.defaults.ADVISE_ALPHA` (its ``words()``; within
         :data:`~envfit.renderers.ROUGHNESS_RTOL`
         of an end, that end).
+    bsdf_params : mapping or None
+        The BSDF's own parameters (name → number) where its record has them
+        (:attr:`~envfit.renderers.Renderer.bsdf_params`: a principled BSDF's ``metallic``,
+        ``specular``, …); the rest keep their defaults.
     sphere_pixels : int or None
         The sphere's diameter on screen in pixels; the prediction then holds the error of
         each pixel's footprint (the normals a pixel spans,
@@ -305,6 +314,7 @@ class RendererAdviseOptions:
     normals: int | None = None
     bsdf: str = "diffuse"
     roughness: float | None = None
+    bsdf_params: Mapping[str, float] | None = None
     sphere_pixels: int | None = None
     quiet: bool = True
     shifts: int | None = None
@@ -405,6 +415,14 @@ class RendererAdviseOptions:
         if self.sphere_pixels is not None:
             object.__setattr__(self, "sphere_pixels",
                                check_int(self.sphere_pixels, "--sphere-pixels", 4))
+        params = dict(self.bsdf_params or {})
+        object.__setattr__(self, "bsdf_params", params)
+        defaults = p.bsdf_params.get(self.bsdf, {})
+        if params and not defaults:
+            from envfit.renderers import RENDERERS
+            owners = sorted({b for r in RENDERERS.values() for b in r.bsdf_params})
+            raise ParameterError(f"--bsdf-param is for a BSDF with parameters of its own "
+                                 f"(--brdf {_or(owners)}), not --brdf {self.bsdf}")
         if self.bsdf == "diffuse":
             if self.roughness is not None:
                 raise ParameterError(f"--roughness is a parameter of --brdf "
@@ -415,11 +433,15 @@ class RendererAdviseOptions:
                                  f"{_or(('diffuse',) + MICROFACET_BSDFS)} (the paper's glossy "
                                  f"lobe is no renderer's BSDF); got {self.bsdf!r}")
         _check_microfacet(p, self.bsdf, self.sampler)
+        if self.roughness is None and "roughness" in defaults:
+            object.__setattr__(self, "roughness", defaults["roughness"])
         if self.roughness is None:
             raise ParameterError(f"--brdf {self.bsdf} needs --roughness (the renderer's own: "
                                  f"{p.roughness.units if p.roughness else 'its roughness'})")
-        object.__setattr__(self, "roughness", checked_roughness(self.roughness, p.name))
-        self.conductor()                      # the renderer lacks this distribution: one line
+        object.__setattr__(self, "roughness",
+                           checked_roughness(self.roughness, p.name, self.bsdf))
+        self.conductor()                      # the renderer lacks this distribution, or a
+        #                                       parameter is unknown or out of range: one line
 
     @property
     def microfacet(self) -> bool:
@@ -441,14 +463,17 @@ class RendererAdviseOptions:
         two."""
         spec = self.record.sampler(self.sampler)
         return (spec.randomisation not in NET_RANDOMISATIONS or spec.prefix
-                and self.bsdf != "roughplastic" and self.sphere_pixels is None)
+                and self.bsdf not in TWO_LOBE_BSDFS and self.sphere_pixels is None)
 
     def conductor(self):
-        """The white conductor (Fresnel 1) as the renderer shades and samples it, or the
-        renderer's rough plastic (a GGX coat, its defaults η 1.49, diffuse 0.5): the record's
-        :meth:`~envfit.renderers.Renderer.bsdf` at the α of its roughness convention."""
+        """The white conductor (Fresnel 1) as the renderer shades and samples it, the
+        renderer's rough plastic (a GGX coat, its defaults η 1.49, diffuse 0.5) or its
+        principled BSDF (``bsdf_params``): the record's
+        :meth:`~envfit.renderers.Renderer.bsdf` at the α of the BSDF's roughness
+        convention."""
         p = self.record
-        return p.bsdf(self.bsdf, p.roughness.to_alpha(self.roughness))
+        return p.bsdf(self.bsdf, p.roughness_of(self.bsdf).to_alpha(self.roughness),
+                      **self.bsdf_params)
 
     def model_options(self) -> RendererModelOptions:
         """The :class:`RendererModelOptions` of ``level`` and ``normals`` (pool: its default,
@@ -456,7 +481,7 @@ class RendererAdviseOptions:
         the default: its frames' proxies are numpy, 8192 frames took 33 s)."""
         for name in ("level", "normals"):
             check_int(getattr(self, name), f"--renderer-{name}", 1)
-        compiled = self.microfacet and self.bsdf != "roughplastic"    # its proxies: numpy
+        compiled = self.microfacet and self.bsdf not in TWO_LOBE_BSDFS    # proxies: numpy
         base = MICROFACET_POOL if compiled else RendererModelOptions().pool
         pool = max(base, int(self.normals))
         pixels = None if self.microfacet else self.sphere_pixels   # microfacet: per frame
@@ -570,6 +595,10 @@ class RendererAdviseOptions:
         if self.microfacet:                   # the diffuse keys (and caches) unchanged
             key.update(bsdf=self.bsdf, alpha=self.conductor().alpha,
                        frames_seed=MICROFACET_FRAMES_SEED)
+            defaults = self.record.bsdf_params.get(self.bsdf)
+            if defaults:                                   # the others' keys unchanged
+                key["bsdf_params"] = {k: float(v) for k, v in sorted(
+                    {**defaults, **self.bsdf_params}.items()) if k != "roughness"}
         if self.sphere_pixels is not None:
             key.update(sphere_pixels=self.sphere_pixels, footprint_side=FOOTPRINT_SIDE)
             film = m.film(self.record)

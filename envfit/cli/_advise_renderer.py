@@ -24,15 +24,16 @@ from envfit.defaults import MICROFACET_BSDFS
 #: (RendererModelOptions.__post_init__'s; tests/test_advise_options_sweep.py checks both ends)
 _MODEL_RANGES = {"max_level": (1, 11), "normals": (1, 4096), "sphere_pixels": (4, 1 << 16)}
 
-__all__ = ["add_renderer_arguments", "reject_without_renderer", "renderer_options_from_args",
-           "run_renderer"]
+__all__ = ["add_renderer_arguments", "bsdf_param", "bsdf_param_words", "bsdf_params_of",
+           "reject_without_renderer", "renderer_options_from_args", "run_renderer"]
 
 #: options that only make sense with --renderer (dest → flag)
 _RENDERER_ONLY = {"sampler": "--sampler", "spp": "--spp", "snippet": "--snippet",
                 "mis_compensation": "--mis-compensation", "rules": "--rules",
                 "renderer_level": "--renderer-level", "renderer_normals": "--renderer-normals",
                 "renderer_model_error": "--renderer-model-error",
-                "roughness": "--roughness", "sphere_pixels": "--sphere-pixels",
+                "roughness": "--roughness", "bsdf_param": "--bsdf-param",
+                "sphere_pixels": "--sphere-pixels",
                 "adaptive_threshold": "--adaptive-threshold",
                 "adaptive_samples": "--adaptive-samples",
                 "adaptive_min_samples": "--adaptive-min-samples"}
@@ -110,6 +111,23 @@ def roughness_help() -> str:
             f"{words}; checked with --renderer)")
 
 
+def bsdf_param(text: str) -> tuple[str, float]:
+    """``NAME=VALUE`` → (name, value): the name checked by the renderer's BSDF, the value a
+    finite number."""
+    name, eq, value = text.partition("=")
+    if not eq or not name.strip():
+        raise argparse.ArgumentTypeError(f"expected NAME=VALUE, got {text!r}")
+    return name.strip(), finite_float(value)
+
+
+def bsdf_param_words() -> str:
+    """``--bsdf-param``'s help: each renderer's BSDFs with parameters, and their defaults."""
+    from envfit.renderers import RENDERERS
+    return "; ".join(f"{r.possessive} {b}: " + ", ".join(f"{k} {v:g}" for k, v in d.items()
+                                                         if k != "roughness")
+                     for r in RENDERERS.values() for b, d in r.bsdf_params.items())
+
+
 def _add_model_arguments(g) -> None:
     """The renderer model's grid level, normals, roughness and pixels."""
     level, normals, pixels = (Ranged(*_MODEL_RANGES[k], name) for k, name in
@@ -136,6 +154,11 @@ def _add_model_arguments(g) -> None:
                         f"answer is larger, more of either")
     g.add_argument("--roughness", type=finite_float, default=None, metavar="R",
                    help=roughness_help())
+    g.add_argument("--bsdf-param", type=bsdf_param, action="append", default=None,
+                   metavar="NAME=VALUE",
+                   help=f"a parameter of a --brdf that has its own, by the renderer's name "
+                        f"(repeat for several; the rest keep the renderer's defaults): "
+                        f"{bsdf_param_words()}")
     g.add_argument("--sphere-pixels", type=pixels, default=None, metavar="D",
                    help=f"the sphere's diameter on screen in pixels, {pixels}; adds the "
                         f"error of each pixel's footprint (the normals a pixel spans: large for "
@@ -168,6 +191,16 @@ def reject_without_renderer(args: argparse.Namespace) -> None:
         raise ParameterError(f"--brdf {args.brdf} needs --renderer "
                              f"({', '.join(r.name for r in RENDERERS.values() if r.microfacet)}): "
                              f"the microfacet model predicts a renderer's own estimator")
+
+
+def bsdf_params_of(pairs) -> dict:
+    """The ``--bsdf-param`` pairs as a dict; a name given twice is one line."""
+    out = {}
+    for name, value in pairs or ():
+        if name in out:
+            raise ParameterError(f"--bsdf-param {name} is given twice")
+        out[name] = value
+    return out
 
 
 def renderer_options_from_args(args: argparse.Namespace):
@@ -203,7 +236,8 @@ def renderer_options_from_args(args: argparse.Namespace):
         mis_compensation=args.mis_compensation, max_spp=args.nmax,
         level=args.renderer_level,
         normals=args.renderer_normals, bsdf=args.brdf, roughness=args.roughness,
-        sphere_pixels=args.sphere_pixels, quiet=args.quiet,
+        bsdf_params=bsdf_params_of(args.bsdf_param), sphere_pixels=args.sphere_pixels,
+        quiet=args.quiet,
         model_error=args.renderer_model_error, target_rmse=args.target_rmse,
         target_relative=args.target_relative, snippet=args.snippet,
         cache=not args.no_cache, cache_dir=args.cache_dir)

@@ -22,7 +22,8 @@ FOOTPRINT = Ranged(1, 8, "J")
 MAX_LEVEL = Ranged(4, 11, "L")
 
 #: the flags of the rendered check → their option names
-_FLAGS = {"--alpha": "alpha", "--roughness": "roughness", "--samplers": "samplers",
+_FLAGS = {"--alpha": "alpha", "--roughness": "roughness", "--bsdf-param": "bsdf_param",
+          "--samplers": "samplers",
           "--spp": "spp",
           "--resolution": "resolution", "--reference-spp": "reference_spp",
           "--frames": "frames", "--max-level": "max_level", "--footprint": "footprint"}
@@ -52,6 +53,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     a.add_argument("--roughness", type=ROUGHNESS, default=None, metavar="R",
                    help=f"instead of --alpha: the renderer's own roughness, {ROUGHNESS}, as "
                         f"advise --roughness reads it: {rough}")
+    from envfit.cli._advise_renderer import bsdf_param, bsdf_param_words
+    g.add_argument("--bsdf-param", type=bsdf_param, action="append", default=None,
+                   metavar="NAME=VALUE",
+                   help=f"a parameter of a --brdf that has its own (repeat for several), as "
+                        f"advise --bsdf-param: {bsdf_param_words()}")
     g.add_argument("--samplers", type=str_list, default=None, metavar="S1,S2",
                    help=f"the renderer's samplers (default: {samplers})")
     g.add_argument("--spp", type=SPP, default=None, metavar="N1,N2",
@@ -116,20 +122,24 @@ def options(args: argparse.Namespace, cache_dir):
                                              "max_level", "footprint")
                if getattr(args, k) is not None})
     _check_samplers(args)
-    return RenderValidationOptions(args.renderer, brdf=brdfs[0], alpha=alpha_of(args),
+    from envfit.cli._advise_renderer import bsdf_params_of
+    return RenderValidationOptions(args.renderer, brdf=brdfs[0],
+                                   alpha=alpha_of(args, brdfs[0]),
+                                   bsdf_params=bsdf_params_of(args.bsdf_param),
                                    seed=args.seed, cache_dir=str(cache_dir), **kw)
 
 
-def alpha_of(args: argparse.Namespace) -> float | None:
+def alpha_of(args: argparse.Namespace, brdf: str | None = None) -> float | None:
     """The microfacet alpha of ``--alpha`` or of ``--roughness`` read as the renderer's own
-    value (the record's roughness convention,
+    value (the record's roughness convention, ``brdf``'s own where it has one,
     :meth:`envfit.renderers.RoughnessConvention.to_alpha`, as ``advise``), within
     ``--alpha``'s range (one line naming the flag given)."""
     from envfit.base import ParameterError
     if args.roughness is None:
         return args.alpha
     from envfit.renderers import RENDERERS, get_renderer
-    convention = get_renderer(args.renderer).roughness
+    p = get_renderer(args.renderer)
+    convention = p.roughness if brdf is None else p.roughness_of(brdf)
     if convention is None:
         names = tuple(r.name for r in RENDERERS.values() if r.roughness)
         raise ParameterError(f"renderer must be one of {names}, got {args.renderer!r}")

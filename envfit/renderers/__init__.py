@@ -97,6 +97,7 @@ _LAZY = {
     "MITSUBA_SAMPLERS": "mitsuba3._render", "Mitsuba3Options": "mitsuba3._render",
     "Mitsuba3Sphere": "mitsuba3._render", "mitsuba_normals": "mitsuba3._render",
     "roughconductor_bsdf": "mitsuba3._render", "roughplastic_bsdf": "mitsuba3._render",
+    "principled_bsdf": "mitsuba3._render",
     "glossy_bsdf": "cycles._render",
     "CYCLES_PATTERNS": "cycles._render", "CyclesOptions": "cycles._render",
     "CyclesSphere": "cycles._render", "cycles_normals": "cycles._render",

@@ -436,6 +436,11 @@ class Renderer:
         (said when another renderer is asked for it)
     roughness : the :class:`~envfit.renderers.RoughnessConvention` of its microfacet BSDFs
         (user-facing roughness R → α); None where it has none
+    bsdf_roughness : BSDF → its own roughness convention, where it is not :attr:`roughness`
+        (:meth:`roughness_of`)
+    bsdf_params : BSDF → its parameters a user may set (``advise --bsdf-param NAME=VALUE``)
+        and their defaults, ``roughness`` among them where it has a default (then
+        ``--roughness`` may be left out)
     render_samplers : the samplers ``validate --renderer`` renders by default (empty: the
         renderer does not install here, nothing is rendered)
     harness : the module that renders envfit's measurement with it (``version()``,
@@ -472,6 +477,8 @@ class Renderer:
     bsdf_fn: Callable[..., object] | None = None
     bsdf_names: Mapping[str, str] = field(default_factory=dict)
     roughness: RoughnessConvention | None = None
+    bsdf_roughness: Mapping[str, RoughnessConvention] = field(default_factory=dict)
+    bsdf_params: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
     render_samplers: tuple[str, ...] = ()
     harness: str = ""
     adaptive: object | None = None
@@ -531,6 +538,11 @@ class Renderer:
         import inspect
         return tuple(n for n, a in inspect.signature(self.snippet_fn).parameters.items()
                      if a.kind is a.KEYWORD_ONLY)
+
+    def roughness_of(self, name: str):
+        """The roughness convention of the microfacet BSDF ``name``: its own
+        (:attr:`bsdf_roughness`) or the renderer's (:attr:`roughness`)."""
+        return self.bsdf_roughness.get(name, self.roughness)
 
     def bsdf(self, name: str, alpha: float, **params):
         """The microfacet BSDF ``name`` (a ``--brdf`` name: ``ggx``, ``beckmann``, …) of

@@ -42,13 +42,14 @@ from envfit.base import ParameterError
 __all__ = ["RenderValidationOptions", "RenderValidation", "render_validation", "measure_cell",
            "is_inside", "rendered_summary_lines", "RENDERED_BRDFS", "rendered_renderers"]
 
-#: the BSDFs of the sphere: white diffuse, a white rough conductor (Fresnel 1), or a rough
+#: the BSDFs of the sphere: white diffuse, a white rough conductor (Fresnel 1), a rough
 #: plastic (:class:`envfit.shading.microfacet.RoughPlastic`: GGX coat, η = 1.49, diffuse
-#: reflectance 0.5)
-RENDERED_BRDFS = ("diffuse", "ggx", "beckmann", "roughplastic", "multiggx")
+#: reflectance 0.5) or a principled BSDF (:class:`envfit.shading.microfacet.Principled`)
+RENDERED_BRDFS = ("diffuse", "ggx", "beckmann", "roughplastic", "multiggx", "principled")
 #: a BSDF in the refusals' words
 _BSDF_WORDS = {"multiggx": "Multiscatter GGX (the Principled and Glossy BSDF nodes' default)"}
-_BSDF_NOUNS = {"roughplastic": "rough plastic", "ggx": "GGX conductor",
+_BSDF_NOUNS = {"roughplastic": "rough plastic", "principled": "principled BSDF",
+               "ggx": "GGX conductor",
                "beckmann": "Beckmann conductor", "multiggx": "Multiscatter GGX conductor"}
 #: θ_o bands of a conductor's check (degrees)
 BAND_EDGES = ((0.0, 30.0), (30.0, 60.0), (60.0, 80.0))
@@ -91,7 +92,10 @@ class RenderValidationOptions:
         with a GGX coat of ``alpha``; modelled under the samplers of
         :data:`envfit.defaults.PLASTIC_SAMPLERS`).
     alpha : the microfacet roughness α (the harness sets the renderer's own roughness
-        parameter for it, as the renderer's folder says).
+        parameter for it, as the renderer's folder says); None with a BSDF whose roughness
+        has a default (:attr:`~envfit.renderers.Renderer.bsdf_params`): that one.
+    bsdf_params : the BSDF's own parameters (a principled BSDF's ``metallic``, …), where it
+        has them; the rest keep the renderer's defaults.
     samplers : the renderer's samplers by their own names (default :data:`RENDERERS`).
     strategies : among ``brdf``, ``map``, ``mis`` that the renderer renders (default: all of
         them that the record's strategies call ``renderable``).
@@ -113,6 +117,7 @@ class RenderValidationOptions:
     renderer: str
     brdf: str = "diffuse"
     alpha: float | None = None
+    bsdf_params: dict | None = None
     samplers: tuple = ()
     strategies: tuple = ()
     spp: tuple = (16, 64)
@@ -133,15 +138,27 @@ class RenderValidationOptions:
         if self.brdf not in RENDERED_BRDFS:
             raise ParameterError(f"--brdf with --renderer {self.renderer} must be one of "
                                  f"{', '.join(RENDERED_BRDFS)}; got {self.brdf!r}")
-        if (self.brdf == "diffuse") != (self.alpha is None):
-            raise ParameterError("--roughness goes with --brdf ggx, beckmann or roughplastic, as "
-                                 "--alpha does (and they need one of the two)")
         p = get_renderer(self.renderer)
         owners = [r for r in RENDERERS.values() if self.brdf in r.microfacet]
         if self.microfacet and self.brdf not in p.microfacet and len(owners) == 1:
             raise ParameterError(f"--brdf {self.brdf} is {owners[0].possessive} "
                                  f"{_BSDF_WORDS.get(self.brdf, self.brdf)}: --renderer "
                                  f"{owners[0].name}")
+        defaults = p.bsdf_params.get(self.brdf, {})
+        if self.alpha is None and "roughness" in defaults:
+            object.__setattr__(self, "alpha",
+                               p.roughness_of(self.brdf).to_alpha(defaults["roughness"]))
+        if (self.brdf == "diffuse") != (self.alpha is None):
+            raise ParameterError(f"--roughness goes with a microfacet --brdf "
+                                 f"({', '.join(RENDERED_BRDFS[1:])}), as --alpha does (and "
+                                 f"they need one of the two unless the BSDF's roughness has a "
+                                 f"default)")
+        object.__setattr__(self, "bsdf_params", dict(self.bsdf_params or {}))
+        if self.bsdf_params and not defaults:
+            raise ParameterError(f"--bsdf-param is for a BSDF with parameters of its own, not "
+                                 f"--brdf {self.brdf} with --renderer {self.renderer}")
+        if self.bsdf_params:
+            p.bsdf(self.brdf, self.alpha, **self.bsdf_params)   # an unknown name: one line
         samplers = tuple(self.samplers) or rendered[self.renderer]
         for s in samplers:
             p.sampler(s)
@@ -260,7 +277,8 @@ def _model(envmap, options: RenderValidationOptions):
     n, v, _ = pixel_frames(g, VIEWS, len(VIEWS) * g.kept, seed=options.seed)   # every pixel
     foot = (pixel_footprints(n, v, options.resolution, options.footprint)
             if options.footprint > 1 else None)
-    return MicrofacetModel(env, p, p.bsdf(options.brdf, options.alpha), (n, v),
+    return MicrofacetModel(env, p, p.bsdf(options.brdf, options.alpha, **options.bsdf_params),
+                           (n, v),
                            options=RendererModelOptions(max_level=level, pixel_filter=BOX_FILTER),
                            select=options.frames, footprints=foot)
 
@@ -270,8 +288,9 @@ def _session(envmap, options: RenderValidationOptions):
     ``open_sphere``."""
     from envfit.renderers import get_renderer
     harness = get_renderer(options.renderer).harness_module()
+    params = {"bsdf_params": options.bsdf_params} if options.bsdf_params else {}
     return harness.open_sphere(envmap, options.brdf if options.microfacet else None,
-                               options.alpha, resolution=options.resolution,
+                               options.alpha, **params, resolution=options.resolution,
                                reference_spp=options.reference_spp,
                                cache_dir=options.cache_dir)
 
@@ -350,6 +369,10 @@ def rendered_summary_lines(result: RenderValidation) -> list[str]:
     bsdf = ("white diffuse" if not o.microfacet else
             f"rough plastic, GGX alpha {o.alpha:g}, eta 1.49, diffuse 0.5"
             if o.brdf == "roughplastic" else
+            f"principled, GGX alpha {o.alpha:g}"
+            + "".join(f", {k} {v:g}" for k, v in o.bsdf_params.items())
+            + "; the renderer's defaults otherwise"
+            if o.brdf == "principled" else
             f"white {'GGX' if o.brdf == 'ggx' else 'Beckmann'} conductor, alpha {o.alpha:g}")
     n = len(result.rows)
     from envfit.renderers import get_renderer

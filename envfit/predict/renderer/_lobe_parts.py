@@ -1,17 +1,18 @@
-r"""A two-lobe BSDF (a rough plastic, :class:`envfit.shading.microfacet.RoughPlastic`) under a
-QMC sampler: the tables and the cell
+r"""A two-lobe BSDF (a rough plastic, :class:`envfit.shading.microfacet.RoughPlastic`, or a
+principled BSDF, :class:`~envfit.shading.microfacet.Principled`) under a QMC sampler: the tables and the cell
 of :class:`~envfit.predict.renderer.MicrofacetModel` for a BSDF stream whose lobe is picked
 by a 1-D number of its own.
 
 Under the ``independent`` sampler the lobe number and the direction's two are one uniform
-point of the square (``RoughPlastic.sample_square``: the i.i.d. estimator has the same
+point of the square (the BSDF's ``sample_square``: the i.i.d. estimator has the same
 variance). Under a sampler whose randomisation is one of
 :data:`~envfit.predict.renderer.randomisation.STRATIFIED_1D` the lobe number is a
 stratified 1-D dimension paired at random with the 2-D points, and the error is
 :func:`~envfit.predict.renderer.randomisation.lobe_choice_mse` of the two lobes' tables:
 :math:`a(u)`, the BSDF sample's value (radiance · f·cos / mixture pdf, times its MIS weight
-for ``mis``) when the specular lobe draws ω from u, :math:`b(u)` when the diffuse one does,
-and p the frame's specular probability (``prob_specular`` at the view's cosine). A frame with
+for ``mis``) when the first lobe (the one ``sample1`` < p picks: the plastic's specular, the
+principled BSDF's diffuse) draws ω from u, :math:`b(u)` when the other one does, and p the
+frame's first-lobe probability (``lobe_probability`` at the view's cosine). A frame with
 a pixel footprint averages the tables and p over its normals (p varies little across a
 pixel); its footprint term stays that of the one-square parts. An orthogonal-array sampler
 draws the lobe number from a column of its array, not at random: not modelled.
@@ -31,7 +32,7 @@ from envfit.predict.renderer.randomisation import (STRATIFIED_1D, DyadicGrid,
 
 __all__ = ["LobeChoice"]
 
-_LOBES = (("a", 0.0), ("b", 1.0))             # the plastic's sample1: 0 < p (specular), 1 ≥ p
+_LOBES = (("a", 0.0), ("b", 1.0))             # sample1: 0 < p (the first lobe), 1 ≥ p
 
 
 class LobeChoice:
@@ -64,7 +65,7 @@ class LobeChoice:
 
     def _lobe_values(self, strategies: set, normals, view, fine: int, kept=None) -> dict:
         """``brdf_a``, ``brdf_b``, ``mis_ba``, ``mis_bb`` (P, 3): each lobe's BSDF part and
-        MIS-weighted part averaged over ``normals``, and ``_p``, the mean specular
+        MIS-weighted part averaged over ``normals``, and ``_p``, the mean first-lobe
         probability; {} when no request of the pass needs them. With a dict ``kept`` (a
         footprint's paired film, :meth:`_lobe_extra`), each normal's parts (J, P, 3) are
         filed there under the same names."""
@@ -82,7 +83,7 @@ class LobeChoice:
                 accumulate_parts(acc[k], None, (rad, weight, pdf, pe), self._fractions("mis"),
                                  self.renderer.heuristic)
                 if name == "a":
-                    ps.append(float(self.conductor.prob_specular(np.array([max(wi[2], 0.0)]))[0]
+                    ps.append(float(self.conductor.lobe_probability(np.array([max(wi[2], 0.0)]))[0]
                                     if wi[2] > 0 else 0.0))
             for part, key in (("brdf", f"brdf_{name}"), ("mis_b", f"mis_b{name}")):
                 per = acc[:, PARTS.index(part)]

@@ -38,28 +38,63 @@ with ``m_specular_sampling_weight``, the diffuse lobe by ``square_to_cosine_hemi
 The plugin's defaults are the class's (``distribution`` beckmann, ``alpha`` 0.1, ``int_ior``
 polypropylene 1.49, ``ext_ior`` air 1.000277, ``diffuse_reflectance`` 0.5, ``nonlinear``
 false, ``sample_visible`` true); envfit's advice asks for a GGX coat.
+
+**principled** (``src/bsdfs/principled.cpp``: ``Principled::Principled``, ``sample``, ``eval``,
+``pdf``; ``src/bsdfs/principledhelpers.h``: ``calc_dist_params``, ``principled_fresnel``,
+``calc_schlick``, ``schlick_R0_eta``, ``schlick_weight``, ``mac_mic_compatibility``; unchanged
+from v3.9.1 to the repository's head of 2026-08-08) —
+:class:`~envfit.shading.microfacet.Principled`: the plugin's defaults (``base_color`` 0.5,
+``roughness`` 0.5, ``specular`` 0.5, so η = 2/(1 − √(0.08·0.5)) − 1 = 1.5, the rest 0);
+α = max(0.001, roughness²) (:data:`PRINCIPLED_ROUGHNESS`), isotropic GGX sampled by visible
+normals (``MicrofacetDistribution(GGX, ax, ay)``, ``sample_visible`` true: the
+``slope_space`` warp), separable G (``MicrofacetDistribution::G``); without clear coat and
+specular transmission the lobe probabilities are the specular's 1 and the diffuse's
+1 − metallic, normalised, and ``sample1`` < p_d picks the diffuse lobe (``sampled_component``
+0), else the specular (3). Clear coat, ``spec_trans`` and ``anisotropic`` (further lobes, a
+transmission, two roughnesses) are not modelled: ``bsdf`` refuses them. Checked against the
+plugin itself (``tests/test_principled.py``: eval, pdf, sample to float32 rounding).
 """
 from __future__ import annotations
 
+import math
+
+from envfit.base import ParameterError
 from envfit.renderers._roughness import RoughnessConvention
 
-__all__ = ["ROUGHNESS", "bsdf"]
+__all__ = ["PRINCIPLED_PARAMS", "PRINCIPLED_ROUGHNESS", "ROUGHNESS", "bsdf"]
 
 #: Mitsuba 3's roughness: the plugins' ``alpha`` itself
 ROUGHNESS = RoughnessConvention(rule="alpha = R", units="Mitsuba 3's alpha",
                                 alpha_of=lambda r: r, roughness_of=lambda a: a)
+#: ``principled``'s roughness: alpha = max(0.001, roughness²) (``calc_dist_params``)
+PRINCIPLED_ROUGHNESS = RoughnessConvention(
+    rule="alpha = R^2", units="principled's roughness R, alpha = R^2",
+    alpha_of=lambda r: max(0.001, r * r), roughness_of=math.sqrt)
+#: ``principled``'s parameters envfit models, with the plugin's defaults (a grey
+#: ``base_color``; ``specular`` sets η)
+PRINCIPLED_PARAMS = {"roughness": 0.5, "base_color": 0.5, "metallic": 0.0, "specular": 0.5,
+                     "spec_tint": 0.0, "sheen": 0.0, "sheen_tint": 0.0, "flatness": 0.0}
 
 
 def bsdf(name: str, alpha: float, **params):
-    """``roughconductor`` (``name`` ``ggx`` or ``beckmann``; ``params`` ``eta``, ``k``) or
+    """``roughconductor`` (``name`` ``ggx`` or ``beckmann``; ``params`` ``eta``, ``k``),
     ``roughplastic`` (a GGX coat unless ``params`` say ``distribution``; the others its
-    :class:`~envfit.shading.microfacet.RoughPlastic` keywords) of microfacet α.
+    :class:`~envfit.shading.microfacet.RoughPlastic` keywords) or ``principled`` (``params``
+    among :data:`PRINCIPLED_PARAMS`; its roughness √α) of microfacet α.
 
     >>> bsdf("beckmann", 0.2)          # doctest: +NORMALIZE_WHITESPACE
     Conductor('beckmann', 0.2, shadowing='separable', vndf='slope_space', fresnel='moeller',
               eta=None, k=None)
     """
-    from envfit.shading.microfacet import Conductor, RoughPlastic
+    from envfit.shading.microfacet import Conductor, Principled, RoughPlastic
+    if name == "principled":
+        unknown = sorted(set(params) - set(PRINCIPLED_PARAMS) | ({"roughness"} & set(params)))
+        if unknown:
+            raise ParameterError(f"Mitsuba 3's principled: {', '.join(unknown)} is not a "
+                                 f"parameter envfit models (roughness is --roughness; the others: "
+                                 f"{', '.join(k for k in PRINCIPLED_PARAMS if k != 'roughness')}; "
+                                 f"clearcoat, spec_trans and anisotropic are not modelled)")
+        return Principled(math.sqrt(alpha), **params)
     if name == "roughplastic":
         return RoughPlastic(params.pop("distribution", "ggx"), alpha, vndf="slope_space",
                             **params)

@@ -31,7 +31,8 @@ from envfit.maps import local_to_world
 from envfit.renderers._base import (SPHERE_VIEWS, EnvmapTechnique, Renderer,
                                            SamplerSpec, StrategySetting, cosine_hemisphere,
                                            map_rgb, scene_comment, snippet_pixels)
-from envfit.renderers.mitsuba3._bsdf import ROUGHNESS, bsdf
+from envfit.renderers.mitsuba3._bsdf import (PRINCIPLED_PARAMS, PRINCIPLED_ROUGHNESS, ROUGHNESS,
+                                             bsdf)
 from envfit.renderers.mitsuba3._kensler import KENSLER_PERMUTATIONS, multijitter_shape
 
 __all__ = ["Hierarchical2D", "Mitsuba3Envmap", "mitsuba_frame", "MITSUBA3", "LUMINANCE_RGB"]
@@ -428,13 +429,22 @@ STRATEGIES = {
 
 def _bsdf(microfacet) -> tuple[str, str, str]:
     """(XML, Python dict text, words) of the sphere's BSDF: white diffuse (reflectance 1: the
-    plugin's default is 0.5), a white ``roughconductor`` (``material="none"``: Fresnel 1) or
-    a ``roughplastic`` with a GGX coat (its defaults otherwise: η 1.49, diffuse 0.5)."""
+    plugin's default is 0.5), a white ``roughconductor`` (``material="none"``: Fresnel 1), a
+    ``roughplastic`` with a GGX coat (its defaults otherwise: η 1.49, diffuse 0.5) or a
+    ``principled`` (``microfacet`` = (name, α, the parameters set))."""
     if microfacet is None:
         return ('<bsdf type="diffuse"><rgb name="reflectance" value="1, 1, 1"/></bsdf>',
                 '{"type": "diffuse", "reflectance": {"type": "rgb", "value": [1.0, 1.0, 1.0]}}',
                 "white diffuse (reflectance 1)")
     alpha = float(microfacet[1])
+    if microfacet[0] == "principled":
+        params = {"roughness": PRINCIPLED_ROUGHNESS.from_alpha(alpha),
+                  **(microfacet[2] if len(microfacet) > 2 else {})}
+        xml = "".join(f'<float name="{k}" value="{v:g}"/>' for k, v in params.items())
+        py = ", ".join(f'"{k}": {v:g}' for k, v in params.items())
+        return (f'<bsdf type="principled">{xml}</bsdf>', f'{{"type": "principled", {py}}}',
+                "principled (" + ", ".join(f"{k} {v:g}" for k, v in params.items())
+                + "; the plugin's defaults otherwise)")
     if microfacet[0] == "roughplastic":
         return (f'<bsdf type="roughplastic"><string name="distribution" value="ggx"/>'
                 f'<float name="alpha" value="{alpha:g}"/></bsdf>',
@@ -559,11 +569,15 @@ MITSUBA3 = Renderer(
                        "rebuild_distribution, max(lum - offset, 0)), so its emitter samples "
                        "miss the negative light"),
     mis_compensation=True,
-    microfacet={"ggx": None, "beckmann": None, "roughplastic": PLASTIC_SAMPLERS},
-    microfacet_why={"roughplastic": " (orthogonal pairs the lobe choice with the direction in "
-                                    "an array)"},
+    microfacet={"ggx": None, "beckmann": None, "roughplastic": PLASTIC_SAMPLERS,
+                "principled": PLASTIC_SAMPLERS},
+    microfacet_why=dict.fromkeys(("roughplastic", "principled"),
+                                 " (orthogonal pairs the lobe choice with the direction in an "
+                                 "array)"),
     bsdf_fn=bsdf,
     roughness=ROUGHNESS,
+    bsdf_roughness={"principled": PRINCIPLED_ROUGHNESS},
+    bsdf_params={"principled": PRINCIPLED_PARAMS},
     render_samplers=("independent", "ldsampler"),
     harness="envfit.renderers.mitsuba3._render",
     pixel_filter_note=("Mitsuba's hdrfilm defaults to the gaussian filter (stddev 0.5, radius "

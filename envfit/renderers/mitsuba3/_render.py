@@ -54,7 +54,7 @@ from envfit.renderers._sphere import (VIEWS, SphereMeasurement, check_strategy,
 
 __all__ = ["SAMPLERS", "MITSUBA_SAMPLERS", "strategy_integrator", "Mitsuba3Options",
            "Mitsuba3Sphere", "import_mitsuba", "mitsuba_normals", "roughconductor_bsdf",
-           "roughplastic_bsdf", "version", "open_sphere"]
+           "roughplastic_bsdf", "principled_bsdf", "version", "open_sphere"]
 
 #: Mitsuba 3's sampler plugins measured here
 SAMPLERS = ("independent", "stratified", "multijitter", "ldsampler", "orthogonal")
@@ -112,9 +112,9 @@ class Mitsuba3Options:
 
     def __post_init__(self):
         if self.bsdf is not None and (not isinstance(self.bsdf, tuple) or dict(self.bsdf).get(
-                "type") not in ("roughconductor", "roughplastic")):
-            raise ParameterError("bsdf must be None (white diffuse), roughconductor_bsdf(...) "
-                                 "or roughplastic_bsdf(...)")
+                "type") not in ("roughconductor", "roughplastic", "principled")):
+            raise ParameterError("bsdf must be None (white diffuse), roughconductor_bsdf(...), "
+                                 "roughplastic_bsdf(...) or principled_bsdf(...)")
         for name, lo in (("resolution", 4), ("reference_spp", 1)):
             v = getattr(self, name)
             if not isinstance(v, (int, np.integer)) or v < lo:
@@ -153,6 +153,22 @@ def roughplastic_bsdf(distribution: str = "ggx", alpha: float = 0.1,
                          "alpha": float(alpha),
                          "diffuse_reflectance": float(diffuse_reflectance),
                          "sample_visible": True}.items()))
+
+
+def principled_bsdf(roughness: float = 0.5, **params) -> tuple:
+    """The sphere's BSDF for :attr:`Mitsuba3Options.bsdf`: Mitsuba 3's ``principled`` with
+    ``roughness`` and ``params`` (among ``PRINCIPLED_PARAMS``: a grey ``base_color``,
+    ``metallic``, ``specular``, …; the plugin's defaults otherwise), as sorted (key, value)
+    pairs; envfit's :class:`envfit.shading.microfacet.Principled` is the same BSDF.
+
+    >>> dict(principled_bsdf(0.3, metallic=1.0))["metallic"]
+    1.0
+    """
+    from envfit.renderers.mitsuba3._bsdf import PRINCIPLED_PARAMS, bsdf
+    bsdf("principled", float(roughness) ** 2, **params)     # the same checks: one line
+    return tuple(sorted({"type": "principled", "roughness": float(roughness),
+                         **{k: float(v) for k, v in params.items()
+                            if k in PRINCIPLED_PARAMS}}.items()))
 
 
 def _sensor(mi, view, resolution: int, sampler: str) -> dict:
@@ -326,13 +342,17 @@ def version() -> str:
     return f"Mitsuba {import_mitsuba().__version__} ({VARIANT})"
 
 
-def open_sphere(envmap, brdf: str | None, alpha: float | None, **common) -> "Mitsuba3Sphere":
+def open_sphere(envmap, brdf: str | None, alpha: float | None, bsdf_params=None,
+                **common) -> "Mitsuba3Sphere":
     """The sphere of envfit's measurement with ``brdf`` (None: white diffuse; ``ggx``,
-    ``beckmann``: a white rough conductor; ``roughplastic``: a GGX rough plastic) of
-    roughness ``alpha``; ``common``: :class:`Mitsuba3Options`' resolution, reference_spp,
-    cache_dir. The reference renders with ``ldsampler``."""
+    ``beckmann``: a white rough conductor; ``roughplastic``: a GGX rough plastic;
+    ``principled``: the principled BSDF with ``bsdf_params``) of roughness ``alpha``;
+    ``common``: :class:`Mitsuba3Options`' resolution, reference_spp, cache_dir. The
+    reference renders with ``ldsampler``."""
+    from envfit.renderers.mitsuba3._bsdf import PRINCIPLED_ROUGHNESS
     bsdf = (None if brdf is None else
             roughplastic_bsdf("ggx", alpha) if brdf == "roughplastic" else
-            roughconductor_bsdf(brdf, alpha))
+            principled_bsdf(PRINCIPLED_ROUGHNESS.from_alpha(alpha), **(bsdf_params or {}))
+            if brdf == "principled" else roughconductor_bsdf(brdf, alpha))
     return Mitsuba3Sphere(envmap, Mitsuba3Options(**common, bsdf=bsdf,
                                                   reference_sampler="ldsampler"))

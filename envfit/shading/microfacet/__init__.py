@@ -44,7 +44,7 @@ _LAZY = {
     "BSDFSample": "_conductor", "Conductor": "_conductor", "SHADOWINGS": "_conductor",
     "albedo_table": "_multiscatter", "energy_scale": "_multiscatter",
     "PlasticSample": "_plastic", "RoughPlastic": "_plastic",
-    "PRINCIPLED_DEFAULTS": "_principled", "Principled": "_principled",
+    "Principled": "_principled",
     "GroundTruthOptions": "_ground_truth", "MicrofacetShading": "_ground_truth",
     "microfacet_shading_integral": "_ground_truth",
 }

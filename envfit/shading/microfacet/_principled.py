@@ -57,11 +57,7 @@ from envfit.shading.microfacet._plastic import (PlasticSample, _half, fresnel_di
                                                split_lobe_numbers)
 from envfit.shading.microfacet._vndf import concentric_disk, sample_visible_normals
 
-__all__ = ["Principled", "PRINCIPLED_DEFAULTS"]
-
-#: the parameters and their defaults (each a number in [0, 1]; ``specular`` sets η)
-PRINCIPLED_DEFAULTS = {"roughness": 0.5, "base_color": 0.5, "metallic": 0.0, "specular": 0.5,
-                       "spec_tint": 0.0, "sheen": 0.0, "sheen_tint": 0.0, "flatness": 0.0}
+__all__ = ["Principled"]
 
 
 def schlick_weight(c) -> np.ndarray:
@@ -118,9 +114,8 @@ class Principled:
         self.vndf = "slope_space"
 
     def __repr__(self) -> str:
-        changed = ", ".join(f"{k}={v:g}" for k, v in self.params.items()
-                            if k != "roughness" and v != PRINCIPLED_DEFAULTS[k])
-        return f"Principled({self.roughness:g}{', ' + changed if changed else ''})"
+        rest = ", ".join(f"{k}={v:g}" for k, v in self.params.items() if k != "roughness")
+        return f"Principled({self.roughness:g}, {rest})"
 
     @property
     def alpha(self) -> float:
