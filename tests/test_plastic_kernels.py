@@ -133,7 +133,7 @@ def test_compiled_proxies_are_the_numpy_loop(kind, monkeypatch):
     n, v = band_frames(30, (0, 89), seed=5)
     m = _model(RoughPlastic(kind, 0.2, nonlinear=True))
     fast = m._proxies(n, v)
-    monkeypatch.setattr(mm, "compiled_plastic", lambda c: False)
+    monkeypatch.setattr(mm, "two_lobe_kernels", lambda c: None)
     slow = m._proxies(n, v)
     for a, b in zip(fast, slow):
         assert np.all(b >= 0) and np.any(b > 0)
@@ -149,8 +149,8 @@ def test_model_predictions_with_and_without_kernels(monkeypatch):
     import envfit.predict.renderer._microfacet_model as mm
     reqs = [("mis", "independent", 16), ("mis", "ldsampler", 16)]
     fast = [_model(RoughPlastic("ggx", 0.2), level=4, frames=3).predict(*r).mse for r in reqs]
-    monkeypatch.setattr(mm, "compiled_plastic", lambda c: False)
-    monkeypatch.setattr(lp, "compiled_plastic", lambda c: False)
+    monkeypatch.setattr(mm, "two_lobe_kernels", lambda c: None)
+    monkeypatch.setattr(lp, "two_lobe_kernels", lambda c: None)
     slow = [_model(RoughPlastic("ggx", 0.2), level=4, frames=3).predict(*r).mse for r in reqs]
     for a, b in zip(fast, slow):
         np.testing.assert_allclose(a, b, rtol=1e-9)

@@ -23,7 +23,7 @@ import numpy as np
 
 from envfit.predict.renderer._footprint import paired_extra
 from envfit.predict.renderer._microfacet_kernels import PARTS, accumulate_parts
-from envfit.predict.renderer._plastic_kernels import compiled_plastic, plastic_sample
+from envfit.predict.renderer._principled_kernels import two_lobe_kernels
 from envfit.predict.renderer._cell_request import samples_above
 from envfit.predict.renderer._integrand_tables import moment_pyramid
 from envfit.predict.renderer._sampled_nets import SAMPLE_TAG
@@ -55,9 +55,11 @@ class LobeChoice:
 
     def _sample_lobe(self, wi, u, u1: float):
         """(ω_o, weight, pdf) of the BSDF's sampling in one lobe (``sample1`` = ``u1``):
-        compiled for a rough plastic (:func:`plastic_sample`), numpy otherwise."""
-        if compiled_plastic(self.conductor):
-            return plastic_sample(self.conductor, wi, u, u1)
+        compiled for a rough plastic and a principled BSDF (:func:`two_lobe_kernels`), numpy
+        otherwise."""
+        lobes = two_lobe_kernels(self.conductor)
+        if lobes:
+            return lobes[1](self.conductor, wi, u, u1)
         s = self.conductor.sample(np.broadcast_to(wi, (len(u), 3)), u, u1=np.full(len(u), u1))
         dead = s.weight <= 0
         return (np.where(dead[:, None], [0.0, 0.0, 1.0], s.wo), s.weight,

@@ -49,8 +49,7 @@ from envfit.predict.renderer._microfacet_kernels import (compiled_conductor,
                                                         conductor_eval_pdf, conductor_proxies,
                                                         PARTS, accumulate_parts)
 from envfit.predict.renderer._vndf_kernels import compiled_sampling, conductor_sample
-from envfit.predict.renderer._plastic_kernels import (compiled_plastic, plastic_eval_pdf,
-                                                      plastic_proxies, plastic_sample)
+from envfit.predict.renderer._principled_kernels import two_lobe_kernels
 from envfit.predict.renderer._bands import BANDS, STRATA, band_key, band_spread, in_stratum
 from envfit.predict.renderer._footprint import _unit, with_variances
 from envfit.predict.renderer._lobe_parts import LobeChoice
@@ -191,13 +190,14 @@ class MicrofacetModel(LobeChoice, DiffuseModel):
 
     def _proxies(self, normals, views):
         """(v_e, v_b) per frame on the pilot table (:meth:`_select`): compiled for a white
-        conductor (:func:`conductor_proxies`) and a rough plastic (:func:`plastic_proxies`),
-        else numpy over blocks of frames."""
+        conductor (:func:`conductor_proxies`), a rough plastic and a principled BSDF
+        (:func:`two_lobe_kernels`), else numpy over blocks of frames."""
         tab = MapTable.build(self.technique, self.options.pilot_level)
         frames = np.asarray(self.renderer.tangent_frame(_unit(normals)))
         wis = np.einsum("kij,kj->ki", frames, _unit(views))
+        lobes = two_lobe_kernels(self.conductor)
         fast = (conductor_proxies if compiled_conductor(self.conductor)
-                else plastic_proxies if compiled_plastic(self.conductor) else None)
+                else lobes[2] if lobes else None)
         if fast is not None:
             v = fast(self.conductor, wis, frames, tab.directions, tab.base, tab.pdf)
             s2 = np.array([self._scale(w) for w in wis]) ** 2          # energy scale²
@@ -338,15 +338,16 @@ class MicrofacetModel(LobeChoice, DiffuseModel):
 
     def _sample(self, wi, u, level: int | None = None):
         """(ω_o, weight, pdf) of the conductor's sampling for the view ``wi`` at the table's
-        points ``u``: compiled for a white conductor and a rough plastic (its lobe from u_x),
-        numpy otherwise; where the weight is 0, ω_o is the pole and the pdf 0 (the parts are
+        points ``u``: compiled for a white conductor, a rough plastic and a principled BSDF
+        (the lobe from u_x), numpy otherwise; where the weight is 0, ω_o is the pole and the pdf 0 (the parts are
         0 there). ``level``: ``u`` is the midpoint grid of that level (Beckmann's warp by
         rows and columns, :func:`conductor_sample`)."""
         if compiled_sampling(self.conductor):               # the kernels: single scatter
             wo, weight, pdf = conductor_sample(self.conductor, wi, u, level)
             return wo, weight * self._scale(wi), pdf
-        if compiled_plastic(self.conductor):
-            return plastic_sample(self.conductor, wi, u)
+        lobes = two_lobe_kernels(self.conductor)
+        if lobes:
+            return lobes[1](self.conductor, wi, u)
         square = getattr(self.conductor, "sample_square", self.conductor.sample)
         s = square(np.broadcast_to(wi, (len(u), 3)), u)     # a plastic's lobe from u_x
         dead = s.weight <= 0
@@ -361,13 +362,14 @@ class MicrofacetModel(LobeChoice, DiffuseModel):
 
     def _eval_pdf(self, wi, dirs, rows):
         """(f·cos, pdf) of the conductor at the world light directions ``dirs`` for the view
-        ``wi``, in the frame whose axes are ``rows``: compiled for a white conductor and a
-        rough plastic, numpy otherwise."""
+        ``wi``, in the frame whose axes are ``rows``: compiled for a white conductor, a rough
+        plastic and a principled BSDF, numpy otherwise."""
         if compiled_conductor(self.conductor):
             fc, pdf = conductor_eval_pdf(self.conductor, wi, dirs, rows)
             return fc * self._scale(wi), pdf
-        if compiled_plastic(self.conductor):
-            return plastic_eval_pdf(self.conductor, wi, dirs, rows)
+        lobes = two_lobe_kernels(self.conductor)
+        if lobes:
+            return lobes[0](self.conductor, wi, dirs, rows)
         loc = dirs @ rows.T
         wis = np.broadcast_to(wi, loc.shape)
         return self.conductor.eval(wis, loc), self.conductor.pdf(wis, loc)
