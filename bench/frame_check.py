@@ -1,8 +1,9 @@
 """The frame model (``envfit frame``, issue 42) against Mitsuba 3 renders of whole frames.
 
-Four scenes built here (different cameras, spheres, boxes, a torus mesh that shadows itself,
-a ground plane, a checkerboard texture, the box and Gaussian filters, ``direct`` and ``path``
-at depth 2, a rotated map) under each map given (``sun-gp`` synthesizes a sun map), rendered
+Six scenes built here (different cameras, spheres, boxes, a torus mesh that shadows itself,
+a ground plane, a checkerboard texture, rough conductors, principled materials, the box
+and Gaussian filters, ``direct`` and ``path`` at depth 2,
+rotated maps) under each map given (``sun-gp`` synthesizes a sun map), rendered
 K times per spp with the ``independent`` sampler. Per cell (scene, map, spp):
 
 * the image RMSE: predicted against the renders' (each pixel's MSE is its variance over the
@@ -72,6 +73,12 @@ GOLD = '<string name="material" value="Au"/>'
 CHECKER = ('<bsdf type="diffuse"><texture type="checkerboard" name="reflectance">'
            '<rgb name="color0" value="0.15"/><rgb name="color1" value="0.7"/>'
            '<transform name="to_uv"><scale x="6" y="6"/></transform></texture></bsdf>')
+
+
+def _principled(**params) -> str:
+    return ('<bsdf type="principled">' + "".join(
+        f'<rgb name="{k}" value="{v}"/>' if k == "base_color" else
+        f'<float name="{k}" value="{v}"/>' for k, v in params.items()) + "</bsdf>")
 
 
 def _torus(path: Path, major=0.6, minor=0.25, n=48, m=24) -> Path:
@@ -153,6 +160,21 @@ def scenes(folder: Path, size=(64, 48), sampler: str = "independent") -> dict:
                   f'<rotate y="1" angle="30"/><translate x="0.1" y="0.25" z="1"/></transform>'
                   f'{_conductor("ggx", 0.4)}</shape>'
                   + GROUND.format(bsdf=_diffuse("0.5")), ""),
+        "principled": ('<integrator type="path"><integer name="max_depth" value="2"/>'
+                       '</integrator>',
+                       CAMERA["persp"].format(fov=45, origin="0.5, 1.5, 4.5",
+                                              target="0, 0.45, 0", film=film["box"]),
+                       f'<shape type="sphere"><point name="center" x="-0.65" y="0.5" z="0"/>'
+                       f'<float name="radius" value="0.5"/>{_principled()}</shape>'
+                       f'<shape type="sphere"><point name="center" x="0.6" y="0.45" z="0.2"/>'
+                       f'<float name="radius" value="0.45"/>'
+                       f'{_principled(base_color=0.8, roughness=0.3, metallic=0.6, sheen=0.5)}'
+                       f'</shape>'
+                       f'<shape type="cube"><transform name="to_world"><scale value="0.25"/>'
+                       f'<rotate y="1" angle="30"/><translate x="0.1" y="0.25" z="1"/>'
+                       f'</transform>{_principled(roughness=0.25, specular=0.8)}</shape>'
+                       + GROUND.format(bsdf=_principled(base_color=0.5, roughness=0.7)),
+                       '<transform name="to_world"><rotate y="1" angle="120"/></transform>'),
     }
 
 

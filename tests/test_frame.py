@@ -76,7 +76,13 @@ GOLD = ('<bsdf type="roughconductor"><string name="distribution" value="ggx"/>'
         'y="4"/></transform></texture></bsdf>')
 
 
-@pytest.mark.parametrize("rfilter,bsdf", [("box", None), ("gaussian", None), ("box", GOLD)])
+#: a principled sphere (metallic 0.4, sheen 0.5; the plugin's defaults otherwise)
+PRINCIPLED = ('<bsdf type="principled"><float name="metallic" value="0.4"/>'
+              '<float name="sheen" value="0.5"/><float name="roughness" value="0.35"/></bsdf>')
+
+
+@pytest.mark.parametrize("rfilter,bsdf", [("box", None), ("gaussian", None), ("box", GOLD),
+                                          ("box", PRINCIPLED)])
 def test_the_image_and_pixel_rmse_are_mitsubas(scene_dir, rfilter, bsdf):
     """Predicted against 40 renders at 4 spp (the estimator is unbiased: each pixel's MSE is
     its variance over renders): the image RMSE inside [0.8 × low, 1.25 × high] of its 95 %
@@ -86,7 +92,8 @@ def test_the_image_and_pixel_rmse_are_mitsubas(scene_dir, rfilter, bsdf):
     from scipy.stats import chi2, spearmanr
 
     from envfit.frame import predict_frame
-    path = _scene(scene_dir, f"{rfilter}{'_gold' if bsdf else ''}.xml", rfilter=rfilter,
+    tag = "" if bsdf is None else "_gold" if bsdf == GOLD else "_principled"
+    path = _scene(scene_dir, f"{rfilter}{tag}.xml", rfilter=rfilter,
                   **({"bsdf": bsdf} if bsdf else {}))
     p = predict_frame(path, spp=(4,), level=4)
     imgs = _renders(path, 4, 40)
@@ -300,7 +307,14 @@ def test_a_sample_of_pixels_estimates_the_image_within_its_error(scene_dir):
 
 
 @pytest.mark.parametrize("change,words", [
-    ({"bsdf": '<bsdf type="conductor"/>'}, "reads the diffuse and roughconductor BSDFs only"),
+    ({"bsdf": '<bsdf type="conductor"/>'}, "reads the diffuse, roughconductor and principled"),
+    ({"bsdf": '<bsdf type="principled"><float name="clearcoat" value="0.5"/></bsdf>'},
+     "principled clearcoat 0.5"),
+    ({"bsdf": '<bsdf type="principled"><rgb name="base_color" value="0.8, 0.2, 0.1"/></bsdf>'},
+     "coloured principled base_color"),
+    ({"bsdf": '<bsdf type="principled"><texture type="checkerboard" name="roughness"/>'
+              '</bsdf>'}, "textured principled roughness"),
+    ({"bsdf": PRINCIPLED, "sampler": "ldsampler"}, "under the independent sampler so far"),
     ({"bsdf": '<bsdf type="roughconductor"><float name="alpha_u" value="0.1"/>'
               '<float name="alpha_v" value="0.3"/></bsdf>'}, "anisotropic or textured"),
     ({"sampler": "multijitter"}, "predicts the independent, ldsampler samplers"),

@@ -34,7 +34,7 @@ __all__ = ["advise_renderer"]
 
 #: the keywords that are :class:`RendererAdviseOptions` fields
 _OPTION_NAMES = ("sampler", "strategies", "spp", "mis_compensation", "max_spp", "level",
-                 "normals", "bsdf", "roughness", "sphere_pixels")
+                 "normals", "bsdf", "roughness", "bsdf_params", "sphere_pixels")
 
 
 def advise_renderer(maps, renderer: str, *, target_rmse: float | None = None,
@@ -62,7 +62,7 @@ def advise_renderer(maps, renderer: str, *, target_rmse: float | None = None,
     **options
         :class:`~envfit.advisor._renderer_options.RendererAdviseOptions` fields: ``sampler``,
         ``strategies``, ``spp``, ``mis_compensation``, ``max_spp``, ``level``, ``normals``,
-        ``bsdf``, ``roughness``, ``sphere_pixels``.
+        ``bsdf``, ``roughness``, ``bsdf_params``, ``sphere_pixels``.
 
     Returns
     -------

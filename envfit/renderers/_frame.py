@@ -48,13 +48,16 @@ class FrameBsdf:
     ``m``) with a white Fresnel term, and ``fresnel(cos)`` (…, 3) the per-channel factor
     at cos θ = ω_i·m (None: 1). The texture factor (the diffuse or specular reflectance
     at the hit) is the hit's ``albedo``. ``level_extra``: how many grid levels finer than
-    the diffuse tables this lobe is tabulated (a sharper lobe needs more points)."""
+    the diffuse tables this lobe is tabulated (a sharper lobe needs more points). ``lobes``:
+    2 for a BSDF that picks one of two lobes per sample (its ``sample`` draws the lobe from
+    u_x, the independent sampler's model)."""
 
     kind: str
     name: str
     lobe: object = None
     fresnel: object = None
     level_extra: int = 0
+    lobes: int = 1
 
 
 @dataclass(frozen=True)

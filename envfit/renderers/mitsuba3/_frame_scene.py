@@ -16,6 +16,10 @@ What is read, and from where (Mitsuba 3.9.1):
 * the BSDFs: ``diffuse``, and ``roughconductor`` (isotropic, visible-normal sampling: its
   ``distribution``, ``alpha``, ``eta`` and ``k`` from ``traverse``) as this folder's
   :func:`~envfit.renderers.mitsuba3._bsdf.bsdf` builds it (its Fresnel per RGB channel);
+  ``principled`` with uniform parameters from ``traverse`` (a grey ``base_color``,
+  ``roughness``, ``metallic``, ``specular``, ``spec_tint``, ``sheen``, ``sheen_tint``,
+  ``flatness``; no clear coat, ``spec_trans`` or ``anisotropic``; the default sampling rates)
+  as the same function builds it, its lobe choice modelled under ``independent`` only;
 * an escaping camera ray: the environment emitter's ``eval`` of the escaped interaction, as
   ``DirectIntegrator::sample`` adds it (``src/integrators/direct.cpp``);
 * shadow geometry: meshes' ``vertex_positions`` and ``faces`` (world space, as Mitsuba
@@ -27,7 +31,8 @@ What is read, and from where (Mitsuba 3.9.1):
   ``scale``;
 * the filter: ``ReconstructionFilter::eval`` and ``radius`` (``src/rfilters/*.cpp``).
 
-Only the ``diffuse`` and ``roughconductor`` BSDFs and one ``envmap`` emitter are read;
+Only the ``diffuse``, ``roughconductor`` and ``principled`` BSDFs and one ``envmap`` emitter
+are read;
 anything else is refused in one line (:class:`envfit.base.ParameterError`) before any work.
 """
 from __future__ import annotations
@@ -219,6 +224,67 @@ def _conductor(mi, b, where: str) -> FrameBsdf:
                      None if white else fresnel, extra)
 
 
+class _SquareSampled:
+    """A two-lobe BSDF whose lobe number and direction are one uniform point of the square
+    (``sample_square``: the i.i.d. estimator of the ``independent`` sampler), with the
+    frame model's ``eval``/``pdf``/``sample`` interface."""
+
+    def __init__(self, bsdf):
+        self.bsdf, self.alpha = bsdf, bsdf.alpha
+
+    def eval(self, wi, wo):
+        return self.bsdf.eval(wi, wo)
+
+    def pdf(self, wi, wo):
+        return self.bsdf.pdf(wi, wo)
+
+    def sample(self, wi, u):
+        return self.bsdf.sample_square(wi, u)
+
+
+#: ``principled``'s parameters that must be 0 (lobes or anisotropy the model does not have)
+#: and its sampling rates that must be 1
+_PRINCIPLED_ZERO = ("clearcoat", "spec_trans", "anisotropic")
+_PRINCIPLED_RATES = ("main_specular_sampling_rate", "clearcoat_sampling_rate",
+                     "diffuse_reflectance_sampling_rate")
+
+
+def _principled(mi, b, where: str) -> FrameBsdf:
+    """Mitsuba's ``principled`` as a :class:`FrameBsdf` (``principled.cpp``; the BSDF is
+    :func:`~envfit.renderers.mitsuba3._bsdf.bsdf`'s): uniform parameters, a grey base colour,
+    no clear coat, transmission or anisotropy, the default sampling rates."""
+    from envfit.renderers.mitsuba3._bsdf import PRINCIPLED_PARAMS, PRINCIPLED_ROUGHNESS, bsdf
+    params = mi.traverse(b)
+    keys = set(params.keys())
+
+    def value(name):
+        if f"{name}.value" not in keys:
+            raise ParameterError(f"{where} has a textured principled {name}: the frame model "
+                                 f"reads uniform principled parameters")
+        v = np.atleast_1d(np.asarray(params[f"{name}.value"], dtype=np.float64))
+        if np.ptp(v) > 0:
+            raise ParameterError(f"{where} has a coloured principled {name} {v.tolist()}: the "
+                                 f"frame model reads a grey one")
+        return float(v[0])
+
+    for name in _PRINCIPLED_ZERO:
+        if value(name) != 0.0:
+            raise ParameterError(f"{where} has principled {name} {value(name):g}: the frame "
+                                 f"model reads the diffuse and specular lobes only")
+    for name in _PRINCIPLED_RATES:
+        if float(params[name]) != 1.0:
+            raise ParameterError(f"{where} sets principled {name}: the frame model reads the "
+                                 f"default rates")
+    if "specular" not in keys:
+        raise ParameterError(f"{where} gives principled eta: the frame model reads specular")
+    kw = {k: value(k) for k in PRINCIPLED_PARAMS if k not in ("roughness", "specular")}
+    kw["specular"] = float(params["specular"])
+    lobe = bsdf("principled", PRINCIPLED_ROUGHNESS.to_alpha(value("roughness")), **kw)
+    extra = next(e for a, e in _GLOSS_LEVELS if lobe.alpha <= a)
+    return FrameBsdf("glossy", f"principled ({lobe!r})", _SquareSampled(lobe), None, extra,
+                     lobes=2)
+
+
 def _frame_bsdfs(mi, shapes) -> tuple:
     """Each shape's :class:`FrameBsdf`; a BSDF or emitter the model does not read is refused."""
     out = []
@@ -233,9 +299,11 @@ def _frame_bsdfs(mi, shapes) -> tuple:
             out.append(FrameBsdf("diffuse", "diffuse"))
         elif cls == "RoughConductor":
             out.append(_conductor(mi, b, where))
+        elif str(b).startswith("Principled BSDF"):
+            out.append(_principled(mi, b, where))
         else:
             raise ParameterError(f"{where} has the BSDF {cls}: the frame model reads the "
-                                 f"diffuse and roughconductor BSDFs only so far")
+                                 f"diffuse, roughconductor and principled BSDFs only so far")
     return tuple(out)
 
 
@@ -356,6 +424,9 @@ def read_scene(path) -> FrameScene:
     if cls not in SAMPLER_CLASSES:
         raise ParameterError(f"the sampler {cls} is not one of Mitsuba's "
                              f"{', '.join(SAMPLER_CLASSES.values())}")
+    if SAMPLER_CLASSES[cls] != "independent" and any(b.lobes > 1 for b in bsdfs):
+        raise ParameterError(f"a principled BSDF under {SAMPLER_CLASSES[cls]}: the frame model "
+                             f"predicts its lobe choice under the independent sampler so far")
     rf = sensor.film().rfilter()
     fname = _class(rf).replace("Filter", "").lower()
     radius = float(rf.radius())
