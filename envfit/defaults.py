@@ -40,7 +40,8 @@ __all__ = ["BRDFS", "WEIGHTINGS", "ALL_POINTSETS", "DEFAULT_POINTSETS", "DEFAULT
 #: the microfacet BSDFs a renderer's model shades (``envfit advise --renderer R --brdf``): white
 #: conductors (:class:`envfit.shading.microfacet.Conductor`), Mitsuba 3's rough plastic
 #: (:class:`envfit.shading.microfacet.RoughPlastic`, a GGX coat) and principled BSDF
-#: (:class:`envfit.shading.microfacet.Principled`)
+#: (:class:`envfit.shading.microfacet.Principled`; Cycles': its metallic closure, an F82
+#: :class:`~envfit.shading.microfacet.Conductor`)
 MICROFACET_BSDFS = ("ggx", "beckmann", "roughplastic", "multiggx", "principled")
 #: the microfacet BSDFs of two lobes, one picked per BSDF sample by a number of its own
 #: (their frames' proxies are numpy; a net is searched at its powers of two)
@@ -50,7 +51,8 @@ MICROFACET_BSDF_WORDS = {"ggx": "white GGX conductor; Mitsuba 3, pbrt-v4, Cycles
                          "beckmann": "white Beckmann conductor; Mitsuba 3, Cycles",
                          "roughplastic": "Mitsuba 3's roughplastic",
                          "multiggx": "Cycles' Multiscatter GGX",
-                         "principled": "Mitsuba 3's principled; --bsdf-param NAME=VALUE"}
+                         "principled": "Mitsuba 3's principled, Cycles' Principled BSDF (metallic "
+                                       "1); --bsdf-param NAME=VALUE"}
 #: the microfacet alpha the advice's model takes (``advise --renderer R --roughness``, in
 #: each renderer's own units: its record's roughness convention,
 #: :meth:`envfit.renderers.RoughnessConvention.range`)

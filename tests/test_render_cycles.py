@@ -142,3 +142,33 @@ def test_principled_metallic_white_renders_the_glossy_image(kind):
     for a, b in zip(imgs["glossy"], imgs["principled"]):
         assert a.std() > 0.01
         np.testing.assert_allclose(b, a, rtol=1e-5, atol=1e-6)
+
+
+@pytest.mark.parametrize("base, tint", [(0.8, 1.0), (0.5, 0.6)])
+def test_principled_metal_reflects_the_f82_conductors_albedo(base, tint):
+    """The Principled BSDF with Metallic 1, Base Color ``base`` (Blender's default 0.8) and
+    Specular Tint ``tint``, Multiscatter GGX (roughness 0.5) under a constant map L: each pixel
+    is L × the directional albedo of envfit's F82 conductor (the record's
+    ``bsdf("principled", …)``: the F82-tint Fresnel and the energy scale 1 + F_ms(1 − E)/E),
+    to 1.5 % over the disk and per view-angle band."""
+    from envfit.renderers import get_renderer, glossy_bsdf
+    L, alpha = 0.5, 0.25
+    g = sphere_geometry(R, "disk")
+    env = EnvMap(np.full((8, 16, 3), L))
+    bsdf = glossy_bsdf("multiggx", alpha, node="principled", base_color=base,
+                       specular_tint=tint)
+    with CyclesSphere(env, CyclesOptions(resolution=R, bsdf=bsdf)) as r:
+        img, _ = r.render("brdf", "tabulated_sobol", 256, seed=3)
+    c = get_renderer("cycles").bsdf("principled", alpha, metallic=1.0, base_color=base,
+                                    specular_tint=tint)
+    u = np.random.default_rng(0).random((200_000, 2))
+    z = g.z[g.keep]
+    want = np.array([L * c.sample(np.broadcast_to([np.sqrt(max(0.0, 1 - cz * cz)), 0.0, cz],
+                                                  (len(u), 3)), u).weight.mean() for cz in z])
+    got = img[:, g.keep].mean(axis=(0, 2))
+    assert abs(got.mean() / want.mean() - 1) < 0.015
+    theta = np.degrees(np.arccos(z))
+    for lo, hi in ((0, 30), (30, 60), (60, 80)):
+        m = (theta >= lo) & (theta < hi)
+        assert abs(got[m].mean() / want[m].mean() - 1) < 0.015, (lo, hi)
+    assert want.mean() < 0.98 * L                   # the Fresnel's loss is not compensated

@@ -129,8 +129,8 @@ def test_sentences_follow_the_rows(inside, words):
 @pytest.mark.parametrize("argv,words", [
     (["--roughness", "0.1"], "--roughness need(s) --renderer mitsuba3 or cycles"),
     (["--renderer", "pbrt4"], "--renderer takes mitsuba3 or cycles"),
-    (["--renderer", "mitsuba3", "--brdf", "ggx"], "--roughness goes with --brdf ggx"),
-    (["--renderer", "mitsuba3", "--roughness", "0.2"], "--roughness goes with --brdf ggx"),
+    (["--renderer", "mitsuba3", "--brdf", "ggx"], "--roughness goes with a microfacet --brdf"),
+    (["--renderer", "mitsuba3", "--roughness", "0.2"], "--roughness goes with a microfacet --brdf"),
     (["--renderer", "mitsuba3", "--brdf", "glossy"], "must be one of diffuse, ggx, beckmann"),
     (["--renderer", "mitsuba3", "--footprint", "9"], "--footprint: 9 is outside 1 <= J <= 8"),
     (["--renderer", "mitsuba3", "--brdf", "multiggx", "--roughness", "0.3"],

@@ -392,9 +392,12 @@ class RendererAdvice:
             bsdf = (f"rough plastic ({_maker(o.record)} roughplastic: a GGX coat of alpha "
                     f"{c.alpha:.4g}, eta 1.49, over a diffuse base of reflectance 0.5)")
         elif o.bsdf == "principled":
-            rest = ", ".join(f"{k} {v:g}" for k, v in c.params.items() if k != "roughness")
-            bsdf = (f"principled BSDF ({_maker(o.record)} principled: roughness "
-                    f"{o.roughness:g}, GGX alpha {c.alpha:.4g}, {rest}, eta {c.eta:.4g})")
+            rest = ", ".join(f"{k} {v:g}" for k, v in self._bsdf_params().items())
+            lobe = (f"eta {c.eta:.4g}" if c.eta is not None else
+                    "its metallic closure alone: Multiscatter GGX, F82-tint Fresnel")
+            bsdf = (f"principled BSDF ({_maker(o.record)} "
+                    f"{o.record.bsdf_names.get('principled', 'principled')}: roughness "
+                    f"{o.roughness:g}, GGX alpha {c.alpha:.4g}, {rest}, {lobe})")
         else:
             bsdf = (f"white {_BSDF_WORDS.get(o.bsdf, o.bsdf.title()).format(o.record.possessive)}"
                     f" conductor (alpha {c.alpha:.4g}, Fresnel 1)")
@@ -418,6 +421,13 @@ class RendererAdvice:
         note = o.record.pixel_filter_note
         return "the box pixel filter" + (f"; {note}" if note else "")
 
+    def _bsdf_params(self) -> dict:
+        """The BSDF's own parameters (the record's defaults, those asked over them), without
+        the roughness."""
+        o = self.options
+        return {k: float(v) for k, v in {**o.record.bsdf_params.get(o.bsdf, {}),
+                                         **o.bsdf_params}.items() if k != "roughness"}
+
     def _bsdf_dict(self) -> dict:
         """The JSON's ``bsdf`` of a microfacet BSDF."""
         o = self.options
@@ -426,8 +436,9 @@ class RendererAdvice:
         if o.bsdf == "roughplastic":
             d.update(distribution="ggx", eta=c.eta, diffuse_reflectance=c.diffuse_reflectance)
         elif o.bsdf == "principled":
-            d.update(distribution="ggx", eta=c.eta,
-                     **{k: v for k, v in c.params.items() if k != "roughness"})
+            d.update(distribution="multiggx" if getattr(c, "multiscatter", False) else "ggx",
+                     **({"eta": c.eta} if c.eta is not None else {"fresnel": "f82_tint"}),
+                     **self._bsdf_params())
         else:
             d["fresnel"] = 1.0
         return {**d, "sphere_pixels": o.sphere_pixels, **self._film_dict()}

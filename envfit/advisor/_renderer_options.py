@@ -169,6 +169,7 @@ def _check_microfacet(p, bsdf: str, sampler: str) -> None:
     (:attr:`Renderer.microfacet`): the one renderer and its samplers that have one, or the
     renderers with any microfacet BSDF."""
     from envfit.renderers import RENDERERS
+    from envfit.shading.microfacet import DISTRIBUTIONS
     samplers = p.microfacet.get(bsdf, ())
     if samplers is None or sampler in samplers:
         return
@@ -182,6 +183,10 @@ def _check_microfacet(p, bsdf: str, sampler: str) -> None:
     if not p.microfacet:
         raise ParameterError(f"{p.display} has no microfacet conductor model; use --renderer "
                              f"{_or(r.name for r in RENDERERS.values() if r.microfacet)}")
+    if bsdf not in p.microfacet and len(owners) > 1 and bsdf not in DISTRIBUTIONS:
+        names = ", ".join(f"{r.possessive} {r.bsdf_names.get(bsdf, bsdf)}" for r in owners)
+        raise ParameterError(f"--brdf {bsdf} is not modelled for {p.display}; it is {names}: "
+                             f"--renderer {'|'.join(r.name for r in owners)}")
     # else the renderer's BSDF refuses the distribution itself (Conductor, one line)
 
 

@@ -157,8 +157,8 @@ class RenderValidationOptions:
         if self.bsdf_params and not defaults:
             raise ParameterError(f"--bsdf-param is for a BSDF with parameters of its own, not "
                                  f"--brdf {self.brdf} with --renderer {self.renderer}")
-        if self.bsdf_params:
-            p.bsdf(self.brdf, self.alpha, **self.bsdf_params)   # an unknown name: one line
+        if self.microfacet:         # an unknown parameter, a case not modelled: one line
+            p.bsdf(self.brdf, self.alpha, **self.bsdf_params)
         samplers = tuple(self.samplers) or rendered[self.renderer]
         for s in samplers:
             p.sampler(s)

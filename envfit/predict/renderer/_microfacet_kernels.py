@@ -161,7 +161,7 @@ def conductor_proxies(conductor, wis, frames, dirs, base, pdf) -> np.ndarray:
 
 def compiled_conductor(conductor) -> bool:
     """Whether :func:`conductor_eval_pdf` repeats ``conductor`` (Fresnel 1)."""
-    return conductor.eta is None and conductor.distribution.kind in _KINDS
+    return getattr(conductor, "white", False) and conductor.distribution.kind in _KINDS
 
 
 def conductor_eval_pdf(conductor, wi, dirs, rows=None) -> tuple[np.ndarray, np.ndarray]:

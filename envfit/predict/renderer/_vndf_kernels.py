@@ -369,7 +369,7 @@ def compiled_sampling(conductor) -> bool:
     """Whether :func:`conductor_sample` repeats ``conductor.sample``: white GGX or Beckmann,
     its weight's form the one its warp's code implies (variant 0 with separable G, the
     hemisphere variants with height-correlated G)."""
-    return (conductor.eta is None and conductor.distribution.kind in _KINDS
+    return (getattr(conductor, "white", False) and conductor.distribution.kind in _KINDS
             and conductor.separable_g == (conductor.vndf_variant == 0))
 
 

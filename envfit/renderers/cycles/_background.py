@@ -44,7 +44,7 @@ from envfit.renderers._base import (EnvmapTechnique, Renderer, SamplerSpec,
                                            StrategySetting, cosine_hemisphere, map_rgb,
                                            power_heuristic)
 from envfit.renderers.cycles._adaptive import CYCLES_ADAPTIVE
-from envfit.renderers.cycles._bsdf import BSDF_NAMES, ROUGHNESS, bsdf
+from envfit.renderers.cycles._bsdf import BSDF_NAMES, PRINCIPLED_PARAMS, ROUGHNESS, bsdf
 from envfit.renderers.cycles._film import BLACKMAN_HARRIS
 from envfit.renderers.cycles._patterns import BLUE_NOISE
 from envfit.renderers.cycles._scene import cycles_snippet
@@ -479,13 +479,14 @@ CYCLES = Renderer(
     negative_radiance=("Cycles samples the world by |radiance| (src/scene/light.cpp: "
                        "background_cdf, average(fabs(rgb))), and no measurement checks the "
                        "model of a signed map"),
-    microfacet={"ggx": None, "beckmann": None, "multiggx": None},
+    microfacet={"ggx": None, "beckmann": None, "multiggx": None, "principled": None},
     bsdf_notes={"ggx": ("--brdf ggx is Cycles' single-scatter GGX (a Glossy BSDF set to GGX); "
                         "the Principled and Glossy BSDF nodes default to Multiscatter GGX: "
                         "--brdf multiggx")},
     bsdf_fn=bsdf,
     bsdf_names=BSDF_NAMES,
     roughness=ROUGHNESS,
+    bsdf_params={"principled": PRINCIPLED_PARAMS},
     render_samplers=("tabulated_sobol", "blue_noise"),
     harness="envfit.renderers.cycles._render",
     adaptive=CYCLES_ADAPTIVE,

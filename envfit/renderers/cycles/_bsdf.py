@@ -41,6 +41,21 @@ and Cycles' own agree at the nodes read to 5 × 10⁻⁴. For a white metal (bas
 specular tint 1: F82-tint Fresnel ≡ 1, so the multi-bounce Fresnel term is 1) the scale is the
 whole change; ``tests/test_render_cycles.py`` renders a white Multiscatter GGX sphere under a
 constant map: 1 at every view.
+
+**The Principled BSDF with metallic 1** (``principled``; ``src/kernel/svm/closure.h``, case
+``CLOSURE_BSDF_PRINCIPLED_ID``: the metallic component; ``src/kernel/closure/bsdf_util.h``:
+``fresnel_f82``, ``fresnel_f82tint_B``, ``fresnel_f82_Fss``; ``bsdf_microfacet.h``:
+``bsdf_microfacet_setup_fresnel_f82_tint``, ``microfacet_ggx_preserve_energy``) — the
+Multiscatter GGX closure above with the F82-tint Fresnel of f0 = min(base colour, 1) and the
+tint min(specular tint, 1) at cos θ = ω_i·H, its energy scale 1 + F_ms(1 − E)/E with
+F_ss = mix(f0, 1, 1/21) − b/126 and E_avg the 32-node ``table_ggx_Eavg`` (``precompute_ggx_E``
+times 2μ averaged over μ), which envfit computes by quadrature
+(:func:`~envfit.shading.microfacet._multiscatter.average_albedo`). Every other layer has
+weight 1 − metallic = 0, so it is the closure's only one. Blender's node defaults
+(:data:`PRINCIPLED_PARAMS`, read from bpy 5.0.1: Base Color 0.8, Metallic 0, Roughness 0.5,
+Specular Tint 1, distribution Multiscatter GGX) have metallic 0: a dielectric GGX closure
+over a diffuse one, one picked by the third coordinate of the BSDF's 3-D sample — not
+modelled yet, refused in one line (``--bsdf-param metallic=1`` predicts the metal).
 """
 from __future__ import annotations
 
@@ -48,19 +63,25 @@ import math
 
 from envfit.renderers._roughness import RoughnessConvention
 
-__all__ = ["ROUGHNESS", "bsdf", "BSDF_NAMES"]
+__all__ = ["ROUGHNESS", "bsdf", "BSDF_NAMES", "PRINCIPLED_PARAMS"]
 
 #: Cycles' roughness R (the Principled BSDF's): α = R²
 ROUGHNESS = RoughnessConvention(rule="alpha = R^2", units="Cycles' roughness R, alpha = R^2",
                                 alpha_of=lambda r: r * r, roughness_of=math.sqrt)
 
 #: the ``--brdf`` names in Cycles' words (the record's ``bsdf_names``)
-BSDF_NAMES = {"multiggx": "Multiscatter GGX (the Principled and Glossy BSDF nodes' default)"}
+BSDF_NAMES = {"multiggx": "Multiscatter GGX (the Principled and Glossy BSDF nodes' default)",
+              "principled": "Principled BSDF"}
+#: the Principled BSDF node's inputs envfit models, with their defaults (bpy 5.0.1; grey
+#: colours)
+PRINCIPLED_PARAMS = {"roughness": 0.5, "base_color": 0.8, "metallic": 0.0,
+                     "specular_tint": 1.0}
 
 
 def bsdf(name: str, alpha: float, **params):
     """The microfacet reflection closure (``name`` ``ggx`` or ``beckmann``; ``params``
-    ``eta``, ``k``) or Multiscatter GGX (``multiggx``, white) of microfacet α.
+    ``eta``, ``k``), Multiscatter GGX (``multiggx``, white) or the Principled BSDF with
+    metallic 1 (``principled``; ``params`` among :data:`PRINCIPLED_PARAMS`) of microfacet α.
 
     >>> bsdf("multiggx", 0.2).multiscatter, bsdf("ggx", 0.2).vndf
     (True, 'hemisphere_concentric')
@@ -69,4 +90,26 @@ def bsdf(name: str, alpha: float, **params):
     technique = {"shadowing": "height_correlated", "vndf": "hemisphere_concentric"}
     if name == "multiggx":
         return Conductor("ggx", alpha, **technique, multiscatter=True, **params)
+    if name == "principled":
+        return _principled_metal(alpha, technique, params)
     return Conductor(name, alpha, **technique, fresnel="moeller", **params)
+
+
+def _principled_metal(alpha: float, technique: dict, params: dict):
+    """The Principled BSDF's metallic closure (module docstring); one line for a parameter
+    envfit does not model or a metallic below 1."""
+    from envfit.base import ParameterError
+    from envfit.shading.microfacet import Conductor
+    unknown = sorted(set(params) - set(PRINCIPLED_PARAMS) | ({"roughness"} & set(params)))
+    if unknown:
+        raise ParameterError(f"Cycles' Principled BSDF: {', '.join(unknown)} is not an input "
+                             f"envfit models (roughness is --roughness; the others: "
+                             f"{', '.join(k for k in PRINCIPLED_PARAMS if k != 'roughness')})")
+    p = {**PRINCIPLED_PARAMS, **{k: float(v) for k, v in params.items()}}
+    if p["metallic"] != 1.0:
+        raise ParameterError(f"Cycles' Principled BSDF with metallic {p['metallic']:g}: its "
+                             f"dielectric layer over the diffuse base (a closure picked by the "
+                             f"third coordinate of the BSDF's 3-D sample) is not modelled yet; "
+                             f"--bsdf-param metallic=1 predicts its metallic lobe")
+    return Conductor("ggx", alpha, **technique, f0=min(max(p["base_color"], 0.0), 1.0),
+                     f82_tint=min(max(p["specular_tint"], 0.0), 1.0), multiscatter=True)

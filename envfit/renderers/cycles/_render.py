@@ -124,7 +124,8 @@ class CyclesOptions:
                 raise ParameterError(f"{name} must be an integer >= {lo}, got {v!r}")
 
 
-def glossy_bsdf(distribution: str = "ggx", alpha: float = 0.1, node: str = "glossy") -> tuple:
+def glossy_bsdf(distribution: str = "ggx", alpha: float = 0.1, node: str = "glossy",
+                base_color: float = 1.0, specular_tint: float = 1.0) -> tuple:
     """The sphere's BSDF for :attr:`CyclesOptions.bsdf`: the *Glossy BSDF* node, colour 1
     (Fresnel = 1: a white conductor), distribution ``GGX`` or ``Beckmann`` (single scattering),
     or ``multiggx``: *Multiscatter GGX*, the node's and the Principled BSDF's default (GGX
@@ -141,7 +142,9 @@ def glossy_bsdf(distribution: str = "ggx", alpha: float = 0.1, node: str = "glos
     f0 = base colour, ``bsdf_microfacet_setup_fresnel_f82_tint``): F82 tint 1 sets b = 0, so
     F = Schlick(f0 = 1) = 1 and the multiscatter energy scale is the Glossy node's (Fss = 1);
     every other layer has weight 0 (1 − metallic, coat, sheen). So it renders the Glossy
-    node's image (``tests/test_render_cycles.py``).
+    node's image (``tests/test_render_cycles.py``). ``base_color`` and ``specular_tint`` (grey,
+    the Principled node only) set f0 and the tint of that Fresnel (Blender's defaults are 0.8
+    and 1).
 
     >>> round(dict(glossy_bsdf("beckmann", 0.25))["roughness"], 12)
     0.5
@@ -157,6 +160,11 @@ def glossy_bsdf(distribution: str = "ggx", alpha: float = 0.1, node: str = "glos
          "roughness": float(alpha) ** 0.5}
     if node == "principled":                # the Glossy node's keys (and caches) unchanged
         b["node"] = node
+        b.update({k: float(v) for k, v in (("base_color", base_color),
+                                           ("specular_tint", specular_tint)) if v != 1.0})
+    elif (base_color, specular_tint) != (1.0, 1.0):
+        raise ParameterError("base_color and specular_tint are the Principled node's "
+                             "(node=\"principled\")")
     return tuple(sorted(b.items()))
 
 
@@ -190,9 +198,11 @@ def _material(bpy, bsdf=None):
         node.inputs["Roughness"].default_value = b["roughness"]
         if principled:
             node.inputs["Metallic"].default_value = 1.0
-            node.inputs["Specular Tint"].default_value = (1.0, 1.0, 1.0, 1.0)
+            t = b.get("specular_tint", 1.0)
+            node.inputs["Specular Tint"].default_value = (t, t, t, 1.0)
             colour = "Base Color"
-    node.inputs[colour].default_value = (1.0, 1.0, 1.0, 1.0)
+    c = 1.0 if bsdf is None else dict(bsdf).get("base_color", 1.0)
+    node.inputs[colour].default_value = (c, c, c, 1.0)
     nt.links.new(node.outputs["BSDF"], out.inputs["Surface"])
     return mat
 
@@ -552,9 +562,17 @@ def version() -> str:
     return f"Blender {'.'.join(str(v) for v in import_bpy().app.version)} (Cycles, CPU)"
 
 
-def open_sphere(envmap, brdf: str | None, alpha: float | None, **common) -> "CyclesSphere":
-    """The sphere of envfit's measurement with ``brdf`` (None: white diffuse; else a Glossy
-    BSDF, :func:`glossy_bsdf`) of roughness ``alpha``; ``common``: :class:`CyclesOptions`'
-    resolution, reference_spp, cache_dir."""
-    bsdf = None if brdf is None else glossy_bsdf(brdf, alpha)
+def open_sphere(envmap, brdf: str | None, alpha: float | None, bsdf_params=None,
+                **common) -> "CyclesSphere":
+    """The sphere of envfit's measurement with ``brdf`` (None: white diffuse; ``principled``:
+    the Principled BSDF with metallic 1 and ``bsdf_params``' base colour and specular tint,
+    Multiscatter GGX; else a Glossy BSDF, :func:`glossy_bsdf`) of roughness ``alpha``;
+    ``common``: :class:`CyclesOptions`' resolution, reference_spp, cache_dir."""
+    from envfit.renderers.cycles._bsdf import PRINCIPLED_PARAMS
+    if brdf == "principled":
+        p = {**PRINCIPLED_PARAMS, **(bsdf_params or {})}
+        bsdf = glossy_bsdf("multiggx", alpha, node="principled", base_color=p["base_color"],
+                           specular_tint=p["specular_tint"])
+    else:
+        bsdf = None if brdf is None else glossy_bsdf(brdf, alpha)
     return CyclesSphere(envmap, CyclesOptions(**common, bsdf=bsdf))

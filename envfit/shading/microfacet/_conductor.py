@@ -33,7 +33,8 @@ import numpy as np
 
 from envfit.base import ParameterError
 from envfit.shading.microfacet._distributions import MicrofacetDistribution
-from envfit.shading.microfacet._fresnel import FRESNEL_FORMS
+from envfit.shading.microfacet._fresnel import (FRESNEL_FORMS, f82_average, f82_tint_b,
+                                                fresnel_f82)
 from envfit.shading.microfacet._vndf import VNDF_WARPS, sample_visible_normals
 
 __all__ = ["BSDFSample", "Conductor", "SHADOWINGS"]
@@ -78,8 +79,11 @@ class Conductor:
     fresnel : a form of :data:`~envfit.shading.microfacet.FRESNEL_FORMS`, needed with
         ``eta`` and ``k``
     eta, k : the complex index of refraction η + ik; both None (default): F = 1 (white)
+    f0, f82_tint : instead of η + ik, the artists' F82-tint Fresnel of reflectance f0 at
+        normal incidence and tint (:func:`~envfit.shading.microfacet._fresnel.fresnel_f82`)
     multiscatter : eval and sample weight times :meth:`energy_scale` of the view, the inverse
-        of the lobe's own single-scatter albedo (a white GGX lobe only)
+        of the lobe's own single-scatter albedo (a GGX lobe, white or F82: then the energy
+        its bounces' Fresnel keeps)
 
     >>> c = Conductor("ggx", 0.3, shadowing="separable", vndf="slope_space")
     >>> wi = np.array([[0.0, 0.0, 1.0]])
@@ -89,6 +93,7 @@ class Conductor:
 
     def __init__(self, distribution: str, alpha: float, *, shadowing: str, vndf: str,
                  fresnel: str | None = None, eta: float | None = None, k: float | None = None,
+                 f0: float | None = None, f82_tint: float = 1.0,
                  multiscatter: bool = False) -> None:
         _check_technique(distribution, shadowing, vndf)
         if (eta is None) != (k is None):
@@ -96,9 +101,15 @@ class Conductor:
         if eta is not None and fresnel not in FRESNEL_FORMS:
             raise ParameterError(f"a coloured conductor (eta, k) needs fresnel, one of "
                                  f"{tuple(FRESNEL_FORMS)}, got {fresnel!r}")
+        if f0 is not None and (eta is not None or not (0.0 <= f0 <= 1.0 and 0.0 <= f82_tint)):
+            raise ParameterError(f"the F82-tint Fresnel takes f0 in [0, 1] and a tint >= 0, "
+                                 f"without eta and k; got f0 {f0!r}, tint {f82_tint!r}")
         if multiscatter and (distribution != "ggx" or eta is not None):
             raise ParameterError("multiscatter (energy compensation by the lobe's own albedo) "
-                                 "is for a white GGX conductor (distribution ggx, no eta, k)")
+                                 "is for a GGX conductor, white or F82 (no eta, k)")
+        self.f0 = None if f0 is None else float(f0)
+        self.f82_tint = float(f82_tint)
+        self.f82_b = 0.0 if f0 is None else f82_tint_b(self.f0, self.f82_tint)
         self.multiscatter = bool(multiscatter)
         self.distribution = MicrofacetDistribution(distribution, alpha)
         self.shadowing, self.vndf, self.fresnel_form = shadowing, vndf, fresnel
@@ -107,9 +118,15 @@ class Conductor:
 
     def __repr__(self) -> str:
         d = self.distribution
+        f82 = "" if self.f0 is None else f", f0={self.f0:g}, f82_tint={self.f82_tint:g}"
         return (f"Conductor({d.kind!r}, {d.alpha:g}, shadowing={self.shadowing!r}, "
                 f"vndf={self.vndf!r}, fresnel={self.fresnel_form!r}, eta={self.eta}, "
-                f"k={self.k}" + (", multiscatter=True)" if self.multiscatter else ")"))
+                f"k={self.k}{f82}" + (", multiscatter=True)" if self.multiscatter else ")"))
+
+    @property
+    def white(self) -> bool:
+        """Whether F ≡ 1 (no η + ik, no F82)."""
+        return self.eta is None and self.f0 is None
 
     def energy_scale(self, cos_i) -> np.ndarray:
         """The multiple-scattering factor of eval and weight at view cosines ``cos_i``: 1/E of
@@ -118,7 +135,9 @@ class Conductor:
         if not self.multiscatter:
             return np.ones(np.shape(cos_i))
         from envfit.shading.microfacet._multiscatter import energy_scale
-        return energy_scale(self.alpha, cos_i, shadowing=self.shadowing, vndf=self.vndf)
+        fss = 1.0 if self.f0 is None else f82_average(self.f0, self.f82_b)
+        return energy_scale(self.alpha, cos_i, shadowing=self.shadowing, vndf=self.vndf,
+                            fss=fss)
 
     @property
     def alpha(self) -> float:
@@ -139,6 +158,8 @@ class Conductor:
     def fresnel(self, cos_theta) -> np.ndarray:
         """F at cos θ = ω_i·m: 1, or the conductor Fresnel of :attr:`fresnel_form`."""
         c = np.asarray(cos_theta, dtype=np.float64)
+        if self.f0 is not None:
+            return fresnel_f82(c, self.f0, self.f82_b)
         if self.eta is None:
             return np.ones_like(c)
         return FRESNEL_FORMS[self.fresnel_form](c, self.eta, self.k)

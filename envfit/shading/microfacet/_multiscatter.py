@@ -9,7 +9,17 @@ eval and sample weight times
 :math:`r = \mathrm{clamp}(x/31, 10^{-4}, 1)`, :math:`\mu = \mathrm{clamp}(y/31, 10^{-4}, 1)`,
 clamped to [0, 1]; looked up linearly in μ between rows and linearly in r within a row, the
 indices truncated. For a white metal (F ≡ 1) this is the whole change; the pdf is the
-single-scatter one.
+single-scatter one. A coloured lobe whose Fresnel has the hemispherical average
+:math:`F_{ss}` (an F82 metal: :func:`~envfit.shading.microfacet._fresnel.f82_average`) gains
+only the energy its multiple bounces keep (Kulla & Conty, "Revisiting Physically Based
+Shading at Imageworks", 2017, appendix, one :math:`F_{ss}` cancelled against the single
+scatter's own Fresnel):
+
+.. math::  s(\mu_i) = 1 + F_{ms}\,\frac{1 - E}{E},\qquad
+           F_{ms} = \frac{F_{ss}\,E_{avg}}{1 - F_{ss}(1 - E_{avg})},
+
+:math:`E_{avg}(r) = \int_0^1 2\mu E(r, \mu)\,d\mu` on the same 32 roughness nodes, looked up
+linearly (:func:`average_albedo`); :math:`F_{ss} = 1` gives 1/E again.
 
 envfit computes the table itself (:func:`albedo_table`: the sample weight of the lobe's own
 :class:`~envfit.shading.microfacet.Conductor` — its shadowing form and visible-normal warp —
@@ -27,7 +37,7 @@ import numpy as np
 
 from envfit.shading.microfacet._conductor import Conductor
 
-__all__ = ["TABLE_SIZE", "albedo_table", "energy_scale"]
+__all__ = ["TABLE_SIZE", "albedo_table", "average_albedo", "energy_scale"]
 
 #: nodes per axis of the albedo table (roughness r = √α, then μ)
 TABLE_SIZE = 32
@@ -60,6 +70,27 @@ def _column(shadowing: str, vndf: str, x: int) -> np.ndarray:
     return out
 
 
+@lru_cache(maxsize=4 * TABLE_SIZE)
+def _average(shadowing: str, vndf: str, x: int) -> float:
+    """E_avg at roughness node x: ∫ 2μ E dμ by a 32-node Gauss–Legendre rule in μ, each E by
+    the square rule of :func:`_column` (its clamp to [0, 1] too)."""
+    pts, wts = _square_rule()
+    r = float(np.clip(x / (TABLE_SIZE - 1.0), 1e-4, 1.0))
+    c = Conductor("ggx", max(r * r, 1e-4), shadowing=shadowing, vndf=vndf)
+    mu, w = np.polynomial.legendre.leggauss(32)
+    mu, w = (mu + 1.0) / 2.0, w / 2.0
+    e = [min(max(wts @ c.sample(np.broadcast_to([np.sqrt(1.0 - m * m), 0.0, m], (len(pts), 3)),
+                                 pts).weight, 0.0), 1.0) for m in mu]
+    return float(np.sum(w * 2.0 * mu * np.asarray(e)))
+
+
+def average_albedo(alpha: float, *, shadowing: str, vndf: str) -> float:
+    """E_avg(√α) of the white GGX lobe, linear between the 32 roughness nodes."""
+    ix, jx, tx = _lerp_index(np.array(np.sqrt(alpha)))
+    return float((1.0 - tx) * _average(shadowing, vndf, int(ix))
+                 + tx * _average(shadowing, vndf, int(jx)))
+
+
 def albedo_table(*, shadowing: str, vndf: str) -> np.ndarray:
     r"""E[y, x]: the single-scatter albedo of the white GGX lobe (``shadowing`` form, ``vndf``
     warp) at :math:`\mu = \mathrm{clamp}(y/31, 10^{-4}, 1)`, :math:`r = \sqrt\alpha =
@@ -76,10 +107,12 @@ def _lerp_index(v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return i, np.minimum(i + 1, TABLE_SIZE - 1), x - i
 
 
-def energy_scale(alpha: float, cos_i, *, shadowing: str, vndf: str) -> np.ndarray:
+def energy_scale(alpha: float, cos_i, *, shadowing: str, vndf: str,
+                 fss: float = 1.0) -> np.ndarray:
     r"""The energy scale 1/E(√α, μ_i) of a white GGX lobe (``shadowing`` form, ``vndf`` warp),
     per view cosine (:func:`albedo_table` looked up linearly in √α within each μ row, then
-    linearly in μ between the rows).
+    linearly in μ between the rows); with a Fresnel average ``fss`` < 1, 1 + F_ms(1 − E)/E
+    (module docstring).
 
     >>> s = energy_scale(0.3 ** 2, 1.0, shadowing="height_correlated",
     ...                  vndf="hemisphere_concentric")
@@ -91,4 +124,9 @@ def energy_scale(alpha: float, cos_i, *, shadowing: str, vndf: str) -> np.ndarra
            + tx * _column(shadowing, vndf, int(jx)))                    # E per μ row
     iy, jy, ty = _lerp_index(np.asarray(cos_i, dtype=np.float64))
     e = (1.0 - ty) * col[iy] + ty * col[jy]
-    return np.where(e > 0, 1.0 / np.where(e > 0, e, 1.0), 0.0)
+    inv = np.where(e > 0, 1.0 / np.where(e > 0, e, 1.0), 0.0)
+    if fss == 1.0:
+        return inv
+    avg = average_albedo(alpha, shadowing=shadowing, vndf=vndf)
+    fms = fss * avg / (1.0 - fss * (1.0 - avg))
+    return np.where(e > 0, 1.0 + fms * (inv - 1.0), 0.0)
