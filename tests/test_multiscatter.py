@@ -98,3 +98,36 @@ def test_bad_combinations():
     for kind, kw in (("beckmann", {}), ("ggx", {"eta": 0.3, "k": 2.5, "fresnel": "moeller"})):
         with pytest.raises(ParameterError, match="multiscatter"):
             Conductor(kind, 0.3, **TECHNIQUE, multiscatter=True, **kw)
+
+
+def test_f82_metal_energy_scale_and_fresnel_average():
+    """The F82-tint metal's pieces against their definitions: F82's cosine-weighted average
+    (f0 + (1 − f0)/21 − b/126) by quadrature, b's tint at cos θ = 1/7, E_avg = ∫2μE dμ against
+    the albedo table's rows (trapezoid over its 32 μ nodes), and the energy scale: 1/E at
+    F_ss = 1, 1 + F_ms(1/E − 1) below it, between 1 and 1/E."""
+    from scipy.integrate import quad
+
+    from envfit.shading.microfacet._fresnel import f82_average, f82_tint_b, fresnel_f82
+    from envfit.shading.microfacet._multiscatter import albedo_table, average_albedo
+    from envfit.shading.microfacet._multiscatter import energy_scale
+    for f0, tint in ((0.8, 1.0), (0.3, 0.7), (0.95, 0.4)):
+        b = f82_tint_b(f0, tint)
+        s = (1 - np.array([1 / 7])) ** 5
+        assert fresnel_f82(1 / 7, f0, b) == pytest.approx((f0 + (1 - f0) * s[0]) * tint)
+        q = quad(lambda m: 2 * m * (f0 + (1 - f0) * (1 - m) ** 5 - b * m * (1 - m) ** 6), 0, 1)
+        assert f82_average(f0, b) == pytest.approx(q[0], rel=1e-12)
+    kw = {"shadowing": "height_correlated", "vndf": "hemisphere_concentric"}
+    table = albedo_table(**kw)
+    mu = np.clip(np.arange(32) / 31, 1e-4, 1)
+    for x in (8, 16, 31):
+        alpha = (x / 31) ** 2
+        trap = np.trapezoid(2 * mu * table[:, x], mu)
+        assert average_albedo(alpha, **kw) == pytest.approx(trap, abs=3e-3)
+    e = 1 / energy_scale(0.25, [0.2, 0.9], **kw)
+    assert np.allclose(energy_scale(0.25, [0.2, 0.9], **kw, fss=1.0), 1 / e)
+    avg = average_albedo(0.25, **kw)
+    fss = 0.8
+    fms = fss * avg / (1 - fss * (1 - avg))
+    got = energy_scale(0.25, [0.2, 0.9], **kw, fss=fss)
+    np.testing.assert_allclose(got, 1 + fms * (1 / e - 1), rtol=1e-12)
+    assert np.all((got > 1) & (got < 1 / e))
