@@ -124,7 +124,8 @@ def test_paired_lobe_choice_is_the_one_table_pairing_where_the_lobes_agree():
     rng = np.random.default_rng(0)
     e, g, h = (rng.random((4, size, 3)) for _ in range(3))
     g[1] += 3.0                                   # a bright normal: the film's pairing matters
-    stub = SimpleNamespace(_pairing=lambda r: pf, _calls=lambda r: (1, 3))
+    stub = SimpleNamespace(_pairing=lambda r: pf, _calls=lambda r: (1, 3),
+                           renderer=get_renderer("mitsuba3"))
     for strategy, tables in (("mis", {"mis_e": e, "mis_b": g}), ("brdf", {"brdf": g})):
         prefix = "brdf_" if strategy == "brdf" else "mis_b"
         kept = {"mis_e": e, f"{prefix}a": g, f"{prefix}b": g}

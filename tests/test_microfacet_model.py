@@ -555,6 +555,38 @@ def test_principled_lobe_choice_matches_a_simulation_of_the_estimator(sampler, p
     np.testing.assert_allclose(m.predict("brdf", sampler, n).mse, sim, rtol=0.1)
 
 
+@pytest.mark.parametrize("bsdf", ["principled", "roughplastic"])
+def test_ldsampler_lobe_numbers_in_mitsubas_order(bsdf, monkeypatch):
+    """Mitsuba's ldsampler orders a dimension by ``permute(j, N, seed + dimension)`` and
+    consecutive dimensions alike: ``direct``'s BSDF sample (2-D call 1, lobe number call 2)
+    simulated with the sampler's own points and numbers (the port) over 4000 pixels at 256 spp,
+    against the model, whose lobe term takes that order (``_order_excess``): within 8 %; the
+    random order alone reads ≤ 0.85 of it."""
+    from envfit.renderers.mitsuba3._ldsampler import (ldsampler_numbers, ldsampler_points,
+                                                      pixel_scramble_seeds)
+    from envfit.shading.microfacet import Principled, RoughPlastic
+    import envfit.predict.renderer._lobe_parts as lp
+    b = Principled(0.5) if bsdf == "principled" else RoughPlastic("ggx", 0.2)
+    n, reps = 256, 4000
+    normal, view = _unit([0.3, 0.5, 0.8]), _unit([0.0, 0.2, 1.0])
+
+    def model():
+        return MicrofacetModel(_sun_map(), MITSUBA, b, (normal[None], view[None]),
+                               options=RendererModelOptions(max_level=7))
+    rows = np.asarray(MITSUBA.tangent_frame(normal[None])[0])
+    wi = rows @ view
+    seeds = pixel_scramble_seeds(reps, 9)
+    x = ldsampler_points(seeds, n, 2)[:, :, 1]
+    u1 = ldsampler_numbers(seeds, n, 2)
+    m = model()
+    s = b.sample(np.broadcast_to(wi, (reps * n, 3)), x.reshape(-1, 2), u1=u1.ravel())
+    value = m.technique.eval(s.wo @ rows) * s.weight[:, None]
+    sim = value.reshape(reps, n, 3).mean(axis=1).var(axis=0, ddof=1)
+    np.testing.assert_allclose(m.predict("brdf", "ldsampler", n).mse, sim, rtol=0.08)
+    monkeypatch.setattr(lp.LobeChoice, "_order_excess", lambda self, r, v: np.zeros(3))
+    assert np.all(model().predict("brdf", "ldsampler", n).mse < 0.85 * sim)
+
+
 def _unit(v):
     v = np.asarray(v, dtype=np.float64)
     return v / np.linalg.norm(v)

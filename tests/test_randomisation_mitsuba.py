@@ -211,6 +211,24 @@ def test_ldsampler_port_repeats_mitsubas_points():
         assert tuple(int(w) for w in sample_tea_32(value, seed)) == mi.sample_tea_32(value, seed)
 
 
+def test_ldsampler_lobe_numbers_are_mitsubas_next_1d():
+    """``ldsampler_numbers`` (``next_1d`` at a dimension index, in the sampler's order) is
+    Mitsuba's own third call after two ``next_2d`` — where ``path`` draws a BSDF's lobe
+    number — for the same per-pixel seeds as the port's 2-D points."""
+    from envfit.renderers.mitsuba3._ldsampler import ldsampler_numbers, sample_tea_32
+    s = mi.load_dict({"type": "ldsampler", "sample_count": 64})
+    got = np.empty((8, 64))
+    for seed in range(8):
+        s.seed(seed)
+        for i in range(64):
+            s.next_2d()
+            s.next_2d()
+            got[seed, i] = s.next_1d()
+            s.advance()
+    port = ldsampler_numbers(sample_tea_32(0, np.arange(8), 4)[0], 64, 2)
+    np.testing.assert_array_equal(port, got)
+
+
 def test_paired_footprint_is_mitsubas_film_by_direction_interaction():
     """The model of that pairing (``_footprint.PairedFootprint``: the port's points over
     2^20/N pixels of random scramble seeds, the film's weights bilinear across the pixel)

@@ -316,6 +316,9 @@ class SamplerSpec:
         x right, y down in the pixel),
         for pixels of random seeds; None where that order does not matter (the model takes
         the film's pairing with the techniques as random)
+    lobe_points : ``(pixels, n, call, seed) -> (pixels, n)`` the sampler's own 1-D numbers
+        of call ``call`` of each pixel, in its order and for the pixels of
+        :attr:`film_points` (the same seed); None: a lobe number's order is taken as random
     """
 
     name: str
@@ -327,6 +330,7 @@ class SamplerSpec:
     prefix: bool = False
     options: Callable[[int], tuple] | None = None
     film_points: Callable[..., np.ndarray] | None = None
+    lobe_points: Callable[..., np.ndarray] | None = None
 
     def model_options(self, n: int) -> tuple:
         """The randomisation's options for ``n`` points (:attr:`options`; () without)."""
@@ -384,7 +388,8 @@ class StrategySetting:
     (``dimensions``: Mitsuba's ``orthogonal``, whose ``next_2d`` is two ``next_1d``), and as
     the number of the call that makes it (``calls``: Mitsuba's ``ldsampler``, whose
     ``next_1d`` and ``next_2d`` each take one dimension index); None where the order plays
-    no part."""
+    no part. ``lobe_call``: the call that draws a two-lobe BSDF's lobe number (its
+    ``next_1d``), where the sampler orders it (:attr:`SamplerSpec.lobe_points`)."""
 
     strategy: str
     renderable: bool
@@ -396,6 +401,7 @@ class StrategySetting:
     note: str = ""
     dimensions: tuple[int, int] | None = None
     calls: tuple[int, int] | None = None
+    lobe_call: int | None = None
 
 
 _HEURISTICS = {"power": power_heuristic, "balance": balance_heuristic}

@@ -495,13 +495,14 @@ class DiffuseModel(DrawnStrata):
         """The :class:`._footprint.PairedFootprint` of cell ``r``'s sampler at N spp: its own
         film points, in every dimension to the strategy's last draw (:meth:`_calls`), for
         max(Q, 2^20/N) pixels (Q = ``options.shifts``), seeded by ``options.seed``."""
-        n, dims = r.n, max(3, max(self._calls(r)) + 1)
+        lobe = self.renderer.strategy(r.strategy).lobe_call
+        n, dims = r.n, max(3, max(self._calls(r)) + 1, (lobe or 0) + 1)
         key = ("paired", r.sampler, n, dims)
         if key not in self._tables:
+            spec = self.renderer.sampler(r.sampler)
             self._tables[key] = PairedFootprint(n, max(self.options.shifts, (1 << 20) // n),
-                                                self.options.seed,
-                                                self.renderer.sampler(r.sampler).film_points,
-                                                dims)
+                                                self.options.seed, spec.film_points, dims,
+                                                spec.lobe_points)
         return self._tables[key]
 
     def _randomised_cell(self, r: CellRequest, vals: dict, grids: dict, fine: int, levels):

@@ -291,23 +291,30 @@ class PairedFootprint:
     True
     """
 
-    def __init__(self, n: int, pixels: int, seed: int, film_points, dims: int = 3):
+    def __init__(self, n: int, pixels: int, seed: int, film_points, dims: int = 3,
+                 lobe_points=None):
         self.n, self.seed = int(n), int(seed)
         self.points = film_points(pixels, self.n, int(dims), seed)
-        self._weights, self._cells, self._lobe = {}, {}, None
+        self._lobe_points = lobe_points
+        self._weights, self._cells, self._lobe = {}, {}, {}
 
-    def lobe_numbers(self) -> np.ndarray:
-        """(R, N) each sample's 1-D number of a BSDF's lobe choice: one point in each of the
-        N strata, one offset per pixel, the strata in a random order of the pixel's own —
-        a digitally shifted van der Corput net whose scramble and order are drawn apart from
-        the 2-D dimensions' (the renderer's record cites where its sampler does so), as
-        :func:`~.randomisation.lobe_choice_mse` takes it."""
-        if self._lobe is None:
-            rng = np.random.default_rng([self.seed, self.n, 0x10BE])
+    def lobe_numbers(self, call: int | None = None) -> np.ndarray:
+        """(R, N) each sample's 1-D number of a BSDF's lobe choice: with the sampler's
+        ``lobe_points`` and the ``call`` that draws it, the sampler's own numbers in its order
+        for these pixels (:attr:`envfit.renderers.SamplerSpec.lobe_points`); else one point in
+        each of the N strata, one offset per pixel, the strata in a random order of the
+        pixel's own, as :func:`~.randomisation.lobe_choice_mse` takes it."""
+        exact = self._lobe_points is not None and call is not None
+        key = call if exact else None
+        if key not in self._lobe:
             r = self.points.shape[0]
-            order = rng.permuted(np.broadcast_to(np.arange(self.n), (r, self.n)), axis=1)
-            self._lobe = (order + rng.random((r, 1))) / self.n
-        return self._lobe
+            if exact:
+                self._lobe[key] = self._lobe_points(r, self.n, int(call), self.seed)
+            else:
+                rng = np.random.default_rng([self.seed, self.n, 0x10BE])
+                order = rng.permuted(np.broadcast_to(np.arange(self.n), (r, self.n)), axis=1)
+                self._lobe[key] = (order + rng.random((r, 1))) / self.n
+        return self._lobe[key]
 
     def weights(self, side: int) -> np.ndarray:
         """:func:`film_weights` of the film's points (R, N, side²)."""

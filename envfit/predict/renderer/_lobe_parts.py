@@ -111,7 +111,8 @@ class LobeChoice:
         prefix = "brdf_" if r.strategy == "brdf" else "mis_b"
         a, b = kept[f"{prefix}a"], kept[f"{prefix}b"]
         size = a.shape[1]
-        cells = pairing.cells(b_call, size) + size * (pairing.lobe_numbers() >= p)
+        lobe = pairing.lobe_numbers(self.renderer.strategy(r.strategy).lobe_call)
+        cells = pairing.cells(b_call, size) + size * (lobe >= p)
         mean = p * a.mean(axis=(0, 1)) + (1.0 - p) * b.mean(axis=(0, 1))
         streams = [(np.concatenate([a, b], axis=1), cells, mean)]
         if r.strategy == "mis":
@@ -146,15 +147,47 @@ class LobeChoice:
             return of
 
         opts, opts_b = dict(r.options), dict(r.options_b)
+        excess = self._order_excess(r, vals)
         if r.strategy == "brdf":
             mse = lobe_choice_mse(r.name, grid_of("brdf_", part="brdf"), r.n, p, **opts_b)
             z = np.zeros_like(mse)
-            return mse, z, mse, z
+            return mse + excess, z, mse + excess, z
         mse, e, b, cross = lobe_choice_mis(
             r.name, grid(lambda v: v["mis_e"], ("mis_e", 1.0, 0.0, True)),
             grid_of("mis_b", part="mis_b"), r.n, p, shared=r.shared, options=opts,
             options_b=opts_b, total_of=grid_of("mis_b", "mis_e", part="mis_t"))
-        return mse, e, b, 2.0 * cross
+        return mse + excess, e, b + excess, 2.0 * cross
+
+    def _order_excess(self, r, vals: dict) -> np.ndarray:
+        r"""The MSE (C,) the sampler's own order of the lobe numbers adds to the random order
+        :func:`lobe_choice_mse` takes, where its record gives that order
+        (:attr:`envfit.renderers.SamplerSpec.lobe_points` and the strategy's ``lobe_call``;
+        0 otherwise): over the pixels of :meth:`_pairing`, the estimator on the lobes' tables
+        at each sample's cell with the sampler's lobe numbers, F, and with each pixel's
+        numbers shuffled, F_u (the same points): mean :math:`(F - I)^2 - (F_u - I)^2`, the
+        emitter's stream included for MIS (its points are ordered alike too)."""
+        spec = self.renderer.sampler(r.sampler)
+        call = self.renderer.strategy(r.strategy).lobe_call
+        prefix = "brdf_" if r.strategy == "brdf" else "mis_b"
+        a, b = vals[f"{prefix}a"], vals[f"{prefix}b"]
+        if spec.lobe_points is None or call is None:
+            return np.zeros(a.shape[1])
+        pairing = self._pairing(r)
+        e_call, b_call = self._calls(r)
+        size, p = len(a), vals["_p"]
+        first = pairing.lobe_numbers(call) < p
+        mixed = np.random.default_rng([self.options.seed, r.n, 0x0DE]).permuted(first, axis=1)
+        cells = pairing.cells(b_call, size)
+        fa, fb = a[cells], b[cells]                                     # (R, N, C)
+        base = 0.0
+        total = p * a.mean(axis=0) + (1.0 - p) * b.mean(axis=0)
+        if r.strategy == "mis":
+            e = vals["mis_e"]
+            base = e[pairing.cells(e_call, len(e))].mean(axis=1)
+            total = total + e.mean(axis=0)
+        f = base + np.where(first[..., None], fa, fb).mean(axis=1) - total
+        fu = base + np.where(mixed[..., None], fa, fb).mean(axis=1) - total
+        return np.mean(f * f - fu * fu, axis=0)
 
     def _lobe_above(self, r, g: DyadicGrid, values, grids: dict, key) -> DyadicGrid:
         """``g`` with its power above the grid sampled from ``values`` at the pass's sampled

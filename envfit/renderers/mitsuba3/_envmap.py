@@ -344,6 +344,13 @@ def _ldsampler_points(pixels: int, n: int, dims: int, seed: int) -> np.ndarray:
     return ldsampler_points(pixel_scramble_seeds(pixels, seed), n, dims)
 
 
+def _ldsampler_numbers(pixels: int, n: int, call: int, seed: int) -> np.ndarray:
+    """``ldsampler``'s ``next_1d`` of call ``call`` for the pixels of
+    :func:`_ldsampler_points` (the same seeds), in its order (:mod:`._ldsampler`)."""
+    from envfit.renderers.mitsuba3._ldsampler import ldsampler_numbers, pixel_scramble_seeds
+    return ldsampler_numbers(pixel_scramble_seeds(pixels, seed), n, call)
+
+
 _M = "mitsuba3 @ 478e193a (v3.9.1) src/samplers/"
 SAMPLERS = {
     "independent": SamplerSpec(
@@ -368,7 +375,7 @@ SAMPLERS = {
         "Corput XOR its own scramble sample_tea_32(seed, 0x48bc48eb), also in its own order "
         "(a lobe choice's number apart from the 2-D points); spp -> square of a power of two "
         "(min 4). " + _M + "ldsampler.cpp set_sample_count, next_1d, next_2d",
-        film_points=_ldsampler_points),
+        film_points=_ldsampler_points, lobe_points=_ldsampler_numbers),
     "orthogonal": SamplerSpec(
         "orthogonal", "orthogonal", "joint_array", _orthogonal,
         "Bose orthogonal array (strength 2), CMJ-style permutations per pixel, fresh "
@@ -392,8 +399,10 @@ def _direct_draws(emitter_samples: int) -> dict:
     sampler->next_1d(), sampler->next_2d())``, whose two arguments C++ may evaluate in either
     order: in the PyPI build (3.9.1) ``next_2d`` comes first (right to left;
     ``tests/test_randomisation_orthogonal.py`` records the BSDF's samples in a render), so the
-    BSDF's 2-D draw starts at dimension 2 + 2·emitter_samples, call 1 + emitter_samples."""
-    return {"dimensions": (2, 2 + 2 * emitter_samples), "calls": (1, 1 + emitter_samples)}
+    BSDF's 2-D draw starts at dimension 2 + 2·emitter_samples, call 1 + emitter_samples, and
+    its lobe number (``next_1d``) is call 2 + emitter_samples."""
+    return {"dimensions": (2, 2 + 2 * emitter_samples), "calls": (1, 1 + emitter_samples),
+            "lobe_call": 2 + emitter_samples}
 
 
 def _path_draws() -> dict:
@@ -402,8 +411,9 @@ def _path_draws() -> dict:
     (``sample_emitter_direction(si, sampler->next_2d())``: dimensions 2–3, call 1), then, in
     two statements, ``sample_1 = next_1d()`` (dimension 4, call 2) and ``sample_2 =
     next_2d()`` (dimensions 5–6, call 3) for ``bsdf->eval_pdf_sample`` — the BSDF's 2-D draw
-    one later than ``direct``'s (:func:`_direct_draws`), at an odd dimension."""
-    return {"dimensions": (2, 5), "calls": (1, 3)}
+    one later than ``direct``'s (:func:`_direct_draws`), at an odd dimension; the lobe
+    number is call 2."""
+    return {"dimensions": (2, 5), "calls": (1, 3), "lobe_call": 2}
 
 
 #: Mitsuba's ``path`` at its defaults (``max_depth`` −1, ``rr_depth`` 5, ``hide_emitters``

@@ -29,7 +29,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["sample_tea_32", "permute", "ldsampler_points", "pixel_scramble_seeds"]
+__all__ = ["sample_tea_32", "permute", "ldsampler_points", "ldsampler_numbers",
+           "pixel_scramble_seeds"]
 
 M32 = np.uint64(0xFFFFFFFF)
 #: the word of the TEA pair that ``permute`` reads (the installed build's), and the rounds
@@ -113,6 +114,22 @@ def ldsampler_points(scramble_seeds, n: int, dims: int) -> np.ndarray:
         out[:, :, d, 0] = _float(_reverse32(i) ^ sx)
         out[:, :, d, 1] = _scaled(_sobol2(i) ^ sy)
     return out
+
+
+def ldsampler_numbers(scramble_seeds, n: int, call: int) -> np.ndarray:
+    """(R, N): ``next_1d`` at dimension index ``call`` for every sample of R pixels —
+    ``radical_inverse_2(permute(j, N, scramble_seed + call), sample_tea_32(scramble_seed,
+    0x48bc48eb).first)`` (``ldsampler.cpp``: ``next_1d``), x read as a float32 mantissa as
+    :func:`ldsampler_points` reads it.
+
+    >>> u = ldsampler_numbers([5], 8, 2)
+    >>> sorted((u[0] * 8).astype(int).tolist())          # one number in each eighth
+    [0, 1, 2, 3, 4, 5, 6, 7]
+    """
+    seeds = _u(scramble_seeds).reshape(-1, 1)
+    j = np.arange(n, dtype=np.uint64)[None, :]
+    i = permute(j, n, (seeds + np.uint64(call)) & M32, LD_ROUNDS)
+    return _float(_reverse32(i) ^ sample_tea_32(seeds, np.uint64(0x48BC48EB))[0])
 
 
 def pixel_scramble_seeds(count: int, seed: int) -> np.ndarray:
