@@ -102,6 +102,16 @@ def _dm(mx, my, mz, alpha, kind):  # pragma: no cover - numba
 
 
 @numba.njit(cache=True, error_model="numpy")
+def _half(ix, iy, iz, ox, oy, oz):  # pragma: no cover - numba
+    """The normalised half vector of two directions (0 where they cancel)."""
+    hx, hy, hz = ix + ox, iy + oy, iz + oz
+    n = math.sqrt(hx * hx + hy * hy + hz * hz)
+    if n > 0.0:
+        return hx / n, hy / n, hz / n
+    return 0.0, 0.0, 0.0
+
+
+@numba.njit(cache=True, error_model="numpy")
 def _fc_pdf(wi, view, o, consts, table):  # pragma: no cover - numba
     """(f·cos, pdf) at the local light direction ``o`` for the local view ``wi`` and its
     ``view`` constants (:func:`_view`); ``consts`` = (α, kind, η, ρ_s, ρ_d/(1 − R_i')/(πη²),
@@ -111,12 +121,7 @@ def _fc_pdf(wi, view, o, consts, table):  # pragma: no cover - numba
     if not (iz > 0.0 and oz > 0.0):
         return 0.0, 0.0
     alpha, kind = consts[0], int(consts[1])
-    hx, hy, hz = ix + ox, iy + oy, iz + oz
-    n = math.sqrt(hx * hx + hy * hy + hz * hz)
-    if n > 0.0:
-        hx, hy, hz = hx / n, hy / n, hz / n
-    else:
-        hx = hy = hz = 0.0
+    hx, hy, hz = _half(ix, iy, iz, ox, oy, oz)
     d = _dm(hx, hy, hz, alpha, kind)
     dot_i = ix * hx + iy * hy + iz * hz
     dot_o = ox * hx + oy * hy + oz * hz

@@ -26,7 +26,7 @@ import numba
 import numpy as np
 
 from envfit.predict.renderer._microfacet_kernels import _lambda, _local, _proxy_add, _proxy_out
-from envfit.predict.renderer._plastic_kernels import (_dm, _finite, _fresnel, _square,
+from envfit.predict.renderer._plastic_kernels import (_dm, _finite, _fresnel, _half, _square,
                                                       compiled_plastic, plastic_eval_pdf,
                                                       plastic_proxies, plastic_sample)
 from envfit.predict.renderer._vndf_kernels import _disk, _normal, _view_constants
@@ -56,12 +56,7 @@ def _fc_pdf(wi, lam_i, o, consts):  # pragma: no cover - numba
     if not (iz > 0.0 and oz > 0.0):
         return 0.0, 0.0
     alpha, m = consts[_ALPHA], consts[_METAL]
-    hx, hy, hz = ix + ox, iy + oy, iz + oz
-    n = math.sqrt(hx * hx + hy * hy + hz * hz)
-    if n > 0.0:
-        hx, hy, hz = hx / n, hy / n, hz / n
-    else:
-        hx = hy = hz = 0.0
+    hx, hy, hz = _half(ix, iy, iz, ox, oy, oz)
     d = _dm(hx, hy, hz, alpha, 0)
     cih = ix * hx + iy * hy + iz * hz
     coh = ox * hx + oy * hy + oz * hz

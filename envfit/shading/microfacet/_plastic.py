@@ -56,7 +56,7 @@ from envfit.shading.microfacet._distributions import MicrofacetDistribution
 from envfit.shading.microfacet._vndf import VNDF_WARPS, concentric_disk, sample_visible_normals
 
 __all__ = ["PlasticSample", "RoughPlastic", "TRANSMITTANCE_RES", "fresnel_dielectric",
-           "rough_fresnel_tables", "split_lobe_numbers"]
+           "rough_fresnel_tables", "split_lobe_numbers", "lobe_from_square"]
 
 #: cosines in the transmittance table
 TRANSMITTANCE_RES = 64
@@ -205,6 +205,18 @@ def split_lobe_numbers(u, u1) -> tuple[np.ndarray, np.ndarray]:
     if len(u1) != len(u):
         raise ParameterError(f"u and u1 must have as many rows, got {len(u)} and {len(u1)}")
     return u1, u
+
+
+def lobe_from_square(u, p) -> tuple[np.ndarray, np.ndarray]:
+    """(sample2 (K, 2), sample1 (K,)) of a two-lobe BSDF's ``sample`` from points ``u`` (K, 2)
+    of the square: the first lobe (sample1 0) where u_x < p, else the second (1), u_x rescaled
+    to [0, 1] within its lobe."""
+    u = np.asarray(u, dtype=np.float64).reshape(-1, 2)
+    first = u[:, 0] < p
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x = np.where(first, u[:, 0] / p, (u[:, 0] - p) / (1.0 - p))
+    return (np.column_stack([np.clip(np.nan_to_num(x), 0.0, 1.0), u[:, 1]]),
+            np.where(first, 0.0, 1.0))
 
 
 @dataclass(frozen=True)
@@ -379,11 +391,4 @@ class RoughPlastic:
         [True, False, False]
         """
         wi = _dirs(wi, "wi")
-        u = np.asarray(u, dtype=np.float64).reshape(-1, 2)
-        ps = self.prob_specular(wi[:, 2])
-        spec = u[:, 0] < ps
-        with np.errstate(divide="ignore", invalid="ignore"):
-            x = np.where(spec, u[:, 0] / ps, (u[:, 0] - ps) / (1.0 - ps))
-        s1 = np.where(spec, 0.0, 1.0)
-        return self.sample(wi, np.column_stack([np.clip(np.nan_to_num(x), 0.0, 1.0), u[:, 1]]),
-                           u1=s1)
+        return self.sample(wi, *lobe_from_square(u, self.lobe_probability(wi[:, 2])))

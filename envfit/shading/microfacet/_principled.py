@@ -54,7 +54,7 @@ from envfit.base import ParameterError
 from envfit.shading.microfacet._conductor import _dirs
 from envfit.shading.microfacet._distributions import MicrofacetDistribution
 from envfit.shading.microfacet._plastic import (PlasticSample, _half, fresnel_dielectric,
-                                               split_lobe_numbers)
+                                               lobe_from_square, split_lobe_numbers)
 from envfit.shading.microfacet._vndf import concentric_disk, sample_visible_normals
 
 __all__ = ["Principled"]
@@ -230,11 +230,4 @@ class Principled:
         rescaled within its lobe (the same distribution of (lobe, ω_o); the independent
         sampler's noise model, as :meth:`RoughPlastic.sample_square`)."""
         wi = _dirs(wi, "wi")
-        u = np.asarray(u, dtype=np.float64).reshape(-1, 2)
-        pd = self.lobe_probability(wi[:, 2])
-        first = u[:, 0] < pd
-        with np.errstate(divide="ignore", invalid="ignore"):
-            x = np.where(first, u[:, 0] / pd, (u[:, 0] - pd) / (1.0 - pd))
-        s1 = np.where(first, 0.0, 1.0)
-        return self.sample(wi, np.column_stack([np.clip(np.nan_to_num(x), 0.0, 1.0), u[:, 1]]),
-                           u1=s1)
+        return self.sample(wi, *lobe_from_square(u, self.lobe_probability(wi[:, 2])))
