@@ -297,6 +297,8 @@ class PairedFootprint:
         self.points = film_points(pixels, self.n, int(dims), seed)
         self._lobe_points = lobe_points
         self._weights, self._cells, self._lobe = {}, {}, {}
+        #: what a model derives from these pixels and keeps with them
+        self.memo = {}
 
     def lobe_numbers(self, call: int | None = None) -> np.ndarray:
         """(R, N) each sample's 1-D number of a BSDF's lobe choice: with the sampler's

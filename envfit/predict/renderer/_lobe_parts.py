@@ -19,6 +19,7 @@ draws the lobe number from a column of its array, not at random: not modelled.
 """
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 from envfit.predict.renderer._footprint import paired_extra
@@ -31,6 +32,33 @@ from envfit.predict.renderer.randomisation import (STRATIFIED_1D, DyadicGrid,
                                                    lobe_choice_mis, lobe_choice_mse)
 
 __all__ = ["LobeChoice"]
+
+
+@numba.njit(cache=True, parallel=True)
+def _order_sums(a, b, e, cells, cells_e, lobe, mixed, p, total, out):  # pragma: no cover
+    """Σ over pixels of (F − I)² − (F_u − I)² per channel into ``out``: F the pixel's mean of
+    a (lobe number < p) or b at its samples' ``cells``, plus the emitter table ``e`` at
+    ``cells_e`` where it has one column per sample (MIS), F_u the same with the ``mixed``
+    numbers; I = ``total``."""
+    r, n = cells.shape
+    c = a.shape[1]
+    with_e = cells_e.shape[1] == n
+    acc = np.zeros((r, c))
+    for k in numba.prange(r):
+        f = np.zeros(c)
+        fu = np.zeros(c)
+        for j in range(n):
+            i = cells[k, j]
+            for ch in range(c):
+                va, vb = a[i, ch], b[i, ch]
+                base = e[cells_e[k, j], ch] if with_e else 0.0
+                f[ch] += base + (va if lobe[k, j] < p else vb)
+                fu[ch] += base + (va if mixed[k, j] < p else vb)
+        for ch in range(c):
+            x, y = f[ch] / n - total[ch], fu[ch] / n - total[ch]
+            acc[k, ch] = x * x - y * y
+    for ch in range(c):
+        out[ch] = acc[:, ch].sum()
 
 _LOBES = (("a", 0.0), ("b", 1.0))             # sample1: 0 < p (the first lobe), 1 ≥ p
 
@@ -175,19 +203,24 @@ class LobeChoice:
         pairing = self._pairing(r)
         e_call, b_call = self._calls(r)
         size, p = len(a), vals["_p"]
-        first = pairing.lobe_numbers(call) < p
-        mixed = np.random.default_rng([self.options.seed, r.n, 0x0DE]).permuted(first, axis=1)
-        cells = pairing.cells(b_call, size)
-        fa, fb = a[cells], b[cells]                                     # (R, N, C)
-        base = 0.0
+        lobe = pairing.lobe_numbers(call)
+        key = ("shuffled lobe", call)
+        if key not in pairing.memo:                 # the same numbers, each pixel's shuffled
+            pairing.memo[key] = np.random.default_rng([self.options.seed, r.n, 0x0DE]
+                                                      ).permuted(lobe, axis=1)
         total = p * a.mean(axis=0) + (1.0 - p) * b.mean(axis=0)
+        cells = pairing.cells(b_call, size)
         if r.strategy == "mis":
-            e = vals["mis_e"]
-            base = e[pairing.cells(e_call, len(e))].mean(axis=1)
+            e = np.ascontiguousarray(vals["mis_e"], dtype=np.float64)
+            cells_e = pairing.cells(e_call, len(e))
             total = total + e.mean(axis=0)
-        f = base + np.where(first[..., None], fa, fb).mean(axis=1) - total
-        fu = base + np.where(mixed[..., None], fa, fb).mean(axis=1) - total
-        return np.mean(f * f - fu * fu, axis=0)
+        else:
+            e, cells_e = np.zeros((1, a.shape[1])), np.zeros((1, 1), np.int64)
+        out = np.zeros(a.shape[1])
+        _order_sums(np.ascontiguousarray(a, dtype=np.float64),
+                    np.ascontiguousarray(b, dtype=np.float64), e, cells, cells_e, lobe,
+                    pairing.memo[key], float(p), np.asarray(total, dtype=np.float64), out)
+        return out / lobe.shape[0]
 
     def _lobe_above(self, r, g: DyadicGrid, values, grids: dict, key) -> DyadicGrid:
         """``g`` with its power above the grid sampled from ``values`` at the pass's sampled

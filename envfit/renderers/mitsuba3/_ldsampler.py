@@ -27,6 +27,7 @@ first binary digits of x in dimensions 0 and 1 has (N − 1) × the variance of 
 """
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 __all__ = ["sample_tea_32", "permute", "ldsampler_points", "ldsampler_numbers",
@@ -70,6 +71,46 @@ def permute(index, size: int, seed, rounds: int = 4, word: int = PERMUTE_WORD) -
     return index
 
 
+@numba.njit(cache=True)
+def _tea_word(v0, v1, rounds, word):  # pragma: no cover - numba
+    """One word of :func:`sample_tea_32` for scalars (64-bit arithmetic masked to 32)."""
+    m = 0xFFFFFFFF
+    s = 0
+    for _ in range(rounds):
+        s = (s + 0x9E3779B9) & m
+        v0 = (v0 + ((((v1 << 4) + 0xA341316C) & m) ^ ((v1 + s) & m)
+                    ^ (((v1 >> 5) + 0xC8013EA4) & m))) & m
+        v1 = (v1 + ((((v0 << 4) + 0xAD90777D) & m) ^ ((v0 + s) & m)
+                    ^ (((v0 >> 5) + 0x7E95761E) & m))) & m
+    return v0 if word == 0 else v1
+
+
+@numba.njit(cache=True, parallel=True)
+def _permuted(seeds, n, offset, rounds, word, out):  # pragma: no cover - numba
+    """:func:`permute` of every sample index j < n for each pixel's seed + ``offset``."""
+    levels = 0
+    while (1 << levels) < n:
+        levels += 1
+    for r in numba.prange(seeds.shape[0]):
+        seed = (seeds[r] + offset) & 0xFFFFFFFF
+        for j in range(n):
+            index = j
+            for level in range(levels):
+                bit = 1 << level
+                if _tea_word(index | bit, seed, rounds, word) & bit:
+                    index ^= bit
+            out[r, j] = index
+
+
+def _permuted_indices(seeds: np.ndarray, n: int, offset: int) -> np.ndarray:
+    """(R, N) ``permute(j, N, seed + offset, LD_ROUNDS)`` compiled (the numpy
+    :func:`permute` is the reference)."""
+    out = np.empty((len(seeds), n), dtype=np.int64)
+    _permuted(np.ascontiguousarray(seeds, dtype=np.int64), int(n), int(offset), LD_ROUNDS,
+              PERMUTE_WORD, out)
+    return out.astype(np.uint64)
+
+
 def _reverse32(v: np.ndarray) -> np.ndarray:
     out = np.zeros_like(v)
     for t in range(32):
@@ -106,11 +147,10 @@ def ldsampler_points(scramble_seeds, n: int, dims: int) -> np.ndarray:
     ((2, 4, 2, 2), [0, 1, 2, 3])
     """
     seeds = _u(scramble_seeds).reshape(-1, 1)
-    j = np.arange(n, dtype=np.uint64)[None, :]
     sx, sy = sample_tea_32(seeds, np.uint64(0x98BC51AB))
     out = np.empty((seeds.shape[0], n, dims, 2))
     for d in range(dims):
-        i = permute(j, n, (seeds + np.uint64(d)) & M32, LD_ROUNDS)
+        i = _permuted_indices(seeds[:, 0], n, d)
         out[:, :, d, 0] = _float(_reverse32(i) ^ sx)
         out[:, :, d, 1] = _scaled(_sobol2(i) ^ sy)
     return out
@@ -127,8 +167,7 @@ def ldsampler_numbers(scramble_seeds, n: int, call: int) -> np.ndarray:
     [0, 1, 2, 3, 4, 5, 6, 7]
     """
     seeds = _u(scramble_seeds).reshape(-1, 1)
-    j = np.arange(n, dtype=np.uint64)[None, :]
-    i = permute(j, n, (seeds + np.uint64(call)) & M32, LD_ROUNDS)
+    i = _permuted_indices(seeds[:, 0], n, call)
     return _float(_reverse32(i) ^ sample_tea_32(seeds, np.uint64(0x48BC48EB))[0])
 
 
