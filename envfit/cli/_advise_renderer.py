@@ -106,7 +106,9 @@ def roughness_help() -> str:
     """``--roughness``'s help: each renderer's unit and range (its record's roughness
     convention, :meth:`envfit.renderers.RoughnessConvention.words`)."""
     from envfit.renderers import RENDERERS
-    words = "; ".join(r.roughness.words() for r in RENDERERS.values() if r.roughness)
+    words = "; ".join([r.roughness.words() for r in RENDERERS.values() if r.roughness]
+                      + [c.words() for r in RENDERERS.values()
+                         for c in r.bsdf_roughness.values()])
     return (f"with a microfacet --brdf: the renderer's own roughness, in its range ("
             f"{words}; checked with --renderer)")
 

@@ -68,7 +68,7 @@ ROUGHNESS = RoughnessConvention(rule="alpha = R", units="Mitsuba 3's alpha",
                                 alpha_of=lambda r: r, roughness_of=lambda a: a)
 #: ``principled``'s roughness: alpha = max(0.001, roughness²) (``calc_dist_params``)
 PRINCIPLED_ROUGHNESS = RoughnessConvention(
-    rule="alpha = R^2", units="principled's roughness R, alpha = R^2",
+    rule="alpha = R^2", units="the roughness R of Mitsuba 3's principled, alpha = R^2",
     alpha_of=lambda r: max(0.001, r * r), roughness_of=math.sqrt)
 #: ``principled``'s parameters envfit models, with the plugin's defaults (a grey
 #: ``base_color``; ``specular`` sets η)
