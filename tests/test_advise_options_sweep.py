@@ -58,11 +58,17 @@ def _one_line(capsys, argv, tmp_path):
 
 def test_every_typed_option_has_a_range_or_is_a_name_list():
     """No numeric option escapes the sweep: each typed option is a Ranged (_common's number
-    types included: state_common_ranges gives them theirs), a list of names, a path, or
-    --roughness."""
+    types included: state_common_ranges gives them theirs), a list of names, a path,
+    --roughness, or --bsdf-param (NAME=VALUE: the renderer's BSDF checks the name and the
+    range, test_advise_renderer_terms' principled test)."""
     from pathlib import Path
+
+    from envfit.cli._advise_renderer import bsdf_param
     for a in _ACTIONS:
         if a.type is None or a.type is Path or a in _NUMERIC or a in _LISTS:
+            continue
+        if _flag(a) == "--bsdf-param":
+            assert a.type is bsdf_param
             continue
         assert _flag(a) == "--roughness" and a.type is finite_float, _flag(a)
     assert len(_NUMERIC) >= 18

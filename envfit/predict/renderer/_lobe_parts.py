@@ -1,7 +1,7 @@
 r"""A two-lobe BSDF (a rough plastic, :class:`envfit.shading.microfacet.RoughPlastic`, or a
-principled BSDF, :class:`~envfit.shading.microfacet.Principled`) under a QMC sampler: the tables and the cell
-of :class:`~envfit.predict.renderer.MicrofacetModel` for a BSDF stream whose lobe is picked
-by a 1-D number of its own.
+principled BSDF, :class:`~envfit.shading.microfacet.Principled`) under a QMC sampler: the
+tables and the cell of :class:`~envfit.predict.renderer.MicrofacetModel` for a BSDF stream
+whose lobe is picked by a 1-D number of its own.
 
 Under the ``independent`` sampler the lobe number and the direction's two are one uniform
 point of the square (the BSDF's ``sample_square``: the i.i.d. estimator has the same
@@ -35,11 +35,12 @@ __all__ = ["LobeChoice"]
 
 
 @numba.njit(cache=True, parallel=True)
-def _order_sums(a, b, e, cells, cells_e, lobe, mixed, p, total, out):  # pragma: no cover
+def _order_sums(lobes, e, cells, cells_e, numbers, p, total, out):  # pragma: no cover
     """Σ over pixels of (F − I)² − (F_u − I)² per channel into ``out``: F the pixel's mean of
-    a (lobe number < p) or b at its samples' ``cells``, plus the emitter table ``e`` at
-    ``cells_e`` where it has one column per sample (MIS), F_u the same with the ``mixed``
-    numbers; I = ``total``."""
+    lobe a (``lobes[0]``, where the lobe number ``numbers[0]`` < p) or b (``lobes[1]``) at its
+    samples' ``cells``, plus the emitter table ``e`` at ``cells_e`` where it has one column
+    per sample (MIS), F_u the same with the shuffled numbers ``numbers[1]``; I = ``total``."""
+    a, b, lobe, mixed = lobes[0], lobes[1], numbers[0], numbers[1]
     r, n = cells.shape
     c = a.shape[1]
     with_e = cells_e.shape[1] == n
@@ -203,11 +204,12 @@ class LobeChoice:
         pairing = self._pairing(r)
         e_call, b_call = self._calls(r)
         size, p = len(a), vals["_p"]
-        lobe = pairing.lobe_numbers(call)
-        key = ("shuffled lobe", call)
+        key = ("lobe numbers and shuffled", call)
         if key not in pairing.memo:                 # the same numbers, each pixel's shuffled
-            pairing.memo[key] = np.random.default_rng([self.options.seed, r.n, 0x0DE]
-                                                      ).permuted(lobe, axis=1)
+            lobe = pairing.lobe_numbers(call)
+            mixed = np.random.default_rng([self.options.seed, r.n, 0x0DE]).permuted(lobe, axis=1)
+            pairing.memo[key] = np.ascontiguousarray(np.stack([lobe, mixed]), dtype=np.float64)
+        numbers = pairing.memo[key]
         total = p * a.mean(axis=0) + (1.0 - p) * b.mean(axis=0)
         cells = pairing.cells(b_call, size)
         if r.strategy == "mis":
@@ -217,10 +219,10 @@ class LobeChoice:
         else:
             e, cells_e = np.zeros((1, a.shape[1])), np.zeros((1, 1), np.int64)
         out = np.zeros(a.shape[1])
-        _order_sums(np.ascontiguousarray(a, dtype=np.float64),
-                    np.ascontiguousarray(b, dtype=np.float64), e, cells, cells_e, lobe,
-                    pairing.memo[key], float(p), np.asarray(total, dtype=np.float64), out)
-        return out / lobe.shape[0]
+        lobes = np.ascontiguousarray(np.stack([a, b]), dtype=np.float64)
+        _order_sums(lobes, e, cells, cells_e, numbers, float(p),
+                    np.asarray(total, dtype=np.float64), out)
+        return out / numbers.shape[1]
 
     def _lobe_above(self, r, g: DyadicGrid, values, grids: dict, key) -> DyadicGrid:
         """``g`` with its power above the grid sampled from ``values`` at the pass's sampled

@@ -1,8 +1,8 @@
 r"""Microfacet BSDFs as techniques (issue 25): GGX and Beckmann distributions, Smith
 shadowing-masking in its separable and height-correlated forms, three visible-normal warps,
-two conductor Fresnel forms, multiple scattering as an energy scale, the rough conductor and
-the rough plastic and principled BSDFs (eval, pdf and sample sharing one warp) and the ground truth of a
-BSDF's shading integral on a map.
+two conductor Fresnel forms and the F82-tint one, multiple scattering as an energy scale, the
+rough conductor, rough plastic and principled BSDFs (eval, pdf and sample sharing one warp)
+and the ground truth of a BSDF's shading integral on a map.
 
 Each technique is named by what it is, never by a renderer: which renderer shades its BSDFs
 by which techniques, with which roughness convention, read from which source, is its folder's
