@@ -583,7 +583,7 @@ def test_ldsampler_lobe_numbers_in_mitsubas_order(bsdf, monkeypatch):
     value = m.technique.eval(s.wo @ rows) * s.weight[:, None]
     sim = value.reshape(reps, n, 3).mean(axis=1).var(axis=0, ddof=1)
     np.testing.assert_allclose(m.predict("brdf", "ldsampler", n).mse, sim, rtol=0.08)
-    monkeypatch.setattr(lp.LobeChoice, "_order_excess", lambda self, r, v: np.zeros(3))
+    monkeypatch.setattr(lp.LobeChoice, "_order_excess", lambda self, r, v, g: np.zeros(3))
     assert np.all(model().predict("brdf", "ldsampler", n).mse < 0.85 * sim)
 
 

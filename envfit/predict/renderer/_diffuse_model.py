@@ -535,12 +535,14 @@ class DiffuseModel(DrawnStrata):
 
     def _draws(self, r: CellRequest, grids: dict):
         """The sampled power above the grids of ``r`` at this normal per draw, the channels'
-        mean (Q,), or 0 where nothing is sampled (a two-lobe BSDF's stratified stream)."""
+        mean (Q,), or 0 where nothing is sampled (a two-lobe BSDF's stratified stream); plus
+        a two-lobe BSDF's drawn lobe order (``grids["order_draws", r]``, where it has one)."""
+        order = grids.get(("order_draws", r), 0.0)
         if ("strata_draws", r) in grids:
-            return grids["strata_draws", r]
+            return grids["strata_draws", r] + order
         if not samples_above(r.name, r.n, r.level):
-            return 0.0
-        tag, out = SAMPLE_TAG[r.name], 0.0
+            return order
+        tag, out = SAMPLE_TAG[r.name], order
         for part in curve_parts(r.strategy, r.shared):
             if ("above", part, r.level, tag, max(r.n, self.nets.top)) in grids:
                 out = out + self.nets.draws(tag, r.level, r.n, grids, part).mean(axis=1)

@@ -36,7 +36,7 @@ __all__ = ["LobeChoice"]
 
 @numba.njit(cache=True, parallel=True)
 def _order_sums(lobes, e, cells, cells_e, numbers, p, total, out):  # pragma: no cover
-    """Σ over pixels of (F − I)² − (F_u − I)² per channel into ``out``: F the pixel's mean of
+    """Per pixel (F − I)² − (F_u − I)² per channel into ``out`` (R, C): F the pixel's mean of
     lobe a (``lobes[0]``, where the lobe number ``numbers[0]`` < p) or b (``lobes[1]``) at its
     samples' ``cells``, plus the emitter table ``e`` at ``cells_e`` where it has one column
     per sample (MIS), F_u the same with the shuffled numbers ``numbers[1]``; I = ``total``."""
@@ -44,7 +44,6 @@ def _order_sums(lobes, e, cells, cells_e, numbers, p, total, out):  # pragma: no
     r, n = cells.shape
     c = a.shape[1]
     with_e = cells_e.shape[1] == n
-    acc = np.zeros((r, c))
     for k in numba.prange(r):
         f = np.zeros(c)
         fu = np.zeros(c)
@@ -57,9 +56,7 @@ def _order_sums(lobes, e, cells, cells_e, numbers, p, total, out):  # pragma: no
                 fu[ch] += base + (va if mixed[k, j] < p else vb)
         for ch in range(c):
             x, y = f[ch] / n - total[ch], fu[ch] / n - total[ch]
-            acc[k, ch] = x * x - y * y
-    for ch in range(c):
-        out[ch] = acc[:, ch].sum()
+            out[k, ch] = x * x - y * y
 
 _LOBES = (("a", 0.0), ("b", 1.0))             # sample1: 0 < p (the first lobe), 1 ≥ p
 
@@ -176,7 +173,7 @@ class LobeChoice:
             return of
 
         opts, opts_b = dict(r.options), dict(r.options_b)
-        excess = self._order_excess(r, vals)
+        excess = self._order_excess(r, vals, grids)
         if r.strategy == "brdf":
             mse = lobe_choice_mse(r.name, grid_of("brdf_", part="brdf"), r.n, p, **opts_b)
             z = np.zeros_like(mse)
@@ -187,14 +184,17 @@ class LobeChoice:
             options_b=opts_b, total_of=grid_of("mis_b", "mis_e", part="mis_t"))
         return mse + excess, e, b + excess, 2.0 * cross
 
-    def _order_excess(self, r, vals: dict) -> np.ndarray:
+    def _order_excess(self, r, vals: dict, grids: dict) -> np.ndarray:
         r"""The MSE (C,) the sampler's own order of the lobe numbers adds to the random order
         :func:`lobe_choice_mse` takes, where its record gives that order
         (:attr:`envfit.renderers.SamplerSpec.lobe_points` and the strategy's ``lobe_call``;
         0 otherwise): over the pixels of :meth:`_pairing`, the estimator on the lobes' tables
         at each sample's cell with the sampler's lobe numbers, F, and with each pixel's
         numbers shuffled, F_u (the same points): mean :math:`(F - I)^2 - (F_u - I)^2`, the
-        emitter's stream included for MIS (its points are ordered alike too)."""
+        emitter's stream included for MIS (its points are ordered alike too). The pixels in
+        Q = ``options.shifts`` groups, each group's mean (the channels' mean) is filed as a
+        draw (``grids["order_draws", r]``): the same pixels at every frame, so their spread
+        is part of the model's error (:meth:`DiffuseModel._draws`)."""
         spec = self.renderer.sampler(r.sampler)
         call = self.renderer.strategy(r.strategy).lobe_call
         prefix = "brdf_" if r.strategy == "brdf" else "mis_b"
@@ -218,11 +218,14 @@ class LobeChoice:
             total = total + e.mean(axis=0)
         else:
             e, cells_e = np.zeros((1, a.shape[1])), np.zeros((1, 1), np.int64)
-        out = np.zeros(a.shape[1])
+        out = np.zeros((numbers.shape[1], a.shape[1]))
         lobes = np.ascontiguousarray(np.stack([a, b]), dtype=np.float64)
         _order_sums(lobes, e, cells, cells_e, numbers, float(p),
                     np.asarray(total, dtype=np.float64), out)
-        return out / numbers.shape[1]
+        q = max(2, min(int(self.options.shifts), len(out)))
+        size = len(out) // q
+        grids["order_draws", r] = out[:q * size].reshape(q, size, -1).mean(axis=(1, 2))
+        return out.mean(axis=0)
 
     def _lobe_above(self, r, g: DyadicGrid, values, grids: dict, key) -> DyadicGrid:
         """``g`` with its power above the grid sampled from ``values`` at the pass's sampled
