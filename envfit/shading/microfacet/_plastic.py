@@ -56,7 +56,8 @@ from envfit.shading.microfacet._distributions import MicrofacetDistribution
 from envfit.shading.microfacet._vndf import VNDF_WARPS, concentric_disk, sample_visible_normals
 
 __all__ = ["PlasticSample", "RoughPlastic", "TRANSMITTANCE_RES", "fresnel_dielectric",
-           "rough_fresnel_tables", "split_lobe_numbers", "lobe_from_square"]
+           "rough_fresnel_tables", "split_lobe_numbers", "lobe_from_square", "cosine_directions",
+           "mixture_sample"]
 
 #: cosines in the transmittance table
 TRANSMITTANCE_RES = 64
@@ -205,6 +206,30 @@ def split_lobe_numbers(u, u1) -> tuple[np.ndarray, np.ndarray]:
     if len(u1) != len(u):
         raise ParameterError(f"u and u1 must have as many rows, got {len(u)} and {len(u1)}")
     return u1, u
+
+
+def cosine_directions(u) -> np.ndarray:
+    """Cosine-distributed directions (K, 3) of points ``u`` (K, 2): the concentric disk
+    lifted to the hemisphere, z = √(1 − x² − y²)."""
+    p = concentric_disk(u)
+    return np.column_stack([p, np.sqrt(np.maximum(1.0 - (p * p).sum(axis=1), 0.0))])
+
+
+def mixture_sample(bsdf, wi, wo, m, first, dead=None):
+    """The :class:`PlasticSample` of a two-lobe ``bsdf`` whose lobes drew ``wo`` (K, 3) for
+    views ``wi``: a non-finite direction (a warp's NaN on the square's edge) or one marked
+    ``dead`` becomes a dead sample (the pole below: pdf and weight 0); pdf the mixture's,
+    weight eval/pdf; ``m`` the sampled normal where ``first`` (K,) is the specular lobe, the
+    half vector elsewhere."""
+    bad = ~np.all(np.isfinite(wo), axis=1)
+    if dead is not None:
+        bad |= dead
+    wo[bad] = (0.0, 0.0, -1.0)
+    pdf = bsdf.pdf(wi, wo)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        weight = np.where(pdf > 0, bsdf.eval(wi, wo) / pdf, 0.0)
+    m = np.where(first[:, None], m, _half(wi, wo))
+    return PlasticSample(wo=wo, pdf=pdf, weight=np.nan_to_num(weight), m=m, specular=first)
 
 
 def lobe_from_square(u, p) -> tuple[np.ndarray, np.ndarray]:
@@ -363,16 +388,8 @@ class RoughPlastic:
                        if self.sample_visible else _normals_all(d.kind, d.alpha, us))
             wo[spec] = 2.0 * np.einsum("ij,ij->i", ws, m[spec])[:, None] * m[spec] - ws
         if not np.all(spec):
-            p = concentric_disk(s2[~spec])
-            wo[~spec] = np.column_stack([p, np.sqrt(np.maximum(1.0 - (p * p).sum(axis=1),
-                                                               0.0))])
-        bad = ~np.all(np.isfinite(wo), axis=1)          # the warp's NaN on the square's edge
-        wo[bad] = (0.0, 0.0, -1.0)                      # a dead sample: pdf and weight 0
-        pdf = self.pdf(wi, wo)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            weight = np.where(pdf > 0, self.eval(wi, wo) / pdf, 0.0)
-        m = np.where(spec[:, None], m, _half(wi, wo))
-        return PlasticSample(wo=wo, pdf=pdf, weight=np.nan_to_num(weight), m=m, specular=spec)
+            wo[~spec] = cosine_directions(s2[~spec])
+        return mixture_sample(self, wi, wo, m, spec)
 
     def sample_square(self, wi, u) -> PlasticSample:
         r""":meth:`sample` driven by two uniform numbers instead of three: the lobe by

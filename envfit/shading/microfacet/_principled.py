@@ -53,9 +53,10 @@ import numpy as np
 from envfit.base import ParameterError
 from envfit.shading.microfacet._conductor import _dirs
 from envfit.shading.microfacet._distributions import MicrofacetDistribution
-from envfit.shading.microfacet._plastic import (PlasticSample, _half, fresnel_dielectric,
-                                               lobe_from_square, split_lobe_numbers)
-from envfit.shading.microfacet._vndf import concentric_disk, sample_visible_normals
+from envfit.shading.microfacet._plastic import (PlasticSample, _half, cosine_directions,
+                                               fresnel_dielectric, lobe_from_square,
+                                               mixture_sample, split_lobe_numbers)
+from envfit.shading.microfacet._vndf import sample_visible_normals
 
 __all__ = ["Principled"]
 
@@ -214,16 +215,8 @@ class Principled:
                     | (np.einsum("ij,ij->i", wo[spec], n[spec]) <= 0))
             wo[np.flatnonzero(spec)[dead]] = (0.0, 0.0, -1.0)
         if np.any(diffuse):
-            p = concentric_disk(s2[diffuse])
-            wo[diffuse] = np.column_stack([p, np.sqrt(np.maximum(1.0 - (p * p).sum(axis=1),
-                                                                 0.0))])
-        bad = ~np.all(np.isfinite(wo), axis=1) | ~up
-        wo[bad] = (0.0, 0.0, -1.0)                      # a dead sample: pdf and weight 0
-        pdf = self.pdf(wi, wo)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            weight = np.where(pdf > 0, self.eval(wi, wo) / pdf, 0.0)
-        n = np.where(spec[:, None], n, _half(wi, wo))
-        return PlasticSample(wo=wo, pdf=pdf, weight=np.nan_to_num(weight), m=n, specular=spec)
+            wo[diffuse] = cosine_directions(s2[diffuse])
+        return mixture_sample(self, wi, wo, n, spec, dead=~up)
 
     def sample_square(self, wi, u) -> PlasticSample:
         r""":meth:`sample` driven by two uniform numbers: the lobe by :math:`u_x < p_d`, u_x
