@@ -90,7 +90,7 @@ def test_stratified_numpy_brute_force():
 
 def test_bad_arguments_are_one_line():
     with pytest.raises(ParameterError, match="lobe choice"):
-        lobe_choice_mse("owen", _grid_of, 16, P)
+        lobe_choice_mse("cp_shift", _grid_of, 16, P)
     with pytest.raises(ParameterError, match="p must be"):
         lobe_choice_mse("jittered", _grid_of, 16, 1.5, r=4)
 

@@ -284,7 +284,7 @@ class DiffuseModel(DrawnStrata):
         if todo:                                # a shared sequence's whole bracket of N
             todo += [r for r in self._drawn_brackets(todo) if r not in self._cache
                      and r not in todo]
-        nets = {r for r in between if not self._drawn_strata(r)}    # prefix variances
+        nets = {r for r in between if not self._geometric(r)}       # prefix variances
         want = {r.strategy: r.shared for r in nets}
         top = max((a.n for r in nets for a in self._anchors(r)), default=0)
         curves = bool(nets) and not self.nets.has_curves(want, top)
@@ -298,7 +298,7 @@ class DiffuseModel(DrawnStrata):
             self.seconds += time.perf_counter() - t
         for r in between:
             lo, hi = (self._cache[a] for a in self._anchors(r))
-            mse = (geometric(r.n, lo, hi) if self._drawn_strata(r) else
+            mse = (geometric(r.n, lo, hi) if self._geometric(r) else
                    self.nets.between(r.strategy, r.shared, r.n, lo.mse, hi.mse))
             f = float(np.mean(mse)) / float(np.mean(lo.mse)) if np.mean(lo.mse) > 0 else 0.0
             self._cache[r] = replace(lo, rmse=float(np.sqrt(np.mean(mse))), mse=mse,
@@ -320,13 +320,23 @@ class DiffuseModel(DrawnStrata):
         return (r.prefix and r.name == "owen" and self.between_powers
                 and self.options.sphere_pixels is None)
 
+    def _geometric_prefix(self, r: CellRequest) -> bool:
+        """Whether ``r`` is a prefix sampler's whose N between powers of two is interpolated
+        geometrically (no model here; :class:`.MicrofacetModel`'s two-lobe BSDFs)."""
+        return False
+
+    def _geometric(self, r: CellRequest) -> bool:
+        """Whether ``r``'s N between its anchors is interpolated geometrically
+        (:func:`._drawn_strata.geometric`) rather than from prefix variances."""
+        return self._drawn_strata(r) or self._geometric_prefix(r)
+
     def _is_between(self, r: CellRequest) -> bool:
         """Whether ``r`` is a prefix sampler's (:meth:`_prefix_net`) N between powers of two,
         or a drawn stratified cell's (:meth:`_drawn_strata`) between the spp its sampler runs
         at powers of two (:meth:`_strata_anchors`)."""
         if self._drawn_strata(r):
             return r.name not in ALWAYS_DRAWN and r.n not in self._strata_anchors(r)
-        return self._prefix_net(r) and r.n & (r.n - 1) != 0
+        return (self._prefix_net(r) or self._geometric_prefix(r)) and r.n & (r.n - 1) != 0
 
     def _anchors(self, r: CellRequest) -> tuple[CellRequest, CellRequest]:
         """The requests of the powers of two around ``r.n`` (a drawn stratified cell's: of

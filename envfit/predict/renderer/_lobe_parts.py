@@ -36,27 +36,80 @@ __all__ = ["LobeChoice"]
 
 @numba.njit(cache=True, parallel=True)
 def _order_sums(lobes, e, cells, cells_e, numbers, p, total, out):  # pragma: no cover
-    """Per pixel (F − I)² − (F_u − I)² per channel into ``out`` (R, C): F the pixel's mean of
-    lobe a (``lobes[0]``, where the lobe number ``numbers[0]`` < p) or b (``lobes[1]``) at its
-    samples' ``cells``, plus the emitter table ``e`` at ``cells_e`` where it has one column
-    per sample (MIS), F_u the same with the shuffled numbers ``numbers[1]``; I = ``total``."""
+    """Per group g of the pixels (``out`` (Q, C): the R pixels in Q consecutive groups of
+    ⌊R/Q⌋, the rest left out) the sum over its pixels of (F − I)² − (F_u − I)² per channel:
+    F the pixel's mean of lobe a (``lobes[0]``, where the lobe number ``numbers[0]`` < p) or b
+    (``lobes[1]``) at its samples' ``cells``, plus the emitter table ``e`` at ``cells_e``
+    where it has one column per sample (MIS; ``cells_e`` (0, 0) without), F_u the same with
+    the shuffled numbers ``numbers[1]``; I = ``total``."""
     a, b, lobe, mixed = lobes[0], lobes[1], numbers[0], numbers[1]
     r, n = cells.shape
-    c = a.shape[1]
+    q, c = out.shape
+    size = r // q
     with_e = cells_e.shape[1] == n
-    for k in numba.prange(r):
-        f = np.zeros(c)
-        fu = np.zeros(c)
-        for j in range(n):
-            i = cells[k, j]
+    for g in numba.prange(q):
+        for k in range(g * size, (g + 1) * size):
             for ch in range(c):
-                va, vb = a[i, ch], b[i, ch]
-                base = e[cells_e[k, j], ch] if with_e else 0.0
-                f[ch] += base + (va if lobe[k, j] < p else vb)
-                fu[ch] += base + (va if mixed[k, j] < p else vb)
-        for ch in range(c):
-            x, y = f[ch] / n - total[ch], fu[ch] / n - total[ch]
-            out[k, ch] = x * x - y * y
+                f, fu = 0.0, 0.0
+                for j in range(n):
+                    i = cells[k, j]
+                    va, vb = a[i, ch], b[i, ch]
+                    base = e[cells_e[k, j], ch] if with_e else 0.0
+                    f += base + (va if lobe[k, j] < p else vb)
+                    fu += base + (va if mixed[k, j] < p else vb)
+                x, y = f / n - total[ch], fu / n - total[ch]
+                out[g, ch] += x * x - y * y
+
+
+def _moments(vals: dict, fine: int, level: int, names: tuple) -> tuple:
+    """({name: A}, {(name, name'): B}, {name: Walsh}) of the tables ``names`` of one frame at
+    ``level``: the cell means of each, the cell means of each product of two (squares
+    included), the Walsh coefficients of each one's centred means — one pyramid and one
+    transform per table, memoised in ``vals``, from which every linear combination's grid
+    follows (:func:`_combined_grid`)."""
+    key = ("_moments", level, names)
+    if key not in vals:
+        pyramid = ("_pyramid", names)
+        pairs = [(i, j) for i in range(len(names)) for j in range(i + 1, len(names))]
+        if pyramid not in vals:                     # every level in one pass from the finest
+            tabs = [np.asarray(vals[k], dtype=np.float64) for k in names]
+            stack = np.concatenate(tabs + [tabs[i] * tabs[j] for i, j in pairs], axis=1)
+            vals[pyramid] = moment_pyramid(stack, fine, range(fine))
+        a, b = vals[pyramid][level]
+        c = np.asarray(vals[names[0]]).shape[1]
+        means = {k: a[i * c:(i + 1) * c] for i, k in enumerate(names)}
+        second = {(k, k): b[i * c:(i + 1) * c] for i, k in enumerate(names)}
+        for q, (i, j) in enumerate(pairs):
+            at = (len(names) + q) * c
+            second[names[i], names[j]] = a[at:at + c]
+        walsh = {k: DyadicGrid.from_arrays(m, np.maximum(second[k, k], m * m)).walsh
+                 for k, m in means.items()}
+        vals[key] = (means, second, walsh)
+    return vals[key]
+
+
+def _combined_grid(vals: dict, fine: int, level: int, coeffs: dict) -> DyadicGrid:
+    r"""The :class:`DyadicGrid` at ``level`` of :math:`\sum_k c_k t_k` over one frame's tables
+    :math:`t_k` (``coeffs`` {name: c}) from their :func:`_moments`: means and Walsh
+    coefficients linear, cell means of the square :math:`\sum_{k,l} c_k c_l\,
+    \overline{t_k t_l}` — what a pyramid and a transform of the combined table give (to
+    rounding), without either."""
+    names = tuple(sorted(vals_key for vals_key in coeffs))
+    group = tuple(sorted(k for k in _GROUPS[names[0]]))
+    means, second, walsh = _moments(vals, fine, level, group)
+    a = sum(coeffs[k] * means[k] for k in names)
+    b = 0.0
+    for i, k in enumerate(group):
+        for l in group[i:]:
+            if k in coeffs and l in coeffs:
+                b = b + (1.0 if k == l else 2.0) * coeffs[k] * coeffs[l] * second[k, l]
+    g = DyadicGrid.from_arrays(a, np.maximum(b, a * a))
+    g.__dict__["walsh"] = sum(coeffs[k] * walsh[k] for k in names)
+    return g
+
+
+#: the tables a combination mixes: the BSDF stream's two lobes, with the emitter's for MIS
+_GROUPS = {k: g for g in (("brdf_a", "brdf_b"), ("mis_ba", "mis_bb", "mis_e")) for k in g}
 
 _LOBES = (("a", 0.0), ("b", 1.0))             # sample1: 0 < p (the first lobe), 1 ≥ p
 
@@ -158,18 +211,20 @@ class LobeChoice:
             "strategies", set()), r.n) if sampled else None)
         p = vals["_p"]
 
-        def grid(combine, part):
-            a, b = moment_pyramid(combine(vals), fine, {r.level})[r.level]
-            g = DyadicGrid.from_arrays(a, np.maximum(b, a * a))
-            return self._lobe_above(r, g, combine(sv), grids, part) if sampled else g
+        def grid(coeffs: dict, part):
+            g = _combined_grid(vals, fine, r.level, coeffs)
+            if not sampled:
+                return g
+            return self._lobe_above(r, g, sum(c * sv[k] for k, c in coeffs.items()), grids,
+                                    part)
 
         def grid_of(prefix, base=None, part=None):
             def of(x, y):
-                def combine(v):
-                    out = x * v[f"{prefix}a"] + y * v[f"{prefix}b"]
-                    return out if base is None else out + v[base]
+                coeffs = {f"{prefix}a": x, f"{prefix}b": y}
+                if base is not None:
+                    coeffs[base] = 1.0
                 near = part is not None and abs(x - p) * r.n < 1.0   # the drawn count's K
-                return grid(combine, (part, x, y, near))
+                return grid(coeffs, (part, x, y, near))
             return of
 
         opts, opts_b = dict(r.options), dict(r.options_b)
@@ -179,7 +234,7 @@ class LobeChoice:
             z = np.zeros_like(mse)
             return mse + excess, z, mse + excess, z
         mse, e, b, cross = lobe_choice_mis(
-            r.name, grid(lambda v: v["mis_e"], ("mis_e", 1.0, 0.0, True)),
+            r.name, grid({"mis_e": 1.0}, ("mis_e", 1.0, 0.0, True)),
             grid_of("mis_b", part="mis_b"), r.n, p, shared=r.shared, options=opts,
             options_b=opts_b, total_of=grid_of("mis_b", "mis_e", part="mis_t"))
         return mse + excess, e, b + excess, 2.0 * cross
@@ -191,7 +246,10 @@ class LobeChoice:
         0 otherwise): over the pixels of :meth:`_pairing`, the estimator on the lobes' tables
         at each sample's cell with the sampler's lobe numbers, F, and with each pixel's
         numbers shuffled, F_u (the same points): mean :math:`(F - I)^2 - (F_u - I)^2`, the
-        emitter's stream included for MIS (its points are ordered alike too). The pixels in
+        emitter's stream included for MIS where the sampler pairs its points with the BSDF's
+        (they are ordered alike too; under the ``independent`` pairing its error is
+        independent of the BSDF stream's and cancels in the difference, so it is left out:
+        a 3-D request's third coordinate, :attr:`SamplerSpec.lobe_points`). The pixels in
         Q = ``options.shifts`` groups, each group's mean (the channels' mean) is filed as a
         draw (``grids["order_draws", r]``): the same pixels at every frame, so their spread
         is part of the model's error (:meth:`DiffuseModel._draws`)."""
@@ -212,20 +270,20 @@ class LobeChoice:
         numbers = pairing.memo[key]
         total = p * a.mean(axis=0) + (1.0 - p) * b.mean(axis=0)
         cells = pairing.cells(b_call, size)
-        if r.strategy == "mis":
+        if r.strategy == "mis" and spec.pairing != "independent":
             e = np.ascontiguousarray(vals["mis_e"], dtype=np.float64)
             cells_e = pairing.cells(e_call, len(e))
             total = total + e.mean(axis=0)
         else:
-            e, cells_e = np.zeros((1, a.shape[1])), np.zeros((1, 1), np.int64)
-        out = np.zeros((numbers.shape[1], a.shape[1]))
+            e, cells_e = np.zeros((1, a.shape[1])), np.zeros((0, 0), np.int64)
+        q = max(2, min(int(self.options.shifts), numbers.shape[1]))
+        size = numbers.shape[1] // q
+        out = np.zeros((q, a.shape[1]))
         lobes = np.ascontiguousarray(np.stack([a, b]), dtype=np.float64)
         _order_sums(lobes, e, cells, cells_e, numbers, float(p),
                     np.asarray(total, dtype=np.float64), out)
-        q = max(2, min(int(self.options.shifts), len(out)))
-        size = len(out) // q
-        grids["order_draws", r] = out[:q * size].reshape(q, size, -1).mean(axis=(1, 2))
-        return out.mean(axis=0)
+        grids["order_draws", r] = out.mean(axis=1) / size
+        return out.sum(axis=0) / (q * size)
 
     def _lobe_above(self, r, g: DyadicGrid, values, grids: dict, key) -> DyadicGrid:
         """``g`` with its power above the grid sampled from ``values`` at the pass's sampled

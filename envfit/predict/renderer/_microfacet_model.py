@@ -221,18 +221,30 @@ class MicrofacetModel(LobeChoice, DiffuseModel):
     def request(self, strategy: str, sampler: str, spp: int):
         """:meth:`DiffuseModel.request`; a BSDF whose sampling takes a lobe choice (a rough
         plastic) is modelled, when it is sampled, for the samplers whose 1-D number is i.i.d.
-        or stratified in a random order (:mod:`._lobe_parts`), not ``orthogonal``."""
+        or stratified (:mod:`._lobe_parts`; an Owen-scrambled net's coordinate only where the
+        sampler's record gives its points, :attr:`envfit.renderers.SamplerSpec.lobe_points`),
+        not ``orthogonal``."""
         r = super().request(strategy, sampler, spp)
-        if (self._two_lobes() and strategy != "map"
-                and r.name not in ("independent",) + STRATIFIED_1D):
-            ok = [n for n, s in self.renderer.samplers.items()
-                  if s.randomisation in ("independent",) + STRATIFIED_1D]
+        if self._two_lobes() and strategy != "map" and not self._lobe_modelled(r.sampler):
+            ok = [n for n in self.renderer.samplers if self._lobe_modelled(n)]
             ok = " and ".join([", ".join(ok[:-1]), ok[-1]] if len(ok) > 1 else ok)
-            raise ParameterError(f"the rough plastic's {strategy} is modelled for the "
-                                 f"{ok} samplers "
-                                 f"(its lobe choice is a 1-D dimension {sampler} pairs with "
-                                 f"the direction's in an array); got {sampler}")
+            raise ParameterError(f"the {self.conductor.__class__.__name__} BSDF's {strategy} "
+                                 f"is modelled for the {ok} samplers (its lobe choice is a "
+                                 f"number {sampler} draws in a way not modelled); got {sampler}")
         return r
+
+    def _lobe_modelled(self, sampler: str) -> bool:
+        """Whether a two-lobe BSDF's lobe choice is modelled under ``sampler``: i.i.d., a
+        stratified 1-D number in a random order, or one whose points the record gives."""
+        s = self.renderer.sampler(sampler)
+        return (s.randomisation in ("independent",) + STRATIFIED_1D
+                and (s.randomisation != "owen" or s.lobe_points is not None))
+
+    def _geometric_prefix(self, r) -> bool:
+        """A two-lobe BSDF under a prefix (Owen-scrambled) sampler: its N between powers of two
+        is interpolated geometrically between them (its 3-D prefix variances are not
+        computed)."""
+        return self._two_lobes() and r.prefix and r.name == "owen"
 
     @property
     def between_powers(self) -> bool:

@@ -194,8 +194,12 @@ def principled_proxies(bsdf, wis, frames, dirs, base, pdf) -> np.ndarray:
 
 
 def two_lobe_kernels(bsdf):
-    """(eval_pdf, sample, proxies) compiled for a two-lobe ``bsdf`` (a rough plastic or a
-    principled BSDF), or None (numpy)."""
+    """(eval_pdf, sample, proxies) compiled for a two-lobe ``bsdf`` (a rough plastic, a
+    principled BSDF or an albedo-layered one), or None (numpy)."""
+    from envfit.predict.renderer._layered_kernels import (compiled_layered, layered_eval_pdf,
+                                                          layered_proxies, layered_sample)
+    if compiled_layered(bsdf):
+        return layered_eval_pdf, layered_sample, layered_proxies
     if compiled_plastic(bsdf):
         return plastic_eval_pdf, plastic_sample, plastic_proxies
     if compiled_principled(bsdf):

@@ -46,7 +46,7 @@ from envfit.renderers._base import (EnvmapTechnique, Renderer, SamplerSpec,
 from envfit.renderers.cycles._adaptive import CYCLES_ADAPTIVE
 from envfit.renderers.cycles._bsdf import BSDF_NAMES, PRINCIPLED_PARAMS, ROUGHNESS, bsdf
 from envfit.renderers.cycles._film import BLACKMAN_HARRIS
-from envfit.renderers.cycles._patterns import BLUE_NOISE
+from envfit.renderers.cycles._patterns import BLUE_NOISE, film_points_of, lobe_points_of
 from envfit.renderers.cycles._scene import cycles_snippet
 
 __all__ = ["cycles_map_resolution", "CyclesBackground", "cycles_frame", "INTERPOLATIONS",
@@ -419,7 +419,8 @@ SAMPLERS = {
         "scrambled nets; the pixel seed is hash_iqnt2d(x, y) ^ scene seed; scrambling "
         "distance 1 (default) adds no shift; spp unchanged. Blender 'TABULATED_SOBOL' "
         "('Classic'); the factory scene's pattern. " + _C + "tabulated_sobol.h", default=True,
-        prefix=True),
+        prefix=True, film_points=film_points_of("tabulated_sobol"),
+        lobe_points=lobe_points_of("tabulated_sobol")),
     "blue_noise": SamplerSpec(
         "blue_noise", "shared_sequence", "independent", int,
         "one Sobol-Burley sequence shared by all pixels with fixed (seed 0) Owen scrambles, "
@@ -433,13 +434,17 @@ SAMPLERS = {
         "sobol_burley", "owen", "independent", int,
         "per pixel Owen-scrambled Sobol' (index shuffled, coordinates scrambled with seeds "
         "from the pixel hash and the dimension); debug UI only; spp unchanged. "
-        + _C + "sobol_burley.h", prefix=True),
+        + _C + "sobol_burley.h", prefix=True,
+        film_points=film_points_of("sobol_burley"), lobe_points=lobe_points_of("sobol_burley")),
 }
 
 
 # ----------------------------------------------------------------------------- integrator
 
 _S = "src/kernel/integrator/shade_surface.h, src/kernel/light/sample.h "
+#: the first hit's requests as planes of ``film_points``: the light's (x, y) 1, the BSDF's
+#: (x, y) 2, and its z (the closure pick, ``surface_shader_bsdf_bssrdf_pick``) 3
+_CALLS, _LOBE_CALL = (1, 2), 3
 STRATEGIES = {
     "map": StrategySetting(
         "map", False, "path", {}, 1, 0, "plain",
@@ -448,11 +453,11 @@ STRATEGIES = {
     "brdf": StrategySetting(
         "brdf", True, "path", {"world.cycles.sampling_method": "NONE"}, 0, 1, "plain",
         "World > Settings > Sampling 'None': the world is not a light, escaped BSDF rays get "
-        "weight 1. " + _S),
+        "weight 1. " + _S, calls=_CALLS, lobe_call=_LOBE_CALL),
     "mis": StrategySetting(
         "mis", True, "path", {"world.cycles.sampling_method": "AUTOMATIC"}, 1, 1, "plain",
         "one light (NEE) + one BSDF sample per spp, power_heuristic; importance map at "
-        "max(image, 4096 x 2048) under Auto. " + _S),
+        "max(image, 4096 x 2048) under Auto. " + _S, calls=_CALLS, lobe_call=_LOBE_CALL),
 }
 
 

@@ -53,9 +53,38 @@ times 2μ averaged over μ), which envfit computes by quadrature
 (:func:`~envfit.shading.microfacet._multiscatter.average_albedo`). Every other layer has
 weight 1 − metallic = 0, so it is the closure's only one. Blender's node defaults
 (:data:`PRINCIPLED_PARAMS`, read from bpy 5.0.1: Base Color 0.8, Metallic 0, Roughness 0.5,
-Specular Tint 1, distribution Multiscatter GGX) have metallic 0: a dielectric GGX closure
-over a diffuse one, one picked by the third coordinate of the BSDF's 3-D sample — not
-modelled yet, refused in one line (``--bsdf-param metallic=1`` predicts the metal).
+IOR 1.5, Specular IOR Level 0.5, Specular Tint 1, distribution Multiscatter GGX) have
+metallic 0 — the next paragraph.
+
+**The Principled BSDF with metallic 0** (``principled``, the node's default; ``closure.h``,
+case ``CLOSURE_BSDF_PRINCIPLED_ID``: the specular and diffuse components, transmission,
+coat, sheen and subsurface at their default weight 0) — two closures, in this order
+(:class:`~envfit.shading.microfacet.AlbedoLayered`):
+
+* the *specular* closure: a GGX reflection closure (``bsdf_microfacet_ggx_setup``) of
+  η = IOR (or, with Specular IOR Level ℓ ≠ 0.5, f₀ = F₀(IOR)·2ℓ and η = ``ior_from_F0(f₀)``)
+  with the generalized-Schlick Fresnel in its "real Fresnel" mode (``exponent = −η``:
+  ``generalized_schlick_fresnel``, F = mix(f₀·tint, 1, sat(inverse_lerp(F₀(η), 1,
+  ``fresnel_dielectric``(ω_i·H, η))))), Multiscatter GGX's energy scale with
+  F_ss = mix(f₀, 1, sat(inverse_lerp(F₀, 1, ``fresnel_dielectric_Fss(η)``)))
+  (``bsdf_microfacet_setup_fresnel_generalized_schlick``, ``microfacet_ggx_preserve_energy``:
+  the darkening (1 + F_ms(1 − E)/E)·E goes into the closure's weight and sample weight), and
+  the sample weight times the albedo estimate mix(f₀, 1, S) (``bsdf_microfacet_estimate_albedo``:
+  S from the 16³ table ``table_ggx_gen_schlick_ior_s`` at (√α, μ, √((η − 1)/(η + 1))),
+  ``lookup_table_read_3D``; precomputed by ``precompute_ggx_gen_schlick_s`` in
+  ``src/app/cycles_precompute.cpp`` as the mean of eval.x/eval.y over 2²⁰ Sobol' points:
+  envfit's quadrature, :func:`~envfit.shading.microfacet.blend_factor_table`, agrees with
+  the table in ``src/scene/shader.tables`` to 4 × 10⁻⁴ at every node with √α ≥ 1/15);
+* the *diffuse* closure (``bsdf_diffuse_setup``: Lambert, ``bsdf_diffuse.h``) of weight
+  base colour × ``closure_layering_weight(albedo, weight)`` = c·sat(1 − a), a the specular
+  closure's ``bsdf_albedo`` (its weight times the same estimate: equal to its sample weight).
+
+``surface_shader_bsdf_bssrdf_pick`` (``src/kernel/integrator/surface_shader.h``) picks a
+closure in proportion to the sample weights by the *third coordinate* of the BSDF's 3-D
+request (rescaled for the closure; reflection closures read only the first two);
+``surface_shader_bsdf_eval`` and ``_surface_shader_bsdf_eval_mis`` sum every closure's eval
+and take the sample-weighted mixture of their pdfs (the lobe choice's mixture). Metallic
+strictly between 0 and 1 (three closures) is refused in one line.
 """
 from __future__ import annotations
 
@@ -75,13 +104,14 @@ BSDF_NAMES = {"multiggx": "Multiscatter GGX (the Principled and Glossy BSDF node
 #: the Principled BSDF node's inputs envfit models, with their defaults (bpy 5.0.1; grey
 #: colours)
 PRINCIPLED_PARAMS = {"roughness": 0.5, "base_color": 0.8, "metallic": 0.0,
-                     "specular_tint": 1.0}
+                     "specular_tint": 1.0, "ior": 1.5, "specular_ior_level": 0.5}
 
 
 def bsdf(name: str, alpha: float, **params):
     """The microfacet reflection closure (``name`` ``ggx`` or ``beckmann``; ``params``
     ``eta``, ``k``), Multiscatter GGX (``multiggx``, white) or the Principled BSDF with
-    metallic 1 (``principled``; ``params`` among :data:`PRINCIPLED_PARAMS`) of microfacet α.
+    metallic 0 or 1 (``principled``; ``params`` among :data:`PRINCIPLED_PARAMS`) of
+    microfacet α.
 
     >>> bsdf("multiggx", 0.2).multiscatter, bsdf("ggx", 0.2).vndf
     (True, 'hemisphere_concentric')
@@ -96,8 +126,9 @@ def bsdf(name: str, alpha: float, **params):
 
 
 def _principled_metal(alpha: float, technique: dict, params: dict):
-    """The Principled BSDF's metallic closure (module docstring); one line for a parameter
-    envfit does not model or a metallic below 1."""
+    """The Principled BSDF (module docstring): its metallic closure at metallic 1, its
+    specular and diffuse closures at metallic 0; one line for a parameter envfit does not
+    model or a metallic between."""
     from envfit.base import ParameterError
     from envfit.shading.microfacet import Conductor
     unknown = sorted(set(params) - set(PRINCIPLED_PARAMS) | ({"roughness"} & set(params)))
@@ -106,10 +137,34 @@ def _principled_metal(alpha: float, technique: dict, params: dict):
                              f"envfit models (roughness is --roughness; the others: "
                              f"{', '.join(k for k in PRINCIPLED_PARAMS if k != 'roughness')})")
     p = {**PRINCIPLED_PARAMS, **{k: float(v) for k, v in params.items()}}
+    if p["metallic"] == 0.0:
+        return _principled_dielectric(alpha, p)
     if p["metallic"] != 1.0:
-        raise ParameterError(f"Cycles' Principled BSDF with metallic {p['metallic']:g}: its "
-                             f"dielectric layer over the diffuse base (a closure picked by the "
-                             f"third coordinate of the BSDF's 3-D sample) is not modelled yet; "
-                             f"--bsdf-param metallic=1 predicts its metallic lobe")
+        raise ParameterError(f"Cycles' Principled BSDF with metallic {p['metallic']:g}: a "
+                             f"metallic closure beside the specular and diffuse ones (three "
+                             f"closures) is not modelled; --bsdf-param metallic=0 (the node's "
+                             f"default) or metallic=1 predicts it")
     return Conductor("ggx", alpha, **technique, f0=min(max(p["base_color"], 0.0), 1.0),
                      f82_tint=min(max(p["specular_tint"], 0.0), 1.0), multiscatter=True)
+
+
+def _principled_dielectric(alpha: float, p: dict):
+    """The Principled BSDF's specular and diffuse closures at metallic 0 (module docstring):
+    η and f₀ from IOR, Specular IOR Level and Specular Tint as ``svm_node_closure_bsdf``
+    computes them."""
+    from envfit.base import ParameterError
+    from envfit.shading.microfacet import AlbedoLayered, f0_of_ior, ior_of_f0
+    ior, level = p["ior"], max(p["specular_ior_level"], 0.0)
+    if not ior > 1.0:
+        raise ParameterError(f"Cycles' Principled BSDF with IOR {ior:g}: envfit models IOR > 1 "
+                             f"(a specular layer over the base)")
+    f0, eta = f0_of_ior(ior), ior
+    if level != 0.5:
+        f0 *= 2.0 * level
+        eta = ior_of_f0(f0)
+    if eta == 1.0:
+        raise ParameterError("Cycles' Principled BSDF with Specular IOR Level 0 has no "
+                             "specular closure: a diffuse BSDF, not this model")
+    tint = max(p["specular_tint"], 0.0)
+    return AlbedoLayered(alpha, base_color=min(max(p["base_color"], 0.0), 1.0), eta=eta,
+                         f0=min(max(f0 * tint, 0.0), 1.0))

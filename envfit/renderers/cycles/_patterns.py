@@ -60,7 +60,8 @@ from envfit.base import ParameterError
 
 __all__ = ["FILTER", "LIGHT", "BSDF", "PATTERNS", "MIN_TABLE", "MAX_TABLE", "hash_hp_uint",
            "reversed_bit_owen", "nested_uniform_scramble", "class_a", "tabulated_sobol_tables",
-           "table_size", "sobol_digits", "sobol_burley_xy", "blue_noise_indices", "pattern_points",
+           "table_size", "sobol_digits", "sobol_burley_xy", "sobol_burley_z", "blue_noise_indices",
+           "pattern_points", "first_hit_points", "film_points_of", "lobe_points_of",
            "BlueNoiseRuns", "BLUE_NOISE"]
 
 U32 = np.uint32
@@ -72,7 +73,7 @@ FILTER, LIGHT, BSDF = 0, 16 + 1, 16 + 3
 _WIDTH = {FILTER: 2, LIGHT: 3, BSDF: 3}
 _STREAMS = {"film": FILTER, "light": LIGHT, "bsdf": BSDF}
 
-#: ``tabulated_sobol_generate_4D``'s xor tables of dimensions 0 and 1
+#: ``tabulated_sobol_generate_4D``'s xor tables of dimensions 0, 1 and 2
 _XORS = (
     (0,) * 32,
     (0x00000000, 0x00000001, 0x00000001, 0x00000007, 0x00000001, 0x00000013, 0x00000015,
@@ -80,6 +81,11 @@ _XORS = (
      0x00001555, 0x00007fff, 0x00000001, 0x00010003, 0x00010005, 0x0007000f, 0x00010011,
      0x00130033, 0x00150055, 0x007f00ff, 0x00010101, 0x01030303, 0x01050505, 0x070f0f0f,
      0x01111111, 0x13333333, 0x15555555, 0x7fffffff),
+    (0x00000000, 0x00000001, 0x00000003, 0x00000001, 0x00000005, 0x0000001f, 0x0000002b,
+     0x0000003d, 0x00000011, 0x00000133, 0x00000377, 0x00000199, 0x00000445, 0x00001ccf,
+     0x00002ddb, 0x0000366d, 0x00000101, 0x00010303, 0x00030707, 0x00010909, 0x00051515,
+     0x001f3f3f, 0x002b6b6b, 0x003dbdbd, 0x00101011, 0x01303033, 0x03707077, 0x01909099,
+     0x04515145, 0x1cf3f3cf, 0x2db6b6db, 0x36dbdb6d),
 )
 #: ``NUM_TAB_SOBOL_PATTERNS``, ``MIN_TAB_SOBOL_SAMPLES``, ``MAX_TAB_SOBOL_SAMPLES``
 #: (``src/kernel/types.h``)
@@ -143,21 +149,23 @@ def class_a(n: int) -> np.ndarray:
 
 
 @functools.lru_cache(maxsize=4)
-def tabulated_sobol_tables(size: int, patterns: int = PATTERNS) -> np.ndarray:
-    """Dimensions 0 and 1 of the ``patterns`` tables of ``size`` points Cycles generates
-    (``tabulated_sobol_generate_4D(points, size, j)``, j = 0 … patterns − 1), shape
-    (patterns, size, 2) float32, read-only; the four dimensions' random numbers are drawn in
-    the source's order (4 per point) so that dimensions 0 and 1 are the source's."""
+def tabulated_sobol_tables(size: int, patterns: int = PATTERNS, dims: int = 2) -> np.ndarray:
+    """The first ``dims`` (2 or 3) dimensions of the ``patterns`` tables of ``size`` points
+    Cycles generates (``tabulated_sobol_generate_4D(points, size, j)``, j = 0 … patterns − 1),
+    shape (patterns, size, dims) float32, read-only; the four dimensions' random numbers are
+    drawn in the source's order (4 per point) so that these dimensions are the source's."""
+    if dims not in (2, 3):
+        raise ParameterError(f"dims must be 2 or 3, got {dims!r}")
     size = int(size)
     j = np.arange(patterns, dtype=U32)
     with np.errstate(over="ignore"):
         seed = U32(0x44605A73)
         seed = seed ^ U32(seed << U32(19))                 # hash_hp_seeded_uint(j, 0x44605a73)
         rng = hash_hp_uint(j ^ seed)
-    pts = np.zeros((patterns, size, 2), dtype=np.float32)
+    pts = np.zeros((patterns, size, dims), dtype=np.float32)
     with np.errstate(over="ignore"):
-        pts[:, 0, 0] = _hash_hp_float(rng)
-        pts[:, 0, 1] = _hash_hp_float(rng + U32(1))
+        for d in range(dims):
+            pts[:, 0, d] = _hash_hp_float(rng + U32(d))
         rng = rng + U32(4)
         n, log_n = 1, 0
         while n < size:
@@ -166,7 +174,7 @@ def tabulated_sobol_tables(size: int, patterns: int = PATTERNS) -> np.ndarray:
             i = np.arange(count)
             # the random numbers of points n … n + count − 1: 4 each, in order
             base = rng[:, None] + (4 * i).astype(U32)[None, :]
-            for d in range(2):
+            for d in range(dims):
                 occ = (pts[:, i ^ _XORS[d][log_n], d] * strata).astype(np.uint32)
                 pts[:, n:n + count, d] = ((occ ^ U32(1)).astype(np.float32)
                                           + _hash_hp_float(base + U32(d))) / strata
@@ -193,28 +201,38 @@ _SOBOL_1 = np.array([
     0x00005555, 0x0000ffff, 0x00010001, 0x00030003, 0x00050005, 0x000f000f, 0x00110011,
     0x00330033, 0x00550055, 0x00ff00ff, 0x01010101, 0x03030303, 0x05050505, 0x0f0f0f0f,
     0x11111111, 0x33333333, 0x55555555, 0xffffffff], dtype=U32)
+#: ``sobol_burley_table`` of dimension 2 (Sobol's third)
+_SOBOL_2 = np.array([
+    0x00000001, 0x00000003, 0x00000006, 0x00000009, 0x00000017, 0x0000003a, 0x00000071,
+    0x000000a3, 0x00000116, 0x00000339, 0x00000677, 0x000009aa, 0x00001601, 0x00003903,
+    0x00007706, 0x0000aa09, 0x00010117, 0x0003033a, 0x00060671, 0x000909a3, 0x00171616,
+    0x003a3939, 0x00717777, 0x00a3aaaa, 0x01170001, 0x033a0003, 0x06710006, 0x09a30009,
+    0x16160017, 0x3939003a, 0x77770071, 0xaaaa00a3], dtype=U32)
+_SOBOL = {1: _SOBOL_1, 2: _SOBOL_2}
 #: the constants ``sobol_burley_sample_2D`` / ``_3D`` xor into the seed: the index
-#: shuffle's, then the coordinates x's and y's
-_SEEDS = {2: (0xF8ADE99A, 0xE0AAAF76, 0x94964D4E), 3: (0xCAA726AC, 0x9E78E391, 0x67C33241)}
+#: shuffle's, then the coordinates x's, y's (and z's: ``_3D``)
+_SEEDS = {2: (0xF8ADE99A, 0xE0AAAF76, 0x94964D4E),
+          3: (0xCAA726AC, 0x9E78E391, 0x67C33241, 0x78C395C5)}
 _TO_FLOAT = np.float32(1.0 / 4294967808.0)          # uint_to_float_excl
 
 
 def sobol_digits(index, dimension: int) -> np.ndarray:
-    """Sobol' point ``index`` of ``dimension`` 0 or 1 unscrambled, as ``sobol_burley`` holds it
-    before its Owen scramble: uint32 with the point's first binary digit in bit 0 (the
-    direction numbers of the index's set bits xored; dimension 0 the van der Corput fast
-    path)."""
+    """Sobol' point ``index`` of ``dimension`` 0, 1 or 2 unscrambled, as ``sobol_burley``
+    holds it before its Owen scramble: uint32 with the point's first binary digit in bit 0
+    (the direction numbers of the index's set bits xored; dimension 0 the van der Corput
+    fast path)."""
     index = np.asarray(index, dtype=U32)
     if dimension == 0:
         return index.copy()
     result = np.zeros_like(index)
+    table = _SOBOL[int(dimension)]
     for t in range(32):
-        result ^= np.where((index >> U32(t)) & U32(1), _SOBOL_1[t], U32(0))
+        result ^= np.where((index >> U32(t)) & U32(1), table[t], U32(0))
     return result
 
 
 def _sobol_burley(rev_index: np.ndarray, dimension: int, seed) -> np.ndarray:
-    """``sobol_burley(rev_bit_index, dimension, scramble_seed)`` for dimension 0 or 1: the
+    """``sobol_burley(rev_bit_index, dimension, scramble_seed)`` for dimension 0, 1 or 2: the
     unscrambled digits (:func:`sobol_digits` of the index), Owen-scrambled
     (:func:`reversed_bit_owen`), reversed, to float32 (``uint_to_float_excl``)."""
     result = sobol_digits(_reverse_bits(rev_index), dimension)
@@ -233,6 +251,16 @@ def sobol_burley_xy(index, dimension_set: int, seed=0, mask: int = 0xFFFFFFFF,
     rev = reversed_bit_owen(_reverse_bits(index), seed ^ U32(c[0])) & U32(mask)
     return np.stack([_sobol_burley(rev, 0, seed ^ U32(c[1])),
                      _sobol_burley(rev, 1, seed ^ U32(c[2]))], axis=-1)
+
+
+def sobol_burley_z(index, dimension_set: int, seed=0, mask: int = 0xFFFFFFFF) -> np.ndarray:
+    """The z of ``sobol_burley_sample_3D`` at ``index`` (uint32, any shape), float32: Sobol'
+    dimension 2 of the same shuffled index as :func:`sobol_burley_xy` (width 3), scrambled
+    with its own seed."""
+    c = _SEEDS[3]
+    seed = np.asarray(seed, dtype=U32) ^ hash_hp_uint(U32(dimension_set))
+    rev = reversed_bit_owen(_reverse_bits(index), seed ^ U32(c[0])) & U32(mask)
+    return _sobol_burley(rev, 2, seed ^ U32(c[3]))
 
 
 def blue_noise_indices(samples: int, pixels, length: int) -> np.ndarray:
@@ -303,6 +331,83 @@ def pattern_points(sampler: str, samples: int, realizations: int, rng: np.random
     if film:
         out[2][:, 0] = 0.5
     return tuple(out)
+
+
+def _distinct_tables(rng: np.random.Generator, r: int) -> np.ndarray:
+    """(r, 3) three distinct tables of :data:`PATTERNS` per pixel, uniformly (the requests'
+    ``hash_shuffle_uint`` picks, taken as distinct)."""
+    k0 = rng.integers(0, PATTERNS, r)
+    k1 = rng.integers(0, PATTERNS - 1, r)
+    k1 += k1 >= k0
+    lo, hi = np.minimum(k0, k1), np.maximum(k0, k1)
+    k2 = rng.integers(0, PATTERNS - 2, r)
+    k2 += k2 >= lo
+    k2 += k2 >= hi
+    return np.stack([k0, k1, k2], axis=1)
+
+
+@functools.lru_cache(maxsize=4)
+def first_hit_points(sampler: str, samples: int, pixels: int, seed: int) -> tuple:
+    """The film's (x, y), the light's (x, y) and the BSDF's (x, y, z) of the samples
+    0 … samples − 1 of ``pixels`` pixels of a render of ``samples`` spp under ``sampler``
+    (``tabulated_sobol`` or ``sobol_burley``; float64 (R, samples, 2 or 3), read-only),
+    drawn from ``seed``: each pixel's requests read as the kernel reads them (Tabulated Sobol:
+    a random table and index scramble per request; Sobol–Burley: the pixel's seed), the BSDF's
+    z the third coordinate of its 3-D request — what ``surface_shader_bsdf_bssrdf_pick``
+    picks a closure with."""
+    rng = np.random.default_rng([int(seed), int(samples), 0xC7C1E5])
+    r, n = int(pixels), int(samples)
+    if sampler == "tabulated_sobol":
+        size = table_size(n)
+        tables = tabulated_sobol_tables(size, PATTERNS, 3)
+        pick = _distinct_tables(rng, r)
+        seeds = rng.integers(0, 1 << 32, size=(r, 3), dtype=np.uint64).astype(U32)
+        s = np.arange(n, dtype=U32)
+        out = []
+        for k, width in enumerate((2, 2, 3)):         # film, light, BSDF
+            idx = nested_uniform_scramble(s[None, :], seeds[:, k:k + 1]) & U32(size - 1)
+            out.append(tables[pick[:, k:k + 1], idx.astype(np.int64), :width].astype(np.float64))
+    elif sampler == "sobol_burley":
+        seeds = rng.integers(0, 1 << 32, size=(r, 1), dtype=np.uint64).astype(U32)
+        top = 1 << (n - 1).bit_length() if n > 1 else 1
+        mask = int(_reverse_bits(U32(top - 1)))
+        idx = np.broadcast_to(np.arange(n, dtype=U32)[None, :], (r, n))
+        out = [sobol_burley_xy(idx, d, seeds, mask, _WIDTH[d]).astype(np.float64)
+               for d in (FILTER, LIGHT, BSDF)]
+        z = sobol_burley_z(idx, BSDF, seeds, mask).astype(np.float64)
+        out[2] = np.concatenate([out[2], z[..., None]], axis=-1)
+    else:
+        raise ParameterError(f"no first-hit points of Cycles' {sampler!r} pattern here: "
+                             f"tabulated_sobol or sobol_burley")
+    for a in out:
+        a.flags.writeable = False
+    return tuple(out)
+
+
+def film_points_of(sampler: str):
+    """The record's ``film_points`` of ``sampler`` (:attr:`envfit.renderers.SamplerSpec.
+    film_points`): ``(pixels, n, dims, seed) -> (pixels, n, dims, 2)``, dimension 0 the film's,
+    1 the light's, 2 the BSDF's (x, y), 3 the BSDF's z twice (:func:`first_hit_points`)."""
+    def points(pixels: int, n: int, dims: int, seed: int) -> np.ndarray:
+        film, light, bsdf = first_hit_points(sampler, int(n), int(pixels), int(seed))
+        planes = [film, light, bsdf[..., :2], np.repeat(bsdf[..., 2:], 2, axis=-1)]
+        if not 1 <= dims <= len(planes):
+            raise ParameterError(f"Cycles' first hit has {len(planes)} point planes, asked "
+                                 f"for {dims}")
+        return np.stack(planes[:dims], axis=2)
+    return points
+
+
+def lobe_points_of(sampler: str):
+    """The record's ``lobe_points`` of ``sampler`` (:attr:`envfit.renderers.SamplerSpec.
+    lobe_points`): ``(pixels, n, call, seed) -> (pixels, n)`` the BSDF request's z (call 3,
+    the plane :func:`film_points_of` gives it), the same pixels as ``film_points``."""
+    def numbers(pixels: int, n: int, call: int, seed: int) -> np.ndarray:
+        if int(call) != 3:
+            raise ParameterError(f"Cycles' closure pick reads the BSDF request's z (call 3), "
+                                 f"asked for call {call}")
+        return first_hit_points(sampler, int(n), int(pixels), int(seed))[2][..., 2]
+    return numbers
 
 
 @dataclass(frozen=True)

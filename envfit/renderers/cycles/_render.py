@@ -125,7 +125,8 @@ class CyclesOptions:
 
 
 def glossy_bsdf(distribution: str = "ggx", alpha: float = 0.1, node: str = "glossy",
-                base_color: float = 1.0, specular_tint: float = 1.0) -> tuple:
+                base_color: float = 1.0, specular_tint: float = 1.0,
+                **principled) -> tuple:
     """The sphere's BSDF for :attr:`CyclesOptions.bsdf`: the *Glossy BSDF* node, colour 1
     (Fresnel = 1: a white conductor), distribution ``GGX`` or ``Beckmann`` (single scattering),
     or ``multiggx``: *Multiscatter GGX*, the node's and the Principled BSDF's default (GGX
@@ -144,7 +145,8 @@ def glossy_bsdf(distribution: str = "ggx", alpha: float = 0.1, node: str = "glos
     every other layer has weight 0 (1 − metallic, coat, sheen). So it renders the Glossy
     node's image (``tests/test_render_cycles.py``). ``base_color`` and ``specular_tint`` (grey,
     the Principled node only) set f0 and the tint of that Fresnel (Blender's defaults are 0.8
-    and 1).
+    and 1). ``principled``: the node's ``metallic`` (1 unless given: 0 is the node's default,
+    the specular and diffuse closures of ``_bsdf``), ``ior`` and ``specular_ior_level``.
 
     >>> round(dict(glossy_bsdf("beckmann", 0.25))["roughness"], 12)
     0.5
@@ -158,10 +160,18 @@ def glossy_bsdf(distribution: str = "ggx", alpha: float = 0.1, node: str = "glos
                              f"Principled BSDF has no Beckmann), got {node!r}")
     b = {"type": "glossy", "distribution": distribution, "alpha": float(alpha),
          "roughness": float(alpha) ** 0.5}
+    if set(principled) - {"metallic", "ior", "specular_ior_level"} or (
+            principled and node != "principled"):
+        raise ParameterError(f"the Principled node's inputs here are metallic, ior and "
+                             f"specular_ior_level (node=\"principled\"); got "
+                             f"{sorted(principled)}")
     if node == "principled":                # the Glossy node's keys (and caches) unchanged
         b["node"] = node
         b.update({k: float(v) for k, v in (("base_color", base_color),
                                            ("specular_tint", specular_tint)) if v != 1.0})
+        b.update({k: float(v) for k, v in principled.items()
+                  if float(v) != {"metallic": 1.0, "ior": 1.5,
+                                  "specular_ior_level": 0.5}[k]})
     elif (base_color, specular_tint) != (1.0, 1.0):
         raise ParameterError("base_color and specular_tint are the Principled node's "
                              "(node=\"principled\")")
@@ -197,7 +207,9 @@ def _material(bpy, bsdf=None):
                              "multiggx": "MULTI_GGX"}[b["distribution"]]
         node.inputs["Roughness"].default_value = b["roughness"]
         if principled:
-            node.inputs["Metallic"].default_value = 1.0
+            node.inputs["Metallic"].default_value = b.get("metallic", 1.0)
+            node.inputs["IOR"].default_value = b.get("ior", 1.5)
+            node.inputs["Specular IOR Level"].default_value = b.get("specular_ior_level", 0.5)
             t = b.get("specular_tint", 1.0)
             node.inputs["Specular Tint"].default_value = (t, t, t, 1.0)
             colour = "Base Color"
@@ -565,14 +577,15 @@ def version() -> str:
 def open_sphere(envmap, brdf: str | None, alpha: float | None, bsdf_params=None,
                 **common) -> "CyclesSphere":
     """The sphere of envfit's measurement with ``brdf`` (None: white diffuse; ``principled``:
-    the Principled BSDF with metallic 1 and ``bsdf_params``' base colour and specular tint,
-    Multiscatter GGX; else a Glossy BSDF, :func:`glossy_bsdf`) of roughness ``alpha``;
+    the Principled BSDF with ``bsdf_params`` over Blender's node defaults (metallic 0, base
+    colour 0.8, IOR 1.5, ...), Multiscatter GGX; else a Glossy BSDF, :func:`glossy_bsdf`) of roughness ``alpha``;
     ``common``: :class:`CyclesOptions`' resolution, reference_spp, cache_dir."""
     from envfit.renderers.cycles._bsdf import PRINCIPLED_PARAMS
     if brdf == "principled":
         p = {**PRINCIPLED_PARAMS, **(bsdf_params or {})}
         bsdf = glossy_bsdf("multiggx", alpha, node="principled", base_color=p["base_color"],
-                           specular_tint=p["specular_tint"])
+                           specular_tint=p["specular_tint"], metallic=p["metallic"],
+                           ior=p["ior"], specular_ior_level=p["specular_ior_level"])
     else:
         bsdf = None if brdf is None else glossy_bsdf(brdf, alpha)
     return CyclesSphere(envmap, CyclesOptions(**common, bsdf=bsdf))

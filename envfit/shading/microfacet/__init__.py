@@ -1,7 +1,7 @@
 r"""Microfacet BSDFs as techniques (issue 25): GGX and Beckmann distributions, Smith
 shadowing-masking in its separable and height-correlated forms, three visible-normal warps,
 two conductor Fresnel forms and the F82-tint one, multiple scattering as an energy scale, the
-rough conductor, rough plastic and principled BSDFs (eval, pdf and sample sharing one warp)
+rough conductor, rough plastic, principled and albedo-layered BSDFs (eval, pdf and sample sharing one warp)
 and the ground truth of a BSDF's shading integral on a map.
 
 Each technique is named by what it is, never by a renderer: which renderer shades its BSDFs
@@ -25,6 +25,9 @@ Modules:
 * :mod:`~envfit.shading.microfacet._principled` — :class:`Principled`, the principled
   ("Disney") BSDF's diffuse-with-retro-reflection and GGX specular lobes, the Fresnel a
   blend of the dielectric's and a metal's.
+* :mod:`~envfit.shading.microfacet._layered` — :class:`AlbedoLayered`, a GGX dielectric layer
+  over a Lambertian base weighted by what the layer's estimated albedo leaves, the lobes
+  picked in proportion to their albedos.
 * :mod:`~envfit.shading.microfacet._ground_truth` — the shading integral's ground truth with
   its resolution rule.
 
@@ -45,6 +48,8 @@ _LAZY = {
     "albedo_table": "_multiscatter", "energy_scale": "_multiscatter",
     "PlasticSample": "_plastic", "RoughPlastic": "_plastic",
     "Principled": "_principled",
+    "AlbedoLayered": "_layered", "blend_factor": "_layered", "blend_factor_table": "_layered",
+    "f0_of_ior": "_layered", "ior_of_f0": "_layered",
     "GroundTruthOptions": "_ground_truth", "MicrofacetShading": "_ground_truth",
     "microfacet_shading_integral": "_ground_truth",
 }

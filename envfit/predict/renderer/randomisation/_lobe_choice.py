@@ -11,6 +11,12 @@ specular lobe when ``sample1`` < :math:`p` (``prob_specular``), the diffuse one 
 * ``jittered``, ``cmj``: ``(σ(i) + jitter) / N``, σ a permutation of the N strata, jittered;
 * ``digital_shift``: the van der Corput points of N = 2^m XOR one 32-bit shift, in a permuted
   order: again one point in each stratum, all at one offset in it, uniform;
+* ``owen``: a coordinate of a nested-uniform-scrambled Sobol' net of N = 2^m points (the
+  third coordinate of a 3-D request whose first two draw the direction): one point in each
+  stratum, uniform in it — but ordered by the net, not at random: the renderer model adds
+  what that order changes, drawn over the sampler's own points
+  (:meth:`envfit.predict.renderer._lobe_parts.LobeChoice._order_excess`), as for
+  ``digital_shift``'s sampler order;
 
 the order permuted by each dimension's own seed (which renderer's samplers draw so, read
 from which source, its folder says). Hence the number K of samples that pick lobe
@@ -59,9 +65,9 @@ from ._registry import randomised_mse
 
 __all__ = ["STRATIFIED_1D", "lobe_choice_mse", "lobe_choice_mis"]
 
-#: the randomisations whose sampler draws a 1-D number as N jittered strata in a random order
-#: (module docstring): :func:`lobe_choice_mse` holds
-STRATIFIED_1D = ("jittered", "cmj", "digital_shift")
+#: the randomisations whose sampler draws a 1-D number as N jittered strata (module
+#: docstring): :func:`lobe_choice_mse` holds for their random order
+STRATIFIED_1D = ("jittered", "cmj", "digital_shift", "owen")
 
 GridOf = Callable[[float, float], DyadicGrid]
 
