@@ -172,3 +172,36 @@ def test_principled_metal_reflects_the_f82_conductors_albedo(base, tint):
         m = (theta >= lo) & (theta < hi)
         assert abs(got[m].mean() / want[m].mean() - 1) < 0.015, (lo, hi)
     assert want.mean() < 0.98 * L                   # the Fresnel's loss is not compensated
+
+
+@pytest.mark.parametrize("params", [{}, {"base_color": 0.4, "ior": 1.8, "specular_tint": 0.7}])
+def test_principled_dielectric_reflects_the_layered_bsdfs_albedo(params):
+    """The Principled BSDF at metallic 0 (the node's default: a dielectric GGX specular
+    closure over a Lambert base weighted by 1 − the specular closure's albedo estimate),
+    roughness 0.5, under a constant map L with BSDF sampling: each pixel is L × the
+    directional albedo of envfit's ``AlbedoLayered`` (the record's ``bsdf("principled", …)``:
+    its real-Fresnel blend, energy scale and layering weight from the tabulated estimate), to
+    1.5 % over the disk and per view-angle band."""
+    from envfit.renderers import get_renderer, glossy_bsdf
+    from scipy.stats import qmc
+    L, alpha = 0.5, 0.25
+    p = {"base_color": 0.8, "specular_tint": 1.0, "ior": 1.5, **params}
+    g = sphere_geometry(R, "disk")
+    env = EnvMap(np.full((8, 16, 3), L))
+    bsdf = glossy_bsdf("multiggx", alpha, node="principled", base_color=p["base_color"],
+                       specular_tint=p["specular_tint"], metallic=0.0, ior=p["ior"])
+    with CyclesSphere(env, CyclesOptions(resolution=R, bsdf=bsdf)) as r:
+        img, _ = r.render("brdf", "tabulated_sobol", 256, seed=3)
+    c = get_renderer("cycles").bsdf("principled", alpha, **p)
+    u = qmc.Sobol(2, seed=1).random_base2(15)
+    nodes = np.linspace(0.0, 1.0, 65)[1:]
+    albedo = [c.sample_square(np.broadcast_to([np.sqrt(1 - z * z), 0.0, z], (len(u), 3)),
+                              u).weight.mean() for z in nodes]
+    z = g.z[g.keep]
+    want = L * np.interp(z, nodes, albedo)
+    got = img[:, g.keep].mean(axis=(0, 2))
+    assert abs(got.mean() / want.mean() - 1) < 0.015
+    theta = np.degrees(np.arccos(z))
+    for lo, hi in ((0, 30), (30, 60), (60, 80)):
+        m = (theta >= lo) & (theta < hi)
+        assert abs(got[m].mean() / want[m].mean() - 1) < 0.015, (lo, hi)
