@@ -476,7 +476,10 @@ def test_principled_answer_is_the_models_with_its_defaults_and_parameters(sun_fi
                          (["--bsdf-param", "metallic=1", "--bsdf-param", "metallic=0"],
                           "given twice"),
                          (["--roughness", "0.1"], "alpha = R^2: 0.223607 to 1"),
-                         (["--renderer", "cycles"], "Principled BSDF with metallic 0"),
+                         (["--renderer", "cycles", "--bsdf-param", "metallic=0.5"],
+                          "Principled BSDF with metallic 0.5"),
+                         (["--renderer", "cycles", "--sampler", "blue_noise"],
+                          "--sampler tabulated_sobol|sobol_burley"),
                          (["--renderer", "pbrt4"], "--renderer mitsuba3|cycles")):
         rc, _, err, _ = _run(capsys, [tmp_path / "missing.exr", "--renderer", "mitsuba3",
                                       "--brdf", "principled", *extra], tmp_path)

@@ -190,6 +190,20 @@ def _check_microfacet(p, bsdf: str, sampler: str) -> None:
     # else the renderer's BSDF refuses the distribution itself (Conductor, one line)
 
 
+def _check_lobe_choice(p, bsdf: str, sampler: str, built) -> None:
+    """One line where the ``built`` BSDF picks one of two lobes by a number ``sampler`` draws
+    in a way the model does not cover (:func:`envfit.predict.renderer.lobe_choice_modelled`),
+    naming the samplers it covers."""
+    from envfit.predict.renderer import lobe_choice_modelled
+    if not hasattr(built, "sample_square") or lobe_choice_modelled(p.sampler(sampler)):
+        return
+    ok = [n for n, s in p.samplers.items() if lobe_choice_modelled(s)]
+    name = p.bsdf_names.get(bsdf, bsdf)
+    raise ParameterError(f"{p.possessive} {name} with these parameters picks one of two "
+                         f"lobes by a number the {sampler} sampler draws in a way envfit does "
+                         f"not model: --sampler {'|'.join(ok)}")
+
+
 def checked_roughness(roughness, renderer: str, bsdf: str | None = None) -> float:
     """``--roughness`` in the range of the renderer's roughness convention (of ``bsdf``'s,
     where it has its own: :meth:`~envfit.renderers.Renderer.roughness_of`)
@@ -445,8 +459,9 @@ class RendererAdviseOptions:
                                  f"{p.roughness.units if p.roughness else 'its roughness'})")
         object.__setattr__(self, "roughness",
                            checked_roughness(self.roughness, p.name, self.bsdf))
-        self.conductor()                      # the renderer lacks this distribution, or a
+        b = self.conductor()                  # the renderer lacks this distribution, or a
         #                                       parameter is unknown or out of range: one line
+        _check_lobe_choice(p, self.bsdf, self.sampler, b)
 
     @property
     def microfacet(self) -> bool:

@@ -157,11 +157,23 @@ class RenderValidationOptions:
         if self.bsdf_params and not defaults:
             raise ParameterError(f"--bsdf-param is for a BSDF with parameters of its own, not "
                                  f"--brdf {self.brdf} with --renderer {self.renderer}")
+        built = None
         if self.microfacet:         # an unknown parameter, a case not modelled: one line
-            p.bsdf(self.brdf, self.alpha, **self.bsdf_params)
+            built = p.bsdf(self.brdf, self.alpha, **self.bsdf_params)
         samplers = tuple(self.samplers) or rendered[self.renderer]
         for s in samplers:
             p.sampler(s)
+        if hasattr(built, "sample_square"):     # two lobes: the lobe choice's samplers
+            from envfit.predict.renderer import lobe_choice_modelled
+            if not self.samplers:               # the defaults the lobe choice covers
+                samplers = tuple(s for s in samplers if lobe_choice_modelled(p.sampler(s)))
+            odd = [s for s in samplers if not lobe_choice_modelled(p.sampler(s))]
+            if odd:
+                ok = [n for n, x in p.samplers.items() if lobe_choice_modelled(x)]
+                raise ParameterError(f"{p.possessive} {p.bsdf_names.get(self.brdf, self.brdf)} "
+                                     f"with these parameters picks one of two lobes by a "
+                                     f"number the {odd[0]} sampler draws in a way envfit does "
+                                     f"not model: --samplers {','.join(ok)}")
         modelled = p.microfacet.get(self.brdf) if self.microfacet else None
         odd = [s for s in samplers if modelled is not None and s not in modelled]
         if odd:

@@ -60,6 +60,7 @@ _SHARED = {
     "midpoints": "_integrand_tables",
     "cell_request": "_diffuse_model",
     "strata_reach": "_drawn_strata",
+    "lobe_choice_modelled": "_lobe_parts",
 }
 
 __getattr__, __dir__ = lazy_exports(__name__, {**_LAZY, **_SHARED})

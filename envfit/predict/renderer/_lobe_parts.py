@@ -31,7 +31,16 @@ from envfit.predict.renderer._sampled_nets import SAMPLE_TAG
 from envfit.predict.renderer.randomisation import (STRATIFIED_1D, DyadicGrid,
                                                    lobe_choice_mis, lobe_choice_mse)
 
-__all__ = ["LobeChoice"]
+__all__ = ["LobeChoice", "lobe_choice_modelled"]
+
+
+def lobe_choice_modelled(spec) -> bool:
+    """Whether a two-lobe BSDF's lobe choice is modelled under the sampler ``spec``
+    (a :class:`envfit.renderers.SamplerSpec`): i.i.d., a stratified 1-D number in a random
+    order, or an Owen-scrambled net's coordinate whose points the record gives
+    (``lobe_points``)."""
+    return (spec.randomisation in ("independent",) + STRATIFIED_1D
+            and (spec.randomisation != "owen" or spec.lobe_points is not None))
 
 
 @numba.njit(cache=True, parallel=True)

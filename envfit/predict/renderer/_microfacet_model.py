@@ -52,7 +52,7 @@ from envfit.predict.renderer._vndf_kernels import compiled_sampling, conductor_s
 from envfit.predict.renderer._principled_kernels import two_lobe_kernels
 from envfit.predict.renderer._bands import BANDS, STRATA, band_key, band_spread, in_stratum
 from envfit.predict.renderer._footprint import _unit, with_variances
-from envfit.predict.renderer._lobe_parts import LobeChoice
+from envfit.predict.renderer._lobe_parts import LobeChoice, lobe_choice_modelled
 from envfit.predict.renderer._integrand_tables import MapTable
 from envfit.predict.renderer.randomisation import STRATIFIED_1D
 from envfit.predict.renderer._diffuse_model import (DiffuseModel, RendererModelOptions,
@@ -234,11 +234,9 @@ class MicrofacetModel(LobeChoice, DiffuseModel):
         return r
 
     def _lobe_modelled(self, sampler: str) -> bool:
-        """Whether a two-lobe BSDF's lobe choice is modelled under ``sampler``: i.i.d., a
-        stratified 1-D number in a random order, or one whose points the record gives."""
-        s = self.renderer.sampler(sampler)
-        return (s.randomisation in ("independent",) + STRATIFIED_1D
-                and (s.randomisation != "owen" or s.lobe_points is not None))
+        """Whether a two-lobe BSDF's lobe choice is modelled under ``sampler``
+        (:func:`._lobe_parts.lobe_choice_modelled`)."""
+        return lobe_choice_modelled(self.renderer.sampler(sampler))
 
     def _geometric_prefix(self, r) -> bool:
         """A two-lobe BSDF under a prefix (Owen-scrambled) sampler: its N between powers of two
