@@ -76,11 +76,11 @@ def snippet_pixels(sphere_pixels=None) -> int:
 
 
 def scene_comment(what: str, sphere_pixels=None, *, view_dependent: bool = False,
-                  mark: str = "#") -> list[str]:
+                  mark: str = "#", pixel_filter: str = "box pixel filter") -> list[str]:
     """The comment lines on top of a snippet: the scene envfit predicted (``what``: the
     sphere's BSDF), its six views, the film, and what the prediction averages over (uniform
     normals; ``view_dependent``, a microfacet BSDF: every pixel of a view, over uniform
-    rotations of the map)."""
+    rotations of the map; ``pixel_filter``: the film's filter in words)."""
     n = snippet_pixels(sphere_pixels)
     film = ([f"{n} x {n} pixels: the sphere {n} pixels across (--sphere-pixels), each pixel's",
              "footprint in the prediction"] if sphere_pixels is not None else
@@ -92,7 +92,7 @@ def scene_comment(what: str, sphere_pixels=None, *, view_dependent: bool = False
             "view whose axis is nearest its normal (envfit.renderers)"])
     lines = ["the scene envfit predicted: a unit sphere at the origin,", f"{what},",
              "lit by the map alone (direct light only); six orthographic views on +-x, +-y,",
-             "+-z (camera at 3 v looking at the origin, image [-1, 1]^2), box pixel filter,",
+             f"+-z (camera at 3 v looking at the origin, image [-1, 1]^2), {pixel_filter},",
              *film, *avg]
     return [f"{mark} {ln}" for ln in lines]
 

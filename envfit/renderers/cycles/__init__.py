@@ -30,7 +30,11 @@ only), which the model does not cover; bpy 5.3.0 was checked by rendering
   where Cycles uses ``fast_erff`` / ``fast_ierff``; the compiled model's variant 2;
   ``src/kernel/closure/bsdf_microfacet.h``), roughness R and α = R² (the Glossy BSDF's
   roughness √α in the harness, ``_render.glossy_bsdf``); Multiscatter GGX (``multiggx``) as
-  an energy scale on it, 1/E of its own albedo table.
+  an energy scale on it, 1/E of its own albedo table; the Principled BSDF (``principled``) at
+  metallic 1 (the F82-tint metal) and at metallic 0, its default (a dielectric GGX closure
+  over a Lambert one: :class:`envfit.shading.microfacet.AlbedoLayered`), the closure picked by
+  the third coordinate of the BSDF's 3-D request (``_patterns.first_hit_points``: the record's
+  ``film_points`` and ``lobe_points`` of Tabulated Sobol and Sobol–Burley).
 * **Scene text and renders** — the bpy snippet (``_scene``), the rendered measurement through
   ``bpy`` (``_render``: :class:`CyclesSphere`, ``version``, ``open_sphere``).
 

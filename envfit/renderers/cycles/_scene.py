@@ -8,19 +8,23 @@ from envfit.renderers._base import (SPHERE_VIEWS, SamplerSpec, StrategySetting,
 
 __all__ = ["cycles_snippet"]
 
-#: the bpy lines that build the measurements' exact sphere (:mod:`envfit.renderers.
-#: _cycles`: one vertex → Mesh to Points of radius 1, which Cycles intersects as an analytic
-#: sphere) with the white Diffuse BSDF (colour 1, roughness 0: Lambertian)
-_SPHERE = """mat = bpy.data.materials.new("white diffuse")
+#: the bpy lines of the sphere's material: the white Diffuse BSDF (colour 1, roughness 0:
+#: Lambertian) unless a microfacet BSDF replaces its node (:func:`_material`)
+_MATERIAL = """mat = bpy.data.materials.new("sphere")
 if mat.node_tree is None:
     mat.use_nodes = True
 nt = mat.node_tree
 nt.nodes.clear()
-bsdf = nt.nodes.new("ShaderNodeBsdfDiffuse")
+{node}nt.links.new(bsdf.outputs["BSDF"], nt.nodes.new("ShaderNodeOutputMaterial").inputs["Surface"])
+"""
+_DIFFUSE = """bsdf = nt.nodes.new("ShaderNodeBsdfDiffuse")
 bsdf.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
 bsdf.inputs["Roughness"].default_value = 0.0
-nt.links.new(bsdf.outputs["BSDF"], nt.nodes.new("ShaderNodeOutputMaterial").inputs["Surface"])
-mesh = bpy.data.meshes.new("vertex")
+"""
+#: the bpy lines that build the measurements' exact sphere (:mod:`envfit.renderers.
+#: _cycles`: one vertex → Mesh to Points of radius 1, which Cycles intersects as an analytic
+#: sphere) with the material ``mat``
+_SPHERE = """mesh = bpy.data.meshes.new("vertex")
 mesh.from_pydata([(0.0, 0.0, 0.0)], [], [])
 sphere = bpy.data.objects.new("sphere", mesh)
 scene.collection.objects.link(sphere)
@@ -59,6 +63,42 @@ view(0)
 """
 
 
+def _material(microfacet) -> tuple[str, str]:
+    """(the material's bpy lines, the BSDF in words) of ``microfacet`` = (name, α, the
+    parameters set) or None (white diffuse): the node the measurements render
+    (:func:`envfit.renderers.cycles._render.glossy_bsdf`) — the Glossy BSDF (colour 1,
+    roughness √α: Cycles squares it; GGX, Beckmann or Multiscatter GGX) or the Principled
+    BSDF (Multiscatter GGX, roughness √α, its inputs at Blender's defaults but those set)."""
+    from envfit.renderers.cycles._bsdf import PRINCIPLED_PARAMS
+    if microfacet is None:
+        return _MATERIAL.format(node=_DIFFUSE), "white Diffuse BSDF (colour 1, roughness 0)"
+    name, alpha = microfacet[0], float(microfacet[1])
+    r = alpha ** 0.5
+    if name == "principled":
+        p = {**PRINCIPLED_PARAMS, **(microfacet[2] if len(microfacet) > 2 else {})}
+        c, t = float(p["base_color"]), float(p["specular_tint"])
+        node = (f'bsdf = nt.nodes.new("ShaderNodeBsdfPrincipled")\n'
+                f'bsdf.distribution = "MULTI_GGX"\n'
+                f'bsdf.inputs["Roughness"].default_value = {r:.6g}\n'
+                f'bsdf.inputs["Base Color"].default_value = ({c:g}, {c:g}, {c:g}, 1.0)\n'
+                f'bsdf.inputs["Metallic"].default_value = {float(p["metallic"]):g}\n'
+                f'bsdf.inputs["IOR"].default_value = {float(p["ior"]):g}\n'
+                f'bsdf.inputs["Specular IOR Level"].default_value = '
+                f'{float(p["specular_ior_level"]):g}\n'
+                f'bsdf.inputs["Specular Tint"].default_value = ({t:g}, {t:g}, {t:g}, 1.0)\n')
+        words = ("Principled BSDF (Multiscatter GGX, roughness " + f"{r:.6g}, " + ", ".join(
+            f"{k} {float(p[k]):g}" for k in PRINCIPLED_PARAMS if k != "roughness")
+            + "; the node's defaults otherwise)")
+        return _MATERIAL.format(node=node), words
+    dist = {"ggx": "GGX", "beckmann": "BECKMANN", "multiggx": "MULTI_GGX"}[name]
+    node = (f'bsdf = nt.nodes.new("ShaderNodeBsdfGlossy")\n'
+            f'bsdf.distribution = "{dist}"\n'
+            f'bsdf.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)\n'
+            f'bsdf.inputs["Roughness"].default_value = {r:.6g}\n')
+    return _MATERIAL.format(node=node), (f"white Glossy BSDF ({dist}, roughness {r:.6g}: "
+                                         f"alpha {alpha:g})")
+
+
 def _settings(n: int, spp: int, pattern: str) -> str:
     """The render settings of the measurements (:func:`envfit.renderers.cycles._render.
     _settings`): an n × n film, Blender's default pixel filter (Blackman–Harris 1.5 px, the
@@ -88,10 +128,12 @@ def _settings(n: int, spp: int, pattern: str) -> str:
 
 
 def cycles_snippet(s: StrategySetting, spec: SamplerSpec, spp: int, *,
-             filename: str = "envmap.exr", sphere_pixels: int | None = None) -> str:
+                   filename: str = "envmap.exr", sphere_pixels: int | None = None,
+                   microfacet: tuple | None = None) -> str:
     """A bpy script of the scene envfit predicted, as the measurements build it
     (:mod:`envfit.renderers.cycles._render`): Blender's empty factory scene, the exact
-    sphere with the white Diffuse BSDF, the world's Environment Texture (Linear) straight into
+    sphere with the white Diffuse BSDF (or ``microfacet``'s node, :func:`_material`), the
+    world's Environment Texture (Linear) straight into
     the Background and its sampling for the strategy, an orthographic camera on each of the
     six :data:`SPHERE_VIEWS` (``view(k)``), a film of :func:`snippet_pixels` pixels with
     Blender's default Blackman–Harris filter of 1.5 px, direct light only (max bounces 1, diffuse 1, the rest 0: the one
@@ -100,7 +142,11 @@ def cycles_snippet(s: StrategySetting, spec: SamplerSpec, spp: int, *,
     ``cycles/properties.py``: ``enum_sampling_pattern``)."""
     method = s.settings["world.cycles.sampling_method"]
     n = snippet_pixels(sphere_pixels)
-    head = "\n".join(scene_comment("white Diffuse BSDF (colour 1, roughness 0)", sphere_pixels))
+    material, words = _material(microfacet)
+    head = "\n".join(scene_comment(words, sphere_pixels,
+                                   view_dependent=microfacet is not None,
+                                   pixel_filter="Blackman-Harris 1.5 px pixel filter "
+                                                "(Blender's default)"))
     views = ",\n         ".join(f"({v}, {u})" for v, u in SPHERE_VIEWS)
     debug = ("bpy.context.preferences.view.show_developer_ui = True\n"
              "bpy.context.preferences.experimental.use_cycles_debug = True\n"
@@ -114,7 +160,7 @@ def cycles_snippet(s: StrategySetting, spec: SamplerSpec, spp: int, *,
             f"bpy.ops.wm.read_factory_settings(use_empty=True)\n"
             f"{debug}"
             f"scene = bpy.context.scene\n"
-            f"{_SPHERE}"
+            f"{material}{_SPHERE}"
             f'world = bpy.data.worlds.new("envmap")\n'
             f"scene.world = world\n"
             f"if world.node_tree is None:\n"
