@@ -121,9 +121,10 @@ def blend_factor_table() -> np.ndarray:
     falls below the surface counting 0, at :math:`r = \sqrt\alpha = \mathrm{clamp}(x/15,
     10^{-4}, 1)`, :math:`\mu = \mathrm{clamp}(y/15, 10^{-4}, 1)` and
     :math:`\eta = (1 + z'^2)/(1 - z'^2)`, :math:`z' = \mathrm{clamp}(z/15, 10^{-4}, 0.99)`
-    (F₀ = z'⁴), by the product Gauss–Legendre rule of :func:`~envfit.shading.microfacet.
-    albedo_table` (48 × 48 nodes on each of 4 × 4 panels), clamped to [0, 1]. 16⁴ columns of
-    the full table take minutes; :func:`blend_factor` computes the four it reads."""
+    (F₀ = z'⁴), by the product Gauss–Legendre rule of
+    :func:`~envfit.shading.microfacet.albedo_table` (48 × 48 nodes on each of 4 × 4 panels),
+    clamped to [0, 1]. 16³ columns of the full table take minutes; :func:`blend_factor`
+    computes the four it reads."""
     n = BLEND_TABLE_SIZE
     return np.stack([np.stack([_column(x, z) for x in range(n)], axis=1) for z in range(n)])
 
@@ -175,7 +176,7 @@ class AlbedoLayered:
 
     >>> b = AlbedoLayered(0.25)
     >>> round(b.f0, 6), [round(float(p), 3) for p in b.lobe_probability(np.array([0.2, 1.0]))]
-    (0.04, [0.163, 0.058])
+    (0.04, [0.173, 0.046])
     >>> wi = np.array([[0.6, 0.0, 0.8]])
     >>> s = b.sample(wi, np.array([[0.01, 0.3, 0.6]]))         # columns: lobe number, square
     >>> bool(s.specular[0]), bool(np.isclose(s.weight[0], b.eval(wi, s.wo)[0] / b.pdf(wi, s.wo)[0]))
