@@ -1,6 +1,8 @@
 """pbrt-v4 (mmp/pbrt-v4 @ 5f7a606806a4), as envfit reads it from its source: everything envfit
-assumes pbrt-v4 does, and where each assumption is held (nothing rendered: it is not
-built here).
+assumes pbrt-v4 does, and where each assumption is held. Rendered by ``bench/pbrt4_check.py``
+with pbrt-v4 built from that commit (docs/validation.md): with its wavelengths fixed
+(``--disable-wavelength-jitter``) the estimator's noise is the model's; by default pbrt-v4 is
+spectral, four wavelengths drawn per camera sample, and that noise is not in the model.
 
 * **Emitter** — ``ImageInfiniteLight`` on the equal-area square of ``imgtool
   makeequiarea`` (``_equal_area``): :class:`Pbrt4ImageInfiniteLight` in ``_light`` with its
