@@ -375,6 +375,8 @@ class RendererAdvice:
                       f"{m['pilot']['normals']} {m.get('unit', 'normals')}"
                       if m.get("pilot") and len(self.answers) > 1 else ""))
         out += model_error_lines(self.model, self.default)
+        if o.record.estimator_note:
+            out.append(f"note: {o.record.estimator_note}")
         return out
 
     def _surface(self) -> str:

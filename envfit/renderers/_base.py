@@ -462,6 +462,8 @@ class Renderer:
         footprint of the model's ``sphere_pixels``); None: the box of width 1
     pixel_filter_note : what its default filter is where the model does not take it
         (``pixel_filter`` None), said with its predictions' footprint
+    estimator_note : a part of the renderer's noise its model leaves out, said with every
+        prediction ("" where none)
     """
 
     name: str
@@ -490,6 +492,7 @@ class Renderer:
     adaptive: object | None = None
     pixel_filter: object | None = None
     pixel_filter_note: str = ""
+    estimator_note: str = ""
 
     def __post_init__(self):
         if self.heuristic not in _HEURISTICS:

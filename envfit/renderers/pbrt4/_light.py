@@ -422,4 +422,10 @@ PBRT4 = Renderer(
                        "sampled by its FilterSampler with the weights f/pdf "
                        "(src/pbrt/filters.h: GaussianFilter::Sample): not modelled on the "
                        "sphere"),
+    estimator_note=("pbrt-v4 renders spectrally, four wavelengths drawn per camera sample "
+                    "(src/pbrt/cpu/integrators.cpp: RayIntegrator::EvaluatePixelSample, "
+                    "SampleWavelengths): these predictions are its estimator's noise with the "
+                    "wavelengths fixed (pbrt --disable-wavelength-jitter); its default "
+                    "rendering adds wavelength noise (rendered, MIS measured 1.2-1.7x these "
+                    "predictions: docs/validation.md, pbrt-v4 rendered)"),
 )
