@@ -27,7 +27,8 @@ from envfit.renderers import get_renderer
 
 RENDERERS = ("envfit", "mitsuba3", "pbrt4", "cycles")
 #: samplers the noise model lacks (refused in one line before the map is read)
-NO_MODEL = {("envfit", "lp"), ("envfit", "sf"), ("envfit", "bnot"), ("pbrt4", "halton")}
+NO_MODEL = {("envfit", "lp"), ("envfit", "sf"), ("envfit", "bnot"), ("pbrt4", "halton"),
+            ("pbrt4", "sobol")}
 CASES = [(r, s) for r in RENDERERS for s in get_renderer(r).samplers]
 
 

@@ -159,7 +159,9 @@ def _check_samplers(args: argparse.Namespace) -> None:
     bad = [s for s in (args.samplers or ()) if s not in p.samplers]
     if bad:
         raise ParameterError(f"--samplers for {args.renderer} must be one of "
-                             f"{', '.join(p.samplers)}; got {bad[0]!r}")
+                             f"{', '.join(p.modelled_samplers)}; got {bad[0]!r}")
+    for s in args.samplers or ():
+        p.sampler(s)                    # one line for a sampler envfit does not predict
 
 
 def run(args: argparse.Namespace, output: CommandOutput) -> int:

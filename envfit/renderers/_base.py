@@ -319,6 +319,8 @@ class SamplerSpec:
     lobe_points : ``(pixels, n, call, seed) -> (pixels, n)`` the sampler's own 1-D numbers
         of call ``call`` of each pixel, in its order and for the pixels of
         :attr:`film_points` (the same seed); None: a lobe number's order is taken as random
+    unmodelled : why envfit does not predict this sampler (a sentence; "" where it does):
+        :meth:`Renderer.sampler` refuses it in one line with this reason
     """
 
     name: str
@@ -331,6 +333,7 @@ class SamplerSpec:
     options: Callable[[int], tuple] | None = None
     film_points: Callable[..., np.ndarray] | None = None
     lobe_points: Callable[..., np.ndarray] | None = None
+    unmodelled: str = ""
 
     def model_options(self, n: int) -> tuple:
         """The randomisation's options for ``n`` points (:attr:`options`; () without)."""
@@ -507,14 +510,27 @@ class Renderer:
         """The renderer's default sampler (pattern)."""
         return next(n for n, s in self.samplers.items() if s.default)
 
+    @property
+    def modelled_samplers(self) -> tuple:
+        """The names of the samplers envfit predicts (every one without
+        :attr:`SamplerSpec.unmodelled`)."""
+        return tuple(n for n, s in self.samplers.items() if not s.unmodelled)
+
     def sampler(self, name=None) -> SamplerSpec:
-        """The sampler called ``name`` (the default for None); ParameterError otherwise."""
+        """The sampler called ``name`` (the default for None); ParameterError otherwise,
+        and for a sampler envfit does not predict (its :attr:`SamplerSpec.unmodelled`)."""
         key = self.default_sampler if name is None else name
         try:
-            return self.samplers[key]
+            spec = self.samplers[key]
         except (KeyError, TypeError):
             raise ParameterError(f"--sampler for {self.name} must be one of "
-                                 f"{', '.join(self.samplers)}; got {name!r}") from None
+                                 f"{', '.join(self.modelled_samplers)}; got {name!r}") from None
+        if spec.unmodelled:
+            ok = self.modelled_samplers
+            raise ParameterError(f"no noise model of {self.display}'s {key} sampler: "
+                                 f"{spec.unmodelled}; choose --sampler "
+                                 f"{', '.join(ok[:-1])} or {ok[-1]}")
+        return spec
 
     def strategy(self, name) -> StrategySetting:
         """The setting of strategy ``name`` (``map``, ``brdf``, ``mis``)."""

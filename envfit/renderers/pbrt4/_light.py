@@ -297,7 +297,10 @@ SAMPLERS = {
     "sobol": SamplerSpec(
         "sobol", "owen", "independent", int,
         "one global Sobol' sequence over the image, dimension-seeded FastOwen scramble "
-        "shared by all pixels; spp unchanged. " + _P + "SobolSampler"),
+        "shared by all pixels; spp unchanged. " + _P + "SobolSampler",
+        unmodelled="a pixel's samples are a run of one image-wide Sobol' sequence "
+        "(SobolIntervalToIndex), whose dimensions 2 and up are not a per-pixel net: rendered, "
+        "its error measured 1.15-2.5x envfit's per-pixel Owen model (bench/pbrt4_check.py)"),
     "pmj02bn": SamplerSpec(
         "pmj02bn", "cp_shift", "independent", int,
         "precomputed pmj02bn sets, Cranley-Patterson rotated by BlueNoise(dimension, pixel); "
@@ -305,7 +308,9 @@ SAMPLERS = {
     "halton": SamplerSpec(
         "halton", "digit_permutation", "independent", int,
         "global Halton over the image, random digit permutations per dimension (seeded "
-        "once); spp unchanged. " + _P + "HaltonSampler"),
+        "once); spp unchanged. " + _P + "HaltonSampler",
+        unmodelled="a pixel's samples are a strided run of one image-wide Halton sequence "
+        "with random digit permutations, a randomisation envfit has no exact model of"),
     "stratified": SamplerSpec(
         "stratified", "jittered", "independent", int,
         "x*y jittered strata (x = spp/d, y = d, d the largest divisor <= sqrt spp), the "
