@@ -214,8 +214,18 @@ def _net_answer(plan: PixelPlan, mse: dict, target: float, percentile, ladder: l
     past the largest, extrapolated from the last two at their local rate (MSE ∝ N^-a)."""
     have = sorted(mse)
     for i, n in enumerate(have):
-        if _measure(plan, mse[n], percentile) <= target * target:
-            return n, (have[i - 1] if i else None), None
+        m1 = _measure(plan, mse[n], percentile)
+        if m1 <= target * target:
+            if not i:
+                return n, None, None
+            n0, m0 = have[i - 1], _measure(plan, mse[have[i - 1]], percentile)
+            a = math.log(m0 / m1) / math.log(n / n0) if m0 > 0 and m1 > 0 else 1.0
+            prev = n0                       # between two predicted counts: their local rate
+            for x in (x for x in ladder if n0 < x < n):
+                if m0 * (n0 / x) ** a <= target * target:
+                    return x, prev, None
+                prev = x
+            return n, prev, None
     if len(have) < 2:
         return None, have[-1], None
     (n0, n1), (m0, m1) = have[-2:], (_measure(plan, mse[n], percentile) for n in have[-2:])
@@ -226,6 +236,15 @@ def _net_answer(plan: PixelPlan, mse: dict, target: float, percentile, ladder: l
             return n, prev, a / 2
         prev = n
     return None, prev, a / 2
+
+
+def _predicted(ladder: list[int]) -> list[int]:
+    """The counts of ``ladder`` a net sampler's frame is predicted at: all of them, or the
+    powers of two where the sampler runs nearly every count (Cycles: any integer) — the
+    answer between two is then interpolated at their local rate (:func:`_net_answer`)."""
+    if len(ladder) <= 2 * max(1, max(ladder).bit_length()):
+        return ladder
+    return [n for n in ladder if n & (n - 1) == 0]
 
 
 def _ladder(spec, top: int) -> list[int]:
@@ -276,7 +295,7 @@ def predict_frame(scene, options: FrameOptions | None = None, **kw) -> FramePred
         spps = tuple(dict.fromkeys(int(spec.spp(n)) for n in spps))
         level = net_level(opts.level, spps)
         ladder = _ladder(spec, NET_TOP)
-        todo = sorted(set(spps) | {n for n in ladder if n <= resolved(level)})
+        todo = sorted(set(spps) | {n for n in _predicted(ladder) if n <= resolved(level)})
         bar = progress_bar(len(plan.targets), desc="frame model", quiet=opts.quiet,
                            unit="pixel")
         value, mse, rays, edges = pixel_mse_nets(fs, block, plan.targets, todo, level,
@@ -307,7 +326,11 @@ def predict_frame(scene, options: FrameOptions | None = None, **kw) -> FramePred
     if spec is not None:
         notes.append(f"{fs.sampler}: " + LIMITS.format(
             r=", ".join(f"{scrambles(n)} at {n} spp" for n in spps), level=level,
-            top=max(by_spp)))
+            top=max(by_spp), filt="box filter" if fs.film_warp is None else
+            f"the {fs.film_warp.name} filter importance-sampled, each sample in its own pixel"))
+        if answer is not None and answer not in by_spp:
+            notes.append(f"{fs.sampler} runs any spp: the answer lies between two spp "
+                         f"predicted and is interpolated at their local rate")
         if rate is not None:
             notes.append(f"past {max(by_spp)} spp the answer is extrapolated from "
                          f"{sorted(by_spp)[-2]} and {max(by_spp)} spp at their local rate, "

@@ -311,12 +311,14 @@ def _surface_moments(h: dict, tq: _Techniques, vis: Visibility, fs: FrameScene, 
     return mean, var, rays
 
 
-def edge_pixels(block: FilmBlock, vis: Visibility, fine: int = _SUB) -> np.ndarray:
+def edge_pixels(block: FilmBlock, vis: Visibility, fine: int = _SUB,
+                span: tuple = (0.0, 1.0)) -> np.ndarray:
     """Whether each pixel of ``block`` (F,) is crossed by a silhouette: its camera rays at
     ``fine`` × ``fine`` positions (interpolated from its corner rays, cast by Embree against
     the occluders) meet more than one shape, or a shape and the map. The S × S film points
-    can miss such an edge."""
-    t = (np.arange(fine) + 0.5) / fine
+    can miss such an edge. ``span`` (start, size): the film square its samples reach, in
+    pixels from its corner (the pixel; wider for an importance-sampled filter)."""
+    t = span[0] + span[1] * (np.arange(fine) + 0.5) / fine
     u, v = np.broadcast_arrays(t[None, :], t[:, None])
     out = np.zeros(len(block.pixels), bool)
     for lo in range(0, len(out), 256):
@@ -437,5 +439,8 @@ def pixel_mse(fs: FrameScene, block: FilmBlock, pm: PointMoments,
 
 
 def filter_reach(fs: FrameScene) -> int:
-    """How many pixels away a sample still weighs on a pixel (0 for the box filter)."""
-    return 0 if fs.filter_name == "box" else int(np.ceil(fs.filter_radius - 0.5))
+    """How many pixels away a sample still weighs on a pixel (0 for the box filter, and
+    where the renderer importance-samples its filter: :attr:`FrameScene.film_warp`)."""
+    if fs.filter_name == "box" or fs.film_warp is not None:
+        return 0
+    return int(np.ceil(fs.filter_radius - 0.5))

@@ -47,13 +47,17 @@ from envfit.frame._model import (FilmBlock, _lerp, _Techniques, edge_pixels,
 from envfit.frame._visibility import Visibility
 from envfit.renderers import HIT_SURFACE, FrameScene, get_renderer
 
-__all__ = ["net_sampler", "pixel_mse_nets", "scrambles", "net_level", "resolved", "LIMITS"]
+__all__ = ["net_sampler", "pixel_mse_nets", "scrambles", "net_level", "resolved", "LIMITS",
+           "film_span", "cell_weights"]
 
 #: what the net model leaves out, as the prediction's note says it
-LIMITS = ("each pixel's error from the sampler's own points over {r} of its scrambles (box "
-          "filter), the tables at level {level} (4^{level} points; predicted to {top} spp), "
+LIMITS = ("each pixel's error from the sampler's own points over {r} of its scrambles ({filt}"
+          "), the tables at level {level} (4^{level} points; predicted to {top} spp), "
           "the error above their grid from their finest shell; the film's variation inside "
           "a film cell is left out")
+#: the share of an importance-sampled filter's samples allowed past the film square the
+#: model tabulates (:func:`film_span`)
+TAIL = 0.02
 #: film cells per side where a silhouette crosses the pixel
 _EDGE = 8
 #: pixels per batch of tables
@@ -65,12 +69,15 @@ ABOVE = 1.0 / 3.0
 
 
 def net_sampler(fs: FrameScene):
-    """The scene's sampler record if its error is modelled here (a net per pixel with the
-    renderer's own points), else None; a scene it cannot model is refused in one line."""
+    """The scene's sampler record if its error is modelled here (the renderer's own points
+    per pixel: a net in Mitsuba's ``ldsampler`` orders, or any sampler of a renderer that
+    importance-samples its filter and gives its points), else None; a scene it cannot model
+    is refused in one line."""
     spec = get_renderer(fs.renderer).sampler(fs.sampler)
-    if spec.pairing != "same_net_permuted" or spec.film_points is None:
+    if spec.film_points is None or (spec.pairing != "same_net_permuted"
+                                    and fs.film_warp is None):
         return None
-    if fs.filter_name != "box":
+    if fs.filter_name != "box" and fs.film_warp is None:
         raise ParameterError(f"the scene's {fs.sampler} sampler is predicted with the box "
                              f"filter only so far (the film has {fs.filter_name}): its "
                              f"samples' splats to neighbouring pixels are not modelled")
@@ -98,12 +105,46 @@ def resolved(level: int) -> int:
     return 4 ** (int(level) - 1)
 
 
-def _sky(block: FilmBlock, rows, tq: _Techniques) -> dict:
-    """Film cells on an :data:`_EDGE`² grid of the pixels ``rows`` of ``block`` where the
-    camera sees only the map: the map's radiance by the renderer's own technique at the
-    camera directions interpolated from each pixel's corner rays."""
+def film_span(fs: FrameScene) -> tuple[float, float]:
+    """(start, size): the film square a pixel's samples reach, in pixels from its corner per
+    axis — the pixel (0, 1), or where an importance-sampled filter puts all but
+    :data:`TAIL` of them (:attr:`~envfit.renderers._frame.FrameScene.film_warp`), rounded
+    out to quarter pixels: Cycles' Blackman–Harris 1.5 px reaches ±1.5 px from the centre
+    (its table spans twice the width), 98 % of its samples within ±0.93: (−0.5, 2). The rest
+    count in the square's edge cells (:func:`_film` clamps them)."""
+    if fs.film_warp is None:
+        return 0.0, 1.0
+    u = (np.arange(1 << 16) + 0.5) / (1 << 16)
+    reach = float(np.quantile(np.abs(fs.film_warp.offset(u)), 1.0 - TAIL))
+    e = np.ceil(max(0.0, reach - 0.5) * 4.0 - 1e-9) / 4.0
+    return -e, 1.0 + 2.0 * e
+
+
+def _film(fs: FrameScene, u: np.ndarray) -> np.ndarray:
+    """The film numbers ``u`` in [0, 1) as positions in the :func:`film_span` square, in
+    [0, 1) of its side (the filter's offset where the renderer importance-samples it)."""
+    if fs.film_warp is None:
+        return u
+    lo, size = film_span(fs)
+    return np.clip((fs.film_warp.offset(u) + 0.5 - lo) / size, 0.0, 1.0 - 1e-12)
+
+
+def cell_weights(fs: FrameScene, g: int) -> np.ndarray:
+    """The probability (g,) that a sample's film position falls in each of g equal cells of
+    the :func:`film_span` side (1/g each for a uniform film; the filter's mass in each)."""
+    if fs.film_warp is None:
+        return np.full(int(g), 1.0 / int(g))
+    u = (np.arange(1 << 16) + 0.5) / (1 << 16)
+    c = np.minimum((_film(fs, u) * g).astype(np.int64), int(g) - 1)
+    return np.bincount(c, minlength=int(g)) / float(len(u))
+
+
+def _sky(block: FilmBlock, rows, tq: _Techniques, span=(0.0, 1.0)) -> dict:
+    """Film cells on an :data:`_EDGE`² grid over the ``span`` square of the pixels ``rows``
+    of ``block`` where the camera sees only the map: the map's radiance by the renderer's
+    own technique at the camera directions interpolated from each pixel's corner rays."""
     g = _EDGE
-    t = (np.arange(g) + 0.5) / g
+    t = span[0] + span[1] * (np.arange(g) + 0.5) / g
     u, v = np.broadcast_arrays(t[None, :], t[:, None])
     d = _lerp(block.corners[rows], u, v).reshape(-1, 3)
     d /= np.linalg.norm(d, axis=1)[:, None]
@@ -121,34 +162,45 @@ def _cells(fs: FrameScene, block: FilmBlock, sel: np.ndarray, edges: np.ndarray,
     only the map — :func:`_sky`); flat arrays with ``pixel`` (its row in ``sel``),
     ``cell`` (row-major in its grid) and ``edge`` (on an edge grid of first hits)."""
     s = block.side
+    span = film_span(fs)
     sky = np.all(block.hits["kind"][sel] != HIT_SURFACE, axis=(1, 2)) & ~edges[sel]
     parts, meta = [], []
     plain = [k for k, i in enumerate(sel) if not edges[i] and not sky[k]]
-    if plain:
+    if plain and fs.film_warp is None:
         h = {key: v[sel[plain]].reshape((len(plain) * s * s,) + v.shape[3:])
              for key, v in block.hits.items()}
         parts.append(h)
         meta.append((np.repeat(plain, s * s), np.tile(np.arange(s * s), len(plain)),
                      np.zeros(len(plain) * s * s, bool)))
+    elif plain:                                  # the filter's square, cells ≈ 1/S px
+        w = int(np.ceil(s * span[1] - 1e-9))
+        parts.append(_grid_hits(fs, block.pixels[sel[plain]], w, span))
+        meta.append((np.repeat(plain, w * w), np.tile(np.arange(w * w), len(plain)),
+                     np.zeros(len(plain) * w * w, bool)))
     g = _EDGE
     blue = np.flatnonzero(sky)
     if len(blue):
-        parts.append(_sky(block, sel[blue], tq))
+        parts.append(_sky(block, sel[blue], tq, span))
         meta.append((np.repeat(blue, g * g), np.tile(np.arange(g * g), len(blue)),
                      np.zeros(len(blue) * g * g, bool)))
     fine = [k for k, i in enumerate(sel) if edges[i]]
     if fine:
-        t = (np.arange(g) + 0.5) / g
-        yy, xx = np.meshgrid(t, t, indexing="ij")
-        px = block.pixels[sel[fine]]
-        fx = (px[:, 1, None] + xx.ravel()[None, :]).ravel()
-        fy = (px[:, 0, None] + yy.ravel()[None, :]).ravel()
-        parts.append(fs.hits_at(np.column_stack([fx, fy])))
+        parts.append(_grid_hits(fs, block.pixels[sel[fine]], g, span))
         meta.append((np.repeat(fine, g * g), np.tile(np.arange(g * g), len(fine)),
                      np.ones(len(fine) * g * g, bool)))
     h = {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
     h["pixel"], h["cell"], h["edge"] = (np.concatenate([m[i] for m in meta]) for i in range(3))
     return h
+
+
+def _grid_hits(fs: FrameScene, pixels: np.ndarray, g: int, span) -> dict:
+    """The renderer's first hits at the midpoints of a g × g grid over the ``span`` square
+    of each of ``pixels`` (P, 2) (row, column), row-major per pixel."""
+    t = span[0] + span[1] * (np.arange(g) + 0.5) / g
+    yy, xx = np.meshgrid(t, t, indexing="ij")
+    fx = (pixels[:, 1, None] + xx.ravel()[None, :]).ravel()
+    fy = (pixels[:, 0, None] + yy.ravel()[None, :]).ravel()
+    return fs.hits_at(np.column_stack([fx, fy]))
 
 
 def _tables(fs: FrameScene, h: dict, fine: _Techniques, coarse: _Techniques,
@@ -178,6 +230,17 @@ def _tables(fs: FrameScene, h: dict, fine: _Techniques, coarse: _Techniques,
                 top += sz * len(b)
             rays += cast
     return np.concatenate(chunks), offs, sides, rays
+
+
+def _weights(fs: FrameScene, grid: np.ndarray, cell: np.ndarray) -> np.ndarray:
+    """The probability of each film cell (its pixel's grid side ``grid``, its row-major
+    index ``cell``) that a sample falls in it (:func:`cell_weights` per axis)."""
+    out = np.empty(len(cell))
+    for g in np.unique(grid):
+        w = cell_weights(fs, int(g))
+        at = grid == g
+        out[at] = w[cell[at] // g] * w[cell[at] % g]
+    return out
 
 
 @numba.njit(cache=True, inline="always")
@@ -257,13 +320,17 @@ def pixel_mse_nets(fs: FrameScene, block: FilmBlock, targets, spps, level: int, 
     index = {(int(y), int(x)): i for i, (y, x) in enumerate(block.pixels)}
     sel = np.array([index[(int(y), int(x))] for y, x in tg], dtype=np.int64)
     vis = Visibility(fs.occluders)
-    edges = edge_pixels(block, vis)
+    edges = edge_pixels(block, vis, span=film_span(fs))
     base = int(level) if base is None else int(base)
     fine = _Techniques(fs, int(level), gloss_base=base)
     coarse = _Techniques(fs, max(2, int(level) - 1), technique=fine.tech, gloss_base=base - 1)
     calls = fs.draws
     dims = max(calls) + 1
-    points = {n: spec.film_points(scrambles(n), n, dims, seed) for n in spps}
+    points = {}
+    for n in spps:
+        pt = np.array(spec.film_points(scrambles(n), n, dims, seed))
+        pt[:, :, 0] = _film(fs, pt[:, :, 0])
+        points[n] = pt
     value = np.zeros((len(tg), 3))
     mse = {n: np.zeros((len(tg), 3)) for n in spps}
     rays = 0
@@ -277,6 +344,7 @@ def pixel_mse_nets(fs: FrameScene, block: FilmBlock, targets, spps, level: int, 
         counts = np.bincount(h["pixel"], minlength=len(part))
         first = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
         grid = np.round(np.sqrt(counts)).astype(np.int64)
+        weight = _weights(fs, grid[h["pixel"][order]], h["cell"][order])
         cell_mean, shell = np.zeros((len(offs), 3)), np.zeros((len(offs), 3))
         for p in (0, 1):
             a, b = np.zeros((len(offs), 3)), np.zeros((len(offs), 3))
@@ -284,8 +352,8 @@ def pixel_mse_nets(fs: FrameScene, block: FilmBlock, targets, spps, level: int, 
                          np.ascontiguousarray(sides[:, p]), a, b)
             cell_mean += a
             shell += b
-        means = np.add.reduceat(cell_mean, first, axis=0) / counts[:, None]
-        above = np.add.reduceat(shell, first, axis=0) / counts[:, None]
+        means = np.add.reduceat(cell_mean * weight[:, None], first, axis=0)
+        above = np.add.reduceat(shell * weight[:, None], first, axis=0)
         value[lo:lo + len(part)] = means
         for n in spps:
             pt = points[n]

@@ -86,6 +86,10 @@ class FrameScene:
     filter_radius : its radius in pixels.
     filter_weights : the filter's 1-D weight at offsets (pixels) from a pixel's centre, a
         callable of an array — the renderer's own ``eval``.
+    film_warp : where the renderer *importance-samples* its filter (Cycles), the
+        :class:`~envfit.renderers.FilmWarp` each sample's offset from its pixel's centre
+        follows, per axis — the sample then counts in its own pixel only; None: the samples
+        are uniform in their pixel and splat with ``filter_weights`` (Mitsuba, pbrt's box).
     hits_at : the first hits of the camera rays at film positions (P, 2) in pixels (x right,
         y down), by the renderer: a dict of arrays (P, …): ``kind`` (int8, :data:`HIT_NONE`
         or :data:`HIT_SURFACE`), ``position`` (world), ``normal`` (shading), ``geo_normal``
@@ -122,6 +126,7 @@ class FrameScene:
     notes: tuple = ()
     bsdfs: tuple = ()
     draws: tuple | None = None
+    film_warp: object = None
 
     @property
     def width(self) -> int:

@@ -429,7 +429,7 @@ SAMPLERS = {
         "(drawn: _patterns.BlueNoiseRuns); Blender 'BLUE_NOISE' (= BLUE_NOISE_PURE, and "
         "'AUTOMATIC' for final renders: blender/sync.cpp sync_integrator); spp unchanged. "
         + _C + "pattern.h blue_noise_indexing, path_rng_pixel_init; sobol_burley.h",
-        options=_blue_noise_options),
+        options=_blue_noise_options, film_points=film_points_of("blue_noise")),
     "sobol_burley": SamplerSpec(
         "sobol_burley", "owen", "independent", int,
         "per pixel Owen-scrambled Sobol' (index shuffled, coordinates scrambled with seeds "

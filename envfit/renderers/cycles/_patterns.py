@@ -350,9 +350,12 @@ def _distinct_tables(rng: np.random.Generator, r: int) -> np.ndarray:
 def first_hit_points(sampler: str, samples: int, pixels: int, seed: int) -> tuple:
     """The film's (x, y), the light's (x, y) and the BSDF's (x, y, z) of the samples
     0 … samples − 1 of ``pixels`` pixels of a render of ``samples`` spp under ``sampler``
-    (``tabulated_sobol`` or ``sobol_burley``; float64 (R, samples, 2 or 3), read-only),
-    drawn from ``seed``: each pixel's requests read as the kernel reads them (Tabulated Sobol:
-    a random table and index scramble per request; Sobol–Burley: the pixel's seed), the BSDF's
+    (``tabulated_sobol``, ``sobol_burley`` or ``blue_noise``; float64 (R, samples, 2 or 3),
+    read-only), drawn from ``seed``: each pixel's requests read as the kernel reads them
+    (Tabulated Sobol: a random table and index scramble per request; Sobol–Burley: the
+    pixel's seed; blue noise: the run of a uniformly random pixel, as :data:`BLUE_NOISE`
+    draws them), the film's sample 0 at the pixel's centre
+    (``src/kernel/integrator/init_from_camera.h``: ``integrate_camera_sample``), the BSDF's
     z the third coordinate of its 3-D request — what ``surface_shader_bsdf_bssrdf_pick``
     picks a closure with."""
     rng = np.random.default_rng([int(seed), int(samples), 0xC7C1E5])
@@ -376,9 +379,17 @@ def first_hit_points(sampler: str, samples: int, pixels: int, seed: int) -> tupl
                for d in (FILTER, LIGHT, BSDF)]
         z = sobol_burley_z(idx, BSDF, seeds, mask).astype(np.float64)
         out[2] = np.concatenate([out[2], z[..., None]], axis=-1)
+    elif sampler == "blue_noise":
+        p = rng.integers(0, 1 << 32, size=r, dtype=np.uint64)
+        idx = blue_noise_indices(n, p, n)
+        out = [sobol_burley_xy(idx, d, 0, 0xFFFFFFFF, _WIDTH[d]).astype(np.float64)
+               for d in (FILTER, LIGHT, BSDF)]
+        z = sobol_burley_z(idx, BSDF, 0, 0xFFFFFFFF).astype(np.float64)
+        out[2] = np.concatenate([out[2], z[..., None]], axis=-1)
     else:
         raise ParameterError(f"no first-hit points of Cycles' {sampler!r} pattern here: "
-                             f"tabulated_sobol or sobol_burley")
+                             f"tabulated_sobol, sobol_burley or blue_noise")
+    out[0][:, 0] = 0.5                  # integrate_camera_sample: sample 0 at the centre
     for a in out:
         a.flags.writeable = False
     return tuple(out)
