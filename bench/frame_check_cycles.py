@@ -6,8 +6,9 @@ a torus mesh that shadows itself; diffuse materials of several colours) under ea
 ``envfit frame`` (``envfit.renderers.cycles._frame_scene``). Every scene keeps Cycles'
 defaults where they are what a user keeps: the pattern *Automatic* (blue noise for a final
 render) or ``--pattern``, the Blackman–Harris 1.5 px filter (importance-sampled), the light
-tree; it sets what the frame model's scope needs: direct lighting (Max Bounces 1: the BSDF
-ray's next hit ends the path), adaptive sampling off, no denoising.
+tree; it sets what the frame model's scope needs: direct lighting (Max Bounces 0: the kernel's
+1, the BSDF ray's next hit ends the path — ``_frame_scene``'s docstring), adaptive sampling
+off, no denoising.
 
 Each spp is rendered ``--renders`` times with different seeds; each pixel's MSE is measured
 against the mean of two references at ``--reference-spp`` (their own noise, from their
@@ -109,7 +110,7 @@ def build(path: Path, scene_name: str, envmap: Path, size=(64, 48),
     scene.view_settings.view_transform = "Standard"
     c.device, c.samples, c.sampling_pattern = "CPU", 16, PATTERNS[pattern]
     c.use_adaptive_sampling, c.use_denoising = False, False
-    c.max_bounces = c.diffuse_bounces = c.glossy_bounces = 1
+    c.max_bounces = c.diffuse_bounces = c.glossy_bounces = 0
     c.transmission_bounces = c.volume_bounces = c.transparent_max_bounces = 0
     c.sample_clamp_direct = c.sample_clamp_indirect = 0.0
     _world(bpy, scene, str(envmap))

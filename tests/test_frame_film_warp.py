@@ -54,7 +54,7 @@ def _scene(warp, sampler="tabulated_sobol") -> FrameScene:
                                         [-big, big, 0]], float),
                      np.array([[0, 1, 2], [0, 2, 3]]), True)
     return FrameScene("plane.blend", "cycles", (W, H), (plane,), data, np.eye(3), 1.0,
-                      sampler, 16, "path", 1, 1, 1, "blackman_harris", 0.75,
+                      sampler, 16, "path", 1, 1, 2, "blackman_harris", 0.75,
                       lambda x: np.ones_like(x), hits, rays, draws=(1, 2), film_warp=warp)
 
 
@@ -135,3 +135,14 @@ def test_error_matches_a_simulation_at_each_samples_film_position():
     truth = _albedo(3.5 + warp.offset(u)).mean() * (te.mean((0, 1)) + tb.mean((0, 1)))
     sim = ((f.mean(axis=1) - truth) ** 2).mean(axis=0)
     assert np.allclose(mse[n][0], sim, rtol=0.25), (mse[n][0], sim)
+
+
+def test_weighted_percentile_is_numpys_inverted_cdf():
+    """The pixel percentiles without numpy 2's weighted percentile (bpy pins numpy < 2):
+    equal to ``np.percentile(..., weights=, method="inverted_cdf")`` where numpy has it."""
+    from envfit.frame._api import _percentile
+    rng = np.random.default_rng(3)
+    x, w = rng.random(101), rng.integers(1, 5, 101).astype(float)
+    for q in (1, 10, 50, 90, 99, 100):
+        ref = np.percentile(np.repeat(x, w.astype(int)), q, method="inverted_cdf")
+        assert _percentile(x, q, w) == ref

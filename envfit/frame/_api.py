@@ -33,7 +33,7 @@ from envfit.renderers import get_renderer
 __all__ = ["FrameOptions", "FrameRow", "FramePrediction", "predict_frame", "READERS"]
 
 #: scene file suffix → the renderer that reads it (its folder's ``_frame_scene.read_scene``)
-READERS = {".xml": "mitsuba3"}
+READERS = {".xml": "mitsuba3", ".blend": "cycles"}
 #: pixel percentiles reported per spp
 PERCENTILES = (50, 90, 99)
 #: the largest spp a net sampler's answer is searched to
@@ -189,16 +189,25 @@ def _row(plan: PixelPlan, mse: np.ndarray, n: int, mean: float) -> FrameRow:
     se = plan.standard_error(v) / (2 * plan.mean(v)) if plan.mean(v) > 0 else 0.0
     pix = np.sqrt(v)
     return FrameRow(int(n), img, img / mean if mean > 0 else math.inf,
-                    {q: float(np.percentile(pix, q, weights=plan.weights,
-                                            method="inverted_cdf")) for q in PERCENTILES},
-                    float(se))
+                    {q: _percentile(pix, q, plan.weights) for q in PERCENTILES}, float(se))
+
+
+def _percentile(x: np.ndarray, q: float, weights: np.ndarray) -> float:
+    """The weighted ``q``-th percentile of ``x`` by the inverted CDF: the smallest value
+    whose cumulative weight reaches q % of the total (numpy 2's ``np.percentile(x, q,
+    weights=…, method="inverted_cdf")``, written out for numpy 1.24+, which Blender's
+    ``bpy`` wheels pin)."""
+    order = np.argsort(x, kind="stable")
+    cum = np.cumsum(np.asarray(weights, dtype=np.float64)[order])
+    i = int(np.searchsorted(cum, q / 100.0 * cum[-1] * (1 - 1e-12), side="left"))
+    return float(x[order][min(i, len(x) - 1)])
 
 
 def _measure(plan: PixelPlan, mse: np.ndarray, percentile) -> float:
     """The image MSE, or the square of the pixels' RMSE at ``percentile``."""
     v = mse.mean(axis=1)
-    return float(plan.mean(v)) if percentile is None else float(np.percentile(
-        np.sqrt(v), percentile, weights=plan.weights, method="inverted_cdf")) ** 2
+    return float(plan.mean(v)) if percentile is None else _percentile(
+        np.sqrt(v), percentile, plan.weights) ** 2
 
 
 def _answer(plan: PixelPlan, mse1: np.ndarray, target: float, percentile) -> int:
@@ -327,8 +336,8 @@ def predict_frame(scene, options: FrameOptions | None = None, **kw) -> FramePred
         notes.append(f"{fs.sampler}: " + LIMITS.format(
             r=", ".join(f"{scrambles(n)} at {n} spp" for n in spps), level=level,
             top=max(by_spp), filt="box filter" if fs.film_warp is None else
-            f"the {fs.film_warp.name} filter importance-sampled, each sample in its own pixel"))
-        if answer is not None and answer not in by_spp:
+            f"{fs.film_warp.name}, each sample in its own pixel"))
+        if answer is not None and answer not in by_spp and rate is None:
             notes.append(f"{fs.sampler} runs any spp: the answer lies between two spp "
                          f"predicted and is interpolated at their local rate")
         if rate is not None:

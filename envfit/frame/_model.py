@@ -113,11 +113,12 @@ class _Techniques:
     def __init__(self, fs: FrameScene, level: int, technique=None,
                  gloss_base: int | None = None):
         rec = get_renderer(fs.renderer)
-        opts = {"scale": fs.envmap_scale} if fs.envmap_scale != 1.0 else {}
         self.rec, self.level = rec, int(level)
         self.gloss_base = self.level if gloss_base is None else int(gloss_base)
-        self.tech = technique if technique is not None else \
-            rec.technique(EnvMap(fs.envmap_data), **opts)
+        # the radiance scale multiplies the texels (every renderer's importance map is
+        # invariant to it; Mitsuba's scale and Cycles' Strength alike)
+        data = fs.envmap_data if fs.envmap_scale == 1.0 else fs.envmap_data * fs.envmap_scale
+        self.tech = technique if technique is not None else rec.technique(EnvMap(data))
         self.map = MapTable.build(self.tech, level)
         self.local = BsdfTable.build(rec, level).local
         self.rot = np.asarray(fs.envmap_to_world, dtype=np.float64)
