@@ -81,6 +81,11 @@ def net_sampler(fs: FrameScene):
         raise ParameterError(f"the scene's {fs.sampler} sampler is predicted with the box "
                              f"filter only so far (the film has {fs.filter_name}): its "
                              f"samples' splats to neighbouring pixels are not modelled")
+    two = [b.name for b in fs.bsdfs if b.lobes > 1]
+    if two:
+        raise ParameterError(f"{two[0]} picks one of two lobes per sample: its lobe choice "
+                             f"under the {fs.sampler} sampler's own points is not in the frame "
+                             f"model yet")
     if fs.draws is None:
         raise ParameterError(f"the scene's integrator ({fs.integrator}, {fs.emitter_samples} "
                              f"emitter and {fs.bsdf_samples} BSDF samples) has no known "
