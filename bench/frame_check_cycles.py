@@ -58,6 +58,24 @@ def _material(bpy, name: str, rgb) -> object:
     return mat
 
 
+def _glossy(bpy, name: str, rgb, roughness: float, principled: bool = False) -> object:
+    """A Glossy BSDF (its default distribution, Multiscatter GGX) or a Principled BSDF at
+    Metallic 1 (base colour ``rgb``), constant inputs."""
+    mat = bpy.data.materials.new(name)
+    _use_nodes(mat)
+    nt = mat.node_tree
+    for n in list(nt.nodes):
+        nt.nodes.remove(n)
+    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    node = nt.nodes.new("ShaderNodeBsdfPrincipled" if principled else "ShaderNodeBsdfGlossy")
+    node.inputs["Base Color" if principled else "Color"].default_value = (*rgb, 1.0)
+    node.inputs["Roughness"].default_value = roughness
+    if principled:
+        node.inputs["Metallic"].default_value = 1.0
+    nt.links.new(node.outputs["BSDF"], out.inputs["Surface"])
+    return mat
+
+
 def _object(bpy, scene, name: str, mesh, mat, location=(0, 0, 0), scale=1.0, smooth=False):
     if smooth:
         for p in mesh.polygons:
@@ -133,6 +151,14 @@ def build(path: Path, scene_name: str, envmap: Path, size=(64, 48),
         ob.rotation_euler = (math.radians(60), 0.0, math.radians(20))
         _object(bpy, scene, "sphere", _mesh(bpy, "sphere", "sphere"),
                 _material(bpy, "white", (0.9, 0.9, 0.9)), (-1.2, 0.8, 0.4), 0.4, smooth=True)
+    elif scene_name == "gloss":
+        _object(bpy, scene, "glossy", _mesh(bpy, "sphere", "sphere"),
+                _glossy(bpy, "ggx", (0.9, 0.9, 0.9), 0.3), (-0.6, 0.0, 0.5), 0.5, smooth=True)
+        _object(bpy, scene, "gold", _mesh(bpy, "sphere", "sphere"),
+                _glossy(bpy, "gold", (1.0, 0.77, 0.34), 0.5, principled=True),
+                (0.6, 0.2, 0.4), 0.4, smooth=True)
+        _object(bpy, scene, "cube", _mesh(bpy, "cube", "cube"),
+                _material(bpy, "grey", (0.6, 0.6, 0.6)), (0.3, -0.8, 0.2), 0.2)
     else:
         raise SystemExit(f"unknown scene {scene_name!r}")
     path.parent.mkdir(parents=True, exist_ok=True)
