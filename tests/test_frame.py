@@ -183,7 +183,7 @@ def test_the_net_simulation_is_the_digital_shifts_exact_mse():
     offs, sides = np.array([[0, m * m]]), np.array([[m, 1]])
     pts = get_renderer("mitsuba3").sampler("ldsampler").film_points(4096, n, 3, 1)
     out = np.zeros((1, 3))
-    _squared_errors(flat, offs, sides, np.array([[0, 1]]),
+    _squared_errors(flat, offs, sides, np.arange(len(offs)), np.array([[0, 1]]),
                     np.ascontiguousarray(pts.transpose(2, 0, 1, 3)),
                     np.full((1, 3), table.mean()), out)
     exact = randomised_mse("digital_shift", DyadicGrid.from_arrays(table, table ** 2), n).mse[0]

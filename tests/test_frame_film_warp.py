@@ -146,3 +146,17 @@ def test_weighted_percentile_is_numpys_inverted_cdf():
     for q in (1, 10, 50, 90, 99, 100):
         ref = np.percentile(np.repeat(x, w.astype(int)), q, method="inverted_cdf")
         assert _percentile(x, q, w) == ref
+
+
+def test_neighbours_share_the_film_grids_cells():
+    """Under the filter's 1.5-px-wide squares, neighbouring pixels read the same cells of
+    one film grid: the shared cells' hits are each pixel's own square's, with fewer casts."""
+    from envfit.frame._nets import _grid_hits, _shared
+    fs = _scene(film_warp("blackman_harris", 1.5))
+    px = np.array([[1, 1], [1, 2], [2, 1], [2, 2]])
+    span = film_span(fs)
+    h, pix, cell, row = _shared(fs, px, 2, span)
+    own = _grid_hits(fs, px, 4, span)
+    assert np.array_equal(pix, np.repeat(np.arange(4), 16)) and len(row) == 64
+    assert np.allclose(h["position"][row], own["position"], atol=1e-12)
+    assert len(h["kind"]) == 36                       # 6 × 6 distinct cells, not 64

@@ -60,8 +60,9 @@ LIMITS = ("each pixel's error from the sampler's own points over {r} of its scra
 TAIL = 0.02
 #: film cells per side where a silhouette crosses the pixel
 _EDGE = 8
-#: pixels per batch of tables
-_PIXELS = 24
+#: pixels per batch of tables (a batch under an importance-sampled filter: its pixels share
+#: their cells, :func:`_shared`, so it takes a few rows of the film)
+_PIXELS, _PIXELS_SHARED = 24, 192
 #: the error above the tables' grid: this share of their finest shell's power, over N (the
 #: power above a grid whose integrand is linear inside the cells of the grid one coarser is
 #: 1/3 of the finest shell's, each finer shell holding a quarter of the one before)
@@ -161,11 +162,15 @@ def _sky(block: FilmBlock, rows, tq: _Techniques, span=(0.0, 1.0)) -> dict:
 
 
 def _cells(fs: FrameScene, block: FilmBlock, sel: np.ndarray, edges: np.ndarray,
-           tq: _Techniques) -> dict:
-    """The film cells' hits of the block's pixels ``sel``: every pixel on a G × G grid (G = S;
-    :data:`_EDGE` where ``edges`` — the renderer's first hits — or where the camera sees
-    only the map — :func:`_sky`); flat arrays with ``pixel`` (its row in ``sel``),
-    ``cell`` (row-major in its grid) and ``edge`` (on an edge grid of first hits)."""
+           tq: _Techniques) -> tuple[dict, np.ndarray, np.ndarray, np.ndarray]:
+    """The film cells of the block's pixels ``sel``: every pixel on a G × G grid over its
+    :func:`film_span` (G = S, or ⌈S × span⌉ cells of about 1/S px under an importance-
+    sampled filter; :data:`_EDGE` where ``edges`` — the renderer's first hits — or where the
+    camera sees only the map — :func:`_sky`). Returns the cells' hits (flat arrays, one row
+    per distinct cell, with ``edge``: on an edge grid of first hits) and, per (pixel, cell),
+    its ``pixel`` (row in ``sel``), ``cell`` (row-major in its grid) and ``row`` in the hits:
+    an importance-sampled filter's squares overlap, and neighbouring pixels read the same
+    cells of one film grid (:func:`_shared`)."""
     s = block.side
     span = film_span(fs)
     sky = np.all(block.hits["kind"][sel] != HIT_SURFACE, axis=(1, 2)) & ~edges[sel]
@@ -175,27 +180,52 @@ def _cells(fs: FrameScene, block: FilmBlock, sel: np.ndarray, edges: np.ndarray,
         h = {key: v[sel[plain]].reshape((len(plain) * s * s,) + v.shape[3:])
              for key, v in block.hits.items()}
         parts.append(h)
-        meta.append((np.repeat(plain, s * s), np.tile(np.arange(s * s), len(plain)),
-                     np.zeros(len(plain) * s * s, bool)))
+        meta.append((np.repeat(plain, s * s), np.tile(np.arange(s * s), len(plain)), None,
+                     False))
     elif plain:                                  # the filter's square, cells ≈ 1/S px
-        w = int(np.ceil(s * span[1] - 1e-9))
-        parts.append(_grid_hits(fs, block.pixels[sel[plain]], w, span))
-        meta.append((np.repeat(plain, w * w), np.tile(np.arange(w * w), len(plain)),
-                     np.zeros(len(plain) * w * w, bool)))
+        h, pix, cell, row = _shared(fs, block.pixels[sel[plain]], s, span)
+        parts.append(h)
+        meta.append((np.asarray(plain)[pix], cell, row, False))
     g = _EDGE
     blue = np.flatnonzero(sky)
     if len(blue):
         parts.append(_sky(block, sel[blue], tq, span))
-        meta.append((np.repeat(blue, g * g), np.tile(np.arange(g * g), len(blue)),
-                     np.zeros(len(blue) * g * g, bool)))
+        meta.append((np.repeat(blue, g * g), np.tile(np.arange(g * g), len(blue)), None,
+                     False))
     fine = [k for k, i in enumerate(sel) if edges[i]]
     if fine:
         parts.append(_grid_hits(fs, block.pixels[sel[fine]], g, span))
-        meta.append((np.repeat(fine, g * g), np.tile(np.arange(g * g), len(fine)),
-                     np.ones(len(fine) * g * g, bool)))
+        meta.append((np.repeat(fine, g * g), np.tile(np.arange(g * g), len(fine)), None,
+                     True))
+    top, rows = 0, []
+    for p, (_, _, row, edge) in zip(parts, meta):
+        n = len(p["kind"])
+        p["edge"] = np.full(n, edge)
+        rows.append(top + (np.arange(n) if row is None else row))
+        top += n
     h = {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
-    h["pixel"], h["cell"], h["edge"] = (np.concatenate([m[i] for m in meta]) for i in range(3))
-    return h
+    return (h, np.concatenate([m[0] for m in meta]), np.concatenate([m[1] for m in meta]),
+            np.concatenate(rows))
+
+
+def _shared(fs: FrameScene, pixels: np.ndarray, s: int, span) -> tuple:
+    """The cells of ``pixels`` (P, 2) on the film's grid of 1/S px, each pixel's the w × w
+    of its :func:`film_span` square (w = S × its side): the distinct cells' first hits and,
+    per (pixel, cell), the pixel's index, the cell's row-major index in its square and the
+    row of its hit. Where the square's start is not on that grid, each pixel its own cells."""
+    w = int(np.ceil(s * span[1] - 1e-9))
+    e = -span[0] * s
+    local = np.arange(w)
+    pix = np.repeat(np.arange(len(pixels)), w * w)
+    cell = np.tile(np.arange(w * w), len(pixels))
+    if abs(e - round(e)) > 1e-9:
+        return _grid_hits(fs, pixels, w, span), pix, cell, np.arange(len(pix))
+    gy = (pixels[:, 0, None] * s - round(e) + local[None, :])[:, :, None]
+    gx = (pixels[:, 1, None] * s - round(e) + local[None, :])[:, None, :]
+    keys = np.stack(np.broadcast_arrays(gy, gx), axis=-1).reshape(-1, 2)
+    uniq, row = np.unique(keys, axis=0, return_inverse=True)
+    h = fs.hits_at(np.column_stack([(uniq[:, 1] + 0.5) / s, (uniq[:, 0] + 0.5) / s]))
+    return h, pix, cell, row.reshape(-1)
 
 
 def _grid_hits(fs: FrameScene, pixels: np.ndarray, g: int, span) -> dict:
@@ -255,11 +285,12 @@ def _entry(off, m, u0, u1):  # pragma: no cover - numba
 
 
 @numba.njit(cache=True, parallel=True)
-def _squared_errors(flat, offs, sides, pixels, points, means,
+def _squared_errors(flat, offs, sides, cellrow, pixels, points, means,
                     out):  # pragma: no cover - numba
     """out[k] = the mean over the scrambles r of (F − I)² (channels) of pixel k, whose cells
-    are rows ``pixels[k, 0]`` … of ``offs``/``sides`` on a ``pixels[k, 1]``² film grid;
-    ``points`` (3, R, N, 2): the film's, the emitter's and the BSDF's points."""
+    on a ``pixels[k, 1]``² film grid are the rows ``cellrow[pixels[k, 0]]`` … of
+    ``offs``/``sides``; ``points`` (3, R, N, 2): the film's, the emitter's and the BSDF's
+    points."""
     film, ue, ub = points[0], points[1], points[2]
     nr, nn = film.shape[0], film.shape[1]
     for k in numba.prange(out.shape[0]):
@@ -270,7 +301,7 @@ def _squared_errors(flat, offs, sides, pixels, points, means,
             for j in range(nn):
                 cx = min(int(film[r, j, 0] * g), g - 1)
                 cy = min(int(film[r, j, 1] * g), g - 1)
-                c = pixels[k, 0] + cy * g + cx
+                c = cellrow[pixels[k, 0] + cy * g + cx]
                 t = _entry(offs[c, 0], sides[c, 0], ue[r, j, 0], ue[r, j, 1])
                 s = _entry(offs[c, 1], sides[c, 1], ub[r, j, 0], ub[r, j, 1])
                 f0 += flat[t, 0] + flat[s, 0]
@@ -339,17 +370,18 @@ def pixel_mse_nets(fs: FrameScene, block: FilmBlock, targets, spps, level: int, 
     value = np.zeros((len(tg), 3))
     mse = {n: np.zeros((len(tg), 3)) for n in spps}
     rays = 0
-    for lo in range(0, len(sel), _PIXELS):
-        part = sel[lo:lo + _PIXELS]
-        h = _cells(fs, block, part, edges, fine)
+    step = _PIXELS if fs.film_warp is None else _PIXELS_SHARED
+    for lo in range(0, len(sel), step):
+        part = sel[lo:lo + step]
+        h, pix, cell, row = _cells(fs, block, part, edges, fine)
         flat, offs, sides, cast = _tables(fs, h, fine, coarse, vis)
         rays += cast
-        order = np.lexsort((h["cell"], h["pixel"]))
-        offs, sides = offs[order], sides[order]
-        counts = np.bincount(h["pixel"], minlength=len(part))
+        order = np.lexsort((cell, pix))
+        cellrow = np.ascontiguousarray(row[order], dtype=np.int64)
+        counts = np.bincount(pix, minlength=len(part))
         first = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
         grid = np.round(np.sqrt(counts)).astype(np.int64)
-        weight = _weights(fs, grid[h["pixel"][order]], h["cell"][order])
+        weight = _weights(fs, grid[pix[order]], cell[order])[:, None]
         cell_mean, shell = np.zeros((len(offs), 3)), np.zeros((len(offs), 3))
         for p in (0, 1):
             a, b = np.zeros((len(offs), 3)), np.zeros((len(offs), 3))
@@ -357,13 +389,13 @@ def pixel_mse_nets(fs: FrameScene, block: FilmBlock, targets, spps, level: int, 
                          np.ascontiguousarray(sides[:, p]), a, b)
             cell_mean += a
             shell += b
-        means = np.add.reduceat(cell_mean * weight[:, None], first, axis=0)
-        above = np.add.reduceat(shell * weight[:, None], first, axis=0)
+        means = np.add.reduceat(cell_mean[cellrow] * weight, first, axis=0)
+        above = np.add.reduceat(shell[cellrow] * weight, first, axis=0)
         value[lo:lo + len(part)] = means
         for n in spps:
             pt = points[n]
             out = np.zeros((len(part), 3))
-            _squared_errors(flat, offs, sides, np.column_stack([first, grid]),
+            _squared_errors(flat, offs, sides, cellrow, np.column_stack([first, grid]),
                             np.ascontiguousarray(pt[:, :, [0, calls[0], calls[1]]]
                                                  .transpose(2, 0, 1, 3)), means, out)
             mse[n][lo:lo + len(part)] = out + ABOVE * above / n
