@@ -1,7 +1,9 @@
 """The frame model (``envfit frame``, issue 42) against Blender Cycles renders of whole frames.
 
 Scenes built here with bpy (a perspective camera, a smooth UV sphere, a cube, a ground plane,
-a torus mesh that shadows itself; diffuse materials of several colours) under each map given
+a torus mesh that shadows itself; diffuse materials of several colours, Glossy and
+Principled metal spheres (``gloss``), Blender's default Principled BSDF (``principled``:
+metallic 0, two closures) under each map given
 (``sun-gp`` synthesizes a sun map), saved as ``.blend`` files and read back by
 ``envfit frame`` (``envfit.renderers.cycles._frame_scene``). Every scene keeps Cycles'
 defaults where they are what a user keeps: the pattern *Automatic* (blue noise for a final
@@ -72,6 +74,20 @@ def _glossy(bpy, name: str, rgb, roughness: float, principled: bool = False) -> 
     node.inputs["Roughness"].default_value = roughness
     if principled:
         node.inputs["Metallic"].default_value = 1.0
+    nt.links.new(node.outputs["BSDF"], out.inputs["Surface"])
+    return mat
+
+
+def _principled(bpy, name: str, roughness: float = 0.5) -> object:
+    """Blender's Principled BSDF at its defaults (Base Color 0.8, Metallic 0, IOR 1.5,
+    Multiscatter GGX), Roughness ``roughness`` (0.5 its default)."""
+    mat = bpy.data.materials.new(name)
+    _use_nodes(mat)
+    nt = mat.node_tree
+    for n in list(nt.nodes):
+        nt.nodes.remove(n)
+    out, node = nt.nodes.new("ShaderNodeOutputMaterial"), nt.nodes.new("ShaderNodeBsdfPrincipled")
+    node.inputs["Roughness"].default_value = roughness
     nt.links.new(node.outputs["BSDF"], out.inputs["Surface"])
     return mat
 
@@ -159,6 +175,11 @@ def build(path: Path, scene_name: str, envmap: Path, size=(64, 48),
                 (0.6, 0.2, 0.4), 0.4, smooth=True)
         _object(bpy, scene, "cube", _mesh(bpy, "cube", "cube"),
                 _material(bpy, "grey", (0.6, 0.6, 0.6)), (0.3, -0.8, 0.2), 0.2)
+    elif scene_name == "principled":
+        _object(bpy, scene, "sphere", _mesh(bpy, "sphere", "sphere"),
+                _principled(bpy, "default"), (-0.4, 0.0, 0.5), 0.5, smooth=True)
+        _object(bpy, scene, "cube", _mesh(bpy, "cube", "cube"),
+                _principled(bpy, "glossier", 0.2), (0.7, -0.3, 0.3), 0.3)
     else:
         raise SystemExit(f"unknown scene {scene_name!r}")
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -180,10 +180,11 @@ def test_the_net_simulation_is_the_digital_shifts_exact_mse():
     x = (np.arange(m) + 0.5) / m
     table = x[:, None] ** 2 + np.sin(3 * x[None, :]) + (x[:, None] + 0.7 * x[None, :] > 0.9)
     flat = np.vstack([np.repeat(table.reshape(-1, 1), 3, axis=1), np.zeros((1, 3))])
-    offs, sides = np.array([[0, m * m]]), np.array([[m, 1]])
+    tabs = np.array([[[0, m], [m * m, 1], [m * m, 1]]])   # the map's table, an empty BSDF's
     pts = get_renderer("mitsuba3").sampler("ldsampler").film_points(4096, n, 3, 1)
+    pts = np.concatenate([pts, np.zeros(pts.shape[:2] + (1, 2))], axis=2)   # lobe numbers
     out = np.zeros((1, 3))
-    _squared_errors(flat, offs, sides, np.arange(len(offs)), np.array([[0, 1]]),
+    _squared_errors(flat, tabs, np.ones(1), np.arange(1), np.array([[0, 1]]),
                     np.ascontiguousarray(pts.transpose(2, 0, 1, 3)),
                     np.full((1, 3), table.mean()), out)
     exact = randomised_mse("digital_shift", DyadicGrid.from_arrays(table, table ** 2), n).mse[0]

@@ -399,11 +399,21 @@ def test_predict_frame_runs_the_net_model_on_a_blend(work, monkeypatch):
     assert p.rows[0].rmse == pytest.approx(2 * out[1.0].rows[0].rmse, rel=1e-9)
 
 
-def test_two_lobes_under_cycles_points_are_refused_in_one_line(work):
+def test_two_lobes_pick_their_closure_by_the_requests_z(work):
     """The Principled BSDF at metallic 0 picks its closure by the BSDF request's third
-    number, which the frame's net model does not simulate yet: one line, before the model."""
+    number: its lobe reads each closure on its own and that chance (``sample_lobe``,
+    ``lobe_probability``), each with the mixture's weight f·cos/pdf; the frame's net model
+    runs on it."""
     from envfit.frame import predict_frame
+    from envfit.renderers.cycles._frame_scene import read_scene
     path = build(work / "plastic.blend", work / "map.exr", sphere="plastic", strength=1.0)
-    with pytest.raises(ParameterError) as e:
-        predict_frame(path, spp=(4,), level=3, max_pixels=48)
-    assert "two lobes" in str(e.value) and "\n" not in str(e.value)
+    lobe = read_scene(path).bsdfs[0].lobe
+    wi = np.tile([0.6, 0.0, 0.8], (64, 1))
+    u = np.random.default_rng(0).random((64, 2))
+    p = lobe.lobe_probability(wi[:, 2])
+    assert 0 < p[0] < 1
+    a, b = lobe.sample_lobe(wi, u, 0), lobe.sample_lobe(wi, u, 1)
+    assert np.all(a.specular) and not np.any(b.specular)
+    assert np.allclose(a.weight, lobe.eval(wi, a.wo) / lobe.pdf(wi, a.wo))
+    r = predict_frame(path, spp=(4, 16), level=3, max_pixels=48)
+    assert r.rows[0].rmse > r.rows[1].rmse > 0 and r.mean_value > 0

@@ -161,7 +161,33 @@ class _Techniques:
             self._maps[level] = (mt, mt.directions @ self.rot.T)
         return self._maps[level]
 
-    def glossy_parts(self, tangent: np.ndarray, wi: np.ndarray, bsdf):
+    def lobe_parts(self, tangent: np.ndarray, wi: np.ndarray, bsdf):
+        r"""For B film points of a two-lobe :class:`~envfit.renderers._frame.FrameBsdf`
+        whose lobe has ``sample_lobe(wi, u, lobe)`` and ``lobe_probability(cos)``: the map
+        part (B, P, 3), the BSDF part's table of each lobe (B, Q, 3) — the directions drawn
+        from lobe 0 or 1 with the mixture's weight f·cos/p and its MIS weight, as the
+        renderer evaluates every closure at a sampled direction — their world directions
+        ((P, 3); (B, Q, 3) each) and the chance p (B,) that the lobe number picks lobe 0."""
+        he, _, world, _ = self.glossy_parts(tangent, wi, bsdf, bsdf_part=False)
+        lvl = self.glossy_level(bsdf)
+        u = midpoints(lvl)
+        b, q = len(wi), len(u)
+        fr = tangent @ self.rot
+        wi_q = np.repeat(wi, q, axis=0)
+        parts, dirs = [], []
+        for lobe in (0, 1):
+            smp = bsdf.lobe.sample_lobe(wi_q, np.tile(u, (b, 1)), lobe)
+            d = np.einsum("bqk,bkj->bqj", smp.wo.reshape(b, q, 3), fr)
+            rad, pdf_e = self._eval_pdf(d.reshape(-1, 3))
+            weight = smp.weight.reshape(b, q)
+            wb = np.where(weight > 0, _power(self.fb * smp.pdf.reshape(b, q),
+                                             self.fe * np.asarray(pdf_e).reshape(b, q)), 0.0)
+            parts.append(np.asarray(rad).reshape(b, q, 3) * (weight * wb)[..., None])
+            dirs.append(d @ self.rot.T)
+        return he, parts, world, dirs, bsdf.lobe.lobe_probability(wi[:, 2])
+
+    def glossy_parts(self, tangent: np.ndarray, wi: np.ndarray, bsdf,
+                     bsdf_part: bool = True):
         r"""For B film points of one glossy :class:`~envfit.renderers._frame.FrameBsdf`
         (their shading frames ``tangent`` (B, 3, 3), rows s, t, n, world; ``wi`` (B, 3) in
         them): the map part :math:`L f\cos\theta_o/p_e\; w_e` (B, P, 3), the lobe's part
@@ -183,6 +209,8 @@ class _Techniques:
             h = wi_p + flat
             h /= np.maximum(np.linalg.norm(h, axis=1, keepdims=True), 1e-300)
             he = he * bsdf.fresnel(np.sum(wi_p * h, axis=1)).reshape(b, p, 3)
+        if not bsdf_part:
+            return he, None, world, None
         u = midpoints(lvl)
         q = len(u)
         wi_q = np.repeat(wi, q, axis=0)
@@ -269,12 +297,16 @@ def film_block(fs: FrameScene, pixels, side: int) -> FilmBlock:
                      dirs[inv].reshape(len(px), 2, 2, 3))
 
 
-def surface_tables(h: dict, tq: _Techniques, vis: Visibility, fs: FrameScene):
+def surface_tables(h: dict, tq: _Techniques, vis: Visibility, fs: FrameScene,
+                   split: bool = False):
     """The techniques' tables with visibility of the flat film points ``h`` (the arrays of
     :attr:`FrameScene.hits_at`) that hit a surface facing the camera, in batches of one
     shape: yields (indices (B,), the map part (B, P, 3), the BSDF part (B, Q, 3), level of
     each, shadow rays cast) — the parts :math:`h_e`, :math:`h_b` of the module docstring at
-    the midpoints of a 2^level × 2^level grid of each technique's sample square."""
+    the midpoints of a 2^level × 2^level grid of each technique's sample square. With
+    ``split``, the BSDF part is a tuple (lobe 0's table, lobe 1's, the chance p (B,) of lobe
+    0) — for a one-lobe BSDF (its table, the same, 1) — as :meth:`_Techniques.lobe_parts`
+    draws a two-lobe BSDF's."""
     idx = np.flatnonzero((h["kind"] == HIT_SURFACE) & h["facing"])
     idx = idx[np.argsort(h["shape"][idx], kind="stable")]           # one shape per batch
     batches = [b for s in np.unique(h["shape"][idx]) for sel in [idx[h["shape"][idx] == s]]
@@ -283,6 +315,18 @@ def surface_tables(h: dict, tq: _Techniques, vis: Visibility, fs: FrameScene):
         shape = int(h["shape"][b[0]])
         o = h["position"][b] + _offset(h["position"][b])[:, None] * h["geo_normal"][b]
         bsdf = fs.bsdfs[shape] if shape < len(fs.bsdfs) else None
+        a = h["albedo"][b][:, None, :]
+        if split and bsdf is not None and bsdf.lobes > 1:
+            he, (ga, gb), de, (da, db), p = tq.lobe_parts(h["tangent"][b], h["wi"][b], bsdf)
+            n = de.shape[0]
+            ve = vis.visible(np.repeat(o, n, axis=0), np.tile(de, (len(b), 1)), shape)
+            va, vb = (vis.visible(np.repeat(o, d.shape[1], axis=0), d.reshape(-1, 3), shape)
+                      for d in (da, db))
+            yield (b, he * ve.reshape(len(b), n)[..., None] * a,
+                   (ga * va.reshape(len(b), -1)[..., None] * a,
+                    gb * vb.reshape(len(b), -1)[..., None] * a, p),
+                   tq.glossy_level(bsdf), ve.size + va.size + vb.size)
+            continue
         if bsdf is not None and bsdf.kind == "glossy":
             he, hb, de, db = tq.glossy_parts(h["tangent"][b], h["wi"][b], bsdf)
             level = tq.glossy_level(bsdf)
@@ -292,9 +336,9 @@ def surface_tables(h: dict, tq: _Techniques, vis: Visibility, fs: FrameScene):
         p = de.shape[0]
         ve = vis.visible(np.repeat(o, p, axis=0), np.tile(de, (len(b), 1)), shape)
         vb = vis.visible(np.repeat(o, db.shape[1], axis=0), db.reshape(-1, 3), shape)
-        a = h["albedo"][b][:, None, :]
+        g = hb * vb.reshape(len(b), -1)[..., None] * a
         yield (b, he * ve.reshape(len(b), p)[..., None] * a,
-               hb * vb.reshape(len(b), -1)[..., None] * a, level, ve.size + vb.size)
+               (g, g, np.ones(len(b))) if split else g, level, ve.size + vb.size)
 
 
 def _surface_moments(h: dict, tq: _Techniques, vis: Visibility, fs: FrameScene, bar):

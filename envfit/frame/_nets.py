@@ -83,15 +83,28 @@ def net_sampler(fs: FrameScene):
                              f"filter only so far (the film has {fs.filter_name}): its "
                              f"samples' splats to neighbouring pixels are not modelled")
     two = [b.name for b in fs.bsdfs if b.lobes > 1]
-    if two:
+    if two and _lobe_call(fs) is None:
         raise ParameterError(f"{two[0]} picks one of two lobes per sample: its lobe choice "
                              f"under the {fs.sampler} sampler's own points is not in the frame "
-                             f"model yet")
+                             f"model for {fs.renderer}")
     if fs.draws is None:
         raise ParameterError(f"the scene's integrator ({fs.integrator}, {fs.emitter_samples} "
                              f"emitter and {fs.bsdf_samples} BSDF samples) has no known "
                              f"order of {fs.sampler}'s dimensions")
     return spec
+
+
+def _lobe_call(fs: FrameScene) -> int | None:
+    """The sampler call whose first number picks a two-lobe BSDF's lobe (the record's
+    ``lobe_call`` of its ``mis`` strategy), where the scene has such a BSDF whose lobe draws
+    each lobe on its own (``sample_lobe``, ``lobe_probability``); else None."""
+    two = [b for b in fs.bsdfs if b.lobes > 1]
+    if not two:
+        return None
+    call = get_renderer(fs.renderer).strategy("mis").lobe_call
+    ok = all(hasattr(b.lobe, "sample_lobe") and hasattr(b.lobe, "lobe_probability")
+             for b in two)
+    return call if ok else None
 
 
 def scrambles(n: int) -> int:
@@ -240,31 +253,39 @@ def _grid_hits(fs: FrameScene, pixels: np.ndarray, g: int, span) -> dict:
 
 def _tables(fs: FrameScene, h: dict, fine: _Techniques, coarse: _Techniques,
             vis: Visibility):
-    """Every cell's two tables, flat (T, 3), with each cell's offsets (C, 2) and sides
-    (C, 2): the techniques' tables on a surface that faces the camera (cells of an edge grid
-    at ``coarse``'s level), the map's radiance (one entry, and a zero BSDF entry) where the
-    camera sees the map, zeros elsewhere; and the shadow rays cast."""
+    """Every cell's three tables, flat (T, 3), with each cell's (offset, side) per table
+    (C, 3, 2) and its chance p (C,) of the BSDF's lobe 0: the map technique's table, the
+    BSDF technique's for lobe 0 and for lobe 1 (the same table for a one-lobe BSDF, p = 1;
+    :func:`~envfit.frame._model.surface_tables` with ``split``) on a surface that faces the
+    camera (cells of an edge grid at ``coarse``'s level), the map's radiance (one entry, and
+    a zero BSDF entry) where the camera sees the map, zeros elsewhere; and the shadow rays
+    cast."""
     c = len(h["kind"])
-    chunks, offs, sides = [], np.zeros((c, 2), np.int64), np.ones((c, 2), np.int64)
+    chunks, tabs, lobe_p = [], np.ones((c, 3, 2), np.int64), np.ones(c)
     const = np.zeros((c, 2, 3))
     const[:, 0] = np.where((h["kind"] != HIT_SURFACE)[:, None], h["background"], 0.0)
     chunks.append(const.reshape(-1, 3))
-    offs[:, 0], offs[:, 1] = 2 * np.arange(c), 2 * np.arange(c) + 1
+    tabs[:, 0, 0], tabs[:, 1, 0] = 2 * np.arange(c), 2 * np.arange(c) + 1
+    tabs[:, 2, 0] = tabs[:, 1, 0]
     top = 2 * c
     rays = 0
     for tq, sel in ((fine, ~h["edge"]), (coarse, h["edge"])):
         sub = {k: v[sel] for k, v in h.items()}
         where = np.flatnonzero(sel)
-        for b, e, g, level, cast in surface_tables(sub, tq, vis, fs):
+        for b, e, (ga, gb, p), level, cast in surface_tables(sub, tq, vis, fs, split=True):
             m = 1 << level
-            for part, tab in ((0, e), (1, g)):
+            for part, tab in ((0, e), (1, ga), (2, gb)):
                 sz = tab.shape[1]
+                if part == 2 and gb is ga:
+                    tabs[where[b], 2] = tabs[where[b], 1]
+                    continue
                 chunks.append(tab.reshape(-1, 3))
-                offs[where[b], part] = top + sz * np.arange(len(b))
-                sides[where[b], part] = m
+                tabs[where[b], part, 0] = top + sz * np.arange(len(b))
+                tabs[where[b], part, 1] = m
                 top += sz * len(b)
+            lobe_p[where[b]] = p
             rays += cast
-    return np.concatenate(chunks), offs, sides, rays
+    return np.concatenate(chunks), tabs, lobe_p, rays
 
 
 def _weights(fs: FrameScene, grid: np.ndarray, cell: np.ndarray) -> np.ndarray:
@@ -285,13 +306,14 @@ def _entry(off, m, u0, u1):  # pragma: no cover - numba
 
 
 @numba.njit(cache=True, parallel=True)
-def _squared_errors(flat, offs, sides, cellrow, pixels, points, means,
+def _squared_errors(flat, tabs, lobe_p, cellrow, pixels, points, means,
                     out):  # pragma: no cover - numba
     """out[k] = the mean over the scrambles r of (F − I)² (channels) of pixel k, whose cells
-    on a ``pixels[k, 1]``² film grid are the rows ``cellrow[pixels[k, 0]]`` … of
-    ``offs``/``sides``; ``points`` (3, R, N, 2): the film's, the emitter's and the BSDF's
-    points."""
-    film, ue, ub = points[0], points[1], points[2]
+    on a ``pixels[k, 1]``² film grid are the rows ``cellrow[pixels[k, 0]]`` … of ``tabs``
+    ((offset, side) of the map's table, lobe 0's and lobe 1's) and ``lobe_p`` (lobe 0's
+    chance); ``points`` (4, R, N, 2): the film's, the emitter's, the BSDF's points and the
+    lobe numbers (column 0)."""
+    film, ue, ub, ul = points[0], points[1], points[2], points[3]
     nr, nn = film.shape[0], film.shape[1]
     for k in numba.prange(out.shape[0]):
         g = pixels[k, 1]
@@ -302,8 +324,9 @@ def _squared_errors(flat, offs, sides, cellrow, pixels, points, means,
                 cx = min(int(film[r, j, 0] * g), g - 1)
                 cy = min(int(film[r, j, 1] * g), g - 1)
                 c = cellrow[pixels[k, 0] + cy * g + cx]
-                t = _entry(offs[c, 0], sides[c, 0], ue[r, j, 0], ue[r, j, 1])
-                s = _entry(offs[c, 1], sides[c, 1], ub[r, j, 0], ub[r, j, 1])
+                t = _entry(tabs[c, 0, 0], tabs[c, 0, 1], ue[r, j, 0], ue[r, j, 1])
+                q = 1 if ul[r, j, 0] < lobe_p[c] else 2
+                s = _entry(tabs[c, q, 0], tabs[c, q, 1], ub[r, j, 0], ub[r, j, 1])
                 f0 += flat[t, 0] + flat[s, 0]
                 f1 += flat[t, 1] + flat[s, 1]
                 f2 += flat[t, 2] + flat[s, 2]
@@ -360,13 +383,16 @@ def pixel_mse_nets(fs: FrameScene, block: FilmBlock, targets, spps, level: int, 
     base = int(level) if base is None else int(base)
     fine = _Techniques(fs, int(level), gloss_base=base)
     coarse = _Techniques(fs, max(2, int(level) - 1), technique=fine.tech, gloss_base=base - 1)
-    calls = fs.draws
-    dims = max(calls) + 1
+    calls, lobe = fs.draws, _lobe_call(fs)
+    dims = max(max(calls), lobe or 0) + 1
     points = {}
     for n in spps:
         pt = np.array(spec.film_points(scrambles(n), n, dims, seed))
         pt[:, :, 0] = _film(fs, pt[:, :, 0])
+        if lobe is None:                        # one lobe everywhere: lobe numbers 0
+            pt = np.concatenate([pt, np.zeros(pt.shape[:2] + (1, 2))], axis=2)
         points[n] = pt
+    lobe = dims if lobe is None else lobe
     value = np.zeros((len(tg), 3))
     mse = {n: np.zeros((len(tg), 3)) for n in spps}
     rays = 0
@@ -374,7 +400,7 @@ def pixel_mse_nets(fs: FrameScene, block: FilmBlock, targets, spps, level: int, 
     for lo in range(0, len(sel), step):
         part = sel[lo:lo + step]
         h, pix, cell, row = _cells(fs, block, part, edges, fine)
-        flat, offs, sides, cast = _tables(fs, h, fine, coarse, vis)
+        flat, tabs, lobe_p, cast = _tables(fs, h, fine, coarse, vis)
         rays += cast
         order = np.lexsort((cell, pix))
         cellrow = np.ascontiguousarray(row[order], dtype=np.int64)
@@ -382,21 +408,22 @@ def pixel_mse_nets(fs: FrameScene, block: FilmBlock, targets, spps, level: int, 
         first = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
         grid = np.round(np.sqrt(counts)).astype(np.int64)
         weight = _weights(fs, grid[pix[order]], cell[order])[:, None]
-        cell_mean, shell = np.zeros((len(offs), 3)), np.zeros((len(offs), 3))
-        for p in (0, 1):
-            a, b = np.zeros((len(offs), 3)), np.zeros((len(offs), 3))
-            _table_stats(flat, np.ascontiguousarray(offs[:, p]),
-                         np.ascontiguousarray(sides[:, p]), a, b)
-            cell_mean += a
-            shell += b
+        c = len(tabs)
+        cell_mean, shell = np.zeros((c, 3)), np.zeros((c, 3))
+        for p, share in ((0, 1.0), (1, lobe_p[:, None]), (2, 1.0 - lobe_p[:, None])):
+            a, b = np.zeros((c, 3)), np.zeros((c, 3))
+            _table_stats(flat, np.ascontiguousarray(tabs[:, p, 0]),
+                         np.ascontiguousarray(tabs[:, p, 1]), a, b)
+            cell_mean += share * a
+            shell += share * b
         means = np.add.reduceat(cell_mean[cellrow] * weight, first, axis=0)
         above = np.add.reduceat(shell[cellrow] * weight, first, axis=0)
         value[lo:lo + len(part)] = means
         for n in spps:
             pt = points[n]
             out = np.zeros((len(part), 3))
-            _squared_errors(flat, offs, sides, cellrow, np.column_stack([first, grid]),
-                            np.ascontiguousarray(pt[:, :, [0, calls[0], calls[1]]]
+            _squared_errors(flat, tabs, lobe_p, cellrow, np.column_stack([first, grid]),
+                            np.ascontiguousarray(pt[:, :, [0, calls[0], calls[1], lobe]]
                                                  .transpose(2, 0, 1, 3)), means, out)
             mse[n][lo:lo + len(part)] = out + ABOVE * above / n
         if bar is not None:

@@ -458,6 +458,19 @@ class _TwoLobes:
     def sample(self, wi, u):
         return self.bsdf.sample_square(wi, u)
 
+    def sample_lobe(self, wi, u, lobe: int):
+        """The closure ``lobe`` (0 the specular layer, 1 the base) drawn at 2-D points ``u``
+        (the BSDF request's x, y), its weight the mixture's f·cos/pdf as
+        ``_surface_shader_bsdf_eval_mis`` evaluates every closure."""
+        pick = np.full(len(u), 0.0 if lobe == 0 else np.nextafter(1.0, 0.0))
+        return self.bsdf.sample(wi, u, pick)
+
+    def lobe_probability(self, cos_i):
+        """The chance that the request's z picks the specular closure
+        (``surface_shader_bsdf_bssrdf_pick``: z below its share of the closures' sample
+        weights)."""
+        return self.bsdf.lobe_probability(cos_i)
+
 
 def _rgb(socket) -> np.ndarray:
     return np.array(socket.default_value[:3], dtype=np.float64)
