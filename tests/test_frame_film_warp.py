@@ -233,3 +233,43 @@ def test_neighbours_share_the_film_grids_cells():
     assert np.allclose(h["position"][row], own["position"], atol=1e-12)
     assert len(h["kind"]) == 36                       # 6 × 6 distinct cells, not 64
 
+
+
+def test_the_compiled_layered_tables_are_the_numpy_ones():
+    """A two-lobe lobe that holds an AlbedoLayered as ``bsdf`` is tabulated by the compiled
+    kernels (one view at a time); the same BSDF through its numpy methods gives the same
+    tables."""
+    from envfit.renderers import FrameBsdf
+
+    class Hidden(_Layered):                    # no ``bsdf`` attribute: the numpy path
+        def __init__(self, alpha):
+            super().__init__(alpha)
+            self.inner = self.__dict__.pop("bsdf")
+
+        def __getattr__(self, name):
+            if name == "bsdf":
+                raise AttributeError(name)
+            return getattr(self.inner, name)
+
+        def eval(self, wi, wo):
+            return self.inner.eval(wi, wo)
+
+        def pdf(self, wi, wo):
+            return self.inner.pdf(wi, wo)
+
+        def sample_lobe(self, wi, u, lobe):
+            return self.inner.sample(wi, u, np.full(len(u), 0.0 if lobe == 0 else 1 - 1e-12))
+
+        def lobe_probability(self, cos_i):
+            return self.inner.lobe_probability(cos_i)
+
+    fs = _scene(BOX_FILTER)
+    tq = _Techniques(fs, 4)
+    wi = np.array([[0.6, 0.0, 0.8], [0.0, 0.3, np.sqrt(0.91)]])
+    frames = get_renderer("cycles").tangent_frame(np.array([[0.0, 0.0, 1.0], [0.0, 0.6, 0.8]]))
+    out = [tq.lobe_parts(frames, wi, FrameBsdf("glossy", "l", lobe, None, 0, lobes=2))
+           for lobe in (_Layered(0.1), Hidden(0.1))]
+    (he, (a0, b0), _, (d0, e0), p0), (he1, (a1, b1), _, (d1, e1), p1) = out
+    assert np.allclose(he, he1, rtol=1e-9, atol=1e-12) and np.allclose(p0, p1)
+    assert np.allclose(a0, a1, rtol=1e-7, atol=1e-12) and np.allclose(b0, b1, rtol=1e-7)
+    assert np.allclose(d0, d1, atol=1e-9) and np.allclose(e0, e1, atol=1e-9)

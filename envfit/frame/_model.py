@@ -63,7 +63,9 @@ from envfit.base import ParameterError
 from envfit.base import progress_bar
 from envfit.frame._visibility import Visibility
 from envfit.maps import EnvMap
-from envfit.predict.renderer import BsdfTable, MapTable, midpoints
+from envfit.predict.renderer import (BsdfTable, MapTable, compiled_layered,
+                                     layered_eval_pdf, layered_sample, layered_views,
+                                     midpoints)
 from envfit.renderers import get_renderer
 from envfit.renderers import HIT_SURFACE, FrameScene
 
@@ -174,13 +176,21 @@ class _Techniques:
         b, q = len(wi), len(u)
         fr = tangent @ self.rot
         wi_q = np.repeat(wi, q, axis=0)
+        lay = _layered(bsdf)
+        views = None if lay is None else layered_views(lay, wi)
         parts, dirs = [], []
         for lobe in (0, 1):
-            smp = bsdf.lobe.sample_lobe(wi_q, np.tile(u, (b, 1)), lobe)
-            d = np.einsum("bqk,bkj->bqj", smp.wo.reshape(b, q, 3), fr)
+            if lay is not None:                     # compiled, one view at a time
+                pick = 0.0 if lobe == 0 else float(np.nextafter(1.0, 0.0))
+                wo, weight, pdf = (np.stack(x) for x in zip(*(
+                    layered_sample(lay, wi[k], u, pick, views[k]) for k in range(b))))
+            else:
+                smp = bsdf.lobe.sample_lobe(wi_q, np.tile(u, (b, 1)), lobe)
+                wo, weight, pdf = (smp.wo.reshape(b, q, 3), smp.weight.reshape(b, q),
+                                   smp.pdf.reshape(b, q))
+            d = np.matmul(wo, fr)
             rad, pdf_e = self._eval_pdf(d.reshape(-1, 3))
-            weight = smp.weight.reshape(b, q)
-            wb = np.where(weight > 0, _power(self.fb * smp.pdf.reshape(b, q),
+            wb = np.where(weight > 0, _power(self.fb * pdf,
                                              self.fe * np.asarray(pdf_e).reshape(b, q)), 0.0)
             parts.append(np.asarray(rad).reshape(b, q, 3) * (weight * wb)[..., None])
             dirs.append(d @ self.rot.T)
@@ -200,8 +210,15 @@ class _Techniques:
         loc = np.einsum("bkj,pj->bpk", fr, mt.directions)  # the map's directions, shading
         b, p = loc.shape[:2]
         wi_p, flat = np.repeat(wi, p, axis=0), loc.reshape(-1, 3)
-        fcos = bsdf.lobe.eval(wi_p, flat).reshape(b, p)
-        pb = bsdf.lobe.pdf(wi_p, flat).reshape(b, p)
+        lay = _layered(bsdf)
+        if lay is not None:                         # compiled, one view at a time
+            views = layered_views(lay, wi)
+            fcos, pb = (np.stack(x) for x in zip(*(
+                layered_eval_pdf(lay, wi[k], mt.directions, fr[k], views[k])
+                for k in range(b))))
+        else:
+            fcos = bsdf.lobe.eval(wi_p, flat).reshape(b, p)
+            pb = bsdf.lobe.pdf(wi_p, flat).reshape(b, p)
         pe = mt.pdf[None, :]
         we = np.where((fcos > 0) & (pe > 0), _power(self.fe * pe, self.fb * pb), 0.0)
         he = np.pi * mt.base[None] * (fcos * we)[..., None]
@@ -224,6 +241,13 @@ class _Techniques:
         if bsdf.fresnel is not None:
             hb = hb * bsdf.fresnel(np.sum(wi_q * smp.m, axis=1)).reshape(b, q, 3)
         return he, hb, world, d @ self.rot.T
+
+
+def _layered(bsdf):
+    """The :class:`~envfit.shading.microfacet.AlbedoLayered` a two-lobe lobe holds as its
+    ``bsdf`` where the compiled kernels repeat it (``compiled_layered``), else None."""
+    lay = getattr(bsdf.lobe, "bsdf", None)
+    return lay if bsdf.fresnel is None and lay is not None and compiled_layered(lay) else None
 
 
 def _lerp(c: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:

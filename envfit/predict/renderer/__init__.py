@@ -61,6 +61,10 @@ _SHARED = {
     "cell_request": "_diffuse_model",
     "strata_reach": "_drawn_strata",
     "lobe_choice_modelled": "_lobe_parts",
+    "compiled_layered": "_layered_kernels",
+    "layered_eval_pdf": "_layered_kernels",
+    "layered_sample": "_layered_kernels",
+    "layered_views": "_layered_kernels",
 }
 
 __getattr__, __dir__ = lazy_exports(__name__, {**_LAZY, **_SHARED})

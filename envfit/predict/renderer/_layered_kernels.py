@@ -32,7 +32,8 @@ from envfit.predict.renderer._vndf_kernels import _disk, _normal, _view_constant
 from envfit.shading.microfacet import AlbedoLayered
 from envfit.shading.microfacet import VNDF_WARPS
 
-__all__ = ["compiled_layered", "layered_eval_pdf", "layered_sample", "layered_proxies"]
+__all__ = ["compiled_layered", "layered_eval_pdf", "layered_sample", "layered_proxies",
+           "layered_views"]
 
 #: consts' slots: α, η, f₀, F₀(η); a view's: Λ_i, s(μ), k_d(μ), p_s(μ)
 _ALPHA, _ETA, _F0, _F0R = range(4)
@@ -126,29 +127,39 @@ def _views(bsdf, wis: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(out)
 
 
-def layered_eval_pdf(bsdf, wi, dirs, rows=None) -> tuple[np.ndarray, np.ndarray]:
+def layered_views(bsdf, wis) -> np.ndarray:
+    """The per-view constants (K, 4) of the views ``wis`` (K, 3) that :func:`layered_eval_pdf`
+    and :func:`layered_sample` take as ``view`` (computed once for many calls)."""
+    return _views(bsdf, wis)
+
+
+def layered_eval_pdf(bsdf, wi, dirs, rows=None,
+                     view=None) -> tuple[np.ndarray, np.ndarray]:
     """(f·cos (P,), pdf (P,)) of the layered ``bsdf`` for the one view ``wi`` (3,) and light
     directions ``dirs`` (P, 3): local, or world with ``rows`` the local frame's axes as rows
-    — ``AlbedoLayered.eval`` and ``pdf``."""
+    — ``AlbedoLayered.eval`` and ``pdf``; ``view``: its row of :func:`layered_views`."""
     out = np.empty((2, len(dirs)))
     wi = np.ascontiguousarray(wi, dtype=np.float64)
     rows = np.eye(3) if rows is None else np.ascontiguousarray(rows, dtype=np.float64)
-    _eval_pdf(wi, _views(bsdf, wi)[0], np.ascontiguousarray(dirs, dtype=np.float64), rows,
+    view = _views(bsdf, wi)[0] if view is None else np.ascontiguousarray(view)
+    _eval_pdf(wi, view, np.ascontiguousarray(dirs, dtype=np.float64), rows,
               _constants(bsdf), out.T)
     return out[0], out[1]
 
 
-def layered_sample(bsdf, wi, u, u1=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def layered_sample(bsdf, wi, u, u1=None,
+                   view=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(ω_o (P, 3), weight (P,), pdf (P,)) of the layered ``bsdf`` sampled for the one view
     ``wi`` (3,) at the points ``u`` (P, 2), local frame: ``AlbedoLayered.sample_square(wi,
     u)`` when ``u1`` is None, else ``AlbedoLayered.sample(wi, u, u1=full(u1))``; where the
-    weight is 0, ω_o is the pole and the pdf 0."""
+    weight is 0, ω_o is the pole and the pdf 0; ``view``: its row of :func:`layered_views`."""
     wi = np.ascontiguousarray(wi, dtype=np.float64)
     vndf = (_view_constants(wi, float(bsdf.alpha), _VARIANT, 0) if wi[2] > 0
             else np.zeros((4, 5)))
     lobe = np.array([1.0, 0.0] if u1 is None else [0.0, float(u1)])
     wo, out = np.empty((len(u), 3)), np.empty((2, len(u)))
-    _sample(wi, vndf, _views(bsdf, wi)[0], np.ascontiguousarray(u, dtype=np.float64), lobe,
+    view = _views(bsdf, wi)[0] if view is None else np.ascontiguousarray(view)
+    _sample(wi, vndf, view, np.ascontiguousarray(u, dtype=np.float64), lobe,
             _constants(bsdf), wo, out)
     return wo, out[0], out[1]
 
