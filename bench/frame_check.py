@@ -289,7 +289,6 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=Path, default=Path("frame_check"))
     a = ap.parse_args(argv)
     a.out.mkdir(parents=True, exist_ok=True)
-    from render_check import _cpu                       # the CPU's name, as render_check
     maps = []
     for m in a.maps:
         if m == "sun-gp":
@@ -321,22 +320,33 @@ def main(argv=None) -> int:
                           f"{t['at_half']['spp']} spp {t['at_half']['over_target']:.3f} x",
                           flush=True)
             rows.append(r)
-            cells = ", ".join(f"{c['spp']}: {c['ratio']:.3f}{'' if c['inside'] else ' OUT'}"
-                              for c in r["cells"])
-            print(f"{sname:14s} {mname:8s} pred/meas {cells}; Spearman {r['spearman']:.3f}; "
-                  f"bins {r['bins_inside']}/10 inside "
-                  f"[{min(r['bins_measured_over_predicted']):.2f}, "
-                  f"{max(r['bins_measured_over_predicted']):.2f}]; predict "
-                  f"{r['seconds_predict']:.1f} s, reference {a.reference_spp} spp "
-                  f"{r['seconds_reference']:.1f} s ({r['cost_ratio']:.2f})", flush=True)
+            print(row_line(r, a.reference_spp), flush=True)
+    return finish(rows, a, a.out / "frame_check.json")
+
+
+def row_line(r: dict, reference_spp: int) -> str:
+    """One (scene, map)'s line: the cells' ratios, Spearman, the bins and the times."""
+    cells = ", ".join(f"{c['spp']}: {c['ratio']:.3f}{'' if c['inside'] else ' OUT'}"
+                      for c in r["cells"])
+    return (f"{r['scene']:14s} {r['map']:8s} pred/meas {cells}; Spearman {r['spearman']:.3f}; "
+            f"bins {r['bins_inside']}/10 inside "
+            f"[{min(r['bins_measured_over_predicted']):.2f}, "
+            f"{max(r['bins_measured_over_predicted']):.2f}]; predict "
+            f"{r['seconds_predict']:.1f} s, reference {reference_spp} spp "
+            f"{r['seconds_reference']:.1f} s ({r['cost_ratio']:.2f})")
+
+
+def finish(rows: list, args, path: Path) -> int:
+    """Print the totals of ``rows`` and write them with the CPU and ``args`` to ``path``."""
+    from render_check import _cpu                       # the CPU's name, as render_check
     inside = sum(c["inside"] for r in rows for c in r["cells"])
     total = sum(len(r["cells"]) for r in rows)
     print(f"{inside} of {total} cells inside; Spearman >= 0.8 in "
           f"{sum(r['spearman'] >= 0.8 for r in rows)} of {len(rows)}; all bins inside in "
           f"{sum(r['bins_inside'] == 10 for r in rows)} of {len(rows)}")
-    meta = {"cpu": _cpu(), "machine": platform.machine(), "args": vars(a) | {"out": str(a.out)}}
-    (a.out / "frame_check.json").write_text(json.dumps({"meta": meta, "rows": rows},
-                                                       indent=1, default=str))
+    meta = {"cpu": _cpu(), "machine": platform.machine(),
+            "args": vars(args) | {"out": str(args.out)}}
+    path.write_text(json.dumps({"meta": meta, "rows": rows}, indent=1, default=str))
     return 0
 
 

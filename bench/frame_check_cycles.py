@@ -29,9 +29,7 @@ Usage::
 from __future__ import annotations
 
 import argparse
-import json
 import math
-import platform
 import time
 from pathlib import Path
 
@@ -39,6 +37,7 @@ import numpy as np
 
 from envfit.frame import predict_frame
 from envfit.maps import save_envmap, synthesize_envmap
+from frame_check import _interval, finish, row_line     # the same measures and report
 from envfit.renderers.cycles._render import (  # internal: the harness's bpy import, world and EXR reader
     _quiet_blender, _read_exr, _use_nodes, _world, import_bpy)
 
@@ -47,49 +46,41 @@ PATTERNS = {"blue_noise": "AUTOMATIC", "tabulated_sobol": "TABULATED_SOBOL",
             "sobol_burley": "SOBOL_BURLEY"}
 
 
-def _material(bpy, name: str, rgb) -> object:
+def _node_material(bpy, name: str, node_type: str, inputs: dict) -> object:
+    """A material whose surface is one BSDF node of ``node_type`` with constant ``inputs``."""
     mat = bpy.data.materials.new(name)
     _use_nodes(mat)
     nt = mat.node_tree
     for n in list(nt.nodes):
         nt.nodes.remove(n)
-    out, node = nt.nodes.new("ShaderNodeOutputMaterial"), nt.nodes.new("ShaderNodeBsdfDiffuse")
-    node.inputs["Color"].default_value = (*rgb, 1.0)
-    node.inputs["Roughness"].default_value = 0.0
+    out, node = nt.nodes.new("ShaderNodeOutputMaterial"), nt.nodes.new(node_type)
+    for key, value in inputs.items():
+        node.inputs[key].default_value = value
     nt.links.new(node.outputs["BSDF"], out.inputs["Surface"])
     return mat
+
+
+def _material(bpy, name: str, rgb) -> object:
+    """A Diffuse BSDF of colour ``rgb`` (roughness 0: Lambert)."""
+    return _node_material(bpy, name, "ShaderNodeBsdfDiffuse",
+                          {"Color": (*rgb, 1.0), "Roughness": 0.0})
 
 
 def _glossy(bpy, name: str, rgb, roughness: float, principled: bool = False) -> object:
     """A Glossy BSDF (its default distribution, Multiscatter GGX) or a Principled BSDF at
     Metallic 1 (base colour ``rgb``), constant inputs."""
-    mat = bpy.data.materials.new(name)
-    _use_nodes(mat)
-    nt = mat.node_tree
-    for n in list(nt.nodes):
-        nt.nodes.remove(n)
-    out = nt.nodes.new("ShaderNodeOutputMaterial")
-    node = nt.nodes.new("ShaderNodeBsdfPrincipled" if principled else "ShaderNodeBsdfGlossy")
-    node.inputs["Base Color" if principled else "Color"].default_value = (*rgb, 1.0)
-    node.inputs["Roughness"].default_value = roughness
     if principled:
-        node.inputs["Metallic"].default_value = 1.0
-    nt.links.new(node.outputs["BSDF"], out.inputs["Surface"])
-    return mat
+        return _node_material(bpy, name, "ShaderNodeBsdfPrincipled",
+                              {"Base Color": (*rgb, 1.0), "Roughness": roughness,
+                               "Metallic": 1.0})
+    return _node_material(bpy, name, "ShaderNodeBsdfGlossy",
+                          {"Color": (*rgb, 1.0), "Roughness": roughness})
 
 
 def _principled(bpy, name: str, roughness: float = 0.5) -> object:
     """Blender's Principled BSDF at its defaults (Base Color 0.8, Metallic 0, IOR 1.5,
     Multiscatter GGX), Roughness ``roughness`` (0.5 its default)."""
-    mat = bpy.data.materials.new(name)
-    _use_nodes(mat)
-    nt = mat.node_tree
-    for n in list(nt.nodes):
-        nt.nodes.remove(n)
-    out, node = nt.nodes.new("ShaderNodeOutputMaterial"), nt.nodes.new("ShaderNodeBsdfPrincipled")
-    node.inputs["Roughness"].default_value = roughness
-    nt.links.new(node.outputs["BSDF"], out.inputs["Surface"])
-    return mat
+    return _node_material(bpy, name, "ShaderNodeBsdfPrincipled", {"Roughness": roughness})
 
 
 def _object(bpy, scene, name: str, mesh, mat, location=(0, 0, 0), scale=1.0, smooth=False):
@@ -202,13 +193,6 @@ def render(path: Path, spp: int, seed: int, out: Path) -> np.ndarray:
     return _read_exr(out)[..., :3]
 
 
-def _interval(meas: np.ndarray, k: int) -> tuple[float, float]:
-    from scipy.stats import chi2
-    m = float(meas.mean())
-    dof = k * meas.sum() ** 2 / max((meas ** 2).sum(), 1e-300)
-    return m * dof / chi2.ppf(0.975, dof), m * dof / chi2.ppf(0.025, dof)
-
-
 def check(path: Path, spps, renders: int, reference_spp: int, level: int, work: Path) -> dict:
     from scipy.stats import spearmanr
     t = time.perf_counter()
@@ -258,7 +242,6 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=Path, default=Path("frame_check_cycles"))
     a = ap.parse_args(argv)
     a.out.mkdir(parents=True, exist_ok=True)
-    from render_check import _cpu                       # the CPU's name, as render_check
     maps = []
     for m in a.maps:
         if m == "sun-gp":
@@ -274,24 +257,8 @@ def main(argv=None) -> int:
             r = check(path, a.spp, a.renders, a.reference_spp, a.level, a.out)
             r.update(scene=sname, map=mname, pattern=a.pattern)
             rows.append(r)
-            cells = ", ".join(f"{c['spp']}: {c['ratio']:.3f}{'' if c['inside'] else ' OUT'}"
-                              for c in r["cells"])
-            print(f"{sname:12s} {mname:8s} pred/meas {cells}; Spearman {r['spearman']:.3f}; "
-                  f"bins {r['bins_inside']}/10 inside "
-                  f"[{min(r['bins_measured_over_predicted']):.2f}, "
-                  f"{max(r['bins_measured_over_predicted']):.2f}]; predict "
-                  f"{r['seconds_predict']:.1f} s, reference {a.reference_spp} spp "
-                  f"{r['seconds_reference']:.1f} s ({r['cost_ratio']:.2f})", flush=True)
-    inside = sum(c["inside"] for r in rows for c in r["cells"])
-    total = sum(len(r["cells"]) for r in rows)
-    print(f"{inside} of {total} cells inside; Spearman >= 0.8 in "
-          f"{sum(r['spearman'] >= 0.8 for r in rows)} of {len(rows)}; all bins inside in "
-          f"{sum(r['bins_inside'] == 10 for r in rows)} of {len(rows)}")
-    meta = {"cpu": _cpu(), "machine": platform.machine(), "args": vars(a) | {"out": str(a.out)}}
-    (a.out / "frame_check_cycles.json").write_text(json.dumps({"meta": meta, "rows": rows},
-                                                              indent=1, default=str))
-    return 0
-
+            print(row_line(r, a.reference_spp), flush=True)
+    return finish(rows, a, a.out / "frame_check_cycles.json")
 
 if __name__ == "__main__":
     raise SystemExit(main())

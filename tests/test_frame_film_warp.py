@@ -16,7 +16,7 @@ from envfit.frame._nets import cell_weights, film_span, pixel_mse_nets
 from envfit.frame._model import _Techniques, film_block
 from envfit.maps import EnvMap
 from envfit.renderers import BOX_FILTER, FrameScene, HIT_SURFACE, get_renderer
-from envfit.renderers._frame import Occluder
+from envfit.renderers._frame import Occluder, TwoLobes
 from envfit.renderers.cycles._film import film_warp
 
 W, H, K = 6, 4, 0.5               # pixels; world units per pixel
@@ -32,28 +32,10 @@ def _albedo(x):
     return 0.2 + 0.1 * c + 0.3 * (c >= 3.0)
 
 
-class _Layered:
-    """A two-lobe BSDF as a reader gives it (Cycles' ``_TwoLobes``): each lobe drawn on its
-    own, and the chance of lobe 0."""
-
-    def __init__(self, alpha):
-        from envfit.shading.microfacet import AlbedoLayered
-        self.bsdf, self.alpha = AlbedoLayered(alpha), alpha
-
-    def eval(self, wi, wo):
-        return self.bsdf.eval(wi, wo)
-
-    def pdf(self, wi, wo):
-        return self.bsdf.pdf(wi, wo)
-
-    def sample(self, wi, u):
-        return self.bsdf.sample_square(wi, u)
-
-    def sample_lobe(self, wi, u, lobe):
-        return self.bsdf.sample(wi, u, np.full(len(u), 0.0 if lobe == 0 else 1 - 1e-12))
-
-    def lobe_probability(self, cos_i):
-        return self.bsdf.lobe_probability(cos_i)
+def _Layered(alpha):
+    """A two-lobe BSDF as the readers give it: a GGX dielectric layer over a Lambert base."""
+    from envfit.shading.microfacet import AlbedoLayered
+    return TwoLobes(AlbedoLayered(alpha))
 
 
 def _scene(warp, sampler="tabulated_sobol", bsdfs=()) -> FrameScene:
@@ -241,15 +223,14 @@ def test_the_compiled_layered_tables_are_the_numpy_ones():
     tables."""
     from envfit.renderers import FrameBsdf
 
-    class Hidden(_Layered):                    # no ``bsdf`` attribute: the numpy path
+    class Hidden(TwoLobes):                    # no ``bsdf`` attribute: the numpy path
         def __init__(self, alpha):
-            super().__init__(alpha)
-            self.inner = self.__dict__.pop("bsdf")
+            from envfit.shading.microfacet import AlbedoLayered
+            self.inner, self.alpha = AlbedoLayered(alpha), alpha
 
-        def __getattr__(self, name):
-            if name == "bsdf":
-                raise AttributeError(name)
-            return getattr(self.inner, name)
+        @property
+        def bsdf(self):
+            raise AttributeError("bsdf")
 
         def eval(self, wi, wo):
             return self.inner.eval(wi, wo)

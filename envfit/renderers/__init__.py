@@ -110,6 +110,7 @@ __all__ = sorted(_LAZY)
 _SHARED = {
     "FrameScene": "_frame",
     "FrameBsdf": "_frame",
+    "TwoLobes": "_frame",
     "HIT_SURFACE": "_frame",
 }
 

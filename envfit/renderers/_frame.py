@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["FrameScene", "FrameBsdf", "Occluder", "HIT_NONE", "HIT_SURFACE"]
+__all__ = ["FrameScene", "FrameBsdf", "Occluder", "TwoLobes", "HIT_NONE", "HIT_SURFACE"]
 
 #: :attr:`FrameScene.kind` of a film point whose camera ray escapes to the map
 HIT_NONE = 0
@@ -35,6 +35,34 @@ class Occluder:
     vertices: np.ndarray          # (V, 3) float
     faces: np.ndarray             # (F, 3) int
     convex: bool
+
+
+class TwoLobes:
+    """A two-lobe BSDF (``bsdf``: ``eval``, ``pdf``, ``sample(wi, u, u1)`` with the lobe
+    number u1, ``sample_square``, ``lobe_probability``) with the frame model's interface:
+    ``sample`` draws the lobe and the direction from one point of the square (the i.i.d.
+    estimator of an ``independent`` sampler); ``sample_lobe`` draws from one lobe (0: the
+    first, where the lobe number is below ``lobe_probability``), its weight the mixture's
+    f·cos/pdf — for a sampler whose own points pick the lobe (:mod:`envfit.frame._nets`)."""
+
+    def __init__(self, bsdf):
+        self.bsdf, self.alpha = bsdf, bsdf.alpha
+
+    def eval(self, wi, wo):
+        return self.bsdf.eval(wi, wo)
+
+    def pdf(self, wi, wo):
+        return self.bsdf.pdf(wi, wo)
+
+    def sample(self, wi, u):
+        return self.bsdf.sample_square(wi, u)
+
+    def sample_lobe(self, wi, u, lobe: int):
+        pick = np.full(len(u), 0.0 if lobe == 0 else np.nextafter(1.0, 0.0))
+        return self.bsdf.sample(wi, u, pick)
+
+    def lobe_probability(self, cos_i):
+        return self.bsdf.lobe_probability(cos_i)
 
 
 @dataclass(frozen=True)

@@ -84,7 +84,7 @@ from pathlib import Path
 import numpy as np
 
 from envfit.base import ParameterError
-from envfit.renderers._frame import HIT_SURFACE, FrameBsdf, FrameScene, Occluder
+from envfit.renderers._frame import HIT_SURFACE, FrameBsdf, FrameScene, Occluder, TwoLobes
 
 __all__ = ["read_scene", "SAMPLING_PATTERNS", "PIXEL_FILTERS", "ADAPTIVE_NOTE"]
 
@@ -440,38 +440,6 @@ class _Surface:
         return out
 
 
-class _TwoLobes:
-    """A two-closure BSDF (the Principled BSDF at metallic 0) whose closure and direction are
-    one uniform point of the square (``sample_square``), with the frame model's ``eval``/
-    ``pdf``/``sample``; ``bsdf`` keeps the 3-D ``sample`` (the closure by the third
-    coordinate, ``surface_shader_bsdf_bssrdf_pick``)."""
-
-    def __init__(self, bsdf):
-        self.bsdf, self.alpha = bsdf, bsdf.alpha
-
-    def eval(self, wi, wo):
-        return self.bsdf.eval(wi, wo)
-
-    def pdf(self, wi, wo):
-        return self.bsdf.pdf(wi, wo)
-
-    def sample(self, wi, u):
-        return self.bsdf.sample_square(wi, u)
-
-    def sample_lobe(self, wi, u, lobe: int):
-        """The closure ``lobe`` (0 the specular layer, 1 the base) drawn at 2-D points ``u``
-        (the BSDF request's x, y), its weight the mixture's f·cos/pdf as
-        ``_surface_shader_bsdf_eval_mis`` evaluates every closure."""
-        pick = np.full(len(u), 0.0 if lobe == 0 else np.nextafter(1.0, 0.0))
-        return self.bsdf.sample(wi, u, pick)
-
-    def lobe_probability(self, cos_i):
-        """The chance that the request's z picks the specular closure
-        (``surface_shader_bsdf_bssrdf_pick``: z below its share of the closures' sample
-        weights)."""
-        return self.bsdf.lobe_probability(cos_i)
-
-
 def _rgb(socket) -> np.ndarray:
     return np.array(socket.default_value[:3], dtype=np.float64)
 
@@ -518,7 +486,7 @@ def _glossy(label: str, lobe, alpha: float, fresnel=None, lobes: int = 1) -> Fra
     :data:`_GLOSS_LEVELS` finer by α."""
     extra = next(e for a, e in _GLOSS_LEVELS if alpha <= a)
     return FrameBsdf("glossy", f"{label}, alpha {alpha:g}",
-                     lobe if lobes == 1 else _TwoLobes(lobe), fresnel, extra, lobes=lobes)
+                     lobe if lobes == 1 else TwoLobes(lobe), fresnel, extra, lobes=lobes)
 
 
 def _principled(ins: dict, node, where: str, correction: bool) -> _Surface:

@@ -44,7 +44,7 @@ from pathlib import Path
 import numpy as np
 
 from envfit.base import ParameterError
-from envfit.renderers._frame import HIT_SURFACE, FrameBsdf, FrameScene, Occluder
+from envfit.renderers._frame import HIT_SURFACE, FrameBsdf, FrameScene, Occluder, TwoLobes
 
 __all__ = ["read_scene", "SAMPLER_CLASSES"]
 
@@ -224,24 +224,6 @@ def _conductor(mi, b, where: str) -> FrameBsdf:
                      None if white else fresnel, extra)
 
 
-class _SquareSampled:
-    """A two-lobe BSDF whose lobe number and direction are one uniform point of the square
-    (``sample_square``: the i.i.d. estimator of the ``independent`` sampler), with the
-    frame model's ``eval``/``pdf``/``sample`` interface."""
-
-    def __init__(self, bsdf):
-        self.bsdf, self.alpha = bsdf, bsdf.alpha
-
-    def eval(self, wi, wo):
-        return self.bsdf.eval(wi, wo)
-
-    def pdf(self, wi, wo):
-        return self.bsdf.pdf(wi, wo)
-
-    def sample(self, wi, u):
-        return self.bsdf.sample_square(wi, u)
-
-
 #: ``principled``'s parameters that must be 0 (lobes or anisotropy the model does not have)
 #: and its sampling rates that must be 1
 _PRINCIPLED_ZERO = ("clearcoat", "spec_trans", "anisotropic")
@@ -281,7 +263,7 @@ def _principled(mi, b, where: str) -> FrameBsdf:
     kw["specular"] = float(params["specular"])
     lobe = bsdf("principled", PRINCIPLED_ROUGHNESS.to_alpha(value("roughness")), **kw)
     extra = next(e for a, e in _GLOSS_LEVELS if lobe.alpha <= a)
-    return FrameBsdf("glossy", f"principled ({lobe!r})", _SquareSampled(lobe), None, extra,
+    return FrameBsdf("glossy", f"principled ({lobe!r})", TwoLobes(lobe), None, extra,
                      lobes=2)
 
 
