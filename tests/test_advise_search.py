@@ -85,3 +85,37 @@ def test_rough_plastic_searches_ldsampler_as_far_as_a_conductor():
                         options=RendererModelOptions(max_level=4))
     for strategy in ("mis", "brdf", "map"):
         assert m.request(strategy, "ldsampler", 4096).level == 4
+
+
+@pytest.mark.parametrize("runnable", [[4 ** k for k in range(1, 7)],
+                                      [2 ** k for k in range(0, 13)],
+                                      list(range(1, 4097)), range(1, 2 ** 31)])
+@pytest.mark.parametrize("shift", [0.25, 0.7, 1.0, 1.3, 4.0])
+def test_a_search_around_an_earlier_answer_finds_the_full_searchs_crossing(runnable, shift):
+    """Started at an earlier model's answer (a sized search's pilot), the search finds the
+    crossing the full search finds, with the same predictions at it and at the span's powers
+    of two, wherever the new law has moved it (``shift``: the new model's RMSE over the
+    earlier one's), and asks fewer spp where it has not moved far."""
+    from envfit.advisor._renderer_search import StrategyAnswer
+    target = 0.002
+    pilot = search_spp(_Law(), ["mis"], runnable, target)["mis"]
+    assert pilot.reached
+
+    class _Moved(_Law):
+        def rmse(self, strategy, n):
+            return shift * super().rmse(strategy, n)
+
+    full_cm, near_cm = _Moved(), _Moved()
+    full = search_spp(full_cm, ["mis"], runnable, target)["mis"]
+    near = search_spp(near_cm, ["mis"], runnable, target,
+                      around={"mis": (pilot, 0.05)})["mis"]
+    assert (near.spp, near.below, near.predicted_rmse, near.below_rmse) == \
+        (full.spp, full.below, full.predicted_rmse, full.below_rmse)
+    assert near.searched_max == full.searched_max
+    if full.reached:
+        p = 1 << (full.spp.bit_length() - 1)
+        for x in (p // 2, p, 2 * p):
+            assert (x in full_cm.asked["mis"]) <= (x in near_cm.asked["mis"])
+    if shift in (1.0, 1.3):
+        assert len(near_cm.asked["mis"]) < len(full_cm.asked["mis"])
+    assert isinstance(pilot, StrategyAnswer)

@@ -29,6 +29,19 @@ Search (:func:`search_spp`), per strategy over the spp the sampler can run
    runnable spp is left between the last miss and the first meet.
 
 The answer is a *crossing*: prediction(spp) ≤ target < prediction(the runnable spp below it).
+
+**Around a known answer** (``around``: a sized model's final search after its pilot's,
+:mod:`~envfit.advisor._renderer_sizing`): pass 1 takes, instead of every coarse spp, the
+earlier answer, the runnable spp below it, the coarse spp its span needs
+(:func:`~envfit.advisor._renderer_sizing.spp_span`: the powers of two around it), the coarse
+spp past either where the earlier prediction there lies within two of its model errors of
+the target, and the ``--spp`` list; then, while no spp meets, the next two coarse spp above
+the largest asked, and while none below the first that meets misses, the next two below it,
+a pass each, until the predictions bracket a crossing; then pass 2 as above (and the span's
+powers of two at the answer, where it moved). Where the prediction falls with spp (as the
+search assumes) the answer, and every prediction at it and its span, is the full search's;
+the spp far from it are not predicted: the final model's work is spent where its error was
+sized, at the answer.
 """
 from __future__ import annotations
 
@@ -133,18 +146,78 @@ def _candidates(cm, strategy, runnable, target, lo, hi, independent: bool) -> li
     return sorted(pick)
 
 
+def _span_spp(spp: int, coarse: list[int], cap: int) -> set[int]:
+    """The coarse spp around an answer ``spp`` that its span reads (the powers of two p/2, p,
+    2p, p ≤ spp < 2p: :func:`~envfit.advisor._renderer_sizing.spp_span`) and that a full
+    search asks: those at most ``cap`` (``first_cap``), or all where the answer lies above
+    it."""
+    p, have = 1 << (int(spp).bit_length() - 1), set(coarse)
+    return {x for x in (p // 2, p, 2 * p) if x in have and (x <= cap or spp > cap)}
+
+
+def _start_around(a: StrategyAnswer, error: float, target: float, coarse: list[int],
+                  cap: int) -> set[int]:
+    """The spp a search around the earlier answer ``a`` (relative model error ``error`` there)
+    predicts first: the answer, the runnable spp below it, the coarse spp of its span
+    (:func:`_span_spp`), and where the earlier prediction lies within two of its errors of
+    ``target``, the coarse spp past it on that side (the crossing may have moved there)."""
+    out, near = {a.spp} | _span_spp(a.spp, coarse, cap), 2.0 * float(error)
+    if a.below is not None:
+        out.add(a.below)
+        if a.below_rmse is not None and a.below_rmse * (1.0 - near) <= target:
+            out |= set([n for n in coarse if n < a.below][-1:])
+    if a.predicted_rmse * (1.0 + near) > target:
+        out |= set([n for n in coarse if n > a.spp][:1])
+    return out
+
+
+def _runs(runnable, n: int) -> bool:
+    """Whether ``n`` is in ``runnable`` (ascending, a list or a range: by bisection)."""
+    i = bisect.bisect_left(runnable, n)
+    return i < len(runnable) and runnable[i] == n
+
+
+def _extend_around(cm, around: dict, runnable: list[int], target: float) -> None:
+    """The passes of :func:`search_spp` for the strategies of ``around`` after their first
+    (module docstring): the coarse spp next past the predictions (two a pass), until each
+    strategy's bracket a crossing, or meet at the smallest runnable spp, or miss at the
+    largest."""
+    coarse = coarse_spp(runnable)
+    while True:
+        todo = []
+        for s in around:
+            known = [n for n in cm.asked_spp(s) if _runs(runnable, n)]
+            meets = [n for n in known if cm.rmse(s, n) <= target]
+            if not meets:
+                todo += [(s, n) for n in coarse if n > max(known)][:2]
+            elif not any(n < meets[0] for n in known) and meets[0] > runnable[0]:
+                todo += [(s, n) for n in coarse if n < meets[0]][-2:]
+        if not todo:
+            return
+        cm.predict(todo)
+
+
 def search_spp(cm: CachedRendererModel, strategies, runnable: list[int], target: float,
                listed=(), *, independent: bool = False,
-               first_cap: int | None = None) -> dict[str, StrategyAnswer]:
+               first_cap: int | None = None, around: dict | None = None
+               ) -> dict[str, StrategyAnswer]:
     """The smallest runnable spp per strategy whose prediction meets ``target`` (module
     docstring); ``listed`` spp are predicted in the first pass too, and the coarse spp above
-    ``first_cap`` only where needed."""
+    ``first_cap`` only where needed; with ``around`` (strategy → (an earlier reached
+    :class:`StrategyAnswer`, its relative model error)), those strategies' search starts at
+    those answers."""
     coarse = coarse_spp(runnable)
     cap = runnable[-1] if first_cap is None else first_cap
-    first = {n for n in coarse if n <= cap} | {n for n in listed}
-    cm.predict([(s, n) for s in strategies for n in first])
-    open_ = [s for s in strategies if _bracket(cm, s, runnable, target)[1] is None]
+    around = {s: around[s] for s in strategies if around and s in around
+              and around[s][0].reached and _runs(runnable, around[s][0].spp)}
+    plain = [s for s in strategies if s not in around]
+    first = {(s, n) for s in plain for n in coarse if n <= cap}
+    first |= {(s, n) for s, (a, e) in around.items()
+              for n in _start_around(a, e, target, coarse, cap) if _runs(runnable, n)}
+    cm.predict(sorted(first | {(s, n) for s in strategies for n in listed}))
+    open_ = [s for s in plain if _bracket(cm, s, runnable, target)[1] is None]
     cm.predict([(s, n) for s in open_ for n in coarse if n > cap])
+    _extend_around(cm, around, runnable, target)
     while True:
         todo = []
         for s in strategies:
@@ -155,6 +228,10 @@ def search_spp(cm: CachedRendererModel, strategies, runnable: list[int], target:
         if not todo:
             break
         cm.predict(todo)
+    if around:                                  # the span's powers of two at the answer
+        cm.predict([(s, n) for s in around
+                    if (hi := _bracket(cm, s, runnable, target)[1]) is not None
+                    for n in _span_spp(hi, coarse, cap)])
     out = {}
     for s in strategies:
         lo, hi = _bracket(cm, s, runnable, target)
@@ -169,10 +246,12 @@ def search_spp(cm: CachedRendererModel, strategies, runnable: list[int], target:
 
 
 def search_model(envmap, opts, store: AdviseCache, target: float, listed,
-                 technique=None, strategies=None, stage: str | None = None):
+                 technique=None, strategies=None, stage: str | None = None,
+                 around: dict | None = None):
     """(the cached model, the answers per strategy) of one search over the runnable spp
     (``technique``: the map's, built by an earlier model; ``strategies``: these only;
-    ``stage``: the progress bar's word for its passes, e.g. ``"pilot pass"``)."""
+    ``stage``: the progress bar's word for its passes, e.g. ``"pilot pass"``; ``around``:
+    earlier answers to start from, :func:`search_spp`)."""
     spec = opts.record.sampler(opts.sampler)
     runnable = spec.runnable(opts.spp_cap())
     if not opts.every_spp:                             # the model's nets: N = 2^m
@@ -182,7 +261,8 @@ def search_model(envmap, opts, store: AdviseCache, target: float, listed,
     drawn = opts.draws_strata and spec.randomisation in STRATA_SAMPLED  # drawn above the grid
     answers = search_spp(cm, strategies or opts.strategies, runnable, target, listed,
                          independent=spec.randomisation == "independent",
-                         first_cap=opts.spp_cap(sampled=False) if drawn else None)
+                         first_cap=opts.spp_cap(sampled=False) if drawn else None,
+                         around=around)
     return cm, answers
 
 

@@ -17,7 +17,9 @@ power above the grid is sampled — the grid is a control variate — so the siz
    the cheapest (K, Q) of :data:`NORMALS` × :data:`SHIFTS` whose predicted error
    :math:`\sqrt{e_n^2 K_0/K + e_s^2 Q_0/Q}` meets it — at most :data:`BUDGET` integrand
    points a pass, the unsized model's; if none meets it within that, the one of smallest
-   predicted error — and the search runs again with those (:func:`sized_options`).
+   predicted error — and the search runs again with those (:func:`sized_options`), starting
+   at the pilot's answer (:func:`~envfit.advisor._renderer_search.search_spp`'s ``around``:
+   the final model predicts the spp around its answer, not every coarse spp).
 
 Samplers without sampled nets (independent points, stratified:
 :data:`~envfit.advisor._renderer_options.NORMALS_SIZED_RANDOMISATIONS`) are sized in their
@@ -149,14 +151,15 @@ def sized_search(envmap, opts, store: AdviseCache, target: float,
              "reach": opts.reach, "model_se": parts, "answer": answers[first].spp,
              "predicted_model_se": predicted_error(opts, parts[1:], final)}
     cms, stage = [cm], f"sized ({_size_words(final, _unit(opts))}) pass"
+    around = {first: (answers[first], parts[0] if parts else 0.0)}     # the pilot's answer
     fcm, fans = search_model(envmap, final, store, target, listed, cm.technique, (first,),
-                             stage)
+                             stage, around)
     if (not fans[first].reached and final.reach is not None
             and final.reach < opts.reach):                          # moved past its reach
         cms.append(fcm)
         final = replace(final, reach=opts.reach)
         fcm, fans = search_model(envmap, final, store, target, listed, cm.technique, (first,),
-                                 stage)
+                                 stage, around)
     by[first] = fcm
     return final, by, {**answers, first: fans[first]}, pilot, cms + [fcm]
 

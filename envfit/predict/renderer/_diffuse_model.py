@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import math
 import time
+import weakref
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -209,6 +210,13 @@ def _proposal(table: MapTable, pool: np.ndarray, count: int):
     idx = systematic_indices(pi, count)
     w = 1.0 / (len(pool) * pi[idx])
     return pool[idx], w / w.sum()
+
+
+#: the :class:`PairedFootprint` of every model alive, by (the sampler's ``film_points`` and
+#: ``lobe_points``, N, pixels, seed, dimensions): the same points and what they derive, so
+#: that a model made after another (a sized model's final search after its pilot's) reuses
+#: them rather than draws them again; an entry goes with the last model that holds it
+_PAIRINGS: "weakref.WeakValueDictionary" = weakref.WeakValueDictionary()
 
 
 class DiffuseModel(DrawnStrata):
@@ -503,17 +511,36 @@ class DiffuseModel(DrawnStrata):
 
     def _pairing(self, r: CellRequest) -> PairedFootprint:
         """The :class:`._footprint.PairedFootprint` of cell ``r``'s sampler at N spp: its own
-        film points, in every dimension to the strategy's last draw (:meth:`_calls`), for
-        max(Q, 2^20/N) pixels (Q = ``options.shifts``), seeded by ``options.seed``."""
-        lobe = self.renderer.strategy(r.strategy).lobe_call
-        n, dims = r.n, max(3, max(self._calls(r)) + 1, (lobe or 0) + 1)
+        film points, in every dimension to any strategy's last draw (:meth:`_pairing_dims`),
+        for max(Q, 2^20/N) pixels (Q = ``options.shifts``), seeded by ``options.seed``; the
+        same pixels as another model's alive with the same sampler points, N, pixels, seed
+        and dimensions (:data:`_PAIRINGS`: a sized model's pilot's)."""
+        n, dims = r.n, self._pairing_dims()
         key = ("paired", r.sampler, n, dims)
         if key not in self._tables:
             spec = self.renderer.sampler(r.sampler)
-            self._tables[key] = PairedFootprint(n, max(self.options.shifts, (1 << 20) // n),
-                                                self.options.seed, spec.film_points, dims,
-                                                spec.lobe_points)
+            pixels = max(self.options.shifts, (1 << 20) // n)
+            shared = (spec.film_points, spec.lobe_points, n, pixels, self.options.seed, dims)
+            pairing = _PAIRINGS.get(shared)
+            if pairing is None:
+                pairing = PairedFootprint(n, pixels, self.options.seed, spec.film_points,
+                                          dims, spec.lobe_points)
+                _PAIRINGS[shared] = pairing
+            self._tables[key] = pairing
         return self._tables[key]
+
+    def _pairing_dims(self) -> int:
+        """The dimensions of :meth:`_pairing`'s points: to the last 2-D draw of any strategy
+        of the renderer (:meth:`_calls`; a lobe's number is the record's ``lobe_points``,
+        not these points), so that every strategy's cells at N read one draw of them (a
+        sampler's ``film_points`` of fewer dimensions are these points' first ones:
+        :attr:`envfit.renderers.SamplerSpec.film_points`)."""
+        dims = 3
+        for name in self.renderer.strategies:
+            s = self.renderer.strategy(name)
+            calls = s.calls if s.calls is not None else (1, 1 + s.emitter_samples)
+            dims = max(dims, max(calls) + 1)
+        return dims
 
     def _randomised_cell(self, r: CellRequest, vals: dict, grids: dict, fine: int, levels):
         """:meth:`_cell` without the footprint: the tables randomised as the sampler does."""

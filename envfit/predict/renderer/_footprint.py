@@ -324,14 +324,19 @@ class PairedFootprint:
             self._weights[side] = film_weights(self.points[:, :, 0], side)
         return self._weights[side]
 
-    def cells(self, dim: int, size: int) -> np.ndarray:
+    def cells(self, dim: int, size: int, dtype=np.int64) -> np.ndarray:
         """Each sample's entry (R, N) of a table at the midpoints of a 2^L × 2^L grid of
-        ``size`` = 4^L entries (u0 the slow index), in dimension ``dim``."""
-        key = (dim, size)
+        ``size`` = 4^L entries (u0 the slow index), in dimension ``dim``; as ``dtype`` (an
+        integer type that holds ``size``, e.g. int32 for a compiled kernel's smaller reads),
+        memoised per type."""
+        key = (dim, size, np.dtype(dtype))
         if key not in self._cells:
-            m = 1 << (int(size).bit_length() - 1) // 2
-            i = np.minimum((self.points[:, :, dim] * m).astype(np.int64), m - 1)
-            self._cells[key] = i[..., 0] * m + i[..., 1]
+            wide = self._cells.get((dim, size, np.dtype(np.int64)))
+            if wide is None:
+                m = 1 << (int(size).bit_length() - 1) // 2
+                i = np.minimum((self.points[:, :, dim] * m).astype(np.int64), m - 1)
+                wide = i[..., 0] * m + i[..., 1]
+            self._cells[key] = np.ascontiguousarray(wide, dtype=dtype)
         return self._cells[key]
 
     def extra(self, tables: dict, strategy: str, calls: tuple[int, int] | None = None,

@@ -216,6 +216,24 @@ def _halve(a, b, out_a, out_b):  # pragma: no cover - numba
                                      + (b[c, 2 * i + 1, 2 * j] + b[c, 2 * i + 1, 2 * j + 1]))
 
 
+@numba.njit(cache=True)
+def _halve_small(a, b, out_a, out_b):  # pragma: no cover - numba
+    """:func:`_halve` in one thread (the same numbers): a coarse level's few cells, where
+    starting the threads costs more than the work."""
+    chans, m = out_a.shape[0], out_a.shape[1]
+    for r in range(chans * m):
+        c, i = r // m, r % m
+        for j in range(m):
+            out_a[c, i, j] = 0.25 * ((a[c, 2 * i, 2 * j] + a[c, 2 * i, 2 * j + 1])
+                                     + (a[c, 2 * i + 1, 2 * j] + a[c, 2 * i + 1, 2 * j + 1]))
+            out_b[c, i, j] = 0.25 * ((b[c, 2 * i, 2 * j] + b[c, 2 * i, 2 * j + 1])
+                                     + (b[c, 2 * i + 1, 2 * j] + b[c, 2 * i + 1, 2 * j + 1]))
+
+
+#: the cells (channels × M²) of a pyramid level below which it is halved in one thread
+SERIAL_CELLS = 1 << 16
+
+
 @numba.njit(cache=True, parallel=True)
 def _halve_values(v, out_a, out_b):  # pragma: no cover - numba
     """The 2 × 2 block means of h and of h² from the fine values ``v`` (2m, 2m, C) into
@@ -254,7 +272,7 @@ def moment_pyramid(values: np.ndarray, fine_level: int, levels) -> dict:
         if lev < start:
             m = 1 << lev
             na, nb = np.empty((a.shape[0], m, m)), np.empty((a.shape[0], m, m))
-            _halve(a, b, na, nb)
+            (_halve_small if na.size <= SERIAL_CELLS else _halve)(a, b, na, nb)
             a, b = na, nb
         if lev in levels:
             out[lev] = (a, b)

@@ -22,6 +22,7 @@ is compiled.
 from __future__ import annotations
 
 import math
+import weakref
 
 import numba
 import numpy as np
@@ -127,6 +128,30 @@ def _views(bsdf, wis: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(out)
 
 
+#: per BSDF, the view row of each view :func:`layered_eval_pdf` and :func:`layered_sample`
+#: were given (the microfacet model asks for one frame's view several times: each lobe,
+#: each table); dropped with the BSDF
+_VIEW_ROWS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+_VIEW_ROWS_MAX = 4096
+
+
+def _view_row(bsdf, wi: np.ndarray) -> np.ndarray:
+    """:func:`_views` of the one view ``wi``, (4,), memoised per BSDF (and its parameters)
+    and view: the same numbers, computed once."""
+    try:
+        rows = _VIEW_ROWS.setdefault(bsdf, {})
+    except TypeError:                                   # not weakly referable: not memoised
+        return _views(bsdf, wi)[0]
+    key = (np.ascontiguousarray(wi, dtype=np.float64).tobytes(), _constants(bsdf).tobytes(),
+           float(bsdf.base_color))
+    row = rows.get(key)
+    if row is None:
+        if len(rows) >= _VIEW_ROWS_MAX:
+            rows.clear()
+        row = rows[key] = _views(bsdf, wi)[0]
+    return row
+
+
 def layered_views(bsdf, wis) -> np.ndarray:
     """The per-view constants (K, 4) of the views ``wis`` (K, 3) that :func:`layered_eval_pdf`
     and :func:`layered_sample` take as ``view`` (computed once for many calls)."""
@@ -141,7 +166,7 @@ def layered_eval_pdf(bsdf, wi, dirs, rows=None,
     out = np.empty((2, len(dirs)))
     wi = np.ascontiguousarray(wi, dtype=np.float64)
     rows = np.eye(3) if rows is None else np.ascontiguousarray(rows, dtype=np.float64)
-    view = _views(bsdf, wi)[0] if view is None else np.ascontiguousarray(view)
+    view = _view_row(bsdf, wi) if view is None else np.ascontiguousarray(view)
     _eval_pdf(wi, view, np.ascontiguousarray(dirs, dtype=np.float64), rows,
               _constants(bsdf), out.T)
     return out[0], out[1]
@@ -158,7 +183,7 @@ def layered_sample(bsdf, wi, u, u1=None,
             else np.zeros((4, 5)))
     lobe = np.array([1.0, 0.0] if u1 is None else [0.0, float(u1)])
     wo, out = np.empty((len(u), 3)), np.empty((2, len(u)))
-    view = _views(bsdf, wi)[0] if view is None else np.ascontiguousarray(view)
+    view = _view_row(bsdf, wi) if view is None else np.ascontiguousarray(view)
     _sample(wi, vndf, view, np.ascontiguousarray(u, dtype=np.float64), lobe,
             _constants(bsdf), wo, out)
     return wo, out[0], out[1]

@@ -23,7 +23,7 @@ import numba
 import numpy as np
 
 from envfit.predict.renderer._footprint import paired_extra
-from envfit.predict.renderer._microfacet_kernels import PARTS, accumulate_parts
+from envfit.predict.renderer._microfacet_kernels import bsdf_parts
 from envfit.predict.renderer._principled_kernels import two_lobe_kernels
 from envfit.predict.renderer._cell_request import samples_above
 from envfit.predict.renderer._integrand_tables import moment_pyramid
@@ -70,12 +70,119 @@ def _order_sums(lobes, e, cells, cells_e, numbers, p, total, out):  # pragma: no
                 out[g, ch] += x * x - y * y
 
 
-def _moments(vals: dict, fine: int, level: int, names: tuple) -> tuple:
+@numba.njit(cache=True, parallel=True)
+def _order_sums_rgb(ab, e, cells, cells_e, numbers, consts, out):  # pragma: no cover
+    """:func:`_order_sums` for three channels, each sample's cell read once for all of them:
+    ``ab`` (P, 6) lobe a's channels then lobe b's at each cell, ``cells`` (and ``cells_e``)
+    int32, ``consts`` = (p, inv, I₀, I₁, I₂) with ``inv`` = 1/N where N is a power of two
+    (F·(1/N) is then F/N exactly), else 0 (F/N). The same sums in the same order: equal to
+    :func:`_order_sums` bit for bit (its 0 + value where there is no emitter table is the
+    value: a sum from +0 is never −0)."""
+    lobe, mixed = numbers[0], numbers[1]
+    r, n = cells.shape
+    q = out.shape[0]
+    size = r // q
+    with_e = cells_e.shape[1] == n
+    p, inv, t0, t1, t2 = consts[0], consts[1], consts[2], consts[3], consts[4]
+    for g in numba.prange(q):
+        o0, o1, o2 = 0.0, 0.0, 0.0
+        for k in range(g * size, (g + 1) * size):
+            f0, f1, f2, u0, u1, u2 = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+            if with_e:
+                for j in range(n):
+                    i, ie = cells[k, j], cells_e[k, j]
+                    sa, sm = lobe[k, j] < p, mixed[k, j] < p
+                    a0, a1, a2 = ab[i, 0], ab[i, 1], ab[i, 2]
+                    b0, b1, b2 = ab[i, 3], ab[i, 4], ab[i, 5]
+                    e0, e1, e2 = e[ie, 0], e[ie, 1], e[ie, 2]
+                    f0 += e0 + (a0 if sa else b0)
+                    f1 += e1 + (a1 if sa else b1)
+                    f2 += e2 + (a2 if sa else b2)
+                    u0 += e0 + (a0 if sm else b0)
+                    u1 += e1 + (a1 if sm else b1)
+                    u2 += e2 + (a2 if sm else b2)
+            else:
+                for j in range(n):
+                    i = cells[k, j]
+                    sa, sm = lobe[k, j] < p, mixed[k, j] < p
+                    a0, a1, a2 = ab[i, 0], ab[i, 1], ab[i, 2]
+                    b0, b1, b2 = ab[i, 3], ab[i, 4], ab[i, 5]
+                    f0 += a0 if sa else b0
+                    f1 += a1 if sa else b1
+                    f2 += a2 if sa else b2
+                    u0 += a0 if sm else b0
+                    u1 += a1 if sm else b1
+                    u2 += a2 if sm else b2
+            if inv > 0.0:
+                f0, f1, f2, u0, u1, u2 = f0 * inv, f1 * inv, f2 * inv, u0 * inv, u1 * inv, u2 * inv
+            else:
+                f0, f1, f2, u0, u1, u2 = f0 / n, f1 / n, f2 / n, u0 / n, u1 / n, u2 / n
+            x, y = f0 - t0, u0 - t0
+            o0 += x * x - y * y
+            x, y = f1 - t1, u1 - t1
+            o1 += x * x - y * y
+            x, y = f2 - t2, u2 - t2
+            o2 += x * x - y * y
+        out[g, 0] += o0
+        out[g, 1] += o1
+        out[g, 2] += o2
+
+
+@numba.njit(cache=True, parallel=True)
+def _order_sums_pair(ab2, cells, numbers, consts, out):  # pragma: no cover
+    """:func:`_order_sums_rgb` of two streams at once that share their cells and lobe numbers
+    (a BSDF's ``brdf`` and ``mis`` streams drawn alike, no emitter table): ``ab2`` (P, 12) the
+    first stream's lobes a and b then the second's, ``consts`` = (p, inv, the first's I (3),
+    the second's (3)), ``out`` (2, Q, 3). Each stream's sums in its own order: equal to
+    :func:`_order_sums_rgb` of each bit for bit, one read of a cell for both."""
+    lobe, mixed = numbers[0], numbers[1]
+    r, n = cells.shape
+    q = out.shape[1]
+    size = r // q
+    p, inv = consts[0], consts[1]
+    for g in numba.prange(q):
+        o = np.zeros(6)
+        for k in range(g * size, (g + 1) * size):
+            f0, f1, f2, u0, u1, u2 = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+            h0, h1, h2, v0, v1, v2 = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+            for j in range(n):
+                i = cells[k, j]
+                sa, sm = lobe[k, j] < p, mixed[k, j] < p
+                f0 += ab2[i, 0] if sa else ab2[i, 3]
+                f1 += ab2[i, 1] if sa else ab2[i, 4]
+                f2 += ab2[i, 2] if sa else ab2[i, 5]
+                u0 += ab2[i, 0] if sm else ab2[i, 3]
+                u1 += ab2[i, 1] if sm else ab2[i, 4]
+                u2 += ab2[i, 2] if sm else ab2[i, 5]
+                h0 += ab2[i, 6] if sa else ab2[i, 9]
+                h1 += ab2[i, 7] if sa else ab2[i, 10]
+                h2 += ab2[i, 8] if sa else ab2[i, 11]
+                v0 += ab2[i, 6] if sm else ab2[i, 9]
+                v1 += ab2[i, 7] if sm else ab2[i, 10]
+                v2 += ab2[i, 8] if sm else ab2[i, 11]
+            sums = (f0, f1, f2, h0, h1, h2)
+            mixes = (u0, u1, u2, v0, v1, v2)
+            for c in range(6):
+                fc, uc = sums[c], mixes[c]
+                if inv > 0.0:
+                    fc, uc = fc * inv, uc * inv
+                else:
+                    fc, uc = fc / n, uc / n
+                x, y = fc - consts[2 + c], uc - consts[2 + c]
+                o[c] += x * x - y * y
+        for c in range(6):
+            out[c // 3, g, c % 3] += o[c]
+
+
+def _moments(vals: dict, fine: int, level: int, names: tuple, top: int | None = None) -> tuple:
     """({name: A}, {(name, name'): B}, {name: Walsh}) of the tables ``names`` of one frame at
     ``level``: the cell means of each, the cell means of each product of two (squares
-    included), the Walsh coefficients of each one's centred means — one pyramid and one
-    transform per table, memoised in ``vals``, from which every linear combination's grid
-    follows (:func:`_combined_grid`)."""
+    included), the Walsh coefficients of each one's centred means — one pyramid per table
+    and one transform per table at level ``top`` (≥ ``level``; default ``level``), memoised
+    in ``vals``, from which every linear combination's grid follows (:func:`_combined_grid`).
+    A coarser level's coefficients are the top's first 2^level × 2^level (the cell means of
+    a grid determine exactly its coefficients below M: :mod:`.randomisation._walsh`; equal
+    to a transform of the coarser means to rounding)."""
     key = ("_moments", level, names)
     if key not in vals:
         pyramid = ("_pyramid", names)
@@ -91,21 +198,29 @@ def _moments(vals: dict, fine: int, level: int, names: tuple) -> tuple:
         for q, (i, j) in enumerate(pairs):
             at = (len(names) + q) * c
             second[names[i], names[j]] = a[at:at + c]
-        walsh = {k: DyadicGrid.from_arrays(m, np.maximum(second[k, k], m * m)).walsh
-                 for k, m in means.items()}
+        top = level if top is None or top < level else top
+        if top == level:
+            walsh = {k: DyadicGrid.from_arrays(m, np.maximum(second[k, k], m * m)).walsh
+                     for k, m in means.items()}
+        else:
+            m = 1 << level
+            walsh = {k: np.ascontiguousarray(w[:, :m, :m])
+                     for k, w in _moments(vals, fine, top, names, top)[2].items()}
         vals[key] = (means, second, walsh)
     return vals[key]
 
 
-def _combined_grid(vals: dict, fine: int, level: int, coeffs: dict) -> DyadicGrid:
+def _combined_grid(vals: dict, fine: int, level: int, coeffs: dict,
+                   top: int | None = None) -> DyadicGrid:
     r"""The :class:`DyadicGrid` at ``level`` of :math:`\sum_k c_k t_k` over one frame's tables
     :math:`t_k` (``coeffs`` {name: c}) from their :func:`_moments`: means and Walsh
     coefficients linear, cell means of the square :math:`\sum_{k,l} c_k c_l\,
     \overline{t_k t_l}` — what a pyramid and a transform of the combined table give (to
-    rounding), without either."""
+    rounding), without either; the Walsh coefficients from a transform at level ``top``
+    (:func:`_moments`)."""
     names = tuple(sorted(vals_key for vals_key in coeffs))
     group = tuple(sorted(k for k in _GROUPS[names[0]]))
-    means, second, walsh = _moments(vals, fine, level, group)
+    means, second, walsh = _moments(vals, fine, level, group, top)
     a = sum(coeffs[k] * means[k] for k in names)
     b = 0.0
     for i, k in enumerate(group):
@@ -115,6 +230,33 @@ def _combined_grid(vals: dict, fine: int, level: int, coeffs: dict) -> DyadicGri
     g = DyadicGrid.from_arrays(a, np.maximum(b, a * a))
     g.__dict__["walsh"] = sum(coeffs[k] * walsh[k] for k in names)
     return g
+
+
+def _order_tables(vals: dict, prefix: str) -> dict:
+    """What :meth:`LobeChoice._order_excess` reads of one frame's tables, made once per frame
+    (memoised in ``vals``) for every N: for a lobe ``prefix`` (``brdf_``, ``mis_b``) the two
+    lobes side by side (``ab`` (P, 2C)) and their means; for ``mis_e`` the emitter's table
+    ``e`` and its mean."""
+    key = ("_order tables", prefix)
+    if key not in vals:
+        if prefix == "mis_e":
+            e = np.ascontiguousarray(vals["mis_e"], dtype=np.float64)
+            vals[key] = {"e": e, "e mean": e.mean(axis=0)}
+        else:
+            a, b = vals[f"{prefix}a"], vals[f"{prefix}b"]
+            vals[key] = {"a mean": a.mean(axis=0), "b mean": b.mean(axis=0),
+                         "ab": np.concatenate([a, b], axis=1).astype(np.float64, order="C")}
+    return vals[key]
+
+
+def _pair_table(vals: dict, first: str, second: str) -> np.ndarray:
+    """(P, 12): the two lobe prefixes' ``ab`` tables side by side (:func:`_order_sums_pair`),
+    made once per frame."""
+    key = ("_order pair table", first, second)
+    if key not in vals:
+        vals[key] = np.concatenate([_order_tables(vals, first)["ab"],
+                                    _order_tables(vals, second)["ab"]], axis=1)
+    return vals[key]
 
 
 #: the tables a combination mixes: the BSDF stream's two lobes, with the emitter's for MIS
@@ -164,20 +306,19 @@ class LobeChoice:
         u = self._table("bsdf", fine)
         out, ps = {}, []
         for name, u1 in _LOBES:
-            acc = np.zeros((len(normals), len(PARTS), len(u), 3))
+            acc = np.empty((2, len(normals), len(u), 3))          # brdf, mis_b per normal
             for k, normal in enumerate(normals):
                 rows = np.asarray(self.renderer.tangent_frame(normal.reshape(1, 3))[0])
                 wi = rows @ view
                 wo, weight, pdf = self._sample_lobe(wi, u, u1)
                 rad, pe = self._technique_values(wo, rows, weight)
-                accumulate_parts(acc[k], None, (rad, weight, pdf, pe), self._fractions("mis"),
-                                 self.renderer.heuristic)
+                bsdf_parts((rad, weight, pdf, pe), self._fractions("mis"),
+                           self.renderer.heuristic, acc[0, k], acc[1, k])
                 if name == "a":
                     ps.append(float(self.conductor.lobe_probability(np.array([max(wi[2], 0.0)]))[0]
                                     if wi[2] > 0 else 0.0))
-            for part, key in (("brdf", f"brdf_{name}"), ("mis_b", f"mis_b{name}")):
-                per = acc[:, PARTS.index(part)]
-                out[key] = per.mean(axis=0)
+            for per, key in ((acc[0], f"brdf_{name}"), (acc[1], f"mis_b{name}")):
+                out[key] = per[0] + 0.0 if len(per) == 1 else per.mean(axis=0)   # (0 + x)/1
                 if kept is not None:
                     kept[key] = per
         out["_p"] = float(np.mean(ps))
@@ -209,23 +350,28 @@ class LobeChoice:
         side = int(round(np.sqrt(a.shape[0])))
         return paired_extra(streams, pairing.weights(side))[0]
 
-    def _lobe_cell(self, r, vals: dict, grids: dict, fine: int):
+    def _lobe_cell(self, r, vals: dict, grids: dict, fine: int, levels=()):
         """(mse, emitter part, BSDF part, 2·cross) per channel of a two-lobe BSDF's request
         under a stratified 1-D sampler (:func:`lobe_choice_mse`, :func:`lobe_choice_mis`).
         Where the net's power above the grid is sampled (N > M/2: :func:`samples_above`), each
         combination of the lobes' tables gets its own, from the same combination of the lobes'
-        values at the pass's sampled points (:meth:`_lobe_above`)."""
+        values at the pass's sampled points (:meth:`_lobe_above`). The Walsh transforms are
+        made once per table at the largest of the pass's ``levels`` (:func:`_moments`)."""
         sampled = samples_above(r.name, r.n, r.level)
         sv = (self._sampled_values(grids, SAMPLE_TAG[r.name], {r.strategy} | grids.get(
             "strategies", set()), r.n) if sampled else None)
         p = vals["_p"]
+        top = max([r.level, *levels])
 
         def grid(coeffs: dict, part):
-            g = _combined_grid(vals, fine, r.level, coeffs)
+            key = ("_combined", r.level, top, tuple(sorted(coeffs.items())))
+            if key not in vals:                     # the same grid for every N at the level
+                vals[key] = _combined_grid(vals, fine, r.level, coeffs, top)
+            g = vals[key]
             if not sampled:
                 return g
-            return self._lobe_above(r, g, sum(c * sv[k] for k, c in coeffs.items()), grids,
-                                    part)
+            return self._lobe_above(r, g, lambda: sum(c * sv[k] for k, c in coeffs.items()),
+                                    grids, part)
 
         def grid_of(prefix, base=None, part=None):
             def of(x, y):
@@ -268,34 +414,87 @@ class LobeChoice:
         a, b = vals[f"{prefix}a"], vals[f"{prefix}b"]
         if spec.lobe_points is None or call is None:
             return np.zeros(a.shape[1])
+        if r.n == 1:                # one number a pixel: its shuffle is itself, F_u = F
+            pixels = max(self.options.shifts, 1 << 20)               # :meth:`_pairing`'s
+            grids["order_draws", r] = np.zeros(max(2, min(int(self.options.shifts), pixels)))
+            return np.zeros(a.shape[1])
         pairing = self._pairing(r)
         e_call, b_call = self._calls(r)
         size, p = len(a), vals["_p"]
+        numbers = self._lobe_numbers(pairing, call, r.n)
+        q = max(2, min(int(self.options.shifts), numbers.shape[1]))
+        per = numbers.shape[1] // q
+        with_e = r.strategy == "mis" and spec.pairing != "independent"
+        out = grids.pop(("order sums", r), None)               # made with another stream's
+        partner = (None if out is not None or with_e or a.shape[1] != 3
+                   else self._order_partner(r, vals))
+        if partner is not None:
+            other = "brdf_" if partner.strategy == "brdf" else "mis_b"
+            out = np.zeros((2, q, 3))
+            totals = [p * t["a mean"] + (1.0 - p) * t["b mean"]
+                      for t in (_order_tables(vals, prefix), _order_tables(vals, other))]
+            n = numbers.shape[2]
+            consts = np.array([p, 1.0 / n if n & (n - 1) == 0 else 0.0, *totals[0],
+                               *totals[1]], np.float64)
+            _order_sums_pair(_pair_table(vals, prefix, other),
+                             pairing.cells(b_call, size, np.int32), numbers, consts, out)
+            grids["order sums", partner] = out[1]
+            out = out[0]
+        elif out is None:
+            tabs = _order_tables(vals, prefix)
+            total = p * tabs["a mean"] + (1.0 - p) * tabs["b mean"]
+            cells = pairing.cells(b_call, size, np.int32)
+            if with_e:
+                tab_e = _order_tables(vals, "mis_e")
+                e, e_mean = tab_e["e"], tab_e["e mean"]
+                cells_e = pairing.cells(e_call, len(e), np.int32)
+                total = total + e_mean
+            else:
+                e, cells_e = np.zeros((1, a.shape[1])), np.zeros((0, 0), np.int32)
+            out = np.zeros((q, a.shape[1]))
+            total = np.asarray(total, dtype=np.float64)
+            if a.shape[1] == 3:
+                n = numbers.shape[2]
+                consts = np.array([p, 1.0 / n if n & (n - 1) == 0 else 0.0, *total],
+                                  np.float64)
+                _order_sums_rgb(tabs["ab"], e, cells, cells_e, numbers, consts, out)
+            else:
+                lobes = np.ascontiguousarray(np.stack([a, b]), dtype=np.float64)
+                _order_sums(lobes, e, cells.astype(np.int64), cells_e.astype(np.int64),
+                            numbers, float(p), total, out)
+        grids["order_draws", r] = out.mean(axis=1) / per
+        return out.sum(axis=0) / (q * per)
+
+    def _lobe_numbers(self, pairing, call: int, n: int) -> np.ndarray:
+        """(2, R, N): the pixels' lobe numbers of ``call`` in the sampler's order and each
+        pixel's shuffled (seeded by ``options.seed`` and N), kept with the pairing."""
         key = ("lobe numbers and shuffled", call)
         if key not in pairing.memo:                 # the same numbers, each pixel's shuffled
             lobe = pairing.lobe_numbers(call)
-            mixed = np.random.default_rng([self.options.seed, r.n, 0x0DE]).permuted(lobe, axis=1)
+            mixed = np.random.default_rng([self.options.seed, n, 0x0DE]).permuted(lobe, axis=1)
             pairing.memo[key] = np.ascontiguousarray(np.stack([lobe, mixed]), dtype=np.float64)
-        numbers = pairing.memo[key]
-        total = p * a.mean(axis=0) + (1.0 - p) * b.mean(axis=0)
-        cells = pairing.cells(b_call, size)
-        if r.strategy == "mis" and spec.pairing != "independent":
-            e = np.ascontiguousarray(vals["mis_e"], dtype=np.float64)
-            cells_e = pairing.cells(e_call, len(e))
-            total = total + e.mean(axis=0)
-        else:
-            e, cells_e = np.zeros((1, a.shape[1])), np.zeros((0, 0), np.int64)
-        q = max(2, min(int(self.options.shifts), numbers.shape[1]))
-        size = numbers.shape[1] // q
-        out = np.zeros((q, a.shape[1]))
-        lobes = np.ascontiguousarray(np.stack([a, b]), dtype=np.float64)
-        _order_sums(lobes, e, cells, cells_e, numbers, float(p),
-                    np.asarray(total, dtype=np.float64), out)
-        grids["order_draws", r] = out.mean(axis=1) / size
-        return out.sum(axis=0) / (q * size)
+        return pairing.memo[key]
+
+    def _order_partner(self, r, vals: dict):
+        """The pass's request of the other BSDF stream (``brdf`` for ``mis``, and back) whose
+        order excess reads the same cells and lobe numbers as ``r``'s without an emitter
+        table (:func:`_order_sums_pair`), or None."""
+        spec = self.renderer.sampler(r.sampler)
+        mine = self.renderer.strategy(r.strategy)
+        for o in getattr(self, "_pass_todo", ()):
+            if (o.strategy in ("brdf", "mis") and o.strategy != r.strategy and o.n == r.n
+                    and o.sampler == r.sampler and o.name == r.name
+                    and self.renderer.strategy(o.strategy).lobe_call == mine.lobe_call
+                    and self._calls(o)[1] == self._calls(r)[1]
+                    and (o.strategy != "mis" or spec.pairing == "independent")
+                    and all(k in vals for k in (("brdf_a", "brdf_b") if o.strategy == "brdf"
+                                                 else ("mis_ba", "mis_bb")))):
+                return o
+        return None
 
     def _lobe_above(self, r, g: DyadicGrid, values, grids: dict, key) -> DyadicGrid:
-        """``g`` with its power above the grid sampled from ``values`` at the pass's sampled
+        """``g`` with its power above the grid sampled from ``values`` (or a function that
+        gives them, called where the estimate is not memoised) at the pass's sampled
         points (:meth:`~._sampled_nets.SampledNets.above`, memoised per combination ``key`` =
         (part, x, y, near)); the combination nearest the lobe's probability (``near``) is also
         filed under its part's name, whose draws give the model's error

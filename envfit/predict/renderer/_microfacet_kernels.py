@@ -215,6 +215,28 @@ def _accumulate(base, mvals, rad, bvals, consts, acc, sums):  # pragma: no cover
                     sums[k, i, 1, c] += g[i] * g[i]
 
 
+@numba.njit(cache=True, parallel=True, error_model="numpy")
+def _bsdf_parts(rad, bvals, consts, brdf, mis_b):  # pragma: no cover - numba
+    weight, bpdf, pe = bvals[0], bvals[1], bvals[2]
+    fa, fb, power = consts[0], consts[1], consts[2] > 0.0
+    for p in numba.prange(rad.shape[0]):
+        wb = _heuristic(bpdf[p], pe[p], fb, fa, power)
+        for c in range(3):
+            hb = rad[p, c] * weight[p]
+            brdf[p, c] = 0.0 + hb
+            mis_b[p, c] = 0.0 + hb * wb
+
+
+def bsdf_parts(bsdf_side, fractions, heuristic, brdf, mis_b) -> None:
+    r"""The BSDF side's ``brdf`` and ``mis_b`` parts alone, into ``brdf`` and ``mis_b``
+    (P, 3): what :func:`accumulate_parts` adds to a zeroed accumulator's ``brdf`` and
+    ``mis_b`` without a map side (the same numbers), without the other parts or the sums."""
+    consts = np.array([fractions[0], fractions[1], _HEURISTIC_CODES[heuristic] == 0], float)
+    _bsdf_parts(np.ascontiguousarray(bsdf_side[0], dtype=np.float64),
+                np.ascontiguousarray(np.stack(bsdf_side[1:]), dtype=np.float64), consts,
+                brdf, mis_b)
+
+
 def accumulate_parts(acc, map_side, bsdf_side, fractions, heuristic) -> np.ndarray:
     r"""Add one normal's parts (:data:`PARTS`) to ``acc`` (5, P, 3) in one pass and return
     their sums :math:`\sum_P g`, :math:`\sum_P g^2` (5, 2, 3).

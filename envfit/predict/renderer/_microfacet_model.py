@@ -254,6 +254,7 @@ class MicrofacetModel(LobeChoice, DiffuseModel):
     def _run(self, todo: list, **kw) -> None:
         """:meth:`DiffuseModel._run`, with the lobes' tables when a request needs them."""
         self._lobes = self._lobe_requests(todo)
+        self._pass_todo = tuple(todo)                   # a stream's order partner's pass
         self._lobes_only = self._lobes and self.footprints is None and all(
             r.name in STRATIFIED_1D for r in todo if r.strategy != "map")
         super()._run(todo, **kw)
@@ -262,7 +263,7 @@ class MicrofacetModel(LobeChoice, DiffuseModel):
         """:meth:`DiffuseModel._randomised_cell`; a two-lobe BSDF's stream under a stratified
         1-D sampler by :meth:`_lobe_cell`."""
         if self._two_lobes() and r.strategy != "map" and r.name in STRATIFIED_1D:
-            return self._lobe_cell(r, vals, grids, fine)
+            return self._lobe_cell(r, vals, grids, fine, levels)
         return super()._randomised_cell(r, vals, grids, fine, levels)
 
     def predict_bands(self, strategy: str, sampler: str, spp: int) -> dict:

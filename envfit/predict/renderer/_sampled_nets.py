@@ -155,12 +155,14 @@ class SampledNets:
               memo: dict, part: str):
         """(estimate, standard error) of the power above the level-``level`` grid of cell
         means ``mean`` for the pass's sampled N, from the integrand ``values`` at the
-        pass's table (kept per normal in ``memo``)."""
+        pass's table (or a function that gives them, called only where the estimate is not
+        yet kept per normal in ``memo``)."""
         key = ("above", part, level, tag, max(n, self.top))
         if key not in memo or n not in memo[key]:
             ns = self.ns.get((tag, level), set()) | {n}
             memo[key] = sampled_above_prefixes(self.sample(tag, max(n, self.top)), mean,
-                                               values, ns, draws=True)
+                                               values() if callable(values) else values, ns,
+                                               draws=True)
         return memo[key][n][:2]
 
     def draws(self, tag: str, level: int, n: int, memo: dict, part: str) -> np.ndarray:

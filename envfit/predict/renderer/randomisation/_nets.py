@@ -86,17 +86,25 @@ class DigitalNet:
         return c[0][:, None] == c[1][None, :]
 
     def dual_mask(self, m: int, size: int) -> np.ndarray:
-        """Boolean (size, size): the indices below ``size`` that are in :math:`D^*`."""
+        """Boolean (size, size): the indices below ``size`` that are in :math:`D^*` (read only,
+        made once per net, m and size)."""
         key = (self.name, int(m))
+        if (key, int(size)) in _MASKS:
+            return _MASKS[key, int(size)]
         if key not in _RESIDUES:              # the nets are fixed: their residues once
             _RESIDUES[key] = self.dual_residues(m)
         res = _RESIDUES[key]
         k = np.arange(size) % (1 << m)
-        return res[np.ix_(k, k)]
+        mask = res[np.ix_(k, k)]
+        mask.flags.writeable = False          # shared: read only
+        _MASKS[key, int(size)] = mask
+        return mask
 
 
 #: dual-net residues per (net, m), computed once (:meth:`DigitalNet.dual_mask`)
 _RESIDUES: dict = {}
+#: the masks :meth:`DigitalNet.dual_mask` gave, per ((net, m), size) (a few: the grid sizes)
+_MASKS: dict = {}
 
 NETS = {"sobol": DigitalNet("sobol", (_van_der_corput(), _sobol_second()))}
 

@@ -71,19 +71,42 @@ def _fwht_rows(x):  # pragma: no cover - numba
             h *= 2
 
 
+@numba.njit(cache=True)
+def _fwht_rows_small(x):  # pragma: no cover - numba
+    """:func:`_fwht_rows` in one thread (the same numbers), for a transform too small to
+    share."""
+    rows, n = x.shape
+    for r in range(rows):
+        h = 1
+        while h < n:
+            for i in range(0, n, 2 * h):
+                for j in range(i, i + h):
+                    a = x[r, j]
+                    b = x[r, j + h]
+                    x[r, j] = a + b
+                    x[r, j + h] = a - b
+            h *= 2
+
+
+#: the coefficients (channels × M²) up to which a transform runs in one thread
+SERIAL_SIZE = 1 << 16
+
+
 def walsh_coefficients(mean: np.ndarray) -> np.ndarray:
     r""":math:`\hat h(k_1, k_2)` for :math:`k_1, k_2 < M` from the cell means (C, M, M).
 
     The 2-D transform as two passes of a compiled in-place row transform (the numpy
-    :func:`fwht` is the tests' reference; 10-20x slower at M = 512)."""
+    :func:`fwht` is the tests' reference; 10-20x slower at M = 512), in one thread up to
+    :data:`SERIAL_SIZE` coefficients."""
     mean = np.asarray(mean, dtype=np.float64)
     m = mean.shape[-1]
     rev = bit_reverse(np.arange(m), m.bit_length() - 1)
     a = np.ascontiguousarray(mean[..., rev, :][..., rev])
     shape = a.shape
-    _fwht_rows(a.reshape(-1, m))
+    rows = _fwht_rows_small if a.size <= SERIAL_SIZE else _fwht_rows
+    rows(a.reshape(-1, m))
     a = np.ascontiguousarray(np.swapaxes(a, -1, -2))
-    _fwht_rows(a.reshape(-1, m))
+    rows(a.reshape(-1, m))
     a = np.swapaxes(a, -1, -2).reshape(shape)
     return a / float(m * m)
 
