@@ -512,14 +512,14 @@ class DiffuseModel(DrawnStrata):
     def _pairing(self, r: CellRequest) -> PairedFootprint:
         """The :class:`._footprint.PairedFootprint` of cell ``r``'s sampler at N spp: its own
         film points, in every dimension to any strategy's last draw (:meth:`_pairing_dims`),
-        for max(Q, 2^20/N) pixels (Q = ``options.shifts``), seeded by ``options.seed``; the
-        same pixels as another model's alive with the same sampler points, N, pixels, seed
-        and dimensions (:data:`_PAIRINGS`: a sized model's pilot's)."""
+        for :meth:`paired_pixels` pixels, seeded by ``options.seed``; the same pixels as
+        another model's alive with the same sampler points, N, pixels, seed and dimensions
+        (:data:`_PAIRINGS`)."""
         n, dims = r.n, self._pairing_dims()
         key = ("paired", r.sampler, n, dims)
         if key not in self._tables:
             spec = self.renderer.sampler(r.sampler)
-            pixels = max(self.options.shifts, (1 << 20) // n)
+            pixels = self.paired_pixels(n)
             shared = (spec.film_points, spec.lobe_points, n, pixels, self.options.seed, dims)
             pairing = _PAIRINGS.get(shared)
             if pairing is None:
@@ -528,6 +528,24 @@ class DiffuseModel(DrawnStrata):
                 _PAIRINGS[shared] = pairing
             self._tables[key] = pairing
         return self._tables[key]
+
+    def paired_pixels(self, n: int) -> int:
+        r"""The pixels :meth:`_pairing` simulates at N spp: :math:`\max(Q, S/N)` with
+        :math:`S = \min(2^{14} Q, 2^{20})` samples (Q = ``options.shifts``): their spread
+        over Q groups is part of the model's error (:meth:`_draws`), which then falls as
+        :math:`1/\sqrt Q` as the sampled randomisations' does — what a sized model's pilot
+        (Q = 16: 2^18 samples) assumes of its final model (Q = 64: 2^20;
+        :func:`envfit.advisor._renderer_sizing.predicted_error`).
+
+        >>> from envfit.maps import EnvMap
+        >>> from envfit.renderers import get_renderer
+        >>> m = DiffuseModel(EnvMap(np.ones((8, 16, 3))), get_renderer("mitsuba3"),
+        ...                  options=RendererModelOptions(shifts=16, normals=4))
+        >>> m.paired_pixels(1), m.paired_pixels(1024), m.paired_pixels(1 << 20)
+        (262144, 256, 16)
+        """
+        q = int(self.options.shifts)
+        return max(q, min(q << 14, 1 << 20) // int(n))
 
     def _pairing_dims(self) -> int:
         """The dimensions of :meth:`_pairing`'s points: to the last 2-D draw of any strategy

@@ -415,7 +415,7 @@ class LobeChoice:
         if spec.lobe_points is None or call is None:
             return np.zeros(a.shape[1])
         if r.n == 1:                # one number a pixel: its shuffle is itself, F_u = F
-            pixels = max(self.options.shifts, 1 << 20)               # :meth:`_pairing`'s
+            pixels = self.paired_pixels(1)                            # :meth:`_pairing`'s
             grids["order_draws", r] = np.zeros(max(2, min(int(self.options.shifts), pixels)))
             return np.zeros(a.shape[1])
         pairing = self._pairing(r)
