@@ -208,6 +208,24 @@ def _measured(mi, sc, n: int, renders: int, seed: int) -> tuple[float, float, fl
     return math.sqrt(meas.mean()), math.sqrt(lo), math.sqrt(hi)
 
 
+def lower_spp(p) -> int:
+    """The spp a target check renders below the answer: the sampler's next smaller one where
+    it runs only some (``ldsampler``: a quarter), else half (a sampler that runs any spp:
+    the next one, answer − 1, is not told apart by any number of renders)."""
+    return max(1, p.answer // 2) if p.below is None or p.below == p.answer - 1 else p.below
+
+
+def target_line(sname: str, mname: str, t: dict) -> str:
+    """One target check's line (:func:`target_check`)."""
+    if t["answer"] is None:
+        return f"{sname:14s} {mname:8s} target {t['target']:.4g}: no answer up to {t['below']} spp"
+    a, h = t["at_answer"], t["at_half"]
+    return (f"{sname:14s} {mname:8s} target {t['target']:.4g}: {t['answer']} spp measures "
+            f"{a['over_target']:.3f} x the target [{a['low'] / t['target']:.3f}, "
+            f"{a['high'] / t['target']:.3f}], {h['spp']} spp {h['over_target']:.3f} x "
+            f"[{h['low'] / t['target']:.3f}, {h['high'] / t['target']:.3f}]")
+
+
 def target_check(mi, path: Path, relative: float, renders: int, level: int) -> dict:
     """The advised spp for ``relative`` × the image's mean, rendered at it and at half."""
     p = predict_frame(path, target_relative=relative, level=level)
@@ -215,9 +233,7 @@ def target_check(mi, path: Path, relative: float, renders: int, level: int) -> d
     out = {"target": p.target, "answer": p.answer, "below": p.below}
     if p.answer is None:                          # none up to what the model resolves
         return out
-    # the next smaller spp the sampler runs (independent: half; ldsampler: a quarter)
-    lower = max(1, p.answer // 2) if p.below is None or p.below == p.answer - 1 else p.below
-    for key, n in (("at_answer", p.answer), ("at_half", lower)):
+    for key, n in (("at_answer", p.answer), ("at_half", lower_spp(p))):
         m, lo, hi = _measured(mi, sc, n, renders, 77 * n)
         out[key] = {"spp": n, "measured": m, "low": lo, "high": hi, "over_target": m / p.target}
     return out
@@ -309,16 +325,7 @@ def main(argv=None) -> int:
             if a.target_relative:
                 t = target_check(_mitsuba(), path, a.target_relative, a.renders, a.level)
                 r["target_check"] = t
-                if t["answer"] is None:
-                    print(f"{sname:14s} {mname:8s} target {t['target']:.4g}: no answer up to "
-                          f"{t['below']} spp", flush=True)
-                else:
-                    print(f"{sname:14s} {mname:8s} target {t['target']:.4g}: {t['answer']} "
-                          f"spp measures {t['at_answer']['over_target']:.3f} x the target "
-                          f"[{t['at_answer']['low'] / t['target']:.3f}, "
-                          f"{t['at_answer']['high'] / t['target']:.3f}], "
-                          f"{t['at_half']['spp']} spp {t['at_half']['over_target']:.3f} x",
-                          flush=True)
+                print(target_line(sname, mname, t), flush=True)
             rows.append(r)
             print(row_line(r, a.reference_spp), flush=True)
     return finish(rows, a, a.out / "frame_check.json")

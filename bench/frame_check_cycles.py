@@ -19,12 +19,17 @@ difference, subtracted). Per cell (scene, map, spp): the predicted image RMSE in
 Satterthwaite's degrees of freedom, as ``frame_check.py``). Per (scene, map): Spearman's rank
 correlation of predicted and measured pixel RMSE (the smallest over the spp), and ten bins by
 predicted value over every (pixel, spp) pair, each bin's measured RMS over its predicted RMS;
-the prediction's time against one reference render.
+the prediction's time against one reference render. With ``--target-relative R``, the spp the
+model advises for an image RMSE of R × the image's mean, rendered at it and at half of it
+(Cycles runs any spp; the next one down is not told apart by renders): the first should
+measure at most the target, the second above it.
 
 Usage::
 
     python bench/frame_check_cycles.py ../shared/envmaps/forest.exr sun-gp \
         --spp 16 64 256 --renders 16 --out frame_check_cycles
+    python bench/frame_check_cycles.py ../shared/envmaps/forest.exr sun-gp \
+        --scenes spheres_box principled --target-relative 0.05 --renders 8
 """
 from __future__ import annotations
 
@@ -37,7 +42,8 @@ import numpy as np
 
 from envfit.frame import predict_frame
 from envfit.maps import save_envmap, synthesize_envmap
-from frame_check import _interval, finish, row_line     # the same measures and report
+from frame_check import (_interval, finish, lower_spp,  # the same measures and report
+                         row_line, target_line)
 from envfit.renderers.cycles._render import (  # internal: the harness's bpy import, world and EXR reader
     _quiet_blender, _read_exr, _use_nodes, _world, import_bpy)
 
@@ -193,7 +199,33 @@ def render(path: Path, spp: int, seed: int, out: Path) -> np.ndarray:
     return _read_exr(out)[..., :3]
 
 
-def check(path: Path, spps, renders: int, reference_spp: int, level: int, work: Path) -> dict:
+def _measured(path: Path, n: int, renders: int, refs: tuple, work: Path) -> np.ndarray:
+    """Each pixel's MSE at ``n`` spp over ``renders`` renders against the references' mean
+    ``refs`` = (mean, its own MSE per pixel), that own noise taken out."""
+    ref, ref_mse = refs
+    imgs = np.stack([render(path, n, 1000 * n + s, work / "r.exr") for s in range(renders)])
+    return ((imgs - ref[None]) ** 2).mean(axis=(0, 3)) - ref_mse
+
+
+def target_check(path: Path, relative: float, renders: int, level: int, refs: tuple,
+                 work: Path) -> dict:
+    """The advised spp for ``relative`` × the image's mean, rendered at it and at half (Cycles
+    runs any spp: :func:`frame_check.lower_spp`)."""
+    p = predict_frame(path, target_relative=relative, level=level)
+    out = {"target": p.target, "answer": p.answer, "below": p.below}
+    if p.answer is None:
+        return out
+    for key, n in (("at_answer", p.answer), ("at_half", lower_spp(p))):
+        meas = _measured(path, n, renders, refs, work)
+        lo, hi = _interval(np.maximum(meas, 0.0), renders)
+        m = math.sqrt(max(float(meas.mean()), 0.0))
+        out[key] = {"spp": n, "measured": m, "low": math.sqrt(lo), "high": math.sqrt(hi),
+                    "over_target": m / p.target}
+    return out
+
+
+def check(path: Path, spps, renders: int, reference_spp: int, level: int, work: Path,
+          relative: float | None = None) -> dict:
     from scipy.stats import spearmanr
     t = time.perf_counter()
     p = predict_frame(path, spp=tuple(spps), level=level)
@@ -205,8 +237,7 @@ def check(path: Path, spps, renders: int, reference_spp: int, level: int, work: 
     ref_mse = ((refs[0] - refs[1]) ** 2).mean(axis=2) / 4.0       # the mean's own noise
     cells, pairs, rho = [], [], []
     for n, row in zip(spps, p.rows):
-        imgs = np.stack([render(path, n, 1000 * n + s, work / "r.exr") for s in range(renders)])
-        meas = ((imgs - ref[None]) ** 2).mean(axis=(0, 3)) - ref_mse
+        meas = _measured(path, n, renders, (ref, ref_mse), work)
         lo, hi = _interval(np.maximum(meas, 0.0), renders)
         pred = row.rmse ** 2
         m = float(max(meas.mean(), 1e-300))
@@ -222,11 +253,15 @@ def check(path: Path, spps, renders: int, reference_spp: int, level: int, work: 
     order = np.argsort(pred1)
     bins = [float(np.sqrt(max(meas1[b].mean(), 0.0) / max(pred1[b].mean(), 1e-300)))
             for b in np.array_split(order, 10)]
-    return {"cells": cells, "spearman": min(rho), "spearman_per_spp": rho,
-            "bins_measured_over_predicted": bins,
-            "bins_inside": int(sum(0.8 <= b <= 1.25 for b in bins)),
-            "notes": list(p.notes), "seconds_predict": t_pred, "seconds_reference": t_ref,
-            "reference_spp": reference_spp, "cost_ratio": t_pred / t_ref}
+    out = {"cells": cells, "spearman": min(rho), "spearman_per_spp": rho,
+           "bins_measured_over_predicted": bins,
+           "bins_inside": int(sum(0.8 <= b <= 1.25 for b in bins)),
+           "notes": list(p.notes), "seconds_predict": t_pred, "seconds_reference": t_ref,
+           "reference_spp": reference_spp, "cost_ratio": t_pred / t_ref}
+    if relative:
+        out["target_check"] = target_check(path, relative, renders, level, (ref, ref_mse),
+                                           work)
+    return out
 
 
 def main(argv=None) -> int:
@@ -239,6 +274,8 @@ def main(argv=None) -> int:
     ap.add_argument("--scenes", nargs="+", default=["spheres_box", "torus"])
     ap.add_argument("--pattern", default="blue_noise", choices=sorted(PATTERNS))
     ap.add_argument("--size", type=int, nargs=2, default=[64, 48], metavar=("W", "H"))
+    ap.add_argument("--target-relative", type=float, default=None,
+                    help="also render the advised spp for this relative image RMSE and half")
     ap.add_argument("--out", type=Path, default=Path("frame_check_cycles"))
     a = ap.parse_args(argv)
     a.out.mkdir(parents=True, exist_ok=True)
@@ -254,8 +291,11 @@ def main(argv=None) -> int:
         for mname, mpath in maps:
             path = build(a.out / f"{sname}_{a.pattern}_{mname}.blend", sname, mpath,
                          tuple(a.size), a.pattern)
-            r = check(path, a.spp, a.renders, a.reference_spp, a.level, a.out)
+            r = check(path, a.spp, a.renders, a.reference_spp, a.level, a.out,
+                      a.target_relative)
             r.update(scene=sname, map=mname, pattern=a.pattern)
+            if "target_check" in r:
+                print(target_line(sname, mname, r["target_check"]), flush=True)
             rows.append(r)
             print(row_line(r, a.reference_spp), flush=True)
     return finish(rows, a, a.out / "frame_check_cycles.json")

@@ -9,6 +9,8 @@ values are checked against a dense quadrature of the albedo under the filter's d
 (independent of the model's cells), and its error against a direct simulation of the
 estimator over Cycles' own points with the integrand evaluated at each sample's own film
 position."""
+import math
+
 import numpy as np
 import pytest
 
@@ -254,3 +256,29 @@ def test_the_compiled_layered_tables_are_the_numpy_ones():
     assert np.allclose(he, he1, rtol=1e-9, atol=1e-12) and np.allclose(p0, p1)
     assert np.allclose(a0, a1, rtol=1e-7, atol=1e-12) and np.allclose(b0, b1, rtol=1e-7)
     assert np.allclose(d0, d1, atol=1e-9) and np.allclose(e0, e1, atol=1e-9)
+
+
+def test_an_answer_between_powers_of_two_is_predicted_at_its_own_spp(monkeypatch):
+    """Cycles runs any spp, but blue noise's error does not fall smoothly between powers of
+    two (runs of a shared sequence: rendered, 69 spp measured above 64's error): an answer
+    the powers of two bracket is predicted at its own spp and a few above, and the answer is
+    the smallest predicted spp that meets the target — the same model at that spp alone
+    meets it, and at the spp reported below it does not."""
+    import envfit.frame._api as api
+    fs = _scene(film_warp("blackman_harris", 1.5), sampler="blue_noise")
+    monkeypatch.setattr(api, "_reader", lambda path: (lambda p: fs))
+    opts = dict(level=3, quiet=True, max_pixels=4)
+    at = {r.spp: r.rmse for r in api.predict_frame("plane.blend", spp=(8, 16), **opts).rows}
+    target = math.sqrt(at[8] * at[16])
+    p = api.predict_frame("plane.blend", target=target, **opts)
+    assert 8 < p.answer <= 16 and 8 <= p.below < p.answer
+    assert any("not predicted" in n and f"{p.below} the largest" in n for n in p.notes)
+    own = {r.spp: r.rmse
+           for r in api.predict_frame("plane.blend", spp=(p.below, p.answer), **opts).rows}
+    assert own[p.answer] <= target < own[p.below]
+
+
+def test_the_checked_spp_are_spaced_up_to_the_next_prediction():
+    from envfit.frame._api import _candidates
+    assert _candidates(list(range(1, 300)), 69, {32, 64, 128}) == [69, 80, 93, 109]
+    assert _candidates([1, 2, 4, 8, 16], 5, {4, 16}) == [8]

@@ -10,7 +10,10 @@ The image RMSE is over all pixels and the three channels against the converged i
 :math:`\sqrt{\frac13\sum_c \mathrm{MSE}_{p,c}(N)}`; with the ``independent`` sampler both
 fall exactly as :math:`N^{-1/2}`. A sampler whose dimensions are one net per pixel (Mitsuba's
 ``ldsampler``) is predicted at each spp it runs (:mod:`._nets`), and the answer searched over
-those counts up to :data:`NET_TOP`.
+those counts up to :data:`NET_TOP`; one that runs any spp (Cycles) at the powers of two, then
+at the spp between them their local rate gives and a few above it (:func:`_candidates`), the
+answer the smallest spp predicted that meets the target (:func:`_checked_answer`): its error
+need not fall smoothly between powers of two (blue noise's runs of one shared sequence).
 """
 from __future__ import annotations
 
@@ -247,6 +250,22 @@ def _net_answer(plan: PixelPlan, mse: dict, target: float, percentile, ladder: l
     return None, prev, a / 2
 
 
+def _candidates(ladder: list[int], guess: int, predicted) -> list[int]:
+    """The spp of ``ladder`` a net sampler's interpolated answer ``guess`` is checked at: it
+    and three more spaced geometrically up to the next predicted spp above it (excluded)."""
+    top = min(n for n in predicted if n > guess)
+    want = {guess * (top / guess) ** (k / 4.0) for k in range(4)}
+    return sorted({max(n for n in ladder if n <= w) for w in want} - set(predicted))
+
+
+def _checked_answer(plan: PixelPlan, mse: dict, target: float, percentile):
+    """(the smallest spp of ``mse`` whose measure is ≤ target, the largest below it):
+    :func:`_net_answer` over the spp predicted only (none interpolated)."""
+    have = sorted(mse)
+    meet = next(n for n in have if _measure(plan, mse[n], percentile) <= target * target)
+    return meet, max((n for n in have if n < meet), default=None)
+
+
 def _predicted(ladder: list[int]) -> list[int]:
     """The counts of ``ladder`` a net sampler's frame is predicted at: all of them, or the
     powers of two where the sampler runs nearly every count (Cycles: any integer) — the
@@ -326,6 +345,17 @@ def predict_frame(scene, options: FrameOptions | None = None, **kw) -> FramePred
         below = None if answer is None else answer - 1
     else:
         answer, below, rate = _net_answer(plan, by_spp, target, opts.percentile, ladder)
+    checked = (spec is not None and answer is not None and rate is None
+               and answer not in by_spp)
+    extra = _candidates(ladder, answer, by_spp) if checked else []
+    if extra:                         # interpolated: predicted at its own spp and above
+        bar = progress_bar(len(plan.targets), desc="frame model (the answer's spp)",
+                           quiet=opts.quiet, unit="pixel")
+        _, more, more_rays, _ = pixel_mse_nets(fs, block, plan.targets, extra, level,
+                                               opts.seed, bar, base=opts.level)
+        bar.close()
+        by_spp, rays = {**by_spp, **more}, rays + more_rays
+        answer, below = _checked_answer(plan, by_spp, target, opts.percentile)
     notes = list(fs.notes)
     r = max(2, -(-8 // opts.side)) * opts.side
     bsdfs = ", ".join(dict.fromkeys(b.name for b in fs.bsdfs)) or "none"
@@ -337,9 +367,13 @@ def predict_frame(scene, options: FrameOptions | None = None, **kw) -> FramePred
             r=", ".join(f"{scrambles(n)} at {n} spp" for n in spps), level=level,
             top=max(by_spp), filt="box filter" if fs.film_warp is None else
             f"{fs.film_warp.name}, each sample in its own pixel"))
-        if answer is not None and answer not in by_spp and rate is None:
-            notes.append(f"{fs.sampler} runs any spp: the answer lies between two spp "
-                         f"predicted and is interpolated at their local rate")
+        if checked:
+            notes.append(f"{fs.sampler} runs any spp: predicted at the powers of two, then at "
+                         f"the spp their local rate gives and a few above it "
+                         f"({', '.join(str(n) for n in extra)}; its error need not fall "
+                         f"smoothly between powers of two): the answer is the smallest spp "
+                         f"predicted that meets the target, {below} the largest predicted "
+                         f"below it; the spp between them are not predicted")
         if rate is not None:
             notes.append(f"past {max(by_spp)} spp the answer is extrapolated from "
                          f"{sorted(by_spp)[-2]} and {max(by_spp)} spp at their local rate, "
