@@ -36,6 +36,7 @@ import numpy as np
 
 from envfit.base import ParameterError
 
+from ._strata import cumulative_integral
 from ._walsh import walsh_coefficients
 
 __all__ = ["DyadicGrid", "RandomisedMSE"]
@@ -260,6 +261,15 @@ class DyadicGrid:
         (:func:`._walsh.walsh_coefficients`; computed once per grid, read by every net's
         prediction at this level)."""
         return walsh_coefficients(self.centred()[0])
+
+    @cached_property
+    def strata_tables(self) -> tuple[np.ndarray, np.ndarray]:
+        r"""The cumulative integrals (C, M + 1, M + 1) of the centred cell means a and of
+        a² + the within-cell variance (:func:`._strata.cumulative_integral`): a rectangle's
+        moments where strata cut cells are bilinear reads of them
+        (:func:`._strata.rectangle_moments`); made once per grid, read at every N."""
+        a, w = self.centred()[0], self.within
+        return cumulative_integral(a), cumulative_integral(a * a + w)
 
     def centred(self) -> tuple[np.ndarray, np.ndarray]:
         r"""(A − ∫h, B − 2A∫h + (∫h)²): the cell means of h − ∫h and of its square (the

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["rectangle_moments"]
+__all__ = ["rectangle_moments", "cumulative_integral"]
 
 
 def _aligned(edges: np.ndarray, m: int) -> np.ndarray | None:
@@ -33,12 +33,19 @@ def _interp_nodes(edges: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray]:
     return i0, x - i0
 
 
-def _rect_integrals(cells: np.ndarray, e1: np.ndarray, e2: np.ndarray) -> np.ndarray:
-    """Integrals over the rectangles of the cell-constant function with cell means ``cells``
-    (C, M, M), by the bilinear interpolation of its cumulative integral."""
+def cumulative_integral(cells: np.ndarray) -> np.ndarray:
+    """The cumulative integral (C, M + 1, M + 1) at the grid's nodes of the cell-constant
+    function with cell means ``cells`` (C, M, M): a summed-area table over M²."""
     m = cells.shape[1]
     q = np.zeros((cells.shape[0], m + 1, m + 1))
     q[:, 1:, 1:] = np.cumsum(np.cumsum(cells, axis=1), axis=2) / float(m * m)
+    return q
+
+
+def _rect_integrals(q: np.ndarray, e1: np.ndarray, e2: np.ndarray) -> np.ndarray:
+    """Integrals over the rectangles of the cell-constant function whose cumulative integral
+    is ``q`` (:func:`cumulative_integral`), by the bilinear interpolation of ``q``."""
+    m = q.shape[1] - 1
     (i1, t1), (i2, t2) = _interp_nodes(e1, m), _interp_nodes(e2, m)
     q = (1.0 - t1)[None, :, None] * q[:, i1] + t1[None, :, None] * q[:, i1 + 1]
     qe = (1.0 - t2)[None, None, :] * q[:, :, i2] + t2[None, None, :] * q[:, :, i2 + 1]
@@ -62,10 +69,10 @@ def rectangle_moments(grid, edges1, edges2) -> tuple[np.ndarray, np.ndarray]:
     """
     e1, e2 = np.asarray(edges1, dtype=np.float64), np.asarray(edges2, dtype=np.float64)
     m = grid.size
-    a, _ = grid.centred()
-    w = grid.within
     i1, i2 = _aligned(e1, m), _aligned(e2, m)
     if i1 is not None and i2 is not None:
+        a, _ = grid.centred()
+        w = grid.within
         count = np.diff(i1)[:, None] * np.diff(i2)[None, :]
 
         def box_mean(x):
@@ -76,6 +83,7 @@ def rectangle_moments(grid, edges1, edges2) -> tuple[np.ndarray, np.ndarray]:
         within = box_mean(w) + np.clip(box_mean(a * a) - mean ** 2, 0.0, None)
         return mean, within
     area = np.diff(e1)[:, None] * np.diff(e2)[None, :]
-    mean = _rect_integrals(a, e1, e2) / area
-    second = _rect_integrals(a * a + w, e1, e2) / area
+    q_mean, q_second = grid.strata_tables              # once per grid, for every N
+    mean = _rect_integrals(q_mean, e1, e2) / area
+    second = _rect_integrals(q_second, e1, e2) / area
     return mean, np.clip(second - mean ** 2, 0.0, None)
