@@ -71,7 +71,13 @@ def test_the_default_renderer_model_is_sized_and_explicit_options_are_not():
     assert RendererAdviseOptions("mitsuba3", sampler="ldsampler").auto
     o = RendererAdviseOptions("mitsuba3")                  # independent: sized in its normals
     assert o.auto and (o.shifts, o.reach, o.level) == (None, None, 7)
-    assert not RendererAdviseOptions("mitsuba3", sampler="multijitter").auto
+    for bsdf in ("diffuse", "ggx"):         # drawn above their exact reach: in the normals
+        o = RendererAdviseOptions("mitsuba3", sampler="multijitter", bsdf=bsdf,
+                                  roughness=None if bsdf == "diffuse" else 0.2)
+        assert o.auto and (o.shifts, o.reach, o.level) == (None, None, 7)
+    # a two-lobe BSDF's strata stay exact on the grid: not sized
+    assert not RendererAdviseOptions("mitsuba3", sampler="multijitter", bsdf="roughplastic",
+                                     roughness=0.2).auto
     with pytest.raises(Exception, match="renderer-model-error"):
         RendererAdviseOptions("cycles", model_error=1.5)
 

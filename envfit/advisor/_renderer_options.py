@@ -144,9 +144,9 @@ def default_level(randomisation: str, *, drawn: bool = True) -> int:
     """The model's default grid level for a sampler's randomisation: :data:`DEFAULT_LEVEL_V`
     for ``independent`` and ``jittered``, and for correlated multi-jittering and orthogonal
     arrays where their point sets are drawn above the exact models' reach (``drawn``: the
-    diffuse surface; exact to 2^7 spp,
+    diffuse surface and a one-lobe microfacet BSDF; exact to 2^7 spp,
     ``envfit.predict.renderer._drawn_strata.strata_reach``), else :data:`DEFAULT_LEVEL` (a
-    microfacet BSDF's strata: the exact model only, to 2^9 spp).
+    two-lobe BSDF's strata: the exact model only, to 2^9 spp).
 
     >>> default_level("independent"), default_level("owen"), default_level("cmj")
     (7, 9, 7)
@@ -398,7 +398,9 @@ class RendererAdviseOptions:
         pilot (:attr:`auto`) or the defaults; ``model_error`` checked."""
         set_ = object.__setattr__
         nets = randomisation in SIZED_RANDOMISATIONS
-        eligible = ((nets or randomisation in NORMALS_SIZED_RANDOMISATIONS)
+        drawn = randomisation in STRATA_SAMPLED and randomisation not in ALWAYS_DRAWN \
+            and self.draws_strata                     # drawn above the exact reach
+        eligible = ((nets or drawn or randomisation in NORMALS_SIZED_RANDOMISATIONS)
                     and self.sphere_pixels is None)
         auto = eligible and (self.level is None and self.normals is None and self.shifts is None
                              and self.reach is None if self.sized is None else bool(self.sized))
@@ -470,9 +472,11 @@ class RendererAdviseOptions:
     @property
     def draws_strata(self) -> bool:
         """Whether the model draws a multi-jittered or orthogonal sampler's point sets above
-        its exact reach (``predict.renderer._drawn_strata``): on the diffuse surface, not
-        over a microfacet BSDF's frames, whose strata stay exact on the grid."""
-        return not self.microfacet
+        its exact reach (``predict.renderer._drawn_strata``): on the diffuse surface and over a
+        one-lobe microfacet BSDF's frames; a two-lobe BSDF's (a rough plastic, a principled
+        with two closures) strata stay exact on the grid, where its lobe choice is
+        modelled."""
+        return not self.microfacet or not hasattr(self.conductor(), "sample_square")
 
     @property
     def every_spp(self) -> bool:

@@ -22,9 +22,11 @@ power above the grid is sampled — the grid is a control variate — so the siz
    the final model predicts the spp around its answer, not every coarse spp).
 
 Samplers without sampled nets (independent points, stratified:
-:data:`~envfit.advisor._renderer_options.NORMALS_SIZED_RANDOMISATIONS`) are sized in their
+:data:`~envfit.advisor._renderer_options.NORMALS_SIZED_RANDOMISATIONS`; multi-jittered and
+orthogonal-array point sets where they are drawn above their exact reach) are sized in their
 normals alone: the pilot's 48, then the fewest of :data:`NORMALS` whose predicted error
-:math:`e_n\sqrt{K_0/K}` meets the target.
+:math:`\sqrt{e_n^2 K_0/K + e_s^2}` meets the target (:math:`e_s` the drawn point sets' part,
+which the normals do not shrink).
 
 The answer reports the final model's error; it is an estimate (of the normals' spread and the
 scrambles' spread), not a bound.
@@ -80,7 +82,7 @@ def sized_options(opts, parts, reach: int | None = None, fits=None):
         return None
     k0, q0 = opts.normals, opts.shifts
     if q0 is None or reach is None:          # no sampled nets: the normals only
-        return _sized_normals(opts, e_n, fits)
+        return _sized_normals(opts, e_n, e_s, fits)
 
     def error(k, q):
         return math.hypot(e_n * math.sqrt(k0 / k), e_s * math.sqrt(q0 / q))
@@ -101,15 +103,21 @@ def sized_options(opts, parts, reach: int | None = None, fits=None):
     return replace(opts, normals=k, shifts=q, reach=reach, sized=False)
 
 
-def _sized_normals(opts, e_n: float, fits):
-    """:func:`sized_options` of a model without sampled nets: the fewest :data:`NORMALS`
-    whose predicted error e_n·√(K₀/K) meets the target, else the most within the budget."""
+def _sized_normals(opts, e_n: float, e_s: float, fits):
+    r""":func:`sized_options` of a model without sampled nets: the fewest :data:`NORMALS`
+    whose predicted error :math:`\sqrt{e_n^2 K_0/K + e_s^2}` meets the target (``e_s``: the
+    drawn point sets' part of a multi-jittered or orthogonal-array cell, which more normals
+    do not shrink; 0 elsewhere), else the fewest whose normals' part is at most ``e_s``
+    (past them the drawn sets' part dominates), else the most within the budget."""
     k0, tol = opts.normals, opts.model_error
     sizes = [k for k in NORMALS if k > k0 and pass_points(k, opts.level, 0, 0) <= BUDGET
              and (fits is None or fits(replace(opts, normals=k, sized=False)))]
     if not sizes:
         return None
-    k = next((k for k in sizes if e_n * math.sqrt(k0 / k) <= tol), sizes[-1])
+    part = [(k, e_n * math.sqrt(k0 / k)) for k in sizes]
+    k = next((k for k, e in part if math.hypot(e, e_s) <= tol), None)
+    if k is None:
+        k = next((k for k, e in part if e <= e_s), sizes[-1])
     return replace(opts, normals=k, sized=False)
 
 
@@ -265,10 +273,22 @@ def model_error_lines(m: dict, a) -> list[str]:
             if e[0] > target:
                 line += (f"; the pilot's estimate for this model was "
                          f"±{100 * p['predicted_model_se']:.1f} %")
-            if p["predicted_model_se"] > target:
+            if p["predicted_model_se"] > target and m["draws_word"] == "drawn point sets":
+                line += _drawn_words(m, p, unit)
+            elif p["predicted_model_se"] > target:
                 line += (f" (the model of least error within the unsized model's cost "
                          f"{BUDGET // 10 ** 6} M points a pass)")
     return [line]
+
+
+def _drawn_words(m: dict, p: dict, unit: str) -> str:
+    """Why a model sized in its normals alone (:func:`_sized_normals`) misses the target: the
+    drawn point sets' part, which more normals do not shrink."""
+    e_n, e_s = p["model_se"][1], p["model_se"][2]
+    own = e_n * math.sqrt(p["normals"] / m["normals"])
+    how = (f"the fewest {unit} whose own part (±{100 * own:.1f} %) is at most it" if own <= e_s
+           else f"the most {unit} within the unsized model's cost")
+    return f" (more {unit} do not shrink the drawn point sets' ±{100 * e_s:.1f} %: {how})"
 
 
 def miss_words(a, target: float, below_se: dict) -> str:

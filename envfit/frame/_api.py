@@ -258,6 +258,17 @@ def _candidates(ladder: list[int], guess: int, predicted) -> list[int]:
     return sorted({max(n for n in ladder if n <= w) for w in want} - set(predicted))
 
 
+def _predict_more(fs, block, plan: PixelPlan, spps: list, level: int, opts):
+    """({N: MSE (K, 3)}, shadow rays) of the frame's pixels at more spp ``spps`` (a second
+    run of :func:`._nets.pixel_mse_nets` on the same tables' level and seed)."""
+    bar = progress_bar(len(plan.targets), desc="frame model (the answer's spp)",
+                       quiet=opts.quiet, unit="pixel")
+    _, more, rays, _ = pixel_mse_nets(fs, block, plan.targets, spps, level, opts.seed, bar,
+                                      base=opts.level)
+    bar.close()
+    return more, rays
+
+
 def _checked_answer(plan: PixelPlan, mse: dict, target: float, percentile):
     """(the smallest spp of ``mse`` whose measure is ≤ target, the largest below it):
     :func:`_net_answer` over the spp predicted only (none interpolated)."""
@@ -349,11 +360,7 @@ def predict_frame(scene, options: FrameOptions | None = None, **kw) -> FramePred
                and answer not in by_spp)
     extra = _candidates(ladder, answer, by_spp) if checked else []
     if extra:                         # interpolated: predicted at its own spp and above
-        bar = progress_bar(len(plan.targets), desc="frame model (the answer's spp)",
-                           quiet=opts.quiet, unit="pixel")
-        _, more, more_rays, _ = pixel_mse_nets(fs, block, plan.targets, extra, level,
-                                               opts.seed, bar, base=opts.level)
-        bar.close()
+        more, more_rays = _predict_more(fs, block, plan, extra, level, opts)
         by_spp, rays = {**by_spp, **more}, rays + more_rays
         answer, below = _checked_answer(plan, by_spp, target, opts.percentile)
     notes = list(fs.notes)

@@ -322,6 +322,11 @@ class DiffuseModel(DrawnStrata):
     #: the passes over the normals run so far
     runs = 0
 
+    def _footprinted(self) -> bool:
+        """Whether the normals are pixels with a footprint (the grid's tables give its term
+        even where every cell of a pass is drawn)."""
+        return self.options.sphere_pixels is not None
+
     def _prefix_net(self, r: CellRequest) -> bool:
         """Whether ``r`` is an Owen-scrambled prefix sampler's, whose N between powers of two
         the model answers from prefix variances (no footprint: its term is not calibrated)."""
@@ -434,7 +439,7 @@ class DiffuseModel(DrawnStrata):
         per = {r: [None] * k for r in todo}                  # mse (C,) per normal
         draws = {r: 0.0 for r in todo}                       # Σ_a w_a (sampled, per draw)
         grid_cells = any(not self._drawn_strata(r) for r in todo) or (  # not all drawn, or
-            bool(todo) and self.options.sphere_pixels is not None)      # their footprints
+            bool(todo) and self._footprinted())                         # their footprints
         parts = {r: np.zeros((k, 3)) for r in todo}          # map, brdf, cross per normal
         for i, normal in enumerate(progress(self.normals, total=k, desc=self.progress_label,
                                             quiet=self.quiet, unit=self.progress_unit)):

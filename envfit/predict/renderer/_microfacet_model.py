@@ -54,7 +54,7 @@ from envfit.predict.renderer._bands import BANDS, STRATA, band_key, band_spread,
 from envfit.predict.renderer._footprint import _unit, with_variances
 from envfit.predict.renderer._lobe_parts import LobeChoice, lobe_choice_modelled
 from envfit.predict.renderer._integrand_tables import MapTable
-from envfit.predict.renderer.randomisation import STRATIFIED_1D
+from envfit.predict.renderer.randomisation import ALWAYS_DRAWN, STRATIFIED_1D, strata_points
 from envfit.predict.renderer._diffuse_model import (DiffuseModel, RendererModelOptions,
                                                    systematic_indices)
 
@@ -113,8 +113,6 @@ class MicrofacetModel(LobeChoice, DiffuseModel):
     """
 
     progress_unit = "frame"
-    #: no drawn stratified cells: a lobe's frames are tabulated on the grid only
-    draws_strata = False
 
     def __init__(self, envmap, renderer, conductor, frames, weights=None,
                  technique_options: dict | None = None,
@@ -258,6 +256,36 @@ class MicrofacetModel(LobeChoice, DiffuseModel):
         self._lobes_only = self._lobes and self.footprints is None and all(
             r.name in STRATIFIED_1D for r in todo if r.strategy != "map")
         super()._run(todo, **kw)
+
+    def _footprinted(self) -> bool:
+        return self.footprints is not None
+
+    def _drawn_strata(self, r) -> bool:
+        """:meth:`DrawnStrata._drawn_strata` for a one-lobe BSDF: its multi-jittered and
+        orthogonal-array cells above the exact models' reach are drawn at each frame
+        (:meth:`_drawn_parts`); a shared sequence's runs stay on the grid (``shared_sequence``
+        of the grid's prefix sums), and a two-lobe BSDF's cells too (its lobe choice is
+        modelled on the grid: :mod:`._lobe_parts`)."""
+        return (not self._two_lobes() and r.name not in ALWAYS_DRAWN
+                and super()._drawn_strata(r))
+
+    def _drawn_parts(self, key, q: int, length: int, step, r, stream: str, frame) -> dict:
+        """:meth:`DrawnStrata._drawn_parts` at one frame (normal, view[, footprint normals]):
+        the stream's parts (``e``: ``map``, ``mis_e``; ``b``: ``brdf``, ``mis_b``; Q, N, C) at
+        its drawn point sets — the technique's table (``e``) or the BSDF's square points
+        (``b``) at them, made once per pass — by :meth:`_sides` as on the grid's tables,
+        averaged over a footprint's normals."""
+        kind = "map" if stream == "e" else "bsdf"
+        if (kind, key) not in self._tables:
+            opts = dict(r.options if stream == "e" else r.options_b)
+            u = strata_points(r.name, r.n, q, self._stream_seed(r, stream),
+                              **opts).reshape(-1, 2)
+            self._tables[kind, key] = MapTable.at(self.technique, u) if kind == "map" else u
+        normals = frame[2] if len(frame) == 3 else [frame[0]]
+        acc = self._accumulated({"map"} if kind == "map" else {"brdf"}, normals, frame[1],
+                                key)[0] / len(normals)
+        parts = ("map", "mis_e") if kind == "map" else ("brdf", "mis_b")
+        return {p: acc[PARTS.index(p)].reshape(q, length, -1) for p in parts}
 
     def _randomised_cell(self, r, vals: dict, grids: dict, fine: int, levels):
         """:meth:`DiffuseModel._randomised_cell`; a two-lobe BSDF's stream under a stratified
