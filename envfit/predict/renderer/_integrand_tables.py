@@ -202,32 +202,32 @@ def cell_moments(values: np.ndarray, fine_level: int, level: int) -> tuple[np.nd
     return v.mean(axis=(2, 4)), (v * v).mean(axis=(2, 4))
 
 
+@numba.njit(cache=True)
+def _halve_row(a, b, out_a, out_b, r):  # pragma: no cover - numba
+    """Row ``r`` (channel r // m, row r % m) of :func:`_halve`."""
+    m = out_a.shape[1]
+    c, i = r // m, r % m
+    for j in range(m):
+        out_a[c, i, j] = 0.25 * ((a[c, 2 * i, 2 * j] + a[c, 2 * i, 2 * j + 1])
+                                 + (a[c, 2 * i + 1, 2 * j] + a[c, 2 * i + 1, 2 * j + 1]))
+        out_b[c, i, j] = 0.25 * ((b[c, 2 * i, 2 * j] + b[c, 2 * i, 2 * j + 1])
+                                 + (b[c, 2 * i + 1, 2 * j] + b[c, 2 * i + 1, 2 * j + 1]))
+
+
 @numba.njit(cache=True, parallel=True)
 def _halve(a, b, out_a, out_b):  # pragma: no cover - numba
     """The 2 × 2 block means of ``a`` and ``b`` (C, 2m, 2m) into ``out_a``, ``out_b``
     (C, m, m), rows in parallel."""
-    chans, m = out_a.shape[0], out_a.shape[1]
-    for r in numba.prange(chans * m):
-        c, i = r // m, r % m
-        for j in range(m):
-            out_a[c, i, j] = 0.25 * ((a[c, 2 * i, 2 * j] + a[c, 2 * i, 2 * j + 1])
-                                     + (a[c, 2 * i + 1, 2 * j] + a[c, 2 * i + 1, 2 * j + 1]))
-            out_b[c, i, j] = 0.25 * ((b[c, 2 * i, 2 * j] + b[c, 2 * i, 2 * j + 1])
-                                     + (b[c, 2 * i + 1, 2 * j] + b[c, 2 * i + 1, 2 * j + 1]))
+    for r in numba.prange(out_a.shape[0] * out_a.shape[1]):
+        _halve_row(a, b, out_a, out_b, r)
 
 
 @numba.njit(cache=True)
 def _halve_small(a, b, out_a, out_b):  # pragma: no cover - numba
     """:func:`_halve` in one thread (the same numbers): a coarse level's few cells, where
     starting the threads costs more than the work."""
-    chans, m = out_a.shape[0], out_a.shape[1]
-    for r in range(chans * m):
-        c, i = r // m, r % m
-        for j in range(m):
-            out_a[c, i, j] = 0.25 * ((a[c, 2 * i, 2 * j] + a[c, 2 * i, 2 * j + 1])
-                                     + (a[c, 2 * i + 1, 2 * j] + a[c, 2 * i + 1, 2 * j + 1]))
-            out_b[c, i, j] = 0.25 * ((b[c, 2 * i, 2 * j] + b[c, 2 * i, 2 * j + 1])
-                                     + (b[c, 2 * i + 1, 2 * j] + b[c, 2 * i + 1, 2 * j + 1]))
+    for r in range(out_a.shape[0] * out_a.shape[1]):
+        _halve_row(a, b, out_a, out_b, r)
 
 
 #: the cells (channels × M²) of a pyramid level below which it is halved in one thread

@@ -55,37 +55,34 @@ def fwht(a: np.ndarray, axis: int) -> np.ndarray:
     return np.moveaxis(x, -1, axis)
 
 
+@numba.njit(cache=True)
+def _fwht_row(x, r):  # pragma: no cover - numba
+    """:func:`fwht` of row ``r`` of ``x`` (R, n), in place."""
+    n = x.shape[1]
+    h = 1
+    while h < n:
+        for i in range(0, n, 2 * h):
+            for j in range(i, i + h):
+                a = x[r, j]
+                b = x[r, j + h]
+                x[r, j] = a + b
+                x[r, j + h] = a - b
+        h *= 2
+
+
 @numba.njit(cache=True, parallel=True)
 def _fwht_rows(x):  # pragma: no cover - numba
     """:func:`fwht` along the last axis of ``x`` (R, n), in place, rows in parallel."""
-    rows, n = x.shape
-    for r in numba.prange(rows):
-        h = 1
-        while h < n:
-            for i in range(0, n, 2 * h):
-                for j in range(i, i + h):
-                    a = x[r, j]
-                    b = x[r, j + h]
-                    x[r, j] = a + b
-                    x[r, j + h] = a - b
-            h *= 2
+    for r in numba.prange(x.shape[0]):
+        _fwht_row(x, r)
 
 
 @numba.njit(cache=True)
 def _fwht_rows_small(x):  # pragma: no cover - numba
     """:func:`_fwht_rows` in one thread (the same numbers), for a transform too small to
     share."""
-    rows, n = x.shape
-    for r in range(rows):
-        h = 1
-        while h < n:
-            for i in range(0, n, 2 * h):
-                for j in range(i, i + h):
-                    a = x[r, j]
-                    b = x[r, j + h]
-                    x[r, j] = a + b
-                    x[r, j + h] = a - b
-            h *= 2
+    for r in range(x.shape[0]):
+        _fwht_row(x, r)
 
 
 #: the coefficients (channels × M²) up to which a transform runs in one thread
