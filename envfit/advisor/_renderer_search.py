@@ -33,9 +33,9 @@ The answer is a *crossing*: prediction(spp) ≤ target < prediction(the runnable
 **Around a known answer** (``around``: a sized model's final search after its pilot's,
 :mod:`~envfit.advisor._renderer_sizing`): pass 1 takes, instead of every coarse spp, the
 earlier answer, the runnable spp below it, the coarse spp its span needs
-(:func:`~envfit.advisor._renderer_sizing.spp_span`: the powers of two around it), the coarse
-spp past either where the earlier prediction there lies within two of its model errors of
-the target, and the ``--spp`` list; then, while no spp meets, the next two coarse spp above
+(:func:`~envfit.advisor._renderer_sizing.spp_span`: the powers of two around it), the two
+coarse spp past either where the earlier prediction there lies within two of its model errors
+of the target, and the ``--spp`` list; then, while no spp meets, the next two coarse spp above
 the largest asked, and while none below the first that meets misses, the next two below it,
 a pass each, until the predictions bracket a crossing; then pass 2 as above (and the span's
 powers of two at the answer, where it moved). Where the prediction falls with spp (as the
@@ -160,14 +160,16 @@ def _start_around(a: StrategyAnswer, error: float, target: float, coarse: list[i
     """The spp a search around the earlier answer ``a`` (relative model error ``error`` there)
     predicts first: the answer, the runnable spp below it, the coarse spp of its span
     (:func:`_span_spp`), and where the earlier prediction lies within two of its errors of
-    ``target``, the coarse spp past it on that side (the crossing may have moved there)."""
+    ``target``, the two coarse spp past it on that side (the crossing may have moved there;
+    the second is the power of two an spp between the first and it is predicted from, so
+    that one pass finds a crossing that moved one coarse step, not two passes)."""
     out, near = {a.spp} | _span_spp(a.spp, coarse, cap), 2.0 * float(error)
     if a.below is not None:
         out.add(a.below)
         if a.below_rmse is not None and a.below_rmse * (1.0 - near) <= target:
-            out |= set([n for n in coarse if n < a.below][-1:])
+            out |= set([n for n in coarse if n < a.below][-2:])
     if a.predicted_rmse * (1.0 + near) > target:
-        out |= set([n for n in coarse if n > a.spp][:1])
+        out |= set([n for n in coarse if n > a.spp][:2])
     return out
 
 
