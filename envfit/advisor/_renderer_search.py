@@ -156,20 +156,21 @@ def _span_spp(spp: int, coarse: list[int], cap: int) -> set[int]:
 
 
 def _start_around(a: StrategyAnswer, error: float, target: float, coarse: list[int],
-                  cap: int) -> set[int]:
+                  cap: int, steps: int = 2) -> set[int]:
     """The spp a search around the earlier answer ``a`` (relative model error ``error`` there)
     predicts first: the answer, the runnable spp below it, the coarse spp of its span
     (:func:`_span_spp`), and where the earlier prediction lies within two of its errors of
-    ``target``, the two coarse spp past it on that side (the crossing may have moved there;
-    the second is the power of two an spp between the first and it is predicted from, so
-    that one pass finds a crossing that moved one coarse step, not two passes)."""
+    ``target``, the ``steps`` coarse spp past it on that side (the crossing may have moved
+    there; with two, the second is the power of two an spp between the first and it is
+    predicted from, so that one pass finds a crossing that moved one coarse step, not two
+    passes; one where each spp costs its own points, as a drawn cell's)."""
     out, near = {a.spp} | _span_spp(a.spp, coarse, cap), 2.0 * float(error)
     if a.below is not None:
         out.add(a.below)
         if a.below_rmse is not None and a.below_rmse * (1.0 - near) <= target:
-            out |= set([n for n in coarse if n < a.below][-2:])
+            out |= set([n for n in coarse if n < a.below][-steps:])
     if a.predicted_rmse * (1.0 + near) > target:
-        out |= set([n for n in coarse if n > a.spp][:2])
+        out |= set([n for n in coarse if n > a.spp][:steps])
     return out
 
 
@@ -206,16 +207,16 @@ def search_spp(cm: CachedRendererModel, strategies, runnable: list[int], target:
     """The smallest runnable spp per strategy whose prediction meets ``target`` (module
     docstring); ``listed`` spp are predicted in the first pass too, and the coarse spp above
     ``first_cap`` only where needed; with ``around`` (strategy → (an earlier reached
-    :class:`StrategyAnswer`, its relative model error)), those strategies' search starts at
-    those answers."""
+    :class:`StrategyAnswer`, its relative model error[, the coarse steps past it:
+    :func:`_start_around`])), those strategies' search starts at those answers."""
     coarse = coarse_spp(runnable)
     cap = runnable[-1] if first_cap is None else first_cap
     around = {s: around[s] for s in strategies if around and s in around
               and around[s][0].reached and _runs(runnable, around[s][0].spp)}
     plain = [s for s in strategies if s not in around]
     first = {(s, n) for s in plain for n in coarse if n <= cap}
-    first |= {(s, n) for s, (a, e) in around.items()
-              for n in _start_around(a, e, target, coarse, cap) if _runs(runnable, n)}
+    first |= {(s, n) for s, (a, e, *steps) in around.items()
+              for n in _start_around(a, e, target, coarse, cap, *steps) if _runs(runnable, n)}
     cm.predict(sorted(first | {(s, n) for s in strategies for n in listed}))
     open_ = [s for s in plain if _bracket(cm, s, runnable, target)[1] is None]
     cm.predict([(s, n) for s in open_ for n in coarse if n > cap])

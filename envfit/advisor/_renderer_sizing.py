@@ -159,7 +159,9 @@ def sized_search(envmap, opts, store: AdviseCache, target: float,
              "reach": opts.reach, "model_se": parts, "answer": answers[first].spp,
              "predicted_model_se": predicted_error(opts, parts[1:], final)}
     cms, stage = [cm], f"sized ({_size_words(final, _unit(opts))}) pass"
-    around = {first: (answers[first], parts[0] if parts else 0.0)}     # the pilot's answer
+    drawn = (opts.draws_strata                      # a drawn cell's spp costs its points
+             and opts.record.sampler(opts.sampler).randomisation in STRATA_SAMPLED)
+    around = {first: (answers[first], parts[0] if parts else 0.0, 1 if drawn else 2)}
     fcm, fans = search_model(envmap, final, store, target, listed, cm.technique, (first,),
                              stage, around)
     if (not fans[first].reached and final.reach is not None
