@@ -163,6 +163,26 @@ def test_without_sampled_nets_the_normals_alone_are_sized():
     assert "after a pilot of 48 normals (" in text and "scrambles" not in text
 
 
+def test_drawn_point_sets_are_sized_in_the_normals_with_their_own_part_counted():
+    """A multi-jittered model draws point sets above its exact reach: more normals shrink
+    only the normals' part, so the fewest meeting sqrt(e_n^2 48/K + e_s^2) <= 5 % are taken,
+    else (e_s past the target) the fewest whose own part is at most e_s; the answer line says
+    which, true of the pilot's numbers."""
+    from envfit.advisor._renderer_sizing import _drawn_words
+    o = RendererAdviseOptions("mitsuba3", sampler="multijitter")
+    assert o.auto and o.shifts is None
+    f = sized_options(o, (0.06, 0.03))                 # 96: hypot(0.0424, 0.03) = 0.052 > 5 %
+    assert f.normals == 144 and math.hypot(0.06 * math.sqrt(48 / 144), 0.03) <= 0.05
+    assert math.hypot(0.06 * math.sqrt(48 / 96), 0.03) > 0.05
+    g = sized_options(o, (0.12, 0.066))                # out of reach: own part 0.061 at 192
+    assert g.normals == 192 and 0.12 * math.sqrt(48 / 144) > 0.066 >= 0.12 * math.sqrt(48 / 192)
+    pilot = {"normals": 48, "model_se": [0.137, 0.12, 0.066]}
+    said = _drawn_words({"normals": 192}, pilot, "frames")
+    assert "shrink the drawn point sets' ±6.6 %" in said and "own part (±6.0 %)" in said
+    said = _drawn_words({"normals": 96}, pilot, "frames")     # own part 8.5 % > 6.6 %
+    assert "the most frames within" in said and "own part" not in said
+
+
 def test_an_explicit_model_is_not_sized():
     unsized = advise_renderer_map(_sunny(32), RendererAdviseOptions("pbrt4", level=7, normals=48).asking(
         cache_dir=tempfile.mkdtemp()))
