@@ -118,16 +118,25 @@ def _map() -> EnvMap:
     return EnvMap(px)
 
 
+def _diffuse(env, r, level):
+    return DiffuseModel(env, r, options=RendererModelOptions(normals=6, pool=64, max_level=level))
+
+
+def _ggx(env, r, level, bsdf=("ggx", 0.3)):
+    from envfit.predict.renderer import MicrofacetModel, band_frames
+    return MicrofacetModel(env, r, r.bsdf(*bsdf), band_frames(6, seed=1),
+                           options=RendererModelOptions(max_level=level))
+
+
+@pytest.mark.parametrize("make", [_diffuse, _ggx])
 @pytest.mark.parametrize("sampler, n", [("multijitter", 16), ("orthogonal", 25)])
-def test_a_drawn_model_cell_equals_the_exact_cell(sampler, n):
-    """At N above a coarse grid's reach the model draws; a fine grid takes the same N exactly:
-    the two agree within the drawn cell's reported error (its scrambles' part) and the
-    normals are the same."""
+def test_a_drawn_model_cell_equals_the_exact_cell(sampler, n, make):
+    """At N above a coarse grid's reach the model draws (the diffuse surface's normals, a
+    one-lobe microfacet BSDF's frames: ``MicrofacetModel._drawn_parts``); a fine grid takes
+    the same N exactly: the two agree within the drawn cell's reported error (its draws'
+    part) over the same normals or frames."""
     r, env = get_renderer("mitsuba3"), _map()
-    exact = DiffuseModel(env, r, options=RendererModelOptions(normals=6, pool=64,
-                                                             max_level=6))
-    drawn = DiffuseModel(env, r, options=RendererModelOptions(normals=6, pool=64,
-                                                             max_level=3))
+    exact, drawn = make(env, r, 6), make(env, r, 3)
     for strategy in ("mis", "map", "brdf"):
         e, d = exact.predict(strategy, sampler, n), drawn.predict(strategy, sampler, n)
         assert drawn._drawn_strata(drawn.request(strategy, sampler, n))
@@ -135,6 +144,14 @@ def test_a_drawn_model_cell_equals_the_exact_cell(sampler, n):
         err = d.model_se_parts[1]
         assert err > 0
         assert abs(d.rmse / e.rmse - 1.0) <= Z * err + 0.02, (strategy, d.rmse, e.rmse, err)
+
+
+def test_a_two_lobe_bsdfs_cells_are_never_drawn():
+    """A rough plastic's lobe choice is modelled on the grid: its cells are not drawn."""
+    r = get_renderer("mitsuba3")
+    plastic = _ggx(_map(), r, 3, ("roughplastic", 0.3))
+    for sampler, n in (("multijitter", 16), ("orthogonal", 25)):
+        assert not plastic._drawn_strata(plastic.request("map", sampler, n))
 
 
 def test_a_cell_between_drawn_anchors_is_their_local_power_law():
@@ -147,28 +164,3 @@ def test_a_cell_between_drawn_anchors_is_their_local_power_law():
     want = lo.mse * (hi.mse / lo.mse) ** t
     assert np.allclose(mid.mse, want, rtol=1e-12)
     assert mid.model_se == max(lo.model_se, hi.model_se)
-
-
-@pytest.mark.parametrize("sampler, n", [("multijitter", 16), ("orthogonal", 25)])
-def test_a_drawn_microfacet_cell_equals_the_exact_cell(sampler, n):
-    """A one-lobe microfacet BSDF's cells above a coarse grid's reach are drawn at each frame
-    (``MicrofacetModel._drawn_parts``): they agree with a fine grid's exact cells at the same
-    N within the drawn cell's reported error; a two-lobe BSDF's are never drawn."""
-    from envfit.predict.renderer import MicrofacetModel, band_frames
-    r, env = get_renderer("mitsuba3"), _map()
-    frames = band_frames(6, seed=1)
-
-    def model(level, bsdf=("ggx", 0.3)):
-        return MicrofacetModel(env, r, r.bsdf(*bsdf), frames,
-                               options=RendererModelOptions(max_level=level))
-
-    exact, drawn = model(6), model(3)
-    for strategy in ("mis", "map", "brdf"):
-        e, d = exact.predict(strategy, sampler, n), drawn.predict(strategy, sampler, n)
-        assert drawn._drawn_strata(drawn.request(strategy, sampler, n))
-        assert not exact._drawn_strata(exact.request(strategy, sampler, n))
-        err = d.model_se_parts[1]
-        assert err > 0
-        assert abs(d.rmse / e.rmse - 1.0) <= Z * err + 0.02, (strategy, d.rmse, e.rmse, err)
-    plastic = model(3, ("roughplastic", 0.3))
-    assert not plastic._drawn_strata(plastic.request("map", sampler, n))
